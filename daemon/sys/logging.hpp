@@ -1,0 +1,30 @@
+// Logging: one named spdlog logger per module ("can", "canopen", "device",
+// "gateway", "sys", "dds", "modbus", "sim"), all sharing one sink: journald
+// when running under systemd (JOURNAL_STREAM set), the console otherwise.
+// Levels are set per module from the configuration.
+//
+// Never called on the hot path. Thread: setup() and set_level() from the main
+// thread before/while workers run (spdlog loggers are thread-safe to use).
+#pragma once
+
+#include <spdlog/spdlog.h>
+
+#include <memory>
+#include <string_view>
+
+namespace cobridge::sys {
+
+enum class LogTarget { automatic, console, journal };
+
+// Creates the module loggers. Idempotent; later calls change the target.
+void setup_logging(LogTarget target = LogTarget::automatic,
+                   spdlog::level::level_enum level = spdlog::level::info);
+
+// The logger of a module; created on first use with the current sink.
+std::shared_ptr<spdlog::logger> logger(std::string_view module);
+
+// Returns false if `level_name` is not one of trace, debug, info, warn,
+// error, critical, off.
+bool set_level(std::string_view module, std::string_view level_name);
+
+}  // namespace cobridge::sys

@@ -1,0 +1,37 @@
+// Notifier: the daemon's side of the systemd notify protocol (sd_notify(3)).
+//
+// READY, STATUS, WATCHDOG, RELOADING, STOPPING go to $NOTIFY_SOCKET. Without
+// systemd (the variable unset) every call does nothing and succeeds, so the
+// daemon runs the same in a terminal. The watchdog interval comes from
+// $WATCHDOG_USEC; the caller pings only while its buses are really served.
+// Thread: any one thread (the daemon's main loop); not thread-safe.
+#pragma once
+
+#include <chrono>
+#include <string_view>
+#include <system_error>
+
+namespace cobridge::sys {
+
+class Notifier {
+ public:
+  Notifier();
+
+  [[nodiscard]] bool enabled() const noexcept { return enabled_; }
+  // Half the interval systemd expects pings at, or zero when no watchdog.
+  [[nodiscard]] std::chrono::microseconds watchdog_period() const noexcept { return watchdog_period_; }
+
+  std::error_code ready();
+  std::error_code status(std::string_view text);
+  std::error_code watchdog();
+  // RELOADING=1 with MONOTONIC_USEC (systemd >= 253 asks for it; older ones ignore it).
+  std::error_code reloading();
+  std::error_code stopping();
+
+ private:
+  std::error_code send(std::string_view message);
+  bool enabled_ = false;
+  std::chrono::microseconds watchdog_period_{0};
+};
+
+}  // namespace cobridge::sys

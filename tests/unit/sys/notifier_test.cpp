@@ -1,0 +1,87 @@
+// Notifier against a notify socket the test holds (sd_notify(3) protocol:
+// one datagram per call, newline-separated assignments).
+#include "sys/notifier.hpp"
+
+#include <gtest/gtest.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <string>
+
+using cobridge::sys::Notifier;
+
+namespace {
+
+class NotifySocket {
+ public:
+  NotifySocket() {
+    path_ = "/tmp/cobridge-notify-test-" + std::to_string(getpid());
+    ::unlink(path_.c_str());
+    fd_ = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    path_.copy(addr.sun_path, sizeof addr.sun_path - 1);
+    EXPECT_EQ(::bind(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+    timeval tv{1, 0};
+    ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    ::setenv("NOTIFY_SOCKET", path_.c_str(), 1);
+  }
+  ~NotifySocket() {
+    ::unsetenv("NOTIFY_SOCKET");
+    ::unsetenv("WATCHDOG_USEC");
+    ::unsetenv("WATCHDOG_PID");
+    ::close(fd_);
+    ::unlink(path_.c_str());
+  }
+  std::string next() {
+    char buf[512];
+    const ssize_t n = ::recv(fd_, buf, sizeof buf, 0);
+    return n > 0 ? std::string(buf, static_cast<size_t>(n)) : std::string("<nothing>");
+  }
+
+ private:
+  std::string path_;
+  int fd_ = -1;
+};
+
+}  // namespace
+
+TEST(Notifier, DisabledWithoutNotifySocketAndSilent) {
+  ::unsetenv("NOTIFY_SOCKET");
+  Notifier n;
+  EXPECT_FALSE(n.enabled());
+  EXPECT_FALSE(n.ready());
+  EXPECT_EQ(n.watchdog_period().count(), 0);
+}
+
+// sd_notify(3): READY=1, STATUS=..., WATCHDOG=1, RELOADING=1 (+MONOTONIC_USEC), STOPPING=1.
+TEST(Notifier, SendsEachStateAsOneDatagram) {
+  NotifySocket sock;
+  Notifier n;
+  ASSERT_TRUE(n.enabled());
+  EXPECT_FALSE(n.ready());
+  EXPECT_EQ(sock.next(), "READY=1");
+  EXPECT_FALSE(n.status("2 buses, 6/6 devices online"));
+  EXPECT_EQ(sock.next(), "STATUS=2 buses, 6/6 devices online");
+  EXPECT_FALSE(n.watchdog());
+  EXPECT_EQ(sock.next(), "WATCHDOG=1");
+  EXPECT_FALSE(n.reloading());
+  const std::string reload = sock.next();
+  EXPECT_EQ(reload.rfind("RELOADING=1\nMONOTONIC_USEC=", 0), 0u) << reload;
+  EXPECT_FALSE(n.stopping());
+  EXPECT_EQ(sock.next(), "STOPPING=1");
+}
+
+// sd_watchdog_enabled(3): WATCHDOG_USEC applies only when WATCHDOG_PID is ours.
+TEST(Notifier, WatchdogPeriodIsHalfOfWatchdogUsecForOurPid) {
+  NotifySocket sock;
+  ::setenv("WATCHDOG_USEC", "2000000", 1);
+  ::setenv("WATCHDOG_PID", std::to_string(getpid()).c_str(), 1);
+  Notifier mine;
+  EXPECT_EQ(mine.watchdog_period().count(), 1000000);
+  ::setenv("WATCHDOG_PID", "1", 1);
+  Notifier other;
+  EXPECT_EQ(other.watchdog_period().count(), 0);
+}
