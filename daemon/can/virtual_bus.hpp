@@ -1,0 +1,80 @@
+// can::VirtualBus: an in-process CAN bus for unit tests of the layers above.
+//
+// Every attached Port is a FrameSink. A frame sent on one port is queued at
+// every other port, as on a real bus where a node does not receive its own
+// telegrams (SocketCAN's default, CAN_RAW_RECV_OWN_MSGS off). The bus keeps a
+// log of everything sent so tests can assert the exact frames on the wire.
+// Thread: single-threaded; the test thread owns the bus and all its ports.
+// Allocates on send (queues grow): test use only, never in the daemon.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <vector>
+
+#include "can/frame.hpp"
+#include "can/frame_sink.hpp"
+
+namespace cobridge::can {
+
+class VirtualBus {
+ public:
+  class Port final : public FrameSink {
+   public:
+    Port(const Port&) = delete;
+    Port& operator=(const Port&) = delete;
+
+    // Broadcasts to the other ports. Returns false only while the port is
+    // set to refuse sending (to test the callers' back-pressure handling).
+    [[nodiscard]] bool send(const Frame& frame) noexcept override;
+
+    // Takes the oldest frame queued at this port; false when none.
+    [[nodiscard]] bool receive(Frame& out) noexcept;
+
+    [[nodiscard]] std::size_t pending() const noexcept { return queue_.size(); }
+    // Sends refused while blocked, and frames lost because this port was full.
+    [[nodiscard]] uint64_t tx_refused() const noexcept { return tx_refused_; }
+    [[nodiscard]] uint64_t rx_dropped() const noexcept { return rx_dropped_; }
+
+    void set_send_blocked(bool blocked) noexcept { send_blocked_ = blocked; }
+    void clear() noexcept { queue_.clear(); }
+
+   private:
+    friend class VirtualBus;
+    Port(VirtualBus& bus, std::size_t capacity) : bus_(&bus), capacity_(capacity) {}
+    void deliver(const Frame& frame);
+
+    VirtualBus* bus_;
+    std::size_t capacity_;
+    std::deque<Frame> queue_;
+    bool send_blocked_ = false;
+    uint64_t tx_refused_ = 0;
+    uint64_t rx_dropped_ = 0;
+  };
+
+  static constexpr std::size_t kUnbounded = static_cast<std::size_t>(-1);
+
+  VirtualBus() = default;
+  VirtualBus(const VirtualBus&) = delete;
+  VirtualBus& operator=(const VirtualBus&) = delete;
+
+  // The reference stays valid for the bus's lifetime. A port with a bounded
+  // capacity drops (and counts) frames arriving while it is full, like a
+  // socket whose receive buffer overflowed.
+  Port& attach(std::size_t capacity = kUnbounded);
+
+  [[nodiscard]] std::size_t port_count() const noexcept { return ports_.size(); }
+  // Every frame sent on the bus, in order.
+  [[nodiscard]] const std::vector<Frame>& log() const noexcept { return log_; }
+  void clear_log() noexcept { log_.clear(); }
+
+ private:
+  void broadcast(const Port& from, const Frame& frame);
+
+  std::vector<std::unique_ptr<Port>> ports_;
+  std::vector<Frame> log_;
+};
+
+}  // namespace cobridge::can

@@ -1,0 +1,195 @@
+// LssMaster: the gateway side of CiA 305 LSS, as non-blocking state machines.
+//
+// One operation at a time. Starting one sends its first frame(s) and returns
+// at once; the caller then feeds every 0x7E4 frame to `on_frame(frame, now)`
+// and calls `process(now)` at the deadline it returns. When the operation
+// ends its outcome is collected with `take_result()`. Operations without an
+// answer (switch state global, activate bit timing) complete synchronously.
+//
+// "No answer" is only visible as a timeout, so `Config::timeout` sets the cost
+// of everything that searches: a Fastscan step, an identify step of Slowscan
+// and the "nobody there" cases each wait exactly one timeout. Search steps wait
+// out the full timeout even after the first answer, because several slaves
+// answer the same request and a late answer must not be taken for an answer
+// to the next request. Cost of one Fastscan: 1 probe + 4 x (32 bits + 1
+// confirm) = 133 frames and 133 timeouts per device (fewer fields with
+// `FastscanKnown`); Slowscan: at most 65 identify steps of 6 frames each, plus
+// switch selective.
+// Thread: the one thread that owns the LSS channel (bus manager); never
+// blocks, does not allocate per frame.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <optional>
+#include <system_error>
+#include <type_traits>
+
+#include "can/frame_sink.hpp"
+#include "canopen/clock.hpp"
+#include "canopen/lss.hpp"
+
+namespace cobridge::canopen {
+
+// Errors of the master itself; category "lss".
+enum class LssErrc : int {
+  kBusy = 1,              // another operation is running
+  kSendFailed = 2,        // the sink refused a frame; the operation was abandoned
+  kInvalidArgument = 3,   // e.g. an inquire specifier that is not 0x5A..0x5E
+  kTimeout = 4,           // a confirmed service got no answer within the timeout
+  kNotFound = 5,          // Fastscan/Slowscan: no (unconfigured / matching) slave answered
+  kFastscanLost = 6,      // a Fastscan field confirm got no answer (slave left mid-scan)
+};
+
+[[nodiscard]] const std::error_category& lss_category() noexcept;
+[[nodiscard]] std::error_code make_error_code(LssErrc e) noexcept;
+
+// Errors a slave reports in byte 1 of 0x11/0x13/0x17; category "lss_slave".
+// The value is (cs << 8) | code, so the message can name the service's
+// meaning ("configure node-ID: node-ID out of range").
+[[nodiscard]] const std::error_category& lss_slave_error_category() noexcept;
+[[nodiscard]] std::error_code make_lss_slave_error(LssCs service, uint8_t code) noexcept;
+
+enum class LssOperation : uint8_t {
+  kNone,
+  kSwitchSelective,
+  kConfigureNodeId,
+  kConfigureBitTiming,
+  kStoreConfiguration,
+  kInquire,
+  kIdentifyRemoteSlave,
+  kIdentifyNonConfigured,
+  kFastscan,
+  kSlowscan,
+};
+
+struct LssMasterConfig {
+  // How long to wait for an answer, and how long every search step lasts.
+  Duration timeout = std::chrono::milliseconds(100);
+};
+
+class LssMaster {
+ public:
+  using Config = LssMasterConfig;
+
+  // Identity fields the caller already knows; Fastscan confirms such a field
+  // in one step instead of searching its 32 bits.
+  struct FastscanKnown {
+    std::optional<uint32_t> vendor;
+    std::optional<uint32_t> product;
+    std::optional<uint32_t> revision;
+    std::optional<uint32_t> serial;
+  };
+
+  struct Result {
+    LssOperation operation = LssOperation::kNone;
+    std::error_code error;
+    LssAddress address;        // switch selective, Fastscan, Slowscan
+    uint32_t value = 0;        // inquire (node-ID in the low byte)
+    bool answered = false;     // identify: at least one slave answered
+    uint32_t answers = 0;      // answers seen; identical frames may merge on a bus, so a lower bound
+    uint8_t slave_error = 0;   // byte 1 of a 0x11/0x13/0x17 answer
+    uint8_t slave_spec_error = 0;  // byte 2 (meaningful when slave_error == 0xFF)
+    uint32_t frames_sent = 0;  // cost accounting
+    Duration elapsed{};        // from start to the end of the operation
+  };
+
+  explicit LssMaster(can::FrameSink& sink, Config config = Config{}) noexcept;
+
+  // --- operations without an answer (complete immediately) ---
+  // CiA 305 switch state global; J§1.5 `04 01` (configuration), `04 00` (waiting).
+  std::error_code switch_state_global(LssMode mode) noexcept;
+  // CiA 305 activate bit timing 0x15 with the switch delay in ms.
+  std::error_code activate_bit_timing(uint16_t switch_delay_ms) noexcept;
+
+  // --- operations with a result from take_result() ---
+  // J§1.5 / E§6 switch mode selective: 0x40..0x43, waits for 0x44.
+  std::error_code switch_state_selective(const LssAddress& address, TimePoint now) noexcept;
+  // J§1.5.1 configure node-ID 0x11 (1..127, or FFh). Slave errors in the result.
+  std::error_code configure_node_id(uint8_t node_id, TimePoint now) noexcept;
+  // E§6.2 / CiA 305 configure bit timing 0x13: `13 selector index`.
+  std::error_code configure_bit_timing(uint8_t table_index, TimePoint now,
+                                       uint8_t table_selector = kLssBitTimingTableStandard) noexcept;
+  // J§1.5.3 store configuration 0x17.
+  std::error_code store_configuration(TimePoint now) noexcept;
+  // CiA 305 inquire 0x5A..0x5E; the value is in Result::value.
+  std::error_code inquire(LssCs what, TimePoint now) noexcept;
+  // CiA 305 identify remote slave 0x46..0x4B; waits one full timeout.
+  std::error_code identify_remote_slave(const LssRange& range, TimePoint now) noexcept;
+  // CiA 305 identify non-configured remote slave 0x4C; waits one full timeout.
+  std::error_code identify_non_configured(TimePoint now) noexcept;
+  // CiA 305 Fastscan. On success Result::address is the slave found (the
+  // smallest unconfigured address) and that slave is in configuration state.
+  std::error_code fastscan(TimePoint now, const FastscanKnown& known = FastscanKnown{}) noexcept;
+  // Slowscan: binary search with identify remote slave over `bounds` (vendor
+  // and product exact), first revision then serial, for the smallest address
+  // in it; then switch selective to it. For devices without Fastscan. To find
+  // the next device, search again above the one found (identify does not
+  // exclude configured slaves).
+  std::error_code slowscan(const LssRange& bounds, TimePoint now) noexcept;
+
+  // Abandons the running operation without a result.
+  void cancel() noexcept;
+
+  // Feed every received frame. Returns true when it was an LSS answer (0x7E4).
+  bool on_frame(const can::Frame& frame, TimePoint now) noexcept;
+  // Drives timeouts and search steps; returns the next deadline or kNever.
+  TimePoint process(TimePoint now) noexcept;
+
+  [[nodiscard]] bool busy() const noexcept { return phase_ != Phase::kIdle; }
+  // The result of the last finished operation, once. A new operation discards
+  // an untaken result.
+  [[nodiscard]] std::optional<Result> take_result() noexcept;
+
+  [[nodiscard]] const Config& config() const noexcept { return config_; }
+
+ private:
+  enum class Phase : uint8_t {
+    kIdle,
+    kAwaitReply,      // a confirmed service: the first answer with expect_ ends it
+    kCollect,         // identify: count answers until the deadline
+    kFastscanProbe,
+    kFastscanBit,
+    kFastscanConfirm,
+    kSlowscanProbe,
+    kSlowscanRevision,
+    kSlowscanSerial,
+  };
+
+  std::error_code begin(LssOperation op, TimePoint now) noexcept;
+  bool send(const can::Frame& f) noexcept;
+  bool send_lss(LssCs cs, uint32_t value = 0, uint8_t b5 = 0, uint8_t b6 = 0, uint8_t b7 = 0) noexcept;
+  bool send_identify(const LssRange& range) noexcept;
+  bool send_switch_selective(const LssAddress& a) noexcept;
+  void arm(Phase phase, LssCs expect, TimePoint now) noexcept;
+  void finish(std::error_code ec, TimePoint now) noexcept;
+  void on_step_done(TimePoint now) noexcept;
+  void fastscan_field(uint8_t field, TimePoint now) noexcept;
+  void fastscan_bit_step(TimePoint now) noexcept;
+  void fastscan_confirm(TimePoint now) noexcept;
+  void slowscan_step(TimePoint now) noexcept;
+
+  can::FrameSink& sink_;
+  Config config_;
+  Phase phase_ = Phase::kIdle;
+  LssCs expect_ = LssCs::kSwitchSelectiveResponse;
+  TimePoint deadline_ = kNever;
+  TimePoint started_{};
+  Result current_;
+  std::optional<Result> result_;
+  bool answered_ = false;
+  // Fastscan
+  FastscanKnown known_;
+  uint8_t fs_field_ = 0;
+  uint8_t fs_bit_ = 0;
+  // Slowscan: [lo, hi] of the field being searched, and the midpoint probed
+  LssRange ss_range_;
+  uint32_t ss_lo_ = 0;
+  uint32_t ss_hi_ = 0;
+  uint32_t ss_mid_ = 0;
+};
+
+}  // namespace cobridge::canopen
+
+template <>
+struct std::is_error_code_enum<cobridge::canopen::LssErrc> : std::true_type {};

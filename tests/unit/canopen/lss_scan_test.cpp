@@ -1,0 +1,285 @@
+// Discovery with LSS: Fastscan for unconfigured CiA 305 V3 slaves (the
+// multiturn series, E intro) and Slowscan with identify remote slave for the
+// rotary series, whose DSP-305 V1.1.2 predates Fastscan (J§1 intro, digest
+// A.5, Y.2 and the product note at its top).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <set>
+
+#include "canopen/lss_master.hpp"
+#include "canopen/lss_slave.hpp"
+#include "unit/canopen/lss_test_bus.hpp"
+
+namespace cobridge::canopen {
+namespace {
+
+using test::LssTestBus;
+using namespace std::chrono_literals;
+
+// Configure node-ID, store, back to waiting: what the gateway does with the
+// slave a scan has put into configuration state.
+void assign(LssTestBus& bus, uint8_t node_id) {
+  ASSERT_FALSE(bus.master().configure_node_id(node_id, bus.now()));
+  auto r = bus.run_result();
+  ASSERT_TRUE(r.has_value());
+  ASSERT_FALSE(r->error) << r->error.message();
+  ASSERT_FALSE(bus.master().store_configuration(bus.now()));
+  r = bus.run_result();
+  ASSERT_TRUE(r.has_value());
+  ASSERT_FALSE(r->error) << r->error.message();
+  ASSERT_FALSE(bus.master().switch_state_global(LssMode::kWaiting));
+  bus.run();
+}
+
+std::size_t in_configuration(LssTestBus& bus) {
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < bus.slave_count(); ++i)
+    n += bus.slave(i).mode() == LssMode::kConfiguration ? 1u : 0u;
+  return n;
+}
+
+LssSlave* find(LssTestBus& bus, const LssAddress& a) {
+  for (std::size_t i = 0; i < bus.slave_count(); ++i)
+    if (bus.slave(i).identity() == a) return &bus.slave(i);
+  return nullptr;
+}
+
+// CiA 305 Fastscan (digest Y.1/Y.2): five unconfigured slaves with mixed
+// vendors, products, revisions and serials, plus one configured slave that
+// must never be found. Each scan finds the smallest remaining address, exactly
+// once; once configured (pending node-ID != FFh) a slave stops answering; at
+// the end the probe finds nobody.
+TEST(LssScanTest, CiA305_FastscanFindsEveryUnconfiguredSlaveOnce) {
+  LssTestBus bus(LssMasterConfig{10ms});
+  const std::vector<LssAddress> ids{
+      {0x0069666D, 0x00004341, 0x00000002, 0x00A1B2C3},  // ifm-like
+      {0x00000182, 0x00000BB8, 0x00010003, 0x00000001},
+      {0x00000182, 0x00000BB8, 0x00010003, 0x80000000},
+      {0x00000182, 0x00000BB8, 0x00020000, 0x00000001},
+      {0x00000182, 0x00000BD5, 0x00000000, 0xFFFFFFFF},
+  };
+  for (const auto& a : ids) bus.add_slave(a, 0xFF, LssSlave::Features::multiturn_e());
+  bus.add_slave({0x00000182, 0x00000BB8, 0, 0}, 127, LssSlave::Features::multiturn_e());
+
+  std::vector<LssAddress> found;
+  for (uint8_t node = 1; node <= ids.size(); ++node) {
+    ASSERT_FALSE(bus.master().fastscan(bus.now()));
+    auto r = bus.run_result();
+    ASSERT_TRUE(r.has_value());
+    ASSERT_FALSE(r->error) << r->error.message();
+    EXPECT_EQ(r->operation, LssOperation::kFastscan);
+    LssSlave* s = find(bus, r->address);
+    ASSERT_NE(s, nullptr) << "found an address no slave has";
+    EXPECT_EQ(s->mode(), LssMode::kConfiguration);
+    EXPECT_EQ(in_configuration(bus), 1u) << "only the found slave is selected";
+    EXPECT_EQ(std::count(found.begin(), found.end(), r->address), 0) << "found twice";
+    found.push_back(r->address);
+    assign(bus, node);
+    EXPECT_EQ(s->pending_node_id(), node);
+    EXPECT_EQ(s->stored_node_id(), std::optional<uint8_t>(node));
+    EXPECT_FALSE(s->unconfigured());
+  }
+  // Smallest address first (bit 0 is tried before 1, field by field).
+  std::vector<LssAddress> sorted = ids;
+  std::sort(sorted.begin(), sorted.end());
+  EXPECT_EQ(found, sorted);
+
+  bus.clear_log();
+  ASSERT_FALSE(bus.master().fastscan(bus.now()));
+  auto r = bus.run_result();
+  ASSERT_TRUE(r.has_value());
+  EXPECT_EQ(r->error, LssErrc::kNotFound);
+  EXPECT_EQ(r->frames_sent, 1u) << "only the 0x80 probe";
+  EXPECT_EQ(bus.count(0x7E4), 0u);
+  EXPECT_EQ(bus.slave(5).pending_node_id(), 127) << "the configured slave was never touched";
+}
+
+// CiA 305 Fastscan: two slaves that differ only in bit 0 of the serial are
+// both found, the even one first.
+TEST(LssScanTest, CiA305_FastscanSlavesDifferingInLastSerialBit) {
+  LssTestBus bus(LssMasterConfig{10ms});
+  const LssAddress odd{0x182, 0x0BB8, 0x00010000, 0x2468ACE1};
+  const LssAddress even{0x182, 0x0BB8, 0x00010000, 0x2468ACE0};
+  bus.add_slave(odd, 0xFF);
+  bus.add_slave(even, 0xFF);
+  ASSERT_FALSE(bus.master().fastscan(bus.now()));
+  auto r = bus.run_result();
+  ASSERT_TRUE(r && !r->error);
+  EXPECT_EQ(r->address, even);
+  EXPECT_EQ(bus.slave(1).mode(), LssMode::kConfiguration);
+  EXPECT_EQ(bus.slave(0).mode(), LssMode::kWaiting);
+  assign(bus, 10);
+  ASSERT_FALSE(bus.master().fastscan(bus.now()));
+  r = bus.run_result();
+  ASSERT_TRUE(r && !r->error);
+  EXPECT_EQ(r->address, odd);
+  EXPECT_EQ(bus.slave(0).mode(), LssMode::kConfiguration);
+  assign(bus, 11);
+  ASSERT_FALSE(bus.master().fastscan(bus.now()));
+  r = bus.run_result();
+  ASSERT_TRUE(r.has_value());
+  EXPECT_EQ(r->error, LssErrc::kNotFound);
+}
+
+// J§1 intro (DSP-305 V1.1.2, no Fastscan): an unconfigured rotary slave
+// stays silent through a whole Fastscan; the master reports "none".
+TEST(LssScanTest, J1_FastscanIgnoredByRotarySlave) {
+  LssTestBus bus(LssMasterConfig{10ms});
+  bus.add_slave({0x182, 0x0BE0, 0x00010003, 0x12345678}, 0xFF, LssSlave::Features::rotary_j());
+  ASSERT_FALSE(bus.master().fastscan(bus.now()));
+  auto r = bus.run_result();
+  ASSERT_TRUE(r.has_value());
+  EXPECT_EQ(r->error, LssErrc::kNotFound);
+  EXPECT_EQ(bus.count(0x7E4), 0u);
+  EXPECT_EQ(bus.slave(0).mode(), LssMode::kWaiting);
+}
+
+// CiA 305 Fastscan with known fields: vendor and product are confirmed in one
+// step each instead of 33; the result is the same slave.
+TEST(LssScanTest, CiA305_FastscanWithKnownVendorAndProduct) {
+  LssTestBus bus(LssMasterConfig{10ms});
+  const LssAddress a{0x182, 0x0BB8, 0x00010003, 0x00C0FFEE};
+  bus.add_slave(a, 0xFF);
+  bus.add_slave({0x0069666D, 0x4341, 1, 2}, 0xFF);
+  LssMaster::FastscanKnown known;
+  known.vendor = 0x182;
+  known.product = 0x0BB8;
+  ASSERT_FALSE(bus.master().fastscan(bus.now(), known));
+  auto r = bus.run_result();
+  ASSERT_TRUE(r && !r->error) << (r ? r->error.message() : "no result");
+  EXPECT_EQ(r->address, a);
+  EXPECT_EQ(r->frames_sent, 1u + 1u + 1u + 33u + 33u);
+  EXPECT_EQ(bus.slave(1).mode(), LssMode::kWaiting);
+
+  // A known vendor nobody has: not found at the vendor confirm.
+  assign(bus, 3);
+  known.vendor = 0x999;
+  ASSERT_FALSE(bus.master().fastscan(bus.now(), known));
+  r = bus.run_result();
+  ASSERT_TRUE(r.has_value());
+  EXPECT_EQ(r->error, LssErrc::kNotFound);
+}
+
+// CiA 305 Fastscan: a slave that disappears during the search (here: it
+// becomes NMT-operational and ignores LSS, J§1.5) makes the field confirm
+// fail; the master reports it instead of inventing an address.
+TEST(LssScanTest, CiA305_FastscanSlaveLostMidScan) {
+  LssTestBus bus(LssMasterConfig{10ms});
+  bus.add_slave({0x182, 0x0BB8, 1, 2}, 0xFF);
+  const TimePoint t0 = bus.now();
+  ASSERT_FALSE(bus.master().fastscan(t0));
+  bus.run_until(t0 + 200ms);  // inside the vendor field's bit steps
+  ASSERT_TRUE(bus.master().busy());
+  bus.slave(0).set_ignore(true);
+  auto r = bus.run_result();
+  ASSERT_TRUE(r.has_value());
+  EXPECT_EQ(r->error, LssErrc::kFastscanLost);
+}
+
+// What one Fastscan costs per device: 1 probe + 4 x (32 bit steps + 1
+// confirm) frames, each step one full timeout (the search steps wait out the
+// window because several slaves may answer one request). Printed for the
+// report; asserted so the numbers cannot drift silently.
+TEST(LssScanTest, CiA305_FastscanCostPerDevice) {
+  for (const Duration timeout : {Duration{10ms}, Duration{100ms}}) {
+    LssTestBus bus(LssMasterConfig{timeout});
+    bus.add_slave({0x182, 0x0BB8, 0x00010003, 0x12345678}, 0xFF);
+    bus.add_slave({0x182, 0x0BB8, 0x00010003, 0x12345679}, 0xFF);
+    ASSERT_FALSE(bus.master().fastscan(bus.now()));
+    auto r = bus.run_result();
+    ASSERT_TRUE(r && !r->error);
+    EXPECT_EQ(r->frames_sent, 133u);
+    EXPECT_EQ(r->elapsed, 133 * timeout);
+    const std::size_t answers = bus.count(0x7E4);
+    assign(bus, 1);
+    ASSERT_FALSE(bus.master().fastscan(bus.now()));
+    auto second = bus.run_result();
+    ASSERT_TRUE(second && !second->error);
+    EXPECT_EQ(second->frames_sent, 133u);
+    EXPECT_EQ(second->elapsed, 133 * timeout);
+    assign(bus, 2);
+    ASSERT_FALSE(bus.master().fastscan(bus.now()));
+    auto none_left = bus.run_result();
+    ASSERT_TRUE(none_left.has_value());
+    EXPECT_EQ(none_left->error, LssErrc::kNotFound);
+    EXPECT_EQ(none_left->frames_sent, 1u);
+    EXPECT_EQ(none_left->elapsed, timeout);
+    std::printf(
+        "[ cost     ] Fastscan, timeout %3lld ms: %u request frames and %.2f s per device "
+        "(%zu answers from 2 slaves in the first scan); \"none left\": %u frame, %.2f s\n",
+        static_cast<long long>(std::chrono::duration_cast<std::chrono::milliseconds>(timeout).count()),
+        r->frames_sent, std::chrono::duration<double>(r->elapsed).count(), answers, none_left->frames_sent,
+        std::chrono::duration<double>(none_left->elapsed).count());
+  }
+}
+
+// Slowscan: four rotary slaves (J§1.2.1 vendor 0x182, RFC-4800 product
+// 0x0BE0), all at the default node-ID 127 (J§1.2.2), no Fastscan (J§1
+// intro). Binary search with identify remote slave (CiA 305) finds the
+// smallest serial, switch selective (J§1.5) selects it, configure node-ID
+// (J§1.5.1) and store (J§1.5.3) give it its own node-ID; the next search
+// starts above the serial found.
+TEST(LssScanTest, J1_5_SlowscanGivesFourRotarySlavesTheirOwnNodeIds) {
+  LssTestBus bus(LssMasterConfig{10ms});
+  const std::vector<uint32_t> serials{0x12345678, 0x00000042, 0x12345679, 0xFFFFFFFE};
+  for (uint32_t s : serials)
+    bus.add_slave({0x182, 0x0BE0, 0x00010003, s}, 127, LssSlave::Features::rotary_j());
+
+  LssRange bounds{0x182, 0x0BE0, 0, 0xFFFFFFFF, 0, 0xFFFFFFFF};
+  std::vector<uint32_t> found;
+  uint8_t node = 20;
+  for (std::size_t i = 0; i < serials.size(); ++i) {
+    ASSERT_FALSE(bus.master().slowscan(bounds, bus.now()));
+    auto r = bus.run_result();
+    ASSERT_TRUE(r.has_value());
+    ASSERT_FALSE(r->error) << r->error.message();
+    EXPECT_EQ(r->operation, LssOperation::kSlowscan);
+    EXPECT_EQ(r->address.vendor, 0x182u);
+    EXPECT_EQ(r->address.revision, 0x00010003u);
+    LssSlave* s = find(bus, r->address);
+    ASSERT_NE(s, nullptr);
+    EXPECT_EQ(s->mode(), LssMode::kConfiguration);
+    EXPECT_EQ(in_configuration(bus), 1u);
+    if (i == 0)
+      std::printf("[ cost     ] Slowscan, timeout 10 ms: %u frames, %.2f s for the first device\n",
+                  r->frames_sent, std::chrono::duration<double>(r->elapsed).count());
+    EXPECT_LE(r->frames_sent, 6u * 65u + 4u);
+    found.push_back(r->address.serial);
+    assign(bus, node++);
+    if (r->address.serial == 0xFFFFFFFF) break;
+    bounds.serial_lo = r->address.serial + 1;
+  }
+  std::vector<uint32_t> sorted = serials;
+  std::sort(sorted.begin(), sorted.end());
+  EXPECT_EQ(found, sorted);
+
+  ASSERT_FALSE(bus.master().slowscan(bounds, bus.now()));
+  auto r = bus.run_result();
+  ASSERT_TRUE(r.has_value());
+  EXPECT_EQ(r->error, LssErrc::kNotFound);
+
+  // After reset communication each device has its own node-ID.
+  std::set<uint8_t> ids;
+  for (std::size_t i = 0; i < bus.slave_count(); ++i) {
+    bus.slave(i).activate_pending();
+    ids.insert(bus.slave(i).active_node_id());
+  }
+  EXPECT_EQ(ids, (std::set<uint8_t>{20, 21, 22, 23}));
+}
+
+// Slowscan over a range nobody is in: one identify step, one timeout.
+TEST(LssScanTest, CiA305_SlowscanNothingInRange) {
+  LssTestBus bus(LssMasterConfig{10ms});
+  bus.add_slave({0x182, 0x0BE0, 1, 5}, 127, LssSlave::Features::rotary_j());
+  ASSERT_FALSE(bus.master().slowscan({0x182, 0x0BF3, 0, 0xFFFFFFFF, 0, 0xFFFFFFFF}, bus.now()));
+  auto r = bus.run_result();
+  ASSERT_TRUE(r.has_value());
+  EXPECT_EQ(r->error, LssErrc::kNotFound);
+  EXPECT_EQ(r->frames_sent, 6u);
+  EXPECT_EQ(r->elapsed, 10ms);
+}
+
+}  // namespace
+}  // namespace cobridge::canopen
