@@ -1,0 +1,139 @@
+// SimDevice: one simulated encoder on a CAN bus, a CANopen device that follows
+// its manual (J: Novotechnik rotary, E: Novotechnik multiturn, F: ifm RM8/RM9).
+//
+// The object dictionary is built from the family's EDS file (config/devices/,
+// the same files the daemon reads); behaviour lives in code: NMT slave, SDO
+// server, LSS slave (feature set per LSS version), heartbeat producer, node
+// guarding responder with life guarding, TPDO1/TPDO2 (event timer, SYNC,
+// measuring-cycle type 255, inhibit time, RTR where the manual has it),
+// EMCY producer, non-volatile storage per serial under the state directory,
+// and the encoder functions (position, speed, scaling, preset, CAMs, work
+// area, alarms/warnings, condition monitoring, faults).
+//
+// Like every protocol component it never reads a clock and never sleeps:
+// frames and `now` go in, `process(now)` returns the next deadline.
+// Thread: owned by the simulator's bus thread; not thread-safe.
+#pragma once
+
+#include "can/frame.hpp"
+#include "can/frame_sink.hpp"
+#include "canopen/clock.hpp"
+#include "canopen/lss.hpp"
+#include "canopen/nmt.hpp"
+#include "device/eds.hpp"
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <system_error>
+
+namespace cobridge::sim {
+
+using canopen::TimePoint;
+
+enum class Family : std::uint8_t { novotechnik_rotary, novotechnik_multiturn, ifm_rm };
+
+// One row of the model table (sim_models.cpp): what `--device MODEL` means.
+struct ModelInfo {
+  std::string_view name;        // "RFC-4800", "MC1-2800", "RM9000", ...
+  Family family;
+  std::uint32_t vendor;         // 0x1018/1
+  std::uint32_t product;        // 0x1018/2
+  std::uint8_t factory_node_id; // 127 (Novotechnik), 32 (ifm)
+  bool legacy_rsx_rfx;          // J§1.12: RSX-7900 / RFX-6900 firmware rules
+  std::string_view eds_stem;    // config/devices/<stem>[-1ch|-2ch].eds
+};
+
+// All models; find_model is case-insensitive. nullptr if unknown.
+[[nodiscard]] const ModelInfo* find_model(std::string_view name) noexcept;
+[[nodiscard]] std::string_view family_name(Family f) noexcept;
+
+// The LSS feature set a device answers with (cobridge-sim key lss=...).
+enum class LssProfile : std::uint8_t {
+  family_default,  // rotary: v1 (J claims DSP-305 V1.1.2); multiturn: v3; ifm: v3
+  v1,              // switch, configure, store, identify remote slave; no inquire, no Fastscan
+  v3,              // all CiA 305 V3 services including Fastscan and inquire
+  none,            // no LSS at all
+};
+
+// Everything `--device MODEL:key=value,...` can say.
+struct DeviceSpec {
+  const ModelInfo* model = nullptr;
+  std::uint32_t serial = 0;
+  std::uint8_t node_id = 0;       // 0 = the model's factory node-ID; 0xFF = unconfigured
+  std::uint8_t channels = 1;      // rotary: 1 or 2
+  std::uint16_t bitrate_kbit = 0; // 0 = family default (ordering code / 125 for ifm)
+  LssProfile lss = LssProfile::family_default;
+  bool segmented_sdo = true;      // digest S.1: on by default
+  std::string motion = "constant:0";  // see motion.hpp for the grammar
+};
+
+// Faults injected at run time (control socket / stdin / command line).
+enum class FaultKind : std::uint8_t {
+  measurement_error,      // E 0x5051/1/0 position 0x7FFFFFFC; J 0x5000 position 0x7FF0
+  over_range,             // E 0x5051/1/1 position 0x7FFFFFF8 (latched until 0x2100)
+  under_range,            // E 0x5051/1/2 position 0x80000008
+  hardware_fault,         // E 0x5000/1/0; J 0x5000
+  temperature_high,       // E 0x4210/1/1, 0x1002 bit 4
+  temperature_low,        // E 0x4210/1/2
+  voltage_high,           // E 0x3100/1/1
+  voltage_low,            // E 0x3100/1/2
+  channel_disagreement,   // J 2-channel: 0x6503 bit 0
+  clear,                  // the condition ends (EMCY 0x0000 where the manual says so)
+};
+
+// What the device put on the bus, decoded (ground truth for end-to-end tests).
+struct TruthRecord {
+  std::uint32_t serial = 0;
+  std::uint8_t node_id = 0;
+  can::Frame frame;               // as sent (timestamp_ns = host CLOCK_REALTIME at send)
+  enum class Kind : std::uint8_t { tpdo, emcy, heartbeat, boot_up, sdo, lss, guard } kind = Kind::tpdo;
+  std::uint8_t pdo = 0;           // 1 or 2 for TPDOs
+  bool has_position = false;
+  std::int64_t position = 0;      // position ch1 as mapped (after scaling/preset/error values)
+  bool has_speed = false;
+  std::int32_t speed = 0;
+  std::int16_t cam_state = -1;    // -1 = not mapped
+  std::int16_t work_area_state = -1;
+  std::uint16_t emcy_code = 0;
+};
+using TruthSink = std::function<void(const TruthRecord&)>;
+
+class SimDevice {
+ public:
+  // `description` must outlive the device. `state_dir` holds the device's
+  // non-volatile memory (<state_dir>/<family>-<serial>.nv); empty = volatile.
+  SimDevice(DeviceSpec spec, const device::DeviceDescription& description, can::FrameSink& sink,
+            std::filesystem::path state_dir);
+  ~SimDevice();
+  SimDevice(const SimDevice&) = delete;
+  SimDevice& operator=(const SimDevice&) = delete;
+
+  // Power on: load non-volatile memory (by serial), build the object
+  // dictionary, send the boot-up (0x700+node, 00) unless unconfigured (FFh).
+  std::error_code power_on(TimePoint now);
+  void power_off();                        // silent until power_on; RAM lost
+  std::error_code power_cycle(TimePoint now) { power_off(); return power_on(now); }
+  void set_silent(bool silent);            // cable pulled: no RX, no TX, state kept
+  [[nodiscard]] bool powered() const noexcept;
+
+  void on_frame(const can::Frame& frame, TimePoint now);
+  [[nodiscard]] TimePoint process(TimePoint now);
+  void inject(FaultKind fault, TimePoint now);
+
+  void set_truth_sink(TruthSink sink);
+
+  [[nodiscard]] const DeviceSpec& spec() const noexcept;
+  [[nodiscard]] std::uint8_t node_id() const noexcept;     // active node-ID (0xFF = unconfigured)
+  [[nodiscard]] canopen::NmtState nmt_state() const noexcept;
+  [[nodiscard]] canopen::LssAddress identity() const noexcept;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace cobridge::sim
