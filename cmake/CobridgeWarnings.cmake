@@ -3,4 +3,4 @@
 add_library(cobridge_warnings INTERFACE)
 target_compile_options(cobridge_warnings INTERFACE
   -Wall -Wextra -Werror -Wshadow -Wnon-virtual-dtor -Wold-style-cast -Wcast-align
-  -Wconversion -Wsign-conversion -Wnull-dereference -Wimplicit-fallthrough)
+  -Wconversion -Wsign-conversion -Wimplicit-fallthrough)
