@@ -1,0 +1,89 @@
+// cobridge: the command-line tool. Wires CLI11 subcommands to the command
+// modules; all work is in scan_command, sdo_command, nmt_command, lss_command.
+#include "cli/lss_command.hpp"
+#include "cli/nmt_command.hpp"
+#include "cli/scan_command.hpp"
+#include "cli/sdo_command.hpp"
+
+#include <CLI/CLI.hpp>
+#include <spdlog/spdlog.h>
+
+#include <cstdio>
+
+int main(int argc, char** argv) {
+  using namespace cobridge::cli;
+  CLI::App app{"cobridge: commission and inspect CANopen encoders on SocketCAN buses"};
+  app.require_subcommand(1);
+  bool verbose = false;
+  app.add_flag("-v,--verbose", verbose, "show the library's log lines (channel open/close, ...)");
+
+  ScanOptions scan_o;
+  auto* scan_c = app.add_subcommand("scan", "list the devices on a bus: boot-ups, SDO identity probe, LSS Fastscan");
+  scan_c->add_option("-i,--iface", scan_o.iface, "CAN interface (e.g. can0, vcan0)")->required();
+  scan_c->add_option("--listen-ms", scan_o.listen_ms, "how long to listen for boot-up/heartbeat")->capture_default_str();
+  scan_c->add_option("--sdo-timeout-ms", scan_o.sdo_timeout_ms, "SDO answer window")->capture_default_str();
+  scan_c->add_option("--lss-timeout-ms", scan_o.lss_timeout_ms, "LSS answer window per Fastscan step")->capture_default_str();
+  scan_c->add_flag("!--no-fastscan", scan_o.fastscan, "skip LSS Fastscan");
+  scan_c->add_option("--assign-from", scan_o.assign_from,
+                     "give each non-configured device found by Fastscan the next free node-ID from N, and store it")
+      ->check(CLI::Range(1, 127));
+  scan_c->add_option("--devices-dir", scan_o.devices_dir, "EDS directory used to name models");
+  scan_c->add_flag("--json", scan_o.json, "machine-readable output");
+
+  SdoOptions sdo_o;
+  auto* sdo_c = app.add_subcommand("sdo", "read or write one object of one node (CiA 301 SDO)");
+  sdo_c->require_subcommand(1);
+  auto* sdo_r = sdo_c->add_subcommand("read", "upload INDEX[:SUB]");
+  auto* sdo_w = sdo_c->add_subcommand("write", "download VALUE to INDEX[:SUB]");
+  for (auto* c : {sdo_r, sdo_w}) {
+    c->add_option("-i,--iface", sdo_o.iface, "CAN interface")->required();
+    c->add_option("-n,--node", sdo_o.node, "node-ID 1..127")->required();
+    c->add_option("object", sdo_o.object, "object as hex INDEX[:SUB], e.g. 1018:4")->required();
+    c->add_flag("--string", sdo_o.as_string, "treat the value as text");
+    c->add_option("--timeout-ms", sdo_o.timeout_ms, "SDO timeout")->capture_default_str();
+    c->add_flag("--json", sdo_o.json, "machine-readable output");
+  }
+  sdo_w->add_option("value", sdo_o.value, "value: decimal, 0x-hex, or text with --string")->required();
+  sdo_w->add_option("-s,--size", sdo_o.size, "bytes to write: 1, 2 or 4 (default 4)");
+
+  NmtOptions nmt_o;
+  auto* nmt_c = app.add_subcommand("nmt", "send an NMT command: start|stop|preop|reset|reset-comm NODE|all");
+  nmt_c->add_option("-i,--iface", nmt_o.iface, "CAN interface")->required();
+  nmt_c->add_option("command", nmt_o.command, "start, stop, preop, reset, reset-comm")->required();
+  nmt_c->add_option("node", nmt_o.node, "1..127 or all")->required();
+
+  LssSetNodeOptions lss_o;
+  auto* lss_c = app.add_subcommand("lss", "layer setting services (CiA 305)");
+  lss_c->require_subcommand(1);
+  auto* lss_set = lss_c->add_subcommand("set-node-id", "switch one device selectively by identity, set and store its node-ID");
+  lss_set->add_option("-i,--iface", lss_o.iface, "CAN interface")->required();
+  lss_set->add_option("--vendor", lss_o.vendor, "vendor-ID (0x1018/1)")->required();
+  lss_set->add_option("--product", lss_o.product, "product code (0x1018/2)")->required();
+  lss_set->add_option("--revision", lss_o.revision, "revision (0x1018/3)")->required();
+  lss_set->add_option("--serial", lss_o.serial, "serial number (0x1018/4)")->required();
+  lss_set->add_option("node", lss_o.node, "new node-ID 1..127")->required();
+  lss_set->add_flag("!--no-store", lss_o.store, "do not store the node-ID in the device");
+  lss_set->add_option("--timeout-ms", lss_o.timeout_ms, "LSS answer timeout")->capture_default_str();
+  lss_set->add_flag("--json", lss_o.json, "machine-readable output");
+
+  auto* status_c = app.add_subcommand("status", "show the running daemon's buses and devices");
+  std::string control = "/run/cobridge/control.sock";
+  status_c->add_option("--control", control, "daemon control socket")->capture_default_str();
+
+  CLI11_PARSE(app, argc, argv);
+  // The commands print their own errors; the layers' log lines are for -v.
+  spdlog::set_level(verbose ? spdlog::level::debug : spdlog::level::off);
+
+  if (*scan_c) return scan(scan_o);
+  if (*sdo_r) return sdo_read(sdo_o);
+  if (*sdo_w) return sdo_write(sdo_o);
+  if (*nmt_c) return nmt_send(nmt_o);
+  if (*lss_set) return lss_set_node_id(lss_o);
+  if (*status_c) {
+    // The daemon (cobridged) and its control socket are not built yet.
+    std::fprintf(stderr, "cobridge: status: no daemon control socket at %s (cobridged is not part of this build yet)\n",
+                 control.c_str());
+    return 1;
+  }
+  return 2;
+}

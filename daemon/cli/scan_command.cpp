@@ -1,0 +1,227 @@
+#include "cli/scan_command.hpp"
+
+#include "canopen/cob_id.hpp"
+#include "canopen/lss_master.hpp"
+#include "canopen/nmt.hpp"
+#include "cli/bus_session.hpp"
+#include "device/device_catalog.hpp"
+
+#include <array>
+#include <cstdio>
+#include <map>
+#include <set>
+#include <string>
+#include <vector>
+
+#ifndef COBRIDGE_DEFAULT_DEVICE_DIR
+#define COBRIDGE_DEFAULT_DEVICE_DIR "/usr/share/cobridge/devices"
+#endif
+#ifndef COBRIDGE_SOURCE_DEVICE_DIR
+#define COBRIDGE_SOURCE_DEVICE_DIR ""
+#endif
+
+namespace cobridge::cli {
+namespace {
+
+struct NodeReport {
+  unsigned node = 0;
+  std::string seen;                          // "boot-up", "heartbeat:<state>", "sdo"
+  std::array<std::set<uint32_t>, 5> answers; // 0x1018 sub 1..4: every distinct value
+  bool unconfigured = false;                 // found by Fastscan (node-ID FFh)
+  unsigned assigned = 0;
+  std::string model;
+};
+
+uint32_t value_of(const can::Frame& f) {
+  return static_cast<uint32_t>(f.data[4]) | (static_cast<uint32_t>(f.data[5]) << 8) |
+         (static_cast<uint32_t>(f.data[6]) << 16) | (static_cast<uint32_t>(f.data[7]) << 24);
+}
+
+// Sends `40 18 10 sub` to each node and collects every expedited answer for
+// `window`; several different answers for one node mean several devices.
+void probe_identity(BusSession& bus, const std::vector<unsigned>& nodes, uint8_t sub,
+                    std::map<unsigned, NodeReport>& reports, unsigned window_ms) {
+  for (unsigned n : nodes) {
+    const auto req = can::Frame::make8(canopen::cob::kSdoRxBase + n, {0x40, 0x18, 0x10, sub, 0, 0, 0, 0});
+    (void)bus.channel().send(req);
+  }
+  bus.listen(
+      [&](const can::Frame& f, TimePoint) {
+        if (f.len != 8 || f.id <= canopen::cob::kSdoTxBase || f.id > canopen::cob::kSdoTxBase + 127) return;
+        if (f.data[1] != 0x18 || f.data[2] != 0x10 || f.data[3] != sub) return;
+        if ((f.data[0] & 0xE3) != 0x43) return;  // expedited upload response with size
+        auto& r = reports[f.id - canopen::cob::kSdoTxBase];
+        r.node = f.id - canopen::cob::kSdoTxBase;
+        if (r.seen.empty()) r.seen = "sdo";
+        r.answers[sub].insert(value_of(f));
+      },
+      std::chrono::milliseconds(window_ms));
+}
+
+std::string model_name(const device::DeviceCatalog& catalog, uint32_t vendor, uint32_t product) {
+  const auto candidates = catalog.candidates(vendor, product);
+  if (candidates.empty()) return "";
+  return candidates.front()->device_info.product_name;
+}
+
+std::string hex_or_clash(const std::set<uint32_t>& s) {
+  char buf[32];
+  if (s.empty()) return "?";
+  if (s.size() > 1) {
+    std::snprintf(buf, sizeof buf, "%zu answers", s.size());
+    return buf;
+  }
+  std::snprintf(buf, sizeof buf, "0x%08X", *s.begin());
+  return buf;
+}
+
+}  // namespace
+
+int scan(const ScanOptions& o) {
+  std::string error;
+  auto bus = BusSession::open(o.iface, error);
+  if (!bus) {
+    std::fprintf(stderr, "cobridge: scan: %s\n", error.c_str());
+    return 1;
+  }
+  device::DeviceCatalog catalog;
+  {
+    std::string dir = o.devices_dir;
+    if (dir.empty()) dir = std::filesystem::exists(COBRIDGE_DEFAULT_DEVICE_DIR) ? COBRIDGE_DEFAULT_DEVICE_DIR
+                                                                                 : COBRIDGE_SOURCE_DEVICE_DIR;
+    if (!dir.empty()) (void)catalog.load_directory(dir);
+  }
+
+  std::map<unsigned, NodeReport> reports;
+  bus->listen(
+      [&](const can::Frame& f, TimePoint) {
+        const auto ec = canopen::parse_error_control(f);
+        if (!ec.ok()) return;
+        const auto& m = ec.message;
+        auto& r = reports[m.node];
+        r.node = m.node;
+        r.seen = m.is_boot_up ? "boot-up" : std::string("heartbeat:") + std::string(canopen::to_string(m.state));
+      },
+      std::chrono::milliseconds(o.listen_ms));
+
+  std::vector<unsigned> all;
+  for (unsigned n = 1; n <= 127; ++n) all.push_back(n);
+  probe_identity(*bus, all, 1, reports, o.sdo_timeout_ms);
+  std::vector<unsigned> found;
+  for (auto& [n, r] : reports)
+    if (!r.answers[1].empty()) found.push_back(n);
+  for (uint8_t sub = 2; sub <= 4; ++sub) probe_identity(*bus, found, sub, reports, o.sdo_timeout_ms);
+
+  // Fastscan: non-configured devices.
+  std::vector<NodeReport> lss_found;
+  if (o.fastscan) {
+    canopen::LssMaster m(bus->channel(),
+                         canopen::LssMaster::Config{.timeout = std::chrono::milliseconds(o.lss_timeout_ms)});
+    unsigned next_id = o.assign_from;
+    for (;;) {
+      std::optional<canopen::LssMaster::Result> r;
+      auto run = [&](std::error_code start) {
+        r.reset();
+        if (start) return false;
+        bus->run([&](const can::Frame& f, TimePoint now) { m.on_frame(f, now); },
+                 [&](TimePoint now) {
+                   auto d = m.process(now);
+                   if (!r) r = m.take_result();
+                   return d;
+                 },
+                 [&] { return r.has_value(); }, std::chrono::seconds(120));
+        return r && !r->error;
+      };
+      if (!run(m.fastscan(canopen::Clock::now()))) break;  // none (left)
+      NodeReport nr;
+      nr.unconfigured = true;
+      nr.answers[1].insert(r->address.vendor);
+      nr.answers[2].insert(r->address.product);
+      nr.answers[3].insert(r->address.revision);
+      nr.answers[4].insert(r->address.serial);
+      if (o.assign_from == 0) {
+        (void)m.switch_state_global(canopen::LssMode::kWaiting);
+        lss_found.push_back(nr);
+        break;
+      }
+      while (next_id <= 127 && reports.count(next_id) != 0) ++next_id;
+      if (next_id > 127) {
+        std::fprintf(stderr, "cobridge: scan: no free node-ID left from %u\n", o.assign_from);
+        (void)m.switch_state_global(canopen::LssMode::kWaiting);
+        break;
+      }
+      const bool ok = run(m.configure_node_id(static_cast<uint8_t>(next_id), canopen::Clock::now())) &&
+                      run(m.store_configuration(canopen::Clock::now()));
+      (void)m.switch_state_global(canopen::LssMode::kWaiting);
+      if (!ok) {
+        std::fprintf(stderr, "cobridge: scan: assigning node-ID %u failed: %s\n", next_id,
+                     r ? r->error.message().c_str() : "no answer");
+        break;
+      }
+      nr.assigned = next_id;
+      reports[next_id].node = next_id;  // reserve it
+      reports[next_id].seen = "lss";
+      lss_found.push_back(nr);
+      ++next_id;
+    }
+  }
+
+  std::vector<NodeReport> rows;
+  for (auto& [n, r] : reports)
+    if (r.seen != "lss") rows.push_back(r);
+  for (auto& r : lss_found) rows.push_back(r);
+  for (auto& r : rows)
+    if (r.answers[1].size() == 1 && r.answers[2].size() == 1)
+      r.model = model_name(catalog, *r.answers[1].begin(), *r.answers[2].begin());
+
+  if (o.json) {
+    std::printf("[");
+    bool first = true;
+    for (const auto& r : rows) {
+      std::printf("%s{\"node\":%s,\"seen\":\"%s\",\"model\":\"%s\",\"clash\":%s", first ? "" : ",",
+                  r.unconfigured ? "null" : std::to_string(r.node).c_str(),
+                  r.unconfigured ? "fastscan" : r.seen.c_str(), r.model.c_str(),
+                  (r.answers[1].size() > 1 || r.answers[2].size() > 1 || r.answers[3].size() > 1 ||
+                   r.answers[4].size() > 1)
+                      ? "true"
+                      : "false");
+      const char* names[] = {"", "vendor", "product", "revision", "serial"};
+      for (int s = 1; s <= 4; ++s) {
+        std::printf(",\"%s\":[", names[s]);
+        bool f2 = true;
+        for (uint32_t v : r.answers[static_cast<std::size_t>(s)]) {
+          std::printf("%s%u", f2 ? "" : ",", v);
+          f2 = false;
+        }
+        std::printf("]");
+      }
+      if (r.assigned) std::printf(",\"assigned\":%u", r.assigned);
+      std::printf("}");
+      first = false;
+    }
+    std::printf("]\n");
+  } else {
+    std::printf("%-6s %-12s %-10s %-10s %-12s %-12s %-14s %s\n", "NODE", "VENDOR", "PRODUCT", "REVISION",
+                "SERIAL", "MODEL", "SEEN", "NOTE");
+    for (const auto& r : rows) {
+      const bool clash = r.answers[1].size() > 1 || r.answers[2].size() > 1 || r.answers[3].size() > 1 ||
+                         r.answers[4].size() > 1;
+      std::string node = r.unconfigured ? "FFh" : std::to_string(r.node);
+      std::string note = clash ? "CLASH: several devices on this node-ID" : "";
+      if (r.assigned) note = "assigned node-ID " + std::to_string(r.assigned) + ", stored";
+      if (r.unconfigured && !r.assigned) note = "non-configured (use --assign-from N)";
+      if (!r.unconfigured && r.answers[1].empty()) note = "no SDO answer";
+      std::printf("%-6s %-12s %-10s %-10s %-12s %-12s %-14s %s\n", node.c_str(),
+                  hex_or_clash(r.answers[1]).c_str(), hex_or_clash(r.answers[2]).c_str(),
+                  hex_or_clash(r.answers[3]).c_str(),
+                  r.answers[4].size() == 1 ? std::to_string(*r.answers[4].begin()).c_str()
+                                           : hex_or_clash(r.answers[4]).c_str(),
+                  r.model.empty() ? "-" : r.model.c_str(), r.unconfigured ? "fastscan" : r.seen.c_str(),
+                  note.c_str());
+    }
+    if (rows.empty()) std::printf("(no device answered on %s)\n", o.iface.c_str());
+  }
+  return 0;
+}
+
+}  // namespace cobridge::cli

@@ -1,0 +1,26 @@
+// `cobridge sdo read|write`: one SDO transfer to one node over an interface.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+namespace cobridge::cli {
+
+struct SdoOptions {
+  std::string iface;
+  unsigned node = 0;
+  std::string object;        // "0x1018:4" or "0x6004" (sub 0)
+  std::string value;         // write: decimal, 0x-hex, or text with --string
+  unsigned size = 0;         // write: 1, 2 or 4 bytes (0 = 4 for numbers)
+  bool as_string = false;    // read: print as text; write: send text bytes
+  unsigned timeout_ms = 500;
+  bool json = false;
+};
+
+// Parses "0xIIII[:SS]" / "IIII:SS" (hex index, sub decimal or 0x-hex).
+bool parse_object(const std::string& text, uint16_t& index, uint8_t& sub, std::string& error);
+
+int sdo_read(const SdoOptions& o);
+int sdo_write(const SdoOptions& o);
+
+}  // namespace cobridge::cli
