@@ -1,0 +1,76 @@
+// BusManager: everything the gateway does on one CAN bus except the hot path.
+//
+// It discovers the devices (boot-up, heartbeat, SDO probe of 0x1018, LSS
+// Fastscan / Slowscan / switch selective), commissions them (node-IDs from
+// the configuration by serial, the swap policy, or the pool; stored in the
+// device and in the state file), configures them (SDO plan with read-back,
+// store on change, NMT start), supervises them (heartbeat consumer or node
+// guarding, boot-up -> reconfigure, EMCY, bus events, interface loss ->
+// reopen with backoff) and produces SYNC when configured.
+//
+// Threads: start() spawns the bus's control thread, which owns the control
+// socket and every protocol component; stop() ends and joins it within 1 s.
+// status(), ready(), request_commission() and reload() may be called from any
+// thread (they take a mutex; never on the hot path). Observer callbacks run on
+// the control thread and must not block.
+#pragma once
+
+#include "config/config.hpp"
+#include "device/device_catalog.hpp"
+#include "gateway/device_status.hpp"
+#include "gateway/state_store.hpp"
+
+#include <memory>
+#include <system_error>
+#include <vector>
+
+namespace cobridge::gateway {
+
+// Told about devices as they are configured and change state, so the hot
+// path (issue 5) can decode their PDOs and the plugins can publish status.
+class BusObserver {
+ public:
+  virtual ~BusObserver() = default;
+  // The device at `node_id` now sends TPDOs with these mapping entries
+  // (0x1A00/0x1A01 as read back, 0xIIIISSLL form); empty = PDO disabled.
+  virtual void on_device_configured(const DeviceStatus& device, const std::vector<std::uint32_t>& tpdo1_mapping,
+                                    const std::vector<std::uint32_t>& tpdo2_mapping) = 0;
+  virtual void on_device_status(const DeviceStatus& device) = 0;
+};
+
+struct BusManagerOptions {
+  // How long start-up waits for the known devices before ready() is true anyway.
+  std::chrono::milliseconds ready_timeout{10000};
+  BusObserver* observer = nullptr;
+};
+
+class BusManager {
+ public:
+  BusManager(const config::Config& config, std::size_t bus_index, const device::DeviceCatalog& catalog,
+             StateStore& state, BusManagerOptions options = {});
+  ~BusManager();
+  BusManager(const BusManager&) = delete;
+  BusManager& operator=(const BusManager&) = delete;
+
+  // Opens the bus and starts the control thread.
+  std::error_code start();
+  void stop();
+
+  // True once every configured device is operational or has timed out
+  // (ready_timeout), so the daemon can tell systemd READY=1.
+  [[nodiscard]] bool ready() const;
+  // True while the control thread runs and the interface is open (watchdog).
+  [[nodiscard]] bool serving() const;
+  [[nodiscard]] BusStatus status() const;
+
+  // `cobridge commission`: resolve clashes / assign now, whatever the policy.
+  void request_commission();
+  // SIGHUP: new device settings without closing the bus.
+  void reload(const config::Config& config);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace cobridge::gateway

@@ -1,0 +1,75 @@
+// What the gateway knows about each bus and device, as plain snapshot values.
+//
+// The bus manager owns the live state on its control thread and hands out
+// copies (status()); the control socket (`cobridge status`), sd_notify STATUS
+// and the output plugins read those copies. Nothing here is on the hot path.
+#pragma once
+
+#include "canopen/lss.hpp"
+#include "canopen/nmt.hpp"
+
+#include <chrono>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace cobridge::gateway {
+
+// A device's place in the gateway's life cycle.
+enum class DeviceState : std::uint8_t {
+  expected,       // in the configuration, not seen yet
+  identified,     // seen and identified (0x1018), not yet configured
+  commissioning,  // being given its node-ID (LSS / SDO) and reset
+  configuring,    // SDO configuration plan running
+  operational,    // configured, started, heartbeat/guarding fresh
+  offline,        // was operational; heartbeat/guarding lost, or silent
+  failed,         // configuration or commissioning failed; see last_error
+};
+[[nodiscard]] const char* to_string(DeviceState s) noexcept;
+
+using WallTime = std::chrono::system_clock::time_point;
+
+struct DeviceStatus {
+  std::string name;            // configured name, or "unknown-<serial>"
+  std::string bus;
+  std::uint8_t node_id = 0;    // 0 = none yet
+  canopen::LssAddress identity;
+  std::string model;           // EDS ProductName
+  std::string family;          // EDS [Cobridge] Family
+  DeviceState state = DeviceState::expected;
+  canopen::NmtState nmt = canopen::NmtState::boot_up;
+  bool online = false;
+  WallTime since{};            // when `state` was entered
+  std::string last_error;      // empty = none
+  std::uint16_t last_emcy_code = 0;
+  std::string last_emcy_text;
+  std::uint32_t boot_ups = 0;
+  std::uint32_t configurations = 0;   // plans run (with writes)
+  std::uint32_t emcy_count = 0;
+  std::string fingerprint;            // of the applied configuration
+};
+
+// How long a commissioning or configuration step took (reported by status).
+struct StepTiming {
+  std::string step;   // "fastscan", "slowscan", "switch-selective", "configure <name>", ...
+  std::string device;
+  double milliseconds = 0;
+  WallTime at{};
+};
+
+struct BusStatus {
+  std::string name;
+  std::string interface;
+  bool open = false;
+  std::string last_bus_event;         // e.g. "bus-off", "interface down"
+  std::uint64_t rx_frames = 0;
+  std::uint64_t tx_frames = 0;
+  std::uint64_t rx_overflow_drops = 0;
+  std::uint64_t error_frames = 0;
+  std::uint32_t reopens = 0;
+  std::vector<DeviceStatus> devices;
+  std::vector<StepTiming> steps;      // most recent last, bounded
+  std::vector<std::string> problems;  // unknown serial, clash, wrong model, ...
+};
+
+}  // namespace cobridge::gateway
