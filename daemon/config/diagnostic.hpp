@@ -1,0 +1,28 @@
+// Diagnostic: one problem found in the configuration file, with the place it
+// was found (file, 1-based line and column; 0 when the problem concerns the
+// whole file, e.g. it cannot be read) and a message that says what is wrong
+// and what is allowed.
+//
+// Thread contract: plain value; created by the loader on the start-up /
+// reload thread.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+namespace cobridge::config {
+
+struct Diagnostic {
+  std::string file;
+  std::uint32_t line = 0;
+  std::uint32_t column = 0;
+  std::string message;
+
+  friend bool operator==(const Diagnostic&, const Diagnostic&) = default;
+};
+
+// "file:line:column: message" (compiler style, so editors can jump to it);
+// "file: message" when the line is unknown.
+[[nodiscard]] std::string to_string(const Diagnostic& d);
+
+}  // namespace cobridge::config

@@ -1,0 +1,285 @@
+/* cobridge output-plugin interface: the versioned C ABI between the gateway
+ * daemon and its output plugins (DDS, Modbus, the JSON tap, your own).
+ *
+ * A plugin is a shared library that exports one C function,
+ * cobridge_plugin_create (COBRIDGE_PLUGIN_ENTRY). The daemon dlopen()s the
+ * library, looks the function up, and calls it once per configured instance
+ * with the host API and the instance's configuration text. The plugin answers
+ * with a table of operations (cobridge_plugin_ops) and an opaque instance
+ * pointer that is passed back to every operation. The plugin may be written in
+ * C++ inside, but nothing but C types cross this boundary, and no C++
+ * exception may escape any function of the table or the entry point.
+ *
+ * Threads:
+ *   - cobridge_plugin_create, start, stop, destroy: the daemon's control
+ *     thread, never concurrently with each other or with the two below.
+ *   - on_samples, on_device: the dispatcher thread, between start and stop.
+ *     They are the hot path: they must not block (no waiting on sockets,
+ *     locks held by slow threads, or disk flushes per sample). A plugin with
+ *     slow I/O copies the samples into its own queue and does the I/O on its
+ *     own thread.
+ *   - host->log: any thread of the plugin, but not on the per-sample path.
+ *
+ * Versioning (COBRIDGE_PLUGIN_ABI_VERSION): structures that carry a
+ * struct_size only ever grow at their end. A newer daemon loads every plugin
+ * built for the same or an older ABI; it reads the plugin's ops->struct_size
+ * and never calls an operation that lies beyond it. A plugin reads
+ * host->struct_size the same way before using a field of cobridge_host_api
+ * added after the version it was built for. A plugin built for a newer ABI
+ * than the daemon's is refused (it is destroyed and unloaded right away).
+ * cobridge_sample is a fixed 128-byte value: new fields take space from its
+ * reserved tail and get a new bit in `valid`, so its size never changes.
+ */
+#ifndef COBRIDGE_PLUGIN_H
+#define COBRIDGE_PLUGIN_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define COBRIDGE_PLUGIN_ABI_VERSION 1u
+
+/* Name of the exported entry point, for dlsym(). */
+#define COBRIDGE_PLUGIN_ENTRY "cobridge_plugin_create"
+
+/* Plugins build with -fvisibility=hidden and mark only the entry point. */
+#if defined(__GNUC__)
+#define COBRIDGE_PLUGIN_EXPORT __attribute__((visibility("default")))
+#else
+#define COBRIDGE_PLUGIN_EXPORT
+#endif
+
+/* ------------------------------------------------------------------------ */
+/* Samples                                                                  */
+
+/* What a sample reports. Values are frozen; new kinds are only added. */
+enum cobridge_sample_kind {
+  COBRIDGE_SAMPLE_TPDO = 1,      /* process data decoded from a TPDO */
+  COBRIDGE_SAMPLE_EMCY = 2,      /* an EMCY frame (CiA 301 §7.2.7) */
+  COBRIDGE_SAMPLE_HEARTBEAT = 3, /* a heartbeat / boot-up frame (CiA 301 §7.2.8.3.2) */
+  COBRIDGE_SAMPLE_NMT_STATE = 4, /* the node's NMT state changed as seen by the master */
+  COBRIDGE_SAMPLE_STATUS = 5     /* the gateway's view changed: online / stale */
+};
+
+/* Bits of cobridge_sample.valid: which of the optional fields hold data.
+ * The header fields (timestamps .. sync_counter, cob_id) are always set. */
+enum cobridge_sample_valid {
+  COBRIDGE_VALID_POSITION = 1u << 0,
+  COBRIDGE_VALID_POSITION_ENG = 1u << 1,
+  COBRIDGE_VALID_SPEED = 1u << 2,
+  COBRIDGE_VALID_CAM_STATE = 1u << 3,
+  COBRIDGE_VALID_WORK_AREA_STATE = 1u << 4,
+  COBRIDGE_VALID_ALARMS = 1u << 5,
+  COBRIDGE_VALID_WARNINGS = 1u << 6,
+  COBRIDGE_VALID_TEMPERATURE = 1u << 7,
+  COBRIDGE_VALID_VOLTAGE = 1u << 8,
+  COBRIDGE_VALID_NMT_STATE = 1u << 9,
+  COBRIDGE_VALID_STATUS = 1u << 10, /* online and stale */
+  COBRIDGE_VALID_EMCY = 1u << 11,   /* emcy_code, emcy_register, emcy_data */
+  COBRIDGE_VALID_RAW = 1u << 12     /* raw_len, raw */
+};
+
+/* NMT states as they appear in the heartbeat byte (CiA 301 §7.2.8.3.2). */
+enum cobridge_nmt_state {
+  COBRIDGE_NMT_BOOT_UP = 0x00,
+  COBRIDGE_NMT_STOPPED = 0x04,
+  COBRIDGE_NMT_OPERATIONAL = 0x05,
+  COBRIDGE_NMT_PRE_OPERATIONAL = 0x7F
+};
+
+/* One event of one device. Fixed size, trivially copyable, no pointers: it is
+ * copied through lock-free rings and may be kept by value. Fields not flagged
+ * in `valid` are zero. Offsets are part of the ABI (checked in
+ * daemon/pipeline/sample.hpp). */
+typedef struct cobridge_sample {
+  /* Kernel receive time of the CAN frame that produced the sample
+   * (SO_TIMESTAMP), ns since the Unix epoch; for STATUS samples that no frame
+   * caused, the time the gateway noticed the change. */
+  uint64_t rx_timestamp_ns;
+  /* Time the dispatcher handed the sample to the plugins, same clock. */
+  uint64_t publish_timestamp_ns;
+  /* Per-device sequence number, +1 for every sample of the device (all
+   * kinds); a gap means samples were dropped before the dispatcher. Wraps. */
+  uint32_t sequence;
+  /* Index of the device in the gateway's device table (cobridge_device_info). */
+  uint16_t device_index;
+  /* Index of the CAN bus in the gateway's configuration. */
+  uint8_t bus_index;
+  /* CANopen node-ID, 1..127. */
+  uint8_t node_id;
+  /* enum cobridge_sample_kind. */
+  uint8_t kind;
+  /* SYNC counter of the SYNC that triggered a synchronous TPDO
+   * (CiA 301 §7.2.5.3.3), 1..240; 0 = no counter (event-driven TPDO or a
+   * SYNC without counter). */
+  uint8_t sync_counter;
+  /* Bitmask of enum cobridge_sample_valid. */
+  uint16_t valid;
+  /* Speed as the device reports it (object 0x6030), device units. */
+  int32_t speed;
+  /* Position in counts after the device's own scaling (object 0x6004). */
+  int64_t position;
+  /* Position in engineering units (cobridge_device_info.position_unit),
+   * computed by the gateway from `position` and the configured scale. */
+  double position_eng;
+  /* Alarm bits (object 0x6503) and warning bits (object 0x6505). */
+  uint16_t alarms;
+  uint16_t warnings;
+  /* Device temperature in 0.1 degC. */
+  int16_t temperature_dC;
+  /* Supply voltage in 0.1 V. */
+  uint16_t voltage_dV;
+  /* CAM state register, channel 1 (object 0x6300/1): bit n = CAM n+1. */
+  uint8_t cam_state;
+  /* Work area state register (object 0x6400/1). */
+  uint8_t work_area_state;
+  /* enum cobridge_nmt_state. */
+  uint8_t nmt_state;
+  /* 1 = the gateway hears the node (heartbeat/guarding alive), 0 = lost. */
+  uint8_t online;
+  /* 1 = the values are older than the device's configured max age. */
+  uint8_t stale;
+  /* EMCY error register (object 0x1001 copy in the EMCY frame, byte 2). */
+  uint8_t emcy_register;
+  /* EMCY error code (bytes 0..1 of the EMCY frame); 0x0000 = error reset. */
+  uint16_t emcy_code;
+  /* Manufacturer-specific EMCY bytes 3..7. */
+  uint8_t emcy_data[5];
+  /* Number of valid bytes in `raw`, 0..8. */
+  uint8_t raw_len;
+  /* 11-bit COB-ID of the frame that produced the sample; 0 if none. */
+  uint16_t cob_id;
+  /* The frame's payload, for plugins that want the undecoded bytes. */
+  uint8_t raw[8];
+  /* Room for fields of later ABI versions; zero. */
+  uint8_t reserved[48];
+} cobridge_sample;
+
+/* ------------------------------------------------------------------------ */
+/* Devices                                                                  */
+
+enum cobridge_device_change {
+  COBRIDGE_DEVICE_ADDED = 1,   /* configured and (first) seen */
+  COBRIDGE_DEVICE_CHANGED = 2, /* identity or configuration changed */
+  COBRIDGE_DEVICE_REMOVED = 3  /* removed from the configuration */
+};
+
+/* Describes one device; given to on_device when a device appears or
+ * changes. The strings are NUL-terminated UTF-8 and valid only for the
+ * duration of the call: copy what you keep. Unknown strings are "" (never
+ * NULL). Grows at its end like the other sized structs. */
+typedef struct cobridge_device_info {
+  uint32_t struct_size;
+  uint16_t device_index; /* matches cobridge_sample.device_index */
+  uint8_t bus_index;
+  uint8_t node_id;
+  uint8_t change; /* enum cobridge_device_change */
+  uint8_t reserved_[3];
+  /* Identity object 0x1018 sub-indices 1..4. */
+  uint32_t vendor_id;
+  uint32_t product_code;
+  uint32_t revision;
+  uint32_t serial;
+  const char* name;          /* configured device name, unique in the gateway */
+  const char* bus_name;      /* e.g. "can0" */
+  const char* model;         /* product name from the device description */
+  const char* family;        /* device description family, e.g. "rotary" */
+  const char* position_unit; /* unit of position_eng, e.g. "deg", "mm" */
+} cobridge_device_info;
+
+/* ------------------------------------------------------------------------ */
+/* Host API: what the daemon gives a plugin                                 */
+
+/* Log levels, the daemon's (spdlog's) order. */
+enum cobridge_log_level {
+  COBRIDGE_LOG_TRACE = 0,
+  COBRIDGE_LOG_DEBUG = 1,
+  COBRIDGE_LOG_INFO = 2,
+  COBRIDGE_LOG_WARN = 3,
+  COBRIDGE_LOG_ERROR = 4,
+  COBRIDGE_LOG_CRITICAL = 5
+};
+
+/* Valid from cobridge_plugin_create until destroy returns. */
+typedef struct cobridge_host_api {
+  uint32_t abi_version; /* the daemon's COBRIDGE_PLUGIN_ABI_VERSION */
+  uint32_t struct_size; /* sizeof(cobridge_host_api) in the daemon */
+  void* host;           /* pass back as the first argument of log() */
+  /* Writes one line to the daemon's log, tagged with the plugin instance's
+   * name. Thread-safe; not for the per-sample path. */
+  void (*log)(void* host, int level, const char* msg);
+  /* The gateway's configured id, e.g. for topic names. */
+  const char* gateway_id;
+} cobridge_host_api;
+
+/* ------------------------------------------------------------------------ */
+/* Plugin operations: what a plugin gives the daemon                        */
+
+typedef struct cobridge_plugin_ops {
+  uint32_t abi_version; /* COBRIDGE_PLUGIN_ABI_VERSION the plugin was built with */
+  uint32_t struct_size; /* sizeof(cobridge_plugin_ops) as the plugin saw it */
+  const char* name;     /* plugin type name, e.g. "jsontap"; static storage */
+
+  /* Mandatory operations, present in every ABI version. */
+
+  /* Acquire resources (open files, sockets, threads). 0 = started; any other
+   * value = failed (log the reason through host->log first); the daemon then
+   * destroys the instance without calling stop. */
+  int (*start)(void* self);
+  /* Release what start acquired; after it returns no op but destroy is
+   * called. Only called after a successful start. */
+  void (*stop)(void* self);
+  /* Free the instance. Always the last call; also used when the daemon
+   * refuses the ops table right after create. */
+  void (*destroy)(void* self);
+  /* A batch of samples, in the order the dispatcher received them. The
+   * array is valid only during the call. Dispatcher thread; must not block. */
+  void (*on_samples)(void* self, const cobridge_sample* samples, size_t count);
+
+  /* Optional operations: the daemon calls them only if struct_size covers
+   * them and the pointer is not NULL. */
+
+  /* A device appeared or changed. Dispatcher thread; must not block. */
+  void (*on_device)(void* self, const cobridge_device_info* info);
+
+  /* Later versions append here, never in between, e.g. for ABI 2:
+   *   void (*on_bus)(void* self, const cobridge_bus_info* info);
+   * and bump COBRIDGE_PLUGIN_ABI_VERSION. A v1 plugin's struct_size stops
+   * before on_bus, so a v2 daemon never calls it. */
+} cobridge_plugin_ops;
+
+/* The end of the mandatory part of cobridge_plugin_ops: a table smaller than
+ * this is malformed. */
+#define COBRIDGE_PLUGIN_OPS_MIN_SIZE \
+  (offsetof(cobridge_plugin_ops, on_samples) + sizeof(void (*)(void)))
+
+/* The entry point every plugin exports under COBRIDGE_PLUGIN_ENTRY.
+ *
+ * host        the host API; valid until destroy returns.
+ * config_toml the instance's configuration: the keys of its table in the
+ *             daemon configuration, without the keys the daemon itself uses
+ *             to pick the plugin (type, file), as TOML text (not
+ *             NUL-terminated; may be empty).
+ * ops_out     receives the plugin's operation table (static storage).
+ * self_out    receives the instance pointer passed to every operation.
+ * err,err_len on failure, a NUL-terminated reason (truncated to err_len).
+ *
+ * Returns 0 on success; any other value means no instance was created and
+ * nothing needs to be destroyed. A plugin that needs a newer daemon checks
+ * host->abi_version here and fails with a message. */
+typedef int (*cobridge_plugin_create_fn)(const cobridge_host_api* host, const char* config_toml,
+                                         size_t config_len, const cobridge_plugin_ops** ops_out,
+                                         void** self_out, char* err, size_t err_len);
+
+COBRIDGE_PLUGIN_EXPORT int cobridge_plugin_create(const cobridge_host_api* host, const char* config_toml,
+                                                  size_t config_len, const cobridge_plugin_ops** ops_out,
+                                                  void** self_out, char* err, size_t err_len);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* COBRIDGE_PLUGIN_H */

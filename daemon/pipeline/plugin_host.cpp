@@ -1,0 +1,320 @@
+#include "pipeline/plugin_host.hpp"
+
+#include <dlfcn.h>
+
+#include <array>
+#include <cstdio>
+#include <utility>
+
+namespace cobridge::pipeline {
+
+namespace {
+
+class PluginCategory final : public std::error_category {
+ public:
+  const char* name() const noexcept override { return "cobridge.plugin"; }
+  std::string message(int ev) const override {
+    switch (static_cast<PluginErrc>(ev)) {
+      case PluginErrc::kFileNotFound: return "plugin file not found";
+      case PluginErrc::kNotLoadable: return "not a loadable shared object";
+      case PluginErrc::kNoEntryPoint: return "no " COBRIDGE_PLUGIN_ENTRY " entry point";
+      case PluginErrc::kCreateFailed: return "plugin create failed";
+      case PluginErrc::kNullOps: return "plugin returned no ops table";
+      case PluginErrc::kAbiTooNew: return "plugin ABI newer than the host";
+      case PluginErrc::kBadOps: return "malformed plugin ops table";
+      case PluginErrc::kStartFailed: return "plugin start failed";
+    }
+    return "unknown plugin error";
+  }
+};
+
+// Whether an ops table of `size` bytes contains the member at `offset`.
+constexpr bool covers(std::uint32_t size, std::size_t offset) noexcept {
+  return static_cast<std::size_t>(size) >= offset + sizeof(void (*)());
+}
+
+void default_log(LogLevel level, std::string_view instance, std::string_view message) {
+  static constexpr std::array<const char*, 6> kNames = {"trace", "debug", "info", "warn", "error", "critical"};
+  const auto i = static_cast<std::size_t>(level);
+  std::fprintf(stderr, "[plugin %.*s] %s: %.*s\n", static_cast<int>(instance.size()), instance.data(),
+               i < kNames.size() ? kNames[i] : "?", static_cast<int>(message.size()), message.data());
+}
+
+}  // namespace
+
+const std::error_category& plugin_category() noexcept {
+  static const PluginCategory category;
+  return category;
+}
+
+std::error_code make_error_code(PluginErrc e) noexcept { return {static_cast<int>(e), plugin_category()}; }
+
+// ---------------------------------------------------------------------------
+// SharedLibrary
+
+SharedLibrary SharedLibrary::open(const std::filesystem::path& file, std::string& error) noexcept {
+  dlerror();  // clear a stale message so the one read below is ours
+  void* handle = dlopen(file.c_str(), RTLD_NOW | RTLD_LOCAL);
+  if (handle == nullptr) {
+    const char* why = dlerror();
+    error = why != nullptr ? why : "dlopen failed";
+  }
+  return SharedLibrary(handle);
+}
+
+SharedLibrary::~SharedLibrary() { close(); }
+
+SharedLibrary::SharedLibrary(SharedLibrary&& other) noexcept : handle_(std::exchange(other.handle_, nullptr)) {}
+
+SharedLibrary& SharedLibrary::operator=(SharedLibrary&& other) noexcept {
+  if (this != &other) {
+    close();
+    handle_ = std::exchange(other.handle_, nullptr);
+  }
+  return *this;
+}
+
+void* SharedLibrary::symbol(const char* name, std::string* error) const noexcept {
+  if (handle_ == nullptr) return nullptr;
+  dlerror();
+  void* sym = dlsym(handle_, name);
+  if (sym == nullptr && error != nullptr) {
+    const char* why = dlerror();
+    *error = why != nullptr ? why : "symbol not found";
+  }
+  return sym;
+}
+
+void SharedLibrary::close() noexcept {
+  if (handle_ != nullptr) {
+    dlclose(handle_);
+    handle_ = nullptr;
+  }
+}
+
+// ---------------------------------------------------------------------------
+// PluginHost
+
+struct PluginHost::Instance {
+  PluginHost* owner = nullptr;
+  std::string name;
+  std::filesystem::path file;
+  SharedLibrary library;
+  cobridge_host_api api{};
+  void* self = nullptr;
+  // The ops the host may call, read once from the table within its
+  // struct_size; optional ops the plugin's ABI lacks stay null.
+  int (*start)(void*) = nullptr;
+  void (*stop)(void*) = nullptr;
+  void (*destroy)(void*) = nullptr;
+  void (*on_samples)(void*, const cobridge_sample*, std::size_t) = nullptr;
+  void (*on_device)(void*, const cobridge_device_info*) = nullptr;
+  bool started = false;
+};
+
+PluginHost::PluginHost(Options options) : options_(std::move(options)) {
+  if (!options_.log) options_.log = default_log;
+}
+
+PluginHost::~PluginHost() { unload_all(); }
+
+std::filesystem::path PluginHost::resolve(const PluginSpec& spec) const {
+  if (!spec.file.empty()) {
+    return spec.file.is_absolute() ? spec.file : options_.plugin_dir / spec.file;
+  }
+  return options_.plugin_dir / ("libcobridge_" + spec.type + ".so");
+}
+
+void PluginHost::log_trampoline(void* host, int level, const char* msg) noexcept {
+  const auto* p = static_cast<const Instance*>(host);
+  if (p == nullptr || msg == nullptr) return;
+  if (level < COBRIDGE_LOG_TRACE) level = COBRIDGE_LOG_TRACE;
+  if (level > COBRIDGE_LOG_CRITICAL) level = COBRIDGE_LOG_CRITICAL;
+  try {
+    p->owner->options_.log(static_cast<LogLevel>(level), p->name, msg);
+  } catch (...) {
+    // A failing log sink must not unwind into C code.
+  }
+}
+
+void PluginHost::report(const PluginError& e) const {
+  options_.log(LogLevel::kError, e.instance, e.message);
+}
+
+std::error_code PluginHost::load(const PluginSpec& spec, PluginError* error) {
+  auto p = std::make_unique<Instance>();
+  p->owner = this;
+  p->name = spec.instance.empty() ? spec.type : spec.instance;
+  p->file = resolve(spec);
+
+  auto fail = [&](PluginErrc code, const std::string& reason) {
+    PluginError e{p->name, p->file, make_error_code(code), p->file.string() + ": " + reason};
+    report(e);
+    if (error != nullptr) *error = std::move(e);
+    return make_error_code(code);
+  };
+
+  std::error_code fs_ec;
+  if (!std::filesystem::exists(p->file, fs_ec)) {
+    return fail(PluginErrc::kFileNotFound, "file not found");
+  }
+  std::string why;
+  p->library = SharedLibrary::open(p->file, why);
+  if (!p->library) return fail(PluginErrc::kNotLoadable, "not a loadable shared object (" + why + ")");
+
+  void* entry = p->library.symbol(COBRIDGE_PLUGIN_ENTRY, &why);
+  if (entry == nullptr) {
+    return fail(PluginErrc::kNoEntryPoint, "no entry point " COBRIDGE_PLUGIN_ENTRY " (" + why + ")");
+  }
+  // dlsym hands out functions as void*; POSIX guarantees the round trip.
+  const auto create = reinterpret_cast<cobridge_plugin_create_fn>(entry);
+
+  p->api.abi_version = COBRIDGE_PLUGIN_ABI_VERSION;
+  p->api.struct_size = sizeof(cobridge_host_api);
+  p->api.host = p.get();
+  p->api.log = &PluginHost::log_trampoline;
+  p->api.gateway_id = options_.gateway_id.c_str();
+
+  std::array<char, 512> err{};
+  const cobridge_plugin_ops* ops = nullptr;
+  void* self = nullptr;
+  const int rc = create(&p->api, spec.config_toml.data(), spec.config_toml.size(), &ops, &self, err.data(),
+                        err.size());
+  err.back() = '\0';  // a plugin that fills the buffer without terminating it
+  if (rc != 0) {
+    std::string reason = "create failed: ";
+    reason += err[0] != '\0' ? std::string(err.data()) : "code " + std::to_string(rc);
+    return fail(PluginErrc::kCreateFailed, reason);
+  }
+  if (ops == nullptr) {
+    // Without a table there is no destroy to call; the instance (if any) leaks
+    // rather than being freed with the wrong allocator.
+    return fail(PluginErrc::kNullOps, "create succeeded but returned no ops table");
+  }
+
+  // abi_version and struct_size open the table in every version, and
+  // destroy sits at the same offset in all of them: that is what lets the
+  // host refuse a table and still free the instance.
+  const std::uint32_t size = ops->struct_size;
+  const auto unwind = [&] {
+    if (covers(size, offsetof(cobridge_plugin_ops, destroy)) && ops->destroy != nullptr) ops->destroy(self);
+  };
+  if (ops->abi_version > COBRIDGE_PLUGIN_ABI_VERSION) {
+    unwind();
+    return fail(PluginErrc::kAbiTooNew, "plugin ABI version " + std::to_string(ops->abi_version) +
+                                            " is newer than the host's " +
+                                            std::to_string(COBRIDGE_PLUGIN_ABI_VERSION));
+  }
+  if (size < COBRIDGE_PLUGIN_OPS_MIN_SIZE) {
+    unwind();
+    return fail(PluginErrc::kBadOps, "ops table struct_size " + std::to_string(size) + " is below the minimum " +
+                                         std::to_string(COBRIDGE_PLUGIN_OPS_MIN_SIZE));
+  }
+  if (ops->start == nullptr || ops->stop == nullptr || ops->destroy == nullptr || ops->on_samples == nullptr) {
+    unwind();
+    return fail(PluginErrc::kBadOps, "ops table lacks a mandatory op (start, stop, destroy, on_samples)");
+  }
+
+  p->self = self;
+  p->start = ops->start;
+  p->stop = ops->stop;
+  p->destroy = ops->destroy;
+  p->on_samples = ops->on_samples;
+  if (covers(size, offsetof(cobridge_plugin_ops, on_device))) p->on_device = ops->on_device;
+
+  const char* type = ops->name != nullptr ? ops->name : "?";
+  options_.log(LogLevel::kInfo, p->name,
+               "loaded " + p->file.string() + " (plugin " + type + ", ABI " + std::to_string(ops->abi_version) + ")");
+  plugins_.push_back(std::move(p));
+  return {};
+}
+
+std::vector<PluginError> PluginHost::load_all(std::span<const PluginSpec> specs) {
+  std::vector<PluginError> errors;
+  for (const auto& spec : specs) {
+    PluginError e;
+    if (load(spec, &e)) errors.push_back(std::move(e));
+  }
+  return errors;
+}
+
+std::vector<PluginError> PluginHost::start_all() {
+  std::vector<PluginError> errors;
+  for (auto it = plugins_.begin(); it != plugins_.end();) {
+    Instance& p = **it;
+    if (p.started) {
+      ++it;
+      continue;
+    }
+    const int rc = p.start(p.self);
+    if (rc == 0) {
+      p.started = true;
+      ++it;
+      continue;
+    }
+    PluginError e{p.name, p.file, make_error_code(PluginErrc::kStartFailed),
+                  p.file.string() + ": start failed (code " + std::to_string(rc) + ")"};
+    report(e);
+    errors.push_back(std::move(e));
+    unload(p);
+    it = plugins_.erase(it);
+  }
+  return errors;
+}
+
+void PluginHost::deliver(std::span<const Sample> samples) noexcept {
+  if (samples.empty()) return;
+  for (const auto& p : plugins_) {
+    if (p->started) p->on_samples(p->self, samples.data(), samples.size());
+  }
+}
+
+void PluginHost::announce(const cobridge_device_info& info) noexcept {
+  for (const auto& p : plugins_) {
+    if (p->started && p->on_device != nullptr) p->on_device(p->self, &info);
+  }
+}
+
+void PluginHost::stop_all() noexcept {
+  for (auto it = plugins_.rbegin(); it != plugins_.rend(); ++it) {
+    Instance& p = **it;
+    if (p.started) {
+      p.stop(p.self);
+      p.started = false;
+    }
+  }
+}
+
+void PluginHost::unload(Instance& p) noexcept {
+  if (p.started) {
+    p.stop(p.self);
+    p.started = false;
+  }
+  p.destroy(p.self);
+  p.self = nullptr;
+  // Only now: the plugin's code must stay mapped until destroy returned.
+  p.library.close();
+}
+
+void PluginHost::unload_all() noexcept {
+  stop_all();
+  while (!plugins_.empty()) {
+    unload(*plugins_.back());
+    plugins_.pop_back();
+  }
+}
+
+std::size_t PluginHost::started_count() const noexcept {
+  std::size_t n = 0;
+  for (const auto& p : plugins_) n += p->started ? 1u : 0u;
+  return n;
+}
+
+std::vector<std::string> PluginHost::instances() const {
+  std::vector<std::string> names;
+  names.reserve(plugins_.size());
+  for (const auto& p : plugins_) names.push_back(p->name);
+  return names;
+}
+
+}  // namespace cobridge::pipeline

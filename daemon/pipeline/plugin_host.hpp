@@ -1,0 +1,166 @@
+// PluginHost: loads the configured output plugins (shared libraries speaking
+// the C ABI of include/cobridge/plugin.h), starts them, hands them the
+// dispatcher's sample batches and device announcements, and stops and unloads
+// them in reverse order.
+//
+// Loading is dlopen -> dlsym(COBRIDGE_PLUGIN_ENTRY) -> create -> check the
+// ops table, unwinding in reverse on any failure (destroy if created, then
+// dlclose). A plugin that fails is reported once, with a code and a message
+// naming the file and the reason, and left out; it never takes the other
+// plugins down. The host never calls an op beyond the plugin's
+// ops->struct_size, so plugins built for an older ABI keep working.
+//
+// Thread contract: load / start_all / stop_all / unload_all and the
+// destructor run on the control thread while the dispatcher is not
+// delivering; deliver and announce run on the dispatcher thread (the hot
+// path: noexcept, no allocation, no locks — the cost is the plugins' own).
+// The log sink is called from whatever thread a plugin logs on.
+#pragma once
+
+#include "pipeline/sample.hpp"
+
+#include <cobridge/plugin.h>
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <system_error>
+#include <vector>
+
+namespace cobridge::pipeline {
+
+enum class PluginErrc {
+  kFileNotFound = 1,  // no such file in the plugin directory
+  kNotLoadable,       // dlopen refused it (not a shared object, missing dependency, ...)
+  kNoEntryPoint,      // the library does not export COBRIDGE_PLUGIN_ENTRY
+  kCreateFailed,      // the entry point returned non-zero (message is the plugin's)
+  kNullOps,           // create succeeded but returned no ops table
+  kAbiTooNew,         // ops->abi_version is newer than the host's
+  kBadOps,            // struct_size below the mandatory part, or a mandatory op is NULL
+  kStartFailed,       // ops->start returned non-zero
+};
+
+[[nodiscard]] const std::error_category& plugin_category() noexcept;
+[[nodiscard]] std::error_code make_error_code(PluginErrc e) noexcept;
+
+// One failed plugin: which instance, which file, why.
+struct PluginError {
+  std::string instance;
+  std::filesystem::path file;
+  std::error_code code;
+  std::string message;  // "<file>: <reason>", ready to log
+};
+
+// What the configuration says about one plugin instance.
+struct PluginSpec {
+  // Instance name, used in logs; unique per host.
+  std::string instance;
+  // Plugin type; the default file is "libcobridge_<type>.so".
+  std::string type;
+  // Overrides the file; relative paths are resolved in the plugin directory.
+  std::filesystem::path file;
+  // The instance's configuration table as TOML text (see plugin.h).
+  std::string config_toml;
+};
+
+// RAII owner of one dlopen handle. Move-only; closing happens last, after
+// every object created from the library is gone.
+class SharedLibrary {
+ public:
+  SharedLibrary() noexcept = default;
+  // RTLD_NOW so that unresolved symbols fail here, not mid-delivery;
+  // RTLD_LOCAL so that plugins cannot see each other's symbols.
+  [[nodiscard]] static SharedLibrary open(const std::filesystem::path& file, std::string& error) noexcept;
+  ~SharedLibrary();
+  SharedLibrary(SharedLibrary&& other) noexcept;
+  SharedLibrary& operator=(SharedLibrary&& other) noexcept;
+  SharedLibrary(const SharedLibrary&) = delete;
+  SharedLibrary& operator=(const SharedLibrary&) = delete;
+
+  [[nodiscard]] explicit operator bool() const noexcept { return handle_ != nullptr; }
+  // nullptr if absent (error, if given, receives dlerror()).
+  [[nodiscard]] void* symbol(const char* name, std::string* error = nullptr) const noexcept;
+  void close() noexcept;
+
+ private:
+  explicit SharedLibrary(void* handle) noexcept : handle_(handle) {}
+  void* handle_ = nullptr;
+};
+
+enum class LogLevel : int {
+  kTrace = COBRIDGE_LOG_TRACE,
+  kDebug = COBRIDGE_LOG_DEBUG,
+  kInfo = COBRIDGE_LOG_INFO,
+  kWarn = COBRIDGE_LOG_WARN,
+  kError = COBRIDGE_LOG_ERROR,
+  kCritical = COBRIDGE_LOG_CRITICAL,
+};
+
+class PluginHost {
+ public:
+  // Receives plugin log lines (host->log); must be thread-safe. main wires
+  // it to the "gateway" logger; the default writes to stderr.
+  using LogSink = std::function<void(LogLevel level, std::string_view instance, std::string_view message)>;
+
+  struct Options {
+    std::filesystem::path plugin_dir;
+    std::string gateway_id;
+    LogSink log;
+  };
+
+  explicit PluginHost(Options options);
+  ~PluginHost();  // stop_all, then unload_all
+  PluginHost(const PluginHost&) = delete;
+  PluginHost& operator=(const PluginHost&) = delete;
+
+  // Loads and creates one instance. On failure nothing is kept and the error
+  // is returned (and also logged through the sink).
+  [[nodiscard]] std::error_code load(const PluginSpec& spec, PluginError* error = nullptr);
+  // Loads every spec; returns the failures, the others stay loaded.
+  std::vector<PluginError> load_all(std::span<const PluginSpec> specs);
+
+  // Starts every loaded, not yet started instance in load order. An
+  // instance whose start fails is destroyed and unloaded; its error is
+  // returned.
+  std::vector<PluginError> start_all();
+
+  // Dispatcher thread. Hands the batch to every started plugin.
+  void deliver(std::span<const Sample> samples) noexcept;
+  // Dispatcher thread. Announces a device to every started plugin whose ABI
+  // has on_device.
+  void announce(const cobridge_device_info& info) noexcept;
+
+  // Stops the started instances in reverse load order; they stay loaded and
+  // may be started again.
+  void stop_all() noexcept;
+  // Destroys and unloads every instance in reverse load order (stops first).
+  void unload_all() noexcept;
+
+  [[nodiscard]] std::size_t loaded_count() const noexcept { return plugins_.size(); }
+  [[nodiscard]] std::size_t started_count() const noexcept;
+  // Instance names in load order.
+  [[nodiscard]] std::vector<std::string> instances() const;
+
+  // The file a spec resolves to (exposed for error messages and tests).
+  [[nodiscard]] std::filesystem::path resolve(const PluginSpec& spec) const;
+
+ private:
+  struct Instance;
+  static void log_trampoline(void* host, int level, const char* msg) noexcept;
+  void unload(Instance& p) noexcept;
+  void report(const PluginError& e) const;
+
+  Options options_;
+  // unique_ptr: each instance's cobridge_host_api must keep its address, the
+  // plugin may hold on to it until destroy.
+  std::vector<std::unique_ptr<Instance>> plugins_;
+};
+
+}  // namespace cobridge::pipeline
+
+template <>
+struct std::is_error_code_enum<cobridge::pipeline::PluginErrc> : std::true_type {};
