@@ -1,0 +1,154 @@
+#include "pipeline/bus_receiver.hpp"
+
+#include "canopen/cob_id.hpp"
+
+#include <poll.h>
+#include <sys/eventfd.h>
+#include <unistd.h>
+
+#include <array>
+#include <ctime>
+
+namespace cobridge::pipeline {
+namespace {
+
+std::int64_t realtime_ns() noexcept {
+  timespec ts{};
+  clock_gettime(CLOCK_REALTIME, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000LL + ts.tv_nsec;
+}
+
+}  // namespace
+
+BusReceiver::BusReceiver(BusReceiverOptions options, const DeviceTable& table, Dispatcher& dispatcher)
+    : options_(std::move(options)),
+      ring_(options_.ring_capacity),
+      decoder_(options_.bus_index, table),
+      dispatcher_(dispatcher),
+      channel_(can::SocketCanConfig{.interface = options_.interface,
+                                    .receive_buffer_bytes = options_.receive_buffer_bytes}),
+      wake_fd_(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)) {}
+
+BusReceiver::~BusReceiver() {
+  stop();
+  if (wake_fd_ >= 0) ::close(wake_fd_);
+}
+
+std::error_code BusReceiver::start(std::string* message) {
+  if (running_.load()) return {};
+  if (auto e = channel_.open()) {
+    if (message) *message = e.message;
+    return e.code;
+  }
+  namespace cob = canopen::cob;
+  // Only what becomes samples: SYNC + EMCY (0x080..0x0FF), TPDO1 (0x180..0x1FF),
+  // TPDO2 (0x280..0x2FF), error control (0x700..0x77F).
+  const can::Filter filters[] = {
+      {cob::kSync, 0x780, false},
+      {cob::kTpdo1Base, 0x780, false},
+      {cob::kTpdo2Base, 0x780, false},
+      {cob::kNmtErrorControlBase, 0x780, false},
+  };
+  if (auto e = channel_.set_filters(filters)) {
+    if (message) *message = e.message;
+    return e.code;
+  }
+  running_.store(true);
+  thread_ = std::thread([this] { run(); });
+  return {};
+}
+
+void BusReceiver::stop() {
+  if (!running_.exchange(false)) return;
+  const std::uint64_t one = 1;
+  (void)!::write(wake_fd_, &one, sizeof one);
+  if (thread_.joinable()) thread_.join();
+  channel_.close();
+}
+
+bool BusReceiver::post_status(const StatusEvent& e) noexcept {
+  if (!status_ring_.try_push(e)) {
+    status_drops_.fetch_add(1, std::memory_order_relaxed);
+    return false;
+  }
+  const std::uint64_t one = 1;
+  (void)!::write(wake_fd_, &one, sizeof one);
+  return true;
+}
+
+void BusReceiver::push(const Sample& s) noexcept {
+  if (!ring_.try_push(s)) ring_drops_.store(ring_drops_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
+}
+
+std::size_t BusReceiver::handle(std::span<const can::Frame> frames) noexcept {
+  std::size_t pushed = 0;
+  Sample s;
+  for (const can::Frame& f : frames) {
+    if (decoder_.decode(f, s)) {
+      push(s);
+      ++pushed;
+    }
+  }
+  if (pushed) dispatcher_.wake();
+  return pushed;
+}
+
+void BusReceiver::drain_status() noexcept {
+  StatusEvent e;
+  Sample s;
+  bool any = false;
+  while (status_ring_.try_pop(e)) {
+    if (decoder_.make_status(e.node_id, e.online, false, e.nmt_state, e.timestamp_ns, s)) {
+      push(s);
+      any = true;
+    }
+  }
+  if (any) dispatcher_.wake();
+}
+
+void BusReceiver::run() noexcept {
+  std::array<can::Frame, 64> frames;
+  std::int64_t next_stale_check = 0;
+  while (running_.load(std::memory_order_acquire)) {
+    pollfd pfds[2] = {{channel_.fd(), POLLIN, 0}, {wake_fd_, POLLIN, 0}};
+    ::poll(pfds, 2, static_cast<int>(options_.stale_check.count()));
+    if (pfds[1].revents & POLLIN) {
+      std::uint64_t v = 0;
+      (void)!::read(wake_fd_, &v, sizeof v);
+    }
+    // New plans take effect between batches, never inside one.
+    try {
+      decoder_.refresh();
+    } catch (...) {
+      // A mutex failure would be a broken system; keep the old plans.
+    }
+    for (;;) {
+      const std::size_t n = channel_.receive(frames);
+      if (n == 0) break;
+      handle(std::span<const can::Frame>(frames.data(), n));
+      if (n < frames.size()) break;
+    }
+    drain_status();
+    const std::int64_t now = realtime_ns();
+    if (now >= next_stale_check) {
+      Sample s;
+      bool any = false;
+      decoder_.check_stale(now, [&](std::uint8_t node) {
+        if (decoder_.make_status(node, true, true, COBRIDGE_NMT_OPERATIONAL, now, s)) {
+          push(s);
+          any = true;
+        }
+      });
+      if (any) dispatcher_.wake();
+      next_stale_check = now + std::chrono::duration_cast<std::chrono::nanoseconds>(options_.stale_check).count();
+    }
+    (void)channel_.process(std::chrono::steady_clock::now());
+  }
+}
+
+ReceiverStats BusReceiver::stats() const noexcept {
+  return ReceiverStats{decoder_.stats(), ring_drops_.load(std::memory_order_relaxed),
+                       channel_.stats().rx_overflow_drops, status_drops_.load(std::memory_order_relaxed)};
+}
+
+}  // namespace cobridge::pipeline

@@ -1,0 +1,25 @@
+#include "pipeline/device_table.hpp"
+
+namespace cobridge::pipeline {
+
+void DeviceTable::publish(const DecodePlan& plan) {
+  if (plan.node_id == 0 || plan.node_id >= kNodes) return;
+  std::lock_guard lock(mutex_);
+  plans_[plan.node_id] = plan;
+  generation_.fetch_add(1, std::memory_order_release);
+}
+
+void DeviceTable::remove(std::uint8_t node_id) {
+  if (node_id == 0 || node_id >= kNodes) return;
+  std::lock_guard lock(mutex_);
+  plans_[node_id] = DecodePlan{};
+  generation_.fetch_add(1, std::memory_order_release);
+}
+
+void DeviceTable::snapshot(Plans& out, std::uint32_t& generation) const {
+  std::lock_guard lock(mutex_);
+  out = plans_;
+  generation = generation_.load(std::memory_order_relaxed);
+}
+
+}  // namespace cobridge::pipeline

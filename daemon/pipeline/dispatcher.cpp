@@ -1,0 +1,99 @@
+#include "pipeline/dispatcher.hpp"
+
+#include <poll.h>
+#include <sys/eventfd.h>
+#include <unistd.h>
+
+#include <ctime>
+
+namespace cobridge::pipeline {
+namespace {
+
+std::uint64_t realtime_ns() noexcept {
+  timespec ts{};
+  clock_gettime(CLOCK_REALTIME, &ts);
+  return static_cast<std::uint64_t>(ts.tv_sec) * 1'000'000'000ull + static_cast<std::uint64_t>(ts.tv_nsec);
+}
+
+}  // namespace
+
+Dispatcher::Dispatcher(SampleSink& sink) : sink_(sink), event_fd_(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)) {}
+
+Dispatcher::~Dispatcher() {
+  stop();
+  if (event_fd_ >= 0) ::close(event_fd_);
+}
+
+void Dispatcher::add_source(SpscRing<Sample>& ring) { sources_.push_back(&ring); }
+
+void Dispatcher::start() {
+  if (running_.exchange(true)) return;
+  thread_ = std::thread([this] { run(); });
+}
+
+void Dispatcher::stop() {
+  if (!running_.exchange(false)) return;
+  const std::uint64_t one = 1;
+  (void)!::write(event_fd_, &one, sizeof one);
+  if (thread_.joinable()) thread_.join();
+  // Whatever the producers pushed before they stopped still goes out.
+  while (drain_once() != 0) {
+  }
+}
+
+void Dispatcher::wake() noexcept {
+  // Pairs with the fence in run(): either we see sleeping_ == true, or the
+  // dispatcher sees our sample when it re-checks the rings.
+  std::atomic_thread_fence(std::memory_order_seq_cst);
+  if (sleeping_.load(std::memory_order_relaxed)) {
+    const std::uint64_t one = 1;
+    (void)!::write(event_fd_, &one, sizeof one);
+  }
+}
+
+bool Dispatcher::any_pending() const noexcept {
+  for (const auto* r : sources_)
+    if (r->size_approx() != 0) return true;
+  return false;
+}
+
+std::size_t Dispatcher::drain_once() noexcept {
+  std::size_t total = 0;
+  for (auto* ring : sources_) {
+    for (;;) {
+      const std::size_t n = ring->pop_batch(std::span<Sample>(batch_, kBatch));
+      if (n == 0) break;
+      const std::uint64_t now = realtime_ns();
+      for (std::size_t i = 0; i < n; ++i) batch_[i].publish_timestamp_ns = now;
+      sink_.deliver(std::span<const Sample>(batch_, n));
+      total += n;
+      batches_.store(batches_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
+      if (n < kBatch) break;
+    }
+  }
+  if (total) samples_.store(samples_.load(std::memory_order_relaxed) + total, std::memory_order_relaxed);
+  return total;
+}
+
+void Dispatcher::run() noexcept {
+  while (running_.load(std::memory_order_acquire)) {
+    if (drain_once() != 0) continue;
+    sleeping_.store(true, std::memory_order_relaxed);
+    std::atomic_thread_fence(std::memory_order_seq_cst);
+    if (!any_pending() && running_.load(std::memory_order_acquire)) {
+      sleeps_.store(sleeps_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
+      pollfd pfd{event_fd_, POLLIN, 0};
+      ::poll(&pfd, 1, 100);
+      std::uint64_t v = 0;
+      (void)!::read(event_fd_, &v, sizeof v);
+    }
+    sleeping_.store(false, std::memory_order_relaxed);
+  }
+}
+
+DispatcherStats Dispatcher::stats() const noexcept {
+  return DispatcherStats{samples_.load(std::memory_order_relaxed), batches_.load(std::memory_order_relaxed),
+                         sleeps_.load(std::memory_order_relaxed)};
+}
+
+}  // namespace cobridge::pipeline

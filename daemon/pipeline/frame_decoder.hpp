@@ -1,0 +1,81 @@
+// FrameDecoder: one bus's CAN frames -> samples, on the bus's RX thread.
+//
+// TPDO1/TPDO2 (0x181..0x2FF) are decoded with the device's DecodePlan into
+// position, speed, CAM, work-area, alarm, warning, temperature and voltage;
+// EMCY (0x081..0x0FF) and heartbeat/boot-up (0x701..0x77F) become samples of
+// their own kinds; SYNC (0x080) only updates the counter that synchronous
+// TPDOs are stamped with. Every sample of a device gets the next sequence
+// number, so a gap downstream proves a loss.
+//
+// Per frame: no allocation, no lock, no exception, no logging; problems are
+// counted (stats()). refresh() is called once per receive batch.
+// Thread: the bus's RX thread only (stats() may be read from any thread).
+#pragma once
+
+#include "can/frame.hpp"
+#include "pipeline/device_table.hpp"
+#include "pipeline/sample.hpp"
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+
+namespace cobridge::pipeline {
+
+struct DecoderStats {
+  std::uint64_t frames = 0;         // frames looked at
+  std::uint64_t samples = 0;        // samples produced
+  std::uint64_t unknown_node = 0;   // PDO of a node without an active plan
+  std::uint64_t bad_length = 0;     // PDO shorter than its mapping, EMCY/heartbeat of the wrong length
+  std::uint64_t ignored = 0;        // other COB-IDs
+};
+
+class FrameDecoder {
+ public:
+  FrameDecoder(std::uint8_t bus_index, const DeviceTable& table);
+
+  // Picks up new plans if the control thread published any.
+  void refresh();
+
+  // Returns true and fills `out` when the frame produced a sample.
+  bool decode(const can::Frame& frame, Sample& out) noexcept;
+
+  // A STATUS sample (online / stale / NMT state as the gateway sees it).
+  bool make_status(std::uint8_t node_id, bool online, bool stale, std::uint8_t nmt_state,
+                   std::int64_t timestamp_ns, Sample& out) noexcept;
+
+  // Nodes whose last TPDO is older than their plan's max_age_ms at `now_ns`
+  // and not yet reported stale: calls emit(node) once per such change.
+  template <typename Emit>
+  void check_stale(std::int64_t now_ns, Emit&& emit) noexcept {
+    for (std::size_t n = 1; n < DeviceTable::kNodes; ++n) {
+      const DecodePlan& p = plans_[n];
+      if (!p.active || p.max_age_ms == 0 || stale_[n] || last_pdo_ns_[n] == 0) continue;
+      if (now_ns - last_pdo_ns_[n] > static_cast<std::int64_t>(p.max_age_ms) * 1'000'000) {
+        stale_[n] = true;
+        emit(static_cast<std::uint8_t>(n));
+      }
+    }
+  }
+
+  [[nodiscard]] DecoderStats stats() const noexcept;
+  [[nodiscard]] const DecodePlan& plan(std::uint8_t node_id) const noexcept { return plans_[node_id]; }
+
+ private:
+  bool decode_tpdo(const can::Frame& f, std::uint8_t node, std::size_t pdo, Sample& out) noexcept;
+  void header(const can::Frame& f, std::uint8_t node, std::uint8_t kind, Sample& out) noexcept;
+  void count(std::atomic<std::uint64_t>& c) noexcept { c.store(c.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed); }
+
+  const std::uint8_t bus_index_;
+  const DeviceTable& table_;
+  DeviceTable::Plans plans_{};
+  std::uint32_t generation_ = 0;
+  std::array<std::uint32_t, DeviceTable::kNodes> sequence_{};
+  std::array<std::int64_t, DeviceTable::kNodes> last_pdo_ns_{};
+  std::array<bool, DeviceTable::kNodes> stale_{};
+  std::uint8_t sync_counter_ = 0;
+  // Written by the RX thread only; atomics so another thread may read them.
+  std::atomic<std::uint64_t> frames_{0}, samples_{0}, unknown_node_{0}, bad_length_{0}, ignored_{0};
+};
+
+}  // namespace cobridge::pipeline
