@@ -11,6 +11,7 @@
 // read-only; safe to read from any thread once published.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <filesystem>
 #include <optional>

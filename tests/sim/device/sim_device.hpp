@@ -20,12 +20,14 @@
 #include "canopen/clock.hpp"
 #include "canopen/lss.hpp"
 #include "canopen/nmt.hpp"
+#include "canopen/object_dictionary.hpp"
 #include "device/eds.hpp"
 
 #include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <memory>
+#include <span>
 #include <string>
 #include <string_view>
 #include <system_error>
@@ -45,11 +47,14 @@ struct ModelInfo {
   std::uint8_t factory_node_id; // 127 (Novotechnik), 32 (ifm)
   bool legacy_rsx_rfx;          // J§1.12: RSX-7900 / RFX-6900 firmware rules
   std::string_view eds_stem;    // config/devices/<stem>[-1ch|-2ch].eds
+  std::uint16_t factory_bitrate_kbit = 0;  // 250 (Novotechnik ordering code _4), 125 (ifm F§5.3.2)
 };
 
 // All models; find_model is case-insensitive. nullptr if unknown.
 [[nodiscard]] const ModelInfo* find_model(std::string_view name) noexcept;
 [[nodiscard]] std::string_view family_name(Family f) noexcept;
+// The whole table, for `--list-models` and the tests.
+[[nodiscard]] std::span<const ModelInfo> all_models() noexcept;
 
 // The LSS feature set a device answers with (cobridge-sim key lss=...).
 enum class LssProfile : std::uint8_t {
@@ -69,6 +74,12 @@ struct DeviceSpec {
   LssProfile lss = LssProfile::family_default;
   bool segmented_sdo = true;      // digest S.1: on by default
   std::string motion = "constant:0";  // see motion.hpp for the grammar
+  // ifm "C6" variant: TPDO2 (0x1801) is "only active for CANopen C6 encoders"
+  // (F§7.3, digest B.3). Off by default: plain RM8/RM9 send TPDO1 only.
+  bool ifm_c6 = false;
+  // Fastscan answered only while unconfigured anyway (digest Y.2); this
+  // switch removes it even from a v3 LSS profile.
+  bool lss_fastscan = true;
 };
 
 // Faults injected at run time (control socket / stdin / command line).
@@ -130,6 +141,18 @@ class SimDevice {
   [[nodiscard]] std::uint8_t node_id() const noexcept;     // active node-ID (0xFF = unconfigured)
   [[nodiscard]] canopen::NmtState nmt_state() const noexcept;
   [[nodiscard]] canopen::LssAddress identity() const noexcept;
+
+  // --- additions for the simulator app and the tests ---------------------
+  // Active bit rate in kbit/s (changes only on reset communication / power
+  // up, or LSS activate bit timing; the simulator cannot retune a vcan).
+  [[nodiscard]] std::uint16_t bitrate_kbit() const noexcept;
+  // The live object dictionary (nullptr while powered off). Reading it is
+  // how tests and the control interface inspect the device without SDO.
+  [[nodiscard]] const canopen::ObjectDictionary* object_dictionary() const noexcept;
+  // <state_dir>/<family>-<serial>.nv, or empty when volatile.
+  [[nodiscard]] const std::filesystem::path& nv_path() const noexcept;
+  // Replaces the motion (same grammar as DeviceSpec::motion) at run time.
+  std::error_code set_motion(std::string_view motion, TimePoint now);
 
  private:
   struct Impl;

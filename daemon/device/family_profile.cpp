@@ -1,0 +1,273 @@
+#include "device/family_profile.hpp"
+
+#include <algorithm>
+#include <array>
+
+namespace cobridge::device {
+
+namespace {
+
+using canopen::DeviceFamily;
+
+// J§1.8: position 0x7FF0 ("beyond measuring range") on a position or sensor error.
+constexpr std::array<std::int32_t, 1> kRotaryErrorPositions{canopen::kRotaryErrorPosition};
+// E§9.1: unknown/hardware/measurement error, overflow, underflow.
+constexpr std::array<std::int32_t, 3> kMultiturnErrorPositions{
+    canopen::kMultiturnErrorPosition, canopen::kMultiturnOverflowPosition, canopen::kMultiturnUnderflowPosition};
+
+// F§7.4 0x3001: the index is ascending, unlike the CiA 305 LSS table.
+constexpr std::array<std::uint16_t, 8> kIfmBitRates{20, 50, 100, 125, 250, 500, 800, 1000};
+// J§1.2.2 / E§3.1 ordering codes.
+constexpr std::array<std::uint16_t, 6> kNovotechnikBitRates{50, 125, 250, 500, 800, 1000};
+
+constexpr std::uint32_t kRsx7900Product = 0x0BCD;  // J§1.2.1
+constexpr std::uint32_t kRfx6900Product = 0x0BE1;  // J§1.2.1
+
+FamilyProfile rotary(std::uint8_t channels, bool legacy) {
+  FamilyProfile p;
+  p.family = DeviceFamily::novotechnik_rotary;
+  p.name = "novotechnik-rotary";
+  p.series = "rotary series";
+  p.manual = "J";
+  p.channels = channels == 2 ? 2 : 1;
+  p.legacy_rsx_rfx = legacy;
+  p.position_type = DataType::kInteger32;  // J§1.3.2 0x6020
+  p.error_positions = kRotaryErrorPositions;
+  p.cams_per_channel = 4;  // J§1.2.3
+  p.scaling_on_bit_value = true;  // J§1.4.1
+  p.position_filter_in_operating_parameter = true;  // J§1.4.1 bits 14..12
+  // J§1.6.1 / J§1.10 (V10 notes): node-ID and bit rate with /4, RSX/RFX with /1.
+  p.store = StoreSubs{2, 3, static_cast<std::uint8_t>(legacy ? 1 : 4)};
+  p.heartbeat = HeartbeatSupport::uncertain;  // J§1.2.2 vs J§1.3.1 0x1017
+  return p;
+}
+
+FamilyProfile multiturn() {
+  FamilyProfile p;
+  p.family = DeviceFamily::novotechnik_multiturn;
+  p.name = "novotechnik-multiturn";
+  p.series = "multiturn series";
+  p.manual = "E";
+  p.position_type = DataType::kInteger32;  // E§4.2 0x6004
+  p.position_alias = ObjectRef{0x6020, 1};  // E§4.1 0x1A00/1 default
+  p.error_positions = kMultiturnErrorPositions;
+  p.cams_per_channel = 4;  // E§3.4
+  p.temperature = ObjectRef{0x2002, 0};
+  p.voltage = ObjectRef{0x2003, 0};
+  p.scaling_on_bit_value = false;  // E§5.3 as printed: 0 = scaling on
+  p.position_filter = ObjectRef{0x2010, 1};
+  p.speed_filter = ObjectRef{0x2010, 2};
+  p.store = StoreSubs{2, 3, 4};  // E§11 table, E§7.1
+  return p;
+}
+
+FamilyProfile ifm() {
+  FamilyProfile p;
+  p.family = DeviceFamily::ifm_rm;
+  p.name = "ifm-rm";
+  p.series = "ifm RM series";
+  p.manual = "F";
+  p.position_type = DataType::kUnsigned32;  // F§7.5 0x6004
+  p.position_value_mask = 0x3FFFFFFFu;
+  p.limit_switch_min_bit = 30;  // F§7.4 0x2104
+  p.limit_switch_max_bit = 31;  // F§7.4 0x2105
+  p.speed_unit = SpeedUnit::digits_per_s;  // F§7.4 0x3011
+  p.speed_enable = ObjectRef{0x3010, 1};
+  p.cams_per_channel = 8;  // F§7.5 0x6300 "cams 1 to 8"
+  p.has_alarms_warnings = false;  // F§4
+  p.scaling_on_bit_value = true;  // F§7.5 SFC
+  p.event_timer_alias = ObjectRef{0x6200, 0};
+  p.node_id_object = ObjectRef{0x3000, 0};
+  p.node_id_encoding = NodeIdEncoding::minus_one;  // F§7.4
+  p.bitrate_object = ObjectRef{0x3001, 0};
+  p.bitrate_encoding = BitRateEncoding::ifm_index;
+  p.store = StoreSubs{1, 1, 1};  // F§7.3: 0x1010 has sub 1 only
+  p.save_with_reset = ObjectRef{0x2300, 0};
+  p.cams_stored = false;  // F§6.3.1 lists no 0x63xx object
+  // F gives no entry limit; CiA 301 allows 64 one-bit entries in 8 bytes.
+  p.max_pdo_entries = 64;
+  p.tpdo2_sync_only = false;  // F§7.3 0x1801 has the full record
+  p.rtr_transmission = true;  // F§7.3 transmission types 252/253
+  return p;
+}
+
+FamilyProfile generic() {
+  FamilyProfile p;
+  p.family = DeviceFamily::generic;
+  p.name = "generic";
+  p.series = "generic CiA 406 device";
+  p.manual = "CiA 406";
+  p.position_type = DataType::kUnsigned32;
+  p.cams_per_channel = 8;
+  p.max_pdo_entries = 64;
+  p.tpdo2_sync_only = false;
+  p.rtr_transmission = true;
+  return p;
+}
+
+}  // namespace
+
+ObjectRef FamilyProfile::position(std::uint8_t channel) const noexcept {
+  if (family == DeviceFamily::novotechnik_rotary) return {0x6020, channel};  // J§1.3.2
+  return {0x6004, 0};  // E§4.2, F§7.5, CiA 406
+}
+
+ObjectRef FamilyProfile::speed(std::uint8_t channel) const noexcept { return {0x6030, channel}; }
+
+ObjectRef FamilyProfile::preset(std::uint8_t channel) const noexcept {
+  if (family == DeviceFamily::novotechnik_rotary) return {0x6010, channel};  // J§1.3.2
+  return {0x6003, 0};  // E§4.2, F§7.5
+}
+
+DataType FamilyProfile::preset_type() const noexcept {
+  return family == DeviceFamily::novotechnik_rotary ? DataType::kInteger32 : DataType::kUnsigned32;
+}
+
+ObjectRef FamilyProfile::cam_low(CamSlot slot) noexcept {
+  return {static_cast<std::uint16_t>(0x6310 + slot.number - 1), slot.channel};
+}
+ObjectRef FamilyProfile::cam_high(CamSlot slot) noexcept {
+  return {static_cast<std::uint16_t>(0x6320 + slot.number - 1), slot.channel};
+}
+ObjectRef FamilyProfile::cam_hysteresis(CamSlot slot) noexcept {
+  return {static_cast<std::uint16_t>(0x6330 + slot.number - 1), slot.channel};
+}
+
+std::optional<CamSlot> FamilyProfile::cam_slot(std::uint8_t cam_index) const noexcept {
+  if (cam_index == 0) return std::nullopt;
+  const unsigned zero_based = cam_index - 1u;
+  const unsigned channel = zero_based / cams_per_channel + 1u;
+  if (channel > channels) return std::nullopt;
+  return CamSlot{static_cast<std::uint8_t>(channel), static_cast<std::uint8_t>(zero_based % cams_per_channel + 1u)};
+}
+
+std::string_view FamilyProfile::cam_limit_text() const noexcept {
+  switch (family) {
+    case DeviceFamily::novotechnik_rotary:
+      return channels == 2 ? "the 2-channel rotary series has 4 CAMs per channel: 1..4 on channel 1, 5..8 on "
+                             "channel 2 (J§1.2.3)"
+                           : "the 1-channel rotary series has 4 CAMs (J§1.2.3)";
+    case DeviceFamily::novotechnik_multiturn: return "the multiturn series has 4 CAMs (E§3.4)";
+    case DeviceFamily::ifm_rm: return "the ifm RM series has 8 CAMs (F§7.5)";
+    case DeviceFamily::generic: break;
+  }
+  return "CiA 406 defines at most 8 CAMs per channel";
+}
+
+SignalMapping FamilyProfile::mapping_entry(config::Signal signal, std::uint8_t channel) const noexcept {
+  if (channel == 0 || channel > channels) return {0, "the device has no such channel"};
+  switch (signal) {
+    case config::Signal::position: return {device::mapping_entry(position(channel), 32), {}};
+    case config::Signal::speed: return {device::mapping_entry(speed(channel), 16), {}};
+    case config::Signal::cam: return {device::mapping_entry(cam_state(channel), 8), {}};
+    case config::Signal::work_area: return {device::mapping_entry(work_area_state(channel), 8), {}};
+    case config::Signal::alarms:
+      if (!has_alarms_warnings) return {0, "the ifm RM series reports no alarms (F§4)"};
+      return {device::mapping_entry(alarms(), 16), {}};
+    case config::Signal::warnings:
+      if (!has_alarms_warnings) return {0, "the ifm RM series reports no warnings (F§4)"};
+      return {device::mapping_entry(warnings(), 16), {}};
+    case config::Signal::temperature:
+      if (!temperature) return {0, "only the multiturn series has a temperature object (E§4.3 0x2002)"};
+      return {device::mapping_entry(*temperature, 16), {}};
+    case config::Signal::voltage:
+      if (!voltage) return {0, "only the multiturn series has a supply-voltage object (E§4.3 0x2003)"};
+      return {device::mapping_entry(*voltage, 16), {}};
+    case config::Signal::raw: break;
+  }
+  return {0, "a raw mapping entry is not a semantic signal"};
+}
+
+bool FamilyProfile::is_position_entry(std::uint32_t entry) const noexcept {
+  const ObjectRef object{static_cast<std::uint16_t>(entry >> 16), static_cast<std::uint8_t>((entry >> 8) & 0xFFu)};
+  if (position_alias && object == *position_alias) return true;
+  for (std::uint8_t ch = 1; ch <= channels; ++ch) {
+    if (object == position(ch)) return true;
+  }
+  return false;
+}
+
+std::uint32_t FamilyProfile::scaling_bit(bool on) const noexcept {
+  return (on == scaling_on_bit_value) ? 0x4u : 0x0u;
+}
+
+std::uint32_t FamilyProfile::encode_node_id(std::uint8_t node_id) const noexcept {
+  if (node_id_encoding == NodeIdEncoding::minus_one) return node_id == 0 ? 0u : node_id - 1u;
+  return node_id;
+}
+
+std::uint8_t FamilyProfile::decode_node_id(std::uint32_t value) const noexcept {
+  if (node_id_encoding == NodeIdEncoding::minus_one) return static_cast<std::uint8_t>((value & 0x7Fu) + 1u);
+  return static_cast<std::uint8_t>(value & 0xFFu);
+}
+
+std::optional<std::uint32_t> FamilyProfile::encode_bitrate(std::uint16_t kbit) const noexcept {
+  if (bitrate_encoding == BitRateEncoding::ifm_index) {
+    const auto* it = std::find(kIfmBitRates.begin(), kIfmBitRates.end(), kbit);
+    if (it == kIfmBitRates.end()) return std::nullopt;
+    return static_cast<std::uint32_t>(it - kIfmBitRates.begin());
+  }
+  if (std::find(kNovotechnikBitRates.begin(), kNovotechnikBitRates.end(), kbit) == kNovotechnikBitRates.end())
+    return std::nullopt;
+  return kbit;
+}
+
+std::optional<std::uint16_t> FamilyProfile::decode_bitrate(std::uint32_t value) const noexcept {
+  if (bitrate_encoding == BitRateEncoding::ifm_index) {
+    if (value >= kIfmBitRates.size()) return std::nullopt;
+    return kIfmBitRates[value];
+  }
+  if (value > 0xFFFFu) return std::nullopt;
+  const auto kbit = static_cast<std::uint16_t>(value);
+  if (std::find(kNovotechnikBitRates.begin(), kNovotechnikBitRates.end(), kbit) == kNovotechnikBitRates.end())
+    return std::nullopt;
+  return kbit;
+}
+
+bool FamilyProfile::transmission_type_allowed(std::uint8_t tpdo, std::uint8_t type) const noexcept {
+  if (tpdo == 0 || tpdo > tpdo_count) return false;
+  if (type <= 240) return true;  // 0 = off on Novotechnik, acyclic sync on ifm; 1..240 sync
+  if (tpdo == 2 && tpdo2_sync_only) return false;
+  if (type == 254 || type == 255) return true;
+  if (type == 252 || type == 253) return rtr_transmission;
+  return false;
+}
+
+bool FamilyProfile::is_error_position(std::int32_t position) const noexcept {
+  return std::find(error_positions.begin(), error_positions.end(), position) != error_positions.end();
+}
+
+std::optional<canopen::DeviceFamily> family_from_name(std::string_view name) noexcept {
+  if (name == "novotechnik-rotary") return DeviceFamily::novotechnik_rotary;
+  if (name == "novotechnik-multiturn") return DeviceFamily::novotechnik_multiturn;
+  if (name == "ifm-rm") return DeviceFamily::ifm_rm;
+  return std::nullopt;
+}
+
+FamilyProfile make_family_profile(canopen::DeviceFamily family, std::uint8_t channels, bool legacy_rsx_rfx) noexcept {
+  switch (family) {
+    case DeviceFamily::novotechnik_rotary: return rotary(channels, legacy_rsx_rfx);
+    case DeviceFamily::novotechnik_multiturn: return multiturn();
+    case DeviceFamily::ifm_rm: return ifm();
+    case DeviceFamily::generic: break;
+  }
+  return generic();
+}
+
+std::optional<FamilyProfile> family_profile_for(const DeviceDescription& description) noexcept {
+  const auto family = family_from_name(description.selection.family);
+  if (!family) return std::nullopt;
+  std::uint8_t channels = 1;
+  if (*family == DeviceFamily::novotechnik_rotary) {
+    // J§1.3.2: 0x6020/0 is the number of channels (2, or 1 on 1-channel variants).
+    if (const ObjectDesc* count = description.find(0x6020, 0)) {
+      if (auto v = count->default_for_node(0); v && *v == 2) channels = 2;
+    }
+  }
+  const std::uint32_t product = description.device_info.product_number;
+  const bool legacy = *family == DeviceFamily::novotechnik_rotary &&
+                      (product == kRsx7900Product || product == kRfx6900Product);
+  return make_family_profile(*family, channels, legacy);
+}
+
+}  // namespace cobridge::device

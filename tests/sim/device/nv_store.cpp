@@ -1,0 +1,149 @@
+#include "device/nv_store.hpp"
+
+#include <fmt/format.h>
+
+#include <cerrno>
+#include <charconv>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <string_view>
+
+#include <fcntl.h>
+#include <unistd.h>
+
+namespace cobridge::sim {
+
+namespace {
+
+class NvCategory final : public std::error_category {
+ public:
+  [[nodiscard]] const char* name() const noexcept override { return "sim_nv"; }
+  [[nodiscard]] std::string message(int ev) const override {
+    switch (static_cast<NvErrc>(ev)) {
+      case NvErrc::kSyntax: return "malformed non-volatile memory file";
+    }
+    return "unknown non-volatile memory error";
+  }
+};
+
+bool parse_hex(std::string_view text, std::uint64_t& out) noexcept {
+  if (text.empty()) return false;
+  const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), out, 16);
+  return ec == std::errc{} && ptr == text.data() + text.size();
+}
+
+std::string_view trim(std::string_view s) noexcept {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t' || s.front() == '\r')) s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
+  return s;
+}
+
+void write_image(std::ostringstream& out, const char* header, const NvImage& image) {
+  out << header << '\n';
+  for (const auto& [key, raw] : image.values())
+    out << fmt::format("{:04X}:{:X}={:X}\n", key >> 8, key & 0xFFU, raw);
+}
+
+}  // namespace
+
+const std::error_category& nv_category() noexcept {
+  static const NvCategory category;
+  return category;
+}
+
+std::error_code make_error_code(NvErrc e) noexcept { return {static_cast<int>(e), nv_category()}; }
+
+std::optional<std::uint64_t> NvImage::get(std::uint16_t index, std::uint8_t sub) const {
+  const auto it = values_.find(key(index, sub));
+  if (it == values_.end()) return std::nullopt;
+  return it->second;
+}
+
+std::error_code NvStore::load(NvContents& out, std::string& message) const {
+  out = NvContents{};
+  if (path_.empty()) return {};
+  std::ifstream in(path_);
+  if (!in) {
+    if (errno == ENOENT) return {};
+    message = fmt::format("{}: cannot open", path_.string());
+    return {errno, std::generic_category()};
+  }
+  NvImage* image = &out.params;
+  std::string line;
+  std::size_t number = 0;
+  while (std::getline(in, line)) {
+    ++number;
+    const std::string_view text = trim(line);
+    if (text.empty() || text.front() == '#') continue;
+    if (text == "[params]") {
+      image = &out.params;
+      continue;
+    }
+    if (text == "[history]") {
+      image = &out.history;
+      continue;
+    }
+    const auto colon = text.find(':');
+    const auto equal = text.find('=');
+    std::uint64_t index = 0;
+    std::uint64_t sub = 0;
+    std::uint64_t raw = 0;
+    if (colon == std::string_view::npos || equal == std::string_view::npos || equal < colon ||
+        !parse_hex(text.substr(0, colon), index) || !parse_hex(text.substr(colon + 1, equal - colon - 1), sub) ||
+        !parse_hex(text.substr(equal + 1), raw) || index > 0xFFFF || sub > 0xFF) {
+      message = fmt::format("{}:{}: expected `index:sub=hex`", path_.string(), number);
+      return NvErrc::kSyntax;
+    }
+    image->set(static_cast<std::uint16_t>(index), static_cast<std::uint8_t>(sub), raw);
+  }
+  return {};
+}
+
+std::error_code NvStore::save(const NvContents& contents, std::string& message) const {
+  if (path_.empty()) return {};
+  std::ostringstream text;
+  text << "# cobridge-sim non-volatile memory; written by the simulated device\n";
+  write_image(text, "[params]", contents.params);
+  write_image(text, "[history]", contents.history);
+  const std::string data = text.str();
+
+  std::error_code ec;
+  std::filesystem::create_directories(path_.parent_path(), ec);
+  if (ec) {
+    message = fmt::format("{}: cannot create directory", path_.parent_path().string());
+    return ec;
+  }
+  const std::filesystem::path tmp = path_.string() + ".tmp";
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) {
+    message = fmt::format("{}: cannot create", tmp.string());
+    return {errno, std::generic_category()};
+  }
+  std::size_t done = 0;
+  while (done < data.size()) {
+    const ssize_t n = ::write(fd, data.data() + done, data.size() - done);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      const int err = errno;
+      ::close(fd);
+      message = fmt::format("{}: write failed", tmp.string());
+      return {err, std::generic_category()};
+    }
+    done += static_cast<std::size_t>(n);
+  }
+  // The rename is only atomic against crashes if the data reached the disk.
+  const int sync_result = ::fsync(fd);
+  const int sync_errno = errno;
+  if (::close(fd) != 0 || sync_result != 0) {
+    message = fmt::format("{}: flush failed", tmp.string());
+    return {sync_result != 0 ? sync_errno : errno, std::generic_category()};
+  }
+  if (::rename(tmp.c_str(), path_.c_str()) != 0) {
+    message = fmt::format("{}: rename failed", path_.string());
+    return {errno, std::generic_category()};
+  }
+  return {};
+}
+
+}  // namespace cobridge::sim
