@@ -3,8 +3,16 @@
 // needs no new scan and an unchanged device is not rewritten.
 //
 // One line per device: bus, serial, vendor, product, revision, node-ID,
-// configuration fingerprint. Written atomically (temp file + rename).
+// configuration fingerprint, as `key=value` fields separated by blanks
+// (values percent-encoded where they hold blanks, '%', '=' or '#'); '#'
+// starts a comment line. Written atomically (temp file + fsync + rename +
+// fsync of the directory), so a crash leaves the old or the new file, never a
+// torn one. A line that cannot be read is reported with file:line and skipped;
+// the rest of the file still counts.
+//
 // Thread: shared by the bus managers; every call takes an internal mutex.
+// File I/O happens inside put()/erase(): control threads only, never the hot
+// path.
 #pragma once
 
 #include <cstdint>
@@ -12,6 +20,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <system_error>
 #include <vector>
 
@@ -25,21 +34,42 @@ struct Assignment {
   std::uint32_t revision = 0;
   std::uint8_t node_id = 0;
   std::string fingerprint;  // empty = never configured
+
+  friend bool operator==(const Assignment&, const Assignment&) = default;
 };
+
+enum class StateStoreErrc {
+  malformed_lines = 1,  // load(): some lines were skipped (see the message)
+  read_failed,          // load(): the file exists but cannot be read
+  invalid_assignment,   // put(): empty bus name or node-ID outside 0..127
+};
+[[nodiscard]] const std::error_category& state_store_category() noexcept;
+[[nodiscard]] std::error_code make_error_code(StateStoreErrc e) noexcept;
 
 class StateStore {
  public:
+  static constexpr const char* kFileName = "assignments.state";
+
   explicit StateStore(std::filesystem::path dir);
   // Reads the file; a missing file is an empty store, a malformed line is
-  // reported (file:line) and skipped.
+  // reported (file:line) and skipped. Returns malformed_lines (with every
+  // problem in `message`, one per line) when lines were skipped: the good
+  // lines are loaded all the same.
   std::error_code load(std::string* message = nullptr);
   [[nodiscard]] std::optional<Assignment> find(const std::string& bus, std::uint32_t vendor,
                                                std::uint32_t product, std::uint32_t serial) const;
   [[nodiscard]] std::vector<Assignment> on_bus(const std::string& bus) const;
-  // Inserts or replaces (same bus + identity) and writes the file.
+  // Inserts or replaces (same bus + identity) and writes the file. The
+  // directory is created if missing. Writing nothing when the entry is
+  // unchanged spares the disk on every reconfiguration.
   std::error_code put(const Assignment& a);
   std::error_code erase(const std::string& bus, std::uint32_t vendor, std::uint32_t product, std::uint32_t serial);
   [[nodiscard]] const std::filesystem::path& path() const noexcept { return path_; }
+
+  // The text form of one line and its parser, exposed for tests.
+  [[nodiscard]] static std::string format_line(const Assignment& a);
+  // Fills `out`; on failure returns false and says why in `why`.
+  [[nodiscard]] static bool parse_line(std::string_view line, Assignment& out, std::string& why);
 
  private:
   std::error_code save_locked();
@@ -50,3 +80,6 @@ class StateStore {
 };
 
 }  // namespace cobridge::gateway
+
+template <>
+struct std::is_error_code_enum<cobridge::gateway::StateStoreErrc> : std::true_type {};

@@ -1,0 +1,176 @@
+#include "app/command_line.hpp"
+
+#include "app/control_command.hpp"
+
+#include <CLI/CLI.hpp>
+#include <net/if.h>
+
+#include <map>
+#include <set>
+#include <sstream>
+
+namespace cobridge::sim {
+
+namespace {
+
+constexpr const char* kDeviceHelp =
+    "MODEL[:key=value,...] (repeatable; belongs to the preceding --iface). Keys:\n"
+    "  serial=N        0x1018/4 and LSS serial, decimal or 0x hex (default: 1, 2, ... in\n"
+    "                  command-line order, skipping serials given explicitly)\n"
+    "  node=N          1..127 or 'unconfigured' (FFh, LSS only); default: the model's factory\n"
+    "                  node-ID (127 Novotechnik, 32 ifm)\n"
+    "  channels=1|2    rotary series only (1- or 2-channel variant)\n"
+    "  bitrate=K       kbit/s: Novotechnik 50|125|250|500|800|1000, ifm 20..1000 (0x3001 table);\n"
+    "                  default: ordering code / 125 (ifm)\n"
+    "  lss=default|v1|v3|none   LSS feature set (default: rotary v1 = J's DSP-305 V1.1.2, no\n"
+    "                  Fastscan/inquire; multiturn v3; ifm v3)\n"
+    "  segmented=on|off  segmented SDO upload for long strings (default on)\n"
+    "  fastscan=on|off   answer LSS Fastscan (v3 only, and only while unconfigured; default on)\n"
+    "  c6=on|off         ifm only: the \"C6\" variant whose TPDO2 is active (F§7.3; default off)\n"
+    "  motion=SPEC     must be the last key (default constant:0); SPEC is one of\n"
+    "                    constant:<turns/s>\n"
+    "                    sine:<amplitude turns>:<period s>[:<offset turns>]\n"
+    "                    steps:<t0 s>=<turns>;<t1 s>=<turns>;...   (piecewise constant)\n"
+    "                    ramp:<turns/s>:<max turns>                (triangle 0 -> max -> 0)\n"
+    "                    script:<path>   lines 'time_s turns', linear interpolation";
+
+std::string models_line(ModelLookup lookup, std::span<const ModelInfo> models) {
+  std::string out;
+  for (const ModelInfo& m : models) {
+    if (lookup(m.name) == nullptr) continue;
+    if (!out.empty()) out += ", ";
+    out += std::string(m.name) + " (" + std::string(family_name(m.family)) + ")";
+  }
+  return out;
+}
+
+bool valid_interface_name(const std::string& s) {
+  if (s.empty() || s.size() >= IFNAMSIZ) return false;
+  for (const char c : s)
+    if (c == '/' || c == ' ' || c == ':' || c == '\t') return false;
+  return true;
+}
+
+}  // namespace
+
+CommandLineResult parse_command_line(int argc, const char* const* argv, ModelLookup lookup,
+                                     std::span<const ModelInfo> models,
+                                     const std::filesystem::path& installed_devices_dir,
+                                     const std::filesystem::path& source_devices_dir) {
+  CommandLineResult result;
+  CLI::App app{"cobridge-sim: simulated CANopen absolute encoders (Novotechnik rotary J, Novotechnik\n"
+               "multiturn E, ifm RM8/RM9 F) on SocketCAN interfaces.",
+               "cobridge-sim"};
+  std::vector<std::string> ifaces;
+  std::vector<std::string> devices;
+  std::string state_dir, truth, control, devices_dir;
+  auto* iface_opt = app.add_option("--iface", ifaces, "CAN interface (repeatable); the --device options after it are on it")
+                        ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
+                        ->type_size(1)
+                        ->required();
+  auto* device_opt = app.add_option("--device", devices, kDeviceHelp)
+                         ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
+                         ->type_size(1)
+                         ->required();
+  app.add_option("--state-dir", state_dir,
+                 "directory of the devices' non-volatile memory (<family>-<serial>.nv); default: none "
+                 "(nothing survives the process)");
+  app.add_option("--truth", truth, "write the truth file (one line per frame a device sent) to FILE");
+  app.add_option("--control", control, "also accept control commands on a Unix stream socket at PATH");
+  app.add_option("--devices-dir", devices_dir,
+                 "EDS directory (default: " + installed_devices_dir.string() + ", else " +
+                     source_devices_dir.string() + ")");
+  app.footer(std::string("Models: ") + models_line(lookup, models) + "\n\n" + std::string(control_help()) +
+             "\nOn start-up every device is powered on (boot-up unless unconfigured) and 'ready' is\n"
+             "printed on stdout. SIGTERM/SIGINT/quit end the program; the truth file is flushed.\n"
+             "Exit codes: 0 normal end, 1 run-time failure (bus could not be opened), 2 bad arguments.");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp&) {
+    result.exit_code = 0;
+    result.output = app.help();
+    return result;
+  } catch (const CLI::ParseError& e) {
+    result.exit_code = 2;
+    result.output = std::string("cobridge-sim: ") + e.what() + "\nRun with --help for more information.";
+    return result;
+  }
+
+  auto error = [&](std::string message) {
+    result.exit_code = 2;
+    result.output = "cobridge-sim: " + std::move(message);
+    return result;
+  };
+
+  // Walk the options in command-line order so each --device lands on the
+  // --iface before it.
+  std::size_t next_iface = 0, next_device = 0;
+  std::vector<DeviceArgument> parsed;
+  std::vector<std::size_t> bus_of;
+  std::map<std::string, std::size_t> bus_index;
+  for (const CLI::Option* opt : app.parse_order()) {
+    if (opt == iface_opt) {
+      const std::string& name = ifaces.at(next_iface++);
+      if (!valid_interface_name(name))
+        return error("--iface '" + name + "': not an interface name (1.." + std::to_string(IFNAMSIZ - 1) +
+                     " characters, no '/', ':' or blanks)");
+      if (bus_index.count(name) != 0) return error("--iface '" + name + "' given twice");
+      bus_index[name] = result.options.buses.size();
+      result.options.buses.push_back(BusOptions{name, {}});
+    } else if (opt == device_opt) {
+      const std::string& text = devices.at(next_device++);
+      if (result.options.buses.empty())
+        return error("--device '" + text + "' comes before any --iface (a device belongs to the --iface before it)");
+      auto r = parse_device_argument(text, lookup);
+      if (!r.device) return error(r.error);
+      parsed.push_back(*r.device);
+      bus_of.push_back(result.options.buses.size() - 1);
+    }
+  }
+  for (const BusOptions& b : result.options.buses) {
+    bool has_device = false;
+    for (const std::size_t i : bus_of) has_device = has_device || result.options.buses[i].iface == b.iface;
+    if (!has_device) return error("--iface '" + b.iface + "' has no --device after it");
+  }
+
+  // Serials: explicit ones must be unique; the others count up from 1.
+  std::set<std::uint32_t> used;
+  for (const DeviceArgument& d : parsed) {
+    if (!d.serial_given) continue;
+    if (!used.insert(d.spec.serial).second)
+      return error("serial " + std::to_string(d.spec.serial) +
+                   " is used by two devices (control commands and the state files need unique serials)");
+  }
+  std::uint32_t next_serial = 1;
+  for (std::size_t i = 0; i < parsed.size(); ++i) {
+    DeviceSpec spec = parsed[i].spec;
+    if (!parsed[i].serial_given) {
+      while (used.count(next_serial) != 0) ++next_serial;
+      spec.serial = next_serial;
+      used.insert(next_serial);
+    }
+    result.options.buses[bus_of[i]].devices.push_back(std::move(spec));
+  }
+
+  result.options.state_dir = state_dir;
+  result.options.truth_file = truth;
+  result.options.control_path = control;
+  if (!devices_dir.empty()) {
+    if (!std::filesystem::is_directory(devices_dir))
+      return error("--devices-dir '" + devices_dir + "': not a directory");
+    result.options.devices_dir = devices_dir;
+  } else if (std::filesystem::is_directory(installed_devices_dir)) {
+    result.options.devices_dir = installed_devices_dir;
+  } else if (std::filesystem::is_directory(source_devices_dir)) {
+    result.options.devices_dir = source_devices_dir;
+  } else {
+    return error("no device descriptions: neither " + installed_devices_dir.string() + " nor " +
+                 source_devices_dir.string() + " exists (use --devices-dir)");
+  }
+  if (!state_dir.empty() && std::filesystem::exists(state_dir) && !std::filesystem::is_directory(state_dir))
+    return error("--state-dir '" + state_dir + "': exists and is not a directory");
+  return result;
+}
+
+}  // namespace cobridge::sim

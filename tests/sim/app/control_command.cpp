@@ -1,0 +1,185 @@
+#include "app/control_command.hpp"
+
+#include "app/number_text.hpp"
+
+#include <array>
+#include <vector>
+
+namespace cobridge::sim {
+
+namespace {
+
+constexpr std::array<FaultKind, 10> kFaultKinds{
+    FaultKind::measurement_error, FaultKind::over_range,        FaultKind::under_range,
+    FaultKind::hardware_fault,    FaultKind::temperature_high,  FaultKind::temperature_low,
+    FaultKind::voltage_high,      FaultKind::voltage_low,       FaultKind::channel_disagreement,
+    FaultKind::clear};
+
+// Longest flood/babble/etc. a single command may ask for: one hour.
+constexpr std::uint64_t kMaxDurationMs = 3'600'000;
+
+std::vector<std::string_view> split_words(std::string_view line) {
+  std::vector<std::string_view> words;
+  std::size_t i = 0;
+  while (i < line.size()) {
+    while (i < line.size() && (line[i] == ' ' || line[i] == '\t' || line[i] == '\r')) ++i;
+    const std::size_t start = i;
+    while (i < line.size() && line[i] != ' ' && line[i] != '\t' && line[i] != '\r') ++i;
+    if (i > start) words.push_back(line.substr(start, i - start));
+  }
+  return words;
+}
+
+ControlParse fail(std::string message) { return ControlParse{std::nullopt, std::move(message)}; }
+
+}  // namespace
+
+std::optional<FaultKind> parse_fault_kind(std::string_view text) noexcept {
+  for (const FaultKind k : kFaultKinds)
+    if (text == to_string(k)) return k;
+  return std::nullopt;
+}
+
+std::string_view to_string(FaultKind kind) noexcept {
+  switch (kind) {
+    case FaultKind::measurement_error: return "measurement-error";
+    case FaultKind::over_range: return "over-range";
+    case FaultKind::under_range: return "under-range";
+    case FaultKind::hardware_fault: return "hardware-fault";
+    case FaultKind::temperature_high: return "temperature-high";
+    case FaultKind::temperature_low: return "temperature-low";
+    case FaultKind::voltage_high: return "voltage-high";
+    case FaultKind::voltage_low: return "voltage-low";
+    case FaultKind::channel_disagreement: return "channel-disagreement";
+    case FaultKind::clear: return "clear";
+  }
+  return "?";
+}
+
+std::string fault_kind_names() {
+  std::string out;
+  for (const FaultKind k : kFaultKinds) {
+    if (!out.empty()) out += '|';
+    out += to_string(k);
+  }
+  return out;
+}
+
+std::string_view control_help() noexcept {
+  return "Control commands (stdin and --control socket; one reply line each, 'ok ...' or 'error ...'):\n"
+         "  list                              devices: serial:model:iface:node:state\n"
+         "  power-cycle <serial>              power off, then on (boot-up, non-volatile memory reloaded)\n"
+         "  power-off <serial>                silent until power-on; RAM lost\n"
+         "  power-on <serial>\n"
+         "  silence <serial> on|off           cable pulled: no RX, no TX, state kept\n"
+         "  fault <serial> <kind>             measurement-error|over-range|under-range|hardware-fault|\n"
+         "                                    temperature-high|temperature-low|voltage-high|voltage-low|\n"
+         "                                    channel-disagreement|clear\n"
+         "  move <serial> <turns>             shift the shaft by <turns> (offset; e.g. -0.25)\n"
+         "  flood <iface> <ms>                identifier 0x000 (DLC 0) back to back; the simulated\n"
+         "                                    devices on that bus lose arbitration and send nothing\n"
+         "  babble <iface> <cob-id hex> <ms>  one identifier back to back, 8 changing data bytes\n"
+         "  bus-error <iface> <kind>          send a Linux CAN error frame: error-warning|error-passive|\n"
+         "                                    error-active|bus-off|restarted\n"
+         "  stats                             loop timing and bus counters\n"
+         "  help                              this text (one line)\n"
+         "  quit                              end cobridge-sim\n";
+}
+
+ControlParse parse_control_command(std::string_view line) {
+  const auto w = split_words(line);
+  if (w.empty()) return fail("empty command (try 'help')");
+  const std::string_view verb = w[0];
+  ControlCommand c;
+
+  auto want_args = [&](std::size_t n, std::string_view usage) -> std::optional<ControlParse> {
+    if (w.size() != n + 1) return fail("usage: " + std::string(usage));
+    return std::nullopt;
+  };
+  auto serial_at = [&](std::size_t i) -> bool {
+    const auto v = parse_unsigned(w[i], UINT32_MAX);
+    if (!v) return false;
+    c.serial = static_cast<std::uint32_t>(*v);
+    return true;
+  };
+  auto duration_at = [&](std::size_t i) -> bool {
+    const auto v = parse_unsigned(w[i], kMaxDurationMs);
+    if (!v || *v == 0) return false;
+    c.duration_ms = static_cast<std::uint32_t>(*v);
+    return true;
+  };
+
+  if (verb == "list" || verb == "stats" || verb == "help" || verb == "quit") {
+    if (auto e = want_args(0, verb)) return *e;
+    c.verb = verb == "list" ? ControlVerb::list
+             : verb == "stats" ? ControlVerb::stats
+             : verb == "help" ? ControlVerb::help
+                              : ControlVerb::quit;
+    return ControlParse{c, {}};
+  }
+  if (verb == "power-cycle" || verb == "power-off" || verb == "power-on") {
+    if (auto e = want_args(1, std::string(verb) + " <serial>")) return *e;
+    if (!serial_at(1)) return fail("serial must be a number (decimal or 0x hex), got '" + std::string(w[1]) + "'");
+    c.verb = verb == "power-cycle" ? ControlVerb::power_cycle
+             : verb == "power-off" ? ControlVerb::power_off
+                                   : ControlVerb::power_on;
+    return ControlParse{c, {}};
+  }
+  if (verb == "silence") {
+    if (auto e = want_args(2, "silence <serial> on|off")) return *e;
+    if (!serial_at(1)) return fail("serial must be a number (decimal or 0x hex), got '" + std::string(w[1]) + "'");
+    if (w[2] != "on" && w[2] != "off") return fail("silence wants on|off, got '" + std::string(w[2]) + "'");
+    c.verb = ControlVerb::silence;
+    c.on = w[2] == "on";
+    return ControlParse{c, {}};
+  }
+  if (verb == "fault") {
+    if (auto e = want_args(2, "fault <serial> <kind>")) return *e;
+    if (!serial_at(1)) return fail("serial must be a number (decimal or 0x hex), got '" + std::string(w[1]) + "'");
+    const auto k = parse_fault_kind(w[2]);
+    if (!k) return fail("fault kind must be " + fault_kind_names() + ", got '" + std::string(w[2]) + "'");
+    c.verb = ControlVerb::fault;
+    c.fault = *k;
+    return ControlParse{c, {}};
+  }
+  if (verb == "move") {
+    if (auto e = want_args(2, "move <serial> <turns>")) return *e;
+    if (!serial_at(1)) return fail("serial must be a number (decimal or 0x hex), got '" + std::string(w[1]) + "'");
+    const auto t = parse_real(w[2]);
+    if (!t) return fail("turns must be a decimal number such as 0.25 or -3, got '" + std::string(w[2]) + "'");
+    c.verb = ControlVerb::move;
+    c.turns = *t;
+    return ControlParse{c, {}};
+  }
+  if (verb == "flood") {
+    if (auto e = want_args(2, "flood <iface> <ms>")) return *e;
+    c.iface = std::string(w[1]);
+    if (!duration_at(2)) return fail("ms must be 1..3600000, got '" + std::string(w[2]) + "'");
+    c.verb = ControlVerb::flood;
+    return ControlParse{c, {}};
+  }
+  if (verb == "babble") {
+    if (auto e = want_args(3, "babble <iface> <cob-id hex> <ms>")) return *e;
+    c.iface = std::string(w[1]);
+    const auto id = parse_hex32(w[2]);
+    if (!id || *id > 0x1FFFFFFF) return fail("cob-id must be hex 0..7FF (or 29-bit), got '" + std::string(w[2]) + "'");
+    c.cob_id = *id;
+    if (!duration_at(3)) return fail("ms must be 1..3600000, got '" + std::string(w[3]) + "'");
+    c.verb = ControlVerb::babble;
+    return ControlParse{c, {}};
+  }
+  if (verb == "bus-error") {
+    if (auto e = want_args(2, "bus-error <iface> error-warning|error-passive|error-active|bus-off|restarted")) return *e;
+    c.iface = std::string(w[1]);
+    const auto k = parse_bus_error_kind(w[2]);
+    if (!k)
+      return fail("bus-error kind must be error-warning|error-passive|error-active|bus-off|restarted, got '" +
+                  std::string(w[2]) + "'");
+    c.verb = ControlVerb::bus_error;
+    c.bus_error = *k;
+    return ControlParse{c, {}};
+  }
+  return fail("unknown command '" + std::string(verb) + "' (try 'help')");
+}
+
+}  // namespace cobridge::sim

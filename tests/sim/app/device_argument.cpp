@@ -1,0 +1,142 @@
+#include "app/device_argument.hpp"
+
+#include "app/number_text.hpp"
+#include "encoder/motion.hpp"
+
+#include <array>
+#include <string>
+
+namespace cobridge::sim {
+
+namespace {
+
+constexpr std::array<std::uint16_t, 6> kNovotechnikRates{50, 125, 250, 500, 800, 1000};
+constexpr std::array<std::uint16_t, 8> kIfmRates{20, 50, 100, 125, 250, 500, 800, 1000};
+
+std::string quoted(std::string_view s) { return "'" + std::string(s) + "'"; }
+
+std::string rate_list(Family family) {
+  std::string out;
+  for (const std::uint16_t r : family_bit_rates(family)) {
+    if (!out.empty()) out += '|';
+    out += std::to_string(r);
+  }
+  return out;
+}
+
+DeviceArgumentResult fail(std::string_view text, std::string message) {
+  return DeviceArgumentResult{std::nullopt, "--device " + quoted(text) + ": " + std::move(message)};
+}
+
+}  // namespace
+
+std::span<const std::uint16_t> family_bit_rates(Family family) noexcept {
+  if (family == Family::ifm_rm) return kIfmRates;
+  return kNovotechnikRates;
+}
+
+std::string_view to_string(LssProfile profile) noexcept {
+  switch (profile) {
+    case LssProfile::family_default: return "default";
+    case LssProfile::v1: return "v1";
+    case LssProfile::v3: return "v3";
+    case LssProfile::none: return "none";
+  }
+  return "?";
+}
+
+DeviceArgumentResult parse_device_argument(std::string_view text, ModelLookup lookup) {
+  const std::size_t colon = text.find(':');
+  const std::string_view model_name = text.substr(0, colon);
+  if (model_name.empty()) return fail(text, "missing the model name (MODEL[:key=value,...])");
+  const ModelInfo* model = lookup(model_name);
+  if (model == nullptr) return fail(text, "unknown model " + quoted(model_name) + " (see --help for the models)");
+
+  DeviceArgument arg;
+  arg.spec.model = model;
+  std::string_view rest = colon == std::string_view::npos ? std::string_view{} : text.substr(colon + 1);
+  if (colon != std::string_view::npos && rest.empty()) return fail(text, "nothing after ':' (expected key=value)");
+
+  while (!rest.empty()) {
+    const std::size_t eq = rest.find('=');
+    const std::size_t comma = rest.find(',');
+    if (eq == std::string_view::npos || (comma != std::string_view::npos && comma < eq))
+      return fail(text, "expected key=value, got " + quoted(rest.substr(0, comma)));
+    const std::string_view key = rest.substr(0, eq);
+    std::string_view value;
+    if (key == "motion") {
+      // The motion grammar uses ':' and ',' itself, so it takes the rest.
+      value = rest.substr(eq + 1);
+      rest = {};
+    } else {
+      const std::size_t end = rest.find(',', eq);
+      value = rest.substr(eq + 1, end == std::string_view::npos ? std::string_view::npos : end - eq - 1);
+      rest = end == std::string_view::npos ? std::string_view{} : rest.substr(end + 1);
+      if (end != std::string_view::npos && rest.empty()) return fail(text, "trailing ','");
+    }
+    if (value.empty()) return fail(text, "key " + quoted(key) + " has no value");
+
+    if (key == "serial") {
+      const auto v = parse_unsigned(value, UINT32_MAX);
+      if (!v) return fail(text, "serial must be a 32-bit number (decimal or 0x hex), got " + quoted(value));
+      arg.spec.serial = static_cast<std::uint32_t>(*v);
+      arg.serial_given = true;
+    } else if (key == "node") {
+      if (value == "unconfigured") {
+        arg.spec.node_id = 0xFF;
+      } else {
+        const auto v = parse_unsigned(value, 0xFF);
+        if (!v || *v < 1 || *v > 127)
+          return fail(text, "node must be 1..127 or 'unconfigured', got " + quoted(value));
+        arg.spec.node_id = static_cast<std::uint8_t>(*v);
+      }
+    } else if (key == "channels") {
+      const auto v = parse_unsigned(value, 0xFF);
+      if (model->family != Family::novotechnik_rotary) {
+        if (!v || *v != 1) return fail(text, "channels: only the rotary series (J) has a 2-channel variant; allowed: 1");
+      } else if (!v || (*v != 1 && *v != 2)) {
+        return fail(text, "channels must be 1 or 2, got " + quoted(value));
+      }
+      arg.spec.channels = static_cast<std::uint8_t>(*v);
+    } else if (key == "bitrate") {
+      const auto v = parse_unsigned(value, 0xFFFF);
+      bool known = false;
+      for (const std::uint16_t r : family_bit_rates(model->family)) known = known || (v && *v == r);
+      if (!known)
+        return fail(text, "bitrate (kbit/s) for " + std::string(family_name(model->family)) + " must be one of " +
+                              rate_list(model->family) + ", got " + quoted(value));
+      arg.spec.bitrate_kbit = static_cast<std::uint16_t>(*v);
+    } else if (key == "lss") {
+      if (value == "default") arg.spec.lss = LssProfile::family_default;
+      else if (value == "v1") arg.spec.lss = LssProfile::v1;
+      else if (value == "v3") arg.spec.lss = LssProfile::v3;
+      else if (value == "none") arg.spec.lss = LssProfile::none;
+      else return fail(text, "lss must be default|v1|v3|none, got " + quoted(value));
+    } else if (key == "segmented") {
+      if (value == "on") arg.spec.segmented_sdo = true;
+      else if (value == "off") arg.spec.segmented_sdo = false;
+      else return fail(text, "segmented must be on|off, got " + quoted(value));
+    } else if (key == "c6") {
+      if (model->family != Family::ifm_rm) return fail(text, "c6 applies to ifm models only (F§7.3 TPDO2)");
+      if (value == "on") arg.spec.ifm_c6 = true;
+      else if (value == "off") arg.spec.ifm_c6 = false;
+      else return fail(text, "c6 must be on|off, got " + quoted(value));
+    } else if (key == "fastscan") {
+      if (value == "on") arg.spec.lss_fastscan = true;
+      else if (value == "off") arg.spec.lss_fastscan = false;
+      else return fail(text, "fastscan must be on|off, got " + quoted(value));
+    } else if (key == "motion") {
+      // Checked here so that a typo is an argument error (exit 2), not a
+      // device that fails to power on after the buses opened.
+      const MotionParseResult m = Motion::parse(value);
+      if (!m) return fail(text, "motion: " + (m.message.empty() ? m.error.message() : m.message));
+      arg.spec.motion = std::string(value);
+    } else {
+      return fail(text, "unknown key " + quoted(key) +
+                            " (allowed: serial, node, channels, bitrate, lss, segmented, c6, fastscan, motion)");
+    }
+  }
+  return DeviceArgumentResult{arg, {}};
+}
+
+}  // namespace cobridge::sim

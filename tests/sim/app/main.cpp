@@ -1,0 +1,36 @@
+// cobridge-sim: wires the command line, the signals and the Simulator.
+#include "app/command_line.hpp"
+#include "app/simulator.hpp"
+#include "device/sim_device.hpp"
+#include "sys/signals.hpp"
+
+#include <sys/prctl.h>
+
+#include <cstdio>
+
+int main(int argc, char** argv) {
+  using namespace cobridge;
+  const sim::CommandLineResult cl =
+      sim::parse_command_line(argc, argv, &sim::find_model, sim::all_models(), COBRIDGE_SIM_INSTALLED_DEVICES_DIR,
+                              COBRIDGE_SIM_SOURCE_DEVICES_DIR);
+  if (cl.exit_code >= 0) {
+    std::fputs(cl.output.c_str(), cl.exit_code == 0 ? stdout : stderr);
+    std::fputc('\n', cl.exit_code == 0 ? stdout : stderr);
+    return cl.exit_code;
+  }
+  // Blocked before anything else so no signal interrupts start-up half way.
+  sys::Signals signals;
+  if (signals.error()) {
+    std::fprintf(stderr, "cobridge-sim: signals: %s\n", signals.error().message().c_str());
+    return 1;
+  }
+  // 1 ms event timers want wake-ups close to their deadline, not 50 us late.
+  ::prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
+
+  sim::Simulator simulator(cl.options);
+  if (const auto failure = simulator.start()) {
+    std::fprintf(stderr, "cobridge-sim: %s\n", failure->message.c_str());
+    return failure->exit_code;
+  }
+  return simulator.run(signals);
+}

@@ -1,0 +1,637 @@
+// Discovery on a broadcast test bus (can::VirtualBus) with a fake clock and
+// scripted devices built from SdoServer + ObjectDictionary + LssSlave, one
+// per family: Novotechnik rotary (J, LSS V1.1.2: no Fastscan), Novotechnik
+// multiturn (E, LSS V3) and ifm RM (F, LSS undocumented).
+#include "gateway/discovery.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "can/virtual_bus.hpp"
+#include "canopen/cob_id.hpp"
+#include "canopen/lss_slave.hpp"
+#include "canopen/nmt.hpp"
+#include "canopen/object_dictionary.hpp"
+#include "canopen/sdo_server.hpp"
+#include "config/config.hpp"
+
+namespace cobridge::gateway {
+namespace {
+
+using namespace std::chrono_literals;
+using canopen::DataType;
+using canopen::LssAddress;
+using canopen::TimePoint;
+
+constexpr std::uint32_t kNovotechnik = 0x182;
+constexpr std::uint32_t kIfm = 0x0069666D;
+constexpr std::uint32_t kRfc4800 = 0x0BE0;
+constexpr std::uint32_t kRsa3200 = 0x0BF3;
+constexpr std::uint32_t kMultiturn = 0x0BB8;
+constexpr std::uint32_t kMz1V02 = 0x0BD5;
+constexpr std::uint32_t kIfmProduct = 0x4341;
+
+enum class Kind { rotary, multiturn, ifm };
+
+// A scripted encoder: answers SDO (0x1018, node-ID object, 0x1010 'save'),
+// LSS, and NMT reset node / reset communication; sends its boot-up.
+class TestDevice {
+ public:
+  TestDevice(can::VirtualBus& bus, Kind kind, LssAddress id, std::uint8_t node, bool lss = true)
+      : port_(bus.attach()), kind_(kind), lss_enabled_(lss) {
+    (void)lss_frames_seen_;
+    add(0x1018, 1, id.vendor, DataType::kUnsigned32, canopen::Access::kRo);
+    add(0x1018, 2, id.product, DataType::kUnsigned32, canopen::Access::kRo);
+    add(0x1018, 3, id.revision, DataType::kUnsigned32, canopen::Access::kRo);
+    add(0x1018, 4, id.serial, DataType::kUnsigned32, canopen::Access::kRo);
+    for (std::uint8_t s = 1; s <= 4; ++s) add(0x1010, s, 1, DataType::kUnsigned32, canopen::Access::kRw);
+    const std::uint8_t raw = kind == Kind::ifm ? static_cast<std::uint8_t>(node - 1) : node;
+    add(node_object(), 0, raw, DataType::kUnsigned8, canopen::Access::kRw);
+    canopen::Hooks save;
+    save.after_write = [this](std::uint16_t, std::uint8_t sub) {
+      // F§6.3.3: ifm 0x1010/1; J§1.6.1 / E§11: Novotechnik node-ID with 0x1010/4.
+      if (sub == (kind_ == Kind::ifm ? 1 : 4)) saved_sdo_node_ = sdo_node();
+    };
+    EXPECT_FALSE(od_.set_hooks(0x1010, save));
+    canopen::Hooks node_written;
+    node_written.after_write = [this](std::uint16_t, std::uint8_t) { sdo_pending_ = sdo_node(); };
+    EXPECT_FALSE(od_.set_hooks(node_object(), 0, node_written));
+    sdo_ = std::make_unique<canopen::SdoServer>(port_, od_, valid(node) ? node : 1);
+    sdo_->set_enabled(valid(node));
+    const auto features = kind == Kind::rotary ? canopen::LssSlaveFeatures::rotary_j()
+                                               : canopen::LssSlaveFeatures::multiturn_e();
+    lss_ = std::make_unique<canopen::LssSlave>(port_, id, node, features);
+    lss_->set_store_handler([this](const canopen::LssSlave& s) {
+      ++lss_stores_;
+      stored_node_ = s.pending_node_id();
+      return canopen::LssStoreError::kOk;
+    });
+    node_ = node;
+  }
+
+  void power_on() {
+    if (valid(node_)) (void)port_.send(canopen::make_boot_up(node_));
+  }
+
+  void pump(TimePoint now) {
+    can::Frame f;
+    while (port_.receive(f)) {
+      if (f.id == canopen::cob::kNmt) {
+        const auto p = canopen::parse_nmt(f);
+        if (p.ok() && (p.frame.node == 0 || (valid(node_) && p.frame.node == node_)) &&
+            (p.frame.command == canopen::NmtCommand::reset_comm ||
+             p.frame.command == canopen::NmtCommand::reset_node))
+          reset();
+        continue;
+      }
+      if (f.id == canopen::cob::kLssMasterToSlave) {
+        if (lss_enabled_) {
+          ++lss_frames_seen_;
+          lss_->on_frame(f);
+          // CiA 305 V3: leaving configuration with a new node-ID while
+          // non-configured resets communication by itself.
+          if (lss_->take_reset_communication_request()) reset();
+        }
+        continue;
+      }
+      if (answer_sdo) sdo_->on_frame(f, now);
+    }
+  }
+  bool answer_sdo = true;  // false: its SDO answers are lost (collided on the wire)
+
+  [[nodiscard]] std::uint8_t node() const { return node_; }
+  [[nodiscard]] bool pending() const { return port_.pending() > 0; }
+  [[nodiscard]] std::uint32_t lss_stores() const { return lss_stores_; }
+  [[nodiscard]] std::optional<std::uint8_t> stored_node() const { return stored_node_; }
+  [[nodiscard]] std::optional<std::uint8_t> saved_sdo_node() const { return saved_sdo_node_; }
+  [[nodiscard]] std::uint32_t resets() const { return resets_; }
+
+ private:
+  static bool valid(std::uint8_t n) { return canopen::cob::valid_node_id(n); }
+  [[nodiscard]] std::uint16_t node_object() const { return kind_ == Kind::ifm ? 0x3000 : 0x2000; }
+  [[nodiscard]] std::uint8_t sdo_node() const {
+    const std::uint8_t raw = od_.get_u8(node_object(), 0).value_or(0);
+    return kind_ == Kind::ifm ? static_cast<std::uint8_t>(raw + 1) : raw;
+  }
+  void add(std::uint16_t index, std::uint8_t sub, std::uint32_t value, DataType t, canopen::Access a) {
+    canopen::EntryDef d;
+    d.index = index;
+    d.sub = sub;
+    d.type = t;
+    d.access = a;
+    d.value = value;
+    EXPECT_FALSE(od_.insert(d));
+  }
+  void reset() {
+    ++resets_;
+    std::uint8_t next = node_;
+    if (lss_enabled_) {
+      lss_->activate_pending();
+      next = lss_->active_node_id();
+    }
+    if (sdo_pending_) next = *std::exchange(sdo_pending_, std::nullopt);  // node-ID object written by SDO
+    node_ = next;
+    if (valid(node_)) {
+      sdo_->set_node_id(node_);
+      sdo_->set_enabled(true);
+      (void)od_.set_u8(node_object(), 0, kind_ == Kind::ifm ? static_cast<std::uint8_t>(node_ - 1) : node_);
+      (void)port_.send(canopen::make_boot_up(node_));
+    } else {
+      sdo_->set_enabled(false);
+    }
+  }
+
+  can::VirtualBus::Port& port_;
+  Kind kind_;
+  bool lss_enabled_;
+  canopen::ObjectDictionary od_;
+  std::unique_ptr<canopen::SdoServer> sdo_;
+  std::unique_ptr<canopen::LssSlave> lss_;
+  std::uint8_t node_ = 0;
+  std::uint32_t lss_stores_ = 0;
+  std::uint32_t lss_frames_seen_ = 0;
+  std::uint32_t resets_ = 0;
+  std::optional<std::uint8_t> stored_node_;
+  std::optional<std::uint8_t> saved_sdo_node_;
+  std::optional<std::uint8_t> sdo_pending_;
+};
+
+config::Device device(std::string name, std::uint32_t serial, std::uint8_t node, std::string model = {},
+                      std::optional<std::uint32_t> vendor = {}, std::optional<std::uint32_t> product = {}) {
+  config::Device d;
+  d.name = std::move(name);
+  d.bus = "can0";
+  d.serial = serial;
+  if (node != 0) d.node_id = node;
+  d.model = std::move(model);
+  d.vendor = vendor;
+  d.product = product;
+  return d;
+}
+
+// The bus, the devices, a Discovery and the fake clock.
+class Rig {
+ public:
+  explicit Rig(config::Commissioning policy = config::Commissioning::automatic,
+               config::SwapPolicy swap = config::SwapPolicy::same_model) {
+    config::Bus b;
+    b.name = "can0";
+    b.interface = "vcan0";
+    b.commissioning = policy;
+    b.swap_policy = swap;
+    b.discovery_period_s = 10;
+    b.lss_timeout_ms = 100;
+    b.sdo_timeout_ms = 500;
+    for (std::uint8_t n = 50; n <= 60; ++n) b.node_pool.push_back(n);
+    config_.buses.push_back(b);
+  }
+
+  Rig& with(config::Device d) {
+    config_.devices.push_back(std::move(d));
+    return *this;
+  }
+  TestDevice& add(Kind k, LssAddress id, std::uint8_t node, bool lss = true) {
+    devices_.push_back(std::make_unique<TestDevice>(bus_, k, id, node, lss));
+    return *devices_.back();
+  }
+
+  void start(std::vector<Assignment> previous = {}) {
+    disc_ = std::make_unique<Discovery>(port_, config_, 0, std::move(previous));
+    disc_->start(now_);
+  }
+  Discovery& disc() { return *disc_; }
+
+  // Runs the fake clock for `span`, delivering every frame at once.
+  void run(canopen::Duration span) {
+    const TimePoint end = now_ + span;
+    for (int guard = 0; guard < 5'000'000; ++guard) {
+      bool moved = true;
+      while (moved) {
+        moved = false;
+        for (auto& d : devices_) d->pump(now_);
+        can::Frame f;
+        while (port_.receive(f)) {
+          disc_->on_frame(f, now_);
+          moved = true;
+        }
+        const TimePoint next = disc_->process(now_);
+        collect();
+        if (pending()) moved = true;
+        if (!moved) {
+          if (next >= end) {
+            now_ = end;
+            return;
+          }
+          now_ = std::max(next, now_ + 1us);
+        }
+      }
+    }
+    ADD_FAILURE() << "rig did not settle";
+  }
+
+  [[nodiscard]] bool pending() const {
+    if (port_.pending() > 0) return true;
+    return std::any_of(devices_.begin(), devices_.end(), [](const auto& d) { return d->pending(); });
+  }
+
+  void collect() {
+    for (auto& e : disc_->take_events()) events.push_back(std::move(e));
+    for (auto& t : disc_->take_timings()) timings.push_back(std::move(t));
+  }
+
+  [[nodiscard]] std::vector<DiscoveryEvent> of(DiscoveryEventKind k) const {
+    std::vector<DiscoveryEvent> out;
+    for (const auto& e : events)
+      if (e.kind == k) out.push_back(e);
+    return out;
+  }
+  [[nodiscard]] std::size_t frames_on(std::uint32_t id) const {
+    return static_cast<std::size_t>(
+        std::count_if(bus_.log().begin(), bus_.log().end(), [id](const can::Frame& f) { return f.id == id; }));
+  }
+  [[nodiscard]] const std::vector<can::Frame>& log() const { return bus_.log(); }
+  [[nodiscard]] TimePoint now() const { return now_; }
+
+  // Sum and count of the timings of one step.
+  [[nodiscard]] std::pair<double, int> step(const std::string& name) const {
+    double ms = 0;
+    int n = 0;
+    for (const auto& t : timings)
+      if (t.step == name) {
+        ms += t.milliseconds;
+        ++n;
+      }
+    return {ms, n};
+  }
+  void print_timings(const char* title) const {
+    std::printf("[timings] %s\n", title);
+    std::map<std::string, std::pair<double, int>> by;
+    for (const auto& t : timings) {
+      by[t.step].first += t.milliseconds;
+      by[t.step].second += 1;
+    }
+    for (const auto& [k, v] : by) std::printf("  %-26s n=%-3d total %9.1f ms\n", k.c_str(), v.second, v.first);
+  }
+
+  std::vector<DiscoveryEvent> events;
+  std::vector<StepTiming> timings;
+  config::Config config_;
+
+ private:
+  can::VirtualBus bus_;
+  can::VirtualBus::Port& port_ = bus_.attach();
+  std::vector<std::unique_ptr<TestDevice>> devices_;
+  std::unique_ptr<Discovery> disc_;
+  TimePoint now_ = TimePoint{} + 1h;
+};
+
+LssAddress rotary(std::uint32_t serial, std::uint32_t product = kRfc4800, std::uint32_t rev = 0x00010003) {
+  return {kNovotechnik, product, rev, serial};
+}
+LssAddress multiturn(std::uint32_t serial, std::uint32_t product = kMultiturn, std::uint32_t rev = 0x00010005) {
+  return {kNovotechnik, product, rev, serial};
+}
+LssAddress ifm(std::uint32_t serial) { return {kIfm, kIfmProduct, 0x00010000, serial}; }
+
+// J§1.2.2 / E§3.1 (factory node-ID 127), F§5.3.1 (factory node-ID 32);
+// CiA 305 switch state selective + configure node-ID + store; CiA 301 §7.2.8.3.1
+// reset communication. Three models, two of each, clashing at the factory
+// node-IDs; the config names each device's full identity.
+TEST(DiscoveryTest, SixFactoryDevicesClashingAreMovedBySerial_CiA305_J1_5_E6) {
+  Rig rig;
+  rig.with(device("rot-a", 1001, 10, "RFC-4800", kNovotechnik, kRfc4800))
+      .with(device("rot-b", 1002, 11, "RFC-4800", kNovotechnik, kRfc4800))
+      .with(device("mt-a", 2001, 20, "MC1-2800", kNovotechnik, kMultiturn))
+      .with(device("mt-b", 2002, 21, "MC1-2800", kNovotechnik, kMultiturn))
+      .with(device("ifm-a", 3001, 30, "RM9", kIfm, kIfmProduct))
+      .with(device("ifm-b", 3002, 31, "RM9", kIfm, kIfmProduct));
+  auto& ra = rig.add(Kind::rotary, rotary(1001), 127);
+  auto& rb = rig.add(Kind::rotary, rotary(1002), 127);
+  auto& ma = rig.add(Kind::multiturn, multiturn(2001), 127);
+  auto& mb = rig.add(Kind::multiturn, multiturn(2002), 127);
+  auto& ia = rig.add(Kind::ifm, ifm(3001), 32);
+  auto& ib = rig.add(Kind::ifm, ifm(3002), 32);
+  rig.start();
+  const TimePoint t0 = rig.now();
+  int seconds = 0;
+  while (seconds < 600 && !(ra.node() == 10 && rb.node() == 11 && ma.node() == 20 && mb.node() == 21 &&
+                           ia.node() == 30 && ib.node() == 31)) {
+    rig.run(100ms);
+    ++seconds;
+  }
+  std::printf("[timings] all six at their node-IDs after %.1f s (fake clock)\n",
+              std::chrono::duration<double>(rig.now() - t0).count());
+  rig.run(20s);
+
+  auto clashes = rig.of(DiscoveryEventKind::clash_detected);
+  ASSERT_EQ(clashes.size(), 2u);
+  EXPECT_EQ(clashes[0].node_id, 32);
+  EXPECT_EQ(clashes[0].count, 2u);
+  EXPECT_EQ(clashes[1].node_id, 127);
+  EXPECT_EQ(clashes[1].count, 4u);
+  EXPECT_EQ(rig.of(DiscoveryEventKind::clash_resolved).size(), 2u);
+
+  EXPECT_EQ(ra.node(), 10);
+  EXPECT_EQ(rb.node(), 11);
+  EXPECT_EQ(ma.node(), 20);
+  EXPECT_EQ(mb.node(), 21);
+  EXPECT_EQ(ia.node(), 30);
+  EXPECT_EQ(ib.node(), 31);
+  for (TestDevice* d : {&ra, &rb, &ma, &mb, &ia, &ib}) {
+    EXPECT_EQ(d->lss_stores(), 1u);
+    EXPECT_EQ(d->stored_node(), d->node());
+  }
+  const auto moved = rig.of(DiscoveryEventKind::commissioned);
+  ASSERT_EQ(moved.size(), 6u);
+  std::map<std::string, std::pair<int, int>> by_name;
+  for (const auto& e : moved) by_name[e.device] = {e.previous_node_id, e.node_id};
+  EXPECT_EQ(by_name["rot-a"], std::make_pair(127, 10));
+  EXPECT_EQ(by_name["ifm-b"], std::make_pair(32, 31));
+  // After the boot-ups every device is identified at its target node-ID.
+  std::map<std::string, bool> at_target;
+  for (const auto& e : rig.of(DiscoveryEventKind::identified)) at_target[e.device] = e.at_target;
+  for (const char* n : {"rot-a", "rot-b", "mt-a", "mt-b", "ifm-a", "ifm-b"}) EXPECT_TRUE(at_target[n]) << n;
+  EXPECT_TRUE(rig.of(DiscoveryEventKind::problem).empty()) << rig.of(DiscoveryEventKind::problem)[0].text;
+  EXPECT_FALSE(rig.disc().commissioning());
+  rig.print_timings("six devices, three clashes");
+  EXPECT_EQ(rig.step("switch-selective").second, 6 + 2);  // two of the four at 127 needed a second revision
+}
+
+// CiA 305 identify remote slave (Slowscan) for the rotary series, whose LSS
+// (J§1 intro: DSP-305 V1.1.2) predates Fastscan. Two different rotary
+// products clash at 127 and the config gives serials and model names only.
+TEST(DiscoveryTest, RotaryClashResolvedBySlowscan_J1_5_CiA305) {
+  Rig rig;
+  rig.with(device("rot-a", 1001, 10, "RFC-4800")).with(device("rot-b", 1002, 11, "RSA-3200"));
+  auto& ra = rig.add(Kind::rotary, rotary(1001, kRfc4800, 0x00010003), 127);
+  auto& rb = rig.add(Kind::rotary, rotary(1002, kRsa3200, 0x00010004), 127);
+  rig.start();
+  rig.run(60s);
+  EXPECT_EQ(ra.node(), 10);
+  EXPECT_EQ(rb.node(), 11);
+  EXPECT_EQ(ra.stored_node(), 10);
+  EXPECT_EQ(rb.stored_node(), 11);
+  // Two found, one NotFound per product range.
+  EXPECT_GE(rig.step("slowscan").second, 4);
+  EXPECT_EQ(rig.step("fastscan").second, 0);
+  ASSERT_EQ(rig.of(DiscoveryEventKind::clash_resolved).size(), 1u);
+  EXPECT_TRUE(rig.of(DiscoveryEventKind::problem).empty());
+  rig.print_timings("rotary clash by Slowscan");
+}
+
+// CiA 305 Fastscan after every device was made non-configured (configure
+// node-ID FFh, not stored, then reset communication): two multiturn devices
+// (E, LSS V3) of different product codes (E§13 V03) clash at 127 and the config
+// gives only serials; an ifm device already at its node-ID keeps it.
+TEST(DiscoveryTest, ClashWithoutIdentityUsesFastscanAndKnownKeepTheirIds_CiA305_E6) {
+  Rig rig;
+  rig.with(device("mt-a", 2001, 20)).with(device("mt-b", 2002, 21)).with(device("ifm-a", 3001, 40));
+  auto& ma = rig.add(Kind::multiturn, multiturn(2001, kMultiturn, 0x10005), 127);
+  auto& mb = rig.add(Kind::multiturn, multiturn(2002, kMz1V02, 0x10003), 127);
+  auto& ia = rig.add(Kind::ifm, ifm(3001), 40);
+  rig.start();
+  rig.run(120s);
+  EXPECT_EQ(ma.node(), 20);
+  EXPECT_EQ(mb.node(), 21);
+  EXPECT_EQ(ia.node(), 40);
+  EXPECT_EQ(ma.stored_node(), 20);
+  EXPECT_EQ(mb.stored_node(), 21);
+  EXPECT_EQ(ia.lss_stores(), 0u);  // kept its node-ID: no store (flash wear)
+  EXPECT_EQ(rig.step("fastscan").second, 4);  // three found + the empty one
+  EXPECT_EQ(rig.of(DiscoveryEventKind::clash_resolved).size(), 1u);
+  EXPECT_TRUE(rig.of(DiscoveryEventKind::problem).empty()) << rig.of(DiscoveryEventKind::problem)[0].text;
+  rig.print_timings("multiturn clash by Fastscan");
+}
+
+// Issue 4 swap policy same-model: a new serial of a configured model at the
+// factory node-ID (J§1.2.2) takes the missing device's node-ID.
+TEST(DiscoveryTest, UnknownSerialReplacesMissingDeviceUnderSwapPolicy_J1_2_2) {
+  Rig rig;
+  rig.with(device("rot-a", 1001, 10, "RFC-4800")).with(device("mt-a", 2001, 20, "MC1-2800"));
+  auto& mt = rig.add(Kind::multiturn, multiturn(2001), 20);
+  auto& repl = rig.add(Kind::rotary, rotary(5555), 127);
+  rig.start();
+  rig.run(20s);
+  EXPECT_EQ(repl.node(), 10);
+  EXPECT_EQ(mt.node(), 20);
+  const auto moved = rig.of(DiscoveryEventKind::commissioned);
+  ASSERT_EQ(moved.size(), 1u);
+  EXPECT_EQ(moved[0].device, "rot-a");
+  EXPECT_EQ(moved[0].replaces, "rot-a");
+  EXPECT_EQ(moved[0].identity.serial, 5555u);
+}
+
+// Swap policy off: the unknown device is reported and left alone.
+TEST(DiscoveryTest, UnknownSerialLeftAloneWithSwapOff_J1_2_2) {
+  Rig rig(config::Commissioning::automatic, config::SwapPolicy::off);
+  rig.with(device("rot-a", 1001, 10, "RFC-4800"));
+  auto& repl = rig.add(Kind::rotary, rotary(5555), 127);
+  rig.start();
+  rig.run(20s);
+  EXPECT_EQ(repl.node(), 127);
+  EXPECT_EQ(rig.frames_on(canopen::cob::kLssMasterToSlave) > 0, true);  // only the non-configured check
+  EXPECT_EQ(repl.lss_stores(), 0u);
+  const auto problems = rig.of(DiscoveryEventKind::problem);
+  ASSERT_EQ(problems.size(), 1u);
+  EXPECT_NE(problems[0].text.find("unknown device"), std::string::npos);
+}
+
+// CiA 305 V3 Fastscan of a non-configured (FFh) device; E§6 claims DS-305 V3.0.0.
+TEST(DiscoveryTest, NonConfiguredDeviceFoundByFastscan_CiA305_E6) {
+  Rig rig;
+  rig.with(device("mt-a", 2001, 20));
+  auto& mt = rig.add(Kind::multiturn, multiturn(2001), canopen::cob::kNodeIdUnconfigured);
+  rig.start();
+  rig.run(30s);
+  EXPECT_EQ(mt.node(), 20);
+  EXPECT_EQ(mt.stored_node(), 20);
+  const auto moved = rig.of(DiscoveryEventKind::commissioned);
+  ASSERT_EQ(moved.size(), 1u);
+  EXPECT_EQ(moved[0].previous_node_id, canopen::cob::kNodeIdUnconfigured);
+  EXPECT_EQ(moved[0].node_id, 20);
+  EXPECT_EQ(rig.step("fastscan").second, 2);
+  rig.print_timings("non-configured device");
+}
+
+// Policy manual: nothing is commissioned until request_commission().
+TEST(DiscoveryTest, ManualPolicyWaitsForRequestCommission_J1_5) {
+  Rig rig(config::Commissioning::manual);
+  rig.with(device("rot-a", 1001, 10, "RFC-4800"));
+  auto& ra = rig.add(Kind::rotary, rotary(1001), 127);
+  rig.start();
+  rig.run(30s);
+  EXPECT_EQ(ra.node(), 127);
+  EXPECT_EQ(rig.frames_on(canopen::cob::kLssMasterToSlave), 0u);
+  EXPECT_EQ(rig.frames_on(canopen::cob::kNmt), 0u);
+  EXPECT_TRUE(rig.disc().commission_pending());
+  const auto ids = rig.of(DiscoveryEventKind::identified);
+  ASSERT_FALSE(ids.empty());
+  EXPECT_FALSE(ids[0].at_target);
+  EXPECT_EQ(ids[0].target_node_id, 10);
+  rig.disc().request_commission();
+  rig.run(10s);
+  EXPECT_EQ(ra.node(), 10);
+  EXPECT_FALSE(rig.disc().commission_pending());
+}
+
+// Policy off: only listening and identity reads (SDO upload of 0x1018, CiA 301
+// §7.2.4.3.6); no LSS, no NMT, no SDO download, whatever is found.
+TEST(DiscoveryTest, PolicyOffOnlyReadsIdentities_CiA301_7_2_4) {
+  Rig rig(config::Commissioning::off);
+  rig.with(device("rot-a", 1001, 10, "RFC-4800"));
+  rig.add(Kind::rotary, rotary(1001), 127);
+  rig.add(Kind::rotary, rotary(1002), 127);
+  rig.add(Kind::multiturn, multiturn(2001), canopen::cob::kNodeIdUnconfigured);
+  rig.start();
+  rig.run(60s);
+  rig.disc().request_commission();  // ignored under off
+  rig.run(10s);
+  std::size_t probes = 0;
+  for (const auto& f : rig.log()) {
+    if (f.id >= 0x601 && f.id <= 0x67F) {
+      EXPECT_EQ(f.data[0], 0x40);  // upload request only
+      EXPECT_EQ(f.data[1], 0x18);
+      EXPECT_EQ(f.data[2], 0x10);
+      ++probes;
+    }
+    EXPECT_NE(f.id, canopen::cob::kLssMasterToSlave);
+    EXPECT_NE(f.id, canopen::cob::kNmt);
+  }
+  EXPECT_GT(probes, 127u);
+  EXPECT_EQ(rig.of(DiscoveryEventKind::clash_detected).size(), 1u);
+  EXPECT_FALSE(rig.disc().commission_pending());
+}
+
+// With discovery off the component sends nothing at all.
+TEST(DiscoveryTest, DiscoveryOffSendsNothing) {
+  Rig rig(config::Commissioning::off);
+  rig.config_.buses[0].discovery = false;
+  rig.add(Kind::rotary, rotary(1001), 127).power_on();
+  rig.start();
+  rig.run(30s);
+  std::size_t mine = 0;
+  for (const auto& f : rig.log()) mine += (f.id >= 0x600 && f.id <= 0x67F) || f.id == 0x7E5 || f.id == 0 ? 1u : 0u;
+  EXPECT_EQ(mine, 0u);
+}
+
+// Wrong model for a configured serial (J§1.2.1 product codes vs E§4.1):
+// reported, not configured, not moved.
+TEST(DiscoveryTest, WrongModelReportedAndNotConfigured_J1_2_1_E4_1) {
+  Rig rig;
+  rig.with(device("mt-a", 1001, 10, "MC1-2800"));
+  auto& ra = rig.add(Kind::rotary, rotary(1001), 127);
+  rig.start();
+  rig.run(20s);
+  EXPECT_EQ(ra.node(), 127);
+  EXPECT_EQ(ra.lss_stores(), 0u);
+  const auto problems = rig.of(DiscoveryEventKind::problem);
+  ASSERT_EQ(problems.size(), 1u);
+  EXPECT_NE(problems[0].text.find("wrong model"), std::string::npos);
+  const auto ids = rig.of(DiscoveryEventKind::identified);
+  ASSERT_EQ(ids.size(), 1u);
+  EXPECT_EQ(ids[0].target_node_id, 0);
+  EXPECT_FALSE(ids[0].at_target);
+}
+
+// F§7.4 (0x3000 = node-ID - 1), F§6.3.3 (0x1010/1 'save'), CiA 301 reset node:
+// an ifm device whose LSS does not answer is moved by SDO.
+TEST(DiscoveryTest, IfmWithoutLssAnswerFallsBackToSdo_F7_4_F6_3_3) {
+  Rig rig;
+  rig.with(device("ifm-a", 3001, 30, "RM9"));
+  auto& ia = rig.add(Kind::ifm, ifm(3001), 32, /*lss=*/false);
+  rig.start();
+  rig.run(20s);
+  EXPECT_EQ(ia.node(), 30);
+  EXPECT_EQ(ia.saved_sdo_node(), 30);
+  bool wrote_3000 = false;
+  for (const auto& f : rig.log())
+    if (f.id == 0x600u + 32 && f.data[0] == 0x2F && f.data[1] == 0x00 && f.data[2] == 0x30) {
+      EXPECT_EQ(f.data[4], 29);  // "always add 1": 29 + 1 = 30
+      wrote_3000 = true;
+    }
+  EXPECT_TRUE(wrote_3000);
+  ASSERT_EQ(rig.of(DiscoveryEventKind::commissioned).size(), 1u);
+  rig.print_timings("ifm SDO fallback");
+}
+
+// A device already at its configured node-ID is identified at target and the
+// bus sees no LSS switch / NMT at all (CiA 301 §7.2.8.3.3 boot-up re-identifies).
+TEST(DiscoveryTest, DeviceAtTargetIsOnlyIdentified_CiA301_7_2_8_3_3) {
+  Rig rig;
+  rig.with(device("rot-a", 1001, 10, "RFC-4800"));
+  auto& ra = rig.add(Kind::rotary, rotary(1001), 10);
+  rig.start();
+  rig.run(5s);
+  ASSERT_EQ(rig.of(DiscoveryEventKind::identified).size(), 1u);
+  EXPECT_TRUE(rig.of(DiscoveryEventKind::identified)[0].at_target);
+  EXPECT_EQ(rig.frames_on(canopen::cob::kNmt), 0u);
+  // A reboot (boot-up) is followed by a new identification, flagged boot_up.
+  ra.power_on();
+  rig.run(2s);
+  const auto ids = rig.of(DiscoveryEventKind::identified);
+  ASSERT_EQ(ids.size(), 2u);
+  EXPECT_TRUE(ids[1].boot_up);
+  EXPECT_TRUE(ids[1].at_target);
+}
+
+// Previous assignment (state file) wins for a configured device without node_id;
+// otherwise the pool.
+TEST(DiscoveryTest, PreviousAssignmentThenPool) {
+  Rig rig;
+  rig.with(device("rot-a", 1001, 0, "RFC-4800")).with(device("rot-b", 1002, 0, "RFC-4800"));
+  auto& ra = rig.add(Kind::rotary, rotary(1001), 127);
+  auto& rb = rig.add(Kind::rotary, rotary(1002), 127);
+  Assignment a;
+  a.bus = "can0";
+  a.serial = 1002;
+  a.vendor = kNovotechnik;
+  a.product = kRfc4800;
+  a.node_id = 77;
+  rig.start({a});
+  rig.run(30s);
+  EXPECT_EQ(rb.node(), 77);
+  EXPECT_EQ(ra.node(), 50);  // first of the pool
+}
+
+// Conflicting boot-ups (two from one node-ID inside the window) with the
+// probe: CiA 301 §7.2.8.3.3.
+// Here the second device's SDO answers are lost, so only the boot-ups tell.
+TEST(DiscoveryTest, ConflictingBootupsDetectAClash_CiA301_7_2_8_3_3) {
+  Rig rig(config::Commissioning::off);
+  auto& a = rig.add(Kind::rotary, rotary(1001), 127);
+  auto& b = rig.add(Kind::rotary, rotary(1002), 127);
+  b.answer_sdo = false;
+  rig.start();
+  rig.run(2s);
+  EXPECT_TRUE(rig.of(DiscoveryEventKind::clash_detected).empty());
+  ASSERT_EQ(rig.of(DiscoveryEventKind::identified).size(), 1u);
+  // Both power up again: two boot-ups from 127 within the window.
+  a.power_on();
+  b.power_on();
+  rig.run(2s);
+  const auto clashes = rig.of(DiscoveryEventKind::clash_detected);
+  ASSERT_EQ(clashes.size(), 1u);
+  EXPECT_EQ(clashes[0].node_id, 127);
+  EXPECT_EQ(clashes[0].count, 2u);
+}
+
+// A single reboot is no clash: one boot-up, then the same identity again.
+TEST(DiscoveryTest, SingleRebootIsNoClash_CiA301_7_2_8_3_3) {
+  Rig rig(config::Commissioning::off);
+  auto& a = rig.add(Kind::rotary, rotary(1001), 127);
+  rig.start();
+  rig.run(2s);
+  a.power_on();
+  rig.run(2s);
+  EXPECT_TRUE(rig.of(DiscoveryEventKind::clash_detected).empty());
+  EXPECT_EQ(rig.of(DiscoveryEventKind::identified).size(), 2u);
+}
+
+}  // namespace
+}  // namespace cobridge::gateway
