@@ -1,9 +1,11 @@
 // cobridge: the command-line tool. Wires CLI11 subcommands to the command
-// modules; all work is in scan_command, sdo_command, nmt_command, lss_command.
+// modules; all work is in scan_command, sdo_command, nmt_command, lss_command,
+// status_command.
 #include "cli/lss_command.hpp"
 #include "cli/nmt_command.hpp"
 #include "cli/scan_command.hpp"
 #include "cli/sdo_command.hpp"
+#include "cli/status_command.hpp"
 
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
@@ -66,9 +68,17 @@ int main(int argc, char** argv) {
   lss_set->add_option("--timeout-ms", lss_o.timeout_ms, "LSS answer timeout")->capture_default_str();
   lss_set->add_flag("--json", lss_o.json, "machine-readable output");
 
-  auto* status_c = app.add_subcommand("status", "show the running daemon's buses and devices");
-  std::string control = "/run/cobridge/control.sock";
-  status_c->add_option("--control", control, "daemon control socket")->capture_default_str();
+  StatusOptions status_o;
+  auto* status_c = app.add_subcommand("status", "show the running daemon's buses, devices, step timings and counters");
+  status_c->add_option("--control", status_o.control, "daemon control socket")->capture_default_str();
+  status_c->add_flag("--json", status_o.json, "the daemon's JSON document, unchanged");
+
+  CommissionOptions commission_o;
+  auto* commission_c =
+      app.add_subcommand("commission", "ask the running daemon to commission its buses now (resolve clashes, assign node-IDs)");
+  commission_c->add_option("--bus", commission_o.bus, "only this bus (a [[bus]] name of the daemon's configuration)");
+  commission_c->add_option("--control", commission_o.control, "daemon control socket")->capture_default_str();
+  commission_c->add_flag("--json", commission_o.json, "the daemon's JSON answer, unchanged");
 
   CLI11_PARSE(app, argc, argv);
   // The commands print their own errors; the layers' log lines are for -v.
@@ -79,11 +89,7 @@ int main(int argc, char** argv) {
   if (*sdo_w) return sdo_write(sdo_o);
   if (*nmt_c) return nmt_send(nmt_o);
   if (*lss_set) return lss_set_node_id(lss_o);
-  if (*status_c) {
-    // The daemon (cobridged) and its control socket are not built yet.
-    std::fprintf(stderr, "cobridge: status: no daemon control socket at %s (cobridged is not part of this build yet)\n",
-                 control.c_str());
-    return 1;
-  }
+  if (*status_c) return status(status_o);
+  if (*commission_c) return commission(commission_o);
   return 2;
 }

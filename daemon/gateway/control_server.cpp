@@ -1,0 +1,492 @@
+#include "gateway/control_server.hpp"
+
+#include "canopen/nmt.hpp"
+#include "sys/logging.hpp"
+
+#include <fcntl.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <cstdio>
+#include <ctime>
+
+namespace cobridge::gateway {
+namespace {
+
+using canopen::kNever;
+using canopen::TimePoint;
+
+// A JSON text built by appending; the status document is flat enough that a
+// tiny writer with explicit commas is clearer than a value tree.
+class JsonWriter {
+ public:
+  void begin_object() { value_prefix(); out_ += '{'; first_ = true; }
+  void end_object() { out_ += '}'; first_ = false; }
+  void begin_array() { value_prefix(); out_ += '['; first_ = true; }
+  void end_array() { out_ += ']'; first_ = false; }
+  void key(std::string_view k) {
+    if (!first_) out_ += ',';
+    first_ = true;  // the value that follows takes no comma
+    string_literal(k);
+    out_ += ':';
+  }
+  void value(std::string_view s) { value_prefix(); string_literal(s); first_ = false; }
+  void value(const char* s) { value(std::string_view(s)); }
+  void value(bool b) { value_prefix(); out_ += b ? "true" : "false"; first_ = false; }
+  void value(std::uint64_t n) { value_prefix(); out_ += std::to_string(n); first_ = false; }
+  void value(std::int64_t n) { value_prefix(); out_ += std::to_string(n); first_ = false; }
+  void value(double d) {
+    value_prefix();
+    std::array<char, 32> buf{};
+    std::snprintf(buf.data(), buf.size(), "%.3f", d);
+    out_ += buf.data();
+    first_ = false;
+  }
+  void null() { value_prefix(); out_ += "null"; first_ = false; }
+  void time(WallTime t) {
+    if (t == WallTime{}) {
+      null();
+      return;
+    }
+    value(iso8601(t));
+  }
+  template <typename T>
+  void field(std::string_view k, T v) {
+    key(k);
+    value(v);
+  }
+  std::string take() { return std::move(out_); }
+
+  static std::string iso8601(WallTime t) {
+    const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(t.time_since_epoch()).count();
+    const std::time_t secs = static_cast<std::time_t>(ms / 1000);
+    std::tm tm{};
+    gmtime_r(&secs, &tm);
+    std::array<char, 96> buf{};  // room for any int, so -O2's truncation check is satisfied
+    std::snprintf(buf.data(), buf.size(), "%04d-%02d-%02dT%02d:%02d:%02d.%03dZ", tm.tm_year + 1900, tm.tm_mon + 1,
+                  tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec, static_cast<int>(ms % 1000));
+    return buf.data();
+  }
+
+ private:
+  void value_prefix() {
+    if (!first_) out_ += ',';
+  }
+  // Control characters are escaped; bytes >= 0x80 pass unchanged (names and
+  // EMCY texts are UTF-8, and the answer to garbage echoes no raw input).
+  void string_literal(std::string_view s) {
+    out_ += '"';
+    for (const char ch : s) {
+      const auto c = static_cast<unsigned char>(ch);
+      switch (ch) {
+        case '"': out_ += "\\\""; break;
+        case '\\': out_ += "\\\\"; break;
+        case '\n': out_ += "\\n"; break;
+        case '\r': out_ += "\\r"; break;
+        case '\t': out_ += "\\t"; break;
+        default:
+          if (c < 0x20 || c == 0x7F) {
+            std::array<char, 8> buf{};
+            std::snprintf(buf.data(), buf.size(), "\\u%04x", static_cast<unsigned>(c));
+            out_ += buf.data();
+          } else {
+            out_ += ch;
+          }
+      }
+    }
+    out_ += '"';
+  }
+
+  std::string out_;
+  bool first_ = true;
+};
+
+std::string error_json(std::string_view message) {
+  JsonWriter w;
+  w.begin_object();
+  w.field("error", message);
+  w.end_object();
+  return w.take();
+}
+
+// What a client sent, fit to be quoted back: printable ASCII, at most 40 chars.
+std::string quoted_input(std::string_view s) {
+  std::string out;
+  for (const char ch : s.substr(0, 40)) {
+    const auto c = static_cast<unsigned char>(ch);
+    out += (c >= 0x20 && c < 0x7F) ? ch : '?';
+  }
+  if (s.size() > 40) out += "...";
+  return out;
+}
+
+std::string_view trim(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t' || s.front() == '\r')) s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
+  return s;
+}
+
+std::vector<std::string_view> words(std::string_view s) {
+  std::vector<std::string_view> out;
+  while (true) {
+    s = trim(s);
+    if (s.empty()) break;
+    const auto end = s.find_first_of(" \t");
+    out.push_back(s.substr(0, end));
+    if (end == std::string_view::npos) break;
+    s.remove_prefix(end);
+  }
+  return out;
+}
+
+void write_device(JsonWriter& w, const DeviceStatus& d) {
+  w.begin_object();
+  w.field("name", d.name);
+  w.field("bus", d.bus);
+  w.key("node_id");
+  if (d.node_id == 0)
+    w.null();
+  else
+    w.value(std::uint64_t{d.node_id});
+  w.key("identity");
+  w.begin_object();
+  w.field("vendor", std::uint64_t{d.identity.vendor});
+  w.field("product", std::uint64_t{d.identity.product});
+  w.field("revision", std::uint64_t{d.identity.revision});
+  w.field("serial", std::uint64_t{d.identity.serial});
+  w.end_object();
+  w.field("model", d.model);
+  w.field("family", d.family);
+  w.field("state", to_string(d.state));
+  w.field("nmt", canopen::to_string(d.nmt));
+  w.field("online", d.online);
+  w.key("since");
+  w.time(d.since);
+  w.field("last_error", d.last_error);
+  w.key("last_emcy");
+  if (d.emcy_count == 0 && d.last_emcy_code == 0 && d.last_emcy_text.empty()) {
+    w.null();
+  } else {
+    w.begin_object();
+    w.field("code", std::uint64_t{d.last_emcy_code});
+    w.field("text", d.last_emcy_text);
+    w.end_object();
+  }
+  w.field("boot_ups", std::uint64_t{d.boot_ups});
+  w.field("configurations", std::uint64_t{d.configurations});
+  w.field("emcy_count", std::uint64_t{d.emcy_count});
+  w.field("fingerprint", d.fingerprint);
+  w.end_object();
+}
+
+void write_bus(JsonWriter& w, const BusStatus& b) {
+  w.begin_object();
+  w.field("name", b.name);
+  w.field("interface", b.interface);
+  w.field("open", b.open);
+  w.field("last_bus_event", b.last_bus_event);
+  w.key("counters");
+  w.begin_object();
+  w.field("rx_frames", b.rx_frames);
+  w.field("tx_frames", b.tx_frames);
+  w.field("rx_overflow_drops", b.rx_overflow_drops);
+  w.field("error_frames", b.error_frames);
+  w.field("reopens", std::uint64_t{b.reopens});
+  w.end_object();
+  w.key("devices");
+  w.begin_array();
+  for (const auto& d : b.devices) write_device(w, d);
+  w.end_array();
+  w.key("steps");
+  w.begin_array();
+  for (const auto& s : b.steps) {
+    w.begin_object();
+    w.field("step", s.step);
+    w.field("device", s.device);
+    w.field("ms", s.milliseconds);
+    w.key("at");
+    w.time(s.at);
+    w.end_object();
+  }
+  w.end_array();
+  w.key("problems");
+  w.begin_array();
+  for (const auto& p : b.problems) w.value(p);
+  w.end_array();
+  w.end_object();
+}
+
+}  // namespace
+
+std::string to_json(const StatusReport& report) {
+  JsonWriter w;
+  w.begin_object();
+  w.field("gateway", report.gateway_id);
+  w.field("version", report.version);
+  w.field("pid", static_cast<std::int64_t>(report.pid));
+  w.field("ready", report.ready);
+  w.key("started");
+  w.time(report.started);
+  w.field("config", report.config_file);
+  std::uint64_t total = 0;
+  std::uint64_t operational = 0;
+  for (const auto& b : report.buses) {
+    for (const auto& d : b.devices) {
+      ++total;
+      if (d.state == DeviceState::operational) ++operational;
+    }
+  }
+  w.field("devices_total", total);
+  w.field("devices_operational", operational);
+  w.key("buses");
+  w.begin_array();
+  for (const auto& b : report.buses) write_bus(w, b);
+  w.end_array();
+  w.end_object();
+  return w.take();
+}
+
+std::string summary(const std::vector<BusStatus>& buses) {
+  std::size_t total = 0;
+  std::size_t operational = 0;
+  std::size_t open = 0;
+  for (const auto& b : buses) {
+    if (b.open) ++open;
+    for (const auto& d : b.devices) {
+      ++total;
+      if (d.state == DeviceState::operational) ++operational;
+    }
+  }
+  std::string s = std::to_string(buses.size()) + (buses.size() == 1 ? " bus" : " buses");
+  if (open != buses.size()) s += " (" + std::to_string(open) + " open)";
+  s += ", " + std::to_string(operational) + "/" + std::to_string(total) + " devices operational";
+  return s;
+}
+
+ControlServer::ControlServer(ControlHandler& handler, ControlServerOptions options)
+    : handler_(handler), options_(options) {}
+
+ControlServer::~ControlServer() { close(); }
+
+std::error_code ControlServer::open(const std::filesystem::path& path, std::string* why) {
+  auto fail = [&](int err, const std::string& what) {
+    if (why != nullptr) *why = what + ": " + std::error_code(err, std::system_category()).message();
+    return std::error_code(err, std::system_category());
+  };
+  close();
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  const std::string text = path.string();
+  if (text.empty() || text.size() >= sizeof addr.sun_path)
+    return fail(ENAMETOOLONG, "control socket path \"" + text + "\" (at most " +
+                                  std::to_string(sizeof addr.sun_path - 1) + " bytes)");
+  text.copy(addr.sun_path, text.size());
+
+  std::error_code ec;
+  if (path.has_parent_path()) {
+    std::filesystem::create_directories(path.parent_path(), ec);
+    if (ec) return fail(ec.value(), "creating " + path.parent_path().string());
+  }
+
+  // A socket file left by a daemon that died is replaced; one that answers
+  // belongs to a running daemon, and a second daemon on the same buses would
+  // fight the first, so that is an error. Anything else is not ours to delete.
+  struct stat st {};
+  if (::lstat(text.c_str(), &st) == 0) {
+    if (!S_ISSOCK(st.st_mode)) return fail(EEXIST, text + " exists and is not a socket");
+    const int probe = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    if (probe < 0) return fail(errno, "socket()");
+    const bool alive = ::connect(probe, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0;
+    ::close(probe);
+    if (alive) return fail(EADDRINUSE, "another daemon is listening on " + text);
+    if (::unlink(text.c_str()) != 0) return fail(errno, "removing the stale socket " + text);
+  }
+
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+  if (fd < 0) return fail(errno, "socket()");
+  if (::bind(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0) {
+    const int err = errno;
+    ::close(fd);
+    return fail(err, "binding " + text);
+  }
+  // Owner and group (operators in the service's group) may talk to it.
+  if (::chmod(text.c_str(), 0660) != 0 || ::listen(fd, 16) != 0 || ::lstat(text.c_str(), &st) != 0) {
+    const int err = errno;
+    ::close(fd);
+    ::unlink(text.c_str());
+    return fail(err, "setting up " + text);
+  }
+  listen_fd_ = fd;
+  path_ = path;
+  socket_dev_ = st.st_dev;
+  socket_ino_ = st.st_ino;
+  return {};
+}
+
+void ControlServer::close() {
+  for (auto& c : clients_) drop(c);
+  clients_.clear();
+  if (listen_fd_ < 0) return;
+  ::close(listen_fd_);
+  listen_fd_ = -1;
+  // Only remove the file if it is still the one we bound (not a successor's).
+  struct stat st {};
+  if (::lstat(path_.c_str(), &st) == 0 && st.st_dev == socket_dev_ && st.st_ino == socket_ino_)
+    ::unlink(path_.c_str());
+}
+
+void ControlServer::add_poll_fds(std::vector<pollfd>& fds) const {
+  if (listen_fd_ >= 0) fds.push_back({listen_fd_, POLLIN, 0});
+  for (const auto& c : clients_) {
+    const bool writing = c.out_done < c.out.size();
+    fds.push_back({c.fd, static_cast<short>(writing ? POLLOUT : POLLIN), 0});
+  }
+}
+
+TimePoint ControlServer::process(TimePoint now) {
+  if (listen_fd_ >= 0) accept_clients(now);
+  TimePoint next = kNever;
+  for (auto it = clients_.begin(); it != clients_.end();) {
+    if (!serve(*it, now)) {
+      drop(*it);
+      it = clients_.erase(it);
+      continue;
+    }
+    // A request already buffered (pipelined) is due now: poll will not wake for it.
+    next = std::min(next, it->in.find('\n') != std::string::npos ? now : it->deadline);
+    ++it;
+  }
+  return next;
+}
+
+void ControlServer::accept_clients(TimePoint now) {
+  while (true) {
+    const int fd = ::accept4(listen_fd_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
+    if (fd < 0) {
+      if (errno == EINTR || errno == ECONNABORTED) continue;
+      if (errno != EAGAIN && errno != EWOULDBLOCK)
+        sys::logger("gateway")->warn("control socket: accept: {}", std::error_code(errno, std::system_category()).message());
+      return;
+    }
+    if (clients_.size() >= options_.max_clients) {
+      // Best effort: the socket is fresh, so a short answer fits its buffer.
+      const std::string busy = error_json("too many clients (limit " + std::to_string(options_.max_clients) + ")") + "\n";
+      (void)::send(fd, busy.data(), busy.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+      ::close(fd);
+      continue;
+    }
+    Client c;
+    c.fd = fd;
+    c.deadline = now + options_.client_timeout;
+    clients_.push_back(std::move(c));
+  }
+}
+
+bool ControlServer::flush(Client& c) {
+  while (c.out_done < c.out.size()) {
+    const ssize_t n = ::send(c.fd, c.out.data() + c.out_done, c.out.size() - c.out_done, MSG_NOSIGNAL | MSG_DONTWAIT);
+    if (n > 0) {
+      c.out_done += static_cast<std::size_t>(n);
+    } else if (n < 0 && errno == EINTR) {
+      continue;
+    } else {
+      return n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK);  // else the client went away
+    }
+  }
+  c.out.clear();
+  c.out_done = 0;
+  return true;
+}
+
+bool ControlServer::serve(Client& c, TimePoint now) {
+  // An answer is read before the next request is looked at.
+  if (!flush(c)) return false;
+  if (!c.out.empty()) return now < c.deadline;
+  if (c.close_after_write || c.peer_closed) return false;
+
+  // At most one line (plus one byte, to see that it is too long) is buffered:
+  // a client cannot make the daemon hold more than that.
+  std::array<char, 512> buf{};
+  while (c.in.find('\n') == std::string::npos && c.in.size() <= options_.max_line) {
+    const std::size_t room = std::min(buf.size(), options_.max_line + 1 - c.in.size());
+    const ssize_t n = ::recv(c.fd, buf.data(), room, MSG_DONTWAIT);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) break;
+    if (n <= 0) {
+      c.peer_closed = true;
+      break;
+    }
+    c.in.append(buf.data(), static_cast<std::size_t>(n));
+  }
+
+  const std::size_t nl = c.in.find('\n');
+  if (nl != std::string::npos && nl <= options_.max_line) {
+    answer(c, std::string_view(c.in).substr(0, nl), now);
+    c.in.erase(0, nl + 1);
+  } else if (c.in.size() > options_.max_line) {
+    c.out = error_json("request line longer than " + std::to_string(options_.max_line) + " bytes") + "\n";
+    c.close_after_write = true;
+    c.in.clear();
+  } else if (c.peer_closed) {
+    // End of input: a last line without newline still counts (printf status | nc -U).
+    if (!trim(c.in).empty()) answer(c, c.in, now);
+    c.in.clear();
+    c.close_after_write = true;
+  } else if (now >= c.deadline) {
+    const std::string late =
+        error_json("request not completed within " + std::to_string(options_.client_timeout.count()) + " ms") + "\n";
+    (void)::send(c.fd, late.data(), late.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+    return false;
+  } else {
+    return true;
+  }
+  // Most answers fit the socket buffer: hand this one over right away.
+  if (!flush(c)) return false;
+  if (!c.out.empty()) return now < c.deadline;
+  return !c.close_after_write;
+}
+
+void ControlServer::answer(Client& c, std::string_view line, TimePoint now) {
+  const auto w = words(line);
+  std::string reply;
+  if (w.empty()) {
+    reply = error_json("empty request (commands: status, commission [BUS])");
+  } else if (w[0] == "status" && w.size() == 1) {
+    reply = to_json(handler_.status());
+  } else if (w[0] == "commission" && w.size() <= 2) {
+    const ControlResult r = handler_.commission(w.size() == 2 ? w[1] : std::string_view{});
+    if (!r.ok) {
+      reply = error_json(r.message);
+    } else {
+      JsonWriter j;
+      j.begin_object();
+      j.field("ok", true);
+      j.key("buses");
+      j.begin_array();
+      for (const auto& b : r.buses) j.value(b);
+      j.end_array();
+      if (!r.message.empty()) j.field("message", r.message);
+      j.end_object();
+      reply = j.take();
+    }
+  } else if (w[0] == "status" || w[0] == "commission") {
+    reply = error_json("usage: status | commission [BUS]");
+  } else {
+    reply = error_json("unknown command \"" + quoted_input(w[0]) + "\" (commands: status, commission [BUS])");
+  }
+  c.out += reply;
+  c.out += '\n';
+  c.deadline = now + options_.client_timeout;
+}
+
+void ControlServer::drop(Client& c) {
+  if (c.fd >= 0) ::close(c.fd);
+  c.fd = -1;
+}
+
+}  // namespace cobridge::gateway

@@ -1,0 +1,131 @@
+// ControlServer: the daemon's side of the local control socket, the way
+// `cobridge status` and `cobridge commission` talk to a running cobridged.
+//
+// A Unix stream socket (mode 0660, its directory created if missing, a stale
+// socket file of a dead daemon replaced, a live one left alone) speaking a
+// line protocol: each request is one line, each answer is one line holding
+// one JSON document.
+//
+//   status             -> {"gateway": ..., "buses": [...], ...}  (StatusReport)
+//   commission [BUS]   -> {"ok": true, "buses": [...]}   (every bus when BUS is left out)
+//   anything else      -> {"error": "..."}
+//
+// A client may send several requests on one connection. No client can hold
+// the daemon up: every socket is non-blocking, a request line must be
+// complete within `client_timeout` of the connection or the previous answer
+// (so a client trickling one byte a second is cut off), a line longer than
+// `max_line` is answered with an error and the connection closed, an answer
+// the client does not read within `client_timeout` is dropped with the
+// connection, and there are at most `max_clients` connections.
+//
+// Thread: the daemon's main loop owns it: add_poll_fds() before poll(),
+// process(now) after, like every component that waits on file descriptors.
+// The handler is called from process(), on that thread.
+#pragma once
+
+#include "canopen/clock.hpp"
+#include "gateway/device_status.hpp"
+
+#include <poll.h>
+#include <sys/types.h>
+
+#include <chrono>
+#include <cstddef>
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <system_error>
+#include <vector>
+
+namespace cobridge::gateway {
+
+// Everything `cobridge status` shows: the daemon, then each bus.
+struct StatusReport {
+  std::string gateway_id;
+  std::string version;
+  long pid = 0;
+  bool ready = false;  // READY=1 has been told (all known devices configured or timed out)
+  WallTime started{};
+  std::string config_file;
+  std::vector<BusStatus> buses;
+};
+
+// What a control command did: ok, or the reason it was refused.
+struct ControlResult {
+  bool ok = true;
+  std::string message;  // the refusal, or a note for the client
+  std::vector<std::string> buses;  // the buses it acted on
+};
+
+// What the control socket asks of the daemon. Implemented by main over the
+// bus managers, by a fake in the tests.
+class ControlHandler {
+ public:
+  virtual ~ControlHandler() = default;
+  [[nodiscard]] virtual StatusReport status() = 0;
+  // `bus` empty = every bus.
+  virtual ControlResult commission(std::string_view bus) = 0;
+};
+
+struct ControlServerOptions {
+  std::chrono::milliseconds client_timeout{2000};
+  std::size_t max_line = 256;
+  std::size_t max_clients = 16;
+};
+
+class ControlServer {
+ public:
+  explicit ControlServer(ControlHandler& handler, ControlServerOptions options = {});
+  ~ControlServer();
+  ControlServer(const ControlServer&) = delete;
+  ControlServer& operator=(const ControlServer&) = delete;
+
+  // Creates the socket directory, replaces a stale socket file, binds,
+  // sets mode 0660 and listens. On failure `why` says what failed where.
+  std::error_code open(const std::filesystem::path& path, std::string* why = nullptr);
+  // Closes every connection and removes the socket file.
+  void close();
+  [[nodiscard]] bool is_open() const noexcept { return listen_fd_ >= 0; }
+  [[nodiscard]] std::size_t clients() const noexcept { return clients_.size(); }
+
+  // Appends the descriptors to wait on (the listening socket, each client
+  // for reading or, while an answer is pending, writing).
+  void add_poll_fds(std::vector<pollfd>& fds) const;
+  // Accepts, reads, answers and times out whatever is due; never blocks.
+  // Returns the next client deadline (kNever when no client is connected).
+  canopen::TimePoint process(canopen::TimePoint now);
+
+ private:
+  struct Client {
+    int fd = -1;
+    std::string in;
+    std::string out;
+    std::size_t out_done = 0;
+    canopen::TimePoint deadline{};
+    bool close_after_write = false;
+    bool peer_closed = false;
+  };
+
+  void accept_clients(canopen::TimePoint now);
+  // Returns false when the client is to be closed now.
+  bool serve(Client& c, canopen::TimePoint now);
+  // Writes what it can of the pending answer; false when the client is gone.
+  static bool flush(Client& c);
+  void answer(Client& c, std::string_view line, canopen::TimePoint now);
+  void drop(Client& c);
+
+  ControlHandler& handler_;
+  ControlServerOptions options_;
+  std::filesystem::path path_;
+  int listen_fd_ = -1;
+  dev_t socket_dev_ = 0;
+  ino_t socket_ino_ = 0;
+  std::vector<Client> clients_;
+};
+
+// The `status` answer: the report as one line of JSON (no newline).
+[[nodiscard]] std::string to_json(const StatusReport& report);
+// "2 buses, 5/6 devices operational" (sd_notify STATUS=, log lines).
+[[nodiscard]] std::string summary(const std::vector<BusStatus>& buses);
+
+}  // namespace cobridge::gateway

@@ -1,0 +1,148 @@
+#include "gateway/output_bridge.hpp"
+
+#include "device/family_profile.hpp"
+#include "sys/logging.hpp"
+
+#include <ctime>
+
+namespace cobridge::gateway {
+namespace {
+
+std::int64_t realtime_ns() noexcept {
+  timespec ts{};
+  clock_gettime(CLOCK_REALTIME, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000LL + ts.tv_nsec;
+}
+
+std::uint8_t nmt_byte(canopen::NmtState s) noexcept { return static_cast<std::uint8_t>(s); }
+
+}  // namespace
+
+OutputBridge::OutputBridge(const config::Config& config, std::size_t bus_index, const device::DeviceCatalog& catalog,
+                           pipeline::DeviceTable& table, pipeline::BusReceiver* receiver, pipeline::PluginHost* host)
+    : config_(config), bus_index_(bus_index), catalog_(catalog), table_(table), receiver_(receiver), host_(host) {}
+
+std::uint16_t OutputBridge::device_index(const DeviceStatus& device) {
+  for (std::size_t i = 0; i < config_.devices.size(); ++i)
+    if (config_.devices[i].name == device.name) return static_cast<std::uint16_t>(i);
+  std::lock_guard lock(mutex_);
+  auto it = unknown_index_.find(device.name);
+  if (it != unknown_index_.end()) return it->second;
+  // Unconfigured devices get numbers that never collide with configured ones.
+  const auto idx = static_cast<std::uint16_t>(1000 + 128 * bus_index_ + unknown_index_.size());
+  unknown_index_.emplace(device.name, idx);
+  return idx;
+}
+
+pipeline::DecodePlan OutputBridge::make_plan(const DeviceStatus& device, const std::vector<std::uint32_t>& tpdo1,
+                                             const std::vector<std::uint32_t>& tpdo2, std::string* error) const {
+  pipeline::DecodePlan plan;
+  plan.node_id = device.node_id;
+  const auto candidates = catalog_.candidates(device.identity.vendor, device.identity.product);
+  const device::DeviceDescription* desc = candidates.empty() ? nullptr : candidates.front();
+  auto mapped = [&](const std::vector<std::uint32_t>& entries) {
+    std::vector<pipeline::MappedObject> out;
+    for (std::uint32_t e : entries) {
+      const auto index = static_cast<std::uint16_t>(e >> 16);
+      const auto sub = static_cast<std::uint8_t>(e >> 8);
+      bool is_signed = false;
+      if (desc) {
+        const device::ObjectDesc* od = desc->find(index, sub);
+        // The multiturn default mapping names 0x6020/1, an alias of 0x6004 (E§4.1, digest C.3).
+        if (!od && index == 0x6020) od = desc->find(0x6004, 0);
+        if (od) is_signed = device::is_signed_integer(od->data_type);
+      }
+      out.push_back({e, is_signed});
+    }
+    return out;
+  };
+  std::string err;
+  if (!pipeline::build_pdo_decode(mapped(tpdo1), plan.tpdo[0], err) ||
+      !pipeline::build_pdo_decode(mapped(tpdo2), plan.tpdo[1], err)) {
+    if (error) *error = "device '" + device.name + "': " + err;
+    return pipeline::DecodePlan{};
+  }
+  // Engineering units: degrees of the shaft when the measuring units per
+  // revolution are known (configured, or the EDS default of 0x6001 / 0x6501);
+  // ifm prints "see label" (F§7.5), so there the value stays in counts.
+  const double units_per_rev = this->units_per_rev(device, desc);
+  if (units_per_rev > 0) plan.eng_scale = 360.0 / units_per_rev;
+  if (desc) {
+    if (const auto profile = device::family_profile_for(*desc)) plan.position_mask = profile->position_value_mask;
+  }
+  if (const config::Device* cfg = config_.find_device(device.name)) {
+    const config::TpdoSettings* t[2] = {cfg->tpdo1 ? &*cfg->tpdo1 : nullptr, cfg->tpdo2 ? &*cfg->tpdo2 : nullptr};
+    for (std::size_t i = 0; i < 2; ++i) {
+      if (!t[i]) continue;
+      if (t[i]->transmission && *t[i]->transmission >= 1 && *t[i]->transmission <= 240) plan.synchronous[i] = true;
+    }
+    // Stale after three missed event-timer periods (plus scheduling slack).
+    if (cfg->tpdo1 && cfg->tpdo1->event_timer_ms && *cfg->tpdo1->event_timer_ms > 0)
+      plan.max_age_ms = 3u * *cfg->tpdo1->event_timer_ms + 20u;
+  }
+  plan.active = true;
+  return plan;
+}
+
+double OutputBridge::units_per_rev(const DeviceStatus& device, const device::DeviceDescription* desc) const {
+  const config::Device* cfg = config_.find_device(device.name);
+  if (cfg && cfg->scaling && cfg->scaling->units_per_rev) return static_cast<double>(*cfg->scaling->units_per_rev);
+  if (desc) {
+    for (std::uint16_t index : {std::uint16_t{0x6001}, std::uint16_t{0x6501}}) {
+      if (const auto* od = desc->find(index, 0))
+        if (auto v = od->default_for_node(device.node_id); v && *v > 0) return static_cast<double>(*v);
+    }
+  }
+  return 0;
+}
+
+void OutputBridge::on_device_configured(const DeviceStatus& device, const std::vector<std::uint32_t>& tpdo1_mapping,
+                                        const std::vector<std::uint32_t>& tpdo2_mapping) {
+  std::string error;
+  pipeline::DecodePlan plan = make_plan(device, tpdo1_mapping, tpdo2_mapping, &error);
+  if (!plan.active) {
+    sys::logger("gateway")->error("{}", error);
+    return;
+  }
+  plan.device_index = device_index(device);
+  table_.publish(plan);
+  announce(device, COBRIDGE_DEVICE_ADDED);
+}
+
+void OutputBridge::on_device_status(const DeviceStatus& device) {
+  if (device.node_id == 0) return;
+  {
+    std::lock_guard lock(mutex_);
+    auto it = online_.find(device.node_id);
+    if (it != online_.end() && it->second == device.online) return;  // no change for the outputs
+    online_[device.node_id] = device.online;
+  }
+  if (receiver_)
+    (void)receiver_->post_status(pipeline::StatusEvent{device.node_id, device.online, nmt_byte(device.nmt), realtime_ns()});
+  announce(device, COBRIDGE_DEVICE_CHANGED);
+}
+
+void OutputBridge::announce(const DeviceStatus& device, std::uint8_t change) {
+  if (!host_) return;
+  const std::string bus = bus_index_ < config_.buses.size() ? config_.buses[bus_index_].name : std::string();
+  cobridge_device_info info{};
+  info.struct_size = sizeof info;
+  info.device_index = device_index(device);
+  info.bus_index = static_cast<std::uint8_t>(bus_index_);
+  info.node_id = device.node_id;
+  info.change = change;
+  info.vendor_id = device.identity.vendor;
+  info.product_code = device.identity.product;
+  info.revision = device.identity.revision;
+  info.serial = device.identity.serial;
+  info.name = device.name.c_str();
+  info.bus_name = bus.c_str();
+  info.model = device.model.c_str();
+  info.family = device.family.c_str();
+  const auto candidates = catalog_.candidates(device.identity.vendor, device.identity.product);
+  info.position_unit = units_per_rev(device, candidates.empty() ? nullptr : candidates.front()) > 0 ? "deg" : "counts";
+  std::lock_guard lock(mutex_);
+  host_->announce(info);
+}
+
+}  // namespace cobridge::gateway

@@ -1,0 +1,61 @@
+// OutputBridge: what the bus managers learn, turned into what the hot path
+// and the output plugins need.
+//
+// On every device the control thread has configured it builds the device's
+// DecodePlan (mapping as verified, signedness of each mapped object from the
+// EDS, position mask and engineering scale from the family and settings)
+// and publishes it to the bus's DeviceTable; online/offline changes go to
+// the bus's RX thread as StatusEvents (so every sample of a device keeps one
+// producer and one sequence); device identities go to the plugins
+// (cobridge_device_info) through the plugin host.
+// Threads: the BusObserver callbacks run on each bus's control thread; the
+// bridge serialises plugin announcements with a mutex (rare, off hot path).
+#pragma once
+
+#include "config/config.hpp"
+#include "device/device_catalog.hpp"
+#include "gateway/bus_manager.hpp"
+#include "pipeline/bus_receiver.hpp"
+#include "pipeline/device_table.hpp"
+#include "pipeline/plugin_host.hpp"
+
+#include <map>
+#include <mutex>
+#include <string>
+
+namespace cobridge::gateway {
+
+class OutputBridge final : public BusObserver {
+ public:
+  // `host` may be nullptr (no plugins). Everything passed must outlive the bridge.
+  OutputBridge(const config::Config& config, std::size_t bus_index, const device::DeviceCatalog& catalog,
+               pipeline::DeviceTable& table, pipeline::BusReceiver* receiver, pipeline::PluginHost* host);
+
+  void on_device_configured(const DeviceStatus& device, const std::vector<std::uint32_t>& tpdo1_mapping,
+                            const std::vector<std::uint32_t>& tpdo2_mapping) override;
+  void on_device_status(const DeviceStatus& device) override;
+
+  // The plan that would be published (exposed for tests).
+  [[nodiscard]] pipeline::DecodePlan make_plan(const DeviceStatus& device, const std::vector<std::uint32_t>& tpdo1,
+                                               const std::vector<std::uint32_t>& tpdo2, std::string* error) const;
+  // The gateway-wide device index: the position in the configuration, or a
+  // stable number >= 1000 for devices the configuration does not name.
+  [[nodiscard]] std::uint16_t device_index(const DeviceStatus& device);
+
+ private:
+  // Measuring units per revolution, or 0 when unknown (then position_eng is in counts).
+  double units_per_rev(const DeviceStatus& device, const device::DeviceDescription* desc) const;
+  void announce(const DeviceStatus& device, std::uint8_t change);
+
+  const config::Config& config_;
+  std::size_t bus_index_;
+  const device::DeviceCatalog& catalog_;
+  pipeline::DeviceTable& table_;
+  pipeline::BusReceiver* receiver_;
+  pipeline::PluginHost* host_;
+  std::mutex mutex_;
+  std::map<std::string, std::uint16_t> unknown_index_;
+  std::map<std::uint8_t, bool> online_;  // last online state posted per node
+};
+
+}  // namespace cobridge::gateway

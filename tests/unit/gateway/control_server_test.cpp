@@ -1,0 +1,399 @@
+// ControlServer: the line protocol of cobridged's control socket
+// (docs/operations.md "Control socket"; issue 4: `cobridge status` of a
+// running daemon through a local control socket) against real Unix sockets,
+// with a fake handler standing in for the bus managers. No CANopen clause is
+// involved; the tests name the protocol rule they check.
+#include "gateway/control_server.hpp"
+
+#include <gtest/gtest.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <filesystem>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+using namespace std::chrono_literals;
+using cobridge::gateway::BusStatus;
+using cobridge::gateway::ControlHandler;
+using cobridge::gateway::ControlResult;
+using cobridge::gateway::ControlServer;
+using cobridge::gateway::ControlServerOptions;
+using cobridge::gateway::DeviceState;
+using cobridge::gateway::DeviceStatus;
+using cobridge::gateway::StatusReport;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+class FakeHandler : public ControlHandler {
+ public:
+  StatusReport status() override {
+    std::lock_guard lock(mutex);
+    ++status_calls;
+    return report;
+  }
+  ControlResult commission(std::string_view bus) override {
+    std::lock_guard lock(mutex);
+    commissioned.emplace_back(bus);
+    if (!bus.empty() && bus != "line1") return {false, "unknown bus \"" + std::string(bus) + "\"", {}};
+    return {true, "", {"line1"}};
+  }
+
+  std::mutex mutex;
+  StatusReport report;
+  int status_calls = 0;
+  std::vector<std::string> commissioned;
+};
+
+StatusReport sample_report() {
+  StatusReport r;
+  r.gateway_id = "gw-test";
+  r.version = "0.1.0";
+  r.pid = 4242;
+  r.ready = true;
+  BusStatus b;
+  b.name = "line1";
+  b.interface = "vcan0";
+  b.open = true;
+  b.rx_frames = 1234;
+  DeviceStatus d;
+  d.name = "turntable";
+  d.bus = "line1";
+  d.node_id = 10;
+  d.identity = {0x182, 0x0BE0, 0x10003, 40012};
+  d.model = "RFC-4800";
+  d.family = "novotechnik-rotary";
+  d.state = DeviceState::operational;
+  d.nmt = cobridge::canopen::NmtState::operational;
+  d.online = true;
+  d.since = cobridge::gateway::WallTime{std::chrono::milliseconds(1714564800123)};
+  d.last_emcy_code = 0x5000;
+  d.last_emcy_text = "hardware \"fault\"\n";
+  d.emcy_count = 1;
+  b.devices.push_back(d);
+  DeviceStatus e = d;
+  e.name = "winch";
+  e.node_id = 0;
+  e.state = DeviceState::offline;
+  e.online = false;
+  e.emcy_count = 0;
+  e.last_emcy_code = 0;
+  e.last_emcy_text.clear();
+  b.devices.push_back(e);
+  b.steps.push_back({"fastscan", "winch", 312.5, {}});
+  b.problems.push_back("unknown serial 99 at node 5");
+  r.buses.push_back(b);
+  return r;
+}
+
+// Runs the server the way cobridged's main loop does: poll, then process.
+class ServerLoop {
+ public:
+  ServerLoop(FakeHandler& handler, ControlServerOptions options)
+      : path_(std::filesystem::path("/tmp") / ("cobridge-ctl-test-" + std::to_string(::getpid())) / "control.sock"),
+        server_(handler, options) {
+    std::filesystem::remove_all(path_.parent_path());
+    std::string why;
+    const auto ec = server_.open(path_, &why);
+    EXPECT_FALSE(ec) << why;
+    thread_ = std::thread([this] {
+      while (!stop_) {
+        std::vector<pollfd> fds;
+        server_.add_poll_fds(fds);
+        const auto next = server_.process(Clock::now());
+        auto wait = std::chrono::duration_cast<std::chrono::milliseconds>(next - Clock::now());
+        if (next == cobridge::canopen::kNever || wait > 20ms) wait = 20ms;
+        if (wait < 0ms) wait = 0ms;
+        ::poll(fds.data(), fds.size(), static_cast<int>(wait.count()));
+        server_.process(Clock::now());
+        clients_ = server_.clients();
+      }
+      server_.close();
+    });
+  }
+  ~ServerLoop() {
+    stop_ = true;
+    thread_.join();
+    std::filesystem::remove_all(path_.parent_path());
+  }
+  [[nodiscard]] const std::filesystem::path& path() const { return path_; }
+  [[nodiscard]] std::size_t clients() const { return clients_; }
+
+ private:
+  std::filesystem::path path_;
+  ControlServer server_;
+  std::atomic<bool> stop_{false};
+  std::atomic<std::size_t> clients_{0};
+  std::thread thread_;
+};
+
+class Client {
+ public:
+  explicit Client(const std::filesystem::path& path) {
+    fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    path.string().copy(addr.sun_path, sizeof addr.sun_path - 1);
+    connected_ = ::connect(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0;
+  }
+  ~Client() { ::close(fd_); }
+  [[nodiscard]] bool connected() const { return connected_; }
+  void send(std::string_view s) { (void)::send(fd_, s.data(), s.size(), MSG_NOSIGNAL); }
+  // One answer line, or "<timeout>" / "<closed>".
+  std::string line(std::chrono::milliseconds timeout = 2000ms) {
+    const auto deadline = Clock::now() + timeout;
+    while (true) {
+      const auto nl = buffer_.find('\n');
+      if (nl != std::string::npos) {
+        std::string l = buffer_.substr(0, nl);
+        buffer_.erase(0, nl + 1);
+        return l;
+      }
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
+      if (left <= 0ms) return "<timeout>";
+      pollfd p{fd_, POLLIN, 0};
+      if (::poll(&p, 1, static_cast<int>(left.count())) <= 0) continue;
+      char buf[65536];
+      const ssize_t n = ::recv(fd_, buf, sizeof buf, 0);
+      if (n <= 0) return "<closed>";
+      buffer_.append(buf, static_cast<std::size_t>(n));
+    }
+  }
+  // True when the server closed the connection within `timeout`.
+  bool closed_within(std::chrono::milliseconds timeout) {
+    const auto deadline = Clock::now() + timeout;
+    while (Clock::now() < deadline) {
+      pollfd p{fd_, POLLIN, 0};
+      if (::poll(&p, 1, 10) > 0) {
+        char buf[4096];
+        const ssize_t n = ::recv(fd_, buf, sizeof buf, MSG_DONTWAIT);
+        if (n == 0 || (n < 0 && errno != EAGAIN)) return true;
+        if (n > 0) buffer_.append(buf, static_cast<std::size_t>(n));
+      }
+    }
+    return false;
+  }
+  [[nodiscard]] const std::string& received() const { return buffer_; }
+
+ private:
+  int fd_ = -1;
+  bool connected_ = false;
+  std::string buffer_;
+};
+
+ControlServerOptions fast_options() {
+  ControlServerOptions o;
+  o.client_timeout = 500ms;
+  o.max_line = 64;
+  o.max_clients = 4;
+  return o;
+}
+
+}  // namespace
+
+// Protocol rule: `status` -> one line, one JSON document with every bus and
+// device field `cobridge status` shows (node, identity, model, state, online,
+// NMT, since, last EMCY, step timings, problems, counters).
+TEST(ControlServer, StatusAnswersOneLineOfJsonWithEveryField) {
+  FakeHandler h;
+  h.report = sample_report();
+  ServerLoop loop(h, fast_options());
+  Client c(loop.path());
+  ASSERT_TRUE(c.connected());
+  c.send("status\n");
+  const std::string a = c.line();
+  ASSERT_EQ(a.front(), '{') << a;
+  ASSERT_EQ(a.back(), '}') << a;
+  for (const char* part :
+       {"\"gateway\":\"gw-test\"", "\"pid\":4242", "\"ready\":true", "\"devices_total\":2", "\"devices_operational\":1",
+        "\"name\":\"line1\"", "\"interface\":\"vcan0\"", "\"rx_frames\":1234", "\"name\":\"turntable\"",
+        "\"node_id\":10", "\"serial\":40012", "\"vendor\":386", "\"model\":\"RFC-4800\"",
+        "\"state\":\"operational\"", "\"online\":true", "\"since\":\"2024-05-01T12:00:00.123Z\"",
+        "\"last_emcy\":{\"code\":20480,\"text\":\"hardware \\\"fault\\\"\\n\"}", "\"node_id\":null",
+        "\"state\":\"offline\"", "\"last_emcy\":null", "\"step\":\"fastscan\"", "\"ms\":312.500",
+        "\"problems\":[\"unknown serial 99 at node 5\"]"}) {
+    EXPECT_NE(a.find(part), std::string::npos) << part << " missing in " << a;
+  }
+  // Several requests on one connection, each answered in turn.
+  c.send("status\nstatus\n");
+  EXPECT_EQ(c.line().front(), '{');
+  EXPECT_EQ(c.line().front(), '{');
+}
+
+// Protocol rule: `commission [BUS]` triggers the handler (request_commission
+// of that bus, or of every bus); a refusal comes back as {"error": ...}.
+TEST(ControlServer, CommissionReachesTheHandlerAndErrorsAreJson) {
+  FakeHandler h;
+  ServerLoop loop(h, fast_options());
+  Client c(loop.path());
+  c.send("commission\n");
+  EXPECT_EQ(c.line(), "{\"ok\":true,\"buses\":[\"line1\"]}");
+  c.send("commission line1\n");
+  EXPECT_EQ(c.line(), "{\"ok\":true,\"buses\":[\"line1\"]}");
+  c.send("commission nosuch\n");
+  EXPECT_EQ(c.line(), "{\"error\":\"unknown bus \\\"nosuch\\\"\"}");
+  c.send("commission a b\n");
+  EXPECT_NE(c.line().find("\"error\":\"usage"), std::string::npos);
+  c.send("reboot\n");
+  EXPECT_NE(c.line().find("unknown command \\\"reboot\\\""), std::string::npos);
+  std::lock_guard lock(h.mutex);
+  EXPECT_EQ(h.commissioned, (std::vector<std::string>{"", "line1", "nosuch"}));
+}
+
+// Protocol rule: a client trickling one byte at a time cannot hold the
+// daemon up: others are answered meanwhile, and the trickler is cut off once
+// its line is not complete within the client timeout.
+TEST(ControlServer, TricklingClientDoesNotBlockAnotherAndIsCutOff) {
+  FakeHandler h;
+  h.report = sample_report();
+  ServerLoop loop(h, fast_options());
+  Client slow(loop.path());
+  ASSERT_TRUE(slow.connected());
+  const auto start = Clock::now();
+  bool slow_closed = false;
+  for (int i = 0; i < 12 && !slow_closed; ++i) {
+    slow.send("s");
+    Client fast(loop.path());
+    const auto t0 = Clock::now();
+    fast.send("status\n");
+    const std::string a = fast.line(1000ms);
+    EXPECT_EQ(a.front(), '{') << a;
+    EXPECT_LT(Clock::now() - t0, 200ms);
+    slow_closed = slow.closed_within(100ms);
+  }
+  EXPECT_TRUE(slow_closed);
+  const auto lived = Clock::now() - start;
+  EXPECT_GE(lived, 450ms);
+  EXPECT_LT(lived, 1500ms);
+  EXPECT_NE(slow.received().find("not completed within 500 ms"), std::string::npos) << slow.received();
+}
+
+// Protocol rule: a client that connects and says nothing is closed after the
+// client timeout, and is not counted as a connection any more.
+TEST(ControlServer, SilentClientIsClosedAfterTheTimeout) {
+  FakeHandler h;
+  ServerLoop loop(h, fast_options());
+  Client quiet(loop.path());
+  ASSERT_TRUE(quiet.connected());
+  EXPECT_FALSE(quiet.closed_within(300ms));
+  EXPECT_TRUE(quiet.closed_within(700ms));
+  std::this_thread::sleep_for(50ms);
+  EXPECT_EQ(loop.clients(), 0u);
+}
+
+// Protocol rule: a line longer than max_line is answered with an error and
+// the connection closed; garbage with a newline is an unknown command, echoed
+// only as printable ASCII, and the connection stays usable.
+TEST(ControlServer, OverlongLineIsRejectedAndGarbageIsAnError) {
+  FakeHandler h;
+  h.report = sample_report();
+  ServerLoop loop(h, fast_options());
+  Client garbage(loop.path());
+  garbage.send(std::string("\x01\xff\x7f\x00zz\n", 7));
+  const std::string a = garbage.line();
+  EXPECT_NE(a.find("\"error\":\"unknown command \\\"???"), std::string::npos) << a;
+  garbage.send("status\n");
+  EXPECT_EQ(garbage.line().front(), '{');
+
+  Client longer(loop.path());
+  longer.send(std::string(200, 'x'));  // no newline at all
+  EXPECT_EQ(longer.line(), "{\"error\":\"request line longer than 64 bytes\"}");
+  EXPECT_TRUE(longer.closed_within(300ms));
+
+  Client exact(loop.path());  // 64 bytes is still a line
+  exact.send(std::string(64, 'y') + "\n");
+  EXPECT_NE(exact.line().find("unknown command"), std::string::npos);
+}
+
+// Protocol rule: at most max_clients connections; the next one is told so
+// and closed, and the ones inside are still served.
+TEST(ControlServer, ConnectionsBeyondTheLimitAreRefused) {
+  FakeHandler h;
+  ServerLoop loop(h, fast_options());
+  std::vector<std::unique_ptr<Client>> inside;
+  for (int i = 0; i < 4; ++i) inside.push_back(std::make_unique<Client>(loop.path()));
+  std::this_thread::sleep_for(60ms);
+  Client extra(loop.path());
+  EXPECT_EQ(extra.line(), "{\"error\":\"too many clients (limit 4)\"}");
+  inside[0]->send("commission\n");
+  EXPECT_EQ(inside[0]->line(), "{\"ok\":true,\"buses\":[\"line1\"]}");
+}
+
+// Protocol rule: a request without newline followed by end of input still
+// counts (`printf status | nc -U`).
+TEST(ControlServer, LastLineWithoutNewlineIsAnswered) {
+  FakeHandler h;
+  h.report = sample_report();
+  ServerLoop loop(h, fast_options());
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  loop.path().string().copy(addr.sun_path, sizeof addr.sun_path - 1);
+  ASSERT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+  ASSERT_EQ(::send(fd, "status", 6, MSG_NOSIGNAL), 6);
+  ::shutdown(fd, SHUT_WR);
+  std::string all;
+  char buf[4096];
+  timeval tv{2, 0};
+  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  for (ssize_t n; (n = ::recv(fd, buf, sizeof buf, 0)) > 0;) all.append(buf, static_cast<std::size_t>(n));
+  ::close(fd);
+  EXPECT_NE(all.find("\"gateway\":\"gw-test\""), std::string::npos);
+  EXPECT_EQ(all.back(), '\n');
+}
+
+// Socket file rules: mode 0660, the directory created; a stale socket file
+// (no listener) is replaced; a live one (another daemon) is refused and left.
+TEST(ControlServer, SocketModeStaleFileAndLiveDaemon) {
+  FakeHandler h;
+  const auto dir = std::filesystem::path("/tmp") / ("cobridge-ctl-stale-" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  const auto path = dir / "sub" / "control.sock";
+  {
+    // A stale socket: bound, then its owner gone.
+    std::filesystem::create_directories(path.parent_path());
+    const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    path.string().copy(addr.sun_path, sizeof addr.sun_path - 1);
+    ASSERT_EQ(::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+    ::close(fd);
+  }
+  ControlServer first(h);
+  std::string why;
+  ASSERT_FALSE(first.open(path, &why)) << why;
+  struct stat st {};
+  ASSERT_EQ(::stat(path.c_str(), &st), 0);
+  EXPECT_TRUE(S_ISSOCK(st.st_mode));
+  EXPECT_EQ(st.st_mode & 0777, 0660u);
+
+  ControlServer second(h);
+  const auto ec = second.open(path, &why);
+  EXPECT_EQ(ec, std::errc::address_in_use);
+  EXPECT_NE(why.find("another daemon"), std::string::npos) << why;
+  EXPECT_TRUE(std::filesystem::exists(path));  // the first one's socket is left alone
+
+  first.close();
+  EXPECT_FALSE(std::filesystem::exists(path));  // removed on close
+
+  // Not a socket: never deleted.
+  { std::FILE* f = std::fopen(path.c_str(), "w"); std::fclose(f); }
+  EXPECT_EQ(second.open(path, &why), std::errc::file_exists);
+  EXPECT_TRUE(std::filesystem::is_regular_file(path));
+  std::filesystem::remove_all(dir);
+}
+
+// sd_notify STATUS= text (docs/operations.md): buses and operational devices.
+TEST(ControlServer, SummaryCountsOperationalDevices) {
+  auto r = sample_report();
+  EXPECT_EQ(cobridge::gateway::summary(r.buses), "1 bus, 1/2 devices operational");
+  r.buses.push_back(BusStatus{});
+  EXPECT_EQ(cobridge::gateway::summary(r.buses), "2 buses (1 open), 1/2 devices operational");
+}

@@ -1,0 +1,384 @@
+"""Fixtures of cobridged's end-to-end tests: the daemon, the simulator, a raw
+CAN listener and a held sd_notify socket, run inside User-Mode Linux by
+tests/vcan/run-in-vcan (vcan0, vcan1 up; /run is a tmpfs there).
+
+Every test script takes --daemon, --cli and --sim (the built executables)
+and reports each check as PASS/FAIL with its measured times; the exit status
+is 1 when any check failed.
+"""
+import argparse
+import json
+import os
+import shutil
+import signal
+import socket
+import struct
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+
+SOURCE_DIR = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "..", ".."))
+DEVICES_DIR = os.path.join(SOURCE_DIR, "config", "devices")
+
+
+def parse_args():
+    p = argparse.ArgumentParser()
+    p.add_argument("--daemon", required=True)
+    p.add_argument("--cli", required=True)
+    p.add_argument("--sim", required=True)
+    p.add_argument("--keep", action="store_true", help="keep the work directory")
+    return p.parse_args()
+
+
+class Report:
+    """Collects check results; a failed check does not stop the script."""
+
+    def __init__(self, name):
+        self.name = name
+        self.failed = []
+        self.passed = 0
+
+    def check(self, ok, what, detail=""):
+        line = ("PASS " if ok else "FAIL ") + what + ((" -- " + detail) if detail else "")
+        print(line, flush=True)
+        if ok:
+            self.passed += 1
+        else:
+            self.failed.append(what)
+        return ok
+
+    def finish(self):
+        print("%s: %d passed, %d failed%s" % (self.name, self.passed, len(self.failed),
+                                             (": " + "; ".join(self.failed)) if self.failed else ""), flush=True)
+        return 1 if self.failed else 0
+
+
+class Workspace:
+    """A state directory on the shared file system and a socket directory on /run."""
+
+    def __init__(self, name, keep=False):
+        self.keep = keep
+        self.dir = tempfile.mkdtemp(prefix="cobridge-e2e-%s-" % name, dir="/tmp")
+        self.run = tempfile.mkdtemp(prefix="cobridge-e2e-%s-" % name, dir="/run")
+        self.state = os.path.join(self.dir, "state")
+        self.sim_state = os.path.join(self.dir, "sim-state")
+        os.makedirs(self.sim_state)
+        self.control = os.path.join(self.run, "ctl", "control.sock")
+        self.sim_control = os.path.join(self.run, "sim.sock")
+
+    def path(self, name):
+        return os.path.join(self.dir, name)
+
+    def cleanup(self):
+        if self.keep:
+            print("work directory kept: %s" % self.dir)
+            return
+        shutil.rmtree(self.dir, ignore_errors=True)
+        shutil.rmtree(self.run, ignore_errors=True)
+
+
+def toml_value(v):
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (int, float)):
+        return str(v)
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(toml_value(x) for x in v) + "]"
+    return json.dumps(v)
+
+
+def write_config(ws, buses, devices, file_name="cobridge.toml", level="info", extra=""):
+    """buses/devices: lists of dicts; a device dict may hold 'tpdo1' (a dict)."""
+    lines = [
+        "[gateway]",
+        'id = "e2e"',
+        "state_dir = %s" % toml_value(ws.state),
+        "device_dirs = %s" % toml_value([DEVICES_DIR]),
+        "control_socket = %s" % toml_value(ws.control),
+        "",
+        "[logging]",
+        'level = "%s"' % level,
+        'target = "console"',
+        "",
+    ]
+    for b in buses:
+        lines.append("[[bus]]")
+        lines += ["%s = %s" % (k, toml_value(v)) for k, v in b.items()]
+        lines.append("")
+    for d in devices:
+        lines.append("[[device]]")
+        tables = {k: v for k, v in d.items() if isinstance(v, dict)}
+        lines += ["%s = %s" % (k, toml_value(v)) for k, v in d.items() if not isinstance(v, dict)]
+        for name, t in tables.items():
+            lines.append("[device.%s]" % name)
+            lines += ["%s = %s" % (k, toml_value(v)) for k, v in t.items()]
+        lines.append("")
+    lines.append(extra)
+    path = ws.path(file_name)
+    with open(path, "w") as f:
+        f.write("\n".join(lines))
+    return path
+
+
+class CanListener:
+    """Every frame on an interface, with the time it was read (time.time())."""
+
+    def __init__(self, iface="vcan0"):
+        self.sock = socket.socket(socket.AF_CAN, socket.SOCK_RAW, socket.CAN_RAW)
+        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4 << 20)
+        self.sock.bind((iface,))
+        self.sock.settimeout(0.1)
+        self.frames = []
+        self.lock = threading.Lock()
+        self.stop_flag = False
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self.thread.start()
+
+    def _run(self):
+        while not self.stop_flag:
+            try:
+                data = self.sock.recv(16)
+            except socket.timeout:
+                continue
+            except OSError:
+                break
+            t = time.time()
+            can_id, dlc = struct.unpack("=IB3x", data[:8])
+            with self.lock:
+                self.frames.append((t, can_id & 0x1FFFFFFF, bytes(data[8:8 + dlc])))
+
+    def snapshot(self, since=0.0):
+        with self.lock:
+            return [f for f in self.frames if f[0] >= since]
+
+    def wait_for(self, pred, timeout, since=0.0):
+        """The first frame after `since` for which pred(can_id, data) holds, or None."""
+        end = time.time() + timeout
+        while time.time() < end:
+            for f in self.snapshot(since):
+                if pred(f[1], f[2]):
+                    return f
+            time.sleep(0.005)
+        return None
+
+    def close(self):
+        self.stop_flag = True
+        self.thread.join()
+        self.sock.close()
+
+
+class NotifySocket:
+    """The sd_notify socket systemd would hold: every datagram with its time."""
+
+    def __init__(self, ws):
+        self.path = os.path.join(ws.run, "notify.sock")
+        self.sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+        self.sock.bind(self.path)
+        self.sock.settimeout(0.1)
+        self.messages = []
+        self.lock = threading.Lock()
+        self.stop_flag = False
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self.thread.start()
+
+    def _run(self):
+        while not self.stop_flag:
+            try:
+                data = self.sock.recv(4096)
+            except socket.timeout:
+                continue
+            except OSError:
+                break
+            with self.lock:
+                self.messages.append((time.time(), data.decode(errors="replace")))
+
+    def all(self):
+        with self.lock:
+            return list(self.messages)
+
+    def wait_for(self, pred, timeout, after_index=0):
+        """(index, time, text) of the first message from after_index matching pred."""
+        end = time.time() + timeout
+        while time.time() < end:
+            msgs = self.all()
+            for i in range(after_index, len(msgs)):
+                if pred(msgs[i][1]):
+                    return i, msgs[i][0], msgs[i][1]
+            time.sleep(0.01)
+        return None
+
+    def close(self):
+        self.stop_flag = True
+        self.thread.join()
+        self.sock.close()
+
+
+class Simulator:
+    def __init__(self, sim, ws, buses, log_name="sim.log"):
+        """buses: {"vcan0": ["RFC-4800:serial=1001", ...]}"""
+        args = [sim, "--state-dir", ws.sim_state, "--control", ws.sim_control]
+        for iface, devs in buses.items():
+            args += ["--iface", iface]
+            for d in devs:
+                args += ["--device", d]
+        self.log = open(ws.path(log_name), "a")
+        self.ws = ws
+        self.proc = subprocess.Popen(args, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=self.log,
+                                     text=True)
+        line = self.proc.stdout.readline()
+        if line.strip() != "ready":
+            raise RuntimeError("cobridge-sim did not start: %r (see %s)" % (line, ws.path(log_name)))
+
+    def command(self, line):
+        s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        s.settimeout(5)
+        s.connect(self.ws.sim_control)
+        s.sendall((line + "\n").encode())
+        reply = b""
+        while not reply.endswith(b"\n"):
+            chunk = s.recv(4096)
+            if not chunk:
+                break
+            reply += chunk
+        s.close()
+        reply = reply.decode().strip()
+        if not reply.startswith("ok"):
+            raise RuntimeError("cobridge-sim: %s -> %s" % (line, reply))
+        return reply
+
+    def stop(self):
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+            try:
+                self.proc.wait(5)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        self.log.close()
+
+
+class Daemon:
+    """cobridged started through `sh -c 'WATCHDOG_PID=$$ exec ...'`, so the
+    PID systemd would announce is the daemon's own."""
+
+    def __init__(self, daemon, config, ws, notify=None, watchdog_usec=None, log_name="daemon.log", extra_args=()):
+        env = dict(os.environ)
+        env.pop("NOTIFY_SOCKET", None)
+        env.pop("WATCHDOG_USEC", None)
+        env.pop("WATCHDOG_PID", None)
+        env.pop("JOURNAL_STREAM", None)
+        cmd = [daemon, "--config", config, "--foreground"] + list(extra_args)
+        if notify is not None:
+            env["NOTIFY_SOCKET"] = notify.path
+        if watchdog_usec is not None:
+            env["WATCHDOG_USEC"] = str(watchdog_usec)
+            cmd = ["/bin/sh", "-c", 'WATCHDOG_PID=$$; export WATCHDOG_PID; exec "$@"', "sh"] + cmd
+        self.ws = ws
+        self.log_path = ws.path(log_name)
+        self.log = open(self.log_path, "a")
+        self.started = time.time()
+        self.proc = subprocess.Popen(cmd, env=env, stdin=subprocess.DEVNULL, stdout=self.log,
+                                     stderr=subprocess.STDOUT)
+
+    @property
+    def pid(self):
+        return self.proc.pid
+
+    def wait_socket(self, timeout=10):
+        end = time.time() + timeout
+        while time.time() < end:
+            if self.proc.poll() is not None:
+                return False
+            try:
+                self.request("status")
+                return True
+            except OSError:
+                time.sleep(0.05)
+        return False
+
+    def request(self, line, timeout=5):
+        s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        s.settimeout(timeout)
+        try:
+            s.connect(self.ws.control)
+            s.sendall((line + "\n").encode())
+            data = b""
+            while not data.endswith(b"\n"):
+                chunk = s.recv(1 << 16)
+                if not chunk:
+                    break
+                data += chunk
+        finally:
+            s.close()
+        return json.loads(data.decode())
+
+    def status(self):
+        return self.request("status")
+
+    def devices(self):
+        """name -> device dict, from the status."""
+        out = {}
+        for b in self.status()["buses"]:
+            for d in b["devices"]:
+                out[d["name"]] = d
+        return out
+
+    def wait_until(self, pred, timeout, interval=0.02):
+        """Polls the status until pred(status) holds; returns (status, seconds) or (last, None)."""
+        t0 = time.time()
+        last = None
+        while time.time() - t0 < timeout:
+            if self.proc.poll() is not None:
+                break
+            try:
+                last = self.status()
+                if pred(last):
+                    return last, time.time() - t0
+            except (OSError, ValueError):
+                pass
+            time.sleep(interval)
+        return last, None
+
+    def stop(self, sig=signal.SIGTERM, timeout=5):
+        """Sends sig, returns (exit code, seconds to exit)."""
+        if self.proc.poll() is not None:
+            self.log.close()
+            return self.proc.returncode, 0.0
+        t0 = time.time()
+        self.proc.send_signal(sig)
+        try:
+            rc = self.proc.wait(timeout)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            rc = self.proc.wait()
+        took = time.time() - t0
+        self.log.close()
+        return rc, took
+
+    def tail(self, n=40):
+        try:
+            with open(self.log_path) as f:
+                return "".join(f.readlines()[-n:])
+        except OSError:
+            return ""
+
+
+def all_operational(expected_names):
+    def pred(st):
+        devs = {d["name"]: d for b in st["buses"] for d in b["devices"]}
+        return all(n in devs and devs[n]["state"] == "operational" and devs[n]["online"] for n in expected_names)
+    return pred
+
+
+def run_cli(cli, *args, timeout=10):
+    r = subprocess.run([cli] + list(args), capture_output=True, text=True, timeout=timeout)
+    return r.returncode, r.stdout, r.stderr
+
+
+def iso_to_epoch(text):
+    """'2024-05-01T12:00:00.123Z' -> seconds since the epoch."""
+    import calendar
+    base, ms = text.rstrip("Z").split(".")
+    return calendar.timegm(time.strptime(base, "%Y-%m-%dT%H:%M:%S")) + int(ms) / 1000.0

@@ -1,0 +1,92 @@
+"""Issue 4, "must show" 5: bad configurations (the config layer's bad_*
+fixtures: wrong types, unknown keys, node-ID out of range (CiA 301 §7.5.2:
+1..127), duplicate names, ...; and here a missing EDS and a malformed
+CiA 306 EDS) each give a clear error (file:line:column: message) and a
+non-zero exit of `cobridged --check-config` and of `cobridged --config`,
+without touching the bus: a raw socket on every vcan sees no frame.
+"""
+import glob
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+
+import e2e
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+CONFIG_FIXTURES = os.path.join(e2e.SOURCE_DIR, "tests", "unit", "config", "fixtures")
+OWN_FIXTURES = os.path.join(HERE, "fixtures")
+DIAGNOSTIC = re.compile(r"^\S+?:\d+(:\d+)?: .+", re.M)
+
+
+def staged_fixtures(ws):
+    """The fixtures, copied with their interfaces pointed at the vcans, so that
+    a daemon that did open its buses would be seen doing it."""
+    out = []
+    for path in sorted(glob.glob(os.path.join(CONFIG_FIXTURES, "bad_*.toml"))) + \
+            sorted(glob.glob(os.path.join(OWN_FIXTURES, "bad_*.toml"))):
+        origin = "config" if path.startswith(CONFIG_FIXTURES) else "daemon"
+        with open(path) as f:
+            text = f.read()
+        text = re.sub(r'interface\s*=\s*"can(\d)"', lambda m: 'interface = "vcan%s"' % (int(m.group(1)) % 2), text)
+        target = ws.path("%s-%s" % (origin, os.path.basename(path)))
+        with open(target, "w") as f:
+            f.write(text)
+        out.append((origin + "/" + os.path.basename(path), target))
+    shutil.copy(os.path.join(OWN_FIXTURES, "malformed.eds"), ws.path("malformed.eds"))
+    return out
+
+
+def main():
+    args = e2e.parse_args()
+    report = e2e.Report("test_bad_config")
+    ws = e2e.Workspace("badconfig", args.keep)
+    listeners = [e2e.CanListener("vcan0"), e2e.CanListener("vcan1")]
+    try:
+        fixtures = staged_fixtures(ws)
+        report.check(len(fixtures) >= 16, "bad fixtures found", "%d" % len(fixtures))
+        for name, path in fixtures:
+            t0 = time.time()
+            r = subprocess.run([args.daemon, "--check-config", path], capture_output=True, text=True, timeout=20)
+            diags = [l for l in r.stderr.splitlines() if l.startswith(ws.dir) and DIAGNOSTIC.match(l)]
+            report.check(r.returncode == 1 and diags,
+                         "%s: --check-config exits 1 with file:line:col diagnostics" % name,
+                         "exit %d, first: %s" % (r.returncode, diags[0] if diags else r.stderr.strip()[:200]))
+            if name.endswith("bad_malformed_eds.toml"):
+                report.check("malformed.eds:25:" in r.stderr and "malformed.eds:47:" in r.stderr,
+                             "%s: each EDS problem named with its file and line" % name, r.stderr.strip()[:400])
+            if name.endswith("bad_missing_eds.toml"):
+                report.check("does not exist" in r.stderr, "%s: the missing EDS file is named" % name,
+                             r.stderr.strip()[:300])
+
+            r2 = subprocess.run([args.daemon, "--config", path, "--foreground"], capture_output=True, text=True,
+                                timeout=20)
+            took = time.time() - t0
+            report.check(r2.returncode == 1 and "no bus was touched" in r2.stderr and
+                         [l for l in r2.stderr.splitlines() if DIAGNOSTIC.match(l)],
+                         "%s: cobridged --config exits 1 with the same errors" % name,
+                         "exit %d" % r2.returncode)
+            frames = [f for li in listeners for f in li.snapshot(t0)]
+            report.check(not frames, "%s: no frame on vcan0/vcan1" % name, "%d frames" % len(frames))
+
+        # The same check accepts a good configuration: the test can tell them apart.
+        good = e2e.write_config(ws, [{"name": "line1", "interface": "vcan0"}],
+                                [{"name": "enc", "bus": "line1", "serial": 1, "model": "RM9", "node_id": 5}])
+        r = subprocess.run([args.daemon, "--check-config", good], capture_output=True, text=True, timeout=20)
+        report.check(r.returncode == 0 and "ok" in r.stdout, "a good configuration passes --check-config",
+                     (r.stdout + r.stderr).strip()[:300])
+        t0 = time.time()
+        r = subprocess.run([args.daemon, "--check-config", good], capture_output=True, text=True, timeout=20)
+        frames = [f for li in listeners for f in li.snapshot(t0)]
+        report.check(not frames, "--check-config of a good configuration never opens a bus", "%d frames" % len(frames))
+    finally:
+        for li in listeners:
+            li.close()
+        ws.cleanup()
+    return report.finish()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
