@@ -12,6 +12,7 @@
 #include "device/eds.hpp"
 #include "gateway/bus_manager.hpp"
 #include "gateway/control_server.hpp"
+#include "gateway/output_pipeline.hpp"
 #include "gateway/state_store.hpp"
 #include "sys/logging.hpp"
 #include "sys/notifier.hpp"
@@ -256,7 +257,14 @@ void stop_all(std::vector<std::unique_ptr<gateway::BusManager>>& buses) {
   for (auto& t : stoppers) t.join();
 }
 
-int run(const std::filesystem::path& config_file, bool foreground, const std::string& state_dir_override) {
+// The installed plugin directory, or the build tree's when running uninstalled.
+std::filesystem::path default_plugin_dir() {
+  if (std::filesystem::exists(COBRIDGE_INSTALLED_PLUGIN_DIR)) return COBRIDGE_INSTALLED_PLUGIN_DIR;
+  return COBRIDGE_BUILD_PLUGIN_DIR;
+}
+
+int run(const std::filesystem::path& config_file, bool foreground, const std::string& state_dir_override,
+        const std::filesystem::path& plugin_dir) {
   // Before any thread: the bus managers inherit the blocked signal mask.
   sys::Signals signals;
   if (signals.error()) {
@@ -297,13 +305,20 @@ int run(const std::filesystem::path& config_file, bool foreground, const std::st
     return 1;
   }
 
-  // Output plugins (issue 5) are wired here: the plugin host is created from
-  // cfg->outputs and its BusObserver passed in BusManagerOptions::observer,
-  // so that it learns each device's TPDO mapping before the buses start.
-  gateway::BusManagerOptions options;
+  // The hot path and the output plugins start before the buses, so every
+  // device's first configuration already reaches the decoders.
+  gateway::OutputPipeline outputs(*cfg, *catalog, plugin_dir);
+  bool outputs_fatal = false;
+  for (const auto& p : outputs.start(&outputs_fatal)) log->error("outputs: {}", p);
+  if (outputs_fatal) return 1;
+  log->info("outputs: {} plugin{} running from {}", outputs.plugins_running(), outputs.plugins_running() == 1 ? "" : "s",
+            plugin_dir.string());
 
-  for (std::size_t i = 0; i < cfg->buses.size(); ++i)
+  for (std::size_t i = 0; i < cfg->buses.size(); ++i) {
+    gateway::BusManagerOptions options;
+    options.observer = outputs.observer(i);
     buses.push_back(std::make_unique<gateway::BusManager>(*cfg, i, *catalog, state, options));
+  }
   for (std::size_t i = 0; i < buses.size(); ++i) {
     if (const auto ec = buses[i]->start()) {
       log->error("bus {} ({}): cannot start: {}", cfg->buses[i].name, cfg->buses[i].interface, ec.message());
@@ -340,6 +355,7 @@ int run(const std::filesystem::path& config_file, bool foreground, const std::st
       log->info("stopping");
       control.close();
       stop_all(buses);
+      outputs.stop();
       log->info("stopped in {} ms", std::chrono::duration_cast<milliseconds>(Clock::now() - t0).count());
       return 0;
     }
@@ -421,9 +437,12 @@ int main(int argc, char** argv) {
                  "never opens a bus");
   app.add_flag("-f,--foreground", foreground, "log to the console (the default when not under systemd)");
   app.add_option("--state-dir", state_dir, "override gateway.state_dir");
+  std::string plugin_dir;
+  app.add_option("--plugin-dir", plugin_dir, "where the output plugins are (default: the installed plugin directory)");
   app.set_version_flag("--version", std::string("cobridged ") + COBRIDGE_VERSION);
   CLI11_PARSE(app, argc, argv);
 
   if (!check_file.empty()) return check_config(check_file);
-  return run(config_file, foreground, state_dir);
+  return run(config_file, foreground, state_dir,
+             plugin_dir.empty() ? default_plugin_dir() : std::filesystem::path(plugin_dir));
 }

@@ -2,10 +2,12 @@
 // modules; all work is in scan_command, sdo_command, nmt_command, lss_command,
 // status_command.
 #include "cli/lss_command.hpp"
+#include "cli/modbus_map_command.hpp"
 #include "cli/nmt_command.hpp"
 #include "cli/scan_command.hpp"
 #include "cli/sdo_command.hpp"
 #include "cli/status_command.hpp"
+#include "cli/watch_command.hpp"
 
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
@@ -80,6 +82,22 @@ int main(int argc, char** argv) {
   commission_c->add_option("--control", commission_o.control, "daemon control socket")->capture_default_str();
   commission_c->add_flag("--json", commission_o.json, "the daemon's JSON answer, unchanged");
 
+  WatchOptions watch_o;
+  auto* watch_c = app.add_subcommand("watch", "subscribe to the gateway's DDS topics and print live values");
+  watch_c->add_option("--domain", watch_o.domain, "DDS domain id")->capture_default_str();
+  watch_c->add_option("--gateway", watch_o.gateway, "only this gateway id");
+  watch_c->add_option("--topic-prefix", watch_o.topic_prefix, "the plugin's topic_prefix");
+  watch_c->add_flag("--json", watch_o.json, "one JSON object per line");
+  watch_c->add_option("--count", watch_o.count, "exit after N samples (any topic)");
+  watch_c->add_option("--timeout", watch_o.timeout_s, "exit after S seconds (exit code 3 if --count was not reached)");
+
+  ModbusMapOptions modbus_map_o;
+  auto* modbus_map_c = app.add_subcommand("modbus-map", "print the Modbus TCP register map (--csv for SCADA import)");
+  modbus_map_c->add_flag("--csv", modbus_map_o.csv, "CSV: address,name,type,unit,scale,access,description");
+  modbus_map_c->add_option("--devices", modbus_map_o.devices, "device slots to list (the plugin's max_devices)")
+      ->capture_default_str();
+  modbus_map_c->add_option("--buses", modbus_map_o.buses, "bus blocks to list (0..16)")->capture_default_str();
+
   CLI11_PARSE(app, argc, argv);
   // The commands print their own errors; the layers' log lines are for -v.
   spdlog::set_level(verbose ? spdlog::level::debug : spdlog::level::off);
@@ -91,5 +109,7 @@ int main(int argc, char** argv) {
   if (*lss_set) return lss_set_node_id(lss_o);
   if (*status_c) return status(status_o);
   if (*commission_c) return commission(commission_o);
+  if (*watch_c) return watch(watch_o);
+  if (*modbus_map_c) return modbus_map(modbus_map_o);
   return 2;
 }

@@ -3,7 +3,9 @@
 #include "device/family_profile.hpp"
 #include "sys/logging.hpp"
 
+#include <array>
 #include <ctime>
+#include <memory>
 
 namespace cobridge::gateway {
 namespace {
@@ -19,8 +21,15 @@ std::uint8_t nmt_byte(canopen::NmtState s) noexcept { return static_cast<std::ui
 }  // namespace
 
 OutputBridge::OutputBridge(const config::Config& config, std::size_t bus_index, const device::DeviceCatalog& catalog,
-                           pipeline::DeviceTable& table, pipeline::BusReceiver* receiver, pipeline::PluginHost* host)
-    : config_(config), bus_index_(bus_index), catalog_(catalog), table_(table), receiver_(receiver), host_(host) {}
+                           pipeline::DeviceTable& table, pipeline::BusReceiver* receiver, pipeline::PluginHost* host,
+                           pipeline::Dispatcher* dispatcher)
+    : config_(config),
+      bus_index_(bus_index),
+      catalog_(catalog),
+      table_(table),
+      receiver_(receiver),
+      host_(host),
+      dispatcher_(dispatcher) {}
 
 std::uint16_t OutputBridge::device_index(const DeviceStatus& device) {
   for (std::size_t i = 0; i < config_.devices.size(); ++i)
@@ -123,7 +132,7 @@ void OutputBridge::on_device_status(const DeviceStatus& device) {
 }
 
 void OutputBridge::announce(const DeviceStatus& device, std::uint8_t change) {
-  if (!host_) return;
+  if (!host_ || !dispatcher_) return;
   const std::string bus = bus_index_ < config_.buses.size() ? config_.buses[bus_index_].name : std::string();
   cobridge_device_info info{};
   info.struct_size = sizeof info;
@@ -135,14 +144,21 @@ void OutputBridge::announce(const DeviceStatus& device, std::uint8_t change) {
   info.product_code = device.identity.product;
   info.revision = device.identity.revision;
   info.serial = device.identity.serial;
-  info.name = device.name.c_str();
-  info.bus_name = bus.c_str();
-  info.model = device.model.c_str();
-  info.family = device.family.c_str();
   const auto candidates = catalog_.candidates(device.identity.vendor, device.identity.product);
-  info.position_unit = units_per_rev(device, candidates.empty() ? nullptr : candidates.front()) > 0 ? "deg" : "counts";
-  std::lock_guard lock(mutex_);
-  host_->announce(info);
+  const char* unit = units_per_rev(device, candidates.empty() ? nullptr : candidates.front()) > 0 ? "deg" : "counts";
+  // plugin.h: on_device runs on the dispatcher thread, like on_samples. The
+  // task owns copies of the strings the info points to.
+  auto strings = std::make_shared<std::array<std::string, 5>>(
+      std::array<std::string, 5>{device.name, bus, device.model, device.family, unit});
+  pipeline::PluginHost* host = host_;
+  dispatcher_->post([host, info, strings]() mutable {
+    info.name = (*strings)[0].c_str();
+    info.bus_name = (*strings)[1].c_str();
+    info.model = (*strings)[2].c_str();
+    info.family = (*strings)[3].c_str();
+    info.position_unit = (*strings)[4].c_str();
+    host->announce(info);
+  });
 }
 
 }  // namespace cobridge::gateway

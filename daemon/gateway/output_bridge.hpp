@@ -9,7 +9,7 @@
 // producer and one sequence); device identities go to the plugins
 // (cobridge_device_info) through the plugin host.
 // Threads: the BusObserver callbacks run on each bus's control thread; the
-// bridge serialises plugin announcements with a mutex (rare, off hot path).
+// bridge hands plugin announcements to the dispatcher thread (plugin.h).
 #pragma once
 
 #include "config/config.hpp"
@@ -27,9 +27,11 @@ namespace cobridge::gateway {
 
 class OutputBridge final : public BusObserver {
  public:
-  // `host` may be nullptr (no plugins). Everything passed must outlive the bridge.
+  // `host`/`dispatcher` may be nullptr (no plugins); device announcements run
+  // on the dispatcher thread. Everything passed must outlive the bridge.
   OutputBridge(const config::Config& config, std::size_t bus_index, const device::DeviceCatalog& catalog,
-               pipeline::DeviceTable& table, pipeline::BusReceiver* receiver, pipeline::PluginHost* host);
+               pipeline::DeviceTable& table, pipeline::BusReceiver* receiver, pipeline::PluginHost* host,
+               pipeline::Dispatcher* dispatcher);
 
   void on_device_configured(const DeviceStatus& device, const std::vector<std::uint32_t>& tpdo1_mapping,
                             const std::vector<std::uint32_t>& tpdo2_mapping) override;
@@ -53,6 +55,7 @@ class OutputBridge final : public BusObserver {
   pipeline::DeviceTable& table_;
   pipeline::BusReceiver* receiver_;
   pipeline::PluginHost* host_;
+  pipeline::Dispatcher* dispatcher_;
   std::mutex mutex_;
   std::map<std::string, std::uint16_t> unknown_index_;
   std::map<std::uint8_t, bool> online_;  // last online state posted per node

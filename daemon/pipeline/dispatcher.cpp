@@ -51,13 +51,48 @@ void Dispatcher::wake() noexcept {
   }
 }
 
+void Dispatcher::post(std::function<void()> task) {
+  {
+    std::lock_guard lock(task_mutex_);
+    tasks_.push_back(std::move(task));
+  }
+  tasks_pending_.store(true, std::memory_order_release);
+  if (!running_.load(std::memory_order_acquire)) {
+    run_tasks();  // not started (or stopped): run here, there is no other consumer
+    return;
+  }
+  const std::uint64_t one = 1;
+  (void)!::write(event_fd_, &one, sizeof one);
+}
+
+void Dispatcher::run_tasks() noexcept {
+  if (!tasks_pending_.load(std::memory_order_acquire)) return;
+  std::vector<std::function<void()>> todo;
+  try {
+    std::lock_guard lock(task_mutex_);
+    todo.swap(tasks_);
+    tasks_pending_.store(false, std::memory_order_relaxed);
+  } catch (...) {
+    return;
+  }
+  for (auto& t : todo) {
+    try {
+      t();
+    } catch (...) {
+      // A task is plugin bookkeeping; one that throws must not stop delivery.
+    }
+  }
+}
+
 bool Dispatcher::any_pending() const noexcept {
+  if (tasks_pending_.load(std::memory_order_acquire)) return true;
   for (const auto* r : sources_)
     if (r->size_approx() != 0) return true;
   return false;
 }
 
 std::size_t Dispatcher::drain_once() noexcept {
+  run_tasks();
   std::size_t total = 0;
   for (auto* ring : sources_) {
     for (;;) {

@@ -12,6 +12,8 @@
 #include "pipeline/spsc_ring.hpp"
 
 #include <atomic>
+#include <functional>
+#include <mutex>
 #include <cstdint>
 #include <span>
 #include <thread>
@@ -48,6 +50,11 @@ class Dispatcher {
   // Producer side, after a push: wakes the dispatcher if it sleeps.
   void wake() noexcept;
 
+  // Runs `task` on the dispatcher thread before the next batch (plugin.h:
+  // on_device is called on the dispatcher thread, like on_samples). Off the
+  // hot path: takes a mutex and may allocate. Any thread.
+  void post(std::function<void()> task);
+
   // One pass over all rings on the calling thread; returns samples delivered.
   // For benchmarks and tests that run without the thread.
   std::size_t drain_once() noexcept;
@@ -57,6 +64,7 @@ class Dispatcher {
  private:
   void run() noexcept;
   bool any_pending() const noexcept;
+  void run_tasks() noexcept;
 
   SampleSink& sink_;
   std::vector<SpscRing<Sample>*> sources_;
@@ -65,6 +73,9 @@ class Dispatcher {
   std::atomic<bool> running_{false};
   std::atomic<bool> sleeping_{false};
   std::atomic<std::uint64_t> samples_{0}, batches_{0}, sleeps_{0};
+  std::mutex task_mutex_;
+  std::vector<std::function<void()>> tasks_;
+  std::atomic<bool> tasks_pending_{false};
   Sample batch_[kBatch];
 };
 

@@ -79,10 +79,12 @@ std::optional<Simulator::Failure> Simulator::start() {
       auto dev = std::make_unique<SimDevice>(spec, *desc, raw->sink_for(raw->size()), options_.state_dir);
       if (truth_.is_open()) {
         dev->set_truth_sink([this, raw](const TruthRecord& r) {
-          // The time of the loop turn that sent it, as CLOCK_REALTIME (no
-          // clock read per frame).
+          // The device calls this right after the frame went to the socket:
+          // CLOCK_REALTIME read here is the send time, comparable with the
+          // SO_TIMESTAMPNS receive time of a reader on the same host. One
+          // clock read per frame, only with --truth.
           TruthRecord copy = r;
-          if (copy.frame.timestamp_ns == 0) copy.frame.timestamp_ns = realtime_at(now_);
+          if (copy.frame.timestamp_ns == 0) copy.frame.timestamp_ns = realtime_ns();
           truth_.write(raw->iface(), copy, now_);
         });
       }
@@ -92,7 +94,6 @@ std::optional<Simulator::Failure> Simulator::start() {
   }
   const canopen::TimePoint now = canopen::Clock::now();
   now_ = now;
-  sync_realtime(now);
   for (auto& bus : buses_) {
     for (std::size_t i = 0; i < bus->size(); ++i) {
       SimDevice& d = bus->device(i);
@@ -221,7 +222,10 @@ std::string Simulator::execute(std::string_view line) {
       what = "fault " + std::string(to_string(c.fault));
       break;
     case ControlVerb::move:
-      return "error move: this SimDevice has no position offset entry point";
+      if (!d.powered()) return "error device " + std::to_string(c.serial) + " is powered off";
+      d.move_by(c.turns);
+      what = "move";
+      break;
     default: return "error internal: unhandled command";
   }
   bus.deliver_local(now);
@@ -238,12 +242,10 @@ int Simulator::run(sys::Signals& signals) {
   // One clock read per loop turn: under UML every clock_gettime is a real
   // system call, and the turn is short compared with the 1 ms cycle.
   canopen::TimePoint now = canopen::Clock::now();
-  sync_realtime(now);
   bool receive_all = true;
   while (!quit_) {
     ++loop_.turns;
     now_ = now;
-    if (now - realtime_synced_at_ > std::chrono::seconds(1)) sync_realtime(now);
     for (std::size_t i = 0; i < buses_.size(); ++i) {
       const int slot = bus_slot[i];
       if (receive_all || (slot >= 0 && (fds[static_cast<std::size_t>(slot)].revents & POLLIN) != 0))
@@ -297,16 +299,6 @@ int Simulator::run(sys::Signals& signals) {
   }
   truth_.flush();
   return 0;
-}
-
-void Simulator::sync_realtime(canopen::TimePoint now) noexcept {
-  realtime_offset_ns_ =
-      realtime_ns() - std::chrono::duration_cast<std::chrono::nanoseconds>(now.time_since_epoch()).count();
-  realtime_synced_at_ = now;
-}
-
-std::int64_t Simulator::realtime_at(canopen::TimePoint t) const noexcept {
-  return realtime_offset_ns_ + std::chrono::duration_cast<std::chrono::nanoseconds>(t.time_since_epoch()).count();
 }
 
 }  // namespace cobridge::sim

@@ -63,8 +63,6 @@ class Simulator {
   [[nodiscard]] SimulatedBus* find_bus(std::string_view iface);
   [[nodiscard]] std::string list() const;
   [[nodiscard]] std::string stats() const;
-  void sync_realtime(canopen::TimePoint now) noexcept;
-  [[nodiscard]] std::int64_t realtime_at(canopen::TimePoint t) const noexcept;
 
   SimOptions options_;
   device::DeviceCatalog catalog_;  // before the buses: the devices point into it
@@ -74,8 +72,6 @@ class Simulator {
   LoopStats loop_;
   bool quit_ = false;
   canopen::TimePoint now_{};  // time of the current loop turn (or control command)
-  std::int64_t realtime_offset_ns_ = 0;  // CLOCK_REALTIME - steady clock, refreshed every second
-  canopen::TimePoint realtime_synced_at_{};
 };
 
 }  // namespace cobridge::sim

@@ -38,7 +38,9 @@ std::error_code EncoderFrontEnd::set_motion(std::string_view spec, TimePoint now
   if (started_ && spec == motion_.spec()) return {};
   MotionParseResult r = Motion::parse(spec);
   if (r.error) return r.error;
+  const double offset = motion_.offset();
   motion_ = std::move(r.motion);
+  motion_.set_offset(offset);
   if (!started_) {
     started_ = true;
     origin_ = now;
@@ -142,6 +144,7 @@ ChannelSample EncoderFrontEnd::measure(int channel, TimePoint now) noexcept {
   s.speed = p.speed;
   s.speed32 = p.speed32;
   s.error_value = p.error_value;
+  s.speed_saturated = p.speed_saturated;
   s.range = p.range;
   // J§1.8.1 / E§9.1 0x5000: CAM and work-area states stay unchanged while the
   // position is an error value.

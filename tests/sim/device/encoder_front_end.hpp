@@ -66,6 +66,7 @@ struct ChannelSample {
   std::uint8_t cam_active = 0;      // before polarity (lot-size counter)
   std::uint8_t work_area = 0;       // 0x6400/ch
   bool error_value = false;
+  bool speed_saturated = false;     // E§10.1 bit 19, E§10.3 bit 6
   RangeState range = RangeState::in_range;
   double shaft_turns = 0.0;
 };
@@ -79,6 +80,9 @@ class EncoderFrontEnd {
   // Motion grammar of encoder/motion.hpp. The shaft keeps its time origin
   // across power cycles (an absolute encoder sees where the shaft went).
   [[nodiscard]] std::error_code set_motion(std::string_view spec, TimePoint now);
+  // Turns the shaft by hand (control `move`): the offset adds up and stays
+  // across set_motion, since the shaft does not go back when the drive changes.
+  void move_by(double turns) noexcept { motion_.set_offset(motion_.offset() + turns); }
   void configure(int channel, const ChannelConfig& config) noexcept;
 
   // Preset (CiA 406: the current output reads P). check first, then apply.

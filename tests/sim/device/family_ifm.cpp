@@ -126,11 +126,7 @@ void SimDevice::Impl::ifm_after_write(std::uint16_t index, std::uint8_t sub) {
       break;
     }
     case 0x1800:
-      if (sub == 5) {
-        const auto ms = static_cast<std::uint16_t>(std::min<std::uint64_t>(od->get_raw(0x1800, 5).value_or(0), 0xFFFF));
-        if (ms != 0) (void)od->set_u16(0x6200, 0, ms);
-        (void)od->set_u16(0x2200, 0, ms);
-      }
+      if (sub == 5) ifm_mirror_event_timer();
       break;
     case 0x1003:
       for (std::uint8_t s = 1; s <= 10; ++s) (void)od->set_u32(0x1003, s, 0);
@@ -146,6 +142,14 @@ void SimDevice::Impl::ifm_after_write(std::uint16_t index, std::uint8_t sub) {
   if (index == 0x6003 || index == 0x2103)
     encoder.preset(0, static_cast<std::int64_t>(od->get_raw(0x6003, 0).value_or(0)));
   configure_encoder();
+}
+
+void SimDevice::Impl::ifm_mirror_event_timer() noexcept {
+  // Digest B.3: one event timer, three objects. 0x2200 is read-only, so no
+  // parameter load reaches it; 0x6200 has no 0 (its low limit is 1).
+  const auto ms = static_cast<std::uint16_t>(std::min<std::uint64_t>(od->get_raw(0x1800, 5).value_or(0), 0xFFFF));
+  if (ms != 0) (void)od->set_u16(0x6200, 0, ms);
+  (void)od->set_u16(0x2200, 0, ms);
 }
 
 void SimDevice::Impl::ifm_publish(ChannelSample& s, const ChannelSample& before, bool first) {

@@ -186,9 +186,15 @@ void SimDevice::Impl::multiturn_publish(ChannelSample& s, const ChannelSample& b
   (void)od->set_u8(0x6400, 1, s.work_area);
   (void)od->set_i32(0x6509, 0, static_cast<std::int32_t>(encoder.offset(0)));
   if (first) return;
-  if (s.range != before.range) {
-    // E§9.1 0x5051 rows for the range model of the motion (digest C.7.4).
+  const bool range_changed = s.range != before.range;
+  if (range_changed || s.speed_saturated != before.speed_saturated) {
+    // The status bits are computed from last[0]; the caller stores the
+    // sample only after this returns, so store it first.
+    last[0] = s;
     refresh_status();
+  }
+  if (range_changed) {
+    // E§9.1 0x5051 rows for the range model of the motion (digest C.7.4).
     switch (s.range) {
       case RangeState::warning_over: send_emcy(Emcy{0x5051, 2, {1, 0, 0, 0, 0}}, EmcyLevel::warn); break;
       case RangeState::warning_under: send_emcy(Emcy{0x5051, 2, {2, 0, 0, 0, 0}}, EmcyLevel::warn); break;
@@ -281,6 +287,11 @@ void SimDevice::Impl::multiturn_status() noexcept {
   if (faults == 0 && !over_range_latched && !under_range_latched && last[0].range == RangeState::in_range)
     st |= 1U << 26;  // valid position
   if (has(FaultKind::hardware_fault)) st |= 1U << 31;
+  // E§10.1 bit 19 "speed out of range", E§10.3 bit 6 "speed range limit":
+  // 0x6030/1 is saturated at the INTEGER16 limit (E§3.4 unit 0.1 deg/s,
+  // so above 3276.7 deg/s). E§9.1 has no EMCY row for it.
+  const bool speed_limit = last[0].speed_saturated;
+  if (speed_limit) st |= 1U << 19;
   status = st;
   std::uint16_t al = 0;  // E§10.2
   if (has(FaultKind::measurement_error)) al |= 1U << 0;
@@ -290,7 +301,7 @@ void SimDevice::Impl::multiturn_status() noexcept {
   const RangeStatusBits r = range_status_bits(last[0].range);
   status = st | r.status_1002;
   alarms = static_cast<std::uint16_t>(al | r.alarms_6503);
-  warnings = static_cast<std::uint16_t>(r.warnings_6505 | condition.warning_bits());
+  warnings = static_cast<std::uint16_t>(r.warnings_6505 | condition.warning_bits() | (speed_limit ? 1U << 6 : 0U));
 }
 
 void SimDevice::Impl::condition_power_up(TimePoint now) {

@@ -137,7 +137,8 @@ bool SimDevice::Impl::Tx::send(const can::Frame& frame) noexcept {
 // Transmit path and truth records
 
 bool SimDevice::Impl::send(const can::Frame& frame, TruthRecord::Kind kind, std::uint8_t pdo) noexcept {
-  if (!powered || silent) return false;
+  // A bus-off controller takes no part in the bus (can_controller.cpp).
+  if (!powered || silent || can_state == CanControllerState::bus_off) return false;
   const bool ok = bus.send(frame);
   if (ok && truth) {
     try {
@@ -285,6 +286,7 @@ void SimDevice::Impl::load_parameters(Select select, const NvImage* image) {
       if (const auto stored = image->get(e.index, e.sub)) v = *stored;
     (void)set_raw(*od, e.index, e.sub, v);
   }
+  if (family == Family::ifm_rm) ifm_mirror_event_timer();
 }
 
 std::error_code SimDevice::Impl::persist(std::string& message) const { return nv.save(nv_data, message); }
@@ -651,6 +653,7 @@ std::error_code SimDevice::Impl::power_on(TimePoint now) {
   alarms = warnings = 0;
   status = 0;
   life_guarding_lost = false;
+  can_state = CanControllerState::error_active;  // a fresh controller after power-up
   ifm_defaults_pending = false;
   reset_node_requested = false;
   guard = canopen::GuardResponder{};
@@ -708,14 +711,15 @@ void SimDevice::Impl::boot(TimePoint now) {
   restart_heartbeat(now);
 }
 
-void SimDevice::Impl::reset_communication(TimePoint now) {
+void SimDevice::Impl::reset_communication(TimePoint now) { reset_communication(now, &nv_data.params); }
+
+void SimDevice::Impl::reset_communication(TimePoint now, const NvImage* image) {
   now_cache = now;
   active_node = pending_node;
   active_kbit = pending_kbit;
-  // Communication area back to what was stored (or the defaults, with the
-  // new node-ID in the predefined connection set).
-  load_parameters([](const device::ObjectDesc& e) { return e.index >= 0x1000 && e.index < 0x2000; },
-                  &nv_data.params);
+  // Communication area back to `image` (the stored one, or none = the
+  // defaults), with the new node-ID in the predefined connection set.
+  load_parameters([](const device::ObjectDesc& e) { return e.index >= 0x1000 && e.index < 0x2000; }, image);
   if (lss) {
     const canopen::LssSlaveFeatures f = lss->features();
     lss.emplace(tx, identity_of(), active_node, f);
@@ -730,12 +734,13 @@ void SimDevice::Impl::reset_node(TimePoint now) {
   // becomes active (digest A.1, S.18).
   const std::uint8_t node = pending_node;
   const std::uint16_t kbit = pending_kbit;
-  if (ifm_defaults_pending) {
-    load_parameters([](const device::ObjectDesc&) { return true; }, nullptr);  // F§6.3.5, not persisted
-    ifm_defaults_pending = false;
-  } else {
-    load_parameters([](const device::ObjectDesc&) { return true; }, &nv_data.params);
-  }
+  // ifm 'load' (F§6.3.5, F§7.3 0x1011): this reset activates the factory
+  // settings without touching the EEPROM, so every stage of the reset below
+  // (application and communication area, the preset offset) takes the
+  // defaults, not the stored image.
+  const NvImage* image = ifm_defaults_pending ? nullptr : &nv_data.params;
+  ifm_defaults_pending = false;
+  load_parameters([](const device::ObjectDesc&) { return true; }, image);
   if (family != Family::ifm_rm || !nv_data.params.get(0x3000, 0)) {
     pending_node = node;
     pending_kbit = kbit;
@@ -748,9 +753,9 @@ void SimDevice::Impl::reset_node(TimePoint now) {
   faults &= ~(fault_bit(FaultKind::over_range) | fault_bit(FaultKind::under_range));
   encoder.reset();
   configure_encoder();
-  restore_offsets(&nv_data.params);
+  restore_offsets(image);
   measure(now);
-  reset_communication(now);
+  reset_communication(now, image);
 }
 
 // ---------------------------------------------------------------------------
@@ -830,16 +835,18 @@ void SimDevice::Impl::refresh_status() noexcept {
       case NmtState::operational: nmt_bits = 2; break;
       case NmtState::stopped: nmt_bits = 3; break;
     }
-    (void)od->set_u32(kStatusRegister, 0, (status & ~0x3U) | nmt_bits);
+    (void)od->set_u32(kStatusRegister, 0, ((status | can_status_bits()) & ~0x3U) | nmt_bits);
   }
   if (od->contains(0x6503, 0)) (void)od->set_u16(0x6503, 0, alarms);
   if (od->contains(0x6505, 0)) (void)od->set_u16(0x6505, 0, warnings);
+  // CiA 301 0x1001 bit 4 "communication error": a lost life guard, or the
+  // controller error passive or bus-off; always with the generic bit 0.
+  const bool communication = life_guarding_lost || can_state != CanControllerState::error_active;
   std::uint8_t reg = 0;
-  if (faults != 0 || over_range_latched || under_range_latched || life_guarding_lost) reg |= 0x01;
+  if (faults != 0 || over_range_latched || under_range_latched) reg |= 0x01;
   if ((faults & (fault_bit(FaultKind::voltage_high) | fault_bit(FaultKind::voltage_low))) != 0) reg |= 0x04;
   if ((faults & (fault_bit(FaultKind::temperature_high) | fault_bit(FaultKind::temperature_low))) != 0) reg |= 0x08;
-  if (life_guarding_lost) reg |= 0x10;
-  if (reg == 0x10) reg |= 0x01;
+  if (communication) reg |= 0x11;
   emcy.set_error_register(reg);
 }
 
@@ -904,7 +911,12 @@ void SimDevice::Impl::send_tpdo(std::size_t i, TimePoint now) {
 // Frames and time
 
 void SimDevice::Impl::on_frame(const can::Frame& frame, TimePoint now) {
-  if (!powered || silent || frame.is_error() || frame.is_extended()) return;
+  if (!powered || silent) return;
+  if (frame.is_error()) {
+    on_error_frame(frame, now);
+    return;
+  }
+  if (frame.is_extended() || can_state == CanControllerState::bus_off) return;
   now_cache = now;
   const bool configured = cob::valid_node_id(active_node);
 
@@ -1123,6 +1135,7 @@ canopen::LssAddress SimDevice::identity() const noexcept { return impl_->identit
 std::uint16_t SimDevice::bitrate_kbit() const noexcept { return impl_->active_kbit; }
 const canopen::ObjectDictionary* SimDevice::object_dictionary() const noexcept { return impl_->od.get(); }
 const std::filesystem::path& SimDevice::nv_path() const noexcept { return impl_->nv_file; }
+void SimDevice::move_by(double turns) noexcept { impl_->encoder.move_by(turns); }
 std::error_code SimDevice::set_motion(std::string_view motion, TimePoint now) {
   if (const std::error_code ec = impl_->encoder.set_motion(motion, now)) return ec;
   impl_->spec.motion = std::string(motion);

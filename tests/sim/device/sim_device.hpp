@@ -6,9 +6,11 @@
 // server, LSS slave (feature set per LSS version), heartbeat producer, node
 // guarding responder with life guarding, TPDO1/TPDO2 (event timer, SYNC,
 // measuring-cycle type 255, inhibit time, RTR where the manual has it),
-// EMCY producer, non-volatile storage per serial under the state directory,
-// and the encoder functions (position, speed, scaling, preset, CAMs, work
-// area, alarms/warnings, condition monitoring, faults).
+// EMCY producer, the reactions of its CAN controller to the bus state the
+// simulator announces with Linux CAN error frames (error passive, bus-off,
+// restart; J§1.8.1, E§9.1), non-volatile storage per serial under the state
+// directory, and the encoder functions (position, speed, scaling, preset,
+// CAMs, work area, alarms/warnings, condition monitoring, faults).
 //
 // Like every protocol component it never reads a clock and never sleeps:
 // frames and `now` go in, `process(now)` returns the next deadline.
@@ -100,7 +102,10 @@ enum class FaultKind : std::uint8_t {
 struct TruthRecord {
   std::uint32_t serial = 0;
   std::uint8_t node_id = 0;
-  can::Frame frame;               // as sent (timestamp_ns = host CLOCK_REALTIME at send)
+  // As sent. SimDevice reads no clock, so it leaves timestamp_ns 0; the
+  // simulator (tests/sim/app) stamps it with CLOCK_REALTIME read in the truth
+  // sink, i.e. right after the frame was written to the CAN socket.
+  can::Frame frame;
   enum class Kind : std::uint8_t { tpdo, emcy, heartbeat, boot_up, sdo, lss, guard } kind = Kind::tpdo;
   std::uint8_t pdo = 0;           // 1 or 2 for TPDOs
   bool has_position = false;
@@ -153,6 +158,11 @@ class SimDevice {
   [[nodiscard]] const std::filesystem::path& nv_path() const noexcept;
   // Replaces the motion (same grammar as DeviceSpec::motion) at run time.
   std::error_code set_motion(std::string_view motion, TimePoint now);
+  // Turns the shaft by `turns` at once (control `move`; negative and
+  // fractional allowed). The offset adds up and survives set_motion and power
+  // cycles (an absolute encoder sees where the shaft went); the position
+  // objects follow at the next 1 ms measuring cycle.
+  void move_by(double turns) noexcept;
 
  private:
   struct Impl;

@@ -30,6 +30,10 @@
 
 namespace cobridge::sim {
 
+// The fault confinement state of the device's CAN controller (CiA 301 / ISO
+// 11898-1), as the simulator's error frames set it (can_controller.cpp).
+enum class CanControllerState : std::uint8_t { error_active, error_passive, bus_off };
+
 // Bits of Impl::faults, one per FaultKind (clear excluded).
 [[nodiscard]] constexpr std::uint32_t fault_bit(FaultKind k) noexcept { return 1U << static_cast<unsigned>(k); }
 
@@ -92,6 +96,7 @@ struct SimDevice::Impl {
   bool first_measure = true;
   bool life_guarding_lost = false;
   bool legacy_kill = false;            // RSX/RFX 'kill' resets node-ID / bit rate too (J§1.10)
+  CanControllerState can_state = CanControllerState::error_active;
 
   std::uint32_t faults = 0;            // fault_bit() of active faults
   bool over_range_latched = false;     // E: until 0x2100 (E§4.3)
@@ -109,10 +114,24 @@ struct SimDevice::Impl {
   void power_off() noexcept;
   void boot(TimePoint now);
   void reset_node(TimePoint now);
-  void reset_communication(TimePoint now);
+  void reset_communication(TimePoint now);  // the communication area from the stored image
+  void reset_communication(TimePoint now, const NvImage* image);  // ... from `image` (null = defaults)
   void on_frame(const can::Frame& frame, TimePoint now);
   TimePoint process(TimePoint now);
   void inject(FaultKind fault, TimePoint now);
+
+  // ---- can_controller.cpp: reactions to the bus state -------------------
+  // A Linux CAN error frame (<linux/can/error.h>) the simulator delivered.
+  void on_error_frame(const can::Frame& frame, TimePoint now);
+  void enter_error_passive();
+  void leave_error_passive();
+  void enter_bus_off();
+  void recover_from_bus_off();
+  // The 0x1002 bits of the controller state (J§1.9.1 bits 4/3/2, E§10.1
+  // bits 16/17/18; ifm has no 0x1002).
+  [[nodiscard]] std::uint32_t can_status_bits() const noexcept;
+  // EMCY 0x8120 / 0x8140 as the family's table prints them.
+  void send_can_emcy(std::uint16_t code);
 
   bool send(const can::Frame& frame, TruthRecord::Kind kind, std::uint8_t pdo = 0) noexcept;
   static bool emcy_thunk(void* context, const can::Frame& frame) noexcept;
@@ -210,6 +229,8 @@ struct SimDevice::Impl {
   void ifm_publish(ChannelSample& s, const ChannelSample& before, bool first);
   void ifm_fault(FaultKind fault, TimePoint now);
   void ifm_life_guarding(bool lost);
+  // 0x1800/5 -> 0x6200 and the read-only 0x2200, after a write or a load.
+  void ifm_mirror_event_timer() noexcept;
 
   // Shared by the Novotechnik files: 0x6001 / 0x6002 coupling (A.7.2, C.7.2).
   std::uint32_t novotechnik_scaling_write(const canopen::WriteRequest& req);

@@ -51,7 +51,7 @@ struct Fixture {
 // J§1.7.2 default mapping: 0x6020/1 INTEGER32 and 0x6030/1 INTEGER16 are signed.
 TEST(OutputBridge, J_1_7_2_RotaryPlanSignedAndScaledFromConfig) {
   Fixture f;
-  OutputBridge bridge(f.cfg, 0, f.catalog, f.table, nullptr, nullptr);
+  OutputBridge bridge(f.cfg, 0, f.catalog, f.table, nullptr, nullptr, nullptr);
   std::string err;
   const auto plan = bridge.make_plan(f.status("lift", 0x182, 0x0BE0, 10), {0x60200120, 0x60300110}, {0x60200120}, &err);
   ASSERT_TRUE(plan.active) << err;
@@ -69,7 +69,7 @@ TEST(OutputBridge, J_1_7_2_RotaryPlanSignedAndScaledFromConfig) {
 // F§7.5: ifm 0x6004 is UNSIGNED32; F§7.4: bits 30/31 are limit-switch flags.
 TEST(OutputBridge, F_7_5_IfmPositionUnsignedWithLimitSwitchMask) {
   Fixture f;
-  OutputBridge bridge(f.cfg, 0, f.catalog, f.table, nullptr, nullptr);
+  OutputBridge bridge(f.cfg, 0, f.catalog, f.table, nullptr, nullptr, nullptr);
   std::string err;
   const auto plan = bridge.make_plan(f.status("ifm-x", 0x0069666D, 0x4341, 32), {0x60040020}, {}, &err);
   ASSERT_TRUE(plan.active) << err;
@@ -82,7 +82,7 @@ TEST(OutputBridge, F_7_5_IfmPositionUnsignedWithLimitSwitchMask) {
 // E§4.1: the multiturn default mapping names 0x6020/1 (an alias of INTEGER32 0x6004, digest C.3).
 TEST(OutputBridge, E_4_1_MultiturnAliasDecodesSigned) {
   Fixture f;
-  OutputBridge bridge(f.cfg, 0, f.catalog, f.table, nullptr, nullptr);
+  OutputBridge bridge(f.cfg, 0, f.catalog, f.table, nullptr, nullptr, nullptr);
   std::string err;
   const auto plan = bridge.make_plan(f.status("mt", 0x182, 0x0BB8, 12), {0x60200120, 0x60300110}, {}, &err);
   ASSERT_TRUE(plan.active) << err;
@@ -92,7 +92,7 @@ TEST(OutputBridge, E_4_1_MultiturnAliasDecodesSigned) {
 
 TEST(OutputBridge, UndecodableMappingIsRefusedWithDeviceName) {
   Fixture f;
-  OutputBridge bridge(f.cfg, 0, f.catalog, f.table, nullptr, nullptr);
+  OutputBridge bridge(f.cfg, 0, f.catalog, f.table, nullptr, nullptr, nullptr);
   std::string err;
   const auto plan = bridge.make_plan(f.status("lift", 0x182, 0x0BE0, 10), {0x60200120, 0x60200120, 0x60300110}, {}, &err);
   EXPECT_FALSE(plan.active);
@@ -102,7 +102,7 @@ TEST(OutputBridge, UndecodableMappingIsRefusedWithDeviceName) {
 // Configured devices become active plans in the bus's table.
 TEST(OutputBridge, ConfiguredDeviceIsPublishedToTheHotPath) {
   Fixture f;
-  OutputBridge bridge(f.cfg, 0, f.catalog, f.table, nullptr, nullptr);
+  OutputBridge bridge(f.cfg, 0, f.catalog, f.table, nullptr, nullptr, nullptr);
   bridge.on_device_configured(f.status("lift", 0x182, 0x0BE0, 10), {0x60200120, 0x60300110}, {});
   pipeline::DeviceTable::Plans plans;
   std::uint32_t gen = 0;

@@ -1,9 +1,11 @@
 #!/usr/bin/python3
 """cobridge-sim's own machinery end to end: the control channel (stdin and
-the Unix socket), power and silence commands, the bus faults (Linux CAN error
-frames, <linux/can/error.h>; flood; babbling node), two buses in one
-process, SIGTERM, and the truth file (format of docs/devices.md, compared
-with what was on the bus).
+the Unix socket), power, silence and move commands, the bus faults (Linux CAN
+error frames, <linux/can/error.h>, and every device's reaction to them: EMCY
+0x8120 / 0x8140 per J§1.8.1 and E§9.1, silence while bus-off; flood;
+babbling node), two buses in one process, SIGTERM, and the truth file
+(format of docs/devices.md, compared with what was on the bus, timestamps
+taken at send time).
 """
 
 import os
@@ -36,6 +38,7 @@ def socket_command(path, line):
 
 
 def run(args):
+    wall_start = time.time_ns()
     truth = args.tmp + "/truth.txt"
     control = args.tmp + "/control.sock"
     bus0 = Bus(args.iface, errors=True)
@@ -91,7 +94,16 @@ def run(args):
     check(sdo_read(bus0, 2, 0x1018, 4) == 6, "node 2 serial after silence off")
     REPORT.ok("silence on/off: no answer while silent, state kept (serial 6 answers again)")
 
-    # Linux CAN error frames on vcan0 (CAN_RAW_ERR_FILTER set on bus0).
+    # Linux CAN error frames on vcan0 (CAN_RAW_ERR_FILTER set on bus0), and
+    # how each device's controller reacts: J§1.8.1 / E§9.1 rows 0x8120 "CAN
+    # error passive" and 0x8140 "recovered from bus-off" (J: register byte 1;
+    # E: byte 2 = 0), silence while bus-off (no heartbeat, no SDO answer).
+    # Error warning and error active (no row in either table) send nothing.
+    emcy_want = {
+        "error-passive": {0x81: "20 81 01 00 00 00 00 00", 0x82: "20 81 00 00 00 00 00 00"},
+        "restarted": {0x81: "40 81 01 00 00 00 00 00", 0x82: "40 81 00 00 00 00 00 00"},
+    }
+    heartbeat = lambda fr: fr.can_id in (0x701, 0x702)
     for kind, ident, d1 in (("error-passive", 0x04 | 0x200, 0x30), ("bus-off", 0x40, 0x00),
                             ("restarted", 0x100, 0x00), ("error-warning", 0x04 | 0x200, 0x0C),
                             ("error-active", 0x04 | 0x200, 0x40)):
@@ -101,7 +113,53 @@ def run(args):
         check(f is not None, "no error frame for %s" % kind)
         check(f.can_id == ident and len(f.data) == 8 and f.data[1] == d1,
               "%s: error frame id %#x data %s, expected id %#x data[1] %#x" % (kind, f.can_id, hexs(f.data), ident, d1))
-        REPORT.ok("bus-error %s: error frame" % kind, "class %#05x data %s" % (f.can_id, hexs(f.data)))
+        after = bus0.collect(lambda fr: not fr.is_error, 0.4)
+        emcys = [fr for fr in after if fr.can_id in (0x81, 0x82)]
+        want = emcy_want.get(kind, {})
+        got = {fr.can_id: hexs(fr.data) for fr in emcys}
+        check(len(emcys) == len(want) and got == {k: v for k, v in want.items()},
+              "bus-error %s: EMCYs %r, expected %r" % (kind, emcys, want))
+        beats = [fr for fr in after if heartbeat(fr)]
+        if kind == "bus-off":
+            check(not beats, "bus-off: heartbeats still sent: %r" % beats[:3])
+            r = simtest.exchange(bus0, 0x601, bytes.fromhex("4018100400000000"), 0x581, timeout=0.3)
+            check(r is None, "bus-off: node 1 answered SDO: %r" % r)
+        else:
+            check(len(beats) >= 4, "bus-error %s: only %d heartbeats in 0.4 s" % (kind, len(beats)))
+        REPORT.ok("bus-error %s: error frame, device reaction" % kind,
+                  "class %#05x data %s; EMCY %s; heartbeats %d" % (
+                      f.can_id, hexs(f.data), " ".join("%03X: %s" % (k, v) for k, v in sorted(got.items())) or "none",
+                      len(beats)))
+    # ifm on vcan1: F has no EMCY table; the CiA 301 code with the error
+    # register (generic + communication), marked (ext) in docs/devices.md.
+    bus1.drain()
+    sim.command("bus-error %s error-passive" % args.iface2)
+    f = bus1.wait_for(lambda fr: fr.can_id == 0x83)
+    check(f is not None and hexs(f.data) == "20 81 11 00 00 00 00 00",
+          "ifm error passive: EMCY %r, expected 083: 20 81 11 00 00 00 00 00" % f)
+    check(sdo_read(bus1, 3, 0x1001, 0) == 0x11, "ifm 0x1001 while error passive")
+    sim.command("bus-error %s error-active" % args.iface2)
+    check(sdo_read(bus1, 3, 0x1001, 0) == 0, "ifm 0x1001 after error active")
+    REPORT.ok("bus-error %s error-passive: ifm EMCY 083: 20 81 11 00 00 00 00 00 (ext), 0x1001 0x11 -> 0"
+              % args.iface2)
+
+    # move <serial> <turns>: RM9000 4096 counts per turn (F§7.4 0x2101 default),
+    # so a quarter turn is +1024 in the next TPDO1 (0x1800 type 254 sends on
+    # change, F§7.3).
+    simtest.nmt(bus1, 0x01, 3)
+    f = bus1.wait_for(lambda fr: fr.can_id == 0x183)
+    check(f is not None and len(f.data) == 4, "no TPDO1 from node 3 after NMT start: %r" % f)
+    start_pos = int.from_bytes(f.data, "little")
+    sim.command("move 7 0.25")
+    bus1.drain()
+    f = bus1.wait_for(lambda fr: fr.can_id == 0x183)
+    check(f is not None, "no TPDO1 from node 3 after move")
+    moved = int.from_bytes(f.data, "little")
+    check(moved == (start_pos + 1024) % (1 << 24), "move 7 0.25: TPDO1 position %d, expected %d" % (
+        moved, (start_pos + 1024) % (1 << 24)))
+    got = sim.command("move 999 1", expect_ok=False)
+    check(got.startswith("error no device with serial 999"), "move 999: %r" % got)
+    REPORT.ok("move 7 0.25: next TPDO1 %d -> %d (+1024 counts)" % (start_pos, moved))
 
     # Flood: identifier 0 back to back; the simulated devices lose arbitration.
     bus0.drain()
@@ -142,10 +200,25 @@ def run(args):
     check(code == 0, "exit code %d after SIGTERM" % code)
     REPORT.ok("SIGTERM: exit code 0")
 
+    wall_end = time.time_ns()
     lines = open(truth).read().splitlines()
     check(lines, "empty truth file")
     bad = [ln for ln in lines if not TRUTH_LINE.match(ln)]
     check(not bad, "truth lines not in the documented format: %r" % bad[:3])
+    # Timestamps: CLOCK_REALTIME read at send time, one read per frame, so in
+    # the run's wall-clock window, in file order, and distinct for the two
+    # boot-ups sent one after the other in the same loop turn.
+    stamps = [int(ln.split()[0]) for ln in lines]
+    check(wall_start <= stamps[0] and stamps[-1] <= wall_end,
+          "truth timestamps %d..%d outside the run %d..%d" % (stamps[0], stamps[-1], wall_start, wall_end))
+    check(all(a <= b for a, b in zip(stamps, stamps[1:])), "truth timestamps not in file order")
+    boot_stamps = [int(ln.split()[0]) for ln in lines if " boot-up 701 " in ln or " boot-up 702 " in ln][:2]
+    check(len(boot_stamps) == 2 and boot_stamps[0] != boot_stamps[1],
+          "boot-ups 701/702 share one timestamp %r: stamped per loop turn, not per frame" % boot_stamps)
+    moved_lines = [ln for ln in lines if ln.split()[2] == "7" and " tpdo1 183 " in ln and (" pos=%d" % moved) in ln]
+    check(moved_lines, "truth file lacks node 3's TPDO1 with pos=%d" % moved)
+    emcy_lines = [ln for ln in lines if " emcy 081 8 2081010000000000 " in ln + " "]
+    check(emcy_lines and emcy_lines[0].endswith("emcy=8120"), "truth file lacks node 1's EMCY 8120: %r" % emcy_lines)
     boot = [ln.split()[1:8] for ln in lines if " boot-up " in ln]
     for want in (["vcan0", "5", "1", "boot-up", "701", "1", "00"], ["vcan0", "6", "2", "boot-up", "702", "1", "00"],
                  ["vcan1", "7", "3", "boot-up", "703", "1", "00"]):

@@ -159,6 +159,46 @@ TEST(SimDeviceStorage, IfmLoadIsFactoryAfterReset_F6_3_5) {
   std::filesystem::remove_all(dir);
 }
 
+// F§6.3.5, F§7.3 0x1011: after 'load' the NMT reset node activates the
+// factory settings in every area, the communication objects included (the
+// event timer 0x1800/5 and its twins 0x6200 / 0x2200, digest B.3) and the
+// preset (offset 0), and TPDO1 runs at the factory 100 ms; the EEPROM still
+// holds the saved image, which a power cycle brings back.
+TEST(SimDeviceStorage, IfmLoadResetNodeRestoresCommunicationArea_F6_3_5) {
+  const auto dir = temp_state_dir("ifmloadcomm");
+  DeviceSpec spec;
+  spec.node_id = 5;
+  Bench b("RM9000", "ifm-rm8-rm9.eds", spec, dir);
+  b.power_on();
+  ASSERT_EQ(b.write_u32(0x1800, 5, 50).data[0], 0x60);
+  ASSERT_EQ(b.write_u32(0x6003, 0, 1000).data[0], 0x60);  // preset
+  b.run_for(2ms);
+  ASSERT_EQ(Bench::value(b.read(0x6004, 0)), 1000u);
+  ASSERT_EQ(b.write_u32(0x1010, 1, kSave).data[0], 0x60);
+  ASSERT_EQ(b.write_u32(0x1011, 1, kLoad).data[0], 0x60);
+  EXPECT_EQ(Bench::value(b.read(0x1800, 5)), 50u);  // F§7.3: not before a reset
+  b.nmt(0x81, 5);
+  b.run_for(2ms);
+  EXPECT_EQ(Bench::value(b.read(0x1800, 5)), 100u);
+  EXPECT_EQ(Bench::value(b.read(0x6200, 0)) & 0xFFFFu, 100u);
+  EXPECT_EQ(Bench::value(b.read(0x2200, 0)) & 0xFFFFu, 100u);
+  EXPECT_EQ(Bench::value(b.read(0x6003, 0)), 0u);
+  EXPECT_EQ(Bench::value(b.read(0x6509, 0)), 0u);
+  EXPECT_EQ(Bench::value(b.read(0x6004, 0)), 0u);  // constant:0 shaft at count 0, no offset
+  b.nmt(0x01, 5);
+  const std::size_t from = b.rec.frames.size();
+  b.run_for(1000ms);
+  const auto pdos = b.frames_with_id(0x185, from);
+  EXPECT_GE(pdos.size(), 9u);
+  EXPECT_LE(pdos.size(), 11u);
+  b.power_cycle();
+  b.run_for(2ms);
+  EXPECT_EQ(Bench::value(b.read(0x1800, 5)), 50u);
+  EXPECT_EQ(Bench::value(b.read(0x2200, 0)) & 0xFFFFu, 50u);  // the mirror after power-up too
+  EXPECT_EQ(Bench::value(b.read(0x6004, 0)), 1000u);
+  std::filesystem::remove_all(dir);
+}
+
 // The file format: `index:sub=hex` lines, written atomically (no .tmp left).
 TEST(SimDeviceStorage, FileFormat_NvStore) {
   const auto dir = temp_state_dir("format");

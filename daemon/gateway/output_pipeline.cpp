@@ -1,0 +1,80 @@
+#include "gateway/output_pipeline.hpp"
+
+#include "sys/logging.hpp"
+
+namespace cobridge::gateway {
+namespace {
+
+pipeline::PluginHost::Options host_options(const config::Config& config, std::filesystem::path dir) {
+  pipeline::PluginHost::Options o;
+  o.plugin_dir = std::move(dir);
+  o.gateway_id = config.gateway.id;
+  // A plugin's log lines go to the logger named after its instance ("dds", ...).
+  o.log = [](pipeline::LogLevel level, std::string_view instance, std::string_view message) {
+    sys::logger(instance)->log(static_cast<spdlog::level::level_enum>(level), "{}", message);
+  };
+  return o;
+}
+
+}  // namespace
+
+OutputPipeline::OutputPipeline(const config::Config& config, const device::DeviceCatalog& catalog,
+                               std::filesystem::path plugin_dir)
+    : config_(config), host_(host_options(config, std::move(plugin_dir))), sink_(host_), dispatcher_(sink_) {
+  for (std::size_t i = 0; i < config.buses.size(); ++i) {
+    auto bus = std::make_unique<Bus>();
+    bus->receiver = std::make_unique<pipeline::BusReceiver>(
+        pipeline::BusReceiverOptions{.bus_index = static_cast<std::uint8_t>(i), .interface = config.buses[i].interface},
+        bus->table, dispatcher_);
+    bus->bridge = std::make_unique<OutputBridge>(config, i, catalog, bus->table, bus->receiver.get(), &host_, &dispatcher_);
+    dispatcher_.add_source(bus->receiver->ring());
+    buses_.push_back(std::move(bus));
+  }
+}
+
+OutputPipeline::~OutputPipeline() { stop(); }
+
+std::vector<std::string> OutputPipeline::start(bool* fatal) {
+  std::vector<std::string> problems;
+  if (fatal) *fatal = false;
+  std::vector<pipeline::PluginSpec> specs;
+  for (const auto& out : config_.outputs) {
+    if (!out.enabled) continue;
+    pipeline::PluginSpec spec;
+    spec.instance = out.name;
+    spec.type = out.name;
+    if (!out.plugin.empty()) spec.file = out.plugin;
+    spec.config_toml = out.settings_toml;
+    specs.push_back(std::move(spec));
+  }
+  for (const auto& e : host_.load_all(specs)) problems.push_back(e.message);
+  for (const auto& e : host_.start_all()) problems.push_back(e.message);
+  dispatcher_.start();
+  for (std::size_t i = 0; i < buses_.size(); ++i) {
+    std::string why;
+    if (buses_[i]->receiver->start(&why)) {
+      problems.push_back("bus " + config_.buses[i].name + ": hot path: " + why);
+      if (fatal) *fatal = true;
+    }
+  }
+  started_ = true;
+  return problems;
+}
+
+void OutputPipeline::stop() {
+  if (!started_) return;
+  started_ = false;
+  for (auto& b : buses_) b->receiver->stop();
+  dispatcher_.stop();  // delivers what the receivers pushed
+  host_.stop_all();
+}
+
+BusObserver* OutputPipeline::observer(std::size_t bus_index) {
+  return bus_index < buses_.size() ? buses_[bus_index]->bridge.get() : nullptr;
+}
+
+pipeline::ReceiverStats OutputPipeline::receiver_stats(std::size_t bus_index) const {
+  return bus_index < buses_.size() ? buses_[bus_index]->receiver->stats() : pipeline::ReceiverStats{};
+}
+
+}  // namespace cobridge::gateway

@@ -1,0 +1,67 @@
+// OutputPipeline: the daemon's hot path and outputs, assembled.
+//
+// One PluginHost with the enabled [outputs.<name>] plugins, one Dispatcher
+// thread, and per bus a DeviceTable, a BusReceiver (the RX thread with its
+// own kernel-filtered socket) and an OutputBridge (the BusObserver the bus
+// manager reports to). A plugin that fails to load or start is reported and
+// the others run; the buses are served whatever the outputs do.
+// Threads: constructed, started and stopped by the daemon's main thread;
+// observer(i) is handed to bus manager i and called on its control thread.
+#pragma once
+
+#include "config/config.hpp"
+#include "device/device_catalog.hpp"
+#include "gateway/output_bridge.hpp"
+#include "pipeline/bus_receiver.hpp"
+#include "pipeline/device_table.hpp"
+#include "pipeline/dispatcher.hpp"
+#include "pipeline/plugin_host.hpp"
+
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace cobridge::gateway {
+
+class OutputPipeline {
+ public:
+  OutputPipeline(const config::Config& config, const device::DeviceCatalog& catalog, std::filesystem::path plugin_dir);
+  ~OutputPipeline();
+  OutputPipeline(const OutputPipeline&) = delete;
+  OutputPipeline& operator=(const OutputPipeline&) = delete;
+
+  // Loads and starts the plugins, then the dispatcher and the receivers.
+  // Returns every problem as a message; a receiver that cannot open its bus
+  // is an error the caller should treat like a bus that cannot open.
+  [[nodiscard]] std::vector<std::string> start(bool* fatal);
+  void stop();
+
+  [[nodiscard]] BusObserver* observer(std::size_t bus_index);
+  [[nodiscard]] std::size_t plugins_running() const noexcept { return host_.loaded_count(); }
+  [[nodiscard]] pipeline::ReceiverStats receiver_stats(std::size_t bus_index) const;
+
+ private:
+  class HostSink final : public pipeline::SampleSink {
+   public:
+    explicit HostSink(pipeline::PluginHost& host) : host_(host) {}
+    void deliver(std::span<const pipeline::Sample> batch) noexcept override { host_.deliver(batch); }
+
+   private:
+    pipeline::PluginHost& host_;
+  };
+  struct Bus {
+    pipeline::DeviceTable table;
+    std::unique_ptr<pipeline::BusReceiver> receiver;
+    std::unique_ptr<OutputBridge> bridge;
+  };
+
+  const config::Config& config_;
+  pipeline::PluginHost host_;
+  HostSink sink_;
+  pipeline::Dispatcher dispatcher_;
+  std::vector<std::unique_ptr<Bus>> buses_;
+  bool started_ = false;
+};
+
+}  // namespace cobridge::gateway

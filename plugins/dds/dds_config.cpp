@@ -1,0 +1,99 @@
+#include "dds/dds_config.hpp"
+
+#include <toml++/toml.h>
+
+#include <limits>
+
+namespace cobridge::dds {
+namespace {
+
+class ConfigCategory final : public std::error_category {
+ public:
+  const char* name() const noexcept override { return "cobridge.dds.config"; }
+  std::string message(int c) const override {
+    switch (static_cast<DdsConfigErrc>(c)) {
+      case DdsConfigErrc::kSyntax: return "not valid TOML";
+      case DdsConfigErrc::kUnknownKey: return "unknown key";
+      case DdsConfigErrc::kWrongType: return "wrong value type";
+      case DdsConfigErrc::kOutOfRange: return "value out of range";
+    }
+    return "unknown error";
+  }
+};
+
+// The default DDSI port mapping (PB 7400, DG 250) fits domains 0..232 into
+// the 16-bit UDP port range.
+constexpr std::int64_t kMaxDomain = 232;
+// Writer history beyond this only costs memory: a late sample is useless.
+constexpr std::int64_t kMaxDepth = 10000;
+constexpr std::string_view kKnownKeys = "domain, sample_reliability, sample_depth, topic_prefix";
+
+DdsConfigResult fail(DdsConfigErrc code, std::string message) {
+  DdsConfigResult r;
+  r.error = make_error_code(code);
+  r.message = "config: " + std::move(message);
+  return r;
+}
+
+}  // namespace
+
+const std::error_category& dds_config_category() noexcept {
+  static const ConfigCategory category;
+  return category;
+}
+
+std::error_code make_error_code(DdsConfigErrc e) noexcept { return {static_cast<int>(e), dds_config_category()}; }
+
+std::string_view to_string(Reliability r) noexcept {
+  return r == Reliability::kReliable ? "reliable" : "best-effort";
+}
+
+DdsConfigResult parse_dds_config(std::string_view toml_text) {
+  toml::table table;
+  try {
+    table = toml::parse(toml_text, std::string_view("dds"));
+  } catch (const toml::parse_error& e) {
+    return fail(DdsConfigErrc::kSyntax,
+                std::string(e.description()) + " at line " + std::to_string(e.source().begin.line));
+  }
+  DdsConfigResult r;
+  for (const auto& [key, node] : table) {
+    const std::string_view k = key.str();
+    if (k == "domain") {
+      const auto* v = node.as_integer();
+      if (v == nullptr) return fail(DdsConfigErrc::kWrongType, "'domain' must be an integer");
+      if (v->get() < 0 || v->get() > kMaxDomain) {
+        return fail(DdsConfigErrc::kOutOfRange, "'domain' must be 0.." + std::to_string(kMaxDomain));
+      }
+      r.config.domain = static_cast<std::uint32_t>(v->get());
+    } else if (k == "sample_reliability") {
+      const auto* v = node.as_string();
+      if (v == nullptr) return fail(DdsConfigErrc::kWrongType, "'sample_reliability' must be a string");
+      if (v->get() == "best-effort") {
+        r.config.sample_reliability = Reliability::kBestEffort;
+      } else if (v->get() == "reliable") {
+        r.config.sample_reliability = Reliability::kReliable;
+      } else {
+        return fail(DdsConfigErrc::kOutOfRange,
+                    "'sample_reliability' must be \"best-effort\" or \"reliable\", not \"" + v->get() + "\"");
+      }
+    } else if (k == "sample_depth") {
+      const auto* v = node.as_integer();
+      if (v == nullptr) return fail(DdsConfigErrc::kWrongType, "'sample_depth' must be an integer");
+      if (v->get() < 1 || v->get() > kMaxDepth) {
+        return fail(DdsConfigErrc::kOutOfRange, "'sample_depth' must be 1.." + std::to_string(kMaxDepth));
+      }
+      r.config.sample_depth = static_cast<std::int32_t>(v->get());
+    } else if (k == "topic_prefix") {
+      const auto* v = node.as_string();
+      if (v == nullptr) return fail(DdsConfigErrc::kWrongType, "'topic_prefix' must be a string");
+      r.config.topic_prefix = v->get();
+    } else {
+      return fail(DdsConfigErrc::kUnknownKey,
+                  "unknown key '" + std::string(k) + "' (expected " + std::string(kKnownKeys) + ")");
+    }
+  }
+  return r;
+}
+
+}  // namespace cobridge::dds

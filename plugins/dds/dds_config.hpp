@@ -1,0 +1,53 @@
+// DdsConfig: the DDS plugin's configuration, parsed from the TOML text of its
+// instance table (see docs/dds.md). Unknown keys are refused by name so that
+// a typo does not silently fall back to a default.
+//
+// Thread contract: parse_dds_config runs in cobridge_plugin_create on the
+// daemon's control thread; it allocates and may be slow.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <system_error>
+
+namespace cobridge::dds {
+
+enum class Reliability : std::uint8_t { kBestEffort, kReliable };
+
+struct DdsConfig {
+  // DDS domain id; the default port mapping allows 0..232.
+  std::uint32_t domain = 0;
+  // QoS of the EncoderSample writer; events and status are always reliable.
+  Reliability sample_reliability = Reliability::kBestEffort;
+  // Keep-last depth of the EncoderSample writer, per instance (device).
+  std::int32_t sample_depth = 1;
+  // Prepended to the topic names ("plant1/" -> "plant1/EncoderSample").
+  std::string topic_prefix;
+};
+
+enum class DdsConfigErrc {
+  kSyntax = 1,  // not TOML
+  kUnknownKey,  // a key the plugin does not know
+  kWrongType,   // a key with a value of the wrong TOML type
+  kOutOfRange,  // a value outside its range or set
+};
+
+[[nodiscard]] const std::error_category& dds_config_category() noexcept;
+[[nodiscard]] std::error_code make_error_code(DdsConfigErrc e) noexcept;
+
+struct DdsConfigResult {
+  DdsConfig config;
+  std::error_code error;
+  std::string message;  // "config: ..." when error is set
+  [[nodiscard]] bool ok() const noexcept { return !error; }
+};
+
+[[nodiscard]] DdsConfigResult parse_dds_config(std::string_view toml_text);
+
+[[nodiscard]] std::string_view to_string(Reliability r) noexcept;
+
+}  // namespace cobridge::dds
+
+template <>
+struct std::is_error_code_enum<cobridge::dds::DdsConfigErrc> : std::true_type {};

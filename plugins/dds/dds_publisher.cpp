@@ -1,0 +1,198 @@
+#include "dds/dds_publisher.hpp"
+
+#include "dds/sample_mapping.hpp"
+#include "dds/topics.hpp"
+
+#include <chrono>
+#include <utility>
+
+namespace cobridge::dds {
+namespace {
+
+class DdsCategory final : public std::error_category {
+ public:
+  const char* name() const noexcept override { return "cyclonedds"; }
+  std::string message(int c) const override { return dds_strretcode(-c); }
+};
+
+std::uint64_t realtime_ns() noexcept {
+  return static_cast<std::uint64_t>(
+      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
+          .count());
+}
+
+}  // namespace
+
+const std::error_category& dds_category() noexcept {
+  static const DdsCategory category;
+  return category;
+}
+
+// Cyclone's codes are negative; error_code wants them positive (0 = success).
+std::error_code make_dds_error(dds_return_t rc) noexcept { return {rc < 0 ? -rc : rc, dds_category()}; }
+
+DdsPublisher::DdsPublisher(DdsConfig config, std::string gateway_id)
+    : config_(std::move(config)), gateway_id_(std::move(gateway_id)) {}
+
+DdsPublisher::~DdsPublisher() { stop(); }
+
+std::error_code DdsPublisher::start(std::string& message) {
+  if (started()) return {};
+  const auto domain = static_cast<dds_domainid_t>(config_.domain);
+  participant_ = dds_create_participant(domain, nullptr, nullptr);
+  if (participant_ < 0) {
+    const dds_return_t rc = participant_;
+    participant_ = 0;
+    message = "cannot create a DDS participant in domain " + std::to_string(config_.domain) + ": " +
+              dds_strretcode(rc) + " (check CYCLONEDDS_URI)";
+    return make_dds_error(rc);
+  }
+  struct Spec {
+    std::string_view topic;
+    const dds_topic_descriptor_t* type;
+    Qos qos;
+    dds_entity_t* writer;
+  };
+  Spec specs[] = {
+      {kEncoderSampleTopic, &cobridge_EncoderSample_desc,
+       encoder_sample_writer_qos(config_.sample_reliability, config_.sample_depth), &sample_writer_},
+      {kEncoderEventTopic, &cobridge_EncoderEvent_desc, encoder_event_writer_qos(), &event_writer_},
+      {kDeviceStatusTopic, &cobridge_DeviceStatus_desc, device_status_writer_qos(), &status_writer_},
+  };
+  for (Spec& spec : specs) {
+    const std::string name = topic_name(config_.topic_prefix, spec.topic);
+    const dds_entity_t topic = dds_create_topic(participant_, spec.type, name.c_str(), nullptr, nullptr);
+    if (topic < 0) {
+      message = "cannot create topic '" + name + "': " + dds_strretcode(topic);
+      stop();
+      return make_dds_error(topic);
+    }
+    const dds_entity_t writer = dds_create_writer(participant_, topic, spec.qos.get(), nullptr);
+    if (writer < 0) {
+      message = "cannot create a writer for '" + name + "': " + dds_strretcode(writer);
+      stop();
+      return make_dds_error(writer);
+    }
+    *spec.writer = writer;
+  }
+  // A restart re-announces what the plugin already knows.
+  for (std::uint16_t i = 0; i < slots_.capacity(); ++i) {
+    if (const DeviceSlot* slot = slots_.find(i); slot != nullptr && slot->in_use) write_status(*slot);
+  }
+  return {};
+}
+
+void DdsPublisher::stop() noexcept {
+  if (participant_ > 0) (void)dds_delete(participant_);  // deletes topics and writers too
+  participant_ = sample_writer_ = event_writer_ = status_writer_ = 0;
+}
+
+void DdsPublisher::write(dds_entity_t writer, const void* data, std::atomic<std::uint64_t>& counter) noexcept {
+  const dds_return_t rc = dds_write(writer, data);
+  if (rc == DDS_RETCODE_OK) {
+    counter.fetch_add(1, std::memory_order_relaxed);
+  } else {
+    failures_.fetch_add(1, std::memory_order_relaxed);
+    last_failure_.store(rc, std::memory_order_relaxed);
+  }
+}
+
+void DdsPublisher::write_status(const DeviceSlot& slot) noexcept {
+  cobridge_DeviceStatus st{};
+  fill_device_status(st, slot, gateway_id_.c_str());
+  write(status_writer_, &st, statuses_);
+}
+
+void DdsPublisher::publish(std::span<const cobridge_sample> samples) noexcept {
+  if (!started()) return;
+  for (const cobridge_sample& s : samples) publish_one(s);
+}
+
+void DdsPublisher::publish_one(const cobridge_sample& s) noexcept {
+  const char* gw = gateway_id_.c_str();
+  switch (s.kind) {
+    case COBRIDGE_SAMPLE_TPDO: {
+      const StatusChange change = slots_.apply(s);
+      const DeviceSlot* slot = slots_.find(s.device_index);
+      cobridge_EncoderSample m{};
+      fill_encoder_sample(m, s, gw, slot, (s.valid & COBRIDGE_VALID_STATUS) != 0 && s.stale != 0);
+      write(sample_writer_, &m, samples_);
+      if (change != StatusChange::kNone && slot != nullptr) write_status(*slot);
+      return;
+    }
+    case COBRIDGE_SAMPLE_EMCY: {
+      const DeviceSlot* slot = slots_.find(s.device_index);
+      EmcyText text;
+      describe_emcy(family_from_text(slot != nullptr ? slot->family.c_str() : ""), s, text);
+      cobridge_EncoderEvent e{};
+      fill_encoder_event(e, s, gw, slot, text);
+      write(event_writer_, &e, events_);
+      if (slots_.apply(s) != StatusChange::kNone && slot != nullptr) write_status(*slot);
+      return;
+    }
+    case COBRIDGE_SAMPLE_HEARTBEAT:
+    case COBRIDGE_SAMPLE_NMT_STATE:
+    case COBRIDGE_SAMPLE_STATUS: {
+      const StatusChange change = slots_.apply(s);
+      const DeviceSlot* slot = slots_.find(s.device_index);
+      if (change == StatusChange::kNone || slot == nullptr) return;
+      write_status(*slot);
+      if (change == StatusChange::kBecameStale && slot->has_last_tpdo) {
+        // Subscribers of EncoderSample alone learn that the values they hold
+        // are stale: the last values again, same sequence, flagged.
+        cobridge_sample last = slot->last_tpdo;
+        last.publish_timestamp_ns = s.publish_timestamp_ns;
+        cobridge_EncoderSample m{};
+        fill_encoder_sample(m, last, gw, slot, true);
+        write(sample_writer_, &m, samples_);
+      }
+      return;
+    }
+    default:
+      unknown_kind_.fetch_add(1, std::memory_order_relaxed);
+      return;
+  }
+}
+
+void DdsPublisher::forget_instance(const DeviceSlot& slot) noexcept {
+  // Status readers see the instance disposed; the sample and event writers
+  // release the instance's resources.
+  const char* gw = gateway_id_.c_str();
+  cobridge_DeviceStatus st{};
+  fill_device_status(st, slot, gw);
+  (void)dds_dispose(status_writer_, &st);
+  cobridge_sample key{};
+  key.bus_index = slot.bus_index;
+  key.node_id = slot.node_id;
+  cobridge_EncoderSample m{};
+  fill_encoder_sample(m, key, gw, &slot, false);
+  (void)dds_unregister_instance(sample_writer_, &m);
+  cobridge_EncoderEvent e{};
+  fill_encoder_event(e, key, gw, &slot, EmcyText{});
+  (void)dds_unregister_instance(event_writer_, &e);
+}
+
+void DdsPublisher::device(const cobridge_device_info& info) noexcept {
+  DeviceSlot* slot = slots_.find(info.device_index);
+  if (slot == nullptr) return;
+  const bool moved = slot->in_use && (slot->bus_index != info.bus_index || slot->node_id != info.node_id);
+  if (started() && slot->in_use && (info.change == COBRIDGE_DEVICE_REMOVED || moved)) forget_instance(*slot);
+  if (moved) *slot = DeviceSlot{};  // new key: start from a clean state
+  slot = slots_.apply(info);
+  if (info.change == COBRIDGE_DEVICE_REMOVED || slot == nullptr) return;
+  slot->state.updated_ns = realtime_ns();
+  if (started()) write_status(*slot);
+}
+
+PublisherStats DdsPublisher::stats() const noexcept {
+  PublisherStats s;
+  s.samples = samples_.load(std::memory_order_relaxed);
+  s.events = events_.load(std::memory_order_relaxed);
+  s.statuses = statuses_.load(std::memory_order_relaxed);
+  s.write_failures = failures_.load(std::memory_order_relaxed);
+  s.last_failure = last_failure_.load(std::memory_order_relaxed);
+  s.unknown_kind = unknown_kind_.load(std::memory_order_relaxed);
+  return s;
+}
+
+}  // namespace cobridge::dds

@@ -1,0 +1,50 @@
+// Sample mapping: fills the IDL types of cobridge.idl (generated C structs)
+// from a cobridge_sample and the plugin's DeviceSlot.
+//
+// The string members of the generated structs are `char*`; they are pointed
+// at storage that outlives the dds_write call (the slot table, the gateway
+// id, a caller-provided EmcyText on the stack), so filling a struct never
+// allocates. dds_write only reads through those pointers.
+//
+// Thread contract: the dispatcher thread (hot path): noexcept, no allocation.
+#pragma once
+
+#include "dds/device_slots.hpp"
+
+#include <cobridge/plugin.h>
+
+#include "canopen/emcy.hpp"
+#include "cobridge_idl/cobridge.h"
+
+#include <array>
+
+namespace cobridge::dds {
+
+// "novotechnik-rotary", "novotechnik-multiturn", "ifm-rm" (EDS [Cobridge]
+// Family, also with '_'); anything else is generic (CiA 301 texts only).
+[[nodiscard]] canopen::DeviceFamily family_from_text(const char* family) noexcept;
+
+// NUL-terminated copies of the EMCY meaning, for EncoderEvent's strings.
+struct EmcyText {
+  std::array<char, 160> text{};
+  std::array<char, 24> source{};
+  bool error_reset = false;
+};
+
+// The meaning of an EMCY per the device family's manual (canopen::classify).
+void describe_emcy(canopen::DeviceFamily family, const cobridge_sample& s, EmcyText& out) noexcept;
+
+// EncoderSample from a TPDO sample. `slot` may be nullptr (device beyond the
+// table): the name is then "". `stale` overrides the sample's own flag (for
+// the re-publication of the last values when a device turns stale).
+void fill_encoder_sample(cobridge_EncoderSample& out, const cobridge_sample& s, const char* gateway_id,
+                         const DeviceSlot* slot, bool stale) noexcept;
+
+// EncoderEvent from an EMCY sample; the strings point into `text`.
+void fill_encoder_event(cobridge_EncoderEvent& out, const cobridge_sample& s, const char* gateway_id,
+                        const DeviceSlot* slot, const EmcyText& text) noexcept;
+
+// DeviceStatus from a slot.
+void fill_device_status(cobridge_DeviceStatus& out, const DeviceSlot& slot, const char* gateway_id) noexcept;
+
+}  // namespace cobridge::dds

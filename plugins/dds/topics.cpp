@@ -1,0 +1,37 @@
+#include "dds/topics.hpp"
+
+namespace cobridge::dds {
+
+std::string topic_name(std::string_view prefix, std::string_view topic) {
+  std::string name(prefix);
+  name += topic;
+  return name;
+}
+
+Qos encoder_sample_writer_qos(Reliability reliability, int32_t depth) {
+  Qos q(dds_create_qos());
+  dds_qset_reliability(q.get(),
+                       reliability == Reliability::kReliable ? DDS_RELIABILITY_RELIABLE : DDS_RELIABILITY_BEST_EFFORT,
+                       kMaxBlocking);
+  dds_qset_history(q.get(), DDS_HISTORY_KEEP_LAST, depth);
+  dds_qset_durability(q.get(), DDS_DURABILITY_VOLATILE);
+  return q;
+}
+
+Qos encoder_event_writer_qos() {
+  Qos q(dds_create_qos());
+  dds_qset_reliability(q.get(), DDS_RELIABILITY_RELIABLE, kMaxBlocking);
+  dds_qset_history(q.get(), DDS_HISTORY_KEEP_LAST, kEventDepth);
+  dds_qset_durability(q.get(), DDS_DURABILITY_VOLATILE);
+  return q;
+}
+
+Qos device_status_writer_qos() {
+  Qos q(dds_create_qos());
+  dds_qset_reliability(q.get(), DDS_RELIABILITY_RELIABLE, kMaxBlocking);
+  dds_qset_history(q.get(), DDS_HISTORY_KEEP_LAST, 1);
+  dds_qset_durability(q.get(), DDS_DURABILITY_TRANSIENT_LOCAL);
+  return q;
+}
+
+}  // namespace cobridge::dds

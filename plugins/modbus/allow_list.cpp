@@ -1,0 +1,85 @@
+#include "allow_list.hpp"
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+
+#include <charconv>
+#include <cstring>
+
+namespace cobridge::modbus {
+
+bool AllowList::add(std::string_view cidr) {
+  Net net;
+  std::string_view host = cidr;
+  std::string_view len;
+  if (const auto slash = cidr.find('/'); slash != std::string_view::npos) {
+    host = cidr.substr(0, slash);
+    len = cidr.substr(slash + 1);
+  }
+  const std::string host_z(host);
+  unsigned max_prefix = 32;
+  if (inet_pton(AF_INET, host_z.c_str(), net.addr.data()) == 1) {
+    net.v6 = false;
+  } else if (inet_pton(AF_INET6, host_z.c_str(), net.addr.data()) == 1) {
+    net.v6 = true;
+    max_prefix = 128;
+  } else {
+    return false;
+  }
+  net.prefix = max_prefix;
+  if (cidr.find('/') != std::string_view::npos) {
+    unsigned p = 0;
+    const auto [ptr, ec] = std::from_chars(len.data(), len.data() + len.size(), p);
+    if (ec != std::errc{} || ptr != len.data() + len.size() || len.empty() || p > max_prefix) return false;
+    net.prefix = p;
+  }
+  nets_.push_back(net);
+  return true;
+}
+
+bool AllowList::match(const Net& n, const std::uint8_t* addr) noexcept {
+  const unsigned full = n.prefix / 8;
+  if (std::memcmp(n.addr.data(), addr, full) != 0) return false;
+  const unsigned rest = n.prefix % 8;
+  if (rest == 0) return true;
+  const auto mask = static_cast<std::uint8_t>(0xFFu << (8 - rest));
+  return (n.addr[full] & mask) == (addr[full] & mask);
+}
+
+bool AllowList::contains_v4(std::uint32_t addr) const noexcept {
+  if (nets_.empty()) return true;
+  const std::uint8_t bytes[4] = {static_cast<std::uint8_t>(addr >> 24), static_cast<std::uint8_t>(addr >> 16),
+                                 static_cast<std::uint8_t>(addr >> 8), static_cast<std::uint8_t>(addr)};
+  for (const Net& n : nets_) {
+    if (!n.v6 && match(n, bytes)) return true;
+  }
+  return false;
+}
+
+bool AllowList::contains(const sockaddr* addr) const noexcept {
+  if (nets_.empty()) return true;
+  if (addr == nullptr) return false;
+  if (addr->sa_family == AF_INET) {
+    sockaddr_in in{};
+    std::memcpy(&in, addr, sizeof in);
+    return contains_v4(ntohl(in.sin_addr.s_addr));
+  }
+  if (addr->sa_family == AF_INET6) {
+    sockaddr_in6 in6{};
+    std::memcpy(&in6, addr, sizeof in6);
+    const std::uint8_t* b = in6.sin6_addr.s6_addr;
+    static constexpr std::uint8_t kMapped[12] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0xFF, 0xFF};
+    if (std::memcmp(b, kMapped, sizeof kMapped) == 0) {
+      const std::uint32_t v4 = (static_cast<std::uint32_t>(b[12]) << 24) | (static_cast<std::uint32_t>(b[13]) << 16) |
+                               (static_cast<std::uint32_t>(b[14]) << 8) | b[15];
+      return contains_v4(v4);
+    }
+    for (const Net& n : nets_) {
+      if (n.v6 && match(n, b)) return true;
+    }
+  }
+  return false;
+}
+
+}  // namespace cobridge::modbus

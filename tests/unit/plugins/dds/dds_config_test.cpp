@@ -1,0 +1,60 @@
+// DdsConfig parsing (docs/dds.md "Configuration"; no CiA clause applies):
+// defaults, every key, and each kind of refusal with its code and a message
+// naming the key.
+#include "dds/dds_config.hpp"
+
+#include <gtest/gtest.h>
+
+using namespace cobridge::dds;
+
+namespace {
+
+// docs/dds.md "Configuration": an empty table gives the documented defaults.
+TEST(DdsConfig, DocsDds_EmptyGivesDefaults) {
+  const DdsConfigResult r = parse_dds_config("");
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_EQ(r.config.domain, 0u);
+  EXPECT_EQ(r.config.sample_reliability, Reliability::kBestEffort);
+  EXPECT_EQ(r.config.sample_depth, 1);
+  EXPECT_EQ(r.config.topic_prefix, "");
+}
+
+// docs/dds.md "Configuration": every key read.
+TEST(DdsConfig, DocsDds_AllKeys) {
+  const DdsConfigResult r =
+      parse_dds_config("domain = 42\nsample_reliability = \"reliable\"\nsample_depth = 16\ntopic_prefix = \"p/\"\n");
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_EQ(r.config.domain, 42u);
+  EXPECT_EQ(r.config.sample_reliability, Reliability::kReliable);
+  EXPECT_EQ(r.config.sample_depth, 16);
+  EXPECT_EQ(r.config.topic_prefix, "p/");
+}
+
+// docs/dds.md "Configuration": refusals carry a code and name the key.
+TEST(DdsConfig, DocsDds_Refusals) {
+  struct Case {
+    const char* text;
+    DdsConfigErrc code;
+    const char* mentions;
+  };
+  const Case cases[] = {
+      {"domain = ", DdsConfigErrc::kSyntax, "line 1"},
+      {"reliability = \"reliable\"", DdsConfigErrc::kUnknownKey, "'reliability'"},
+      {"domain = \"0\"", DdsConfigErrc::kWrongType, "'domain'"},
+      {"domain = 233", DdsConfigErrc::kOutOfRange, "'domain'"},
+      {"domain = -1", DdsConfigErrc::kOutOfRange, "'domain'"},
+      {"sample_reliability = \"best_effort\"", DdsConfigErrc::kOutOfRange, "best_effort"},
+      {"sample_reliability = true", DdsConfigErrc::kWrongType, "'sample_reliability'"},
+      {"sample_depth = 0", DdsConfigErrc::kOutOfRange, "'sample_depth'"},
+      {"sample_depth = 1.5", DdsConfigErrc::kWrongType, "'sample_depth'"},
+      {"topic_prefix = 3", DdsConfigErrc::kWrongType, "'topic_prefix'"},
+  };
+  for (const Case& c : cases) {
+    const DdsConfigResult r = parse_dds_config(c.text);
+    EXPECT_EQ(r.error, make_error_code(c.code)) << c.text;
+    EXPECT_NE(r.message.find(c.mentions), std::string::npos) << c.text << " -> " << r.message;
+    EXPECT_EQ(r.message.rfind("config: ", 0), 0u) << r.message;
+  }
+}
+
+}  // namespace

@@ -1,0 +1,595 @@
+// The DDS output plugin end to end on real Cyclone DDS: libcobridge_dds.so is
+// loaded through pipeline::PluginHost (real dlopen), fed samples and device
+// announcements, and read back by DDS readers of the generated IDL types in
+// this process, and by `cobridge watch` in another process over loopback.
+//
+// Each test process uses its own DDS domain and gateway id (from its pid),
+// and Cyclone is pinned to the loopback interface, so parallel runs and other
+// DDS traffic on the host do not interfere.
+#include "pipeline/plugin_host.hpp"
+#include "pipeline/sample.hpp"
+
+#include "canopen/emcy.hpp"
+#include "cobridge_idl/cobridge.h"
+
+#include <dds/dds.h>
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+extern char** environ;
+
+namespace fs = std::filesystem;
+using namespace cobridge;
+using namespace std::chrono_literals;
+
+namespace {
+
+// Before any participant exists: loopback only, with multicast forced on
+// (lo has no MULTICAST flag, but Linux delivers loopback multicast).
+const bool kLoopback = [] {
+  ::setenv("CYCLONEDDS_URI", "<General><Interfaces><NetworkInterface name=\"lo\" multicast=\"true\"/></Interfaces></General>",
+           1);
+  return true;
+}();
+
+const fs::path kPlugin = COBRIDGE_DDS_PLUGIN_FILE;
+const fs::path kCli = COBRIDGE_CLI_FILE;
+
+std::uint32_t test_domain() { return 20u + static_cast<std::uint32_t>(::getpid()) % 200u; }
+std::string test_gateway() { return "gw-test-" + std::to_string(::getpid()); }
+
+class LogCapture {
+ public:
+  pipeline::PluginHost::LogSink sink() {
+    return [this](pipeline::LogLevel, std::string_view instance, std::string_view msg) {
+      std::lock_guard lock(mutex_);
+      lines_.push_back(std::string(instance) + ": " + std::string(msg));
+    };
+  }
+  std::string all() {
+    std::lock_guard lock(mutex_);
+    std::string s;
+    for (const auto& l : lines_) s += l + "\n";
+    return s;
+  }
+
+ private:
+  std::mutex mutex_;
+  std::vector<std::string> lines_;
+};
+
+// A started DDS plugin instance.
+struct Plugin {
+  LogCapture log;
+  pipeline::PluginHost host;
+  explicit Plugin(const std::string& config)
+      : host({kPlugin.parent_path(), test_gateway(), log.sink()}) {
+    pipeline::PluginError err;
+    const std::error_code ec = host.load({"dds", "dds", kPlugin, config}, &err);
+    EXPECT_FALSE(ec) << err.message;
+    const auto failed = host.start_all();
+    EXPECT_TRUE(failed.empty()) << log.all();
+    EXPECT_EQ(host.started_count(), 1u) << log.all();
+  }
+};
+
+std::string base_config(const std::string& extra = "") {
+  return "domain = " + std::to_string(test_domain()) + "\n" + extra;
+}
+
+cobridge_device_info device(std::uint16_t index, std::uint8_t bus, std::uint8_t node, const char* name,
+                            const char* family = "novotechnik-rotary",
+                            std::uint8_t change = COBRIDGE_DEVICE_ADDED) {
+  cobridge_device_info d{};
+  d.struct_size = sizeof d;
+  d.device_index = index;
+  d.bus_index = bus;
+  d.node_id = node;
+  d.change = change;
+  d.vendor_id = 0x0000065;
+  d.product_code = 0x4711;
+  d.revision = 0x00010002;
+  d.serial = 123456u + index;
+  d.name = name;
+  d.bus_name = bus == 0 ? "can0" : "can1";
+  d.model = "RSC-2800";
+  d.family = family;
+  d.position_unit = "deg";
+  return d;
+}
+
+cobridge_sample header(std::uint16_t index, std::uint8_t bus, std::uint8_t node, std::uint8_t kind,
+                       std::uint32_t seq) {
+  cobridge_sample s{};
+  s.rx_timestamp_ns = 1'700'000'000'000'000'000ull + seq * 1000ull;
+  s.publish_timestamp_ns = s.rx_timestamp_ns + 500;
+  s.sequence = seq;
+  s.device_index = index;
+  s.bus_index = bus;
+  s.node_id = node;
+  s.kind = kind;
+  return s;
+}
+
+cobridge_sample tpdo(std::uint16_t index, std::uint8_t bus, std::uint8_t node, std::uint32_t seq) {
+  cobridge_sample s = header(index, bus, node, COBRIDGE_SAMPLE_TPDO, seq);
+  s.cob_id = static_cast<std::uint16_t>(0x180 + node);
+  s.sync_counter = static_cast<std::uint8_t>(1 + seq % 240);
+  s.position = 1000 * static_cast<std::int64_t>(seq) - 7;
+  s.position_eng = static_cast<double>(s.position) * 0.087890625;
+  s.speed = -static_cast<std::int32_t>(seq);
+  s.cam_state = static_cast<std::uint8_t>(seq & 0x0F);
+  s.work_area_state = static_cast<std::uint8_t>(seq & 0x03);
+  s.alarms = static_cast<std::uint16_t>(seq & 0x1);
+  s.warnings = static_cast<std::uint16_t>(seq & 0x2);
+  s.temperature_dC = 253;
+  s.voltage_dV = 240;
+  s.valid = COBRIDGE_VALID_POSITION | COBRIDGE_VALID_POSITION_ENG | COBRIDGE_VALID_SPEED | COBRIDGE_VALID_CAM_STATE |
+            COBRIDGE_VALID_WORK_AREA_STATE | COBRIDGE_VALID_ALARMS | COBRIDGE_VALID_WARNINGS |
+            COBRIDGE_VALID_TEMPERATURE | COBRIDGE_VALID_VOLTAGE | COBRIDGE_VALID_RAW;
+  return s;
+}
+
+// A reader in its own participant.
+class Reader {
+ public:
+  // Every take on a reader uses this many slots (see the disposal test).
+  static constexpr std::size_t kMax = 256;
+  Reader(const dds_topic_descriptor_t* type, const std::string& topic, dds_reliability_kind_t rel,
+         dds_durability_kind_t dur, bool keep_all, std::int32_t depth = 1) {
+    participant_ = dds_create_participant(static_cast<dds_domainid_t>(test_domain()), nullptr, nullptr);
+    EXPECT_GT(participant_, 0) << dds_strretcode(participant_);
+    const dds_entity_t t = dds_create_topic(participant_, type, topic.c_str(), nullptr, nullptr);
+    EXPECT_GT(t, 0) << dds_strretcode(t);
+    dds_qos_t* q = dds_create_qos();
+    dds_qset_reliability(q, rel, DDS_SECS(1));
+    dds_qset_durability(q, dur);
+    dds_qset_history(q, keep_all ? DDS_HISTORY_KEEP_ALL : DDS_HISTORY_KEEP_LAST, depth);
+    reader_ = dds_create_reader(participant_, t, q, nullptr);
+    dds_delete_qos(q);
+    EXPECT_GT(reader_, 0) << dds_strretcode(reader_);
+  }
+  ~Reader() {
+    if (participant_ > 0) dds_delete(participant_);
+  }
+  Reader(const Reader&) = delete;
+  Reader& operator=(const Reader&) = delete;
+
+  // Takes until `want` samples of this test's gateway arrived or 10 s passed;
+  // `copy` receives each loaned sample (valid data only).
+  template <typename T>
+  void take(std::size_t want, const std::function<void(const T&)>& copy, std::chrono::milliseconds limit = 10s) {
+    const auto deadline = std::chrono::steady_clock::now() + limit;
+    const std::string gw = test_gateway();
+    std::size_t got = 0;
+    while (got < want && std::chrono::steady_clock::now() < deadline) {
+      void* buf[kMax] = {};
+      dds_sample_info_t info[kMax];
+      const int n = dds_take(reader_, buf, info, kMax, kMax);
+      if (n <= 0) {
+        std::this_thread::sleep_for(2ms);
+        continue;
+      }
+      for (int i = 0; i < n; ++i) {
+        const auto idx = static_cast<std::size_t>(i);
+        if (!info[idx].valid_data) continue;
+        const T& v = *static_cast<const T*>(buf[idx]);
+        if (gw != v.gateway_id) continue;
+        copy(v);
+        ++got;
+      }
+      dds_return_loan(reader_, buf, n);
+    }
+  }
+  dds_entity_t id() const { return reader_; }
+
+ private:
+  dds_entity_t participant_ = 0;
+  dds_entity_t reader_ = 0;
+};
+
+struct GotSample {
+  std::string gateway_id, device_name;
+  cobridge_EncoderSample v;
+};
+GotSample copy_sample(const cobridge_EncoderSample& s) {
+  GotSample g{s.gateway_id, s.device_name, s};
+  g.v.gateway_id = g.v.device_name = nullptr;
+  return g;
+}
+
+struct GotStatus {
+  std::string gateway_id, name, bus_name, model, family, unit;
+  cobridge_DeviceStatus v;
+};
+GotStatus copy_status(const cobridge_DeviceStatus& s) {
+  GotStatus g{s.gateway_id, s.name, s.bus_name, s.model, s.family, s.position_unit, s};
+  g.v.gateway_id = g.v.name = g.v.bus_name = g.v.model = g.v.family = g.v.position_unit = nullptr;
+  return g;
+}
+
+struct GotEvent {
+  std::string gateway_id, device_name, text, source;
+  cobridge_EncoderEvent v;
+};
+GotEvent copy_event(const cobridge_EncoderEvent& e) {
+  GotEvent g{e.gateway_id, e.device_name, e.text, e.source, e};
+  g.v.gateway_id = g.v.device_name = g.v.text = g.v.source = nullptr;
+  return g;
+}
+
+void expect_values(const GotSample& g, const cobridge_sample& s, const char* name) {
+  EXPECT_EQ(g.gateway_id, test_gateway());
+  EXPECT_EQ(g.device_name, name);
+  EXPECT_EQ(g.v.bus, s.bus_index);
+  EXPECT_EQ(g.v.node_id, s.node_id);
+  EXPECT_EQ(g.v.position, s.position);
+  EXPECT_EQ(g.v.position_eng, s.position_eng);
+  EXPECT_EQ(g.v.speed, s.speed);
+  EXPECT_EQ(g.v.cam_state, s.cam_state);
+  EXPECT_EQ(g.v.work_area_state, s.work_area_state);
+  EXPECT_EQ(g.v.alarms, s.alarms);
+  EXPECT_EQ(g.v.warnings, s.warnings);
+  EXPECT_EQ(g.v.temperature_dC, s.temperature_dC);
+  EXPECT_EQ(g.v.voltage_dV, s.voltage_dV);
+  // The RAW bit is not a process value: the topic carries the IDL's bits only.
+  EXPECT_EQ(g.v.valid, s.valid & 0x01FFu);
+  EXPECT_EQ(g.v.rx_timestamp_ns, s.rx_timestamp_ns);
+  EXPECT_EQ(g.v.publish_timestamp_ns, s.publish_timestamp_ns);
+  EXPECT_EQ(g.v.sequence_number, s.sequence);
+  EXPECT_EQ(g.v.sync_counter, s.sync_counter);
+  EXPECT_FALSE(g.v.stale);
+}
+
+// CiA 301 §7.2.2 (PDO): every decoded TPDO of two devices on two buses
+// reaches a reliable EncoderSample reader with the same values, in order per
+// device, keyed by gateway id, bus and node-ID.
+TEST(DdsPlugin, Cia301_7_2_2_ReliableSamplesArriveInOrderWithValuesAndKeys) {
+  Reader reader(&cobridge_EncoderSample_desc, "EncoderSample", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_VOLATILE, true);
+  Plugin p(base_config("sample_reliability = \"reliable\"\n"));
+  p.host.announce(device(0, 0, 5, "axis 1"));
+  p.host.announce(device(1, 1, 7, "axis 2"));
+
+  constexpr std::uint32_t kPerDevice = 1500;
+  std::vector<cobridge_sample> sent;
+  std::vector<cobridge_sample> batch;
+  for (std::uint32_t seq = 1; seq <= kPerDevice; ++seq) {
+    batch.push_back(tpdo(0, 0, 5, seq));
+    batch.push_back(tpdo(1, 1, 7, seq));
+    if (batch.size() == 64 || seq == kPerDevice) {
+      p.host.deliver(batch);
+      sent.insert(sent.end(), batch.begin(), batch.end());
+      batch.clear();
+    }
+  }
+  std::vector<GotSample> got;
+  reader.take<cobridge_EncoderSample>(sent.size(), [&](const cobridge_EncoderSample& s) { got.push_back(copy_sample(s)); });
+  ASSERT_EQ(got.size(), sent.size());
+
+  // Order is per instance (device); split both sides by node.
+  std::map<int, std::vector<const GotSample*>> by_node;
+  for (const auto& g : got) by_node[g.v.node_id].push_back(&g);
+  std::map<int, std::vector<const cobridge_sample*>> sent_by_node;
+  for (const auto& s : sent) sent_by_node[s.node_id].push_back(&s);
+  ASSERT_EQ(by_node.size(), 2u);
+  for (const auto& [node, list] : sent_by_node) {
+    ASSERT_EQ(by_node[node].size(), list.size());
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      expect_values(*by_node[node][i], *list[i], node == 5 ? "axis 1" : "axis 2");
+      if (::testing::Test::HasFailure()) return;
+    }
+  }
+}
+
+// CiA 301 §7.2.8.3.2 (heartbeat carries the NMT state): DeviceStatus is
+// reliable and transient-local, so a reader that joins after the fact gets
+// the current identity and state of the device at once.
+TEST(DdsPlugin, Cia301_7_2_8_3_2_LateJoinerGetsCurrentDeviceStatus) {
+  Plugin p(base_config());
+  p.host.announce(device(3, 0, 12, "lift"));
+  cobridge_sample hb = header(3, 0, 12, COBRIDGE_SAMPLE_HEARTBEAT, 1);
+  hb.nmt_state = COBRIDGE_NMT_PRE_OPERATIONAL;
+  hb.online = 1;
+  hb.valid = COBRIDGE_VALID_NMT_STATE;
+  cobridge_sample hb2 = hb;
+  hb2.sequence = 2;
+  hb2.rx_timestamp_ns += 1000;
+  hb2.nmt_state = COBRIDGE_NMT_OPERATIONAL;
+  const cobridge_sample batch[] = {hb, hb2};
+  p.host.deliver(batch);
+
+  // Joins only now.
+  Reader late(&cobridge_DeviceStatus_desc, "DeviceStatus", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_TRANSIENT_LOCAL,
+              false, 1);
+  std::vector<GotStatus> got;
+  late.take<cobridge_DeviceStatus>(1, [&](const cobridge_DeviceStatus& s) { got.push_back(copy_status(s)); });
+  ASSERT_EQ(got.size(), 1u);
+  const GotStatus& st = got[0];
+  EXPECT_EQ(st.name, "lift");
+  EXPECT_EQ(st.bus_name, "can0");
+  EXPECT_EQ(st.model, "RSC-2800");
+  EXPECT_EQ(st.family, "novotechnik-rotary");
+  EXPECT_EQ(st.unit, "deg");
+  EXPECT_EQ(st.v.bus, 0);
+  EXPECT_EQ(st.v.node_id, 12);
+  EXPECT_EQ(st.v.vendor_id, 0x65u);
+  EXPECT_EQ(st.v.product_code, 0x4711u);
+  EXPECT_EQ(st.v.revision, 0x00010002u);
+  EXPECT_EQ(st.v.serial, 123459u);
+  EXPECT_EQ(st.v.nmt_state, COBRIDGE_NMT_OPERATIONAL);  // the latest, not the first
+  EXPECT_TRUE(st.v.online);
+  EXPECT_FALSE(st.v.stale);
+  EXPECT_EQ(st.v.updated_ns, hb2.rx_timestamp_ns);
+}
+
+// A silenced device (CiA 301 §7.2.8.3.2 heartbeat lost): the gateway's STATUS
+// sample makes DeviceStatus offline and stale, and EncoderSample carries the
+// last values again flagged stale.
+TEST(DdsPlugin, Cia301_7_2_8_3_2_OfflineDeviceShowsOfflineAndItsValuesStale) {
+  Reader samples(&cobridge_EncoderSample_desc, "EncoderSample", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_VOLATILE,
+                 true);
+  Reader status(&cobridge_DeviceStatus_desc, "DeviceStatus", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_TRANSIENT_LOCAL,
+                true);
+  Plugin p(base_config("sample_reliability = \"reliable\"\n"));
+  p.host.announce(device(0, 0, 5, "axis 1"));
+  const cobridge_sample value = tpdo(0, 0, 5, 41);
+  cobridge_sample lost = header(0, 0, 5, COBRIDGE_SAMPLE_STATUS, 42);
+  lost.valid = COBRIDGE_VALID_STATUS | COBRIDGE_VALID_NMT_STATE;
+  lost.online = 0;
+  lost.stale = 1;
+  lost.nmt_state = COBRIDGE_NMT_OPERATIONAL;
+  const cobridge_sample batch[] = {value, lost};
+  p.host.deliver(batch);
+
+  std::vector<GotSample> got;
+  samples.take<cobridge_EncoderSample>(2, [&](const cobridge_EncoderSample& s) { got.push_back(copy_sample(s)); });
+  ASSERT_EQ(got.size(), 2u);
+  EXPECT_FALSE(got[0].v.stale);
+  EXPECT_TRUE(got[1].v.stale);
+  EXPECT_EQ(got[1].v.position, value.position);
+  EXPECT_EQ(got[1].v.sequence_number, value.sequence);
+  EXPECT_EQ(got[1].v.publish_timestamp_ns, lost.publish_timestamp_ns);
+
+  // Announcement, then the change to offline + stale.
+  std::vector<GotStatus> st;
+  status.take<cobridge_DeviceStatus>(2, [&](const cobridge_DeviceStatus& s) { st.push_back(copy_status(s)); });
+  ASSERT_EQ(st.size(), 2u);
+  EXPECT_FALSE(st[1].v.online);
+  EXPECT_TRUE(st[1].v.stale);
+  EXPECT_EQ(st[1].v.updated_ns, lost.rx_timestamp_ns);
+}
+
+// CiA 301 §7.2.7 / J§1.8.1: an EMCY of a Novotechnik rotary encoder appears on
+// EncoderEvent with the manual's text, and DeviceStatus keeps its code as the
+// last error.
+TEST(DdsPlugin, J_1_8_1_EmcyAppearsOnEncoderEventWithText) {
+  Reader events(&cobridge_EncoderEvent_desc, "EncoderEvent", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_VOLATILE, true);
+  Plugin p(base_config());
+  p.host.announce(device(2, 0, 9, "turntable", "novotechnik-rotary"));
+  p.host.announce(device(4, 0, 10, "ifm axis", "ifm-rm"));
+  cobridge_sample emcy = header(2, 0, 9, COBRIDGE_SAMPLE_EMCY, 5);
+  emcy.emcy_code = canopen::emcy_code::kNovotechnikCam;
+  emcy.emcy_register = 0x01;
+  const std::uint8_t details[5] = {0x01, 0x00, 0x02, 0x00, 0x02};
+  std::memcpy(emcy.emcy_data, details, 5);
+  emcy.valid = COBRIDGE_VALID_EMCY;
+  cobridge_sample generic = header(4, 0, 10, COBRIDGE_SAMPLE_EMCY, 6);
+  generic.emcy_code = canopen::emcy_code::kLifeGuardHeartbeat;
+  generic.emcy_register = 0x11;
+  generic.valid = COBRIDGE_VALID_EMCY;
+  const cobridge_sample batch[] = {emcy, generic};
+  p.host.deliver(batch);
+
+  std::vector<GotEvent> got;
+  events.take<cobridge_EncoderEvent>(2, [&](const cobridge_EncoderEvent& e) { got.push_back(copy_event(e)); });
+  ASSERT_EQ(got.size(), 2u);
+  std::sort(got.begin(), got.end(), [](const GotEvent& a, const GotEvent& b) { return a.v.node_id < b.v.node_id; });
+
+  canopen::Emcy e{emcy.emcy_code, emcy.emcy_register, {0x01, 0x00, 0x02, 0x00, 0x02}};
+  const canopen::EmcyInfo rotary = canopen::classify(canopen::DeviceFamily::novotechnik_rotary, e);
+  ASSERT_TRUE(rotary.from_manual);
+  EXPECT_EQ(got[0].v.node_id, 9);
+  EXPECT_EQ(got[0].device_name, "turntable");
+  EXPECT_EQ(got[0].v.code, 0x9080);
+  EXPECT_EQ(got[0].v.error_register, 0x01);
+  EXPECT_EQ(0, std::memcmp(got[0].v.data, details, 5));
+  EXPECT_EQ(got[0].text, rotary.text);
+  EXPECT_EQ(got[0].source, rotary.source);
+  EXPECT_FALSE(got[0].text.empty());
+  EXPECT_EQ(got[0].v.sequence_number, 5u);
+  EXPECT_EQ(got[0].v.rx_timestamp_ns, emcy.rx_timestamp_ns);
+
+  // F§7.3: the ifm manual has no code table, so the CiA 301 text is given.
+  EXPECT_EQ(got[1].v.node_id, 10);
+  EXPECT_EQ(got[1].v.code, 0x8130);
+  EXPECT_EQ(got[1].text, canopen::cia301_text(0x8130));
+  EXPECT_EQ(got[1].source, "CiA 301");
+
+  Reader status(&cobridge_DeviceStatus_desc, "DeviceStatus", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_TRANSIENT_LOCAL,
+                false, 1);
+  std::vector<GotStatus> st;
+  status.take<cobridge_DeviceStatus>(2, [&](const cobridge_DeviceStatus& s) { st.push_back(copy_status(s)); });
+  ASSERT_EQ(st.size(), 2u);
+  for (const auto& s : st) {
+    EXPECT_EQ(s.v.last_emcy_code, s.v.node_id == 9 ? 0x9080 : 0x8130);
+    EXPECT_NE(s.v.last_emcy_ns, 0u);
+  }
+}
+
+// docs/dds.md "Configuration" (no CiA clause): a misspelt key is refused at
+// create with a message naming it; the host reports kCreateFailed.
+TEST(DdsPlugin, DocsDds_UnknownKeyIsRejectedWithItsName) {
+  LogCapture log;
+  pipeline::PluginHost host({kPlugin.parent_path(), test_gateway(), log.sink()});
+  pipeline::PluginError err;
+  const std::error_code ec = host.load({"dds", "dds", kPlugin, "domian = 3\n"}, &err);
+  EXPECT_EQ(ec, pipeline::PluginErrc::kCreateFailed);
+  EXPECT_NE(err.message.find("domian"), std::string::npos) << err.message;
+  EXPECT_EQ(host.loaded_count(), 0u);
+
+  const std::error_code ec2 = host.load({"dds", "dds", kPlugin, "sample_reliability = \"sometimes\"\n"}, &err);
+  EXPECT_EQ(ec2, pipeline::PluginErrc::kCreateFailed);
+  EXPECT_NE(err.message.find("sometimes"), std::string::npos) << err.message;
+}
+
+// docs/dds.md "Configuration": topic_prefix is prepended to every topic name.
+TEST(DdsPlugin, DocsDds_TopicPrefixNamesTheTopics) {
+  Reader prefixed(&cobridge_EncoderSample_desc, "plant1_EncoderSample", DDS_RELIABILITY_RELIABLE,
+                  DDS_DURABILITY_VOLATILE, true);
+  Plugin p(base_config("topic_prefix = \"plant1_\"\nsample_reliability = \"reliable\"\nsample_depth = 8\n"));
+  const cobridge_sample s[] = {tpdo(0, 0, 3, 1)};
+  p.host.deliver(s);
+  std::vector<GotSample> got;
+  prefixed.take<cobridge_EncoderSample>(1, [&](const cobridge_EncoderSample& v) { got.push_back(copy_sample(v)); });
+  ASSERT_EQ(got.size(), 1u);
+  EXPECT_EQ(got[0].v.node_id, 3);
+  EXPECT_EQ(got[0].device_name, "");  // never announced
+}
+
+// A removed device (cobridge_device_info change REMOVED) disposes its
+// DeviceStatus instance, so subscribers drop it.
+TEST(DdsPlugin, DocsDds_RemovedDeviceIsDisposed) {
+  Reader status(&cobridge_DeviceStatus_desc, "DeviceStatus", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_TRANSIENT_LOCAL,
+                true);
+  Plugin p(base_config());
+  p.host.announce(device(6, 1, 20, "gone soon"));
+  std::vector<GotStatus> st;
+  status.take<cobridge_DeviceStatus>(1, [&](const cobridge_DeviceStatus& s) { st.push_back(copy_status(s)); });
+  ASSERT_EQ(st.size(), 1u);
+  p.host.announce(device(6, 1, 20, "gone soon", "novotechnik-rotary", COBRIDGE_DEVICE_REMOVED));
+  bool disposed = false;
+  const auto deadline = std::chrono::steady_clock::now() + 5s;
+  while (!disposed && std::chrono::steady_clock::now() < deadline) {
+    // Cyclone 0.10.2 re-initialises as many loan pointers as the largest
+    // take on this reader asked for (Reader::take uses 256), not maxs.
+    void* buf[Reader::kMax] = {};
+    dds_sample_info_t info[Reader::kMax];
+    const int n = dds_take(status.id(), buf, info, Reader::kMax, Reader::kMax);
+    for (int i = 0; i < n; ++i) {
+      if (info[static_cast<std::size_t>(i)].instance_state == DDS_IST_NOT_ALIVE_DISPOSED) disposed = true;
+    }
+    if (n > 0) dds_return_loan(status.id(), buf, n);
+    if (n <= 0) std::this_thread::sleep_for(5ms);
+  }
+  EXPECT_TRUE(disposed);
+}
+
+// Runs `cobridge watch` as a child process; returns its stdout.
+class Child {
+ public:
+  explicit Child(const std::vector<std::string>& args) {
+    int fds[2];
+    if (::pipe(fds) != 0) return;
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_adddup2(&fa, fds[1], 1);
+    posix_spawn_file_actions_addclose(&fa, fds[0]);
+    std::vector<char*> argv;
+    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    if (posix_spawn(&pid_, args[0].c_str(), &fa, nullptr, argv.data(), environ) != 0) pid_ = -1;
+    posix_spawn_file_actions_destroy(&fa);
+    ::close(fds[1]);
+    reader_ = std::thread([this, fd = fds[0]] {
+      char buf[4096];
+      ssize_t n;
+      while ((n = ::read(fd, buf, sizeof buf)) > 0) {
+        std::lock_guard lock(mutex_);
+        out_.append(buf, static_cast<std::size_t>(n));
+      }
+      ::close(fd);
+      eof_ = true;
+    });
+  }
+  ~Child() {
+    if (pid_ > 0 && status_ < 0) {
+      ::kill(pid_, SIGKILL);
+      wait();
+    }
+    if (reader_.joinable()) reader_.join();
+  }
+  bool running() const { return pid_ > 0 && !eof_; }
+  int wait() {
+    int st = 0;
+    if (pid_ > 0 && ::waitpid(pid_, &st, 0) == pid_) status_ = WIFEXITED(st) ? WEXITSTATUS(st) : 128;
+    if (reader_.joinable()) reader_.join();
+    return status_;
+  }
+  std::string out() {
+    std::lock_guard lock(mutex_);
+    return out_;
+  }
+
+ private:
+  pid_t pid_ = -1;
+  int status_ = -1;
+  std::thread reader_;
+  std::mutex mutex_;
+  std::string out_;
+  std::atomic<bool> eof_{false};
+};
+
+// `cobridge watch --count 3 --json` in another process, over loopback: the
+// current DeviceStatus (transient-local, written before watch started) and
+// EncoderSamples a publisher writes, printed with their values.
+TEST(DdsPlugin, DocsDds_WatchPrintsWhatAPublisherWrote) {
+  ASSERT_TRUE(fs::exists(kCli)) << kCli;
+  Plugin p(base_config("sample_reliability = \"reliable\"\n"));
+  p.host.announce(device(0, 0, 5, "axis \"1\""));  // a quote, to check JSON escaping
+
+  Child watch({kCli.string(), "watch", "--domain", std::to_string(test_domain()), "--gateway", test_gateway(),
+               "--json", "--count", "3", "--timeout", "20"});
+  // Samples are volatile: keep publishing until watch has seen enough.
+  std::uint32_t seq = 0;
+  const auto deadline = std::chrono::steady_clock::now() + 25s;
+  while (watch.running() && std::chrono::steady_clock::now() < deadline) {
+    const cobridge_sample s[] = {tpdo(0, 0, 5, ++seq)};
+    p.host.deliver(s);
+    std::this_thread::sleep_for(20ms);
+  }
+  ASSERT_EQ(watch.wait(), 0) << watch.out();
+  const std::string out = watch.out();
+  std::istringstream lines(out);
+  std::string line;
+  int status_lines = 0, sample_lines = 0;
+  while (std::getline(lines, line)) {
+    if (line.find("\"topic\":\"DeviceStatus\"") != std::string::npos) {
+      ++status_lines;
+      EXPECT_NE(line.find("\"name\":\"axis \\\"1\\\"\""), std::string::npos) << line;
+      EXPECT_NE(line.find("\"serial\":123456"), std::string::npos) << line;
+    } else if (line.find("\"topic\":\"EncoderSample\"") != std::string::npos) {
+      ++sample_lines;
+      // The printed position is the one written for the printed sequence.
+      const auto at = line.find("\"sequence\":");
+      ASSERT_NE(at, std::string::npos) << line;
+      const auto n = static_cast<std::uint32_t>(std::stoul(line.substr(at + 11)));
+      const cobridge_sample want = tpdo(0, 0, 5, n);
+      EXPECT_NE(line.find("\"position\":" + std::to_string(want.position) + ","), std::string::npos) << line;
+      EXPECT_NE(line.find("\"speed\":" + std::to_string(want.speed) + ","), std::string::npos) << line;
+      EXPECT_NE(line.find("\"gateway_id\":\"" + test_gateway() + "\""), std::string::npos) << line;
+      EXPECT_NE(line.find("\"node_id\":5,"), std::string::npos) << line;
+    } else {
+      ADD_FAILURE() << "unexpected line: " << line;
+    }
+  }
+  EXPECT_EQ(status_lines + sample_lines, 3) << out;
+  EXPECT_EQ(status_lines, 1) << out;  // the late joiner learnt the status
+}
+
+}  // namespace

@@ -1,0 +1,113 @@
+// DeviceSlots: the DDS plugin's per-device state, fed the sample kinds of
+// cobridge/plugin.h. Which samples change DeviceStatus, and the cut of
+// over-long names.
+#include "dds/device_slots.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <string>
+
+using namespace cobridge::dds;
+
+namespace {
+
+cobridge_sample sample(std::uint8_t kind) {
+  cobridge_sample s{};
+  s.device_index = 2;
+  s.bus_index = 1;
+  s.node_id = 9;
+  s.kind = kind;
+  s.rx_timestamp_ns = 1000;
+  return s;
+}
+
+// CiA 301 §7.2.8.3.2: a heartbeat makes the node online with its NMT state;
+// a repeat of the same heartbeat changes nothing (no DeviceStatus write).
+TEST(DeviceSlots, Cia301_7_2_8_3_2_HeartbeatSetsOnlineAndStateOnce) {
+  DeviceSlots slots(8);
+  cobridge_sample hb = sample(COBRIDGE_SAMPLE_HEARTBEAT);
+  hb.nmt_state = COBRIDGE_NMT_OPERATIONAL;
+  hb.valid = COBRIDGE_VALID_NMT_STATE;
+  EXPECT_EQ(slots.apply(hb), StatusChange::kChanged);
+  const DeviceSlot* slot = slots.find(2);
+  ASSERT_NE(slot, nullptr);
+  EXPECT_TRUE(slot->in_use);
+  EXPECT_EQ(slot->bus_index, 1);
+  EXPECT_EQ(slot->node_id, 9);
+  EXPECT_TRUE(slot->state.online);
+  EXPECT_EQ(slot->state.nmt_state, COBRIDGE_NMT_OPERATIONAL);
+  hb.rx_timestamp_ns = 2000;
+  EXPECT_EQ(slots.apply(hb), StatusChange::kNone);
+  EXPECT_EQ(slot->state.updated_ns, 1000u);
+}
+
+// Issue 5 staleness: STATUS stale=1 is reported as "became stale" once; the
+// next TPDO clears it (a fresh value is current).
+TEST(DeviceSlots, Cia301_7_2_2_StaleUntilTheNextTpdo) {
+  DeviceSlots slots(8);
+  cobridge_sample t = sample(COBRIDGE_SAMPLE_TPDO);
+  t.position = 77;
+  EXPECT_EQ(slots.apply(t), StatusChange::kNone);
+  cobridge_sample st = sample(COBRIDGE_SAMPLE_STATUS);
+  st.valid = COBRIDGE_VALID_STATUS;
+  st.stale = 1;
+  st.online = 1;
+  EXPECT_EQ(slots.apply(st), StatusChange::kBecameStale);
+  EXPECT_TRUE(slots.find(2)->has_last_tpdo);
+  EXPECT_EQ(slots.find(2)->last_tpdo.position, 77);
+  EXPECT_EQ(slots.apply(st), StatusChange::kNone);
+  EXPECT_EQ(slots.apply(t), StatusChange::kChanged);
+  EXPECT_FALSE(slots.find(2)->state.stale);
+}
+
+// CiA 301 §7.2.7: an EMCY records the last error code and register.
+TEST(DeviceSlots, Cia301_7_2_7_EmcyIsTheLastError) {
+  DeviceSlots slots(8);
+  cobridge_sample e = sample(COBRIDGE_SAMPLE_EMCY);
+  e.valid = COBRIDGE_VALID_EMCY;
+  e.emcy_code = 0x8130;
+  e.emcy_register = 0x11;
+  EXPECT_EQ(slots.apply(e), StatusChange::kChanged);
+  EXPECT_EQ(slots.find(2)->state.last_emcy_code, 0x8130);
+  EXPECT_EQ(slots.find(2)->state.last_emcy_register, 0x11);
+  EXPECT_EQ(slots.find(2)->state.last_emcy_ns, 1000u);
+}
+
+// Indices beyond the table are ignored, never written.
+TEST(DeviceSlots, PluginH_IndexBeyondTableIgnored) {
+  DeviceSlots slots(2);
+  cobridge_sample t = sample(COBRIDGE_SAMPLE_HEARTBEAT);
+  t.device_index = 2;
+  EXPECT_EQ(slots.apply(t), StatusChange::kNone);
+  EXPECT_EQ(slots.find(2), nullptr);
+}
+
+// plugin.h cobridge_device_info: strings are copied and cut at a UTF-8
+// character boundary; REMOVED clears the slot.
+TEST(DeviceSlots, PluginH_AnnouncementCopiedAndCut) {
+  DeviceSlots slots(4);
+  std::string long_name(62, 'a');
+  long_name += "\xC3\xA9\xC3\xA9";  // "éé": the first straddles the 63-byte limit
+  cobridge_device_info d{};
+  d.struct_size = sizeof d;
+  d.device_index = 1;
+  d.node_id = 4;
+  d.change = COBRIDGE_DEVICE_ADDED;
+  d.name = long_name.c_str();
+  d.bus_name = "can0";
+  d.model = "";
+  d.family = "ifm-rm";
+  d.position_unit = "mm";
+  DeviceSlot* slot = slots.apply(d);
+  ASSERT_NE(slot, nullptr);
+  EXPECT_EQ(std::string(slot->name.c_str()), std::string(62, 'a'));
+  EXPECT_STREQ(slot->bus_name.c_str(), "can0");
+  EXPECT_STREQ(slot->family.c_str(), "ifm-rm");
+  d.change = COBRIDGE_DEVICE_REMOVED;
+  slots.apply(d);
+  EXPECT_FALSE(slots.find(1)->in_use);
+  EXPECT_STREQ(slots.find(1)->name.c_str(), "");
+}
+
+}  // namespace

@@ -1,0 +1,571 @@
+#!/usr/bin/python3
+"""End-to-end tests of the Modbus TCP output plugin (libcobridge_modbus.so).
+
+Each suite starts modbus_test_host (which loads the plugin through the real
+PluginHost and feeds samples: see modbus_test_host.cpp for the values) on the
+loopback with port 0, learns the port from the plugin's log line, and talks
+to it with pymodbus and with raw sockets (for what pymodbus cannot send).
+
+References: Modbus Application Protocol Specification V1.1b3 ("MBAP §"),
+Modbus Messaging on TCP/IP Implementation Guide V1.0b ("TCP §"),
+docs/modbus.md (the register map).
+
+Usage: modbus_e2e.py --host PATH --plugin PATH [Suite ...]
+"""
+import argparse
+import os
+import queue
+import re
+import socket
+import statistics
+import struct
+import subprocess
+import sys
+import threading
+import time
+import types
+import unittest
+
+# Debian's python3-pymodbus imports serial_asyncio for its serial client even
+# when only TCP is used; the package is not a dependency. TCP needs none of it.
+try:
+    import serial_asyncio  # noqa: F401
+except ImportError:
+    _stub = types.ModuleType("serial_asyncio")
+    _stub.create_serial_connection = None
+    sys.modules["serial_asyncio"] = _stub
+from pymodbus.client import ModbusTcpClient  # noqa: E402
+
+ARGS = None
+DEVICE_BASE = 256
+STRIDE = 32
+
+
+class Host:
+    """A running modbus_test_host."""
+
+    def __init__(self, config, devices=4, rate=1000, extra=()):
+        cfg = 'bind = "127.0.0.1"\nport = 0\n' + config
+        self.proc = subprocess.Popen(
+            [ARGS.host, ARGS.plugin, cfg, str(devices), str(rate), *extra],
+            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        self.lines = queue.Queue()
+        self.log = []
+        threading.Thread(target=self._pump, daemon=True).start()
+        self.port = None
+        self.error = None
+        deadline = time.monotonic() + 15
+        while time.monotonic() < deadline:
+            try:
+                line = self.lines.get(timeout=0.5)
+            except queue.Empty:
+                if self.proc.poll() is not None:
+                    break
+                continue
+            m = re.search(r"listening on .*:(\d+) ", line)
+            if m:
+                self.port = int(m.group(1))
+            if line.startswith("ERROR"):
+                self.error = line
+                break
+            if line.startswith("READY"):
+                break
+
+    def _pump(self):
+        for line in self.proc.stdout:
+            self.log.append(line)
+            self.lines.put(line)
+
+    def alive(self):
+        return self.proc.poll() is None
+
+    def stop(self):
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+
+
+def connect(port, timeout=5.0):
+    s = socket.create_connection(("127.0.0.1", port), timeout=timeout)
+    s.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+    return s
+
+
+def frame(tid, unit, pdu, proto=0, length=None):
+    if length is None:
+        length = len(pdu) + 1
+    return struct.pack(">HHHB", tid, proto, length, unit) + pdu
+
+
+def read_req(tid, address, count, unit=1, fc=3):
+    return frame(tid, unit, struct.pack(">BHH", fc, address, count))
+
+
+def recv_exact(sock, n):
+    """n bytes, or None if the peer closed first."""
+    buf = b""
+    while len(buf) < n:
+        chunk = sock.recv(n - len(buf))
+        if not chunk:
+            return None
+        buf += chunk
+    return buf
+
+
+def recv_frame(sock):
+    """One response frame, or None if the connection was closed."""
+    head = recv_exact(sock, 7)
+    if head is None:
+        return None
+    _, _, length, _ = struct.unpack(">HHHB", head)
+    body = recv_exact(sock, length - 1)
+    return None if body is None else head + body
+
+
+def is_closed(sock, timeout=3.0):
+    sock.settimeout(timeout)
+    try:
+        return sock.recv(1) == b""
+    except ConnectionResetError:
+        return True
+    except socket.timeout:
+        return False
+
+
+def regs_of(resp):
+    """Register values of a read response."""
+    n = resp[8] // 2
+    return list(struct.unpack(">%dH" % n, resp[9:9 + 2 * n]))
+
+
+def u32(regs, i, big=True):
+    hi, lo = (regs[i], regs[i + 1]) if big else (regs[i + 1], regs[i])
+    return (hi << 16) | lo
+
+
+def s32(v):
+    return v - (1 << 32) if v & 0x80000000 else v
+
+
+class HostCase(unittest.TestCase):
+    CONFIG = ""
+    DEVICES = 4
+    RATE = 1000
+    EXTRA = ()
+
+    @classmethod
+    def setUpClass(cls):
+        cls.host = Host(cls.CONFIG, cls.DEVICES, cls.RATE, cls.EXTRA)
+        if cls.host.port is None:
+            cls.host.stop()
+            raise RuntimeError("host did not start: " + "".join(cls.host.log))
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.host.stop()
+
+    def read(self, address, count, unit=1, fc=3):
+        with connect(self.host.port) as s:
+            s.sendall(read_req(1, address, count, unit, fc))
+            r = recv_frame(s)
+        self.assertIsNotNone(r)
+        return r
+
+    def assert_serving(self):
+        self.assertTrue(self.host.alive())
+        r = self.read(0, 1)
+        self.assertEqual(r[7], 3)
+        self.assertEqual(regs_of(r), [1])  # map_version
+
+
+class Values(HostCase):
+    """docs/modbus.md register map, read with pymodbus (MBAP §6.3 / §6.4)."""
+
+    def check_slot(self, d, regs, big=True):
+        seq = u32(regs, 12, big)
+        self.assertEqual(regs[26], 1, "present")
+        self.assertEqual(s32(u32(regs, 0, big)), d * 1_000_000 + seq, "position matches its sequence")
+        self.assertEqual(s32(u32(regs, 2, big)), d * 10 + 1, "speed")
+        self.assertEqual(regs[4], seq & 0xFF, "cam_state")
+        self.assertEqual(regs[8], 5, "NMT operational")
+        self.assertEqual(regs[9], 1, "online")
+        self.assertEqual(regs[10], 0, "stale")
+        self.assertEqual(regs[16], 200 + d, "temperature")
+        self.assertEqual(regs[17], 240, "voltage")
+        self.assertEqual(regs[18], d + 1, "node_id")
+        self.assertEqual(regs[19], d % 2, "bus_index")
+        self.assertEqual(u32(regs, 20, big), 1000 + d, "serial")
+        self.assertEqual(u32(regs, 22, big), 0x12D, "vendor")
+        self.assertEqual(u32(regs, 24, big), 0x100 + d, "product")
+        return seq
+
+    def test_device_registers_hold_the_fed_values(self):
+        client = ModbusTcpClient("127.0.0.1", port=self.host.port, timeout=5)
+        self.assertTrue(client.connect())
+        try:
+            last = {}
+            for _ in range(3):
+                for d in range(self.DEVICES):
+                    rr = client.read_holding_registers(DEVICE_BASE + d * STRIDE, 28, slave=1)
+                    self.assertFalse(rr.isError(), rr)
+                    seq = self.check_slot(d, rr.registers)
+                    self.assertGreater(seq, last.get(d, 0))
+                    last[d] = seq
+                    ri = client.read_input_registers(DEVICE_BASE + d * STRIDE, 28, slave=1)
+                    self.assertFalse(ri.isError(), ri)
+                    self.check_slot(d, ri.registers)
+                time.sleep(0.05)
+        finally:
+            client.close()
+
+    def test_gateway_and_bus_blocks(self):
+        client = ModbusTcpClient("127.0.0.1", port=self.host.port, timeout=5)
+        self.assertTrue(client.connect())
+        try:
+            gw = client.read_holding_registers(0, 16, slave=1).registers
+            self.assertEqual(gw[0], 1)            # map_version
+            self.assertEqual(gw[6], 2)            # buses 0 and 1
+            self.assertEqual(gw[7], self.DEVICES)
+            self.assertEqual(gw[8], self.DEVICES)  # all online
+            self.assertEqual(gw[9], 32)           # slots
+            self.assertEqual(gw[10], DEVICE_BASE)
+            self.assertEqual(gw[11], STRIDE)
+            bus = client.read_holding_registers(16, 16, slave=1).registers
+            for b in range(2):
+                blk = bus[b * 8:(b + 1) * 8]
+                self.assertEqual(blk[0], 1)  # state ok
+                self.assertEqual(blk[1], 2)  # devices
+                self.assertEqual(blk[2], 2)
+                self.assertGreater(u32(blk, 4), 0)  # frames
+                self.assertEqual(u32(blk, 6), 0)    # drops
+        finally:
+            client.close()
+
+    def test_little_word_order(self):
+        host = Host('word_order = "little"\n', 2, 1000)
+        try:
+            self.assertIsNotNone(host.port)
+            with connect(host.port) as s:
+                s.sendall(read_req(1, DEVICE_BASE + STRIDE, 28))
+                regs = regs_of(recv_frame(s))
+                s.sendall(read_req(2, 12, 1))
+                self.assertEqual(regs_of(recv_frame(s)), [1])
+            self.check_slot(1, regs, big=False)
+        finally:
+            host.stop()
+
+
+class DataAge(HostCase):
+    """docs/modbus.md data_age: computed at read time from the rx timestamp."""
+    EXTRA = ("--frozen", "3")
+
+    def test_data_age_matches_1ms_feed(self):
+        ages = []
+        with connect(self.host.port) as s:
+            for i in range(100):
+                s.sendall(read_req(i, DEVICE_BASE + 11, 1))
+                ages.append(regs_of(recv_frame(s))[0])
+                time.sleep(0.003)
+        ages.sort()
+        print("data age at 1 kHz: median %d ms, p95 %d ms, max %d ms" % (
+            statistics.median(ages), ages[94], ages[-1]))
+        self.assertLessEqual(statistics.median(ages), 3)
+        self.assertLessEqual(ages[94], 20)
+        self.assertLessEqual(ages[-1], 50)
+
+    def test_frozen_device_ages_in_real_time(self):
+        addr = DEVICE_BASE + 3 * STRIDE + 11
+        with connect(self.host.port) as s:
+            s.sendall(read_req(1, addr, 1))
+            a = regs_of(recv_frame(s))[0]
+            t0 = time.monotonic()
+            time.sleep(0.5)
+            s.sendall(read_req(2, addr, 1))
+            b = regs_of(recv_frame(s))[0]
+            dt = (time.monotonic() - t0) * 1000
+        self.assertAlmostEqual(b - a, dt, delta=15)
+
+
+class Offline(HostCase):
+    """MBAP §7 exception 0x0B for an offline device (offline_exception = true)."""
+    CONFIG = "offline_exception = true\n"
+    EXTRA = ("--offline", "1")
+
+    def test_offline_device_answers_0x0B(self):
+        r = self.read(DEVICE_BASE + STRIDE, 10)
+        self.assertEqual(r[7:9], bytes([0x83, 0x0B]))
+        r = self.read(DEVICE_BASE + STRIDE - 2, 4, fc=4)  # straddles slots 0 and 1
+        self.assertEqual(r[7:9], bytes([0x84, 0x0B]))
+        ok = self.read(DEVICE_BASE, 28)
+        self.assertEqual(ok[7], 3)
+        gw = regs_of(self.read(0, 16))
+        self.assertEqual(gw[8], self.DEVICES - 1)  # devices_online
+
+
+class SlowClient(HostCase):
+    """A client sending one byte per second, and one that never reads its
+    answers, do not delay another client by more than 50 ms."""
+
+    def test_slow_and_stalled_clients_do_not_delay_others(self):
+        slow = connect(self.host.port)
+        stalled = connect(self.host.port)
+        stalled.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+        request = read_req(0x5151, DEVICE_BASE, 14)
+        done = threading.Event()
+
+        def trickle():
+            for b in request:
+                slow.sendall(bytes([b]))
+                time.sleep(1.0)
+            done.set()
+
+        def flood():
+            # Pipelined requests, answers never read: its output buffer and
+            # the socket fill up, then the server stops reading from it.
+            payload = b"".join(read_req(i & 0xFFFF, DEVICE_BASE, 125) for i in range(200))
+            stalled.setblocking(False)
+            while not done.is_set():
+                try:
+                    stalled.send(payload)
+                except BlockingIOError:
+                    time.sleep(0.01)
+                except OSError:
+                    return
+
+        threading.Thread(target=trickle, daemon=True).start()
+        threading.Thread(target=flood, daemon=True).start()
+        latencies = []
+        with connect(self.host.port) as fast:
+            tid = 0
+            while not done.is_set():
+                tid = (tid + 1) & 0xFFFF
+                t0 = time.perf_counter()
+                fast.sendall(read_req(tid, DEVICE_BASE, 28))
+                r = recv_frame(fast)
+                latencies.append((time.perf_counter() - t0) * 1000)
+                self.assertIsNotNone(r)
+                self.assertEqual(r[:2], struct.pack(">H", tid))
+                self.assertEqual(r[7], 3)
+                time.sleep(0.01)
+        latencies.sort()
+        print("fast client during a 1 byte/s client and a stalled client: %d requests, "
+              "p50 %.2f ms, p99 %.2f ms, max %.2f ms" % (
+                  len(latencies), latencies[len(latencies) // 2],
+                  latencies[int(len(latencies) * 0.99)], latencies[-1]))
+        self.assertGreater(len(latencies), 300)
+        self.assertLess(latencies[-1], 50.0)
+        # The slow client's request was answered in full once complete.
+        slow.settimeout(5)
+        r = recv_frame(slow)
+        self.assertIsNotNone(r)
+        self.assertEqual(r[:2], b"\x51\x51")
+        self.assertEqual(r[7:9], bytes([3, 28]))
+        slow.close()
+        stalled.close()
+        self.assert_serving()
+
+
+class InvalidRequests(HostCase):
+    """Bad requests get the right exception (MBAP §7) or a closed connection
+    (TCP §3.1.3 framing), and the server keeps serving."""
+
+    def exchange(self, data):
+        with connect(self.host.port) as s:
+            s.sendall(data)
+            s.settimeout(5)
+            return recv_frame(s)
+
+    def test_unknown_function_is_0x01(self):
+        self.assertEqual(self.exchange(frame(0x0102, 7, b"\x2b\x0e\x01\x00")),
+                         bytes([1, 2, 0, 0, 0, 3, 7, 0xAB, 0x01]))
+        self.assertEqual(self.exchange(frame(3, 1, b"\x41")), bytes([0, 3, 0, 0, 0, 3, 1, 0xC1, 0x01]))
+        self.assert_serving()
+
+    def test_writes_disabled_are_0x01(self):
+        self.assertEqual(self.exchange(frame(4, 1, b"\x06\x01\x00\x00\x01")),
+                         bytes([0, 4, 0, 0, 0, 3, 1, 0x86, 0x01]))
+        self.assert_serving()
+
+    def test_address_out_of_range_is_0x02(self):
+        end = DEVICE_BASE + 32 * STRIDE
+        self.assertEqual(self.exchange(read_req(5, end - 1, 2)), bytes([0, 5, 0, 0, 0, 3, 1, 0x83, 0x02]))
+        self.assertEqual(self.exchange(read_req(6, 65000, 1, fc=4)), bytes([0, 6, 0, 0, 0, 3, 1, 0x84, 0x02]))
+        self.assertEqual(self.exchange(read_req(7, end - 1, 1))[7], 3)
+        self.assert_serving()
+
+    def test_oversized_count_is_0x03(self):
+        self.assertEqual(self.exchange(read_req(8, 0, 126)), bytes([0, 8, 0, 0, 0, 3, 1, 0x83, 0x03]))
+        self.assertEqual(self.exchange(read_req(9, 0, 0)), bytes([0, 9, 0, 0, 0, 3, 1, 0x83, 0x03]))
+        self.assert_serving()
+
+    def test_truncated_frame_closes(self):
+        # PDU shorter than a read request needs (length field consistent).
+        with connect(self.host.port) as s:
+            s.sendall(frame(1, 1, b"\x03\x00\x00"))
+            self.assertTrue(is_closed(s))
+        # Half a request, then the client shuts its side: no answer, closed.
+        with connect(self.host.port) as s:
+            s.sendall(read_req(1, 0, 1)[:8])
+            s.shutdown(socket.SHUT_WR)
+            self.assertTrue(is_closed(s))
+        self.assert_serving()
+
+    def test_oversized_frame_closes(self):
+        with connect(self.host.port) as s:  # length field 300 > 254
+            s.sendall(frame(1, 1, b"\x03" + bytes(298)))
+            self.assertTrue(is_closed(s))
+        with connect(self.host.port) as s:  # maximal frame, but too long for function 3
+            s.sendall(frame(1, 1, b"\x03" + bytes(252)))
+            self.assertTrue(is_closed(s))
+        self.assert_serving()
+
+    def test_wrong_protocol_id_closes(self):
+        with connect(self.host.port) as s:
+            s.sendall(frame(1, 1, b"\x03\x00\x00\x00\x01", proto=1))
+            self.assertTrue(is_closed(s))
+        self.assert_serving()
+
+    def test_garbage_streams_close_and_server_survives(self):
+        rnd = __import__("random").Random(1234)
+        for _ in range(50):
+            with connect(self.host.port) as s:
+                try:
+                    s.sendall(bytes(rnd.randrange(256) for _ in range(rnd.randrange(1, 600))))
+                    s.shutdown(socket.SHUT_WR)
+                    s.settimeout(3)
+                    while s.recv(4096):
+                        pass
+                except OSError:  # reset or already closed by the server
+                    pass
+        self.assert_serving()
+
+
+class ConcurrentClients(HostCase):
+    """32 clients (max_clients default) served at the same time; the 33rd is closed."""
+
+    def test_32_concurrent_clients(self):
+        n = 32
+        barrier = threading.Barrier(n)
+        errors = []
+        counts = [0] * n
+
+        def worker(i):
+            try:
+                client = ModbusTcpClient("127.0.0.1", port=self.host.port, timeout=10)
+                if not client.connect():
+                    raise RuntimeError("connect failed")
+                barrier.wait(timeout=30)
+                for k in range(50):
+                    d = (i + k) % self.DEVICES
+                    rr = client.read_holding_registers(DEVICE_BASE + d * STRIDE, 14, slave=1)
+                    if rr.isError():
+                        raise RuntimeError(str(rr))
+                    regs = rr.registers
+                    if s32(u32(regs, 0)) != d * 1_000_000 + u32(regs, 12):
+                        raise RuntimeError("inconsistent slot")
+                    counts[i] += 1
+                barrier.wait(timeout=30)  # everyone still connected here
+                client.close()
+            except Exception as e:  # noqa: BLE001
+                errors.append("%d: %r" % (i, e))
+                barrier.abort()
+
+        threads = [threading.Thread(target=worker, args=(i,)) for i in range(n)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join(timeout=60)
+        self.assertEqual(errors, [])
+        self.assertEqual(counts, [50] * n)
+        self.assert_serving()
+
+    def test_client_beyond_max_clients_is_closed(self):
+        socks = [connect(self.host.port) for _ in range(32)]
+        try:
+            for s in socks[:2]:
+                s.sendall(read_req(1, 0, 1))
+                self.assertIsNotNone(recv_frame(s))
+            extra = connect(self.host.port)
+            self.assertTrue(is_closed(extra))
+            extra.close()
+        finally:
+            for s in socks:
+                s.close()
+        time.sleep(0.2)
+        self.assert_serving()
+
+
+class Admission(unittest.TestCase):
+    """allow list, idle timeout, unit id, unknown keys (docs/modbus.md Configuration)."""
+
+    def test_allow_list_refuses_other_networks(self):
+        host = Host('allow = ["10.0.0.0/8"]\n')
+        try:
+            with connect(host.port) as s:
+                self.assertTrue(is_closed(s))
+        finally:
+            host.stop()
+        host = Host('allow = ["127.0.0.0/8"]\n')
+        try:
+            with connect(host.port) as s:
+                s.sendall(read_req(1, 0, 1))
+                self.assertEqual(regs_of(recv_frame(s)), [1])
+        finally:
+            host.stop()
+
+    def test_idle_timeout_closes_silent_connections(self):
+        host = Host("idle_timeout_s = 1\n")
+        try:
+            with connect(host.port) as s:
+                t0 = time.monotonic()
+                self.assertTrue(is_closed(s, timeout=5))
+                self.assertGreater(time.monotonic() - t0, 0.9)
+                self.assertLess(time.monotonic() - t0, 2.0)
+        finally:
+            host.stop()
+
+    # TCP §4.4.1.2: a unit this gateway has no path to -> 0x0A.
+    def test_unit_id_filter(self):
+        host = Host("unit_id = 3\n")
+        try:
+            with connect(host.port) as s:
+                s.sendall(read_req(1, 0, 1, unit=1))
+                self.assertEqual(recv_frame(s), bytes([0, 1, 0, 0, 0, 3, 1, 0x83, 0x0A]))
+                s.sendall(read_req(2, 0, 1, unit=3))
+                self.assertEqual(regs_of(recv_frame(s)), [1])
+        finally:
+            host.stop()
+
+    def test_unknown_key_is_named(self):
+        host = Host("bogus_key = 1\n")
+        try:
+            self.assertIsNone(host.port)
+            self.assertIsNotNone(host.error)
+            self.assertIn("'bogus_key'", host.error)
+        finally:
+            host.stop()
+
+
+def main():
+    global ARGS
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--host", required=True)
+    parser.add_argument("--plugin", required=True)
+    parser.add_argument("suites", nargs="*")
+    ARGS, rest = parser.parse_known_args()
+    loader = unittest.TestLoader()
+    module = sys.modules[__name__]
+    if ARGS.suites:
+        suite = unittest.TestSuite(loader.loadTestsFromName(n, module) for n in ARGS.suites)
+    else:
+        suite = loader.loadTestsFromModule(module)
+    result = unittest.TextTestRunner(verbosity=2, stream=sys.stdout).run(suite)
+    return 0 if result.wasSuccessful() else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,94 @@
+// Configuration of the Modbus output (docs/modbus.md "Configuration").
+#include "server_config.hpp"
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+
+#include <gtest/gtest.h>
+
+namespace cobridge::modbus {
+namespace {
+
+// docs/modbus.md "Configuration".
+TEST(ModbusConfig, DefaultsWhenEmpty) {
+  ServerConfig c;
+  ASSERT_TRUE(parse_config("", c));
+  EXPECT_EQ(c.bind, "0.0.0.0");
+  EXPECT_EQ(c.port, 1502);
+  EXPECT_EQ(c.max_clients, 32u);
+  EXPECT_EQ(c.idle_timeout_s, 60u);
+  EXPECT_EQ(c.unit_id, -1);
+  EXPECT_EQ(c.word_order, WordOrder::kBig);
+  EXPECT_FALSE(c.writes_enabled);
+  EXPECT_FALSE(c.offline_exception);
+  EXPECT_TRUE(c.allow.empty());
+}
+
+// docs/modbus.md "Configuration".
+TEST(ModbusConfig, AllKeysParse) {
+  ServerConfig c;
+  const auto r = parse_config(R"(
+bind = "127.0.0.1"
+port = 15020
+max_clients = 8
+allow = ["10.0.0.0/8", "192.168.1.7", "fd00::/8"]
+idle_timeout_s = 5
+unit_id = 1
+word_order = "little"
+writes_enabled = true
+offline_exception = true
+max_devices = 100
+)",
+                              c);
+  ASSERT_TRUE(r) << r.message;
+  EXPECT_EQ(c.port, 15020);
+  EXPECT_EQ(c.max_clients, 8u);
+  EXPECT_EQ(c.unit_id, 1);
+  EXPECT_EQ(c.word_order, WordOrder::kLittle);
+  EXPECT_TRUE(c.writes_enabled);
+  EXPECT_TRUE(c.offline_exception);
+  EXPECT_EQ(c.max_devices, 100);
+  EXPECT_TRUE(c.allow.contains_v4(0x0A010203));   // 10.1.2.3
+  EXPECT_TRUE(c.allow.contains_v4(0xC0A80107));   // 192.168.1.7
+  EXPECT_FALSE(c.allow.contains_v4(0xC0A80108));  // 192.168.1.8
+  EXPECT_FALSE(c.allow.contains_v4(0x0B000001));  // 11.0.0.1
+}
+
+// docs/modbus.md "Configuration".
+TEST(ModbusConfig, UnknownKeyIsRejectedByName) {
+  ServerConfig c;
+  const auto r = parse_config("port = 1502\nmax_client = 4\n", c);
+  EXPECT_EQ(r.code, ConfigErrc::kUnknownKey);
+  EXPECT_NE(r.message.find("'max_client'"), std::string::npos) << r.message;
+}
+
+// docs/modbus.md "Configuration".
+TEST(ModbusConfig, BadValuesAreRejected) {
+  ServerConfig c;
+  EXPECT_EQ(parse_config("word_order = \"middle\"", c).code, ConfigErrc::kBadValue);
+  EXPECT_EQ(parse_config("port = 70000", c).code, ConfigErrc::kBadValue);
+  EXPECT_EQ(parse_config("port = \"502\"", c).code, ConfigErrc::kBadType);
+  EXPECT_EQ(parse_config("allow = [\"10.0.0.0/33\"]", c).code, ConfigErrc::kBadValue);
+  EXPECT_EQ(parse_config("allow = [\"example.com\"]", c).code, ConfigErrc::kBadValue);
+  EXPECT_EQ(parse_config("bind = \"localhost\"", c).code, ConfigErrc::kBadValue);
+  EXPECT_EQ(parse_config("max_devices = 0", c).code, ConfigErrc::kBadValue);
+  EXPECT_EQ(parse_config("unit_id = 256", c).code, ConfigErrc::kBadValue);
+  EXPECT_EQ(parse_config("port = ", c).code, ConfigErrc::kSyntax);
+}
+
+// IPv4 clients on a dual-stack socket arrive as ::ffff:a.b.c.d (RFC 4291 §2.5.5.2).
+TEST(ModbusConfig, AllowListMatchesV4MappedAddresses) {
+  AllowList a;
+  ASSERT_TRUE(a.add("127.0.0.0/8"));
+  sockaddr_in6 in6{};
+  in6.sin6_family = AF_INET6;
+  ASSERT_EQ(inet_pton(AF_INET6, "::ffff:127.0.0.1", &in6.sin6_addr), 1);
+  EXPECT_TRUE(a.contains(reinterpret_cast<const sockaddr*>(&in6)));
+  ASSERT_EQ(inet_pton(AF_INET6, "::ffff:10.0.0.1", &in6.sin6_addr), 1);
+  EXPECT_FALSE(a.contains(reinterpret_cast<const sockaddr*>(&in6)));
+  ASSERT_EQ(inet_pton(AF_INET6, "::1", &in6.sin6_addr), 1);
+  EXPECT_FALSE(a.contains(reinterpret_cast<const sockaddr*>(&in6)));
+}
+
+}  // namespace
+}  // namespace cobridge::modbus
