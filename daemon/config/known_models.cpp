@@ -25,7 +25,9 @@ constexpr std::array<std::uint32_t, 2> kMb13600{0x0BB8, 0x0BBC};
 // ifm: one channel, CAMs 1..8 (F§7.5 0x6300..0x6337), no filter objects.
 // Multiturn: one channel, 4 CAMs (E§3.4), position and speed filters in
 // 0x2010 (E§5.1, E§5.2).
-constexpr std::array<KnownModel, 10> kModels{{
+// RM8000/RM9000 are the device names F§7.3 prints in 0x1008 (and cobridge-sim
+// uses); RM8/RM9 name the same series.
+constexpr std::array<KnownModel, 12> kModels{{
     {"RFC-4800", Family::novotechnik_rotary, kNovotechnik, kRfc4800, 2, 4, true, false},
     {"RSA-3200", Family::novotechnik_rotary, kNovotechnik, kRsa3200, 2, 4, true, false},
     {"RFE-3200", Family::novotechnik_rotary, kNovotechnik, kRfe3200, 2, 4, true, false},
@@ -36,6 +38,8 @@ constexpr std::array<KnownModel, 10> kModels{{
     {"MB1-3600", Family::novotechnik_multiturn, kNovotechnik, kMb13600, 1, 4, true, true},
     {"RM8", Family::ifm_rm, kIfm, {}, 1, 8, false, false},
     {"RM9", Family::ifm_rm, kIfm, {}, 1, 8, false, false},
+    {"RM8000", Family::ifm_rm, kIfm, {}, 1, 8, false, false},
+    {"RM9000", Family::ifm_rm, kIfm, {}, 1, 8, false, false},
 }};
 
 }  // namespace

@@ -221,13 +221,13 @@ TEST(ConfigExample, KeepsOutputSectionsOpaque) {
   const Output* dds = c.find_output("dds");
   EXPECT_TRUE(dds->enabled);
   EXPECT_TRUE(dds->plugin.empty());
-  EXPECT_THAT(dds->settings_toml, HasSubstr("domain_id = 0"));
-  EXPECT_THAT(dds->settings_toml, HasSubstr("topic_prefix = 'cobridge'"));
+  EXPECT_THAT(dds->settings_toml, HasSubstr("domain = 0"));
+  EXPECT_THAT(dds->settings_toml, HasSubstr("sample_reliability = 'best-effort'"));
   EXPECT_THAT(dds->settings_toml, ::testing::Not(HasSubstr("enabled")));
   EXPECT_GT(dds->where.line, 0U);
   const Output* tap = c.find_output("jsontap");
   EXPECT_FALSE(tap->enabled);
-  EXPECT_EQ(tap->plugin, "cobridge_jsontap.so");
+  EXPECT_EQ(tap->plugin, "libcobridge_jsontap.so");
   EXPECT_THAT(tap->settings_toml, ::testing::Not(HasSubstr("plugin")));
   // The settings text is valid TOML for the plugin to parse again.
   const LoadResult again = load_string("[outputs.x]\n" + tap->settings_toml, "again.toml");
@@ -532,7 +532,7 @@ TEST(ConfigRobustness, PathologicalInputs) {
 
 // J§1.2.1, E§4.1 (incl. E§13 V03 codes), F§7.3: the model table
 TEST(KnownModels, MatchTheManuals) {
-  ASSERT_EQ(known_models().size(), 10U);
+  ASSERT_EQ(known_models().size(), 12U);
   const KnownModel* rfc = find_model("RFC-4800");
   ASSERT_NE(rfc, nullptr);
   EXPECT_EQ(rfc->vendor, 0x182U);
@@ -549,6 +549,10 @@ TEST(KnownModels, MatchTheManuals) {
   EXPECT_EQ(rm9->vendor, 0x0069666DU);
   EXPECT_EQ(rm9->cams_per_channel, 8);
   EXPECT_EQ(find_model("rm9"), nullptr);
+  // F§7.3 0x1008: the device calls itself "RM9000"; the config accepts that name too.
+  const KnownModel* rm9000 = find_model("RM9000");
+  ASSERT_NE(rm9000, nullptr);
+  EXPECT_EQ(rm9000->family, Family::ifm_rm);
 }
 
 }  // namespace
