@@ -87,8 +87,8 @@ ConditionEvents ConditionMonitor::update(double dt_seconds, double shaft_turns, 
   // Lot size: the CAM edge selected by 0x233A (E§4.3).
   if (have_cams_ && lot_size_config >= 1 && lot_size_config <= 4) {
     const unsigned bit = lot_size_config <= 2 ? 0U : 1U;
-    const bool was = ((last_cams_ >> bit) & 1U) != 0;
-    const bool is = ((cam_active >> bit) & 1U) != 0;
+    const bool was = ((static_cast<unsigned>(last_cams_) >> bit) & 1U) != 0;
+    const bool is = ((static_cast<unsigned>(cam_active) >> bit) & 1U) != 0;
     const bool rising = (lot_size_config % 2) == 1;
     if (rising ? (!was && is) : (was && !is)) {
       ++lot_power_on_;
