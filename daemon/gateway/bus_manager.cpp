@@ -332,15 +332,8 @@ struct BusManager::Impl {
         break;
       case DiscoveryEventKind::commissioned: {
         log->info("bus {}: {}", bus.name, e.text);
-        Assignment a;
-        a.bus = bus.name;
-        a.serial = e.identity.serial;
-        a.vendor = e.identity.vendor;
-        a.product = e.identity.product;
-        a.revision = e.identity.revision;
-        a.node_id = e.node_id;
-        if (const auto old = state.find(bus.name, a.vendor, a.product, a.serial)) a.fingerprint = old->fingerprint;
-        if (const auto ec = state.put(a)) log->error("bus {}: state file: {}", bus.name, ec.message());
+        if (const auto ec = record_assignment(state, bus.name, e))
+          log->error("bus {}: state file: {}", bus.name, ec.message());
         break;
       }
       case DiscoveryEventKind::clash_detected:
@@ -360,6 +353,19 @@ struct BusManager::Impl {
     if (m == nullptr) {
       note_unknown(e);
       return;
+    }
+    if (!e.replaces.empty() && m->st.identity.serial != e.identity.serial) {
+      log->info("bus {}: device serial {} takes the place of {} (serial {})", bus.name, e.identity.serial,
+                e.replaces, e.replaced.serial);
+    }
+    // A device first reported as unknown (before the swap was decided) is
+    // now a configured one: drop its "unknown-" entry.
+    const auto dropped = std::erase_if(devices, [&](const Managed& u) {
+      return !u.in_config && u.st.identity.serial == e.identity.serial && u.st.identity.vendor == e.identity.vendor;
+    });
+    if (dropped != 0) {
+      dirty = true;
+      m = find_device(name);  // the erase moved the elements
     }
     if (!e.at_target) {
       // Discovery is moving it; it reports `identified` again at the target.
@@ -382,23 +388,10 @@ struct BusManager::Impl {
 
     m->st.identity = e.identity;
     m->st.node_id = e.node_id;
-    if (!e.replaces.empty() && !same_device) {
-      log->info("bus {}: device {} (serial {}) takes the place of {}", bus.name, hex32(e.identity.serial),
-                e.identity.serial, e.replaces);
-    }
     // Remember where it is even before it is configured (a restart then
-    // needs no scan).
-    {
-      Assignment a;
-      a.bus = bus.name;
-      a.serial = e.identity.serial;
-      a.vendor = e.identity.vendor;
-      a.product = e.identity.product;
-      a.revision = e.identity.revision;
-      a.node_id = e.node_id;
-      if (const auto old = state.find(bus.name, a.vendor, a.product, a.serial)) a.fingerprint = old->fingerprint;
-      if (const auto ec = state.put(a)) log->error("bus {}: state file: {}", bus.name, ec.message());
-    }
+    // needs no scan); a replacement also drops the replaced device's line.
+    if (const auto ec = record_assignment(state, bus.name, e))
+      log->error("bus {}: state file: {}", bus.name, ec.message());
     if (!resolve_description(*m)) {
       set_state(*m, DeviceState::failed);
       return;

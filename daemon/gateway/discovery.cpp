@@ -151,6 +151,12 @@ struct Discovery::Impl {
     bool bootup_flag = false;         // set by on_frame, handled by process
     bool bootup_clash = false;
     bool heard = false;               // heartbeat / guarding reply seen
+    // Supervision was lost and no probe has looked since: `ids` may be stale.
+    bool unsure = false;
+    // Who was identified here last, kept when a probe finds nobody: while the
+    // bus manager supervises this node (its heartbeat is fine) that device is
+    // present, even if a probe during a silence found no one.
+    std::vector<LssAddress> last;
   };
   std::array<Node, 128> nodes{};
 
@@ -180,6 +186,7 @@ struct Discovery::Impl {
     std::uint8_t target = 0;
     std::string device;
     std::string replaces;
+    LssAddress replaced;
     bool store = true;
     bool boot_wait = true;
     bool sdo_fallback = false;
@@ -260,8 +267,31 @@ struct Discovery::Impl {
   std::vector<BootWait> boot_waits;
 
   std::vector<std::pair<LssAddress, std::uint8_t>> assigned;  // decisions of this session
-  std::vector<std::pair<std::string, LssAddress>> swapped;    // configured name -> replacement
-  std::vector<std::pair<std::uint8_t, LssAddress>> reported_ids;
+  struct Swap {
+    std::string name;      // the configured device
+    LssAddress by;         // the replacement that holds its place
+    LssAddress replaced;   // who held it before (for the state file)
+  };
+  std::vector<Swap> swapped;
+  // The last `identified` event per node: a new one goes out when the
+  // identity or the decision (device, target) changes, or after a boot-up.
+  struct Reported {
+    std::uint8_t node = 0;
+    LssAddress id;
+    std::string device;
+    std::uint8_t target = 0;
+  };
+  std::vector<Reported> reported_ids;
+  // Unknown devices (and decisions that wait for a probe), decided again
+  // when the presence picture changes.
+  struct Unplaced {
+    std::uint8_t node = 0;
+    LssAddress id;
+    bool bootup = false;   // the identification followed a boot-up
+    bool pending = false;  // nothing reported yet: the decision waits
+  };
+  std::vector<Unplaced> unplaced;
+  bool presence_changed = false;
   std::set<std::string> reported_problems;
   std::vector<DiscoveryEvent> events;
   std::vector<StepTiming> timings;
@@ -305,7 +335,7 @@ struct Discovery::Impl {
     e.kind = DiscoveryEventKind::problem;
     e.node_id = node;
     e.identity = id;
-    e.text = "bus " + bus.name + ": " + text;
+    e.text = std::move(text);
     events.push_back(std::move(e));
   }
 
@@ -375,7 +405,9 @@ struct Discovery::Impl {
     std::uint8_t target = 0;
     std::string device;
     std::string replaces;
+    LssAddress replaced;
     std::string problem;
+    bool wait = false;  // depends on a probe still to come: decide again then
   };
 
   static bool model_matches(const config::Device& c, const LssAddress& a, bool need_info) {
@@ -428,21 +460,83 @@ struct Discovery::Impl {
   std::uint8_t target_of(const config::Device& c, const LssAddress& a, std::string& why) const {
     if (c.node_id) return *c.node_id;
     if (auto p = previous_node(c.serial, c.vendor, c.product)) return *p;
+    // A replacement after a restart: the state file has its own line since
+    // the swap (the replaced device's line was erased then).
+    if (a.serial != c.serial)
+      if (auto p = previous_node(a.serial, a.vendor, a.product)) return *p;
     if (auto p = assigned_to(a)) return *p;
     const std::uint8_t n = pool_node(a);
     if (n == 0) why = "node pool exhausted for " + c.name;
     return n;
   }
-  // A configured device is missing when no present device carries its serial.
-  [[nodiscard]] bool missing(const config::Device& c) const {
-    for (std::uint8_t n = 1; n <= 127; ++n)
-      for (const auto& id : nodes[n].ids)
-        if (id.serial == c.serial) return false;
-    for (const auto& [name, id] : swapped)
-      if (name == c.name) return false;
-    return true;
+  // ---- presence (swap policy) --------------------------------------------
+  enum class Presence : std::uint8_t { present, unsure, absent };
+
+  static bool matches(const LssAddress& id, std::uint32_t serial, std::uint32_t vendor) noexcept {
+    return id.serial == serial && (vendor == 0 || id.vendor == vendor);
+  }
+  // Where device `serial` (of `vendor`, 0 = any) is, as far as the probes
+  // and the bus manager's supervision tell (see "Swap" in discovery.hpp).
+  // `probe` = a node whose probe would settle an unsure answer (0 = none).
+  [[nodiscard]] Presence presence_of(std::uint32_t serial, std::uint32_t vendor, std::uint8_t& probe) const {
+    bool unsure = false;
+    for (std::uint8_t n = 1; n <= 127; ++n) {
+      const Node& node = nodes[n];
+      const auto has = [&](const std::vector<LssAddress>& v) {
+        return std::any_of(v.begin(), v.end(), [&](const LssAddress& id) { return matches(id, serial, vendor); });
+      };
+      // A clash whose identities the probe could not pair up still shows serials.
+      const bool seen = has(node.ids) || (node.clash && node.seen[3].contains(serial) &&
+                                          (vendor == 0 || node.seen[0].contains(vendor)));
+      const bool was = has(node.last);
+      if (node.supervised && (seen || was)) return Presence::present;
+      if (node.unsure && (seen || was)) {
+        unsure = true;
+        probe = n;
+        continue;
+      }
+      if (seen) return Presence::present;
+    }
+    if (unsure || !initial_probe_done) return Presence::unsure;
+    return Presence::absent;
+  }
+  [[nodiscard]] Swap* swap_of(const std::string& name) {
+    for (auto& w : swapped)
+      if (w.name == name) return &w;
+    return nullptr;
+  }
+  // Who holds configured device c's place now: its replacement, else itself.
+  [[nodiscard]] Presence holder_presence(const config::Device& c, std::uint8_t& probe) {
+    if (const Swap* w = swap_of(c.name)) return presence_of(w->by.serial, w->by.vendor, probe);
+    return presence_of(c.serial, c.vendor.value_or(0), probe);
+  }
+  // The identity that held c's place, as well as it is known.
+  [[nodiscard]] LssAddress holder_identity(const config::Device& c) const {
+    for (const auto& w : swapped)
+      if (w.name == c.name) return w.by;
+    for (const auto& p : previous)
+      if (p.serial == c.serial && (!c.vendor || *c.vendor == p.vendor) && (!c.product || *c.product == p.product))
+        return LssAddress{p.vendor, p.product, p.revision, p.serial};
+    for (const auto& [id, n] : assigned)
+      if (matches(id, c.serial, c.vendor.value_or(0))) return id;
+    LssAddress a;
+    a.serial = c.serial;
+    a.vendor = c.vendor.value_or(0);
+    a.product = c.product.value_or(0);
+    return a;
+  }
+  void request_probe(std::uint8_t n) noexcept {
+    if (!canopen::cob::valid_node_id(n) || !bus.discovery || !started) return;
+    // Still being probed in the running round: its end decides again.
+    if (round.active && std::find(round.members.begin(), round.members.end(), n) != round.members.end()) return;
+    want_probe.set(n);
+  }
+  // `old` gives its place up: its node-ID is no longer promised to it.
+  void forget(const LssAddress& old) {
+    std::erase_if(assigned, [&](const auto& p) { return matches(p.first, old.serial, old.vendor); });
   }
 
+  // ---- decisions ----------------------------------------------------------
   Decision decide(const LssAddress& a) {
     Decision d;
     if (const config::Device* c = configured_by_serial(a.serial)) {
@@ -453,28 +547,88 @@ struct Discovery::Impl {
                     "; not configured";
         return d;
       }
+      if (Swap* w = swap_of(c->name); w != nullptr && !same_device(w->by, a)) {
+        // The original is back after a replacement took its place.
+        std::uint8_t probe = 0;
+        switch (presence_of(w->by.serial, w->by.vendor, probe)) {
+          case Presence::present:
+            d.device.clear();
+            d.problem = "device " + c->name + " (serial " + std::to_string(a.serial) + ") is back, but serial " +
+                        std::to_string(w->by.serial) + " has taken its place (swap policy same-model); left alone";
+            return d;
+          case Presence::unsure:
+            request_probe(probe);
+            d.device.clear();
+            d.wait = true;
+            return d;
+          case Presence::absent: {
+            // The replacement is gone too: the configured serial takes its place back.
+            const LssAddress by = w->by;
+            std::erase_if(swapped, [&](const Swap& x) { return x.name == c->name; });
+            forget(by);
+            d.replaces = c->name;
+            d.replaced = by;
+            break;
+          }
+        }
+      }
       d.target = target_of(*c, a, d.problem);
       return d;
     }
-    for (const auto& [name, id] : swapped)
-      if (same_device(id, a))
-        if (const config::Device* c = [&]() -> const config::Device* {
-              for (const auto& dv : devices)
-                if (dv.name == name) return &dv;
-              return nullptr;
-            }()) {
-          d.device = c->name;
-          d.replaces = c->name;
-          d.target = target_of(*c, a, d.problem);
-          return d;
-        }
-    if (bus.swap_policy == config::SwapPolicy::same_model && initial_probe_done) {
+    for (const auto& w : swapped)
+      if (same_device(w.by, a))
+        for (const auto& c : devices)
+          if (c.name == w.name) {
+            d.device = c.name;
+            d.replaces = c.name;
+            d.replaced = w.replaced;
+            d.target = target_of(c, a, d.problem);
+            return d;
+          }
+    if (bus.swap_policy == config::SwapPolicy::same_model) {
+      std::vector<const config::Device*> absent;
+      bool wait = false;
       for (const auto& c : devices) {
-        if (!model_matches(c, a, true) || !missing(c)) continue;
-        swapped.emplace_back(c.name, a);
+        if (!model_matches(c, a, true)) continue;
+        std::uint8_t probe = 0;
+        switch (holder_presence(c, probe)) {
+          case Presence::present: break;
+          case Presence::unsure:
+            wait = true;
+            request_probe(probe);
+            break;
+          case Presence::absent: absent.push_back(&c); break;
+        }
+      }
+      // Never a guess: a device whose loss is not yet confirmed keeps its
+      // place, and a swap waits for the end of the probe round, whose later
+      // nodes may show the missing device (booting at the same time).
+      if (wait) {
+        d.wait = true;  // decided again when the probe has told
+        return d;
+      }
+      if (!absent.empty() && round.active) {
+        d.wait = true;
+        presence_changed = true;  // decided again once the round is over
+        return d;
+      }
+      if (absent.size() == 1) {
+        const config::Device& c = *absent.front();
+        const LssAddress old = holder_identity(c);
+        forget(old);
+        std::erase_if(swapped, [&](const Swap& x) { return x.name == c.name; });
+        swapped.push_back(Swap{c.name, a, old});
         d.device = c.name;
         d.replaces = c.name;
+        d.replaced = old;
         d.target = target_of(c, a, d.problem);
+        return d;
+      }
+      if (absent.size() > 1) {
+        std::string names;
+        for (const auto* c : absent) names += (names.empty() ? "" : ", ") + c->name;
+        d.problem = "unknown device " + describe(a) + " could replace any of the missing devices " + names +
+                    " (swap policy same-model); left alone: give its serial in the configuration";
         return d;
       }
     }
@@ -628,17 +782,23 @@ struct Discovery::Impl {
     const bool bootup = round.bootup[n];
     std::array<Values, 4> vals = node.vals;
     if (vals[0].n == 0 && !node.aborted) {
-      // Nobody there (any more).
+      // Nobody there (any more): a device that was here is absent now.
+      if (!node.ids.empty() || node.clash || node.unsure) presence_changed = true;
+      node.unsure = false;
       if (!node.ids.empty() || node.clash) {
         node.ids.clear();
         node.clash = false;
         node.clash_reported = false;
         node.clash_unresolved = false;
-        std::erase_if(reported_ids, [n](const auto& r) { return r.first == n; });
+        std::erase_if(reported_ids, [n](const Reported& r) { return r.node == n; });
       }
+      std::erase_if(unplaced, [n](const Unplaced& u) { return u.node == n; });
       return;
     }
     if (node.aborted) {
+      // Someone is there, so it is no longer unsure; who, the probe cannot tell.
+      if (node.unsure) presence_changed = true;
+      node.unsure = false;
       problem("node " + std::to_string(n) + " answers SDO but refuses to read its identity 0x1018", n);
       return;
     }
@@ -652,7 +812,11 @@ struct Discovery::Impl {
     node.seen = vals;
     if (!clash) {
       const LssAddress a{vals[0].v[0], vals[1].v[0], vals[2].v[0], vals[3].v[0]};
+      if (node.unsure || node.clash || node.ids.size() != 1 || !same_device(node.ids[0], a)) presence_changed = true;
+      node.unsure = false;
+      std::erase_if(unplaced, [&](const Unplaced& u) { return u.node == n && !same_device(u.id, a); });
       node.ids = {a};
+      node.last = {a};
       node.clash = false;
       node.clash_reported = false;
       node.clash_unresolved = false;
@@ -671,19 +835,22 @@ struct Discovery::Impl {
     }
     node.bootup_clash = false;
     node.ids.clear();
+    node.unsure = false;
+    presence_changed = true;
+    std::erase_if(unplaced, [n](const Unplaced& u) { return u.node == n; });
     if (vals[0].n == 1 && vals[1].n == 1 && vals[2].n == 1)
       for (std::uint8_t i = 0; i < vals[3].n; ++i)
         node.ids.push_back(LssAddress{vals[0].v[0], vals[1].v[0], vals[2].v[0], vals[3].v[i]});
     const bool was = node.clash;
     node.clash = true;
-    std::erase_if(reported_ids, [n](const auto& r) { return r.first == n; });
+    std::erase_if(reported_ids, [n](const Reported& r) { return r.node == n; });
     if (!node.clash_reported) {
       node.clash_reported = true;
       DiscoveryEvent e;
       e.kind = DiscoveryEventKind::clash_detected;
       e.node_id = n;
       e.count = count;
-      e.text = "bus " + bus.name + ": " + std::to_string(count) + " devices answer at node " + std::to_string(n);
+      e.text = std::to_string(count) + " devices answer at node " + std::to_string(n);
       if (vals[3].n > 1) {
         e.text += " (serials";
         for (std::uint8_t i = 0; i < vals[3].n; ++i) e.text += " " + std::to_string(vals[3].v[i]);
@@ -700,15 +867,20 @@ struct Discovery::Impl {
 
   void on_identified(std::uint8_t n, const LssAddress& a, bool bootup) {
     Decision d = decide(a);
+    std::erase_if(unplaced, [n](const Unplaced& u) { return u.node == n; });
+    if (d.wait) {
+      // Reported once the probe it waits for has told whether the
+      // configured device is still there.
+      unplaced.push_back(Unplaced{n, a, bootup, true});
+      return;
+    }
+    if (d.device.empty()) unplaced.push_back(Unplaced{n, a, false, false});
     if (d.target != 0) remember(a, d.target);
-    bool reported = false;
-    for (const auto& [rn, id] : reported_ids)
-      if (rn == n && id == a) reported = true;
-    if (!reported || bootup) {
-      if (!reported) {
-        std::erase_if(reported_ids, [n](const auto& r) { return r.first == n; });
-        reported_ids.emplace_back(n, a);
-      }
+    auto it = std::find_if(reported_ids.begin(), reported_ids.end(), [n](const Reported& r) { return r.node == n; });
+    const bool changed = it == reported_ids.end() || it->id != a || it->device != d.device || it->target != d.target;
+    if (changed || bootup) {
+      if (it == reported_ids.end()) it = reported_ids.insert(reported_ids.end(), Reported{});
+      *it = Reported{n, a, d.device, d.target};
       DiscoveryEvent e;
       e.kind = DiscoveryEventKind::identified;
       e.node_id = n;
@@ -718,9 +890,11 @@ struct Discovery::Impl {
       e.identity = a;
       e.device = d.device;
       e.replaces = d.replaces;
-      e.text = "bus " + bus.name + ": node " + std::to_string(n) + ": " + describe(a) +
-               (d.device.empty() ? "" : " (" + d.device + ")") +
-               (d.replaces.empty() ? "" : ", replaces the missing device " + d.replaces) +
+      e.replaced = d.replaced;
+      e.text = "node " + std::to_string(n) + ": " + describe(a) + (d.device.empty() ? "" : " (" + d.device + ")") +
+               (d.replaces.empty() ? ""
+                                   : ", replaces the missing device " + d.replaces + " (serial " +
+                                         std::to_string(d.replaced.serial) + ")") +
                (d.target == 0 ? "" : ", target node " + std::to_string(d.target));
       events.push_back(std::move(e));
     }
@@ -733,6 +907,20 @@ struct Discovery::Impl {
         return;
       }
       queue_job(Job{Job::Kind::move, n});
+    }
+  }
+
+  // The presence picture changed: decide the unknown devices (and those
+  // waiting for a probe) again. Between probe rounds only, so that no
+  // decision rests on half a round.
+  void reevaluate() {
+    presence_changed = false;
+    std::vector<Unplaced> list = std::exchange(unplaced, {});
+    for (const Unplaced& u : list) {
+      const Node& node = nodes[u.node];
+      // Gone or changed: the probe that saw it has reported it already.
+      if (node.clash || node.ids.size() != 1 || !same_device(node.ids[0], u.id)) continue;
+      on_identified(u.node, u.id, u.pending && u.bootup);
     }
   }
 
@@ -778,7 +966,8 @@ struct Discovery::Impl {
         e.identity = w.ctx.identity;
         e.device = w.ctx.device;
         e.replaces = w.ctx.replaces;
-        e.text = "bus " + bus.name + ": " + who(w.ctx) + " moved from " +
+        e.replaced = w.ctx.replaced;
+        e.text = who(w.ctx) + " moved from " +
                  (w.ctx.from == canopen::cob::kNodeIdUnconfigured ? std::string("non-configured")
                                                                  : "node " + std::to_string(w.ctx.from)) +
                  " to node " + std::to_string(n);
@@ -860,6 +1049,7 @@ struct Discovery::Impl {
     c.target = d.target;
     c.device = d.device;
     c.replaces = d.replaces;
+    c.replaced = d.replaced;
     c.sdo_fallback = sdo_node_id_object(a).has_value();
     c.group = next_group++;
     run->device = who(c);
@@ -907,6 +1097,7 @@ struct Discovery::Impl {
       c.target = d.target;
       c.device = d.device;
       c.replaces = d.replaces;
+      c.replaced = d.replaced;
       c.revisions = std::move(revs);
       c.group = next_group++;
       tasks.push_back(make(Op::switch_selective, c));
@@ -1059,7 +1250,7 @@ struct Discovery::Impl {
             e.kind = DiscoveryEventKind::clash_resolved;
             e.node_id = j.node;
             e.count = static_cast<std::uint32_t>(run->serials.size());
-            e.text = "bus " + bus.name + ": clash at node " + std::to_string(j.node) + " resolved" +
+            e.text = "clash at node " + std::to_string(j.node) + " resolved" +
                      (run->moved_any ? "" : " (nothing could be moved)");
             events.push_back(std::move(e));
           }
@@ -1186,6 +1377,7 @@ struct Discovery::Impl {
             c.target = d.target;
             c.device = d.device;
             c.replaces = d.replaces;
+            c.replaced = d.replaced;
             c.group = next_group++;
             v = assign_tasks(c);
           }
@@ -1258,6 +1450,7 @@ struct Discovery::Impl {
           Decision d = decide(a);
           c.device = d.device;
           c.replaces = d.replaces;
+          c.replaced = d.replaced;
           if (!d.problem.empty()) problem(d.problem, 0, a);
           if (d.target != 0 && node_free_for(d.target, a)) {
             c.target = d.target;
@@ -1403,6 +1596,10 @@ struct Discovery::Impl {
       // Probes of boot-ups run beside the commissioning tasks; probing while
       // devices are being reset would only see half the picture otherwise.
       if (drive_probe(now)) progress = true;
+      if (presence_changed && !round.active) {
+        reevaluate();
+        progress = true;
+      }
       if (drive_tasks(now)) progress = true;
       if (!progress) break;
     }
@@ -1453,7 +1650,46 @@ void Discovery::reload(const config::Config& config, std::size_t bus_index, std:
 }
 
 void Discovery::set_supervised(std::uint8_t node_id, bool supervised) noexcept {
-  if (canopen::cob::valid_node_id(node_id)) impl_->nodes[node_id].supervised = supervised;
+  if (!canopen::cob::valid_node_id(node_id)) return;
+  Impl& d = *impl_;
+  Impl::Node& node = d.nodes[node_id];
+  if (node.supervised == supervised) return;
+  node.supervised = supervised;
+  d.presence_changed = true;
+  if (!supervised) {
+    // Heartbeat lost (or no longer watched): what the last probe saw there
+    // may be gone. Ask now rather than at the next periodic probe, so that
+    // a replacement waiting for this device's place is decided soon.
+    node.unsure = true;
+    d.request_probe(node_id);
+  }
+}
+
+std::error_code record_assignment(StateStore& store, const std::string& bus, const DiscoveryEvent& e) {
+  const bool stores = e.kind == DiscoveryEventKind::commissioned ||
+                      (e.kind == DiscoveryEventKind::identified && e.at_target && !e.device.empty());
+  if (!stores || !canopen::cob::valid_node_id(e.node_id)) return {};
+  std::error_code first;
+  if (!e.replaces.empty() && e.replaced.serial != 0 && !same_device(e.replaced, e.identity)) {
+    // The replaced device's vendor/product may be unknown (0): any line of
+    // that serial on this bus that fits what is known.
+    for (const auto& old : store.on_bus(bus)) {
+      if (old.serial != e.replaced.serial) continue;
+      if (e.replaced.vendor != 0 && old.vendor != e.replaced.vendor) continue;
+      if (e.replaced.product != 0 && old.product != e.replaced.product) continue;
+      if (auto ec = store.erase(bus, old.vendor, old.product, old.serial); ec && !first) first = ec;
+    }
+  }
+  Assignment a;
+  a.bus = bus;
+  a.serial = e.identity.serial;
+  a.vendor = e.identity.vendor;
+  a.product = e.identity.product;
+  a.revision = e.identity.revision;
+  a.node_id = e.node_id;
+  if (const auto old = store.find(bus, a.vendor, a.product, a.serial)) a.fingerprint = old->fingerprint;
+  if (auto ec = store.put(a); ec && !first) first = ec;
+  return first;
 }
 
 std::vector<DiscoveryEvent> Discovery::take_events() { return std::exchange(impl_->events, {}); }
@@ -1480,6 +1716,8 @@ std::vector<Discovery::NodeView> Discovery::nodes() const {
     if (!node.ids.empty()) {
       if (auto t = d.assigned_to(node.ids[0])) v.target_node_id = *t;
       if (const auto* c = d.configured_by_serial(node.ids[0].serial)) v.device = c->name;
+      for (const auto& w : d.swapped)
+        if (same_device(w.by, node.ids[0])) v.device = w.name;
     }
     out.push_back(std::move(v));
   }

@@ -9,8 +9,10 @@
 // request are seen: two different answers = two devices on one node-ID (a
 // clash). Probes run: all node-IDs 1..127 at start(), then every
 // `discovery_period_s` for the node-IDs the bus manager does not supervise
-// (set_supervised), and on every boot-up (which re-identifies a restarted
-// device, so a swapped part never silently inherits the old one's settings).
+// (set_supervised), at once for a node whose supervision is turned off
+// (heartbeat lost: is the device still there?), and on every boot-up (which
+// re-identifies a restarted device, so a swapped part never silently
+// inherits the old one's settings).
 // Two boot-ups from one node-ID within `bootup_clash_window` are a clash too.
 //
 // Deciding. An identified device's target node-ID: the configured device with
@@ -22,6 +24,25 @@
 // alone; a device of the wrong model for its configured serial is reported
 // and not configured. A node-ID held by another present device is never
 // taken.
+//
+// Swap (same-model). A configured device (or the replacement that holds its
+// place) is
+//   present  while the bus manager supervises the node where it was last
+//            identified, or a probe found it and no loss was reported since;
+//   unsure   when its supervision was lost (set_supervised(node, false)) and
+//            its node has not been probed since: that probe is requested at
+//            once, and any decision that depends on it waits for it;
+//   absent   when a probe of its node got no answer, or it was not found by
+//            any probe since start() (after the full start-up probe).
+// An unknown serial takes a configured device's place only when exactly one
+// configured device of its model is absent and none is unsure; two absent
+// ones are reported (which one it replaces is a guess) and left alone. The
+// replacement is seen before the old device's loss is known (its boot-up
+// comes first, its heartbeat times out later), so every unknown device is
+// decided again whenever the presence picture changes (a probe without
+// answer, a new identity, a supervision change). A configured serial that
+// comes back after a replacement took its place is left alone and reported
+// while the replacement is present.
 //
 // Commissioning (policy automatic; manual only after request_commission();
 // never when off, where the component only listens and reads identities by
@@ -49,9 +70,11 @@
 // because this component reads no clock).
 //
 // Output: a queue of DiscoveryEvent (take_events()). The bus manager stores
-// assignments from `commissioned` (and from `identified` with at_target), and
-// configures a device only after an `identified` event with at_target = true
-// for its node-ID (also after a reboot: every boot-up is followed by one).
+// assignments from `commissioned` (and from `identified` with at_target)
+// through record_assignment(), and configures a device only after an
+// `identified` event with at_target = true for its node-ID (also after a
+// reboot: every boot-up is followed by one). Event texts do not name the bus
+// (the bus manager's log lines and status do).
 //
 // Thread: the bus's control thread (the bus manager's), like every protocol
 // component: no threads, no clock reads, no sockets; `now` is passed in and
@@ -72,6 +95,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <system_error>
 #include <vector>
 
 namespace cobridge::gateway {
@@ -95,9 +119,21 @@ struct DiscoveryEvent {
   canopen::LssAddress identity;       // all zero when unknown (clash, some problems)
   std::string device;                 // configured device name; empty = unknown device
   std::string replaces;               // swap: the configured device whose place it took
+  canopen::LssAddress replaced;       // swap: who held that place before (revision 0 when unknown;
+                                      // vendor/product 0 when never seen and not configured)
   std::uint32_t count = 0;            // clash: devices seen at node_id (a lower bound)
   std::string text;                   // human-readable, for logs and `cobridge status` problems
 };
+
+// What an event means for the state file of bus `bus`: `commissioned`, and
+// `identified` at its target, put the device's node-ID (keeping the
+// fingerprint already stored for its identity, so an unchanged device is not
+// rewritten, and none for a replacement, which must be configured in full);
+// a swap (`replaces` set) also erases the line of the device it replaced, so
+// that neither a restart nor the pool gives the old device's place back to
+// it. Other events change nothing. Returns the first StateStore error.
+// Called by the bus manager on its control thread (file I/O).
+std::error_code record_assignment(StateStore& store, const std::string& bus, const DiscoveryEvent& e);
 
 struct DiscoveryOptions {
   // Overrides of the bus's lss_timeout_ms / sdo_timeout_ms (0 = take the config's).
@@ -141,7 +177,9 @@ class Discovery {
   // The LSS timeout stays as constructed.
   void reload(const config::Config& config, std::size_t bus_index, std::vector<Assignment> previous);
   // The bus manager supervises (configures/heartbeats) this node: periodic
-  // probes leave it alone. Boot-ups are still followed by a probe.
+  // probes leave it alone. Boot-ups are still followed by a probe. Turning
+  // supervision off (heartbeat lost, device offline) probes the node at once
+  // and decides the unknown devices again (see Swap above).
   void set_supervised(std::uint8_t node_id, bool supervised) noexcept;
 
   // Events since the last call, oldest first.

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <map>
 #include <memory>
 #include <string>
@@ -20,6 +21,7 @@
 #include "canopen/object_dictionary.hpp"
 #include "canopen/sdo_server.hpp"
 #include "config/config.hpp"
+#include "gateway/state_store.hpp"
 
 namespace cobridge::gateway {
 namespace {
@@ -82,6 +84,7 @@ class TestDevice {
   void pump(TimePoint now) {
     can::Frame f;
     while (port_.receive(f)) {
+      if (unplugged_) continue;  // off the bus: hears and says nothing
       if (f.id == canopen::cob::kNmt) {
         const auto p = canopen::parse_nmt(f);
         if (p.ok() && (p.frame.node == 0 || (valid(node_) && p.frame.node == node_)) &&
@@ -104,6 +107,8 @@ class TestDevice {
     }
   }
   bool answer_sdo = true;  // false: its SDO answers are lost (collided on the wire)
+  // Taken off the bus (a technician removes it): silent from now on.
+  void unplug() { unplugged_ = true; }
 
   [[nodiscard]] std::uint8_t node() const { return node_; }
   [[nodiscard]] bool pending() const { return port_.pending() > 0; }
@@ -150,6 +155,7 @@ class TestDevice {
   can::VirtualBus::Port& port_;
   Kind kind_;
   bool lss_enabled_;
+  bool unplugged_ = false;
   canopen::ObjectDictionary od_;
   std::unique_ptr<canopen::SdoServer> sdo_;
   std::unique_ptr<canopen::LssSlave> lss_;
@@ -631,6 +637,209 @@ TEST(DiscoveryTest, SingleRebootIsNoClash_CiA301_7_2_8_3_3) {
   rig.run(2s);
   EXPECT_TRUE(rig.of(DiscoveryEventKind::clash_detected).empty());
   EXPECT_EQ(rig.of(DiscoveryEventKind::identified).size(), 2u);
+}
+
+// ---- swap policy same-model (issue 4; docs/configuration.md `swap_policy`) ----
+
+// A state store in a fresh temporary directory, as the bus manager keeps it.
+class TempStore {
+ public:
+  explicit TempStore(const std::string& name)
+      : dir_(std::filesystem::path(testing::TempDir()) / ("cobridge-" + name)), store_((clean(dir_), dir_)) {}
+  ~TempStore() {
+    std::error_code ec;
+    std::filesystem::remove_all(dir_, ec);
+  }
+  StateStore& operator*() { return store_; }
+  StateStore* operator->() { return &store_; }
+
+ private:
+  static void clean(const std::filesystem::path& d) {
+    std::error_code ec;
+    std::filesystem::remove_all(d, ec);
+  }
+  std::filesystem::path dir_;
+  StateStore store_;
+};
+
+Assignment assignment(std::uint32_t serial, std::uint8_t node, std::string fingerprint) {
+  Assignment a;
+  a.bus = "can0";
+  a.serial = serial;
+  a.vendor = kNovotechnik;
+  a.product = kMultiturn;
+  a.revision = 0x00010005;
+  a.node_id = node;
+  a.fingerprint = std::move(fingerprint);
+  return a;
+}
+
+// Stores what the events since `from` mean for the state file, as the bus
+// manager does; returns the index to continue from.
+std::size_t record(StateStore& store, const Rig& rig, std::size_t from) {
+  for (std::size_t i = from; i < rig.events.size(); ++i) EXPECT_FALSE(record_assignment(store, "can0", rig.events[i]));
+  return rig.events.size();
+}
+
+bool any_problem_with(const Rig& rig, const std::string& words) {
+  for (const auto& e : rig.of(DiscoveryEventKind::problem))
+    if (e.text.find(words) != std::string::npos) return true;
+  return false;
+}
+
+// Issue 4 "must show" 2, the order seen on a real bus: mt-b (serial 2002) was
+// at node 21 (state file), is taken off, and a new MC1-2800 (serial 2099)
+// boots at the factory node-ID 127 (E§3.1) before the bus manager has noticed
+// the loss (its heartbeat consumer has not timed out yet): mt-b keeps its
+// place. Once the bus manager reports node 21 unsupervised, discovery probes
+// it (CiA 301 SDO upload of 0x1018: no answer), and the new serial is moved
+// to node 21 by LSS (CiA 305 switch selective, configure node-ID, store) as
+// mt-b; the state file then holds 2099 at 21 without a fingerprint (mt-b's
+// settings are written in full) and no line for 2002.
+TEST(DiscoveryTest, ReplacementAtFactoryNodeTakesAbsentDevicesPlace_E3_1_CiA305) {
+  TempStore store("swap-basic");
+  ASSERT_FALSE(store->put(assignment(2001, 20, "fp-a")));
+  ASSERT_FALSE(store->put(assignment(2002, 21, "fp-b")));
+  Rig rig;
+  rig.with(device("mt-a", 2001, 20, "MC1-2800")).with(device("mt-b", 2002, 0, "MC1-2800"));
+  auto& ma = rig.add(Kind::multiturn, multiturn(2001), 20);
+  auto& mb = rig.add(Kind::multiturn, multiturn(2002), 21);
+  rig.start(store->on_bus("can0"));
+  rig.run(5s);
+  std::size_t done = record(*store, rig, 0);
+  std::map<std::string, DiscoveryEvent> first;
+  for (const auto& e : rig.of(DiscoveryEventKind::identified)) first[e.device] = e;
+  ASSERT_EQ(first.size(), 2u);
+  EXPECT_TRUE(first["mt-a"].at_target);
+  EXPECT_TRUE(first["mt-b"].at_target);
+  EXPECT_EQ(first["mt-b"].node_id, 21);  // from the state file: mt-b has no node_id in the config
+  // The bus manager configures and supervises both.
+  rig.disc().set_supervised(20, true);
+  rig.disc().set_supervised(21, true);
+
+  mb.unplug();
+  auto& repl = rig.add(Kind::multiturn, multiturn(2099), 127);
+  repl.power_on();
+  rig.run(3s);
+  // Node 21 is still supervised (heartbeat not timed out): nothing is taken.
+  EXPECT_EQ(repl.node(), 127);
+  EXPECT_EQ(repl.lss_stores(), 0u);
+  EXPECT_TRUE(rig.of(DiscoveryEventKind::commissioned).empty());
+
+  // Heartbeat lost: the bus manager marks mt-b offline.
+  rig.disc().set_supervised(21, false);
+  rig.run(10s);
+  done = record(*store, rig, done);
+  EXPECT_EQ(repl.node(), 21);
+  EXPECT_EQ(repl.stored_node(), 21);
+  const auto moved = rig.of(DiscoveryEventKind::commissioned);
+  ASSERT_EQ(moved.size(), 1u);
+  EXPECT_EQ(moved[0].device, "mt-b");
+  EXPECT_EQ(moved[0].replaces, "mt-b");
+  EXPECT_EQ(moved[0].identity.serial, 2099u);
+  EXPECT_EQ(moved[0].replaced.serial, 2002u);
+  EXPECT_EQ(moved[0].previous_node_id, 127);
+  EXPECT_EQ(moved[0].node_id, 21);
+  // After its boot-up at 21 it is identified there as mt-b, at its target:
+  // the bus manager configures it with mt-b's settings.
+  const auto ids = rig.of(DiscoveryEventKind::identified);
+  ASSERT_FALSE(ids.empty());
+  EXPECT_EQ(ids.back().node_id, 21);
+  EXPECT_EQ(ids.back().identity.serial, 2099u);
+  EXPECT_EQ(ids.back().device, "mt-b");
+  EXPECT_TRUE(ids.back().at_target);
+  EXPECT_FALSE(any_problem_with(rig, "held by another device"));
+  // The others are untouched.
+  EXPECT_EQ(ma.node(), 20);
+  EXPECT_EQ(ma.lss_stores(), 0u);
+  // The state file: the replacement replaces the old line.
+  EXPECT_FALSE(store->find("can0", kNovotechnik, kMultiturn, 2002).has_value());
+  const auto now21 = store->find("can0", kNovotechnik, kMultiturn, 2099);
+  ASSERT_TRUE(now21.has_value());
+  EXPECT_EQ(now21->node_id, 21);
+  EXPECT_EQ(now21->fingerprint, "");
+  const auto a = store->find("can0", kNovotechnik, kMultiturn, 2001);
+  ASSERT_TRUE(a.has_value());
+  EXPECT_EQ(a->node_id, 20);
+  EXPECT_EQ(a->fingerprint, "fp-a");
+  // A reload from the new state file (SIGHUP, or a restart) keeps 2099 at 21.
+  rig.disc().reload(rig.config_, 0, store->on_bus("can0"));
+  repl.power_on();
+  rig.run(2s);
+  EXPECT_EQ(rig.of(DiscoveryEventKind::identified).back().device, "mt-b");
+  EXPECT_TRUE(rig.of(DiscoveryEventKind::identified).back().at_target);
+}
+
+// The other order: the loss is reported (node 21 unsupervised) while the
+// replacement's probe is running, before node 21 was probed. The decision
+// waits for that probe (CiA 301 SDO upload of 0x1018 to node 21) instead of
+// reporting an unknown device, then the swap goes ahead (E§3.1, CiA 305).
+TEST(DiscoveryTest, SwapDecisionWaitsForProbeOfUnsupervisedNode_E3_1_CiA305) {
+  Rig rig;
+  rig.with(device("mt-a", 2001, 20, "MC1-2800")).with(device("mt-b", 2002, 21, "MC1-2800"));
+  rig.add(Kind::multiturn, multiturn(2001), 20);
+  auto& mb = rig.add(Kind::multiturn, multiturn(2002), 21);
+  rig.start();
+  rig.run(5s);
+  rig.disc().set_supervised(20, true);
+  rig.disc().set_supervised(21, true);
+  mb.unplug();
+  auto& repl = rig.add(Kind::multiturn, multiturn(2099), 127);
+  repl.power_on();
+  rig.run(1ms);  // the boot-up probe of 127 is under way
+  rig.disc().set_supervised(21, false);
+  rig.run(10s);
+  EXPECT_EQ(repl.node(), 21);
+  EXPECT_FALSE(any_problem_with(rig, "unknown device"));
+  const auto moved = rig.of(DiscoveryEventKind::commissioned);
+  ASSERT_EQ(moved.size(), 1u);
+  EXPECT_EQ(moved[0].replaces, "mt-b");
+}
+
+// Two configured MC1-2800 missing: which one a new serial replaces would be a
+// guess, so it is reported and left at its factory node-ID (E§3.1).
+TEST(DiscoveryTest, SwapWithTwoMissingOfTheModelIsReportedNotGuessed_E3_1) {
+  Rig rig;
+  rig.with(device("mt-a", 2001, 20, "MC1-2800")).with(device("mt-b", 2002, 21, "MC1-2800"));
+  auto& repl = rig.add(Kind::multiturn, multiturn(2099), 127);
+  rig.start();
+  rig.run(20s);
+  EXPECT_EQ(repl.node(), 127);
+  EXPECT_EQ(repl.lss_stores(), 0u);
+  EXPECT_TRUE(any_problem_with(rig, "could replace any of the missing devices mt-a, mt-b"));
+  EXPECT_TRUE(rig.of(DiscoveryEventKind::commissioned).empty());
+}
+
+// A known device is never overwritten: after serial 2099 took mt-b's place,
+// the old mt-b (serial 2002) comes back at the factory node-ID and is left
+// alone while 2099 is present (E§3.1).
+TEST(DiscoveryTest, ReplacedDeviceComingBackIsLeftAlone_E3_1) {
+  Rig rig;
+  rig.with(device("mt-b", 2002, 21, "MC1-2800"));
+  auto& repl = rig.add(Kind::multiturn, multiturn(2099), 127);
+  rig.start();
+  rig.run(10s);
+  ASSERT_EQ(repl.node(), 21);
+  rig.disc().set_supervised(21, true);
+  auto& old = rig.add(Kind::multiturn, multiturn(2002), 127);
+  old.power_on();
+  rig.run(10s);
+  EXPECT_EQ(old.node(), 127);
+  EXPECT_EQ(repl.node(), 21);
+  EXPECT_TRUE(any_problem_with(rig, "has taken its place"));
+  EXPECT_EQ(rig.of(DiscoveryEventKind::commissioned).size(), 1u);
+}
+
+// The event texts leave the bus name to the bus manager's log lines.
+TEST(DiscoveryTest, EventTextsDoNotRepeatTheBusName) {
+  Rig rig(config::Commissioning::automatic, config::SwapPolicy::off);
+  rig.with(device("rot-a", 1001, 10, "RFC-4800"));
+  rig.add(Kind::rotary, rotary(1001), 127);
+  rig.add(Kind::rotary, rotary(5555), 32);
+  rig.start();
+  rig.run(20s);
+  ASSERT_FALSE(rig.events.empty());
+  for (const auto& e : rig.events) EXPECT_EQ(e.text.find("bus can0"), std::string::npos) << e.text;
 }
 
 }  // namespace
