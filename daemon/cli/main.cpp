@@ -88,6 +88,8 @@ int main(int argc, char** argv) {
   watch_c->add_option("--gateway", watch_o.gateway, "only this gateway id");
   watch_c->add_option("--topic-prefix", watch_o.topic_prefix, "the plugin's topic_prefix");
   watch_c->add_flag("--json", watch_o.json, "one JSON object per line");
+  watch_c->add_flag("--reliable", watch_o.reliable,
+                    "read samples reliably and keep all of them (needs sample_reliability = \"reliable\")");
   watch_c->add_option("--count", watch_o.count, "exit after N samples (any topic)");
   watch_c->add_option("--timeout", watch_o.timeout_s, "exit after S seconds (exit code 3 if --count was not reached)");
 

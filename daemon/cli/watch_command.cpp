@@ -230,7 +230,10 @@ dds_qos_t* reader_qos(dds_reliability_kind_t reliability, dds_durability_kind_t 
   dds_qos_t* q = dds_create_qos();
   dds_qset_reliability(q, reliability, DDS_MSECS(100));
   dds_qset_durability(q, durability);
-  dds_qset_history(q, DDS_HISTORY_KEEP_LAST, depth);
+  if (depth > 0)
+    dds_qset_history(q, DDS_HISTORY_KEEP_LAST, depth);
+  else
+    dds_qset_history(q, DDS_HISTORY_KEEP_ALL, 0);
   return q;
 }
 
@@ -254,7 +257,8 @@ int watch(const WatchOptions& o) {
        reader_qos(DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_TRANSIENT_LOCAL, 1)},
       {"EncoderEvent", &cobridge_EncoderEvent_desc, reader_qos(DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_VOLATILE, 32)},
       {"EncoderSample", &cobridge_EncoderSample_desc,
-       reader_qos(DDS_RELIABILITY_BEST_EFFORT, DDS_DURABILITY_VOLATILE, 16)},
+       o.reliable ? reader_qos(DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_VOLATILE, 0)
+                  : reader_qos(DDS_RELIABILITY_BEST_EFFORT, DDS_DURABILITY_VOLATILE, 16)},
   };
   const dds_entity_t ws = dds_create_waitset(pp.id);
   int rc = 0;

@@ -22,6 +22,10 @@ struct WatchOptions {
   bool json = false;
   std::uint64_t count = 0;   // exit after this many printed samples; 0 = run on
   double timeout_s = 0;      // give up after this long; 0 = never
+  // Read EncoderSample reliably and keep every sample (for audits and tests;
+  // the plugin's sample_reliability must be "reliable" too). Default: the
+  // latest samples, best-effort, as a live display wants.
+  bool reliable = false;
 };
 
 // Exit codes: 0 done (count reached, timeout without --count, or

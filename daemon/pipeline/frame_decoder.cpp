@@ -168,10 +168,12 @@ bool FrameDecoder::make_status(std::uint8_t node_id, bool online, bool stale, st
   out.cob_id = 0;
   out.raw_len = 0;
   out.valid = COBRIDGE_VALID_STATUS | COBRIDGE_VALID_NMT_STATE;
+  // Staleness already detected stays; an offline device's values are stale.
+  const bool is_stale = stale || stale_[node_id] || !online;
   out.online = online ? 1 : 0;
-  out.stale = stale ? 1 : 0;
+  out.stale = is_stale ? 1 : 0;
   out.nmt_state = nmt_state;
-  if (stale) stale_[node_id] = true;
+  if (is_stale) stale_[node_id] = true;
   count(samples_);
   return true;
 }

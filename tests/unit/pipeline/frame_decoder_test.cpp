@@ -142,6 +142,24 @@ TEST(FrameDecoder, SequencePerDeviceAcrossKinds) {
   EXPECT_EQ(s.sequence, 3u);
   EXPECT_EQ(s.kind, COBRIDGE_SAMPLE_STATUS);
   EXPECT_EQ(s.online, 0);
+  EXPECT_EQ(s.stale, 1) << "an offline device's values are stale";
+}
+
+// A device already reported stale stays stale in a later status sample.
+TEST(FrameDecoder, StatusKeepsKnownStaleness) {
+  DeviceTable table;
+  DecodePlan p = plan_for(5, {{0x60200120, true}});
+  p.max_age_ms = 10;
+  table.publish(p);
+  FrameDecoder d(0, table);
+  Sample s;
+  ASSERT_TRUE(d.decode(frame(0x185, {1, 0, 0, 0}, 1'000'000'000), s));
+  d.check_stale(1'050'000'000, [](std::uint8_t) {});
+  ASSERT_TRUE(d.make_status(5, true, false, COBRIDGE_NMT_OPERATIONAL, 1'060'000'000, s));
+  EXPECT_EQ(s.stale, 1);
+  ASSERT_TRUE(d.decode(frame(0x185, {2, 0, 0, 0}, 1'070'000'000), s));
+  ASSERT_TRUE(d.make_status(5, true, false, COBRIDGE_NMT_OPERATIONAL, 1'080'000'000, s));
+  EXPECT_EQ(s.stale, 0) << "fresh data clears it";
 }
 
 // CiA 301 §7.2.5.3.3: a synchronous TPDO carries the counter of its SYNC.
