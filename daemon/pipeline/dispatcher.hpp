@@ -71,7 +71,7 @@ class Dispatcher {
   std::thread thread_;
   int event_fd_ = -1;
   std::atomic<bool> running_{false};
-  std::atomic<bool> sleeping_{false};
+  std::atomic<int> sleeping_{0};  // 1 while the dispatcher waits on event_fd_
   std::atomic<std::uint64_t> samples_{0}, batches_{0}, sleeps_{0};
   std::mutex task_mutex_;
   std::vector<std::function<void()>> tasks_;
