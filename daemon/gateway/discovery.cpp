@@ -144,7 +144,14 @@ struct Discovery::Impl {
     std::array<Values, 4> seen;       // raw answers of the last finished probe
     bool clash = false;
     bool clash_reported = false;
-    bool clash_unresolved = false;    // a resolution ran and the clash came back
+    // The next clash strategy to try here (see expand_clash); reset once
+    // the node holds one device or none.
+    std::uint8_t clash_strategy = 0;
+    // A resolution ran: the next finished probe of this node decides whether
+    // it worked (clash_resolved) or the next strategy must run.
+    bool clash_verify = false;
+    std::uint32_t clash_count = 0;    // devices seen when the resolution started
+    bool clash_moved_any = false;
     bool supervised = false;
     bool busy = false;                // a commissioning job is about this node
     TimePoint last_bootup = TimePoint::min();
@@ -190,7 +197,10 @@ struct Discovery::Impl {
     bool store = true;
     bool boot_wait = true;
     bool sdo_fallback = false;
-    std::vector<std::uint32_t> revisions;  // switch selective: revisions to try in turn
+    // Switch selective: identities to try in turn (when the probe could not
+    // pair the answers up: vendor/product from the config or its model,
+    // every revision the probe saw).
+    std::vector<LssAddress> candidates;
     int group = 0;
   };
   enum class Op : std::uint8_t {
@@ -223,6 +233,7 @@ struct Discovery::Impl {
     std::uint8_t len = 0;
     Duration duration{};
     std::uint8_t attempts = 0;
+    bool non_configured = false;  // slowscan_loop in (c): what it finds has no node-ID now
   };
   std::deque<Task> tasks;
   std::optional<Task> current;
@@ -246,6 +257,7 @@ struct Discovery::Impl {
     std::vector<LssAddress> found;      // found by Fastscan in (c)
     std::vector<std::pair<LssAddress, std::uint8_t>> known;  // (c): identity -> node to restore
     bool moved_any = false;
+    bool slowscanned = false;  // non-configured job: the Slowscan fallback ran
   };
   std::optional<JobRun> run;
 
@@ -785,11 +797,11 @@ struct Discovery::Impl {
       // Nobody there (any more): a device that was here is absent now.
       if (!node.ids.empty() || node.clash || node.unsure) presence_changed = true;
       node.unsure = false;
+      clash_settled(n);
       if (!node.ids.empty() || node.clash) {
         node.ids.clear();
         node.clash = false;
         node.clash_reported = false;
-        node.clash_unresolved = false;
         std::erase_if(reported_ids, [n](const Reported& r) { return r.node == n; });
       }
       std::erase_if(unplaced, [n](const Unplaced& u) { return u.node == n; });
@@ -817,9 +829,9 @@ struct Discovery::Impl {
       std::erase_if(unplaced, [&](const Unplaced& u) { return u.node == n && !same_device(u.id, a); });
       node.ids = {a};
       node.last = {a};
+      clash_settled(n);
       node.clash = false;
       node.clash_reported = false;
-      node.clash_unresolved = false;
       // The start-up probe decides once every node has answered (swaps need
       // to know which configured devices are missing).
       if (round.full && !initial_probe_done) return;
@@ -841,7 +853,6 @@ struct Discovery::Impl {
     if (vals[0].n == 1 && vals[1].n == 1 && vals[2].n == 1)
       for (std::uint8_t i = 0; i < vals[3].n; ++i)
         node.ids.push_back(LssAddress{vals[0].v[0], vals[1].v[0], vals[2].v[0], vals[3].v[i]});
-    const bool was = node.clash;
     node.clash = true;
     std::erase_if(reported_ids, [n](const Reported& r) { return r.node == n; });
     if (!node.clash_reported) {
@@ -858,11 +869,31 @@ struct Discovery::Impl {
       }
       events.push_back(std::move(e));
     }
-    if (was && node.clash_unresolved) {
-      problem("the clash at node " + std::to_string(n) + " could not be resolved", n);
+    // A resolution ran and several devices still answer here: not resolved;
+    // the next strategy takes over, until none is left.
+    node.clash_verify = false;
+    if (node.clash_strategy >= kClashStrategies) {
+      problem("the clash at node " + std::to_string(n) + " could not be resolved (" + std::to_string(count) +
+                  " devices still answer there)",
+              n);
       return;
     }
     queue_job(Job{Job::Kind::clash, n});
+  }
+
+  // The probe after a clash resolution found one device or none at `n`:
+  // only now is the clash resolved.
+  void clash_settled(std::uint8_t n) {
+    Node& node = nodes[n];
+    node.clash_strategy = 0;
+    if (!node.clash_verify) return;
+    node.clash_verify = false;
+    DiscoveryEvent e;
+    e.kind = DiscoveryEventKind::clash_resolved;
+    e.node_id = n;
+    e.count = node.clash_count;
+    e.text = "clash at node " + std::to_string(n) + " resolved" + (node.clash_moved_any ? "" : " (nothing could be moved)");
+    events.push_back(std::move(e));
   }
 
   void on_identified(std::uint8_t n, const LssAddress& a, bool bootup) {
@@ -1059,28 +1090,63 @@ struct Discovery::Impl {
     tasks.push_back(make(Op::wait_boots));
   }
 
+  // The vendor/product/revision combinations the probe of a clash saw that
+  // configured device `c` (serial `s`) can have: vendor and product from the
+  // config, else from its model; every revision seen (the answers of
+  // several devices cannot be paired up).
+  [[nodiscard]] static std::vector<LssAddress> candidates_for(const config::Device& c, std::uint32_t s,
+                                                              const std::array<Values, 4>& v) {
+    std::vector<LssAddress> out;
+    const config::KnownModel* m = c.model.empty() ? nullptr : config::find_model(c.model);
+    std::optional<std::uint32_t> vendor = c.vendor;
+    if (!vendor && m) vendor = m->vendor;
+    if (!vendor || !v[0].contains(*vendor)) return out;
+    for (std::uint8_t ip = 0; ip < v[1].n; ++ip) {
+      const std::uint32_t p = v[1].v[ip];
+      if (c.product && *c.product != p) continue;
+      if (!c.product && m && !m->products.empty() &&
+          std::find(m->products.begin(), m->products.end(), p) == m->products.end())
+        continue;
+      if (!c.product && !m) continue;  // nothing says which product it is
+      for (std::uint8_t ir = 0; ir < v[2].n; ++ir) out.push_back(LssAddress{*vendor, p, v[2].v[ir], s});
+    }
+    return out;
+  }
+
+  // Clash strategies, one per resolution run at a node; the probe after each
+  // run tells whether the next is needed (node.clash_strategy):
+  //   0: (a) switch selective where the identity is known, (b) Slowscan for
+  //      the pre-Fastscan series (a) left, (c) Fastscan for the rest;
+  //   1: (b) Slowscan over every pre-Fastscan product seen, then (c) for
+  //      whatever it did not find;
+  //   2: (c) for everyone.
+  static constexpr std::uint8_t kClashStrategies = 3;
+
   void expand_clash(std::uint8_t n) {
-    const Node& node = nodes[n];
+    Node& node = nodes[n];
+    const std::uint8_t strategy = node.clash_strategy;
     run->device = node_name(n);
-    const auto& v = node.seen;
+    const auto v = node.seen;
     for (std::uint8_t i = 0; i < v[3].n; ++i) run->serials.insert(v[3].v[i]);
+    node.clash_count = static_cast<std::uint32_t>(std::max<std::size_t>(run->serials.size(), 2));
+    node.clash_moved_any = false;
     const bool full = v[0].n == 1 && v[1].n == 1 && v[2].n == 1;
     // (a) switch selective where the identity is known.
+    if (strategy == 0)
     for (std::uint32_t s : run->serials) {
       LssAddress a;
       a.serial = s;
-      std::vector<std::uint32_t> revs;
+      std::vector<LssAddress> cands;
       if (full) {
         a.vendor = v[0].v[0];
         a.product = v[1].v[0];
         a.revision = v[2].v[0];
       } else {
         const config::Device* c = configured_by_serial(s);
-        if (!c || !c->vendor || !c->product || !v[0].contains(*c->vendor) || !v[1].contains(*c->product)) continue;
-        a.vendor = *c->vendor;
-        a.product = *c->product;
-        for (std::uint8_t i = 0; i < v[2].n; ++i) revs.push_back(v[2].v[i]);
-        a.revision = revs.front();
+        if (!c) continue;
+        cands = candidates_for(*c, s, v);
+        if (cands.empty()) continue;
+        a = cands.front();
       }
       Decision d = decide(a);
       run->handled.insert(s);
@@ -1098,27 +1164,52 @@ struct Discovery::Impl {
       c.device = d.device;
       c.replaces = d.replaces;
       c.replaced = d.replaced;
-      c.revisions = std::move(revs);
+      c.candidates = std::move(cands);
       c.group = next_group++;
       tasks.push_back(make(Op::switch_selective, c));
       for (auto& t : assign_tasks(c)) tasks.push_back(std::move(t));
     }
     // (b) Slowscan for the pre-Fastscan series in the clash, if (a) left any.
-    if (run->handled.size() < run->serials.size() || run->serials.empty())
-    for (std::uint8_t iv = 0; iv < v[0].n; ++iv)
-      for (std::uint8_t ip = 0; ip < v[1].n; ++ip) {
-        if (!is_pre_fastscan(v[0].v[iv], v[1].v[ip])) continue;
-        Task t = make(Op::slowscan_loop);
-        t.node = n;
-        t.range = LssRange{v[0].v[iv], v[1].v[ip], 0, 0xFFFFFFFFu, 0, 0xFFFFFFFFu};
-        tasks.push_back(t);
-      }
+    const bool slowscan = strategy == 1 || (strategy == 0 && (run->handled.size() < run->serials.size() || run->serials.empty()));
+    if (slowscan) {
+      for (auto& t : slowscan_tasks(v, n, false)) tasks.push_back(std::move(t));
+    }
     // (c) whatever is left.
     Task check = make(Op::check_remaining);
     check.node = n;
     tasks.push_back(check);
     tasks.push_back(make_nmt(canopen::NmtCommand::reset_comm, n));
     tasks.push_back(make(Op::wait_boots));
+  }
+
+  // Slowscan over every pre-Fastscan product (J§1.2.1), for non-configured
+  // devices of unknown identity.
+  static std::vector<Task> slowscan_all_pre_fastscan() {
+    std::vector<Task> out;
+    for (const std::uint32_t p : {0x0BE0u, 0x0BF3u, 0x0BBDu, 0x0BCDu, 0x0BE1u}) {
+      Task t = make(Op::slowscan_loop);
+      t.node = 0;
+      t.non_configured = true;
+      t.range = LssRange{kVendorNovotechnik, p, 0, 0xFFFFFFFFu, 0, 0xFFFFFFFFu};
+      out.push_back(t);
+    }
+    return out;
+  }
+
+  // One Slowscan per pre-Fastscan vendor/product among the answers `v`.
+  // `non_configured`: (c) took the node-IDs away, what is found has none.
+  static std::vector<Task> slowscan_tasks(const std::array<Values, 4>& v, std::uint8_t n, bool non_configured) {
+    std::vector<Task> out;
+    for (std::uint8_t iv = 0; iv < v[0].n; ++iv)
+      for (std::uint8_t ip = 0; ip < v[1].n; ++ip) {
+        if (!is_pre_fastscan(v[0].v[iv], v[1].v[ip])) continue;
+        Task t = make(Op::slowscan_loop);
+        t.node = n;
+        t.non_configured = non_configured;
+        t.range = LssRange{v[0].v[iv], v[1].v[ip], 0, 0xFFFFFFFFu, 0, 0xFFFFFFFFu};
+        out.push_back(t);
+      }
+    return out;
   }
 
   // (c): every device non-configured, then Fastscan. `n` is the clash node.
@@ -1146,6 +1237,9 @@ struct Discovery::Impl {
     Task fs = make(Op::fastscan_loop);
     fs.node = n;
     v.push_back(fs);
+    // The pre-Fastscan series (J: DSP-305 V1.1.2) is non-configured now too
+    // and Fastscan cannot find it: Slowscan does.
+    for (auto& t : slowscan_tasks(nodes[n].seen, n, true)) v.push_back(std::move(t));
     v.push_back(make(Op::restore_known));
     v.push_back(make_nmt(canopen::NmtCommand::reset_comm, 0));
     push_front(std::move(v));
@@ -1158,8 +1252,7 @@ struct Discovery::Impl {
     std::error_code ec;
     switch (t.op) {
       case Op::switch_selective: {
-        LssAddress a = t.ctx.identity;
-        if (!t.ctx.revisions.empty()) a.revision = t.ctx.revisions[t.attempts];
+        const LssAddress a = t.ctx.candidates.empty() ? t.ctx.identity : t.ctx.candidates[t.attempts];
         ec = lss.switch_state_selective(a, now);
         break;
       }
@@ -1209,7 +1302,7 @@ struct Discovery::Impl {
           if (!run->handled.contains(s)) left.insert(s);
         const std::uint8_t n = t.node;
         current.reset();
-        if (!left.empty()) expand_fastscan_all(n);
+        if (!left.empty() || nodes[n].clash_strategy >= 2) expand_fastscan_all(n);
         return;
       }
       case Op::sdo_write: {
@@ -1245,14 +1338,12 @@ struct Discovery::Impl {
                                                : "commission-non-configured",
                    run->device, now - run->started);
           if (j.kind == Job::Kind::clash) {
-            nodes[j.node].clash_unresolved = true;
-            DiscoveryEvent e;
-            e.kind = DiscoveryEventKind::clash_resolved;
-            e.node_id = j.node;
-            e.count = static_cast<std::uint32_t>(run->serials.size());
-            e.text = "clash at node " + std::to_string(j.node) + " resolved" +
-                     (run->moved_any ? "" : " (nothing could be moved)");
-            events.push_back(std::move(e));
+            // Resolved only when the probe of the node (requested above)
+            // finds at most one device left there (clash_settled).
+            Node& node = nodes[j.node];
+            node.clash_verify = true;
+            node.clash_moved_any = node.clash_moved_any || run->moved_any;
+            ++node.clash_strategy;
           }
         }
         run.reset();
@@ -1312,19 +1403,19 @@ struct Discovery::Impl {
         timing("switch-selective", dev, r.elapsed);
         if (!r.error) {
           if (t.ctx.target == 0) return;
-          if (!t.ctx.revisions.empty()) t.ctx.identity.revision = t.ctx.revisions[t.attempts];
+          if (!t.ctx.candidates.empty()) t.ctx.identity = t.ctx.candidates[t.attempts];
           // The following tasks of this device carry the revision found.
           for (auto& x : tasks)
             if (x.ctx.group == t.ctx.group) x.ctx.identity = t.ctx.identity;
           return;
         }
-        if (t.attempts + 1u < t.ctx.revisions.size()) {
+        if (t.attempts + 1u < t.ctx.candidates.size()) {
           ++t.attempts;
           current = t;
           start_task(now);
           return;
         }
-        if (!t.ctx.revisions.empty()) {
+        if (!t.ctx.candidates.empty()) {
           // (a) with the revision unknown: Slowscan over every revision for this serial.
           Task s = make(Op::slowscan_one, t.ctx);
           s.range = LssRange{t.ctx.identity.vendor, t.ctx.identity.product, 0, 0xFFFFFFFFu, t.ctx.identity.serial,
@@ -1365,7 +1456,13 @@ struct Discovery::Impl {
           return false;
         }();
         const bool done = run && run->handled.contains(a.serial);
-        if (!elsewhere && !done) {
+        if (t.non_configured) {
+          // (c) took every node-ID away: a device restore_known puts back is
+          // left to it; any other gets its node-ID here.
+          const bool known = run && std::any_of(run->known.begin(), run->known.end(),
+                                                [&](const auto& k) { return same_device(k.first, a); });
+          if (!known && !elsewhere) v = recover_non_configured(a, t.node);
+        } else if (!elsewhere && !done) {
           if (run) run->handled.insert(a.serial);
           Decision d = decide(a);
           if (!d.problem.empty()) problem(d.problem, t.node, a);
@@ -1429,7 +1526,17 @@ struct Discovery::Impl {
       }
       case Op::fastscan_loop: {
         timing("fastscan", run ? run->device : "", r.elapsed);
-        if (r.error) return;  // nobody left
+        if (r.error) {
+          // Nobody left that Fastscan can find. A non-configured device
+          // answered identify non-configured but Fastscan found none: it is of
+          // the pre-Fastscan series (J, DSP-305 V1.1.2), which Slowscan finds.
+          if (t.node == 0 && run && run->job.kind == Job::Kind::non_configured && run->found.empty() &&
+              !run->slowscanned) {
+            run->slowscanned = true;
+            push_front(slowscan_all_pre_fastscan());
+          }
+          return;
+        }
         const LssAddress a = r.address;
         if (run) run->found.push_back(a);
         Ctx c;
@@ -1475,6 +1582,37 @@ struct Discovery::Impl {
       }
       default: return;
     }
+  }
+
+  // A device found by Slowscan while non-configured (pre-Fastscan series
+  // after (c), or left so by an earlier run): its target node-ID, else back
+  // to the node it came from (`from`, 0 = none), not stored.
+  std::vector<Task> recover_non_configured(const LssAddress& a, std::uint8_t from) {
+    if (run) {
+      run->handled.insert(a.serial);
+      run->found.push_back(a);
+    }
+    Ctx c;
+    c.identity = a;
+    c.from = canopen::cob::valid_node_id(from) ? from : canopen::cob::kNodeIdUnconfigured;
+    c.group = next_group++;
+    Decision d = decide(a);
+    c.device = d.device;
+    c.replaces = d.replaces;
+    c.replaced = d.replaced;
+    if (!d.problem.empty()) problem(d.problem, from, a);
+    if (d.target != 0 && node_free_for(d.target, a)) {
+      c.target = d.target;
+    } else if (canopen::cob::valid_node_id(from) && node_free_for(from, a)) {
+      c.target = from;
+      c.store = false;
+      c.boot_wait = false;
+    } else {
+      problem("non-configured " + describe(a) + " left without node-ID", 0, a);
+      return {};
+    }
+    remember(a, c.target);
+    return assign_tasks(c);
   }
 
   void start_sdo_fallback(const Ctx& c0) {

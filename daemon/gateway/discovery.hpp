@@ -56,16 +56,26 @@
 //     (ifm 0x3000 = id - 1, Novotechnik 0x2000 = id), 'save' to 0x1010, NMT
 //     reset node.
 //   * clash: (a) switch selective for each clashing device whose identity is
-//     known (serials from the probe or the config; revision from the probe,
-//     else found by Slowscan over [0, 0xFFFFFFFF]); (b) Slowscan over the
-//     serial range for pre-Fastscan devices (Novotechnik rotary, vendor 0x182
-//     products 0x0BE0/0x0BF3/0x0BBD/0x0BCD/0x0BE1); (c) otherwise every
-//     device is made non-configured (switch global configuration, configure
-//     node-ID FFh, not stored, switch global waiting, NMT reset-communication
-//     all), then found one by one with Fastscan; devices known before keep
-//     their node-IDs. Then NMT reset-communication and wait for boot-ups.
+//     known (serials from the probe; vendor/product from the probe, else from
+//     the config's vendor/product or its model's; revision from the probe,
+//     every one it saw tried in turn, else found by Slowscan over
+//     [0, 0xFFFFFFFF]); (b) Slowscan over the serial range for pre-Fastscan
+//     devices (Novotechnik rotary, vendor 0x182 products
+//     0x0BE0/0x0BF3/0x0BBD/0x0BCD/0x0BE1); (c) otherwise every device is made
+//     non-configured (switch global configuration, configure node-ID FFh, not
+//     stored, switch global waiting, NMT reset-communication all), then found
+//     one by one with Fastscan, and the pre-Fastscan ones of the clash with
+//     Slowscan; devices known before keep their node-IDs. Then NMT
+//     reset-communication and wait for boot-ups. The clash is resolved
+//     (clash_resolved) only when the probe of the clash node that follows
+//     finds one device or none there; if several still answer, the next
+//     strategy runs: first (a)+(b)+(c) for what is left, then (b) for every
+//     pre-Fastscan product seen + (c) for the rest, then (c) for everyone;
+//     after that a problem says it could not be resolved.
 //   * non-configured devices (FFh) are found by Fastscan (only CiA 305 V3
-//     slaves answer), assigned and stored.
+//     slaves answer), assigned and stored; when identify non-configured is
+//     answered but Fastscan finds nobody, Slowscan over the pre-Fastscan
+//     products looks for them (devices found that hold a node-ID are left).
 // Each step is timed (StepTiming; `at` is left for the caller to stamp,
 // because this component reads no clock).
 //
@@ -104,7 +114,7 @@ enum class DiscoveryEventKind : std::uint8_t {
   identified,      // a device answered the probe at node_id (identity known)
   commissioned,    // a device was moved from previous_node_id to node_id (and stored)
   clash_detected,  // several devices answer at node_id (count = how many seen)
-  clash_resolved,  // the clash at node_id has been taken apart (see commissioned events)
+  clash_resolved,  // the clash at node_id has been taken apart: a probe found at most one device left
   problem,         // something an operator must know (text); nothing was changed
 };
 [[nodiscard]] const char* to_string(DiscoveryEventKind k) noexcept;

@@ -21,7 +21,10 @@
 #include "canopen/object_dictionary.hpp"
 #include "canopen/sdo_server.hpp"
 #include "config/config.hpp"
+#include "device/eds.hpp"
+#include "device/sim_device.hpp"
 #include "gateway/state_store.hpp"
+#include "unit/device/source_paths.hpp"
 
 namespace cobridge::gateway {
 namespace {
@@ -45,7 +48,8 @@ enum class Kind { rotary, multiturn, ifm };
 // LSS, and NMT reset node / reset communication; sends its boot-up.
 class TestDevice {
  public:
-  TestDevice(can::VirtualBus& bus, Kind kind, LssAddress id, std::uint8_t node, bool lss = true)
+  TestDevice(can::VirtualBus& bus, Kind kind, LssAddress id, std::uint8_t node, bool lss = true,
+             std::optional<canopen::LssSlaveFeatures> lss_features = {})
       : port_(bus.attach()), kind_(kind), lss_enabled_(lss) {
     (void)lss_frames_seen_;
     add(0x1018, 1, id.vendor, DataType::kUnsigned32, canopen::Access::kRo);
@@ -66,8 +70,9 @@ class TestDevice {
     EXPECT_FALSE(od_.set_hooks(node_object(), 0, node_written));
     sdo_ = std::make_unique<canopen::SdoServer>(port_, od_, valid(node) ? node : 1);
     sdo_->set_enabled(valid(node));
-    const auto features = kind == Kind::rotary ? canopen::LssSlaveFeatures::rotary_j()
-                                               : canopen::LssSlaveFeatures::multiturn_e();
+    const auto features = lss_features ? *lss_features
+                          : kind == Kind::rotary ? canopen::LssSlaveFeatures::rotary_j()
+                                                 : canopen::LssSlaveFeatures::multiturn_e();
     lss_ = std::make_unique<canopen::LssSlave>(port_, id, node, features);
     lss_->set_store_handler([this](const canopen::LssSlave& s) {
       ++lss_stores_;
@@ -94,7 +99,7 @@ class TestDevice {
         continue;
       }
       if (f.id == canopen::cob::kLssMasterToSlave) {
-        if (lss_enabled_) {
+        if (lss_enabled_ && answer_lss) {
           ++lss_frames_seen_;
           lss_->on_frame(f);
           // CiA 305 V3: leaving configuration with a new node-ID while
@@ -107,6 +112,7 @@ class TestDevice {
     }
   }
   bool answer_sdo = true;  // false: its SDO answers are lost (collided on the wire)
+  bool answer_lss = true;  // false: LSS requests do not reach it (it hears and says nothing)
   // Taken off the bus (a technician removes it): silent from now on.
   void unplug() { unplugged_ = true; }
 
@@ -202,9 +208,26 @@ class Rig {
     config_.devices.push_back(std::move(d));
     return *this;
   }
-  TestDevice& add(Kind k, LssAddress id, std::uint8_t node, bool lss = true) {
-    devices_.push_back(std::make_unique<TestDevice>(bus_, k, id, node, lss));
+  TestDevice& add(Kind k, LssAddress id, std::uint8_t node, bool lss = true,
+                  std::optional<canopen::LssSlaveFeatures> features = {}) {
+    devices_.push_back(std::make_unique<TestDevice>(bus_, k, id, node, lss, features));
     return *devices_.back();
+  }
+  // The simulator's device model (cobridge-sim's SimDevice, built from the
+  // shipped EDS file), powered on at its factory node-ID.
+  sim::SimDevice& add_sim(const char* model, std::uint32_t serial, const char* eds_file) {
+    auto s = std::make_unique<Sim>(bus_);
+    device::EdsResult r = device::load_eds_file(device::test::shipped_devices_dir() / eds_file);
+    EXPECT_TRUE(r.ok()) << eds_file;
+    if (r.ok()) s->eds = *r.description;
+    sim::DeviceSpec spec;
+    spec.model = sim::find_model(model);
+    EXPECT_NE(spec.model, nullptr) << model;
+    spec.serial = serial;
+    s->dev = std::make_unique<sim::SimDevice>(spec, s->eds, s->port, std::filesystem::path{});
+    EXPECT_FALSE(s->dev->power_on(now_));
+    sims_.push_back(std::move(s));
+    return *sims_.back()->dev;
   }
 
   void start(std::vector<Assignment> previous = {}) {
@@ -222,11 +245,14 @@ class Rig {
         moved = false;
         for (auto& d : devices_) d->pump(now_);
         can::Frame f;
+        for (auto& s : sims_)
+          while (s->port.receive(f)) s->dev->on_frame(f, now_);
         while (port_.receive(f)) {
           disc_->on_frame(f, now_);
           moved = true;
         }
-        const TimePoint next = disc_->process(now_);
+        TimePoint next = disc_->process(now_);
+        for (auto& s : sims_) next = std::min(next, s->dev->process(now_));
         collect();
         if (pending()) moved = true;
         if (!moved) {
@@ -243,6 +269,7 @@ class Rig {
 
   [[nodiscard]] bool pending() const {
     if (port_.pending() > 0) return true;
+    if (std::any_of(sims_.begin(), sims_.end(), [](const auto& s) { return s->port.pending() > 0; })) return true;
     return std::any_of(devices_.begin(), devices_.end(), [](const auto& d) { return d->pending(); });
   }
 
@@ -293,6 +320,13 @@ class Rig {
   can::VirtualBus bus_;
   can::VirtualBus::Port& port_ = bus_.attach();
   std::vector<std::unique_ptr<TestDevice>> devices_;
+  struct Sim {
+    explicit Sim(can::VirtualBus& b) : port(b.attach()) {}
+    can::VirtualBus::Port& port;
+    device::DeviceDescription eds;
+    std::unique_ptr<sim::SimDevice> dev;
+  };
+  std::vector<std::unique_ptr<Sim>> sims_;
   std::unique_ptr<Discovery> disc_;
   TimePoint now_ = TimePoint{} + 1h;
 };
@@ -371,10 +405,11 @@ TEST(DiscoveryTest, SixFactoryDevicesClashingAreMovedBySerial_CiA305_J1_5_E6) {
 
 // CiA 305 identify remote slave (Slowscan) for the rotary series, whose LSS
 // (J§1 intro: DSP-305 V1.1.2) predates Fastscan. Two different rotary
-// products clash at 127 and the config gives serials and model names only.
+// products clash at 127 and the config gives serials only (with model names,
+// switch selective alone takes them apart: see the mixed clash tests).
 TEST(DiscoveryTest, RotaryClashResolvedBySlowscan_J1_5_CiA305) {
   Rig rig;
-  rig.with(device("rot-a", 1001, 10, "RFC-4800")).with(device("rot-b", 1002, 11, "RSA-3200"));
+  rig.with(device("rot-a", 1001, 10)).with(device("rot-b", 1002, 11));
   auto& ra = rig.add(Kind::rotary, rotary(1001, kRfc4800, 0x00010003), 127);
   auto& rb = rig.add(Kind::rotary, rotary(1002, kRsa3200, 0x00010004), 127);
   rig.start();
@@ -828,6 +863,247 @@ TEST(DiscoveryTest, ReplacedDeviceComingBackIsLeftAlone_E3_1) {
   EXPECT_EQ(repl.node(), 21);
   EXPECT_TRUE(any_problem_with(rig, "has taken its place"));
   EXPECT_EQ(rig.of(DiscoveryEventKind::commissioned).size(), 1u);
+}
+
+// ---- mixed clash (two rotary + one multiturn at one node-ID) ----
+
+// The bus settings of the end-to-end run (scripts/main-job-in-uml): short LSS
+// and SDO timeouts, as on a quiet 250 kbit/s bus.
+void fast_timeouts(Rig& rig) {
+  rig.config_.buses[0].lss_timeout_ms = 30;
+  rig.config_.buses[0].sdo_timeout_ms = 200;
+}
+
+// Who answers the probe at `node` now, as far as discovery knows.
+std::size_t identities_at(Discovery& d, std::uint8_t node) {
+  for (const auto& v : d.nodes())
+    if (v.node_id == node) return v.identities.size();
+  return 0;
+}
+
+// J§1.2.2 / E§3.1: every Novotechnik ships at node-ID 127. Two RFC-4800
+// (J, DSP-305 V1.1.2: switch selective + identify remote slave, no Fastscan)
+// and one MC1-2800 (E§6, CiA 305 V3) clash there; the config gives serial +
+// model only, so vendor/product come from the model and the revision from
+// the probe answers (CiA 301 §7.5.2.24 0x1018). All three must end at their
+// configured node-IDs (CiA 305 switch state selective, configure node-ID,
+// store configuration), and the clash counts as resolved only once a probe of
+// 127 (CiA 301 SDO upload of 0x1018) finds nobody left there.
+TEST(DiscoveryTest, MixedClashTwoRotaryOneMultiturnAllMoved_J1_5_E6_CiA305) {
+  Rig rig;
+  fast_timeouts(rig);
+  rig.with(device("turntable", 1001, 10, "RFC-4800"))
+      .with(device("swing-arm", 1002, 11, "RFC-4800"))
+      .with(device("hoist", 2001, 20, "MC1-2800"));
+  auto& ra = rig.add(Kind::rotary, rotary(1001), 127);
+  auto& rb = rig.add(Kind::rotary, rotary(1002), 127);
+  auto& mt = rig.add(Kind::multiturn, multiturn(2001), 127);
+  rig.start();
+  const TimePoint t0 = rig.now();
+  while (rig.now() - t0 < 60s && !(ra.node() == 10 && rb.node() == 11 && mt.node() == 20)) rig.run(100ms);
+  std::printf("[timings] mixed clash: all three at their node-IDs after %.2f s (fake clock)\n",
+              std::chrono::duration<double>(rig.now() - t0).count());
+  rig.run(30s);  // periodic probes included: nothing may move them again
+  EXPECT_EQ(ra.node(), 10);
+  EXPECT_EQ(rb.node(), 11);
+  EXPECT_EQ(mt.node(), 20);
+  EXPECT_EQ(ra.stored_node(), 10);
+  EXPECT_EQ(rb.stored_node(), 11);
+  EXPECT_EQ(mt.stored_node(), 20);
+  EXPECT_EQ(identities_at(rig.disc(), 127), 0u);
+  const auto clashes = rig.of(DiscoveryEventKind::clash_detected);
+  ASSERT_EQ(clashes.size(), 1u);
+  EXPECT_EQ(clashes[0].node_id, 127);
+  EXPECT_EQ(clashes[0].count, 3u);
+  const auto resolved = rig.of(DiscoveryEventKind::clash_resolved);
+  ASSERT_EQ(resolved.size(), 1u);
+  EXPECT_EQ(resolved[0].node_id, 127);
+  std::map<std::string, std::pair<int, int>> by_name;
+  for (const auto& e : rig.of(DiscoveryEventKind::commissioned)) by_name[e.device] = {e.previous_node_id, e.node_id};
+  EXPECT_EQ(by_name["turntable"], std::make_pair(127, 10));
+  EXPECT_EQ(by_name["swing-arm"], std::make_pair(127, 11));
+  EXPECT_EQ(by_name["hoist"], std::make_pair(127, 20));
+  EXPECT_FALSE(any_problem_with(rig, "could not be resolved"));
+  EXPECT_TRUE(rig.of(DiscoveryEventKind::problem).empty()) << rig.of(DiscoveryEventKind::problem)[0].text;
+  EXPECT_FALSE(rig.disc().commissioning());
+  rig.print_timings("mixed clash, two rotary + one multiturn");
+}
+
+// The whole bus of the end-to-end run: the mixed clash at 127 (J§1.2.2,
+// E§3.1) plus an ifm RM9000 alone at its factory node-ID 32 (F§5.3.1). Each
+// device ends at its configured node-ID (CiA 305 / F§7.4).
+TEST(DiscoveryTest, MixedClashAndIfmAllReachTheirNodeIds_J1_2_2_E3_1_F5_3_1) {
+  Rig rig;
+  fast_timeouts(rig);
+  rig.with(device("turntable", 1001, 10, "RFC-4800"))
+      .with(device("swing-arm", 1002, 11, "RFC-4800"))
+      .with(device("hoist", 2001, 20, "MC1-2800"))
+      .with(device("conveyor", 3001, 30, "RM9000"));
+  auto& ra = rig.add(Kind::rotary, rotary(1001), 127);
+  auto& rb = rig.add(Kind::rotary, rotary(1002), 127);
+  auto& mt = rig.add(Kind::multiturn, multiturn(2001), 127);
+  auto& im = rig.add(Kind::ifm, ifm(3001), 32);
+  rig.start();
+  const TimePoint t0 = rig.now();
+  while (rig.now() - t0 < 60s && !(ra.node() == 10 && rb.node() == 11 && mt.node() == 20 && im.node() == 30))
+    rig.run(100ms);
+  std::printf("[timings] mixed clash + ifm: all four at their node-IDs after %.2f s (fake clock)\n",
+              std::chrono::duration<double>(rig.now() - t0).count());
+  rig.run(30s);
+  EXPECT_EQ(ra.node(), 10);
+  EXPECT_EQ(rb.node(), 11);
+  EXPECT_EQ(mt.node(), 20);
+  EXPECT_EQ(im.node(), 30);
+  EXPECT_EQ(identities_at(rig.disc(), 127), 0u);
+  EXPECT_EQ(identities_at(rig.disc(), 32), 0u);
+  std::map<std::string, bool> at_target;
+  for (const auto& e : rig.of(DiscoveryEventKind::identified)) at_target[e.device] = e.at_target;
+  for (const char* n : {"turntable", "swing-arm", "hoist", "conveyor"}) EXPECT_TRUE(at_target[n]) << n;
+  EXPECT_EQ(rig.of(DiscoveryEventKind::clash_resolved).size(), 1u);
+  EXPECT_TRUE(rig.of(DiscoveryEventKind::problem).empty()) << rig.of(DiscoveryEventKind::problem)[0].text;
+  rig.print_timings("mixed clash + ifm");
+}
+
+// J§1.5 documents switch selective, configure node-ID and store only (no
+// identify remote slave): Slowscan cannot find such a rotary device, and
+// Fastscan (CiA 305 V2.2+) neither. The mixed clash is still taken apart by
+// switch selective alone (vendor/product from the model, revision from the
+// probe) and nobody ends non-configured (CiA 305 identify non-configured).
+TEST(DiscoveryTest, MixedClashWithRotaryWithoutIdentifyUsesSwitchSelective_J1_5_CiA305) {
+  Rig rig;
+  fast_timeouts(rig);
+  rig.with(device("turntable", 1001, 10, "RFC-4800"))
+      .with(device("swing-arm", 1002, 11, "RFC-4800"))
+      .with(device("hoist", 2001, 20, "MC1-2800"));
+  canopen::LssSlaveFeatures j_only = canopen::LssSlaveFeatures::rotary_j();
+  j_only.identify = false;
+  auto& ra = rig.add(Kind::rotary, rotary(1001), 127, true, j_only);
+  auto& rb = rig.add(Kind::rotary, rotary(1002), 127, true, j_only);
+  auto& mt = rig.add(Kind::multiturn, multiturn(2001), 127);
+  rig.start();
+  rig.run(40s);
+  EXPECT_EQ(ra.node(), 10);
+  EXPECT_EQ(rb.node(), 11);
+  EXPECT_EQ(mt.node(), 20);
+  EXPECT_EQ(ra.stored_node(), 10);
+  EXPECT_EQ(rb.stored_node(), 11);
+  EXPECT_EQ(mt.stored_node(), 20);
+  EXPECT_EQ(identities_at(rig.disc(), 127), 0u);
+  EXPECT_EQ(rig.step("fastscan").second, 0);  // nobody was made non-configured
+  EXPECT_EQ(rig.of(DiscoveryEventKind::clash_resolved).size(), 1u);
+  for (const auto& e : rig.of(DiscoveryEventKind::problem)) ADD_FAILURE() << e.text;
+  rig.print_timings("mixed clash, rotary without identify");
+}
+
+// A resolution that leaves several devices at the clash node is not a
+// resolution: the probe after it (CiA 301 SDO upload of 0x1018) still sees a
+// clash, so no clash_resolved goes out and the next strategy runs. Here the
+// LSS requests of the first run do not reach two MC1-2800 (E§6); the second
+// run (Slowscan + Fastscan after configure node-ID FFh, CiA 305) moves them.
+TEST(DiscoveryTest, ClashStillThereAfterResolutionRunsNextStrategy_CiA305_E6) {
+  Rig rig;
+  fast_timeouts(rig);
+  rig.with(device("mt-a", 2001, 20, "MC1-2800")).with(device("mt-b", 2002, 21, "MC1-2800"));
+  auto& ma = rig.add(Kind::multiturn, multiturn(2001), 127);
+  auto& mb = rig.add(Kind::multiturn, multiturn(2002), 127);
+  ma.answer_lss = false;
+  mb.answer_lss = false;
+  rig.start();
+  const TimePoint t0 = rig.now();
+  while (rig.now() - t0 < 30s && rig.step("clash-resolution").second == 0) rig.run(10ms);
+  ASSERT_EQ(rig.step("clash-resolution").second, 1);
+  ma.answer_lss = true;
+  mb.answer_lss = true;
+  // The first run moved nobody: it must not be called resolved.
+  EXPECT_EQ(ma.node(), 127);
+  EXPECT_EQ(mb.node(), 127);
+  EXPECT_TRUE(rig.of(DiscoveryEventKind::clash_resolved).empty());
+  rig.run(60s);
+  EXPECT_EQ(ma.node(), 20);
+  EXPECT_EQ(mb.node(), 21);
+  EXPECT_EQ(rig.step("clash-resolution").second, 2);
+  ASSERT_EQ(rig.of(DiscoveryEventKind::clash_resolved).size(), 1u);
+  EXPECT_EQ(identities_at(rig.disc(), 127), 0u);
+  EXPECT_FALSE(any_problem_with(rig, "could not be resolved"));
+}
+
+// When every strategy has run and devices still clash, that is reported once
+// and no resolution is claimed (CiA 301 §7.2.4.3.3 probe of 0x1018).
+TEST(DiscoveryTest, ClashThatNoStrategyResolvesIsReportedNotResolved_CiA305) {
+  Rig rig;
+  fast_timeouts(rig);
+  rig.with(device("mt-a", 2001, 20, "MC1-2800")).with(device("mt-b", 2002, 21, "MC1-2800"));
+  auto& ma = rig.add(Kind::multiturn, multiturn(2001), 127);
+  auto& mb = rig.add(Kind::multiturn, multiturn(2002), 127);
+  ma.answer_lss = false;
+  mb.answer_lss = false;
+  rig.start();
+  rig.run(120s);
+  EXPECT_EQ(ma.node(), 127);
+  EXPECT_EQ(mb.node(), 127);
+  EXPECT_TRUE(rig.of(DiscoveryEventKind::clash_resolved).empty());
+  EXPECT_TRUE(any_problem_with(rig, "the clash at node 127 could not be resolved"));
+  EXPECT_EQ(rig.step("clash-resolution").second, 3);  // one run per strategy, then it stops
+  EXPECT_FALSE(rig.disc().commissioning());
+}
+
+// A rotary device left non-configured (node-ID FFh, e.g. by an earlier
+// interrupted run): it answers CiA 305 identify non-configured, but its LSS
+// (J§1 intro: DSP-305 V1.1.2) has no Fastscan. Slowscan finds it, and it gets
+// its configured node-ID (configure node-ID, store, switch global waiting).
+TEST(DiscoveryTest, NonConfiguredRotaryFoundBySlowscanWhenFastscanFindsNone_J1_5_CiA305) {
+  Rig rig;
+  fast_timeouts(rig);
+  rig.with(device("turntable", 1001, 10, "RFC-4800"));
+  auto& ra = rig.add(Kind::rotary, rotary(1001), canopen::cob::kNodeIdUnconfigured);
+  rig.start();
+  rig.run(20s);
+  EXPECT_EQ(ra.node(), 10);
+  EXPECT_EQ(ra.stored_node(), 10);
+  EXPECT_GE(rig.step("slowscan").second, 1);
+  const auto moved = rig.of(DiscoveryEventKind::commissioned);
+  ASSERT_EQ(moved.size(), 1u);
+  EXPECT_EQ(moved[0].device, "turntable");
+  EXPECT_EQ(moved[0].previous_node_id, canopen::cob::kNodeIdUnconfigured);
+  for (const auto& e : rig.of(DiscoveryEventKind::problem)) ADD_FAILURE() << e.text;
+}
+
+// The same bus with the simulator's device models (what cobridge-sim runs in
+// the end-to-end test): RFC-4800 with the J LSS (DSP-305 V1.1.2),
+// MC1-2800 with CiA 305 V3 (E§6), RM9000 at 32 (F§5.3.1).
+TEST(DiscoveryTest, MixedClashOnSimulatedDevicesAllReachTheirNodeIds_J1_2_2_E3_1_F5_3_1) {
+  Rig rig;
+  fast_timeouts(rig);
+  rig.with(device("turntable", 1001, 10, "RFC-4800"))
+      .with(device("swing-arm", 1002, 11, "RFC-4800"))
+      .with(device("hoist", 2001, 20, "MC1-2800"))
+      .with(device("conveyor", 3001, 30, "RM9000"));
+  auto& ra = rig.add_sim("RFC-4800", 1001, "novotechnik-rfc4800-1ch.eds");
+  auto& rb = rig.add_sim("RFC-4800", 1002, "novotechnik-rfc4800-1ch.eds");
+  auto& mt = rig.add_sim("MC1-2800", 2001, "novotechnik-multiturn.eds");
+  auto& im = rig.add_sim("RM9000", 3001, "ifm-rm8-rm9.eds");
+  ASSERT_EQ(ra.node_id(), 127);
+  ASSERT_EQ(im.node_id(), 32);
+  rig.start();
+  const TimePoint t0 = rig.now();
+  const auto all_there = [&] {
+    return ra.node_id() == 10 && rb.node_id() == 11 && mt.node_id() == 20 && im.node_id() == 30;
+  };
+  while (rig.now() - t0 < 60s && !all_there()) rig.run(100ms);
+  std::printf("[timings] simulated mixed clash + ifm: all four at their node-IDs after %.2f s (fake clock)\n",
+              std::chrono::duration<double>(rig.now() - t0).count());
+  rig.run(30s);
+  EXPECT_EQ(ra.node_id(), 10);
+  EXPECT_EQ(rb.node_id(), 11);
+  EXPECT_EQ(mt.node_id(), 20);
+  EXPECT_EQ(im.node_id(), 30);
+  EXPECT_EQ(identities_at(rig.disc(), 127), 0u);
+  std::map<std::string, bool> at_target;
+  for (const auto& e : rig.of(DiscoveryEventKind::identified)) at_target[e.device] = e.at_target;
+  for (const char* n : {"turntable", "swing-arm", "hoist", "conveyor"}) EXPECT_TRUE(at_target[n]) << n;
+  EXPECT_EQ(rig.of(DiscoveryEventKind::clash_resolved).size(), 1u);
+  for (const auto& e : rig.of(DiscoveryEventKind::problem)) ADD_FAILURE() << e.text;
+  rig.print_timings("simulated mixed clash + ifm");
 }
 
 // The event texts leave the bus name to the bus manager's log lines.
