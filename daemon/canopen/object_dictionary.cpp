@@ -10,42 +10,12 @@ namespace cobridge::canopen {
 
 namespace {
 
-// Size in bytes of a numeric CiA 301 type; 0 for strings and unsupported types.
+// Size in bytes of a numeric type the dictionary stores; 0 for strings and
+// for the types it does not store (TIME_OF_DAY, TIME_DIFFERENCE).
 constexpr unsigned width_of(DataType t) noexcept {
-  switch (t) {
-    case DataType::kBoolean:
-    case DataType::kInteger8:
-    case DataType::kUnsigned8:
-      return 1;
-    case DataType::kInteger16:
-    case DataType::kUnsigned16:
-      return 2;
-    case DataType::kInteger24:
-    case DataType::kUnsigned24:
-      return 3;
-    case DataType::kInteger32:
-    case DataType::kUnsigned32:
-    case DataType::kReal32:
-      return 4;
-    case DataType::kInteger40:
-    case DataType::kUnsigned40:
-      return 5;
-    case DataType::kInteger48:
-    case DataType::kUnsigned48:
-      return 6;
-    case DataType::kInteger56:
-    case DataType::kUnsigned56:
-      return 7;
-    case DataType::kInteger64:
-    case DataType::kUnsigned64:
-    case DataType::kReal64:
-      return 8;
-    case DataType::kVisibleString:
-    case DataType::kOctetString:
-    case DataType::kDomain:
-      return 0;
-  }
-  return 0;
+  if (t == DataType::kBoolean) return 1;  // one bit in CiA 301, but SDO carries and we store a byte
+  if (!is_signed_integer(t) && !is_unsigned_integer(t) && !is_real(t)) return 0;
+  return bit_size(t) / 8U;
 }
 
 constexpr uint64_t mask_of(unsigned width) noexcept {
@@ -118,34 +88,9 @@ float WriteRequest::as_real32() const noexcept {
 ObjectDictionary::ObjectDictionary(Options options) : options_(options) {}
 
 ObjectDictionary::Kind ObjectDictionary::kind_of(DataType t) noexcept {
-  switch (t) {
-    case DataType::kBoolean:
-    case DataType::kUnsigned8:
-    case DataType::kUnsigned16:
-    case DataType::kUnsigned24:
-    case DataType::kUnsigned32:
-    case DataType::kUnsigned40:
-    case DataType::kUnsigned48:
-    case DataType::kUnsigned56:
-    case DataType::kUnsigned64:
-      return Kind::kUnsigned;
-    case DataType::kInteger8:
-    case DataType::kInteger16:
-    case DataType::kInteger24:
-    case DataType::kInteger32:
-    case DataType::kInteger40:
-    case DataType::kInteger48:
-    case DataType::kInteger56:
-    case DataType::kInteger64:
-      return Kind::kSigned;
-    case DataType::kReal32:
-    case DataType::kReal64:
-      return Kind::kReal;
-    case DataType::kVisibleString:
-    case DataType::kOctetString:
-    case DataType::kDomain:
-      return Kind::kString;
-  }
+  if (is_unsigned_integer(t)) return Kind::kUnsigned;
+  if (is_signed_integer(t)) return Kind::kSigned;
+  if (is_real(t)) return Kind::kReal;
   return Kind::kString;
 }
 

@@ -32,6 +32,8 @@
 #include <type_traits>
 #include <vector>
 
+#include "canopen/data_type.hpp"
+
 namespace cobridge::canopen {
 
 // --- SDO abort codes (CiA 301 §7.2.4.3.17, table "SDO abort codes") --------
@@ -61,33 +63,6 @@ inline constexpr uint32_t kCannotStore = 0x08000020;
 inline constexpr uint32_t kCannotStoreLocalControl = 0x08000021;
 inline constexpr uint32_t kCannotStoreDeviceState = 0x08000022;  // "wrong state" in J§1.6.3/E§7.3
 }  // namespace od_abort
-
-// CiA 301 data types; values are the object-dictionary type indices (CiA 301
-// §7.4.7.1), as they appear in EDS files.
-enum class DataType : uint16_t {
-  kBoolean = 0x0001,
-  kInteger8 = 0x0002,
-  kInteger16 = 0x0003,
-  kInteger32 = 0x0004,
-  kUnsigned8 = 0x0005,
-  kUnsigned16 = 0x0006,
-  kUnsigned32 = 0x0007,
-  kReal32 = 0x0008,
-  kVisibleString = 0x0009,
-  kOctetString = 0x000A,
-  kDomain = 0x000F,
-  kInteger24 = 0x0010,
-  kReal64 = 0x0011,
-  kInteger40 = 0x0012,
-  kInteger48 = 0x0013,
-  kInteger56 = 0x0014,
-  kInteger64 = 0x0015,
-  kUnsigned24 = 0x0016,
-  kUnsigned40 = 0x0018,
-  kUnsigned48 = 0x0019,
-  kUnsigned56 = 0x001A,
-  kUnsigned64 = 0x001B,
-};
 
 // Access attribute as written in EDS files and the manuals' tables. `kConst`
 // behaves like `kRo` for SDO; the distinction matters to EDS and to 'restore'.

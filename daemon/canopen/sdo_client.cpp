@@ -4,54 +4,19 @@
 #include <cstring>
 
 #include "canopen/cob_id.hpp"
+#include "canopen/sdo_protocol.hpp"
 
 namespace cobridge::canopen {
 
+using namespace sdo_protocol;  // NOLINT(google-build-using-namespace): the frame layout's vocabulary
+
 namespace {
 
-// Command byte layout, CiA 301 §7.2.4.3.3..§7.2.4.3.7 and §7.2.4.3.17: the
-// top three bits are the command specifier, the rest depend on it.
-constexpr uint8_t kCsShift = 5;
-// Client command specifiers (requests).
-constexpr uint8_t kCcsDownloadSegment = 0;
-constexpr uint8_t kCcsDownloadInitiate = 1;
-constexpr uint8_t kCcsUploadInitiate = 2;
-constexpr uint8_t kCcsUploadSegment = 3;
-// Server command specifiers (responses).
-constexpr uint8_t kScsUploadSegment = 0;
-constexpr uint8_t kScsDownloadSegment = 1;
-constexpr uint8_t kScsUploadInitiate = 2;
-constexpr uint8_t kScsDownloadInitiate = 3;
-constexpr uint8_t kCsAbort = 4;  // same for both directions
-
-constexpr uint8_t kBitToggle = 0x10;     // segment frames: t
-constexpr uint8_t kBitExpedited = 0x02;  // initiate frames: e
-constexpr uint8_t kBitSizeIndicated = 0x01;  // initiate frames: s
-constexpr uint8_t kBitLastSegment = 0x01;    // segment frames: c
-
-constexpr std::size_t kExpeditedMax = 4;
-constexpr std::size_t kSegmentMax = 7;
 constexpr std::size_t kMinBuffer = 8;
 
-constexpr uint8_t cmd(uint8_t cs) noexcept { return static_cast<uint8_t>(cs << kCsShift); }
-
-uint32_t read_u32le(const std::array<uint8_t, 8>& d, std::size_t at) noexcept {
-  return static_cast<uint32_t>(d[at]) | (static_cast<uint32_t>(d[at + 1]) << 8) |
-         (static_cast<uint32_t>(d[at + 2]) << 16) | (static_cast<uint32_t>(d[at + 3]) << 24);
-}
-
-void write_u32le(std::array<uint8_t, 8>& d, std::size_t at, uint32_t v) noexcept {
-  for (std::size_t i = 0; i < 4; ++i) d[at + i] = static_cast<uint8_t>(v >> (8 * i));
-}
-
 // An initiate-type or abort frame: command, index (LE), sub-index, 4 data bytes.
-can::Frame multiplexed(uint32_t cob_id, uint8_t command, uint16_t index, uint8_t sub) noexcept {
-  std::array<uint8_t, 8> d{};
-  d[0] = command;
-  d[1] = static_cast<uint8_t>(index & 0xFFu);
-  d[2] = static_cast<uint8_t>(index >> 8);
-  d[3] = sub;
-  return can::Frame::make8(cob_id, d);
+can::Frame multiplexed_frame(uint32_t cob_id, uint8_t byte0, uint16_t index, uint8_t sub) noexcept {
+  return can::Frame::make8(cob_id, multiplexed(byte0, index, sub));
 }
 
 }  // namespace
@@ -106,19 +71,11 @@ std::error_code SdoClient::start_upload(uint16_t index, uint8_t sub, TimePoint n
   if (busy()) return std::make_error_code(std::errc::device_or_resource_busy);
   if (!cob::valid_node_id(node_id_)) return std::make_error_code(std::errc::invalid_argument);
   result_.reset();
-  const can::Frame req = multiplexed(request_cob_id(), cmd(kCcsUploadInitiate), index, sub);
+  const can::Frame req = multiplexed_frame(request_cob_id(), command(kCcsUploadInitiate), index, sub);
   if (!send(req)) return std::make_error_code(std::errc::no_buffer_space);
-  index_ = index;
-  sub_ = sub;
-  offset_ = 0;
   size_ = 0;
   size_indicated_ = false;
-  toggle_ = false;
-  retries_left_ = cfg_.retries;
-  last_request_ = req;
-  tx_pending_ = false;
-  deadline_ = now + cfg_.timeout;
-  state_ = State::kUploadInitiate;
+  begin_transfer(req, index, sub, State::kUploadInitiate, now);
   return {};
 }
 
@@ -135,33 +92,38 @@ std::error_code SdoClient::start_download(uint16_t index, uint8_t sub, std::span
     // n = number of bytes in d[4..7] that carry no data: 4 bytes -> 0x23,
     // 3 -> 0x27, 2 -> 0x2B, 1 -> 0x2F (J§1.6, E§7.1, F§7).
     const auto n = static_cast<uint8_t>(kExpeditedMax - data.size());
-    const auto command = static_cast<uint8_t>(cmd(kCcsDownloadInitiate) | (n << 2) | kBitExpedited |
-                                              kBitSizeIndicated);
-    req = multiplexed(request_cob_id(), command, index, sub);
+    const auto byte0 = static_cast<uint8_t>(command(kCcsDownloadInitiate) | (n << 2) | kBitExpedited |
+                                            kBitSizeIndicated);
+    req = multiplexed_frame(request_cob_id(), byte0, index, sub);
     std::copy(data.begin(), data.end(), req.data.begin() + 4);
   } else {
     // Segmented with the size announced (0x21), also for 0 bytes, which
     // cannot be expressed expedited (n has only two bits).
-    req = multiplexed(request_cob_id(), static_cast<uint8_t>(cmd(kCcsDownloadInitiate) | kBitSizeIndicated), index,
-                     sub);
+    req = multiplexed_frame(request_cob_id(), static_cast<uint8_t>(command(kCcsDownloadInitiate) | kBitSizeIndicated),
+                            index, sub);
     write_u32le(req.data, 4, static_cast<uint32_t>(data.size()));
   }
   if (!send(req)) return std::make_error_code(std::errc::no_buffer_space);
 
   std::copy(data.begin(), data.end(), buffer_.get());
-  index_ = index;
-  sub_ = sub;
   size_ = data.size();
-  offset_ = 0;
   segment_bytes_ = 0;
   last_segment_sent_ = expedited;
+  begin_transfer(req, index, sub, State::kDownloadInitiate, now);
+  return {};
+}
+
+void SdoClient::begin_transfer(const can::Frame& request, uint16_t index, uint8_t sub, State state,
+                               TimePoint now) noexcept {
+  index_ = index;
+  sub_ = sub;
+  offset_ = 0;
   toggle_ = false;
   retries_left_ = cfg_.retries;
-  last_request_ = req;
+  last_request_ = request;
   tx_pending_ = false;
   deadline_ = now + cfg_.timeout;
-  state_ = State::kDownloadInitiate;
-  return {};
+  state_ = state;
 }
 
 bool SdoClient::on_frame(const can::Frame& f, TimePoint now) noexcept {
@@ -208,7 +170,7 @@ void SdoClient::send_download_segment(TimePoint now) noexcept {
   last_segment_sent_ = offset_ + segment_bytes_ == size_;
   const auto n = static_cast<uint8_t>(kSegmentMax - segment_bytes_);
   std::array<uint8_t, 8> d{};
-  d[0] = static_cast<uint8_t>(cmd(kCcsDownloadSegment) | (toggle_ ? kBitToggle : 0) | (n << 1) |
+  d[0] = static_cast<uint8_t>(command(kCcsDownloadSegment) | (toggle_ ? kBitToggle : 0) | (n << 1) |
                               (last_segment_sent_ ? kBitLastSegment : 0));
   std::copy_n(buffer_.get() + offset_, segment_bytes_, d.begin() + 1);
   send_request(can::Frame::make8(request_cob_id(), d), now);
@@ -261,7 +223,7 @@ void SdoClient::on_upload_initiate(const can::Frame& f, TimePoint now) noexcept 
   offset_ = 0;
   toggle_ = false;
   state_ = State::kUploadSegment;
-  send_request(can::Frame::make8(request_cob_id(), {cmd(kCcsUploadSegment), 0, 0, 0, 0, 0, 0, 0}), now);
+  send_request(can::Frame::make8(request_cob_id(), {command(kCcsUploadSegment), 0, 0, 0, 0, 0, 0, 0}), now);
 }
 
 void SdoClient::on_upload_segment(const can::Frame& f, TimePoint now) noexcept {
@@ -296,7 +258,7 @@ void SdoClient::on_upload_segment(const can::Frame& f, TimePoint now) noexcept {
   }
   toggle_ = !toggle_;
   send_request(can::Frame::make8(request_cob_id(),
-                                 {static_cast<uint8_t>(cmd(kCcsUploadSegment) | (toggle_ ? kBitToggle : 0)),
+                                 {static_cast<uint8_t>(command(kCcsUploadSegment) | (toggle_ ? kBitToggle : 0)),
                                   0, 0, 0, 0, 0, 0, 0}),
                now);
 }
@@ -346,7 +308,7 @@ bool SdoClient::send_request(const can::Frame& frame, TimePoint now) noexcept {
 }
 
 void SdoClient::send_abort(uint32_t code) noexcept {
-  can::Frame f = multiplexed(request_cob_id(), cmd(kCsAbort), index_, sub_);
+  can::Frame f = multiplexed_frame(request_cob_id(), command(kCsAbort), index_, sub_);
   write_u32le(f.data, 4, code);
   // Best effort: if the frame cannot be queued the server's own SDO timeout
   // ends the transfer on its side.

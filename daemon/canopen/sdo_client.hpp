@@ -128,6 +128,8 @@ class SdoClient {
 
   bool send(const can::Frame& frame) noexcept;
   bool send_request(const can::Frame& frame, TimePoint now) noexcept;
+  // Records the state every transfer starts from once its first request is sent.
+  void begin_transfer(const can::Frame& request, uint16_t index, uint8_t sub, State state, TimePoint now) noexcept;
   void send_abort(uint32_t code) noexcept;
   void fail(SdoAbort code) noexcept;  // abort to the server + complete with code
   void complete(std::error_code error, std::size_t upload_bytes) noexcept;

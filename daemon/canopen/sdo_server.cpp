@@ -6,57 +6,27 @@
 #include <span>
 
 #include "canopen/cob_id.hpp"
+#include "canopen/sdo_protocol.hpp"
 
 namespace cobridge::canopen {
 
+using namespace sdo_protocol;  // NOLINT(google-build-using-namespace): the frame layout's vocabulary
+
 namespace {
 
-// Command-specifier layout (CiA 301 §7.2.4.3): bits 7..5 of byte 0 are the
-// client command specifier (ccs) in requests and the server command
-// specifier (scs) in responses.
-constexpr uint8_t kCcsDownloadSegment = 0;
-constexpr uint8_t kCcsInitiateDownload = 1;
-constexpr uint8_t kCcsInitiateUpload = 2;
-constexpr uint8_t kCcsUploadSegment = 3;
-constexpr uint8_t kCcsAbort = 4;
-
-constexpr uint8_t kScsUploadSegment = 0x00;       // scs 0
-constexpr uint8_t kScsDownloadSegment = 0x20;     // scs 1
-constexpr uint8_t kScsInitiateUpload = 0x40;      // scs 2
-constexpr uint8_t kScsInitiateDownload = 0x60;    // scs 3
-constexpr uint8_t kCsAbort = 0x80;                // cs 4
-
-constexpr uint8_t kBitToggle = 0x10;
-constexpr uint8_t kBitExpedited = 0x02;
-constexpr uint8_t kBitSizeIndicated = 0x01;
-constexpr uint8_t kBitLastSegment = 0x01;
-
-constexpr size_t kSegmentBytes = 7;
-constexpr size_t kExpeditedBytes = 4;
-
-uint16_t index_of(const can::Frame& f) noexcept {
-  return static_cast<uint16_t>(f.data[1] | (f.data[2] << 8U));
-}
-
-uint32_t u32_at(const can::Frame& f, size_t pos) noexcept {
-  return static_cast<uint32_t>(f.data[pos]) | (static_cast<uint32_t>(f.data[pos + 1]) << 8U) |
-         (static_cast<uint32_t>(f.data[pos + 2]) << 16U) | (static_cast<uint32_t>(f.data[pos + 3]) << 24U);
-}
-
-void put_u32(std::array<uint8_t, 8>& b, size_t pos, uint32_t v) noexcept {
-  for (size_t i = 0; i < 4; ++i) b[pos + i] = static_cast<uint8_t>((v >> (8U * i)) & 0xFFU);
-}
-
-std::array<uint8_t, 8> header(uint8_t cs, uint16_t index, uint8_t sub) noexcept {
-  return {cs, static_cast<uint8_t>(index & 0xFFU), static_cast<uint8_t>(index >> 8U), sub, 0, 0, 0, 0};
-}
+// Responses: byte 0 with the server command specifier and no flag bits.
+constexpr uint8_t kUploadSegmentResponse = command(kScsUploadSegment);
+constexpr uint8_t kDownloadSegmentResponse = command(kScsDownloadSegment);
+constexpr uint8_t kUploadInitiateResponse = command(kScsUploadInitiate);
+constexpr uint8_t kDownloadInitiateResponse = command(kScsDownloadInitiate);
+constexpr uint8_t kAbortFrame = command(kCsAbort);
 
 }  // namespace
 
 SdoServer::SdoServer(can::FrameSink& sink, ObjectDictionary& od, uint8_t node_id, Config config)
     : sink_(sink), od_(od), config_(config), node_id_(node_id) {
   const size_t size =
-      config_.buffer_size != 0 ? config_.buffer_size : std::max(kExpeditedBytes, od_.max_value_size());
+      config_.buffer_size != 0 ? config_.buffer_size : std::max(kExpeditedMax, od_.max_value_size());
   buffer_.resize(size);
 }
 
@@ -91,8 +61,8 @@ void SdoServer::send(const std::array<uint8_t, 8>& bytes) noexcept {
 }
 
 void SdoServer::send_abort(uint16_t index, uint8_t sub, uint32_t code) noexcept {
-  auto b = header(kCsAbort, index, sub);
-  put_u32(b, 4, map_code(code));
+  auto b = multiplexed(kAbortFrame, index, sub);
+  write_u32le(b, 4, map_code(code));
   send(b);
 }
 
@@ -102,17 +72,17 @@ bool SdoServer::on_frame(const can::Frame& frame, TimePoint now) noexcept {
     return false;
   if (frame.len != 8) return true;  // CiA 301: SDO frames are 8 bytes; see header
 
-  switch (frame.data[0] >> 5U) {
+  switch (specifier(frame.data[0])) {
     case kCcsDownloadSegment: download_segment(frame, now); break;
-    case kCcsInitiateDownload: initiate_download(frame, now); break;
-    case kCcsInitiateUpload: initiate_upload(frame, now); break;
+    case kCcsDownloadInitiate: initiate_download(frame, now); break;
+    case kCcsUploadInitiate: initiate_upload(frame, now); break;
     case kCcsUploadSegment: upload_segment(frame, now); break;
-    case kCcsAbort: reset(); break;
+    case kCsAbort: reset(); break;
     default:
       // 5 = block upload, 6 = block download, 7 = undefined. Bytes 1..3 of a
       // block initiate carry the multiplexer, so echo them.
       reset();
-      send_abort(index_of(frame), frame.data[3], od_abort::kCommandSpecifierInvalid);
+      send_abort(index_of(frame.data), frame.data[3], od_abort::kCommandSpecifierInvalid);
       break;
   }
   return true;
@@ -130,16 +100,16 @@ TimePoint SdoServer::process(TimePoint now) noexcept {
 
 // CiA 301 §7.2.4.3.3: initiate download, expedited or segmented.
 void SdoServer::initiate_download(const can::Frame& f, TimePoint now) noexcept {
-  const uint16_t index = index_of(f);
+  const uint16_t index = index_of(f.data);
   const uint8_t sub = f.data[3];
   const uint8_t cmd = f.data[0];
   reset();
 
   if ((cmd & kBitExpedited) != 0) {
-    size_t size = kExpeditedBytes;
+    size_t size = kExpeditedMax;
     if ((cmd & kBitSizeIndicated) != 0) {
-      size = kExpeditedBytes - ((cmd >> 2U) & 0x03U);
-    } else if (const auto info = od_.info(index, sub); info && !info->is_string && info->size < kExpeditedBytes) {
+      size = kExpeditedMax - ((cmd >> 2U) & 0x03U);
+    } else if (const auto info = od_.info(index, sub); info && !info->is_string && info->size < kExpeditedMax) {
       // 0x22: size not indicated; the four data bytes hold the value and any
       // padding, so take as many as the object is long.
       size = info->size;
@@ -149,7 +119,7 @@ void SdoServer::initiate_download(const can::Frame& f, TimePoint now) noexcept {
       send_abort(index, sub, code);
       return;
     }
-    send(header(kScsInitiateDownload, index, sub));
+    send(multiplexed(kDownloadInitiateResponse, index, sub));
     return;
   }
 
@@ -165,7 +135,7 @@ void SdoServer::initiate_download(const can::Frame& f, TimePoint now) noexcept {
   const auto info = od_.info(index, sub);  // present: check_writable passed
   limit_ = info ? info->capacity : 0;
   size_indicated_ = (cmd & kBitSizeIndicated) != 0;
-  total_ = size_indicated_ ? u32_at(f, 4) : 0;
+  total_ = size_indicated_ ? read_u32le(f.data, 4) : 0;
   if (size_indicated_ && total_ > limit_) {
     send_abort(index, sub, od_abort::kLengthTooHigh);
     reset();
@@ -182,7 +152,7 @@ void SdoServer::initiate_download(const can::Frame& f, TimePoint now) noexcept {
   toggle_ = false;
   done_ = 0;
   deadline_ = now + config_.segment_timeout;
-  send(header(kScsInitiateDownload, index, sub));
+  send(multiplexed(kDownloadInitiateResponse, index, sub));
 }
 
 // CiA 301 §7.2.4.3.4: download segment.
@@ -202,7 +172,7 @@ void SdoServer::download_segment(const can::Frame& f, TimePoint now) noexcept {
     reset();
     return;
   }
-  const size_t count = kSegmentBytes - ((cmd >> 1U) & 0x07U);
+  const size_t count = kSegmentMax - ((cmd >> 1U) & 0x07U);
   const bool last = (cmd & kBitLastSegment) != 0;
   if (done_ + count > limit_ || (size_indicated_ && done_ + count > total_)) {
     send_abort(index_, sub_, size_indicated_ && done_ + count > total_ ? od_abort::kLengthMismatch
@@ -217,7 +187,7 @@ void SdoServer::download_segment(const can::Frame& f, TimePoint now) noexcept {
   }
   std::memcpy(buffer_.data() + done_, f.data.data() + 1, count);
   done_ += count;
-  const uint8_t response = static_cast<uint8_t>(kScsDownloadSegment | (toggle ? kBitToggle : 0U));
+  const uint8_t response = static_cast<uint8_t>(kDownloadSegmentResponse | (toggle ? kBitToggle : 0U));
 
   if (!last) {
     toggle_ = !toggle_;
@@ -244,7 +214,7 @@ void SdoServer::download_segment(const can::Frame& f, TimePoint now) noexcept {
 
 // CiA 301 §7.2.4.3.6: initiate upload; expedited when the value fits in 4 bytes.
 void SdoServer::initiate_upload(const can::Frame& f, TimePoint now) noexcept {
-  const uint16_t index = index_of(f);
+  const uint16_t index = index_of(f.data);
   const uint8_t sub = f.data[3];
   reset();
 
@@ -253,12 +223,12 @@ void SdoServer::initiate_upload(const can::Frame& f, TimePoint now) noexcept {
     send_abort(index, sub, r.abort_code);
     return;
   }
-  if (r.size >= 1 && r.size <= kExpeditedBytes) {
+  if (r.size >= 1 && r.size <= kExpeditedMax) {
     const uint8_t cmd = config_.respond_size_indicated
-                            ? static_cast<uint8_t>(kScsInitiateUpload | ((kExpeditedBytes - r.size) << 2U) |
+                            ? static_cast<uint8_t>(kUploadInitiateResponse | ((kExpeditedMax - r.size) << 2U) |
                                                    kBitExpedited | kBitSizeIndicated)
-                            : static_cast<uint8_t>(kScsInitiateUpload | kBitExpedited);
-    auto b = header(cmd, index, sub);
+                            : static_cast<uint8_t>(kUploadInitiateResponse | kBitExpedited);
+    auto b = multiplexed(cmd, index, sub);
     std::memcpy(b.data() + 4, buffer_.data(), r.size);
     send(b);
     return;
@@ -275,10 +245,11 @@ void SdoServer::initiate_upload(const can::Frame& f, TimePoint now) noexcept {
   done_ = 0;
   toggle_ = false;
   deadline_ = now + config_.segment_timeout;
-  auto b = header(config_.respond_size_indicated ? static_cast<uint8_t>(kScsInitiateUpload | kBitSizeIndicated)
-                                                 : kScsInitiateUpload,
-                  index, sub);
-  if (config_.respond_size_indicated) put_u32(b, 4, static_cast<uint32_t>(r.size));
+  auto b = multiplexed(config_.respond_size_indicated
+                           ? static_cast<uint8_t>(kUploadInitiateResponse | kBitSizeIndicated)
+                           : kUploadInitiateResponse,
+                       index, sub);
+  if (config_.respond_size_indicated) write_u32le(b, 4, static_cast<uint32_t>(r.size));
   send(b);
 }
 
@@ -298,10 +269,10 @@ void SdoServer::upload_segment(const can::Frame& f, TimePoint now) noexcept {
     reset();
     return;
   }
-  const size_t count = std::min(kSegmentBytes, total_ - done_);
+  const size_t count = std::min(kSegmentMax, total_ - done_);
   const bool last = done_ + count == total_;
   std::array<uint8_t, 8> b{};
-  b[0] = static_cast<uint8_t>(kScsUploadSegment | (toggle ? kBitToggle : 0U) | ((kSegmentBytes - count) << 1U) |
+  b[0] = static_cast<uint8_t>(kUploadSegmentResponse | (toggle ? kBitToggle : 0U) | ((kSegmentMax - count) << 1U) |
                               (last ? kBitLastSegment : 0U));
   std::memcpy(b.data() + 1, buffer_.data() + done_, count);
   done_ += count;

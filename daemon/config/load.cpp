@@ -114,8 +114,8 @@ class Loader {
     top.check_keys({"gateway", "logging", "bus", "device", "outputs"});
     read_gateway(top);
     read_logging(top);
-    read_buses(root);
-    read_devices(root);
+    read_tables(root, "bus", &Loader::read_bus);
+    read_tables(root, "device", &Loader::read_device);
     read_outputs(top);
     cross_check();
     if (!sink_.empty()) return LoadResult(sink_.take_sorted());
@@ -263,19 +263,47 @@ class Loader {
     }
   }
 
-  void read_buses(const toml::table& root) {
-    const toml::node* n = root.get("bus");
+  // `key` must be an array of tables ([[key]]); `read` gets each table. Other
+  // elements of a mixed array are reported by the type check and skipped.
+  void read_tables(const toml::table& root, const char* key, void (Loader::*read)(const toml::table&)) {
+    const toml::node* n = root.get(key);
     if (n == nullptr) return;
     const auto* arr = n->as_array();
     if (arr == nullptr || !arr->is_array_of_tables()) {
-      sink_.add(n->source().begin, std::string("bus must be an array of tables ([[bus]]), got ") +
+      sink_.add(n->source().begin, std::string(key) + " must be an array of tables ([[" + key + "]]), got " +
                                        std::string(type_name(n->type())));
       if (arr == nullptr) return;
     }
     for (const toml::node& e : *arr) {
       const auto* t = e.as_table();
       if (t == nullptr) continue;
-      read_bus(*t);
+      (this->*read)(*t);
+    }
+  }
+
+  // The prefix of every message about one [[bus]] or [[device]] entry: its
+  // name once it is a string ("bus \"line1\": "), else its position ("bus #2: ").
+  static std::string entry_context(std::string_view what, std::size_t ordinal, const toml::node* name_node) {
+    if (name_node != nullptr && name_node->is_string()) {
+      return std::string(what) + " " + in_quotes(name_node->as_string()->get()) + ": ";
+    }
+    return std::string(what) + " #" + std::to_string(ordinal) + ": ";
+  }
+
+  // An entry's required `name`: an identifier, and where it was written (for
+  // the duplicate checks across entries).
+  void read_name(TableReader& r, const toml::node* name_node, std::string& name, SourceLocation& spot,
+                 bool& has_spot) {
+    if (auto v = r.string("name")) {
+      if (is_identifier(*v)) {
+        name = *v;
+        spot = location(sink_, *name_node);
+        has_spot = true;
+      } else {
+        r.error(*name_node, "name " + in_quotes(*v) + " is not allowed (allowed: 1 to 64 of A-Z a-z 0-9 _ - .)");
+      }
+    } else if (name_node == nullptr) {
+      r.missing("name");
     }
   }
 
@@ -284,22 +312,10 @@ class Loader {
     BusSpots spots;
     bus.where = location(sink_, t);
     const auto* name_node = t.get("name");
-    std::string context = "bus #" + std::to_string(config_.buses.size() + 1) + ": ";
-    if (name_node != nullptr && name_node->is_string()) context = "bus " + in_quotes(name_node->as_string()->get()) + ": ";
-    TableReader r(t, "[[bus]]", context, "", sink_);
+    TableReader r(t, "[[bus]]", entry_context("bus", config_.buses.size() + 1, name_node), "", sink_);
     r.check_keys({"name", "interface", "bitrate", "sync_period_ms", "sync_counter", "discovery", "discovery_period_s",
                   "node_pool", "commissioning", "swap_policy", "lss_timeout_ms", "sdo_timeout_ms", "sdo_retries"});
-    if (auto v = r.string("name")) {
-      if (is_identifier(*v)) {
-        bus.name = *v;
-        spots.name = location(sink_, *name_node);
-        spots.has_name = true;
-      } else {
-        r.error(*name_node, "name " + in_quotes(*v) + " is not allowed (allowed: 1 to 64 of A-Z a-z 0-9 _ - .)");
-      }
-    } else if (name_node == nullptr) {
-      r.missing("name");
-    }
+    read_name(r, name_node, bus.name, spots.name, spots.has_name);
     if (auto v = r.string("interface")) {
       if (is_interface_name(*v)) {
         bus.interface = *v;
@@ -514,45 +530,17 @@ class Loader {
     std::sort(d.cams.begin(), d.cams.end(), [](const Cam& a, const Cam& b) { return a.index < b.index; });
   }
 
-  void read_devices(const toml::table& root) {
-    const toml::node* n = root.get("device");
-    if (n == nullptr) return;
-    const auto* arr = n->as_array();
-    if (arr == nullptr || !arr->is_array_of_tables()) {
-      sink_.add(n->source().begin, std::string("device must be an array of tables ([[device]]), got ") +
-                                       std::string(type_name(n->type())));
-      if (arr == nullptr) return;
-    }
-    for (const toml::node& e : *arr) {
-      const auto* t = e.as_table();
-      if (t == nullptr) continue;
-      read_device(*t);
-    }
-  }
-
   void read_device(const toml::table& t) {
     Device d;
     DeviceSpots spots;
     d.where = location(sink_, t);
     const toml::node* name_node = t.get("name");
-    std::string context = "device #" + std::to_string(config_.devices.size() + 1) + ": ";
-    if (name_node != nullptr && name_node->is_string()) context = "device " + in_quotes(name_node->as_string()->get()) + ": ";
-    TableReader r(t, "[[device]]", context, "", sink_);
+    TableReader r(t, "[[device]]", entry_context("device", config_.devices.size() + 1, name_node), "", sink_);
     r.check_keys({"name", "bus", "serial", "vendor", "product", "node_id", "model", "channels", "eds", "tpdo1", "tpdo2",
                   "heartbeat_ms", "guarding", "direction", "scaling", "preset", "cam", "work_area", "position_filter",
                   "speed_filter", "store"});
 
-    if (auto v = r.string("name")) {
-      if (is_identifier(*v)) {
-        d.name = *v;
-        spots.name = location(sink_, *name_node);
-        spots.has_name = true;
-      } else {
-        r.error(*name_node, "name " + in_quotes(*v) + " is not allowed (allowed: 1 to 64 of A-Z a-z 0-9 _ - .)");
-      }
-    } else if (name_node == nullptr) {
-      r.missing("name");
-    }
+    read_name(r, name_node, d.name, spots.name, spots.has_name);
     if (auto v = r.string("bus")) {
       d.bus = *v;
       spots.bus = location(sink_, *r.find("bus"));

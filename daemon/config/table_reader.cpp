@@ -23,6 +23,16 @@ std::size_t edit_distance(std::string_view a, std::string_view b) {
   return row[b.size()];
 }
 
+// The value under `key` as a T (toml++'s node::as<T>), or nullptr: silently
+// when the key is absent, reported as a wrong type when it holds another type.
+template <class T>
+auto typed(TableReader& r, std::string_view key, std::string_view expected) {
+  const toml::node* n = r.find(key);
+  const auto* v = n != nullptr ? n->as<T>() : nullptr;
+  if (n != nullptr && v == nullptr) r.wrong_type(*n, r.path(key), expected);
+  return v;
+}
+
 }  // namespace
 
 void DiagnosticSink::add(const toml::source_position& where, std::string message) {
@@ -117,16 +127,11 @@ void TableReader::check_keys(std::initializer_list<std::string_view> allowed) {
 const toml::node* TableReader::find(std::string_view key) const noexcept { return table_.get(key); }
 
 std::optional<std::int64_t> TableReader::integer(std::string_view key, std::int64_t min, std::int64_t max) {
-  const toml::node* n = find(key);
-  if (n == nullptr) return std::nullopt;
-  const auto* v = n->as_integer();
-  if (v == nullptr) {
-    wrong_type(*n, path(key), "an integer");
-    return std::nullopt;
-  }
+  const auto* v = typed<std::int64_t>(*this, key, "an integer");
+  if (v == nullptr) return std::nullopt;
   const std::int64_t x = v->get();
   if (x < min || x > max) {
-    error(*n, path(key) + " " + std::to_string(x) + " is out of range (allowed: " + std::to_string(min) + ".." +
+    error(*v, path(key) + " " + std::to_string(x) + " is out of range (allowed: " + std::to_string(min) + ".." +
                   std::to_string(max) + ")");
     return std::nullopt;
   }
@@ -134,13 +139,8 @@ std::optional<std::int64_t> TableReader::integer(std::string_view key, std::int6
 }
 
 std::optional<std::int64_t> TableReader::integer_in(std::string_view key, std::initializer_list<std::int64_t> allowed) {
-  const toml::node* n = find(key);
-  if (n == nullptr) return std::nullopt;
-  const auto* v = n->as_integer();
-  if (v == nullptr) {
-    wrong_type(*n, path(key), "an integer");
-    return std::nullopt;
-  }
+  const auto* v = typed<std::int64_t>(*this, key, "an integer");
+  if (v == nullptr) return std::nullopt;
   const std::int64_t x = v->get();
   if (std::find(allowed.begin(), allowed.end(), x) != allowed.end()) return x;
   std::string list;
@@ -148,46 +148,28 @@ std::optional<std::int64_t> TableReader::integer_in(std::string_view key, std::i
     if (!list.empty()) list += ", ";
     list += std::to_string(a);
   }
-  error(*n, path(key) + " " + std::to_string(x) + " is not allowed (allowed: " + list + ")");
+  error(*v, path(key) + " " + std::to_string(x) + " is not allowed (allowed: " + list + ")");
   return std::nullopt;
 }
 
 std::optional<std::string> TableReader::string(std::string_view key) {
-  const toml::node* n = find(key);
-  if (n == nullptr) return std::nullopt;
-  const auto* v = n->as_string();
-  if (v == nullptr) {
-    wrong_type(*n, path(key), "a string");
-    return std::nullopt;
-  }
+  const auto* v = typed<std::string>(*this, key, "a string");
+  if (v == nullptr) return std::nullopt;
   return v->get();
 }
 
 std::optional<bool> TableReader::boolean(std::string_view key) {
-  const toml::node* n = find(key);
-  if (n == nullptr) return std::nullopt;
-  const auto* v = n->as_boolean();
-  if (v == nullptr) {
-    wrong_type(*n, path(key), "a boolean");
-    return std::nullopt;
-  }
+  const auto* v = typed<bool>(*this, key, "a boolean");
+  if (v == nullptr) return std::nullopt;
   return v->get();
 }
 
 const toml::table* TableReader::subtable(std::string_view key) {
-  const toml::node* n = find(key);
-  if (n == nullptr) return nullptr;
-  const auto* t = n->as_table();
-  if (t == nullptr) wrong_type(*n, path(key), "a table");
-  return t;
+  return typed<toml::table>(*this, key, "a table");
 }
 
 const toml::array* TableReader::array(std::string_view key) {
-  const toml::node* n = find(key);
-  if (n == nullptr) return nullptr;
-  const auto* a = n->as_array();
-  if (a == nullptr) wrong_type(*n, path(key), "an array");
-  return a;
+  return typed<toml::array>(*this, key, "an array");
 }
 
 void TableReader::missing(std::string_view key) {

@@ -22,47 +22,6 @@ namespace cobridge::device {
 
 namespace {
 
-struct TypeInfo {
-  DataType type;
-  std::uint32_t bits;
-  std::string_view name;
-};
-
-constexpr std::array<TypeInfo, 25> kTypes{{
-    {DataType::kBoolean, 1, "BOOLEAN"},
-    {DataType::kInteger8, 8, "INTEGER8"},
-    {DataType::kInteger16, 16, "INTEGER16"},
-    {DataType::kInteger32, 32, "INTEGER32"},
-    {DataType::kUnsigned8, 8, "UNSIGNED8"},
-    {DataType::kUnsigned16, 16, "UNSIGNED16"},
-    {DataType::kUnsigned32, 32, "UNSIGNED32"},
-    {DataType::kReal32, 32, "REAL32"},
-    {DataType::kVisibleString, 0, "VISIBLE_STRING"},
-    {DataType::kOctetString, 0, "OCTET_STRING"},
-    {DataType::kUnicodeString, 0, "UNICODE_STRING"},
-    {DataType::kTimeOfDay, 48, "TIME_OF_DAY"},
-    {DataType::kTimeDifference, 48, "TIME_DIFFERENCE"},
-    {DataType::kDomain, 0, "DOMAIN"},
-    {DataType::kInteger24, 24, "INTEGER24"},
-    {DataType::kReal64, 64, "REAL64"},
-    {DataType::kInteger40, 40, "INTEGER40"},
-    {DataType::kInteger48, 48, "INTEGER48"},
-    {DataType::kInteger56, 56, "INTEGER56"},
-    {DataType::kInteger64, 64, "INTEGER64"},
-    {DataType::kUnsigned24, 24, "UNSIGNED24"},
-    {DataType::kUnsigned40, 40, "UNSIGNED40"},
-    {DataType::kUnsigned48, 48, "UNSIGNED48"},
-    {DataType::kUnsigned56, 56, "UNSIGNED56"},
-    {DataType::kUnsigned64, 64, "UNSIGNED64"},
-}};
-
-const TypeInfo* type_info(std::uint64_t code) noexcept {
-  for (const auto& t : kTypes) {
-    if (static_cast<std::uint64_t>(t.type) == code) return &t;
-  }
-  return nullptr;
-}
-
 constexpr std::array<std::pair<std::string_view, AccessType>, 6> kAccess{{
     {"ro", AccessType::kRo},
     {"wo", AccessType::kWo},
@@ -73,42 +32,6 @@ constexpr std::array<std::pair<std::string_view, AccessType>, 6> kAccess{{
 }};
 
 }  // namespace
-
-std::uint32_t bit_size(DataType type) noexcept {
-  const TypeInfo* t = type_info(static_cast<std::uint64_t>(type));
-  return t != nullptr ? t->bits : 0;
-}
-
-bool is_signed_integer(DataType type) noexcept {
-  switch (type) {
-    case DataType::kInteger8: case DataType::kInteger16: case DataType::kInteger24:
-    case DataType::kInteger32: case DataType::kInteger40: case DataType::kInteger48:
-    case DataType::kInteger56: case DataType::kInteger64:
-      return true;
-    default:
-      return false;
-  }
-}
-
-bool is_unsigned_integer(DataType type) noexcept {
-  switch (type) {
-    case DataType::kBoolean: case DataType::kUnsigned8: case DataType::kUnsigned16:
-    case DataType::kUnsigned24: case DataType::kUnsigned32: case DataType::kUnsigned40:
-    case DataType::kUnsigned48: case DataType::kUnsigned56: case DataType::kUnsigned64:
-      return true;
-    default:
-      return false;
-  }
-}
-
-bool is_real(DataType type) noexcept {
-  return type == DataType::kReal32 || type == DataType::kReal64;
-}
-
-std::string_view to_string(DataType type) noexcept {
-  const TypeInfo* t = type_info(static_cast<std::uint64_t>(type));
-  return t != nullptr ? t->name : std::string_view{"?"};
-}
 
 std::string_view to_string(AccessType type) noexcept {
   for (const auto& [name, value] : kAccess) {
@@ -829,18 +752,18 @@ class Parser {
       ok = false;
     } else {
       const auto code = parse_unsigned(dt->value);
-      const TypeInfo* info = code ? type_info(*code) : nullptr;
+      const std::optional<DataType> data_type = code ? canopen::data_type_from_code(*code) : std::nullopt;
       if (!code) {
         error(dt->line, dt->value_column, EdsErrc::kBadNumber,
               where(s, *dt) + " is not a number (allowed: decimal, 0x hexadecimal, 0 octal)");
         ok = false;
-      } else if (info == nullptr) {
+      } else if (!data_type) {
         error(dt->line, 0, EdsErrc::kBadDataType,
               where(s, *dt) + " is not a CiA 301 data type (allowed: 0x0001..0x001B" +
                   (*code == 0x0E || *code == 0x17 ? ", except the reserved 0x000E and 0x0017)" : ")"));
         ok = false;
       } else {
-        d.data_type = info->type;
+        d.data_type = *data_type;
       }
     }
     if (const Line* l = s.get("accesstype")) {

@@ -20,6 +20,8 @@
 #include <system_error>
 #include <vector>
 
+#include "canopen/data_type.hpp"
+
 namespace cobridge::device {
 
 // CiA 306 §4.6.3 ObjectType codes (the values written in the file).
@@ -33,35 +35,14 @@ enum class ObjectType : std::uint8_t {
   kRecord = 0x9,
 };
 
-// CiA 301 §7.4.7.1 static data type indices (0x0001..0x001B; 0x000E and
-// 0x0017 are reserved and rejected).
-enum class DataType : std::uint16_t {
-  kBoolean = 0x0001,
-  kInteger8 = 0x0002,
-  kInteger16 = 0x0003,
-  kInteger32 = 0x0004,
-  kUnsigned8 = 0x0005,
-  kUnsigned16 = 0x0006,
-  kUnsigned32 = 0x0007,
-  kReal32 = 0x0008,
-  kVisibleString = 0x0009,
-  kOctetString = 0x000A,
-  kUnicodeString = 0x000B,
-  kTimeOfDay = 0x000C,
-  kTimeDifference = 0x000D,
-  kDomain = 0x000F,
-  kInteger24 = 0x0010,
-  kReal64 = 0x0011,
-  kInteger40 = 0x0012,
-  kInteger48 = 0x0013,
-  kInteger56 = 0x0014,
-  kInteger64 = 0x0015,
-  kUnsigned24 = 0x0016,
-  kUnsigned40 = 0x0018,
-  kUnsigned48 = 0x0019,
-  kUnsigned56 = 0x001A,
-  kUnsigned64 = 0x001B,
-};
+// CiA 301 §7.4.7.1 data types: the canopen layer's enum and helpers, named
+// here so that EDS users need not know which layer they live in.
+using DataType = canopen::DataType;
+using canopen::bit_size;
+using canopen::is_real;
+using canopen::is_signed_integer;
+using canopen::is_unsigned_integer;
+using canopen::to_string;
 
 // CiA 306 §4.6.3 AccessType values.
 enum class AccessType : std::uint8_t { kRo, kWo, kRw, kRwr, kRww, kConst };
@@ -69,13 +50,6 @@ enum class AccessType : std::uint8_t { kRo, kWo, kRw, kRwr, kRww, kConst };
 // Which object list of the file names the object (CiA 306 §4.5).
 enum class ObjectList : std::uint8_t { kMandatory, kOptional, kManufacturer };
 
-// Size of a value of `type` on the bus, in bits; 0 for the variable-length
-// types (strings, domain).
-[[nodiscard]] std::uint32_t bit_size(DataType type) noexcept;
-[[nodiscard]] bool is_signed_integer(DataType type) noexcept;
-[[nodiscard]] bool is_unsigned_integer(DataType type) noexcept;  // includes BOOLEAN
-[[nodiscard]] bool is_real(DataType type) noexcept;
-[[nodiscard]] std::string_view to_string(DataType type) noexcept;   // "UNSIGNED32"
 [[nodiscard]] std::string_view to_string(AccessType type) noexcept; // "rw"
 
 // A DefaultValue, LowLimit or HighLimit as written in the file.

@@ -16,6 +16,8 @@
 // full pipe: this plugin is for debugging, not for production outputs.
 #include <cobridge/plugin.h>
 
+#include "host_log.hpp"
+
 #include <toml++/toml.h>
 
 #include <array>
@@ -154,7 +156,7 @@ struct Tap {
   std::uint64_t dropped = 0;  // overflowed or failed writes
 
   void log(int level, const std::string& msg) const noexcept {
-    if (host != nullptr && host->log != nullptr) host->log(host->host, level, msg.c_str());
+    plugin::host_log(host, level, msg);
   }
 
   void emit() noexcept {
@@ -248,12 +250,7 @@ struct Tap {
   }
 };
 
-void copy_error(char* err, std::size_t err_len, const std::string& msg) noexcept {
-  if (err == nullptr || err_len == 0) return;
-  const std::size_t n = msg.size() < err_len - 1 ? msg.size() : err_len - 1;
-  std::memcpy(err, msg.data(), n);
-  err[n] = '\0';
-}
+using plugin::copy_error;
 
 // Fills `tap` from the TOML text; returns an error message or "".
 std::string configure(Tap& tap, std::string_view text) {

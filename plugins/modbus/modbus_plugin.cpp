@@ -18,6 +18,8 @@
 
 #include <cobridge/plugin.h>
 
+#include "host_log.hpp"
+
 #include <cstring>
 #include <ctime>
 #include <memory>
@@ -39,16 +41,11 @@ struct Plugin {
   std::unique_ptr<TcpServer> server;
 
   void log(int level, const std::string& msg) const noexcept {
-    if (host != nullptr && host->log != nullptr) host->log(host->host, level, msg.c_str());
+    plugin::host_log(host, level, msg);
   }
 };
 
-void copy_error(char* err, std::size_t err_len, const std::string& msg) noexcept {
-  if (err == nullptr || err_len == 0) return;
-  const std::size_t n = msg.size() < err_len - 1 ? msg.size() : err_len - 1;
-  std::memcpy(err, msg.data(), n);
-  err[n] = '\0';
-}
+using plugin::copy_error;
 
 std::uint64_t monotonic_ns() noexcept {
   timespec ts{};

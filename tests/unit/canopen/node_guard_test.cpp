@@ -4,6 +4,8 @@
 
 #include <vector>
 
+#include "recording_sink.hpp"
+
 namespace cobridge::canopen {
 namespace {
 
@@ -11,15 +13,7 @@ using namespace std::chrono_literals;
 using can::Frame;
 using Kind = NodeGuardMaster::EventKind;
 
-struct RecordingSink final : can::FrameSink {
-  bool send(const Frame& f) noexcept override {
-    if (fail) return false;
-    frames.push_back(f);
-    return true;
-  }
-  std::vector<Frame> frames;
-  bool fail = false;
-};
+using test::RecordingSink;
 
 class NodeGuardMasterTest : public ::testing::Test {
  protected:
@@ -142,7 +136,7 @@ TEST_F(NodeGuardMasterTest, J1_3_1_ZeroGuardTimeOrFactorDisables) {
 
 TEST_F(NodeGuardMasterTest, CiA301_7_2_8_3_2_1_SendFailureCountedNotRetriedInALoop) {
   ASSERT_TRUE(master.configure(7, 100ms, 3, at(0)));
-  sink.fail = true;
+  sink.accept = false;
   EXPECT_EQ(master.process(at(0), sink), at(100));
   EXPECT_EQ(master.status(7).send_failures, 1u);
   EXPECT_EQ(master.status(7).requests_sent, 0u);

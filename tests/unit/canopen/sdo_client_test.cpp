@@ -12,22 +12,15 @@
 #include <string_view>
 #include <vector>
 
+#include "recording_sink.hpp"
+
 namespace cobridge::canopen {
 namespace {
 
 using namespace std::chrono_literals;
 using Bytes = std::array<uint8_t, 8>;
 
-class RecordingSink final : public can::FrameSink {
- public:
-  bool send(const can::Frame& frame) noexcept override {
-    if (!accept) return false;
-    frames.push_back(frame);
-    return true;
-  }
-  std::vector<can::Frame> frames;
-  bool accept = true;
-};
+using test::RecordingSink;
 
 const TimePoint kT0 = TimePoint{} + 1h;
 

@@ -16,6 +16,7 @@
 
 #include "can/frame_sink.hpp"
 #include "canopen/cob_id.hpp"
+#include "recording_sink.hpp"
 
 namespace cobridge::canopen {
 namespace {
@@ -23,16 +24,7 @@ namespace {
 using namespace std::chrono_literals;
 using Bytes8 = std::array<uint8_t, 8>;
 
-class RecordingSink final : public can::FrameSink {
- public:
-  bool send(const can::Frame& frame) noexcept override {
-    if (!accept) return false;
-    frames.push_back(frame);
-    return true;
-  }
-  std::vector<can::Frame> frames;
-  bool accept = true;
-};
+using test::RecordingSink;
 
 constexpr uint8_t kNode = 0x7F;  // J§1.2.2 / E§3.1 default node-ID
 const TimePoint t0 = TimePoint{} + 1h;

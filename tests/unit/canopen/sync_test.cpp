@@ -4,21 +4,15 @@
 
 #include <vector>
 
+#include "recording_sink.hpp"
+
 namespace cobridge::canopen {
 namespace {
 
 using namespace std::chrono_literals;
 using can::Frame;
 
-struct RecordingSink final : can::FrameSink {
-  bool send(const Frame& f) noexcept override {
-    if (fail) return false;
-    frames.push_back(f);
-    return true;
-  }
-  std::vector<Frame> frames;
-  bool fail = false;
-};
+using test::RecordingSink;
 
 class SyncProducerTest : public ::testing::Test {
  protected:
@@ -109,11 +103,11 @@ TEST_F(SyncProducerTest, CiA301_7_2_5_3_SendFailureKeepsCounter) {
   ASSERT_FALSE(producer.configure({.cob_id = 0x80, .period = 1ms, .overflow = 5}));
   producer.start(at(0));
   (void)producer.process(at(1), sink);
-  sink.fail = true;
+  sink.accept = false;
   (void)producer.process(at(2), sink);
   EXPECT_EQ(producer.send_failures(), 1u);
   EXPECT_EQ(producer.next_counter(), 2);
-  sink.fail = false;
+  sink.accept = true;
   (void)producer.process(at(3), sink);
   ASSERT_EQ(sink.frames.size(), 2u);
   EXPECT_EQ(sink.frames[1].data[0], 2);

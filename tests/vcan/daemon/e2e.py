@@ -122,15 +122,14 @@ def write_config(ws, buses, devices, file_name="cobridge.toml", level="info", ex
     return path
 
 
-class CanListener:
-    """Every frame on an interface, with the time it was read (time.time())."""
+class _SocketReader:
+    """A socket read on a background thread until close(); subclasses keep
+    what _received() is given, under self.lock."""
 
-    def __init__(self, iface="vcan0"):
-        self.sock = socket.socket(socket.AF_CAN, socket.SOCK_RAW, socket.CAN_RAW)
-        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4 << 20)
-        self.sock.bind((iface,))
-        self.sock.settimeout(0.1)
-        self.frames = []
+    def _start(self, sock, size):
+        sock.settimeout(0.1)
+        self.sock = sock
+        self.size = size
         self.lock = threading.Lock()
         self.stop_flag = False
         self.thread = threading.Thread(target=self._run, daemon=True)
@@ -139,15 +138,33 @@ class CanListener:
     def _run(self):
         while not self.stop_flag:
             try:
-                data = self.sock.recv(16)
+                data = self.sock.recv(self.size)
             except socket.timeout:
                 continue
             except OSError:
                 break
-            t = time.time()
-            can_id, dlc = struct.unpack("=IB3x", data[:8])
-            with self.lock:
-                self.frames.append((t, can_id & 0x1FFFFFFF, bytes(data[8:8 + dlc])))
+            self._received(time.time(), data)
+
+    def close(self):
+        self.stop_flag = True
+        self.thread.join()
+        self.sock.close()
+
+
+class CanListener(_SocketReader):
+    """Every frame on an interface, with the time it was read (time.time())."""
+
+    def __init__(self, iface="vcan0"):
+        sock = socket.socket(socket.AF_CAN, socket.SOCK_RAW, socket.CAN_RAW)
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4 << 20)
+        sock.bind((iface,))
+        self.frames = []
+        self._start(sock, 16)
+
+    def _received(self, t, data):
+        can_id, dlc = struct.unpack("=IB3x", data[:8])
+        with self.lock:
+            self.frames.append((t, can_id & 0x1FFFFFFF, bytes(data[8:8 + dlc])))
 
     def snapshot(self, since=0.0):
         with self.lock:
@@ -163,36 +180,20 @@ class CanListener:
             time.sleep(0.005)
         return None
 
-    def close(self):
-        self.stop_flag = True
-        self.thread.join()
-        self.sock.close()
 
-
-class NotifySocket:
+class NotifySocket(_SocketReader):
     """The sd_notify socket systemd would hold: every datagram with its time."""
 
     def __init__(self, ws):
         self.path = os.path.join(ws.run, "notify.sock")
-        self.sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
-        self.sock.bind(self.path)
-        self.sock.settimeout(0.1)
+        sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+        sock.bind(self.path)
         self.messages = []
-        self.lock = threading.Lock()
-        self.stop_flag = False
-        self.thread = threading.Thread(target=self._run, daemon=True)
-        self.thread.start()
+        self._start(sock, 4096)
 
-    def _run(self):
-        while not self.stop_flag:
-            try:
-                data = self.sock.recv(4096)
-            except socket.timeout:
-                continue
-            except OSError:
-                break
-            with self.lock:
-                self.messages.append((time.time(), data.decode(errors="replace")))
+    def _received(self, t, data):
+        with self.lock:
+            self.messages.append((t, data.decode(errors="replace")))
 
     def all(self):
         with self.lock:
@@ -208,11 +209,6 @@ class NotifySocket:
                     return i, msgs[i][0], msgs[i][1]
             time.sleep(0.01)
         return None
-
-    def close(self):
-        self.stop_flag = True
-        self.thread.join()
-        self.sock.close()
 
 
 class Simulator:
@@ -363,6 +359,23 @@ class Daemon:
                 return "".join(f.readlines()[-n:])
         except OSError:
             return ""
+
+
+def check_clean_exit(report, daemon, what="SIGTERM -> exit 0 within 1 s"):
+    """Stops the daemon with SIGTERM and checks that it exited 0 within 1 s."""
+    rc, took = daemon.stop()
+    return report.check(rc == 0 and took < 1.0, what, "exit %s after %.3f s" % (rc, took))
+
+
+def shut_down(ws, daemon, *others):
+    """A scenario's `finally`: stops the daemon if it still runs, then each of
+    `others` in order (anything with stop() or close()), then removes the
+    work directory."""
+    if daemon is not None:
+        daemon.stop()
+    for o in others:
+        (o.stop if hasattr(o, "stop") else o.close)()
+    ws.cleanup()
 
 
 def all_operational(expected_names):

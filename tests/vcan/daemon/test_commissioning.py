@@ -138,16 +138,10 @@ def main():
             print("step timings (second start):")
             for s in steps:
                 print("  %-28s %-10s %9.1f ms" % s)
-        rc, took = daemon.stop()
-        report.check(rc == 0 and took < 1.0, "second daemon: SIGTERM -> exit 0 within 1 s",
-                     "exit %s after %.3f s" % (rc, took))
+        e2e.check_clean_exit(report, daemon, "second daemon: SIGTERM -> exit 0 within 1 s")
         daemon = None
     finally:
-        if daemon is not None:
-            daemon.stop()
-        sim.stop()
-        listener.close()
-        ws.cleanup()
+        e2e.shut_down(ws, daemon, sim, listener)
     return report.finish()
 
 

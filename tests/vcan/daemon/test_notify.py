@@ -116,11 +116,7 @@ def main():
         report.check(not os.path.exists(ws.control), "control socket removed on exit")
         daemon = None
     finally:
-        if daemon is not None:
-            daemon.stop()
-        notify.close()
-        sim.stop()
-        ws.cleanup()
+        e2e.shut_down(ws, daemon, notify, sim)
     return report.finish()
 
 

@@ -101,15 +101,10 @@ def main():
                          "operational %.3f s after its first heartbeat" % (e2e.iso_to_epoch(dev["since"]) - first[0])
                          if ok else "status %r" % dev)
             time.sleep(0.3)
-        rc, took = daemon.stop()
-        report.check(rc == 0 and took < 1.0, "SIGTERM -> exit 0 within 1 s", "exit %s after %.3f s" % (rc, took))
+        e2e.check_clean_exit(report, daemon)
         daemon = None
     finally:
-        if daemon is not None:
-            daemon.stop()
-        sim.stop()
-        listener.close()
-        ws.cleanup()
+        e2e.shut_down(ws, daemon, sim, listener)
     return report.finish()
 
 

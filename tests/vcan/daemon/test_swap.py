@@ -62,15 +62,10 @@ def main():
         for b in st["buses"]:
             for s in b["steps"][-8:]:
                 print("  step %-28s %-8s %9.1f ms" % (s["step"], s["device"], s["ms"]))
-        rc, took = daemon.stop()
-        report.check(rc == 0 and took < 1.0, "SIGTERM -> exit 0 within 1 s", "exit %s after %.3f s" % (rc, took))
+        e2e.check_clean_exit(report, daemon)
         daemon = None
     finally:
-        if daemon is not None:
-            daemon.stop()
-        sim.stop()
-        listener.close()
-        ws.cleanup()
+        e2e.shut_down(ws, daemon, sim, listener)
     return report.finish()
 
 
