@@ -8,8 +8,12 @@
 //   topic_prefix       = ""             prepended to the topic names
 //
 // Threads: create/start/stop/destroy on the daemon's control thread;
-// on_samples/on_device on the dispatcher thread, where DdsPublisher writes
-// directly (no queue, no allocation per sample).
+// on_samples/on_device on the dispatcher thread, which the plugin never
+// blocks: samples are copied into the plugin's own SPSC ring (a full ring
+// drops and counts, never waits) and device announcements into a small
+// locked queue; the plugin's writer thread does every dds_write. So a slow
+// or reliable DDS subscriber cannot delay the other outputs (Modbus, tap),
+// which share the dispatcher.
 #include "dds/dds_config.hpp"
 #include "dds/dds_publisher.hpp"
 
@@ -17,20 +21,99 @@
 
 #include "host_log.hpp"
 
+#include "pipeline/spsc_ring.hpp"
+
+#include <array>
+#include <atomic>
 #include <cstring>
+#include <deque>
 #include <exception>
 #include <memory>
+#include <mutex>
 #include <string>
+#include <thread>
 
 namespace cobridge::dds {
 namespace {
 
+// A device announcement with its own copies of the strings (the host's
+// pointers are valid only during on_device).
+struct OwnedDevice {
+  cobridge_device_info info{};
+  std::string name, bus_name, model, family, position_unit;
+  const cobridge_device_info& fixed() {
+    info.name = name.c_str();
+    info.bus_name = bus_name.c_str();
+    info.model = model.c_str();
+    info.family = family.c_str();
+    info.position_unit = position_unit.c_str();
+    return info;
+  }
+};
+
 struct Instance {
+  static constexpr std::size_t kRing = 1u << 16;  // ~16 s of four saturated buses' worth of bursts
+  static constexpr std::size_t kBatch = 256;
+
   const cobridge_host_api* host = nullptr;
   std::unique_ptr<DdsPublisher> publisher;
+  pipeline::SpscRing<cobridge_sample> ring{kRing};
+  std::mutex device_mutex;
+  std::deque<OwnedDevice> devices;          // pending announcements
+  std::atomic<std::uint32_t> wakeups{0};    // bumped by producers; the writer waits on it
+  std::atomic<bool> running{false};
+  std::atomic<std::uint64_t> ring_drops{0};
+  std::thread writer;
+  std::array<cobridge_sample, kBatch> batch{};
 
   void log(int level, const std::string& msg) const noexcept {
     plugin::host_log(host, level, msg);
+  }
+
+  void wake() noexcept {
+    wakeups.fetch_add(1, std::memory_order_release);
+    wakeups.notify_one();
+  }
+
+  // Applies pending announcements, then writes queued samples; returns
+  // whether anything was done.
+  bool drain() {
+    bool any = false;
+    std::deque<OwnedDevice> todo;
+    {
+      std::lock_guard lock(device_mutex);
+      todo.swap(devices);
+    }
+    for (auto& d : todo) {
+      publisher->device(d.fixed());
+      any = true;
+    }
+    for (;;) {
+      const std::size_t n = ring.pop_batch(std::span<cobridge_sample>(batch.data(), batch.size()));
+      if (n == 0) break;
+      publisher->publish({batch.data(), n});
+      any = true;
+    }
+    return any;
+  }
+
+  void run() {
+    while (running.load(std::memory_order_acquire)) {
+      const std::uint32_t seen = wakeups.load(std::memory_order_acquire);
+      if (drain()) continue;
+      wakeups.wait(seen, std::memory_order_acquire);  // until a producer bumps it
+    }
+    drain();  // what was queued before stop still goes out
+  }
+
+  void start_writer() {
+    running.store(true, std::memory_order_release);
+    writer = std::thread([this] { run(); });
+  }
+  void stop_writer() {
+    if (!running.exchange(false)) return;
+    wake();
+    if (writer.joinable()) writer.join();
   }
 };
 
@@ -44,6 +127,7 @@ int dds_start(void* self) {
       inst->log(COBRIDGE_LOG_ERROR, message);
       return -1;
     }
+    inst->start_writer();
     const DdsConfig& c = inst->publisher->config();
     inst->log(COBRIDGE_LOG_INFO, "publishing on domain " + std::to_string(c.domain) + ", samples " +
                                      std::string(to_string(c.sample_reliability)) + " keep-last " +
@@ -61,11 +145,14 @@ int dds_start(void* self) {
 
 void dds_stop(void* self) {
   auto* inst = static_cast<Instance*>(self);
+  inst->stop_writer();
   inst->publisher->stop();
   const PublisherStats s = inst->publisher->stats();
   try {
     std::string msg = "stopped: " + std::to_string(s.samples) + " samples, " + std::to_string(s.events) +
                       " events, " + std::to_string(s.statuses) + " status updates written";
+    if (const auto drops = inst->ring_drops.load(); drops != 0)
+      msg += "; " + std::to_string(drops) + " samples dropped because the DDS writer fell behind";
     if (s.write_failures != 0) {
       msg += "; " + std::to_string(s.write_failures) + " writes failed (last: " + dds_strretcode(s.last_failure) + ")";
     }
@@ -75,11 +162,20 @@ void dds_stop(void* self) {
   }
 }
 
-void dds_destroy(void* self) { delete static_cast<Instance*>(self); }
+void dds_destroy(void* self) {
+  auto* inst = static_cast<Instance*>(self);
+  inst->stop_writer();
+  delete inst;
+}
 
 void dds_on_samples(void* self, const cobridge_sample* samples, std::size_t count) {
   if (samples == nullptr || count == 0) return;
-  static_cast<Instance*>(self)->publisher->publish({samples, count});
+  auto* inst = static_cast<Instance*>(self);
+  std::uint64_t dropped = 0;
+  for (std::size_t i = 0; i < count; ++i)
+    if (!inst->ring.try_push(samples[i])) ++dropped;
+  if (dropped != 0) inst->ring_drops.fetch_add(dropped, std::memory_order_relaxed);
+  inst->wake();
 }
 
 void dds_on_device(void* self, const cobridge_device_info* info) {
@@ -89,7 +185,21 @@ void dds_on_device(void* self, const cobridge_device_info* info) {
       info->struct_size < offsetof(cobridge_device_info, position_unit) + sizeof(const char*)) {
     return;
   }
-  static_cast<Instance*>(self)->publisher->device(*info);
+  auto* inst = static_cast<Instance*>(self);
+  try {
+    OwnedDevice d;
+    d.info = *info;
+    d.name = info->name ? info->name : "";
+    d.bus_name = info->bus_name ? info->bus_name : "";
+    d.model = info->model ? info->model : "";
+    d.family = info->family ? info->family : "";
+    d.position_unit = info->position_unit ? info->position_unit : "";
+    std::lock_guard lock(inst->device_mutex);
+    inst->devices.push_back(std::move(d));
+  } catch (...) {
+    return;  // out of memory: the announcement is lost, samples still flow
+  }
+  inst->wake();
 }
 
 constexpr cobridge_plugin_ops kOps = {

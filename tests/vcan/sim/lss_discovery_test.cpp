@@ -49,7 +49,7 @@ constexpr const char* kIface = "vcan0";
 // Every search step waits this long (lss_master.hpp). UML usually answers
 // within a few ms, but on a loaded host it stalls for tens of ms (25 ms lost
 // an answer mid-scan); 60 ms makes one full Fastscan (133 steps) about 8 s.
-constexpr auto kLssTimeout = 60ms;
+constexpr auto kLssTimeout = 100ms;
 
 // cobridge-sim as a child process: stdin/stdout are pipes, "ready" on stdout
 // means every device is powered on.
@@ -202,6 +202,11 @@ TEST(LssDiscovery, Fastscan_EightUnconfiguredMixedDevices_E6_J1_5) {
     SimProcess sim(args);
     ASSERT_TRUE(sim.wait_ready(20s)) << "cobridge-sim did not start";
     LssMaster master(ch, LssMaster::Config{kLssTimeout});
+    // Confirmed services (configure, store) get a longer answer window than a
+    // Fastscan step: the device's store writes its non-volatile memory (an
+    // fsync, slow on UML's hostfs when another UML runs beside it), and only
+    // silence in a scan step means "no".
+    LssMaster confirmed(ch, LssMaster::Config{std::chrono::milliseconds(1000)});
     std::set<LssAddress> found;
     for (int i = 0; i < 8; ++i) {
       ASSERT_FALSE(master.fastscan(Clock::now()));
@@ -215,12 +220,12 @@ TEST(LssDiscovery, Fastscan_EightUnconfiguredMixedDevices_E6_J1_5) {
                   std::chrono::duration<double>(r->elapsed).count(), r->frames_sent);
       std::fflush(stdout);
       const int node = 10 + i;
-      ASSERT_FALSE(master.configure_node_id(static_cast<std::uint8_t>(node), Clock::now()));
-      auto c = drive(master, ch, 5s);
+      ASSERT_FALSE(confirmed.configure_node_id(static_cast<std::uint8_t>(node), Clock::now()));
+      auto c = drive(confirmed, ch, 5s);
       ASSERT_TRUE(c && !c->error) << "configure node-ID " << node;
       EXPECT_EQ(c->slave_error, 0) << "J§1.5.1 error code";
-      ASSERT_FALSE(master.store_configuration(Clock::now()));
-      c = drive(master, ch, 5s);
+      ASSERT_FALSE(confirmed.store_configuration(Clock::now()));
+      c = drive(confirmed, ch, 5s);
       ASSERT_TRUE(c && !c->error) << "store configuration";
       EXPECT_EQ(c->slave_error, 0) << "J§1.5.3 error code";
       ASSERT_FALSE(master.switch_state_global(canopen::LssMode::kWaiting));
@@ -268,6 +273,7 @@ TEST(LssDiscovery, Slowscan_FourRotaryAtFactoryNode127_J1_5) {
   EXPECT_EQ(boots, (std::multiset<int>{127, 127, 127, 127}));
 
   LssMaster master(ch, LssMaster::Config{kLssTimeout});
+  LssMaster confirmed(ch, LssMaster::Config{std::chrono::milliseconds(1000)});  // see the Fastscan test
   canopen::LssRange bounds;
   bounds.vendor = 0x00000182;
   bounds.product = 0x00000BE0;
@@ -281,12 +287,12 @@ TEST(LssDiscovery, Slowscan_FourRotaryAtFactoryNode127_J1_5) {
                 hex(r->address.revision).c_str(), std::chrono::duration<double>(r->elapsed).count(), r->frames_sent);
     std::fflush(stdout);
     order.push_back(r->address.serial);
-    ASSERT_FALSE(master.configure_node_id(static_cast<std::uint8_t>(20 + i), Clock::now()));
-    auto c = drive(master, ch, 5s);
+    ASSERT_FALSE(confirmed.configure_node_id(static_cast<std::uint8_t>(20 + i), Clock::now()));
+    auto c = drive(confirmed, ch, 5s);
     ASSERT_TRUE(c && !c->error);
     EXPECT_EQ(c->slave_error, 0);
-    ASSERT_FALSE(master.store_configuration(Clock::now()));
-    c = drive(master, ch, 5s);
+    ASSERT_FALSE(confirmed.store_configuration(Clock::now()));
+    c = drive(confirmed, ch, 5s);
     ASSERT_TRUE(c && !c->error);
     EXPECT_EQ(c->slave_error, 0);
     ASSERT_FALSE(master.switch_state_global(canopen::LssMode::kWaiting));
