@@ -318,6 +318,7 @@ int run(const std::filesystem::path& config_file, bool foreground, const std::st
     gateway::BusManagerOptions options;
     options.observer = outputs.observer(i);
     buses.push_back(std::make_unique<gateway::BusManager>(*cfg, i, *catalog, state, options));
+    outputs.set_command_target(i, buses.back().get());
   }
   for (std::size_t i = 0; i < buses.size(); ++i) {
     if (const auto ec = buses[i]->start()) {

@@ -23,6 +23,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <condition_variable>
+#include <deque>
 #include <optional>
 #include <thread>
 
@@ -44,6 +45,10 @@ constexpr milliseconds kConfigureRetryDelay{500};
 constexpr milliseconds kFailedRetryPeriod{30000};  // a failed device is tried again this often
 constexpr milliseconds kMaxPollWait{1000};
 constexpr milliseconds kRebootFallbackDelay{500};
+constexpr std::size_t kMaxQueuedCommands = 16;    // per bus, waiting for the control thread
+// After a command that passed through pre-operational, a heartbeat sent
+// before the device got NMT start may still arrive: not a surprise reset.
+constexpr milliseconds kCommandSettle{500};
 
 WallTime wall_now() { return std::chrono::system_clock::now(); }
 
@@ -67,6 +72,8 @@ struct BusManager::Impl {
     std::optional<ConfigPlan> plan;
     std::unique_ptr<canopen::SdoClient> sdo;  // the runner's; re-addressed per run
     std::unique_ptr<PlanRunner> runner;
+    std::optional<DeviceCommand> command;  // the runner runs this command, not the configuration
+    TimePoint preop_expected_until{};      // see kCommandSettle
     bool quick = false;       // the running plan is the fingerprint check
     bool force_full = false;  // the next run is the full plan
     bool want_configure = false;  // waiting for a runner slot
@@ -282,7 +289,11 @@ struct BusManager::Impl {
     }
     for (auto& m : devices) {
       if (m.runner && m.runner->finished()) {
-        finish_configuration(m, now);
+        if (m.command) {
+          finish_command(m, now);
+        } else {
+          finish_configuration(m, now);
+        }
         more = true;
       }
     }
@@ -304,7 +315,9 @@ struct BusManager::Impl {
       dirty = true;
       if (ev.kind == can::BusEventKind::InterfaceDown) {
         for (auto& m : devices) {
-          if (m.runner) {
+          if (m.runner && m.command) {
+            drop_runner(m, "the CAN interface went down");
+          } else if (m.runner) {
             // The transfers cannot finish; the plan runs again once the bus is back.
             m.runner.reset();
             m.want_configure = true;
@@ -399,7 +412,7 @@ struct BusManager::Impl {
     supervisor.listen(e.node_id, m->profile->family);
     discovery->set_supervised(e.node_id, true);
     set_state(*m, DeviceState::identified);
-    m->runner.reset();
+    drop_runner(*m, "the device was identified anew");
     m->started = false;
     m->want_configure = true;
     m->attempts = 0;
@@ -679,7 +692,104 @@ struct BusManager::Impl {
   }
 
   void runners_abort() {
-    for (auto& m : devices) m.runner.reset();
+    for (auto& m : devices) drop_runner(m, "the gateway is stopping");
+  }
+
+  // Ends whatever the runner does; a command's submitter learns why.
+  void drop_runner(Managed& m, const char* why) {
+    if (m.command && m.runner && m.runner->finished()) {
+      // Done before what ends it was seen (an NMT reset's own boot-up can
+      // arrive in the same loop turn): the command's outcome stands.
+      finish_command(m, Clock::now());
+      return;
+    }
+    m.runner.reset();
+    if (!m.command) return;
+    DeviceCommand cmd = std::move(*m.command);
+    m.command.reset();
+    report_command(m, cmd, CommandOutcome{CommandStatus::failed, 0, std::string("aborted: ") + why});
+  }
+
+  // ---- commands from plugins ---------------------------------------------------
+
+  void report_command(const Managed& m, const DeviceCommand& cmd, const CommandOutcome& outcome) {
+    if (outcome.status == CommandStatus::ok) {
+      log->info("bus {}: device {}: {} done", bus.name, m.st.name, to_string(cmd.kind));
+    } else {
+      log->warn("bus {}: device {}: {}: {}{}{}", bus.name, m.st.name, to_string(cmd.kind), to_string(outcome.status),
+                outcome.message.empty() ? "" : ": ", outcome.message);
+    }
+    if (options.observer != nullptr) options.observer->on_command_done(m.st, cmd, outcome);
+  }
+
+  void start_command(DeviceCommand cmd, TimePoint now) {
+    Managed* m = find_device(cmd.device);
+    if (m == nullptr || !m->in_config) {
+      Managed none;
+      none.st.name = cmd.device;
+      none.st.bus = bus.name;
+      report_command(none, cmd, CommandOutcome{CommandStatus::unknown_device, 0, "not configured on this bus"});
+      return;
+    }
+    if (m->runner) {
+      report_command(*m, cmd,
+                     CommandOutcome{CommandStatus::busy, 0, m->command ? "another command runs" : "being configured"});
+      return;
+    }
+    if (m->st.state != DeviceState::operational || m->description == nullptr || !m->profile || m->st.node_id == 0) {
+      report_command(*m, cmd,
+                     CommandOutcome{CommandStatus::offline, 0, std::string("device is ") + to_string(m->st.state)});
+      return;
+    }
+    auto plan = make_command_plan(m->st.name, *m->description, *m->profile, m->st.node_id, cmd.kind, cmd.value);
+    if (!plan.ok()) {
+      std::string text;
+      bool range = false;
+      for (const auto& err : plan.errors) {
+        if (!text.empty()) text += "; ";
+        text += err.to_string();
+        range = range || err.out_of_range;
+      }
+      report_command(*m, cmd,
+                     CommandOutcome{range ? CommandStatus::invalid_value : CommandStatus::unsupported, 0, text});
+      return;
+    }
+    if (!m->sdo) {
+      canopen::SdoClientConfig sc;
+      sc.timeout = milliseconds(bus.sdo_timeout_ms);
+      sc.retries = 0;  // the runner repeats timed-out transfers itself
+      m->sdo = std::make_unique<canopen::SdoClient>(*channel, m->st.node_id, sc);
+    }
+    PlanRunnerOptions ro;
+    ro.sdo_retries = bus.sdo_retries;
+    log->info("bus {}: device {}: {}{} requested by an output", bus.name, m->st.name, to_string(cmd.kind),
+              cmd.kind == CommandKind::preset ? " to " + std::to_string(cmd.value) : std::string());
+    m->command = std::move(cmd);
+    m->runner = std::make_unique<PlanRunner>(*channel, *m->sdo, std::move(*plan.plan), ro);
+    if (const auto ec = m->runner->start(now)) drop_runner(*m, ec.message().c_str());
+  }
+
+  void finish_command(Managed& m, TimePoint now) {
+    const PlanRunResult r = m.runner->result();
+    m.runner.reset();
+    DeviceCommand cmd = std::move(*m.command);
+    m.command.reset();
+    if (cmd.kind == CommandKind::store) m.preop_expected_until = now + kCommandSettle;
+    CommandOutcome out;
+    out.message = r.message;
+    if (r.ok()) {
+      out.status = CommandStatus::ok;
+    } else if (r.error == make_error_code(PlanRunErrc::sdo_abort)) {
+      out.status = CommandStatus::refused;
+      out.abort_code = static_cast<std::uint32_t>(r.sdo_error.value());
+    } else if (r.error == make_error_code(PlanRunErrc::sdo_timeout)) {
+      out.status = CommandStatus::timeout;
+    } else if (r.error == make_error_code(PlanRunErrc::sdo_busy)) {
+      out.status = CommandStatus::busy;
+    } else {
+      out.status = CommandStatus::failed;
+    }
+    report_command(m, cmd, out);
   }
 
   // ---- supervision -------------------------------------------------------------
@@ -697,7 +807,7 @@ struct BusManager::Impl {
         // replacement part); its `identified` event restarts the plan.
         m->boot_up_at = now;
         m->started = false;
-        m->runner.reset();
+        drop_runner(*m, "the device rebooted");
         // Should discovery's re-identification not come, configure it anyway
         // (same node-ID, the identity it had) after a while.
         m->want_configure = m->description != nullptr;
@@ -716,7 +826,8 @@ struct BusManager::Impl {
         discovery->set_supervised(c.node, true);
         break;
       case Supervisor::ChangeKind::nmt_state:
-        if (m->started && !m->runner && c.nmt == canopen::NmtState::pre_operational) {
+        if (m->started && !m->runner && c.nmt == canopen::NmtState::pre_operational &&
+            now >= m->preop_expected_until) {
           // Someone (or a reset we missed) put it back: configure and start again.
           log->warn("bus {}: device {} (node {}) is pre-operational again; reconfiguring", bus.name,
                     m->st.name, c.node);
@@ -739,13 +850,16 @@ struct BusManager::Impl {
   void take_commands(TimePoint now) {
     bool commission = false;
     std::optional<config::Config> reload_config;
+    std::deque<DeviceCommand> commands;
     {
       const std::lock_guard lock(mutex);
       commission = std::exchange(commission_requested, false);
       reload_config = std::exchange(pending_reload, std::nullopt);
+      commands.swap(pending_commands);
     }
     if (commission) discovery->request_commission();
     if (reload_config) apply_reload(std::move(*reload_config), now);
+    for (auto& c : commands) start_command(std::move(c), now);
   }
 
   void apply_reload(config::Config next, TimePoint now) {
@@ -908,6 +1022,7 @@ struct BusManager::Impl {
   BusStatus published;
   bool commission_requested = false;
   std::optional<config::Config> pending_reload;
+  std::deque<DeviceCommand> pending_commands;
 };
 
 BusManager::BusManager(const config::Config& config, std::size_t bus_index, const device::DeviceCatalog& catalog,
@@ -955,6 +1070,16 @@ void BusManager::request_commission() {
     impl_->commission_requested = true;
   }
   impl_->wake();
+}
+
+CommandStatus BusManager::submit(DeviceCommand command) {
+  {
+    const std::lock_guard lock(impl_->mutex);
+    if (impl_->pending_commands.size() >= kMaxQueuedCommands) return CommandStatus::busy;
+    impl_->pending_commands.push_back(std::move(command));
+  }
+  impl_->wake();
+  return CommandStatus::ok;
 }
 
 void BusManager::reload(const config::Config& config) {

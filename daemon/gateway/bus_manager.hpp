@@ -10,13 +10,14 @@
 //
 // Threads: start() spawns the bus's control thread, which owns the control
 // socket and every protocol component; stop() ends and joins it within 1 s.
-// status(), ready(), request_commission() and reload() may be called from any
-// thread (they take a mutex; never on the hot path). Observer callbacks run on
+// status(), ready(), request_commission(), reload() and submit() may be
+// called from any thread (they take a mutex; never on the hot path). Observer callbacks run on
 // the control thread and must not block.
 #pragma once
 
 #include "config/config.hpp"
 #include "device/device_catalog.hpp"
+#include "gateway/device_command.hpp"
 #include "gateway/device_status.hpp"
 #include "gateway/state_store.hpp"
 
@@ -36,6 +37,10 @@ class BusObserver {
   virtual void on_device_configured(const DeviceStatus& device, const std::vector<std::uint32_t>& tpdo1_mapping,
                                     const std::vector<std::uint32_t>& tpdo2_mapping) = 0;
   virtual void on_device_status(const DeviceStatus& device) = 0;
+  // A command given to submit() has finished (or was refused on the control
+  // thread). Called exactly once per accepted command.
+  virtual void on_command_done(const DeviceStatus& /*device*/, const DeviceCommand& /*command*/,
+                               const CommandOutcome& /*outcome*/) {}
 };
 
 struct BusManagerOptions {
@@ -67,6 +72,13 @@ class BusManager {
   void request_commission();
   // SIGHUP: new device settings without closing the bus.
   void reload(const config::Config& config);
+
+  // A plugin's command (preset, NMT reset, store) for one configured device.
+  // Queued for the control thread, which runs it when the device is
+  // operational and not being configured, and reports the outcome through
+  // BusObserver::on_command_done. Returns ok when queued, busy when the
+  // queue is full (then no outcome follows). Never blocks.
+  [[nodiscard]] CommandStatus submit(DeviceCommand command);
 
  private:
   struct Impl;

@@ -114,6 +114,53 @@ class Builder {
     return result;
   }
 
+  // make_command_plan
+  ConfigPlanResult build_command(CommandKind kind, std::int64_t value) {
+    plan_.store_policy = config::StorePolicy::never;
+    switch (kind) {
+      case CommandKind::preset:
+        for (std::uint8_t ch = 1; ch <= profile_.channels; ++ch) {
+          const std::size_t before = plan_.steps.size();
+          add_value("preset" + channel_suffix(ch), profile_.preset(ch), value, bit(StoreGroup::application));
+          // A preset is an action, not a state: write it even if the object
+          // already holds the value.
+          if (plan_.steps.size() > before) plan_.steps.back().write.read_first = false;
+        }
+        break;
+      case CommandKind::nmt_reset:
+        add_nmt("NMT reset", canopen::NmtCommand::reset_node);
+        break;
+      case CommandKind::store: {
+        if (profile_.store_only_pre_operational) add_nmt("enter pre-operational", canopen::NmtCommand::enter_preop);
+        plan_.store_policy = config::StorePolicy::always;
+        std::vector<StoreTarget> targets{{profile_.store.communication, bit(StoreGroup::communication)}};
+        if (profile_.store.application == profile_.store.communication) {
+          targets.front().groups |= bit(StoreGroup::application);
+        } else {
+          targets.push_back({profile_.store.application, bit(StoreGroup::application)});
+        }
+        bool present = true;
+        for (const StoreTarget& t : targets) present = present && require("store", {0x1010, t.sub}) != nullptr;
+        if (present) {
+          PlanStep s;
+          s.kind = StepKind::store;
+          s.label = "store";
+          s.store = std::move(targets);
+          plan_.steps.push_back(std::move(s));
+        }
+        if (profile_.store_only_pre_operational) add_nmt("start", canopen::NmtCommand::start);
+        break;
+      }
+    }
+    ConfigPlanResult result;
+    if (!errors_.empty()) {
+      result.errors = std::move(errors_);
+      return result;
+    }
+    result.plan = std::move(plan_);
+    return result;
+  }
+
   ConfigPlanResult build() {
     add_nmt("enter pre-operational", canopen::NmtCommand::enter_preop);
     tpdo(1, dev_.tpdo1);
@@ -200,6 +247,7 @@ class Builder {
     if (value < low || value > high) {
       error(setting, std::to_string(value) + " is outside " + std::to_string(low) + ".." + std::to_string(high) +
                          " of object " + object_text(o) + " (" + std::string(device::to_string(d.data_type)) + ")");
+      errors_.back().out_of_range = true;
       return std::nullopt;
     }
     return static_cast<std::uint32_t>(static_cast<std::uint64_t>(value) & 0xFFFFFFFFull);
@@ -602,6 +650,14 @@ ConfigPlanResult make_node_id_plan(const std::string& device_name, const device:
   config::Device device;
   device.name = device_name;
   return Builder(device, description, profile, current_node_id).build_node_id(new_node_id, bitrate_kbit);
+}
+
+ConfigPlanResult make_command_plan(const std::string& device_name, const device::DeviceDescription& description,
+                                   const device::FamilyProfile& profile, std::uint8_t node_id, CommandKind kind,
+                                   std::int64_t value) {
+  config::Device device;
+  device.name = device_name;
+  return Builder(device, description, profile, node_id).build_command(kind, value);
 }
 
 ConfigPlanResult make_config_plan(const config::Device& device, const device::DeviceDescription& description,

@@ -37,6 +37,7 @@
 #include "config/config.hpp"
 #include "device/eds.hpp"
 #include "device/family_profile.hpp"
+#include "gateway/device_command.hpp"
 
 namespace cobridge::gateway {
 
@@ -111,6 +112,7 @@ struct PlanError {
   std::string device;
   std::string setting;
   std::string reason;
+  bool out_of_range = false;  // the value is outside the object's type or EDS limits
   // "device 'lift': cam 5: the multiturn series has 4 CAMs (E§3.4)"
   [[nodiscard]] std::string to_string() const;
 };
@@ -135,6 +137,23 @@ struct ConfigPlanResult {
                                                  const device::FamilyProfile& profile, std::uint8_t current_node_id,
                                                  std::uint8_t new_node_id,
                                                  std::optional<std::uint16_t> bitrate_kbit = std::nullopt);
+
+// A command a plugin submitted (device_command.hpp), as a plan for the
+// PlanRunner, run with start_node = true:
+//   preset    the family's preset object(s) (J§1.3.2 0x6010 per channel,
+//             E§4.2 / F§7.5 0x6003) = value, always written (the position
+//             moved since it was last set), read back; no store, no NMT.
+//   nmt_reset NMT reset node; the boot-up that follows restarts the device's
+//             configuration like any other boot-up.
+//   store     pre-operational where the family requires it (J§1.10, E§11,
+//             F§6.1.1), 'save' to the family's communication and application
+//             sub-indices of 0x1010, NMT start.
+// A value outside the object's type or EDS limits, or an object the EDS
+// lacks, is a PlanError naming the device, the command and the reason.
+[[nodiscard]] ConfigPlanResult make_command_plan(const std::string& device_name,
+                                                 const device::DeviceDescription& description,
+                                                 const device::FamilyProfile& profile, std::uint8_t node_id,
+                                                 CommandKind kind, std::int64_t value);
 
 // FNV-1a, 64 bit (the public-domain constants), and its 16-digit hex text.
 [[nodiscard]] std::uint64_t fnv1a64(const void* data, std::size_t size,

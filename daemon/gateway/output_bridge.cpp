@@ -127,8 +127,27 @@ void OutputBridge::on_device_status(const DeviceStatus& device) {
     online_[device.node_id] = device.online;
   }
   if (receiver_)
-    (void)receiver_->post_status(pipeline::StatusEvent{device.node_id, device.online, nmt_byte(device.nmt), realtime_ns()});
+    (void)receiver_->post_status(pipeline::StatusEvent{.node_id = device.node_id,
+                                                       .online = device.online,
+                                                       .nmt_state = nmt_byte(device.nmt),
+                                                       .timestamp_ns = realtime_ns()});
   announce(device, COBRIDGE_DEVICE_CHANGED);
+}
+
+void OutputBridge::on_command_done(const DeviceStatus& device, const DeviceCommand& command,
+                                   const CommandOutcome& outcome) {
+  // Through the RX thread like every sample of the device (one producer,
+  // one sequence); a device without a node-ID has no samples at all.
+  if (receiver_ == nullptr || device.node_id == 0) return;
+  pipeline::StatusEvent e;
+  e.kind = pipeline::StatusEvent::Kind::command;
+  e.node_id = device.node_id;
+  e.timestamp_ns = realtime_ns();
+  e.command_kind = static_cast<std::uint8_t>(command.kind);
+  e.command_status = static_cast<std::uint8_t>(outcome.status);
+  e.command_tag = command.tag;
+  e.command_abort_code = outcome.abort_code;
+  (void)receiver_->post_status(e);
 }
 
 void OutputBridge::announce(const DeviceStatus& device, std::uint8_t change) {

@@ -7,7 +7,8 @@
 // and publishes it to the bus's DeviceTable; online/offline changes go to
 // the bus's RX thread as StatusEvents (so every sample of a device keeps one
 // producer and one sequence); device identities go to the plugins
-// (cobridge_device_info) through the plugin host.
+// (cobridge_device_info) through the plugin host; command outcomes go to the
+// RX thread too, which turns them into COMMAND samples.
 // Threads: the BusObserver callbacks run on each bus's control thread; the
 // bridge hands plugin announcements to the dispatcher thread (plugin.h).
 #pragma once
@@ -36,6 +37,8 @@ class OutputBridge final : public BusObserver {
   void on_device_configured(const DeviceStatus& device, const std::vector<std::uint32_t>& tpdo1_mapping,
                             const std::vector<std::uint32_t>& tpdo2_mapping) override;
   void on_device_status(const DeviceStatus& device) override;
+  void on_command_done(const DeviceStatus& device, const DeviceCommand& command,
+                       const CommandOutcome& outcome) override;
 
   // The plan that would be published (exposed for tests).
   [[nodiscard]] pipeline::DecodePlan make_plan(const DeviceStatus& device, const std::vector<std::uint32_t>& tpdo1,

@@ -5,8 +5,10 @@
 namespace cobridge::gateway {
 namespace {
 
-pipeline::PluginHost::Options host_options(const config::Config& config, std::filesystem::path dir) {
+pipeline::PluginHost::Options host_options(const config::Config& config, std::filesystem::path dir,
+                                           pipeline::PluginHost::CommandSink commands) {
   pipeline::PluginHost::Options o;
+  o.commands = std::move(commands);
   o.plugin_dir = std::move(dir);
   o.gateway_id = config.gateway.id;
   // A plugin's log lines go to the logger named after its instance ("dds", ...).
@@ -20,13 +22,17 @@ pipeline::PluginHost::Options host_options(const config::Config& config, std::fi
 
 OutputPipeline::OutputPipeline(const config::Config& config, const device::DeviceCatalog& catalog,
                                std::filesystem::path plugin_dir)
-    : config_(config), host_(host_options(config, std::move(plugin_dir))), sink_(host_), dispatcher_(sink_) {
-  for (std::size_t i = 0; i < config.buses.size(); ++i) {
+    : config_(config),
+      command_targets_(config.buses.size()),
+      host_(host_options(config_, std::move(plugin_dir), [this](const cobridge_command& c) { return submit(c); })),
+      sink_(host_),
+      dispatcher_(sink_) {
+  for (std::size_t i = 0; i < config_.buses.size(); ++i) {
     auto bus = std::make_unique<Bus>();
     bus->receiver = std::make_unique<pipeline::BusReceiver>(
-        pipeline::BusReceiverOptions{.bus_index = static_cast<std::uint8_t>(i), .interface = config.buses[i].interface},
+        pipeline::BusReceiverOptions{.bus_index = static_cast<std::uint8_t>(i), .interface = config_.buses[i].interface},
         bus->table, dispatcher_);
-    bus->bridge = std::make_unique<OutputBridge>(config, i, catalog, bus->table, bus->receiver.get(), &host_, &dispatcher_);
+    bus->bridge = std::make_unique<OutputBridge>(config_, i, catalog, bus->table, bus->receiver.get(), &host_, &dispatcher_);
     dispatcher_.add_source(bus->receiver->ring());
     buses_.push_back(std::move(bus));
   }
@@ -67,6 +73,22 @@ void OutputPipeline::stop() {
   for (auto& b : buses_) b->receiver->stop();
   dispatcher_.stop();  // delivers what the receivers pushed
   host_.stop_all();
+}
+
+void OutputPipeline::set_command_target(std::size_t bus_index, BusManager* target) noexcept {
+  if (bus_index < command_targets_.size()) command_targets_[bus_index].store(target, std::memory_order_release);
+}
+
+int OutputPipeline::submit(const cobridge_command& command) const {
+  const auto kind = command_kind(command.kind);
+  if (!kind) return COBRIDGE_COMMAND_UNSUPPORTED;
+  // device_index is the device's position in the configuration (OutputBridge::device_index).
+  if (command.device_index >= config_.devices.size()) return COBRIDGE_COMMAND_UNKNOWN_DEVICE;
+  const config::Device& device = config_.devices[command.device_index];
+  if (device.bus_index >= command_targets_.size()) return COBRIDGE_COMMAND_UNKNOWN_DEVICE;
+  BusManager* target = command_targets_[device.bus_index].load(std::memory_order_acquire);
+  if (target == nullptr) return COBRIDGE_COMMAND_OFFLINE;
+  return static_cast<int>(target->submit(DeviceCommand{device.name, *kind, command.value, command.tag}));
 }
 
 BusObserver* OutputPipeline::observer(std::size_t bus_index) {

@@ -6,7 +6,15 @@
 // manager reports to). A plugin that fails to load or start is reported and
 // the others run; the buses are served whatever the outputs do.
 // Threads: constructed, started and stopped by the daemon's main thread;
-// observer(i) is handed to bus manager i and called on its control thread.
+// observer(i) is handed to bus manager i and called on its control thread;
+// set_command_target() is called by the main thread before the buses start
+// and after they stop; plugin commands (ABI 2) arrive on plugin threads and
+// are routed by device_index to the device's bus manager.
+//
+// The pipeline keeps its own copy of the configuration it started with: a
+// reload (SIGHUP) changes device settings on the buses, while device
+// indices, names and scales of the outputs stay as started (restart to
+// change them).
 #pragma once
 
 #include "config/config.hpp"
@@ -17,6 +25,7 @@
 #include "pipeline/dispatcher.hpp"
 #include "pipeline/plugin_host.hpp"
 
+#include <atomic>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -38,6 +47,9 @@ class OutputPipeline {
   void stop();
 
   [[nodiscard]] BusObserver* observer(std::size_t bus_index);
+  // Where commands for the devices of bus `bus_index` go; nullptr = nowhere
+  // (they are refused as offline).
+  void set_command_target(std::size_t bus_index, BusManager* target) noexcept;
   [[nodiscard]] std::size_t plugins_running() const noexcept { return host_.loaded_count(); }
   [[nodiscard]] pipeline::ReceiverStats receiver_stats(std::size_t bus_index) const;
 
@@ -56,7 +68,11 @@ class OutputPipeline {
     std::unique_ptr<OutputBridge> bridge;
   };
 
-  const config::Config& config_;
+  // Plugin threads: cobridge_host_api.submit_command.
+  [[nodiscard]] int submit(const cobridge_command& command) const;
+
+  const config::Config config_;
+  std::vector<std::atomic<BusManager*>> command_targets_;
   pipeline::PluginHost host_;
   HostSink sink_;
   pipeline::Dispatcher dispatcher_;

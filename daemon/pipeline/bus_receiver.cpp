@@ -98,7 +98,11 @@ void BusReceiver::drain_status() noexcept {
   Sample s;
   bool any = false;
   while (status_ring_.try_pop(e)) {
-    if (decoder_.make_status(e.node_id, e.online, false, e.nmt_state, e.timestamp_ns, s)) {
+    const bool made = e.kind == StatusEvent::Kind::command
+                          ? decoder_.make_command(e.node_id, e.command_kind, e.command_status, e.command_tag,
+                                                  e.command_abort_code, e.timestamp_ns, s)
+                          : decoder_.make_status(e.node_id, e.online, false, e.nmt_state, e.timestamp_ns, s);
+    if (made) {
       push(s);
       any = true;
     }

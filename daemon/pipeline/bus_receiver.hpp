@@ -37,11 +37,20 @@ struct BusReceiverOptions {
   std::chrono::milliseconds stale_check{10};
 };
 
+// What the control thread tells the RX thread about a device: a change of
+// its online/NMT state, or the outcome of a command a plugin submitted.
 struct StatusEvent {
+  enum class Kind : std::uint8_t { status, command };
   std::uint8_t node_id = 0;
   bool online = false;
   std::uint8_t nmt_state = 0;
   std::int64_t timestamp_ns = 0;
+  Kind kind = Kind::status;
+  // Kind::command (plugin.h ABI 2: cobridge_sample.command_*).
+  std::uint8_t command_kind = 0;
+  std::uint8_t command_status = 0;
+  std::uint32_t command_tag = 0;
+  std::uint32_t command_abort_code = 0;
 };
 
 struct ReceiverStats {
@@ -64,7 +73,7 @@ class BusReceiver {
   std::error_code start(std::string* message = nullptr);
   void stop();
 
-  // Control thread: online/offline/NMT changes of a device.
+  // Control thread: online/offline/NMT changes of a device, command outcomes.
   bool post_status(const StatusEvent& e) noexcept;
 
   // Decodes a batch and pushes the samples; returns samples pushed.

@@ -178,6 +178,23 @@ bool FrameDecoder::make_status(std::uint8_t node_id, bool online, bool stale, st
   return true;
 }
 
+bool FrameDecoder::make_command(std::uint8_t node_id, std::uint8_t kind, std::uint8_t status, std::uint32_t tag,
+                                std::uint32_t abort_code, std::int64_t timestamp_ns, Sample& out) noexcept {
+  if (node_id == 0 || node_id >= DeviceTable::kNodes) return false;
+  can::Frame none;
+  none.timestamp_ns = timestamp_ns;
+  header(none, node_id, COBRIDGE_SAMPLE_COMMAND, out);
+  out.cob_id = 0;
+  out.raw_len = 0;
+  out.valid = COBRIDGE_VALID_COMMAND;
+  out.command_kind = kind;
+  out.command_status = status;
+  out.command_tag = tag;
+  out.command_abort_code = abort_code;
+  count(samples_);
+  return true;
+}
+
 DecoderStats FrameDecoder::stats() const noexcept {
   return DecoderStats{frames_.load(std::memory_order_relaxed), samples_.load(std::memory_order_relaxed),
                       unknown_node_.load(std::memory_order_relaxed), bad_length_.load(std::memory_order_relaxed),

@@ -44,6 +44,10 @@ class FrameDecoder {
   bool make_status(std::uint8_t node_id, bool online, bool stale, std::uint8_t nmt_state,
                    std::int64_t timestamp_ns, Sample& out) noexcept;
 
+  // A COMMAND sample: the outcome of a command a plugin submitted (ABI 2).
+  bool make_command(std::uint8_t node_id, std::uint8_t kind, std::uint8_t status, std::uint32_t tag,
+                    std::uint32_t abort_code, std::int64_t timestamp_ns, Sample& out) noexcept;
+
   // Nodes whose last TPDO is older than their plan's max_age_ms at `now_ns`
   // and not yet reported stale: calls emit(node) once per such change.
   template <typename Emit>

@@ -3,6 +3,7 @@
 #include <dlfcn.h>
 
 #include <array>
+#include <cstddef>
 #include <cstdio>
 #include <utility>
 
@@ -137,6 +138,23 @@ void PluginHost::log_trampoline(void* host, int level, const char* msg) noexcept
   }
 }
 
+int PluginHost::submit_trampoline(void* host, const cobridge_command* command) noexcept {
+  const auto* p = static_cast<const Instance*>(host);
+  if (p == nullptr || command == nullptr) return COBRIDGE_COMMAND_FAILED;
+  // Every field this host reads exists from the first version of the struct
+  // (ABI 2); a shorter one is not a command.
+  if (command->struct_size < offsetof(cobridge_command, value) + sizeof(command->value)) {
+    return COBRIDGE_COMMAND_UNSUPPORTED;
+  }
+  const CommandSink& sink = p->owner->options_.commands;
+  if (!sink) return COBRIDGE_COMMAND_UNSUPPORTED;
+  try {
+    return sink(*command);
+  } catch (...) {
+    return COBRIDGE_COMMAND_FAILED;  // nothing may unwind into C code
+  }
+}
+
 void PluginHost::report(const PluginError& e) const {
   options_.log(LogLevel::kError, e.instance, e.message);
 }
@@ -174,6 +192,7 @@ std::error_code PluginHost::load(const PluginSpec& spec, PluginError* error) {
   p->api.host = p.get();
   p->api.log = &PluginHost::log_trampoline;
   p->api.gateway_id = options_.gateway_id.c_str();
+  p->api.submit_command = &PluginHost::submit_trampoline;
 
   std::array<char, 512> err{};
   const cobridge_plugin_ops* ops = nullptr;

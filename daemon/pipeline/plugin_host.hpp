@@ -14,7 +14,8 @@
 // destructor run on the control thread while the dispatcher is not
 // delivering; deliver and announce run on the dispatcher thread (the hot
 // path: noexcept, no allocation, no locks — the cost is the plugins' own).
-// The log sink is called from whatever thread a plugin logs on.
+// The log sink and the command sink are called from whatever thread a
+// plugin logs or submits on.
 #pragma once
 
 #include "pipeline/sample.hpp"
@@ -105,11 +106,16 @@ class PluginHost {
   // Receives plugin log lines (host->log); must be thread-safe. main wires
   // it to the "gateway" logger; the default writes to stderr.
   using LogSink = std::function<void(LogLevel level, std::string_view instance, std::string_view message)>;
+  // Receives host->submit_command (ABI 2) from any plugin thread; returns an
+  // enum cobridge_command_status. Must be thread-safe and must not block.
+  // Unset: every command is refused with COBRIDGE_COMMAND_UNSUPPORTED.
+  using CommandSink = std::function<int(const cobridge_command& command)>;
 
   struct Options {
     std::filesystem::path plugin_dir;
     std::string gateway_id;
     LogSink log;
+    CommandSink commands{};
   };
 
   explicit PluginHost(Options options);
@@ -151,6 +157,7 @@ class PluginHost {
  private:
   struct Instance;
   static void log_trampoline(void* host, int level, const char* msg) noexcept;
+  static int submit_trampoline(void* host, const cobridge_command* command) noexcept;
   void unload(Instance& p) noexcept;
   void report(const PluginError& e) const;
 

@@ -54,7 +54,16 @@ static_assert(offsetof(Sample, emcy_data) == 64);
 static_assert(offsetof(Sample, raw_len) == 69);
 static_assert(offsetof(Sample, cob_id) == 70);
 static_assert(offsetof(Sample, raw) == 72);
-static_assert(offsetof(Sample, reserved) == 80);
+// ABI 2 took the first 10 bytes of the ABI 1 reserved tail.
+static_assert(offsetof(Sample, command_tag) == 80);
+static_assert(offsetof(Sample, command_abort_code) == 84);
+static_assert(offsetof(Sample, command_kind) == 88);
+static_assert(offsetof(Sample, command_status) == 89);
+static_assert(offsetof(Sample, reserved) == 90);
+// Host API: ABI 1's fields keep their offsets; submit_command follows.
+static_assert(offsetof(cobridge_host_api, gateway_id) == 24);
+static_assert(offsetof(cobridge_host_api, submit_command) == 32);
+static_assert(sizeof(cobridge_command) == 24);
 
 // The mandatory part of the ops table is frozen too; optional ops follow it.
 static_assert(offsetof(cobridge_plugin_ops, start) == 16);
@@ -68,6 +77,7 @@ enum class SampleKind : std::uint8_t {
   kHeartbeat = COBRIDGE_SAMPLE_HEARTBEAT,
   kNmtState = COBRIDGE_SAMPLE_NMT_STATE,
   kStatus = COBRIDGE_SAMPLE_STATUS,
+  kCommand = COBRIDGE_SAMPLE_COMMAND,
 };
 
 // Bits of Sample::valid.
@@ -85,6 +95,7 @@ enum class Field : std::uint16_t {
   kStatus = COBRIDGE_VALID_STATUS,
   kEmcy = COBRIDGE_VALID_EMCY,
   kRaw = COBRIDGE_VALID_RAW,
+  kCommand = COBRIDGE_VALID_COMMAND,
 };
 
 // A zeroed sample with the header filled in (zero matters: reserved bytes

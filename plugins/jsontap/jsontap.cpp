@@ -130,6 +130,7 @@ const char* kind_name(std::uint8_t kind) noexcept {
     case COBRIDGE_SAMPLE_HEARTBEAT: return "heartbeat";
     case COBRIDGE_SAMPLE_NMT_STATE: return "nmt_state";
     case COBRIDGE_SAMPLE_STATUS: return "status";
+    case COBRIDGE_SAMPLE_COMMAND: return "command";
     default: return "unknown";
   }
 }
@@ -212,6 +213,12 @@ struct Tap {
       line.field("emcy_register", s.emcy_register);
       line.key("emcy_data");
       line.hex(s.emcy_data, sizeof s.emcy_data);
+    }
+    if ((valid & COBRIDGE_VALID_COMMAND) != 0) {
+      line.field("command_kind", s.command_kind);
+      line.field("command_status", s.command_status);
+      line.field("command_tag", s.command_tag);
+      line.field("command_abort_code", s.command_abort_code);
     }
     if ((valid & COBRIDGE_VALID_RAW) != 0) {
       const std::size_t n = s.raw_len <= sizeof s.raw ? s.raw_len : sizeof s.raw;

@@ -4,14 +4,16 @@
 // The hot path is one seqlock publish per sample: no allocation, no lock, no
 // log.
 //
-// Writes: plugin ABI 1 has no operation through which a plugin can hand a
-// command (preset, NMT reset, store) to the daemon, so this version answers
-// every write request with an exception (0x01 while writes_enabled = false,
-// 0x02 when true: no register is writable). See docs/modbus.md.
+// Writes (writes_enabled = true): the command registers of each device slot
+// (CommandRegisters) hand preset / NMT reset / store to the daemon through
+// host->submit_command (ABI 2); the outcome comes back as a COMMAND sample.
+// A daemon without submit_command (ABI 1) refuses every command (0x04).
+// See docs/modbus.md.
 //
 // Threads: create/start/stop/destroy on the daemon's control thread;
 // on_samples/on_device on the dispatcher thread; the server thread inside
 // TcpServer.
+#include "command_registers.hpp"
 #include "register_image.hpp"
 #include "server_config.hpp"
 #include "tcp_server.hpp"
@@ -20,6 +22,7 @@
 
 #include "host_log.hpp"
 
+#include <cstddef>
 #include <cstring>
 #include <ctime>
 #include <memory>
@@ -38,7 +41,14 @@ struct Plugin {
   const cobridge_host_api* host = nullptr;
   ServerConfig config;
   std::unique_ptr<RegisterImage> image;
+  std::unique_ptr<CommandRegisters> commands;  // writes_enabled only
   std::unique_ptr<TcpServer> server;
+
+  // host->submit_command exists from ABI 2 on.
+  [[nodiscard]] bool host_takes_commands() const noexcept {
+    return host->struct_size >= offsetof(cobridge_host_api, submit_command) + sizeof(host->submit_command) &&
+           host->submit_command != nullptr;
+  }
 
   void log(int level, const std::string& msg) const noexcept {
     plugin::host_log(host, level, msg);
@@ -57,17 +67,20 @@ int modbus_start(void* self) {
   auto* p = static_cast<Plugin*>(self);
   try {
     p->image->set_start(monotonic_ns());
-    p->server = std::make_unique<TcpServer>(p->config, *p->image, [p](int level, const std::string& m) { p->log(level, m); });
+    p->server = std::make_unique<TcpServer>(
+        p->config, *p->image, [p](int level, const std::string& m) { p->log(level, m); }, p->commands.get());
     std::string message;
     if (const std::error_code ec = p->server->start(message)) {
       p->log(COBRIDGE_LOG_ERROR, "cannot start the Modbus server: " + message);
       p->server.reset();
       return -1;
     }
-    if (p->config.writes_enabled) {
+    if (p->config.writes_enabled && !p->host_takes_commands()) {
       p->log(COBRIDGE_LOG_WARN,
-             "writes_enabled = true, but plugin ABI 1 has no way to pass writes to the daemon: write requests "
-             "are refused with exception 0x02");
+             "writes_enabled = true, but this daemon (plugin ABI " + std::to_string(p->host->abi_version) +
+                 ") takes no commands from plugins: commands are refused with exception 0x04");
+    } else if (p->config.writes_enabled) {
+      p->log(COBRIDGE_LOG_INFO, "writes enabled: preset, NMT reset and store through the command registers");
     }
     p->log(COBRIDGE_LOG_INFO, "Modbus TCP listening on " + p->server->endpoint() + " (" +
                                   std::to_string(p->config.max_devices) + " device slots, max " +
@@ -105,7 +118,10 @@ void modbus_destroy(void* self) {
 
 void modbus_on_samples(void* self, const cobridge_sample* samples, std::size_t count) {
   auto* p = static_cast<Plugin*>(self);
-  for (std::size_t i = 0; i < count; ++i) p->image->apply(samples[i]);
+  for (std::size_t i = 0; i < count; ++i) {
+    p->image->apply(samples[i]);
+    if (p->commands) p->commands->on_sample(samples[i]);
+  }
 }
 
 void modbus_on_device(void* self, const cobridge_device_info* info) {
@@ -148,6 +164,14 @@ extern "C" COBRIDGE_PLUGIN_EXPORT int cobridge_plugin_create(const cobridge_host
     io.version_minor = COBRIDGE_VERSION_MINOR;
     io.version_patch = COBRIDGE_VERSION_PATCH;
     p->image = std::make_unique<RegisterImage>(io);
+    if (p->config.writes_enabled) {
+      Plugin* raw = p.get();
+      p->commands = std::make_unique<CommandRegisters>(*p->image, [raw](const cobridge_command& c) {
+        return raw->host_takes_commands() ? raw->host->submit_command(raw->host->host, &c)
+                                          : static_cast<int>(COBRIDGE_COMMAND_UNSUPPORTED);
+      });
+      p->image->attach(p->commands.get());
+    }
     *ops_out = &kOps;
     *self_out = p.release();
     return 0;

@@ -1,5 +1,7 @@
 #include "register_image.hpp"
 
+#include "command_registers.hpp"
+
 #include <algorithm>
 #include <cstring>
 #include <thread>
@@ -240,7 +242,8 @@ void RegisterImage::render_bus(std::uint16_t bus, std::uint16_t* block) const no
   }
 }
 
-void RegisterImage::render_device(const DeviceState& st, std::uint16_t* block, ReadTime now) const noexcept {
+void RegisterImage::render_device(std::uint16_t slot, const DeviceState& st, std::uint16_t* block,
+                                  ReadTime now) const noexcept {
   if (st.present == 0) return;  // an empty slot reads as zeros
   for (const RegisterDef& d : device_registers()) {
     std::uint32_t v = 0;
@@ -267,10 +270,11 @@ void RegisterImage::render_device(const DeviceState& st, std::uint16_t* block, R
       case Field::kProductCode: v = st.product_code; break;
       case Field::kPresent: v = st.present; break;
       case Field::kValidMask: v = st.valid_mask; break;
-      default: break;
+      default: continue;  // the command registers, below
     }
     put(block, d, v, options_.word_order);
   }
+  if (commands_ != nullptr) commands_->render(slot, block);
 }
 
 ReadStatus RegisterImage::read(std::uint16_t address, std::span<std::uint16_t> out, ReadTime now,
@@ -293,7 +297,7 @@ ReadStatus RegisterImage::read(std::uint16_t address, std::span<std::uint16_t> o
     if (!snapshot(slot, st)) return ReadStatus::kBusy;
     if (offline_check && st.present != 0 && st.online == 0) return ReadStatus::kOffline;
     std::array<std::uint16_t, kDeviceStride> block{};
-    render_device(st, block.data(), now);
+    render_device(slot, st, block.data(), now);
     const std::uint32_t base = device_base(slot);
     const std::uint32_t stop = std::min<std::uint32_t>(end, base + kDeviceStride);
     std::copy(block.begin() + (pos - base), block.begin() + (stop - base), out.begin() + (pos - first));

@@ -10,8 +10,12 @@
 // so the data age is computed when the client asks, and word order is a
 // property of the read. Bus and gateway counters are relaxed atomics.
 //
+// The command registers of each slot (+28..+31) are not in the seqlock: they
+// belong to CommandRegisters, which read() asks when one is attached.
+//
 // Thread contract: apply() from one thread only (the dispatcher); read()
-// from any number of threads. No allocation after construction, noexcept.
+// from any number of threads; attach() before the first read. No
+// allocation after construction, noexcept.
 #pragma once
 
 #include "register_map.hpp"
@@ -25,6 +29,8 @@
 #include <span>
 
 namespace cobridge::modbus {
+
+class CommandRegisters;
 
 enum class WordOrder : std::uint8_t { kBig = 0, kLittle = 1 };
 
@@ -98,6 +104,8 @@ class RegisterImage {
   // Writer side (dispatcher thread).
   void apply(const cobridge_sample& s) noexcept;
   void apply(const cobridge_device_info& info) noexcept;
+  // Renders +28..+31 of every present slot from `commands` (may be nullptr).
+  void attach(const CommandRegisters* commands) noexcept { commands_ = commands; }
   // Marks the start of the uptime count.
   void set_start(std::uint64_t monotonic_ns) noexcept { start_ns_.store(monotonic_ns, std::memory_order_relaxed); }
 
@@ -134,7 +142,7 @@ class RegisterImage {
   void account(const DeviceState& st, int sign) noexcept;
   void render_gateway(std::uint16_t* block, ReadTime now) const noexcept;
   void render_bus(std::uint16_t bus, std::uint16_t* block) const noexcept;
-  void render_device(const DeviceState& st, std::uint16_t* block, ReadTime now) const noexcept;
+  void render_device(std::uint16_t slot, const DeviceState& st, std::uint16_t* block, ReadTime now) const noexcept;
 
   ImageOptions options_;
   std::unique_ptr<Slot[]> slots_;
@@ -145,6 +153,7 @@ class RegisterImage {
   std::atomic<std::uint16_t> devices_online_{0};
   std::atomic<std::uint64_t> start_ns_{0};
   std::atomic<std::uint64_t> unmapped_{0};
+  const CommandRegisters* commands_ = nullptr;
 };
 
 }  // namespace cobridge::modbus

@@ -7,10 +7,11 @@ namespace cobridge::modbus {
 namespace {
 
 constexpr Access R = Access::kRead;
+constexpr Access RW = Access::kReadWrite;
 
 constexpr std::array kGateway = {
     RegisterDef{0, RegType::kU16, Field::kLayoutVersion, "map_version", "", 1, R,
-                "layout version of this register map (1)"},
+                "layout version of this register map (2)"},
     RegisterDef{1, RegType::kU16, Field::kVersionMajor, "version_major", "", 1, R, "gateway software version, major"},
     RegisterDef{2, RegType::kU16, Field::kVersionMinor, "version_minor", "", 1, R, "gateway software version, minor"},
     RegisterDef{3, RegType::kU16, Field::kVersionPatch, "version_patch", "", 1, R, "gateway software version, patch"},
@@ -77,6 +78,14 @@ constexpr std::array kDevice = {
                 "1 = a device occupies this slot; 0 = empty slot (all registers 0)"},
     RegisterDef{27, RegType::kU16, Field::kValidMask, "valid_mask", "bits", 1, R,
                 "fields ever received (cobridge_sample valid bits, plugin.h)"},
+    RegisterDef{28, RegType::kI32, Field::kCommandValue, "command_value", "counts", 1, RW,
+                "argument of the next command: the preset position (writes_enabled only)"},
+    RegisterDef{30, RegType::kU16, Field::kCommand, "command", "", 1, RW,
+                "write 1 = preset to command_value, 2 = NMT reset node, 3 = store parameters; reads the last "
+                "command submitted (writes_enabled only)"},
+    RegisterDef{31, RegType::kU16, Field::kCommandStatus, "command_status", "", 1, R,
+                "0 = none, 1 = pending, 2 = done, 3 = unknown device, 4 = offline, 5 = busy, 6 = unsupported, "
+                "7 = value out of range, 8 = refused by the device, 9 = no answer, 10 = failed"},
 };
 
 // Layout invariants: sorted, non-overlapping, inside the block.

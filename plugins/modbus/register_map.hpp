@@ -23,7 +23,8 @@
 namespace cobridge::modbus {
 
 // Bumped whenever an address, type or scale changes (gateway register 0).
-inline constexpr std::uint16_t kMapVersion = 1;
+// 2: the command registers of the device slot (+28..+31).
+inline constexpr std::uint16_t kMapVersion = 2;
 
 inline constexpr std::uint16_t kGatewayBase = 0;
 inline constexpr std::uint16_t kGatewayBlockSize = 16;
@@ -86,6 +87,9 @@ enum class Field : std::uint8_t {
   kProductCode,
   kPresent,
   kValidMask,
+  kCommandValue,
+  kCommand,
+  kCommandStatus,
 };
 
 // Bus block register kBusState.

@@ -79,9 +79,11 @@ Validation validate_request(std::span<const std::uint8_t> frame, const RequestPo
       if (!policy.writes_enabled) return answer_exception(v, ExceptionCode::kIllegalFunction);
       v.address = be16(&pdu[1]);
       v.quantity = 1;
-      // No register is writable in this version (plugin ABI 1 has no way to
-      // hand a write to the daemon): every address is illegal for writing.
-      return answer_exception(v, ExceptionCode::kIllegalDataAddress);
+      if (static_cast<std::uint32_t>(v.address) + 1u > map_registers) {
+        return answer_exception(v, ExceptionCode::kIllegalDataAddress);
+      }
+      v.verdict = Verdict::kExecute;  // which registers are writable: the WriteTarget
+      return v;
     }
     case FunctionCode::kWriteMultipleRegisters: {
       if (pdu.size() < 6 || pdu.size() != 6u + pdu[5]) return must_close(v);
@@ -95,7 +97,8 @@ Validation validate_request(std::span<const std::uint8_t> frame, const RequestPo
       if (static_cast<std::uint32_t>(v.address) + v.quantity > map_registers) {
         return answer_exception(v, ExceptionCode::kIllegalDataAddress);
       }
-      return answer_exception(v, ExceptionCode::kIllegalDataAddress);  // read-only map, see above
+      v.verdict = Verdict::kExecute;
+      return v;
     }
   }
   return answer_exception(v, ExceptionCode::kIllegalFunction);
@@ -110,14 +113,44 @@ std::size_t write_exception(std::uint16_t transaction, std::uint8_t unit, std::u
   return kMbapHeaderSize + 2;
 }
 
+namespace {
+
+// 0x06 / 0x10 after validation: the values to the target, then the echo
+// (0x06: the request itself; 0x10: address and quantity, §6.6 / §6.12).
+std::size_t handle_write(std::span<const std::uint8_t> frame, const Validation& v, ReadTime now,
+                         std::span<std::uint8_t> out, WriteTarget* writes) noexcept {
+  if (writes == nullptr) {
+    return write_exception(v.transaction, v.unit, v.function, ExceptionCode::kIllegalDataAddress, out);
+  }
+  const std::span<const std::uint8_t> pdu = frame.subspan(kMbapHeaderSize);
+  std::array<std::uint16_t, kMaxWriteQuantity> values{};
+  const bool single = v.function == static_cast<std::uint8_t>(FunctionCode::kWriteSingleRegister);
+  const std::size_t first_byte = single ? 3 : 6;
+  for (std::size_t i = 0; i < v.quantity; ++i) values[i] = be16(&pdu[first_byte + 2 * i]);
+  const ExceptionCode ec = writes->write(v.address, std::span(values.data(), v.quantity), now);
+  if (ec != ExceptionCode::kNone) return write_exception(v.transaction, v.unit, v.function, ec, out);
+  write_mbap(out.data(), v.transaction, v.unit, 5);
+  out[7] = v.function;
+  put_be16(&out[8], v.address);
+  put_be16(&out[10], single ? values[0] : v.quantity);
+  return kMbapHeaderSize + 5;
+}
+
+}  // namespace
+
 std::size_t handle_request(std::span<const std::uint8_t> frame, const RegisterImage& image,
-                           const RequestPolicy& policy, ReadTime now, std::span<std::uint8_t> out) noexcept {
+                           const RequestPolicy& policy, ReadTime now, std::span<std::uint8_t> out,
+                           WriteTarget* writes) noexcept {
   if (out.size() < kMaxFrameSize) return 0;
   const Validation v = validate_request(frame, policy, image.size());
   switch (v.verdict) {
     case Verdict::kClose: return 0;
     case Verdict::kException: return write_exception(v.transaction, v.unit, v.function, v.exception, out);
     case Verdict::kExecute: break;
+  }
+  if (v.function == static_cast<std::uint8_t>(FunctionCode::kWriteSingleRegister) ||
+      v.function == static_cast<std::uint8_t>(FunctionCode::kWriteMultipleRegisters)) {
+    return handle_write(frame, v, now, out, writes);
   }
   std::array<std::uint16_t, kMaxReadQuantity> regs{};
   const ReadStatus st = image.read(v.address, std::span(regs.data(), v.quantity), now, policy.offline_exception);

@@ -14,10 +14,15 @@
 //     can no longer be trusted to be in step;
 //   - everything else gets an exception response, checks in the order of
 //     the Application Protocol's state diagrams (§6.3 ff.): function (0x01),
-//     quantity (0x03), address (0x02), then execution (0x04, 0x0B).
+//     quantity (0x03), address (0x02), then execution (0x04, 0x06, 0x0B);
+//   - a write (0x06, 0x10) while writes are disabled answers 0x01; an
+//     enabled one is checked for quantity and map range here and then handed
+//     to the WriteTarget, which decides what is writable (0x02/0x03 for the
+//     rest) and answers with an exception or nothing (then the normal echo).
 //
-// Thread contract: pure functions, called from the Modbus server thread (and
-// the fuzz target); noexcept, no allocation.
+// Thread contract: pure functions (but for what the WriteTarget does),
+// called from the Modbus server thread (and the fuzz target); noexcept, no
+// allocation.
 #pragma once
 
 #include "register_image.hpp"
@@ -35,6 +40,7 @@ enum class ExceptionCode : std::uint8_t {
   kIllegalDataAddress = 0x02,
   kIllegalDataValue = 0x03,
   kServerDeviceFailure = 0x04,
+  kServerDeviceBusy = 0x06,
   kGatewayPathUnavailable = 0x0A,
   kGatewayTargetFailed = 0x0B,
 };
@@ -90,6 +96,16 @@ struct Validation {
   std::uint16_t quantity = 0;
 };
 
+// Where enabled, validated writes go (the plugin's CommandRegisters).
+class WriteTarget {
+ public:
+  virtual ~WriteTarget() = default;
+  // Registers [address, address + values.size()), inside the map. Returns
+  // kNone when applied, else the exception to answer (nothing applied).
+  [[nodiscard]] virtual ExceptionCode write(std::uint16_t address, std::span<const std::uint16_t> values,
+                                            ReadTime now) noexcept = 0;
+};
+
 // Validates one complete frame (as delimited by check_frame) against the
 // policy and a map of `map_registers` registers.
 [[nodiscard]] Validation validate_request(std::span<const std::uint8_t> frame, const RequestPolicy& policy,
@@ -98,9 +114,10 @@ struct Validation {
 // Handles one complete frame: validates it, reads the image, and writes the
 // response into `out` (at least kMaxFrameSize bytes). Returns the response
 // length, or 0 if the connection must be closed.
+// Writes go to `writes`; without one every write answers 0x02.
 [[nodiscard]] std::size_t handle_request(std::span<const std::uint8_t> frame, const RegisterImage& image,
-                                         const RequestPolicy& policy, ReadTime now,
-                                         std::span<std::uint8_t> out) noexcept;
+                                         const RequestPolicy& policy, ReadTime now, std::span<std::uint8_t> out,
+                                         WriteTarget* writes = nullptr) noexcept;
 
 // Writes an exception response (function | 0x80, code); returns its length (9).
 std::size_t write_exception(std::uint16_t transaction, std::uint8_t unit, std::uint8_t function, ExceptionCode code,

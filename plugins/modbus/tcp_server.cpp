@@ -55,8 +55,8 @@ std::string address_text(const sockaddr_storage& ss) {
 
 }  // namespace
 
-TcpServer::TcpServer(const ServerConfig& config, const RegisterImage& image, LogFn log)
-    : config_(config), policy_(config.policy()), image_(image), log_(std::move(log)) {}
+TcpServer::TcpServer(const ServerConfig& config, const RegisterImage& image, LogFn log, WriteTarget* writes)
+    : config_(config), policy_(config.policy()), image_(image), log_(std::move(log)), writes_(writes) {}
 
 TcpServer::~TcpServer() { stop(); }
 
@@ -322,7 +322,7 @@ bool TcpServer::process(Connection& c) noexcept {
       break;
     }
     const std::size_t n = handle_request(std::span<const std::uint8_t>(c.in + off, fc.length), image_, policy_, now,
-                                         std::span<std::uint8_t>(c.out + c.out_len, kOutBuffer - c.out_len));
+                                         std::span<std::uint8_t>(c.out + c.out_len, kOutBuffer - c.out_len), writes_);
     off += fc.length;
     if (n == 0) {
       closed_protocol_.fetch_add(1, std::memory_order_relaxed);

@@ -13,7 +13,8 @@
 // idle_timeout_s are closed.
 //
 // Thread contract: start/stop on the control thread; the loop runs on the
-// server's own thread and only reads the RegisterImage. stats() from any
+// server's own thread, reads the RegisterImage and hands enabled writes to
+// the WriteTarget (on that thread). stats() from any
 // thread. The log callback is called from the server thread, per connection
 // event, never per request.
 #pragma once
@@ -46,7 +47,8 @@ class TcpServer {
  public:
   using LogFn = std::function<void(int level, const std::string& message)>;
 
-  TcpServer(const ServerConfig& config, const RegisterImage& image, LogFn log);
+  // `writes` may be nullptr (every write then answers 0x02).
+  TcpServer(const ServerConfig& config, const RegisterImage& image, LogFn log, WriteTarget* writes = nullptr);
   ~TcpServer();
   TcpServer(const TcpServer&) = delete;
   TcpServer& operator=(const TcpServer&) = delete;
@@ -90,6 +92,7 @@ class TcpServer {
   RequestPolicy policy_;
   const RegisterImage& image_;
   LogFn log_;
+  WriteTarget* writes_;
   int listen_fd_ = -1;
   int epoll_fd_ = -1;
   int wake_fd_ = -1;

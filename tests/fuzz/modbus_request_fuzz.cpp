@@ -6,7 +6,9 @@
 // Implementation Guide §3.1.3, Application Protocol §7): the response fits
 // one ADU, its length field matches, the transaction and unit ids are
 // echoed, the function code is the request's (| 0x80 for an exception), and
-// exception codes are among those this server defines.
+// exception codes are among those this server defines; a write that
+// succeeds is echoed (0x06: the request; 0x10: address and quantity) and
+// only ever touches the command registers (+28..+30 of a slot).
 //
 // Built two ways (tests/fuzz/CMakeLists.txt): with clang's libFuzzer
 // (-fsanitize=fuzzer,address,undefined) when available, run for a bounded
@@ -17,6 +19,7 @@
 // exception) and the mode; the rest is either a raw TCP byte stream (cut into
 // frames as the server does) or a PDU to be wrapped in a valid MBAP header, so
 // that most inputs get past framing into PDU validation.
+#include "command_registers.hpp"
 #include "request.hpp"
 
 #include <array>
@@ -57,6 +60,18 @@ const RegisterImage& image() {
   return *img;
 }
 
+// The write path, with a daemon that accepts, refuses busy, or refuses
+// offline in turn.
+CommandRegisters& commands() {
+  static CommandRegisters* c = new CommandRegisters(image(), [](const cobridge_command& cmd) {
+    if (cmd.struct_size != sizeof(cobridge_command) || cmd.device_index >= 8) fail("submitted command");
+    return static_cast<int>(cmd.tag % 3 == 0 ? COBRIDGE_COMMAND_OK
+                            : cmd.tag % 3 == 1 ? COBRIDGE_COMMAND_BUSY
+                                               : COBRIDGE_COMMAND_OFFLINE);
+  });
+  return *c;
+}
+
 void check_response(const std::uint8_t* req, std::size_t req_len, const std::uint8_t* r, std::size_t n) {
   if (n == 0) return;  // connection closed: always allowed
   if (n < kMbapHeaderSize + 2 || n > kMaxFrameSize) fail("response size");
@@ -70,12 +85,22 @@ void check_response(const std::uint8_t* req, std::size_t req_len, const std::uin
   if (r[7] == static_cast<std::uint8_t>(fn | 0x80u)) {
     if (n != 9) fail("exception size");
     const std::uint8_t code = r[8];
-    if (code != 0x01 && code != 0x02 && code != 0x03 && code != 0x04 && code != 0x0A && code != 0x0B) {
+    if (code != 0x01 && code != 0x02 && code != 0x03 && code != 0x04 && code != 0x06 && code != 0x0A &&
+        code != 0x0B) {
       fail("exception code");
     }
     return;
   }
-  if (r[7] != fn || (fn != 0x03 && fn != 0x04)) fail("only reads may succeed");
+  if (r[7] != fn) fail("function code not echoed");
+  if (fn == 0x06 || fn == 0x10) {
+    if (n != 12 || std::memcmp(r + 7, req + 7, 5) != 0) fail("write echo");
+    const std::size_t address = (static_cast<std::size_t>(req[8]) << 8) | req[9];
+    const std::size_t qty = fn == 0x06 ? 1 : (static_cast<std::size_t>(req[10]) << 8) | req[11];
+    const std::size_t first = (address - kDeviceBase) % kDeviceStride;
+    if (address < kDeviceBase || first < 28 || first + qty - 1 > 30) fail("write outside the command registers");
+    return;
+  }
+  if (fn != 0x03 && fn != 0x04) fail("only reads and writes may succeed");
   const std::size_t qty = (static_cast<std::size_t>(req[10]) << 8) | req[11];
   if (r[8] != 2 * qty || n != 9 + 2 * qty || qty < 1 || qty > kMaxReadQuantity) fail("read response size");
 }
@@ -97,7 +122,7 @@ void run_stream(const std::uint8_t* data, std::size_t size, const RequestPolicy&
       if (fc.state == FrameState::kIncomplete) break;
       if (fc.length < kMbapHeaderSize + 1 || fc.length > in_len) fail("frame length");
       const std::size_t n = handle_request(std::span<const std::uint8_t>(in.data(), fc.length), image(), policy,
-                                           ReadTime{2'000'000'000, 3'000'000'000}, out);
+                                           ReadTime{2'000'000'000, 3'000'000'000}, out, &commands());
       check_response(in.data(), fc.length, out.data(), n);
       if (n == 0) return;  // closed
       std::memmove(in.data(), in.data() + fc.length, in_len - fc.length);

@@ -40,7 +40,9 @@
 extern "C" {
 #endif
 
-#define COBRIDGE_PLUGIN_ABI_VERSION 1u
+/* History: 1 = first release; 2 = commands (cobridge_host_api.submit_command,
+ * COBRIDGE_SAMPLE_COMMAND and the command_* sample fields). */
+#define COBRIDGE_PLUGIN_ABI_VERSION 2u
 
 /* Name of the exported entry point, for dlsym(). */
 #define COBRIDGE_PLUGIN_ENTRY "cobridge_plugin_create"
@@ -61,7 +63,8 @@ enum cobridge_sample_kind {
   COBRIDGE_SAMPLE_EMCY = 2,      /* an EMCY frame (CiA 301 §7.2.7) */
   COBRIDGE_SAMPLE_HEARTBEAT = 3, /* a heartbeat / boot-up frame (CiA 301 §7.2.8.3.2) */
   COBRIDGE_SAMPLE_NMT_STATE = 4, /* the node's NMT state changed as seen by the master */
-  COBRIDGE_SAMPLE_STATUS = 5     /* the gateway's view changed: online / stale */
+  COBRIDGE_SAMPLE_STATUS = 5,    /* the gateway's view changed: online / stale */
+  COBRIDGE_SAMPLE_COMMAND = 6    /* ABI 2: a submitted command finished (command_* fields) */
 };
 
 /* Bits of cobridge_sample.valid: which of the optional fields hold data.
@@ -79,7 +82,8 @@ enum cobridge_sample_valid {
   COBRIDGE_VALID_NMT_STATE = 1u << 9,
   COBRIDGE_VALID_STATUS = 1u << 10, /* online and stale */
   COBRIDGE_VALID_EMCY = 1u << 11,   /* emcy_code, emcy_register, emcy_data */
-  COBRIDGE_VALID_RAW = 1u << 12     /* raw_len, raw */
+  COBRIDGE_VALID_RAW = 1u << 12,    /* raw_len, raw */
+  COBRIDGE_VALID_COMMAND = 1u << 13 /* ABI 2: command_tag, command_abort_code, command_kind, command_status */
 };
 
 /* NMT states as they appear in the heartbeat byte (CiA 301 §7.2.8.3.2). */
@@ -154,8 +158,15 @@ typedef struct cobridge_sample {
   uint16_t cob_id;
   /* The frame's payload, for plugins that want the undecoded bytes. */
   uint8_t raw[8];
+  /* ABI 2, kind COBRIDGE_SAMPLE_COMMAND (COBRIDGE_VALID_COMMAND): the outcome
+   * of a command submitted with cobridge_host_api.submit_command. Every
+   * plugin receives it; the submitter recognises its own by the tag. */
+  uint32_t command_tag;        /* cobridge_command.tag as submitted */
+  uint32_t command_abort_code; /* the device's SDO abort code (CiA 301 §7.2.4.3.17) when refused, else 0 */
+  uint8_t command_kind;        /* enum cobridge_command_kind */
+  uint8_t command_status;      /* enum cobridge_command_status */
   /* Room for fields of later ABI versions; zero. */
-  uint8_t reserved[48];
+  uint8_t reserved[38];
 } cobridge_sample;
 
 /* ------------------------------------------------------------------------ */
@@ -191,6 +202,48 @@ typedef struct cobridge_device_info {
 } cobridge_device_info;
 
 /* ------------------------------------------------------------------------ */
+/* Commands (ABI 2): what a plugin may ask the daemon to do to a device     */
+
+/* Values are frozen; new kinds are only added. */
+enum cobridge_command_kind {
+  /* Set the position to `value` (counts, after scaling): the family's preset
+   * object (0x6003; rotary series 0x6010 per channel), written and read
+   * back. Volatile until a STORE. */
+  COBRIDGE_COMMAND_PRESET = 1,
+  /* NMT reset node (CiA 301 §7.2.8.3.1.1); the device boots and the gateway
+   * configures it again, as after any boot-up. */
+  COBRIDGE_COMMAND_NMT_RESET = 2,
+  /* 'save' the device's parameters to its non-volatile memory (object
+   * 0x1010, the family's sub-indices); the device passes through
+   * pre-operational where the family requires it and is started again. */
+  COBRIDGE_COMMAND_STORE = 3
+};
+
+/* Returned by submit_command (OK = queued; anything else = refused now) and
+ * reported in cobridge_sample.command_status (OK = done). Values are frozen. */
+enum cobridge_command_status {
+  COBRIDGE_COMMAND_OK = 0,
+  COBRIDGE_COMMAND_UNKNOWN_DEVICE = 1, /* no configured device has this device_index */
+  COBRIDGE_COMMAND_OFFLINE = 2,        /* the device is not operational / not heard */
+  COBRIDGE_COMMAND_BUSY = 3,           /* it is being configured or runs another command, or the queue is full */
+  COBRIDGE_COMMAND_UNSUPPORTED = 4,    /* unknown kind, or the device's description lacks the object */
+  COBRIDGE_COMMAND_INVALID_VALUE = 5,  /* value outside the object's type or limits */
+  COBRIDGE_COMMAND_REFUSED = 6,        /* the device answered with an SDO abort (command_abort_code) */
+  COBRIDGE_COMMAND_TIMEOUT = 7,        /* the device did not answer */
+  COBRIDGE_COMMAND_FAILED = 8          /* anything else: bus down, value did not stick, daemon stopping */
+};
+
+typedef struct cobridge_command {
+  uint32_t struct_size;  /* sizeof(cobridge_command) as the plugin saw it */
+  uint16_t device_index; /* cobridge_sample.device_index of the device */
+  uint8_t kind;          /* enum cobridge_command_kind */
+  uint8_t reserved_;
+  uint32_t tag;          /* chosen by the plugin; comes back in the COMMAND sample */
+  uint32_t reserved2_;
+  int64_t value;         /* PRESET: the position; otherwise 0 */
+} cobridge_command;
+
+/* ------------------------------------------------------------------------ */
 /* Host API: what the daemon gives a plugin                                 */
 
 /* Log levels, the daemon's (spdlog's) order. */
@@ -213,6 +266,14 @@ typedef struct cobridge_host_api {
   void (*log)(void* host, int level, const char* msg);
   /* The gateway's configured id, e.g. for topic names. */
   const char* gateway_id;
+
+  /* ABI 2 (present when struct_size covers it): hands a command for one
+   * device to the daemon. Any plugin thread; never blocks (the daemon queues
+   * it for the device's bus). Returns COBRIDGE_COMMAND_OK when queued: the
+   * outcome then arrives, once, as a COBRIDGE_SAMPLE_COMMAND sample of that
+   * device carrying the same tag (to every plugin). Any other value of enum
+   * cobridge_command_status: refused now, nothing queued, no sample follows. */
+  int (*submit_command)(void* host, const cobridge_command* command);
 } cobridge_host_api;
 
 /* ------------------------------------------------------------------------ */

@@ -452,5 +452,91 @@ TEST(ConfigPlan, Fnv1a64ReferenceValues) {
   EXPECT_EQ(fingerprint_text(0xaf63dc4c8601ec8cull), "af63dc4c8601ec8c");
 }
 
+
+// ---- command plans (plugin ABI 2 commands) ------------------------------------
+
+ConfigPlanResult command(const Fixture& f, CommandKind kind, std::int64_t value = 0) {
+  return make_command_plan("axis", f.eds, f.profile, 7, kind, value);
+}
+
+// J§1.3.2: the rotary series presets each channel (0x6010/ch, INTEGER32);
+// a preset always writes (no compare first) and reads back.
+TEST(CommandPlan, J1_3_2_RotaryPresetWritesEveryChannel) {
+  const Fixture f = load("novotechnik-rfc4800-2ch.eds");
+  const ConfigPlanResult r = command(f, CommandKind::preset, -1000);
+  ASSERT_TRUE(r.ok()) << error_texts(r).front();
+  ASSERT_EQ(r.plan->steps.size(), 2u);
+  for (std::uint8_t ch = 1; ch <= 2; ++ch) {
+    const PlanStep& s = r.plan->steps[ch - 1u];
+    EXPECT_EQ(s.kind, StepKind::write);
+    EXPECT_EQ(s.write.index, 0x6010);
+    EXPECT_EQ(s.write.sub, ch);
+    EXPECT_EQ(s.write.size, 4);
+    EXPECT_EQ(s.write.value, static_cast<std::uint32_t>(-1000));
+    EXPECT_FALSE(s.write.read_first);
+    EXPECT_TRUE(s.write.verify);
+  }
+  EXPECT_EQ(r.plan->store_policy, config::StorePolicy::never);
+  EXPECT_EQ(r.plan->node_id, 7);
+}
+
+// E§4.2 / F§7.5: 0x6003 (UNSIGNED32): a negative preset is out of range and
+// says so, flagged for the caller (Modbus: command_status 7).
+TEST(CommandPlan, E4_2_PresetOutsideTheObjectIsOutOfRange) {
+  const Fixture f = load("novotechnik-multiturn.eds");
+  const ConfigPlanResult ok = command(f, CommandKind::preset, 4096);
+  ASSERT_TRUE(ok.ok());
+  ASSERT_EQ(ok.plan->steps.size(), 1u);
+  EXPECT_EQ(ok.plan->steps[0].write.index, 0x6003);
+  EXPECT_EQ(ok.plan->steps[0].write.value, 4096u);
+
+  const ConfigPlanResult bad = command(f, CommandKind::preset, -1);
+  ASSERT_FALSE(bad.ok());
+  ASSERT_EQ(bad.errors.size(), 1u);
+  EXPECT_TRUE(bad.errors[0].out_of_range);
+  EXPECT_NE(bad.errors[0].to_string().find("-1 is outside 0..4294967295 of object 0x6003"), std::string::npos)
+      << bad.errors[0].to_string();
+}
+
+// CiA 301 §7.2.8.3.1.1: NMT reset node, nothing else.
+TEST(CommandPlan, NmtResetIsOneNmtStep) {
+  const Fixture f = load("ifm-rm8-rm9.eds");
+  const ConfigPlanResult r = command(f, CommandKind::nmt_reset);
+  ASSERT_TRUE(r.ok());
+  ASSERT_EQ(r.plan->steps.size(), 1u);
+  EXPECT_EQ(r.plan->steps[0].kind, StepKind::nmt);
+  EXPECT_EQ(r.plan->steps[0].nmt, canopen::NmtCommand::reset_node);
+}
+
+// E§11: 'save' only in pre-operational, communication with /2 and
+// application with /3 on the multiturn series; started again afterwards.
+TEST(CommandPlan, E11_StorePassesThroughPreOperational) {
+  const Fixture f = load("novotechnik-multiturn.eds");
+  const ConfigPlanResult r = command(f, CommandKind::store);
+  ASSERT_TRUE(r.ok()) << error_texts(r).front();
+  const auto& steps = r.plan->steps;
+  ASSERT_EQ(steps.size(), 3u);
+  EXPECT_EQ(steps[0].nmt, canopen::NmtCommand::enter_preop);
+  ASSERT_EQ(steps[1].kind, StepKind::store);
+  std::vector<std::uint8_t> subs;
+  for (const StoreTarget& t : steps[1].store) subs.push_back(t.sub);
+  EXPECT_EQ(subs, (std::vector<std::uint8_t>{f.profile.store.communication, f.profile.store.application}));
+  EXPECT_EQ(steps[2].nmt, canopen::NmtCommand::start);
+  EXPECT_EQ(r.plan->store_policy, config::StorePolicy::always);
+}
+
+// F§7.3: ifm's 0x1010 has sub-index 1 only: one 'save' for both groups.
+TEST(CommandPlan, F7_3_IfmStoreIsOneSave) {
+  const Fixture f = load("ifm-rm8-rm9.eds");
+  const ConfigPlanResult r = command(f, CommandKind::store);
+  ASSERT_TRUE(r.ok()) << error_texts(r).front();
+  const auto it = std::find_if(r.plan->steps.begin(), r.plan->steps.end(),
+                               [](const PlanStep& s) { return s.kind == StepKind::store; });
+  ASSERT_NE(it, r.plan->steps.end());
+  ASSERT_EQ(it->store.size(), 1u);
+  EXPECT_EQ(it->store[0].sub, 1);
+  EXPECT_EQ(it->store[0].groups, bit(StoreGroup::communication) | bit(StoreGroup::application));
+}
+
 }  // namespace
 }  // namespace cobridge::gateway

@@ -29,6 +29,7 @@ def parse_args():
     p.add_argument("--cli", required=True)
     p.add_argument("--sim", required=True)
     p.add_argument("--keep", action="store_true", help="keep the work directory")
+    p.add_argument("--plugins", help="the output plugin directory (--plugin-dir of cobridged)")
     return p.parse_args()
 
 

@@ -179,7 +179,7 @@ class HostCase(unittest.TestCase):
         self.assertTrue(self.host.alive())
         r = self.read(0, 1)
         self.assertEqual(r[7], 3)
-        self.assertEqual(regs_of(r), [1])  # map_version
+        self.assertEqual(regs_of(r), [2])  # map_version
 
 
 class Values(HostCase):
@@ -227,7 +227,7 @@ class Values(HostCase):
         self.assertTrue(client.connect())
         try:
             gw = client.read_holding_registers(0, 16, slave=1).registers
-            self.assertEqual(gw[0], 1)            # map_version
+            self.assertEqual(gw[0], 2)            # map_version
             self.assertEqual(gw[6], 2)            # buses 0 and 1
             self.assertEqual(gw[7], self.DEVICES)
             self.assertEqual(gw[8], self.DEVICES)  # all online
@@ -253,7 +253,7 @@ class Values(HostCase):
                 s.sendall(read_req(1, DEVICE_BASE + STRIDE, 28))
                 regs = regs_of(recv_frame(s))
                 s.sendall(read_req(2, 12, 1))
-                self.assertEqual(regs_of(recv_frame(s)), [1])
+                self.assertEqual(regs_of(recv_frame(s)), [1])  # word_order = little
             self.check_slot(1, regs, big=False)
         finally:
             host.stop()
@@ -304,6 +304,129 @@ class Offline(HostCase):
         self.assertEqual(ok[7], 3)
         gw = regs_of(self.read(0, 16))
         self.assertEqual(gw[8], self.DEVICES - 1)  # devices_online
+
+
+class Writes(HostCase):
+    """writes_enabled = true: the command registers (+28 value, +30 command,
+    +31 status) hand preset / NMT reset / store to the host (plugin ABI 2
+    submit_command) and show the outcome; everything else stays read-only
+    (MBAP §6.6 Write Single Register, §6.12 Write Multiple Registers, §7)."""
+    CONFIG = "writes_enabled = true\n"
+    EXTRA = ("--offline", "3")
+
+    def exchange(self, pdu, tid=9):
+        with connect(self.host.port) as s:
+            s.sendall(frame(tid, 1, pdu))
+            s.settimeout(5)
+            return recv_frame(s)
+
+    def write_multiple(self, address, values, tid=9):
+        pdu = struct.pack(">BHHB", 0x10, address, len(values), 2 * len(values))
+        pdu += b"".join(struct.pack(">H", v & 0xFFFF) for v in values)
+        return self.exchange(pdu, tid)
+
+    def write_single(self, address, value, tid=9):
+        return self.exchange(struct.pack(">BHH", 0x06, address, value), tid)
+
+    def commands_logged(self):
+        return [l for l in self.host.log if l.startswith("COMMAND")]
+
+    def wait_status(self, slot, want, timeout=3.0):
+        deadline = time.monotonic() + timeout
+        regs = None
+        while time.monotonic() < deadline:
+            regs = regs_of(self.read(DEVICE_BASE + slot * STRIDE + 28, 4))
+            if regs[3] == want:
+                return regs
+            time.sleep(0.02)
+        self.fail(f"slot {slot}: command_status {regs} never became {want}")
+
+    def test_preset_is_submitted_and_its_outcome_shown(self):
+        base = DEVICE_BASE + 2 * STRIDE
+        value = -123456
+        hi, lo = (value >> 16) & 0xFFFF, value & 0xFFFF
+        r = self.write_multiple(base + 28, [hi, lo, 1], tid=0x21)
+        # §6.12: the response echoes address and quantity.
+        self.assertEqual(r, bytes([0, 0x21, 0, 0, 0, 6, 1, 0x10]) + struct.pack(">HH", base + 28, 3))
+        regs = regs_of(self.read(base + 28, 4))
+        self.assertEqual(regs[:3], [hi, lo, 1])
+        self.assertIn(regs[3], (1, 2))  # pending (the host answers after 300 ms)
+        if regs[3] == 1:
+            # A second command while the first is pending: 0x06 Server Device Busy.
+            busy = self.write_single(base + 30, 3, tid=0x22)
+            self.assertEqual(busy, bytes([0, 0x22, 0, 0, 0, 3, 1, 0x86, 0x06]))
+        self.wait_status(2, 2)
+        self.assertIn("COMMAND device=2 kind=1 tag=", "".join(self.commands_logged()))
+        self.assertTrue(any("device=2 kind=1" in l and l.strip().endswith("value=-123456")
+                            for l in self.commands_logged()), self.commands_logged())
+
+    def test_refused_preset_shows_the_reason(self):
+        base = DEVICE_BASE + 0 * STRIDE
+        self.write_multiple(base + 28, [0xFFFF, 0xFFFF, 1])  # -1: the host's device refuses it
+        self.assertEqual(self.wait_status(0, 2 + 6)[2], 1)  # 8 = refused by the device
+
+    def test_single_register_write_submits_nmt_reset(self):
+        base = DEVICE_BASE + 1 * STRIDE
+        r = self.write_single(base + 30, 2, tid=0x31)
+        # §6.6: the response is the request.
+        self.assertEqual(r, bytes([0, 0x31, 0, 0, 0, 6, 1, 0x06]) + struct.pack(">HH", base + 30, 2))
+        self.wait_status(1, 2)
+        self.assertTrue(any("device=1 kind=2" in l for l in self.commands_logged()))
+
+    def test_value_only_write_submits_nothing(self):
+        before = len(self.commands_logged())
+        base = DEVICE_BASE + 1 * STRIDE
+        r = self.write_multiple(base + 28, [0x0001, 0x0002])
+        self.assertEqual(r[7], 0x10)
+        self.assertEqual(regs_of(self.read(base + 28, 2)), [1, 2])
+        time.sleep(0.1)
+        self.assertEqual(len(self.commands_logged()), before)
+
+    def test_read_only_registers_and_bad_values_are_refused(self):
+        base = DEVICE_BASE + 1 * STRIDE
+        before = len(self.commands_logged())
+        self.assertEqual(self.write_single(base + 27, 1)[7:9], bytes([0x86, 0x02]))      # read-only
+        self.assertEqual(self.write_single(base + 31, 1)[7:9], bytes([0x86, 0x02]))      # status: read-only
+        self.assertEqual(self.write_multiple(base + 29, [0, 1, 0])[7:9], bytes([0x90, 0x02]))  # reaches +31
+        self.assertEqual(self.write_single(0, 1)[7:9], bytes([0x86, 0x02]))              # gateway block
+        self.assertEqual(self.write_single(base + 30, 9)[7:9], bytes([0x86, 0x03]))      # no command 9
+        self.assertEqual(self.write_single(base + 30, 0)[7:9], bytes([0x86, 0x03]))
+        end = DEVICE_BASE + 32 * STRIDE
+        self.assertEqual(self.write_single(end, 1)[7:9], bytes([0x86, 0x02]))            # beyond the map
+        # An offline device (3) and an empty slot (10): 0x0B, nothing submitted.
+        self.assertEqual(self.write_single(DEVICE_BASE + 3 * STRIDE + 30, 2)[7:9], bytes([0x86, 0x0B]))
+        self.assertEqual(self.write_single(DEVICE_BASE + 10 * STRIDE + 30, 2)[7:9], bytes([0x86, 0x0B]))
+        time.sleep(0.1)
+        self.assertEqual(len(self.commands_logged()), before)
+        self.assert_serving()
+
+    def test_pymodbus_client_writes(self):
+        """An independent client library (pymodbus) drives the same registers."""
+        from pymodbus.client import ModbusTcpClient
+        c = ModbusTcpClient("127.0.0.1", port=self.host.port)
+        self.assertTrue(c.connect())
+        try:
+            base = DEVICE_BASE + 0 * STRIDE
+            rr = c.write_registers(base + 28, [0, 4242, 3], slave=1)
+            self.assertFalse(rr.isError(), rr)
+            rr = c.write_register(base + 27, 1, slave=1)
+            self.assertTrue(rr.isError())
+            self.assertEqual(rr.exception_code, 2)
+        finally:
+            c.close()
+        self.wait_status(0, 2)
+        self.assertTrue(any("device=0 kind=3" in l for l in self.commands_logged()))
+
+
+class WritesDisabledDaemon(HostCase):
+    """Writes refused with 0x01 while writes_enabled = false, whatever the register."""
+
+    def test_command_register_write_is_0x01(self):
+        with connect(self.host.port) as s:
+            s.sendall(frame(5, 1, struct.pack(">BHH", 0x06, DEVICE_BASE + 30, 1)))
+            s.settimeout(5)
+            self.assertEqual(recv_frame(s), bytes([0, 5, 0, 0, 0, 3, 1, 0x86, 0x01]))
+        self.assertFalse(any(l.startswith("COMMAND") for l in self.host.log))
 
 
 class SlowClient(HostCase):
@@ -513,7 +636,7 @@ class Admission(unittest.TestCase):
         try:
             with connect(host.port) as s:
                 s.sendall(read_req(1, 0, 1))
-                self.assertEqual(regs_of(recv_frame(s)), [1])
+                self.assertEqual(regs_of(recv_frame(s)), [2])
         finally:
             host.stop()
 
@@ -536,7 +659,7 @@ class Admission(unittest.TestCase):
                 s.sendall(read_req(1, 0, 1, unit=1))
                 self.assertEqual(recv_frame(s), bytes([0, 1, 0, 0, 0, 3, 1, 0x83, 0x0A]))
                 s.sendall(read_req(2, 0, 1, unit=3))
-                self.assertEqual(regs_of(recv_frame(s)), [1])
+                self.assertEqual(regs_of(recv_frame(s)), [2])
         finally:
             host.stop()
 

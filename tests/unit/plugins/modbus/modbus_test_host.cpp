@@ -13,9 +13,16 @@
 // Usage: modbus_test_host PLUGIN CONFIG_TOML DEVICES RATE_HZ [--offline K] [--frozen K]
 //   --offline K  device K is reported offline (STATUS online = 0)
 //   --frozen K   device K gets one sample at start, then none (its data age grows)
+//
+// Commands (plugin ABI 2, host->submit_command) are printed ("COMMAND device=
+// kind= tag= value=") and answered 300 ms later with a COMMAND sample, as the
+// daemon would: done, or refused by the device (abort 0x06090030) for a
+// preset of -1; a device index beyond DEVICES is refused at once.
 #include "pipeline/plugin_host.hpp"
 
+#include <chrono>
 #include <csignal>
+#include <mutex>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -55,8 +62,24 @@ int main(int argc, char** argv) {
   std::signal(SIGTERM, on_signal);
   std::signal(SIGINT, on_signal);
 
+  struct Pending {
+    cobridge_command command;
+    std::chrono::steady_clock::time_point due;
+  };
+  std::mutex pending_mutex;
+  std::vector<Pending> pending;
+
   PluginHost::Options options;
   options.gateway_id = "test";
+  options.commands = [&](const cobridge_command& c) -> int {
+    if (c.device_index >= devices) return COBRIDGE_COMMAND_UNKNOWN_DEVICE;
+    std::printf("COMMAND device=%u kind=%u tag=%u value=%lld\n", static_cast<unsigned>(c.device_index),
+                static_cast<unsigned>(c.kind), c.tag, static_cast<long long>(c.value));
+    std::fflush(stdout);
+    const std::lock_guard lock(pending_mutex);
+    pending.push_back({c, std::chrono::steady_clock::now() + std::chrono::milliseconds(300)});
+    return COBRIDGE_COMMAND_OK;
+  };
   options.log = [](LogLevel level, std::string_view, std::string_view msg) {
     std::printf("LOG %d %.*s\n", static_cast<int>(level), static_cast<int>(msg.size()), msg.data());
     std::fflush(stdout);
@@ -132,6 +155,25 @@ int main(int argc, char** argv) {
       s.temperature_dC = static_cast<std::int16_t>(200 + d);
       s.voltage_dV = 240;
       batch.push_back(s);
+    }
+    {
+      const std::lock_guard lock(pending_mutex);
+      const auto now = std::chrono::steady_clock::now();
+      for (auto it = pending.begin(); it != pending.end();) {
+        if (it->due > now) {
+          ++it;
+          continue;
+        }
+        Sample s = make(it->command.device_index, COBRIDGE_SAMPLE_COMMAND);
+        s.valid = COBRIDGE_VALID_COMMAND;
+        s.command_kind = it->command.kind;
+        s.command_tag = it->command.tag;
+        const bool refuse = it->command.kind == COBRIDGE_COMMAND_PRESET && it->command.value == -1;
+        s.command_status = refuse ? COBRIDGE_COMMAND_REFUSED : COBRIDGE_COMMAND_OK;
+        s.command_abort_code = refuse ? 0x06090030u : 0u;
+        batch.push_back(s);
+        it = pending.erase(it);
+      }
     }
     host.deliver(batch);
     if (first) {  // every device has process data now

@@ -49,8 +49,8 @@ class RequestTest : public ::testing::Test {
 // MBAP §6.3 (0x03 Read Holding Registers) response: byte count + values, big-endian.
 TEST_F(RequestTest, ReadHoldingRegistersAnswersValues_MBAP_6_3) {
   const Bytes r = handle(frame(0x1234, 0x11, {0x03, 0x00, 0x00, 0x00, 0x02}));
-  // map_version = 1, version_major = 0 (no version defined in the test build)
-  const Bytes expected = {0x12, 0x34, 0, 0, 0, 7, 0x11, 0x03, 4, 0x00, 0x01, 0x00, 0x00};
+  // map_version = 2, version_major = 0 (no version defined in the test build)
+  const Bytes expected = {0x12, 0x34, 0, 0, 0, 7, 0x11, 0x03, 4, 0x00, 0x02, 0x00, 0x00};
   EXPECT_EQ(r, expected);
 }
 
@@ -94,7 +94,8 @@ TEST_F(RequestTest, WritesDisabledAreIllegalFunction_MBAP_6_6_and_6_12) {
 }
 
 // MBAP §6.12 with writes enabled: quantity / byte count checked (0x03), then
-// the address (0x02: this version has no writable register).
+// the address (0x02: without a WriteTarget no register is writable; the
+// command registers are tested in command_registers_test.cpp).
 TEST_F(RequestTest, WritesEnabledAreValidatedThenRefused_MBAP_6_12) {
   const RequestPolicy p{-1, true, false};
   // byte count 2 but quantity 2 -> 0x03
