@@ -45,6 +45,17 @@ void FrameDecoder::header(const can::Frame& f, std::uint8_t node, std::uint8_t k
   out.valid = COBRIDGE_VALID_RAW;
 }
 
+bool FrameDecoder::gateway_header(std::uint8_t node, std::uint8_t kind, std::int64_t timestamp_ns,
+                                  Sample& out) noexcept {
+  if (node == 0 || node >= DeviceTable::kNodes) return false;
+  can::Frame none;  // no frame caused it: no COB-ID, no payload
+  none.timestamp_ns = timestamp_ns;
+  header(none, node, kind, out);
+  out.cob_id = 0;
+  out.raw_len = 0;
+  return true;
+}
+
 bool FrameDecoder::decode(const can::Frame& f, Sample& out) noexcept {
   count(frames_);
   if (f.is_extended() || f.is_error()) {
@@ -161,12 +172,7 @@ bool FrameDecoder::decode_tpdo(const can::Frame& f, std::uint8_t node, std::size
 
 bool FrameDecoder::make_status(std::uint8_t node_id, bool online, bool stale, std::uint8_t nmt_state,
                                std::int64_t timestamp_ns, Sample& out) noexcept {
-  if (node_id == 0 || node_id >= DeviceTable::kNodes) return false;
-  can::Frame none;
-  none.timestamp_ns = timestamp_ns;
-  header(none, node_id, COBRIDGE_SAMPLE_STATUS, out);
-  out.cob_id = 0;
-  out.raw_len = 0;
+  if (!gateway_header(node_id, COBRIDGE_SAMPLE_STATUS, timestamp_ns, out)) return false;
   out.valid = COBRIDGE_VALID_STATUS | COBRIDGE_VALID_NMT_STATE;
   // Staleness already detected stays; an offline device's values are stale.
   const bool is_stale = stale || stale_[node_id] || !online;
@@ -180,12 +186,7 @@ bool FrameDecoder::make_status(std::uint8_t node_id, bool online, bool stale, st
 
 bool FrameDecoder::make_command(std::uint8_t node_id, std::uint8_t kind, std::uint8_t status, std::uint32_t tag,
                                 std::uint32_t abort_code, std::int64_t timestamp_ns, Sample& out) noexcept {
-  if (node_id == 0 || node_id >= DeviceTable::kNodes) return false;
-  can::Frame none;
-  none.timestamp_ns = timestamp_ns;
-  header(none, node_id, COBRIDGE_SAMPLE_COMMAND, out);
-  out.cob_id = 0;
-  out.raw_len = 0;
+  if (!gateway_header(node_id, COBRIDGE_SAMPLE_COMMAND, timestamp_ns, out)) return false;
   out.valid = COBRIDGE_VALID_COMMAND;
   out.command_kind = kind;
   out.command_status = status;

@@ -68,6 +68,8 @@ class FrameDecoder {
  private:
   bool decode_tpdo(const can::Frame& f, std::uint8_t node, std::size_t pdo, Sample& out) noexcept;
   void header(const can::Frame& f, std::uint8_t node, std::uint8_t kind, Sample& out) noexcept;
+  // The header of a sample the gateway makes itself (status, command outcome).
+  bool gateway_header(std::uint8_t node, std::uint8_t kind, std::int64_t timestamp_ns, Sample& out) noexcept;
   void count(std::atomic<std::uint64_t>& c) noexcept { c.store(c.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed); }
 
   const std::uint8_t bus_index_;
