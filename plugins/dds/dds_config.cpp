@@ -26,7 +26,7 @@ class ConfigCategory final : public std::error_category {
 constexpr std::int64_t kMaxDomain = 232;
 // Writer history beyond this only costs memory: a late sample is useless.
 constexpr std::int64_t kMaxDepth = 10000;
-constexpr std::string_view kKnownKeys = "domain, sample_reliability, sample_depth, topic_prefix";
+constexpr std::string_view kKnownKeys = "domain, sample_reliability, sample_depth, topic_prefix, write_batch";
 
 DdsConfigResult fail(DdsConfigErrc code, std::string message) {
   DdsConfigResult r;
@@ -88,6 +88,10 @@ DdsConfigResult parse_dds_config(std::string_view toml_text) {
       const auto* v = node.as_string();
       if (v == nullptr) return fail(DdsConfigErrc::kWrongType, "'topic_prefix' must be a string");
       r.config.topic_prefix = v->get();
+    } else if (k == "write_batch") {
+      const auto* v = node.as_boolean();
+      if (v == nullptr) return fail(DdsConfigErrc::kWrongType, "'write_batch' must be true or false");
+      r.config.write_batch = v->get();
     } else {
       return fail(DdsConfigErrc::kUnknownKey,
                   "unknown key '" + std::string(k) + "' (expected " + std::string(kKnownKeys) + ")");

@@ -6,14 +6,17 @@
 //   sample_reliability = "best-effort"  or "reliable" (EncoderSample only)
 //   sample_depth       = 1              EncoderSample keep-last depth
 //   topic_prefix       = ""             prepended to the topic names
+//   write_batch        = true           one RTPS message per drained batch
 //
 // Threads: create/start/stop/destroy on the daemon's control thread;
 // on_samples/on_device on the dispatcher thread, which the plugin never
 // blocks: samples are copied into the plugin's own SPSC ring (a full ring
 // drops and counts, never waits) and device announcements into a small
-// locked queue; the plugin's writer thread does every dds_write. So a slow
-// or reliable DDS subscriber cannot delay the other outputs (Modbus, tap),
-// which share the dispatcher.
+// locked queue; the plugin's writer thread does every dds_write, taking
+// whatever is queued at once (with write_batch: one RTPS message per take).
+// So a slow or reliable DDS subscriber cannot delay the other outputs
+// (Modbus, tap), which share the dispatcher. The hop costs a wake-up
+// (docs/performance.md, "DDS latency").
 #include "dds/dds_config.hpp"
 #include "dds/dds_publisher.hpp"
 
@@ -60,6 +63,7 @@ struct Instance {
   pipeline::SpscRing<cobridge_sample> ring{kRing};
   std::mutex device_mutex;
   std::deque<OwnedDevice> devices;          // pending announcements
+  std::atomic<bool> devices_pending{false}; // set with devices non-empty
   std::atomic<std::uint32_t> wakeups{0};    // bumped by producers; the writer waits on it
   std::atomic<bool> running{false};
   std::atomic<std::uint64_t> ring_drops{0};
@@ -79,14 +83,18 @@ struct Instance {
   // whether anything was done.
   bool drain() {
     bool any = false;
-    std::deque<OwnedDevice> todo;
-    {
-      std::lock_guard lock(device_mutex);
-      todo.swap(devices);
-    }
-    for (auto& d : todo) {
-      publisher->device(d.fixed());
-      any = true;
+    // Checked first: an empty std::deque allocates, and drain runs on every
+    // wake-up while announcements are rare.
+    if (devices_pending.exchange(false, std::memory_order_acquire)) {
+      std::deque<OwnedDevice> todo;
+      {
+        std::lock_guard lock(device_mutex);
+        todo.swap(devices);
+      }
+      for (auto& d : todo) {
+        publisher->device(d.fixed());
+        any = true;
+      }
     }
     for (;;) {
       const std::size_t n = ring.pop_batch(std::span<cobridge_sample>(batch.data(), batch.size()));
@@ -122,16 +130,18 @@ using plugin::copy_error;
 int dds_start(void* self) {
   auto* inst = static_cast<Instance*>(self);
   try {
-    std::string message;
-    if (const std::error_code ec = inst->publisher->start(message)) {
+    std::string message, note;
+    if (const std::error_code ec = inst->publisher->start(message, note)) {
       inst->log(COBRIDGE_LOG_ERROR, message);
       return -1;
     }
+    if (!note.empty()) inst->log(COBRIDGE_LOG_WARN, note);
     inst->start_writer();
     const DdsConfig& c = inst->publisher->config();
     inst->log(COBRIDGE_LOG_INFO, "publishing on domain " + std::to_string(c.domain) + ", samples " +
                                      std::string(to_string(c.sample_reliability)) + " keep-last " +
                                      std::to_string(c.sample_depth) +
+                                     (c.write_batch ? ", write batching" : "") +
                                      (c.topic_prefix.empty() ? std::string() : ", topic prefix '" + c.topic_prefix + "'"));
     return 0;
   } catch (const std::exception& e) {
@@ -196,6 +206,7 @@ void dds_on_device(void* self, const cobridge_device_info* info) {
     d.position_unit = info->position_unit ? info->position_unit : "";
     std::lock_guard lock(inst->device_mutex);
     inst->devices.push_back(std::move(d));
+    inst->devices_pending.store(true, std::memory_order_release);
   } catch (...) {
     return;  // out of memory: the announcement is lost, samples still flow
   }

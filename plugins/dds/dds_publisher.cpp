@@ -4,6 +4,7 @@
 #include "dds/topics.hpp"
 
 #include <chrono>
+#include <cstdlib>
 #include <utility>
 
 namespace cobridge::dds {
@@ -14,6 +15,12 @@ class DdsCategory final : public std::error_category {
   const char* name() const noexcept override { return "cyclonedds"; }
   std::string message(int c) const override { return dds_strretcode(-c); }
 };
+
+constexpr std::uint8_t kFlushSample = 1, kFlushEvent = 2, kFlushStatus = 4;
+
+// Cyclone reads a configuration as a comma-separated list of XML fragments
+// and files, later ones overriding earlier ones.
+constexpr const char* kWriteBatchXml = "<Internal><WriteBatch>true</WriteBatch></Internal>";
 
 std::uint64_t realtime_ns() noexcept {
   return static_cast<std::uint64_t>(
@@ -36,13 +43,34 @@ DdsPublisher::DdsPublisher(DdsConfig config, std::string gateway_id)
 
 DdsPublisher::~DdsPublisher() { stop(); }
 
-std::error_code DdsPublisher::start(std::string& message) {
+std::error_code DdsPublisher::start(std::string& message, std::string& note) {
   if (started()) return {};
   const auto domain = static_cast<dds_domainid_t>(config_.domain);
+  if (config_.write_batch) {
+    // WriteBatch is a domain setting, and an explicitly created domain does
+    // not read CYCLONEDDS_URI by itself: pass it on after ours.
+    std::string xml = kWriteBatchXml;
+    if (const char* uri = std::getenv("CYCLONEDDS_URI"); uri != nullptr && *uri != '\0') {
+      xml += ',';
+      xml += uri;
+    }
+    const dds_entity_t d = dds_create_domain(domain, xml.c_str());
+    if (d > 0) {
+      domain_ = d;
+    } else if (d == DDS_RETCODE_PRECONDITION_NOT_MET) {
+      note = "domain " + std::to_string(config_.domain) +
+             " already exists in this process: write_batch follows that domain's configuration";
+    } else {
+      message = "cannot create DDS domain " + std::to_string(config_.domain) + ": " + dds_strretcode(d) +
+                " (check CYCLONEDDS_URI)";
+      return make_dds_error(d);
+    }
+  }
   participant_ = dds_create_participant(domain, nullptr, nullptr);
   if (participant_ < 0) {
     const dds_return_t rc = participant_;
     participant_ = 0;
+    stop();
     message = "cannot create a DDS participant in domain " + std::to_string(config_.domain) + ": " +
               dds_strretcode(rc) + " (check CYCLONEDDS_URI)";
     return make_dds_error(rc);
@@ -79,16 +107,30 @@ std::error_code DdsPublisher::start(std::string& message) {
   for (std::uint16_t i = 0; i < slots_.capacity(); ++i) {
     if (const DeviceSlot* slot = slots_.find(i); slot != nullptr && slot->in_use) write_status(*slot);
   }
+  flush();
   return {};
 }
 
 void DdsPublisher::stop() noexcept {
   if (participant_ > 0) (void)dds_delete(participant_);  // deletes topics and writers too
-  participant_ = sample_writer_ = event_writer_ = status_writer_ = 0;
+  // An explicit domain outlives its participants; it goes with the plugin
+  // unless someone else in the process has joined it meanwhile.
+  if (domain_ > 0 && dds_get_children(domain_, nullptr, 0) == 0) (void)dds_delete(domain_);
+  domain_ = participant_ = sample_writer_ = event_writer_ = status_writer_ = 0;
+  unflushed_ = 0;
+}
+
+void DdsPublisher::flush() noexcept {
+  if (!config_.write_batch || unflushed_ == 0) return;
+  if ((unflushed_ & kFlushSample) != 0) dds_write_flush(sample_writer_);
+  if ((unflushed_ & kFlushEvent) != 0) dds_write_flush(event_writer_);
+  if ((unflushed_ & kFlushStatus) != 0) dds_write_flush(status_writer_);
+  unflushed_ = 0;
 }
 
 void DdsPublisher::write(dds_entity_t writer, const void* data, std::atomic<std::uint64_t>& counter) noexcept {
   const dds_return_t rc = dds_write(writer, data);
+  unflushed_ |= writer == sample_writer_ ? kFlushSample : writer == event_writer_ ? kFlushEvent : kFlushStatus;
   if (rc == DDS_RETCODE_OK) {
     counter.fetch_add(1, std::memory_order_relaxed);
   } else {
@@ -106,6 +148,7 @@ void DdsPublisher::write_status(const DeviceSlot& slot) noexcept {
 void DdsPublisher::publish(std::span<const cobridge_sample> samples) noexcept {
   if (!started()) return;
   for (const cobridge_sample& s : samples) publish_one(s);
+  flush();
 }
 
 void DdsPublisher::publish_one(const cobridge_sample& s) noexcept {
@@ -161,6 +204,7 @@ void DdsPublisher::forget_instance(const DeviceSlot& slot) noexcept {
   cobridge_DeviceStatus st{};
   fill_device_status(st, slot, gw);
   (void)dds_dispose(status_writer_, &st);
+  unflushed_ |= kFlushStatus | kFlushSample | kFlushEvent;
   cobridge_sample key{};
   key.bus_index = slot.bus_index;
   key.node_id = slot.node_id;
@@ -179,9 +223,11 @@ void DdsPublisher::device(const cobridge_device_info& info) noexcept {
   if (started() && slot->in_use && (info.change == COBRIDGE_DEVICE_REMOVED || moved)) forget_instance(*slot);
   if (moved) *slot = DeviceSlot{};  // new key: start from a clean state
   slot = slots_.apply(info);
-  if (info.change == COBRIDGE_DEVICE_REMOVED || slot == nullptr) return;
-  slot->state.updated_ns = realtime_ns();
-  if (started()) write_status(*slot);
+  if (info.change != COBRIDGE_DEVICE_REMOVED && slot != nullptr) {
+    slot->state.updated_ns = realtime_ns();
+    if (started()) write_status(*slot);
+  }
+  flush();
 }
 
 PublisherStats DdsPublisher::stats() const noexcept {

@@ -1,20 +1,23 @@
-// DdsPublisher: the DDS side of the plugin. Owns one participant in the
-// configured domain, the three topics and their writers, and turns the
-// dispatcher's samples and device announcements into DDS writes:
+// DdsPublisher: the DDS side of the plugin. Owns its Cyclone domain (when
+// the process has none for that id yet), one participant in it, the three
+// topics and their writers, and turns samples and device announcements into
+// DDS writes:
 //   TPDO                         -> EncoderSample
 //   EMCY                         -> EncoderEvent (decoded text), DeviceStatus
 //   HEARTBEAT, NMT_STATE, STATUS -> DeviceStatus when what it shows changed;
 //                                   on turning stale also the last
 //                                   EncoderSample again, with stale = true.
 //
-// Samples are written straight from the dispatcher thread with dds_write:
-// Cyclone's write is thread-safe, serializes into its own buffers and hands
-// the data to the network without waiting for readers (best-effort); a
-// reliable writer waits at most kMaxBlocking for history room. The structs
-// are filled on the stack and point at the slot table (no allocation here).
+// The structs are filled on the stack and point at the slot table (the
+// plugin allocates nothing per sample; Cyclone's dds_write does, see
+// docs/performance.md). A reliable writer waits at most kMaxBlocking for
+// history room. With write_batch, dds_write only queues the sample in the
+// writer's RTPS message and publish()/device() send what they wrote with
+// one dds_write_flush per writer, so a batch of samples costs one sendto.
 //
 // Thread contract: start/stop on the control thread; publish/device on the
-// dispatcher thread between start and stop; stats from any thread.
+// plugin's writer thread (one thread) between start and stop; stats from
+// any thread.
 #pragma once
 
 #include "dds/dds_config.hpp"
@@ -51,13 +54,17 @@ class DdsPublisher {
   DdsPublisher(const DdsPublisher&) = delete;
   DdsPublisher& operator=(const DdsPublisher&) = delete;
 
-  // Creates the participant, topics and writers, then publishes the
-  // DeviceStatus of every device already known. On failure nothing is left
-  // and `message` says which step failed.
-  [[nodiscard]] std::error_code start(std::string& message);
+  // Creates the domain (with write_batch: Cyclone's WriteBatch followed by
+  // the user's CYCLONEDDS_URI, so the user's settings still apply and win),
+  // the participant, topics and writers, then publishes the DeviceStatus of
+  // every device already known. On failure nothing is left and `message`
+  // says which step failed. `note` is set when start succeeded but
+  // write_batch could not be applied (the process already had the domain).
+  [[nodiscard]] std::error_code start(std::string& message, std::string& note);
   void stop() noexcept;
   [[nodiscard]] bool started() const noexcept { return participant_ > 0; }
 
+  // Both write, then flush what they wrote (write_batch).
   void publish(std::span<const cobridge_sample> samples) noexcept;
   void device(const cobridge_device_info& info) noexcept;
 
@@ -69,14 +76,18 @@ class DdsPublisher {
   void write_status(const DeviceSlot& slot) noexcept;
   void write(dds_entity_t writer, const void* data, std::atomic<std::uint64_t>& counter) noexcept;
   void forget_instance(const DeviceSlot& slot) noexcept;
+  void flush() noexcept;
 
   DdsConfig config_;
   std::string gateway_id_;
   DeviceSlots slots_;
+  dds_entity_t domain_ = 0;  // > 0 when this publisher created the domain
   dds_entity_t participant_ = 0;
   dds_entity_t sample_writer_ = 0;
   dds_entity_t event_writer_ = 0;
   dds_entity_t status_writer_ = 0;
+  // Writers with samples queued since the last flush (kFlush* bits).
+  std::uint8_t unflushed_ = 0;
   std::atomic<std::uint64_t> samples_{0}, events_{0}, statuses_{0}, failures_{0}, unknown_kind_{0};
   std::atomic<std::int32_t> last_failure_{0};
 };

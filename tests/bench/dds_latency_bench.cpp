@@ -1,21 +1,36 @@
-// DDS latency bench (prints figures; not a test). Issue 5 target: latency
+// DDS latency bench (prints figures; not a test). Issue 5 targets: latency
 // from a sample's receive timestamp to a DDS subscriber on the same host,
-// p50/p99 <= 200 us, at 36 000 samples/s (four saturated 1 Mbit/s buses).
+// p99 <= 200 us, at 36 000 samples/s (four saturated 1 Mbit/s buses, 32
+// devices); 0 heap allocations per sample on the hot path.
 //
 // The process forks before any DDS entity exists: the child is the
 // subscriber (its own Cyclone instance, so samples cross the loopback
 // network as they would to a cell controller), the parent the gateway side.
 //  1. Bare Cyclone ping-pong: the parent writes a sample on BenchPing, the
-//     child echoes it on BenchPong; round trip on the parent's clock.
+//     child echoes it on BenchPong; round trip on the parent's clock. Ping
+//     and pong use domain D + 1, so that the plugin creates domain D itself
+//     (its write_batch option needs that).
 //  2. The plugin: libcobridge_dds.so loaded through pipeline::PluginHost and
-//     fed TPDO samples in dispatcher-sized batches at the target rate, each
-//     rx_timestamp_ns set to CLOCK_REALTIME when fed; the child computes
-//     receive time minus rx_timestamp_ns per EncoderSample. Once with
-//     best-effort samples (the default), once reliable.
-// Also printed: the time on_samples (DDS writes) takes per sample on the
-// dispatcher thread.
+//     fed TPDO samples at the target rate; the child computes receive time
+//     minus rx_timestamp_ns per EncoderSample. Two feeds:
+//       burst  - every 500 us a batch of rate/2000 samples, all with the
+//                batch's time as rx_timestamp (the worst case for a queue);
+//       spread - one sample every 1/rate s (four saturated buses: a frame
+//                every ~111 us on each, ~28 us apart interleaved), each
+//                with its nominal arrival time as rx_timestamp; the feeder
+//                delivers whatever is due as soon as it wakes, as the
+//                dispatcher does when a ring has data. Its own lateness
+//                counts against the figure, like the real RX wake-up.
+//     Each with best-effort and reliable samples, write_batch on and off;
+//     then once more on a topic nobody reads, for the allocations alone.
+//     Also printed: heap allocations per sample in the whole process while
+//     feeding (plugin, writer thread, Cyclone), and the time on_samples
+//     takes per sample on the feeding (dispatcher) thread.
+//  3. The wake-up hop: atomic notify -> waiting thread running, the
+//     mechanism by which the dispatcher wakes the plugin's writer thread.
 //
 // Usage: cobridge_bench_dds_latency [seconds per run = 5] [rate = 36000]
+//                                   [feed = both|burst|spread]
 // CYCLONEDDS_URI, if unset, is pinned to the loopback interface.
 #include "pipeline/plugin_host.hpp"
 #include "pipeline/sample.hpp"
@@ -24,18 +39,50 @@
 
 #include <dds/dds.h>
 #include <dds/version.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cinttypes>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <string>
+#include <thread>
 #include <vector>
+
+// Heap allocations of the whole process while a run feeds the plugin
+// (malloc/calloc/realloc interposed, as in the pipeline bench).
+extern "C" {
+void* __libc_malloc(size_t);
+void* __libc_calloc(size_t, size_t);
+void* __libc_realloc(void*, size_t);
+void __libc_free(void*);
+}
+namespace {
+std::atomic<bool> g_counting{false};
+std::atomic<unsigned long long> g_allocs{0};
+void count_alloc() {
+  if (g_counting.load(std::memory_order_relaxed)) g_allocs.fetch_add(1, std::memory_order_relaxed);
+}
+}  // namespace
+extern "C" void* malloc(size_t n) {
+  count_alloc();
+  return __libc_malloc(n);
+}
+extern "C" void* calloc(size_t a, size_t b) {
+  count_alloc();
+  return __libc_calloc(a, b);
+}
+extern "C" void* realloc(void* p, size_t n) {
+  count_alloc();
+  return __libc_realloc(p, n);
+}
+extern "C" void free(void* p) { __libc_free(p); }
 
 using namespace cobridge;
 
@@ -90,19 +137,20 @@ dds_qos_t* qos(dds_reliability_kind_t rel, dds_history_kind_t hist, int32_t dept
 // position is the run number; position -1 ends the process).
 int subscriber(std::uint32_t domain, int out_fd) {
   const dds_entity_t pp = dds_create_participant(domain, nullptr, nullptr);
-  if (pp < 0) return 1;
+  const dds_entity_t pp_ping = dds_create_participant(domain + 1, nullptr, nullptr);
+  if (pp < 0 || pp_ping < 0) return 1;
   const dds_entity_t t_sample = dds_create_topic(pp, &cobridge_EncoderSample_desc, "EncoderSample", nullptr, nullptr);
-  const dds_entity_t t_ping = dds_create_topic(pp, &cobridge_EncoderSample_desc, "BenchPing", nullptr, nullptr);
-  const dds_entity_t t_pong = dds_create_topic(pp, &cobridge_EncoderSample_desc, "BenchPong", nullptr, nullptr);
+  const dds_entity_t t_ping = dds_create_topic(pp_ping, &cobridge_EncoderSample_desc, "BenchPing", nullptr, nullptr);
+  const dds_entity_t t_pong = dds_create_topic(pp_ping, &cobridge_EncoderSample_desc, "BenchPong", nullptr, nullptr);
   // Best-effort readers match both writer kinds; deep enough never to drop.
   dds_qos_t* rq = qos(DDS_RELIABILITY_BEST_EFFORT, DDS_HISTORY_KEEP_LAST, 4096);
   const dds_entity_t r_sample = dds_create_reader(pp, t_sample, rq, nullptr);
   dds_delete_qos(rq);
   dds_qos_t* pq = qos(DDS_RELIABILITY_RELIABLE, DDS_HISTORY_KEEP_ALL, 0);
-  const dds_entity_t r_ping = dds_create_reader(pp, t_ping, pq, nullptr);
-  const dds_entity_t w_pong = dds_create_writer(pp, t_pong, pq, nullptr);
+  const dds_entity_t r_ping = dds_create_reader(pp_ping, t_ping, pq, nullptr);
+  const dds_entity_t w_pong = dds_create_writer(pp_ping, t_pong, pq, nullptr);
   dds_delete_qos(pq);
-  const dds_entity_t ws = dds_create_waitset(pp);
+  const dds_entity_t ws = dds_create_waitset(DDS_CYCLONEDDS_HANDLE);  // readers of two domains
   dds_waitset_attach(ws, dds_create_readcondition(r_sample, DDS_ANY_STATE), 1);
   dds_waitset_attach(ws, dds_create_readcondition(r_ping, DDS_ANY_STATE), 2);
 
@@ -121,7 +169,10 @@ int subscriber(std::uint32_t domain, int out_fd) {
       const auto idx = static_cast<std::size_t>(i);
       if (!info[idx].valid_data) continue;
       const auto* s = static_cast<const cobridge_EncoderSample*>(buf[idx]);
+      // Pairs: from the receive timestamp, and from the hand-over to the
+      // plugin (publish_timestamp_ns), which leaves out the feeder's delay.
       lat.push_back(now > s->rx_timestamp_ns ? now - s->rx_timestamp_ns : 0);
+      lat.push_back(now > s->publish_timestamp_ns ? now - s->publish_timestamp_ns : 0);
     }
     if (n > 0) dds_return_loan(r_sample, buf, n);
     buf[0] = nullptr;
@@ -142,7 +193,9 @@ int subscriber(std::uint32_t domain, int out_fd) {
     }
     if (n > 0) dds_return_loan(r_ping, buf, n);
   }
+  dds_delete(ws);
   dds_delete(pp);
+  dds_delete(pp_ping);
   return 0;
 }
 
@@ -151,7 +204,7 @@ int subscriber(std::uint32_t domain, int out_fd) {
 struct PingSide {
   dds_entity_t pp = 0, w_ping = 0, r_pong = 0, ws = 0;
   explicit PingSide(std::uint32_t domain) {
-    pp = dds_create_participant(domain, nullptr, nullptr);
+    pp = dds_create_participant(domain + 1, nullptr, nullptr);
     const dds_entity_t t_ping = dds_create_topic(pp, &cobridge_EncoderSample_desc, "BenchPing", nullptr, nullptr);
     const dds_entity_t t_pong = dds_create_topic(pp, &cobridge_EncoderSample_desc, "BenchPong", nullptr, nullptr);
     dds_qos_t* q = qos(DDS_RELIABILITY_RELIABLE, DDS_HISTORY_KEEP_ALL, 0);
@@ -212,9 +265,38 @@ std::vector<std::uint64_t> read_run(int fd) {
   return v;
 }
 
+enum class Feed { kBurst, kSpread };
+
+// 32 devices: 8 per bus on 4 buses; samples round-robin over them.
+constexpr unsigned kDevices = 32;
+
+struct Feeder {
+  std::uint32_t seq[kDevices] = {};
+  unsigned next_device = 0;
+  void fill(pipeline::Sample& s, std::uint64_t rx_ns) {
+    s = pipeline::Sample{};
+    const unsigned d = next_device;
+    next_device = (next_device + 1) % kDevices;
+    s.kind = COBRIDGE_SAMPLE_TPDO;
+    s.device_index = static_cast<std::uint16_t>(d);
+    s.bus_index = static_cast<std::uint8_t>(d / 8);
+    s.node_id = static_cast<std::uint8_t>(1 + d % 8);
+    s.sequence = ++seq[d];
+    s.rx_timestamp_ns = rx_ns;
+    s.publish_timestamp_ns = realtime_ns();
+    s.position = static_cast<std::int64_t>(s.sequence);
+    s.valid = COBRIDGE_VALID_POSITION | COBRIDGE_VALID_SPEED;
+  }
+};
+
+void sleep_until_mono(std::uint64_t t_ns) {
+  const timespec ts{static_cast<time_t>(t_ns / 1000000000ull), static_cast<long>(t_ns % 1000000000ull)};
+  clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
+}
+
 // One run of the plugin at `rate` samples/s for `seconds`.
-void plugin_run(const char* label, const std::string& config, double seconds, unsigned rate, PingSide& ping,
-                int from_child, std::uint32_t run) {
+void plugin_run(const char* label, Feed feed, const std::string& config, double seconds, unsigned rate,
+                PingSide& ping, int from_child, std::uint32_t run) {
   const std::filesystem::path plugin = COBRIDGE_DDS_PLUGIN_FILE;
   pipeline::PluginHost host({plugin.parent_path(), "bench-gw",
                              [](pipeline::LogLevel, std::string_view, std::string_view m) {
@@ -226,8 +308,6 @@ void plugin_run(const char* label, const std::string& config, double seconds, un
     return;
   }
   if (!host.start_all().empty()) return;
-  // 32 devices: 8 per bus on 4 buses.
-  constexpr unsigned kDevices = 32;
   for (unsigned d = 0; d < kDevices; ++d) {
     cobridge_device_info info{};
     info.struct_size = sizeof info;
@@ -241,54 +321,111 @@ void plugin_run(const char* label, const std::string& config, double seconds, un
     host.announce(info);
   }
   usleep(500000);  // let discovery of the plugin's writers settle
-  // Dispatcher-like batches: every 500 us the samples that arrived meanwhile.
-  constexpr std::uint64_t kPeriodNs = 500000;
-  const unsigned per_batch = std::max(1u, static_cast<unsigned>(static_cast<std::uint64_t>(rate) * kPeriodNs / 1000000000ull));
-  const auto batches = static_cast<std::uint64_t>(seconds * 1e9 / static_cast<double>(kPeriodNs));
-  std::vector<pipeline::Sample> batch(per_batch);
+
+  Feeder feeder;
+  std::vector<pipeline::Sample> batch(256);
   std::vector<std::uint64_t> write_cost;
-  write_cost.reserve(batches);
-  std::uint32_t seq[kDevices] = {};
-  unsigned next_device = 0;
-  timespec next{};
-  clock_gettime(CLOCK_MONOTONIC, &next);
-  std::uint64_t sent = 0;
-  for (std::uint64_t b = 0; b < batches; ++b) {
-    const std::uint64_t now = realtime_ns();
-    for (unsigned i = 0; i < per_batch; ++i) {
-      pipeline::Sample& s = batch[i];
-      s = pipeline::Sample{};
-      const unsigned d = next_device;
-      next_device = (next_device + 1) % kDevices;
-      s.kind = COBRIDGE_SAMPLE_TPDO;
-      s.device_index = static_cast<std::uint16_t>(d);
-      s.bus_index = static_cast<std::uint8_t>(d / 8);
-      s.node_id = static_cast<std::uint8_t>(1 + d % 8);
-      s.sequence = ++seq[d];
-      s.rx_timestamp_ns = now;
-      s.publish_timestamp_ns = now;
-      s.position = static_cast<std::int64_t>(s.sequence);
-      s.valid = COBRIDGE_VALID_POSITION | COBRIDGE_VALID_SPEED;
-    }
+  write_cost.reserve(static_cast<std::size_t>(seconds * rate) + 16);
+  std::uint64_t sent = 0, delivers = 0;
+  auto deliver = [&](std::size_t n) {
     const std::uint64_t t0 = mono_ns();
-    host.deliver(batch);
-    write_cost.push_back((mono_ns() - t0) / per_batch);
-    sent += per_batch;
-    next.tv_nsec += static_cast<long>(kPeriodNs);
-    if (next.tv_nsec >= 1000000000L) {
-      next.tv_nsec -= 1000000000L;
-      ++next.tv_sec;
+    host.deliver(std::span<const pipeline::Sample>(batch.data(), n));
+    write_cost.push_back((mono_ns() - t0) / n);
+    sent += n;
+    ++delivers;
+  };
+  const auto total = static_cast<std::uint64_t>(seconds * rate);
+  g_allocs.store(0);
+  g_counting.store(true);
+  if (feed == Feed::kBurst) {
+    // Every 500 us the samples of 500 us, one timestamp.
+    constexpr std::uint64_t kPeriodNs = 500000;
+    const auto per_batch = static_cast<std::size_t>(
+        std::clamp<std::uint64_t>(static_cast<std::uint64_t>(rate) * kPeriodNs / 1000000000ull, 1, batch.size()));
+    std::uint64_t next = mono_ns();
+    while (sent + per_batch <= total) {
+      const std::uint64_t now = realtime_ns();
+      for (std::size_t i = 0; i < per_batch; ++i) feeder.fill(batch[i], now);
+      deliver(per_batch);
+      next += kPeriodNs;
+      sleep_until_mono(next);
     }
-    clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr);
+  } else {
+    // Sample k arrives at base + k / rate; deliver what is due on waking.
+    const std::uint64_t mono0 = mono_ns() + 1000000, real0 = realtime_ns() + 1000000;
+    auto due_at = [&](std::uint64_t k) { return k * 1000000000ull / rate; };
+    sleep_until_mono(mono0);
+    std::uint64_t k = 0;
+    while (k < total) {
+      const std::uint64_t elapsed = mono_ns() - mono0;
+      std::size_t n = 0;
+      while (k < total && n < batch.size() && due_at(k) <= elapsed) {
+        feeder.fill(batch[n++], real0 + due_at(k));
+        ++k;
+      }
+      if (n != 0) {
+        deliver(n);
+      } else {
+        sleep_until_mono(mono0 + due_at(k));
+      }
+    }
   }
   usleep(200000);  // in-flight samples
+  g_counting.store(false);
+  const unsigned long long allocs = g_allocs.load();
   host.stop_all();
   ping.ping(kStop, static_cast<std::int64_t>(run));
-  std::vector<std::uint64_t> lat = read_run(from_child);
-  std::printf("%s: %u samples/s for %.1f s, %" PRIu64 " sent, %zu received (%.3f%% lost)\n", label, rate, seconds, sent,
-              lat.size(), sent != 0 ? 100.0 * (1.0 - static_cast<double>(lat.size()) / static_cast<double>(sent)) : 0.0);
+  const std::vector<std::uint64_t> pairs = read_run(from_child);
+  std::vector<std::uint64_t> lat, from_deliver;
+  lat.reserve(pairs.size() / 2);
+  from_deliver.reserve(pairs.size() / 2);
+  for (std::size_t i = 0; i + 1 < pairs.size(); i += 2) {
+    lat.push_back(pairs[i]);
+    from_deliver.push_back(pairs[i + 1]);
+  }
+  std::printf("%s: %u samples/s for %.1f s, %" PRIu64 " sent in %" PRIu64 " deliveries, %zu received (%.3f%% lost)\n",
+              label, rate, seconds, sent, delivers, lat.size(),
+              sent != 0 ? 100.0 * (1.0 - static_cast<double>(lat.size()) / static_cast<double>(sent)) : 0.0);
   print("rx_timestamp -> subscriber", figures(lat));
+  print("  of which on_samples -> subscriber", figures(from_deliver));
   print("on_samples cost per sample (dispatcher)", figures(write_cost));
+  std::printf("  heap allocations in the process: %llu = %.2f per sample\n", allocs,
+              sent != 0 ? static_cast<double>(allocs) / static_cast<double>(sent) : 0.0);
+}
+
+// The wake-up hop: one thread bumps an atomic and notifies, the other waits
+// on it (as Instance::wake / Instance::run in the plugin); latency from the
+// notify to the waiter running, every 500 us.
+void wake_run(unsigned count) {
+  std::atomic<std::uint32_t> word{0};
+  std::atomic<std::uint64_t> sent_at{0};
+  std::atomic<bool> done{false};
+  std::vector<std::uint64_t> lat;
+  lat.reserve(count);
+  std::thread waiter([&] {
+    std::uint32_t seen = 0;
+    while (!done.load(std::memory_order_acquire)) {
+      word.wait(seen, std::memory_order_acquire);
+      seen = word.load(std::memory_order_acquire);
+      const std::uint64_t now = mono_ns();
+      if (!done.load(std::memory_order_acquire)) lat.push_back(now - sent_at.load(std::memory_order_acquire));
+    }
+  });
+  std::uint64_t next = mono_ns();
+  for (unsigned i = 0; i < count; ++i) {
+    next += 500000;
+    sleep_until_mono(next);
+    sent_at.store(mono_ns(), std::memory_order_release);
+    word.fetch_add(1, std::memory_order_release);
+    word.notify_one();
+  }
+  usleep(2000);
+  done.store(true, std::memory_order_release);
+  word.fetch_add(1, std::memory_order_release);
+  word.notify_one();
+  waiter.join();
+  std::printf("writer wake-up hop (atomic notify -> waiting thread runs, every 500 us):\n");
+  print("notify -> running", figures(lat));
 }
 
 }  // namespace
@@ -296,8 +433,17 @@ void plugin_run(const char* label, const std::string& config, double seconds, un
 int main(int argc, char** argv) {
   const double seconds = argc > 1 ? std::atof(argv[1]) : 5.0;
   const unsigned rate = argc > 2 ? static_cast<unsigned>(std::atoi(argv[2])) : 36000u;
+  const std::string feeds = argc > 3 ? argv[3] : "both";
+  if (seconds <= 0 || rate == 0 || (feeds != "both" && feeds != "burst" && feeds != "spread")) {
+    std::fprintf(stderr, "usage: %s [seconds > 0] [rate > 0] [both|burst|spread]\n", argv[0]);
+    return 2;
+  }
+  setvbuf(stdout, nullptr, _IOLBF, 0);  // lines stay whole next to the plugin's log on stderr
   setenv("CYCLONEDDS_URI", "<General><Interfaces><NetworkInterface name=\"lo\" multicast=\"true\"/></Interfaces></General>", 0);
-  const std::uint32_t domain = 150u + static_cast<std::uint32_t>(getpid()) % 80u;
+  // The feeder stands in for the dispatcher, which futex wake-ups (not
+  // timers) drive: without this, timer slack (50 us) would delay it.
+  prctl(PR_SET_TIMERSLACK, 1000UL, 0, 0, 0);
+  const std::uint32_t domain = 150u + 2u * (static_cast<std::uint32_t>(getpid()) % 40u);  // and domain + 1
 
   int fds[2];
   if (pipe(fds) != 0) return 1;
@@ -308,8 +454,8 @@ int main(int argc, char** argv) {
   }
   close(fds[1]);
 
-  std::printf("DDS latency bench: Cyclone DDS %s, domain %u, subscriber in a separate process, host: %ld CPUs\n",
-              DDS_VERSION, domain, sysconf(_SC_NPROCESSORS_ONLN));
+  std::printf("DDS latency bench: Cyclone DDS %s, domains %u/%u, subscriber in a separate process, host: %ld CPUs\n",
+              DDS_VERSION, domain, domain + 1, sysconf(_SC_NPROCESSORS_ONLN));
   {
     PingSide ping(domain);
     if (!ping.wait_matched()) {
@@ -330,12 +476,32 @@ int main(int argc, char** argv) {
     f.p999 /= 2;
     f.max /= 2;
     print("one way (round trip / 2)", f);
-    (void)read_run;
+    wake_run(4000);
 
-    plugin_run("plugin, best-effort samples", "domain = " + std::to_string(domain) + "\n", seconds, rate, ping, fds[0], 1);
-    plugin_run("plugin, reliable samples",
-               "domain = " + std::to_string(domain) + "\nsample_reliability = \"reliable\"\n", seconds, rate, ping,
-               fds[0], 2);
+    const std::string d = "domain = " + std::to_string(domain) + "\n";
+    struct Run {
+      const char* label;
+      Feed feed;
+      std::string config;
+    };
+    std::vector<Run> runs;
+    for (const Feed feed : {Feed::kSpread, Feed::kBurst}) {
+      if (feeds != "both" && (feed == Feed::kSpread) != (feeds == "spread")) continue;
+      const bool sp = feed == Feed::kSpread;
+      runs.push_back({sp ? "spread, best-effort, write_batch" : "burst, best-effort, write_batch", feed, d});
+      runs.push_back({sp ? "spread, best-effort, no batching" : "burst, best-effort, no batching", feed,
+                      d + "write_batch = false\n"});
+      runs.push_back({sp ? "spread, reliable, write_batch" : "burst, reliable, write_batch", feed,
+                      d + "sample_reliability = \"reliable\"\n"});
+      runs.push_back({sp ? "spread, reliable, no batching" : "burst, reliable, no batching", feed,
+                      d + "sample_reliability = \"reliable\"\nwrite_batch = false\n"});
+    }
+    // Allocations with no reader matched: the subscriber does not read this
+    // topic (its latency line stays empty).
+    runs.push_back({"no reader matched (allocations only), burst, best-effort, write_batch", Feed::kBurst,
+                     d + "topic_prefix = \"unread/\"\n"});
+    std::uint32_t run = 0;
+    for (const Run& r : runs) plugin_run(r.label, r.feed, r.config, seconds, rate, ping, fds[0], ++run);
     ping.ping(kStop, -1);
     (void)read_run(fds[0]);
   }

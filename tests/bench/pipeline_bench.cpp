@@ -7,14 +7,22 @@
 // for the timed loop (every allocation in the process, plugins included), and
 // prints the RSS with 32 devices.
 //
-// Usage: cobridge_bench_pipeline [--frames N] [--plugins DIR] [--with a,b,c]
+// Usage: cobridge_bench_pipeline [--frames N] [--rate R] [--plugins DIR] [--with a,b,c]
 //   --with takes plugin names (jsontap, dds, modbus); each is loaded from DIR
 //   with its default settings (jsontap writes to /dev/null).
+//   --rate R paces the feed at R frames/s (default: as fast as the one core
+//   goes). Plugins with a thread of their own (DDS writes from its writer
+//   thread) are not part of the one-core figure; what they could not keep up
+//   with they drop and count, and say so when stopped: the plugin log lines
+//   are printed after the run, so a rate is only sustained through DDS if
+//   its writer dropped nothing. The main thread's CPU time at that rate is
+//   the RX + dispatcher cost.
 #include "pipeline/bus_receiver.hpp"
 #include "pipeline/dispatcher.hpp"
 #include "pipeline/plugin_host.hpp"
 
 #include <dlfcn.h>
+#include <time.h>
 
 #include <atomic>
 #include <chrono>
@@ -22,7 +30,9 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <mutex>
 #include <string>
+#include <thread>
 #include <vector>
 
 extern "C" {
@@ -67,6 +77,12 @@ class CountingSink : public SampleSink {
   std::size_t delivered = 0;
 };
 
+double thread_cpu_s() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + static_cast<double>(ts.tv_nsec) * 1e-9;
+}
+
 long rss_kib() {
   std::ifstream f("/proc/self/status");
   std::string line;
@@ -79,15 +95,18 @@ long rss_kib() {
 
 int main(int argc, char** argv) {
   std::size_t frames_total = 2'000'000;
+  double rate = 0;
   std::string plugin_dir;
   std::string with;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--frames" && i + 1 < argc) frames_total = std::strtoull(argv[++i], nullptr, 10);
+    else if (a == "--rate" && i + 1 < argc) rate = std::strtod(argv[++i], nullptr);
     else if (a == "--plugins" && i + 1 < argc) plugin_dir = argv[++i];
     else if (a == "--with" && i + 1 < argc) with = argv[++i];
     else {
-      std::fprintf(stderr, "usage: %s [--frames N] [--plugins DIR] [--with jsontap,dds,modbus]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--frames N] [--rate FRAMES_PER_S] [--plugins DIR] [--with jsontap,dds,modbus]\n",
+                   argv[0]);
       return 2;
     }
   }
@@ -106,7 +125,15 @@ int main(int argc, char** argv) {
     table.publish(p);
   }
 
-  PluginHost host(PluginHost::Options{.plugin_dir = plugin_dir, .gateway_id = "bench", .log = {}});
+  std::mutex log_mutex;
+  std::vector<std::string> plugin_log;
+  PluginHost host(PluginHost::Options{
+      .plugin_dir = plugin_dir,
+      .gateway_id = "bench",
+      .log = [&](LogLevel, std::string_view instance, std::string_view msg) {
+        const std::lock_guard lock(log_mutex);
+        plugin_log.push_back(std::string(instance) + ": " + std::string(msg));
+      }});
   std::vector<std::string> loaded;
   if (!with.empty()) {
     std::size_t pos = 0;
@@ -171,13 +198,20 @@ int main(int argc, char** argv) {
   const std::size_t rounds = frames_total / batch.size();
   g_allocs.store(0);
   g_counting.store(true);
+  const double cpu0 = thread_cpu_s();
   const auto t0 = std::chrono::steady_clock::now();
   for (std::size_t r = 0; r < rounds; ++r) {
+    if (rate > 0) {
+      const auto due = t0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                std::chrono::duration<double>(static_cast<double>(r * batch.size()) / rate));
+      std::this_thread::sleep_until(due);
+    }
     for (auto& f : batch) f.data[0] = static_cast<std::uint8_t>(r);
     rx.handle(batch);
     dispatcher.drain_once();
   }
   const auto t1 = std::chrono::steady_clock::now();
+  const double cpu = thread_cpu_s() - cpu0;
   g_counting.store(false);
   const double secs = std::chrono::duration<double>(t1 - t0).count();
   const std::size_t frames = rounds * batch.size();
@@ -187,14 +221,22 @@ int main(int argc, char** argv) {
   for (const auto& p : loaded) plugins += (plugins.empty() ? "" : "+") + p;
   if (plugins.empty()) plugins = "none (counting sink)";
   std::printf("pipeline one core: plugins=%s devices=%d frames=%zu\n", plugins.c_str(), kDevices, frames);
+  if (rate > 0) std::printf("  paced at        : %.0f frames/s\n", rate);
   std::printf("  throughput      : %.0f frames/s (%.1f ns/frame)\n", static_cast<double>(frames) / secs,
               secs * 1e9 / static_cast<double>(frames));
+  std::printf("  RX + dispatcher : %.1f%% of one core (%.1f ns CPU/frame)\n", 100.0 * cpu / secs,
+              cpu * 1e9 / static_cast<double>(frames));
   std::printf("  delivered       : %zu samples, ring drops %llu\n", sink.delivered,
               static_cast<unsigned long long>(st.ring_drops));
   std::printf("  heap allocations: %llu in the timed loop = %.6f per frame\n",
               static_cast<unsigned long long>(g_allocs.load()),
               static_cast<double>(g_allocs.load()) / static_cast<double>(frames));
   std::printf("  RSS             : %ld KiB after warm-up, %ld KiB after the run\n", rss_before, rss_kib());
-  host.stop_all();
+  host.stop_all();  // the DDS writer drains its queue and reports what it dropped
+  {
+    const std::lock_guard lock(log_mutex);
+    for (const auto& line : plugin_log)
+      if (line.find("stopped") != std::string::npos) std::printf("  plugin          : %s\n", line.c_str());
+  }
   return sink.delivered == frames && st.ring_drops == 0 ? 0 : 1;
 }

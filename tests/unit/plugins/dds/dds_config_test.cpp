@@ -17,17 +17,20 @@ TEST(DdsConfig, DocsDds_EmptyGivesDefaults) {
   EXPECT_EQ(r.config.sample_reliability, Reliability::kBestEffort);
   EXPECT_EQ(r.config.sample_depth, 1);
   EXPECT_EQ(r.config.topic_prefix, "");
+  EXPECT_TRUE(r.config.write_batch);
 }
 
 // docs/dds.md "Configuration": every key read.
 TEST(DdsConfig, DocsDds_AllKeys) {
   const DdsConfigResult r =
-      parse_dds_config("domain = 42\nsample_reliability = \"reliable\"\nsample_depth = 16\ntopic_prefix = \"p/\"\n");
+      parse_dds_config("domain = 42\nsample_reliability = \"reliable\"\nsample_depth = 16\ntopic_prefix = \"p/\"\n"
+                       "write_batch = false\n");
   ASSERT_TRUE(r.ok()) << r.message;
   EXPECT_EQ(r.config.domain, 42u);
   EXPECT_EQ(r.config.sample_reliability, Reliability::kReliable);
   EXPECT_EQ(r.config.sample_depth, 16);
   EXPECT_EQ(r.config.topic_prefix, "p/");
+  EXPECT_FALSE(r.config.write_batch);
 }
 
 // docs/dds.md "Configuration": refusals carry a code and name the key.
@@ -48,6 +51,9 @@ TEST(DdsConfig, DocsDds_Refusals) {
       {"sample_depth = 0", DdsConfigErrc::kOutOfRange, "'sample_depth'"},
       {"sample_depth = 1.5", DdsConfigErrc::kWrongType, "'sample_depth'"},
       {"topic_prefix = 3", DdsConfigErrc::kWrongType, "'topic_prefix'"},
+      {"write_batch = \"yes\"", DdsConfigErrc::kWrongType, "'write_batch' must be true or false"},
+      {"write_batch = 1", DdsConfigErrc::kWrongType, "'write_batch'"},
+      {"writebatch = true", DdsConfigErrc::kUnknownKey, "write_batch"},
   };
   for (const Case& c : cases) {
     const DdsConfigResult r = parse_dds_config(c.text);

@@ -260,9 +260,9 @@ void expect_values(const GotSample& g, const cobridge_sample& s, const char* nam
 // CiA 301 §7.2.2 (PDO): every decoded TPDO of two devices on two buses
 // reaches a reliable EncoderSample reader with the same values, in order per
 // device, keyed by gateway id, bus and node-ID.
-TEST(DdsPlugin, Cia301_7_2_2_ReliableSamplesArriveInOrderWithValuesAndKeys) {
-  Reader reader(&cobridge_EncoderSample_desc, "EncoderSample", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_VOLATILE, true);
-  Plugin p(base_config("sample_reliability = \"reliable\"\n"));
+// Feeds 1500 TPDOs to each of two devices in batches of 64 and checks that
+// `reader` gets all of them, in order per device, with their values.
+void expect_all_in_order(Plugin& p, Reader& reader) {
   p.host.announce(device(0, 0, 5, "axis 1"));
   p.host.announce(device(1, 1, 7, "axis 2"));
 
@@ -297,6 +297,36 @@ TEST(DdsPlugin, Cia301_7_2_2_ReliableSamplesArriveInOrderWithValuesAndKeys) {
   }
 }
 
+TEST(DdsPlugin, Cia301_7_2_2_ReliableSamplesArriveInOrderWithValuesAndKeys) {
+  // The reader's participant creates the domain first, so the plugin joins
+  // it as it is and says that write_batch follows that domain.
+  Reader reader(&cobridge_EncoderSample_desc, "EncoderSample", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_VOLATILE, true);
+  Plugin p(base_config("sample_reliability = \"reliable\"\n"));
+  EXPECT_NE(p.log.all().find("write_batch follows that domain's configuration"), std::string::npos) << p.log.all();
+  expect_all_in_order(p, reader);
+}
+
+// docs/dds.md "Configuration", write_batch: the plugin creates the domain
+// with Cyclone's WriteBatch and flushes after every drained batch; with it
+// on (the default) and off, every sample arrives, in order, with its values.
+TEST(DdsPlugin, DocsDds_WriteBatchOnAndOffDeliverEverySampleInOrder) {
+  for (const char* batching : {"true", "false"}) {
+    SCOPED_TRACE(std::string("write_batch = ") + batching);
+    Plugin p(base_config("sample_reliability = \"reliable\"\nwrite_batch = " + std::string(batching) + "\n"));
+    EXPECT_EQ(p.log.all().find("already exists"), std::string::npos) << p.log.all();
+    EXPECT_EQ(p.log.all().find("write batching") != std::string::npos, std::string(batching) == "true") << p.log.all();
+    Reader reader(&cobridge_EncoderSample_desc, "EncoderSample", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_VOLATILE, true);
+    // Local endpoints match when the reader is created; check, not assume.
+    dds_subscription_matched_status_t st{};
+    for (int i = 0; i < 200 && st.current_count == 0; ++i) {
+      (void)dds_get_subscription_matched_status(reader.id(), &st);
+      if (st.current_count == 0) std::this_thread::sleep_for(5ms);
+    }
+    ASSERT_GT(st.current_count, 0u);
+    expect_all_in_order(p, reader);
+  }
+}
+
 // CiA 301 §7.2.8.3.2 (heartbeat carries the NMT state): DeviceStatus is
 // reliable and transient-local, so a reader that joins after the fact gets
 // the current identity and state of the device at once.
@@ -313,6 +343,17 @@ TEST(DdsPlugin, Cia301_7_2_8_3_2_LateJoinerGetsCurrentDeviceStatus) {
   hb2.nmt_state = COBRIDGE_NMT_OPERATIONAL;
   const cobridge_sample batch[] = {hb, hb2};
   p.host.deliver(batch);
+  // The plugin writes from its own thread: wait until the second status is
+  // out (a witness sees it) before the late reader joins.
+  Reader witness(&cobridge_DeviceStatus_desc, "DeviceStatus", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_TRANSIENT_LOCAL,
+                 true);
+  bool written = false;
+  for (int i = 0; i < 100 && !written; ++i) {
+    witness.take<cobridge_DeviceStatus>(1, [&](const cobridge_DeviceStatus& s) {
+      written = written || s.nmt_state == COBRIDGE_NMT_OPERATIONAL;
+    }, 50ms);
+  }
+  ASSERT_TRUE(written);
 
   // Joins only now.
   Reader late(&cobridge_DeviceStatus_desc, "DeviceStatus", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_TRANSIENT_LOCAL,
