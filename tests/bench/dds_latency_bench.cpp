@@ -26,6 +26,8 @@
 //     Also printed: heap allocations per sample in the whole process while
 //     feeding (plugin, writer thread, Cyclone), and the time on_samples
 //     takes per sample on the feeding (dispatcher) thread.
+//  2b. The floor of the spread feed: the same traffic written by a plain
+//     thread with one dds_write per sample (no plugin, queue or hop).
 //  3. The wake-up hop: atomic notify -> waiting thread running, the
 //     mechanism by which the dispatcher wakes the plugin's writer thread.
 //
@@ -393,6 +395,59 @@ void plugin_run(const char* label, Feed feed, const std::string& config, double 
               sent != 0 ? static_cast<double>(allocs) / static_cast<double>(sent) : 0.0);
 }
 
+// The floor for the same traffic: a plain thread writes EncoderSample with
+// dds_write at the spread feed's pace (no plugin, no queue, no wake-up hop),
+// best-effort, to the same subscriber.
+void bare_stream_run(std::uint32_t domain, double seconds, unsigned rate, PingSide& ping, int from_child,
+                     std::uint32_t run) {
+  const dds_entity_t pp = dds_create_participant(domain, nullptr, nullptr);
+  const dds_entity_t topic = dds_create_topic(pp, &cobridge_EncoderSample_desc, "EncoderSample", nullptr, nullptr);
+  dds_qos_t* q = qos(DDS_RELIABILITY_BEST_EFFORT, DDS_HISTORY_KEEP_LAST, 1);
+  const dds_entity_t writer = dds_create_writer(pp, topic, q, nullptr);
+  dds_delete_qos(q);
+  if (pp < 0 || topic < 0 || writer < 0) {
+    std::fprintf(stderr, "bare stream: cannot create the writer\n");
+    return;
+  }
+  usleep(500000);  // discovery
+  Feeder feeder;
+  pipeline::Sample s{};
+  const auto total = static_cast<std::uint64_t>(seconds * rate);
+  const std::uint64_t mono0 = mono_ns() + 1000000, real0 = realtime_ns() + 1000000;
+  auto due_at = [&](std::uint64_t k) { return k * 1000000000ull / rate; };
+  sleep_until_mono(mono0);
+  std::uint64_t k = 0;
+  while (k < total) {
+    const std::uint64_t elapsed = mono_ns() - mono0;
+    if (due_at(k) > elapsed) {
+      sleep_until_mono(mono0 + due_at(k));
+      continue;
+    }
+    feeder.fill(s, real0 + due_at(k));
+    ++k;
+    cobridge_EncoderSample m{};
+    m.gateway_id = const_cast<char*>("bench-gw");
+    m.device_name = const_cast<char*>("");
+    m.bus = s.bus_index;
+    m.node_id = s.node_id;
+    m.position = s.position;
+    m.rx_timestamp_ns = s.rx_timestamp_ns;
+    m.publish_timestamp_ns = realtime_ns();
+    m.sequence_number = s.sequence;
+    (void)dds_write(writer, &m);
+  }
+  usleep(200000);
+  dds_delete(pp);
+  ping.ping(kStop, static_cast<std::int64_t>(run));
+  const std::vector<std::uint64_t> pairs = read_run(from_child);
+  std::vector<std::uint64_t> lat;
+  for (std::size_t i = 0; i + 1 < pairs.size(); i += 2) lat.push_back(pairs[i]);
+  std::printf("bare Cyclone stream (one dds_write per sample, spread, best-effort): %u samples/s for %.1f s, %" PRIu64
+              " sent, %zu received\n",
+              rate, seconds, total, lat.size());
+  print("rx_timestamp -> subscriber", figures(lat));
+}
+
 // The wake-up hop: one thread bumps an atomic and notifies, the other waits
 // on it (as Instance::wake / Instance::run in the plugin); latency from the
 // notify to the waiter running, every 500 us.
@@ -501,6 +556,7 @@ int main(int argc, char** argv) {
     runs.push_back({"no reader matched (allocations only), burst, best-effort, write_batch", Feed::kBurst,
                      d + "topic_prefix = \"unread/\"\n"});
     std::uint32_t run = 0;
+    if (feeds != "burst") bare_stream_run(domain, seconds, rate, ping, fds[0], ++run);
     for (const Run& r : runs) plugin_run(r.label, r.feed, r.config, seconds, rate, ping, fds[0], ++run);
     ping.ping(kStop, -1);
     (void)read_run(fds[0]);
