@@ -39,7 +39,7 @@ const std::error_category& dds_category() noexcept {
 std::error_code make_dds_error(dds_return_t rc) noexcept { return {rc < 0 ? -rc : rc, dds_category()}; }
 
 DdsPublisher::DdsPublisher(DdsConfig config, std::string gateway_id)
-    : config_(std::move(config)), gateway_id_(std::move(gateway_id)) {}
+    : config_(std::move(config)), gateway_id_(std::move(gateway_id)), gateway_{gateway_id_.c_str(), gateway_key(gateway_id_)} {}
 
 DdsPublisher::~DdsPublisher() { stop(); }
 
@@ -141,7 +141,7 @@ void DdsPublisher::write(dds_entity_t writer, const void* data, std::atomic<std:
 
 void DdsPublisher::write_status(const DeviceSlot& slot) noexcept {
   cobridge_DeviceStatus st{};
-  fill_device_status(st, slot, gateway_id_.c_str());
+  fill_device_status(st, slot, gateway_);
   write(status_writer_, &st, statuses_);
 }
 
@@ -152,7 +152,7 @@ void DdsPublisher::publish(std::span<const cobridge_sample> samples) noexcept {
 }
 
 void DdsPublisher::publish_one(const cobridge_sample& s) noexcept {
-  const char* gw = gateway_id_.c_str();
+  const GatewayName& gw = gateway_;
   switch (s.kind) {
     case COBRIDGE_SAMPLE_TPDO: {
       const StatusChange change = slots_.apply(s);
@@ -200,7 +200,7 @@ void DdsPublisher::publish_one(const cobridge_sample& s) noexcept {
 void DdsPublisher::forget_instance(const DeviceSlot& slot) noexcept {
   // Status readers see the instance disposed; the sample and event writers
   // release the instance's resources.
-  const char* gw = gateway_id_.c_str();
+  const GatewayName& gw = gateway_;
   cobridge_DeviceStatus st{};
   fill_device_status(st, slot, gw);
   (void)dds_dispose(status_writer_, &st);

@@ -22,6 +22,7 @@
 
 #include "dds/dds_config.hpp"
 #include "dds/device_slots.hpp"
+#include "dds/sample_mapping.hpp"
 
 #include <cobridge/plugin.h>
 #include <dds/dds.h>
@@ -80,6 +81,7 @@ class DdsPublisher {
 
   DdsConfig config_;
   std::string gateway_id_;
+  GatewayName gateway_;  // points into gateway_id_
   DeviceSlots slots_;
   dds_entity_t domain_ = 0;  // > 0 when this publisher created the domain
   dds_entity_t participant_ = 0;

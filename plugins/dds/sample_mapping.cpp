@@ -49,9 +49,16 @@ void describe_emcy(canopen::DeviceFamily family, const cobridge_sample& s, EmcyT
   out.error_reset = info.error_reset;
 }
 
-void fill_encoder_sample(cobridge_EncoderSample& out, const cobridge_sample& s, const char* gateway_id,
+std::uint64_t gateway_key(std::string_view gateway_id) noexcept {
+  std::uint64_t h = 0xcbf29ce484222325ull;  // FNV-1a 64 offset basis and prime (public domain)
+  for (const char c : gateway_id) h = (h ^ static_cast<unsigned char>(c)) * 0x100000001b3ull;
+  return h;
+}
+
+void fill_encoder_sample(cobridge_EncoderSample& out, const cobridge_sample& s, const GatewayName& gateway,
                          const DeviceSlot* slot, bool stale) noexcept {
-  out.gateway_id = str(gateway_id);
+  out.gateway_key = gateway.key;
+  out.gateway_id = str(gateway.id);
   out.bus = s.bus_index;
   out.node_id = s.node_id;
   out.device_name = str(slot != nullptr ? slot->name.c_str() : "");
@@ -72,9 +79,10 @@ void fill_encoder_sample(cobridge_EncoderSample& out, const cobridge_sample& s, 
   out.stale = stale;
 }
 
-void fill_encoder_event(cobridge_EncoderEvent& out, const cobridge_sample& s, const char* gateway_id,
+void fill_encoder_event(cobridge_EncoderEvent& out, const cobridge_sample& s, const GatewayName& gateway,
                         const DeviceSlot* slot, const EmcyText& text) noexcept {
-  out.gateway_id = str(gateway_id);
+  out.gateway_key = gateway.key;
+  out.gateway_id = str(gateway.id);
   out.bus = s.bus_index;
   out.node_id = s.node_id;
   out.device_name = str(slot != nullptr ? slot->name.c_str() : "");
@@ -89,8 +97,9 @@ void fill_encoder_event(cobridge_EncoderEvent& out, const cobridge_sample& s, co
   out.sequence_number = s.sequence;
 }
 
-void fill_device_status(cobridge_DeviceStatus& out, const DeviceSlot& slot, const char* gateway_id) noexcept {
-  out.gateway_id = str(gateway_id);
+void fill_device_status(cobridge_DeviceStatus& out, const DeviceSlot& slot, const GatewayName& gateway) noexcept {
+  out.gateway_key = gateway.key;
+  out.gateway_id = str(gateway.id);
   out.bus = slot.bus_index;
   out.node_id = slot.node_id;
   out.name = str(slot.name.c_str());

@@ -17,8 +17,20 @@
 #include "cobridge_idl/cobridge.h"
 
 #include <array>
+#include <cstdint>
+#include <string_view>
 
 namespace cobridge::dds {
+
+// The gateway as the topics name it: its id, and the id's FNV-1a 64 hash,
+// the first key member of every topic. A fixed-size key lets Cyclone
+// serialise the key without allocating (a string key costs two heap
+// allocations per dds_write in Cyclone 0.10.2; docs/performance.md).
+struct GatewayName {
+  const char* id = "";
+  std::uint64_t key = 0;
+};
+[[nodiscard]] std::uint64_t gateway_key(std::string_view gateway_id) noexcept;
 
 // "novotechnik-rotary", "novotechnik-multiturn", "ifm-rm" (EDS [Cobridge]
 // Family, also with '_'); anything else is generic (CiA 301 texts only).
@@ -37,14 +49,14 @@ void describe_emcy(canopen::DeviceFamily family, const cobridge_sample& s, EmcyT
 // EncoderSample from a TPDO sample. `slot` may be nullptr (device beyond the
 // table): the name is then "". `stale` overrides the sample's own flag (for
 // the re-publication of the last values when a device turns stale).
-void fill_encoder_sample(cobridge_EncoderSample& out, const cobridge_sample& s, const char* gateway_id,
+void fill_encoder_sample(cobridge_EncoderSample& out, const cobridge_sample& s, const GatewayName& gateway,
                          const DeviceSlot* slot, bool stale) noexcept;
 
 // EncoderEvent from an EMCY sample; the strings point into `text`.
-void fill_encoder_event(cobridge_EncoderEvent& out, const cobridge_sample& s, const char* gateway_id,
+void fill_encoder_event(cobridge_EncoderEvent& out, const cobridge_sample& s, const GatewayName& gateway,
                         const DeviceSlot* slot, const EmcyText& text) noexcept;
 
 // DeviceStatus from a slot.
-void fill_device_status(cobridge_DeviceStatus& out, const DeviceSlot& slot, const char* gateway_id) noexcept;
+void fill_device_status(cobridge_DeviceStatus& out, const DeviceSlot& slot, const GatewayName& gateway) noexcept;
 
 }  // namespace cobridge::dds

@@ -426,6 +426,7 @@ void bare_stream_run(std::uint32_t domain, double seconds, unsigned rate, PingSi
     feeder.fill(s, real0 + due_at(k));
     ++k;
     cobridge_EncoderSample m{};
+    m.gateway_key = 1;
     m.gateway_id = const_cast<char*>("bench-gw");
     m.device_name = const_cast<char*>("");
     m.bus = s.bus_index;

@@ -11,6 +11,7 @@
 
 #include "canopen/emcy.hpp"
 #include "cobridge_idl/cobridge.h"
+#include "dds/sample_mapping.hpp"
 
 #include <dds/dds.h>
 #include <fcntl.h>
@@ -236,6 +237,7 @@ GotEvent copy_event(const cobridge_EncoderEvent& e) {
 
 void expect_values(const GotSample& g, const cobridge_sample& s, const char* name) {
   EXPECT_EQ(g.gateway_id, test_gateway());
+  EXPECT_EQ(g.v.gateway_key, dds::gateway_key(test_gateway()));
   EXPECT_EQ(g.device_name, name);
   EXPECT_EQ(g.v.bus, s.bus_index);
   EXPECT_EQ(g.v.node_id, s.node_id);
@@ -330,6 +332,16 @@ TEST(DdsPlugin, DocsDds_WriteBatchOnAndOffDeliverEverySampleInOrder) {
 // CiA 301 §7.2.8.3.2 (heartbeat carries the NMT state): DeviceStatus is
 // reliable and transient-local, so a reader that joins after the fact gets
 // the current identity and state of the device at once.
+// The first key member of every topic is the FNV-1a 64 hash of the gateway
+// id (docs/dds.md), so subscribers can compute it; the published vectors of
+// the FNV reference (Fowler/Noll/Vo) pin the function.
+TEST(DdsPlugin, GatewayKeyIsFnv1a64OfTheGatewayId) {
+  EXPECT_EQ(dds::gateway_key(""), 0xcbf29ce484222325ull);
+  EXPECT_EQ(dds::gateway_key("a"), 0xaf63dc4c8601ec8cull);
+  EXPECT_EQ(dds::gateway_key("foobar"), 0x85944171f73967e8ull);
+  EXPECT_NE(dds::gateway_key("line-1"), dds::gateway_key("line-2"));
+}
+
 TEST(DdsPlugin, Cia301_7_2_8_3_2_LateJoinerGetsCurrentDeviceStatus) {
   Plugin p(base_config());
   p.host.announce(device(3, 0, 12, "lift"));
@@ -377,6 +389,7 @@ TEST(DdsPlugin, Cia301_7_2_8_3_2_LateJoinerGetsCurrentDeviceStatus) {
   EXPECT_TRUE(st.v.online);
   EXPECT_FALSE(st.v.stale);
   EXPECT_EQ(st.v.updated_ns, hb2.rx_timestamp_ns);
+  EXPECT_EQ(st.v.gateway_key, dds::gateway_key(test_gateway()));
 }
 
 // A silenced device (CiA 301 §7.2.8.3.2 heartbeat lost): the gateway's STATUS
