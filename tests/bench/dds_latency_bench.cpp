@@ -34,6 +34,7 @@
 // Usage: cobridge_bench_dds_latency [seconds per run = 5] [rate = 36000]
 //                                   [feed = both|burst|spread]
 // CYCLONEDDS_URI, if unset, is pinned to the loopback interface.
+#include "alloc_counter.hpp"
 #include "pipeline/plugin_host.hpp"
 #include "pipeline/sample.hpp"
 
@@ -57,34 +58,6 @@
 #include <thread>
 #include <vector>
 
-// Heap allocations of the whole process while a run feeds the plugin
-// (malloc/calloc/realloc interposed, as in the pipeline bench).
-extern "C" {
-void* __libc_malloc(size_t);
-void* __libc_calloc(size_t, size_t);
-void* __libc_realloc(void*, size_t);
-void __libc_free(void*);
-}
-namespace {
-std::atomic<bool> g_counting{false};
-std::atomic<unsigned long long> g_allocs{0};
-void count_alloc() {
-  if (g_counting.load(std::memory_order_relaxed)) g_allocs.fetch_add(1, std::memory_order_relaxed);
-}
-}  // namespace
-extern "C" void* malloc(size_t n) {
-  count_alloc();
-  return __libc_malloc(n);
-}
-extern "C" void* calloc(size_t a, size_t b) {
-  count_alloc();
-  return __libc_calloc(a, b);
-}
-extern "C" void* realloc(void* p, size_t n) {
-  count_alloc();
-  return __libc_realloc(p, n);
-}
-extern "C" void free(void* p) { __libc_free(p); }
 
 using namespace cobridge;
 
@@ -296,6 +269,30 @@ void sleep_until_mono(std::uint64_t t_ns) {
   clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
 }
 
+// The spread feed's clock: sample k is due at start + k / rate and carries
+// the receive time real0 + k / rate. On each wake-up, take(first, n, rx_ns)
+// gets the samples due by then (at most max_batch); then it sleeps until the
+// next one is due.
+template <typename Take>
+void spread_feed(std::uint64_t total, unsigned rate, std::size_t max_batch, Take take) {
+  const std::uint64_t mono0 = mono_ns() + 1000000, real0 = realtime_ns() + 1000000;
+  const auto due_at = [rate](std::uint64_t k) { return k * 1000000000ull / rate; };
+  const auto rx_ns = [&](std::uint64_t k) { return real0 + due_at(k); };
+  sleep_until_mono(mono0);
+  std::uint64_t k = 0;
+  while (k < total) {
+    const std::uint64_t elapsed = mono_ns() - mono0;
+    std::size_t n = 0;
+    while (k + n < total && n < max_batch && due_at(k + n) <= elapsed) ++n;
+    if (n == 0) {
+      sleep_until_mono(mono0 + due_at(k));
+      continue;
+    }
+    take(k, n, rx_ns);
+    k += n;
+  }
+}
+
 // One run of the plugin at `rate` samples/s for `seconds`.
 void plugin_run(const char* label, Feed feed, const std::string& config, double seconds, unsigned rate,
                 PingSide& ping, int from_child, std::uint32_t run) {
@@ -337,8 +334,7 @@ void plugin_run(const char* label, Feed feed, const std::string& config, double 
     ++delivers;
   };
   const auto total = static_cast<std::uint64_t>(seconds * rate);
-  g_allocs.store(0);
-  g_counting.store(true);
+  bench::start_counting_allocations();
   if (feed == Feed::kBurst) {
     // Every 500 us the samples of 500 us, one timestamp.
     constexpr std::uint64_t kPeriodNs = 500000;
@@ -353,28 +349,14 @@ void plugin_run(const char* label, Feed feed, const std::string& config, double 
       sleep_until_mono(next);
     }
   } else {
-    // Sample k arrives at base + k / rate; deliver what is due on waking.
-    const std::uint64_t mono0 = mono_ns() + 1000000, real0 = realtime_ns() + 1000000;
-    auto due_at = [&](std::uint64_t k) { return k * 1000000000ull / rate; };
-    sleep_until_mono(mono0);
-    std::uint64_t k = 0;
-    while (k < total) {
-      const std::uint64_t elapsed = mono_ns() - mono0;
-      std::size_t n = 0;
-      while (k < total && n < batch.size() && due_at(k) <= elapsed) {
-        feeder.fill(batch[n++], real0 + due_at(k));
-        ++k;
-      }
-      if (n != 0) {
-        deliver(n);
-      } else {
-        sleep_until_mono(mono0 + due_at(k));
-      }
-    }
+    // Deliver what is due on waking.
+    spread_feed(total, rate, batch.size(), [&](std::uint64_t first, std::size_t n, auto rx_ns) {
+      for (std::size_t i = 0; i < n; ++i) feeder.fill(batch[i], rx_ns(first + i));
+      deliver(n);
+    });
   }
   usleep(200000);  // in-flight samples
-  g_counting.store(false);
-  const unsigned long long allocs = g_allocs.load();
+  const unsigned long long allocs = bench::stop_counting_allocations();
   host.stop_all();
   ping.ping(kStop, static_cast<std::int64_t>(run));
   const std::vector<std::uint64_t> pairs = read_run(from_child);
@@ -413,18 +395,8 @@ void bare_stream_run(std::uint32_t domain, double seconds, unsigned rate, PingSi
   Feeder feeder;
   pipeline::Sample s{};
   const auto total = static_cast<std::uint64_t>(seconds * rate);
-  const std::uint64_t mono0 = mono_ns() + 1000000, real0 = realtime_ns() + 1000000;
-  auto due_at = [&](std::uint64_t k) { return k * 1000000000ull / rate; };
-  sleep_until_mono(mono0);
-  std::uint64_t k = 0;
-  while (k < total) {
-    const std::uint64_t elapsed = mono_ns() - mono0;
-    if (due_at(k) > elapsed) {
-      sleep_until_mono(mono0 + due_at(k));
-      continue;
-    }
-    feeder.fill(s, real0 + due_at(k));
-    ++k;
+  spread_feed(total, rate, 1, [&](std::uint64_t first, std::size_t, auto rx_ns) {
+    feeder.fill(s, rx_ns(first));
     cobridge_EncoderSample m{};
     m.gateway_key = 1;
     m.gateway_id = const_cast<char*>("bench-gw");
@@ -436,7 +408,7 @@ void bare_stream_run(std::uint32_t domain, double seconds, unsigned rate, PingSi
     m.publish_timestamp_ns = realtime_ns();
     m.sequence_number = s.sequence;
     (void)dds_write(writer, &m);
-  }
+  });
   usleep(200000);
   dds_delete(pp);
   ping.ping(kStop, static_cast<std::int64_t>(run));

@@ -17,6 +17,7 @@
 //   are printed after the run, so a rate is only sustained through DDS if
 //   its writer dropped nothing. The main thread's CPU time at that rate is
 //   the RX + dispatcher cost.
+#include "alloc_counter.hpp"
 #include "pipeline/bus_receiver.hpp"
 #include "pipeline/dispatcher.hpp"
 #include "pipeline/plugin_host.hpp"
@@ -35,31 +36,6 @@
 #include <thread>
 #include <vector>
 
-extern "C" {
-void* __libc_malloc(size_t);
-void* __libc_calloc(size_t, size_t);
-void* __libc_realloc(void*, size_t);
-void __libc_free(void*);
-}
-
-namespace {
-std::atomic<bool> g_counting{false};
-std::atomic<unsigned long long> g_allocs{0};
-}  // namespace
-
-extern "C" void* malloc(size_t n) {
-  if (g_counting.load(std::memory_order_relaxed)) g_allocs.fetch_add(1, std::memory_order_relaxed);
-  return __libc_malloc(n);
-}
-extern "C" void* calloc(size_t a, size_t b) {
-  if (g_counting.load(std::memory_order_relaxed)) g_allocs.fetch_add(1, std::memory_order_relaxed);
-  return __libc_calloc(a, b);
-}
-extern "C" void* realloc(void* p, size_t n) {
-  if (g_counting.load(std::memory_order_relaxed)) g_allocs.fetch_add(1, std::memory_order_relaxed);
-  return __libc_realloc(p, n);
-}
-extern "C" void free(void* p) { __libc_free(p); }
 
 using namespace cobridge;
 using namespace cobridge::pipeline;
@@ -196,8 +172,7 @@ int main(int argc, char** argv) {
   sink.delivered = 0;
 
   const std::size_t rounds = frames_total / batch.size();
-  g_allocs.store(0);
-  g_counting.store(true);
+  bench::start_counting_allocations();
   const double cpu0 = thread_cpu_s();
   const auto t0 = std::chrono::steady_clock::now();
   for (std::size_t r = 0; r < rounds; ++r) {
@@ -212,7 +187,7 @@ int main(int argc, char** argv) {
   }
   const auto t1 = std::chrono::steady_clock::now();
   const double cpu = thread_cpu_s() - cpu0;
-  g_counting.store(false);
+  const unsigned long long allocs = bench::stop_counting_allocations();
   const double secs = std::chrono::duration<double>(t1 - t0).count();
   const std::size_t frames = rounds * batch.size();
   const auto st = rx.stats();
@@ -229,8 +204,7 @@ int main(int argc, char** argv) {
   std::printf("  delivered       : %zu samples, ring drops %llu\n", sink.delivered,
               static_cast<unsigned long long>(st.ring_drops));
   std::printf("  heap allocations: %llu in the timed loop = %.6f per frame\n",
-              static_cast<unsigned long long>(g_allocs.load()),
-              static_cast<double>(g_allocs.load()) / static_cast<double>(frames));
+              allocs, static_cast<double>(allocs) / static_cast<double>(frames));
   std::printf("  RSS             : %ld KiB after warm-up, %ld KiB after the run\n", rss_before, rss_kib());
   host.stop_all();  // the DDS writer drains its queue and reports what it dropped
   {

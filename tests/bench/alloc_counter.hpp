@@ -1,0 +1,13 @@
+// Allocation counter for the benchmarks' "heap allocations per frame"
+// figures: malloc, calloc and realloc are interposed for the whole process
+// (every thread, plugins and libraries included) and counted between
+// start and stop. Linking this file into a bench is what interposes them.
+#pragma once
+
+namespace cobridge::bench {
+
+void start_counting_allocations() noexcept;
+// Allocations since start_counting_allocations().
+unsigned long long stop_counting_allocations() noexcept;
+
+}  // namespace cobridge::bench
