@@ -33,6 +33,8 @@
 //
 // Usage: cobridge_bench_dds_latency [seconds per run = 5] [rate = 36000]
 //                                   [feed = both|burst|spread]
+//                                   [placement = shared|pinned]
+// pinned: the subscriber on the last CPU, the gateway side on CPU 0.
 // CYCLONEDDS_URI, if unset, is pinned to the loopback interface.
 #include "alloc_counter.hpp"
 #include "pipeline/plugin_host.hpp"
@@ -42,6 +44,7 @@
 
 #include <dds/dds.h>
 #include <dds/version.h>
+#include <sched.h>
 #include <sys/prctl.h>
 #include <sys/wait.h>
 #include <time.h>
@@ -462,10 +465,22 @@ int main(int argc, char** argv) {
   const double seconds = argc > 1 ? std::atof(argv[1]) : 5.0;
   const unsigned rate = argc > 2 ? static_cast<unsigned>(std::atoi(argv[2])) : 36000u;
   const std::string feeds = argc > 3 ? argv[3] : "both";
-  if (seconds <= 0 || rate == 0 || (feeds != "both" && feeds != "burst" && feeds != "spread")) {
-    std::fprintf(stderr, "usage: %s [seconds > 0] [rate > 0] [both|burst|spread]\n", argv[0]);
+  const std::string placement = argc > 4 ? argv[4] : "shared";
+  if (seconds <= 0 || rate == 0 || (feeds != "both" && feeds != "burst" && feeds != "spread") ||
+      (placement != "shared" && placement != "pinned")) {
+    std::fprintf(stderr, "usage: %s [seconds > 0] [rate > 0] [both|burst|spread] [shared|pinned]\n", argv[0]);
     return 2;
   }
+  // pinned: the gateway side on CPU 0, the subscriber on the last CPU, as a
+  // gateway with the cell controller's reader elsewhere would be.
+  const long cpus = sysconf(_SC_NPROCESSORS_ONLN);
+  const auto pin = [](long cpu) {
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    CPU_SET(static_cast<std::size_t>(cpu), &set);
+    return sched_setaffinity(0, sizeof set, &set) == 0;
+  };
+  const bool pinned = placement == "pinned" && cpus >= 2;
   setvbuf(stdout, nullptr, _IOLBF, 0);  // lines stay whole next to the plugin's log on stderr
   setenv("CYCLONEDDS_URI", "<General><Interfaces><NetworkInterface name=\"lo\" multicast=\"true\"/></Interfaces></General>", 0);
   // The feeder stands in for the dispatcher, which futex wake-ups (not
@@ -478,9 +493,11 @@ int main(int argc, char** argv) {
   const pid_t child = fork();
   if (child == 0) {
     close(fds[0]);
+    if (pinned && !pin(cpus - 1)) _exit(3);
     _exit(subscriber(domain, fds[1]));
   }
   close(fds[1]);
+  if (pinned && !pin(0)) std::fprintf(stderr, "cannot pin the gateway side to CPU 0\n");
 
   std::printf("DDS latency bench: Cyclone DDS %s, domains %u/%u, subscriber in a separate process, host: %ld CPUs\n",
               DDS_VERSION, domain, domain + 1, sysconf(_SC_NPROCESSORS_ONLN));
