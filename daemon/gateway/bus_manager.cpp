@@ -499,6 +499,24 @@ struct BusManager::Impl {
     return started_any;
   }
 
+  [[nodiscard]] PlanRunnerOptions runner_options() const {
+    PlanRunnerOptions ro;
+    ro.sdo_retries = bus.sdo_retries;
+    return ro;
+  }
+
+  // A runner for a plan on `m` (configuration or command), with the device's
+  // SDO client, made on first use.
+  std::unique_ptr<PlanRunner> make_runner(Managed& m, ConfigPlan plan, const PlanRunnerOptions& ro) {
+    if (!m.sdo) {
+      canopen::SdoClientConfig sc;
+      sc.timeout = milliseconds(bus.sdo_timeout_ms);
+      sc.retries = 0;  // the runner repeats timed-out transfers itself
+      m.sdo = std::make_unique<canopen::SdoClient>(*channel, m.st.node_id, sc);
+    }
+    return std::make_unique<PlanRunner>(*channel, *m.sdo, std::move(plan), ro);
+  }
+
   bool begin_configuration(Managed& m, TimePoint now) {
     if (!m.plan || m.plan->node_id != m.st.node_id || m.force_full) {
       auto result = make_config_plan(m.cfg, *m.description, *m.profile, m.st.node_id);
@@ -517,14 +535,7 @@ struct BusManager::Impl {
       m.plan = std::move(result.plan);
     }
     m.supervision = supervision_for(m);
-    if (!m.sdo) {
-      canopen::SdoClientConfig sc;
-      sc.timeout = milliseconds(bus.sdo_timeout_ms);
-      sc.retries = 0;  // the runner repeats timed-out transfers itself
-      m.sdo = std::make_unique<canopen::SdoClient>(*channel, m.st.node_id, sc);
-    }
-    PlanRunnerOptions ro;
-    ro.sdo_retries = bus.sdo_retries;
+    PlanRunnerOptions ro = runner_options();
 
     // A device that carries the fingerprint of this plan (state file) only
     // gets a quick read-back of its key objects; the full plan runs when they
@@ -541,7 +552,7 @@ struct BusManager::Impl {
     }
     if (m.quick) ro.start_node = false;
     m.force_full = false;
-    m.runner = std::make_unique<PlanRunner>(*channel, *m.sdo, std::move(run_plan), ro);
+    m.runner = make_runner(m, std::move(run_plan), ro);
     m.configure_started = now;
     ++m.attempts;
     set_state(m, DeviceState::configuring);
@@ -754,18 +765,10 @@ struct BusManager::Impl {
                      CommandOutcome{range ? CommandStatus::invalid_value : CommandStatus::unsupported, 0, text});
       return;
     }
-    if (!m->sdo) {
-      canopen::SdoClientConfig sc;
-      sc.timeout = milliseconds(bus.sdo_timeout_ms);
-      sc.retries = 0;  // the runner repeats timed-out transfers itself
-      m->sdo = std::make_unique<canopen::SdoClient>(*channel, m->st.node_id, sc);
-    }
-    PlanRunnerOptions ro;
-    ro.sdo_retries = bus.sdo_retries;
     log->info("bus {}: device {}: {}{} requested by an output", bus.name, m->st.name, to_string(cmd.kind),
               cmd.kind == CommandKind::preset ? " to " + std::to_string(cmd.value) : std::string());
     m->command = std::move(cmd);
-    m->runner = std::make_unique<PlanRunner>(*channel, *m->sdo, std::move(*plan.plan), ro);
+    m->runner = make_runner(*m, std::move(*plan.plan), runner_options());
     if (const auto ec = m->runner->start(now)) drop_runner(*m, ec.message().c_str());
   }
 
