@@ -419,6 +419,7 @@ int run(const std::filesystem::path& config_file, bool foreground, const std::st
     }
     if (watchdog_period.count() > 0 && after >= next_watchdog) {
       next_watchdog = after + watchdog_period;
+      // Every bus's control thread alive; an absent adapter is in STATUS=, not a reason to be restarted.
       if (std::all_of(buses.begin(), buses.end(), [](const auto& b) { return b->serving(); })) (void)notifier.watchdog();
     }
   }

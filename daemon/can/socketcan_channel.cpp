@@ -159,7 +159,11 @@ ChannelError SocketCanChannel::open() {
     // Not an error: the daemon may start before the link is configured.
     push_interface_event(BusEventKind::InterfaceDown);
     retry_at_ = TimePoint::min();
-    if (auto l = logger()) l->warn("{}: interface is down; will open it when it comes up", config_.interface);
+    if (auto l = logger(); l && o.missing) {
+      l->warn("{}: no such interface (adapter not plugged in?); will open it when it appears", config_.interface);
+    } else if (l) {
+      l->warn("{}: interface is down; will open it when it comes up", config_.interface);
+    }
     return {};
   }
   if (auto l = logger()) l->info("{}: opened (CAN_RAW, fd {})", config_.interface, fd_);
@@ -190,6 +194,10 @@ SocketCanChannel::OpenOutcome SocketCanChannel::open_socket() {
 
   if (::ioctl(fd, SIOCGIFINDEX, &ifr) < 0) {
     const int err = errno;
+    if (err == ENODEV && config_.wait_for_interface) {
+      ::close(fd);
+      return OpenOutcome{{}, true, true};
+    }
     if (err == ENODEV) return fail(err, "no such network interface");
     return fail(err, "SIOCGIFINDEX failed");
   }

@@ -69,6 +69,10 @@ struct SocketCanConfig {
   int receive_buffer_bytes = 0;
   // CAN_RAW_ERR_FILTER class bits; all of them by default.
   uint32_t error_mask = CAN_ERR_MASK;
+  // An interface that does not exist (a USB adapter not plugged in yet, or
+  // unplugged) is waited for like one that is down: open() succeeds closed,
+  // process() opens it when it appears. Off: open() fails with ENODEV (CLI).
+  bool wait_for_interface = false;
 };
 
 struct ChannelStats {
@@ -164,6 +168,7 @@ class SocketCanChannel final : public FrameSink {
   struct OpenOutcome {
     ChannelError error;
     bool interface_down = false;  // exists but not up (or went down while opening)
+    bool missing = false;         // with interface_down: does not exist (wait_for_interface)
   };
   OpenOutcome open_socket();
   void log_pending() noexcept;

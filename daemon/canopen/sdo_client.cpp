@@ -290,6 +290,13 @@ void SdoClient::abort(SdoAbort code) noexcept {
   fail(code);
 }
 
+void SdoClient::forget() noexcept {
+  state_ = State::kIdle;
+  tx_pending_ = false;
+  deadline_ = kNever;
+  result_.reset();
+}
+
 std::optional<SdoClient::Result> SdoClient::take_result() noexcept {
   std::optional<Result> r = result_;
   result_.reset();

@@ -116,6 +116,10 @@ class SdoClient {
   // The caller gives up: sends the abort to the server and completes the
   // transfer with `code`. No effect when idle.
   void abort(SdoAbort code) noexcept;
+  // The server lost the transfer (it rebooted, or the interface went away):
+  // end it at once without a frame and without a result, so the client is
+  // free for the next transfer. No effect when idle.
+  void forget() noexcept;
 
   [[nodiscard]] bool busy() const noexcept { return state_ != State::kIdle; }
   [[nodiscard]] bool has_result() const noexcept { return result_.has_value(); }

@@ -56,6 +56,11 @@ struct LoggingSettings {
 
 enum class Commissioning : std::uint8_t { automatic, manual, off };
 enum class SwapPolicy : std::uint8_t { same_model, off };
+// What the gateway does when another NMT master (a service tool, a PLC)
+// stops a device it started or sends it to pre-operational: start it again
+// (configuring it first if needed) and log that it happened, or leave it as
+// the other master wants it and show that in the status.
+enum class ForeignNmt : std::uint8_t { restart, respect };
 
 struct Bus {
   std::string name;
@@ -71,6 +76,7 @@ struct Bus {
   std::uint32_t lss_timeout_ms = 100;
   std::uint32_t sdo_timeout_ms = 500;
   std::uint8_t sdo_retries = 2;
+  ForeignNmt foreign_nmt = ForeignNmt::restart;
   SourceLocation where;  // the [[bus]] header
 };
 

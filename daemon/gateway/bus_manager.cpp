@@ -9,6 +9,7 @@
 #include "device/family_profile.hpp"
 #include "gateway/config_plan.hpp"
 #include "gateway/discovery.hpp"
+#include "gateway/log_budget.hpp"
 #include "gateway/plan_runner.hpp"
 #include "gateway/supervisor.hpp"
 #include "sys/logging.hpp"
@@ -49,6 +50,9 @@ constexpr std::size_t kMaxQueuedCommands = 16;    // per bus, waiting for the co
 // After a command that passed through pre-operational, a heartbeat sent
 // before the device got NMT start may still arrive: not a surprise reset.
 constexpr milliseconds kCommandSettle{500};
+// A re-plugged adapter is opened at most this long after it appears, so
+// its devices are configured again within 2 s of its return.
+constexpr milliseconds kReopenBackoffMax{500};
 
 WallTime wall_now() { return std::chrono::system_clock::now(); }
 
@@ -78,10 +82,12 @@ struct BusManager::Impl {
     bool force_full = false;  // the next run is the full plan
     bool want_configure = false;  // waiting for a runner slot
     bool started = false;         // NMT start sent after a successful plan
+    bool failed_unanswered = false;  // the last failure was a silence (timeout, nothing sent)
     unsigned attempts = 0;
     TimePoint not_before{};       // retry back-off
     TimePoint configure_started{};
     TimePoint boot_up_at = kNever;  // last boot-up, to report how long the way back took
+    LogBudget emcy_log;             // EMCY log lines (the outputs get every EMCY)
   };
 
   Impl(const config::Config& config_in, std::size_t index, const device::DeviceCatalog& catalog_in,
@@ -133,6 +139,8 @@ struct BusManager::Impl {
     if (wake_fd < 0) return {errno, std::generic_category()};
     can::SocketCanConfig cc;
     cc.interface = bus.interface;
+    cc.wait_for_interface = true;  // a missing adapter is reported and waited for
+    cc.reopen_backoff_max = kReopenBackoffMax;
     channel = std::make_unique<can::SocketCanChannel>(cc);
     const auto err = channel->open();
     if (err) {
@@ -194,7 +202,6 @@ struct BusManager::Impl {
       }
     }
     log->info("bus {}: serving {} ({} configured devices)", bus.name, bus.interface, devices.size());
-    discovery->start(now0);
 
     std::array<can::Frame, can::SocketCanChannel::kBatch> frames{};
     while (!stop_requested.load(std::memory_order_relaxed)) {
@@ -208,6 +215,13 @@ struct BusManager::Impl {
         if (n < frames.size()) break;
       }
       handle_bus_events(now);
+      if (!discovery_started && channel->is_open()) {
+        // Not before: probes sent to a missing interface would mark every
+        // device absent.
+        discovery->start(now);
+        discovery_started = true;
+      }
+      loop_alive.store(now.time_since_epoch().count(), std::memory_order_relaxed);
 
       TimePoint next = run_components(now);
       // Handling the components' output may have started new work (a plan,
@@ -271,6 +285,7 @@ struct BusManager::Impl {
     for (auto& m : devices) {
       if (m.runner) next = std::min(next, m.runner->process(now));
       if (m.want_configure && !m.runner) next = std::min(next, std::max(m.not_before, now));
+      next = std::min(next, m.emcy_log.report_due());
     }
     return next;
   }
@@ -298,6 +313,7 @@ struct BusManager::Impl {
       }
     }
     if (start_configurations(now)) more = true;
+    report_suppressed_emcy(now);
     return more;
   }
 
@@ -325,15 +341,43 @@ struct BusManager::Impl {
           }
         }
       } else if (ev.kind == can::BusEventKind::InterfaceReopened) {
-        // Devices may have rebooted unseen meanwhile: let discovery probe
-        // them again (it re-identifies, and an identified device that is not
-        // running is reconfigured), and check every supervised one.
-        for (auto& m : devices) {
-          if (m.in_config && m.st.node_id != 0) discovery->set_supervised(m.st.node_id, false);
-        }
-        ++reopens_seen;
+        on_interface_back(now);
       }
     }
+  }
+
+  // Devices may have rebooted unseen while the interface was away (their
+  // boot-up went nowhere; a factory-fresh one has no heartbeat to tell us):
+  // every device that was identified is checked at once (the quick plan reads
+  // its key objects; a device that lost its settings gets the full plan), and
+  // discovery probes the configured nodes again for those never identified.
+  void on_interface_back(TimePoint now) {
+    ++reopens_seen;
+    for (auto& m : devices) {
+      if (!m.in_config || m.st.node_id == 0) continue;
+      discovery->set_supervised(m.st.node_id, false);
+      if (m.description == nullptr || m.runner || m.command) continue;
+      m.started = false;
+      m.want_configure = true;
+      m.attempts = 0;
+      m.not_before = now;
+      supervisor.listen(m.st.node_id, m.profile->family);
+    }
+    log->info("bus {}: interface back; checking every known device", bus.name);
+  }
+
+  // A device that is offline (or failed for want of answers) but sends
+  // frames again is checked and configured: it may have restarted unseen.
+  void on_sign_of_life(Managed& m, TimePoint now) {
+    const bool lost = m.st.state == DeviceState::offline ||
+                      (m.st.state == DeviceState::failed && m.failed_unanswered);
+    if (!lost || m.description == nullptr || m.runner || m.want_configure) return;
+    log->info("bus {}: device {} (node {}) sends again while {}; checking its configuration", bus.name, m.st.name,
+              m.st.node_id, to_string(m.st.state));
+    m.started = false;
+    m.want_configure = true;
+    m.attempts = 0;
+    m.not_before = now;
   }
 
   // ---- discovery -----------------------------------------------------------
@@ -484,6 +528,8 @@ struct BusManager::Impl {
 
   bool start_configurations(TimePoint now) {
     if (discovery->commissioning()) return false;  // LSS/NMT resets under way: no SDO now
+    // Attempts made on a closed interface would only count towards `failed`.
+    if (!channel->is_open()) return false;
     std::size_t active = 0;
     for (const auto& m : devices) active += m.runner ? 1U : 0U;
     bool started_any = false;
@@ -550,7 +596,9 @@ struct BusManager::Impl {
       // miss them: store everything the plan names.
       run_plan.store_policy = config::StorePolicy::always;
     }
-    if (m.quick) ro.start_node = false;
+    // The start is ours (finish_configuration): the hot path learns the
+    // mapping first, so the first TPDO after the start is decoded.
+    ro.start_node = false;
     m.force_full = false;
     m.runner = make_runner(m, std::move(run_plan), ro);
     m.configure_started = now;
@@ -605,6 +653,8 @@ struct BusManager::Impl {
     t.device = m.st.name;
     t.milliseconds = ms;
     add_step(std::move(t));
+    m.failed_unanswered = !outcome.ok() && (outcome.error == make_error_code(PlanRunErrc::sdo_timeout) ||
+                                            outcome.error == make_error_code(PlanRunErrc::send_failed));
     if (!outcome.ok()) {
       m.st.last_error = outcome.message;
       log->warn("bus {}: device {}: configuration failed (attempt {}): {}", bus.name, m.st.name, m.attempts,
@@ -630,16 +680,6 @@ struct BusManager::Impl {
       --m.attempts;
       return;
     }
-    if (m.quick) {
-      // The quick plan leaves the start to us, so that a device found
-      // different is not started half configured.
-      if (!channel->send(canopen::make_nmt(canopen::NmtCommand::start, m.st.node_id))) {
-        m.st.last_error = "NMT start could not be sent";
-        m.want_configure = true;
-        m.not_before = now + kConfigureRetryDelay;
-        return;
-      }
-    }
     if (outcome.writes > 0) ++m.st.configurations;
     if (outcome.guarding_fallback) {
       // The device refused 0x1017 (J§1.2.2): the plan's fallback guards it.
@@ -655,6 +695,7 @@ struct BusManager::Impl {
     a.node_id = m.st.node_id;
     a.fingerprint = m.plan->fingerprint;
     if (const auto ec = state.put(a)) log->error("bus {}: state file: {}", bus.name, ec.message());
+    if (!announce_and_start(m, now)) return;
 
     // Started: operational from here, and supervised from now on.
     m.started = true;
@@ -678,6 +719,12 @@ struct BusManager::Impl {
       log->info("bus {}: device {} operational at node {} ({:.0f} ms, {} writes, {} saves)", bus.name, m.st.name,
                 m.st.node_id, ms, outcome.writes, outcome.saves);
     }
+  }
+
+  // Plans leave the NMT start to us, so that a device found different by
+  // the quick check is not started half configured, and so that the hot path
+  // has the device's mapping before its first TPDO (issue 10, item 4).
+  bool announce_and_start(Managed& m, TimePoint now) {
     if (options.observer != nullptr) {
       std::vector<std::uint32_t> tpdo1, tpdo2;
       for (const auto& step : m.plan->steps) {
@@ -685,8 +732,16 @@ struct BusManager::Impl {
         if (step.tpdo == 1) tpdo1 = step.mapping;
         if (step.tpdo == 2) tpdo2 = step.mapping;
       }
-      options.observer->on_device_configured(m.st, tpdo1, tpdo2);
+      DeviceStatus announced = m.st;
+      announced.state = DeviceState::operational;
+      announced.nmt = canopen::NmtState::operational;
+      options.observer->on_device_configured(announced, tpdo1, tpdo2);
     }
+    if (channel->send(canopen::make_nmt(canopen::NmtCommand::start, m.st.node_id))) return true;
+    m.st.last_error = "NMT start could not be sent";
+    m.want_configure = true;
+    m.not_before = now + kConfigureRetryDelay;
+    return false;
   }
 
   static Supervision fallback_guarding(const ConfigPlan& plan) {
@@ -827,24 +882,73 @@ struct BusManager::Impl {
       case Supervisor::ChangeKind::online:
         log->info("bus {}: device {} (node {}) online", bus.name, m->st.name, c.node);
         discovery->set_supervised(c.node, true);
+        on_sign_of_life(*m, now);
         break;
       case Supervisor::ChangeKind::nmt_state:
-        if (m->started && !m->runner && c.nmt == canopen::NmtState::pre_operational &&
-            now >= m->preop_expected_until) {
-          // Someone (or a reset we missed) put it back: configure and start again.
-          log->warn("bus {}: device {} (node {}) is pre-operational again; reconfiguring", bus.name,
-                    m->st.name, c.node);
-          m->started = false;
-          m->want_configure = true;
-          m->attempts = 0;
-          m->not_before = now;
-          supervisor.listen(c.node, m->profile ? m->profile->family : canopen::DeviceFamily::generic);
-          set_state(*m, DeviceState::identified);
-        }
+        on_nmt_state(*m, c.nmt, now);
         break;
       case Supervisor::ChangeKind::emcy:
-        log->warn("bus {}: device {} (node {}): {}", bus.name, m->st.name, c.node, c.emcy_text);
+        if (emcy_log_allowed(*m, now)) log->warn("bus {}: device {} (node {}): {}", bus.name, m->st.name, c.node, c.emcy_text);
+        on_sign_of_life(*m, now);
         break;
+    }
+  }
+
+  // The heartbeat (or guarding reply) tells the device's NMT state (CiA 301
+  // §7.2.8.3.2): the status follows it, and a device another NMT master
+  // stopped or sent to pre-operational is started again (policy restart) or
+  // left as that master wants it (policy respect); either way it is logged.
+  void on_nmt_state(Managed& m, canopen::NmtState nmt, TimePoint now) {
+    if (!m.started || m.runner || now < m.preop_expected_until) return;
+    const bool restart = bus.foreign_nmt == config::ForeignNmt::restart;
+    if (nmt == canopen::NmtState::operational) {
+      if (m.st.state != DeviceState::stopped) return;
+      log->info("bus {}: device {} (node {}) is operational again", bus.name, m.st.name, m.st.node_id);
+      m.st.last_error.clear();
+      set_state(m, m.st.online ? DeviceState::operational : DeviceState::offline);
+      return;
+    }
+    if (nmt == canopen::NmtState::stopped) {
+      if (m.st.state == DeviceState::stopped) return;
+      m.st.last_error = "stopped by another NMT master";
+      set_state(m, DeviceState::stopped);
+      if (!restart) {
+        log->warn("bus {}: device {} (node {}) was stopped by another NMT master; left stopped (foreign_nmt = "
+                  "respect)", bus.name, m.st.name, m.st.node_id);
+        return;
+      }
+      log->warn("bus {}: device {} (node {}) was stopped by another NMT master; starting it again", bus.name,
+                m.st.name, m.st.node_id);
+      if (!channel->send(canopen::make_nmt(canopen::NmtCommand::start, m.st.node_id)))
+        log->error("bus {}: device {}: NMT start could not be sent", bus.name, m.st.name);
+      return;
+    }
+    if (nmt != canopen::NmtState::pre_operational) return;
+    if (!restart) {
+      log->warn("bus {}: device {} (node {}) is pre-operational (another NMT master, or a reset whose boot-up was "
+                "missed); left so (foreign_nmt = respect)", bus.name, m.st.name, m.st.node_id);
+      m.st.last_error = "pre-operational: not started by this gateway";
+      set_state(m, DeviceState::stopped);
+      return;
+    }
+    // Someone (or a reset we missed) put it back: check, configure and start again.
+    log->warn("bus {}: device {} (node {}) is pre-operational again; reconfiguring", bus.name, m.st.name,
+              m.st.node_id);
+    m.started = false;
+    m.want_configure = true;
+    m.attempts = 0;
+    m.not_before = now;
+    supervisor.listen(m.st.node_id, m.profile ? m.profile->family : canopen::DeviceFamily::generic);
+    set_state(m, DeviceState::identified);
+  }
+
+  bool emcy_log_allowed(Managed& m, TimePoint now) { return m.emcy_log.allow(now); }
+
+  void report_suppressed_emcy(TimePoint now) {
+    for (auto& m : devices) {
+      if (const std::uint32_t n = m.emcy_log.take_suppressed(now))
+        log->warn("bus {}: device {} (node {}): {} more EMCY not logged (last: {}); every one reached the outputs",
+                  bus.name, m.st.name, m.st.node_id, n, m.st.last_emcy_text);
     }
   }
 
@@ -1010,6 +1114,7 @@ struct BusManager::Impl {
   std::vector<std::string> problems;
   std::string live_bus_event;
   std::uint32_t reopens_seen = 0;
+  bool discovery_started = false;
   bool dirty = true;
   TimePoint started_at{};
 
@@ -1019,6 +1124,7 @@ struct BusManager::Impl {
   std::atomic<bool> running{false};
   std::atomic<bool> open_flag{false};
   std::atomic<bool> ready_latched{false};
+  std::atomic<Clock::rep> loop_alive{0};  // steady_clock ticks of the last loop turn (watchdog)
 
   // Shared with the callers of status()/reload()/request_commission().
   mutable std::mutex mutex;
@@ -1047,7 +1153,13 @@ bool BusManager::ready() const {
   return impl_->started_at != TimePoint{} && Clock::now() - impl_->started_at >= impl_->options.ready_timeout;
 }
 
-bool BusManager::serving() const { return impl_->running.load() && impl_->open_flag.load(); }
+bool BusManager::serving() const {
+  // Alive, not "every interface open": a bus waiting for its adapter must not
+  // stop the watchdog, or systemd would restart the daemon and take the other
+  // buses down with it. The loop turns at least every kMaxPollWait.
+  const Clock::time_point last{Clock::duration{impl_->loop_alive.load(std::memory_order_relaxed)}};
+  return impl_->running.load() && Clock::now() - last < 3 * kMaxPollWait;
+}
 
 BusStatus BusManager::status() const {
   BusStatus s;

@@ -255,15 +255,17 @@ std::string summary(const std::vector<BusStatus>& buses) {
   std::size_t total = 0;
   std::size_t operational = 0;
   std::size_t open = 0;
+  std::string closed;
   for (const auto& b : buses) {
     if (b.open) ++open;
+    if (!b.open) closed += (closed.empty() ? "" : ", ") + b.name + " (" + b.interface + ")";
     for (const auto& d : b.devices) {
       ++total;
       if (d.state == DeviceState::operational) ++operational;
     }
   }
   std::string s = std::to_string(buses.size()) + (buses.size() == 1 ? " bus" : " buses");
-  if (open != buses.size()) s += " (" + std::to_string(open) + " open)";
+  if (open != buses.size()) s += " (" + std::to_string(open) + " open; waiting for " + closed + ")";
   s += ", " + std::to_string(operational) + "/" + std::to_string(total) + " devices operational";
   return s;
 }

@@ -11,6 +11,7 @@ const char* to_string(DeviceState s) noexcept {
     case DeviceState::operational: return "operational";
     case DeviceState::offline: return "offline";
     case DeviceState::failed: return "failed";
+    case DeviceState::stopped: return "stopped";
   }
   return "?";
 }

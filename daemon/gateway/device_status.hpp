@@ -24,6 +24,7 @@ enum class DeviceState : std::uint8_t {
   operational,    // configured, started, heartbeat/guarding fresh
   offline,        // was operational; heartbeat/guarding lost, or silent
   failed,         // configuration or commissioning failed; see last_error
+  stopped,        // configured, but NMT-stopped by another master (heartbeat state 0x04)
 };
 [[nodiscard]] const char* to_string(DeviceState s) noexcept;
 

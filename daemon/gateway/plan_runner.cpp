@@ -63,6 +63,10 @@ PlanRunner::PlanRunner(can::FrameSink& sink, canopen::SdoClient& sdo, ConfigPlan
   ops_.reserve(max_entries + 4);
 }
 
+PlanRunner::~PlanRunner() {
+  if (running()) sdo_.forget();
+}
+
 std::error_code PlanRunner::start(canopen::TimePoint now) {
   if (sdo_.busy()) return PlanRunErrc::sdo_busy;
   if (std::error_code ec = sdo_.set_node_id(plan_.node_id)) return ec;

@@ -85,6 +85,10 @@ class PlanRunner {
   // plan is copied; `sdo` must outlive the runner and is re-addressed to the
   // plan's node-ID at start().
   PlanRunner(can::FrameSink& sink, canopen::SdoClient& sdo, ConfigPlan plan, PlanRunnerOptions options = {});
+  // A runner dropped mid-transfer (the device rebooted, the interface went
+  // down, the gateway stops) releases the SDO client it borrowed, so the
+  // device's next plan can start at once.
+  ~PlanRunner();
   PlanRunner(const PlanRunner&) = delete;
   PlanRunner& operator=(const PlanRunner&) = delete;
 

@@ -25,8 +25,11 @@ BusReceiver::BusReceiver(BusReceiverOptions options, const DeviceTable& table, D
       ring_(options_.ring_capacity),
       decoder_(options_.bus_index, table),
       dispatcher_(dispatcher),
+      // A missing or re-plugged adapter is waited for, like the bus manager's socket.
       channel_(can::SocketCanConfig{.interface = options_.interface,
-                                    .receive_buffer_bytes = options_.receive_buffer_bytes}),
+                                    .reopen_backoff_max = std::chrono::milliseconds(500),
+                                    .receive_buffer_bytes = options_.receive_buffer_bytes,
+                                    .wait_for_interface = true}),
       wake_fd_(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)) {}
 
 BusReceiver::~BusReceiver() {

@@ -72,6 +72,8 @@ std::string_view control_help() noexcept {
          "  power-off <serial>                silent until power-on; RAM lost\n"
          "  power-on <serial>\n"
          "  silence <serial> on|off           cable pulled: no RX, no TX, state kept\n"
+         "  reboot-on-sdo <serial> <n>        power-cycle when the n-th SDO request from now arrives\n"
+         "                                    (that request is never answered; 0 cancels)\n"
          "  fault <serial> <kind>             measurement-error|over-range|under-range|hardware-fault|\n"
          "                                    temperature-high|temperature-low|voltage-high|voltage-low|\n"
          "                                    channel-disagreement|clear\n"
@@ -131,6 +133,15 @@ ControlParse parse_control_command(std::string_view line) {
     if (w[2] != "on" && w[2] != "off") return fail("silence wants on|off, got '" + std::string(w[2]) + "'");
     c.verb = ControlVerb::silence;
     c.on = w[2] == "on";
+    return ControlParse{c, {}};
+  }
+  if (verb == "reboot-on-sdo") {
+    if (auto e = want_args(2, "reboot-on-sdo <serial> <n>")) return *e;
+    if (!serial_at(1)) return fail("serial must be a number (decimal or 0x hex), got '" + std::string(w[1]) + "'");
+    const auto n = parse_unsigned(w[2], 1000000);
+    if (!n) return fail("n must be 0..1000000, got '" + std::string(w[2]) + "'");
+    c.verb = ControlVerb::reboot_on_sdo;
+    c.count = static_cast<std::uint32_t>(*n);
     return ControlParse{c, {}};
   }
   if (verb == "fault") {

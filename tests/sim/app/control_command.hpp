@@ -5,6 +5,7 @@
 //   list                                  devices: serial, model, bus, node, NMT state
 //   power-cycle|power-off|power-on <serial>
 //   silence <serial> on|off               cable pulled: no RX, no TX, state kept
+//   reboot-on-sdo <serial> <n>            power-cycle when the n-th SDO request from now arrives
 //   fault <serial> <kind>                 see fault_kind_names()
 //   move <serial> <turns>                 add an offset (turns, may be negative/fractional)
 //   flood <iface> <ms>                    highest-priority frames back to back
@@ -31,6 +32,7 @@ enum class ControlVerb : std::uint8_t {
   power_off,
   power_on,
   silence,
+  reboot_on_sdo,
   fault,
   move,
   flood,
@@ -50,6 +52,7 @@ struct ControlCommand {
   double turns = 0;               // move
   std::uint32_t cob_id = 0;       // babble
   std::uint32_t duration_ms = 0;  // flood, babble
+  std::uint32_t count = 0;        // reboot-on-sdo
   BusErrorKind bus_error = BusErrorKind::error_passive;
 };
 

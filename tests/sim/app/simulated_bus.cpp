@@ -22,6 +22,9 @@ can::SocketCanConfig channel_config(const std::string& iface) {
   // a real controller would keep retrying, a simulator must keep its loop.
   c.tx_timeout = std::chrono::milliseconds(2);
   c.receive_buffer_bytes = 1 << 20;
+  // A device's transceiver is on the wire the moment the link is; the
+  // simulator's socket must not lag behind it by a long reopen backoff.
+  c.reopen_backoff_max = std::chrono::milliseconds(50);
   return c;
 }
 }  // namespace

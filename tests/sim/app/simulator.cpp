@@ -216,6 +216,10 @@ std::string Simulator::execute(std::string_view line) {
       bus.set_silent(loc->index, c.on);
       what = c.on ? "silence on" : "silence off";
       break;
+    case ControlVerb::reboot_on_sdo:
+      d.reboot_on_sdo(c.count);
+      what = "reboot-on-sdo";
+      break;
     case ControlVerb::fault:
       if (!d.powered()) return "error device " + std::to_string(c.serial) + " is powered off";
       d.inject(c.fault, now);

@@ -940,6 +940,11 @@ void SimDevice::Impl::on_frame(const can::Frame& frame, TimePoint now) {
     return;
   }
   if (!configured) return;
+  if (reboot_on_sdo != 0 && frame.id == cob::kSdoRxBase + active_node && --reboot_on_sdo == 0) {
+    power_off();
+    if (power_on(now)) powered = false;  // the nv file went bad: stays off, as a real device would
+    return;
+  }
 
   const std::uint32_t sync_cob = od->get_u32(kCobIdSync, 0).value_or(canopen::cob::kSync) & 0x7FFu;
   if (frame.id == sync_cob && !frame.is_rtr()) {
@@ -1123,6 +1128,7 @@ SimDevice::~SimDevice() = default;
 std::error_code SimDevice::power_on(TimePoint now) { return impl_->power_on(now); }
 void SimDevice::power_off() { impl_->power_off(); }
 void SimDevice::set_silent(bool silent) { impl_->silent = silent; }
+void SimDevice::reboot_on_sdo(std::uint32_t nth) noexcept { impl_->reboot_on_sdo = nth; }
 bool SimDevice::powered() const noexcept { return impl_->powered; }
 void SimDevice::on_frame(const can::Frame& frame, TimePoint now) { impl_->on_frame(frame, now); }
 TimePoint SimDevice::process(TimePoint now) { return impl_->process(now); }

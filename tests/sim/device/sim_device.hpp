@@ -134,6 +134,10 @@ class SimDevice {
   void power_off();                        // silent until power_on; RAM lost
   std::error_code power_cycle(TimePoint now) { power_off(); return power_on(now); }
   void set_silent(bool silent);            // cable pulled: no RX, no TX, state kept
+  // Power-cycles the device when the n-th SDO request (0x600+node) from now
+  // arrives, instead of answering it: a reboot in the middle of a master's
+  // transfer (0 cancels). Survives nothing: the count is cleared by the reboot.
+  void reboot_on_sdo(std::uint32_t nth) noexcept;
   [[nodiscard]] bool powered() const noexcept;
 
   void on_frame(const can::Frame& frame, TimePoint now);

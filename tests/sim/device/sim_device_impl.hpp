@@ -65,6 +65,7 @@ struct SimDevice::Impl {
   // ---- runtime ----------------------------------------------------------
   bool powered = false;
   bool silent = false;
+  std::uint32_t reboot_on_sdo = 0;  // see SimDevice::reboot_on_sdo
   NvContents nv_data;
   std::unique_ptr<canopen::ObjectDictionary> od;
   std::unique_ptr<canopen::SdoServer> sdo;

@@ -394,6 +394,11 @@ TEST(ControlServer, SocketModeStaleFileAndLiveDaemon) {
 TEST(ControlServer, SummaryCountsOperationalDevices) {
   auto r = sample_report();
   EXPECT_EQ(cobridge::gateway::summary(r.buses), "1 bus, 1/2 devices operational");
-  r.buses.push_back(BusStatus{});
-  EXPECT_EQ(cobridge::gateway::summary(r.buses), "2 buses (1 open), 1/2 devices operational");
+  BusStatus missing;
+  missing.name = "line2";
+  missing.interface = "can1";
+  r.buses.push_back(missing);
+  // Issue 10, item 8: the bus whose adapter is missing is named.
+  EXPECT_EQ(cobridge::gateway::summary(r.buses),
+            "2 buses (1 open; waiting for line2 (can1)), 1/2 devices operational");
 }

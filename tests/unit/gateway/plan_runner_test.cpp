@@ -489,6 +489,25 @@ TEST(PlanRunner, BusyClientRefused) {
   EXPECT_FALSE(runner.running());
 }
 
+// CiA 301 §7.2.8.3.3: a device that boots up mid-transfer has forgotten it.
+// The runner dropped then (the bus manager does so on the boot-up) must free
+// the SDO client, so that the next plan on the same client starts at once
+// rather than being refused as busy for ever (issue 10, item 1).
+TEST(PlanRunner, DroppedMidTransferFreesTheSdoClient) {
+  Fixture fx("novotechnik-multiturn.eds", 5);
+  {
+    PlanRunner first(fx.bus, *fx.client, fx.plan(multiturn_settings()));
+    ASSERT_FALSE(first.start(fx.now));
+    (void)first.process(fx.now);  // NMT pre-operational, then the first SDO request
+    ASSERT_TRUE(fx.client->busy());
+    fx.bus.pending.clear();  // the device rebooted: no answer comes
+  }
+  EXPECT_FALSE(fx.client->busy());
+  const PlanRunResult r = fx.run(fx.plan(multiturn_settings()));
+  EXPECT_TRUE(r.ok()) << r.message;
+  EXPECT_TRUE(r.started);
+}
+
 // ---------------------------------------------------------------------------
 // The same plans against the simulator's device model (sim::SimDevice over
 // can::VirtualBus), one per family.

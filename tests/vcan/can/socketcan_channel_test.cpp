@@ -342,6 +342,52 @@ TEST_F(SocketCanVcan, CanRst_OpenWhileDownWaitsForUp) {
   EXPECT_EQ(event_kinds(ch), std::vector{BusEventKind::InterfaceReopened});
 }
 
+// A USB adapter plugged after boot, unplugged and plugged back (issue 10, item 8): with
+// wait_for_interface an absent interface is waited for instead of failing open(), and a
+// deleted-and-recreated interface (a new ifindex) is opened again by name.
+TEST_F(SocketCanVcan, CanRst_MissingInterfaceIsWaitedForAndReplugged) {
+  const std::string late = "vcanlate";
+  (void)run("ip link del " + late + " 2>/dev/null");
+  SocketCanChannel strict(SocketCanConfig{.interface = late});
+  EXPECT_EQ(strict.open().code, std::error_code(ENODEV, std::system_category())) << "the CLI's default stays strict";
+
+  SocketCanChannel ch(SocketCanConfig{.interface = late, .reopen_backoff_max = 500ms, .wait_for_interface = true});
+  const auto err = ch.open();
+  ASSERT_FALSE(err) << err.message;
+  EXPECT_FALSE(ch.is_open());
+  EXPECT_EQ(event_kinds(ch), std::vector{BusEventKind::InterfaceDown});
+  auto t = Clock::now();
+  for (int i = 0; i < 5; ++i) t = ch.process(t);  // backoff capped at 500 ms
+  EXPECT_EQ(ch.process(t) - t, 500ms);
+  EXPECT_FALSE(ch.is_open());
+
+  ASSERT_EQ(run("ip link add dev " + late + " type vcan && ip link set " + late + " up"), 0);
+  t += 500ms;
+  ch.process(t);
+  ASSERT_TRUE(ch.is_open());
+  EXPECT_EQ(event_kinds(ch), std::vector{BusEventKind::InterfaceReopened});
+
+  // Unplugged: the interface is deleted; plugged back: created anew.
+  ASSERT_EQ(run("ip link del " + late), 0);
+  t += 2s;
+  ch.process(t);
+  EXPECT_FALSE(ch.is_open());
+  EXPECT_EQ(event_kinds(ch), std::vector{BusEventKind::InterfaceDown});
+  ASSERT_EQ(run("ip link add dev " + late + " type vcan && ip link set " + late + " up"), 0);
+  t += 600ms;
+  ch.process(t);
+  ASSERT_TRUE(ch.is_open());
+  EXPECT_EQ(event_kinds(ch), std::vector{BusEventKind::InterfaceReopened});
+  SocketCanChannel peer(SocketCanConfig{.interface = late});
+  ASSERT_FALSE(peer.open());
+  const Frame ping = Frame::make(0x705, {0x00});
+  ASSERT_TRUE(peer.send(ping));
+  const auto got = receive_frames(ch, 1);
+  ASSERT_EQ(got.size(), 1u);
+  EXPECT_EQ(got[0], ping);
+  (void)run("ip link del " + late);
+}
+
 // can.rst "RAW socket option CAN_RAW_ERR_FILTER" and "Network Problem Notifications": error
 // frames reach only sockets that subscribed to their class. On vcan a CAN_RAW socket can send
 // a frame with CAN_ERR_FLAG (how the simulator injects bus errors); the channel turns it into

@@ -7,6 +7,7 @@ and reports each check as PASS/FAIL with its measured times; the exit status
 is 1 when any check failed.
 """
 import argparse
+import errno
 import json
 import os
 import shutil
@@ -142,7 +143,9 @@ class _SocketReader:
                 data = self.sock.recv(self.size)
             except socket.timeout:
                 continue
-            except OSError:
+            except OSError as e:
+                if e.errno == errno.ENETDOWN and not self.stop_flag:
+                    continue  # the interface went down (a fault test): the socket stays bound
                 break
             self._received(time.time(), data)
 
@@ -213,9 +216,11 @@ class NotifySocket(_SocketReader):
 
 
 class Simulator:
-    def __init__(self, sim, ws, buses, log_name="sim.log"):
-        """buses: {"vcan0": ["RFC-4800:serial=1001", ...]}"""
-        args = [sim, "--state-dir", ws.sim_state, "--control", ws.sim_control]
+    def __init__(self, sim, ws, buses, log_name="sim.log", control=None):
+        """buses: {"vcan0": ["RFC-4800:serial=1001", ...]}; control: the socket path
+        (a second simulator needs its own)."""
+        self.control = control or ws.sim_control
+        args = [sim, "--state-dir", ws.sim_state, "--control", self.control]
         for iface, devs in buses.items():
             args += ["--iface", iface]
             for d in devs:
@@ -231,7 +236,7 @@ class Simulator:
     def command(self, line):
         s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
         s.settimeout(5)
-        s.connect(self.ws.sim_control)
+        s.connect(self.control)
         s.sendall((line + "\n").encode())
         reply = b""
         while not reply.endswith(b"\n"):
