@@ -354,9 +354,13 @@ int run(const std::filesystem::path& config_file, bool foreground, const std::st
       const auto t0 = Clock::now();
       (void)notifier.stopping();
       log->info("stopping");
-      control.close();
+      // The reverse of the start: no more plugin commands to the buses, the
+      // buses (their last status and command outcomes still reach the hot
+      // path), then the hot path and the plugins, then the control socket.
+      for (std::size_t i = 0; i < buses.size(); ++i) outputs.set_command_target(i, nullptr);
       stop_all(buses);
       outputs.stop();
+      control.close();
       log->info("stopped in {} ms", std::chrono::duration_cast<milliseconds>(Clock::now() - t0).count());
       return 0;
     }

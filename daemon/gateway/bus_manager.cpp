@@ -96,6 +96,7 @@ struct BusManager::Impl {
     bus = config.buses.at(bus_index);
     log = sys::logger("gateway");
     build_devices();
+    wake_fd = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
   }
 
   // ---- set-up (constructor / reload) -------------------------------------
@@ -134,9 +135,15 @@ struct BusManager::Impl {
 
   // ---- thread ------------------------------------------------------------
 
+  // The wake fd lives as long as the Impl: a submit() or reload() racing
+  // with stop() then writes into a live eventfd, never into a closed (and
+  // possibly reused) descriptor.
+  ~Impl() {
+    if (wake_fd >= 0) ::close(wake_fd);
+  }
+
   std::error_code start() {
-    wake_fd = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
-    if (wake_fd < 0) return {errno, std::generic_category()};
+    if (wake_fd < 0) return std::make_error_code(std::errc::too_many_files_open);
     can::SocketCanConfig cc;
     cc.interface = bus.interface;
     cc.wait_for_interface = true;  // a missing adapter is reported and waited for
@@ -175,10 +182,6 @@ struct BusManager::Impl {
     wake();
     thread.join();
     running.store(false);
-    if (wake_fd >= 0) {
-      ::close(wake_fd);
-      wake_fd = -1;
-    }
   }
 
   void wake() noexcept {

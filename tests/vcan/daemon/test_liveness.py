@@ -153,7 +153,7 @@ def scenario_reboot_mid_sdo(report, daemon, sim, listener, rogue_nodes=()):
                      "%d seen" % len(ups))
         ok = took is not None and took <= BOUND
         report.check(ok, "%s: operational <= %.0f s after its last boot-up%s" % (name, BOUND, tag),
-                     "%.3f s" % took if took is not None else "state %s" % (d and (d["state"], d["last_error"])))
+                     "%.3f s" % took if took is not None else "state %r" % ((d["state"], d["last_error"]) if d else None,))
         if ok:
             f = tpdo_after(listener, node, e2e.iso_to_epoch(d["since"]))
             report.check(f is not None, "%s: values flow again%s" % (name, tag))
@@ -222,7 +222,7 @@ def scenario_link_down_during_configuration(report, daemon, sim, listener):
     for (name, _, _, _, node) in DEVICES:
         took, d = wait_back(daemon, name, t_up, BOUND + 3)
         report.check(took is not None and took <= BOUND, "%s: operational <= %.0f s after the interface is back" %
-                     (name, BOUND), "%.3f s" % took if took is not None else "state %s" % (d and d["state"]))
+                     (name, BOUND), "%.3f s" % took if took is not None else "state %r" % (d["state"] if d else None,))
         if took is not None:
             report.check(tpdo_after(listener, node, t_up + took) is not None,
                          "%s: values flow after the link came back" % name)

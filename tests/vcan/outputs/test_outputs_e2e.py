@@ -7,6 +7,8 @@ cobridge-sim (four encoders of three families, TPDO1 every 1 ms, --truth)
    and an independent Modbus client (pymodbus).
 
 Asserts:
+* the JSON tap has every TPDO from the first one after the NMT start (the
+  soak's loss criterion, issue 10);
 * every TPDO value the simulator put on the bus in the measured window
   reaches the DDS subscriber and the JSON tap, with the same value, in
   order, none lost (CiA 301 PDO payloads compared byte for byte for the tap,
@@ -280,6 +282,15 @@ def main():
         missing, gaps, first = match_in_order([x[1] for x in sent], [t[1] for t in tap.get(node, [])])
         check(missing == 0, f"{name}: JSON tap has every sent payload, in order ({len(sent) - missing}/{len(sent)})")
         check(gaps == 0, f"{name}: JSON tap contiguous over the window")
+        # Issue 10, item 4: nothing lost from the very first TPDO after the
+        # gateway's NMT start (the device sends none before it), i.e. the hot
+        # path has the device's mapping before it is started.
+        since_start = [t for t in truth.get(node, []) if t[0] <= t1 - margin]
+        tap_node = [t[1] for t in tap.get(node, [])]
+        missing0, gaps0, first0 = match_in_order([x[1] for x in since_start], tap_node)
+        check(missing0 == 0 and gaps0 == 0 and first0 == 0,
+              f"{name}: JSON tap has every TPDO from the first one after NMT start "
+              f"({len(since_start) - missing0}/{len(since_start)}, first at tap index {first0})")
         # DDS: the same positions, in order, none missing, nothing foreign in
         # between. Stale re-publications (the plugin repeats the last value
         # with stale=true when a device goes quiet, e.g. during a UML stall)
