@@ -9,6 +9,7 @@
 #include "device/family_profile.hpp"
 #include "gateway/config_plan.hpp"
 #include "gateway/discovery.hpp"
+#include "gateway/identity_reader.hpp"
 #include "gateway/log_budget.hpp"
 #include "gateway/plan_runner.hpp"
 #include "gateway/supervisor.hpp"
@@ -88,6 +89,11 @@ struct BusManager::Impl {
     TimePoint configure_started{};
     TimePoint boot_up_at = kNever;  // last boot-up, to report how long the way back took
     LogBudget emcy_log;             // EMCY log lines (the outputs get every EMCY)
+    // Buses without discovery: the identity check before configuring.
+    std::unique_ptr<IdentityReader> ident;
+    bool ident_wanted = false;
+    bool ident_boot_up = false;
+    TimePoint ident_at{};
   };
 
   Impl(const config::Config& config_in, std::size_t index, const device::DeviceCatalog& catalog_in,
@@ -122,6 +128,13 @@ struct BusManager::Impl {
   Managed* find_device(std::string_view name) {
     for (auto& m : devices) {
       if (m.st.name == name) return &m;
+    }
+    return nullptr;
+  }
+  // Any configured device at `node`, also one not seen yet.
+  Managed* find_configured_node(std::uint8_t node) {
+    for (auto& m : devices) {
+      if (m.in_config && m.st.node_id == node) return &m;
     }
     return nullptr;
   }
@@ -223,6 +236,7 @@ struct BusManager::Impl {
         // device absent.
         discovery->start(now);
         discovery_started = true;
+        check_configured_nodes(now);
       }
       loop_alive.store(now.time_since_epoch().count(), std::memory_order_relaxed);
 
@@ -275,6 +289,7 @@ struct BusManager::Impl {
     supervisor.on_frame(frame, now);
     for (auto& m : devices) {
       if (m.runner) m.runner->on_frame(frame, now);
+      if (m.ident) m.ident->on_frame(frame, now);
     }
   }
 
@@ -289,6 +304,8 @@ struct BusManager::Impl {
       if (m.runner) next = std::min(next, m.runner->process(now));
       if (m.want_configure && !m.runner) next = std::min(next, std::max(m.not_before, now));
       next = std::min(next, m.emcy_log.report_due());
+      if (m.ident) next = std::min(next, m.ident->process(now));
+      if (m.ident_wanted && !m.ident) next = std::min(next, std::max(m.ident_at, now));
     }
     return next;
   }
@@ -315,6 +332,13 @@ struct BusManager::Impl {
         more = true;
       }
     }
+    for (auto& m : devices) {
+      if (m.ident && m.ident->finished()) {
+        finish_identity(m, now);
+        more = true;
+      }
+    }
+    start_identity_reads(now);
     if (start_configurations(now)) more = true;
     report_suppressed_emcy(now);
     return more;
@@ -334,6 +358,10 @@ struct BusManager::Impl {
       dirty = true;
       if (ev.kind == can::BusEventKind::InterfaceDown) {
         for (auto& m : devices) {
+          if (m.ident) {
+            m.ident.reset();  // asked again when the interface is back
+            m.ident_wanted = false;
+          }
           if (m.runner && m.command) {
             drop_runner(m, "the CAN interface went down");
           } else if (m.runner) {
@@ -367,6 +395,73 @@ struct BusManager::Impl {
       supervisor.listen(m.st.node_id, m.profile->family);
     }
     log->info("bus {}: interface back; checking every known device", bus.name);
+    check_configured_nodes(now);
+  }
+
+  // ---- buses without discovery ---------------------------------------------
+  // With `discovery = false` nothing probes the bus, yet the configured
+  // devices at their configured node-IDs are configured, at start and after
+  // every boot-up. Their identity (0x1018) is read by SDO first, so that a
+  // device of another serial or model there is reported, never configured.
+
+  void check_configured_nodes(TimePoint now) {
+    if (bus.discovery) return;
+    for (auto& m : devices) {
+      if (!m.in_config || m.st.node_id == 0 || m.runner) continue;
+      if (m.description == nullptr) supervisor.listen(m.st.node_id, canopen::DeviceFamily::generic);
+      request_identity(m, now, false);
+    }
+  }
+
+  void request_identity(Managed& m, TimePoint when, bool boot_up) {
+    m.ident_wanted = true;
+    m.ident_boot_up = m.ident_boot_up || boot_up;
+    m.ident_at = when;
+  }
+
+  void start_identity_reads(TimePoint now) {
+    if (!channel->is_open()) return;
+    for (auto& m : devices) {
+      if (!m.ident_wanted || m.ident || m.runner || now < m.ident_at) continue;
+      m.ident_wanted = false;
+      m.ident = std::make_unique<IdentityReader>(sdo_of(m));
+      if (m.ident->start(now)) {
+        m.ident.reset();
+        request_identity(m, now + kConfigureRetryDelay, false);
+      }
+    }
+  }
+
+  void finish_identity(Managed& m, TimePoint now) {
+    const std::unique_ptr<IdentityReader> reader = std::move(m.ident);
+    const bool boot_up = std::exchange(m.ident_boot_up, false);
+    const auto retry = now + std::chrono::seconds(bus.discovery_period_s);
+    if (!reader->identity()) {
+      m.st.last_error = "no answer at node " + std::to_string(m.st.node_id) + " (0x1018: " +
+                        reader->error().message() + "); discovery is off, asking again in " +
+                        std::to_string(bus.discovery_period_s) + " s";
+      dirty = true;
+      request_identity(m, retry, false);
+      return;
+    }
+    const canopen::LssAddress& id = *reader->identity();
+    if (m.cfg.serial != 0 && id.serial != m.cfg.serial) {
+      m.st.last_error = "node " + std::to_string(m.st.node_id) + " holds serial " + std::to_string(id.serial) +
+                        ", not the configured " + std::to_string(m.cfg.serial) + "; not configured";
+      log->warn("bus {}: device {}: {}", bus.name, m.st.name, m.st.last_error);
+      add_problem("device " + m.st.name + ": " + m.st.last_error, m.st.name);
+      set_state(m, DeviceState::failed);
+      request_identity(m, retry, false);
+      return;
+    }
+    DiscoveryEvent e;
+    e.kind = DiscoveryEventKind::identified;
+    e.node_id = e.target_node_id = m.st.node_id;
+    e.at_target = true;
+    e.boot_up = boot_up;
+    e.identity = id;
+    e.device = m.st.name;
+    on_identified(e, now);
   }
 
   // A device that is offline (or failed for want of answers) but sends
@@ -397,12 +492,16 @@ struct BusManager::Impl {
         break;
       }
       case DiscoveryEventKind::clash_detected:
+        log->warn("bus {}: {}", bus.name, e.text);
+        add_problem(e.text, "", e.node_id);
+        break;
       case DiscoveryEventKind::problem:
         log->warn("bus {}: {}", bus.name, e.text);
-        add_problem(e.text);
+        add_problem(e.text, e.device);
         break;
       case DiscoveryEventKind::clash_resolved:
         log->info("bus {}: {}", bus.name, e.text);
+        clear_problems([&](const Problem& p) { return p.clash_node == e.node_id; });
         break;
     }
   }
@@ -511,13 +610,13 @@ struct BusManager::Impl {
       m.st.last_error = "no device description for vendor " + hex32(id.vendor) + " product " + hex32(id.product) +
                         " revision " + hex32(id.revision);
       log->error("bus {}: device {}: {}", bus.name, m.st.name, m.st.last_error);
-      add_problem("device " + m.st.name + ": " + m.st.last_error);
+      add_problem("device " + m.st.name + ": " + m.st.last_error, m.st.name);
       return false;
     }
     auto profile = device::family_profile_for(*d);
     if (!profile) {
       m.st.last_error = "description " + d->source + " names no known family";
-      add_problem("device " + m.st.name + ": " + m.st.last_error);
+      add_problem("device " + m.st.name + ": " + m.st.last_error, m.st.name);
       return false;
     }
     m.description = d;
@@ -538,7 +637,7 @@ struct BusManager::Impl {
     bool started_any = false;
     for (auto& m : devices) {
       if (active >= kMaxConcurrentPlans) break;
-      if (!m.want_configure || m.runner || now < m.not_before) continue;
+      if (!m.want_configure || m.runner || m.ident || now < m.not_before) continue;
       m.want_configure = false;
       if (begin_configuration(m, now)) {
         ++active;
@@ -557,13 +656,20 @@ struct BusManager::Impl {
   // A runner for a plan on `m` (configuration or command), with the device's
   // SDO client, made on first use.
   std::unique_ptr<PlanRunner> make_runner(Managed& m, ConfigPlan plan, const PlanRunnerOptions& ro) {
+    return std::make_unique<PlanRunner>(*channel, sdo_of(m), std::move(plan), ro);
+  }
+
+  // The device's SDO client, made on first use and re-addressed to its node-ID.
+  canopen::SdoClient& sdo_of(Managed& m) {
     if (!m.sdo) {
       canopen::SdoClientConfig sc;
       sc.timeout = milliseconds(bus.sdo_timeout_ms);
       sc.retries = 0;  // the runner repeats timed-out transfers itself
       m.sdo = std::make_unique<canopen::SdoClient>(*channel, m.st.node_id, sc);
+    } else if (!m.sdo->busy()) {
+      (void)m.sdo->set_node_id(m.st.node_id);
     }
-    return std::make_unique<PlanRunner>(*channel, *m.sdo, std::move(plan), ro);
+    return *m.sdo;
   }
 
   bool begin_configuration(Managed& m, TimePoint now) {
@@ -577,7 +683,7 @@ struct BusManager::Impl {
         }
         m.st.last_error = text;
         log->error("bus {}: {}", bus.name, text);
-        add_problem(text);
+        add_problem(text, m.st.name);
         set_state(m, DeviceState::failed);
         return false;
       }
@@ -708,6 +814,7 @@ struct BusManager::Impl {
     supervisor.watch(m.st.node_id, m.profile->family, m.supervision, now);
     m.st.online = m.supervision.mode == Supervision::Mode::none;
     set_state(m, DeviceState::operational);
+    clear_problems([&](const Problem& p) { return p.device == m.st.name; });
     if (m.boot_up_at != kNever) {
       const double back = std::chrono::duration<double, std::milli>(now - m.boot_up_at).count();
       log->info("bus {}: device {} back in operation {:.0f} ms after its boot-up ({} writes, {} saves)", bus.name,
@@ -857,6 +964,7 @@ struct BusManager::Impl {
 
   void on_supervisor_change(const Supervisor::Change& c, TimePoint now) {
     Managed* m = find_node(c.node);
+    if (m == nullptr && !bus.discovery && c.kind == Supervisor::ChangeKind::rebooted) m = find_configured_node(c.node);
     if (m == nullptr) return;
     apply(c, m->st, wall_now());
     dirty = true;
@@ -869,12 +977,18 @@ struct BusManager::Impl {
         m->boot_up_at = now;
         m->started = false;
         drop_runner(*m, "the device rebooted");
+        m->ident.reset();
         // Should discovery's re-identification not come, configure it anyway
         // (same node-ID, the identity it had) after a while.
         m->want_configure = m->description != nullptr;
         m->attempts = 0;
         m->not_before = now + kRebootFallbackDelay;
-        set_state(*m, DeviceState::identified);
+        if (!bus.discovery) {
+          // Nobody else re-identifies it: read its identity now.
+          m->want_configure = false;
+          request_identity(*m, now, true);
+        }
+        if (m->st.state != DeviceState::expected) set_state(*m, DeviceState::identified);
         break;
       case Supervisor::ChangeKind::offline:
         log->warn("bus {}: device {} (node {}) offline: {}", bus.name, m->st.name, c.node, c.reason);
@@ -1057,11 +1171,20 @@ struct BusManager::Impl {
     dirty = true;
   }
 
-  void add_problem(const std::string& text) {
-    if (std::find(problems.begin(), problems.end(), text) != problems.end()) return;
-    problems.push_back(text);
+  // A problem stays in the status while it is true: a device's own problems
+  // leave when it is operational, a clash's when it is resolved.
+  void add_problem(const std::string& text, const std::string& device = {}, std::uint8_t clash_node = 0) {
+    for (const auto& p : problems) {
+      if (p.text == text) return;
+    }
+    problems.push_back(Problem{text, device, clash_node});
     if (problems.size() > kMaxProblems) problems.erase(problems.begin());
     dirty = true;
+  }
+
+  template <typename Pred>
+  void clear_problems(Pred pred) {
+    if (std::erase_if(problems, pred) != 0) dirty = true;
   }
 
   void update_ready(TimePoint now) {
@@ -1091,7 +1214,7 @@ struct BusManager::Impl {
     s.devices.reserve(devices.size());
     for (const auto& m : devices) s.devices.push_back(m.st);
     s.steps = steps;
-    s.problems = problems;
+    for (const auto& p : problems) s.problems.push_back(p.text);
     const std::lock_guard lock(mutex);
     published = std::move(s);
   }
@@ -1114,7 +1237,12 @@ struct BusManager::Impl {
   canopen::SyncProducer sync;
   std::vector<Managed> devices;
   std::vector<StepTiming> steps;
-  std::vector<std::string> problems;
+  struct Problem {
+    std::string text;
+    std::string device;          // the configured device it is about (empty: the bus)
+    std::uint8_t clash_node = 0; // a clash at this node-ID
+  };
+  std::vector<Problem> problems;
   std::string live_bus_event;
   std::uint32_t reopens_seen = 0;
   bool discovery_started = false;

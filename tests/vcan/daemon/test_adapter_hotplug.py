@@ -66,7 +66,7 @@ def main():
         report.check(took is not None, "line1 served: rot-a operational", "%.2f s" % took if took else "")
         b2 = bus_status(daemon, "line2")
         report.check(b2 is not None and not b2["open"], "status: line2 not open while vcan1 is missing",
-                     "%r" % (b2 and b2["open"]))
+                     "%r" % (b2["open"] if b2 else None,))
         time.sleep(1.0)
         report.check(daemon.proc.poll() is None, "still running 1 s later")
 
@@ -78,7 +78,7 @@ def main():
                              control=ws.sim_control + ".1")
         took, d = wait_operational_since(daemon, "mt-a", t_plug, BOUND + 5)
         report.check(took is not None and took <= BOUND, "mt-a operational <= 2 s after vcan1 appeared",
-                     "%.3f s" % took if took is not None else "%r" % (d and (d["state"], d["last_error"])))
+                     "%.3f s" % took if took is not None else "%r" % ((d["state"], d["last_error"]) if d else None,))
         b2 = bus_status(daemon, "line2")
         report.check(b2 is not None and b2["open"], "status: line2 open")
 
@@ -100,7 +100,7 @@ def main():
         took, d = wait_operational_since(daemon, "mt-a", t_back, BOUND + 5)
         report.check(took is not None and took <= BOUND,
                      "re-plugged, device restarted unseen: operational <= 2 s after the interface is back",
-                     "%.3f s" % took if took is not None else "%r" % (d and (d["state"], d["last_error"])))
+                     "%.3f s" % took if took is not None else "%r" % ((d["state"], d["last_error"]) if d else None,))
         listener = e2e.CanListener("vcan1")
         f = listener.wait_for(lambda i, data: i == 0x180 + 20, 2, since=time.time())
         listener.close()

@@ -96,6 +96,9 @@ def main():
             print("problems reported: %s" % problems)
             report.check(not any("could not be resolved" in str(p) for p in problems),
                          "no 'clash could not be resolved' problem")
+            # Issue 11, "status tells the truth": a resolved clash leaves the problem list.
+            report.check(not any("answer at node" in str(p) for p in problems),
+                         "resolved clashes are no longer listed as problems", "%s" % problems)
         left = answers_at(127)
         report.check(not left, "nobody answers at node 127 any more (SDO upload 0x1018/4)",
                      "serials %s" % sorted(left) if left else "")
