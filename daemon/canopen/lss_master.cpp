@@ -91,7 +91,10 @@ std::error_code make_lss_slave_error(LssCs service, uint8_t code) noexcept {
   return {(static_cast<int>(service) << 8) | code, lss_slave_error_category()};
 }
 
-LssMaster::LssMaster(can::FrameSink& sink, Config config) noexcept : sink_(sink), config_(config) {}
+LssMaster::LssMaster(can::FrameSink& sink, Config config) noexcept
+    : sink_(sink),
+      config_(config),
+      timing_(config.min_timeout > Duration::zero() ? config.min_timeout : config.timeout, config.timeout) {}
 
 bool LssMaster::send(const can::Frame& f) noexcept {
   if (!sink_.send(f)) return false;
@@ -122,6 +125,7 @@ std::error_code LssMaster::begin(LssOperation op, TimePoint now) noexcept {
   current_ = Result{};
   current_.operation = op;
   started_ = now;
+  careful_ = false;
   return {};
 }
 
@@ -129,7 +133,18 @@ void LssMaster::arm(Phase phase, LssCs expect, TimePoint now) noexcept {
   phase_ = phase;
   expect_ = expect;
   answered_ = false;
-  deadline_ = now + config_.timeout;
+  step_sent_ = now;
+  ++current_.steps;
+  // The first step of an operation (Fastscan probe, identify, Slowscan
+  // probe) decides "nobody there": it always waits the full timeout, and
+  // its answers teach the waits of the steps that follow.
+  const bool first = current_.steps == 1;
+  const bool learnt = search_phase() && !careful_ && !first;
+  deadline_ = now + (learnt ? timing_.no_answer_wait() : config_.timeout);
+}
+
+bool LssMaster::search_phase() const noexcept {
+  return phase_ != Phase::kIdle && phase_ != Phase::kAwaitReply;
 }
 
 void LssMaster::finish(std::error_code ec, TimePoint now) noexcept {
@@ -243,7 +258,11 @@ bool LssMaster::on_frame(const can::Frame& f, TimePoint now) noexcept {
   // Answers that come after the deadline belong to a step already decided.
   if (phase_ == Phase::kIdle || f.data[0] != static_cast<uint8_t>(expect_) || now > deadline_) return true;
   ++current_.answers;
+  timing_.record(now - step_sent_);
   if (phase_ != Phase::kAwaitReply) {
+    // Answered: the others' answers to this step come within the slowest
+    // answer time seen; then the step is decided (AnswerTiming).
+    if (!answered_ && !careful_ && timing_.learning()) deadline_ = std::min(deadline_, now + timing_.settle());
     answered_ = true;
     return true;
   }
@@ -274,6 +293,7 @@ TimePoint LssMaster::process(TimePoint now) noexcept {
 }
 
 void LssMaster::on_step_done(TimePoint now) noexcept {
+  if (!answered_) ++current_.silent_steps;
   switch (phase_) {
     case Phase::kIdle: return;
     case Phase::kAwaitReply: finish(LssErrc::kTimeout, now); return;
@@ -297,6 +317,14 @@ void LssMaster::on_step_done(TimePoint now) noexcept {
       return;
     }
     case Phase::kFastscanConfirm:
+      if (!answered_ && !known_field(known_, fs_field_) && timing_.learning() && !careful_) {
+        // A bit decided too early (a late answer taken for the next step's):
+        // search this field again with full timeouts before giving up.
+        careful_ = true;
+        ++current_.rescans;
+        fastscan_field(fs_field_, now);
+        return;
+      }
       if (!answered_)
         return finish(known_field(known_, fs_field_) ? LssErrc::kNotFound : LssErrc::kFastscanLost, now);
       if (fs_field_ == kLastField) return finish({}, now);

@@ -26,6 +26,7 @@
 #include <type_traits>
 
 #include "can/frame_sink.hpp"
+#include "canopen/answer_timing.hpp"
 #include "canopen/clock.hpp"
 #include "canopen/lss.hpp"
 
@@ -64,8 +65,13 @@ enum class LssOperation : uint8_t {
 };
 
 struct LssMasterConfig {
-  // How long to wait for an answer, and how long every search step lasts.
+  // How long to wait for an answer to a confirmed service, and the longest a
+  // search step waits for one (the bus's lss_timeout_ms).
   Duration timeout = std::chrono::milliseconds(100);
+  // The shortest a search step without answer may wait once answer times
+  // have been measured (AnswerTiming); zero or >= timeout: every search step
+  // waits the full timeout and nothing is learnt.
+  Duration min_timeout{};
 };
 
 class LssMaster {
@@ -91,6 +97,9 @@ class LssMaster {
     uint8_t slave_error = 0;   // byte 1 of a 0x11/0x13/0x17 answer
     uint8_t slave_spec_error = 0;  // byte 2 (meaningful when slave_error == 0xFF)
     uint32_t frames_sent = 0;  // cost accounting
+    uint32_t steps = 0;        // request/answer exchanges (each waits for answers)
+    uint32_t silent_steps = 0; // exchanges that ended without an answer (each cost a timeout)
+    uint32_t rescans = 0;      // Fastscan fields searched again, carefully, after a failed confirm
     Duration elapsed{};        // from start to the end of the operation
   };
 
@@ -142,6 +151,8 @@ class LssMaster {
   [[nodiscard]] std::optional<Result> take_result() noexcept;
 
   [[nodiscard]] const Config& config() const noexcept { return config_; }
+  // What was learnt about this bus's answer times (kept across operations).
+  [[nodiscard]] const AnswerTiming& timing() const noexcept { return timing_; }
 
  private:
   enum class Phase : uint8_t {
@@ -168,9 +179,13 @@ class LssMaster {
   void fastscan_bit_step(TimePoint now) noexcept;
   void fastscan_confirm(TimePoint now) noexcept;
   void slowscan_step(TimePoint now) noexcept;
+  [[nodiscard]] bool search_phase() const noexcept;
 
   can::FrameSink& sink_;
   Config config_;
+  AnswerTiming timing_;
+  TimePoint step_sent_{};
+  bool careful_ = false;  // full timeouts, no early end of answered steps (a rescan)
   Phase phase_ = Phase::kIdle;
   LssCs expect_ = LssCs::kSwitchSelectiveResponse;
   TimePoint deadline_ = kNever;

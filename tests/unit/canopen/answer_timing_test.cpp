@@ -1,0 +1,42 @@
+// AnswerTiming (issue 11, "timeouts from the bus, not a constant"): waits
+// learnt from measured LSS answer times, bounded by the configured floor and
+// ceiling (CiA 305 fixes no response time).
+#include "canopen/answer_timing.hpp"
+
+#include <gtest/gtest.h>
+
+namespace cobridge::canopen {
+namespace {
+
+using namespace std::chrono_literals;
+
+TEST(AnswerTiming, CiA305_FullTimeoutUntilSomethingWasMeasured) {
+  AnswerTiming t(5ms, 100ms);
+  EXPECT_TRUE(t.learning());
+  EXPECT_EQ(t.no_answer_wait(), 100ms);
+  t.record(2ms);
+  EXPECT_EQ(t.no_answer_wait(), 9ms);  // 4 x 2 ms + 1 ms
+  EXPECT_EQ(t.settle(), 2ms);
+}
+
+TEST(AnswerTiming, CiA305_BoundedByFloorAndCeiling) {
+  AnswerTiming t(10ms, 100ms);
+  t.record(100us);
+  EXPECT_EQ(t.no_answer_wait(), 10ms) << "never below the floor";
+  t.record(40ms);
+  EXPECT_EQ(t.no_answer_wait(), 100ms) << "never above the ceiling";
+  t.record(250ms);  // beyond the ceiling: an answer to an older request, not a sample
+  EXPECT_EQ(t.slowest(), 40ms);
+  EXPECT_EQ(t.answers(), 2u);
+}
+
+TEST(AnswerTiming, CiA305_FixedWhenFloorEqualsCeiling) {
+  AnswerTiming t(100ms, 100ms);
+  t.record(1ms);
+  EXPECT_FALSE(t.learning());
+  EXPECT_EQ(t.no_answer_wait(), 100ms);
+  EXPECT_EQ(t.settle(), 100ms);
+}
+
+}  // namespace
+}  // namespace cobridge::canopen
