@@ -73,7 +73,8 @@ struct Bus {
   std::vector<std::uint8_t> node_pool;  // sorted, unique, each 1..127
   Commissioning commissioning = Commissioning::automatic;
   SwapPolicy swap_policy = SwapPolicy::same_model;
-  std::uint32_t lss_timeout_ms = 100;
+  std::uint32_t lss_timeout_ms = 100;     // ceiling of every LSS wait
+  std::uint32_t lss_timeout_min_ms = 10;  // floor of the waits learnt from answer times
   std::uint32_t sdo_timeout_ms = 500;
   std::uint8_t sdo_retries = 2;
   ForeignNmt foreign_nmt = ForeignNmt::restart;

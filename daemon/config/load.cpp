@@ -314,8 +314,8 @@ class Loader {
     const auto* name_node = t.get("name");
     TableReader r(t, "[[bus]]", entry_context("bus", config_.buses.size() + 1, name_node), "", sink_);
     r.check_keys({"name", "interface", "bitrate", "sync_period_ms", "sync_counter", "discovery", "discovery_period_s",
-                  "node_pool", "commissioning", "swap_policy", "lss_timeout_ms", "sdo_timeout_ms", "sdo_retries",
-                  "foreign_nmt"});
+                  "node_pool", "commissioning", "swap_policy", "lss_timeout_ms", "lss_timeout_min_ms", "sdo_timeout_ms",
+                  "sdo_retries", "foreign_nmt"});
     read_name(r, name_node, bus.name, spots.name, spots.has_name);
     if (auto v = r.string("interface")) {
       if (is_interface_name(*v)) {
@@ -354,6 +354,14 @@ class Loader {
       bus.swap_policy = *v;
     }
     if (auto v = r.integer("lss_timeout_ms", 1, 60000)) bus.lss_timeout_ms = static_cast<std::uint32_t>(*v);
+    if (auto v = r.integer("lss_timeout_min_ms", 1, 60000)) {
+      if (static_cast<std::uint32_t>(*v) > bus.lss_timeout_ms) {
+        r.error(*r.find("lss_timeout_min_ms"), "lss_timeout_min_ms " + std::to_string(*v) +
+                                                   " is above lss_timeout_ms " + std::to_string(bus.lss_timeout_ms));
+      } else {
+        bus.lss_timeout_min_ms = static_cast<std::uint32_t>(*v);
+      }
+    }
     if (auto v = r.integer("sdo_timeout_ms", 1, 60000)) bus.sdo_timeout_ms = static_cast<std::uint32_t>(*v);
     if (auto v = r.integer("sdo_retries", 0, 10)) bus.sdo_retries = static_cast<std::uint8_t>(*v);
     if (auto v = r.choice<ForeignNmt>("foreign_nmt", {{"restart", ForeignNmt::restart}, {"respect", ForeignNmt::respect}})) {
