@@ -28,6 +28,7 @@
 
 #include <array>
 #include <atomic>
+#include <chrono>
 #include <cstring>
 #include <deque>
 #include <exception>
@@ -57,6 +58,7 @@ struct OwnedDevice {
 struct Instance {
   static constexpr std::size_t kRing = 1u << 16;  // ~16 s of four saturated buses' worth of bursts
   static constexpr std::size_t kBatch = 256;
+  static constexpr std::chrono::milliseconds kStopDrain{300};
 
   const cobridge_host_api* host = nullptr;
   std::unique_ptr<DdsPublisher> publisher;
@@ -67,6 +69,8 @@ struct Instance {
   std::atomic<std::uint32_t> wakeups{0};    // bumped by producers; the writer waits on it
   std::atomic<bool> running{false};
   std::atomic<std::uint64_t> ring_drops{0};
+  std::uint64_t stop_drops = 0;         // left in the queue when the stop's drain time ran out
+  std::chrono::milliseconds stop_drain{};  // how long the final drain took
   std::thread writer;
   std::array<cobridge_sample, kBatch> batch{};
 
@@ -82,6 +86,14 @@ struct Instance {
   // Applies pending announcements, then writes queued samples; returns
   // whether anything was done.
   bool drain() {
+    bool any = drain_devices();
+    // A few batches per turn, so that a stop is seen between them even with
+    // a long backlog behind a slow reliable subscriber.
+    for (int i = 0; i < 4 && drain_batch(); ++i) any = true;
+    return any;
+  }
+
+  bool drain_devices() {
     bool any = false;
     // Checked first: an empty std::deque allocates, and drain runs on every
     // wake-up while announcements are rare.
@@ -96,13 +108,27 @@ struct Instance {
         any = true;
       }
     }
-    for (;;) {
-      const std::size_t n = ring.pop_batch(std::span<cobridge_sample>(batch.data(), batch.size()));
-      if (n == 0) break;
-      publisher->publish({batch.data(), n});
-      any = true;
-    }
     return any;
+  }
+
+  bool drain_batch() {
+    const std::size_t n = ring.pop_batch(std::span<cobridge_sample>(batch.data(), batch.size()));
+    if (n == 0) return false;
+    publisher->publish({batch.data(), n});
+    return true;
+  }
+
+  // What was queued before the stop still goes out, for at most kStopDrain:
+  // a reliable subscriber that lags must not hold up the daemon's shutdown
+  // (SIGTERM is done in 1 s); what is left is counted in the stop report.
+  void final_drain() {
+    const auto t0 = std::chrono::steady_clock::now();
+    (void)drain_devices();
+    while (std::chrono::steady_clock::now() - t0 < kStopDrain && drain_batch()) {
+    }
+    for (std::size_t n; (n = ring.pop_batch(std::span<cobridge_sample>(batch.data(), batch.size()))) != 0;)
+      stop_drops += n;
+    stop_drain = std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - t0);
   }
 
   void run() {
@@ -111,7 +137,7 @@ struct Instance {
       if (drain()) continue;
       wakeups.wait(seen, std::memory_order_acquire);  // until a producer bumps it
     }
-    drain();  // what was queued before stop still goes out
+    final_drain();
   }
 
   void start_writer() {
@@ -156,13 +182,20 @@ int dds_start(void* self) {
 void dds_stop(void* self) {
   auto* inst = static_cast<Instance*>(self);
   inst->stop_writer();
+  const auto t0 = std::chrono::steady_clock::now();
   inst->publisher->stop();
+  const auto deleted = std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - t0);
   const PublisherStats s = inst->publisher->stats();
   try {
     std::string msg = "stopped: " + std::to_string(s.samples) + " samples, " + std::to_string(s.events) +
-                      " events, " + std::to_string(s.statuses) + " status updates written";
+                      " events, " + std::to_string(s.statuses) + " status updates written (final drain " +
+                      std::to_string(inst->stop_drain.count()) + " ms, DDS entities deleted in " +
+                      std::to_string(deleted.count()) + " ms)";
     if (const auto drops = inst->ring_drops.load(); drops != 0)
       msg += "; " + std::to_string(drops) + " samples dropped because the DDS writer fell behind";
+    if (inst->stop_drops != 0)
+      msg += "; " + std::to_string(inst->stop_drops) + " queued samples not written at stop (drain limit " +
+             std::to_string(Instance::kStopDrain.count()) + " ms)";
     if (s.write_failures != 0) {
       msg += "; " + std::to_string(s.write_failures) + " writes failed (last: " + dds_strretcode(s.last_failure) + ")";
     }

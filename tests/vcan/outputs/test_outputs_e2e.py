@@ -229,13 +229,21 @@ def main():
                 reads.append((name, pos, v[11], v[9], now_ns()))
             time.sleep(0.1)
         mb.close()
+        # Issue 10, item 9: a shutdown under full load (four devices at 1 ms,
+        # every plugin running) ends in the reverse order of the start, exit 0.
+        t_stop = time.time()
+        daemon.send_signal(signal.SIGTERM)
+        rc = daemon.wait(timeout=10)
+        took = time.time() - t_stop
+        check(rc == 0 and took < 1.0, f"SIGTERM under full load: exit {rc} after {took:.3f} s (limit 1 s)")
     finally:
         if watch and watch.poll() is None:
             watch.send_signal(signal.SIGINT)
+        if daemon.poll() is None:
+            daemon.send_signal(signal.SIGTERM)
+            daemon.wait(timeout=10)
         sim.send_signal(signal.SIGTERM)
         sim.wait(timeout=10)
-        daemon.send_signal(signal.SIGTERM)
-        daemon.wait(timeout=10)
         if watch:
             try:
                 watch.wait(timeout=5)
