@@ -64,7 +64,9 @@ bool LssSlave::on_frame(const can::Frame& f) noexcept {
     case LssCs::kConfigureNodeId: {
       if (!configuring) return false;
       const uint8_t id = f.data[1];
-      if (!lss_node_id_acceptable(id)) {
+      if (features_.node_id_assignment == LssSlaveFeatures::NodeIdAssignment::ignore) return true;
+      if (!lss_node_id_acceptable(id) ||
+          features_.node_id_assignment == LssSlaveFeatures::NodeIdAssignment::refuse) {
         reply_error(cs, static_cast<uint8_t>(LssNodeIdError::kOutOfRange));
         return true;
       }

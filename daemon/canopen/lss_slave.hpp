@@ -34,6 +34,10 @@ struct LssSlaveFeatures {
   // taken when byte 2 is 0 and byte 1 is a supported index; `13 00 00` means
   // 1000 kbit/s in both forms, so the two never disagree.
   bool accept_j_bit_timing_form = false;
+  // Configure node-ID (0x11): a foreign or misbehaving slave may refuse
+  // every node-ID (answers error 1, "out of range") or not answer at all.
+  enum class NodeIdAssignment : uint8_t { accept, refuse, ignore };
+  NodeIdAssignment node_id_assignment = NodeIdAssignment::accept;
 
   // Rotary series, J§1.5 (DSP-305 V1.1.2): no Fastscan (added in V2.2) and
   // no inquire. J documents no identify service either; it is kept on

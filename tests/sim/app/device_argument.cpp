@@ -125,6 +125,17 @@ DeviceArgumentResult parse_device_argument(std::string_view text, ModelLookup lo
       if (value == "on") arg.spec.lss_fastscan = true;
       else if (value == "off") arg.spec.lss_fastscan = false;
       else return fail(text, "fastscan must be on|off, got " + quoted(value));
+    } else if (key == "vendor" || key == "product" || key == "revision") {
+      const auto v = parse_unsigned(value, UINT32_MAX);
+      if (!v) return fail(text, std::string(key) + " must be a 32-bit number (decimal or 0x hex), got " + quoted(value));
+      (key == "vendor" ? arg.spec.vendor : key == "product" ? arg.spec.product : arg.spec.revision) =
+          static_cast<std::uint32_t>(*v);
+    } else if (key == "assign") {
+      using A = canopen::LssSlaveFeatures::NodeIdAssignment;
+      if (value == "accept") arg.spec.assign = A::accept;
+      else if (value == "refuse") arg.spec.assign = A::refuse;
+      else if (value == "ignore") arg.spec.assign = A::ignore;
+      else return fail(text, "assign must be accept|refuse|ignore, got " + quoted(value));
     } else if (key == "motion") {
       // Checked here so that a typo is an argument error (exit 2), not a
       // device that fails to power on after the buses opened.
@@ -133,7 +144,8 @@ DeviceArgumentResult parse_device_argument(std::string_view text, ModelLookup lo
       arg.spec.motion = std::string(value);
     } else {
       return fail(text, "unknown key " + quoted(key) +
-                            " (allowed: serial, node, channels, bitrate, lss, segmented, c6, fastscan, motion)");
+                            " (allowed: serial, node, channels, bitrate, lss, segmented, c6, fastscan, vendor, product, "
+                            "revision, assign, motion)");
     }
   }
   return DeviceArgumentResult{arg, {}};

@@ -3,7 +3,9 @@
 //
 // The model table lives with SimDevice (sim_models.cpp); the parser is handed
 // the lookup so that it can be tested without the device runtime. Keys:
-// serial, node, channels, bitrate, lss, segmented, motion. `motion` must be
+// serial, node, channels, bitrate, lss, segmented, c6, fastscan, vendor,
+// product, revision (another vendor's identity), assign (accept|refuse|ignore
+// an LSS node-ID), motion. `motion` must be
 // the last key: its value runs to the end of the argument because the motion
 // grammar itself uses ':' and ','.
 // Thread: start-up only (allocates, builds messages).

@@ -52,6 +52,7 @@ canopen::LssSlaveFeatures lss_features(const DeviceSpec& spec, Family family) {
   canopen::LssSlaveFeatures f =
       p == LssProfile::v1 ? canopen::LssSlaveFeatures::rotary_j() : canopen::LssSlaveFeatures::multiturn_e();
   if (!spec.lss_fastscan) f.fastscan = false;
+  f.node_id_assignment = spec.assign;
   // ifm: CiA table rates it can run at (F§7.4 minus 100 kbit/s, which the
   // CiA 305 table does not have): 1000, 800, 500, 250, 125, 50, 20.
   if (family == Family::ifm_rm) f.bit_timings = 0x00DF;
@@ -247,6 +248,9 @@ std::error_code SimDevice::Impl::build_od(std::string& message) {
   family_extras();
   // Identity and names: per device, not in the EDS (J§1.2.1, E§4.1, F§7.3).
   (void)od->set_u32(kIdentity, 4, spec.serial);
+  if (spec.vendor) (void)od->set_u32(kIdentity, 1, *spec.vendor);
+  if (spec.product) (void)od->set_u32(kIdentity, 2, *spec.product);
+  if (spec.revision) (void)od->set_u32(kIdentity, 3, *spec.revision);
   if (od->contains(0x650B, 0)) (void)od->set_u32(0x650B, 0, spec.serial);
   if (od->contains(0x1008, 0)) {
     const auto current = od->get_string(0x1008, 0);
@@ -772,9 +776,9 @@ void SimDevice::Impl::on_nmt_change(NmtState from, TimePoint now) {
 
 canopen::LssAddress SimDevice::Impl::identity_of() const noexcept {
   canopen::LssAddress a;
-  a.vendor = model.vendor;
-  a.product = model.product;
-  a.revision = revision;
+  a.vendor = spec.vendor.value_or(model.vendor);
+  a.product = spec.product.value_or(model.product);
+  a.revision = spec.revision.value_or(revision);
   a.serial = spec.serial;
   return a;
 }

@@ -21,6 +21,7 @@
 #include "can/frame_sink.hpp"
 #include "canopen/clock.hpp"
 #include "canopen/lss.hpp"
+#include "canopen/lss_slave.hpp"
 #include "canopen/nmt.hpp"
 #include "canopen/object_dictionary.hpp"
 #include "device/eds.hpp"
@@ -28,6 +29,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <memory>
 #include <span>
 #include <string>
@@ -82,6 +84,13 @@ struct DeviceSpec {
   // Fastscan answered only while unconfigured anyway (digest Y.2); this
   // switch removes it even from a v3 LSS profile.
   bool lss_fastscan = true;
+  // Another vendor's (or an unknown) device: identity fields instead of the
+  // model's (0x1018/1..3 and the LSS address), with the model's behaviour.
+  std::optional<std::uint32_t> vendor;
+  std::optional<std::uint32_t> product;
+  std::optional<std::uint32_t> revision;
+  // How it takes an LSS configure node-ID: accept, refuse (error 1) or ignore.
+  canopen::LssSlaveFeatures::NodeIdAssignment assign = canopen::LssSlaveFeatures::NodeIdAssignment::accept;
 };
 
 // Faults injected at run time (control socket / stdin / command line).

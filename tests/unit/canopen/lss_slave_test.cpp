@@ -124,6 +124,29 @@ TEST_F(LssSlaveTest, J1_5_1_ConfigureNodeIdOutOfRange) {
 }
 
 // CiA 305 V3: node-ID FFh is accepted and makes the device unconfigured.
+// A foreign slave that refuses every node-ID (error 1) or ignores the
+// request (no answer): what cobridge-sim's `assign=refuse|ignore` models
+// (issue 11, devices nobody configured). CiA 305 configure node-ID 0x11.
+TEST_F(LssSlaveTest, CiA305_ConfigureNodeIdRefusedOrIgnored) {
+  auto f = LssSlave::Features::multiturn_e();
+  f.node_id_assignment = LssSlaveFeatures::NodeIdAssignment::refuse;
+  LssSlave refusing = make(kJAddress, 0xFF, f);
+  to_configuration(refusing);
+  sink.frames.clear();
+  ASSERT_TRUE(refusing.on_frame(lss_tx({0x11, 0x05, 0, 0, 0, 0, 0, 0})));
+  ASSERT_EQ(sink.frames.size(), 1u);
+  EXPECT_EQ(sink.frames[0], lss_rx({0x11, 0x01, 0, 0, 0, 0, 0, 0}));
+  EXPECT_EQ(refusing.pending_node_id(), 0xFF);
+
+  f.node_id_assignment = LssSlaveFeatures::NodeIdAssignment::ignore;
+  LssSlave silent = make(kJAddress, 0xFF, f);
+  to_configuration(silent);
+  sink.frames.clear();
+  EXPECT_TRUE(silent.on_frame(lss_tx({0x11, 0x05, 0, 0, 0, 0, 0, 0})));
+  EXPECT_TRUE(sink.frames.empty());
+  EXPECT_EQ(silent.pending_node_id(), 0xFF);
+}
+
 TEST_F(LssSlaveTest, CiA305_ConfigureNodeIdFFhAllowed) {
   LssSlave s = make();
   to_configuration(s);

@@ -53,6 +53,19 @@ TEST(DeviceArgument, AllKeys) {
   EXPECT_FALSE(s.segmented_sdo);
 }
 
+// Another vendor's device that refuses LSS node-ID assignment (issue 11):
+// identity fields override the model's, `assign` sets the LSS behaviour.
+TEST(DeviceArgument, ForeignIdentityAndAssignment) {
+  const DeviceSpec s = ok("MC1-2800:serial=9,node=unconfigured,vendor=0x4711,product=0x22,revision=3,assign=refuse");
+  EXPECT_EQ(s.vendor, 0x4711u);
+  EXPECT_EQ(s.product, 0x22u);
+  EXPECT_EQ(s.revision, 3u);
+  EXPECT_EQ(s.assign, canopen::LssSlaveFeatures::NodeIdAssignment::refuse);
+  EXPECT_EQ(ok("MC1-2800:assign=ignore").assign, canopen::LssSlaveFeatures::NodeIdAssignment::ignore);
+  EXPECT_NE(error("MC1-2800:assign=maybe").find("assign must be accept|refuse|ignore"), std::string::npos);
+  EXPECT_NE(error("MC1-2800:vendor=x").find("vendor must be a 32-bit number"), std::string::npos);
+}
+
 // CiA 305: node-ID FFh is "unconfigured" (LSS only).
 TEST(DeviceArgument, UnconfiguredNode) { EXPECT_EQ(ok("MC1-2800:node=unconfigured").node_id, 0xFF); }
 
