@@ -185,6 +185,10 @@ struct Discovery::Impl {
   } round;
   TimePoint next_periodic = kNever;
   bool initial_probe_done = false;
+  // Devices nobody configured, left at FFh; the general Fastscan's back-off.
+  std::vector<LssAddress> strangers;
+  TimePoint general_scan_not_before{};
+  Duration general_scan_backoff{};
 
   // ---- commissioning ------------------------------------------------------
   struct Ctx {
@@ -214,6 +218,7 @@ struct Discovery::Impl {
     settle,
     identify_non_configured,
     fastscan_loop,
+    fastscan_known,   // a configured device's identity confirmed at FFh (CiA 305 Fastscan, BitChecked 0)
     restore_known,
     check_remaining,  // after (a)/(b): anything left at the clash node -> (c)
     sdo_write,
@@ -310,10 +315,18 @@ struct Discovery::Impl {
 
   Impl(can::FrameSink& s, const config::Config& config, std::size_t bus_index, std::vector<Assignment> prev,
        DiscoveryOptions o)
-      : sink(s), opt(o), lss(s, canopen::LssMasterConfig{lss_timeout_of(config.buses.at(bus_index), o)}) {
+      : sink(s), opt(o), lss(s, lss_config_of(config.buses.at(bus_index), o)) {
     apply_config(config, bus_index, std::move(prev));
   }
 
+  // Waits learnt from the bus between lss_timeout_min_ms and lss_timeout_ms
+  // (canopen::AnswerTiming); a test's fixed override keeps them fixed.
+  static canopen::LssMasterConfig lss_config_of(const config::Bus& b, const DiscoveryOptions& o) {
+    canopen::LssMasterConfig c;
+    c.timeout = lss_timeout_of(b, o);
+    c.min_timeout = o.lss_timeout != Duration{} ? c.timeout : Duration{std::chrono::milliseconds(b.lss_timeout_min_ms)};
+    return c;
+  }
   static Duration lss_timeout_of(const config::Bus& b, const DiscoveryOptions& o) {
     return o.lss_timeout != Duration{} ? o.lss_timeout : Duration{std::chrono::milliseconds(b.lss_timeout_ms)};
   }
@@ -1262,6 +1275,7 @@ struct Discovery::Impl {
       case Op::store: ec = lss.store_configuration(now); break;
       case Op::identify_non_configured: ec = lss.identify_non_configured(now); break;
       case Op::fastscan_loop: ec = lss.fastscan(now); break;
+      case Op::fastscan_known: ec = lss.fastscan(now, known_fields(t.ctx.identity)); break;
       case Op::global: {
         ec = lss.switch_state_global(t.mode);
         if (!ec) {
@@ -1388,6 +1402,7 @@ struct Discovery::Impl {
       case Op::configure_id: return "configure-node-id";
       case Op::store: return "store";
       case Op::identify_non_configured: return "identify-non-configured";
+      case Op::fastscan_known: return "fastscan-known";
       case Op::fastscan_loop: return "fastscan";
       default: return "";
     }
@@ -1492,6 +1507,11 @@ struct Discovery::Impl {
         timing("configure-node-id", dev, r.elapsed);
         if (r.error || r.slave_error != 0) {
           if (t.ctx.target == canopen::cob::kNodeIdUnconfigured) return;  // (c): nobody had to answer
+          if (t.ctx.from == canopen::cob::kNodeIdUnconfigured)
+            note_stranger(t.ctx.identity, "refuses LSS node-ID " + std::to_string(t.ctx.target) + " (" +
+                                              (r.error ? r.error.message()
+                                                       : "slave error " + std::to_string(r.slave_error)) +
+                                              "); left non-configured");
           current = t;
           fail_current("LSS configure node-ID " + std::to_string(t.ctx.target) + " failed: " +
                            (r.error ? r.error.message() : "slave error " + std::to_string(r.slave_error)),
@@ -1518,10 +1538,23 @@ struct Discovery::Impl {
       case Op::identify_non_configured: {
         if (r.answered) {
           timing("identify-non-configured", "", r.elapsed);
-          Task fs = make(Op::fastscan_loop);
-          fs.node = 0;
-          push_front({fs, make(Op::wait_boots)});
+          std::vector<Task> v = targeted_fastscans();
+          if (now >= general_scan_not_before) {
+            Task fs = make(Op::fastscan_loop);
+            fs.node = 0;
+            v.push_back(fs);
+          }
+          v.push_back(make(Op::wait_boots));
+          push_front(std::move(v));
         }
+        return;
+      }
+      case Op::fastscan_known: {
+        timing("fastscan-known", t.ctx.device, r.elapsed);
+        if (r.error) return;  // not at FFh (or another product code of its model: the next task tries it)
+        std::erase_if(tasks, [&](const Task& x) { return x.op == Op::fastscan_known && x.ctx.device == t.ctx.device; });
+        bool stranger = false;
+        push_front(place_non_configured(r.address, t, stranger));
         return;
       }
       case Op::fastscan_loop: {
@@ -1538,50 +1571,136 @@ struct Discovery::Impl {
           return;
         }
         const LssAddress a = r.address;
-        if (run) run->found.push_back(a);
-        Ctx c;
-        c.identity = a;
-        c.from = canopen::cob::kNodeIdUnconfigured;
-        c.group = next_group++;
-        std::optional<std::uint8_t> known;
-        if (run)
-          for (const auto& [id, node] : run->known)
-            if (same_device(id, a)) known = node;
-        if (known) {
-          c.target = *known;
-          const auto at = present_at(a);
-          c.store = !at || *at != c.target;  // unchanged node-IDs need no store (flash wear)
-          c.boot_wait = c.store;
-          if (at) c.from = *at;
-        } else {
-          Decision d = decide(a);
-          c.device = d.device;
-          c.replaces = d.replaces;
-          c.replaced = d.replaced;
-          if (!d.problem.empty()) problem(d.problem, 0, a);
-          if (d.target != 0 && node_free_for(d.target, a)) {
-            c.target = d.target;
-            if (t.node != 0) c.from = t.node;
-          } else if (t.node != 0 && node_free_for(t.node, a)) {
-            // (c) made it non-configured; an unknown device goes back where it was, unstored.
-            c.target = t.node;
-            c.store = false;
-            c.boot_wait = false;
-          }
-          if (c.target != 0) remember(a, c.target);
+        if (is_stranger(a)) {
+          // Fastscan finds the smallest address: the stranger again, so the
+          // loop ends here, and the general scan backs off (the targeted
+          // scans of configured devices still run every period).
+          general_scan_backoff = std::min(2 * general_scan_backoff + std::chrono::seconds(bus.discovery_period_s),
+                                          Duration{std::chrono::minutes(10)});
+          general_scan_not_before = now + general_scan_backoff;
+          push_front({make_global(LssMode::kWaiting)});
+          return;
         }
-        std::vector<Task> v;
-        if (c.target != 0) v = assign_tasks(c);
-        else {
-          problem("non-configured " + describe(a) + " left without node-ID", 0, a);
-          v.push_back(make_global(LssMode::kWaiting));
-        }
-        v.push_back(t);  // the next Fastscan
+        bool stranger = false;
+        std::vector<Task> v = place_non_configured(a, t, stranger);
+        if (!stranger) v.push_back(t);  // the next Fastscan
         push_front(std::move(v));
         return;
       }
       default: return;
     }
+  }
+
+  // A device Fastscan found at FFh: its tasks (node-ID, store, boot-up wait),
+  // or, when nothing gives it a node-ID, a stranger left non-configured.
+  std::vector<Task> place_non_configured(const LssAddress& a, const Task& t, bool& stranger) {
+    if (run) run->found.push_back(a);
+    const Ctx c = found_ctx(a, t.node);
+    stranger = c.target == 0;
+    if (!stranger) return assign_tasks(c);
+    note_stranger(a, "not in the configuration; left without node-ID");
+    return {make_global(LssMode::kWaiting)};
+  }
+
+  // Where a device found at FFh goes: back where (c) took it from, its
+  // configured / remembered node-ID, or nowhere (target 0).
+  Ctx found_ctx(const LssAddress& a, std::uint8_t scan_node) {
+    Ctx c;
+    c.identity = a;
+    c.from = canopen::cob::kNodeIdUnconfigured;
+    c.group = next_group++;
+    std::optional<std::uint8_t> known;
+    if (run)
+      for (const auto& [id, node] : run->known)
+        if (same_device(id, a)) known = node;
+    if (known) {
+      c.target = *known;
+      const auto at = present_at(a);
+      c.store = !at || *at != c.target;  // unchanged node-IDs need no store (flash wear)
+      c.boot_wait = c.store;
+      if (at) c.from = *at;
+      return c;
+    }
+    Decision d = decide(a);
+    c.device = d.device;
+    c.replaces = d.replaces;
+    c.replaced = d.replaced;
+    if (!d.problem.empty()) problem(d.problem, 0, a);
+    if (d.target != 0 && node_free_for(d.target, a)) {
+      c.target = d.target;
+      if (scan_node != 0) c.from = scan_node;
+    } else if (scan_node != 0 && node_free_for(scan_node, a)) {
+      // (c) made it non-configured; an unknown device goes back where it was, unstored.
+      c.target = scan_node;
+      c.store = false;
+      c.boot_wait = false;
+    }
+    if (c.target != 0) remember(a, c.target);
+    return c;
+  }
+
+  // ---- devices nobody configured -------------------------------------------
+  // A non-configured device the configuration does not name (or one that
+  // refuses its node-ID) is reported once with its identity and remembered,
+  // so that Fastscan, which always finds the smallest address first, is not
+  // run for it again and again; configured devices are found by their known
+  // identity meanwhile (targeted_fastscans).
+
+  [[nodiscard]] bool is_stranger(const LssAddress& a) const {
+    return std::any_of(strangers.begin(), strangers.end(), [&](const LssAddress& s) { return same_device(s, a); });
+  }
+
+  void note_stranger(const LssAddress& a, const std::string& why) {
+    if (is_stranger(a)) return;
+    strangers.push_back(a);
+    problem("non-configured " + describe(a) + ": " + why, 0, a);
+    DiscoveryEvent e;
+    e.kind = DiscoveryEventKind::identified;
+    e.node_id = canopen::cob::kNodeIdUnconfigured;
+    e.identity = a;
+    e.text = why;
+    events.push_back(std::move(e));
+  }
+
+  static canopen::LssMaster::FastscanKnown known_fields(const LssAddress& a) {
+    canopen::LssMaster::FastscanKnown k;
+    k.vendor = a.vendor;
+    if (a.product != 0) k.product = a.product;
+    if (a.revision != 0) k.revision = a.revision;
+    k.serial = a.serial;
+    return k;
+  }
+
+  // One Fastscan per configured device of this bus that is not present and
+  // whose serial and vendor are known (config, or its model), per product
+  // code its model may report: each confirms whole fields (BitChecked 0)
+  // instead of searching 128 bits, and a stranger never answers them.
+  [[nodiscard]] std::vector<Task> targeted_fastscans() const {
+    std::vector<Task> v;
+    for (const auto& c : devices) {
+      if (c.serial == 0 || is_present_serial(c.serial)) continue;
+      const config::KnownModel* m = c.model.empty() ? nullptr : config::find_model(c.model);
+      const std::optional<std::uint32_t> vendor = c.vendor ? c.vendor : m ? std::optional(m->vendor) : std::nullopt;
+      if (!vendor) continue;
+      std::vector<std::uint32_t> products;
+      if (c.product) products.push_back(*c.product);
+      else if (m) products.assign(m->products.begin(), m->products.end());
+      if (products.empty()) products.push_back(0);  // unknown: searched
+      for (const std::uint32_t product : products) {
+        Ctx ctx;
+        ctx.identity = LssAddress{*vendor, product, 0, c.serial};
+        ctx.device = c.name;
+        v.push_back(make(Op::fastscan_known, ctx));
+      }
+    }
+    return v;
+  }
+
+  [[nodiscard]] bool is_present_serial(std::uint32_t serial) const {
+    for (std::uint8_t x = 1; x <= 127; ++x)
+      for (const auto& id : nodes[x].ids)
+        if (id.serial == serial) return true;
+    return false;
   }
 
   // A device found by Slowscan while non-configured (pre-Fastscan series
@@ -1833,7 +1952,14 @@ std::error_code record_assignment(StateStore& store, const std::string& bus, con
 std::vector<DiscoveryEvent> Discovery::take_events() { return std::exchange(impl_->events, {}); }
 std::vector<StepTiming> Discovery::take_timings() { return std::exchange(impl_->timings, {}); }
 
-bool Discovery::commissioning() const noexcept { return impl_->current.has_value() || !impl_->tasks.empty(); }
+bool Discovery::commissioning() const noexcept {
+  const Impl& d = *impl_;
+  // Looking for non-configured devices (Fastscan, node-ID for what it finds)
+  // touches only slaves at FFh: configured devices may be configured meanwhile,
+  // so a stranger's scan never holds them up.
+  const bool only_non_configured = d.run && d.run->job.kind == Impl::Job::Kind::non_configured;
+  return (d.current.has_value() || !d.tasks.empty()) && !only_non_configured;
+}
 
 bool Discovery::commission_pending() const noexcept {
   const Impl& d = *impl_;

@@ -197,8 +197,10 @@ class Discovery {
   // Step timings since the last call, oldest first (`at` not set).
   [[nodiscard]] std::vector<StepTiming> take_timings();
 
-  // True while LSS/NMT commissioning is under way: the bus manager should
-  // not start SDO configuration, and should expect boot-ups and silence.
+  // True while LSS/NMT commissioning that may reset configured devices is
+  // under way (moves, clashes): the bus manager should not start SDO
+  // configuration, and should expect boot-ups and silence. A search for
+  // non-configured devices (FFh) alone does not count.
   [[nodiscard]] bool commissioning() const noexcept;
   // True while there is anything to commission that the policy holds back
   // (manual: waiting for request_commission()).

@@ -1,0 +1,80 @@
+"""Issue 11, item 3: devices nobody configured must not stall the bus.
+
+Two configured rotary encoders clash at their factory node-ID 127 (J§1.2.2)
+and one device at FFh (unconfigured, CiA 305) has a serial the configuration
+does not name. Twice: the stranger is a multiturn of a configured model, then
+another vendor's LSS slave that refuses node-ID assignment (CiA 305 configure
+node-ID answered with error 1). Each time:
+ * both configured encoders are commissioned, configured and operational
+   within the target (3 s + 1 s);
+ * the stranger is found once (one Fastscan that finds it), reported in the
+   status with its identity, and not scanned again in a loop;
+ * nothing is written to the stranger's node-ID.
+"""
+import sys
+import time
+
+import e2e
+
+TARGET = 4.0  # issue 11: configured devices within 3 s, + 1 s with a stranger on the bus
+CONFIGURED = [("rot-a", "RFC-4800", 1001, 10), ("rot-b", "RFC-4800", 1002, 11)]
+STRANGERS = [("multiturn of a configured model", "MC1-2800:serial=9999,node=unconfigured", 9999),
+             ("another vendor's device refusing node-IDs",
+              "MC1-2800:serial=777,node=unconfigured,vendor=0x4711,product=0x22,revision=1,assign=refuse", 777)]
+
+
+def scenario(args, report, label, stranger, stranger_serial):
+    ws = e2e.Workspace("strangers", args.keep)
+    listener = e2e.CanListener("vcan0")
+    devs = ["RFC-4800:serial=%d" % s for (_, _, s, _) in CONFIGURED] + [stranger]
+    devices = [{"name": n, "bus": "line1", "serial": s, "model": m, "node_id": node, "heartbeat_ms": 100}
+               for (n, m, s, node) in CONFIGURED]
+    if "MC1-2800:serial=9999" in stranger:
+        # Its model is configured, and the configured one is present: no place to take.
+        devs.append("MC1-2800:serial=5555,node=20")
+        devices.append({"name": "mt-a", "bus": "line1", "serial": 5555, "model": "MC1-2800", "node_id": 20,
+                        "heartbeat_ms": 100})
+    sim = e2e.Simulator(args.sim, ws, {"vcan0": devs})
+    bus = {"name": "line1", "interface": "vcan0", "bitrate": 250, "discovery_period_s": 5, "node_pool": "40-60"}
+    daemon = e2e.Daemon(args.daemon, e2e.write_config(ws, [bus], devices), ws)
+    names = [c[0] for c in CONFIGURED]
+    try:
+        report.check(daemon.wait_socket(), "%s: control socket up" % label)
+        st, took = daemon.wait_until(e2e.all_operational(names), 30, interval=0.05)
+        took_total = time.time() - daemon.started
+        report.check(took is not None and took_total <= TARGET,
+                     "%s: configured encoders operational <= %.0f s after start" % (label, TARGET),
+                     "%.2f s" % took_total if took is not None else "never; %s" % (
+                         st and [(d["name"], d["state"]) for b in st["buses"] for d in b["devices"]]))
+        time.sleep(6.0)  # past a periodic discovery: no scan loop
+        st = daemon.status()
+        devs_st = [d for b in st["buses"] for d in b["devices"]]
+        seen = [d for d in devs_st if d["identity"]["serial"] == stranger_serial]
+        report.check(bool(seen), "%s: the stranger is in the status with its identity" % label,
+                     "%r" % [(d["name"], d["state"], d["identity"]) for d in seen])
+        log = open(daemon.log_path).read()
+        found_lines = [ln for ln in log.splitlines() if "fastscan" in ln.lower() and str(stranger_serial) in ln]
+        fastscans = len([f for f in listener.snapshot(daemon.started) if f[1] == 0x7E5 and f[2][0] == 0x51
+                         and f[2][5] == 0x80])
+        report.check(fastscans <= 3, "%s: Fastscan not repeated in a loop" % label, "%d Fastscan runs" % fastscans)
+        report.check(all(d["state"] == "operational" for d in devs_st if d["name"] in names),
+                     "%s: configured encoders still operational" % label)
+        if report.failed:
+            print(daemon.tail(60))
+            print("fastscan log lines: %s" % found_lines[:5])
+        e2e.check_clean_exit(report, daemon, "%s: SIGTERM -> exit 0 within 1 s" % label)
+        daemon = None
+    finally:
+        e2e.shut_down(ws, daemon, sim, listener)
+
+
+def main():
+    args = e2e.parse_args()
+    report = e2e.Report("test_strangers")
+    for label, stranger, serial in STRANGERS:
+        scenario(args, report, label, stranger, serial)
+    return report.finish()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
