@@ -208,8 +208,9 @@ std::string bus_change(const config::Config& running, const config::Config& next
 // What the control socket sees of the daemon.
 class Daemon final : public gateway::ControlHandler {
  public:
-  Daemon(const config::Config& cfg, std::vector<std::unique_ptr<gateway::BusManager>>& buses)
-      : config_(&cfg), buses_(buses), started_(std::chrono::system_clock::now()) {}
+  Daemon(const config::Config& cfg, std::vector<std::unique_ptr<gateway::BusManager>>& buses,
+         const gateway::OutputPipeline& outputs)
+      : config_(&cfg), buses_(buses), outputs_(outputs), started_(std::chrono::system_clock::now()) {}
 
   void set_config(const config::Config& cfg) { config_ = &cfg; }
   void set_ready() { ready_ = true; }
@@ -222,7 +223,13 @@ class Daemon final : public gateway::ControlHandler {
     r.ready = ready_;
     r.started = started_;
     r.config_file = config_->source.string();
-    for (const auto& b : buses_) r.buses.push_back(b->status());
+    for (std::size_t i = 0; i < buses_.size(); ++i) {
+      gateway::BusStatus s = buses_[i]->status();
+      const pipeline::ReceiverStats hot = outputs_.receiver_stats(i);
+      s.unknown_node_frames = hot.decoder.unknown_node;
+      s.ring_drops = hot.ring_drops;
+      r.buses.push_back(std::move(s));
+    }
     return r;
   }
 
@@ -246,6 +253,7 @@ class Daemon final : public gateway::ControlHandler {
  private:
   const config::Config* config_;
   std::vector<std::unique_ptr<gateway::BusManager>>& buses_;
+  const gateway::OutputPipeline& outputs_;
   std::chrono::system_clock::time_point started_;
   bool ready_ = false;
 };
@@ -294,7 +302,10 @@ int run(const std::filesystem::path& config_file, bool foreground, const std::st
   if (const auto ec = state.load(&state_problems)) log->warn("state file {}: {}", state.path().string(), state_problems);
 
   std::vector<std::unique_ptr<gateway::BusManager>> buses;
-  Daemon daemon(*cfg, buses);
+  // Made here, started below once the control socket is ours; the control
+  // socket's status reads its hot-path counters.
+  gateway::OutputPipeline outputs(*cfg, *catalog, plugin_dir);
+  Daemon daemon(*cfg, buses, outputs);
 
   // The control socket first: a second daemon started by mistake stops here,
   // before it touches a bus the first one serves.
@@ -307,7 +318,6 @@ int run(const std::filesystem::path& config_file, bool foreground, const std::st
 
   // The hot path and the output plugins start before the buses, so every
   // device's first configuration already reaches the decoders.
-  gateway::OutputPipeline outputs(*cfg, *catalog, plugin_dir);
   bool outputs_fatal = false;
   for (const auto& p : outputs.start(&outputs_fatal)) log->error("outputs: {}", p);
   if (outputs_fatal) return 1;

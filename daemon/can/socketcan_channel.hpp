@@ -141,9 +141,9 @@ class SocketCanChannel final : public FrameSink {
   // returns false (counted in tx_dropped) if the frame was not taken.
   [[nodiscard]] bool send(const Frame& frame) noexcept override;
 
-  // Reopens a closed channel when its backoff has elapsed and checks the link
-  // of an open one; refreshes rx_overflow_drops. Returns when it wants to be
-  // called again.
+  // Reopens a closed channel when its backoff has elapsed; checks the link
+  // of an open one and refreshes rx_overflow_drops from SO_MEMINFO once per
+  // link_check_period (not per call). Returns when it wants to be called again.
   TimePoint process(TimePoint now);
 
   // Events since the previous call, oldest first. The span stays valid until

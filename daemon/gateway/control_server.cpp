@@ -197,6 +197,8 @@ void write_bus(JsonWriter& w, const BusStatus& b) {
   w.field("rx_overflow_drops", b.rx_overflow_drops);
   w.field("error_frames", b.error_frames);
   w.field("reopens", std::uint64_t{b.reopens});
+  w.field("unknown_node_frames", b.unknown_node_frames);
+  w.field("ring_drops", b.ring_drops);
   w.end_object();
   w.key("devices");
   w.begin_array();

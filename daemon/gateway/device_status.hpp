@@ -68,6 +68,9 @@ struct BusStatus {
   std::uint64_t rx_overflow_drops = 0;
   std::uint64_t error_frames = 0;
   std::uint32_t reopens = 0;
+  // The hot path's counters (filled in by the daemon from the output pipeline).
+  std::uint64_t unknown_node_frames = 0;  // frames of nodes no device index belongs to: counted, not published
+  std::uint64_t ring_drops = 0;           // samples lost because the bus's ring was full
   std::vector<DeviceStatus> devices;
   std::vector<StepTiming> steps;      // most recent last, bounded
   std::vector<std::string> problems;  // unknown serial, clash, wrong model, ...

@@ -114,12 +114,18 @@ void OutputBridge::on_device_configured(const DeviceStatus& device, const std::v
     return;
   }
   plan.device_index = device_index(device);
+  plan.indexed = true;
+  forget_old_node(device);
   table_.publish(plan);
   announce(device, COBRIDGE_DEVICE_ADDED);
 }
 
 void OutputBridge::on_device_status(const DeviceStatus& device) {
   if (device.node_id == 0) return;
+  // Known at this node from now on: its heartbeats, EMCY and status carry
+  // its own index, never a default one (issue 10, item 4).
+  forget_old_node(device);
+  table_.publish_index(device.node_id, device_index(device));
   {
     std::lock_guard lock(mutex_);
     auto it = online_.find(device.node_id);
@@ -132,6 +138,22 @@ void OutputBridge::on_device_status(const DeviceStatus& device) {
                                                        .nmt_state = nmt_byte(device.nmt),
                                                        .timestamp_ns = realtime_ns()});
   announce(device, COBRIDGE_DEVICE_CHANGED);
+}
+
+void OutputBridge::forget_old_node(const DeviceStatus& device) {
+  std::uint8_t old = 0;
+  {
+    std::lock_guard lock(mutex_);
+    auto [it, added] = node_of_.try_emplace(device.name, device.node_id);
+    if (!added && it->second != device.node_id) {
+      old = it->second;
+      it->second = device.node_id;
+      online_.erase(old);
+    }
+  }
+  // The device moved (commissioning, swap): frames at its old node-ID are no
+  // longer its own.
+  if (old != 0) table_.remove(old);
 }
 
 void OutputBridge::on_command_done(const DeviceStatus& device, const DeviceCommand& command,

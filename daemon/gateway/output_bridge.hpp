@@ -51,6 +51,7 @@ class OutputBridge final : public BusObserver {
   // Measuring units per revolution, or 0 when unknown (then position_eng is in counts).
   double units_per_rev(const DeviceStatus& device, const device::DeviceDescription* desc) const;
   void announce(const DeviceStatus& device, std::uint8_t change);
+  void forget_old_node(const DeviceStatus& device);
 
   const config::Config& config_;
   std::size_t bus_index_;
@@ -62,6 +63,7 @@ class OutputBridge final : public BusObserver {
   std::mutex mutex_;
   std::map<std::string, std::uint16_t> unknown_index_;
   std::map<std::uint8_t, bool> online_;  // last online state posted per node
+  std::map<std::string, std::uint8_t> node_of_;  // where each device was last seen
 };
 
 }  // namespace cobridge::gateway

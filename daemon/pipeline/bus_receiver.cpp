@@ -83,6 +83,15 @@ void BusReceiver::push(const Sample& s) noexcept {
   if (!ring_.try_push(s)) ring_drops_.store(ring_drops_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
 }
 
+void BusReceiver::refresh_plans() noexcept {
+  // New plans take effect between batches, never inside one.
+  try {
+    decoder_.refresh();
+  } catch (...) {
+    // A mutex failure would be a broken system; keep the old plans.
+  }
+}
+
 std::size_t BusReceiver::handle(std::span<const can::Frame> frames) noexcept {
   std::size_t pushed = 0;
   Sample s;
@@ -123,15 +132,13 @@ void BusReceiver::run() noexcept {
       std::uint64_t v = 0;
       (void)!::read(wake_fd_, &v, sizeof v);
     }
-    // New plans take effect between batches, never inside one.
-    try {
-      decoder_.refresh();
-    } catch (...) {
-      // A mutex failure would be a broken system; keep the old plans.
-    }
+    refresh_plans();
     for (;;) {
       const std::size_t n = channel_.receive(frames);
       if (n == 0) break;
+      // After the read: a plan the control thread published before the
+      // device could send (NMT start follows the publish) decodes its frames.
+      refresh_plans();
       handle(std::span<const can::Frame>(frames.data(), n));
       if (n < frames.size()) break;
     }

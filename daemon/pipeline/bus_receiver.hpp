@@ -78,6 +78,7 @@ class BusReceiver {
 
   // Decodes a batch and pushes the samples; returns samples pushed.
   std::size_t handle(std::span<const can::Frame> frames) noexcept;
+  void refresh_plans() noexcept;
 
   [[nodiscard]] ReceiverStats stats() const noexcept;
 

@@ -47,7 +47,11 @@ struct PdoDecode {
 };
 
 struct DecodePlan {
-  bool active = false;          // false: frames of this node are counted, not decoded
+  bool active = false;          // false: TPDOs of this node are counted, not decoded
+  // device_index belongs to the device at node_id. Without it nothing of the
+  // node is published (EMCY, heartbeat, status included): a frame is never
+  // attributed to another device's index; it is counted as unknown_node.
+  bool indexed = false;
   std::uint16_t device_index = 0;
   std::uint8_t node_id = 0;
   std::array<PdoDecode, 2> tpdo{};  // TPDO1, TPDO2

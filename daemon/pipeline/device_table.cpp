@@ -9,6 +9,18 @@ void DeviceTable::publish(const DecodePlan& plan) {
   generation_.fetch_add(1, std::memory_order_release);
 }
 
+void DeviceTable::publish_index(std::uint8_t node_id, std::uint16_t device_index) {
+  if (node_id == 0 || node_id >= kNodes) return;
+  std::lock_guard lock(mutex_);
+  DecodePlan& p = plans_[node_id];
+  if (p.indexed && p.device_index == device_index) return;
+  if (p.device_index != device_index) p = DecodePlan{};  // another device's decoding is not this one's
+  p.node_id = node_id;
+  p.device_index = device_index;
+  p.indexed = true;
+  generation_.fetch_add(1, std::memory_order_release);
+}
+
 void DeviceTable::remove(std::uint8_t node_id) {
   if (node_id == 0 || node_id >= kNodes) return;
   std::lock_guard lock(mutex_);
@@ -20,6 +32,7 @@ void DeviceTable::snapshot(Plans& out, std::uint32_t& generation) const {
   std::lock_guard lock(mutex_);
   out = plans_;
   generation = generation_.load(std::memory_order_relaxed);
+  snapshots_.fetch_add(1, std::memory_order_relaxed);
 }
 
 }  // namespace cobridge::pipeline

@@ -24,16 +24,23 @@ class DeviceTable {
   using Plans = std::array<DecodePlan, kNodes>;
 
   void publish(const DecodePlan& plan);
+  // The device at `node_id` has `device_index` (known, not yet configured):
+  // its EMCY, heartbeats and status are published under it; a plan already
+  // there keeps its decoding.
+  void publish_index(std::uint8_t node_id, std::uint16_t device_index);
   void remove(std::uint8_t node_id);
 
   [[nodiscard]] std::uint32_t generation() const noexcept { return generation_.load(std::memory_order_acquire); }
   // Copies every plan and the generation they belong to.
   void snapshot(Plans& out, std::uint32_t& generation) const;
+  // How many snapshots were taken (tests: the RX path copies only after a change).
+  [[nodiscard]] std::uint32_t snapshots() const noexcept { return snapshots_.load(std::memory_order_relaxed); }
 
  private:
   mutable std::mutex mutex_;
   Plans plans_{};
   std::atomic<std::uint32_t> generation_{0};
+  mutable std::atomic<std::uint32_t> snapshots_{0};
 };
 
 }  // namespace cobridge::pipeline

@@ -27,8 +27,11 @@ FrameDecoder::FrameDecoder(std::uint8_t bus_index, const DeviceTable& table) : b
 }
 
 void FrameDecoder::refresh() {
-  if (table_.generation() == generation_ && generation_ != 0) return;
+  // One atomic load while nothing changed: the constructor's snapshot holds
+  // the table as it was at generation 0 too, so an empty table costs no lock.
+  if (table_.generation() == generation_ && synced_) return;
   table_.snapshot(plans_, generation_);
+  synced_ = true;
 }
 
 void FrameDecoder::header(const can::Frame& f, std::uint8_t node, std::uint8_t kind, Sample& out) noexcept {
@@ -47,7 +50,7 @@ void FrameDecoder::header(const can::Frame& f, std::uint8_t node, std::uint8_t k
 
 bool FrameDecoder::gateway_header(std::uint8_t node, std::uint8_t kind, std::int64_t timestamp_ns,
                                   Sample& out) noexcept {
-  if (node == 0 || node >= DeviceTable::kNodes) return false;
+  if (node == 0 || node >= DeviceTable::kNodes || !indexed(node)) return false;
   can::Frame none;  // no frame caused it: no COB-ID, no payload
   none.timestamp_ns = timestamp_ns;
   header(none, node, kind, out);
@@ -83,6 +86,7 @@ bool FrameDecoder::decode(const can::Frame& f, Sample& out) noexcept {
       count(bad_length_);
       return false;
     }
+    if (!indexed(node)) return false;
     header(f, node, COBRIDGE_SAMPLE_EMCY, out);
     out.emcy_code = static_cast<std::uint16_t>(f.data[0] | (f.data[1] << 8));
     out.emcy_register = f.data[2];
@@ -95,6 +99,7 @@ bool FrameDecoder::decode(const can::Frame& f, Sample& out) noexcept {
       count(bad_length_);
       return false;
     }
+    if (!indexed(node)) return false;
     header(f, node, COBRIDGE_SAMPLE_HEARTBEAT, out);
     out.nmt_state = static_cast<std::uint8_t>(f.data[0] & 0x7F);
     out.online = 1;
@@ -110,7 +115,7 @@ bool FrameDecoder::decode(const can::Frame& f, Sample& out) noexcept {
 
 bool FrameDecoder::decode_tpdo(const can::Frame& f, std::uint8_t node, std::size_t pdo, Sample& out) noexcept {
   const DecodePlan& plan = plans_[node];
-  if (!plan.active || plan.tpdo[pdo].count == 0) {
+  if (!plan.active || !plan.indexed || plan.tpdo[pdo].count == 0) {
     count(unknown_node_);
     return false;
   }
@@ -194,6 +199,12 @@ bool FrameDecoder::make_command(std::uint8_t node_id, std::uint8_t kind, std::ui
   out.command_abort_code = abort_code;
   count(samples_);
   return true;
+}
+
+bool FrameDecoder::indexed(std::uint8_t node) noexcept {
+  if (plans_[node].indexed) return true;
+  count(unknown_node_);
+  return false;
 }
 
 DecoderStats FrameDecoder::stats() const noexcept {

@@ -8,7 +8,10 @@
 // number, so a gap downstream proves a loss.
 //
 // Per frame: no allocation, no lock, no exception, no logging; problems are
-// counted (stats()). refresh() is called once per receive batch.
+// counted (stats()). refresh() is called once per receive batch, after the
+// batch was read and before it is decoded: a plan published before a frame
+// was sent is in effect for that frame. It costs one atomic load unless a
+// plan changed.
 // Thread: the bus's RX thread only (stats() may be read from any thread).
 #pragma once
 
@@ -25,7 +28,7 @@ namespace cobridge::pipeline {
 struct DecoderStats {
   std::uint64_t frames = 0;         // frames looked at
   std::uint64_t samples = 0;        // samples produced
-  std::uint64_t unknown_node = 0;   // PDO of a node without an active plan
+  std::uint64_t unknown_node = 0;   // frame of a node no device index belongs to (or a PDO without an active plan)
   std::uint64_t bad_length = 0;     // PDO shorter than its mapping, EMCY/heartbeat of the wrong length
   std::uint64_t ignored = 0;        // other COB-IDs
 };
@@ -70,12 +73,15 @@ class FrameDecoder {
   void header(const can::Frame& f, std::uint8_t node, std::uint8_t kind, Sample& out) noexcept;
   // The header of a sample the gateway makes itself (status, command outcome).
   bool gateway_header(std::uint8_t node, std::uint8_t kind, std::int64_t timestamp_ns, Sample& out) noexcept;
+  // True when the node has a device index; otherwise counts the frame as unknown_node.
+  bool indexed(std::uint8_t node) noexcept;
   void count(std::atomic<std::uint64_t>& c) noexcept { c.store(c.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed); }
 
   const std::uint8_t bus_index_;
   const DeviceTable& table_;
   DeviceTable::Plans plans_{};
   std::uint32_t generation_ = 0;
+  bool synced_ = false;
   std::array<std::uint32_t, DeviceTable::kNodes> sequence_{};
   std::array<std::int64_t, DeviceTable::kNodes> last_pdo_ns_{};
   std::array<bool, DeviceTable::kNodes> stale_{};

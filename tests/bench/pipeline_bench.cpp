@@ -93,6 +93,7 @@ int main(int argc, char** argv) {
   for (int n = 1; n <= kDevices; ++n) {
     DecodePlan p;
     p.active = true;
+    p.indexed = true;
     p.node_id = static_cast<std::uint8_t>(n);
     p.device_index = static_cast<std::uint16_t>(n - 1);
     std::string err;

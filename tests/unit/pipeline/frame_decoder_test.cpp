@@ -14,6 +14,7 @@ namespace {
 DecodePlan plan_for(std::uint8_t node, std::vector<MappedObject> tpdo1, std::vector<MappedObject> tpdo2 = {}) {
   DecodePlan p;
   p.active = true;
+  p.indexed = true;
   p.node_id = node;
   p.device_index = static_cast<std::uint16_t>(node + 100);
   std::string err;
@@ -101,8 +102,15 @@ TEST(FrameDecoder, J_1_8_1_EmcyBecomesEmcySample) {
   DeviceTable table;
   FrameDecoder d(0, table);
   Sample s;
+  // Issue 10, item 4: a node no device index belongs to is never published
+  // (it used to land on device index 0, another device's slot); it is counted.
+  ASSERT_FALSE(d.decode(frame(0x085, {0x80, 0x90, 0x01, 0x01, 0x00, 0x02, 0x00, 0x02}), s));
+  EXPECT_EQ(d.stats().unknown_node, 1u);
+  table.publish_index(5, 7);
+  d.refresh();
   ASSERT_TRUE(d.decode(frame(0x085, {0x80, 0x90, 0x01, 0x01, 0x00, 0x02, 0x00, 0x02}), s));
   EXPECT_EQ(s.kind, COBRIDGE_SAMPLE_EMCY);
+  EXPECT_EQ(s.device_index, 7);
   EXPECT_EQ(s.emcy_code, 0x9080);
   EXPECT_EQ(s.emcy_register, 0x01);
   EXPECT_EQ(s.emcy_data[0], 0x01);
@@ -117,12 +125,44 @@ TEST(FrameDecoder, CiA301_HeartbeatCarriesNmtState) {
   DeviceTable table;
   FrameDecoder d(0, table);
   Sample s;
+  EXPECT_FALSE(d.decode(frame(0x77F, {0x05}), s)) << "no device index at node 127 yet";
+  Sample status;
+  EXPECT_FALSE(d.make_status(127, true, false, COBRIDGE_NMT_OPERATIONAL, 1, status)) << "nor a status sample";
+  EXPECT_EQ(d.stats().unknown_node, 2u);
+  table.publish_index(127, 3);
+  d.refresh();
   ASSERT_TRUE(d.decode(frame(0x77F, {0x05}), s));
+  EXPECT_EQ(s.device_index, 3);
   EXPECT_EQ(s.kind, COBRIDGE_SAMPLE_HEARTBEAT);
   EXPECT_EQ(s.node_id, 127);
   EXPECT_EQ(s.nmt_state, COBRIDGE_NMT_OPERATIONAL);
   ASSERT_TRUE(d.decode(frame(0x77F, {0x00}), s));
   EXPECT_EQ(s.nmt_state, COBRIDGE_NMT_BOOT_UP);
+}
+
+// Issue 10, item 16: while no plan changes, refresh() is one atomic load: no
+// lock, no copy of the table, also before the first plan exists.
+TEST(FrameDecoder, RefreshCopiesOnlyAfterAChange) {
+  DeviceTable table;
+  FrameDecoder d(0, table);
+  const std::uint32_t copies = table.snapshots();
+  for (int i = 0; i < 1000; ++i) d.refresh();
+  EXPECT_EQ(table.snapshots(), copies);
+  table.publish_index(9, 1);
+  for (int i = 0; i < 1000; ++i) d.refresh();
+  EXPECT_EQ(table.snapshots(), copies + 1);
+}
+
+// A device that moved: its old node-ID's frames are no longer its own.
+TEST(FrameDecoder, RemovedNodeIsUnknownAgain) {
+  DeviceTable table;
+  table.publish_index(9, 1);
+  FrameDecoder d(0, table);
+  Sample s;
+  ASSERT_TRUE(d.decode(frame(0x709, {0x05}), s));
+  table.remove(9);
+  d.refresh();
+  EXPECT_FALSE(d.decode(frame(0x709, {0x05}), s));
 }
 
 // Every sample of a device, of any kind, takes the next sequence number.

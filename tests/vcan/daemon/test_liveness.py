@@ -263,6 +263,38 @@ def scenario_emcy_storm(report, daemon, tap_path):
     report.check(got == sent, "EMCY storm: every EMCY reached the JSON tap", "%d of %d" % (got, sent))
 
 
+def scenario_unknown_node(report, daemon, tap_path):
+    """Item 4: frames of a node nobody knows are counted, never published
+    under another device's index (Modbus slot / DDS instance)."""
+    ctl = can_socket()
+    before = daemon.status()["buses"][0]["counters"]["unknown_node_frames"]
+    for i in range(20):
+        send(ctl, 0x700 + 99, [0x05])
+        send(ctl, 0x080 + 99, [0x00, 0x10, 0x01, i, 0, 0, 0, 0])
+        send(ctl, 0x180 + 99, [1, 2, 3, 4])
+    ctl.close()
+    time.sleep(0.5)
+    after = daemon.status()["buses"][0]["counters"]["unknown_node_frames"]
+    report.check(after - before >= 60, "frames of an unknown node are counted",
+                 "%d counted (60 sent)" % (after - before))
+    nodes_of = {}
+    wrong = 0
+    with open(tap_path) as f:
+        for ln in f:
+            try:
+                j = json.loads(ln)
+            except ValueError:
+                continue
+            if j.get("type") != "sample":
+                continue
+            if j.get("node_id") == 99:
+                wrong += 1
+            nodes_of.setdefault(j.get("device_index"), set()).add(j.get("node_id"))
+    mixed = {k: sorted(v) for k, v in nodes_of.items() if len(v) > 1}
+    report.check(wrong == 0 and not mixed, "no sample of an unknown node, one node per device index",
+                 "%d samples of node 99; indices with several nodes: %s" % (wrong, mixed))
+
+
 def main():
     args = e2e.parse_args()
     report = e2e.Report("test_liveness")
@@ -292,6 +324,7 @@ def main():
         time.sleep(0.5)
         scenario_emcy_storm(report, daemon, tap)
         scenario_foreign_stop(report, daemon, listener, ws, config)
+        scenario_unknown_node(report, daemon, tap)
         if report.failed:
             print(daemon.tail(80))
         e2e.check_clean_exit(report, daemon)

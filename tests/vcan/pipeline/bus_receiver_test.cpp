@@ -43,6 +43,7 @@ TEST(BusReceiverVcan, TpdosBecomeTimestampedSamplesWithoutLoss) {
   DeviceTable table;
   DecodePlan p;
   p.active = true;
+  p.indexed = true;
   p.node_id = 10;
   p.device_index = 3;
   std::string err;
@@ -109,6 +110,7 @@ TEST(BusReceiverVcan, StatusFromControlThreadBecomesStatusSample) {
   DeviceTable table;
   DecodePlan p;
   p.active = true;
+  p.indexed = true;
   p.node_id = 12;
   table.publish(p);
   Collect sink;
