@@ -9,6 +9,7 @@
 #include "config/known_models.hpp"
 #include "config/load.hpp"
 #include "device/device_catalog.hpp"
+#include "device/family_profile.hpp"
 #include "device/eds.hpp"
 #include "gateway/bus_manager.hpp"
 #include "gateway/control_server.hpp"
@@ -103,6 +104,9 @@ void load_catalog(const config::Config& cfg, device::DeviceCatalog& catalog, std
                   *d.product) == r.description->selection.additional_products.end())
       errors.push_back(at(d.where, who + "product " + hex(*d.product) + " differs from the eds file's ProductNumber " +
                                        hex(info.product_number)));
+    if (!device::family_profile_for(*r.description))
+      errors.push_back(at(d.where, who + "eds file " + d.eds.string() + " names no device family cobridge knows "
+                                       "([Cobridge] Family, see docs/devices.md)"));
     const auto all = catalog.all();
     const bool loaded = std::any_of(all.begin(), all.end(), [&](const device::DeviceDescription* x) {
       return same_file(x->source, d.eds);
@@ -168,8 +172,14 @@ void print(const Validated& v, std::FILE* to) {
   for (const auto& e : v.errors) std::fprintf(to, "%s\n", e.c_str());
 }
 
-int check_config(const std::filesystem::path& file) {
-  const Validated v = validate(file);
+int check_config(const std::filesystem::path& file, const std::filesystem::path& plugin_dir) {
+  Validated v = validate(file);
+  if (v.config) {
+    // What the daemon would refuse at start: an output it cannot load or
+    // whose settings the plugin rejects.
+    v.errors = gateway::check_outputs(*v.config, plugin_dir);
+    if (!v.errors.empty()) v.config.reset();
+  }
   print(v, stderr);
   if (!v.config) {
     std::fprintf(stderr, "%s: %zu error%s\n", file.c_str(), v.errors.size(), v.errors.size() == 1 ? "" : "s");
@@ -201,6 +211,19 @@ std::string bus_change(const config::Config& running, const config::Config& next
     if (running.buses[i].name != next.buses[i].name || running.buses[i].interface != next.buses[i].interface)
       return "bus " + running.buses[i].name + " (" + running.buses[i].interface + ") became " + next.buses[i].name +
              " (" + next.buses[i].interface + ")";
+  }
+  return {};
+}
+
+// The plugins run with the settings they were created with: a reload that
+// changes an output is refused rather than half applied.
+std::string outputs_change(const config::Config& running, const config::Config& next) {
+  if (running.outputs.size() != next.outputs.size()) return "the [outputs.*] tables changed";
+  for (std::size_t i = 0; i < running.outputs.size(); ++i) {
+    const auto& a = running.outputs[i];
+    const auto& b = next.outputs[i];
+    if (a.name != b.name || a.enabled != b.enabled || a.plugin != b.plugin || a.settings_toml != b.settings_toml)
+      return "[outputs." + a.name + "] changed";
   }
   return {};
 }
@@ -319,8 +342,14 @@ int run(const std::filesystem::path& config_file, bool foreground, const std::st
   // The hot path and the output plugins start before the buses, so every
   // device's first configuration already reaches the decoders.
   bool outputs_fatal = false;
-  for (const auto& p : outputs.start(&outputs_fatal)) log->error("outputs: {}", p);
-  if (outputs_fatal) return 1;
+  const std::vector<std::string> output_problems = outputs.start(&outputs_fatal);
+  for (const auto& p : output_problems) log->error("outputs: {}", p);
+  if (outputs_fatal) {
+    for (const auto& p : output_problems) std::fprintf(stderr, "%s\n", p.c_str());
+    std::fprintf(stderr, "cobridged: %s: %zu output problem%s; no bus was touched\n", config_file.c_str(),
+                 output_problems.size(), output_problems.size() == 1 ? "" : "s");
+    return 1;
+  }
   log->info("outputs: {} plugin{} running from {}", outputs.plugins_running(), outputs.plugins_running() == 1 ? "" : "s",
             plugin_dir.string());
 
@@ -386,6 +415,7 @@ int run(const std::filesystem::path& config_file, bool foreground, const std::st
           refusal = "gateway.state_dir changed";
         if (refusal.empty() && next.config->gateway.control_socket != cfg->gateway.control_socket)
           refusal = "gateway.control_socket changed";
+        if (refusal.empty()) refusal = outputs_change(*cfg, *next.config);
         if (!refusal.empty()) refusal += " (needs a restart)";
       }
       if (!next.config || !refusal.empty()) {
@@ -458,7 +488,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("cobridged ") + COBRIDGE_VERSION);
   CLI11_PARSE(app, argc, argv);
 
-  if (!check_file.empty()) return check_config(check_file);
-  return run(config_file, foreground, state_dir,
-             plugin_dir.empty() ? default_plugin_dir() : std::filesystem::path(plugin_dir));
+  const std::filesystem::path plugins = plugin_dir.empty() ? default_plugin_dir() : std::filesystem::path(plugin_dir);
+  if (!check_file.empty()) return check_config(check_file, plugins);
+  return run(config_file, foreground, state_dir, plugins);
 }

@@ -1,4 +1,5 @@
 #include "config/load.hpp"
+#include "config/toml_limits.hpp"
 
 #include "config/known_models.hpp"
 #include "config/table_reader.hpp"
@@ -103,6 +104,11 @@ class Loader {
   Loader(std::string_view file, fs::path base_dir) : sink_(std::string(file)), base_dir_(std::move(base_dir)) {}
 
   LoadResult run(std::string_view text) {
+    // Before the parser, which recurses per nesting level (issue 10, item 13).
+    if (const auto v = check_toml_limits(text)) {
+      sink_.add(v->line, v->column, v->message);
+      return LoadResult(sink_.take_sorted());
+    }
     toml::table root;
     try {
       root = toml::parse(text, std::string_view{sink_.file()});
@@ -160,7 +166,15 @@ class Loader {
       }
     }
     if (auto p = absolute_path(r, "state_dir")) g.state_dir = *p;
-    if (auto p = absolute_path(r, "control_socket")) g.control_socket = *p;
+    if (auto p = absolute_path(r, "control_socket")) {
+      // sockaddr_un::sun_path holds 108 bytes with its NUL (unix(7)).
+      if (p->string().size() >= 108) {
+        r.error(*r.find("control_socket"), "control_socket is " + std::to_string(p->string().size()) +
+                                               " bytes long; a Unix socket path may have at most 107");
+      } else {
+        g.control_socket = *p;
+      }
+    }
     if (const toml::array* dirs = r.array("device_dirs")) {
       for (const toml::node& e : *dirs) {
         const auto* s = e.as_string();

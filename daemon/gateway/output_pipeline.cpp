@@ -20,6 +20,41 @@ pipeline::PluginHost::Options host_options(const config::Config& config, std::fi
 
 }  // namespace
 
+std::vector<pipeline::PluginSpec> plugin_specs(const config::Config& config) {
+  std::vector<pipeline::PluginSpec> specs;
+  for (const auto& out : config.outputs) {
+    if (!out.enabled) continue;
+    pipeline::PluginSpec spec;
+    spec.instance = out.name;
+    spec.type = out.name;
+    if (!out.plugin.empty()) spec.file = out.plugin;
+    spec.config_toml = out.settings_toml;
+    specs.push_back(std::move(spec));
+  }
+  return specs;
+}
+
+namespace {
+
+// "file:line:col: [outputs.<name>]: <message>" for a plugin host error.
+std::string located(const config::Config& config, const pipeline::PluginError& e) {
+  std::string where;
+  for (const auto& out : config.outputs) {
+    if (out.name == e.instance)
+      where = out.where.file + ":" + std::to_string(out.where.line) + ":" + std::to_string(out.where.column) + ": ";
+  }
+  return where + "[outputs." + e.instance + "]: " + e.message;
+}
+
+}  // namespace
+
+std::vector<std::string> check_outputs(const config::Config& config, const std::filesystem::path& plugin_dir) {
+  pipeline::PluginHost host(host_options(config, plugin_dir, nullptr));
+  std::vector<std::string> problems;
+  for (const auto& e : host.load_all(plugin_specs(config))) problems.push_back(located(config, e));
+  return problems;
+}
+
 OutputPipeline::OutputPipeline(const config::Config& config, const device::DeviceCatalog& catalog,
                                std::filesystem::path plugin_dir)
     : config_(config),
@@ -43,18 +78,14 @@ OutputPipeline::~OutputPipeline() { stop(); }
 std::vector<std::string> OutputPipeline::start(bool* fatal) {
   std::vector<std::string> problems;
   if (fatal) *fatal = false;
-  std::vector<pipeline::PluginSpec> specs;
-  for (const auto& out : config_.outputs) {
-    if (!out.enabled) continue;
-    pipeline::PluginSpec spec;
-    spec.instance = out.name;
-    spec.type = out.name;
-    if (!out.plugin.empty()) spec.file = out.plugin;
-    spec.config_toml = out.settings_toml;
-    specs.push_back(std::move(spec));
+  for (const auto& e : host_.load_all(plugin_specs(config_))) problems.push_back(located(config_, e));
+  for (const auto& e : host_.start_all()) problems.push_back(located(config_, e));
+  if (!problems.empty()) {
+    // Nothing else starts: no receiver opens a bus for outputs that are not there.
+    if (fatal != nullptr) *fatal = true;
+    host_.unload_all();
+    return problems;
   }
-  for (const auto& e : host_.load_all(specs)) problems.push_back(e.message);
-  for (const auto& e : host_.start_all()) problems.push_back(e.message);
   dispatcher_.start();
   for (std::size_t i = 0; i < buses_.size(); ++i) {
     std::string why;

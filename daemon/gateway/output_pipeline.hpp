@@ -33,6 +33,16 @@
 
 namespace cobridge::gateway {
 
+// The plugins the configuration enables, as the plugin host loads them.
+[[nodiscard]] std::vector<pipeline::PluginSpec> plugin_specs(const config::Config& config);
+
+// Loads (dlopen + create, never start) every enabled output plugin from
+// `plugin_dir`, so that a missing file, a wrong ABI or a setting the plugin
+// refuses (an unknown key, a bad value) is found without touching a bus.
+// Returns one message per problem, "file:line:col: [outputs.<name>]: ...".
+[[nodiscard]] std::vector<std::string> check_outputs(const config::Config& config,
+                                                     const std::filesystem::path& plugin_dir);
+
 class OutputPipeline {
  public:
   OutputPipeline(const config::Config& config, const device::DeviceCatalog& catalog, std::filesystem::path plugin_dir);
@@ -41,8 +51,9 @@ class OutputPipeline {
   OutputPipeline& operator=(const OutputPipeline&) = delete;
 
   // Loads and starts the plugins, then the dispatcher and the receivers.
-  // Returns every problem as a message; a receiver that cannot open its bus
-  // is an error the caller should treat like a bus that cannot open.
+  // Returns every problem as a message; a plugin that cannot be loaded,
+  // created or started, or a receiver that cannot open its bus, sets
+  // *fatal: the daemon must not run without an output it was told to feed.
   [[nodiscard]] std::vector<std::string> start(bool* fatal);
   void stop();
 

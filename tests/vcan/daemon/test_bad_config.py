@@ -36,6 +36,12 @@ def staged_fixtures(ws):
             f.write(text)
         out.append((origin + "/" + os.path.basename(path), target))
     shutil.copy(os.path.join(OWN_FIXTURES, "malformed.eds"), ws.path("malformed.eds"))
+    shutil.copy(os.path.join(OWN_FIXTURES, "unknown_family.eds"), ws.path("unknown_family.eds"))
+    # Issue 10, item 13: 50 000 levels of nesting (toml++ recursed per level).
+    deep = ws.path("daemon-bad_deep_nesting.toml")
+    with open(deep, "w") as f:
+        f.write('[[bus]]\nname = "line1"\ninterface = "vcan0"\nx = ' + "[" * 50000 + "]" * 50000 + "\n")
+    out.append(("daemon/bad_deep_nesting.toml", deep))
     return out
 
 
@@ -57,6 +63,14 @@ def main():
             if name.endswith("bad_malformed_eds.toml"):
                 report.check("malformed.eds:25:" in r.stderr and "malformed.eds:47:" in r.stderr,
                              "%s: each EDS problem named with its file and line" % name, r.stderr.strip()[:400])
+            expected = {"bad_deep_nesting.toml": "nested more than 32 levels deep",
+                        "bad_unknown_family.toml": "names no device family cobridge knows",
+                        "bad_long_control_socket.toml": "a Unix socket path may have at most 107",
+                        "bad_output_unknown_key.toml": "unknown key 'prot'",
+                        "bad_missing_plugin.toml": "libcobridge_historian.so"}
+            for suffix, text in expected.items():
+                if name.endswith(suffix):
+                    report.check(text in r.stderr, "%s: the error says %r" % (name, text), r.stderr.strip()[-300:])
             if name.endswith("bad_missing_eds.toml"):
                 report.check("does not exist" in r.stderr, "%s: the missing EDS file is named" % name,
                              r.stderr.strip()[:300])
