@@ -104,7 +104,10 @@ void modbus_stop(void* self) {
     p->log(COBRIDGE_LOG_INFO, "Modbus TCP stopped: " + std::to_string(s.accepted) + " connections, " +
                                   std::to_string(s.requests) + " requests (" + std::to_string(s.exceptions) +
                                   " exceptions), " + std::to_string(s.closed_protocol) + " closed for framing errors, " +
-                                  std::to_string(s.refused_allow + s.refused_full) + " refused");
+                                  std::to_string(s.refused_allow + s.refused_full) + " refused, " +
+                                  std::to_string(s.closed_silent) + " closed without a first request, " +
+                                  std::to_string(s.evicted) + " evicted when full, " +
+                                  std::to_string(s.accept_pauses) + " accept pauses (out of descriptors)");
   } catch (...) {
   }
   p->server.reset();

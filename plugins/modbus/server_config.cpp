@@ -53,6 +53,9 @@ ConfigResult apply_key(std::string_view k, const toml::node& node, ServerConfig&
   } else if (k == "idle_timeout_s") {
     if (!(r = get_int(node, k, 0, 86400, n))) return r;
     c.idle_timeout_s = static_cast<std::uint32_t>(n);
+  } else if (k == "first_request_timeout_ms") {
+    if (!(r = get_int(node, k, 0, 600000, n))) return r;
+    c.first_request_timeout_ms = static_cast<std::uint32_t>(n);
   } else if (k == "unit_id") {
     if (!(r = get_int(node, k, 0, 255, n))) return r;
     c.unit_id = static_cast<int>(n);
@@ -86,7 +89,8 @@ ConfigResult apply_key(std::string_view k, const toml::node& node, ServerConfig&
   } else {
     return fail(ConfigErrc::kUnknownKey,
                 "unknown key '" + std::string(k) +
-                    "' (expected bind, port, max_clients, allow, idle_timeout_s, unit_id, word_order, "
+                    "' (expected bind, port, max_clients, allow, idle_timeout_s, first_request_timeout_ms, unit_id, "
+                    "word_order, "
                     "writes_enabled, offline_exception, max_devices)");
   }
   return {};

@@ -7,6 +7,8 @@
 //   max_clients       = 32          connections served at once; more are closed at accept
 //   allow             = []          CIDR networks allowed to connect; empty = all
 //   idle_timeout_s    = 60          close a connection silent for this long; 0 = never
+//   first_request_timeout_ms = 2000 close a connection that sent no request this long
+//                                   after connecting; 0 = only idle_timeout_s applies
 //   unit_id           = (absent)    answer only this unit id (0..255); absent = any
 //   word_order        = "big"       32-bit values: "big" = high word first, "little"
 //   writes_enabled    = false       see docs/modbus.md: refused in this version either way
@@ -32,6 +34,7 @@ struct ServerConfig {
   std::uint32_t max_clients = 32;
   AllowList allow;
   std::uint32_t idle_timeout_s = 60;
+  std::uint32_t first_request_timeout_ms = 2000;
   int unit_id = -1;
   WordOrder word_order = WordOrder::kBig;
   bool writes_enabled = false;

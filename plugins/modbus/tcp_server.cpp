@@ -23,6 +23,8 @@ constexpr std::uint64_t kWakeTag = ~std::uint64_t{0} - 1;
 constexpr int kReadsPerWake = 8;
 // Idle connections are looked for at this period (the timeout's resolution).
 constexpr int kSweepPeriodMs = 200;
+constexpr std::uint64_t kAcceptBackoffMinNs = 100'000'000u;  // 100 ms
+constexpr std::uint64_t kAcceptBackoffMaxNs = 1'000'000'000u;  // 1 s
 
 std::uint64_t clock_ns(clockid_t id) noexcept {
   timespec ts{};
@@ -151,16 +153,17 @@ void TcpServer::stop() noexcept {
 
 ServerStats TcpServer::stats() const noexcept {
   const auto r = std::memory_order_relaxed;
-  return {accepted_.load(r),        refused_allow_.load(r), refused_full_.load(r), closed_idle_.load(r),
-          closed_protocol_.load(r), requests_.load(r),      exceptions_.load(r)};
+  return {accepted_.load(r),       refused_allow_.load(r), refused_full_.load(r), closed_idle_.load(r),
+          closed_protocol_.load(r), closed_silent_.load(r), evicted_.load(r),      accept_pauses_.load(r),
+          requests_.load(r),        exceptions_.load(r)};
 }
 
 void TcpServer::run() noexcept {
   std::array<epoll_event, 64> events{};
   std::uint64_t next_sweep = clock_ns(CLOCK_MONOTONIC);
   for (;;) {
-    const int timeout = (config_.idle_timeout_s > 0 && open_ > 0) ? kSweepPeriodMs : -1;
-    const int n = ::epoll_wait(epoll_fd_, events.data(), static_cast<int>(events.size()), timeout);
+    const int n = ::epoll_wait(epoll_fd_, events.data(), static_cast<int>(events.size()),
+                               wait_ms(clock_ns(CLOCK_MONOTONIC)));
     if (n < 0 && errno != EINTR) {
       log_(COBRIDGE_LOG_ERROR, std::string("epoll_wait: ") + std::strerror(errno) + "; server stopped");
       return;
@@ -178,14 +181,50 @@ void TcpServer::run() noexcept {
       if (index >= conns_.size() || conns_[index].fd < 0 || conns_[index].generation != generation) continue;
       on_event(index, e.events);
     }
-    if (config_.idle_timeout_s > 0) {
-      const std::uint64_t now = clock_ns(CLOCK_MONOTONIC);
-      if (now >= next_sweep) {
-        sweep_idle(now);
-        next_sweep = now + static_cast<std::uint64_t>(kSweepPeriodMs) * 1'000'000u;
-      }
+    const std::uint64_t now = clock_ns(CLOCK_MONOTONIC);
+    if (accept_paused_until_ != 0 && now >= accept_paused_until_) resume_accept(now);
+    if (sweeping() && now >= next_sweep) {
+      sweep_idle(now);
+      next_sweep = now + static_cast<std::uint64_t>(kSweepPeriodMs) * 1'000'000u;
     }
   }
+}
+
+bool TcpServer::sweeping() const noexcept {
+  return open_ > 0 && (config_.idle_timeout_s > 0 || config_.first_request_timeout_ms > 0);
+}
+
+int TcpServer::wait_ms(std::uint64_t now_ns) const noexcept {
+  int timeout = sweeping() ? kSweepPeriodMs : -1;
+  if (accept_paused_until_ != 0) {
+    const auto left = static_cast<int>((accept_paused_until_ > now_ns ? accept_paused_until_ - now_ns : 0) / 1'000'000u) + 1;
+    timeout = timeout < 0 ? left : std::min(timeout, left);
+  }
+  return timeout;
+}
+
+// Out of descriptors: the listen socket is level-triggered, so every
+// epoll_wait would return at once for the client still in the backlog (100 %
+// CPU). Take it out of the epoll set for a while, doubling up to 1 s, and say
+// so once per episode.
+void TcpServer::pause_accept(int err, std::uint64_t now_ns) noexcept {
+  accept_backoff_ns_ = accept_backoff_ns_ == 0 ? kAcceptBackoffMinNs : std::min(2 * accept_backoff_ns_, kAcceptBackoffMaxNs);
+  accept_paused_until_ = now_ns + accept_backoff_ns_;
+  (void)::epoll_ctl(epoll_fd_, EPOLL_CTL_DEL, listen_fd_, nullptr);
+  if (accept_pauses_.fetch_add(1, std::memory_order_relaxed) == 0 || accept_backoff_ns_ == kAcceptBackoffMinNs)
+    log_(COBRIDGE_LOG_WARN, std::string("accept: ") + std::strerror(err) + "; not accepting for " +
+                                std::to_string(accept_backoff_ns_ / 1'000'000u) + " ms (" +
+                                std::to_string(open_) + " connections open)");
+}
+
+void TcpServer::resume_accept(std::uint64_t now_ns) noexcept {
+  (void)now_ns;
+  accept_paused_until_ = 0;
+  epoll_event ev{};
+  ev.events = EPOLLIN;
+  ev.data.u64 = kListenTag;
+  (void)::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, listen_fd_, &ev);
+  accept_all();
 }
 
 void TcpServer::accept_all() noexcept {
@@ -194,12 +233,14 @@ void TcpServer::accept_all() noexcept {
     socklen_t len = sizeof ss;
     const int fd = ::accept4(listen_fd_, reinterpret_cast<sockaddr*>(&ss), &len, SOCK_NONBLOCK | SOCK_CLOEXEC);
     if (fd < 0) {
-      if (errno == EINTR || errno == ECONNABORTED) continue;
-      if (errno != EAGAIN && errno != EWOULDBLOCK) {
-        // EMFILE and friends: the pending client stays in the backlog; the
-        // next wake-up tries again.
-        log_(COBRIDGE_LOG_WARN, std::string("accept: ") + std::strerror(errno));
+      const int err = errno;
+      if (err == EINTR || err == ECONNABORTED) continue;
+      if (err == EAGAIN || err == EWOULDBLOCK) {
+        accept_backoff_ns_ = 0;  // the episode is over
+        return;
       }
+      // EMFILE, ENFILE, ENOBUFS, ENOMEM: the client stays in the backlog.
+      pause_accept(err, clock_ns(CLOCK_MONOTONIC));
       return;
     }
     if (!config_.allow.contains(reinterpret_cast<const sockaddr*>(&ss))) {
@@ -208,7 +249,7 @@ void TcpServer::accept_all() noexcept {
       ::close(fd);
       continue;
     }
-    if (free_.empty()) {
+    if (free_.empty() && !evict_oldest_idle()) {
       refused_full_.fetch_add(1, std::memory_order_relaxed);
       log_(COBRIDGE_LOG_DEBUG, "refused " + address_text(ss) + ": max_clients reached");
       ::close(fd);
@@ -225,6 +266,9 @@ void TcpServer::accept_all() noexcept {
     c.out_head = 0;
     c.out_len = 0;
     c.last_rx_ns = clock_ns(CLOCK_MONOTONIC);
+    c.accepted_ns = c.last_rx_ns;
+    c.closing = false;
+    c.requested = false;
     c.events = EPOLLIN;
     epoll_event ev{};
     ev.events = c.events;
@@ -256,8 +300,8 @@ void TcpServer::close_connection(std::uint32_t index) noexcept {
 void TcpServer::on_event(std::uint32_t index, std::uint32_t events) noexcept {
   Connection& c = conns_[index];
   if ((events & EPOLLOUT) != 0) {
-    if (!flush(c)) {
-      close_connection(index);
+    if (!flush(c) || (c.closing && c.out_head >= c.out_len)) {
+      close_connection(index);  // a closing connection goes once its answers are out
       return;
     }
     // Room again in the output buffer: answer what is already buffered.
@@ -311,6 +355,7 @@ bool TcpServer::process(Connection& c) noexcept {
       ok = false;
       break;
     }
+    c.requested = true;
     if (fc.state == FrameState::kIncomplete) break;
     if (c.out_head > 0) {  // keep the pending output at the front
       std::memmove(c.out, c.out + c.out_head, c.out_len - c.out_head);
@@ -333,7 +378,13 @@ bool TcpServer::process(Connection& c) noexcept {
     if ((c.out[c.out_len + 7] & 0x80u) != 0) exceptions_.fetch_add(1, std::memory_order_relaxed);
     c.out_len += n;
   }
-  if (!ok) return false;
+  if (!ok) {
+    // Every complete request before the bad one is answered, then the
+    // connection closes (MBAP framing is lost after an invalid header).
+    c.closing = true;
+    c.reading = false;
+    return flush(c) && c.out_head < c.out_len;
+  }
   if (off > 0) {
     std::memmove(c.in, c.in + off, c.in_len - off);
     c.in_len -= off;
@@ -372,12 +423,44 @@ void TcpServer::sweep_idle(std::uint64_t now_ns) noexcept {
   const std::uint64_t limit = static_cast<std::uint64_t>(config_.idle_timeout_s) * 1'000'000'000u;
   for (std::uint32_t i = 0; i < conns_.size(); ++i) {
     Connection& c = conns_[i];
-    if (c.fd >= 0 && now_ns - c.last_rx_ns >= limit) {
+    if (c.fd < 0) continue;
+    const std::uint64_t first_limit = static_cast<std::uint64_t>(config_.first_request_timeout_ms) * 1'000'000u;
+    if (!c.requested && first_limit > 0 && now_ns - c.accepted_ns >= first_limit) {
+      closed_silent_.fetch_add(1, std::memory_order_relaxed);
+      log_(COBRIDGE_LOG_DEBUG, "closing a connection that sent no request within " +
+                                   std::to_string(config_.first_request_timeout_ms) + " ms");
+      close_connection(i);
+    } else if (limit > 0 && now_ns - c.last_rx_ns >= limit) {
       closed_idle_.fetch_add(1, std::memory_order_relaxed);
       log_(COBRIDGE_LOG_DEBUG, "closing a connection idle for " + std::to_string(config_.idle_timeout_s) + " s");
       close_connection(i);
     }
   }
+}
+
+// Full: the connection silent the longest, with no answer still to send,
+// makes room for the new client (a SCADA that reconnects must get in even if
+// dead connections hold every slot). Logged at most once a second.
+bool TcpServer::evict_oldest_idle() noexcept {
+  std::uint32_t oldest = 0;
+  bool found = false;
+  for (std::uint32_t i = 0; i < conns_.size(); ++i) {
+    const Connection& c = conns_[i];
+    if (c.fd < 0 || c.out_head < c.out_len) continue;
+    if (!found || c.last_rx_ns < conns_[oldest].last_rx_ns) oldest = i;
+    found = true;
+  }
+  if (!found) return false;
+  const std::uint64_t now = clock_ns(CLOCK_MONOTONIC);
+  const std::uint64_t silent_ms = (now - conns_[oldest].last_rx_ns) / 1'000'000u;
+  evicted_.fetch_add(1, std::memory_order_relaxed);
+  if (now - last_evict_log_ns_ >= 1'000'000'000u) {
+    last_evict_log_ns_ = now;
+    log_(COBRIDGE_LOG_WARN, "max_clients reached: closed the connection idle longest (" + std::to_string(silent_ms) +
+                                " ms) for a new client");
+  }
+  close_connection(oldest);
+  return true;
 }
 
 }  // namespace cobridge::modbus

@@ -38,7 +38,10 @@ struct ServerStats {
   std::uint64_t refused_allow = 0;    // closed at accept: not in the allow list
   std::uint64_t refused_full = 0;     // closed at accept: max_clients reached
   std::uint64_t closed_idle = 0;      // idle timeout
-  std::uint64_t closed_protocol = 0;  // framing error (protocol id, length, PDU size)
+  std::uint64_t closed_protocol = 0;  // framing error (protocol id, length, PDU size); answered up to it
+  std::uint64_t closed_silent = 0;    // no first request within first_request_timeout_ms
+  std::uint64_t evicted = 0;          // the oldest idle connection, closed for a new client when full
+  std::uint64_t accept_pauses = 0;    // accept() out of descriptors (EMFILE/ENFILE): listening paused
   std::uint64_t requests = 0;         // frames answered
   std::uint64_t exceptions = 0;       // of which exception responses
 };
@@ -70,6 +73,9 @@ class TcpServer {
     std::uint32_t generation = 1;
     std::uint32_t events = 0;  // current epoll interest
     bool reading = true;       // false while the output buffer is full
+    bool closing = false;      // a framing error: answer what came before it, then close
+    bool requested = false;    // at least one complete request seen
+    std::uint64_t accepted_ns = 0;
     std::size_t in_len = 0;
     std::size_t out_head = 0;
     std::size_t out_len = 0;
@@ -87,6 +93,11 @@ class TcpServer {
   void update_interest(Connection& c, std::uint32_t index) noexcept;
   void close_connection(std::uint32_t index) noexcept;
   void sweep_idle(std::uint64_t now_ns) noexcept;
+  [[nodiscard]] bool sweeping() const noexcept;
+  bool evict_oldest_idle() noexcept;
+  void pause_accept(int err, std::uint64_t now_ns) noexcept;
+  void resume_accept(std::uint64_t now_ns) noexcept;
+  [[nodiscard]] int wait_ms(std::uint64_t now_ns) const noexcept;
 
   ServerConfig config_;
   RequestPolicy policy_;
@@ -101,12 +112,18 @@ class TcpServer {
   std::vector<Connection> conns_;
   std::vector<std::uint32_t> free_;
   std::size_t open_ = 0;
+  std::uint64_t accept_paused_until_ = 0;  // 0: the listen socket is in the epoll set
+  std::uint64_t accept_backoff_ns_ = 0;
+  std::uint64_t last_evict_log_ns_ = 0;
 
   std::atomic<std::uint64_t> accepted_{0};
   std::atomic<std::uint64_t> refused_allow_{0};
   std::atomic<std::uint64_t> refused_full_{0};
   std::atomic<std::uint64_t> closed_idle_{0};
   std::atomic<std::uint64_t> closed_protocol_{0};
+  std::atomic<std::uint64_t> closed_silent_{0};
+  std::atomic<std::uint64_t> evicted_{0};
+  std::atomic<std::uint64_t> accept_pauses_{0};
   std::atomic<std::uint64_t> requests_{0};
   std::atomic<std::uint64_t> exceptions_{0};
 };

@@ -14,6 +14,7 @@ Usage: modbus_e2e.py --host PATH --plugin PATH [Suite ...]
 """
 import argparse
 import os
+import resource
 import queue
 import re
 import socket
@@ -44,11 +45,16 @@ STRIDE = 32
 class Host:
     """A running modbus_test_host."""
 
-    def __init__(self, config, devices=4, rate=1000, extra=()):
+    def __init__(self, config, devices=4, rate=1000, extra=(), nofile=None):
         cfg = 'bind = "127.0.0.1"\nport = 0\n' + config
+
+        def limit():
+            if nofile is not None:
+                resource.setrlimit(resource.RLIMIT_NOFILE, (nofile, nofile))
+
         self.proc = subprocess.Popen(
             [ARGS.host, ARGS.plugin, cfg, str(devices), str(rate), *extra],
-            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, preexec_fn=limit)
         self.lines = queue.Queue()
         self.log = []
         threading.Thread(target=self._pump, daemon=True).start()
@@ -568,7 +574,9 @@ class InvalidRequests(HostCase):
 
 
 class ConcurrentClients(HostCase):
-    """32 clients (max_clients default) served at the same time; the 33rd is closed."""
+    """32 clients (max_clients default) served at the same time; a 33rd takes
+    the place of the connection idle longest."""
+    CONFIG = "first_request_timeout_ms = 30000\n"  # the clients wait for each other before their first request
 
     def test_32_concurrent_clients(self):
         n = 32
@@ -606,20 +614,100 @@ class ConcurrentClients(HostCase):
         self.assertEqual(counts, [50] * n)
         self.assert_serving()
 
-    def test_client_beyond_max_clients_is_closed(self):
+    # Issue 10, item 11: when full, the connection idle longest makes room.
+    def test_client_beyond_max_clients_evicts_the_idlest(self):
         socks = [connect(self.host.port) for _ in range(32)]
         try:
-            for s in socks[:2]:
+            time.sleep(0.1)
+            for s in socks[:2] + socks[3:]:
                 s.sendall(read_req(1, 0, 1))
                 self.assertIsNotNone(recv_frame(s))
             extra = connect(self.host.port)
-            self.assertTrue(is_closed(extra))
+            extra.sendall(read_req(2, 0, 1))
+            self.assertEqual(regs_of(recv_frame(extra)), [2], "the 33rd client is served")
+            self.assertTrue(is_closed(socks[2]), "the one that never asked anything was closed")
+            for s in socks[:2]:
+                s.sendall(read_req(3, 0, 1))
+                self.assertIsNotNone(recv_frame(s), "active clients keep their connection")
             extra.close()
         finally:
             for s in socks:
                 s.close()
         time.sleep(0.2)
         self.assert_serving()
+
+
+class Hostile(unittest.TestCase):
+    """Issue 10, items 10-12: clients a plant's network produces."""
+
+    # TCP §3.1.3: after an invalid MBAP header the stream cannot be framed any
+    # more, but the complete requests before it were valid: answered first.
+    def test_pipelined_requests_answered_before_a_framing_error_closes(self):
+        host = Host("")
+        try:
+            with connect(host.port) as s:
+                bad = frame(9, 1, b"\x03\x00\x00\x00\x01", proto=7)
+                s.sendall(read_req(1, 0, 1) + read_req(2, 0, 1) + read_req(3, 0, 1) + bad)
+                s.settimeout(5)
+                tids = []
+                for _ in range(3):
+                    r = recv_frame(s)
+                    self.assertIsNotNone(r, "answers %s, then closed early" % tids)
+                    tids.append(struct.unpack(">H", r[:2])[0])
+                self.assertEqual(tids, [1, 2, 3])
+                self.assertTrue(is_closed(s))
+        finally:
+            host.stop()
+
+    # Connections that never send anything free their slots within 2 s.
+    def test_silent_connections_closed_by_the_first_request_deadline(self):
+        host = Host("idle_timeout_s = 60\n")
+        try:
+            socks = [connect(host.port) for _ in range(32)]
+            t0 = time.monotonic()
+            self.assertTrue(all(is_closed(s, timeout=4) for s in socks))
+            took = time.monotonic() - t0
+            self.assertLess(took, 2.6, "closed %.2f s after connecting" % took)
+            for s in socks:
+                s.close()
+            with connect(host.port) as s:
+                s.sendall(read_req(1, 0, 1))
+                self.assertEqual(regs_of(recv_frame(s)), [2])
+        finally:
+            host.stop()
+
+    # Out of descriptors (EMFILE) on accept: the level-triggered listen socket
+    # must not spin the server at 100 % CPU; clients are served again after.
+    def test_emfile_backs_off_instead_of_spinning(self):
+        host = Host("first_request_timeout_ms = 0\nidle_timeout_s = 0\n", nofile=32)
+        socks = []
+        try:
+            for _ in range(40):  # more than the descriptors left: the rest waits in the backlog
+                socks.append(connect(host.port))
+            time.sleep(0.3)
+
+            def cpu_s():
+                with open("/proc/%d/stat" % host.proc.pid) as f:
+                    fields = f.read().rsplit(")", 1)[1].split()
+                return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+            c0, t0 = cpu_s(), time.monotonic()
+            time.sleep(1.5)
+            share = (cpu_s() - c0) / (time.monotonic() - t0)
+            self.assertLess(share, 0.2, "server used %.0f %% of a core while out of descriptors" % (share * 100))
+            self.assertTrue(any("not accepting for" in line for line in host.log), "the pause is logged")
+            for s in socks:
+                s.close()
+            socks = []
+            time.sleep(1.2)
+            with connect(host.port) as s:
+                s.sendall(read_req(1, 0, 1))
+                s.settimeout(5)
+                self.assertEqual(regs_of(recv_frame(s)), [2])
+        finally:
+            for s in socks:
+                s.close()
+            host.stop()
 
 
 class Admission(unittest.TestCase):
