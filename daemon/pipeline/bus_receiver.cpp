@@ -12,6 +12,12 @@
 namespace cobridge::pipeline {
 namespace {
 
+std::int64_t monotonic_ns() noexcept {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000LL + ts.tv_nsec;
+}
+
 std::int64_t realtime_ns() noexcept {
   timespec ts{};
   clock_gettime(CLOCK_REALTIME, &ts);
@@ -139,16 +145,19 @@ void BusReceiver::run() noexcept {
       // After the read: a plan the control thread published before the
       // device could send (NMT start follows the publish) decodes its frames.
       refresh_plans();
+      decoder_.set_clocks(realtime_ns(), monotonic_ns());
       handle(std::span<const can::Frame>(frames.data(), n));
       if (n < frames.size()) break;
     }
+    const std::int64_t wall = realtime_ns();
+    const std::int64_t now = monotonic_ns();
+    decoder_.set_clocks(wall, now);
     drain_status();
-    const std::int64_t now = realtime_ns();
     if (now >= next_stale_check) {
       Sample s;
       bool any = false;
       decoder_.check_stale(now, [&](std::uint8_t node) {
-        if (decoder_.make_status(node, true, true, COBRIDGE_NMT_OPERATIONAL, now, s)) {
+        if (decoder_.make_status(node, true, true, COBRIDGE_NMT_OPERATIONAL, wall, s)) {
           push(s);
           any = true;
         }

@@ -37,6 +37,7 @@ void FrameDecoder::refresh() {
 void FrameDecoder::header(const can::Frame& f, std::uint8_t node, std::uint8_t kind, Sample& out) noexcept {
   std::memset(&out, 0, sizeof out);
   out.rx_timestamp_ns = static_cast<std::uint64_t>(f.timestamp_ns);
+  if (f.timestamp_ns != 0) out.rx_monotonic_ns = static_cast<std::uint64_t>(f.timestamp_ns + mono_minus_real_);
   out.sequence = ++sequence_[node];
   out.device_index = plans_[node].device_index;
   out.bus_index = bus_index_;
@@ -45,7 +46,7 @@ void FrameDecoder::header(const can::Frame& f, std::uint8_t node, std::uint8_t k
   out.cob_id = static_cast<std::uint16_t>(f.id);
   out.raw_len = f.len > 8 ? 8 : f.len;
   std::memcpy(out.raw, f.data.data(), out.raw_len);
-  out.valid = COBRIDGE_VALID_RAW;
+  out.valid = COBRIDGE_VALID_RAW | (f.timestamp_ns != 0 ? COBRIDGE_VALID_RX_MONOTONIC : 0);
 }
 
 bool FrameDecoder::gateway_header(std::uint8_t node, std::uint8_t kind, std::int64_t timestamp_ns,
@@ -170,7 +171,7 @@ bool FrameDecoder::decode_tpdo(const can::Frame& f, std::uint8_t node, std::size
         break;
     }
   }
-  last_pdo_ns_[node] = f.timestamp_ns;
+  last_pdo_ns_[node] = f.timestamp_ns + mono_minus_real_;
   if (stale_[node]) stale_[node] = false;
   return true;
 }
@@ -178,7 +179,7 @@ bool FrameDecoder::decode_tpdo(const can::Frame& f, std::uint8_t node, std::size
 bool FrameDecoder::make_status(std::uint8_t node_id, bool online, bool stale, std::uint8_t nmt_state,
                                std::int64_t timestamp_ns, Sample& out) noexcept {
   if (!gateway_header(node_id, COBRIDGE_SAMPLE_STATUS, timestamp_ns, out)) return false;
-  out.valid = COBRIDGE_VALID_STATUS | COBRIDGE_VALID_NMT_STATE;
+  out.valid = COBRIDGE_VALID_STATUS | COBRIDGE_VALID_NMT_STATE | (out.valid & COBRIDGE_VALID_RX_MONOTONIC);
   // Staleness already detected stays; an offline device's values are stale.
   const bool is_stale = stale || stale_[node_id] || !online;
   out.online = online ? 1 : 0;
@@ -192,7 +193,7 @@ bool FrameDecoder::make_status(std::uint8_t node_id, bool online, bool stale, st
 bool FrameDecoder::make_command(std::uint8_t node_id, std::uint8_t kind, std::uint8_t status, std::uint32_t tag,
                                 std::uint32_t abort_code, std::int64_t timestamp_ns, Sample& out) noexcept {
   if (!gateway_header(node_id, COBRIDGE_SAMPLE_COMMAND, timestamp_ns, out)) return false;
-  out.valid = COBRIDGE_VALID_COMMAND;
+  out.valid = COBRIDGE_VALID_COMMAND | (out.valid & COBRIDGE_VALID_RX_MONOTONIC);
   out.command_kind = kind;
   out.command_status = status;
   out.command_tag = tag;

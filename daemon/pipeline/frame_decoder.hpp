@@ -39,6 +39,13 @@ class FrameDecoder {
 
   // Picks up new plans if the control thread published any.
   void refresh();
+  // The two clocks as read once per receive batch: frames carry kernel
+  // CLOCK_REALTIME stamps; samples also get them on CLOCK_MONOTONIC, and
+  // staleness is judged on it, so a wall-clock step never marks good data
+  // stale or stale data fresh (issue 10, item 7).
+  void set_clocks(std::int64_t realtime_ns, std::int64_t monotonic_ns) noexcept {
+    mono_minus_real_ = monotonic_ns - realtime_ns;
+  }
 
   // Returns true and fills `out` when the frame produced a sample.
   bool decode(const can::Frame& frame, Sample& out) noexcept;
@@ -51,10 +58,12 @@ class FrameDecoder {
   bool make_command(std::uint8_t node_id, std::uint8_t kind, std::uint8_t status, std::uint32_t tag,
                     std::uint32_t abort_code, std::int64_t timestamp_ns, Sample& out) noexcept;
 
-  // Nodes whose last TPDO is older than their plan's max_age_ms at `now_ns`
-  // and not yet reported stale: calls emit(node) once per such change.
+  // Nodes whose last TPDO is older than their plan's max_age_ms at
+  // `now_mono_ns` (CLOCK_MONOTONIC) and not yet reported stale: calls
+  // emit(node) once per such change.
   template <typename Emit>
-  void check_stale(std::int64_t now_ns, Emit&& emit) noexcept {
+  void check_stale(std::int64_t now_mono_ns, Emit&& emit) noexcept {
+    const std::int64_t now_ns = now_mono_ns;
     for (std::size_t n = 1; n < DeviceTable::kNodes; ++n) {
       const DecodePlan& p = plans_[n];
       if (!p.active || p.max_age_ms == 0 || stale_[n] || last_pdo_ns_[n] == 0) continue;
@@ -83,7 +92,8 @@ class FrameDecoder {
   std::uint32_t generation_ = 0;
   bool synced_ = false;
   std::array<std::uint32_t, DeviceTable::kNodes> sequence_{};
-  std::array<std::int64_t, DeviceTable::kNodes> last_pdo_ns_{};
+  std::array<std::int64_t, DeviceTable::kNodes> last_pdo_ns_{};  // CLOCK_MONOTONIC
+  std::int64_t mono_minus_real_ = 0;
   std::array<bool, DeviceTable::kNodes> stale_{};
   std::uint8_t sync_counter_ = 0;
   // Written by the RX thread only; atomics so another thread may read them.

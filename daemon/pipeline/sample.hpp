@@ -59,7 +59,8 @@ static_assert(offsetof(Sample, command_tag) == 80);
 static_assert(offsetof(Sample, command_abort_code) == 84);
 static_assert(offsetof(Sample, command_kind) == 88);
 static_assert(offsetof(Sample, command_status) == 89);
-static_assert(offsetof(Sample, reserved) == 90);
+static_assert(offsetof(Sample, rx_monotonic_ns) == 96);
+static_assert(offsetof(Sample, reserved) == 104);
 // Host API: ABI 1's fields keep their offsets; submit_command follows.
 static_assert(offsetof(cobridge_host_api, gateway_id) == 24);
 static_assert(offsetof(cobridge_host_api, submit_command) == 32);

@@ -151,6 +151,8 @@ void RegisterImage::apply(const cobridge_sample& s) noexcept {
   }
   if ((v & kProcessData) != 0) {
     st.data_rx_ns = s.rx_timestamp_ns;
+    // The age is measured on the monotonic clock when the gateway gave it.
+    st.data_rx_mono_ns = (s.valid & COBRIDGE_VALID_RX_MONOTONIC) != 0 ? s.rx_monotonic_ns : 0;
     st.stale = 0;  // fresh data ends staleness, as in the decoder
   }
   // A heartbeat is proof of life even without a STATUS sample.
@@ -257,7 +259,10 @@ void RegisterImage::render_device(std::uint16_t slot, const DeviceState& st, std
       case Field::kNmtState: v = st.nmt_state; break;
       case Field::kOnline: v = st.online; break;
       case Field::kStale: v = st.stale; break;
-      case Field::kDataAge: v = data_age_ms(st.data_rx_ns, now.realtime_ns); break;
+      case Field::kDataAge:
+        v = st.data_rx_mono_ns != 0 ? data_age_ms(st.data_rx_mono_ns, now.monotonic_ns)
+                                    : data_age_ms(st.data_rx_ns, now.realtime_ns);
+        break;
       case Field::kSequence: v = st.sequence; break;
       case Field::kEmcyCode: v = st.emcy_code; break;
       case Field::kEmcyRegister: v = st.emcy_register; break;

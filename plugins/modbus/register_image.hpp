@@ -61,7 +61,8 @@ enum class ReadStatus : std::uint8_t {
 // One device as stored in a slot; trivially copyable, copied word-wise.
 struct DeviceState {
   std::int64_t position = 0;
-  std::uint64_t data_rx_ns = 0;  // rx timestamp of the latest process data; 0 = none
+  std::uint64_t data_rx_ns = 0;       // rx timestamp of the latest process data; 0 = none
+  std::uint64_t data_rx_mono_ns = 0;  // the same on CLOCK_MONOTONIC (the data age uses it); 0 = not given
   std::int32_t speed = 0;
   std::uint32_t sequence = 0;
   std::uint32_t serial = 0;

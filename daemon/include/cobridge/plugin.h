@@ -83,7 +83,8 @@ enum cobridge_sample_valid {
   COBRIDGE_VALID_STATUS = 1u << 10, /* online and stale */
   COBRIDGE_VALID_EMCY = 1u << 11,   /* emcy_code, emcy_register, emcy_data */
   COBRIDGE_VALID_RAW = 1u << 12,    /* raw_len, raw */
-  COBRIDGE_VALID_COMMAND = 1u << 13 /* ABI 2: command_tag, command_abort_code, command_kind, command_status */
+  COBRIDGE_VALID_COMMAND = 1u << 13, /* ABI 2: command_tag, command_abort_code, command_kind, command_status */
+  COBRIDGE_VALID_RX_MONOTONIC = 1u << 14 /* ABI 2: rx_monotonic_ns */
 };
 
 /* NMT states as they appear in the heartbeat byte (CiA 301 §7.2.8.3.2). */
@@ -165,8 +166,13 @@ typedef struct cobridge_sample {
   uint32_t command_abort_code; /* the device's SDO abort code (CiA 301 §7.2.4.3.17) when refused, else 0 */
   uint8_t command_kind;        /* enum cobridge_command_kind */
   uint8_t command_status;      /* enum cobridge_command_status */
+  uint8_t reserved_pad_[6];    /* zero */
+  /* ABI 2 (COBRIDGE_VALID_RX_MONOTONIC): rx_timestamp_ns on CLOCK_MONOTONIC,
+   * for ages that a step of the wall clock must not falsify (data age,
+   * staleness); the published timestamps stay wall-clock. */
+  uint64_t rx_monotonic_ns;
   /* Room for fields of later ABI versions; zero. */
-  uint8_t reserved[38];
+  uint8_t reserved[24];
 } cobridge_sample;
 
 /* ------------------------------------------------------------------------ */

@@ -254,6 +254,34 @@ TEST(FrameDecoder, StaleReportedOnceThenClearedByNewData) {
   EXPECT_EQ(reported, 2);
 }
 
+// Issue 10, item 7: ages are judged on CLOCK_MONOTONIC. The wall clock steps
+// an hour forward between two frames (NTP, an operator): fresh data stays
+// fresh, and samples keep the wall-clock time for the outputs.
+TEST(FrameDecoder, WallClockStepDoesNotMakeFreshDataStale) {
+  DeviceTable table;
+  DecodePlan p = plan_for(5, {{0x60200120, true}});
+  p.max_age_ms = 10;
+  table.publish(p);
+  FrameDecoder d(0, table);
+  constexpr std::int64_t kWall = 1'700'000'000'000'000'000;
+  constexpr std::int64_t kMono = 50'000'000'000;
+  d.set_clocks(kWall, kMono);
+  Sample s;
+  ASSERT_TRUE(d.decode(frame(0x185, {1, 0, 0, 0}, kWall), s));
+  EXPECT_EQ(s.rx_timestamp_ns, static_cast<std::uint64_t>(kWall));
+  EXPECT_EQ(s.rx_monotonic_ns, static_cast<std::uint64_t>(kMono));
+  EXPECT_NE(s.valid & COBRIDGE_VALID_RX_MONOTONIC, 0);
+  constexpr std::int64_t kStep = 3600LL * 1'000'000'000;
+  d.set_clocks(kWall + kStep + 4'000'000, kMono + 4'000'000);  // 4 ms later, wall clock +1 h
+  ASSERT_TRUE(d.decode(frame(0x185, {2, 0, 0, 0}, kWall + kStep + 4'000'000), s));
+  EXPECT_EQ(s.rx_monotonic_ns, static_cast<std::uint64_t>(kMono + 4'000'000));
+  int stale = 0;
+  d.check_stale(kMono + 9'000'000, [&](std::uint8_t) { ++stale; });
+  EXPECT_EQ(stale, 0) << "5 ms old on the monotonic clock";
+  d.check_stale(kMono + 15'000'000, [&](std::uint8_t) { ++stale; });
+  EXPECT_EQ(stale, 1);
+}
+
 TEST(DecodePlan, RejectsUndecodableMappings) {
   PdoDecode out;
   std::string err;

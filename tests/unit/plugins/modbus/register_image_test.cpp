@@ -77,6 +77,21 @@ TEST(RegisterImage, DataAgeIsComputedAtReadTime) {
   EXPECT_EQ(data_age_ms(0, kNow), 0xFFFF);                         // never received
 }
 
+// Issue 10, item 7: with the monotonic receive time given (ABI 2,
+// COBRIDGE_VALID_RX_MONOTONIC) the age ignores a step of the wall clock.
+TEST(RegisterImage, DataAgeUsesTheMonotonicClockWhenGiven) {
+  RegisterImage img(ImageOptions{});
+  cobridge_sample s = tpdo(1, 1, 5, kNow);
+  s.rx_monotonic_ns = 80'000'000'000ull;
+  s.valid |= COBRIDGE_VALID_RX_MONOTONIC;
+  img.apply(s);
+  std::array<std::uint16_t, kDeviceStride> r{};
+  // The wall clock jumped an hour forward; 12 ms passed on the monotonic clock.
+  ASSERT_EQ(img.read(device_base(1), r, ReadTime{kNow + 3'600'000'000'000ull, 80'012'000'000ull}, false),
+            ReadStatus::kOk);
+  EXPECT_EQ(r[11], 12);
+}
+
 // Samples without process data (heartbeat, status) do not refresh the data age.
 TEST(RegisterImage, HeartbeatDoesNotRefreshDataAge_CiA301_7_2_8_3_2) {
   RegisterImage img(ImageOptions{});
