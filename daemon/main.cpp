@@ -416,6 +416,8 @@ int run(const std::filesystem::path& config_file, bool foreground, const std::st
         if (refusal.empty() && next.config->gateway.control_socket != cfg->gateway.control_socket)
           refusal = "gateway.control_socket changed";
         if (refusal.empty()) refusal = outputs_change(*cfg, *next.config);
+        // Every layer takes the new configuration, or none does.
+        if (refusal.empty()) refusal = outputs.reload(*next.config);
         if (!refusal.empty()) refusal += " (needs a restart)";
       }
       if (!next.config || !refusal.empty()) {

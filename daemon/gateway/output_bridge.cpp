@@ -20,7 +20,7 @@ std::uint8_t nmt_byte(canopen::NmtState s) noexcept { return static_cast<std::ui
 
 }  // namespace
 
-OutputBridge::OutputBridge(const config::Config& config, std::size_t bus_index, const device::DeviceCatalog& catalog,
+OutputBridge::OutputBridge(const SharedConfig& config, std::size_t bus_index, const device::DeviceCatalog& catalog,
                            pipeline::DeviceTable& table, pipeline::BusReceiver* receiver, pipeline::PluginHost* host,
                            pipeline::Dispatcher* dispatcher)
     : config_(config),
@@ -32,8 +32,9 @@ OutputBridge::OutputBridge(const config::Config& config, std::size_t bus_index, 
       dispatcher_(dispatcher) {}
 
 std::uint16_t OutputBridge::device_index(const DeviceStatus& device) {
-  for (std::size_t i = 0; i < config_.devices.size(); ++i)
-    if (config_.devices[i].name == device.name) return static_cast<std::uint16_t>(i);
+  const auto cfg = config_.get();
+  for (std::size_t i = 0; i < cfg->devices.size(); ++i)
+    if (cfg->devices[i].name == device.name) return static_cast<std::uint16_t>(i);
   std::lock_guard lock(mutex_);
   auto it = unknown_index_.find(device.name);
   if (it != unknown_index_.end()) return it->second;
@@ -74,12 +75,13 @@ pipeline::DecodePlan OutputBridge::make_plan(const DeviceStatus& device, const s
   // Engineering units: degrees of the shaft when the measuring units per
   // revolution are known (configured, or the EDS default of 0x6001 / 0x6501);
   // ifm prints "see label" (F§7.5), so there the value stays in counts.
-  const double units_per_rev = this->units_per_rev(device, desc);
+  const auto cfg_now = config_.get();
+  const double units_per_rev = this->units_per_rev(*cfg_now, device, desc);
   if (units_per_rev > 0) plan.eng_scale = 360.0 / units_per_rev;
   if (desc) {
     if (const auto profile = device::family_profile_for(*desc)) plan.position_mask = profile->position_value_mask;
   }
-  if (const config::Device* cfg = config_.find_device(device.name)) {
+  if (const config::Device* cfg = cfg_now->find_device(device.name)) {
     const config::TpdoSettings* t[2] = {cfg->tpdo1 ? &*cfg->tpdo1 : nullptr, cfg->tpdo2 ? &*cfg->tpdo2 : nullptr};
     for (std::size_t i = 0; i < 2; ++i) {
       if (!t[i]) continue;
@@ -93,8 +95,9 @@ pipeline::DecodePlan OutputBridge::make_plan(const DeviceStatus& device, const s
   return plan;
 }
 
-double OutputBridge::units_per_rev(const DeviceStatus& device, const device::DeviceDescription* desc) const {
-  const config::Device* cfg = config_.find_device(device.name);
+double OutputBridge::units_per_rev(const config::Config& config, const DeviceStatus& device,
+                                   const device::DeviceDescription* desc) const {
+  const config::Device* cfg = config.find_device(device.name);
   if (cfg && cfg->scaling && cfg->scaling->units_per_rev) return static_cast<double>(*cfg->scaling->units_per_rev);
   if (desc) {
     for (std::uint16_t index : {std::uint16_t{0x6001}, std::uint16_t{0x6501}}) {
@@ -174,7 +177,8 @@ void OutputBridge::on_command_done(const DeviceStatus& device, const DeviceComma
 
 void OutputBridge::announce(const DeviceStatus& device, std::uint8_t change) {
   if (!host_ || !dispatcher_) return;
-  const std::string bus = bus_index_ < config_.buses.size() ? config_.buses[bus_index_].name : std::string();
+  const auto cfg = config_.get();
+  const std::string bus = bus_index_ < cfg->buses.size() ? cfg->buses[bus_index_].name : std::string();
   cobridge_device_info info{};
   info.struct_size = sizeof info;
   info.device_index = device_index(device);
@@ -186,7 +190,7 @@ void OutputBridge::announce(const DeviceStatus& device, std::uint8_t change) {
   info.revision = device.identity.revision;
   info.serial = device.identity.serial;
   const auto candidates = catalog_.candidates(device.identity.vendor, device.identity.product);
-  const char* unit = units_per_rev(device, candidates.empty() ? nullptr : candidates.front()) > 0 ? "deg" : "counts";
+  const char* unit = units_per_rev(*cfg, device, candidates.empty() ? nullptr : candidates.front()) > 0 ? "deg" : "counts";
   // plugin.h: on_device runs on the dispatcher thread, like on_samples. The
   // task owns copies of the strings the info points to.
   auto strings = std::make_shared<std::array<std::string, 5>>(

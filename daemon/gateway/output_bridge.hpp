@@ -16,6 +16,7 @@
 #include "config/config.hpp"
 #include "device/device_catalog.hpp"
 #include "gateway/bus_manager.hpp"
+#include "gateway/shared_config.hpp"
 #include "pipeline/bus_receiver.hpp"
 #include "pipeline/device_table.hpp"
 #include "pipeline/plugin_host.hpp"
@@ -30,7 +31,7 @@ class OutputBridge final : public BusObserver {
  public:
   // `host`/`dispatcher` may be nullptr (no plugins); device announcements run
   // on the dispatcher thread. Everything passed must outlive the bridge.
-  OutputBridge(const config::Config& config, std::size_t bus_index, const device::DeviceCatalog& catalog,
+  OutputBridge(const SharedConfig& config, std::size_t bus_index, const device::DeviceCatalog& catalog,
                pipeline::DeviceTable& table, pipeline::BusReceiver* receiver, pipeline::PluginHost* host,
                pipeline::Dispatcher* dispatcher);
 
@@ -49,11 +50,12 @@ class OutputBridge final : public BusObserver {
 
  private:
   // Measuring units per revolution, or 0 when unknown (then position_eng is in counts).
-  double units_per_rev(const DeviceStatus& device, const device::DeviceDescription* desc) const;
+  double units_per_rev(const config::Config& cfg, const DeviceStatus& device,
+                       const device::DeviceDescription* desc) const;
   void announce(const DeviceStatus& device, std::uint8_t change);
   void forget_old_node(const DeviceStatus& device);
 
-  const config::Config& config_;
+  const SharedConfig& config_;  // a reload replaces it; every callback takes a snapshot
   std::size_t bus_index_;
   const device::DeviceCatalog& catalog_;
   pipeline::DeviceTable& table_;

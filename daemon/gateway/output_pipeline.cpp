@@ -59,13 +59,13 @@ OutputPipeline::OutputPipeline(const config::Config& config, const device::Devic
                                std::filesystem::path plugin_dir)
     : config_(config),
       command_targets_(config.buses.size()),
-      host_(host_options(config_, std::move(plugin_dir), [this](const cobridge_command& c) { return submit(c); })),
+      host_(host_options(config, std::move(plugin_dir), [this](const cobridge_command& c) { return submit(c); })),
       sink_(host_),
       dispatcher_(sink_) {
-  for (std::size_t i = 0; i < config_.buses.size(); ++i) {
+  for (std::size_t i = 0; i < config.buses.size(); ++i) {
     auto bus = std::make_unique<Bus>();
     bus->receiver = std::make_unique<pipeline::BusReceiver>(
-        pipeline::BusReceiverOptions{.bus_index = static_cast<std::uint8_t>(i), .interface = config_.buses[i].interface},
+        pipeline::BusReceiverOptions{.bus_index = static_cast<std::uint8_t>(i), .interface = config.buses[i].interface},
         bus->table, dispatcher_);
     bus->bridge = std::make_unique<OutputBridge>(config_, i, catalog, bus->table, bus->receiver.get(), &host_, &dispatcher_);
     dispatcher_.add_source(bus->receiver->ring());
@@ -78,8 +78,9 @@ OutputPipeline::~OutputPipeline() { stop(); }
 std::vector<std::string> OutputPipeline::start(bool* fatal) {
   std::vector<std::string> problems;
   if (fatal) *fatal = false;
-  for (const auto& e : host_.load_all(plugin_specs(config_))) problems.push_back(located(config_, e));
-  for (const auto& e : host_.start_all()) problems.push_back(located(config_, e));
+  const auto config = config_.get();
+  for (const auto& e : host_.load_all(plugin_specs(*config))) problems.push_back(located(*config, e));
+  for (const auto& e : host_.start_all()) problems.push_back(located(*config, e));
   if (!problems.empty()) {
     // Nothing else starts: no receiver opens a bus for outputs that are not there.
     if (fatal != nullptr) *fatal = true;
@@ -90,7 +91,7 @@ std::vector<std::string> OutputPipeline::start(bool* fatal) {
   for (std::size_t i = 0; i < buses_.size(); ++i) {
     std::string why;
     if (buses_[i]->receiver->start(&why)) {
-      problems.push_back("bus " + config_.buses[i].name + ": hot path: " + why);
+      problems.push_back("bus " + config->buses[i].name + ": hot path: " + why);
       if (fatal) *fatal = true;
     }
   }
@@ -114,12 +115,28 @@ int OutputPipeline::submit(const cobridge_command& command) const {
   const auto kind = command_kind(command.kind);
   if (!kind) return COBRIDGE_COMMAND_UNSUPPORTED;
   // device_index is the device's position in the configuration (OutputBridge::device_index).
-  if (command.device_index >= config_.devices.size()) return COBRIDGE_COMMAND_UNKNOWN_DEVICE;
-  const config::Device& device = config_.devices[command.device_index];
+  const auto config = config_.get();
+  if (command.device_index >= config->devices.size()) return COBRIDGE_COMMAND_UNKNOWN_DEVICE;
+  const config::Device& device = config->devices[command.device_index];
   if (device.bus_index >= command_targets_.size()) return COBRIDGE_COMMAND_UNKNOWN_DEVICE;
   BusManager* target = command_targets_[device.bus_index].load(std::memory_order_acquire);
   if (target == nullptr) return COBRIDGE_COMMAND_OFFLINE;
   return static_cast<int>(target->submit(DeviceCommand{device.name, *kind, command.value, command.tag}));
+}
+
+std::string OutputPipeline::reload(const config::Config& next) {
+  const auto now = config_.get();
+  if (next.buses.size() != now->buses.size()) return "the buses changed";
+  const std::size_t common = std::min(now->devices.size(), next.devices.size());
+  for (std::size_t i = 0; i < common; ++i) {
+    if (now->devices[i].name != next.devices[i].name)
+      return "device \"" + now->devices[i].name + "\" would move from index " + std::to_string(i) +
+             " (the Modbus slot and DDS instance it is read by); add new devices after the existing ones";
+  }
+  if (next.devices.size() < now->devices.size())
+    return "device \"" + now->devices.back().name + "\" was removed; indices must stay (restart to renumber)";
+  config_.set(next);
+  return {};
 }
 
 BusObserver* OutputPipeline::observer(std::size_t bus_index) {

@@ -57,6 +57,14 @@ class OutputPipeline {
   [[nodiscard]] std::vector<std::string> start(bool* fatal);
   void stop();
 
+  // SIGHUP: the new configuration for the bridges (device settings such as
+  // the event timer behind staleness, scaling) and for command routing.
+  // Refused with the reason when it would move a device to another index
+  // (what SCADA and cell controllers address it by): devices may only be
+  // added at the end, or change their settings. Plugins keep their settings
+  // (the caller refuses [outputs.*] changes). Main thread.
+  [[nodiscard]] std::string reload(const config::Config& next);
+
   [[nodiscard]] BusObserver* observer(std::size_t bus_index);
   // Where commands for the devices of bus `bus_index` go; nullptr = nowhere
   // (they are refused as offline).
@@ -82,7 +90,7 @@ class OutputPipeline {
   // Plugin threads: cobridge_host_api.submit_command.
   [[nodiscard]] int submit(const cobridge_command& command) const;
 
-  const config::Config config_;
+  SharedConfig config_;
   std::vector<std::atomic<BusManager*>> command_targets_;
   pipeline::PluginHost host_;
   HostSink sink_;

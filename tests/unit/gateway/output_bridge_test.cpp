@@ -51,7 +51,8 @@ struct Fixture {
 // J§1.7.2 default mapping: 0x6020/1 INTEGER32 and 0x6030/1 INTEGER16 are signed.
 TEST(OutputBridge, J_1_7_2_RotaryPlanSignedAndScaledFromConfig) {
   Fixture f;
-  OutputBridge bridge(f.cfg, 0, f.catalog, f.table, nullptr, nullptr, nullptr);
+  SharedConfig shared(f.cfg);
+  OutputBridge bridge(shared, 0, f.catalog, f.table, nullptr, nullptr, nullptr);
   std::string err;
   const auto plan = bridge.make_plan(f.status("lift", 0x182, 0x0BE0, 10), {0x60200120, 0x60300110}, {0x60200120}, &err);
   ASSERT_TRUE(plan.active) << err;
@@ -69,7 +70,8 @@ TEST(OutputBridge, J_1_7_2_RotaryPlanSignedAndScaledFromConfig) {
 // F§7.5: ifm 0x6004 is UNSIGNED32; F§7.4: bits 30/31 are limit-switch flags.
 TEST(OutputBridge, F_7_5_IfmPositionUnsignedWithLimitSwitchMask) {
   Fixture f;
-  OutputBridge bridge(f.cfg, 0, f.catalog, f.table, nullptr, nullptr, nullptr);
+  SharedConfig shared(f.cfg);
+  OutputBridge bridge(shared, 0, f.catalog, f.table, nullptr, nullptr, nullptr);
   std::string err;
   const auto plan = bridge.make_plan(f.status("ifm-x", 0x0069666D, 0x4341, 32), {0x60040020}, {}, &err);
   ASSERT_TRUE(plan.active) << err;
@@ -82,7 +84,8 @@ TEST(OutputBridge, F_7_5_IfmPositionUnsignedWithLimitSwitchMask) {
 // E§4.1: the multiturn default mapping names 0x6020/1 (an alias of INTEGER32 0x6004, digest C.3).
 TEST(OutputBridge, E_4_1_MultiturnAliasDecodesSigned) {
   Fixture f;
-  OutputBridge bridge(f.cfg, 0, f.catalog, f.table, nullptr, nullptr, nullptr);
+  SharedConfig shared(f.cfg);
+  OutputBridge bridge(shared, 0, f.catalog, f.table, nullptr, nullptr, nullptr);
   std::string err;
   const auto plan = bridge.make_plan(f.status("mt", 0x182, 0x0BB8, 12), {0x60200120, 0x60300110}, {}, &err);
   ASSERT_TRUE(plan.active) << err;
@@ -92,7 +95,8 @@ TEST(OutputBridge, E_4_1_MultiturnAliasDecodesSigned) {
 
 TEST(OutputBridge, UndecodableMappingIsRefusedWithDeviceName) {
   Fixture f;
-  OutputBridge bridge(f.cfg, 0, f.catalog, f.table, nullptr, nullptr, nullptr);
+  SharedConfig shared(f.cfg);
+  OutputBridge bridge(shared, 0, f.catalog, f.table, nullptr, nullptr, nullptr);
   std::string err;
   const auto plan = bridge.make_plan(f.status("lift", 0x182, 0x0BE0, 10), {0x60200120, 0x60200120, 0x60300110}, {}, &err);
   EXPECT_FALSE(plan.active);
@@ -102,7 +106,8 @@ TEST(OutputBridge, UndecodableMappingIsRefusedWithDeviceName) {
 // Configured devices become active plans in the bus's table.
 TEST(OutputBridge, ConfiguredDeviceIsPublishedToTheHotPath) {
   Fixture f;
-  OutputBridge bridge(f.cfg, 0, f.catalog, f.table, nullptr, nullptr, nullptr);
+  SharedConfig shared(f.cfg);
+  OutputBridge bridge(shared, 0, f.catalog, f.table, nullptr, nullptr, nullptr);
   bridge.on_device_configured(f.status("lift", 0x182, 0x0BE0, 10), {0x60200120, 0x60300110}, {});
   pipeline::DeviceTable::Plans plans;
   std::uint32_t gen = 0;
@@ -111,3 +116,23 @@ TEST(OutputBridge, ConfiguredDeviceIsPublishedToTheHotPath) {
   EXPECT_EQ(plans[10].node_id, 10);
   EXPECT_GT(gen, 0u);
 }
+
+namespace cobridge::gateway {
+namespace {
+
+// Issue 10, item 6: a SIGHUP reload reaches the output side too. A new event
+// timer changes the staleness limit of the plan made after the reload.
+TEST(OutputBridge, ReloadedSettingsReachTheNextPlan) {
+  Fixture f;
+  SharedConfig shared(f.cfg);
+  OutputBridge bridge(shared, 0, f.catalog, f.table, nullptr, nullptr, nullptr);
+  const auto st = f.status("lift", 0x182, 0x0BE0, 10);
+  EXPECT_EQ(bridge.make_plan(st, {0x60200120}, {}, nullptr).max_age_ms, 50u);
+  config::Config next = f.cfg;
+  next.devices[0].tpdo1->event_timer_ms = 100;
+  shared.set(next);
+  EXPECT_EQ(bridge.make_plan(st, {0x60200120}, {}, nullptr).max_age_ms, 320u) << "3 x 100 ms + 20 ms";
+}
+
+}  // namespace
+}  // namespace cobridge::gateway

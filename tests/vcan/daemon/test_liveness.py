@@ -295,6 +295,23 @@ def scenario_unknown_node(report, daemon, tap_path):
                  "%d samples of node 99; indices with several nodes: %s" % (wrong, mixed))
 
 
+def scenario_reload_reorder(report, daemon, ws, devices, bus, extra):
+    """Item 6: a reload applies to every layer or is refused with a reason:
+    reordering devices would move them to other Modbus slots / DDS
+    instances, so it is refused and the running configuration stays."""
+    path = e2e.write_config(ws, [dict(bus, foreign_nmt="respect")], list(reversed(devices)), extra=extra)
+    os.kill(daemon.pid, signal.SIGHUP)
+    time.sleep(1.0)
+    log = open(daemon.log_path).read()
+    report.check('would move from index' in log and "reload rejected" in log,
+                 "reload reordering devices is refused with its reason",
+                 "; ".join([ln for ln in log.splitlines() if "reload rejected" in ln][-1:]))
+    report.check(daemon.proc.poll() is None and all(
+        d["state"] == "operational" for d in daemon.devices().values() if d["name"] in NAMES),
+                 "still running the previous configuration")
+    return path
+
+
 def main():
     args = e2e.parse_args()
     report = e2e.Report("test_liveness")
@@ -325,6 +342,7 @@ def main():
         scenario_emcy_storm(report, daemon, tap)
         scenario_foreign_stop(report, daemon, listener, ws, config)
         scenario_unknown_node(report, daemon, tap)
+        scenario_reload_reorder(report, daemon, ws, devices, bus, extra)
         if report.failed:
             print(daemon.tail(80))
         e2e.check_clean_exit(report, daemon)
