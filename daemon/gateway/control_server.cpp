@@ -1,4 +1,5 @@
 #include "gateway/control_server.hpp"
+#include "gateway/control_request.hpp"
 
 #include "canopen/nmt.hpp"
 #include "sys/logging.hpp"
@@ -115,35 +116,6 @@ std::string error_json(std::string_view message) {
 }
 
 // What a client sent, fit to be quoted back: printable ASCII, at most 40 chars.
-std::string quoted_input(std::string_view s) {
-  std::string out;
-  for (const char ch : s.substr(0, 40)) {
-    const auto c = static_cast<unsigned char>(ch);
-    out += (c >= 0x20 && c < 0x7F) ? ch : '?';
-  }
-  if (s.size() > 40) out += "...";
-  return out;
-}
-
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t' || s.front() == '\r')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
-  return s;
-}
-
-std::vector<std::string_view> words(std::string_view s) {
-  std::vector<std::string_view> out;
-  while (true) {
-    s = trim(s);
-    if (s.empty()) break;
-    const auto end = s.find_first_of(" \t");
-    out.push_back(s.substr(0, end));
-    if (end == std::string_view::npos) break;
-    s.remove_prefix(end);
-  }
-  return out;
-}
-
 void write_device(JsonWriter& w, const DeviceStatus& d) {
   w.begin_object();
   w.field("name", d.name);
@@ -438,7 +410,7 @@ bool ControlServer::serve(Client& c, TimePoint now) {
     c.in.clear();
   } else if (c.peer_closed) {
     // End of input: a last line without newline still counts (printf status | nc -U).
-    if (!trim(c.in).empty()) answer(c, c.in, now);
+    if (c.in.find_first_not_of(" \t\r") != std::string::npos) answer(c, c.in, now);
     c.in.clear();
     c.close_after_write = true;
   } else if (now >= c.deadline) {
@@ -456,14 +428,14 @@ bool ControlServer::serve(Client& c, TimePoint now) {
 }
 
 void ControlServer::answer(Client& c, std::string_view line, TimePoint now) {
-  const auto w = words(line);
+  const ControlRequest req = parse_control_request(line);
   std::string reply;
-  if (w.empty()) {
-    reply = error_json("empty request (commands: status, commission [BUS])");
-  } else if (w[0] == "status" && w.size() == 1) {
+  if (req.kind == ControlRequest::Kind::invalid) {
+    reply = error_json(req.error);
+  } else if (req.kind == ControlRequest::Kind::status) {
     reply = to_json(handler_.status());
-  } else if (w[0] == "commission" && w.size() <= 2) {
-    const ControlResult r = handler_.commission(w.size() == 2 ? w[1] : std::string_view{});
+  } else {
+    const ControlResult r = handler_.commission(req.bus);
     if (!r.ok) {
       reply = error_json(r.message);
     } else {
@@ -478,10 +450,6 @@ void ControlServer::answer(Client& c, std::string_view line, TimePoint now) {
       j.end_object();
       reply = j.take();
     }
-  } else if (w[0] == "status" || w[0] == "commission") {
-    reply = error_json("usage: status | commission [BUS]");
-  } else {
-    reply = error_json("unknown command \"" + quoted_input(w[0]) + "\" (commands: status, commission [BUS])");
   }
   c.out += reply;
   c.out += '\n';

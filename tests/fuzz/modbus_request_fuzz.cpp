@@ -12,8 +12,8 @@
 //
 // Built two ways (tests/fuzz/CMakeLists.txt): with clang's libFuzzer
 // (-fsanitize=fuzzer,address,undefined) when available, run for a bounded
-// time by CTest; otherwise with COBRIDGE_FUZZ_STANDALONE, a deterministic
-// mutation loop over a fixed number of inputs under ASan/UBSan.
+// time by CTest; otherwise with standalone_driver.cpp, a deterministic
+// mutation loop over the seed corpus under ASan/UBSan.
 //
 // Input layout: byte 0 picks the policy (unit filter, writes, offline
 // exception) and the mode; the rest is either a raw TCP byte stream (cut into
@@ -165,72 +165,3 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   }
   return 0;
 }
-
-#ifdef COBRIDGE_FUZZ_STANDALONE
-// Deterministic mutation loop, for toolchains without libFuzzer: seeds are
-// one well-formed request per function plus edge cases; each round mutates a
-// seed (bit flips, interesting bytes, truncation, extension, splicing).
-namespace {
-
-struct XorShift {
-  std::uint64_t s = 0x9E3779B97F4A7C15ull;
-  std::uint64_t next() {
-    s ^= s << 13;
-    s ^= s >> 7;
-    s ^= s << 17;
-    return s;
-  }
-  std::size_t below(std::size_t n) { return n == 0 ? 0 : static_cast<std::size_t>(next() % n); }
-};
-
-}  // namespace
-
-int main(int argc, char** argv) {
-  const unsigned long rounds = argc > 1 ? std::strtoul(argv[1], nullptr, 10) : 1'000'000ul;
-  using Bytes = std::vector<std::uint8_t>;
-  const std::vector<Bytes> seeds = {
-      {0x00, 0, 1, 0, 0, 0, 6, 1, 0x03, 0x01, 0x00, 0x00, 0x1C},
-      {0x05, 0, 2, 0, 0, 0, 6, 1, 0x04, 0x00, 0x00, 0x00, 0x7D},
-      {0x07, 0, 3, 0, 0, 0, 6, 1, 0x03, 0x01, 0x80, 0x00, 0x04},
-      {0x02, 0, 4, 0, 0, 0, 6, 1, 0x06, 0x01, 0x00, 0x12, 0x34},
-      {0x02, 0, 5, 0, 0, 0, 9, 1, 0x10, 0x01, 0x00, 0x00, 0x01, 0x02, 0xAB, 0xCD},
-      {0x08, 0x03, 0x00, 0x00, 0x00, 0x01},
-      {0x0A, 0x10, 0x00, 0x00, 0x00, 0x02, 0x04, 1, 2, 3, 4},
-      {0x00, 0, 1, 0, 0, 0, 0xFE, 1, 0x03},
-  };
-  static constexpr std::uint8_t kInteresting[] = {0x00, 0x01, 0x02, 0x7D, 0x7E, 0x7B, 0x7C, 0x80, 0xFE, 0xFF};
-  XorShift rng;
-  Bytes buf;
-  for (unsigned long i = 0; i < rounds; ++i) {
-    buf = seeds[rng.below(seeds.size())];
-    const std::size_t mutations = 1 + rng.below(6);
-    for (std::size_t m = 0; m < mutations; ++m) {
-      switch (rng.below(6)) {
-        case 0:
-          if (!buf.empty()) buf[rng.below(buf.size())] ^= static_cast<std::uint8_t>(1u << rng.below(8));
-          break;
-        case 1:
-          if (!buf.empty()) buf[rng.below(buf.size())] = kInteresting[rng.below(sizeof kInteresting)];
-          break;
-        case 2: buf.resize(rng.below(buf.size() + 1)); break;
-        case 3: {
-          const std::size_t extra = rng.below(300);
-          for (std::size_t k = 0; k < extra; ++k) buf.push_back(static_cast<std::uint8_t>(rng.next()));
-          break;
-        }
-        case 4: {
-          const Bytes& other = seeds[rng.below(seeds.size())];
-          buf.insert(buf.end(), other.begin() + 1, other.end());  // a second, pipelined frame
-          break;
-        }
-        default:
-          if (!buf.empty()) buf[rng.below(buf.size())] = static_cast<std::uint8_t>(rng.next());
-          break;
-      }
-    }
-    LLVMFuzzerTestOneInput(buf.data(), buf.size());
-  }
-  std::printf("modbus_request_fuzz: %lu inputs, no invariant violated\n", rounds);
-  return 0;
-}
-#endif
