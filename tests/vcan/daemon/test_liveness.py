@@ -85,6 +85,19 @@ class RogueNode:
         self.sock.close()
 
 
+def tap_samples(path):
+    """The sample lines of the JSON tap file, parsed (a line cut by the
+    daemon's last write is skipped)."""
+    with open(path) as f:
+        for ln in f:
+            try:
+                j = json.loads(ln)
+            except ValueError:
+                continue
+            if j.get("type") == "sample":
+                yield j
+
+
 def device(daemon, name):
     try:
         return daemon.devices().get(name)
@@ -251,15 +264,8 @@ def scenario_emcy_storm(report, daemon, tap_path):
                  "%d EMCY sent, %d log lines" % (sent, lines))
     report.check(bool(summary) and suppressed + lines - len(summary) >= sent,
                  "EMCY storm: the log counts what it left out", "%d summarised" % suppressed)
-    got = 0
-    with open(tap_path) as f:
-        for ln in f:
-            try:
-                j = json.loads(ln)
-            except ValueError:
-                continue
-            if j.get("kind") == "emcy" and j.get("node_id") == node and 0x1000 <= j.get("emcy_code", 0) < 0x1100:
-                got += 1
+    got = sum(1 for j in tap_samples(tap_path)
+              if j.get("kind") == "emcy" and j.get("node_id") == node and 0x1000 <= j.get("emcy_code", 0) < 0x1100)
     report.check(got == sent, "EMCY storm: every EMCY reached the JSON tap", "%d of %d" % (got, sent))
 
 
@@ -279,17 +285,10 @@ def scenario_unknown_node(report, daemon, tap_path):
                  "%d counted (60 sent)" % (after - before))
     nodes_of = {}
     wrong = 0
-    with open(tap_path) as f:
-        for ln in f:
-            try:
-                j = json.loads(ln)
-            except ValueError:
-                continue
-            if j.get("type") != "sample":
-                continue
-            if j.get("node_id") == 99:
-                wrong += 1
-            nodes_of.setdefault(j.get("device_index"), set()).add(j.get("node_id"))
+    for j in tap_samples(tap_path):
+        if j.get("node_id") == 99:
+            wrong += 1
+        nodes_of.setdefault(j.get("device_index"), set()).add(j.get("node_id"))
     mixed = {k: sorted(v) for k, v in nodes_of.items() if len(v) > 1}
     report.check(wrong == 0 and not mixed, "no sample of an unknown node, one node per device index",
                  "%d samples of node 99; indices with several nodes: %s" % (wrong, mixed))
