@@ -519,6 +519,11 @@ struct BusManager::Impl {
     }
     // A device first reported as unknown (before the swap was decided) is
     // now a configured one: drop its "unknown-" entry.
+    for (const auto& u : devices) {
+      if (!u.in_config && u.st.identity.serial == e.identity.serial && u.st.identity.vendor == e.identity.vendor &&
+          options.observer != nullptr)
+        options.observer->on_device_removed(u.st);
+    }
     const auto dropped = std::erase_if(devices, [&](const Managed& u) {
       return !u.in_config && u.st.identity.serial == e.identity.serial && u.st.identity.vendor == e.identity.vendor;
     });

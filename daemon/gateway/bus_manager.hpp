@@ -41,6 +41,10 @@ class BusObserver {
   // thread). Called exactly once per accepted command.
   virtual void on_command_done(const DeviceStatus& /*device*/, const DeviceCommand& /*command*/,
                                const CommandOutcome& /*outcome*/) {}
+  // A device the gateway forgot (an unknown device that turned out to be a
+  // configured one's replacement, or left the configuration on a reload):
+  // its index and node-ID are free again.
+  virtual void on_device_removed(const DeviceStatus& /*device*/) {}
 };
 
 struct BusManagerOptions {

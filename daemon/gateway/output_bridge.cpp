@@ -22,26 +22,32 @@ std::uint8_t nmt_byte(canopen::NmtState s) noexcept { return static_cast<std::ui
 
 OutputBridge::OutputBridge(const SharedConfig& config, std::size_t bus_index, const device::DeviceCatalog& catalog,
                            pipeline::DeviceTable& table, pipeline::BusReceiver* receiver, pipeline::PluginHost* host,
-                           pipeline::Dispatcher* dispatcher)
+                           pipeline::Dispatcher* dispatcher, DeviceIndexPool* unknown_indices)
     : config_(config),
       bus_index_(bus_index),
       catalog_(catalog),
       table_(table),
       receiver_(receiver),
       host_(host),
-      dispatcher_(dispatcher) {}
+      dispatcher_(dispatcher),
+      unknown_indices_(unknown_indices) {}
 
-std::uint16_t OutputBridge::device_index(const DeviceStatus& device) {
+std::optional<std::uint16_t> OutputBridge::device_index(const DeviceStatus& device) {
   const auto cfg = config_.get();
-  for (std::size_t i = 0; i < cfg->devices.size(); ++i)
+  for (std::size_t i = 0; i < cfg->devices.size() && i < DeviceIndexPool::kFirst; ++i)
     if (cfg->devices[i].name == device.name) return static_cast<std::uint16_t>(i);
-  std::lock_guard lock(mutex_);
-  auto it = unknown_index_.find(device.name);
-  if (it != unknown_index_.end()) return it->second;
-  // Unconfigured devices get numbers that never collide with configured ones.
-  const auto idx = static_cast<std::uint16_t>(1000 + 128 * bus_index_ + unknown_index_.size());
-  unknown_index_.emplace(device.name, idx);
-  return idx;
+  if (unknown_indices_ == nullptr) return std::nullopt;
+  return unknown_indices_->acquire(std::to_string(bus_index_) + "/" + device.name);
+}
+
+void OutputBridge::on_device_removed(const DeviceStatus& device) {
+  if (unknown_indices_ != nullptr) unknown_indices_->release(std::to_string(bus_index_) + "/" + device.name);
+  {
+    std::lock_guard lock(mutex_);
+    node_of_.erase(device.name);
+    online_.erase(device.node_id);
+  }
+  if (device.node_id != 0) table_.remove(device.node_id);
 }
 
 pipeline::DecodePlan OutputBridge::make_plan(const DeviceStatus& device, const std::vector<std::uint32_t>& tpdo1,
@@ -116,7 +122,13 @@ void OutputBridge::on_device_configured(const DeviceStatus& device, const std::v
     sys::logger("gateway")->error("{}", error);
     return;
   }
-  plan.device_index = device_index(device);
+  const auto index = device_index(device);
+  if (!index) {
+    sys::logger("gateway")->warn("device {}: no device index left for devices the configuration does not name; "
+                                 "not published", device.name);
+    return;
+  }
+  plan.device_index = *index;
   plan.indexed = true;
   forget_old_node(device);
   table_.publish(plan);
@@ -128,7 +140,9 @@ void OutputBridge::on_device_status(const DeviceStatus& device) {
   // Known at this node from now on: its heartbeats, EMCY and status carry
   // its own index, never a default one (issue 10, item 4).
   forget_old_node(device);
-  table_.publish_index(device.node_id, device_index(device));
+  const auto index = device_index(device);
+  if (!index) return;  // not published: see on_device_configured
+  table_.publish_index(device.node_id, *index);
   {
     std::lock_guard lock(mutex_);
     auto it = online_.find(device.node_id);
@@ -181,7 +195,9 @@ void OutputBridge::announce(const DeviceStatus& device, std::uint8_t change) {
   const std::string bus = bus_index_ < cfg->buses.size() ? cfg->buses[bus_index_].name : std::string();
   cobridge_device_info info{};
   info.struct_size = sizeof info;
-  info.device_index = device_index(device);
+  const auto index = device_index(device);
+  if (!index) return;
+  info.device_index = *index;
   info.bus_index = static_cast<std::uint8_t>(bus_index_);
   info.node_id = device.node_id;
   info.change = change;

@@ -16,6 +16,7 @@
 #include "config/config.hpp"
 #include "device/device_catalog.hpp"
 #include "gateway/bus_manager.hpp"
+#include "gateway/device_index_pool.hpp"
 #include "gateway/shared_config.hpp"
 #include "pipeline/bus_receiver.hpp"
 #include "pipeline/device_table.hpp"
@@ -33,20 +34,22 @@ class OutputBridge final : public BusObserver {
   // on the dispatcher thread. Everything passed must outlive the bridge.
   OutputBridge(const SharedConfig& config, std::size_t bus_index, const device::DeviceCatalog& catalog,
                pipeline::DeviceTable& table, pipeline::BusReceiver* receiver, pipeline::PluginHost* host,
-               pipeline::Dispatcher* dispatcher);
+               pipeline::Dispatcher* dispatcher, DeviceIndexPool* unknown_indices = nullptr);
 
   void on_device_configured(const DeviceStatus& device, const std::vector<std::uint32_t>& tpdo1_mapping,
                             const std::vector<std::uint32_t>& tpdo2_mapping) override;
   void on_device_status(const DeviceStatus& device) override;
   void on_command_done(const DeviceStatus& device, const DeviceCommand& command,
                        const CommandOutcome& outcome) override;
+  void on_device_removed(const DeviceStatus& device) override;
 
   // The plan that would be published (exposed for tests).
   [[nodiscard]] pipeline::DecodePlan make_plan(const DeviceStatus& device, const std::vector<std::uint32_t>& tpdo1,
                                                const std::vector<std::uint32_t>& tpdo2, std::string* error) const;
-  // The gateway-wide device index: the position in the configuration, or a
-  // stable number >= 1000 for devices the configuration does not name.
-  [[nodiscard]] std::uint16_t device_index(const DeviceStatus& device);
+  // The gateway-wide device index: the position in the configuration, or
+  // one of DeviceIndexPool's for a device the configuration does not name;
+  // none when that pool is used up (the device is then not published).
+  [[nodiscard]] std::optional<std::uint16_t> device_index(const DeviceStatus& device);
 
  private:
   // Measuring units per revolution, or 0 when unknown (then position_eng is in counts).
@@ -63,7 +66,7 @@ class OutputBridge final : public BusObserver {
   pipeline::PluginHost* host_;
   pipeline::Dispatcher* dispatcher_;
   std::mutex mutex_;
-  std::map<std::string, std::uint16_t> unknown_index_;
+  DeviceIndexPool* unknown_indices_;
   std::map<std::uint8_t, bool> online_;  // last online state posted per node
   std::map<std::string, std::uint8_t> node_of_;  // where each device was last seen
 };

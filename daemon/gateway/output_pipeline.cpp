@@ -67,7 +67,8 @@ OutputPipeline::OutputPipeline(const config::Config& config, const device::Devic
     bus->receiver = std::make_unique<pipeline::BusReceiver>(
         pipeline::BusReceiverOptions{.bus_index = static_cast<std::uint8_t>(i), .interface = config.buses[i].interface},
         bus->table, dispatcher_);
-    bus->bridge = std::make_unique<OutputBridge>(config_, i, catalog, bus->table, bus->receiver.get(), &host_, &dispatcher_);
+    bus->bridge = std::make_unique<OutputBridge>(config_, i, catalog, bus->table, bus->receiver.get(), &host_,
+                                                 &dispatcher_, &unknown_indices_);
     dispatcher_.add_source(bus->receiver->ring());
     buses_.push_back(std::move(bus));
   }

@@ -91,6 +91,7 @@ class OutputPipeline {
   [[nodiscard]] int submit(const cobridge_command& command) const;
 
   SharedConfig config_;
+  DeviceIndexPool unknown_indices_;  // shared by every bus's bridge
   std::vector<std::atomic<BusManager*>> command_targets_;
   pipeline::PluginHost host_;
   HostSink sink_;

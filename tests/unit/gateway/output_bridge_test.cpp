@@ -64,7 +64,7 @@ TEST(OutputBridge, J_1_7_2_RotaryPlanSignedAndScaledFromConfig) {
   EXPECT_FALSE(plan.synchronous[0]);
   EXPECT_TRUE(plan.synchronous[1]) << "TPDO2 type 1 is sent on SYNC";
   EXPECT_EQ(plan.max_age_ms, 50u) << "three 10 ms event-timer periods + 20 ms";
-  EXPECT_EQ(bridge.device_index(f.status("lift", 0x182, 0x0BE0, 10)), 0);
+  EXPECT_EQ(bridge.device_index(f.status("lift", 0x182, 0x0BE0, 10)), std::optional<std::uint16_t>(0));
 }
 
 // F§7.5: ifm 0x6004 is UNSIGNED32; F§7.4: bits 30/31 are limit-switch flags.
@@ -78,7 +78,11 @@ TEST(OutputBridge, F_7_5_IfmPositionUnsignedWithLimitSwitchMask) {
   EXPECT_FALSE(plan.tpdo[0].fields[0].is_signed);
   EXPECT_EQ(plan.position_mask, 0x3FFFFFFFu);
   EXPECT_DOUBLE_EQ(plan.eng_scale, 1.0) << "F§7.5 gives the resolution only on the label: counts, not degrees";
-  EXPECT_GE(bridge.device_index(f.status("ifm-x", 0x0069666D, 0x4341, 32)), 1000) << "not in the configuration";
+  EXPECT_FALSE(bridge.device_index(f.status("ifm-x", 0x0069666D, 0x4341, 32)).has_value())
+      << "not in the configuration, and no pool for such devices: not published";
+  DeviceIndexPool pool;
+  OutputBridge pooled(shared, 0, f.catalog, f.table, nullptr, nullptr, nullptr, &pool);
+  EXPECT_EQ(pooled.device_index(f.status("ifm-x", 0x0069666D, 0x4341, 32)), DeviceIndexPool::kFirst);
 }
 
 // E§4.1: the multiturn default mapping names 0x6020/1 (an alias of INTEGER32 0x6004, digest C.3).
