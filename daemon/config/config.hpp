@@ -61,6 +61,10 @@ enum class SwapPolicy : std::uint8_t { same_model, off };
 // (configuring it first if needed) and log that it happened, or leave it as
 // the other master wants it and show that in the status.
 enum class ForeignNmt : std::uint8_t { restart, respect };
+// A non-configured device (FFh) the configuration does not name: left at
+// FFh and reported, or given the next free node-ID of the bus's node_pool
+// (stored in the device) and reported; never configured beyond that.
+enum class UnknownDevices : std::uint8_t { ignore, assign };
 
 struct Bus {
   std::string name;
@@ -78,6 +82,7 @@ struct Bus {
   std::uint32_t sdo_timeout_ms = 500;
   std::uint8_t sdo_retries = 2;
   ForeignNmt foreign_nmt = ForeignNmt::restart;
+  UnknownDevices unknown_devices = UnknownDevices::ignore;
   SourceLocation where;  // the [[bus]] header
 };
 

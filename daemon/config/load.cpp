@@ -329,7 +329,7 @@ class Loader {
     TableReader r(t, "[[bus]]", entry_context("bus", config_.buses.size() + 1, name_node), "", sink_);
     r.check_keys({"name", "interface", "bitrate", "sync_period_ms", "sync_counter", "discovery", "discovery_period_s",
                   "node_pool", "commissioning", "swap_policy", "lss_timeout_ms", "lss_timeout_min_ms", "sdo_timeout_ms",
-                  "sdo_retries", "foreign_nmt"});
+                  "sdo_retries", "foreign_nmt", "unknown_devices"});
     read_name(r, name_node, bus.name, spots.name, spots.has_name);
     if (auto v = r.string("interface")) {
       if (is_interface_name(*v)) {
@@ -380,6 +380,10 @@ class Loader {
     if (auto v = r.integer("sdo_retries", 0, 10)) bus.sdo_retries = static_cast<std::uint8_t>(*v);
     if (auto v = r.choice<ForeignNmt>("foreign_nmt", {{"restart", ForeignNmt::restart}, {"respect", ForeignNmt::respect}})) {
       bus.foreign_nmt = *v;
+    }
+    if (auto v = r.choice<UnknownDevices>("unknown_devices",
+                                          {{"ignore", UnknownDevices::ignore}, {"assign", UnknownDevices::assign}})) {
+      bus.unknown_devices = *v;
     }
     config_.buses.push_back(std::move(bus));
     bus_spots_.push_back(spots);

@@ -1625,7 +1625,6 @@ struct Discovery::Impl {
     c.device = d.device;
     c.replaces = d.replaces;
     c.replaced = d.replaced;
-    if (!d.problem.empty()) problem(d.problem, 0, a);
     if (d.target != 0 && node_free_for(d.target, a)) {
       c.target = d.target;
       if (scan_node != 0) c.from = scan_node;
@@ -1634,7 +1633,13 @@ struct Discovery::Impl {
       c.target = scan_node;
       c.store = false;
       c.boot_wait = false;
+    } else if (d.device.empty() && bus.unknown_devices == config::UnknownDevices::assign) {
+      // Policy assign: a node-ID from the pool (its earlier one when remembered), stored.
+      c.target = previous_node(a.serial, a.vendor, a.product).value_or(pool_node(a));
+      if (c.target == 0) note_stranger(a, "not in the configuration and no free node-ID left in node_pool");
+      else d.problem.clear();  // handled as configured: reported by the move, not as a problem
     }
+    if (!d.problem.empty()) problem(d.problem, 0, a);
     if (c.target != 0) remember(a, c.target);
     return c;
   }

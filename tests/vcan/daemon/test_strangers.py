@@ -18,12 +18,15 @@ import e2e
 
 TARGET = 4.0  # issue 11: configured devices within 3 s, + 1 s with a stranger on the bus
 CONFIGURED = [("rot-a", "RFC-4800", 1001, 10), ("rot-b", "RFC-4800", 1002, 11)]
-STRANGERS = [("multiturn of a configured model", "MC1-2800:serial=9999,node=unconfigured", 9999),
+STRANGERS = [("multiturn of a configured model", "MC1-2800:serial=9999,node=unconfigured", 9999, "ignore"),
              ("another vendor's device refusing node-IDs",
-              "MC1-2800:serial=777,node=unconfigured,vendor=0x4711,product=0x22,revision=1,assign=refuse", 777)]
+              "MC1-2800:serial=777,node=unconfigured,vendor=0x4711,product=0x22,revision=1,assign=refuse", 777,
+              "ignore"),
+             ("another vendor's device, policy assign",
+              "MC1-2800:serial=888,node=unconfigured,vendor=0x4711,product=0x22,revision=1", 888, "assign")]
 
 
-def scenario(args, report, label, stranger, stranger_serial):
+def scenario(args, report, label, stranger, stranger_serial, policy):
     ws = e2e.Workspace("strangers", args.keep)
     listener = e2e.CanListener("vcan0")
     devs = ["RFC-4800:serial=%d" % s for (_, _, s, _) in CONFIGURED] + [stranger]
@@ -35,7 +38,8 @@ def scenario(args, report, label, stranger, stranger_serial):
         devices.append({"name": "mt-a", "bus": "line1", "serial": 5555, "model": "MC1-2800", "node_id": 20,
                         "heartbeat_ms": 100})
     sim = e2e.Simulator(args.sim, ws, {"vcan0": devs})
-    bus = {"name": "line1", "interface": "vcan0", "bitrate": 250, "discovery_period_s": 5, "node_pool": "40-60"}
+    bus = {"name": "line1", "interface": "vcan0", "bitrate": 250, "discovery_period_s": 5, "node_pool": "40-60",
+           "unknown_devices": policy}
     daemon = e2e.Daemon(args.daemon, e2e.write_config(ws, [bus], devices), ws)
     names = [c[0] for c in CONFIGURED]
     try:
@@ -51,7 +55,14 @@ def scenario(args, report, label, stranger, stranger_serial):
         devs_st = [d for b in st["buses"] for d in b["devices"]]
         seen = [d for d in devs_st if d["identity"]["serial"] == stranger_serial]
         report.check(bool(seen), "%s: the stranger is in the status with its identity" % label,
-                     "%r" % [(d["name"], d["state"], d["identity"]) for d in seen])
+                     "%r" % [(d["name"], d["state"], d["node_id"], d["identity"]) for d in seen])
+        if policy == "assign":
+            # unknown_devices = "assign": the first free node-ID of node_pool, stored in the device.
+            report.check(bool(seen) and seen[0]["node_id"] == 40, "%s: the stranger got node 40 from the pool" % label,
+                         "node %s" % (seen[0]["node_id"] if seen else None))
+            answer = listener.wait_for(lambda i, d: i == 0x580 + 40, 0.1, since=daemon.started)
+            hb = [f for f in listener.snapshot(daemon.started) if f[1] == 0x700 + 40 and f[2] == b"\x00"]
+            report.check(bool(hb) or answer is not None, "%s: the stranger booted at node 40" % label)
         log = open(daemon.log_path).read()
         found_lines = [ln for ln in log.splitlines() if "fastscan" in ln.lower() and str(stranger_serial) in ln]
         fastscans = len([f for f in listener.snapshot(daemon.started) if f[1] == 0x7E5 and f[2][0] == 0x51
@@ -71,8 +82,8 @@ def scenario(args, report, label, stranger, stranger_serial):
 def main():
     args = e2e.parse_args()
     report = e2e.Report("test_strangers")
-    for label, stranger, serial in STRANGERS:
-        scenario(args, report, label, stranger, serial)
+    for label, stranger, serial, policy in STRANGERS:
+        scenario(args, report, label, stranger, serial, policy)
     return report.finish()
 
 
