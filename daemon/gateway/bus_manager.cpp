@@ -317,7 +317,12 @@ struct BusManager::Impl {
       on_discovery_event(e, now);
       more = true;
     }
-    for (auto& t : discovery->take_timings()) add_step(std::move(t));
+    for (auto& t : discovery->take_timings()) {
+      if (t.exchanges != 0)
+        log->info("bus {}: {}{}{}: {:.0f} ms, {} LSS exchanges, {} timeouts", bus.name, t.step,
+                  t.device.empty() ? "" : " ", t.device, t.milliseconds, t.exchanges, t.timeouts);
+      add_step(std::move(t));
+    }
     for (const auto& c : supervisor.take_changes()) {
       on_supervisor_change(c, now);
       more = true;

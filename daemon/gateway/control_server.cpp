@@ -183,6 +183,10 @@ void write_bus(JsonWriter& w, const BusStatus& b) {
     w.field("step", s.step);
     w.field("device", s.device);
     w.field("ms", s.milliseconds);
+    if (s.exchanges != 0) {
+      w.field("exchanges", std::uint64_t{s.exchanges});
+      w.field("timeouts", std::uint64_t{s.timeouts});
+    }
     w.key("at");
     w.time(s.at);
     w.end_object();

@@ -55,6 +55,8 @@ struct StepTiming {
   std::string step;   // "fastscan", "slowscan", "switch-selective", "configure <name>", ...
   std::string device;
   double milliseconds = 0;
+  std::uint32_t exchanges = 0;  // LSS steps: request/answer exchanges
+  std::uint32_t timeouts = 0;   // LSS steps: exchanges that waited out a timeout
   WallTime at{};
 };
 

@@ -351,6 +351,13 @@ struct Discovery::Impl {
     t.milliseconds = to_ms(d);
     timings.push_back(std::move(t));
   }
+  // An LSS operation's step: also how many exchanges it took and how many of
+  // them waited out a timeout (issue 11: how each device was found).
+  void timing(std::string step, std::string device, const canopen::LssMaster::Result& r) {
+    timing(std::move(step), std::move(device), r.elapsed);
+    timings.back().exchanges = r.steps;
+    timings.back().timeouts = r.silent_steps;
+  }
   static std::string node_name(std::uint8_t n) { return "node " + std::to_string(n); }
   std::string who(const Ctx& c) const { return c.device.empty() ? "serial " + std::to_string(c.identity.serial) : c.device; }
 
@@ -1415,7 +1422,7 @@ struct Discovery::Impl {
     std::string dev = t.ctx.device.empty() && t.ctx.identity.serial == 0 ? (run ? run->device : "") : who(t.ctx);
     switch (t.op) {
       case Op::switch_selective: {
-        timing("switch-selective", dev, r.elapsed);
+        timing("switch-selective", dev, r);
         if (!r.error) {
           if (t.ctx.target == 0) return;
           if (!t.ctx.candidates.empty()) t.ctx.identity = t.ctx.candidates[t.attempts];
@@ -1448,7 +1455,7 @@ struct Discovery::Impl {
         return;
       }
       case Op::slowscan_one: {
-        timing("slowscan", dev, r.elapsed);
+        timing("slowscan", dev, r);
         if (r.error) {
           current = t;
           fail_current("Slowscan found no device with " + describe(t.ctx.identity), now);
@@ -1459,7 +1466,7 @@ struct Discovery::Impl {
         return;
       }
       case Op::slowscan_loop: {
-        timing("slowscan", run ? run->device : dev, r.elapsed);
+        timing("slowscan", run ? run->device : dev, r);
         if (r.error) return;  // kNotFound: no more devices in the range
         const LssAddress a = r.address;
         std::vector<Task> v;
@@ -1504,7 +1511,7 @@ struct Discovery::Impl {
         return;
       }
       case Op::configure_id: {
-        timing("configure-node-id", dev, r.elapsed);
+        timing("configure-node-id", dev, r);
         if (r.error || r.slave_error != 0) {
           if (t.ctx.target == canopen::cob::kNodeIdUnconfigured) return;  // (c): nobody had to answer
           if (t.ctx.from == canopen::cob::kNodeIdUnconfigured)
@@ -1527,7 +1534,7 @@ struct Discovery::Impl {
         return;
       }
       case Op::store: {
-        timing("store", dev, r.elapsed);
+        timing("store", dev, r);
         if (r.error || r.slave_error != 0)
           problem(who(t.ctx) + ": LSS store configuration failed (" +
                       (r.error ? r.error.message() : "slave error " + std::to_string(r.slave_error)) +
@@ -1537,7 +1544,7 @@ struct Discovery::Impl {
       }
       case Op::identify_non_configured: {
         if (r.answered) {
-          timing("identify-non-configured", "", r.elapsed);
+          timing("identify-non-configured", "", r);
           std::vector<Task> v = targeted_fastscans();
           if (now >= general_scan_not_before) {
             Task fs = make(Op::fastscan_loop);
@@ -1550,7 +1557,7 @@ struct Discovery::Impl {
         return;
       }
       case Op::fastscan_known: {
-        timing("fastscan-known", t.ctx.device, r.elapsed);
+        timing("fastscan-known", t.ctx.device, r);
         if (r.error) return;  // not at FFh (or another product code of its model: the next task tries it)
         std::erase_if(tasks, [&](const Task& x) { return x.op == Op::fastscan_known && x.ctx.device == t.ctx.device; });
         bool stranger = false;
@@ -1558,7 +1565,7 @@ struct Discovery::Impl {
         return;
       }
       case Op::fastscan_loop: {
-        timing("fastscan", run ? run->device : "", r.elapsed);
+        timing("fastscan", run ? run->device : "", r);
         if (r.error) {
           // Nobody left that Fastscan can find. A non-configured device
           // answered identify non-configured but Fastscan found none: it is of

@@ -63,6 +63,14 @@ def scenario(args, report, label, stranger, stranger_serial, policy):
             answer = listener.wait_for(lambda i, d: i == 0x580 + 40, 0.1, since=daemon.started)
             hb = [f for f in listener.snapshot(daemon.started) if f[1] == 0x700 + 40 and f[2] == b"\x00"]
             report.check(bool(hb) or answer is not None, "%s: the stranger booted at node 40" % label)
+        # Item 5: how each device was found: exchanges and timeouts of every LSS step.
+        steps = [x for b in st["buses"] for x in b["steps"] if x["step"].startswith("fastscan")]
+        report.check(bool(steps) and all(0 < x.get("exchanges", 0) <= 170 and 0 <= x.get("timeouts", -1) <= x["exchanges"]
+                                         for x in steps),
+                     "%s: status shows each Fastscan's exchanges and timeouts" % label,
+                     "; ".join("%s %s: %d exchanges, %d timeouts, %.0f ms" % (
+                         x["step"], x["device"] or "-", x.get("exchanges", 0), x.get("timeouts", 0), x["ms"])
+                         for x in steps[:4]))
         log = open(daemon.log_path).read()
         found_lines = [ln for ln in log.splitlines() if "fastscan" in ln.lower() and str(stranger_serial) in ln]
         fastscans = len([f for f in listener.snapshot(daemon.started) if f[1] == 0x7E5 and f[2][0] == 0x51
