@@ -63,16 +63,6 @@ class LssSlaveErrorCategory final : public std::error_category {
 
 constexpr uint8_t kLastField = kLssFieldCount - 1;
 
-std::optional<uint32_t> known_field(const LssMaster::FastscanKnown& k, uint8_t field) noexcept {
-  switch (static_cast<LssField>(field)) {
-    case LssField::kVendor: return k.vendor;
-    case LssField::kProduct: return k.product;
-    case LssField::kRevision: return k.revision;
-    case LssField::kSerial: return k.serial;
-  }
-  return std::nullopt;
-}
-
 }  // namespace
 
 const std::error_category& lss_category() noexcept {
@@ -237,9 +227,19 @@ std::error_code LssMaster::identify_non_configured(TimePoint now) noexcept {
   return {};
 }
 
+FastscanPlan LssMaster::FastscanKnown::to_plan() const noexcept {
+  FastscanPlan p;
+  (void)p.add(FastscanTarget::of(vendor, product, revision, serial));
+  return p;
+}
+
 std::error_code LssMaster::fastscan(TimePoint now, const FastscanKnown& known) noexcept {
+  return fastscan(now, known.to_plan());
+}
+
+std::error_code LssMaster::fastscan(TimePoint now, const FastscanPlan& plan) noexcept {
   if (auto ec = begin(LssOperation::kFastscan, now)) return ec;
-  known_ = known;
+  plan_ = plan;
   if (!send_lss(LssCs::kFastscan, 0, kLssFastscanReset, 0, 0)) return LssErrc::kSendFailed;
   arm(Phase::kFastscanProbe, LssCs::kIdentifySlave, now);
   return {};
@@ -316,20 +316,7 @@ void LssMaster::on_step_done(TimePoint now) noexcept {
       fastscan_bit_step(now);
       return;
     }
-    case Phase::kFastscanConfirm:
-      if (!answered_ && !known_field(known_, fs_field_) && timing_.learning() && !careful_) {
-        // A bit decided too early (a late answer taken for the next step's):
-        // search this field again with full timeouts before giving up.
-        careful_ = true;
-        ++current_.rescans;
-        fastscan_field(fs_field_, now);
-        return;
-      }
-      if (!answered_)
-        return finish(known_field(known_, fs_field_) ? LssErrc::kNotFound : LssErrc::kFastscanLost, now);
-      if (fs_field_ == kLastField) return finish({}, now);
-      fastscan_field(static_cast<uint8_t>(fs_field_ + 1), now);
-      return;
+    case Phase::kFastscanConfirm: return fastscan_confirm_done(now);
     case Phase::kSlowscanProbe:
       if (!answered_) return finish(LssErrc::kNotFound, now);
       phase_ = Phase::kSlowscanRevision;
@@ -350,15 +337,45 @@ void LssMaster::on_step_done(TimePoint now) noexcept {
 
 void LssMaster::fastscan_field(uint8_t field, TimePoint now) noexcept {
   fs_field_ = field;
-  const auto f = static_cast<LssField>(field);
-  if (const auto known = known_field(known_, field)) {
-    current_.address.set_field(f, *known);
+  fs_tried_ = 0;
+  fastscan_next_guess(now);
+}
+
+// Confirms the plan's next candidate for the field; with none left, searches
+// the field when the plan allows it, else no slave of the plan is there.
+void LssMaster::fastscan_next_guess(TimePoint now) noexcept {
+  const auto f = static_cast<LssField>(fs_field_);
+  if (const auto v = plan_.next_candidate(current_.address, fs_field_, fs_tried_)) {
+    current_.address.set_field(f, *v);
+    fs_guess_ = true;
     fastscan_confirm(now);
     return;
   }
-  current_.address.set_field(f, 0);
+  if (!plan_.may_search(current_.address, fs_field_)) return finish(LssErrc::kNotFound, now);
+  fastscan_search(now);
+}
+
+void LssMaster::fastscan_search(TimePoint now) noexcept {
+  fs_guess_ = false;
+  current_.address.set_field(static_cast<LssField>(fs_field_), 0);
   fs_bit_ = 31;
   fastscan_bit_step(now);
+}
+
+void LssMaster::fastscan_confirm_done(TimePoint now) noexcept {
+  if (answered_) {
+    if (fs_field_ == kLastField) return finish({}, now);
+    return fastscan_field(static_cast<uint8_t>(fs_field_ + 1), now);
+  }
+  if (fs_guess_) return fastscan_next_guess(now);  // a wrong guess: nobody moved on
+  if (timing_.learning() && !careful_) {
+    // A bit decided too early (a late answer taken for the next step's):
+    // search this field again with full timeouts before giving up.
+    careful_ = true;
+    ++current_.rescans;
+    return fastscan_search(now);
+  }
+  finish(LssErrc::kFastscanLost, now);
 }
 
 void LssMaster::fastscan_bit_step(TimePoint now) noexcept {

@@ -28,6 +28,7 @@
 #include "can/frame_sink.hpp"
 #include "canopen/answer_timing.hpp"
 #include "canopen/clock.hpp"
+#include "canopen/fastscan_plan.hpp"
 #include "canopen/lss.hpp"
 
 namespace cobridge::canopen {
@@ -85,6 +86,9 @@ class LssMaster {
     std::optional<uint32_t> product;
     std::optional<uint32_t> revision;
     std::optional<uint32_t> serial;
+
+    // One target; the unknown fields are searched.
+    [[nodiscard]] FastscanPlan to_plan() const noexcept;
   };
 
   struct Result {
@@ -130,6 +134,10 @@ class LssMaster {
   // CiA 305 Fastscan. On success Result::address is the slave found (the
   // smallest unconfigured address) and that slave is in configuration state.
   std::error_code fastscan(TimePoint now, const FastscanKnown& known = FastscanKnown{}) noexcept;
+  // Fastscan guided by what is known (FastscanPlan): candidate values are
+  // confirmed whole, most shared first; a field is searched bit by bit only
+  // when the plan allows it. Result kNotFound when no slave matches the plan.
+  std::error_code fastscan(TimePoint now, const FastscanPlan& plan) noexcept;
   // Slowscan: binary search with identify remote slave over `bounds` (vendor
   // and product exact), first revision then serial, for the smallest address
   // in it; then switch selective to it. For devices without Fastscan. To find
@@ -176,6 +184,9 @@ class LssMaster {
   void finish(std::error_code ec, TimePoint now) noexcept;
   void on_step_done(TimePoint now) noexcept;
   void fastscan_field(uint8_t field, TimePoint now) noexcept;
+  void fastscan_next_guess(TimePoint now) noexcept;
+  void fastscan_search(TimePoint now) noexcept;
+  void fastscan_confirm_done(TimePoint now) noexcept;
   void fastscan_bit_step(TimePoint now) noexcept;
   void fastscan_confirm(TimePoint now) noexcept;
   void slowscan_step(TimePoint now) noexcept;
@@ -194,7 +205,9 @@ class LssMaster {
   std::optional<Result> result_;
   bool answered_ = false;
   // Fastscan
-  FastscanKnown known_;
+  FastscanPlan plan_;
+  FastscanPlan::Tried fs_tried_ = 0;
+  bool fs_guess_ = false;  // the confirm running is a guess from the plan, not a searched value
   uint8_t fs_field_ = 0;
   uint8_t fs_bit_ = 0;
   // Slowscan: [lo, hi] of the field being searched, and the midpoint probed

@@ -254,6 +254,95 @@ TEST(LssScanTest, CiA305_FastscanWaitsWhatTheBusNeeds) {
               std::chrono::duration<double>(took[0]) / std::chrono::duration<double>(took[1]));
 }
 
+// Issue 11, item 1: a Fastscan guided by what the configuration knows. Two
+// configured multiturn devices (vendor, product and serial configured, the
+// revision not) and an ifm device of a configured model whose serial nobody
+// configured, all at FFh, plus a stranger of another vendor. Each is found
+// with the fields known confirmed whole (BitChecked 0): the exact exchanges
+// and silent steps are asserted, and the stranger is found only by the
+// general scan (search_unknown), after every configured device.
+TEST(LssScanTest, CiA305_FastscanGuidedByKnownIdentities) {
+  LssTestBus bus(LssMasterConfig{100ms, 2ms});
+  const LssAddress mt1{0x182, 0x0BB8, 0x00010003, 2001}, mt2{0x182, 0x0BB8, 0x00010003, 2002};
+  const LssAddress ifm{0x0069666D, 0x4341, 0x00010000, 0x00000105};
+  const LssAddress stranger{0x4711, 0x22, 1, 7};
+  for (const auto& a : {mt1, mt2, ifm, stranger}) bus.add_slave(a, 0xFF);
+  FastscanPlan plan;
+  plan.add(FastscanTarget::of(0x182, 0x0BB8, std::nullopt, 2002));
+  plan.add(FastscanTarget::of(0x182, 0x0BB8, std::nullopt, 2001));
+  plan.add(FastscanTarget::of(0x0069666D, 0x4341, std::nullopt, std::nullopt));  // a model, serial unknown
+  plan.add(FastscanTarget::of(0x0069666D, 0x4342, std::nullopt, std::nullopt));
+  plan.search_unknown = true;
+  const auto popcount = [](uint32_t v) { return static_cast<uint32_t>(__builtin_popcount(v)); };
+
+  // Vendor 0x182 (2 targets) first, product confirmed, revision searched
+  // (32 bits + confirm; silent = its 1-bits), serial 2002 guessed first.
+  ASSERT_FALSE(bus.master().fastscan(bus.now(), plan));
+  auto r = bus.run_result();
+  ASSERT_TRUE(r && !r->error) << (r ? r->error.message() : "no result");
+  EXPECT_EQ(r->address, mt2);
+  EXPECT_EQ(r->steps, 1u + 1u + 1u + 33u + 1u);
+  EXPECT_EQ(r->silent_steps, popcount(mt2.revision));
+  assign(bus, 21);
+  // The other one: its serial is the second guess (one silent step).
+  ASSERT_FALSE(bus.master().fastscan(bus.now(), plan));
+  r = bus.run_result();
+  ASSERT_TRUE(r && !r->error);
+  EXPECT_EQ(r->address, mt1);
+  EXPECT_EQ(r->steps, 1u + 1u + 1u + 33u + 2u);
+  EXPECT_EQ(r->silent_steps, popcount(mt1.revision) + 1u);
+  assign(bus, 20);
+  // The ifm: vendor 0x182 guessed wrong (silent), product 0x4341 right,
+  // revision and serial searched: one field unknown beyond the revision.
+  ASSERT_FALSE(bus.master().fastscan(bus.now(), plan));
+  r = bus.run_result();
+  ASSERT_TRUE(r && !r->error);
+  EXPECT_EQ(r->address, ifm);
+  EXPECT_EQ(r->steps, 1u + 2u + 1u + 33u + 33u);
+  EXPECT_EQ(r->silent_steps, 1u + popcount(ifm.revision) + popcount(ifm.serial));
+  assign(bus, 40);
+  // A targeted scan (no search_unknown) does not find the stranger: every
+  // vendor guess is silent, then "not found".
+  FastscanPlan targeted = plan;
+  targeted.search_unknown = false;
+  ASSERT_FALSE(bus.master().fastscan(bus.now(), targeted));
+  r = bus.run_result();
+  ASSERT_TRUE(r.has_value());
+  EXPECT_EQ(r->error, LssErrc::kNotFound);
+  EXPECT_EQ(r->steps, 1u + 2u);
+  EXPECT_EQ(r->silent_steps, 2u);
+  // The general scan finds it with the full search of every field.
+  ASSERT_FALSE(bus.master().fastscan(bus.now(), plan));
+  r = bus.run_result();
+  ASSERT_TRUE(r && !r->error);
+  EXPECT_EQ(r->address, stranger);
+  EXPECT_EQ(r->steps, 1u + 2u + 4u * 33u);
+}
+
+// Issue 11, item 1: a device whose whole identity is known (configuration +
+// remembered revision) is confirmed at FFh in 5 exchanges, none silent; the
+// same plan with nobody at FFh costs the probe's one timeout.
+TEST(LssScanTest, CiA305_FastscanOfAWholeKnownIdentity) {
+  LssTestBus bus(LssMasterConfig{100ms, 2ms});
+  const LssAddress a{0x182, 0x0BB8, 0x00010003, 2001};
+  bus.add_slave(a, 0xFF);
+  FastscanPlan plan;
+  plan.add(FastscanTarget::of(a.vendor, a.product, a.revision, a.serial));
+  ASSERT_FALSE(bus.master().fastscan(bus.now(), plan));
+  auto r = bus.run_result();
+  ASSERT_TRUE(r && !r->error);
+  EXPECT_EQ(r->address, a);
+  EXPECT_EQ(r->steps, 5u);
+  EXPECT_EQ(r->silent_steps, 0u);
+  EXPECT_LT(r->elapsed, 20ms);
+  assign(bus, 20);
+  ASSERT_FALSE(bus.master().fastscan(bus.now(), plan));
+  r = bus.run_result();
+  ASSERT_TRUE(r.has_value());
+  EXPECT_EQ(r->error, LssErrc::kNotFound);
+  EXPECT_EQ(r->steps, 1u);
+}
+
 // A slave slower than everything measured so far answers a bit step after the
 // step was decided: the field's confirmation (BitChecked 0, all 32 bits
 // compared) then fails, and that field is searched again with full timeouts

@@ -1,0 +1,47 @@
+#include "gateway/fastscan_knowledge.hpp"
+
+#include <optional>
+
+#include "config/known_models.hpp"
+
+namespace cobridge::gateway {
+namespace {
+
+using canopen::FastscanPlan;
+using canopen::FastscanTarget;
+using U32 = std::optional<std::uint32_t>;
+
+const Assignment* remembered_of(const config::Device& d, U32 vendor, std::span<const Assignment> remembered) {
+  for (const auto& a : remembered)
+    if (a.serial == d.serial && (!vendor || a.vendor == *vendor)) return &a;
+  return nullptr;
+}
+
+// One target per product code the device may report (one with the product
+// unknown when nothing names it).
+void add_device(FastscanPlan& plan, const config::Device& d, bool with_serial, std::span<const Assignment> remembered) {
+  const config::KnownModel* m = d.model.empty() ? nullptr : config::find_model(d.model);
+  const U32 vendor = d.vendor ? d.vendor : m ? U32(m->vendor) : std::nullopt;
+  const Assignment* seen = with_serial ? remembered_of(d, vendor, remembered) : nullptr;
+  const U32 revision = seen && seen->revision != 0 ? U32(seen->revision) : std::nullopt;
+  const U32 serial = with_serial ? U32(d.serial) : std::nullopt;
+  std::vector<U32> products;
+  if (d.product) products.emplace_back(*d.product);
+  else if (seen && seen->product != 0) products.emplace_back(seen->product);
+  else if (m) products.assign(m->products.begin(), m->products.end());
+  if (products.empty()) products.emplace_back(std::nullopt);
+  for (const U32& p : products) (void)plan.add(FastscanTarget::of(vendor, p, revision, serial));
+}
+
+}  // namespace
+
+FastscanPlan make_fastscan_plan(const FastscanKnowledge& k) {
+  FastscanPlan plan;
+  for (const auto& a : k.known) (void)plan.add(FastscanTarget::of(a.vendor, a.product, a.revision, a.serial));
+  for (const config::Device* d : k.absent) add_device(plan, *d, true, k.remembered);
+  for (const config::Device* d : k.models) add_device(plan, *d, false, k.remembered);
+  if (k.general) plan.search_unknown = true;
+  return plan;
+}
+
+}  // namespace cobridge::gateway
