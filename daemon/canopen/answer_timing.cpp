@@ -9,7 +9,12 @@ constexpr Duration kMinSettle = std::chrono::microseconds(500);
 
 void AnswerTiming::record(Duration latency) noexcept {
   if (latency < Duration::zero() || latency > ceiling_) return;  // not an answer to this request
-  slowest_ = std::max(slowest_, latency);
+  // The slowest answer, forgotten slowly: one late answer (the slave's or
+  // the gateway's scheduler) must not slow every later step of the bus, so a
+  // faster answer pulls the estimate 1/16 of the way down; a slower one
+  // raises it at once.
+  if (latency >= slowest_) slowest_ = latency;
+  else slowest_ -= (slowest_ - latency) / 16;
   ++answers_;
 }
 

@@ -6,7 +6,10 @@
 // CiA 305 fixes no LSS response time and none of the three manuals states
 // one (J§1.5, E§6, F§7.4 give only the services), so the wait is measured:
 // every answer records how long after its request it came; an unanswered
-// step then waits 4 x the slowest answer seen + 1 ms (slack for the
+// step then waits 4 x the slowest answer seen + 1 ms (the slowest of the
+// recent answers: a slower answer raises it at once, faster ones lower it by
+// 1/16 of the difference each, so a single outlier is forgotten within a few
+// dozen answers) (slack for the
 // scheduler of both ends), never below the configured floor and never
 // above the configured ceiling (the bus's `lss_timeout_ms`, also used
 // before anything was measured). An answered step goes on once the slowest

@@ -30,6 +30,21 @@ TEST(AnswerTiming, CiA305_BoundedByFloorAndCeiling) {
   EXPECT_EQ(t.answers(), 2u);
 }
 
+// One late answer (a descheduled slave or gateway) raises the waits at once,
+// and is forgotten within a few dozen ordinary answers rather than slowing
+// every later step of the bus.
+TEST(AnswerTiming, CiA305_AnOutlierIsForgotten) {
+  AnswerTiming t(2ms, 100ms);
+  t.record(1ms);
+  t.record(30ms);
+  EXPECT_EQ(t.slowest(), 30ms);
+  EXPECT_EQ(t.no_answer_wait(), 100ms);
+  for (int i = 0; i < 64; ++i) t.record(1ms);
+  EXPECT_LT(t.slowest(), 3ms);
+  EXPECT_GE(t.slowest(), 1ms);
+  EXPECT_LT(t.no_answer_wait(), 13ms);
+}
+
 TEST(AnswerTiming, CiA305_FixedWhenFloorEqualsCeiling) {
   AnswerTiming t(100ms, 100ms);
   t.record(1ms);

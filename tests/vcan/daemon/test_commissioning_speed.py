@@ -1,0 +1,134 @@
+"""Issue 11, "commissioning at wire speed": the real daemon and cobridge-sim on
+vcan (UML). Prints the figures of the issue's targets and asserts the LSS
+exchange and silent-step counts (CiA 305 Fastscan), not the times.
+
+ 1. Six factory-fresh devices of the three families: two rotary encoders
+    clashing at 127 (J§1.2.2), two ifm at 32 (F§7.1), two multiturn at FFh
+    (CiA 305 non-configured, E§6). Each multiturn is found by a Fastscan
+    guided by the configuration: vendor, product and serial confirmed whole
+    (BitChecked 0), only the revision searched (one field unknown).
+    Figure: daemon start -> all six operational (target 3 s).
+ 2. Second start, same bus: no Fastscan at all; all operational (target 0.5 s).
+ 3. The two multiturns factory-fresh again at FFh, their whole identity
+    remembered (state file: product, revision): each is confirmed in 5
+    exchanges with no silent step (target <= 50 ms per device).
+"""
+import os
+import sys
+import time
+
+import e2e
+
+DEVICES = [
+    # name, config model, sim device, serial, node-ID
+    ("rot-a", "RFC-4800", "RFC-4800:serial=1001", 1001, 10),
+    ("rot-b", "RFC-4800", "RFC-4800:serial=1002", 1002, 11),
+    ("mt-a", "MC1-2800", "MC1-2800:serial=2001,node=unconfigured", 2001, 20),
+    ("mt-b", "MC1-2800", "MC1-2800:serial=2002,node=unconfigured", 2002, 21),
+    ("ifm-a", "RM9", "RM9000:serial=3001,bitrate=250", 3001, 30),
+    ("ifm-b", "RM9", "RM9000:serial=3002,bitrate=250", 3002, 31),
+]
+MT_REVISION = 0x00010003  # E§4.1, what cobridge-sim reports
+LSS_MASTER = 0x7E5
+LSS_FASTSCAN = 0x51
+
+
+def config_for(ws, names):
+    bus = {"name": "line1", "interface": "vcan0", "bitrate": 250, "discovery_period_s": 30, "node_pool": "40-60"}
+    devices = [{"name": n, "bus": "line1", "serial": s, "model": m, "node_id": node, "heartbeat_ms": 100,
+                "tpdo1": {"mapping": ["position"], "transmission": "event", "event_timer_ms": 100}}
+               for (n, m, _, s, node) in DEVICES if n in names]
+    return e2e.write_config(ws, [bus], devices)
+
+
+def fastscans(status):
+    return [x for b in status["buses"] for x in b["steps"] if x["step"].startswith("fastscan") and x["device"]]
+
+
+def describe(steps):
+    return "; ".join("%s %s: %d exchanges, %d timeouts, %.1f ms" % (
+        x["step"], x["device"], x.get("exchanges", 0), x.get("timeouts", 0), x["ms"]) for x in steps)
+
+
+def fastscan_runs(listener, since):
+    return len([f for f in listener.snapshot(since) if f[1] == LSS_MASTER and f[2][0] == LSS_FASTSCAN
+                and f[2][5] == 0x80])
+
+
+def start(args, ws, config, report, label, names, log_name):
+    daemon = e2e.Daemon(args.daemon, config, ws, log_name=log_name)
+    report.check(daemon.wait_socket(), "%s: control socket up" % label)
+    st, _ = daemon.wait_until(e2e.all_operational(names), 60, interval=0.02)
+    took = time.time() - daemon.started if st is not None and e2e.all_operational(names)(st) else None
+    return daemon, daemon.status() if daemon.proc.poll() is None else None, took
+
+
+def six_fresh(args, ws, report, listener):
+    names = [d[0] for d in DEVICES]
+    config = config_for(ws, names)
+    daemon, st, took = start(args, ws, config, report, "six fresh", names, "daemon-1.log")
+    report.check(took is not None, "six factory-fresh devices operational",
+                 "FIGURE six-fresh start -> all operational %.2f s (target 3 s)" % took if took else "never")
+    steps = [x for x in fastscans(st) if x["device"] in ("mt-a", "mt-b")] if st else []
+    popcount = bin(MT_REVISION).count("1")
+    # Guided: probe + vendor + product (<= 2 product codes of the model)
+    # + revision searched (32 bits + confirm) + serial (<= 2 guesses).
+    ok = len(steps) >= 2 and all(x["exchanges"] <= 1 + 1 + 2 + 33 + 2 and x["timeouts"] <= popcount + 2
+                                 for x in steps)
+    report.check(ok, "each multiturn at FFh found by a guided Fastscan (was 133 exchanges)",
+                 "FIGURE one field unknown: " + describe(steps))
+    if report.failed:
+        print(daemon.tail(60))
+    e2e.check_clean_exit(report, daemon, "six fresh: SIGTERM -> exit 0 within 1 s")
+    return names, config
+
+
+def second_start(args, ws, report, listener, names, config):
+    since = time.time()
+    daemon, st, took = start(args, ws, config, report, "second start", names, "daemon-2.log")
+    report.check(took is not None, "second start: all six operational",
+                 "FIGURE second start -> all operational %.2f s (target 0.5 s)" % took if took else "never")
+    runs = fastscan_runs(listener, since)
+    report.check(runs == 0, "second start: no Fastscan (identities remembered)", "%d Fastscan runs" % runs)
+    e2e.check_clean_exit(report, daemon, "second start: SIGTERM -> exit 0 within 1 s")
+
+
+def whole_identity_known(args, ws, report, listener):
+    names = ["mt-a", "mt-b"]
+    sim_ws = e2e.Workspace("speed-sim-2", args.keep)
+    sim = e2e.Simulator(args.sim, sim_ws, {"vcan0": [d[2] for d in DEVICES if d[0] in names]})
+    daemon = None
+    try:
+        daemon, st, took = start(args, ws, config_for(ws, names), report, "known at FFh", names, "daemon-3.log")
+        report.check(took is not None, "factory-fresh multiturns with remembered identities operational",
+                     "%.2f s after start" % took if took else "never")
+        steps = [x for x in fastscans(st) if x["device"] in names] if st else []
+        report.check(len(steps) >= 2 and all(x["exchanges"] == 5 and x["timeouts"] == 0 for x in steps),
+                     "whole identity known: confirmed in 5 exchanges, no timeout",
+                     "FIGURE whole identity at FFh: " + describe(steps) + " (target 50 ms)")
+        if report.failed:
+            print(daemon.tail(60))
+        e2e.check_clean_exit(report, daemon, "known at FFh: SIGTERM -> exit 0 within 1 s")
+        daemon = None
+    finally:
+        e2e.shut_down(sim_ws, daemon, sim)
+
+
+def main():
+    args = e2e.parse_args()
+    report = e2e.Report("test_commissioning_speed")
+    ws = e2e.Workspace("commissioning-speed", args.keep)
+    listener = e2e.CanListener("vcan0")
+    sim = e2e.Simulator(args.sim, ws, {"vcan0": [d[2] for d in DEVICES]})
+    try:
+        names, config = six_fresh(args, ws, report, listener)
+        second_start(args, ws, report, listener, names, config)
+        sim.stop()
+        whole_identity_known(args, ws, report, listener)
+    finally:
+        e2e.shut_down(ws, None, sim, listener)
+    return report.finish()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
