@@ -129,8 +129,16 @@ void LssMaster::arm(Phase phase, LssCs expect, TimePoint now) noexcept {
   // probe) decides "nobody there": it always waits the full timeout, and
   // its answers teach the waits of the steps that follow.
   const bool first = current_.steps == 1;
-  const bool learnt = search_phase() && !careful_ && !first;
-  deadline_ = now + (learnt ? timing_.no_answer_wait() : config_.timeout);
+  const bool learnt = search_phase() && !first && timing_.learning();
+  deadline_ = now + (learnt ? search_wait() : config_.timeout);
+}
+
+// A rescan (careful_) waits 4 x the learnt wait for silence, within the
+// timeout: the late answer that spoilt the first search is then caught,
+// without paying the full timeout for every 1-bit of the field.
+Duration LssMaster::search_wait() const noexcept {
+  const Duration w = timing_.no_answer_wait();
+  return careful_ ? std::min(config_.timeout, 4 * w) : w;
 }
 
 bool LssMaster::search_phase() const noexcept {
@@ -262,7 +270,8 @@ bool LssMaster::on_frame(const can::Frame& f, TimePoint now) noexcept {
   if (phase_ != Phase::kAwaitReply) {
     // Answered: the others' answers to this step come within the slowest
     // answer time seen; then the step is decided (AnswerTiming).
-    if (!answered_ && !careful_ && timing_.learning()) deadline_ = std::min(deadline_, now + timing_.settle());
+    if (!answered_ && timing_.learning())
+      deadline_ = std::min(deadline_, now + (careful_ ? timing_.no_answer_wait() : timing_.settle()));
     answered_ = true;
     return true;
   }

@@ -6,15 +6,15 @@
 // ends its outcome is collected with `take_result()`. Operations without an
 // answer (switch state global, activate bit timing) complete synchronously.
 //
-// "No answer" is only visible as a timeout, so `Config::timeout` sets the cost
-// of everything that searches: a Fastscan step, an identify step of Slowscan
-// and the "nobody there" cases each wait exactly one timeout. Search steps wait
-// out the full timeout even after the first answer, because several slaves
-// answer the same request and a late answer must not be taken for an answer
-// to the next request. Cost of one Fastscan: 1 probe + 4 x (32 bits + 1
-// confirm) = 133 frames and 133 timeouts per device (fewer fields with
-// `FastscanKnown`); Slowscan: at most 65 identify steps of 6 frames each, plus
-// switch selective.
+// "No answer" is only visible as a timeout. The first step of a search
+// ("is anybody there?") waits `Config::timeout`; later search steps wait what
+// the bus taught (AnswerTiming, between `min_timeout` and `timeout`), and an
+// answered step ends once the other slaves' answers have had time to come.
+// A Fastscan field whose confirmation then fails (a bit decided on a late
+// answer) is searched again with longer waits. Cost of an unguided Fastscan:
+// 1 probe + 4 x (32 bits + 1 confirm) = 133 exchanges per device, one silent
+// per 1-bit of the address; a FastscanPlan confirms known fields whole.
+// Slowscan: at most 65 identify steps of 6 frames each, plus switch selective.
 // Thread: the one thread that owns the LSS channel (bus manager); never
 // blocks, does not allocate per frame.
 #pragma once
@@ -191,12 +191,13 @@ class LssMaster {
   void fastscan_confirm(TimePoint now) noexcept;
   void slowscan_step(TimePoint now) noexcept;
   [[nodiscard]] bool search_phase() const noexcept;
+  [[nodiscard]] Duration search_wait() const noexcept;
 
   can::FrameSink& sink_;
   Config config_;
   AnswerTiming timing_;
   TimePoint step_sent_{};
-  bool careful_ = false;  // full timeouts, no early end of answered steps (a rescan)
+  bool careful_ = false;  // a rescan: longer waits for silence and for other slaves' answers
   Phase phase_ = Phase::kIdle;
   LssCs expect_ = LssCs::kSwitchSelectiveResponse;
   TimePoint deadline_ = kNever;

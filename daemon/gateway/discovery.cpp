@@ -10,6 +10,7 @@
 #include "canopen/lss_master.hpp"
 #include "canopen/nmt.hpp"
 #include "config/known_models.hpp"
+#include "gateway/fastscan_knowledge.hpp"
 
 #include <algorithm>
 #include <bitset>
@@ -44,6 +45,10 @@ namespace {
 
 constexpr std::uint16_t kIdentityObject = 0x1018;   // CiA 301 identity object
 constexpr std::uint16_t kStoreObject = 0x1010;      // CiA 301 store parameters
+// The start-up probe of the node-IDs where devices are expected ends this
+// long after its requests at the latest; what did not answer by then is
+// asked again in the full probe, with the SDO timeout.
+constexpr canopen::Duration kExpectedAnswerWindow = std::chrono::milliseconds(50);
 constexpr std::uint32_t kSaveSignature = 0x65766173;  // "save" (J§1.6.1, E§11, F§6.3.3)
 constexpr std::uint32_t kVendorNovotechnik = 0x00000182;  // J§1.2.1, E§4.1
 constexpr std::uint32_t kVendorIfm = 0x0069666D;          // F§7.3
@@ -173,6 +178,7 @@ struct Discovery::Impl {
   struct Round {
     bool active = false;
     bool full = false;        // the start-up / periodic probe (decides swaps, queues Fastscan)
+    bool first = false;       // start-up: the nodes where devices are expected, before the full probe
     std::uint8_t sub = 1;
     std::vector<std::uint8_t> members;
     std::bitset<128> in;
@@ -218,7 +224,7 @@ struct Discovery::Impl {
     settle,
     identify_non_configured,
     fastscan_loop,
-    fastscan_known,   // a configured device's identity confirmed at FFh (CiA 305 Fastscan, BitChecked 0)
+    fastscan_known,   // configured devices looked for at FFh by their identity (CiA 305 Fastscan, BitChecked 0)
     restore_known,
     check_remaining,  // after (a)/(b): anything left at the clash node -> (c)
     sdo_write,
@@ -733,10 +739,11 @@ struct Discovery::Impl {
                               static_cast<std::uint8_t>(kIdentityObject >> 8), sub, 0, 0, 0, 0});
   }
 
-  void begin_round(TimePoint now, bool full) {
+  void begin_round(TimePoint now, bool full, bool first = false) {
     round = Round{};
     round.active = true;
     round.full = full;
+    round.first = first;
     round.sub = 1;
     round.started = now;
     for (std::uint8_t n = 1; n <= 127; ++n) {
@@ -766,7 +773,8 @@ struct Discovery::Impl {
       --round.to_send;
       ++n;
     }
-    if (round.to_send == 0 && round.deadline == kNever) round.deadline = now + sdo_timeout;
+    if (round.to_send == 0 && round.deadline == kNever)
+      round.deadline = now + (round.first ? std::min(sdo_timeout, kExpectedAnswerWindow) : sdo_timeout);
   }
 
   [[nodiscard]] bool all_answered() const {
@@ -779,7 +787,10 @@ struct Discovery::Impl {
     if (!round.active) {
       // Probes wait while commissioning runs: devices are being reset and
       // made non-configured, and half a picture would start wrong work.
-      if (want_probe.none() || current || !tasks.empty()) return false;
+      // A search for non-configured devices (LSS at FFh) resets nobody:
+      // devices it moved are probed (and configured) while it goes on.
+      const bool busy = (current || !tasks.empty()) && !(run && run->job.kind == Job::Kind::non_configured);
+      if (want_probe.none() || busy) return false;
       begin_round(now, false);
       return true;
     }
@@ -854,7 +865,7 @@ struct Discovery::Impl {
       node.clash_reported = false;
       // The start-up probe decides once every node has answered (swaps need
       // to know which configured devices are missing).
-      if (round.full && !initial_probe_done) return;
+      if ((round.full || round.first) && !initial_probe_done && !configured_at(n, a)) return;
       on_identified(n, a, bootup);
       return;
     }
@@ -977,6 +988,16 @@ struct Discovery::Impl {
 
   void finish_round(TimePoint now) {
     timing(round.full ? "probe" : "probe-nodes", "", now - round.started);
+    if (round.first) {
+      // The rest of 1..127; an expected node that did not answer within the
+      // short window is asked again with the full SDO timeout.
+      const std::bitset<128> asked = round.in;
+      round = Round{};
+      for (std::uint8_t n = 1; n <= 127; ++n)
+        if (!asked[n] || (nodes[n].ids.empty() && !nodes[n].clash)) want_probe.set(n);
+      begin_round(now, true);
+      return;
+    }
     if (round.full) {
       if (!initial_probe_done) {
         initial_probe_done = true;
@@ -990,9 +1011,30 @@ struct Discovery::Impl {
     round = Round{};
   }
 
+  // Start-up: the node-IDs where devices are expected (configured, or
+  // remembered from the state file) first. Devices there answer within
+  // milliseconds, so they are identified, and configured, without waiting
+  // out the SDO timeout of the empty node-IDs; the rest follows at once.
   void start_full_probe(TimePoint now) {
-    for (std::uint8_t n = 1; n <= 127; ++n) want_probe.set(n);
-    begin_round(now, true);
+    for (const auto& c : devices)
+      if (c.node_id) want_probe.set(*c.node_id);
+    for (const auto& p : previous)
+      if (canopen::cob::valid_node_id(p.node_id)) want_probe.set(p.node_id);
+    if (want_probe.none()) {
+      for (std::uint8_t n = 1; n <= 127; ++n) want_probe.set(n);
+      begin_round(now, true);
+      return;
+    }
+    begin_round(now, false, true);
+  }
+
+  // A configured device (serial, model) at the node-ID it must have: no swap
+  // or pool decision depends on the rest of the start-up probe.
+  [[nodiscard]] bool configured_at(std::uint8_t n, const LssAddress& a) const {
+    const config::Device* c = configured_by_serial(a.serial);
+    if (c == nullptr || !model_matches(*c, a, false)) return false;
+    std::string why;
+    return target_of(*c, a, why) == n;
   }
   void start_periodic_probe(TimePoint now) {
     for (std::uint8_t n = 1; n <= 127; ++n)
@@ -1281,8 +1323,8 @@ struct Discovery::Impl {
       case Op::configure_id: ec = lss.configure_node_id(t.ctx.target, now); break;
       case Op::store: ec = lss.store_configuration(now); break;
       case Op::identify_non_configured: ec = lss.identify_non_configured(now); break;
-      case Op::fastscan_loop: ec = lss.fastscan(now); break;
-      case Op::fastscan_known: ec = lss.fastscan(now, known_fields(t.ctx.identity)); break;
+      case Op::fastscan_loop: ec = lss.fastscan(now, fastscan_plan(true)); break;
+      case Op::fastscan_known: ec = lss.fastscan(now, fastscan_plan(false)); break;
       case Op::global: {
         ec = lss.switch_state_global(t.mode);
         if (!ec) {
@@ -1545,33 +1587,26 @@ struct Discovery::Impl {
       case Op::identify_non_configured: {
         if (r.answered) {
           timing("identify-non-configured", "", r);
-          std::vector<Task> v = targeted_fastscans();
-          if (now >= general_scan_not_before) {
-            Task fs = make(Op::fastscan_loop);
-            fs.node = 0;
-            v.push_back(fs);
-          }
+          // The general scan looks for configured devices first (its plan
+          // prefers them); while it backs off, only they are looked for.
+          std::vector<Task> v;
+          if (now >= general_scan_not_before) v.push_back(make(Op::fastscan_loop));
+          else if (fastscan_plan(false).size() > 0) v.push_back(make(Op::fastscan_known));
           v.push_back(make(Op::wait_boots));
           push_front(std::move(v));
         }
         return;
       }
-      case Op::fastscan_known: {
-        timing("fastscan-known", t.ctx.device, r);
-        if (r.error) return;  // not at FFh (or another product code of its model: the next task tries it)
-        std::erase_if(tasks, [&](const Task& x) { return x.op == Op::fastscan_known && x.ctx.device == t.ctx.device; });
-        bool stranger = false;
-        push_front(place_non_configured(r.address, t, stranger));
-        return;
-      }
+      case Op::fastscan_known:
       case Op::fastscan_loop: {
-        timing("fastscan", run ? run->device : "", r);
+        const config::Device* c = r.error ? nullptr : configured_by_serial(r.address.serial);
+        timing(step_name(t.op), c ? c->name : run && t.op == Op::fastscan_loop ? run->device : "", r);
         if (r.error) {
           // Nobody left that Fastscan can find. A non-configured device
           // answered identify non-configured but Fastscan found none: it is of
           // the pre-Fastscan series (J, DSP-305 V1.1.2), which Slowscan finds.
-          if (t.node == 0 && run && run->job.kind == Job::Kind::non_configured && run->found.empty() &&
-              !run->slowscanned) {
+          if (t.op == Op::fastscan_loop && t.node == 0 && run && run->job.kind == Job::Kind::non_configured &&
+              run->found.empty() && !run->slowscanned) {
             run->slowscanned = true;
             push_front(slowscan_all_pre_fastscan());
           }
@@ -1579,12 +1614,14 @@ struct Discovery::Impl {
         }
         const LssAddress a = r.address;
         if (is_stranger(a)) {
-          // Fastscan finds the smallest address: the stranger again, so the
-          // loop ends here, and the general scan backs off (the targeted
-          // scans of configured devices still run every period).
-          general_scan_backoff = std::min(2 * general_scan_backoff + std::chrono::seconds(bus.discovery_period_s),
-                                          Duration{std::chrono::minutes(10)});
-          general_scan_not_before = now + general_scan_backoff;
+          // Fastscan found a device reported before (it keeps answering at
+          // FFh): the loop ends here, and the general scan backs off (the
+          // scans for configured devices still run every period).
+          if (t.op == Op::fastscan_loop) {
+            general_scan_backoff = std::min(2 * general_scan_backoff + std::chrono::seconds(bus.discovery_period_s),
+                                            Duration{std::chrono::minutes(10)});
+            general_scan_not_before = now + general_scan_backoff;
+          }
           push_front({make_global(LssMode::kWaiting)});
           return;
         }
@@ -1656,7 +1693,7 @@ struct Discovery::Impl {
   // refuses its node-ID) is reported once with its identity and remembered,
   // so that Fastscan, which always finds the smallest address first, is not
   // run for it again and again; configured devices are found by their known
-  // identity meanwhile (targeted_fastscans).
+  // identity meanwhile (fastscan_plan(false)).
 
   [[nodiscard]] bool is_stranger(const LssAddress& a) const {
     return std::any_of(strangers.begin(), strangers.end(), [&](const LssAddress& s) { return same_device(s, a); });
@@ -1674,38 +1711,27 @@ struct Discovery::Impl {
     events.push_back(std::move(e));
   }
 
-  static canopen::LssMaster::FastscanKnown known_fields(const LssAddress& a) {
-    canopen::LssMaster::FastscanKnown k;
-    k.vendor = a.vendor;
-    if (a.product != 0) k.product = a.product;
-    if (a.revision != 0) k.revision = a.revision;
-    k.serial = a.serial;
-    return k;
-  }
-
-  // One Fastscan per configured device of this bus that is not present and
-  // whose serial and vendor are known (config, or its model), per product
-  // code its model may report: each confirms whole fields (BitChecked 0)
-  // instead of searching 128 bits, and a stranger never answers them.
-  [[nodiscard]] std::vector<Task> targeted_fastscans() const {
-    std::vector<Task> v;
+  // Issue 11: what the configuration and the remembered table tell a
+  // Fastscan (FastscanKnowledge): the devices commissioning itself took off
+  // their node-IDs, the configured devices not present at a node-ID, and for
+  // the general scan the configured models and the search of the rest. The
+  // pre-Fastscan rotary series never answers Fastscan (J§1 intro).
+  [[nodiscard]] canopen::FastscanPlan fastscan_plan(bool general) const {
+    FastscanKnowledge k;
+    if (run)
+      for (const auto& [id, node] : run->known)
+        if (!is_pre_fastscan(id.vendor, id.product)) k.known.push_back(id);
     for (const auto& c : devices) {
-      if (c.serial == 0 || is_present_serial(c.serial)) continue;
       const config::KnownModel* m = c.model.empty() ? nullptr : config::find_model(c.model);
-      const std::optional<std::uint32_t> vendor = c.vendor ? c.vendor : m ? std::optional(m->vendor) : std::nullopt;
-      if (!vendor) continue;
-      std::vector<std::uint32_t> products;
-      if (c.product) products.push_back(*c.product);
-      else if (m) products.assign(m->products.begin(), m->products.end());
-      if (products.empty()) products.push_back(0);  // unknown: searched
-      for (const std::uint32_t product : products) {
-        Ctx ctx;
-        ctx.identity = LssAddress{*vendor, product, 0, c.serial};
-        ctx.device = c.name;
-        v.push_back(make(Op::fastscan_known, ctx));
-      }
+      if (m && m->family == config::Family::novotechnik_rotary) continue;
+      const bool found = run && std::any_of(run->found.begin(), run->found.end(),
+                                            [&](const LssAddress& f) { return f.serial == c.serial; });
+      if (c.serial != 0 && !found && !is_present_serial(c.serial)) k.absent.push_back(&c);
+      if (general) k.models.push_back(&c);
     }
-    return v;
+    k.remembered = previous;
+    k.general = general;
+    return make_fastscan_plan(k);
   }
 
   [[nodiscard]] bool is_present_serial(std::uint32_t serial) const {
