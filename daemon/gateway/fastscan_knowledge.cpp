@@ -30,7 +30,15 @@ void add_device(FastscanPlan& plan, const config::Device& d, bool with_serial, s
   else if (seen && seen->product != 0) products.emplace_back(seen->product);
   else if (m) products.assign(m->products.begin(), m->products.end());
   if (products.empty()) products.emplace_back(std::nullopt);
-  for (const U32& p : products) (void)plan.add(FastscanTarget::of(vendor, p, revision, serial));
+  for (const U32& p : products) {
+    // A new device of a model (serial unknown) most likely has the revision
+    // of the ones seen before: guessed first, searched when it is not.
+    if (!with_serial)
+      for (const auto& a : remembered)
+        if (a.revision != 0 && vendor == a.vendor && p == a.product)
+          (void)plan.add(FastscanTarget::of(vendor, p, a.revision, std::nullopt));
+    (void)plan.add(FastscanTarget::of(vendor, p, revision, serial));
+  }
 }
 
 }  // namespace

@@ -7,7 +7,8 @@
 //    the model's), product (configured, else each product code of the model),
 //    serial (configured), revision when the remembered table has one;
 //  * configured models a new device may be (a same-model replacement, or a
-//    device the `assign` policy places): vendor and product, serial searched;
+//    device the `assign` policy places): vendor and product, the revisions
+//    remembered for that product guessed, serial searched;
 //  * `general`: whatever no target names is searched too (strangers).
 // The ifm model lists no product code (F§7.3 prints an ambiguous one): its
 // product is searched unless configured or remembered.

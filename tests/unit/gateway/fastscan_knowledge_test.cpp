@@ -71,6 +71,21 @@ TEST(FastscanKnowledge, ModelsKnownIdentitiesAndGeneral) {
   EXPECT_TRUE(p.search_unknown);
 }
 
+// A same-model replacement (serial unknown) is guessed to have the revision
+// remembered for its product: only the serial is then searched.
+TEST(FastscanKnowledge, ModelGuessesTheRememberedRevision) {
+  const config::Device rot = device("MC1-2800", 2001);
+  const std::vector<Assignment> remembered{{"line1", 2001, 0x182, 0x0BB8, 0x10003, 20, ""}};
+  FastscanKnowledge k;
+  k.models = {&rot};
+  k.remembered = remembered;
+  const auto p = make_fastscan_plan(k);
+  ASSERT_EQ(p.size(), 3u);
+  EXPECT_EQ(p.target(0).field, (FastscanTarget::of(0x182, 0x0BB8, 0x10003, std::nullopt).field));
+  EXPECT_EQ(p.target(1).field, (FastscanTarget::of(0x182, 0x0BB8, std::nullopt, std::nullopt).field));
+  EXPECT_EQ(p.target(2).field, (FastscanTarget::of(0x182, 0x0BB9, std::nullopt, std::nullopt).field));
+}
+
 // The same device listed twice (absent, and as a model) yields no duplicate.
 TEST(FastscanKnowledge, NoDuplicateTargets) {
   const config::Device a = device("RFC-4800", 1001), b = device("RFC-4800", 1002);
