@@ -1856,12 +1856,17 @@ struct Discovery::Impl {
       }
     }
     if (tasks.empty()) {
-      if (round.active || !may_commission() || jobs.empty()) {
+      // A search for non-configured devices (LSS at FFh) may start while a
+      // probe runs; jobs that move or reset configured devices wait for it.
+      auto next = jobs.begin();
+      if (round.active)
+        next = std::find_if(jobs.begin(), jobs.end(), [](const Job& j) { return j.kind == Job::Kind::non_configured; });
+      if (next == jobs.end() || !may_commission()) {
         if (jobs.empty() && bus.commissioning == config::Commissioning::manual) permit = false;
         return false;
       }
-      const Job j = jobs.front();
-      jobs.erase(jobs.begin());
+      const Job j = *next;
+      jobs.erase(next);
       expand(j, now);
       return true;
     }
