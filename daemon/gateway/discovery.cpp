@@ -1617,22 +1617,27 @@ struct Discovery::Impl {
           // Fastscan found a device reported before (it keeps answering at
           // FFh): the loop ends here, and the general scan backs off (the
           // scans for configured devices still run every period).
-          if (t.op == Op::fastscan_loop) {
-            general_scan_backoff = std::min(2 * general_scan_backoff + std::chrono::seconds(bus.discovery_period_s),
-                                            Duration{std::chrono::minutes(10)});
-            general_scan_not_before = now + general_scan_backoff;
-          }
+          if (t.op == Op::fastscan_loop) back_off_general_scan(now);
           push_front({make_global(LssMode::kWaiting)});
           return;
         }
         bool stranger = false;
         std::vector<Task> v = place_non_configured(a, t, stranger);
         if (!stranger) v.push_back(t);  // the next Fastscan
+        // The guided scan finds configured models first: a stranger comes
+        // last, and it would be found again first; it is scanned once.
+        else if (t.op == Op::fastscan_loop) back_off_general_scan(now);
         push_front(std::move(v));
         return;
       }
       default: return;
     }
+  }
+
+  void back_off_general_scan(TimePoint now) {
+    general_scan_backoff = std::min(2 * general_scan_backoff + std::chrono::seconds(bus.discovery_period_s),
+                                    Duration{std::chrono::minutes(10)});
+    general_scan_not_before = now + general_scan_backoff;
   }
 
   // A device Fastscan found at FFh: its tasks (node-ID, store, boot-up wait),

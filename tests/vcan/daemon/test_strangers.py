@@ -76,6 +76,11 @@ def scenario(args, report, label, stranger, stranger_serial, policy):
         fastscans = len([f for f in listener.snapshot(daemon.started) if f[1] == 0x7E5 and f[2][0] == 0x51
                          and f[2][5] == 0x80])
         report.check(fastscans <= 3, "%s: Fastscan not repeated in a loop" % label, "%d Fastscan runs" % fastscans)
+        # Issue 11: the stranger is scanned once (a search longer than a
+        # probe and a few guesses), not again at the next period.
+        searches = [x for x in steps if x.get("exchanges", 0) > 5]
+        report.check(len(searches) == 1, "%s: the stranger is searched once" % label,
+                     "%d searches: %s" % (len(searches), "; ".join("%d exchanges" % x["exchanges"] for x in searches)))
         report.check(all(d["state"] == "operational" for d in devs_st if d["name"] in names),
                      "%s: configured encoders still operational" % label)
         if report.failed:
