@@ -278,38 +278,31 @@ TEST(LssScanTest, CiA305_FastscanGuidedByKnownIdentities) {
   plan.search_unknown = true;
   const auto popcount = [](uint32_t v) { return static_cast<uint32_t>(__builtin_popcount(v)); };
 
+  // One guided scan: finds `want` in `steps` exchanges, `silent` of them
+  // unanswered; the device found then gets node-ID `node`.
+  const auto expect_scan = [&](const LssAddress& want, uint32_t steps, uint32_t silent, uint8_t node) {
+    ASSERT_FALSE(bus.master().fastscan(bus.now(), plan));
+    const auto r = bus.run_result();
+    ASSERT_TRUE(r && !r->error) << (r ? r->error.message() : "no result");
+    EXPECT_EQ(r->address, want);
+    EXPECT_EQ(r->steps, steps);
+    EXPECT_EQ(r->silent_steps, silent);
+    assign(bus, node);
+  };
   // Vendor 0x182 (2 targets) first, product confirmed, revision searched
   // (32 bits + confirm; silent = its 1-bits), serial 2002 guessed first.
-  ASSERT_FALSE(bus.master().fastscan(bus.now(), plan));
-  auto r = bus.run_result();
-  ASSERT_TRUE(r && !r->error) << (r ? r->error.message() : "no result");
-  EXPECT_EQ(r->address, mt2);
-  EXPECT_EQ(r->steps, 1u + 1u + 1u + 33u + 1u);
-  EXPECT_EQ(r->silent_steps, popcount(mt2.revision));
-  assign(bus, 21);
+  expect_scan(mt2, 1u + 1u + 1u + 33u + 1u, popcount(mt2.revision), 21);
   // The other one: its serial is the second guess (one silent step).
-  ASSERT_FALSE(bus.master().fastscan(bus.now(), plan));
-  r = bus.run_result();
-  ASSERT_TRUE(r && !r->error);
-  EXPECT_EQ(r->address, mt1);
-  EXPECT_EQ(r->steps, 1u + 1u + 1u + 33u + 2u);
-  EXPECT_EQ(r->silent_steps, popcount(mt1.revision) + 1u);
-  assign(bus, 20);
+  expect_scan(mt1, 1u + 1u + 1u + 33u + 2u, popcount(mt1.revision) + 1u, 20);
   // The ifm: vendor 0x182 guessed wrong (silent), product 0x4341 right,
   // revision and serial searched: one field unknown beyond the revision.
-  ASSERT_FALSE(bus.master().fastscan(bus.now(), plan));
-  r = bus.run_result();
-  ASSERT_TRUE(r && !r->error);
-  EXPECT_EQ(r->address, ifm);
-  EXPECT_EQ(r->steps, 1u + 2u + 1u + 33u + 33u);
-  EXPECT_EQ(r->silent_steps, 1u + popcount(ifm.revision) + popcount(ifm.serial));
-  assign(bus, 40);
+  expect_scan(ifm, 1u + 2u + 1u + 33u + 33u, 1u + popcount(ifm.revision) + popcount(ifm.serial), 40);
   // A targeted scan (no search_unknown) does not find the stranger: every
   // vendor guess is silent, then "not found".
   FastscanPlan targeted = plan;
   targeted.search_unknown = false;
   ASSERT_FALSE(bus.master().fastscan(bus.now(), targeted));
-  r = bus.run_result();
+  auto r = bus.run_result();
   ASSERT_TRUE(r.has_value());
   EXPECT_EQ(r->error, LssErrc::kNotFound);
   EXPECT_EQ(r->steps, 1u + 2u);
