@@ -10,6 +10,7 @@
 #include "canopen/lss_master.hpp"
 #include "canopen/nmt.hpp"
 #include "config/known_models.hpp"
+#include "gateway/discovery/node_assignment.hpp"
 
 #include <algorithm>
 #include <bitset>
@@ -28,6 +29,11 @@ using canopen::LssErrc;
 using canopen::LssMode;
 using canopen::LssRange;
 using canopen::TimePoint;
+using discovery::AnswerSet;
+using discovery::describe;
+using discovery::hex32;
+using discovery::same_device;
+using Values = discovery::AnswerSet;
 
 const char* to_string(DiscoveryEventKind k) noexcept {
   switch (k) {
@@ -82,42 +88,7 @@ std::optional<SdoNodeIdObject> sdo_node_id_object(const LssAddress& a) noexcept 
   return std::nullopt;
 }
 
-// Distinct answers to one probe request; a handful is all a bus can carry
-// in one window, so a fixed array keeps on_frame allocation-free.
-struct Values {
-  std::array<std::uint32_t, 8> v{};
-  std::uint8_t n = 0;
-  bool overflow = false;
-  void add(std::uint32_t x) noexcept {
-    for (std::uint8_t i = 0; i < n; ++i)
-      if (v[i] == x) return;
-    if (n < v.size()) v[n++] = x;
-    else overflow = true;
-  }
-  [[nodiscard]] bool contains(std::uint32_t x) const noexcept {
-    for (std::uint8_t i = 0; i < n; ++i)
-      if (v[i] == x) return true;
-    return false;
-  }
-  void clear() noexcept { *this = Values{}; }
-};
-
-std::string hex32(std::uint32_t v) {
-  char b[16];
-  std::snprintf(b, sizeof b, "0x%08X", v);
-  return b;
-}
-
-std::string describe(const LssAddress& a) {
-  return "vendor " + hex32(a.vendor) + " product " + hex32(a.product) + " revision " + hex32(a.revision) +
-         " serial " + std::to_string(a.serial);
-}
-
 double to_ms(Duration d) noexcept { return std::chrono::duration<double, std::milli>(d).count(); }
-
-bool same_device(const LssAddress& a, const LssAddress& b) noexcept {
-  return a.vendor == b.vendor && a.product == b.product && a.serial == b.serial;
-}
 
 }  // namespace
 
@@ -283,13 +254,7 @@ struct Discovery::Impl {
   };
   std::vector<BootWait> boot_waits;
 
-  std::vector<std::pair<LssAddress, std::uint8_t>> assigned;  // decisions of this session
-  struct Swap {
-    std::string name;      // the configured device
-    LssAddress by;         // the replacement that holds its place
-    LssAddress replaced;   // who held it before (for the state file)
-  };
-  std::vector<Swap> swapped;
+  discovery::Session session;  // decisions of this session (promises, swaps)
   // The last `identified` event per node: a new one goes out when the
   // identity or the decision (device, target) changes, or after a boot-up.
   struct Reported {
@@ -407,156 +372,41 @@ struct Discovery::Impl {
     return std::nullopt;
   }
   [[nodiscard]] std::optional<std::uint8_t> assigned_to(const LssAddress& a) const {
-    for (const auto& [id, n] : assigned)
-      if (same_device(id, a)) return n;
-    return std::nullopt;
+    return discovery::assigned_to(a, session);
   }
   void remember(const LssAddress& a, std::uint8_t node) {
-    for (auto& [id, n] : assigned)
+    for (auto& [id, n] : session.assigned)
       if (same_device(id, a)) {
         n = node;
         return;
       }
-    assigned.emplace_back(a, node);
+    session.assigned.emplace_back(a, node);
   }
 
-  // Is `node` free for device `a`: no other present device there, and not
-  // promised to another device.
   [[nodiscard]] bool node_free_for(std::uint8_t node, const LssAddress& a) const {
-    if (!canopen::cob::valid_node_id(node)) return false;
-    for (const auto& id : nodes[node].ids)
-      if (!same_device(id, a)) return false;
-    if (nodes[node].clash && nodes[node].ids.empty()) return false;
-    for (const auto& [id, n] : assigned)
-      if (n == node && !same_device(id, a)) return false;
-    return true;
+    return discovery::node_free_for(node, a, picture(), session);
   }
 
-  // ---- decisions --------------------------------------------------------
-  struct Decision {
-    std::uint8_t target = 0;
-    std::string device;
-    std::string replaces;
-    LssAddress replaced;
-    std::string problem;
-    bool wait = false;  // depends on a probe still to come: decide again then
-  };
+  using Decision = discovery::Decision;
 
-  static bool model_matches(const config::Device& c, const LssAddress& a, bool need_info) {
-    bool info = false;
-    if (c.vendor) {
-      info = true;
-      if (*c.vendor != a.vendor) return false;
-    }
-    if (c.product) {
-      info = true;
-      if (*c.product != a.product) return false;
-    }
-    if (!c.model.empty()) {
-      if (const auto* m = config::find_model(c.model)) {
-        info = true;
-        if (m->vendor != a.vendor) return false;
-        if (!m->products.empty() &&
-            std::find(m->products.begin(), m->products.end(), a.product) == m->products.end())
-          return false;
-      }
-    }
-    return info || !need_info;
-  }
-
-  [[nodiscard]] const config::Device* configured_by_serial(std::uint32_t serial) const {
-    for (const auto& d : devices)
-      if (d.serial == serial) return &d;
-    return nullptr;
-  }
-  [[nodiscard]] std::optional<std::uint8_t> previous_node(std::uint32_t serial, std::optional<std::uint32_t> vendor,
-                                                          std::optional<std::uint32_t> product) const {
-    for (const auto& p : previous)
-      if (p.serial == serial && (!vendor || *vendor == p.vendor) && (!product || *product == p.product) &&
-          canopen::cob::valid_node_id(p.node_id))
-        return p.node_id;
-    return std::nullopt;
-  }
-  [[nodiscard]] bool pool_node_taken(std::uint8_t n, const LssAddress& a) const {
-    for (const auto& d : devices)
-      if (d.node_id && *d.node_id == n && d.serial != a.serial) return true;
-    for (const auto& p : previous)
-      if (p.node_id == n && p.serial != a.serial) return true;
-    return !node_free_for(n, a);
-  }
-  [[nodiscard]] std::uint8_t pool_node(const LssAddress& a) const {
-    for (std::uint8_t n : bus.node_pool)
-      if (!pool_node_taken(n, a)) return n;
-    return 0;
-  }
-  std::uint8_t target_of(const config::Device& c, const LssAddress& a, std::string& why) const {
-    if (c.node_id) return *c.node_id;
-    if (auto p = previous_node(c.serial, c.vendor, c.product)) return *p;
-    // A replacement after a restart: the state file has its own line since
-    // the swap (the replaced device's line was erased then).
-    if (a.serial != c.serial)
-      if (auto p = previous_node(a.serial, a.vendor, a.product)) return *p;
-    if (auto p = assigned_to(a)) return *p;
-    const std::uint8_t n = pool_node(a);
-    if (n == 0) why = "node pool exhausted for " + c.name;
-    return n;
-  }
-  // ---- presence (swap policy) --------------------------------------------
-  enum class Presence : std::uint8_t { present, unsure, absent };
-
-  static bool matches(const LssAddress& id, std::uint32_t serial, std::uint32_t vendor) noexcept {
-    return id.serial == serial && (vendor == 0 || id.vendor == vendor);
-  }
-  // Where device `serial` (of `vendor`, 0 = any) is, as far as the probes
-  // and the bus manager's supervision tell (see "Swap" in discovery.hpp).
-  // `probe` = a node whose probe would settle an unsure answer (0 = none).
-  [[nodiscard]] Presence presence_of(std::uint32_t serial, std::uint32_t vendor, std::uint8_t& probe) const {
-    bool unsure = false;
+  // What the probes know, for the node-ID assignment.
+  [[nodiscard]] discovery::BusPicture picture() const {
+    discovery::BusPicture p{};
     for (std::uint8_t n = 1; n <= 127; ++n) {
-      const Node& node = nodes[n];
-      const auto has = [&](const std::vector<LssAddress>& v) {
-        return std::any_of(v.begin(), v.end(), [&](const LssAddress& id) { return matches(id, serial, vendor); });
-      };
-      // A clash whose identities the probe could not pair up still shows serials.
-      const bool seen = has(node.ids) || (node.clash && node.seen[3].contains(serial) &&
-                                          (vendor == 0 || node.seen[0].contains(vendor)));
-      const bool was = has(node.last);
-      if (node.supervised && (seen || was)) return Presence::present;
-      if (node.unsure && (seen || was)) {
-        unsure = true;
-        probe = n;
-        continue;
-      }
-      if (seen) return Presence::present;
+      const Node& x = nodes[n];
+      p[n].ids = x.ids;
+      p[n].seen = x.seen;
+      p[n].clash = x.clash;
+      p[n].supervised = x.supervised;
+      p[n].unsure = x.unsure;
+      p[n].last = x.last;
     }
-    if (unsure || !initial_probe_done) return Presence::unsure;
-    return Presence::absent;
+    return p;
   }
-  [[nodiscard]] Swap* swap_of(const std::string& name) {
-    for (auto& w : swapped)
-      if (w.name == name) return &w;
-    return nullptr;
+  [[nodiscard]] const config::Device* configured_by_serial(std::uint32_t serial) const {
+    return discovery::configured_by_serial(serial, devices);
   }
-  // Who holds configured device c's place now: its replacement, else itself.
-  [[nodiscard]] Presence holder_presence(const config::Device& c, std::uint8_t& probe) {
-    if (const Swap* w = swap_of(c.name)) return presence_of(w->by.serial, w->by.vendor, probe);
-    return presence_of(c.serial, c.vendor.value_or(0), probe);
-  }
-  // The identity that held c's place, as well as it is known.
-  [[nodiscard]] LssAddress holder_identity(const config::Device& c) const {
-    for (const auto& w : swapped)
-      if (w.name == c.name) return w.by;
-    for (const auto& p : previous)
-      if (p.serial == c.serial && (!c.vendor || *c.vendor == p.vendor) && (!c.product || *c.product == p.product))
-        return LssAddress{p.vendor, p.product, p.revision, p.serial};
-    for (const auto& [id, n] : assigned)
-      if (matches(id, c.serial, c.vendor.value_or(0))) return id;
-    LssAddress a;
-    a.serial = c.serial;
-    a.vendor = c.vendor.value_or(0);
-    a.product = c.product.value_or(0);
-    return a;
-  }
+
   void request_probe(std::uint8_t n) noexcept {
     if (!canopen::cob::valid_node_id(n) || !bus.discovery || !started) return;
     // Still being probed in the running round: its end decides again.
@@ -565,107 +415,28 @@ struct Discovery::Impl {
   }
   // `old` gives its place up: its node-ID is no longer promised to it.
   void forget(const LssAddress& old) {
-    std::erase_if(assigned, [&](const auto& p) { return matches(p.first, old.serial, old.vendor); });
+    std::erase_if(session.assigned, [&](const auto& p) {
+      return p.first.serial == old.serial && (old.vendor == 0 || p.first.vendor == old.vendor);
+    });
   }
 
   // ---- decisions ----------------------------------------------------------
+  // The pure assignment, and what it asks to be recorded.
   Decision decide(const LssAddress& a) {
-    Decision d;
-    if (const config::Device* c = configured_by_serial(a.serial)) {
-      d.device = c->name;
-      if (!model_matches(*c, a, false)) {
-        d.problem = "device " + c->name + " (serial " + std::to_string(a.serial) + ") is of the wrong model: " +
-                    describe(a) + (c->model.empty() ? "" : ", configured model " + c->model) +
-                    "; not configured";
-        return d;
-      }
-      if (Swap* w = swap_of(c->name); w != nullptr && !same_device(w->by, a)) {
-        // The original is back after a replacement took its place.
-        std::uint8_t probe = 0;
-        switch (presence_of(w->by.serial, w->by.vendor, probe)) {
-          case Presence::present:
-            d.device.clear();
-            d.problem = "device " + c->name + " (serial " + std::to_string(a.serial) + ") is back, but serial " +
-                        std::to_string(w->by.serial) + " has taken its place (swap policy same-model); left alone";
-            return d;
-          case Presence::unsure:
-            request_probe(probe);
-            d.device.clear();
-            d.wait = true;
-            return d;
-          case Presence::absent: {
-            // The replacement is gone too: the configured serial takes its place back.
-            const LssAddress by = w->by;
-            std::erase_if(swapped, [&](const Swap& x) { return x.name == c->name; });
-            forget(by);
-            d.replaces = c->name;
-            d.replaced = by;
-            break;
-          }
-        }
-      }
-      d.target = target_of(*c, a, d.problem);
-      return d;
-    }
-    for (const auto& w : swapped)
-      if (same_device(w.by, a))
-        for (const auto& c : devices)
-          if (c.name == w.name) {
-            d.device = c.name;
-            d.replaces = c.name;
-            d.replaced = w.replaced;
-            d.target = target_of(c, a, d.problem);
-            return d;
-          }
-    if (bus.swap_policy == config::SwapPolicy::same_model) {
-      std::vector<const config::Device*> absent;
-      bool wait = false;
-      for (const auto& c : devices) {
-        if (!model_matches(c, a, true)) continue;
-        std::uint8_t probe = 0;
-        switch (holder_presence(c, probe)) {
-          case Presence::present: break;
-          case Presence::unsure:
-            wait = true;
-            request_probe(probe);
-            break;
-          case Presence::absent: absent.push_back(&c); break;
-        }
-      }
-      // Never a guess: a device whose loss is not yet confirmed keeps its
-      // place, and a swap waits for the end of the probe round, whose later
-      // nodes may show the missing device (booting at the same time).
-      if (wait) {
-        d.wait = true;  // decided again when the probe has told
-        return d;
-      }
-      if (!absent.empty() && round.active) {
-        d.wait = true;
-        presence_changed = true;  // decided again once the round is over
-        return d;
-      }
-      if (absent.size() == 1) {
-        const config::Device& c = *absent.front();
-        const LssAddress old = holder_identity(c);
-        forget(old);
-        std::erase_if(swapped, [&](const Swap& x) { return x.name == c.name; });
-        swapped.push_back(Swap{c.name, a, old});
-        d.device = c.name;
-        d.replaces = c.name;
-        d.replaced = old;
-        d.target = target_of(c, a, d.problem);
-        return d;
-      }
-      if (absent.size() > 1) {
-        std::string names;
-        for (const auto* c : absent) names += (names.empty() ? "" : ", ") + c->name;
-        d.problem = "unknown device " + describe(a) + " could replace any of the missing devices " + names +
-                    " (swap policy same-model); left alone: give its serial in the configuration";
-        return d;
-      }
-    }
-    d.problem = "unknown device " + describe(a) + ": not in the configuration, left alone";
+    const discovery::BusPicture pic = picture();
+    Decision d = discovery::decide(a, input(pic));
+    apply(d.effects);
     return d;
+  }
+  [[nodiscard]] discovery::AssignmentInput input(const discovery::BusPicture& pic) const {
+    return discovery::AssignmentInput{bus, devices, previous, pic, session, initial_probe_done, round.active};
+  }
+  void apply(const discovery::Effects& e) {
+    if (e.forget) forget(*e.forget);
+    if (!e.unswap.empty()) std::erase_if(session.swapped, [&](const discovery::Swap& x) { return x.name == e.unswap; });
+    if (e.swap) session.swapped.push_back(*e.swap);
+    for (std::uint8_t n : e.probes) request_probe(n);
+    if (e.recheck) presence_changed = true;
   }
 
   // ---- frames in ---------------------------------------------------------
@@ -1239,7 +1010,7 @@ struct Discovery::Impl {
       if (x == n || nodes[x].clash) continue;
       for (const auto& id : nodes[x].ids) run->known.emplace_back(id, assigned_to(id).value_or(x));
     }
-    for (const auto& [id, t] : assigned)
+    for (const auto& [id, t] : session.assigned)
       if (std::none_of(run->known.begin(), run->known.end(), [&](const auto& k) { return same_device(k.first, id); }))
         run->known.emplace_back(id, t);
     std::vector<Task> v;
@@ -1628,27 +1399,36 @@ struct Discovery::Impl {
       if (at) c.from = *at;
       return c;
     }
-    Decision d = decide(a);
+    discovery::Placement p = place(a, scan_node, true);
+    Decision& d = p.decision;
     c.device = d.device;
     c.replaces = d.replaces;
     c.replaced = d.replaced;
-    if (d.target != 0 && node_free_for(d.target, a)) {
-      c.target = d.target;
-      if (scan_node != 0) c.from = scan_node;
-    } else if (scan_node != 0 && node_free_for(scan_node, a)) {
-      // (c) made it non-configured; an unknown device goes back where it was, unstored.
-      c.target = scan_node;
-      c.store = false;
-      c.boot_wait = false;
-    } else if (d.device.empty() && bus.unknown_devices == config::UnknownDevices::assign) {
-      // Policy assign: a node-ID from the pool (its earlier one when remembered), stored.
-      c.target = previous_node(a.serial, a.vendor, a.product).value_or(pool_node(a));
-      if (c.target == 0) note_stranger(a, "not in the configuration and no free node-ID left in node_pool");
-      else d.problem.clear();  // handled as configured: reported by the move, not as a problem
+    c.target = p.target;
+    switch (p.via) {
+      case discovery::Placement::Via::decision:
+        if (scan_node != 0) c.from = scan_node;
+        break;
+      case discovery::Placement::Via::back:
+        // (c) made it non-configured; an unknown device goes back where it was, unstored.
+        c.store = false;
+        c.boot_wait = false;
+        break;
+      case discovery::Placement::Via::none:
+        if (p.pool_exhausted) note_stranger(a, "not in the configuration and no free node-ID left in node_pool");
+        break;
+      case discovery::Placement::Via::pool: break;
     }
     if (!d.problem.empty()) problem(d.problem, 0, a);
     if (c.target != 0) remember(a, c.target);
     return c;
+  }
+
+  discovery::Placement place(const LssAddress& a, std::uint8_t back_to, bool unknown_policy) {
+    const discovery::BusPicture pic = picture();
+    discovery::Placement p = discovery::place_non_configured(a, back_to, unknown_policy, input(pic));
+    apply(p.decision.effects);
+    return p;
   }
 
   // ---- devices nobody configured -------------------------------------------
@@ -1727,20 +1507,20 @@ struct Discovery::Impl {
     c.identity = a;
     c.from = canopen::cob::valid_node_id(from) ? from : canopen::cob::kNodeIdUnconfigured;
     c.group = next_group++;
-    Decision d = decide(a);
+    const discovery::Placement p = place(a, from, false);
+    const Decision& d = p.decision;
     c.device = d.device;
     c.replaces = d.replaces;
     c.replaced = d.replaced;
     if (!d.problem.empty()) problem(d.problem, from, a);
-    if (d.target != 0 && node_free_for(d.target, a)) {
-      c.target = d.target;
-    } else if (canopen::cob::valid_node_id(from) && node_free_for(from, a)) {
-      c.target = from;
-      c.store = false;
-      c.boot_wait = false;
-    } else {
+    if (p.via == discovery::Placement::Via::none) {
       problem("non-configured " + describe(a) + " left without node-ID", 0, a);
       return {};
+    }
+    c.target = p.target;
+    if (p.via == discovery::Placement::Via::back) {
+      c.store = false;
+      c.boot_wait = false;
     }
     remember(a, c.target);
     return assign_tasks(c);
@@ -1992,7 +1772,7 @@ std::vector<Discovery::NodeView> Discovery::nodes() const {
     if (!node.ids.empty()) {
       if (auto t = d.assigned_to(node.ids[0])) v.target_node_id = *t;
       if (const auto* c = d.configured_by_serial(node.ids[0].serial)) v.device = c->name;
-      for (const auto& w : d.swapped)
+      for (const auto& w : d.session.swapped)
         if (same_device(w.by, node.ids[0])) v.device = w.name;
     }
     out.push_back(std::move(v));
