@@ -9,7 +9,10 @@
 #include "canopen/cob_id.hpp"
 #include "canopen/lss_master.hpp"
 #include "canopen/nmt.hpp"
+#include "canopen/sdo_client.hpp"
 #include "config/known_models.hpp"
+#include "gateway/discovery/identity_probe.hpp"
+#include "gateway/discovery/lss_families.hpp"
 #include "gateway/discovery/node_assignment.hpp"
 
 #include <algorithm>
@@ -18,6 +21,7 @@
 #include <deque>
 #include <optional>
 #include <set>
+#include <span>
 #include <utility>
 
 namespace cobridge::gateway {
@@ -32,6 +36,9 @@ using canopen::TimePoint;
 using discovery::AnswerSet;
 using discovery::describe;
 using discovery::hex32;
+using discovery::is_pre_fastscan;
+using discovery::sdo_node_id_object;
+using discovery::kStoreObject;
 using discovery::same_device;
 using Values = discovery::AnswerSet;
 
@@ -48,51 +55,11 @@ const char* to_string(DiscoveryEventKind k) noexcept {
 
 namespace {
 
-constexpr std::uint16_t kIdentityObject = 0x1018;   // CiA 301 identity object
-constexpr std::uint16_t kStoreObject = 0x1010;      // CiA 301 store parameters
-constexpr std::uint32_t kSaveSignature = 0x65766173;  // "save" (J§1.6.1, E§11, F§6.3.3)
-constexpr std::uint32_t kVendorNovotechnik = 0x00000182;  // J§1.2.1, E§4.1
-constexpr std::uint32_t kVendorIfm = 0x0069666D;          // F§7.3
-
-// The rotary series claims DSP-305 V1.1.2, older than Fastscan (digest Y.2):
-// these devices are separated by Slowscan. Product codes from J§1.2.1.
-bool is_pre_fastscan(std::uint32_t vendor, std::uint32_t product) noexcept {
-  if (vendor != kVendorNovotechnik) return false;
-  switch (product) {
-    case 0x0BE0: case 0x0BF3: case 0x0BBD: case 0x0BCD: case 0x0BE1: return true;
-    default: return false;
-  }
-}
-bool is_novotechnik_multiturn(std::uint32_t vendor, std::uint32_t product) noexcept {
-  // E§4.1 and the pre-V03 codes of E§13.
-  return vendor == kVendorNovotechnik &&
-         (product == 0x0BB8 || product == 0x0BD5 || product == 0x0BB9 || product == 0x0BBC);
-}
-
-// How to set the node-ID by SDO when LSS gets no answer (digest G.6).
-// To be replaced by device::FamilyProfile (daemon/device/family_profile.hpp)
-// once it exists; it is being written in parallel.
-struct SdoNodeIdObject {
-  std::uint16_t index = 0;
-  std::uint8_t minus = 0;     // value written = node-ID - minus (ifm: F§7.4 "always add 1")
-  std::uint8_t save_sub = 0;  // 0x1010 sub-index that covers the node-ID
-};
-std::optional<SdoNodeIdObject> sdo_node_id_object(const LssAddress& a) noexcept {
-  if (a.vendor == kVendorIfm) return SdoNodeIdObject{0x3000, 1, 1};  // F§7.4, F§6.3.3 (0x1010/1 only)
-  if (is_pre_fastscan(a.vendor, a.product)) {
-    // J§1.6.1: 0x1010/4, except RSX-7900 / RFX-6900 which use 0x1010/1.
-    const bool rsx_rfx = a.product == 0x0BCD || a.product == 0x0BE1;
-    return SdoNodeIdObject{0x2000, 0, static_cast<std::uint8_t>(rsx_rfx ? 1 : 4)};
-  }
-  if (is_novotechnik_multiturn(a.vendor, a.product)) return SdoNodeIdObject{0x2000, 0, 4};  // E§7.1, E§11
-  return std::nullopt;
-}
-
 double to_ms(Duration d) noexcept { return std::chrono::duration<double, std::milli>(d).count(); }
 
 }  // namespace
 
-struct Discovery::Impl {
+struct Discovery::Impl final : discovery::ProbeListener {
   // ---- settings -----------------------------------------------------------
   can::FrameSink& sink;
   DiscoveryOptions opt;
@@ -108,13 +75,8 @@ struct Discovery::Impl {
   std::deque<can::Frame> outbox;
 
   // ---- per node-ID --------------------------------------------------------
+  // Commissioning's bookkeeping per node-ID (what is there: probe.picture()).
   struct Node {
-    std::array<Values, 4> vals;       // answers of the running probe
-    bool aborted = false;             // 0x1018 answered with an abort
-    std::vector<LssAddress> ids;      // from the last finished probe (single or fully known clash)
-    std::array<Values, 4> seen;       // raw answers of the last finished probe
-    bool clash = false;
-    bool clash_reported = false;
     // The next clash strategy to try here (see expand_clash); reset once
     // the node holds one device or none.
     std::uint8_t clash_strategy = 0;
@@ -123,37 +85,12 @@ struct Discovery::Impl {
     bool clash_verify = false;
     std::uint32_t clash_count = 0;    // devices seen when the resolution started
     bool clash_moved_any = false;
-    bool supervised = false;
     bool busy = false;                // a commissioning job is about this node
-    TimePoint last_bootup = TimePoint::min();
-    bool bootup_flag = false;         // set by on_frame, handled by process
-    bool bootup_clash = false;
-    bool heard = false;               // heartbeat / guarding reply seen
-    // Supervision was lost and no probe has looked since: `ids` may be stale.
-    bool unsure = false;
-    // Who was identified here last, kept when a probe finds nobody: while the
-    // bus manager supervises this node (its heartbeat is fine) that device is
-    // present, even if a probe during a silence found no one.
-    std::vector<LssAddress> last;
   };
   std::array<Node, 128> nodes{};
+  discovery::IdentityProbe probe;
 
   // ---- probe --------------------------------------------------------------
-  std::bitset<128> want_probe;
-  std::bitset<128> want_bootup;
-  struct Round {
-    bool active = false;
-    bool full = false;        // the start-up / periodic probe (decides swaps, queues Fastscan)
-    std::uint8_t sub = 1;
-    std::vector<std::uint8_t> members;
-    std::bitset<128> in;
-    std::bitset<128> answered;
-    std::bitset<128> bootup;
-    std::size_t to_send = 0;  // members not yet sent this sub-round
-    TimePoint deadline = kNever;
-    TimePoint last_answer{};
-    TimePoint started{};
-  } round;
   TimePoint next_periodic = kNever;
   bool initial_probe_done = false;
   // Devices nobody configured, left at FFh; the general Fastscan's back-off.
@@ -237,15 +174,8 @@ struct Discovery::Impl {
   };
   std::optional<JobRun> run;
 
-  // SDO download in flight (fallback)
-  struct SdoWrite {
-    bool active = false;
-    bool done = false;
-    std::uint8_t node = 0;
-    std::uint16_t index = 0;
-    std::uint8_t sub = 0;
-    std::uint32_t abort = 0;
-  } sdo;
+  // The SDO node-ID fallback's download in flight.
+  std::optional<canopen::SdoClient> sdo;
 
   struct BootWait {
     Ctx ctx;
@@ -280,7 +210,7 @@ struct Discovery::Impl {
 
   Impl(can::FrameSink& s, const config::Config& config, std::size_t bus_index, std::vector<Assignment> prev,
        DiscoveryOptions o)
-      : sink(s), opt(o), lss(s, lss_config_of(config.buses.at(bus_index), o)) {
+      : sink(s), opt(o), lss(s, lss_config_of(config.buses.at(bus_index), o)), probe(s, o) {
     apply_config(config, bus_index, std::move(prev));
   }
 
@@ -306,6 +236,8 @@ struct Discovery::Impl {
     previous = std::move(prev);
     sdo_timeout = opt.sdo_timeout != Duration{} ? opt.sdo_timeout : std::chrono::milliseconds(bus.sdo_timeout_ms);
     lss_timeout = lss_timeout_of(bus, opt);
+    probe.set_sdo_timeout(sdo_timeout);
+    probe.set_enabled(bus.discovery);
   }
 
   // ---- small helpers -----------------------------------------------------
@@ -365,12 +297,7 @@ struct Discovery::Impl {
   }
 
   // Every device present as far as the probes know, except at `except_node`.
-  [[nodiscard]] std::optional<std::uint8_t> present_at(const LssAddress& a) const {
-    for (std::uint8_t n = 1; n <= 127; ++n)
-      for (const auto& id : nodes[n].ids)
-        if (same_device(id, a)) return n;
-    return std::nullopt;
-  }
+  [[nodiscard]] std::optional<std::uint8_t> present_at(const LssAddress& a) const { return probe.present_at(a); }
   [[nodiscard]] std::optional<std::uint8_t> assigned_to(const LssAddress& a) const {
     return discovery::assigned_to(a, session);
   }
@@ -390,28 +317,14 @@ struct Discovery::Impl {
   using Decision = discovery::Decision;
 
   // What the probes know, for the node-ID assignment.
-  [[nodiscard]] discovery::BusPicture picture() const {
-    discovery::BusPicture p{};
-    for (std::uint8_t n = 1; n <= 127; ++n) {
-      const Node& x = nodes[n];
-      p[n].ids = x.ids;
-      p[n].seen = x.seen;
-      p[n].clash = x.clash;
-      p[n].supervised = x.supervised;
-      p[n].unsure = x.unsure;
-      p[n].last = x.last;
-    }
-    return p;
-  }
+  [[nodiscard]] const discovery::BusPicture& picture() const { return probe.picture(); }
+  [[nodiscard]] const discovery::NodePicture& at(std::uint8_t n) const { return probe.picture()[n]; }
   [[nodiscard]] const config::Device* configured_by_serial(std::uint32_t serial) const {
     return discovery::configured_by_serial(serial, devices);
   }
 
   void request_probe(std::uint8_t n) noexcept {
-    if (!canopen::cob::valid_node_id(n) || !bus.discovery || !started) return;
-    // Still being probed in the running round: its end decides again.
-    if (round.active && std::find(round.members.begin(), round.members.end(), n) != round.members.end()) return;
-    want_probe.set(n);
+    if (started) probe.request(n);
   }
   // `old` gives its place up: its node-ID is no longer promised to it.
   void forget(const LssAddress& old) {
@@ -423,13 +336,12 @@ struct Discovery::Impl {
   // ---- decisions ----------------------------------------------------------
   // The pure assignment, and what it asks to be recorded.
   Decision decide(const LssAddress& a) {
-    const discovery::BusPicture pic = picture();
-    Decision d = discovery::decide(a, input(pic));
+    Decision d = discovery::decide(a, input(picture()));
     apply(d.effects);
     return d;
   }
   [[nodiscard]] discovery::AssignmentInput input(const discovery::BusPicture& pic) const {
-    return discovery::AssignmentInput{bus, devices, previous, pic, session, initial_probe_done, round.active};
+    return discovery::AssignmentInput{bus, devices, previous, pic, session, initial_probe_done, probe.active()};
   }
   void apply(const discovery::Effects& e) {
     if (e.forget) forget(*e.forget);
@@ -444,227 +356,69 @@ struct Discovery::Impl {
     if (f.is_extended() || f.is_rtr() || f.is_error()) return false;
     if (f.id == canopen::cob::kLssSlaveToMaster) return lss.on_frame(f, now);
     if (f.id > canopen::cob::kSdoTxBase && f.id <= canopen::cob::kSdoTxBase + 127 && f.len == 8) {
-      const auto n = static_cast<std::uint8_t>(f.id - canopen::cob::kSdoTxBase);
-      const auto index = static_cast<std::uint16_t>(f.data[1] | (f.data[2] << 8));
-      const std::uint8_t sub = f.data[3];
-      const std::uint8_t cs = f.data[0];
-      const std::uint32_t value = static_cast<std::uint32_t>(f.data[4]) | (static_cast<std::uint32_t>(f.data[5]) << 8) |
-                                  (static_cast<std::uint32_t>(f.data[6]) << 16) |
-                                  (static_cast<std::uint32_t>(f.data[7]) << 24);
-      bool used = false;
-      if (round.active && round.in[n] && index == kIdentityObject && sub == round.sub) {
-        Node& node = nodes[n];
-        if (cs == 0x80) {
-          node.aborted = true;
-        } else if ((cs & 0xE0) == 0x40 && (cs & 0x02) != 0) {  // expedited upload response
-          std::uint32_t v = value;
-          if ((cs & 0x01) != 0) {
-            const unsigned bytes = 4u - ((cs >> 2) & 0x03u);
-            if (bytes < 4) v &= (1u << (8 * bytes)) - 1u;
-          }
-          node.vals[static_cast<std::size_t>(sub - 1)].add(v);
-        }
-        round.answered.set(n);
-        round.last_answer = now;
-        used = true;
-      }
-      if (sdo.active && !sdo.done && n == sdo.node && index == sdo.index && sub == sdo.sub) {
-        if (cs == 0x60) {
-          sdo.done = true;
-          sdo.abort = 0;
-        } else if (cs == 0x80) {
-          sdo.done = true;
-          sdo.abort = value;
-        }
-        used = true;
-      }
+      bool used = probe.on_sdo_answer(f, now);
+      if (sdo && sdo->on_frame(f, now)) used = true;
       return used;
     }
     if (f.id > canopen::cob::kNmtErrorControlBase && f.id <= canopen::cob::kNmtErrorControlBase + 127 && f.len == 1) {
-      const auto n = static_cast<std::uint8_t>(f.id - canopen::cob::kNmtErrorControlBase);
-      Node& node = nodes[n];
-      if (f.data[0] == 0) {
-        if (node.last_bootup != TimePoint::min() && now - node.last_bootup < opt.bootup_clash_window &&
-            !current && tasks.empty() && now >= expected_bootups_until)
-          node.bootup_clash = true;
-        node.last_bootup = now;
-        node.bootup_flag = true;
-      } else {
-        node.heard = true;
-      }
+      probe.on_error_control(f, now, !current && tasks.empty() && now >= expected_bootups_until);
       return true;
     }
     return false;
   }
 
-  // ---- probe -------------------------------------------------------------
-  static can::Frame upload_request(std::uint8_t node, std::uint8_t sub) {
-    return can::Frame::make8(canopen::cob::kSdoRxBase + node,
-                             {0x40, static_cast<std::uint8_t>(kIdentityObject & 0xFF),
-                              static_cast<std::uint8_t>(kIdentityObject >> 8), sub, 0, 0, 0, 0});
-  }
-
-  void begin_round(TimePoint now, bool full) {
-    round = Round{};
-    round.active = true;
-    round.full = full;
-    round.sub = 1;
-    round.started = now;
-    for (std::uint8_t n = 1; n <= 127; ++n) {
-      if (!want_probe[n]) continue;
-      round.members.push_back(n);
-      round.in.set(n);
-      if (want_bootup[n]) round.bootup.set(n);
-      nodes[n].vals = {};
-      nodes[n].aborted = false;
-    }
-    want_probe.reset();
-    want_bootup.reset();
-    begin_sub(now);
-  }
-  void begin_sub(TimePoint now) {
-    round.answered.reset();
-    round.to_send = round.members.size();
-    round.deadline = kNever;
-    round.last_answer = now;
-    send_probe_frames(now);
-  }
-  void send_probe_frames(TimePoint now) {
-    std::uint32_t n = 0;
-    while (round.to_send > 0 && n < opt.burst) {
-      const std::uint8_t node = round.members[round.members.size() - round.to_send];
-      if (!sink.send(upload_request(node, round.sub))) break;
-      --round.to_send;
-      ++n;
-    }
-    if (round.to_send == 0 && round.deadline == kNever) round.deadline = now + sdo_timeout;
-  }
-
-  [[nodiscard]] bool all_answered() const {
-    for (std::uint8_t n : round.members)
-      if (!round.answered[n]) return false;
-    return true;
-  }
-
-  bool drive_probe(TimePoint now) {
-    if (!round.active) {
-      // Probes wait while commissioning runs: devices are being reset and
-      // made non-configured, and half a picture would start wrong work.
-      if (want_probe.none() || current || !tasks.empty()) return false;
-      begin_round(now, false);
-      return true;
-    }
-    if (round.to_send > 0) {
-      send_probe_frames(now);
-      return false;
-    }
-    const bool settled = all_answered() && now >= round.last_answer + opt.probe_settle;
-    if (!settled && now < round.deadline) return false;
-    // Only nodes that answered the previous sub-index go on to the next.
-    if (round.sub < 4) {
-      std::vector<std::uint8_t> next;
-      for (std::uint8_t n : round.members)
-        if (round.answered[n] && !nodes[n].aborted) next.push_back(n);
-      for (std::uint8_t n : round.members)
-        if (!round.answered[n] || nodes[n].aborted) finish_node(n, now);
-      if (!next.empty()) {
-        round.members = std::move(next);
-        ++round.sub;
-        begin_sub(now);
-        return true;
+  // ---- probe results -------------------------------------------------------
+  void on_probed(const discovery::ProbeResult& r) override {
+    using Kind = discovery::ProbeResult::Kind;
+    const std::uint8_t n = r.node;
+    if (r.changed) presence_changed = true;
+    switch (r.kind) {
+      case Kind::nobody:
+        clash_settled(n);
+        if (r.was_known) std::erase_if(reported_ids, [n](const Reported& x) { return x.node == n; });
+        std::erase_if(unplaced, [n](const Unplaced& u) { return u.node == n; });
+        return;
+      case Kind::refused:
+        problem("node " + std::to_string(n) + " answers SDO but refuses to read its identity 0x1018", n);
+        return;
+      case Kind::incomplete: return;
+      case Kind::identified: {
+        const LssAddress a = at(n).ids[0];
+        std::erase_if(unplaced, [&](const Unplaced& u) { return u.node == n && !same_device(u.id, a); });
+        clash_settled(n);
+        // The start-up probe decides once every node has answered (swaps need
+        // to know which configured devices are missing).
+        if (r.full && !initial_probe_done) return;
+        on_identified(n, a, r.bootup);
+        return;
       }
-    } else {
-      for (std::uint8_t n : round.members) finish_node(n, now);
+      case Kind::clash: on_clash(r); return;
     }
-    finish_round(now);
-    return true;
   }
 
-  void finish_node(std::uint8_t n, TimePoint) {
-    Node& node = nodes[n];
-    const bool bootup = round.bootup[n];
-    std::array<Values, 4> vals = node.vals;
-    if (vals[0].n == 0 && !node.aborted) {
-      // Nobody there (any more): a device that was here is absent now.
-      if (!node.ids.empty() || node.clash || node.unsure) presence_changed = true;
-      node.unsure = false;
-      clash_settled(n);
-      if (!node.ids.empty() || node.clash) {
-        node.ids.clear();
-        node.clash = false;
-        node.clash_reported = false;
-        std::erase_if(reported_ids, [n](const Reported& r) { return r.node == n; });
-      }
-      std::erase_if(unplaced, [n](const Unplaced& u) { return u.node == n; });
-      return;
-    }
-    if (node.aborted) {
-      // Someone is there, so it is no longer unsure; who, the probe cannot tell.
-      if (node.unsure) presence_changed = true;
-      node.unsure = false;
-      problem("node " + std::to_string(n) + " answers SDO but refuses to read its identity 0x1018", n);
-      return;
-    }
-    if (vals[1].n == 0 || vals[2].n == 0 || vals[3].n == 0) {
-      // It stopped answering half-way (reset, or lost answers): ask again.
-      if (bus.discovery) want_probe.set(n);
-      if (bootup) want_bootup.set(n);
-      return;
-    }
-    const bool clash = vals[0].n > 1 || vals[1].n > 1 || vals[2].n > 1 || vals[3].n > 1 || node.bootup_clash;
-    node.seen = vals;
-    if (!clash) {
-      const LssAddress a{vals[0].v[0], vals[1].v[0], vals[2].v[0], vals[3].v[0]};
-      if (node.unsure || node.clash || node.ids.size() != 1 || !same_device(node.ids[0], a)) presence_changed = true;
-      node.unsure = false;
-      std::erase_if(unplaced, [&](const Unplaced& u) { return u.node == n && !same_device(u.id, a); });
-      node.ids = {a};
-      node.last = {a};
-      clash_settled(n);
-      node.clash = false;
-      node.clash_reported = false;
-      // The start-up probe decides once every node has answered (swaps need
-      // to know which configured devices are missing).
-      if (round.full && !initial_probe_done) return;
-      on_identified(n, a, bootup);
-      return;
-    }
-    std::uint32_t count = 0;
-    for (const auto& v : vals) count = std::max<std::uint32_t>(count, v.n);
-    if (node.bootup_clash && count < 2) {
-      // Two boot-ups within the window, one identity answered: the answers
-      // of two devices can collide on the wire; take it as a clash anyway.
-      count = 2;
-    }
-    node.bootup_clash = false;
-    node.ids.clear();
-    node.unsure = false;
-    presence_changed = true;
+  void on_clash(const discovery::ProbeResult& r) {
+    const std::uint8_t n = r.node;
+    const auto& seen = at(n).seen;
     std::erase_if(unplaced, [n](const Unplaced& u) { return u.node == n; });
-    if (vals[0].n == 1 && vals[1].n == 1 && vals[2].n == 1)
-      for (std::uint8_t i = 0; i < vals[3].n; ++i)
-        node.ids.push_back(LssAddress{vals[0].v[0], vals[1].v[0], vals[2].v[0], vals[3].v[i]});
-    node.clash = true;
-    std::erase_if(reported_ids, [n](const Reported& r) { return r.node == n; });
-    if (!node.clash_reported) {
-      node.clash_reported = true;
+    std::erase_if(reported_ids, [n](const Reported& x) { return x.node == n; });
+    if (r.first_report) {
       DiscoveryEvent e;
       e.kind = DiscoveryEventKind::clash_detected;
       e.node_id = n;
-      e.count = count;
-      e.text = std::to_string(count) + " devices answer at node " + std::to_string(n);
-      if (vals[3].n > 1) {
+      e.count = r.count;
+      e.text = std::to_string(r.count) + " devices answer at node " + std::to_string(n);
+      if (seen[3].n > 1) {
         e.text += " (serials";
-        for (std::uint8_t i = 0; i < vals[3].n; ++i) e.text += " " + std::to_string(vals[3].v[i]);
+        for (std::uint8_t i = 0; i < seen[3].n; ++i) e.text += " " + std::to_string(seen[3].v[i]);
         e.text += ")";
       }
       events.push_back(std::move(e));
     }
     // A resolution ran and several devices still answer here: not resolved;
     // the next strategy takes over, until none is left.
-    node.clash_verify = false;
-    if (node.clash_strategy >= kClashStrategies) {
-      problem("the clash at node " + std::to_string(n) + " could not be resolved (" + std::to_string(count) +
+    nodes[n].clash_verify = false;
+    if (nodes[n].clash_strategy >= kClashStrategies) {
+      problem("the clash at node " + std::to_string(n) + " could not be resolved (" + std::to_string(r.count) +
                   " devices still answer there)",
               n);
       return;
@@ -739,44 +493,48 @@ struct Discovery::Impl {
     presence_changed = false;
     std::vector<Unplaced> list = std::exchange(unplaced, {});
     for (const Unplaced& u : list) {
-      const Node& node = nodes[u.node];
+      const discovery::NodePicture& node = at(u.node);
       // Gone or changed: the probe that saw it has reported it already.
       if (node.clash || node.ids.size() != 1 || !same_device(node.ids[0], u.id)) continue;
       on_identified(u.node, u.id, u.pending && u.bootup);
     }
   }
 
-  void finish_round(TimePoint now) {
-    timing(round.full ? "probe" : "probe-nodes", "", now - round.started);
-    if (round.full) {
-      if (!initial_probe_done) {
-        initial_probe_done = true;
-        // Decided only now that every configured device had its chance to
-        // answer, so that a swap never takes the place of a present device.
-        for (std::uint8_t n = 1; n <= 127; ++n)
-          if (nodes[n].ids.size() == 1 && !nodes[n].clash) on_identified(n, nodes[n].ids[0], false);
-      }
-      queue_job(Job{Job::Kind::non_configured, 0});
+  void on_round_end(bool full, Duration took) override {
+    timing(full ? "probe" : "probe-nodes", "", took);
+    if (!full) return;
+    if (!initial_probe_done) {
+      initial_probe_done = true;
+      // Decided only now that every configured device had its chance to
+      // answer, so that a swap never takes the place of a present device.
+      for (std::uint8_t n = 1; n <= 127; ++n)
+        if (at(n).ids.size() == 1 && !at(n).clash) on_identified(n, at(n).ids[0], false);
     }
-    round = Round{};
+    queue_job(Job{Job::Kind::non_configured, 0});
   }
 
-  void start_full_probe(TimePoint now) {
-    for (std::uint8_t n = 1; n <= 127; ++n) want_probe.set(n);
-    begin_round(now, true);
-  }
+  void start_full_probe(TimePoint now) { probe.begin(now, true, std::bitset<128>{}.set().reset(0)); }
   void start_periodic_probe(TimePoint now) {
+    std::bitset<128> v;
     for (std::uint8_t n = 1; n <= 127; ++n)
-      if (!nodes[n].supervised && !nodes[n].busy) want_probe.set(n);
-    begin_round(now, true);
+      if (!at(n).supervised && !nodes[n].busy) v.set(n);
+    probe.begin(now, true, v);
+  }
+
+  bool drive_probe(TimePoint now) {
+    if (probe.active()) return probe.drive(now, *this);
+    // Probes wait while commissioning runs: devices are being reset and
+    // made non-configured, and half a picture would start wrong work.
+    if (!probe.requested() || current || !tasks.empty()) return false;
+    probe.begin(now, false);
+    return true;
   }
 
   // ---- boot-ups ----------------------------------------------------------
   void handle_bootups(TimePoint now) {
+    const std::bitset<128> booted = probe.take_bootups();
     for (std::uint8_t n = 1; n <= 127; ++n) {
-      Node& node = nodes[n];
-      if (!node.bootup_flag) continue;
-      node.bootup_flag = false;
+      if (!booted[n]) continue;
       for (auto& w : boot_waits) {
         if (w.seen || w.ctx.target != n) continue;
         w.seen = true;
@@ -796,10 +554,7 @@ struct Discovery::Impl {
         events.push_back(std::move(e));
         if (run) run->moved_any = true;
       }
-      if (bus.discovery && started) {
-        want_probe.set(n);
-        want_bootup.set(n);
-      }
+      if (started) probe.want(n, true);
     }
   }
 
@@ -860,7 +615,7 @@ struct Discovery::Impl {
   }
 
   void expand_move(std::uint8_t n) {
-    const Node& node = nodes[n];
+    const discovery::NodePicture& node = at(n);
     if (node.ids.size() != 1 || node.clash) return;
     const LssAddress a = node.ids[0];
     Decision d = decide(a);
@@ -917,7 +672,7 @@ struct Discovery::Impl {
     Node& node = nodes[n];
     const std::uint8_t strategy = node.clash_strategy;
     run->device = node_name(n);
-    const auto v = node.seen;
+    const auto v = at(n).seen;
     for (std::uint8_t i = 0; i < v[3].n; ++i) run->serials.insert(v[3].v[i]);
     node.clash_count = static_cast<std::uint32_t>(std::max<std::size_t>(run->serials.size(), 2));
     node.clash_moved_any = false;
@@ -977,11 +732,11 @@ struct Discovery::Impl {
   // devices of unknown identity.
   static std::vector<Task> slowscan_all_pre_fastscan() {
     std::vector<Task> out;
-    for (const std::uint32_t p : {0x0BE0u, 0x0BF3u, 0x0BBDu, 0x0BCDu, 0x0BE1u}) {
+    for (const std::uint32_t p : discovery::kPreFastscanProducts) {
       Task t = make(Op::slowscan_loop);
       t.node = 0;
       t.non_configured = true;
-      t.range = LssRange{kVendorNovotechnik, p, 0, 0xFFFFFFFFu, 0, 0xFFFFFFFFu};
+      t.range = LssRange{discovery::kVendorNovotechnik, p, 0, 0xFFFFFFFFu, 0, 0xFFFFFFFFu};
       out.push_back(t);
     }
     return out;
@@ -1007,8 +762,8 @@ struct Discovery::Impl {
   void expand_fastscan_all(std::uint8_t n) {
     run->known.clear();
     for (std::uint8_t x = 1; x <= 127; ++x) {
-      if (x == n || nodes[x].clash) continue;
-      for (const auto& id : nodes[x].ids) run->known.emplace_back(id, assigned_to(id).value_or(x));
+      if (x == n || at(x).clash) continue;
+      for (const auto& id : at(x).ids) run->known.emplace_back(id, assigned_to(id).value_or(x));
     }
     for (const auto& [id, t] : session.assigned)
       if (std::none_of(run->known.begin(), run->known.end(), [&](const auto& k) { return same_device(k.first, id); }))
@@ -1030,7 +785,7 @@ struct Discovery::Impl {
     v.push_back(fs);
     // The pre-Fastscan series (J: DSP-305 V1.1.2) is non-configured now too
     // and Fastscan cannot find it: Slowscan does.
-    for (auto& t : slowscan_tasks(nodes[n].seen, n, true)) v.push_back(std::move(t));
+    for (auto& t : slowscan_tasks(at(n).seen, n, true)) v.push_back(std::move(t));
     v.push_back(make(Op::restore_known));
     v.push_back(make_nmt(canopen::NmtCommand::reset_comm, 0));
     push_front(std::move(v));
@@ -1098,18 +853,25 @@ struct Discovery::Impl {
         return;
       }
       case Op::sdo_write: {
-        sdo = SdoWrite{};
-        sdo.active = true;
-        sdo.node = t.node;
-        sdo.index = t.index;
-        sdo.sub = t.sub;
-        const std::uint8_t cs = static_cast<std::uint8_t>(0x23 | ((4 - t.len) << 2));
-        (void)send_now(can::Frame::make8(
-            canopen::cob::kSdoRxBase + t.node,
-            {cs, static_cast<std::uint8_t>(t.index & 0xFF), static_cast<std::uint8_t>(t.index >> 8), t.sub,
-             static_cast<std::uint8_t>(t.value), static_cast<std::uint8_t>(t.value >> 8),
-             static_cast<std::uint8_t>(t.value >> 16), static_cast<std::uint8_t>(t.value >> 24)}));
-        task_deadline = now + sdo_timeout;
+        // Through the project's one SDO client; it re-sends an unanswered
+        // request sdo_retries times.
+        canopen::SdoClientConfig cfg;
+        cfg.timeout = sdo_timeout;
+        cfg.retries = bus.sdo_retries;
+        cfg.buffer_size = 8;
+        sdo.emplace(sink, t.node, cfg);
+        const std::array<std::uint8_t, 4> b{static_cast<std::uint8_t>(t.value), static_cast<std::uint8_t>(t.value >> 8),
+                                            static_cast<std::uint8_t>(t.value >> 16),
+                                            static_cast<std::uint8_t>(t.value >> 24)};
+        ec = sdo->start_download(t.index, t.sub, std::span<const std::uint8_t>(b.data(), t.len), now);
+        if (ec == std::make_error_code(std::errc::no_buffer_space)) {
+          task_deadline = now + std::chrono::milliseconds(1);  // the sink is full: retry the start
+          retry_start = true;
+        } else if (ec) {
+          fail_current(ec.message(), now);
+        } else {
+          task_deadline = now + sdo_timeout;
+        }
         return;
       }
       case Op::wait_boots: {
@@ -1120,7 +882,7 @@ struct Discovery::Impl {
         if (t.node != 0) {
           nodes[t.node].busy = false;
           // The device(s) left this node-ID: see what is there now.
-          if (bus.discovery) want_probe.set(t.node);
+          probe.want(t.node);
         }
         if (run) {
           const Job j = run->job;
@@ -1244,7 +1006,7 @@ struct Discovery::Impl {
         const bool elsewhere = [&] {
           for (std::uint8_t x = 1; x <= 127; ++x)
             if (x != t.node)
-              for (const auto& id : nodes[x].ids)
+              for (const auto& id : at(x).ids)
                 if (same_device(id, a)) return true;
           return false;
         }();
@@ -1425,8 +1187,7 @@ struct Discovery::Impl {
   }
 
   discovery::Placement place(const LssAddress& a, std::uint8_t back_to, bool unknown_policy) {
-    const discovery::BusPicture pic = picture();
-    discovery::Placement p = discovery::place_non_configured(a, back_to, unknown_policy, input(pic));
+    discovery::Placement p = discovery::place_non_configured(a, back_to, unknown_policy, input(picture()));
     apply(p.decision.effects);
     return p;
   }
@@ -1490,7 +1251,7 @@ struct Discovery::Impl {
 
   [[nodiscard]] bool is_present_serial(std::uint32_t serial) const {
     for (std::uint8_t x = 1; x <= 127; ++x)
-      for (const auto& id : nodes[x].ids)
+      for (const auto& id : at(x).ids)
         if (id.serial == serial) return true;
     return false;
   }
@@ -1542,29 +1303,25 @@ struct Discovery::Impl {
     s.node = c.from;
     s.index = kStoreObject;
     s.sub = obj->save_sub;
-    s.value = kSaveSignature;
+    s.value = discovery::kSaveSignature;
     s.len = 4;
     v.push_back(s);
     v.push_back(make_nmt(canopen::NmtCommand::reset_node, c.from, c.group));
     push_front(std::move(v));
   }
 
-  void on_sdo_done(TimePoint now, bool timed_out) {
+  void on_sdo_done(TimePoint now, std::error_code err) {
     Task t = *current;
     current.reset();
-    sdo.active = false;
+    sdo.reset();
     const std::string step = t.index == kStoreObject ? "sdo-save" : "sdo-node-id";
     timing(step, who(t.ctx), now - current_started);
-    if (timed_out || sdo.abort != 0) {
-      if (timed_out && t.attempts < bus.sdo_retries) {
-        ++t.attempts;
-        current = t;
-        start_task(now);
-        return;
-      }
+    if (err) {
+      const bool timed_out = err == make_error_code(canopen::SdoAbort::kProtocolTimedOut);
       current = t;
       fail_current("SDO write " + hex32(t.index).substr(6) + "/" + std::to_string(t.sub) + " failed (" +
-                       (timed_out ? std::string("timeout") : "abort " + hex32(sdo.abort)) + ")",
+                       (timed_out ? std::string("timeout") : "abort " + hex32(static_cast<std::uint32_t>(err.value()))) +
+                       ")",
                    now);
       return;
     }
@@ -1592,8 +1349,14 @@ struct Discovery::Impl {
           if (now >= task_deadline) current.reset();
           return !current;
         case Op::sdo_write:
-          if (sdo.done) on_sdo_done(now, false);
-          else if (now >= task_deadline) on_sdo_done(now, true);
+          if (retry_start) {
+            if (now < task_deadline) return false;
+            retry_start = false;
+            start_task(now);
+            return true;
+          }
+          task_deadline = sdo->process(now);
+          if (auto r = sdo->take_result()) on_sdo_done(now, r->error);
           return !current;
         case Op::wait_boots: {
           const bool all = std::all_of(boot_waits.begin(), boot_waits.end(), [](const BootWait& w) { return w.seen; });
@@ -1610,7 +1373,7 @@ struct Discovery::Impl {
       }
     }
     if (tasks.empty()) {
-      if (round.active || !may_commission() || jobs.empty()) {
+      if (probe.active() || !may_commission() || jobs.empty()) {
         if (jobs.empty() && bus.commissioning == config::Commissioning::manual) permit = false;
         return false;
       }
@@ -1636,7 +1399,7 @@ struct Discovery::Impl {
         on_lss_result(*r, now);
         progress = true;
       }
-      if (bus.discovery && next_periodic != kNever && now >= next_periodic && !round.active && tasks.empty() &&
+      if (bus.discovery && next_periodic != kNever && now >= next_periodic && !probe.active() && tasks.empty() &&
           !current) {
         next_periodic = now + std::chrono::seconds(bus.discovery_period_s);
         start_periodic_probe(now);
@@ -1645,7 +1408,7 @@ struct Discovery::Impl {
       // Probes of boot-ups run beside the commissioning tasks; probing while
       // devices are being reset would only see half the picture otherwise.
       if (drive_probe(now)) progress = true;
-      if (presence_changed && !round.active) {
+      if (presence_changed && !probe.active()) {
         reevaluate();
         progress = true;
       }
@@ -1654,11 +1417,7 @@ struct Discovery::Impl {
     }
     TimePoint next = lss.process(now);
     if (!outbox.empty()) next = std::min(next, now + std::chrono::milliseconds(1));
-    if (round.active) {
-      if (round.to_send > 0) next = std::min(next, now + std::chrono::milliseconds(1));
-      next = std::min(next, round.deadline);
-      if (all_answered()) next = std::min(next, round.last_answer + opt.probe_settle);
-    }
+    next = std::min(next, probe.next_deadline(now));
     if (current) next = std::min(next, task_deadline);
     // A periodic probe that is due waits for the commissioning to finish,
     // whose own deadlines bring us back.
@@ -1701,7 +1460,7 @@ void Discovery::reload(const config::Config& config, std::size_t bus_index, std:
 void Discovery::set_supervised(std::uint8_t node_id, bool supervised) noexcept {
   if (!canopen::cob::valid_node_id(node_id)) return;
   Impl& d = *impl_;
-  Impl::Node& node = d.nodes[node_id];
+  discovery::NodePicture& node = d.probe.node(node_id);
   if (node.supervised == supervised) return;
   node.supervised = supervised;
   d.presence_changed = true;
@@ -1764,7 +1523,7 @@ std::vector<Discovery::NodeView> Discovery::nodes() const {
   std::vector<NodeView> out;
   const Impl& d = *impl_;
   for (std::uint8_t n = 1; n <= 127; ++n) {
-    const auto& node = d.nodes[n];
+    const auto& node = d.at(n);
     if (node.ids.empty() && !node.clash) continue;
     NodeView v;
     v.node_id = n;
