@@ -2,7 +2,12 @@
 // identity object 0x1018/1..4 (vendor, product, revision, serial).
 //
 // A device already on a node-ID shows itself by its boot-up (0x700+id `00`),
-// its heartbeat, or by answering this probe. The probe is raw SDO upload
+// its heartbeat, or by answering this probe. Probes run: all node-IDs 1..127
+// at start(), then every `discovery_period_s` for the node-IDs the bus
+// manager does not supervise (set_supervised), at once for a node whose
+// supervision is turned off (heartbeat lost: is the device still there?),
+// and on every boot-up (which re-identifies a restarted device, so a swapped
+// part never silently inherits the old one's settings). The probe is raw SDO upload
 // frames sent to many node-IDs at once (one sub-index per sub-round; only the
 // nodes that answered go on to the next), so that several answers to one
 // request are seen: two different answers = two devices on one node-ID (a
