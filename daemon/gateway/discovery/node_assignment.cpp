@@ -63,7 +63,7 @@ bool matches(const LssAddress& id, std::uint32_t serial, std::uint32_t vendor) n
 
 class Decider {
  public:
-  Decider(const AssignmentInput& in) : in_(in), s_(in.session) {}
+  explicit Decider(const AssignmentInput& in) : in_(in), s_(in.session) {}
 
   Decision decide(const LssAddress& a) {
     Decision d;
