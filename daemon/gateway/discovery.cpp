@@ -1,23 +1,21 @@
-// Discovery: see discovery.hpp. The work is split in three parts that meet in
-// process(): the probe (raw SDO uploads of 0x1018/1..4, one sub-index per
-// round, to many nodes at once), the decisions (which node-ID each identified
-// device must have), and a queue of commissioning tasks (LSS, NMT, SDO steps)
-// that runs one task at a time because the LSS channel serves one operation
-// at a time.
+// Discovery: see discovery.hpp. The facade that ties the procedures
+// together in process(): the identity probe (discovery/identity_probe) finds
+// who is where, node-ID assignment (discovery/node_assignment, applied by
+// discovery/decisions) decides where each must be, and commissioning
+// (discovery/commissioning, with the Fastscan search of
+// discovery/fastscan_search) moves them there. Here: what an identified
+// device means for the bus manager (`identified` events, move jobs), and the
+// unknown devices decided again when the presence picture changes.
 #include "gateway/discovery.hpp"
 
 #include "canopen/cob_id.hpp"
-#include "canopen/lss_master.hpp"
-#include "canopen/nmt.hpp"
-#include "config/known_models.hpp"
-#include "gateway/fastscan_knowledge.hpp"
+#include "gateway/discovery/commissioning.hpp"
+#include "gateway/discovery/decisions.hpp"
+#include "gateway/discovery/identity_probe.hpp"
+#include "gateway/discovery/report.hpp"
 
 #include <algorithm>
 #include <bitset>
-#include <cstdio>
-#include <deque>
-#include <optional>
-#include <set>
 #include <utility>
 
 namespace cobridge::gateway {
@@ -25,10 +23,16 @@ namespace cobridge::gateway {
 using canopen::Duration;
 using canopen::kNever;
 using canopen::LssAddress;
-using canopen::LssErrc;
-using canopen::LssMode;
-using canopen::LssRange;
 using canopen::TimePoint;
+using discovery::Decision;
+using discovery::describe;
+using discovery::Job;
+using discovery::same_device;
+
+// The start-up probe of the node-IDs where devices are expected ends this
+// long after its requests at the latest; what did not answer by then is
+// asked again in the full probe, with the SDO timeout.
+constexpr Duration kExpectedAnswerWindow = std::chrono::milliseconds(50);
 
 const char* to_string(DiscoveryEventKind k) noexcept {
   switch (k) {
@@ -41,261 +45,19 @@ const char* to_string(DiscoveryEventKind k) noexcept {
   return "?";
 }
 
-namespace {
-
-constexpr std::uint16_t kIdentityObject = 0x1018;   // CiA 301 identity object
-constexpr std::uint16_t kStoreObject = 0x1010;      // CiA 301 store parameters
-// The start-up probe of the node-IDs where devices are expected ends this
-// long after its requests at the latest; what did not answer by then is
-// asked again in the full probe, with the SDO timeout.
-constexpr canopen::Duration kExpectedAnswerWindow = std::chrono::milliseconds(50);
-constexpr std::uint32_t kSaveSignature = 0x65766173;  // "save" (J§1.6.1, E§11, F§6.3.3)
-constexpr std::uint32_t kVendorNovotechnik = 0x00000182;  // J§1.2.1, E§4.1
-constexpr std::uint32_t kVendorIfm = 0x0069666D;          // F§7.3
-
-// The rotary series claims DSP-305 V1.1.2, older than Fastscan (digest Y.2):
-// these devices are separated by Slowscan. Product codes from J§1.2.1.
-bool is_pre_fastscan(std::uint32_t vendor, std::uint32_t product) noexcept {
-  if (vendor != kVendorNovotechnik) return false;
-  switch (product) {
-    case 0x0BE0: case 0x0BF3: case 0x0BBD: case 0x0BCD: case 0x0BE1: return true;
-    default: return false;
-  }
-}
-bool is_novotechnik_multiturn(std::uint32_t vendor, std::uint32_t product) noexcept {
-  // E§4.1 and the pre-V03 codes of E§13.
-  return vendor == kVendorNovotechnik &&
-         (product == 0x0BB8 || product == 0x0BD5 || product == 0x0BB9 || product == 0x0BBC);
-}
-
-// How to set the node-ID by SDO when LSS gets no answer (digest G.6).
-// To be replaced by device::FamilyProfile (daemon/device/family_profile.hpp)
-// once it exists; it is being written in parallel.
-struct SdoNodeIdObject {
-  std::uint16_t index = 0;
-  std::uint8_t minus = 0;     // value written = node-ID - minus (ifm: F§7.4 "always add 1")
-  std::uint8_t save_sub = 0;  // 0x1010 sub-index that covers the node-ID
-};
-std::optional<SdoNodeIdObject> sdo_node_id_object(const LssAddress& a) noexcept {
-  if (a.vendor == kVendorIfm) return SdoNodeIdObject{0x3000, 1, 1};  // F§7.4, F§6.3.3 (0x1010/1 only)
-  if (is_pre_fastscan(a.vendor, a.product)) {
-    // J§1.6.1: 0x1010/4, except RSX-7900 / RFX-6900 which use 0x1010/1.
-    const bool rsx_rfx = a.product == 0x0BCD || a.product == 0x0BE1;
-    return SdoNodeIdObject{0x2000, 0, static_cast<std::uint8_t>(rsx_rfx ? 1 : 4)};
-  }
-  if (is_novotechnik_multiturn(a.vendor, a.product)) return SdoNodeIdObject{0x2000, 0, 4};  // E§7.1, E§11
-  return std::nullopt;
-}
-
-// Distinct answers to one probe request; a handful is all a bus can carry
-// in one window, so a fixed array keeps on_frame allocation-free.
-struct Values {
-  std::array<std::uint32_t, 8> v{};
-  std::uint8_t n = 0;
-  bool overflow = false;
-  void add(std::uint32_t x) noexcept {
-    for (std::uint8_t i = 0; i < n; ++i)
-      if (v[i] == x) return;
-    if (n < v.size()) v[n++] = x;
-    else overflow = true;
-  }
-  [[nodiscard]] bool contains(std::uint32_t x) const noexcept {
-    for (std::uint8_t i = 0; i < n; ++i)
-      if (v[i] == x) return true;
-    return false;
-  }
-  void clear() noexcept { *this = Values{}; }
-};
-
-std::string hex32(std::uint32_t v) {
-  char b[16];
-  std::snprintf(b, sizeof b, "0x%08X", v);
-  return b;
-}
-
-std::string describe(const LssAddress& a) {
-  return "vendor " + hex32(a.vendor) + " product " + hex32(a.product) + " revision " + hex32(a.revision) +
-         " serial " + std::to_string(a.serial);
-}
-
-double to_ms(Duration d) noexcept { return std::chrono::duration<double, std::milli>(d).count(); }
-
-bool same_device(const LssAddress& a, const LssAddress& b) noexcept {
-  return a.vendor == b.vendor && a.product == b.product && a.serial == b.serial;
-}
-
-}  // namespace
-
-struct Discovery::Impl {
-  // ---- settings -----------------------------------------------------------
-  can::FrameSink& sink;
-  DiscoveryOptions opt;
-  config::Bus bus;
-  std::vector<config::Device> devices;  // of this bus
-  std::vector<Assignment> previous;
-  Duration sdo_timeout{};
-  Duration lss_timeout{};
-  canopen::LssMaster lss;
-
+struct Discovery::Impl final : discovery::ProbeListener {
+  discovery::BusSettings s;
+  discovery::Report report;
+  discovery::IdentityProbe probe;
+  discovery::Decisions decisions;
+  discovery::Commissioning work;
   bool started = false;
-  bool permit = false;  // manual policy: request_commission() until the work drains
-  std::deque<can::Frame> outbox;
-
-  // ---- per node-ID --------------------------------------------------------
-  struct Node {
-    std::array<Values, 4> vals;       // answers of the running probe
-    bool aborted = false;             // 0x1018 answered with an abort
-    std::vector<LssAddress> ids;      // from the last finished probe (single or fully known clash)
-    std::array<Values, 4> seen;       // raw answers of the last finished probe
-    bool clash = false;
-    bool clash_reported = false;
-    // The next clash strategy to try here (see expand_clash); reset once
-    // the node holds one device or none.
-    std::uint8_t clash_strategy = 0;
-    // A resolution ran: the next finished probe of this node decides whether
-    // it worked (clash_resolved) or the next strategy must run.
-    bool clash_verify = false;
-    std::uint32_t clash_count = 0;    // devices seen when the resolution started
-    bool clash_moved_any = false;
-    bool supervised = false;
-    bool busy = false;                // a commissioning job is about this node
-    TimePoint last_bootup = TimePoint::min();
-    bool bootup_flag = false;         // set by on_frame, handled by process
-    bool bootup_clash = false;
-    bool heard = false;               // heartbeat / guarding reply seen
-    // Supervision was lost and no probe has looked since: `ids` may be stale.
-    bool unsure = false;
-    // Who was identified here last, kept when a probe finds nobody: while the
-    // bus manager supervises this node (its heartbeat is fine) that device is
-    // present, even if a probe during a silence found no one.
-    std::vector<LssAddress> last;
-  };
-  std::array<Node, 128> nodes{};
-
-  // ---- probe --------------------------------------------------------------
-  std::bitset<128> want_probe;
-  std::bitset<128> want_bootup;
-  struct Round {
-    bool active = false;
-    bool full = false;        // the start-up / periodic probe (decides swaps, queues Fastscan)
-    bool first = false;       // start-up: the nodes where devices are expected, before the full probe
-    std::uint8_t sub = 1;
-    std::vector<std::uint8_t> members;
-    std::bitset<128> in;
-    std::bitset<128> answered;
-    std::bitset<128> bootup;
-    std::size_t to_send = 0;  // members not yet sent this sub-round
-    TimePoint deadline = kNever;
-    TimePoint last_answer{};
-    TimePoint started{};
-  } round;
   TimePoint next_periodic = kNever;
-  bool initial_probe_done = false;
-  // Devices nobody configured, left at FFh; the general Fastscan's back-off.
-  std::vector<LssAddress> strangers;
-  TimePoint general_scan_not_before{};
-  Duration general_scan_backoff{};
+  // Start-up: the round of the expected node-IDs runs, then the rest of 1..127.
+  std::bitset<128> expected;
+  bool expected_round = false;
+  bool rest_pending = false;
 
-  // ---- commissioning ------------------------------------------------------
-  struct Ctx {
-    LssAddress identity;
-    std::uint8_t from = 0;
-    std::uint8_t target = 0;
-    std::string device;
-    std::string replaces;
-    LssAddress replaced;
-    bool store = true;
-    bool boot_wait = true;
-    bool sdo_fallback = false;
-    // Switch selective: identities to try in turn (when the probe could not
-    // pair the answers up: vendor/product from the config or its model,
-    // every revision the probe saw).
-    std::vector<LssAddress> candidates;
-    int group = 0;
-  };
-  enum class Op : std::uint8_t {
-    switch_selective,
-    slowscan_one,     // (a) with the revision unknown: exact serial, any revision
-    slowscan_loop,    // (b) every device of one vendor/product in the clash
-    configure_id,
-    store,
-    global,
-    nmt,
-    settle,
-    identify_non_configured,
-    fastscan_loop,
-    fastscan_known,   // configured devices looked for at FFh by their identity (CiA 305 Fastscan, BitChecked 0)
-    restore_known,
-    check_remaining,  // after (a)/(b): anything left at the clash node -> (c)
-    sdo_write,
-    wait_boots,
-    job_end,
-  };
-  struct Task {
-    Op op = Op::settle;
-    Ctx ctx;
-    LssRange range;
-    LssMode mode = LssMode::kWaiting;
-    canopen::NmtCommand cmd = canopen::NmtCommand::reset_comm;
-    std::uint8_t node = 0;
-    std::uint16_t index = 0;
-    std::uint8_t sub = 0;
-    std::uint32_t value = 0;
-    std::uint8_t len = 0;
-    Duration duration{};
-    std::uint8_t attempts = 0;
-    bool non_configured = false;  // slowscan_loop in (c): what it finds has no node-ID now
-  };
-  std::deque<Task> tasks;
-  std::optional<Task> current;
-  TimePoint current_started{};
-  TimePoint task_deadline = kNever;
-  int next_group = 1;
-
-  struct Job {
-    enum class Kind : std::uint8_t { move, clash, non_configured } kind;
-    std::uint8_t node = 0;
-    friend bool operator==(const Job&, const Job&) = default;
-  };
-  std::vector<Job> jobs;
-  struct JobRun {
-    Job job{};
-    TimePoint started{};
-    std::string device;
-    // clash bookkeeping
-    std::set<std::uint32_t> serials;    // seen at the clash node
-    std::set<std::uint32_t> handled;    // moved or deliberately left
-    std::vector<LssAddress> found;      // found by Fastscan in (c)
-    std::vector<std::pair<LssAddress, std::uint8_t>> known;  // (c): identity -> node to restore
-    bool moved_any = false;
-    bool slowscanned = false;  // non-configured job: the Slowscan fallback ran
-  };
-  std::optional<JobRun> run;
-
-  // SDO download in flight (fallback)
-  struct SdoWrite {
-    bool active = false;
-    bool done = false;
-    std::uint8_t node = 0;
-    std::uint16_t index = 0;
-    std::uint8_t sub = 0;
-    std::uint32_t abort = 0;
-  } sdo;
-
-  struct BootWait {
-    Ctx ctx;
-    TimePoint registered{};
-    bool seen = false;
-  };
-  std::vector<BootWait> boot_waits;
-
-  std::vector<std::pair<LssAddress, std::uint8_t>> assigned;  // decisions of this session
-  struct Swap {
-    std::string name;      // the configured device
-    LssAddress by;         // the replacement that holds its place
-    LssAddress replaced;   // who held it before (for the state file)
-  };
-  std::vector<Swap> swapped;
   // The last `identified` event per node: a new one goes out when the
   // identity or the decision (device, target) changes, or after a boot-up.
   struct Reported {
@@ -314,14 +76,13 @@ struct Discovery::Impl {
     bool pending = false;  // nothing reported yet: the decision waits
   };
   std::vector<Unplaced> unplaced;
-  bool presence_changed = false;
-  std::set<std::string> reported_problems;
-  std::vector<DiscoveryEvent> events;
-  std::vector<StepTiming> timings;
 
-  Impl(can::FrameSink& s, const config::Config& config, std::size_t bus_index, std::vector<Assignment> prev,
+  Impl(can::FrameSink& sink, const config::Config& config, std::size_t bus_index, std::vector<Assignment> prev,
        DiscoveryOptions o)
-      : sink(s), opt(o), lss(s, lss_config_of(config.buses.at(bus_index), o)) {
+      : probe(sink, o),
+        decisions(s, probe),
+        work(sink, s, decisions, probe, report, lss_config_of(config.buses.at(bus_index), o)) {
+    s.opt = o;
     apply_config(config, bus_index, std::move(prev));
   }
 
@@ -338,597 +99,110 @@ struct Discovery::Impl {
   }
 
   // A reload keeps the LSS master (and its timeout): it may be mid-operation.
-
   void apply_config(const config::Config& config, std::size_t bus_index, std::vector<Assignment> prev) {
-    bus = config.buses.at(bus_index);
-    devices.clear();
+    s.bus = config.buses.at(bus_index);
+    s.devices.clear();
     for (const auto& d : config.devices)
-      if (d.bus_index == bus_index) devices.push_back(d);
-    previous = std::move(prev);
-    sdo_timeout = opt.sdo_timeout != Duration{} ? opt.sdo_timeout : std::chrono::milliseconds(bus.sdo_timeout_ms);
-    lss_timeout = lss_timeout_of(bus, opt);
+      if (d.bus_index == bus_index) s.devices.push_back(d);
+    s.previous = std::move(prev);
+    s.sdo_timeout = s.opt.sdo_timeout != Duration{} ? s.opt.sdo_timeout : std::chrono::milliseconds(s.bus.sdo_timeout_ms);
+    s.lss_timeout = lss_timeout_of(s.bus, s.opt);
+    probe.set_sdo_timeout(s.sdo_timeout);
+    probe.set_enabled(s.bus.discovery && started);
   }
 
-  // ---- small helpers -----------------------------------------------------
-  void timing(std::string step, std::string device, Duration d) {
-    StepTiming t;
-    t.step = std::move(step);
-    t.device = std::move(device);
-    t.milliseconds = to_ms(d);
-    timings.push_back(std::move(t));
-  }
-  // An LSS operation's step: also how many exchanges it took and how many of
-  // them waited out a timeout (issue 11: how each device was found).
-  void timing(std::string step, std::string device, const canopen::LssMaster::Result& r) {
-    timing(std::move(step), std::move(device), r.elapsed);
-    timings.back().exchanges = r.steps;
-    timings.back().timeouts = r.silent_steps;
-  }
-  static std::string node_name(std::uint8_t n) { return "node " + std::to_string(n); }
-  std::string who(const Ctx& c) const { return c.device.empty() ? "serial " + std::to_string(c.identity.serial) : c.device; }
-
-  void problem(std::string text, std::uint8_t node = 0, const LssAddress& id = {}) {
-    if (!reported_problems.insert(text).second) return;
-    DiscoveryEvent e;
-    e.kind = DiscoveryEventKind::problem;
-    e.node_id = node;
-    e.identity = id;
-    e.text = std::move(text);
-    events.push_back(std::move(e));
-  }
-
-  [[nodiscard]] bool may_commission() const noexcept {
-    switch (bus.commissioning) {
-      case config::Commissioning::automatic: return true;
-      case config::Commissioning::manual: return permit;
-      case config::Commissioning::off: return false;
-    }
-    return false;
-  }
-
-  void queue_job(Job j) {
-    if (bus.commissioning == config::Commissioning::off) return;
-    if (std::find(jobs.begin(), jobs.end(), j) == jobs.end()) jobs.push_back(j);
-  }
-
-  bool send_now(const can::Frame& f) {
-    if (outbox.empty() && sink.send(f)) return true;
-    outbox.push_back(f);
-    return false;
-  }
-  void flush() {
-    std::uint32_t n = 0;
-    while (!outbox.empty() && n < opt.burst) {
-      if (!sink.send(outbox.front())) break;
-      outbox.pop_front();
-      ++n;
-    }
-  }
-
-  // Every device present as far as the probes know, except at `except_node`.
-  [[nodiscard]] std::optional<std::uint8_t> present_at(const LssAddress& a) const {
-    for (std::uint8_t n = 1; n <= 127; ++n)
-      for (const auto& id : nodes[n].ids)
-        if (same_device(id, a)) return n;
-    return std::nullopt;
-  }
-  [[nodiscard]] std::optional<std::uint8_t> assigned_to(const LssAddress& a) const {
-    for (const auto& [id, n] : assigned)
-      if (same_device(id, a)) return n;
-    return std::nullopt;
-  }
-  void remember(const LssAddress& a, std::uint8_t node) {
-    for (auto& [id, n] : assigned)
-      if (same_device(id, a)) {
-        n = node;
-        return;
-      }
-    assigned.emplace_back(a, node);
-  }
-
-  // Is `node` free for device `a`: no other present device there, and not
-  // promised to another device.
-  [[nodiscard]] bool node_free_for(std::uint8_t node, const LssAddress& a) const {
-    if (!canopen::cob::valid_node_id(node)) return false;
-    for (const auto& id : nodes[node].ids)
-      if (!same_device(id, a)) return false;
-    if (nodes[node].clash && nodes[node].ids.empty()) return false;
-    for (const auto& [id, n] : assigned)
-      if (n == node && !same_device(id, a)) return false;
-    return true;
-  }
-
-  // ---- decisions --------------------------------------------------------
-  struct Decision {
-    std::uint8_t target = 0;
-    std::string device;
-    std::string replaces;
-    LssAddress replaced;
-    std::string problem;
-    bool wait = false;  // depends on a probe still to come: decide again then
-  };
-
-  static bool model_matches(const config::Device& c, const LssAddress& a, bool need_info) {
-    bool info = false;
-    if (c.vendor) {
-      info = true;
-      if (*c.vendor != a.vendor) return false;
-    }
-    if (c.product) {
-      info = true;
-      if (*c.product != a.product) return false;
-    }
-    if (!c.model.empty()) {
-      if (const auto* m = config::find_model(c.model)) {
-        info = true;
-        if (m->vendor != a.vendor) return false;
-        if (!m->products.empty() &&
-            std::find(m->products.begin(), m->products.end(), a.product) == m->products.end())
-          return false;
-      }
-    }
-    return info || !need_info;
-  }
-
-  [[nodiscard]] const config::Device* configured_by_serial(std::uint32_t serial) const {
-    for (const auto& d : devices)
-      if (d.serial == serial) return &d;
-    return nullptr;
-  }
-  [[nodiscard]] std::optional<std::uint8_t> previous_node(std::uint32_t serial, std::optional<std::uint32_t> vendor,
-                                                          std::optional<std::uint32_t> product) const {
-    for (const auto& p : previous)
-      if (p.serial == serial && (!vendor || *vendor == p.vendor) && (!product || *product == p.product) &&
-          canopen::cob::valid_node_id(p.node_id))
-        return p.node_id;
-    return std::nullopt;
-  }
-  [[nodiscard]] bool pool_node_taken(std::uint8_t n, const LssAddress& a) const {
-    for (const auto& d : devices)
-      if (d.node_id && *d.node_id == n && d.serial != a.serial) return true;
-    for (const auto& p : previous)
-      if (p.node_id == n && p.serial != a.serial) return true;
-    return !node_free_for(n, a);
-  }
-  [[nodiscard]] std::uint8_t pool_node(const LssAddress& a) const {
-    for (std::uint8_t n : bus.node_pool)
-      if (!pool_node_taken(n, a)) return n;
-    return 0;
-  }
-  std::uint8_t target_of(const config::Device& c, const LssAddress& a, std::string& why) const {
-    if (c.node_id) return *c.node_id;
-    if (auto p = previous_node(c.serial, c.vendor, c.product)) return *p;
-    // A replacement after a restart: the state file has its own line since
-    // the swap (the replaced device's line was erased then).
-    if (a.serial != c.serial)
-      if (auto p = previous_node(a.serial, a.vendor, a.product)) return *p;
-    if (auto p = assigned_to(a)) return *p;
-    const std::uint8_t n = pool_node(a);
-    if (n == 0) why = "node pool exhausted for " + c.name;
-    return n;
-  }
-  // ---- presence (swap policy) --------------------------------------------
-  enum class Presence : std::uint8_t { present, unsure, absent };
-
-  static bool matches(const LssAddress& id, std::uint32_t serial, std::uint32_t vendor) noexcept {
-    return id.serial == serial && (vendor == 0 || id.vendor == vendor);
-  }
-  // Where device `serial` (of `vendor`, 0 = any) is, as far as the probes
-  // and the bus manager's supervision tell (see "Swap" in discovery.hpp).
-  // `probe` = a node whose probe would settle an unsure answer (0 = none).
-  [[nodiscard]] Presence presence_of(std::uint32_t serial, std::uint32_t vendor, std::uint8_t& probe) const {
-    bool unsure = false;
-    for (std::uint8_t n = 1; n <= 127; ++n) {
-      const Node& node = nodes[n];
-      const auto has = [&](const std::vector<LssAddress>& v) {
-        return std::any_of(v.begin(), v.end(), [&](const LssAddress& id) { return matches(id, serial, vendor); });
-      };
-      // A clash whose identities the probe could not pair up still shows serials.
-      const bool seen = has(node.ids) || (node.clash && node.seen[3].contains(serial) &&
-                                          (vendor == 0 || node.seen[0].contains(vendor)));
-      const bool was = has(node.last);
-      if (node.supervised && (seen || was)) return Presence::present;
-      if (node.unsure && (seen || was)) {
-        unsure = true;
-        probe = n;
-        continue;
-      }
-      if (seen) return Presence::present;
-    }
-    if (unsure || !initial_probe_done) return Presence::unsure;
-    return Presence::absent;
-  }
-  [[nodiscard]] Swap* swap_of(const std::string& name) {
-    for (auto& w : swapped)
-      if (w.name == name) return &w;
-    return nullptr;
-  }
-  // Who holds configured device c's place now: its replacement, else itself.
-  [[nodiscard]] Presence holder_presence(const config::Device& c, std::uint8_t& probe) {
-    if (const Swap* w = swap_of(c.name)) return presence_of(w->by.serial, w->by.vendor, probe);
-    return presence_of(c.serial, c.vendor.value_or(0), probe);
-  }
-  // The identity that held c's place, as well as it is known.
-  [[nodiscard]] LssAddress holder_identity(const config::Device& c) const {
-    for (const auto& w : swapped)
-      if (w.name == c.name) return w.by;
-    for (const auto& p : previous)
-      if (p.serial == c.serial && (!c.vendor || *c.vendor == p.vendor) && (!c.product || *c.product == p.product))
-        return LssAddress{p.vendor, p.product, p.revision, p.serial};
-    for (const auto& [id, n] : assigned)
-      if (matches(id, c.serial, c.vendor.value_or(0))) return id;
-    LssAddress a;
-    a.serial = c.serial;
-    a.vendor = c.vendor.value_or(0);
-    a.product = c.product.value_or(0);
-    return a;
-  }
-  void request_probe(std::uint8_t n) noexcept {
-    if (!canopen::cob::valid_node_id(n) || !bus.discovery || !started) return;
-    // Still being probed in the running round: its end decides again.
-    if (round.active && std::find(round.members.begin(), round.members.end(), n) != round.members.end()) return;
-    want_probe.set(n);
-  }
-  // `old` gives its place up: its node-ID is no longer promised to it.
-  void forget(const LssAddress& old) {
-    std::erase_if(assigned, [&](const auto& p) { return matches(p.first, old.serial, old.vendor); });
-  }
-
-  // ---- decisions ----------------------------------------------------------
-  Decision decide(const LssAddress& a) {
-    Decision d;
-    if (const config::Device* c = configured_by_serial(a.serial)) {
-      d.device = c->name;
-      if (!model_matches(*c, a, false)) {
-        d.problem = "device " + c->name + " (serial " + std::to_string(a.serial) + ") is of the wrong model: " +
-                    describe(a) + (c->model.empty() ? "" : ", configured model " + c->model) +
-                    "; not configured";
-        return d;
-      }
-      if (Swap* w = swap_of(c->name); w != nullptr && !same_device(w->by, a)) {
-        // The original is back after a replacement took its place.
-        std::uint8_t probe = 0;
-        switch (presence_of(w->by.serial, w->by.vendor, probe)) {
-          case Presence::present:
-            d.device.clear();
-            d.problem = "device " + c->name + " (serial " + std::to_string(a.serial) + ") is back, but serial " +
-                        std::to_string(w->by.serial) + " has taken its place (swap policy same-model); left alone";
-            return d;
-          case Presence::unsure:
-            request_probe(probe);
-            d.device.clear();
-            d.wait = true;
-            return d;
-          case Presence::absent: {
-            // The replacement is gone too: the configured serial takes its place back.
-            const LssAddress by = w->by;
-            std::erase_if(swapped, [&](const Swap& x) { return x.name == c->name; });
-            forget(by);
-            d.replaces = c->name;
-            d.replaced = by;
-            break;
-          }
-        }
-      }
-      d.target = target_of(*c, a, d.problem);
-      return d;
-    }
-    for (const auto& w : swapped)
-      if (same_device(w.by, a))
-        for (const auto& c : devices)
-          if (c.name == w.name) {
-            d.device = c.name;
-            d.replaces = c.name;
-            d.replaced = w.replaced;
-            d.target = target_of(c, a, d.problem);
-            return d;
-          }
-    if (bus.swap_policy == config::SwapPolicy::same_model) {
-      std::vector<const config::Device*> absent;
-      bool wait = false;
-      for (const auto& c : devices) {
-        if (!model_matches(c, a, true)) continue;
-        std::uint8_t probe = 0;
-        switch (holder_presence(c, probe)) {
-          case Presence::present: break;
-          case Presence::unsure:
-            wait = true;
-            request_probe(probe);
-            break;
-          case Presence::absent: absent.push_back(&c); break;
-        }
-      }
-      // Never a guess: a device whose loss is not yet confirmed keeps its
-      // place, and a swap waits for the end of the probe round, whose later
-      // nodes may show the missing device (booting at the same time).
-      if (wait) {
-        d.wait = true;  // decided again when the probe has told
-        return d;
-      }
-      if (!absent.empty() && round.active) {
-        d.wait = true;
-        presence_changed = true;  // decided again once the round is over
-        return d;
-      }
-      if (absent.size() == 1) {
-        const config::Device& c = *absent.front();
-        const LssAddress old = holder_identity(c);
-        forget(old);
-        std::erase_if(swapped, [&](const Swap& x) { return x.name == c.name; });
-        swapped.push_back(Swap{c.name, a, old});
-        d.device = c.name;
-        d.replaces = c.name;
-        d.replaced = old;
-        d.target = target_of(c, a, d.problem);
-        return d;
-      }
-      if (absent.size() > 1) {
-        std::string names;
-        for (const auto* c : absent) names += (names.empty() ? "" : ", ") + c->name;
-        d.problem = "unknown device " + describe(a) + " could replace any of the missing devices " + names +
-                    " (swap policy same-model); left alone: give its serial in the configuration";
-        return d;
-      }
-    }
-    d.problem = "unknown device " + describe(a) + ": not in the configuration, left alone";
-    return d;
-  }
+  [[nodiscard]] const discovery::NodePicture& at(std::uint8_t n) const { return probe.picture()[n]; }
 
   // ---- frames in ---------------------------------------------------------
   bool on_frame(const can::Frame& f, TimePoint now) noexcept {
     if (f.is_extended() || f.is_rtr() || f.is_error()) return false;
-    if (f.id == canopen::cob::kLssSlaveToMaster) return lss.on_frame(f, now);
+    if (f.id == canopen::cob::kLssSlaveToMaster) return work.on_lss_frame(f, now);
     if (f.id > canopen::cob::kSdoTxBase && f.id <= canopen::cob::kSdoTxBase + 127 && f.len == 8) {
-      const auto n = static_cast<std::uint8_t>(f.id - canopen::cob::kSdoTxBase);
-      const auto index = static_cast<std::uint16_t>(f.data[1] | (f.data[2] << 8));
-      const std::uint8_t sub = f.data[3];
-      const std::uint8_t cs = f.data[0];
-      const std::uint32_t value = static_cast<std::uint32_t>(f.data[4]) | (static_cast<std::uint32_t>(f.data[5]) << 8) |
-                                  (static_cast<std::uint32_t>(f.data[6]) << 16) |
-                                  (static_cast<std::uint32_t>(f.data[7]) << 24);
-      bool used = false;
-      if (round.active && round.in[n] && index == kIdentityObject && sub == round.sub) {
-        Node& node = nodes[n];
-        if (cs == 0x80) {
-          node.aborted = true;
-        } else if ((cs & 0xE0) == 0x40 && (cs & 0x02) != 0) {  // expedited upload response
-          std::uint32_t v = value;
-          if ((cs & 0x01) != 0) {
-            const unsigned bytes = 4u - ((cs >> 2) & 0x03u);
-            if (bytes < 4) v &= (1u << (8 * bytes)) - 1u;
-          }
-          node.vals[static_cast<std::size_t>(sub - 1)].add(v);
-        }
-        round.answered.set(n);
-        round.last_answer = now;
-        used = true;
-      }
-      if (sdo.active && !sdo.done && n == sdo.node && index == sdo.index && sub == sdo.sub) {
-        if (cs == 0x60) {
-          sdo.done = true;
-          sdo.abort = 0;
-        } else if (cs == 0x80) {
-          sdo.done = true;
-          sdo.abort = value;
-        }
-        used = true;
-      }
+      bool used = probe.on_sdo_answer(f, now);
+      if (work.on_sdo_frame(f, now)) used = true;
       return used;
     }
     if (f.id > canopen::cob::kNmtErrorControlBase && f.id <= canopen::cob::kNmtErrorControlBase + 127 && f.len == 1) {
-      const auto n = static_cast<std::uint8_t>(f.id - canopen::cob::kNmtErrorControlBase);
-      Node& node = nodes[n];
-      if (f.data[0] == 0) {
-        if (node.last_bootup != TimePoint::min() && now - node.last_bootup < opt.bootup_clash_window &&
-            !current && tasks.empty() && now >= expected_bootups_until)
-          node.bootup_clash = true;
-        node.last_bootup = now;
-        node.bootup_flag = true;
-      } else {
-        node.heard = true;
-      }
+      probe.on_error_control(f, now, work.quiet(now));
       return true;
     }
     return false;
   }
 
-  // ---- probe -------------------------------------------------------------
-  static can::Frame upload_request(std::uint8_t node, std::uint8_t sub) {
-    return can::Frame::make8(canopen::cob::kSdoRxBase + node,
-                             {0x40, static_cast<std::uint8_t>(kIdentityObject & 0xFF),
-                              static_cast<std::uint8_t>(kIdentityObject >> 8), sub, 0, 0, 0, 0});
-  }
-
-  void begin_round(TimePoint now, bool full, bool first = false) {
-    round = Round{};
-    round.active = true;
-    round.full = full;
-    round.first = first;
-    round.sub = 1;
-    round.started = now;
-    for (std::uint8_t n = 1; n <= 127; ++n) {
-      if (!want_probe[n]) continue;
-      round.members.push_back(n);
-      round.in.set(n);
-      if (want_bootup[n]) round.bootup.set(n);
-      nodes[n].vals = {};
-      nodes[n].aborted = false;
-    }
-    want_probe.reset();
-    want_bootup.reset();
-    begin_sub(now);
-  }
-  void begin_sub(TimePoint now) {
-    round.answered.reset();
-    round.to_send = round.members.size();
-    round.deadline = kNever;
-    round.last_answer = now;
-    send_probe_frames(now);
-  }
-  void send_probe_frames(TimePoint now) {
-    std::uint32_t n = 0;
-    while (round.to_send > 0 && n < opt.burst) {
-      const std::uint8_t node = round.members[round.members.size() - round.to_send];
-      if (!sink.send(upload_request(node, round.sub))) break;
-      --round.to_send;
-      ++n;
-    }
-    if (round.to_send == 0 && round.deadline == kNever)
-      round.deadline = now + (round.first ? std::min(sdo_timeout, kExpectedAnswerWindow) : sdo_timeout);
-  }
-
-  [[nodiscard]] bool all_answered() const {
-    for (std::uint8_t n : round.members)
-      if (!round.answered[n]) return false;
-    return true;
-  }
-
-  bool drive_probe(TimePoint now) {
-    if (!round.active) {
-      // Probes wait while commissioning runs: devices are being reset and
-      // made non-configured, and half a picture would start wrong work.
-      // A search for non-configured devices (LSS at FFh) resets nobody:
-      // devices it moved are probed (and configured) while it goes on.
-      const bool busy = (current || !tasks.empty()) && !(run && run->job.kind == Job::Kind::non_configured);
-      if (want_probe.none() || busy) return false;
-      begin_round(now, false);
-      return true;
-    }
-    if (round.to_send > 0) {
-      send_probe_frames(now);
-      return false;
-    }
-    const bool settled = all_answered() && now >= round.last_answer + opt.probe_settle;
-    if (!settled && now < round.deadline) return false;
-    // Only nodes that answered the previous sub-index go on to the next.
-    if (round.sub < 4) {
-      std::vector<std::uint8_t> next;
-      for (std::uint8_t n : round.members)
-        if (round.answered[n] && !nodes[n].aborted) next.push_back(n);
-      for (std::uint8_t n : round.members)
-        if (!round.answered[n] || nodes[n].aborted) finish_node(n, now);
-      if (!next.empty()) {
-        round.members = std::move(next);
-        ++round.sub;
-        begin_sub(now);
-        return true;
+  // ---- probe results -------------------------------------------------------
+  void on_probed(const discovery::ProbeResult& r) override {
+    using Kind = discovery::ProbeResult::Kind;
+    const std::uint8_t n = r.node;
+    if (r.changed) decisions.presence_changed = true;
+    switch (r.kind) {
+      case Kind::nobody:
+        work.clash_settled(n);
+        if (r.was_known) std::erase_if(reported_ids, [n](const Reported& x) { return x.node == n; });
+        std::erase_if(unplaced, [n](const Unplaced& u) { return u.node == n; });
+        return;
+      case Kind::refused:
+        report.problem("node " + std::to_string(n) + " answers SDO but refuses to read its identity 0x1018", n);
+        return;
+      case Kind::incomplete: return;
+      case Kind::identified: {
+        const LssAddress a = at(n).ids[0];
+        std::erase_if(unplaced, [&](const Unplaced& u) { return u.node == n && !same_device(u.id, a); });
+        work.clash_settled(n);
+        // The start-up probe decides once every node has answered (swaps need
+        // to know which configured devices are missing); a configured device
+        // at its own node-ID depends on no such decision.
+        if ((r.full || expected_round) && !decisions.initial_probe_done && !configured_at(n, a)) return;
+        on_identified(n, a, r.bootup);
+        return;
       }
-    } else {
-      for (std::uint8_t n : round.members) finish_node(n, now);
+      case Kind::clash: on_clash(r); return;
     }
-    finish_round(now);
-    return true;
   }
 
-  void finish_node(std::uint8_t n, TimePoint) {
-    Node& node = nodes[n];
-    const bool bootup = round.bootup[n];
-    std::array<Values, 4> vals = node.vals;
-    if (vals[0].n == 0 && !node.aborted) {
-      // Nobody there (any more): a device that was here is absent now.
-      if (!node.ids.empty() || node.clash || node.unsure) presence_changed = true;
-      node.unsure = false;
-      clash_settled(n);
-      if (!node.ids.empty() || node.clash) {
-        node.ids.clear();
-        node.clash = false;
-        node.clash_reported = false;
-        std::erase_if(reported_ids, [n](const Reported& r) { return r.node == n; });
-      }
-      std::erase_if(unplaced, [n](const Unplaced& u) { return u.node == n; });
-      return;
-    }
-    if (node.aborted) {
-      // Someone is there, so it is no longer unsure; who, the probe cannot tell.
-      if (node.unsure) presence_changed = true;
-      node.unsure = false;
-      problem("node " + std::to_string(n) + " answers SDO but refuses to read its identity 0x1018", n);
-      return;
-    }
-    if (vals[1].n == 0 || vals[2].n == 0 || vals[3].n == 0) {
-      // It stopped answering half-way (reset, or lost answers): ask again.
-      if (bus.discovery) want_probe.set(n);
-      if (bootup) want_bootup.set(n);
-      return;
-    }
-    const bool clash = vals[0].n > 1 || vals[1].n > 1 || vals[2].n > 1 || vals[3].n > 1 || node.bootup_clash;
-    node.seen = vals;
-    if (!clash) {
-      const LssAddress a{vals[0].v[0], vals[1].v[0], vals[2].v[0], vals[3].v[0]};
-      if (node.unsure || node.clash || node.ids.size() != 1 || !same_device(node.ids[0], a)) presence_changed = true;
-      node.unsure = false;
-      std::erase_if(unplaced, [&](const Unplaced& u) { return u.node == n && !same_device(u.id, a); });
-      node.ids = {a};
-      node.last = {a};
-      clash_settled(n);
-      node.clash = false;
-      node.clash_reported = false;
-      // The start-up probe decides once every node has answered (swaps need
-      // to know which configured devices are missing).
-      if ((round.full || round.first) && !initial_probe_done && !configured_at(n, a)) return;
-      on_identified(n, a, bootup);
-      return;
-    }
-    std::uint32_t count = 0;
-    for (const auto& v : vals) count = std::max<std::uint32_t>(count, v.n);
-    if (node.bootup_clash && count < 2) {
-      // Two boot-ups within the window, one identity answered: the answers
-      // of two devices can collide on the wire; take it as a clash anyway.
-      count = 2;
-    }
-    node.bootup_clash = false;
-    node.ids.clear();
-    node.unsure = false;
-    presence_changed = true;
+  void on_clash(const discovery::ProbeResult& r) {
+    const std::uint8_t n = r.node;
+    const auto& seen = at(n).seen;
     std::erase_if(unplaced, [n](const Unplaced& u) { return u.node == n; });
-    if (vals[0].n == 1 && vals[1].n == 1 && vals[2].n == 1)
-      for (std::uint8_t i = 0; i < vals[3].n; ++i)
-        node.ids.push_back(LssAddress{vals[0].v[0], vals[1].v[0], vals[2].v[0], vals[3].v[i]});
-    node.clash = true;
-    std::erase_if(reported_ids, [n](const Reported& r) { return r.node == n; });
-    if (!node.clash_reported) {
-      node.clash_reported = true;
+    std::erase_if(reported_ids, [n](const Reported& x) { return x.node == n; });
+    if (r.first_report) {
       DiscoveryEvent e;
       e.kind = DiscoveryEventKind::clash_detected;
       e.node_id = n;
-      e.count = count;
-      e.text = std::to_string(count) + " devices answer at node " + std::to_string(n);
-      if (vals[3].n > 1) {
+      e.count = r.count;
+      e.text = std::to_string(r.count) + " devices answer at node " + std::to_string(n);
+      if (seen[3].n > 1) {
         e.text += " (serials";
-        for (std::uint8_t i = 0; i < vals[3].n; ++i) e.text += " " + std::to_string(vals[3].v[i]);
+        for (std::uint8_t i = 0; i < seen[3].n; ++i) e.text += " " + std::to_string(seen[3].v[i]);
         e.text += ")";
       }
-      events.push_back(std::move(e));
+      report.event(std::move(e));
     }
-    // A resolution ran and several devices still answer here: not resolved;
-    // the next strategy takes over, until none is left.
-    node.clash_verify = false;
-    if (node.clash_strategy >= kClashStrategies) {
-      problem("the clash at node " + std::to_string(n) + " could not be resolved (" + std::to_string(count) +
-                  " devices still answer there)",
-              n);
+    work.clash_persists(n, r.count);
+  }
+
+  void on_round_end(bool full, Duration took) override {
+    report.timing(full ? "probe" : expected_round ? "probe-expected" : "probe-nodes", "", took);
+    if (expected_round) {
+      // The rest of 1..127; an expected node that did not answer within the
+      // short window is asked again with the full SDO timeout.
+      expected_round = false;
+      rest_pending = true;
       return;
     }
-    queue_job(Job{Job::Kind::clash, n});
+    if (!full) return;
+    if (!decisions.initial_probe_done) {
+      decisions.initial_probe_done = true;
+      // Decided only now that every configured device had its chance to
+      // answer, so that a swap never takes the place of a present device.
+      for (std::uint8_t n = 1; n <= 127; ++n)
+        if (at(n).ids.size() == 1 && !at(n).clash) on_identified(n, at(n).ids[0], false);
+    }
+    work.queue(Job{Job::Kind::non_configured, 0});
   }
 
-  // The probe after a clash resolution found one device or none at `n`:
-  // only now is the clash resolved.
-  void clash_settled(std::uint8_t n) {
-    Node& node = nodes[n];
-    node.clash_strategy = 0;
-    if (!node.clash_verify) return;
-    node.clash_verify = false;
-    DiscoveryEvent e;
-    e.kind = DiscoveryEventKind::clash_resolved;
-    e.node_id = n;
-    e.count = node.clash_count;
-    e.text = "clash at node " + std::to_string(n) + " resolved" + (node.clash_moved_any ? "" : " (nothing could be moved)");
-    events.push_back(std::move(e));
-  }
-
+  // ---- decisions -----------------------------------------------------------
   void on_identified(std::uint8_t n, const LssAddress& a, bool bootup) {
-    Decision d = decide(a);
+    const Decision d = decisions.decide(a);
     std::erase_if(unplaced, [n](const Unplaced& u) { return u.node == n; });
     if (d.wait) {
       // Reported once the probe it waits for has told whether the
@@ -937,948 +211,120 @@ struct Discovery::Impl {
       return;
     }
     if (d.device.empty()) unplaced.push_back(Unplaced{n, a, false, false});
-    if (d.target != 0) remember(a, d.target);
-    auto it = std::find_if(reported_ids.begin(), reported_ids.end(), [n](const Reported& r) { return r.node == n; });
-    const bool changed = it == reported_ids.end() || it->id != a || it->device != d.device || it->target != d.target;
-    if (changed || bootup) {
-      if (it == reported_ids.end()) it = reported_ids.insert(reported_ids.end(), Reported{});
-      *it = Reported{n, a, d.device, d.target};
-      DiscoveryEvent e;
-      e.kind = DiscoveryEventKind::identified;
-      e.node_id = n;
-      e.target_node_id = d.target;
-      e.at_target = d.target == n;
-      e.boot_up = bootup;
-      e.identity = a;
-      e.device = d.device;
-      e.replaces = d.replaces;
-      e.replaced = d.replaced;
-      e.text = "node " + std::to_string(n) + ": " + describe(a) + (d.device.empty() ? "" : " (" + d.device + ")") +
-               (d.replaces.empty() ? ""
-                                   : ", replaces the missing device " + d.replaces + " (serial " +
-                                         std::to_string(d.replaced.serial) + ")") +
-               (d.target == 0 ? "" : ", target node " + std::to_string(d.target));
-      events.push_back(std::move(e));
-    }
-    if (!d.problem.empty()) problem(d.problem, n, a);
+    if (d.target != 0) decisions.remember(a, d.target);
+    report_identified(n, a, d, bootup);
+    if (!d.problem.empty()) report.problem(d.problem, n, a);
     if (d.target != 0 && d.target != n) {
-      if (!node_free_for(d.target, a)) {
-        problem("node " + std::to_string(d.target) + " for " + d.device + " is held by another device; " +
-                    d.device + " stays at node " + std::to_string(n),
-                n, a);
+      if (!decisions.node_free_for(d.target, a)) {
+        report.problem("node " + std::to_string(d.target) + " for " + d.device + " is held by another device; " +
+                           d.device + " stays at node " + std::to_string(n),
+                       n, a);
         return;
       }
-      queue_job(Job{Job::Kind::move, n});
+      work.queue(Job{Job::Kind::move, n});
     }
+  }
+
+  void report_identified(std::uint8_t n, const LssAddress& a, const Decision& d, bool bootup) {
+    auto it = std::find_if(reported_ids.begin(), reported_ids.end(), [n](const Reported& r) { return r.node == n; });
+    const bool changed = it == reported_ids.end() || it->id != a || it->device != d.device || it->target != d.target;
+    if (!changed && !bootup) return;
+    if (it == reported_ids.end()) it = reported_ids.insert(reported_ids.end(), Reported{});
+    *it = Reported{n, a, d.device, d.target};
+    DiscoveryEvent e;
+    e.kind = DiscoveryEventKind::identified;
+    e.node_id = n;
+    e.target_node_id = d.target;
+    e.at_target = d.target == n;
+    e.boot_up = bootup;
+    e.identity = a;
+    e.device = d.device;
+    e.replaces = d.replaces;
+    e.replaced = d.replaced;
+    e.text = "node " + std::to_string(n) + ": " + describe(a) + (d.device.empty() ? "" : " (" + d.device + ")") +
+             (d.replaces.empty() ? ""
+                                 : ", replaces the missing device " + d.replaces + " (serial " +
+                                       std::to_string(d.replaced.serial) + ")") +
+             (d.target == 0 ? "" : ", target node " + std::to_string(d.target));
+    report.event(std::move(e));
   }
 
   // The presence picture changed: decide the unknown devices (and those
   // waiting for a probe) again. Between probe rounds only, so that no
   // decision rests on half a round.
   void reevaluate() {
-    presence_changed = false;
+    decisions.presence_changed = false;
     std::vector<Unplaced> list = std::exchange(unplaced, {});
     for (const Unplaced& u : list) {
-      const Node& node = nodes[u.node];
+      const discovery::NodePicture& node = at(u.node);
       // Gone or changed: the probe that saw it has reported it already.
       if (node.clash || node.ids.size() != 1 || !same_device(node.ids[0], u.id)) continue;
       on_identified(u.node, u.id, u.pending && u.bootup);
     }
   }
 
-  void finish_round(TimePoint now) {
-    timing(round.full ? "probe" : "probe-nodes", "", now - round.started);
-    if (round.first) {
-      // The rest of 1..127; an expected node that did not answer within the
-      // short window is asked again with the full SDO timeout.
-      const std::bitset<128> asked = round.in;
-      round = Round{};
+  // ---- the loop --------------------------------------------------------------
+  void start_periodic_probe(TimePoint now) {
+    std::bitset<128> v;
+    for (std::uint8_t n = 1; n <= 127; ++n)
+      if (!at(n).supervised && !work.busy(n)) v.set(n);
+    probe.begin(now, true, v);
+  }
+
+  bool drive_probe(TimePoint now) {
+    if (probe.active()) return probe.drive(now, *this);
+    if (rest_pending) {
+      rest_pending = false;
+      std::bitset<128> rest;
       for (std::uint8_t n = 1; n <= 127; ++n)
-        if (!asked[n] || (nodes[n].ids.empty() && !nodes[n].clash)) want_probe.set(n);
-      begin_round(now, true);
-      return;
+        if (!expected[n] || (at(n).ids.empty() && !at(n).clash)) rest.set(n);
+      probe.begin(now, true, rest);
+      return true;
     }
-    if (round.full) {
-      if (!initial_probe_done) {
-        initial_probe_done = true;
-        // Decided only now that every configured device had its chance to
-        // answer, so that a swap never takes the place of a present device.
-        for (std::uint8_t n = 1; n <= 127; ++n)
-          if (nodes[n].ids.size() == 1 && !nodes[n].clash) on_identified(n, nodes[n].ids[0], false);
-      }
-      queue_job(Job{Job::Kind::non_configured, 0});
-    }
-    round = Round{};
+    // Probes wait while commissioning resets devices or makes them
+    // non-configured: half a picture would start wrong work. A search for
+    // non-configured devices (LSS at FFh) resets nobody: devices it moved
+    // are probed (and configured) while it goes on.
+    if (!probe.requested() || work.resetting()) return false;
+    probe.begin(now, false);
+    return true;
   }
 
   // Start-up: the node-IDs where devices are expected (configured, or
   // remembered from the state file) first. Devices there answer within
   // milliseconds, so they are identified, and configured, without waiting
   // out the SDO timeout of the empty node-IDs; the rest follows at once.
-  void start_full_probe(TimePoint now) {
-    for (const auto& c : devices)
-      if (c.node_id) want_probe.set(*c.node_id);
-    for (const auto& p : previous)
-      if (canopen::cob::valid_node_id(p.node_id)) want_probe.set(p.node_id);
-    if (want_probe.none()) {
-      for (std::uint8_t n = 1; n <= 127; ++n) want_probe.set(n);
-      begin_round(now, true);
+  void start_probe(TimePoint now) {
+    expected.reset();
+    for (const auto& c : s.devices)
+      if (c.node_id) expected.set(*c.node_id);
+    for (const auto& p : s.previous)
+      if (canopen::cob::valid_node_id(p.node_id)) expected.set(p.node_id);
+    if (expected.none()) {
+      probe.begin(now, true, std::bitset<128>{}.set().reset(0));
       return;
     }
-    begin_round(now, false, true);
+    expected_round = true;
+    probe.begin(now, false, expected, kExpectedAnswerWindow);
   }
 
-  // A configured device (serial, model) at the node-ID it must have: no swap
-  // or pool decision depends on the rest of the start-up probe.
+  // A configured device (serial, model) at the node-ID it must have.
   [[nodiscard]] bool configured_at(std::uint8_t n, const LssAddress& a) const {
-    const config::Device* c = configured_by_serial(a.serial);
-    if (c == nullptr || !model_matches(*c, a, false)) return false;
-    std::string why;
-    return target_of(*c, a, why) == n;
-  }
-  void start_periodic_probe(TimePoint now) {
-    for (std::uint8_t n = 1; n <= 127; ++n)
-      if (!nodes[n].supervised && !nodes[n].busy) want_probe.set(n);
-    begin_round(now, true);
+    const config::Device* c = decisions.configured_by_serial(a.serial);
+    if (c == nullptr || !discovery::model_matches(*c, a, false)) return false;
+    if (c->node_id) return *c->node_id == n;
+    return std::any_of(s.previous.begin(), s.previous.end(),
+                       [&](const Assignment& p) { return p.serial == a.serial && p.vendor == a.vendor && p.node_id == n; });
   }
 
-  // ---- boot-ups ----------------------------------------------------------
   void handle_bootups(TimePoint now) {
-    for (std::uint8_t n = 1; n <= 127; ++n) {
-      Node& node = nodes[n];
-      if (!node.bootup_flag) continue;
-      node.bootup_flag = false;
-      for (auto& w : boot_waits) {
-        if (w.seen || w.ctx.target != n) continue;
-        w.seen = true;
-        timing("boot-up", who(w.ctx), now - std::max(last_reset, w.registered));
-        DiscoveryEvent e;
-        e.kind = DiscoveryEventKind::commissioned;
-        e.node_id = n;
-        e.previous_node_id = w.ctx.from;
-        e.identity = w.ctx.identity;
-        e.device = w.ctx.device;
-        e.replaces = w.ctx.replaces;
-        e.replaced = w.ctx.replaced;
-        e.text = who(w.ctx) + " moved from " +
-                 (w.ctx.from == canopen::cob::kNodeIdUnconfigured ? std::string("non-configured")
-                                                                 : "node " + std::to_string(w.ctx.from)) +
-                 " to node " + std::to_string(n);
-        events.push_back(std::move(e));
-        if (run) run->moved_any = true;
-      }
-      if (bus.discovery && started) {
-        want_probe.set(n);
-        want_bootup.set(n);
-      }
-    }
-  }
-
-  // ---- tasks -------------------------------------------------------------
-  static Task make(Op op, Ctx ctx) {
-    Task t;
-    t.op = op;
-    t.ctx = std::move(ctx);
-    return t;
-  }
-  static Task make(Op op) { return make(op, Ctx{}); }
-  static Task make_global(LssMode m, int group = 0) {
-    Task t = make(Op::global);
-    t.mode = m;
-    t.ctx.group = group;
-    return t;
-  }
-  static Task make_nmt(canopen::NmtCommand c, std::uint8_t node, int group = 0) {
-    Task t = make(Op::nmt);
-    t.cmd = c;
-    t.node = node;
-    t.ctx.group = group;
-    return t;
-  }
-  void push_front(std::vector<Task> ts) {
-    for (auto it = ts.rbegin(); it != ts.rend(); ++it) tasks.push_front(std::move(*it));
-  }
-  // The device-level sequence once a device is in LSS configuration state.
-  static std::vector<Task> assign_tasks(const Ctx& c) {
-    std::vector<Task> v;
-    v.push_back(make(Op::configure_id, c));
-    if (c.store) v.push_back(make(Op::store, c));
-    v.push_back(make_global(LssMode::kWaiting, c.group));
-    return v;
-  }
-  void fail_group(int group) {
-    if (group == 0) return;
-    std::erase_if(tasks, [group](const Task& t) { return t.ctx.group == group; });
-    tasks.push_front(make_global(LssMode::kWaiting));
-  }
-
-  void expand(const Job& j, TimePoint now) {
-    run = JobRun{};
-    run->job = j;
-    run->started = now;
-    switch (j.kind) {
-      case Job::Kind::move: expand_move(j.node); break;
-      case Job::Kind::clash: expand_clash(j.node); break;
-      case Job::Kind::non_configured: {
-        tasks.push_back(make(Op::identify_non_configured));
-        break;
-      }
-    }
-    Task end = make(Op::job_end);
-    end.node = j.node;
-    tasks.push_back(end);
-    if (j.node != 0) nodes[j.node].busy = true;
-  }
-
-  void expand_move(std::uint8_t n) {
-    const Node& node = nodes[n];
-    if (node.ids.size() != 1 || node.clash) return;
-    const LssAddress a = node.ids[0];
-    Decision d = decide(a);
-    if (d.target == 0 || d.target == n || !node_free_for(d.target, a)) return;
-    Ctx c;
-    c.identity = a;
-    c.from = n;
-    c.target = d.target;
-    c.device = d.device;
-    c.replaces = d.replaces;
-    c.replaced = d.replaced;
-    c.sdo_fallback = sdo_node_id_object(a).has_value();
-    c.group = next_group++;
-    run->device = who(c);
-    tasks.push_back(make(Op::switch_selective, c));
-    for (auto& t : assign_tasks(c)) tasks.push_back(std::move(t));
-    tasks.push_back(make_nmt(canopen::NmtCommand::reset_comm, n, c.group));
-    tasks.push_back(make(Op::wait_boots));
-  }
-
-  // The vendor/product/revision combinations the probe of a clash saw that
-  // configured device `c` (serial `s`) can have: vendor and product from the
-  // config, else from its model; every revision seen (the answers of
-  // several devices cannot be paired up).
-  [[nodiscard]] static std::vector<LssAddress> candidates_for(const config::Device& c, std::uint32_t s,
-                                                              const std::array<Values, 4>& v) {
-    std::vector<LssAddress> out;
-    const config::KnownModel* m = c.model.empty() ? nullptr : config::find_model(c.model);
-    std::optional<std::uint32_t> vendor = c.vendor;
-    if (!vendor && m) vendor = m->vendor;
-    if (!vendor || !v[0].contains(*vendor)) return out;
-    for (std::uint8_t ip = 0; ip < v[1].n; ++ip) {
-      const std::uint32_t p = v[1].v[ip];
-      if (c.product && *c.product != p) continue;
-      if (!c.product && m && !m->products.empty() &&
-          std::find(m->products.begin(), m->products.end(), p) == m->products.end())
-        continue;
-      if (!c.product && !m) continue;  // nothing says which product it is
-      for (std::uint8_t ir = 0; ir < v[2].n; ++ir) out.push_back(LssAddress{*vendor, p, v[2].v[ir], s});
-    }
-    return out;
-  }
-
-  // Clash strategies, one per resolution run at a node; the probe after each
-  // run tells whether the next is needed (node.clash_strategy):
-  //   0: (a) switch selective where the identity is known, (b) Slowscan for
-  //      the pre-Fastscan series (a) left, (c) Fastscan for the rest;
-  //   1: (b) Slowscan over every pre-Fastscan product seen, then (c) for
-  //      whatever it did not find;
-  //   2: (c) for everyone.
-  static constexpr std::uint8_t kClashStrategies = 3;
-
-  void expand_clash(std::uint8_t n) {
-    Node& node = nodes[n];
-    const std::uint8_t strategy = node.clash_strategy;
-    run->device = node_name(n);
-    const auto v = node.seen;
-    for (std::uint8_t i = 0; i < v[3].n; ++i) run->serials.insert(v[3].v[i]);
-    node.clash_count = static_cast<std::uint32_t>(std::max<std::size_t>(run->serials.size(), 2));
-    node.clash_moved_any = false;
-    const bool full = v[0].n == 1 && v[1].n == 1 && v[2].n == 1;
-    // (a) switch selective where the identity is known.
-    if (strategy == 0)
-    for (std::uint32_t s : run->serials) {
-      LssAddress a;
-      a.serial = s;
-      std::vector<LssAddress> cands;
-      if (full) {
-        a.vendor = v[0].v[0];
-        a.product = v[1].v[0];
-        a.revision = v[2].v[0];
-      } else {
-        const config::Device* c = configured_by_serial(s);
-        if (!c) continue;
-        cands = candidates_for(*c, s, v);
-        if (cands.empty()) continue;
-        a = cands.front();
-      }
-      Decision d = decide(a);
-      run->handled.insert(s);
-      if (!d.problem.empty()) problem(d.problem, n, a);
-      if (d.target == 0 || d.target == n) continue;  // stays where it is
-      if (!node_free_for(d.target, a)) {
-        problem("node " + std::to_string(d.target) + " for " + d.device + " is held by another device", n, a);
-        continue;
-      }
-      remember(a, d.target);
-      Ctx c;
-      c.identity = a;
-      c.from = n;
-      c.target = d.target;
-      c.device = d.device;
-      c.replaces = d.replaces;
-      c.replaced = d.replaced;
-      c.candidates = std::move(cands);
-      c.group = next_group++;
-      tasks.push_back(make(Op::switch_selective, c));
-      for (auto& t : assign_tasks(c)) tasks.push_back(std::move(t));
-    }
-    // (b) Slowscan for the pre-Fastscan series in the clash, if (a) left any.
-    const bool slowscan = strategy == 1 || (strategy == 0 && (run->handled.size() < run->serials.size() || run->serials.empty()));
-    if (slowscan) {
-      for (auto& t : slowscan_tasks(v, n, false)) tasks.push_back(std::move(t));
-    }
-    // (c) whatever is left.
-    Task check = make(Op::check_remaining);
-    check.node = n;
-    tasks.push_back(check);
-    tasks.push_back(make_nmt(canopen::NmtCommand::reset_comm, n));
-    tasks.push_back(make(Op::wait_boots));
-  }
-
-  // Slowscan over every pre-Fastscan product (J§1.2.1), for non-configured
-  // devices of unknown identity.
-  static std::vector<Task> slowscan_all_pre_fastscan() {
-    std::vector<Task> out;
-    for (const std::uint32_t p : {0x0BE0u, 0x0BF3u, 0x0BBDu, 0x0BCDu, 0x0BE1u}) {
-      Task t = make(Op::slowscan_loop);
-      t.node = 0;
-      t.non_configured = true;
-      t.range = LssRange{kVendorNovotechnik, p, 0, 0xFFFFFFFFu, 0, 0xFFFFFFFFu};
-      out.push_back(t);
-    }
-    return out;
-  }
-
-  // One Slowscan per pre-Fastscan vendor/product among the answers `v`.
-  // `non_configured`: (c) took the node-IDs away, what is found has none.
-  static std::vector<Task> slowscan_tasks(const std::array<Values, 4>& v, std::uint8_t n, bool non_configured) {
-    std::vector<Task> out;
-    for (std::uint8_t iv = 0; iv < v[0].n; ++iv)
-      for (std::uint8_t ip = 0; ip < v[1].n; ++ip) {
-        if (!is_pre_fastscan(v[0].v[iv], v[1].v[ip])) continue;
-        Task t = make(Op::slowscan_loop);
-        t.node = n;
-        t.non_configured = non_configured;
-        t.range = LssRange{v[0].v[iv], v[1].v[ip], 0, 0xFFFFFFFFu, 0, 0xFFFFFFFFu};
-        out.push_back(t);
-      }
-    return out;
-  }
-
-  // (c): every device non-configured, then Fastscan. `n` is the clash node.
-  void expand_fastscan_all(std::uint8_t n) {
-    run->known.clear();
-    for (std::uint8_t x = 1; x <= 127; ++x) {
-      if (x == n || nodes[x].clash) continue;
-      for (const auto& id : nodes[x].ids) run->known.emplace_back(id, assigned_to(id).value_or(x));
-    }
-    for (const auto& [id, t] : assigned)
-      if (std::none_of(run->known.begin(), run->known.end(), [&](const auto& k) { return same_device(k.first, id); }))
-        run->known.emplace_back(id, t);
-    std::vector<Task> v;
-    v.push_back(make_global(LssMode::kConfiguration));
-    Ctx ff;
-    ff.target = canopen::cob::kNodeIdUnconfigured;
-    ff.store = false;
-    ff.boot_wait = false;
-    v.push_back(make(Op::configure_id, ff));
-    v.push_back(make_global(LssMode::kWaiting));
-    v.push_back(make_nmt(canopen::NmtCommand::reset_comm, 0));
-    Task settle = make(Op::settle);
-    settle.duration = lss_timeout;
-    v.push_back(settle);
-    Task fs = make(Op::fastscan_loop);
-    fs.node = n;
-    v.push_back(fs);
-    // The pre-Fastscan series (J: DSP-305 V1.1.2) is non-configured now too
-    // and Fastscan cannot find it: Slowscan does.
-    for (auto& t : slowscan_tasks(nodes[n].seen, n, true)) v.push_back(std::move(t));
-    v.push_back(make(Op::restore_known));
-    v.push_back(make_nmt(canopen::NmtCommand::reset_comm, 0));
-    push_front(std::move(v));
-  }
-
-  void start_task(TimePoint now) {
-    Task& t = *current;
-    current_started = now;
-    task_deadline = kNever;
-    std::error_code ec;
-    switch (t.op) {
-      case Op::switch_selective: {
-        const LssAddress a = t.ctx.candidates.empty() ? t.ctx.identity : t.ctx.candidates[t.attempts];
-        ec = lss.switch_state_selective(a, now);
-        break;
-      }
-      case Op::slowscan_one: ec = lss.slowscan(t.range, now); break;
-      case Op::slowscan_loop: ec = lss.slowscan(t.range, now); break;
-      case Op::configure_id: ec = lss.configure_node_id(t.ctx.target, now); break;
-      case Op::store: ec = lss.store_configuration(now); break;
-      case Op::identify_non_configured: ec = lss.identify_non_configured(now); break;
-      case Op::fastscan_loop: ec = lss.fastscan(now, fastscan_plan(true)); break;
-      case Op::fastscan_known: ec = lss.fastscan(now, fastscan_plan(false)); break;
-      case Op::global: {
-        ec = lss.switch_state_global(t.mode);
-        if (!ec) {
-          if (t.mode == LssMode::kWaiting) mark_reset(now);
-          current.reset();
-        }
-        break;
-      }
-      case Op::nmt: {
-        if (t.cmd == canopen::NmtCommand::reset_comm || t.cmd == canopen::NmtCommand::reset_node) mark_reset(now);
-        (void)send_now(canopen::make_nmt(t.cmd, t.node));
-        current.reset();
-        return;
-      }
-      case Op::settle: task_deadline = now + t.duration; return;
-      case Op::restore_known: {
-        std::vector<Task> v;
-        for (const auto& [id, node] : run->known) {
-          if (std::any_of(run->found.begin(), run->found.end(), [&](const LssAddress& f) { return same_device(f, id); }))
-            continue;
-          Ctx c;
-          c.identity = id;
-          c.from = canopen::cob::kNodeIdUnconfigured;
-          c.target = node;
-          c.store = false;
-          c.boot_wait = false;
-          c.group = next_group++;
-          v.push_back(make(Op::switch_selective, c));
-          for (auto& x : assign_tasks(c)) v.push_back(std::move(x));
-        }
-        current.reset();
-        push_front(std::move(v));
-        return;
-      }
-      case Op::check_remaining: {
-        std::set<std::uint32_t> left;
-        for (std::uint32_t s : run->serials)
-          if (!run->handled.contains(s)) left.insert(s);
-        const std::uint8_t n = t.node;
-        current.reset();
-        if (!left.empty() || nodes[n].clash_strategy >= 2) expand_fastscan_all(n);
-        return;
-      }
-      case Op::sdo_write: {
-        sdo = SdoWrite{};
-        sdo.active = true;
-        sdo.node = t.node;
-        sdo.index = t.index;
-        sdo.sub = t.sub;
-        const std::uint8_t cs = static_cast<std::uint8_t>(0x23 | ((4 - t.len) << 2));
-        (void)send_now(can::Frame::make8(
-            canopen::cob::kSdoRxBase + t.node,
-            {cs, static_cast<std::uint8_t>(t.index & 0xFF), static_cast<std::uint8_t>(t.index >> 8), t.sub,
-             static_cast<std::uint8_t>(t.value), static_cast<std::uint8_t>(t.value >> 8),
-             static_cast<std::uint8_t>(t.value >> 16), static_cast<std::uint8_t>(t.value >> 24)}));
-        task_deadline = now + sdo_timeout;
-        return;
-      }
-      case Op::wait_boots: {
-        task_deadline = now + opt.bootup_timeout;
-        return;
-      }
-      case Op::job_end: {
-        if (t.node != 0) {
-          nodes[t.node].busy = false;
-          // The device(s) left this node-ID: see what is there now.
-          if (bus.discovery) want_probe.set(t.node);
-        }
-        if (run) {
-          const Job j = run->job;
-          if (j.kind != Job::Kind::non_configured || !run->found.empty())
-            timing(j.kind == Job::Kind::clash ? "clash-resolution"
-                   : j.kind == Job::Kind::move ? "commission"
-                                               : "commission-non-configured",
-                   run->device, now - run->started);
-          if (j.kind == Job::Kind::clash) {
-            // Resolved only when the probe of the node (requested above)
-            // finds at most one device left there (clash_settled).
-            Node& node = nodes[j.node];
-            node.clash_verify = true;
-            node.clash_moved_any = node.clash_moved_any || run->moved_any;
-            ++node.clash_strategy;
-          }
-        }
-        run.reset();
-        current.reset();
-        return;
-      }
-    }
-    if (ec == make_error_code(LssErrc::kBusy) || ec == make_error_code(LssErrc::kSendFailed)) {
-      task_deadline = now + std::chrono::milliseconds(1);  // retry the start
-      retry_start = true;
-    } else if (ec) {
-      fail_current(ec.message(), now);
-    }
-  }
-  bool retry_start = false;
-
-  // Boot-ups we caused (a reset, or a V3 slave leaving configuration with a
-  // new node-ID) may come twice from one node-ID; they are no clash.
-  TimePoint expected_bootups_until = TimePoint::min();
-
-  // The latest reset we caused (NMT reset, or switch global waiting, which
-  // makes a V3 slave with a new node-ID reset itself): boot-up times count
-  // from here.
-  TimePoint last_reset{};
-
-  void mark_reset(TimePoint now) {
-    expected_bootups_until = now + opt.bootup_clash_window;
-    last_reset = now;
-  }
-
-  void fail_current(const std::string& why, TimePoint) {
-    const Task t = *current;
-    current.reset();
-    problem(who(t.ctx) + ": " + why, t.ctx.from, t.ctx.identity);
-    fail_group(t.ctx.group);
-  }
-
-  static const char* step_name(Op op) {
-    switch (op) {
-      case Op::switch_selective: return "switch-selective";
-      case Op::slowscan_one: case Op::slowscan_loop: return "slowscan";
-      case Op::configure_id: return "configure-node-id";
-      case Op::store: return "store";
-      case Op::identify_non_configured: return "identify-non-configured";
-      case Op::fastscan_known: return "fastscan-known";
-      case Op::fastscan_loop: return "fastscan";
-      default: return "";
-    }
-  }
-
-  void on_lss_result(const canopen::LssMaster::Result& r, TimePoint now) {
-    if (!current) return;
-    Task t = *current;
-    current.reset();
-    std::string dev = t.ctx.device.empty() && t.ctx.identity.serial == 0 ? (run ? run->device : "") : who(t.ctx);
-    switch (t.op) {
-      case Op::switch_selective: {
-        timing("switch-selective", dev, r);
-        if (!r.error) {
-          if (t.ctx.target == 0) return;
-          if (!t.ctx.candidates.empty()) t.ctx.identity = t.ctx.candidates[t.attempts];
-          // The following tasks of this device carry the revision found.
-          for (auto& x : tasks)
-            if (x.ctx.group == t.ctx.group) x.ctx.identity = t.ctx.identity;
-          return;
-        }
-        if (t.attempts + 1u < t.ctx.candidates.size()) {
-          ++t.attempts;
-          current = t;
-          start_task(now);
-          return;
-        }
-        if (!t.ctx.candidates.empty()) {
-          // (a) with the revision unknown: Slowscan over every revision for this serial.
-          Task s = make(Op::slowscan_one, t.ctx);
-          s.range = LssRange{t.ctx.identity.vendor, t.ctx.identity.product, 0, 0xFFFFFFFFu, t.ctx.identity.serial,
-                             t.ctx.identity.serial};
-          tasks.push_front(s);
-          return;
-        }
-        if (t.ctx.sdo_fallback) {
-          start_sdo_fallback(t.ctx);
-          return;
-        }
-        problem(who(t.ctx) + ": no answer to LSS switch selective (" + describe(t.ctx.identity) + ")", t.ctx.from,
-                t.ctx.identity);
-        std::erase_if(tasks, [g = t.ctx.group](const Task& x) { return x.ctx.group == g; });
-        return;
-      }
-      case Op::slowscan_one: {
-        timing("slowscan", dev, r);
-        if (r.error) {
-          current = t;
-          fail_current("Slowscan found no device with " + describe(t.ctx.identity), now);
-          return;
-        }
-        for (auto& x : tasks)
-          if (x.ctx.group == t.ctx.group) x.ctx.identity = r.address;
-        return;
-      }
-      case Op::slowscan_loop: {
-        timing("slowscan", run ? run->device : dev, r);
-        if (r.error) return;  // kNotFound: no more devices in the range
-        const LssAddress a = r.address;
-        std::vector<Task> v;
-        const bool elsewhere = [&] {
-          for (std::uint8_t x = 1; x <= 127; ++x)
-            if (x != t.node)
-              for (const auto& id : nodes[x].ids)
-                if (same_device(id, a)) return true;
-          return false;
-        }();
-        const bool done = run && run->handled.contains(a.serial);
-        if (t.non_configured) {
-          // (c) took every node-ID away: a device restore_known puts back is
-          // left to it; any other gets its node-ID here.
-          const bool known = run && std::any_of(run->known.begin(), run->known.end(),
-                                                [&](const auto& k) { return same_device(k.first, a); });
-          if (!known && !elsewhere) v = recover_non_configured(a, t.node);
-        } else if (!elsewhere && !done) {
-          if (run) run->handled.insert(a.serial);
-          Decision d = decide(a);
-          if (!d.problem.empty()) problem(d.problem, t.node, a);
-          if (d.target != 0 && d.target != t.node && node_free_for(d.target, a)) {
-            remember(a, d.target);
-            Ctx c;
-            c.identity = a;
-            c.from = t.node;
-            c.target = d.target;
-            c.device = d.device;
-            c.replaces = d.replaces;
-            c.replaced = d.replaced;
-            c.group = next_group++;
-            v = assign_tasks(c);
-          }
-        }
-        if (v.empty()) v.push_back(make_global(LssMode::kWaiting));
-        if (a.serial < 0xFFFFFFFFu) {
-          Task next = t;
-          next.range.serial_lo = a.serial + 1;
-          v.push_back(next);
-        }
-        push_front(std::move(v));
-        return;
-      }
-      case Op::configure_id: {
-        timing("configure-node-id", dev, r);
-        if (r.error || r.slave_error != 0) {
-          if (t.ctx.target == canopen::cob::kNodeIdUnconfigured) return;  // (c): nobody had to answer
-          if (t.ctx.from == canopen::cob::kNodeIdUnconfigured)
-            note_stranger(t.ctx.identity, "refuses LSS node-ID " + std::to_string(t.ctx.target) + " (" +
-                                              (r.error ? r.error.message()
-                                                       : "slave error " + std::to_string(r.slave_error)) +
-                                              "); left non-configured");
-          current = t;
-          fail_current("LSS configure node-ID " + std::to_string(t.ctx.target) + " failed: " +
-                           (r.error ? r.error.message() : "slave error " + std::to_string(r.slave_error)),
-                       now);
-          return;
-        }
-        if (t.ctx.boot_wait && canopen::cob::valid_node_id(t.ctx.target)) {
-          BootWait w;
-          w.ctx = t.ctx;
-          w.registered = now;
-          boot_waits.push_back(std::move(w));
-        }
-        return;
-      }
-      case Op::store: {
-        timing("store", dev, r);
-        if (r.error || r.slave_error != 0)
-          problem(who(t.ctx) + ": LSS store configuration failed (" +
-                      (r.error ? r.error.message() : "slave error " + std::to_string(r.slave_error)) +
-                      "); node " + std::to_string(t.ctx.target) + " holds until the next power-off",
-                  t.ctx.target, t.ctx.identity);
-        return;
-      }
-      case Op::identify_non_configured: {
-        if (r.answered) {
-          timing("identify-non-configured", "", r);
-          // The general scan looks for configured devices first (its plan
-          // prefers them); while it backs off, only they are looked for.
-          std::vector<Task> v;
-          if (now >= general_scan_not_before) v.push_back(make(Op::fastscan_loop));
-          else if (fastscan_plan(false).size() > 0) v.push_back(make(Op::fastscan_known));
-          v.push_back(make(Op::wait_boots));
-          push_front(std::move(v));
-        }
-        return;
-      }
-      case Op::fastscan_known:
-      case Op::fastscan_loop: {
-        const config::Device* c = r.error ? nullptr : configured_by_serial(r.address.serial);
-        timing(step_name(t.op), c ? c->name : run && t.op == Op::fastscan_loop ? run->device : "", r);
-        if (r.error) {
-          // Nobody left that Fastscan can find. A non-configured device
-          // answered identify non-configured but Fastscan found none: it is of
-          // the pre-Fastscan series (J, DSP-305 V1.1.2), which Slowscan finds.
-          if (t.op == Op::fastscan_loop && t.node == 0 && run && run->job.kind == Job::Kind::non_configured &&
-              run->found.empty() && !run->slowscanned) {
-            run->slowscanned = true;
-            push_front(slowscan_all_pre_fastscan());
-          }
-          return;
-        }
-        const LssAddress a = r.address;
-        if (is_stranger(a)) {
-          // Fastscan found a device reported before (it keeps answering at
-          // FFh): the loop ends here, and the general scan backs off (the
-          // scans for configured devices still run every period).
-          if (t.op == Op::fastscan_loop) back_off_general_scan(now);
-          push_front({make_global(LssMode::kWaiting)});
-          return;
-        }
-        bool stranger = false;
-        std::vector<Task> v = place_non_configured(a, t, stranger);
-        if (!stranger) v.push_back(t);  // the next Fastscan
-        // The guided scan finds configured models first: a stranger comes
-        // last, and it would be found again first; it is scanned once.
-        else if (t.op == Op::fastscan_loop) back_off_general_scan(now);
-        push_front(std::move(v));
-        return;
-      }
-      default: return;
-    }
-  }
-
-  void back_off_general_scan(TimePoint now) {
-    general_scan_backoff = std::min(2 * general_scan_backoff + std::chrono::seconds(bus.discovery_period_s),
-                                    Duration{std::chrono::minutes(10)});
-    general_scan_not_before = now + general_scan_backoff;
-  }
-
-  // A device Fastscan found at FFh: its tasks (node-ID, store, boot-up wait),
-  // or, when nothing gives it a node-ID, a stranger left non-configured.
-  std::vector<Task> place_non_configured(const LssAddress& a, const Task& t, bool& stranger) {
-    if (run) run->found.push_back(a);
-    const Ctx c = found_ctx(a, t.node);
-    stranger = c.target == 0;
-    if (!stranger) return assign_tasks(c);
-    note_stranger(a, "not in the configuration; left without node-ID");
-    return {make_global(LssMode::kWaiting)};
-  }
-
-  // Where a device found at FFh goes: back where (c) took it from, its
-  // configured / remembered node-ID, or nowhere (target 0).
-  Ctx found_ctx(const LssAddress& a, std::uint8_t scan_node) {
-    Ctx c;
-    c.identity = a;
-    c.from = canopen::cob::kNodeIdUnconfigured;
-    c.group = next_group++;
-    std::optional<std::uint8_t> known;
-    if (run)
-      for (const auto& [id, node] : run->known)
-        if (same_device(id, a)) known = node;
-    if (known) {
-      c.target = *known;
-      const auto at = present_at(a);
-      c.store = !at || *at != c.target;  // unchanged node-IDs need no store (flash wear)
-      c.boot_wait = c.store;
-      if (at) c.from = *at;
-      return c;
-    }
-    Decision d = decide(a);
-    c.device = d.device;
-    c.replaces = d.replaces;
-    c.replaced = d.replaced;
-    if (d.target != 0 && node_free_for(d.target, a)) {
-      c.target = d.target;
-      if (scan_node != 0) c.from = scan_node;
-    } else if (scan_node != 0 && node_free_for(scan_node, a)) {
-      // (c) made it non-configured; an unknown device goes back where it was, unstored.
-      c.target = scan_node;
-      c.store = false;
-      c.boot_wait = false;
-    } else if (d.device.empty() && bus.unknown_devices == config::UnknownDevices::assign) {
-      // Policy assign: a node-ID from the pool (its earlier one when remembered), stored.
-      c.target = previous_node(a.serial, a.vendor, a.product).value_or(pool_node(a));
-      if (c.target == 0) note_stranger(a, "not in the configuration and no free node-ID left in node_pool");
-      else d.problem.clear();  // handled as configured: reported by the move, not as a problem
-    }
-    if (!d.problem.empty()) problem(d.problem, 0, a);
-    if (c.target != 0) remember(a, c.target);
-    return c;
-  }
-
-  // ---- devices nobody configured -------------------------------------------
-  // A non-configured device the configuration does not name (or one that
-  // refuses its node-ID) is reported once with its identity and remembered,
-  // so that Fastscan, which always finds the smallest address first, is not
-  // run for it again and again; configured devices are found by their known
-  // identity meanwhile (fastscan_plan(false)).
-
-  [[nodiscard]] bool is_stranger(const LssAddress& a) const {
-    return std::any_of(strangers.begin(), strangers.end(), [&](const LssAddress& s) { return same_device(s, a); });
-  }
-
-  void note_stranger(const LssAddress& a, const std::string& why) {
-    if (is_stranger(a)) return;
-    strangers.push_back(a);
-    problem("non-configured " + describe(a) + ": " + why, 0, a);
-    DiscoveryEvent e;
-    e.kind = DiscoveryEventKind::identified;
-    e.node_id = canopen::cob::kNodeIdUnconfigured;
-    e.identity = a;
-    e.text = why;
-    events.push_back(std::move(e));
-  }
-
-  // Issue 11: what the configuration and the remembered table tell a
-  // Fastscan (FastscanKnowledge): the devices commissioning itself took off
-  // their node-IDs, the configured devices not present at a node-ID, and for
-  // the general scan the configured models and the search of the rest. The
-  // pre-Fastscan rotary series never answers Fastscan (J§1 intro).
-  [[nodiscard]] canopen::FastscanPlan fastscan_plan(bool general) const {
-    FastscanKnowledge k;
-    if (run)
-      for (const auto& [id, node] : run->known)
-        if (!is_pre_fastscan(id.vendor, id.product)) k.known.push_back(id);
-    for (const auto& c : devices) {
-      const config::KnownModel* m = c.model.empty() ? nullptr : config::find_model(c.model);
-      if (m && m->family == config::Family::novotechnik_rotary) continue;
-      const bool found = run && std::any_of(run->found.begin(), run->found.end(),
-                                            [&](const LssAddress& f) { return f.serial == c.serial; });
-      if (c.serial != 0 && !found && !is_present_serial(c.serial)) k.absent.push_back(&c);
-      if (general) k.models.push_back(&c);
-    }
-    k.remembered = previous;
-    k.general = general;
-    return make_fastscan_plan(k);
-  }
-
-  [[nodiscard]] bool is_present_serial(std::uint32_t serial) const {
-    for (std::uint8_t x = 1; x <= 127; ++x)
-      for (const auto& id : nodes[x].ids)
-        if (id.serial == serial) return true;
-    return false;
-  }
-
-  // A device found by Slowscan while non-configured (pre-Fastscan series
-  // after (c), or left so by an earlier run): its target node-ID, else back
-  // to the node it came from (`from`, 0 = none), not stored.
-  std::vector<Task> recover_non_configured(const LssAddress& a, std::uint8_t from) {
-    if (run) {
-      run->handled.insert(a.serial);
-      run->found.push_back(a);
-    }
-    Ctx c;
-    c.identity = a;
-    c.from = canopen::cob::valid_node_id(from) ? from : canopen::cob::kNodeIdUnconfigured;
-    c.group = next_group++;
-    Decision d = decide(a);
-    c.device = d.device;
-    c.replaces = d.replaces;
-    c.replaced = d.replaced;
-    if (!d.problem.empty()) problem(d.problem, from, a);
-    if (d.target != 0 && node_free_for(d.target, a)) {
-      c.target = d.target;
-    } else if (canopen::cob::valid_node_id(from) && node_free_for(from, a)) {
-      c.target = from;
-      c.store = false;
-      c.boot_wait = false;
-    } else {
-      problem("non-configured " + describe(a) + " left without node-ID", 0, a);
-      return {};
-    }
-    remember(a, c.target);
-    return assign_tasks(c);
-  }
-
-  void start_sdo_fallback(const Ctx& c0) {
-    const auto obj = sdo_node_id_object(c0.identity);
-    Ctx c = c0;
-    std::erase_if(tasks, [g = c.group](const Task& x) { return x.ctx.group == g; });
-    std::vector<Task> v;
-    Task w = make(Op::sdo_write, c);
-    w.node = c.from;
-    w.index = obj->index;
-    w.sub = 0;
-    w.value = static_cast<std::uint32_t>(c.target - obj->minus);
-    w.len = 1;
-    v.push_back(w);
-    Task s = make(Op::sdo_write, c);
-    s.node = c.from;
-    s.index = kStoreObject;
-    s.sub = obj->save_sub;
-    s.value = kSaveSignature;
-    s.len = 4;
-    v.push_back(s);
-    v.push_back(make_nmt(canopen::NmtCommand::reset_node, c.from, c.group));
-    push_front(std::move(v));
-  }
-
-  void on_sdo_done(TimePoint now, bool timed_out) {
-    Task t = *current;
-    current.reset();
-    sdo.active = false;
-    const std::string step = t.index == kStoreObject ? "sdo-save" : "sdo-node-id";
-    timing(step, who(t.ctx), now - current_started);
-    if (timed_out || sdo.abort != 0) {
-      if (timed_out && t.attempts < bus.sdo_retries) {
-        ++t.attempts;
-        current = t;
-        start_task(now);
-        return;
-      }
-      current = t;
-      fail_current("SDO write " + hex32(t.index).substr(6) + "/" + std::to_string(t.sub) + " failed (" +
-                       (timed_out ? std::string("timeout") : "abort " + hex32(sdo.abort)) + ")",
-                   now);
-      return;
-    }
-    if (t.index != kStoreObject && t.ctx.boot_wait) {
-      BootWait w;
-      w.ctx = t.ctx;
-      w.registered = now;
-      boot_waits.push_back(std::move(w));
-    }
-  }
-
-  void finish_wait_boots(TimePoint) {
-    current.reset();
-    for (const auto& w : boot_waits)
-      if (!w.seen)
-        problem(who(w.ctx) + ": no boot-up at node " + std::to_string(w.ctx.target) + " after the reset",
-                w.ctx.target, w.ctx.identity);
-    boot_waits.clear();
-  }
-
-  bool drive_tasks(TimePoint now) {
-    if (current) {
-      switch (current->op) {
-        case Op::settle:
-          if (now >= task_deadline) current.reset();
-          return !current;
-        case Op::sdo_write:
-          if (sdo.done) on_sdo_done(now, false);
-          else if (now >= task_deadline) on_sdo_done(now, true);
-          return !current;
-        case Op::wait_boots: {
-          const bool all = std::all_of(boot_waits.begin(), boot_waits.end(), [](const BootWait& w) { return w.seen; });
-          if (all || now >= task_deadline) finish_wait_boots(now);
-          return !current;
-        }
-        default:
-          if (retry_start && now >= task_deadline) {
-            retry_start = false;
-            start_task(now);
-            return true;
-          }
-          return false;  // an LSS operation: its result comes through on_lss_result
-      }
-    }
-    if (tasks.empty()) {
-      // A search for non-configured devices (LSS at FFh) may start while a
-      // probe runs; jobs that move or reset configured devices wait for it.
-      auto next = jobs.begin();
-      if (round.active)
-        next = std::find_if(jobs.begin(), jobs.end(), [](const Job& j) { return j.kind == Job::Kind::non_configured; });
-      if (next == jobs.end() || !may_commission()) {
-        if (jobs.empty() && bus.commissioning == config::Commissioning::manual) permit = false;
-        return false;
-      }
-      const Job j = *next;
-      jobs.erase(next);
-      expand(j, now);
-      return true;
-    }
-    current = std::move(tasks.front());
-    tasks.pop_front();
-    start_task(now);
-    return true;
+    const std::bitset<128> booted = probe.take_bootups();
+    if (booted.none()) return;
+    work.on_bootups(booted, now);
+    // Every boot-up is followed by a probe: a swapped part never silently
+    // inherits the old one's settings.
+    for (std::uint8_t n = 1; n <= 127; ++n)
+      if (booted[n]) probe.want(n, true);
   }
 
   TimePoint process(TimePoint now) {
@@ -1886,39 +332,26 @@ struct Discovery::Impl {
     for (int guard = 0; guard < 1000; ++guard) {
       bool progress = false;
       handle_bootups(now);
-      flush();
-      (void)lss.process(now);
-      if (auto r = lss.take_result()) {
-        on_lss_result(*r, now);
-        progress = true;
-      }
-      if (bus.discovery && next_periodic != kNever && now >= next_periodic && !round.active && tasks.empty() &&
-          !current) {
-        next_periodic = now + std::chrono::seconds(bus.discovery_period_s);
+      if (work.poll_lss(now)) progress = true;
+      if (s.bus.discovery && next_periodic != kNever && now >= next_periodic && !probe.active() && work.idle()) {
+        next_periodic = now + std::chrono::seconds(s.bus.discovery_period_s);
         start_periodic_probe(now);
         progress = true;
       }
       // Probes of boot-ups run beside the commissioning tasks; probing while
       // devices are being reset would only see half the picture otherwise.
       if (drive_probe(now)) progress = true;
-      if (presence_changed && !round.active) {
+      if (decisions.presence_changed && !probe.active()) {
         reevaluate();
         progress = true;
       }
-      if (drive_tasks(now)) progress = true;
+      if (work.drive(now, probe.active())) progress = true;
       if (!progress) break;
     }
-    TimePoint next = lss.process(now);
-    if (!outbox.empty()) next = std::min(next, now + std::chrono::milliseconds(1));
-    if (round.active) {
-      if (round.to_send > 0) next = std::min(next, now + std::chrono::milliseconds(1));
-      next = std::min(next, round.deadline);
-      if (all_answered()) next = std::min(next, round.last_answer + opt.probe_settle);
-    }
-    if (current) next = std::min(next, task_deadline);
+    TimePoint next = std::min(work.next_deadline(now), probe.next_deadline(now));
     // A periodic probe that is due waits for the commissioning to finish,
     // whose own deadlines bring us back.
-    if (bus.discovery && next_periodic > now) next = std::min(next, next_periodic);
+    if (s.bus.discovery && next_periodic > now) next = std::min(next, next_periodic);
     return std::max(next, now);
   }
 };
@@ -1933,9 +366,10 @@ void Discovery::start(TimePoint now) {
   Impl& d = *impl_;
   if (d.started) return;
   d.started = true;
-  if (d.bus.discovery) {
-    d.next_periodic = now + std::chrono::seconds(d.bus.discovery_period_s);
-    d.start_full_probe(now);
+  d.probe.set_enabled(d.s.bus.discovery);
+  if (d.s.bus.discovery) {
+    d.next_periodic = now + std::chrono::seconds(d.s.bus.discovery_period_s);
+    d.start_probe(now);
   }
 }
 
@@ -1943,12 +377,7 @@ bool Discovery::on_frame(const can::Frame& frame, TimePoint now) noexcept { retu
 
 TimePoint Discovery::process(TimePoint now) { return impl_->process(now); }
 
-void Discovery::request_commission() {
-  Impl& d = *impl_;
-  if (d.bus.commissioning == config::Commissioning::off) return;
-  d.permit = true;
-  d.queue_job(Impl::Job{Impl::Job::Kind::non_configured, 0});
-}
+void Discovery::request_commission() { impl_->work.request(); }
 
 void Discovery::reload(const config::Config& config, std::size_t bus_index, std::vector<Assignment> previous) {
   impl_->apply_config(config, bus_index, std::move(previous));
@@ -1957,16 +386,16 @@ void Discovery::reload(const config::Config& config, std::size_t bus_index, std:
 void Discovery::set_supervised(std::uint8_t node_id, bool supervised) noexcept {
   if (!canopen::cob::valid_node_id(node_id)) return;
   Impl& d = *impl_;
-  Impl::Node& node = d.nodes[node_id];
+  discovery::NodePicture& node = d.probe.node(node_id);
   if (node.supervised == supervised) return;
   node.supervised = supervised;
-  d.presence_changed = true;
+  d.decisions.presence_changed = true;
   if (!supervised) {
     // Heartbeat lost (or no longer watched): what the last probe saw there
     // may be gone. Ask now rather than at the next periodic probe, so that
     // a replacement waiting for this device's place is decided soon.
     node.unsure = true;
-    d.request_probe(node_id);
+    d.probe.request(node_id);
   }
 }
 
@@ -1997,38 +426,26 @@ std::error_code record_assignment(StateStore& store, const std::string& bus, con
   return first;
 }
 
-std::vector<DiscoveryEvent> Discovery::take_events() { return std::exchange(impl_->events, {}); }
-std::vector<StepTiming> Discovery::take_timings() { return std::exchange(impl_->timings, {}); }
+std::vector<DiscoveryEvent> Discovery::take_events() { return impl_->report.take_events(); }
+std::vector<StepTiming> Discovery::take_timings() { return impl_->report.take_timings(); }
 
-bool Discovery::commissioning() const noexcept {
-  const Impl& d = *impl_;
-  // Looking for non-configured devices (Fastscan, node-ID for what it finds)
-  // touches only slaves at FFh: configured devices may be configured meanwhile,
-  // so a stranger's scan never holds them up.
-  const bool only_non_configured = d.run && d.run->job.kind == Impl::Job::Kind::non_configured;
-  return (d.current.has_value() || !d.tasks.empty()) && !only_non_configured;
-}
+bool Discovery::commissioning() const noexcept { return impl_->work.resetting(); }
 
-bool Discovery::commission_pending() const noexcept {
-  const Impl& d = *impl_;
-  return !d.jobs.empty() && !d.may_commission() && d.bus.commissioning != config::Commissioning::off &&
-         std::any_of(d.jobs.begin(), d.jobs.end(),
-                     [](const Impl::Job& j) { return j.kind != Impl::Job::Kind::non_configured; });
-}
+bool Discovery::commission_pending() const noexcept { return impl_->work.pending(); }
 
 std::vector<Discovery::NodeView> Discovery::nodes() const {
   std::vector<NodeView> out;
   const Impl& d = *impl_;
   for (std::uint8_t n = 1; n <= 127; ++n) {
-    const auto& node = d.nodes[n];
+    const auto& node = d.at(n);
     if (node.ids.empty() && !node.clash) continue;
     NodeView v;
     v.node_id = n;
     v.identities = node.ids;
     if (!node.ids.empty()) {
-      if (auto t = d.assigned_to(node.ids[0])) v.target_node_id = *t;
-      if (const auto* c = d.configured_by_serial(node.ids[0].serial)) v.device = c->name;
-      for (const auto& w : d.swapped)
+      if (auto t = d.decisions.assigned_to(node.ids[0])) v.target_node_id = *t;
+      if (const auto* c = d.decisions.configured_by_serial(node.ids[0].serial)) v.device = c->name;
+      for (const auto& w : d.decisions.session().swapped)
         if (same_device(w.by, node.ids[0])) v.device = w.name;
     }
     out.push_back(std::move(v));

@@ -2,80 +2,22 @@
 // must have, and commissions them (moves them there) as the bus's
 // commissioning policy allows.
 //
-// Finding. A device already on a node-ID shows itself by its boot-up
-// (0x700+id `00`), its heartbeat, or by answering an SDO probe of
-// 0x1018/1..4 (vendor, product, revision, serial). The probe is raw SDO
-// upload frames sent to many node-IDs at once, so that several answers to one
-// request are seen: two different answers = two devices on one node-ID (a
-// clash). Probes run: all node-IDs 1..127 at start(), then every
-// `discovery_period_s` for the node-IDs the bus manager does not supervise
-// (set_supervised), at once for a node whose supervision is turned off
-// (heartbeat lost: is the device still there?), and on every boot-up (which
-// re-identifies a restarted device, so a swapped part never silently
-// inherits the old one's settings).
-// Two boot-ups from one node-ID within `bootup_clash_window` are a clash too.
-//
-// Deciding. An identified device's target node-ID: the configured device with
-// its serial (and vendor/product when the config gives them) -> its node_id,
-// else its previous assignment (from the state store), else the next free
-// node-ID of the bus's node_pool. An unknown serial of a configured model
-// whose configured device is missing takes that device's place when the swap
-// policy is same-model. Otherwise an unknown device is reported and left
-// alone; a device of the wrong model for its configured serial is reported
-// and not configured. A node-ID held by another present device is never
-// taken.
-//
-// Swap (same-model). A configured device (or the replacement that holds its
-// place) is
-//   present  while the bus manager supervises the node where it was last
-//            identified, or a probe found it and no loss was reported since;
-//   unsure   when its supervision was lost (set_supervised(node, false)) and
-//            its node has not been probed since: that probe is requested at
-//            once, and any decision that depends on it waits for it;
-//   absent   when a probe of its node got no answer, or it was not found by
-//            any probe since start() (after the full start-up probe).
-// An unknown serial takes a configured device's place only when exactly one
-// configured device of its model is absent and none is unsure; two absent
-// ones are reported (which one it replaces is a guess) and left alone. The
-// replacement is seen before the old device's loss is known (its boot-up
-// comes first, its heartbeat times out later), so every unknown device is
-// decided again whenever the presence picture changes (a probe without
-// answer, a new identity, a supervision change). A configured serial that
-// comes back after a replacement took its place is left alone and reported
-// while the replacement is present.
-//
-// Commissioning (policy automatic; manual only after request_commission();
-// never when off, where the component only listens and reads identities by
-// SDO upload of 0x1018: no LSS, no NMT, no SDO download; with the bus's
-// `discovery = false` it sends nothing at all). Probes and commissioning never
-// overlap: probes wait while commissioning runs and vice versa.
-//   * wrong node-ID: LSS switch selective (identity from the probe),
-//     configure node-ID, store, switch global waiting, NMT reset-communication
-//     to the old node-ID, wait for the boot-up on the new one. No LSS answer
-//     (ifm, whose LSS is undocumented) -> SDO fallback: node-ID object
-//     (ifm 0x3000 = id - 1, Novotechnik 0x2000 = id), 'save' to 0x1010, NMT
-//     reset node.
-//   * clash: (a) switch selective for each clashing device whose identity is
-//     known (serials from the probe; vendor/product from the probe, else from
-//     the config's vendor/product or its model's; revision from the probe,
-//     every one it saw tried in turn, else found by Slowscan over
-//     [0, 0xFFFFFFFF]); (b) Slowscan over the serial range for pre-Fastscan
-//     devices (Novotechnik rotary, vendor 0x182 products
-//     0x0BE0/0x0BF3/0x0BBD/0x0BCD/0x0BE1); (c) otherwise every device is made
-//     non-configured (switch global configuration, configure node-ID FFh, not
-//     stored, switch global waiting, NMT reset-communication all), then found
-//     one by one with Fastscan, and the pre-Fastscan ones of the clash with
-//     Slowscan; devices known before keep their node-IDs. Then NMT
-//     reset-communication and wait for boot-ups. The clash is resolved
-//     (clash_resolved) only when the probe of the clash node that follows
-//     finds one device or none there; if several still answer, the next
-//     strategy runs: first (a)+(b)+(c) for what is left, then (b) for every
-//     pre-Fastscan product seen + (c) for the rest, then (c) for everyone;
-//     after that a problem says it could not be resolved.
-//   * non-configured devices (FFh) are found by Fastscan (only CiA 305 V3
-//     slaves answer), assigned and stored; when identify non-configured is
-//     answered but Fastscan finds nobody, Slowscan over the pre-Fastscan
-//     products looks for them (devices found that hold a node-ID are left).
+// The procedures, as CiA 305 names them, one file pair each under
+// gateway/discovery/ (each header states the behaviour it implements):
+//   identity_probe     finding: who answers SDO 0x1018 at which node-ID,
+//                      clashes, boot-ups (identity confirmation);
+//   node_assignment    deciding: the target node-ID of each identified device,
+//                      swap policy, unknown_devices (a pure function;
+//                      decisions applies it to the session);
+//   fastscan_search    which Fastscan / Slowscan searches look for FFh devices,
+//                      and the strangers they keep finding;
+//   commissioning      the jobs (move, clash strategies (a)(b)(c),
+//                      non-configured) as LSS/NMT/SDO tasks, one at a time;
+//                      clash_resolution.cpp and lss_outcomes.cpp are its parts;
+//   lss_families       what each encoder family can do over LSS, and its SDO
+//                      node-ID object.
+// When probes run: identity_probe.hpp; the commissioning policies and what
+// each lets discovery send: commissioning.hpp.
 // Each step is timed (StepTiming; `at` is left for the caller to stamp,
 // because this component reads no clock).
 //
