@@ -95,20 +95,23 @@ std::string render_metrics(const gateway::StatusReport& report) {
   };
   w.family("cobridge_bus_open", "gauge", "1 while the bus's CAN interface is open.");
   for (const auto& b : report.buses) w.sample({{"bus", b.name}, {"interface", b.interface}}, b.open ? 1 : 0);
-  w.family("cobridge_frames_received_total", "counter",
-           "CAN frames received, per socket: the hot path's (PDO, EMCY, heartbeat) and the control plane's.");
-  for (const auto& b : report.buses) {
-    w.sample({{"bus", b.name}, {"socket", "hot_path"}}, static_cast<double>(b.hot_rx_frames));
-    w.sample({{"bus", b.name}, {"socket", "control"}}, static_cast<double>(b.rx_frames));
-  }
+  // Each bus has two sockets (docs/architecture.md): the hot path's and the control plane's.
+  auto per_socket = [&](std::string_view name, std::string_view help, std::uint64_t BusStatus::*hot,
+                        std::uint64_t BusStatus::*control) {
+    w.family(name, "counter", help);
+    for (const auto& b : report.buses) {
+      w.sample({{"bus", b.name}, {"socket", "hot_path"}}, static_cast<double>(b.*hot));
+      w.sample({{"bus", b.name}, {"socket", "control"}}, static_cast<double>(b.*control));
+    }
+  };
+  per_socket("cobridge_frames_received_total",
+             "CAN frames received, per socket: the hot path's (PDO, EMCY, heartbeat) and the control plane's.",
+             &BusStatus::hot_rx_frames, &BusStatus::rx_frames);
   per_bus("cobridge_frames_sent_total", "counter", "CAN frames the kernel accepted from the control plane.",
           [](const BusStatus& b) { return static_cast<double>(b.tx_frames); });
-  w.family("cobridge_kernel_drops_total", "counter",
-           "Frames the kernel dropped at a socket's receive queue (SO_RXQ_OVFL), per socket.");
-  for (const auto& b : report.buses) {
-    w.sample({{"bus", b.name}, {"socket", "hot_path"}}, static_cast<double>(b.hot_kernel_drops));
-    w.sample({{"bus", b.name}, {"socket", "control"}}, static_cast<double>(b.rx_overflow_drops));
-  }
+  per_socket("cobridge_kernel_drops_total",
+             "Frames the kernel dropped at a socket's receive queue (SO_RXQ_OVFL), per socket.",
+             &BusStatus::hot_kernel_drops, &BusStatus::rx_overflow_drops);
   per_bus("cobridge_ring_drops_total", "counter", "Samples lost because the bus's ring to the dispatcher was full.",
           [](const BusStatus& b) { return static_cast<double>(b.ring_drops); });
   per_bus("cobridge_status_event_drops_total", "counter",

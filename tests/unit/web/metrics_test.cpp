@@ -10,7 +10,10 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cstdio>
+#include <vector>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -61,6 +64,30 @@ TEST(Metrics, PromtoolAcceptsThem) {
     EXPECT_EQ(rc, 0) << buses << "x" << devices << ": " << out;
     EXPECT_EQ(out, "") << buses << "x" << devices;  // no lint warning either
   }
+}
+
+}  // namespace
+
+namespace {
+
+// Issue 14's target, p99 <= 20 ms with 4 buses x 32 devices: the CPU part of
+// an answer (the status JSON and the metrics text of a fresh snapshot), on
+// the host. Prints the figures (docs/performance.md "Web service").
+TEST(Metrics, FourBusesOf32DevicesRenderWellWithinTheTarget) {
+  const auto report = cobridge::web::test::sample_report(4, 32);
+  std::vector<double> ms;
+  std::size_t bytes = 0;
+  for (int i = 0; i < 200; ++i) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::string json = cobridge::gateway::to_json(report);
+    const std::string text = render_metrics(report);
+    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    bytes = json.size() + text.size();
+  }
+  std::sort(ms.begin(), ms.end());
+  std::printf("FIGURE 4x32 devices: status JSON + metrics render p50 %.3f ms, p99 %.3f ms (%zu bytes)\n", ms[100],
+              ms[197], bytes);
+  EXPECT_LT(ms[197], 20.0);
 }
 
 }  // namespace

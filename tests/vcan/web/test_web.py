@@ -145,6 +145,7 @@ def main():
         _, took = daemon.wait_until(e2e.all_operational(names), 60, interval=0.1)
         report.check(took is not None, "three devices operational", "%.2f s" % took if took else daemon.tail(40))
         time.sleep(0.5)
+        print("FIGURE daemon RSS before any HTTP request: %d KiB" % rss_kib(daemon.pid), flush=True)
 
         # ---- one schema, one source
         cli = subprocess.run([args.cli, "status", "--json", "--control", ws.control], stdout=subprocess.PIPE,
@@ -223,8 +224,8 @@ def main():
                      and [d["configurations"] for d in devices(before).values()] ==
                      [d["configurations"] for d in devices(after).values()], "... and change nothing")
 
-        # ---- latency and RSS (UML figures: one slow CPU)
-        for path in ("/api/v1/status", "/metrics", "/"):
+        # ---- latency and RSS (UML figures: one slow CPU); the browser run skips the load parts
+        for path in () if args.browser else ("/api/v1/status", "/metrics", "/"):
             lat = []
             c = http.client.HTTPConnection("127.0.0.1", PORT, timeout=5)
             for _ in range(200):
@@ -253,6 +254,8 @@ def main():
 
         c0 = counters()
         stop = threading.Event()
+        if args.browser:
+            stop.set()
         served = [0]
         lock = threading.Lock()
 
@@ -272,7 +275,7 @@ def main():
         threads = [threading.Thread(target=hammer) for _ in range(50)]
         for t in threads:
             t.start()
-        time.sleep(10)
+        time.sleep(0 if args.browser else 10)
         stop.set()
         for t in threads:
             t.join()
@@ -281,9 +284,10 @@ def main():
         lost = {k: c1[k] - c0[k] for k in ("ring_drops", "hot_kernel_drops", "rx_overflow_drops", "status_drops")}
         print("FIGURE 50 clients x 10 s on /metrics: %d answers; drops during it: %s; hot-path frames %d" % (
             served[0], lost, c1["hot_rx_frames"] - c0["hot_rx_frames"]), flush=True)
-        report.check(all(v == 0 for v in lost.values()), "no frame or sample lost while 50 clients hammer /metrics",
-                     str(lost))
-        report.check(served[0] > 50, "the hammering clients were served", str(served[0]))
+        if not args.browser:
+            report.check(all(v == 0 for v in lost.values()), "no frame or sample lost while 50 clients hammer /metrics",
+                         str(lost))
+            report.check(served[0] > 50, "the hammering clients were served", str(served[0]))
 
         # ---- a stale device
         name, serial = DEVICES[2][0], DEVICES[2][3]
@@ -325,21 +329,18 @@ def browser(report, ws, args, names, stale_name):
     url = "http://127.0.0.1:%d/" % PORT
     work = tempfile.mkdtemp(prefix="cobridge-chrome-", dir="/tmp")
     try:
-        doms = []
-        for i in range(2):
-            t0 = time.time()
-            dom = chromium(url, work, ["--dump-dom", "--timeout=3500", "--window-size=1400,700"])
-            print("FIGURE chromium --dump-dom took %.1f s" % (time.time() - t0), flush=True)
-            doms.append(dom)
-        rows = [dict((n, re.search(r'<tr class="device[^"]*" data-name="%s"[^>]*>.*?class="num val pos">([^<]*)<' %
-                                   re.escape(n), d, re.S)) for n in names) for d in doms]
+        # One load, left running 10 s (UML is slow): the page polls about once a second and
+        # counts the distinct positions it saw per device (data-positions).
+        t0 = time.time()
+        dom = chromium(url, work, ["--dump-dom", "--timeout=10000", "--window-size=1400,700"], timeout=200)
+        print("FIGURE chromium --dump-dom (10 s of page life) took %.1f s" % (time.time() - t0), flush=True)
+        doms = [dom]
         for n in names:
-            ok = all(r[n] is not None for r in rows)
-            report.check(ok, "browser: %s listed" % n)
-        moving = [n for n in names if n != stale_name and rows[0][n] and rows[1][n] and
-                  rows[0][n].group(1) != rows[1][n].group(1)]
-        report.check(len(moving) == len(names) - 1, "browser: values change between two loads",
-                     str([(n, rows[0][n] and rows[0][n].group(1), rows[1][n] and rows[1][n].group(1)) for n in names]))
+            row = re.search(r'<tr class="device[^"]*" data-name="%s"[^>]*data-positions="(\d+)"' % re.escape(n), dom)
+            report.check(row is not None, "browser: %s listed" % n)
+            if n != stale_name:
+                report.check(row is not None and int(row.group(1)) >= 2, "browser: %s values change on the page" % n,
+                             row.group(1) if row else "")
         m = re.search(r'<tr class="device ([^"]*)" data-name="%s"[^>]*data-stale="1"' % re.escape(stale_name), doms[-1])
         report.check(m is not None and "stale" in m.group(1), "browser: %s marked stale" % stale_name)
         report.check('class="flag stale"' in doms[-1], "browser: the STALE flag is shown")
@@ -347,8 +348,8 @@ def browser(report, ws, args, names, stale_name):
         if args.screenshot_dir:
             out = os.path.join(work, "web-status.png")
             t0 = time.time()
-            chromium(url, work, ["--screenshot=" + out, "--timeout=3500", "--window-size=1400,560",
-                                 "--hide-scrollbars"])
+            chromium(url, work, ["--screenshot=" + out, "--timeout=10000", "--window-size=1400,560",
+                                 "--hide-scrollbars"], timeout=240)
             print("FIGURE chromium --screenshot took %.1f s" % (time.time() - t0), flush=True)
             ok = os.path.exists(out) and os.path.getsize(out) > 10000
             report.check(ok, "browser: screenshot taken")
