@@ -18,6 +18,7 @@
 #include "sys/logging.hpp"
 #include "sys/notifier.hpp"
 #include "sys/signals.hpp"
+#include "web/web_server.hpp"
 
 #include <CLI/CLI.hpp>
 #include <poll.h>
@@ -28,6 +29,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
@@ -178,6 +180,9 @@ int check_config(const std::filesystem::path& file, const std::filesystem::path&
     // What the daemon would refuse at start: an output it cannot load or
     // whose settings the plugin rejects.
     v.errors = gateway::check_outputs(*v.config, plugin_dir);
+    if (v.config->web) {
+      for (auto& e : web::check_web_settings(*v.config->web)) v.errors.push_back(std::move(e));
+    }
     if (!v.errors.empty()) v.config.reset();
   }
   print(v, stderr);
@@ -185,10 +190,11 @@ int check_config(const std::filesystem::path& file, const std::filesystem::path&
     std::fprintf(stderr, "%s: %zu error%s\n", file.c_str(), v.errors.size(), v.errors.size() == 1 ? "" : "s");
     return 1;
   }
-  std::printf("%s: ok (%zu bus%s, %zu device%s, %zu output%s, %zu device description%s)\n", file.c_str(),
+  std::printf("%s: ok (%zu bus%s, %zu device%s, %zu output%s, %zu device description%s%s)\n", file.c_str(),
               v.config->buses.size(), v.config->buses.size() == 1 ? "" : "es", v.config->devices.size(),
               v.config->devices.size() == 1 ? "" : "s", v.config->outputs.size(),
-              v.config->outputs.size() == 1 ? "" : "s", v.catalog->size(), v.catalog->size() == 1 ? "" : "s");
+              v.config->outputs.size() == 1 ? "" : "s", v.catalog->size(), v.catalog->size() == 1 ? "" : "s",
+              v.config->web && v.config->web->enabled ? ", web" : "");
   return 0;
 }
 
@@ -228,6 +234,17 @@ std::string outputs_change(const config::Config& running, const config::Config& 
   return {};
 }
 
+// The web service runs with the settings it was started with.
+bool web_change(const config::Config& running, const config::Config& next) {
+  const auto& a = running.web;
+  const auto& b = next.web;
+  if (a.has_value() != b.has_value()) return true;
+  if (!a) return false;
+  return a->enabled != b->enabled || a->bind != b->bind || a->port != b->port || a->tls_cert != b->tls_cert ||
+         a->tls_key != b->tls_key || a->auth_file != b->auth_file || a->max_clients != b->max_clients ||
+         a->timeout_s != b->timeout_s;
+}
+
 // What the control socket sees of the daemon.
 class Daemon final : public gateway::ControlHandler {
  public:
@@ -235,10 +252,20 @@ class Daemon final : public gateway::ControlHandler {
          const gateway::OutputPipeline& outputs)
       : config_(&cfg), buses_(buses), outputs_(outputs), started_(std::chrono::system_clock::now()) {}
 
-  void set_config(const config::Config& cfg) { config_ = &cfg; }
-  void set_ready() { ready_ = true; }
+  void set_config(const config::Config& cfg) {
+    const std::lock_guard lock(mutex_);
+    config_ = &cfg;
+  }
+  void set_ready() {
+    const std::lock_guard lock(mutex_);
+    ready_ = true;
+  }
 
+  // Main thread (control socket) and the web service's thread: the lock
+  // keeps the configuration pointer and the ready flag consistent; the bus
+  // managers and the output pipeline are safe to read from any thread.
   gateway::StatusReport status() override {
+    const std::lock_guard lock(mutex_);
     gateway::StatusReport r;
     r.gateway_id = config_->gateway.id;
     r.version = COBRIDGE_VERSION;
@@ -246,17 +273,18 @@ class Daemon final : public gateway::ControlHandler {
     r.ready = ready_;
     r.started = started_;
     r.config_file = config_->source.string();
+    const auto now = Clock::now();
+    const auto wall = std::chrono::system_clock::now();
     for (std::size_t i = 0; i < buses_.size(); ++i) {
       gateway::BusStatus s = buses_[i]->status();
-      const pipeline::ReceiverStats hot = outputs_.receiver_stats(i);
-      s.unknown_node_frames = hot.decoder.unknown_node;
-      s.ring_drops = hot.ring_drops;
+      outputs_.add_live_status(i, s, now, wall);
       r.buses.push_back(std::move(s));
     }
     return r;
   }
 
   gateway::ControlResult commission(std::string_view bus) override {
+    const std::lock_guard lock(mutex_);
     gateway::ControlResult r;
     for (std::size_t i = 0; i < buses_.size(); ++i) {
       const auto& name = config_->buses[i].name;
@@ -279,6 +307,7 @@ class Daemon final : public gateway::ControlHandler {
   const gateway::OutputPipeline& outputs_;
   std::chrono::system_clock::time_point started_;
   bool ready_ = false;
+  std::mutex mutex_;
 };
 
 void stop_all(std::vector<std::unique_ptr<gateway::BusManager>>& buses) {
@@ -367,6 +396,17 @@ int run(const std::filesystem::path& config_file, bool foreground, const std::st
     }
   }
 
+  // The web service last: it reads the status of running buses. A daemon
+  // told to serve it does not run without it (like an output).
+  web::WebServer webserver([&daemon] { return daemon.status(); });
+  if (cfg->web && cfg->web->enabled && !webserver.start(*cfg->web, &why)) {
+    log->error("web: {}", why);
+    std::fprintf(stderr, "cobridged: web: %s\n", why.c_str());
+    stop_all(buses);
+    outputs.stop();
+    return 1;
+  }
+
   bool ready = false;
   std::string last_status;
   std::string reload_note;  // appended to STATUS= while a rejected reload is the news
@@ -393,6 +433,7 @@ int run(const std::filesystem::path& config_file, bool foreground, const std::st
       const auto t0 = Clock::now();
       (void)notifier.stopping();
       log->info("stopping");
+      webserver.stop();
       // The reverse of the start: no more plugin commands to the buses, the
       // buses (their last status and command outcomes still reach the hot
       // path), then the hot path and the plugins, then the control socket.
@@ -415,6 +456,7 @@ int run(const std::filesystem::path& config_file, bool foreground, const std::st
           refusal = "gateway.state_dir changed";
         if (refusal.empty() && next.config->gateway.control_socket != cfg->gateway.control_socket)
           refusal = "gateway.control_socket changed";
+        if (refusal.empty() && web_change(*cfg, *next.config)) refusal = "[web] changed";
         if (refusal.empty()) refusal = outputs_change(*cfg, *next.config);
         // Every layer takes the new configuration, or none does.
         if (refusal.empty()) refusal = outputs.reload(*next.config);

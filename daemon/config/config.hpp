@@ -166,6 +166,23 @@ struct Device {
   SourceLocation where;  // the [[device]] header
 };
 
+// ---- [web] ---------------------------------------------------------------
+
+// The read-only HTTP status service (daemon/web/, docs/web.md): not an
+// output plugin, a control-plane service of the daemon.
+struct WebSettings {
+  bool enabled = true;
+  std::string bind = "127.0.0.1";  // an IPv4 or IPv6 address literal
+  std::uint16_t port = 8080;
+  std::filesystem::path tls_cert;   // PEM; both or neither of cert and key
+  std::filesystem::path tls_key;
+  std::filesystem::path auth_file;  // "user:password" lines; empty = no authentication
+  std::uint32_t max_clients = 64;   // connections at once; more are refused
+  std::uint32_t timeout_s = 10;     // an idle or slow connection is closed after this
+  SourceLocation where;             // the [web] header
+  SourceLocation tls_cert_at, tls_key_at, auth_file_at;
+};
+
 // ---- [outputs.<name>] ----------------------------------------------------
 
 struct Output {
@@ -184,6 +201,7 @@ struct Config {
   std::vector<Bus> buses;
   std::vector<Device> devices;
   std::vector<Output> outputs;
+  std::optional<WebSettings> web;  // absent = no web service
 
   [[nodiscard]] const Bus* find_bus(std::string_view name) const noexcept {
     for (const auto& b : buses) {

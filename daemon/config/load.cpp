@@ -6,6 +6,8 @@
 
 #include <toml++/toml.h>
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -117,12 +119,13 @@ class Loader {
       return LoadResult(sink_.take_sorted());
     }
     TableReader top(root, "the top level", "", "", sink_);
-    top.check_keys({"gateway", "logging", "bus", "device", "outputs"});
+    top.check_keys({"gateway", "logging", "bus", "device", "outputs", "web"});
     read_gateway(top);
     read_logging(top);
     read_tables(root, "bus", &Loader::read_bus);
     read_tables(root, "device", &Loader::read_device);
     read_outputs(top);
+    read_web(top);
     cross_check();
     if (!sink_.empty()) return LoadResult(sink_.take_sorted());
     config_.source = sink_.file();
@@ -763,6 +766,51 @@ class Loader {
       out.settings_toml = os.str();
       config_.outputs.push_back(std::move(out));
     }
+  }
+
+  // ---- [web] -------------------------------------------------------------
+
+  void read_web(TableReader& top) {
+    const toml::table* t = top.subtable("web");
+    if (t == nullptr) return;
+    TableReader r(*t, "[web]", "", "web.", sink_);
+    r.check_keys({"enabled", "bind", "port", "tls_cert", "tls_key", "auth_file", "max_clients", "timeout_s"});
+    WebSettings w;
+    w.where = location(sink_, *t);
+    if (auto v = r.boolean("enabled")) w.enabled = *v;
+    if (auto v = r.string("bind")) {
+      in6_addr a6{};
+      in_addr a4{};
+      if (::inet_pton(AF_INET, v->c_str(), &a4) == 1 || ::inet_pton(AF_INET6, v->c_str(), &a6) == 1) {
+        w.bind = *v;
+      } else {
+        r.error(*r.find("bind"), "web.bind " + in_quotes(*v) +
+                                     " is not an IP address (e.g. \"127.0.0.1\", \"0.0.0.0\", \"::1\")");
+      }
+    }
+    if (auto v = r.integer("port", 1, 65535)) w.port = static_cast<std::uint16_t>(*v);
+    if (auto v = r.integer("max_clients", 1, 1024)) w.max_clients = static_cast<std::uint32_t>(*v);
+    if (auto v = r.integer("timeout_s", 1, 3600)) w.timeout_s = static_cast<std::uint32_t>(*v);
+    auto file = [&](std::string_view key, fs::path& out, SourceLocation& at) {
+      const auto v = r.string(key);
+      if (!v) return;
+      at = location(sink_, *r.find(key));
+      if (v->empty()) {
+        r.error(*r.find(key), r.path(key) + " must name a file, got \"\"");
+        return;
+      }
+      out = resolve(*v);
+    };
+    file("tls_cert", w.tls_cert, w.tls_cert_at);
+    file("tls_key", w.tls_key, w.tls_key_at);
+    file("auth_file", w.auth_file, w.auth_file_at);
+    if (w.tls_cert.empty() != w.tls_key.empty()) {
+      const bool has_cert = !w.tls_cert.empty();
+      r.error(*r.find(has_cert ? "tls_cert" : "tls_key"),
+              std::string("web.") + (has_cert ? "tls_cert" : "tls_key") + " is set but web." +
+                  (has_cert ? "tls_key" : "tls_cert") + " is not (TLS needs both)");
+    }
+    config_.web = std::move(w);
   }
 
   // ---- checks across sections ---------------------------------------------

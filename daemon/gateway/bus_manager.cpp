@@ -1314,6 +1314,7 @@ BusStatus BusManager::status() const {
     s.rx_frames = st.rx_frames;
     s.tx_frames = st.tx_frames;
     s.rx_overflow_drops = st.rx_overflow_drops;
+    s.tx_dropped = st.tx_dropped;
     s.error_frames = st.error_frames;
     s.reopens = static_cast<std::uint32_t>(st.reopens);
   }

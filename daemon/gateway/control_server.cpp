@@ -153,6 +153,40 @@ void write_device(JsonWriter& w, const DeviceStatus& d) {
   w.field("configurations", std::uint64_t{d.configurations});
   w.field("emcy_count", std::uint64_t{d.emcy_count});
   w.field("fingerprint", d.fingerprint);
+  w.key("emcy_history");
+  w.begin_array();
+  for (const auto& e : d.emcy_history) {
+    w.begin_object();
+    w.field("code", std::uint64_t{e.code});
+    w.field("text", e.text);
+    w.key("at");
+    w.time(e.at);
+    w.end_object();
+  }
+  w.end_array();
+  const LiveValues& v = d.values;
+  w.key("values");
+  if (!v.present) {
+    w.null();
+  } else {
+    w.begin_object();
+    if (v.has_position) {
+      w.field("position", static_cast<std::int64_t>(v.position));
+      w.field("position_eng", v.position_eng);
+      w.field("unit", v.unit);
+    }
+    if (v.has_speed) w.field("speed", static_cast<std::int64_t>(v.speed));
+    w.field("age_s", v.age_s);
+    w.key("at");
+    w.time(v.at);
+    w.field("stale", v.stale);
+    w.end_object();
+  }
+  w.key("heartbeat_age_s");
+  if (v.heartbeat_age_s < 0)
+    w.null();
+  else
+    w.value(v.heartbeat_age_s);
   w.end_object();
 }
 
@@ -171,6 +205,11 @@ void write_bus(JsonWriter& w, const BusStatus& b) {
   w.field("reopens", std::uint64_t{b.reopens});
   w.field("unknown_node_frames", b.unknown_node_frames);
   w.field("ring_drops", b.ring_drops);
+  w.field("hot_rx_frames", b.hot_rx_frames);
+  w.field("hot_kernel_drops", b.hot_kernel_drops);
+  w.field("status_drops", b.status_drops);
+  w.field("bad_length_frames", b.bad_length_frames);
+  w.field("tx_dropped", b.tx_dropped);
   w.end_object();
   w.key("devices");
   w.begin_array();

@@ -9,6 +9,7 @@
 #include "canopen/nmt.hpp"
 
 #include <chrono>
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -30,6 +31,30 @@ enum class DeviceState : std::uint8_t {
 
 using WallTime = std::chrono::system_clock::time_point;
 
+// One emergency message as the status keeps it (the family's decoded text).
+struct EmcyRecord {
+  std::uint16_t code = 0;
+  std::string text;
+  WallTime at{};
+};
+inline constexpr std::size_t kEmcyHistory = 8;  // the most recent EMCYs kept per device
+
+// The device's last values as the outputs received them (filled in by the
+// daemon from the output pipeline, like the hot-path counters of BusStatus).
+struct LiveValues {
+  bool present = false;          // a TPDO with a position or speed was seen
+  bool has_position = false;
+  bool has_speed = false;
+  std::int64_t position = 0;     // counts, after the device's scaling
+  double position_eng = 0;       // in `unit`, as the outputs publish it
+  std::string unit;              // "deg" or "counts"
+  std::int32_t speed = 0;        // device units (0x6030)
+  double age_s = -1;             // since the last value was received; < 0 = never
+  WallTime at{};                 // when it was received
+  bool stale = false;            // as SCADA and DDS see it (the outputs' stale flag)
+  double heartbeat_age_s = -1;   // since the last heartbeat; < 0 = none seen
+};
+
 struct DeviceStatus {
   std::string name;            // configured name, or "unknown-<serial>"
   std::string bus;
@@ -48,6 +73,8 @@ struct DeviceStatus {
   std::uint32_t configurations = 0;   // plans run (with writes)
   std::uint32_t emcy_count = 0;
   std::string fingerprint;            // of the applied configuration
+  std::vector<EmcyRecord> emcy_history;  // most recent last, at most kEmcyHistory
+  LiveValues values;
 };
 
 // How long a commissioning or configuration step took (reported by status).
@@ -73,6 +100,11 @@ struct BusStatus {
   // The hot path's counters (filled in by the daemon from the output pipeline).
   std::uint64_t unknown_node_frames = 0;  // frames of nodes no device index belongs to: counted, not published
   std::uint64_t ring_drops = 0;           // samples lost because the bus's ring was full
+  std::uint64_t hot_rx_frames = 0;        // frames the hot path's socket received
+  std::uint64_t hot_kernel_drops = 0;     // frames the kernel dropped at the hot path's socket (SO_RXQ_OVFL)
+  std::uint64_t status_drops = 0;         // status events lost (the bus's control ring full)
+  std::uint64_t bad_length_frames = 0;    // PDO/EMCY/heartbeat of the wrong length: not published
+  std::uint64_t tx_dropped = 0;           // frames the control socket could not send (ENOBUFS after back-off)
   std::vector<DeviceStatus> devices;
   std::vector<StepTiming> steps;      // most recent last, bounded
   std::vector<std::string> problems;  // unknown serial, clash, wrong model, ...

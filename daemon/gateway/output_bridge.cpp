@@ -189,6 +189,12 @@ void OutputBridge::on_command_done(const DeviceStatus& device, const DeviceComma
   (void)receiver_->post_status(e);
 }
 
+const char* OutputBridge::position_unit(const DeviceStatus& device) const {
+  const auto cfg = config_.get();
+  const auto candidates = catalog_.candidates(device.identity.vendor, device.identity.product);
+  return units_per_rev(*cfg, device, candidates.empty() ? nullptr : candidates.front()) > 0 ? "deg" : "counts";
+}
+
 void OutputBridge::announce(const DeviceStatus& device, std::uint8_t change) {
   if (!host_ || !dispatcher_) return;
   const auto cfg = config_.get();
@@ -205,8 +211,7 @@ void OutputBridge::announce(const DeviceStatus& device, std::uint8_t change) {
   info.product_code = device.identity.product;
   info.revision = device.identity.revision;
   info.serial = device.identity.serial;
-  const auto candidates = catalog_.candidates(device.identity.vendor, device.identity.product);
-  const char* unit = units_per_rev(*cfg, device, candidates.empty() ? nullptr : candidates.front()) > 0 ? "deg" : "counts";
+  const char* unit = position_unit(device);
   // plugin.h: on_device runs on the dispatcher thread, like on_samples. The
   // task owns copies of the strings the info points to.
   auto strings = std::make_shared<std::array<std::string, 5>>(

@@ -50,6 +50,9 @@ class OutputBridge final : public BusObserver {
   // one of DeviceIndexPool's for a device the configuration does not name;
   // none when that pool is used up (the device is then not published).
   [[nodiscard]] std::optional<std::uint16_t> device_index(const DeviceStatus& device);
+  // The unit of the device's position_eng as the plugins are told it: "deg"
+  // when the measuring units per revolution are known, else "counts". Any thread.
+  [[nodiscard]] const char* position_unit(const DeviceStatus& device) const;
 
  private:
   // Measuring units per revolution, or 0 when unknown (then position_eng is in counts).

@@ -60,7 +60,8 @@ OutputPipeline::OutputPipeline(const config::Config& config, const device::Devic
     : config_(config),
       command_targets_(config.buses.size()),
       host_(host_options(config, std::move(plugin_dir), [this](const cobridge_command& c) { return submit(c); })),
-      sink_(host_),
+      last_values_(config.buses.size()),
+      sink_(host_, last_values_),
       dispatcher_(sink_) {
   for (std::size_t i = 0; i < config.buses.size(); ++i) {
     auto bus = std::make_unique<Bus>();
@@ -146,6 +147,46 @@ BusObserver* OutputPipeline::observer(std::size_t bus_index) {
 
 pipeline::ReceiverStats OutputPipeline::receiver_stats(std::size_t bus_index) const {
   return bus_index < buses_.size() ? buses_[bus_index]->receiver->stats() : pipeline::ReceiverStats{};
+}
+
+void OutputPipeline::add_live_status(std::size_t bus_index, BusStatus& status, std::chrono::steady_clock::time_point now,
+                                     WallTime wall_now) const {
+  if (bus_index >= buses_.size()) return;
+  const Bus& bus = *buses_[bus_index];
+  const pipeline::ReceiverStats hot = bus.receiver->stats();
+  status.unknown_node_frames = hot.decoder.unknown_node;
+  status.ring_drops = hot.ring_drops;
+  status.hot_rx_frames = hot.decoder.frames;
+  status.hot_kernel_drops = hot.kernel_drops;
+  status.status_drops = hot.status_drops;
+  status.bad_length_frames = hot.decoder.bad_length;
+  const auto mono_ns = static_cast<std::uint64_t>(
+      std::chrono::duration_cast<std::chrono::nanoseconds>(now.time_since_epoch()).count());
+  const auto wall_ns = static_cast<std::uint64_t>(
+      std::chrono::duration_cast<std::chrono::nanoseconds>(wall_now.time_since_epoch()).count());
+  // The monotonic receive time when the sample had one (a step of the wall
+  // clock must not make a value look fresh or old), else the wall clock.
+  auto age = [&](std::uint64_t mono, std::uint64_t wall) {
+    if (mono != 0) return mono <= mono_ns ? static_cast<double>(mono_ns - mono) / 1e9 : 0.0;
+    return wall <= wall_ns ? static_cast<double>(wall_ns - wall) / 1e9 : 0.0;
+  };
+  for (DeviceStatus& d : status.devices) {
+    if (d.node_id == 0) continue;
+    const pipeline::LastValue v = last_values_.read(bus_index, d.node_id);
+    LiveValues& out = d.values;
+    if (v.heartbeat_wall_ns != 0) out.heartbeat_age_s = age(v.heartbeat_monotonic_ns, v.heartbeat_wall_ns);
+    if (v.value_wall_ns == 0) continue;
+    out.present = true;
+    out.has_position = (v.valid & (COBRIDGE_VALID_POSITION | COBRIDGE_VALID_POSITION_ENG)) != 0;
+    out.has_speed = (v.valid & COBRIDGE_VALID_SPEED) != 0;
+    out.position = v.position;
+    out.position_eng = v.position_eng;
+    out.unit = bus.bridge->position_unit(d);
+    out.speed = v.speed;
+    out.age_s = age(v.value_monotonic_ns, v.value_wall_ns);
+    out.at = WallTime(std::chrono::duration_cast<WallTime::duration>(std::chrono::nanoseconds(v.value_wall_ns)));
+    out.stale = v.status_known != 0 && v.stale != 0;
+  }
 }
 
 }  // namespace cobridge::gateway

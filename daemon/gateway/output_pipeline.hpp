@@ -22,10 +22,12 @@
 #include "gateway/output_bridge.hpp"
 #include "pipeline/bus_receiver.hpp"
 #include "pipeline/device_table.hpp"
+#include "pipeline/last_values.hpp"
 #include "pipeline/dispatcher.hpp"
 #include "pipeline/plugin_host.hpp"
 
 #include <atomic>
+#include <chrono>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -71,15 +73,25 @@ class OutputPipeline {
   void set_command_target(std::size_t bus_index, BusManager* target) noexcept;
   [[nodiscard]] std::size_t plugins_running() const noexcept { return host_.loaded_count(); }
   [[nodiscard]] pipeline::ReceiverStats receiver_stats(std::size_t bus_index) const;
+  // Adds what the hot path knows to a bus manager's status: its counters and
+  // each device's last values, heartbeat age and stale flag (ages against
+  // `now`). Any thread; reads atomics only, never waits for the hot path.
+  void add_live_status(std::size_t bus_index, BusStatus& status, std::chrono::steady_clock::time_point now,
+                       WallTime wall_now) const;
 
  private:
+  // The plugins first, then the last-value table the status reads.
   class HostSink final : public pipeline::SampleSink {
    public:
-    explicit HostSink(pipeline::PluginHost& host) : host_(host) {}
-    void deliver(std::span<const pipeline::Sample> batch) noexcept override { host_.deliver(batch); }
+    HostSink(pipeline::PluginHost& host, pipeline::LastValues& last) : host_(host), last_(last) {}
+    void deliver(std::span<const pipeline::Sample> batch) noexcept override {
+      host_.deliver(batch);
+      last_.record(batch);
+    }
 
    private:
     pipeline::PluginHost& host_;
+    pipeline::LastValues& last_;
   };
   struct Bus {
     pipeline::DeviceTable table;
@@ -94,6 +106,7 @@ class OutputPipeline {
   DeviceIndexPool unknown_indices_;  // shared by every bus's bridge
   std::vector<std::atomic<BusManager*>> command_targets_;
   pipeline::PluginHost host_;
+  pipeline::LastValues last_values_;
   HostSink sink_;
   pipeline::Dispatcher dispatcher_;
   std::vector<std::unique_ptr<Bus>> buses_;

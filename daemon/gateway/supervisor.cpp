@@ -278,6 +278,8 @@ void apply(const Supervisor::Change& change, DeviceStatus& device, WallTime wall
       ++device.emcy_count;
       device.last_emcy_code = change.emcy_code;
       device.last_emcy_text = change.emcy_text;
+      if (device.emcy_history.size() >= kEmcyHistory) device.emcy_history.erase(device.emcy_history.begin());
+      device.emcy_history.push_back(EmcyRecord{change.emcy_code, change.emcy_text, wall});
       break;
   }
 }

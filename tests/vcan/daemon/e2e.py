@@ -216,11 +216,11 @@ class NotifySocket(_SocketReader):
 
 
 class Simulator:
-    def __init__(self, sim, ws, buses, log_name="sim.log", control=None):
+    def __init__(self, sim, ws, buses, log_name="sim.log", control=None, extra_args=()):
         """buses: {"vcan0": ["RFC-4800:serial=1001", ...]}; control: the socket path
-        (a second simulator needs its own)."""
+        (a second simulator needs its own); extra_args: e.g. ("--truth", FILE)."""
         self.control = control or ws.sim_control
-        args = [sim, "--state-dir", ws.sim_state, "--control", self.control]
+        args = [sim, "--state-dir", ws.sim_state, "--control", self.control] + list(extra_args)
         for iface, devs in buses.items():
             args += ["--iface", iface]
             for d in devs:

@@ -1,0 +1,56 @@
+#include "web/auth_file.hpp"
+
+#include <sys/stat.h>
+
+#include <cerrno>
+#include <cstring>
+#include <fstream>
+
+namespace cobridge::web {
+namespace {
+
+bool equal_constant_time(std::string_view a, std::string_view b) noexcept {
+  unsigned diff = a.size() == b.size() ? 0U : 1U;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    diff |= static_cast<unsigned>(static_cast<unsigned char>(a[i]) ^ static_cast<unsigned char>(i < b.size() ? b[i] : '\0'));
+  return diff == 0;
+}
+
+}  // namespace
+
+bool AuthFile::load(const std::filesystem::path& file, std::string* why) {
+  auto fail = [&](const std::string& what) {
+    if (why != nullptr) *why = file.string() + ": " + what;
+    return false;
+  };
+  users_.clear();
+  struct stat st {};
+  if (::stat(file.c_str(), &st) != 0) return fail(std::strerror(errno));
+  if (!S_ISREG(st.st_mode)) return fail("not a regular file");
+  if ((st.st_mode & 077) != 0)
+    return fail("readable or writable by group or others (mode " + std::to_string((st.st_mode >> 6) & 7) +
+                std::to_string((st.st_mode >> 3) & 7) + std::to_string(st.st_mode & 7) + "); chmod 600 it");
+  std::ifstream in(file);
+  if (!in) return fail(std::strerror(errno));
+  std::string line;
+  std::size_t n = 0;
+  while (std::getline(in, line)) {
+    ++n;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty() || line[0] == '#') continue;
+    const auto colon = line.find(':');
+    if (colon == std::string::npos || colon == 0 || colon + 1 == line.size())
+      return fail("line " + std::to_string(n) + ": expected user:password");
+    users_.emplace_back(line.substr(0, colon), line.substr(colon + 1));
+  }
+  if (users_.empty()) return fail("no user:password line");
+  return true;
+}
+
+bool AuthFile::check(std::string_view user, std::string_view password) const noexcept {
+  bool ok = false;
+  for (const auto& [u, p] : users_) ok |= equal_constant_time(u, user) & equal_constant_time(p, password);
+  return ok;
+}
+
+}  // namespace cobridge::web

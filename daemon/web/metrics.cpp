@@ -1,0 +1,193 @@
+#include "web/metrics.hpp"
+
+#include <array>
+#include <chrono>
+#include <cstdio>
+#include <functional>
+
+namespace cobridge::web {
+namespace {
+
+using gateway::BusStatus;
+using gateway::DeviceState;
+using gateway::DeviceStatus;
+
+constexpr std::array kStates{DeviceState::expected,    DeviceState::identified, DeviceState::commissioning,
+                             DeviceState::configuring, DeviceState::operational, DeviceState::offline,
+                             DeviceState::failed,      DeviceState::stopped};
+
+// A label value: backslash, double quote and line feed escaped (the format's rule).
+void label_value(std::string& out, std::string_view v) {
+  out += '"';
+  for (const char c : v) {
+    if (c == '\\') out += "\\\\";
+    else if (c == '"') out += "\\\"";
+    else if (c == '\n') out += "\\n";
+    else out += c;
+  }
+  out += '"';
+}
+
+void number(std::string& out, double v) {
+  std::array<char, 32> buf{};
+  std::snprintf(buf.data(), buf.size(), "%.6g", v);
+  out += buf.data();
+}
+
+class Writer {
+ public:
+  void family(std::string_view name, std::string_view type, std::string_view help) {
+    name_ = name;
+    out_ += "# HELP ";
+    out_ += name;
+    out_ += ' ';
+    out_ += help;
+    out_ += "\n# TYPE ";
+    out_ += name;
+    out_ += ' ';
+    out_ += type;
+    out_ += '\n';
+  }
+  // One sample of the current family; labels as name/value pairs.
+  void sample(std::initializer_list<std::pair<std::string_view, std::string_view>> labels, double value) {
+    out_ += name_;
+    if (labels.size() != 0) {
+      out_ += '{';
+      bool first = true;
+      for (const auto& [k, v] : labels) {
+        if (!first) out_ += ',';
+        first = false;
+        out_ += k;
+        out_ += '=';
+        label_value(out_, v);
+      }
+      out_ += '}';
+    }
+    out_ += ' ';
+    number(out_, value);
+    out_ += '\n';
+  }
+  std::string take() { return std::move(out_); }
+
+ private:
+  std::string out_;
+  std::string name_;
+};
+
+std::string node_label(const DeviceStatus& d) { return d.node_id == 0 ? std::string() : std::to_string(d.node_id); }
+
+}  // namespace
+
+std::string render_metrics(const gateway::StatusReport& report) {
+  Writer w;
+  w.family("cobridge_info", "gauge", "The gateway's identity (value 1).");
+  w.sample({{"gateway", report.gateway_id}, {"version", report.version}}, 1);
+  w.family("cobridge_ready", "gauge", "1 once every known device was configured or timed out (sd_notify READY=1).");
+  w.sample({}, report.ready ? 1 : 0);
+  w.family("cobridge_start_time_seconds", "gauge", "When the daemon started, seconds since the Unix epoch.");
+  w.sample({}, std::chrono::duration<double>(report.started.time_since_epoch()).count());
+
+  // ---- per bus
+  auto per_bus = [&](std::string_view name, std::string_view type, std::string_view help,
+                     const std::function<double(const BusStatus&)>& get) {
+    w.family(name, type, help);
+    for (const auto& b : report.buses) w.sample({{"bus", b.name}}, get(b));
+  };
+  w.family("cobridge_bus_open", "gauge", "1 while the bus's CAN interface is open.");
+  for (const auto& b : report.buses) w.sample({{"bus", b.name}, {"interface", b.interface}}, b.open ? 1 : 0);
+  // Each bus has two sockets (docs/architecture.md): the hot path's and the control plane's.
+  auto per_socket = [&](std::string_view name, std::string_view help, std::uint64_t BusStatus::*hot,
+                        std::uint64_t BusStatus::*control) {
+    w.family(name, "counter", help);
+    for (const auto& b : report.buses) {
+      w.sample({{"bus", b.name}, {"socket", "hot_path"}}, static_cast<double>(b.*hot));
+      w.sample({{"bus", b.name}, {"socket", "control"}}, static_cast<double>(b.*control));
+    }
+  };
+  per_socket("cobridge_frames_received_total",
+             "CAN frames received, per socket: the hot path's (PDO, EMCY, heartbeat) and the control plane's.",
+             &BusStatus::hot_rx_frames, &BusStatus::rx_frames);
+  per_bus("cobridge_frames_sent_total", "counter", "CAN frames the kernel accepted from the control plane.",
+          [](const BusStatus& b) { return static_cast<double>(b.tx_frames); });
+  per_socket("cobridge_kernel_drops_total",
+             "Frames the kernel dropped at a socket's receive queue (SO_RXQ_OVFL), per socket.",
+             &BusStatus::hot_kernel_drops, &BusStatus::rx_overflow_drops);
+  per_bus("cobridge_ring_drops_total", "counter", "Samples lost because the bus's ring to the dispatcher was full.",
+          [](const BusStatus& b) { return static_cast<double>(b.ring_drops); });
+  per_bus("cobridge_status_event_drops_total", "counter",
+          "Status events (online, stale, command outcomes) lost because the bus's control ring was full.",
+          [](const BusStatus& b) { return static_cast<double>(b.status_drops); });
+  per_bus("cobridge_unknown_node_frames_total", "counter",
+          "Frames of nodes no device index belongs to: counted, not published.",
+          [](const BusStatus& b) { return static_cast<double>(b.unknown_node_frames); });
+  per_bus("cobridge_bad_length_frames_total", "counter",
+          "PDO, EMCY or heartbeat frames of the wrong length: not published.",
+          [](const BusStatus& b) { return static_cast<double>(b.bad_length_frames); });
+  per_bus("cobridge_tx_dropped_total", "counter",
+          "Frames the control plane could not send (the kernel's queue stayed full, ENOBUFS).",
+          [](const BusStatus& b) { return static_cast<double>(b.tx_dropped); });
+  per_bus("cobridge_error_frames_total", "counter", "CAN error frames received (bus-off, passive, warnings).",
+          [](const BusStatus& b) { return static_cast<double>(b.error_frames); });
+  per_bus("cobridge_bus_reopens_total", "counter", "Times the interface was reopened after it went down.",
+          [](const BusStatus& b) { return static_cast<double>(b.reopens); });
+
+  // ---- per device
+  auto per_device = [&](std::string_view name, std::string_view type, std::string_view help,
+                        const std::function<bool(const DeviceStatus&, double&)>& get) {
+    w.family(name, type, help);
+    for (const auto& b : report.buses) {
+      for (const auto& d : b.devices) {
+        double v = 0;
+        if (get(d, v)) w.sample({{"bus", b.name}, {"node", node_label(d)}, {"name", d.name}}, v);
+      }
+    }
+  };
+  per_device("cobridge_device_up", "gauge", "1 while the device's heartbeat (or guarding) is heard.",
+             [](const DeviceStatus& d, double& v) { v = d.online ? 1 : 0; return true; });
+  w.family("cobridge_device_state", "gauge", "The device's state in the gateway (1 for the current state).");
+  for (const auto& b : report.buses) {
+    for (const auto& d : b.devices) {
+      const std::string node = node_label(d);
+      for (const DeviceState s : kStates)
+        w.sample({{"bus", b.name}, {"node", node}, {"name", d.name}, {"state", gateway::to_string(s)}},
+                 d.state == s ? 1 : 0);
+    }
+  }
+  per_device("cobridge_device_boot_ups_total", "counter", "Boot-up messages seen from the device.",
+             [](const DeviceStatus& d, double& v) { v = d.boot_ups; return true; });
+  per_device("cobridge_device_configurations_total", "counter", "Configuration plans run on the device (with writes).",
+             [](const DeviceStatus& d, double& v) { v = d.configurations; return true; });
+  per_device("cobridge_device_emcy_total", "counter", "Emergency messages received from the device.",
+             [](const DeviceStatus& d, double& v) { v = d.emcy_count; return true; });
+  per_device("cobridge_heartbeat_age_seconds", "gauge", "Time since the device's last heartbeat.",
+             [](const DeviceStatus& d, double& v) {
+               v = d.values.heartbeat_age_s;
+               return v >= 0;
+             });
+  per_device("cobridge_value_age_seconds", "gauge", "Time since the device's last position or speed was received.",
+             [](const DeviceStatus& d, double& v) {
+               v = d.values.age_s;
+               return d.values.present;
+             });
+  per_device("cobridge_value_stale", "gauge", "1 while the outputs mark the device's values stale.",
+             [](const DeviceStatus& d, double& v) {
+               v = d.values.stale ? 1 : 0;
+               return d.values.present;
+             });
+  w.family("cobridge_position", "gauge", "The device's last position in engineering units (label unit).");
+  for (const auto& b : report.buses) {
+    for (const auto& d : b.devices) {
+      if (d.values.present && d.values.has_position)
+        w.sample({{"bus", b.name}, {"node", node_label(d)}, {"name", d.name}, {"unit", d.values.unit}},
+                 d.values.position_eng);
+    }
+  }
+  per_device("cobridge_speed", "gauge", "The device's last speed, device units (object 0x6030).",
+             [](const DeviceStatus& d, double& v) {
+               v = d.values.speed;
+               return d.values.present && d.values.has_speed;
+             });
+  return w.take();
+}
+
+}  // namespace cobridge::web

@@ -1,0 +1,230 @@
+#include "web/web_server.hpp"
+
+#include "sys/logging.hpp"
+#include "web/metrics.hpp"
+#include "web/status_page.hpp"
+
+#include <arpa/inet.h>
+#include <microhttpd.h>
+#include <netinet/in.h>
+
+#include <cstdarg>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+namespace cobridge::web {
+namespace {
+
+constexpr std::size_t kConnectionMemory = 16 * 1024;  // request line + headers, per connection
+
+std::string at(const config::SourceLocation& l, std::string_view key) {
+  return l.file + ":" + std::to_string(l.line) + ":" + std::to_string(l.column) + ": web." + std::string(key) + ": ";
+}
+
+bool read_file(const std::filesystem::path& file, std::string& out, std::string* why) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) {
+    if (why != nullptr) *why = "cannot read " + file.string();
+    return false;
+  }
+  std::ostringstream s;
+  s << in.rdbuf();
+  out = s.str();
+  if (out.find("-----BEGIN ") == std::string::npos) {
+    if (why != nullptr) *why = file.string() + " is not a PEM file";
+    return false;
+  }
+  return true;
+}
+
+void mhd_log(void* /*cls*/, const char* fmt, va_list ap) {
+  std::array<char, 512> buf{};
+  std::vsnprintf(buf.data(), buf.size(), fmt, ap);
+  std::string text(buf.data());
+  while (!text.empty() && text.back() == '\n') text.pop_back();
+  sys::logger("web")->debug("libmicrohttpd: {}", text);
+}
+
+MHD_Result on_request(void* cls, MHD_Connection* connection, const char* url, const char* method,
+                      const char* /*version*/, const char* /*upload_data*/, std::size_t* /*upload_data_size*/,
+                      void** /*request_state*/) {
+  auto* server = static_cast<WebServer*>(cls);
+  char* password = nullptr;
+  char* user = MHD_basic_auth_get_username_password(connection, &password);
+  Credentials credentials{user != nullptr ? user : "", password != nullptr ? password : ""};
+  HttpAnswer a;
+  try {
+    a = server->handle(method, url, user != nullptr ? &credentials : nullptr);
+  } catch (const std::exception& e) {
+    a.status = 500;
+    a.body = "internal error\n";
+    a.content_length = a.body.size();
+    sys::logger("web")->error("{} {}: {}", method, url, e.what());
+  }
+  if (user != nullptr) MHD_free(user);
+  if (password != nullptr) MHD_free(password);
+
+  MHD_Response* response = MHD_create_response_from_buffer(a.body.size(), a.body.data(), MHD_RESPMEM_MUST_COPY);
+  if (response == nullptr) return MHD_NO;
+  MHD_add_response_header(response, MHD_HTTP_HEADER_CONTENT_TYPE, a.content_type);
+  MHD_add_response_header(response, MHD_HTTP_HEADER_CACHE_CONTROL, "no-store");
+  MHD_add_response_header(response, "X-Content-Type-Options", "nosniff");
+  MHD_add_response_header(response, "X-Frame-Options", "DENY");
+  MHD_add_response_header(response, "Content-Security-Policy",
+                          "default-src 'none'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; "
+                          "connect-src 'self'; img-src data:; base-uri 'none'; form-action 'none'");
+  if (a.status == 405) MHD_add_response_header(response, MHD_HTTP_HEADER_ALLOW, "GET, HEAD");
+  MHD_Result r;
+  if (a.ask_credentials)
+    r = MHD_queue_basic_auth_fail_response(connection, "cobridge", response);
+  else
+    r = MHD_queue_response(connection, a.status, response);
+  MHD_destroy_response(response);
+  return r;
+}
+
+}  // namespace
+
+std::vector<std::string> check_web_settings(const config::WebSettings& settings) {
+  std::vector<std::string> errors;
+  if (!settings.enabled) return errors;
+  std::string text;
+  std::string why;
+  if (!settings.tls_cert.empty() && !read_file(settings.tls_cert, text, &why))
+    errors.push_back(at(settings.tls_cert_at, "tls_cert") + why);
+  if (!settings.tls_key.empty() && !read_file(settings.tls_key, text, &why))
+    errors.push_back(at(settings.tls_key_at, "tls_key") + why);
+  if ((!settings.tls_cert.empty() || !settings.tls_key.empty()) && MHD_is_feature_supported(MHD_FEATURE_TLS) != MHD_YES)
+    errors.push_back(at(settings.tls_cert_at, "tls_cert") + "this libmicrohttpd was built without TLS");
+  if (!settings.auth_file.empty()) {
+    AuthFile auth;
+    if (!auth.load(settings.auth_file, &why)) errors.push_back(at(settings.auth_file_at, "auth_file") + why);
+  }
+  return errors;
+}
+
+WebServer::WebServer(StatusSource source, std::chrono::milliseconds refresh)
+    : source_(std::move(source)), refresh_(refresh) {}
+
+WebServer::~WebServer() { stop(); }
+
+bool WebServer::start(const config::WebSettings& settings, std::string* why) {
+  stop();
+  const auto problems = check_web_settings(settings);
+  if (!problems.empty()) {
+    if (why != nullptr) *why = problems.front();
+    return false;
+  }
+  if (!settings.auth_file.empty()) {
+    AuthFile auth;
+    if (!auth.load(settings.auth_file, why)) return false;
+    auth_ = std::move(auth);
+  }
+  unsigned flags = MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_EPOLL | MHD_USE_ERROR_LOG;
+  const bool tls = !settings.tls_cert.empty();
+  if (tls) {
+    if (!read_file(settings.tls_cert, tls_cert_, why) || !read_file(settings.tls_key, tls_key_, why)) return false;
+    flags |= MHD_USE_TLS;
+  }
+  sockaddr_in v4{};
+  sockaddr_in6 v6{};
+  const sockaddr* addr = nullptr;
+  if (::inet_pton(AF_INET, settings.bind.c_str(), &v4.sin_addr) == 1) {
+    v4.sin_family = AF_INET;
+    v4.sin_port = htons(settings.port);
+    addr = reinterpret_cast<const sockaddr*>(&v4);
+  } else if (::inet_pton(AF_INET6, settings.bind.c_str(), &v6.sin6_addr) == 1) {
+    v6.sin6_family = AF_INET6;
+    v6.sin6_port = htons(settings.port);
+    addr = reinterpret_cast<const sockaddr*>(&v6);
+    flags |= MHD_USE_IPv6;
+  } else {
+    if (why != nullptr) *why = "web.bind \"" + settings.bind + "\" is not an IP address";
+    return false;
+  }
+  std::vector<MHD_OptionItem> options{
+      {MHD_OPTION_CONNECTION_LIMIT, static_cast<intptr_t>(settings.max_clients), nullptr},
+      {MHD_OPTION_CONNECTION_TIMEOUT, static_cast<intptr_t>(settings.timeout_s), nullptr},
+      {MHD_OPTION_CONNECTION_MEMORY_LIMIT, static_cast<intptr_t>(kConnectionMemory), nullptr},
+      {MHD_OPTION_SOCK_ADDR, 0, const_cast<sockaddr*>(addr)},
+      {MHD_OPTION_EXTERNAL_LOGGER, reinterpret_cast<intptr_t>(&mhd_log), nullptr},
+  };
+  if (tls) {
+    options.push_back({MHD_OPTION_HTTPS_MEM_CERT, 0, tls_cert_.data()});
+    options.push_back({MHD_OPTION_HTTPS_MEM_KEY, 0, tls_key_.data()});
+  }
+  options.push_back({MHD_OPTION_END, 0, nullptr});
+  daemon_ = MHD_start_daemon(flags, settings.port, nullptr, nullptr, &on_request, this, MHD_OPTION_ARRAY,
+                             options.data(), MHD_OPTION_END);
+  if (daemon_ == nullptr) {
+    if (why != nullptr)
+      *why = "cannot listen on " + settings.bind + " port " + std::to_string(settings.port) +
+             " (address in use, not local, or a bad TLS certificate/key)";
+    return false;
+  }
+  port_ = settings.port;
+  if (const MHD_DaemonInfo* info = MHD_get_daemon_info(daemon_, MHD_DAEMON_INFO_BIND_PORT)) port_ = info->port;
+  sys::logger("web")->info("web: serving http{}://{}:{}/ ({} clients at most{})", tls ? "s" : "", settings.bind, port_,
+                           settings.max_clients, auth_ ? ", basic authentication" : "");
+  return true;
+}
+
+void WebServer::stop() {
+  if (daemon_ == nullptr) return;
+  MHD_stop_daemon(daemon_);
+  daemon_ = nullptr;
+}
+
+WebServer::Snapshot& WebServer::snapshot() {
+  const auto now = std::chrono::steady_clock::now();
+  if (snap_.taken == std::chrono::steady_clock::time_point{} || now - snap_.taken >= refresh_) {
+    snap_.report = source_();
+    snap_.json = gateway::to_json(snap_.report);
+    snap_.json += '\n';
+    snap_.have_metrics = false;
+    snap_.taken = now;
+  }
+  return snap_;
+}
+
+HttpAnswer WebServer::handle(std::string_view method, std::string_view path, const Credentials* credentials) {
+  HttpAnswer a;
+  const HttpRoute route = route_request(method, path);
+  a.content_type = content_type(route.resource);
+  if (route.status != 200) {
+    a.status = route.status;
+    a.body = std::string(route.reason) + "\n";
+  } else if (auth_ && (credentials == nullptr || !auth_->check(credentials->user, credentials->password))) {
+    a.status = 401;
+    a.ask_credentials = true;
+    a.content_type = content_type(Resource::none);
+    a.body = "authentication required\n";
+  } else {
+    switch (route.resource) {
+      case Resource::page: a.body = std::string(status_page_html()); break;
+      case Resource::health: a.body = "ok\n"; break;
+      case Resource::status_json: {
+        const std::lock_guard lock(mutex_);
+        a.body = snapshot().json;
+        break;
+      }
+      case Resource::metrics: {
+        const std::lock_guard lock(mutex_);
+        Snapshot& s = snapshot();
+        if (!s.have_metrics) {
+          s.metrics = render_metrics(s.report);
+          s.have_metrics = true;
+        }
+        a.body = s.metrics;
+        break;
+      }
+      case Resource::none: break;
+    }
+  }
+  // HEAD keeps the body here: libmicrohttpd sends its length and not the bytes.
+  a.content_length = a.body.size();
+  return a;
+}
+
+}  // namespace cobridge::web

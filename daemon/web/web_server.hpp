@@ -1,0 +1,99 @@
+// WebServer: the daemon's read-only HTTP service (docs/web.md): the status
+// page (/), the status JSON (/api/v1/status, the document `cobridge status
+// --json` prints: one schema, built by the same to_json), Prometheus metrics
+// (/metrics) and /healthz, on libmicrohttpd.
+//
+// It never touches the CAN path: it reads the status report the control
+// socket also serves, and rebuilds it at most every `refresh` however many
+// clients ask (so a hundred clients cost the bus managers what one costs).
+// Bounded by construction: one internal thread (epoll), at most
+// `max_clients` connections, a per-connection memory limit that caps the
+// request header size, an idle timeout, GET and HEAD only, no request body
+// read. TLS (GnuTLS, through libmicrohttpd) and HTTP basic authentication
+// from a file are optional.
+//
+// Threads: start()/stop() on the main thread; requests are answered on
+// libmicrohttpd's internal thread; handle() may be called from any thread
+// (tests use it without a socket).
+#pragma once
+
+#include "config/config.hpp"
+#include "gateway/control_server.hpp"
+#include "web/auth_file.hpp"
+#include "web/http_route.hpp"
+
+#include <chrono>
+#include <functional>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+struct MHD_Daemon;
+
+namespace cobridge::web {
+
+// The files [web] names, checked as the daemon would load them (readable
+// PEM files, an auth file readable by its owner only), for --check-config
+// and start(). One "file:line:col: web.<key>: ..." message per problem.
+[[nodiscard]] std::vector<std::string> check_web_settings(const config::WebSettings& settings);
+
+struct HttpAnswer {
+  unsigned status = 200;
+  const char* content_type = "text/plain; charset=utf-8";
+  std::string body;         // also for HEAD: libmicrohttpd sends only its length
+  std::size_t content_length = 0;
+  bool ask_credentials = false;  // 401: send WWW-Authenticate
+};
+
+struct Credentials {
+  std::string_view user;
+  std::string_view password;
+};
+
+class WebServer {
+ public:
+  using StatusSource = std::function<gateway::StatusReport()>;
+
+  explicit WebServer(StatusSource source, std::chrono::milliseconds refresh = std::chrono::milliseconds(250));
+  ~WebServer();
+  WebServer(const WebServer&) = delete;
+  WebServer& operator=(const WebServer&) = delete;
+
+  // Loads the TLS files and the auth file, binds and starts the thread.
+  // On failure `why` says what failed.
+  bool start(const config::WebSettings& settings, std::string* why);
+  void stop();
+  [[nodiscard]] bool running() const noexcept { return daemon_ != nullptr; }
+  // The bound port (the configured one, or the kernel's choice for port 0 in tests).
+  [[nodiscard]] std::uint16_t port() const noexcept { return port_; }
+
+  // One request: `credentials` is nullptr when the client sent none.
+  [[nodiscard]] HttpAnswer handle(std::string_view method, std::string_view path, const Credentials* credentials);
+  // Test hook: require these users (as if an auth file were loaded).
+  void set_auth(AuthFile auth) { auth_ = std::move(auth); }
+
+ private:
+  struct Snapshot {
+    std::chrono::steady_clock::time_point taken{};
+    std::string json;
+    std::string metrics;
+    bool have_metrics = false;
+    gateway::StatusReport report;
+  };
+  // The current status, rebuilt when older than refresh_; under mutex_.
+  Snapshot& snapshot();
+
+  StatusSource source_;
+  std::chrono::milliseconds refresh_;
+  std::optional<AuthFile> auth_;
+  std::mutex mutex_;  // the snapshot (one libmicrohttpd thread, plus tests)
+  Snapshot snap_;
+  std::string tls_cert_;
+  std::string tls_key_;
+  MHD_Daemon* daemon_ = nullptr;
+  std::uint16_t port_ = 0;
+};
+
+}  // namespace cobridge::web

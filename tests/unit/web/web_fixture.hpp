@@ -1,0 +1,63 @@
+// A status report of `buses` x `devices` operational devices with values,
+// EMCYs and awkward names, for the web tests.
+#pragma once
+
+#include "gateway/control_server.hpp"
+
+#include <chrono>
+#include <string>
+
+namespace cobridge::web::test {
+
+inline gateway::StatusReport sample_report(int buses, int devices) {
+  using namespace std::chrono_literals;
+  gateway::StatusReport r;
+  r.gateway_id = "gw-1";
+  r.version = "0.1.0";
+  r.pid = 42;
+  r.ready = true;
+  r.started = gateway::WallTime(1700000000s);
+  r.config_file = "/etc/cobridge/cobridge.toml";
+  for (int b = 0; b < buses; ++b) {
+    gateway::BusStatus bus;
+    bus.name = "line" + std::to_string(b + 1);
+    bus.interface = "can" + std::to_string(b);
+    bus.open = true;
+    bus.rx_frames = 1000;
+    bus.hot_rx_frames = 50000;
+    bus.ring_drops = 0;
+    for (int d = 0; d < devices; ++d) {
+      gateway::DeviceStatus dev;
+      dev.name = "enc-" + std::to_string(b) + "-" + std::to_string(d);
+      dev.bus = bus.name;
+      dev.node_id = static_cast<std::uint8_t>(d + 1);
+      dev.identity = {0x2D4, 0x1234, 1, static_cast<std::uint32_t>(1000 + d)};
+      dev.model = "RFC-4800";
+      dev.family = "novotechnik-rotary";
+      dev.state = d == 1 ? gateway::DeviceState::offline : gateway::DeviceState::operational;
+      dev.nmt = canopen::NmtState::operational;
+      dev.online = d != 1;
+      dev.emcy_count = 1;
+      dev.last_emcy_code = 0x5000;
+      dev.last_emcy_text = "hardware fault";
+      dev.emcy_history.push_back({0x5000, "hardware fault", gateway::WallTime(1700000100s)});
+      dev.values.present = true;
+      dev.values.has_position = true;
+      dev.values.has_speed = true;
+      dev.values.position = 1234 + d;
+      dev.values.position_eng = 12.5 + d;
+      dev.values.unit = "deg";
+      dev.values.speed = -3;
+      dev.values.age_s = 0.05;
+      dev.values.stale = d == 1;
+      dev.values.heartbeat_age_s = 0.1;
+      bus.devices.push_back(dev);
+    }
+    r.buses.push_back(bus);
+  }
+  // A name that needs escaping in labels and JSON.
+  if (!r.buses.empty() && !r.buses[0].devices.empty()) r.buses[0].devices[0].name = "odd \"name\\";
+  return r;
+}
+
+}  // namespace cobridge::web::test

@@ -1,0 +1,202 @@
+// The web service (docs/web.md): routing, answers, authentication, the
+// status snapshot shared by all clients, and the same requests over a real
+// socket through libmicrohttpd (bad requests get 4xx and change nothing).
+#include "web/web_server.hpp"
+
+#include "web/http_route.hpp"
+#include "web/metrics.hpp"
+#include "web/status_page.hpp"
+#include "web_fixture.hpp"
+
+#include <arpa/inet.h>
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+using namespace std::chrono_literals;
+using cobridge::web::AuthFile;
+using cobridge::web::Credentials;
+using cobridge::web::Resource;
+using cobridge::web::route_request;
+using cobridge::web::WebServer;
+using ::testing::HasSubstr;
+using ::testing::Not;
+
+namespace {
+
+TEST(HttpRoute, ReadOnlyResources) {
+  EXPECT_EQ(route_request("GET", "/").resource, Resource::page);
+  EXPECT_EQ(route_request("GET", "/index.html").resource, Resource::page);
+  EXPECT_EQ(route_request("GET", "/api/v1/status").resource, Resource::status_json);
+  EXPECT_EQ(route_request("GET", "/metrics").resource, Resource::metrics);
+  const auto head = route_request("HEAD", "/metrics");
+  EXPECT_EQ(head.resource, Resource::metrics);
+  EXPECT_TRUE(head.head);
+  for (const char* m : {"POST", "PUT", "DELETE", "PATCH", "OPTIONS", "TRACE", "CONNECT", "get", ""})
+    EXPECT_EQ(route_request(m, "/metrics").status, 405U) << m;
+  EXPECT_EQ(route_request("GET", "/api/v1/status/").status, 404U);
+  EXPECT_EQ(route_request("GET", "/../etc/passwd").status, 404U);
+  EXPECT_EQ(route_request("GET", std::string(300, '/')).status, 414U);
+}
+
+TEST(WebServer, StatusIsTheControlSocketsJson) {
+  const auto report = cobridge::web::test::sample_report(1, 2);
+  WebServer server([&] { return report; });
+  const auto a = server.handle("GET", "/api/v1/status", nullptr);
+  EXPECT_EQ(a.status, 200U);
+  EXPECT_STREQ(a.content_type, "application/json");
+  EXPECT_EQ(a.body, cobridge::gateway::to_json(report) + "\n");  // one schema, one writer
+  EXPECT_THAT(a.body, HasSubstr("\"emcy_history\":[{\"code\":20480,\"text\":\"hardware fault\""));
+  EXPECT_THAT(a.body, HasSubstr("\"values\":{\"position\":1234,\"position_eng\":12.500,\"unit\":\"deg\",\"speed\":-3"));
+}
+
+TEST(WebServer, PageIsServedFromTheBinaryWithoutExternalFetches) {
+  WebServer server([] { return cobridge::gateway::StatusReport{}; });
+  const auto a = server.handle("GET", "/", nullptr);
+  EXPECT_EQ(a.status, 200U);
+  EXPECT_THAT(std::string(a.content_type), HasSubstr("text/html"));
+  EXPECT_EQ(a.body, cobridge::web::status_page_html());
+  EXPECT_THAT(a.body, HasSubstr("api/v1/status"));
+  // No URL but the SVG namespace name (an identifier, never fetched).
+  std::string rest = a.body;
+  for (std::size_t at; (at = rest.find("http://www.w3.org/2000/svg")) != std::string::npos;) rest.erase(at, 26);
+  EXPECT_THAT(rest, Not(HasSubstr("http://")));
+  EXPECT_THAT(rest, Not(HasSubstr("https://")));
+  EXPECT_THAT(rest, Not(HasSubstr("\"//"))) << "a protocol-relative URL?";
+  EXPECT_THAT(a.body, Not(HasSubstr("<link")));
+  EXPECT_THAT(a.body, Not(HasSubstr("src=")));
+}
+
+TEST(WebServer, ManyClientsShareOneSnapshot) {
+  std::atomic<int> calls{0};
+  WebServer server([&] {
+    ++calls;
+    return cobridge::web::test::sample_report(1, 1);
+  }, 10s);
+  for (int i = 0; i < 100; ++i) {
+    (void)server.handle("GET", "/metrics", nullptr);
+    (void)server.handle("GET", "/api/v1/status", nullptr);
+  }
+  EXPECT_EQ(calls.load(), 1);
+}
+
+TEST(WebServer, BadRequestsGet4xxAndAskNothingOfTheDaemon) {
+  std::atomic<int> calls{0};
+  WebServer server([&] {
+    ++calls;
+    return cobridge::gateway::StatusReport{};
+  });
+  EXPECT_EQ(server.handle("POST", "/api/v1/status", nullptr).status, 405U);
+  EXPECT_EQ(server.handle("DELETE", "/metrics", nullptr).status, 405U);
+  EXPECT_EQ(server.handle("GET", "/api/v2/commission", nullptr).status, 404U);
+  EXPECT_EQ(calls.load(), 0);
+}
+
+class AuthTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    file_ = std::filesystem::temp_directory_path() / ("cobridge-web-users-" + std::to_string(::getpid()));
+    std::ofstream(file_) << "# operators\nalice:s3cret\nbob:hunter:2\n";
+    ::chmod(file_.c_str(), 0600);
+  }
+  void TearDown() override { std::filesystem::remove(file_); }
+  std::filesystem::path file_;
+};
+
+TEST_F(AuthTest, BasicAuthenticationFromAFileOnlyItsOwnerReads) {
+  AuthFile auth;
+  std::string why;
+  ASSERT_TRUE(auth.load(file_, &why)) << why;
+  EXPECT_EQ(auth.users(), 2U);
+  EXPECT_TRUE(auth.check("alice", "s3cret"));
+  EXPECT_TRUE(auth.check("bob", "hunter:2"));  // the first colon separates
+  EXPECT_FALSE(auth.check("alice", "s3cre"));
+  EXPECT_FALSE(auth.check("alice", "s3cret!"));
+  EXPECT_FALSE(auth.check("", ""));
+
+  WebServer server([] { return cobridge::gateway::StatusReport{}; });
+  server.set_auth(auth);
+  const auto none = server.handle("GET", "/metrics", nullptr);
+  EXPECT_EQ(none.status, 401U);
+  EXPECT_TRUE(none.ask_credentials);
+  const Credentials wrong{"alice", "nope"};
+  EXPECT_EQ(server.handle("GET", "/metrics", &wrong).status, 401U);
+  const Credentials right{"alice", "s3cret"};
+  EXPECT_EQ(server.handle("GET", "/metrics", &right).status, 200U);
+
+  ::chmod(file_.c_str(), 0640);
+  EXPECT_FALSE(auth.load(file_, &why));
+  EXPECT_THAT(why, HasSubstr("chmod 600"));
+}
+
+// ---- over a socket -----------------------------------------------------------
+
+std::string exchange(std::uint16_t port, const std::string& request) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(port);
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
+    ::close(fd);
+    return "connect failed";
+  }
+  timeval tv{5, 0};
+  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  (void)::send(fd, request.data(), request.size(), MSG_NOSIGNAL);
+  std::string out;
+  char buf[4096];
+  ssize_t n;
+  while ((n = ::recv(fd, buf, sizeof buf, 0)) > 0) out.append(buf, static_cast<std::size_t>(n));
+  ::close(fd);
+  return out;
+}
+
+TEST(WebServerSocket, AnswersOverHttpAndRefusesWhatItShould) {
+  std::atomic<int> calls{0};
+  WebServer server([&] {
+    ++calls;
+    return cobridge::web::test::sample_report(1, 2);
+  });
+  cobridge::config::WebSettings s;
+  s.port = 0;  // the kernel's choice
+  std::string why;
+  ASSERT_TRUE(server.start(s, &why)) << why;
+  const std::uint16_t port = server.port();
+  ASSERT_NE(port, 0);
+
+  const auto status = exchange(port, "GET /api/v1/status HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
+  EXPECT_THAT(status, HasSubstr("HTTP/1.1 200"));
+  EXPECT_THAT(status, HasSubstr("Content-Type: application/json"));
+  EXPECT_THAT(status, HasSubstr("\"gateway\":\"gw-1\""));
+
+  const auto head = exchange(port, "HEAD /metrics HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
+  EXPECT_THAT(head, HasSubstr("HTTP/1.1 200"));
+  EXPECT_THAT(head, Not(HasSubstr("# HELP")));
+
+  const auto post = exchange(port, "POST /api/v1/status HTTP/1.1\r\nHost: x\r\nContent-Length: 5\r\n"
+                                   "Connection: close\r\n\r\nhello");
+  EXPECT_THAT(post, HasSubstr("HTTP/1.1 405"));
+  EXPECT_THAT(post, HasSubstr("Allow: GET, HEAD"));
+
+  EXPECT_THAT(exchange(port, "GET /nothing HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n"), HasSubstr("HTTP/1.1 404"));
+  // Not HTTP: libmicrohttpd closes the connection without an answer, or says 400.
+  const auto garbage = exchange(port, "garbage\r\n\r\n");
+  EXPECT_TRUE(garbage.empty() || garbage.find("HTTP/1.1 400") == 0) << garbage;
+  // A request header bigger than the per-connection memory limit.
+  const std::string big = "GET / HTTP/1.1\r\nHost: x\r\nX-Big: " + std::string(64 * 1024, 'a') + "\r\n\r\n";
+  EXPECT_THAT(exchange(port, big), HasSubstr("HTTP/1.1 431"));
+
+  EXPECT_EQ(calls.load(), 1);  // only the one GET of the status asked the daemon
+  server.stop();
+}
+
+}  // namespace

@@ -1,0 +1,396 @@
+#!/usr/bin/python3
+"""Issue 14 end to end, inside UML (tests/vcan/run-in-vcan): cobridge-sim with
+three encoders (one per family, TPDO1 every 10 ms, --truth) -> cobridged with
+[web] on UML's loopback -> HTTP clients.
+
+Checks (docs/web.md):
+* /api/v1/status is the document `cobridge status --json` prints (same keys,
+  same devices) and /metrics says what it says;
+* values move, and the position the API shows is one the simulator sent
+  (truth file);
+* an injected EMCY (simulator `fault <serial> hardware-fault`) shows in the
+  EMCY history with the family's text, and in cobridge_device_emcy_total;
+* a power cycle shows as a boot-up (boot_ups, metrics), the device back
+  operational;
+* a silenced device is stale in the JSON and cobridge_value_stale 1;
+* bad requests get 4xx and change nothing;
+* 50 clients hammering /metrics: no frame or sample lost (kernel and ring
+  drops stay 0) and every TPDO the simulator sent reached the hot path;
+  prints FIGURE lines: request latency p50/p99 of 200 requests, RSS added.
+With --browser: headless Chromium loads the page and the DOM is checked
+(every device listed, values changing, the silenced device marked stale);
+screenshots are saved with --screenshot-dir.
+"""
+import concurrent.futures
+import http.client
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "daemon"))
+import e2e  # noqa: E402
+
+PORT = 18080
+DEVICES = [  # name, model, sim model, serial, node, motion
+    ("rot-a", "RFC-4800", "RFC-4800", 1001, 10, "constant:0.3"),
+    ("mt-a", "MC1-2800", "MC1-2800", 2001, 20, "constant:0.2"),
+    ("ifm-a", "RM9", "RM9000", 3001, 30, "constant:0.5"),
+]
+
+
+def get(path, method="GET", body=None, headers=None):
+    c = http.client.HTTPConnection("127.0.0.1", PORT, timeout=5)
+    c.request(method, path, body=body, headers=headers or {})
+    r = c.getresponse()
+    data = r.read()
+    c.close()
+    return r.status, dict(r.getheaders()), data
+
+
+def status():
+    code, _, data = get("/api/v1/status")
+    return json.loads(data) if code == 200 else None
+
+
+def metrics():
+    _, _, data = get("/metrics")
+    out = {}
+    for line in data.decode().splitlines():
+        if line.startswith("#") or not line:
+            continue
+        name, value = line.rsplit(" ", 1)
+        out[name] = float(value)
+    return out
+
+
+def metric(m, metric_name, **labels):
+    for k, v in m.items():
+        if not k.startswith(metric_name + "{") and k != metric_name:
+            continue
+        if all('%s="%s"' % (lk, lv) in k for lk, lv in labels.items()):
+            return v
+    return None
+
+
+def devices(st):
+    return {d["name"]: d for b in st["buses"] for d in b["devices"]}
+
+
+def keys(x):
+    """The shape of a JSON document: its keys, recursively (values ignored)."""
+    if isinstance(x, dict):
+        return {k: keys(v) for k, v in x.items() if k not in ("values", "heartbeat_age_s")}
+    if isinstance(x, list):
+        return [keys(x[0])] if x else []
+    return None
+
+
+def rss_kib(pid):
+    with open("/proc/%d/status" % pid) as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1])
+    return 0
+
+
+def percentile(xs, p):
+    xs = sorted(xs)
+    return xs[min(len(xs) - 1, int(round(p / 100.0 * (len(xs) - 1))))]
+
+
+def chromium(url, work, extra, timeout=120):
+    home = os.path.join(work, "chrome-home")
+    os.makedirs(home, exist_ok=True)
+    env = dict(os.environ, HOME=home)
+    args = ["chromium", "--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
+            "--no-first-run", "--disable-extensions", "--user-data-dir=" + os.path.join(home, "profile")] + extra + [url]
+    p = subprocess.run(args, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, timeout=timeout)
+    return p.stdout
+
+
+def main():
+    import argparse
+    p = argparse.ArgumentParser()
+    p.add_argument("--daemon", required=True)
+    p.add_argument("--cli", required=True)
+    p.add_argument("--sim", required=True)
+    p.add_argument("--browser", action="store_true")
+    p.add_argument("--screenshot-dir")
+    p.add_argument("--keep", action="store_true")
+    args = p.parse_args()
+    report = e2e.Report("test_web" + (" (browser)" if args.browser else ""))
+    ws = e2e.Workspace("web", args.keep)
+    truth = ws.path("truth.txt")
+    sim = e2e.Simulator(args.sim, ws, {"vcan0": ["%s:serial=%d,node=%d%s,motion=%s" % (
+        sm, s, n, ",bitrate=250" if sm.startswith("RM") else "", mo) for (_, _, sm, s, n, mo) in DEVICES]},
+        extra_args=("--truth", truth))
+
+    bus = {"name": "line1", "interface": "vcan0", "bitrate": 250, "discovery_period_s": 30, "node_pool": "40-60"}
+    devs = [{"name": name, "bus": "line1", "serial": s, "model": m, "node_id": n, "heartbeat_ms": 100,
+             "tpdo1": {"mapping": ["position", "speed"] if not m.startswith("RM") else ["position"],
+                       "transmission": "event", "event_timer_ms": 10}}
+            for (name, m, _, s, n, _) in DEVICES]
+    config = e2e.write_config(ws, [bus], devs, extra="[web]\nport = %d\n" % PORT)
+    daemon = e2e.Daemon(args.daemon, config, ws)
+    shown = {}
+    names = [d[0] for d in DEVICES]
+    try:
+        report.check(daemon.wait_socket(), "control socket up")
+        _, took = daemon.wait_until(e2e.all_operational(names), 60, interval=0.1)
+        report.check(took is not None, "three devices operational", "%.2f s" % took if took else daemon.tail(40))
+        time.sleep(0.5)
+        print("FIGURE daemon RSS before any HTTP request: %d KiB" % rss_kib(daemon.pid), flush=True)
+
+        # ---- one schema, one source
+        cli = subprocess.run([args.cli, "status", "--json", "--control", ws.control], stdout=subprocess.PIPE,
+                             text=True, timeout=10)
+        st = status()
+        cli_doc = json.loads(cli.stdout) if cli.returncode == 0 else None
+        report.check(st is not None and cli_doc is not None and keys(st) == keys(cli_doc),
+                     "/api/v1/status has the keys of `cobridge status --json`")
+        report.check(st is not None and cli_doc is not None and
+                     [(d["name"], d["node_id"], d["state"]) for b in st["buses"] for d in b["devices"]] ==
+                     [(d["name"], d["node_id"], d["state"]) for b in cli_doc["buses"] for d in b["devices"]],
+                     "same devices, node-IDs and states in both")
+        code, hdr, _ = get("/")
+        report.check(code == 200 and "text/html" in hdr.get("Content-Type", ""), "/ serves the page")
+
+        # ---- values move and come from the devices
+        # shown: node -> (name, position), checked against the truth file once the simulator stopped
+        st1 = devices(status())
+        time.sleep(1.0)
+        st2 = devices(status())
+        for (name, _, _, serial, node, _) in DEVICES:
+            a, b = st1[name].get("values"), st2[name].get("values")
+            ok = a and b and a.get("position") != b.get("position") and b["age_s"] < 0.5 and not b["stale"]
+            report.check(bool(ok), "%s: position moves, fresh, not stale" % name,
+                         "%s -> %s, %s" % (a and a.get("position"), b and b.get("position"), json.dumps(b)))
+            shown[node] = (name, b and b.get("position"))
+        m = metrics()
+        for (name, _, _, _, node, _) in DEVICES:
+            report.check(metric(m, "cobridge_device_up", name=name, node=str(node)) == 1.0, "%s: cobridge_device_up 1" % name)
+            age = metric(m, "cobridge_value_age_seconds", name=name)
+            report.check(age is not None and age < 0.5, "%s: cobridge_value_age_seconds < 0.5" % name, str(age))
+        report.check((metric(m, "cobridge_frames_received_total", bus="line1", socket="hot_path") or 0) > 100,
+                     "cobridge_frames_received_total{bus=line1,socket=hot_path} counts")
+
+        # ---- EMCY
+        name, serial = DEVICES[0][0], DEVICES[0][3]
+        before = devices(status())[name]["emcy_count"]
+        sim.command("fault %d hardware-fault" % serial)
+        # The web service rebuilds its snapshot at most every 250 ms: poll it, not the control socket.
+        web_hist = []
+        t_end = time.time() + 5
+        while time.time() < t_end:
+            d = devices(status())[name]
+            if d["emcy_count"] > before:
+                web_hist = d["emcy_history"]
+                break
+            time.sleep(0.05)
+        report.check(bool(web_hist) and web_hist[-1]["text"] != "" and bool(web_hist[-1]["at"]),
+                     "%s: injected EMCY in the history with text and time" % name, json.dumps(web_hist[-1:]))
+        report.check((metric(metrics(), "cobridge_device_emcy_total", name=name) or 0) > before,
+                     "%s: cobridge_device_emcy_total counts it" % name)
+        sim.command("fault %d clear" % serial)  # it measures again (the page must show it move)
+
+        # ---- power cycle
+        name, serial = DEVICES[1][0], DEVICES[1][3]
+        boots = devices(status())[name]["boot_ups"]
+        sim.command("power-cycle %d" % serial)
+        ok = False
+        t_end = time.time() + 10
+        while time.time() < t_end:
+            d = devices(status())[name]
+            if d["boot_ups"] > boots and d["state"] == "operational":
+                ok = True
+                break
+            time.sleep(0.1)
+        report.check(ok, "%s: power cycle seen (boot_ups +1) and operational again" % name)
+        report.check((metric(metrics(), "cobridge_device_boot_ups_total", name=name) or 0) > boots,
+                     "%s: cobridge_device_boot_ups_total counts it" % name)
+        # Offline during the power cycle made its values stale; flowing again, they are not.
+        fresh = None
+        t_end = time.time() + 5
+        while time.time() < t_end:
+            v = devices(status())[name].get("values") or {}
+            fresh = v
+            if v and not v["stale"] and v["age_s"] < 0.5:
+                break
+            time.sleep(0.1)
+        report.check(bool(fresh) and not fresh["stale"], "%s: values fresh and not stale after the power cycle" % name,
+                     json.dumps(fresh))
+        report.check(metric(metrics(), "cobridge_value_stale", name=name) == 0,
+                     "%s: cobridge_value_stale 0 after the power cycle" % name)
+
+        # ---- bad requests: 4xx, no effect
+        before = status()
+        bad = [get("/api/v1/status", "POST", body=b"commission"), get("/metrics", "DELETE"),
+               get("/api/v1/commission"), get("/" + "a" * 400), get("/metrics", "PUT", body=b"x")]
+        report.check(all(400 <= c < 500 for (c, _, _) in bad), "bad requests get 4xx", str([c for (c, _, _) in bad]))
+        after = status()
+        report.check([d["boot_ups"] for d in devices(before).values()] == [d["boot_ups"] for d in devices(after).values()]
+                     and [d["configurations"] for d in devices(before).values()] ==
+                     [d["configurations"] for d in devices(after).values()], "... and change nothing")
+
+        # ---- latency and RSS (UML figures: one slow CPU); the browser run skips the load parts
+        for path in () if args.browser else ("/api/v1/status", "/metrics", "/"):
+            lat = []
+            c = http.client.HTTPConnection("127.0.0.1", PORT, timeout=5)
+            for _ in range(200):
+                t0 = time.perf_counter()
+                c.request("GET", path)
+                c.getresponse().read()
+                lat.append((time.perf_counter() - t0) * 1000)
+            c.close()
+            print("FIGURE web latency %s: p50 %.2f ms, p99 %.2f ms (200 requests, keep-alive, UML)" % (
+                path, percentile(lat, 50), percentile(lat, 99)), flush=True)
+            report.check(percentile(lat, 99) <= 20 * 5, "%s p99 within 100 ms in UML" % path)
+
+        # ---- 50 clients hammering /metrics: nothing lost
+        def counters():
+            b = status()["buses"][0]["counters"]
+            return b
+
+        def sent_tpdos():
+            n = 0
+            with open(truth) as f:
+                for line in f:
+                    fl = line.split()
+                    if len(fl) >= 5 and fl[4] == "tpdo1":
+                        n += 1
+            return n
+
+        c0 = counters()
+        stop = threading.Event()
+        if args.browser:
+            stop.set()
+        served = [0]
+        lock = threading.Lock()
+
+        def hammer():
+            c = http.client.HTTPConnection("127.0.0.1", PORT, timeout=10)
+            while not stop.is_set():
+                try:
+                    c.request("GET", "/metrics")
+                    c.getresponse().read()
+                    with lock:
+                        served[0] += 1
+                except Exception:
+                    c.close()
+                    c = http.client.HTTPConnection("127.0.0.1", PORT, timeout=10)
+            c.close()
+
+        threads = [threading.Thread(target=hammer) for _ in range(50)]
+        for t in threads:
+            t.start()
+        time.sleep(0 if args.browser else 10)
+        stop.set()
+        for t in threads:
+            t.join()
+        time.sleep(0.5)
+        c1 = counters()
+        lost = {k: c1[k] - c0[k] for k in ("ring_drops", "hot_kernel_drops", "rx_overflow_drops", "status_drops")}
+        print("FIGURE 50 clients x 10 s on /metrics: %d answers; drops during it: %s; hot-path frames %d" % (
+            served[0], lost, c1["hot_rx_frames"] - c0["hot_rx_frames"]), flush=True)
+        if not args.browser:
+            report.check(all(v == 0 for v in lost.values()), "no frame or sample lost while 50 clients hammer /metrics",
+                         str(lost))
+            report.check(served[0] > 50, "the hammering clients were served", str(served[0]))
+
+        # ---- a stale device
+        name, serial = DEVICES[2][0], DEVICES[2][3]
+        sim.command("silence %d on" % serial)
+        ok = False
+        t_end = time.time() + 5
+        while time.time() < t_end:
+            v = devices(status())[name].get("values")
+            if v and v["stale"]:
+                ok = True
+                break
+            time.sleep(0.1)
+        report.check(ok, "%s: silenced -> stale in /api/v1/status" % name)
+        report.check(metric(metrics(), "cobridge_value_stale", name=name) == 1.0, "%s: cobridge_value_stale 1" % name)
+
+        if args.browser:
+            browser(report, ws, args, names, name)
+
+        pid = daemon.pid
+        print("FIGURE daemon RSS with the web service after the load: %d KiB" % rss_kib(pid), flush=True)
+    finally:
+        sim.stop()  # flushes the truth file
+        sent = {}
+        with open(truth) as f:
+            for line in f:
+                fl = line.split()
+                if len(fl) >= 8 and fl[4] == "tpdo1":
+                    pos = next((int(x[4:]) for x in fl[8:] if x.startswith("pos=")), None)
+                    if pos is not None:
+                        sent.setdefault(int(fl[3]), set()).add(pos & 0xFFFFFFFF)
+        for node, (name, pos) in sorted(shown.items()):
+            report.check(pos is not None and (pos & 0xFFFFFFFF) in sent.get(node, ()),
+                         "%s: the position shown is one the simulator sent (truth file)" % name, str(pos))
+        e2e.shut_down(ws, daemon, sim)
+    return report.finish()
+
+
+def positions(dom, names):
+    """The position text each device row shows (td.pos), by device name."""
+    out = {}
+    for n in names:
+        m = re.search(r'<tr class="device[^"]*" data-name="%s".*?<td class="num val pos">([^<]*)</td>' % re.escape(n),
+                      dom, re.S)
+        out[n] = m.group(1) if m else None
+    return out
+
+
+def browser(report, ws, args, names, stale_name):
+    url = "http://127.0.0.1:%d/" % PORT
+    work = tempfile.mkdtemp(prefix="cobridge-chrome-", dir="/tmp")
+    try:
+        # The page as a person sees it after its first poll, twice a few seconds
+        # apart: every device listed, its values changed in between, the silenced
+        # device marked stale (the virtual-time budget lets the page's script run).
+        doms = []
+        for i in range(2):
+            if i:
+                time.sleep(3)
+            t0 = time.time()
+            doms.append(chromium(url, work, ["--dump-dom", "--virtual-time-budget=3000", "--window-size=1400,700"],
+                                 timeout=200))
+            print("FIGURE chromium --dump-dom took %.1f s" % (time.time() - t0), flush=True)
+        first, second = positions(doms[0], names), positions(doms[1], names)
+        for n in names:
+            report.check(first[n] is not None and second[n] is not None, "browser: %s listed" % n)
+            if n != stale_name:
+                report.check(first[n] not in (None, "\u2013") and first[n] != second[n],
+                             "browser: %s values change on the page" % n, "%s -> %s" % (first[n], second[n]))
+                # A device whose values flow again after a fault or a power cycle is not stale.
+                fresh = re.search(r'<tr class="device[^"]*" data-name="%s"[^>]*data-stale="0"' % re.escape(n), doms[-1])
+                report.check(fresh is not None, "browser: %s not marked stale" % n)
+        m = re.search(r'<tr class="device ([^"]*)" data-name="%s"[^>]*data-stale="1"' % re.escape(stale_name), doms[-1])
+        report.check(m is not None and "stale" in m.group(1), "browser: %s marked stale" % stale_name)
+        report.check('class="flag stale"' in doms[-1], "browser: the STALE flag is shown")
+        report.check('class="emcy"' in doms[-1], "browser: the EMCY history is shown")
+        if args.screenshot_dir:
+            out = os.path.join(work, "web-status.png")
+            t0 = time.time()
+            chromium(url, work, ["--screenshot=" + out, "--virtual-time-budget=3000", "--window-size=1400,560",
+                                 "--hide-scrollbars"], timeout=240)
+            print("FIGURE chromium --screenshot took %.1f s" % (time.time() - t0), flush=True)
+            ok = os.path.exists(out) and os.path.getsize(out) > 10000
+            report.check(ok, "browser: screenshot taken")
+            if ok:
+                os.makedirs(args.screenshot_dir, exist_ok=True)
+                shutil.copy(out, os.path.join(args.screenshot_dir, "web-status.png"))
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
