@@ -1,13 +1,14 @@
 #!/bin/sh
-# verify-unit.sh UNIT DAEMON: `systemd-analyze verify` of the service unit,
-# with ExecStart pointed at the built daemon (the unit names /usr/bin/cobridged,
+# verify-unit.sh UNIT DAEMON: `systemd-analyze verify` of the service unit template,
+# with ExecStart pointed at the built daemon (the installed unit names <prefix>/bin/cobridged,
 # which does not exist on a build machine). Any message is a failure.
 set -eu
 unit=$1
 daemon=$2
 work=$(mktemp -d /tmp/cobridge-unit.XXXXXX)
 trap 'rm -rf "$work"' EXIT
-sed "s#/usr/bin/cobridged#$daemon#g" "$unit" > "$work/cobridged.service"
+sed -e "s#@COBRIDGE_UNIT_BINDIR@/cobridged#$daemon#g" -e "s#@COBRIDGE_UNIT_SYSCONFDIR@#/etc#g" \
+    -e "s#@COBRIDGE_UNIT_DOCDIR@#/usr/share/doc/cobridge#g" "$unit" > "$work/cobridged.service"
 grep -q "^ExecStart=$daemon " "$work/cobridged.service" || { echo "FAIL: ExecStart not rewritten"; exit 1; }
 out=$(systemd-analyze verify "$work/cobridged.service" 2>&1) || { echo "$out"; echo "FAIL: systemd-analyze verify"; exit 1; }
 if [ -n "$out" ]; then
