@@ -280,6 +280,14 @@ def main():
     st, took = wait(operational_status, 30, 0.2)
     check(took is not None, "after the watchdog restart both encoders are operational again")
 
+    # ---- the unit's sandbox, as systemd sees the installed unit
+    rc, out, err = sh("systemd-analyze", "security", UNIT, "--no-pager", timeout=60)
+    m = re.search(r"Overall exposure level for cobridged.service: ([0-9.]+)", out + err)
+    if m:
+        figure("security_exposure", m.group(1))
+    check(m is not None and float(m.group(1)) <= 2.0, "systemd-analyze security cobridged.service: exposure <= 2.0",
+          m.group(0) if m else (out + err)[-200:])
+
     # ---- the journal: native entries, priorities, fields, no own pattern
     entries = []
     for line in journal("-o", "json").splitlines():

@@ -17,3 +17,10 @@ if [ -n "$out" ]; then
   exit 1
 fi
 echo "PASS: systemd-analyze verify $(basename "$unit")"
+# The sandbox (docs/operations.md, Unit hardening): exposure at most 2.0.
+sec=$(systemd-analyze security --offline=true "$work/cobridged.service" 2>&1 | grep -o 'Overall exposure level for cobridged.service: [0-9.]*')
+level=${sec##* }
+case "$level" in
+  0.*|1.*|2.0) echo "PASS: $sec" ;;
+  *) echo "FAIL: systemd-analyze security: '${sec:-no exposure level}' (must be <= 2.0)"; exit 1 ;;
+esac
