@@ -222,6 +222,25 @@ def main():
               took or -1, before["configurations"], d["configurations"] if isinstance(d, dict) else "?",
               before["fingerprint"], d["fingerprint"] if isinstance(d, dict) else "?"))
 
+    # ---- a bad file: the reload is refused with its reason, the daemon keeps
+    # running the previous configuration; a good file afterwards clears it
+    pid = main_pid()
+    with open(CONFIG) as f:
+        good = f.read()
+    with open(CONFIG, "w") as f:
+        f.write(good + "\n[[device]]\nname = 7\n")
+    rc, _, err = sh("systemctl", "reload", UNIT)
+    text = show("StatusText")["StatusText"]
+    check(rc == 0 and main_pid() == pid and show("ActiveState")["ActiveState"] == "active"
+          and "reload rejected" in text, "a bad file: reload rejected, same PID, previous configuration kept",
+          "rc %d, PID %d -> %d, StatusText %r" % (rc, pid, main_pid(), text))
+    with open(CONFIG, "w") as f:
+        f.write(good)
+    rc, _, err = sh("systemctl", "reload", UNIT)
+    text = show("StatusText")["StatusText"]
+    check(rc == 0 and main_pid() == pid and "reload rejected" not in text,
+          "the good file again: reloaded, STATUS= clear", "rc %d, StatusText %r" % (rc, text))
+
     # ---- kill -9: restarted, devices back at their remembered node-IDs
     pid = main_pid()
     restarts = int(show("NRestarts")["NRestarts"])
@@ -307,8 +326,12 @@ def main():
                                                             patterned[:2]))
     check("can" in modules and "gateway" in modules, "journal: every module logs natively (can, gateway, ...)",
           "modules %s" % modules)
-    check(len(prios) >= 2 and all(p in ("2", "3", "4", "6", "7") for p in prios), "journal: priorities set",
-          "priorities %s" % prios)
+    rejected = [e.get("PRIORITY") for e in native if str(e.get("MESSAGE")).startswith("reload rejected")]
+    ready = [e.get("PRIORITY") for e in native if e.get("MESSAGE") == "ready"]
+    check(bool(rejected) and set(rejected) == {"3"} and bool(ready) and set(ready) == {"6"}
+          and all(p in ("2", "3", "4", "6", "7") for p in prios),
+          "journal: priorities (reload rejected: err 3, ready: info 6)",
+          "all %s; reload rejected %s; ready %s" % (prios, rejected, ready))
     with_node = [e for e in native if e.get("BUS") == "line1" and e.get("NODE") in ("10", "30")]
     check(bool(with_node), "journal: BUS= and NODE= fields", "%d entries, e.g. %r" % (
         len(with_node), with_node[0]["MESSAGE"] if with_node else None))
