@@ -340,6 +340,26 @@ def main():
     print("journalctl -u cobridged -p warning -o short-monotonic (last 5 lines):", flush=True)
     print("\n".join(journal("-p", "warning", "-o", "short-monotonic").splitlines()[-5:]), flush=True)
 
+    # ---- apt-get remove under a running systemd: prerm stops the daemon
+    env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
+    r = subprocess.run(["apt-get", "remove", "-y", "-q", "cobridge"], capture_output=True, text=True, timeout=180,
+                       env=env)
+    running = []
+    for d in os.listdir("/proc"):
+        if d.isdigit():
+            try:
+                with open("/proc/%s/comm" % d) as f:
+                    if f.read().strip() == "cobridged":
+                        running.append(d)
+            except OSError:
+                pass
+    p = show("ActiveState", "LoadState")
+    check(r.returncode == 0 and not running and p["ActiveState"] in ("inactive", "failed")
+          and not os.path.exists("/usr/bin/cobridged") and os.path.exists(CONFIG),
+          "apt-get remove: the daemon is stopped, the programs go, the configuration stays",
+          "rc %d, cobridged processes %s, %s/%s %s" % (r.returncode, running, p["LoadState"], p["ActiveState"],
+                                                      r.stderr.strip()[-200:]))
+
     print("COBRIDGE-CHECK-DONE passed=%d failed=%d%s" % (passed, len(failed), (": " + "; ".join(failed)) if failed
                                                          else ""), flush=True)
     return 1 if failed else 0
