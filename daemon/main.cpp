@@ -15,6 +15,7 @@
 #include "gateway/control_server.hpp"
 #include "gateway/output_pipeline.hpp"
 #include "gateway/state_store.hpp"
+#include "sys/install_paths.hpp"
 #include "sys/logging.hpp"
 #include "sys/notifier.hpp"
 #include "sys/signals.hpp"
@@ -317,10 +318,9 @@ void stop_all(std::vector<std::unique_ptr<gateway::BusManager>>& buses) {
   for (auto& t : stoppers) t.join();
 }
 
-// The installed plugin directory, or the build tree's when running uninstalled.
+// The installed plugin directory (beside the executable), or the build tree's when running uninstalled.
 std::filesystem::path default_plugin_dir() {
-  if (std::filesystem::exists(COBRIDGE_INSTALLED_PLUGIN_DIR)) return COBRIDGE_INSTALLED_PLUGIN_DIR;
-  return COBRIDGE_BUILD_PLUGIN_DIR;
+  return sys::installed_or(sys::InstallDir::plugins, COBRIDGE_BUILD_PLUGIN_DIR);
 }
 
 int run(const std::filesystem::path& config_file, bool foreground, const std::string& state_dir_override,

@@ -1,12 +1,13 @@
 #include "can/socketcan_channel.hpp"
 
+#include "sys/logging.hpp"
+
 #include <errno.h>
 #include <linux/can/error.h>
 #include <linux/can/raw.h>
 #include <linux/sock_diag.h>
 #include <net/if.h>
 #include <poll.h>
-#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 #include <sys/ioctl.h>
 #include <unistd.h>
@@ -18,13 +19,13 @@
 namespace cobridge::can {
 namespace {
 
-// The "can" logger, shared with whoever registered it first. Off the hot path only.
+// The "can" logger of sys/logging (the daemon's sink: journal or console).
+// Off the hot path only.
 std::shared_ptr<spdlog::logger> logger() noexcept {
   try {
-    if (auto existing = spdlog::get("can")) return existing;
-    return spdlog::stderr_color_mt("can");
+    return sys::logger("can");
   } catch (...) {
-    // Lost a registration race, or logging is unavailable: log nothing.
+    // Logging is unavailable (out of memory): log nothing.
     return spdlog::get("can");
   }
 }

@@ -5,6 +5,7 @@
 #include "canopen/nmt.hpp"
 #include "cli/bus_session.hpp"
 #include "device/device_catalog.hpp"
+#include "sys/install_paths.hpp"
 
 #include <array>
 #include <cstdio>
@@ -13,9 +14,6 @@
 #include <string>
 #include <vector>
 
-#ifndef COBRIDGE_DEFAULT_DEVICE_DIR
-#define COBRIDGE_DEFAULT_DEVICE_DIR "/usr/share/cobridge/devices"
-#endif
 #ifndef COBRIDGE_SOURCE_DEVICE_DIR
 #define COBRIDGE_SOURCE_DEVICE_DIR ""
 #endif
@@ -87,8 +85,7 @@ int scan(const ScanOptions& o) {
   device::DeviceCatalog catalog;
   {
     std::string dir = o.devices_dir;
-    if (dir.empty()) dir = std::filesystem::exists(COBRIDGE_DEFAULT_DEVICE_DIR) ? COBRIDGE_DEFAULT_DEVICE_DIR
-                                                                                 : COBRIDGE_SOURCE_DEVICE_DIR;
+    if (dir.empty()) dir = sys::installed_or(sys::InstallDir::devices, COBRIDGE_SOURCE_DEVICE_DIR).string();
     if (!dir.empty()) (void)catalog.load_directory(dir);
   }
 

@@ -3,6 +3,7 @@
 
 #include "config/known_models.hpp"
 #include "config/table_reader.hpp"
+#include "sys/install_paths.hpp"
 
 #include <toml++/toml.h>
 
@@ -20,10 +21,6 @@
 #include <map>
 #include <sstream>
 #include <system_error>
-
-#ifndef COBRIDGE_DEFAULT_DEVICE_DIR
-#define COBRIDGE_DEFAULT_DEVICE_DIR "/usr/local/share/cobridge/devices"
-#endif
 
 namespace cobridge::config {
 namespace {
@@ -155,7 +152,11 @@ class Loader {
     auto& g = config_.gateway;
     g.id = host_name();
     g.state_dir = "/var/lib/cobridge";
-    g.device_dirs = {fs::path(COBRIDGE_DEFAULT_DEVICE_DIR)};
+    // The installed descriptions (<prefix>/share/cobridge/devices beside the
+    // running executable) come first, when there are any: a build tree has none.
+    g.device_dirs.clear();
+    if (fs::path installed = sys::installed_or(sys::InstallDir::devices, {}); !installed.empty())
+      g.device_dirs.push_back(std::move(installed));
     g.control_socket = "/run/cobridge/control.sock";
     const toml::table* t = top.subtable("gateway");
     if (t == nullptr) return;

@@ -1,9 +1,9 @@
 #include "sys/logging.hpp"
 
-#include <spdlog/sinks/stdout_color_sinks.h>
-#include <spdlog/sinks/systemd_sink.h>
+#include "sys/journal_sink.hpp"
 
-#include <cstdlib>
+#include <spdlog/sinks/stdout_color_sinks.h>
+
 #include <mutex>
 #include <string>
 
@@ -15,9 +15,8 @@ spdlog::sink_ptr g_sink;
 spdlog::level::level_enum g_level = spdlog::level::info;
 
 spdlog::sink_ptr make_sink(LogTarget target) {
-  if (target == LogTarget::automatic)
-    target = std::getenv("JOURNAL_STREAM") != nullptr ? LogTarget::journal : LogTarget::console;
-  if (target == LogTarget::journal) return std::make_shared<spdlog::sinks::systemd_sink_mt>("cobridged");
+  if (target == LogTarget::automatic) target = stderr_is_journal() ? LogTarget::journal : LogTarget::console;
+  if (target == LogTarget::journal) return std::make_shared<JournalSink>("cobridged");
   return std::make_shared<spdlog::sinks::stderr_color_sink_mt>();
 }
 

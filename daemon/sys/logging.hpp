@@ -1,6 +1,9 @@
 // Logging: one named spdlog logger per module ("can", "canopen", "device",
-// "gateway", "sys", "dds", "modbus", "sim"), all sharing one sink: journald
-// when running under systemd (JOURNAL_STREAM set), the console otherwise.
+// "gateway", "sys", "dds", "modbus", "sim"), all sharing one sink: native
+// journal entries (sys/journal_sink.hpp: priority, module, bus, node; no
+// pattern of our own) when stderr is the journal's stream (systemd's
+// StandardError=journal, JOURNAL_STREAM), the console otherwise. Every layer
+// takes its logger from here, so no module logs past the chosen sink.
 // Levels are set per module from the configuration.
 //
 // Never called on the hot path. Thread: setup() and set_level() from the main

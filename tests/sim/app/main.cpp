@@ -2,6 +2,7 @@
 #include "app/command_line.hpp"
 #include "app/simulator.hpp"
 #include "device/sim_device.hpp"
+#include "sys/install_paths.hpp"
 #include "sys/signals.hpp"
 
 #include <sys/prctl.h>
@@ -11,7 +12,8 @@
 int main(int argc, char** argv) {
   using namespace cobridge;
   const sim::CommandLineResult cl =
-      sim::parse_command_line(argc, argv, &sim::find_model, sim::all_models(), COBRIDGE_SIM_INSTALLED_DEVICES_DIR,
+      sim::parse_command_line(argc, argv, &sim::find_model, sim::all_models(),
+                              sys::installed_dir(sys::InstallDir::devices, sys::executable()),
                               COBRIDGE_SIM_SOURCE_DEVICES_DIR);
   if (cl.exit_code >= 0) {
     std::fputs(cl.output.c_str(), cl.exit_code == 0 ? stdout : stderr);
