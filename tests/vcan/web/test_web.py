@@ -380,7 +380,7 @@ def browser(report, ws, args, names, stale_name):
         if args.screenshot_dir:
             out = os.path.join(work, "web-status.png")
             t0 = time.time()
-            chromium(url, work, ["--screenshot=" + out, "--virtual-time-budget=3000", "--window-size=1400,560",
+            chromium(url, work, ["--screenshot=" + out, "--virtual-time-budget=3000", "--window-size=1400,1000",
                                  "--hide-scrollbars"], timeout=240)
             print("FIGURE chromium --screenshot took %.1f s" % (time.time() - t0), flush=True)
             ok = os.path.exists(out) and os.path.getsize(out) > 10000
