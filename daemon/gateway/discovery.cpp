@@ -9,6 +9,7 @@
 #include "gateway/discovery.hpp"
 
 #include "canopen/cob_id.hpp"
+#include "device/eds.hpp"
 #include "gateway/discovery/commissioning.hpp"
 #include "gateway/discovery/decisions.hpp"
 #include "gateway/discovery/identity_probe.hpp"
@@ -98,6 +99,20 @@ struct Discovery::Impl final : discovery::ProbeListener {
     return o.lss_timeout != Duration{} ? o.lss_timeout : Duration{std::chrono::milliseconds(b.lss_timeout_ms)};
   }
 
+  // Devices described by an EDS file and configured without vendor or model:
+  // the file's VendorNumber (checked against the configuration at start-up),
+  // so that Fastscan confirms it whole. Read at (re)load, off the frame path.
+  static std::vector<std::pair<std::uint32_t, std::uint32_t>> eds_vendors(const std::vector<config::Device>& devices) {
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> out;
+    for (const auto& d : devices) {
+      if (d.vendor || !d.model.empty() || d.eds.empty()) continue;
+      const device::EdsResult r = device::load_eds_file(d.eds);
+      if (r.ok() && r.description->device_info.vendor_number != 0)
+        out.emplace_back(d.serial, r.description->device_info.vendor_number);
+    }
+    return out;
+  }
+
   // A reload keeps the LSS master (and its timeout): it may be mid-operation.
   void apply_config(const config::Config& config, std::size_t bus_index, std::vector<Assignment> prev) {
     s.bus = config.buses.at(bus_index);
@@ -105,6 +120,7 @@ struct Discovery::Impl final : discovery::ProbeListener {
     for (const auto& d : config.devices)
       if (d.bus_index == bus_index) s.devices.push_back(d);
     s.previous = std::move(prev);
+    s.eds_vendors = eds_vendors(s.devices);
     s.sdo_timeout = s.opt.sdo_timeout != Duration{} ? s.opt.sdo_timeout : std::chrono::milliseconds(s.bus.sdo_timeout_ms);
     s.lss_timeout = lss_timeout_of(s.bus, s.opt);
     probe.set_sdo_timeout(s.sdo_timeout);

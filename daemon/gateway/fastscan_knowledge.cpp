@@ -19,9 +19,16 @@ const Assignment* remembered_of(const config::Device& d, U32 vendor, std::span<c
 
 // One target per product code the device may report (one with the product
 // unknown when nothing names it).
-void add_device(FastscanPlan& plan, const config::Device& d, bool with_serial, std::span<const Assignment> remembered) {
+U32 eds_vendor_of(const config::Device& d, std::span<const std::pair<std::uint32_t, std::uint32_t>> eds_vendors) {
+  for (const auto& [serial, vendor] : eds_vendors)
+    if (serial == d.serial) return vendor;
+  return std::nullopt;
+}
+
+void add_device(FastscanPlan& plan, const config::Device& d, bool with_serial, const FastscanKnowledge& k) {
+  const std::span<const Assignment> remembered = k.remembered;
   const config::KnownModel* m = d.model.empty() ? nullptr : config::find_model(d.model);
-  const U32 vendor = d.vendor ? d.vendor : m ? U32(m->vendor) : std::nullopt;
+  const U32 vendor = d.vendor ? d.vendor : m ? U32(m->vendor) : eds_vendor_of(d, k.eds_vendors);
   const Assignment* seen = with_serial ? remembered_of(d, vendor, remembered) : nullptr;
   const U32 revision = seen && seen->revision != 0 ? U32(seen->revision) : std::nullopt;
   const U32 serial = with_serial ? U32(d.serial) : std::nullopt;
@@ -46,8 +53,8 @@ void add_device(FastscanPlan& plan, const config::Device& d, bool with_serial, s
 FastscanPlan make_fastscan_plan(const FastscanKnowledge& k) {
   FastscanPlan plan;
   for (const auto& a : k.known) (void)plan.add(FastscanTarget::of(a.vendor, a.product, a.revision, a.serial));
-  for (const config::Device* d : k.absent) add_device(plan, *d, true, k.remembered);
-  for (const config::Device* d : k.models) add_device(plan, *d, false, k.remembered);
+  for (const config::Device* d : k.absent) add_device(plan, *d, true, k);
+  for (const config::Device* d : k.models) add_device(plan, *d, false, k);
   if (k.general) plan.search_unknown = true;
   return plan;
 }

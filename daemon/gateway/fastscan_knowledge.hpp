@@ -4,7 +4,8 @@
 // Known identities are confirmed whole instead of searched bit by bit:
 //  * devices commissioning itself took off their node-ID: whole identities;
 //  * configured devices not present at a node-ID: vendor (configured, else
-//    the model's), product (configured, else each product code of the model),
+//    the model's, else its EDS file's), product (configured, else each
+//    product code of the model),
 //    serial (configured), revision when the remembered table has one;
 //  * configured models a new device may be (a same-model replacement, or a
 //    device the `assign` policy places): vendor and product, the revisions
@@ -31,6 +32,8 @@ struct FastscanKnowledge {
   std::vector<const config::Device*> absent;    // configured devices not at a node-ID
   std::vector<const config::Device*> models;    // configured devices whose model a new device may be
   std::span<const Assignment> remembered;       // revisions (and products) seen before
+  // serial -> the VendorNumber of the device's EDS file (no vendor configured, no model)
+  std::span<const std::pair<std::uint32_t, std::uint32_t>> eds_vendors;
   bool general = false;                         // also search what no target names
 };
 

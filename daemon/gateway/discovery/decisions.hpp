@@ -23,6 +23,9 @@ struct BusSettings {
   config::Bus bus;
   std::vector<config::Device> devices;  // of this bus
   std::vector<Assignment> previous;     // the remembered table of this bus
+  // serial -> VendorNumber of the device's EDS file, for devices described by
+  // `eds` whose configuration names no vendor (Fastscan confirms it whole).
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> eds_vendors;
   canopen::Duration sdo_timeout{};
   canopen::Duration lss_timeout{};
 };

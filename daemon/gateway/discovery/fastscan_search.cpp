@@ -22,28 +22,28 @@ bool is_present_serial(std::uint32_t serial, const BusPicture& picture) {
 
 }  // namespace
 
-std::vector<Task> FastscanSearch::searches(canopen::TimePoint now, const std::vector<config::Device>& devices,
-                                           const std::vector<Assignment>& previous, const BusPicture& picture) const {
+std::vector<Task> FastscanSearch::searches(canopen::TimePoint now, const BusSettings& s,
+                                           const BusPicture& picture) const {
   if (now >= general_not_before_) return {make(Op::fastscan_loop)};
-  if (plan(false, devices, previous, picture, {}, {}).size() > 0) return {make(Op::fastscan_known)};
+  if (plan(false, s, picture, {}, {}).size() > 0) return {make(Op::fastscan_known)};
   return {};
 }
 
-canopen::FastscanPlan FastscanSearch::plan(bool general, const std::vector<config::Device>& devices,
-                                           const std::vector<Assignment>& previous, const BusPicture& picture,
+canopen::FastscanPlan FastscanSearch::plan(bool general, const BusSettings& s, const BusPicture& picture,
                                            const std::vector<LssAddress>& known,
                                            const std::vector<LssAddress>& found) {
   FastscanKnowledge k;
   for (const auto& id : known)
     if (!is_pre_fastscan(id.vendor, id.product)) k.known.push_back(id);
-  for (const auto& c : devices) {
+  for (const auto& c : s.devices) {
     const config::KnownModel* m = c.model.empty() ? nullptr : config::find_model(c.model);
     if (m && m->family == config::Family::novotechnik_rotary) continue;  // no Fastscan (J§1 intro)
     const bool seen = std::any_of(found.begin(), found.end(), [&](const LssAddress& f) { return f.serial == c.serial; });
     if (c.serial != 0 && !seen && !is_present_serial(c.serial, picture)) k.absent.push_back(&c);
     if (general) k.models.push_back(&c);
   }
-  k.remembered = previous;
+  k.remembered = s.previous;
+  k.eds_vendors = s.eds_vendors;
   k.general = general;
   return make_fastscan_plan(k);
 }

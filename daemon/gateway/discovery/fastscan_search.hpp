@@ -28,6 +28,7 @@
 #include "canopen/fastscan_plan.hpp"
 #include "config/config.hpp"
 #include "gateway/discovery/bus_picture.hpp"
+#include "gateway/discovery/decisions.hpp"
 #include "gateway/discovery/lss_task.hpp"
 #include "gateway/discovery/report.hpp"
 #include "gateway/state_store.hpp"
@@ -44,12 +45,11 @@ class FastscanSearch {
   // The Fastscan to run now that identify non-configured was answered: the
   // general one, unless it is backing off; then the targeted one, if a
   // configured device is not present.
-  [[nodiscard]] std::vector<Task> searches(canopen::TimePoint now, const std::vector<config::Device>& devices,
-                                           const std::vector<Assignment>& previous, const BusPicture& picture) const;
+  [[nodiscard]] std::vector<Task> searches(canopen::TimePoint now, const BusSettings& s,
+                                           const BusPicture& picture) const;
   // What a Fastscan knows before it starts. `known`: whole identities (a
   // clash's devices made non-configured); `found`: found in this run already.
-  [[nodiscard]] static canopen::FastscanPlan plan(bool general, const std::vector<config::Device>& devices,
-                                                  const std::vector<Assignment>& previous, const BusPicture& picture,
+  [[nodiscard]] static canopen::FastscanPlan plan(bool general, const BusSettings& s, const BusPicture& picture,
                                                   const std::vector<LssAddress>& known,
                                                   const std::vector<LssAddress>& found);
 

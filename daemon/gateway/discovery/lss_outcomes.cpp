@@ -154,7 +154,7 @@ void Commissioning::on_configure_id(const Task& t, const Result& r, TimePoint no
 void Commissioning::on_identify_non_configured(const Result& r, TimePoint now) {
   if (!r.answered) return;
   report_.timing("identify-non-configured", "", r);
-  std::vector<Task> v = search_.searches(now, s_.devices, s_.previous, probe_.picture());
+  std::vector<Task> v = search_.searches(now, s_, probe_.picture());
   v.push_back(make(Op::wait_boots));
   push_front(std::move(v));
 }
@@ -165,7 +165,7 @@ canopen::FastscanPlan Commissioning::fastscan_plan(bool general) const {
     for (const auto& k : run_->known) known.push_back(k.first);
     found = run_->found;
   }
-  return FastscanSearch::plan(general, s_.devices, s_.previous, probe_.picture(), known, found);
+  return FastscanSearch::plan(general, s_, probe_.picture(), known, found);
 }
 
 // Both Fastscans loop until nobody is found: the targeted one (fastscan_known)

@@ -86,6 +86,24 @@ TEST(FastscanKnowledge, ModelGuessesTheRememberedRevision) {
   EXPECT_EQ(p.target(2).field, (FastscanTarget::of(0x182, 0x0BB9, std::nullopt, std::nullopt).field));
 }
 
+// A device described by an EDS file (no vendor, no model configured): the
+// file's VendorNumber is confirmed whole; the product is searched.
+TEST(FastscanKnowledge, VendorFromTheDevicesEdsFile_CiA306_DeviceInfo) {
+  config::Device custom;
+  custom.name = "custom";
+  custom.serial = 4242;
+  custom.eds = "/etc/cobridge/custom.eds";
+  const std::vector<std::pair<std::uint32_t, std::uint32_t>> eds_vendors{{4242, 0x0069666D}};
+  FastscanKnowledge k;
+  k.absent = {&custom};
+  k.eds_vendors = eds_vendors;
+  const auto p = make_fastscan_plan(k);
+  ASSERT_EQ(p.size(), 1u);
+  EXPECT_EQ(p.target(0).field, (FastscanTarget::of(0x0069666D, std::nullopt, std::nullopt, 4242).field));
+  k.eds_vendors = {};
+  EXPECT_EQ(make_fastscan_plan(k).target(0).field, (FastscanTarget::of(std::nullopt, std::nullopt, std::nullopt, 4242).field));
+}
+
 // The same device listed twice (absent, and as a model) yields no duplicate.
 TEST(FastscanKnowledge, NoDuplicateTargets) {
   const config::Device a = device("RFC-4800", 1001), b = device("RFC-4800", 1002);

@@ -14,6 +14,12 @@ using namespace std::chrono_literals;
 
 constexpr std::uint32_t kNovotechnik = 0x182;
 
+BusSettings settings(std::vector<config::Device> devices) {
+  BusSettings s;
+  s.devices = std::move(devices);
+  return s;
+}
+
 config::Device device(std::string name, std::uint32_t serial, std::string model) {
   config::Device d;
   d.name = std::move(name);
@@ -30,12 +36,12 @@ config::Device device(std::string name, std::uint32_t serial, std::string model)
 TEST(FastscanSearchTest, GuidedPlanOfAbsentConfiguredDevices_CiA305_BitChecked0) {
   Report report;
   FastscanSearch search(report);
-  const std::vector<config::Device> devices{device("mt", 77, "MZ1-2200"), device("rot", 5, "RFC-4800")};
+  const BusSettings devices = settings({device("mt", 77, "MZ1-2200"), device("rot", 5, "RFC-4800")});
   const BusPicture picture{};
-  const auto v = search.searches(canopen::TimePoint{} + 1h, devices, {}, picture);
+  const auto v = search.searches(canopen::TimePoint{} + 1h, devices, picture);
   ASSERT_EQ(v.size(), 1u);
   EXPECT_EQ(v.front().op, Op::fastscan_loop);
-  const auto targeted = FastscanSearch::plan(false, devices, {}, picture, {}, {});
+  const auto targeted = FastscanSearch::plan(false, devices, picture, {}, {});
   ASSERT_GE(targeted.size(), 1u);
   for (std::size_t i = 0; i < targeted.size(); ++i) {
     EXPECT_EQ(targeted.target(i).field[0], kNovotechnik);
@@ -44,20 +50,20 @@ TEST(FastscanSearchTest, GuidedPlanOfAbsentConfiguredDevices_CiA305_BitChecked0)
     EXPECT_EQ(targeted.target(i).field[3], 77u);
   }
   EXPECT_FALSE(targeted.search_unknown);
-  const auto general = FastscanSearch::plan(true, devices, {}, picture, {}, {});
+  const auto general = FastscanSearch::plan(true, devices, picture, {}, {});
   EXPECT_GT(general.size(), targeted.size());
   EXPECT_TRUE(general.search_unknown);
   // Found in this run already: not guessed again.
-  EXPECT_EQ(FastscanSearch::plan(false, devices, {}, picture, {}, {LssAddress{kNovotechnik, 0x0BB8, 1, 77}}).size(), 0u);
+  EXPECT_EQ(FastscanSearch::plan(false, devices, picture, {}, {LssAddress{kNovotechnik, 0x0BB8, 1, 77}}).size(), 0u);
 }
 
 TEST(FastscanSearchTest, PresentDeviceIsNotLookedFor) {
   Report report;
   FastscanSearch search(report);
-  const std::vector<config::Device> devices{device("mt", 77, "MZ1-2200")};
+  const BusSettings devices = settings({device("mt", 77, "MZ1-2200")});
   BusPicture picture{};
   picture[5].ids = {LssAddress{kNovotechnik, 0x0BB8, 1, 77}};
-  EXPECT_EQ(FastscanSearch::plan(false, devices, {}, picture, {}, {}).size(), 0u);
+  EXPECT_EQ(FastscanSearch::plan(false, devices, picture, {}, {}).size(), 0u);
 }
 
 TEST(FastscanSearchTest, StrangerReportedOnceAndGeneralScanBacksOff) {
@@ -70,12 +76,12 @@ TEST(FastscanSearchTest, StrangerReportedOnceAndGeneralScanBacksOff) {
   EXPECT_EQ(report.take_events().size(), 2u);  // one problem + one identified at FFh
   const canopen::TimePoint t0 = canopen::TimePoint{} + 1h;
   search.back_off(t0, 10s);
-  EXPECT_TRUE(search.searches(t0 + 9s, {}, {}, BusPicture{}).empty());
-  ASSERT_EQ(search.searches(t0 + 10s, {}, {}, BusPicture{}).size(), 1u);
+  EXPECT_TRUE(search.searches(t0 + 9s, BusSettings{}, BusPicture{}).empty());
+  ASSERT_EQ(search.searches(t0 + 10s, BusSettings{}, BusPicture{}).size(), 1u);
   search.back_off(t0, 10s);  // again: 2 * 10 s + 10 s
-  EXPECT_TRUE(search.searches(t0 + 29s, {}, {}, BusPicture{}).empty());
+  EXPECT_TRUE(search.searches(t0 + 29s, BusSettings{}, BusPicture{}).empty());
   for (int i = 0; i < 10; ++i) search.back_off(t0, 10s);
-  EXPECT_EQ(search.searches(t0 + 10min, {}, {}, BusPicture{}).size(), 1u);  // at most 10 min
+  EXPECT_EQ(search.searches(t0 + 10min, BusSettings{}, BusPicture{}).size(), 1u);  // at most 10 min
 }
 
 TEST(FastscanSearchTest, SlowscanOnlyForThePreFastscanProductsSeen_J1_2_1) {
