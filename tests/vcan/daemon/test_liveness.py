@@ -151,17 +151,21 @@ def scenario_reboot_mid_sdo(report, daemon, sim, listener, rogue_nodes=()):
             sim.command("reboot-on-sdo %d 0" % serial)
             sim.command("power-cycle %d" % serial)
     for (name, _, _, serial, node) in DEVICES:
-        ups = last_boot_up(listener, node, t0)
         expect_ups = 1 if rogue else 2
         took = None
         d = None
-        if ups:
-            deadline = time.time() + 6
-            while time.time() < deadline:
-                ups = last_boot_up(listener, node, t0)
-                took, d = wait_back(daemon, name, ups[-1][0], 0.3)
-                if took is not None and len(ups) >= expect_ups:
-                    break
+        # The boot-ups may still be on their way (a loaded host delays the
+        # simulator and the listener): wait for them, not only for the state.
+        deadline = time.time() + 6
+        ups = []
+        while time.time() < deadline:
+            ups = last_boot_up(listener, node, t0)
+            if not ups:
+                time.sleep(0.02)
+                continue
+            took, d = wait_back(daemon, name, ups[-1][0], 0.3)
+            if took is not None and len(ups) >= expect_ups:
+                break
         report.check(len(ups) >= expect_ups, "%s: %d boot-ups seen%s" % (name, expect_ups, tag),
                      "%d seen" % len(ups))
         ok = took is not None and took <= BOUND
