@@ -1,0 +1,60 @@
+#include "base/error.hpp"
+
+#include <array>
+#include <cstdio>
+
+namespace cobridge {
+
+std::string_view name(Errc kind) noexcept {
+  static constexpr std::array<std::string_view, 9> kNames{
+      "ok", "failed", "invalid_argument", "timeout", "permission_denied",
+      "unavailable", "not_found", "unsupported", "internal"};
+  const auto i = static_cast<std::size_t>(kind);
+  return i < kNames.size() ? kNames[i] : std::string_view{"internal"};
+}
+
+std::string Error::to_string() const {
+  if (where.empty()) return message;
+  return where + ": " + message;
+}
+
+std::string json_quote(std::string_view text) {
+  std::string out;
+  out.reserve(text.size() + 2);
+  out += '"';
+  for (const char ch : text) {
+    const auto c = static_cast<unsigned char>(ch);
+    switch (c) {
+      case '"': out += "\\\""; break;
+      case '\\': out += "\\\\"; break;
+      case '\n': out += "\\n"; break;
+      case '\r': out += "\\r"; break;
+      case '\t': out += "\\t"; break;
+      default:
+        if (c < 0x20) {
+          std::array<char, 8> buf{};
+          std::snprintf(buf.data(), buf.size(), "\\u%04x", c);
+          out += buf.data();
+        } else {
+          out += ch;
+        }
+    }
+  }
+  out += '"';
+  return out;
+}
+
+std::string Error::to_json() const {
+  std::string out = "{\"code\":";
+  out += json_quote(name(kind));
+  out += ",\"where\":" + json_quote(where);
+  out += ",\"message\":" + json_quote(message);
+  if (code) {
+    out += ",\"detail\":{\"category\":" + json_quote(code.category().name());
+    out += ",\"value\":" + std::to_string(code.value()) + "}";
+  }
+  out += '}';
+  return out;
+}
+
+}  // namespace cobridge
