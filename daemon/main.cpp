@@ -281,6 +281,7 @@ class Daemon final : public gateway::ControlHandler {
       outputs_.add_live_status(i, s, now, wall);
       r.buses.push_back(std::move(s));
     }
+    r.outputs = outputs_.output_stats();
     return r;
   }
 

@@ -240,6 +240,24 @@ void write_bus(JsonWriter& w, const BusStatus& b) {
 
 }  // namespace
 
+// What each output plugin reports of itself (ABI 3 stats): Modbus clients
+// connected, DDS writers, ...
+void write_outputs(JsonWriter& w, const std::vector<pipeline::OutputStats>& outputs) {
+  w.begin_array();
+  for (const auto& o : outputs) {
+    w.begin_object();
+    w.field("instance", o.instance);
+    w.field("type", o.type);
+    w.field("running", o.running);
+    w.key("figures");
+    w.begin_object();
+    for (const auto& f : o.figures) w.field(f.name, f.value);
+    w.end_object();
+    w.end_object();
+  }
+  w.end_array();
+}
+
 std::string to_json(const StatusReport& report) {
   JsonWriter w;
   w.begin_object();
@@ -264,6 +282,8 @@ std::string to_json(const StatusReport& report) {
   w.begin_array();
   for (const auto& b : report.buses) write_bus(w, b);
   w.end_array();
+  w.key("outputs");
+  write_outputs(w, report.outputs);
   w.end_object();
   return w.take();
 }

@@ -25,6 +25,7 @@
 
 #include "canopen/clock.hpp"
 #include "gateway/device_status.hpp"
+#include "pipeline/plugin_host.hpp"
 
 #include <poll.h>
 #include <sys/types.h>
@@ -48,6 +49,7 @@ struct StatusReport {
   WallTime started{};
   std::string config_file;
   std::vector<BusStatus> buses;
+  std::vector<pipeline::OutputStats> outputs;  // each output plugin's own figures
 };
 
 // What a control command did: ok, or the reason it was refused.
