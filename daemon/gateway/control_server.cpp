@@ -195,6 +195,7 @@ void write_bus(JsonWriter& w, const BusStatus& b) {
   w.field("name", b.name);
   w.field("interface", b.interface);
   w.field("open", b.open);
+  w.field("bitrate_kbit", std::uint64_t{b.bitrate_kbit});
   w.field("last_bus_event", b.last_bus_event);
   w.key("counters");
   w.begin_object();

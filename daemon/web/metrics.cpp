@@ -116,6 +116,8 @@ std::string render_metrics(const gateway::StatusReport& report) {
   };
   w.family("cobridge_bus_open", "gauge", "1 while the bus's CAN interface is open.");
   for (const auto& b : report.buses) w.sample({{"bus", b.name}, {"interface", b.interface}}, b.open ? 1 : 0);
+  per_bus("cobridge_bus_bitrate", "gauge", "The bus's configured bit rate, bit/s.",
+          [](const BusStatus& b) { return static_cast<double>(b.bitrate_kbit) * 1000.0; });
   // Each bus has two sockets (docs/architecture.md): the hot path's and the control plane's.
   auto per_socket = [&](std::string_view name, std::string_view help, std::uint64_t BusStatus::*hot,
                         std::uint64_t BusStatus::*control) {

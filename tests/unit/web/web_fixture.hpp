@@ -23,6 +23,7 @@ inline gateway::StatusReport sample_report(int buses, int devices) {
     bus.name = "line" + std::to_string(b + 1);
     bus.interface = "can" + std::to_string(b);
     bus.open = true;
+    bus.bitrate_kbit = 250;
     bus.rx_frames = 1000;
     bus.hot_rx_frames = 50000;
     bus.ring_drops = 0;

@@ -434,6 +434,9 @@ def browser(report, ws, args, names, stale_name):
         report.check(m is not None and "stale" in m.group(1), "browser: %s marked stale" % stale_name)
         report.check('class="flag stale"' in doms[-1], "browser: the STALE flag is shown")
         report.check('class="emcy"' in doms[-1], "browser: the EMCY history is shown")
+        load = re.search(r'data-load="([0-9.]+)"', doms[-1])
+        report.check(load is not None and float(load.group(1)) > 0, "browser: the bus load is shown",
+                     load.group(1) + " %" if load else "none")
         report.check('data-output="modbus"' in doms[-1] and 'data-figure="modbus_clients_connected"' in doms[-1],
                      "browser: the Modbus output and its clients connected are shown")
         if args.screenshot_dir:
