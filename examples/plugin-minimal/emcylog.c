@@ -58,9 +58,17 @@ static void el_on_device(void* self, const cobridge_device_info* info) {
   family[FAMILY_LEN - 1] = '\0';
 }
 
+/* Designated initializers: operations a later ABI appends stay NULL, and
+ * struct_size tells the daemon which ones this plugin knows. */
 static const cobridge_plugin_ops ops = {
-    COBRIDGE_PLUGIN_ABI_VERSION, sizeof(cobridge_plugin_ops), "emcylog", el_start, el_stop, el_destroy,
-    el_on_samples, el_on_device,
+    .abi_version = COBRIDGE_PLUGIN_ABI_VERSION,
+    .struct_size = sizeof(cobridge_plugin_ops),
+    .name = "emcylog",
+    .start = el_start,
+    .stop = el_stop,
+    .destroy = el_destroy,
+    .on_samples = el_on_samples,
+    .on_device = el_on_device,
 };
 
 int cobridge_plugin_create(const cobridge_host_api* host, const char* config_toml, size_t config_len,
