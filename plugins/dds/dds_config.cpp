@@ -30,7 +30,8 @@ constexpr std::int64_t kMaxDepth = 10000;
 // own; above 1 h a dead gateway is as good as never detected.
 constexpr std::int64_t kMinLeaseMs = 100, kMaxLeaseMs = 3'600'000;
 constexpr std::string_view kKnownKeys =
-    "domain, sample_reliability, sample_depth, topic_prefix, write_batch, liveliness_lease_ms, sample_path";
+    "domain, sample_reliability, sample_depth, topic_prefix, partition, write_batch, liveliness_lease_ms, "
+    "sample_path";
 
 DdsConfigResult fail(DdsConfigErrc code, std::string message) {
   DdsConfigResult r;
@@ -92,6 +93,10 @@ DdsConfigResult parse_dds_config(std::string_view toml_text) {
       const auto* v = node.as_string();
       if (v == nullptr) return fail(DdsConfigErrc::kWrongType, "'topic_prefix' must be a string");
       r.config.topic_prefix = v->get();
+    } else if (k == "partition") {
+      const auto* v = node.as_string();
+      if (v == nullptr) return fail(DdsConfigErrc::kWrongType, "'partition' must be a string");
+      r.config.partition = v->get();
     } else if (k == "write_batch") {
       const auto* v = node.as_boolean();
       if (v == nullptr) return fail(DdsConfigErrc::kWrongType, "'write_batch' must be true or false");

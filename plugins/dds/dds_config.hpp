@@ -31,6 +31,9 @@ struct DdsConfig {
   std::int32_t sample_depth = 1;
   // Prepended to the topic names ("plant1/" -> "plant1/EncoderSample").
   std::string topic_prefix;
+  // DDS partition of every writer (and of the GatewayStatus reader); "" =
+  // the default partition. Subscribers must name the same partition.
+  std::string partition;
   // Cyclone's Internal/WriteBatch: the writer thread packs everything it
   // drained at once into one RTPS message (one sendto) instead of one per
   // sample, and flushes after each drained batch. Lower median latency and

@@ -6,6 +6,7 @@
 //   sample_reliability = "best-effort"  or "reliable" (EncoderSample only)
 //   sample_depth       = 1              EncoderSample keep-last depth
 //   topic_prefix       = ""             prepended to the topic names
+//   partition          = ""             DDS partition of every writer
 //   write_batch        = true           one RTPS message per drained batch
 //   liveliness_lease_ms = 500           writers' liveliness lease
 //   sample_path        = "auto"         who writes EncoderSample (auto, dispatcher, writer-thread)
@@ -220,7 +221,7 @@ int dds_start(void* self) {
     }
     if (!note.empty()) inst->log(COBRIDGE_LOG_WARN, note);
     const DdsConfig& cfg = inst->publisher->config();
-    inst->presence = std::make_unique<GatewayPresence>(inst->publisher->gateway(), cfg.topic_prefix,
+    inst->presence = std::make_unique<GatewayPresence>(inst->publisher->gateway(), cfg.topic_prefix, cfg.partition,
                                                        DDS_MSECS(cfg.liveliness_lease_ms));
     if (const std::error_code pec = inst->presence->start(inst->publisher->participant(), message)) {
       inst->log(COBRIDGE_LOG_ERROR, message);
@@ -238,7 +239,8 @@ int dds_start(void* self) {
                                      (c.write_batch ? ", write batching" : "") + ", liveliness lease " +
                                      std::to_string(c.liveliness_lease_ms) + " ms, samples written by the " +
                                      (inst->direct ? "dispatcher" : "writer thread") +
-                                     (c.topic_prefix.empty() ? std::string() : ", topic prefix '" + c.topic_prefix + "'"));
+                                     (c.topic_prefix.empty() ? std::string() : ", topic prefix '" + c.topic_prefix + "'") +
+                                     (c.partition.empty() ? std::string() : ", partition '" + c.partition + "'"));
     return 0;
   } catch (const std::exception& e) {
     inst->log(COBRIDGE_LOG_ERROR, std::string("start: ") + e.what());

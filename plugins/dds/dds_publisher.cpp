@@ -75,6 +75,15 @@ std::error_code DdsPublisher::start(std::string& message, std::string& note) {
               dds_strretcode(rc) + " (check CYCLONEDDS_URI)";
     return make_dds_error(rc);
   }
+  // Writers under a publisher of the configured partition.
+  publisher_ = dds_create_publisher(participant_, partition_qos(config_.partition).get(), nullptr);
+  if (publisher_ < 0) {
+    const dds_return_t rc = publisher_;
+    publisher_ = 0;
+    message = "cannot create a DDS publisher for partition '" + config_.partition + "': " + dds_strretcode(rc);
+    stop();
+    return make_dds_error(rc);
+  }
   struct Spec {
     std::string_view topic;
     const dds_topic_descriptor_t* type;
@@ -96,7 +105,7 @@ std::error_code DdsPublisher::start(std::string& message, std::string& note) {
       stop();
       return make_dds_error(topic);
     }
-    const dds_entity_t writer = dds_create_writer(participant_, topic, spec.qos.get(), nullptr);
+    const dds_entity_t writer = dds_create_writer(publisher_, topic, spec.qos.get(), nullptr);
     if (writer < 0) {
       message = "cannot create a writer for '" + name + "': " + dds_strretcode(writer);
       stop();
@@ -117,7 +126,7 @@ void DdsPublisher::stop() noexcept {
   // An explicit domain outlives its participants; it goes with the plugin
   // unless someone else in the process has joined it meanwhile.
   if (domain_ > 0 && dds_get_children(domain_, nullptr, 0) == 0) (void)dds_delete(domain_);
-  domain_ = participant_ = sample_writer_ = event_writer_ = status_writer_ = 0;
+  domain_ = participant_ = publisher_ = sample_writer_ = event_writer_ = status_writer_ = 0;
   unflushed_ = 0;
 }
 

@@ -97,6 +97,7 @@ class DdsPublisher {
   DeviceSlots slots_;
   dds_entity_t domain_ = 0;  // > 0 when this publisher created the domain
   dds_entity_t participant_ = 0;
+  dds_entity_t publisher_ = 0;  // of config_.partition
   dds_entity_t sample_writer_ = 0;
   dds_entity_t event_writer_ = 0;
   dds_entity_t status_writer_ = 0;

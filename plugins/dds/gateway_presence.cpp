@@ -37,8 +37,9 @@ constexpr std::uint32_t kTake = 16;
 
 }  // namespace
 
-GatewayPresence::GatewayPresence(const GatewayName& gateway, std::string topic_prefix, dds_duration_t lease)
-    : gateway_(gateway), topic_prefix_(std::move(topic_prefix)), lease_(lease) {}
+GatewayPresence::GatewayPresence(const GatewayName& gateway, std::string topic_prefix, std::string partition,
+                                 dds_duration_t lease)
+    : gateway_(gateway), topic_prefix_(std::move(topic_prefix)), partition_(std::move(partition)), lease_(lease) {}
 
 GatewayPresence::~GatewayPresence() { stop(); }
 
@@ -55,8 +56,18 @@ std::error_code GatewayPresence::start(dds_entity_t participant, std::string& me
     topic_ = 0;
     return ec;
   }
-  writer_ = dds_create_writer(participant, topic_, gateway_status_writer_qos(lease_).get(), nullptr);
-  reader_ = writer_ > 0 ? dds_create_reader(participant, topic_, gateway_status_reader_qos().get(), nullptr) : 0;
+  publisher_ = dds_create_publisher(participant, partition_qos(partition_).get(), nullptr);
+  subscriber_ = dds_create_subscriber(participant, partition_qos(partition_).get(), nullptr);
+  if (publisher_ < 0 || subscriber_ < 0) {
+    const dds_return_t rc = publisher_ < 0 ? publisher_ : subscriber_;
+    message = "cannot create a DDS publisher/subscriber for partition '" + partition_ + "': " + dds_strretcode(rc);
+    if (publisher_ < 0) publisher_ = 0;
+    if (subscriber_ < 0) subscriber_ = 0;
+    stop();
+    return make_dds_error(rc);
+  }
+  writer_ = dds_create_writer(publisher_, topic_, gateway_status_writer_qos(lease_).get(), nullptr);
+  reader_ = writer_ > 0 ? dds_create_reader(subscriber_, topic_, gateway_status_reader_qos().get(), nullptr) : 0;
   if (writer_ < 0 || reader_ < 0) {
     const dds_return_t rc = writer_ < 0 ? writer_ : reader_;
     message = "cannot create the " + std::string(writer_ < 0 ? "writer" : "reader") + " of '" + name +
@@ -81,8 +92,10 @@ void GatewayPresence::stop() noexcept {
   }
   if (reader_ > 0) (void)dds_delete(reader_);
   if (writer_ > 0) (void)dds_delete(writer_);
+  if (publisher_ > 0) (void)dds_delete(publisher_);
+  if (subscriber_ > 0) (void)dds_delete(subscriber_);
   if (topic_ > 0) (void)dds_delete(topic_);
-  reader_ = writer_ = topic_ = 0;
+  reader_ = writer_ = topic_ = publisher_ = subscriber_ = 0;
   ever_written_ = false;
 }
 

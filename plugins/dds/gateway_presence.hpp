@@ -46,7 +46,7 @@ enum class DuplicateChange : std::uint8_t {
 
 class GatewayPresence {
  public:
-  GatewayPresence(const GatewayName& gateway, std::string topic_prefix, dds_duration_t lease);
+  GatewayPresence(const GatewayName& gateway, std::string topic_prefix, std::string partition, dds_duration_t lease);
   ~GatewayPresence();
   GatewayPresence(const GatewayPresence&) = delete;
   GatewayPresence& operator=(const GatewayPresence&) = delete;
@@ -74,6 +74,8 @@ class GatewayPresence {
 
   GatewayName gateway_;
   std::string topic_prefix_;
+  std::string partition_;
+  dds_entity_t publisher_ = 0, subscriber_ = 0;
   dds_duration_t lease_;
   std::string host_;
   std::uint32_t pid_ = 0;

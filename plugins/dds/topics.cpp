@@ -39,6 +39,12 @@ Qos device_status_writer_qos(dds_duration_t lease) {
 
 Qos gateway_status_writer_qos(dds_duration_t lease) { return device_status_writer_qos(lease); }
 
+Qos partition_qos(const std::string& partition) {
+  Qos q(dds_create_qos());
+  if (!partition.empty()) dds_qset_partition1(q.get(), partition.c_str());
+  return q;
+}
+
 Qos gateway_status_reader_qos() {
   Qos q(dds_create_qos());
   dds_qset_reliability(q.get(), DDS_RELIABILITY_RELIABLE, DDS_SECS(1));

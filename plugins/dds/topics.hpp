@@ -56,5 +56,7 @@ using Qos = std::unique_ptr<dds_qos_t, QosDelete>;
 // The plugin's own GatewayStatus reader (duplicate detection): matches the
 // writers of every gateway, ignores the plugin's own participant.
 [[nodiscard]] Qos gateway_status_reader_qos();
+// The publisher / subscriber QoS of a partition ("" = the default one).
+[[nodiscard]] Qos partition_qos(const std::string& partition);
 
 }  // namespace cobridge::dds

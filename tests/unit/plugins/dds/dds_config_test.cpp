@@ -36,7 +36,7 @@ TEST(DdsConfig, Issue16_SamplePath) {
 TEST(DdsConfig, DocsDds_AllKeys) {
   const DdsConfigResult r =
       parse_dds_config("domain = 42\nsample_reliability = \"reliable\"\nsample_depth = 16\ntopic_prefix = \"p/\"\n"
-                       "write_batch = false\nliveliness_lease_ms = 250\n");
+                       "write_batch = false\nliveliness_lease_ms = 250\npartition = \"hall-3\"\n");
   ASSERT_TRUE(r.ok()) << r.message;
   EXPECT_EQ(r.config.domain, 42u);
   EXPECT_EQ(r.config.sample_reliability, Reliability::kReliable);
@@ -44,6 +44,7 @@ TEST(DdsConfig, DocsDds_AllKeys) {
   EXPECT_EQ(r.config.topic_prefix, "p/");
   EXPECT_FALSE(r.config.write_batch);
   EXPECT_EQ(r.config.liveliness_lease_ms, 250);
+  EXPECT_EQ(r.config.partition, "hall-3");
 }
 
 // docs/dds.md "Configuration": refusals carry a code and name the key.
@@ -67,6 +68,7 @@ TEST(DdsConfig, DocsDds_Refusals) {
       {"write_batch = \"yes\"", DdsConfigErrc::kWrongType, "'write_batch' must be true or false"},
       {"write_batch = 1", DdsConfigErrc::kWrongType, "'write_batch'"},
       {"writebatch = true", DdsConfigErrc::kUnknownKey, "write_batch"},
+      {"partition = 3", DdsConfigErrc::kWrongType, "'partition'"},
       {"sample_path = \"inline\"", DdsConfigErrc::kOutOfRange, "'sample_path' must be"},
       {"sample_path = \"dispatcher\"\nsample_reliability = \"reliable\"", DdsConfigErrc::kOutOfRange,
        "needs sample_reliability = \"best-effort\""},

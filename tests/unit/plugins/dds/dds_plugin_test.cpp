@@ -879,3 +879,38 @@ TEST(DdsPlugin, Issue16_SamplePathWriterThreadAndRefusal) {
             std::string::npos)
       << err.message;
 }
+
+// Issue 16, docs/dds.md "Many gateways in one domain": `partition` puts every
+// writer in that DDS partition; a reader of the partition gets the samples,
+// a reader of the default partition does not.
+TEST(DdsPlugin, Issue16_PartitionSeparatesReaders) {
+  const dds_entity_t pp = dds_create_participant(static_cast<dds_domainid_t>(test_domain()), nullptr, nullptr);
+  ASSERT_GT(pp, 0);
+  const dds_entity_t topic = dds_create_topic(pp, &cobridge_EncoderSample_desc, "EncoderSample", nullptr, nullptr);
+  dds_qos_t* part = dds_create_qos();
+  dds_qset_partition1(part, "hall-3");
+  const dds_entity_t sub = dds_create_subscriber(pp, part, nullptr);
+  dds_delete_qos(part);
+  dds_qos_t* rq = dds_create_qos();
+  dds_qset_reliability(rq, DDS_RELIABILITY_BEST_EFFORT, 0);
+  dds_qset_history(rq, DDS_HISTORY_KEEP_ALL, 0);
+  const dds_entity_t in_partition = dds_create_reader(sub, topic, rq, nullptr);
+  const dds_entity_t in_default = dds_create_reader(pp, topic, rq, nullptr);
+  dds_delete_qos(rq);
+  {
+    Plugin p(base_config("partition = \"hall-3\"\n"));
+    EXPECT_NE(p.log.all().find("partition 'hall-3'"), std::string::npos) << p.log.all();
+    p.host.announce(device(0, 0, 5, "axis 1"));
+    const cobridge_sample s = tpdo(0, 0, 5, 1);
+    p.host.deliver({&s, 1});
+    const bool got = take_until<cobridge_EncoderSample>(in_partition, [](const auto& v, const auto& info) {
+      return info.valid_data && test_gateway() == v.gateway_id && v.sequence_number == 1;
+    });
+    EXPECT_TRUE(got) << "the reader of partition hall-3 got the sample";
+    const bool leaked = take_until<cobridge_EncoderSample>(
+        in_default, [](const auto& v, const auto& info) { return info.valid_data && test_gateway() == v.gateway_id; },
+        300ms);
+    EXPECT_FALSE(leaked) << "a reader of the default partition must not see it";
+  }
+  dds_delete(pp);
+}
