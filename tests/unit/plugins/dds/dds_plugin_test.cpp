@@ -914,3 +914,50 @@ TEST(DdsPlugin, Issue16_PartitionSeparatesReaders) {
   }
   dds_delete(pp);
 }
+
+// Issue 16, item 1: a reliable subscriber that stops reading must not stall
+// the dispatcher (which Modbus and the tap share). The reader keeps at most
+// 10 samples and never takes, so the reliable writer's history fills and
+// each write waits (max_blocking_time); the dispatcher side (on_samples)
+// still hands over all 100 000 samples, and what the DDS side could not
+// keep up with is dropped from the plugin's queue and counted, never waited
+// for. The longest on_samples call is printed, not judged.
+TEST(DdsPlugin, Issue16_StalledReliableReaderDoesNotBlockTheDispatcher) {
+  const dds_entity_t pp = dds_create_participant(static_cast<dds_domainid_t>(test_domain()), nullptr, nullptr);
+  ASSERT_GT(pp, 0);
+  const dds_entity_t topic = dds_create_topic(pp, &cobridge_EncoderSample_desc, "EncoderSample", nullptr, nullptr);
+  dds_qos_t* rq = dds_create_qos();
+  dds_qset_reliability(rq, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+  dds_qset_history(rq, DDS_HISTORY_KEEP_ALL, 0);
+  dds_qset_resource_limits(rq, 10, DDS_LENGTH_UNLIMITED, DDS_LENGTH_UNLIMITED);
+  const dds_entity_t stalled = dds_create_reader(pp, topic, rq, nullptr);
+  dds_delete_qos(rq);
+  ASSERT_GT(stalled, 0);
+  std::string log;
+  std::chrono::nanoseconds longest{0};
+  {
+    Plugin p(base_config("sample_reliability = \"reliable\"\nsample_depth = 10000\n"));
+    p.host.announce(device(0, 0, 5, "axis 1"));
+    dds_publication_matched_status_t st{};
+    std::vector<cobridge_sample> batch;
+    std::uint32_t seq = 0;
+    for (int b = 0; b < 400; ++b) {
+      batch.clear();
+      for (int i = 0; i < 250; ++i) batch.push_back(tpdo(0, 0, 5, ++seq));
+      const auto t0 = std::chrono::steady_clock::now();
+      p.host.deliver(batch);
+      longest = std::max(longest, std::chrono::steady_clock::now() - t0);
+    }
+    EXPECT_EQ(seq, 100000u) << "every batch was handed over";
+    (void)st;
+    p.host.stop_all();
+    log = p.log.all();
+  }
+  dds_delete(pp);
+  std::printf("  longest on_samples (250 samples) with a stalled reliable reader: %.3f ms\n",
+              static_cast<double>(longest.count()) / 1e6);
+  // The DDS side fell behind and said so; the dispatcher did not wait for it.
+  EXPECT_TRUE(log.find("dropped because the DDS writer fell behind") != std::string::npos ||
+              log.find("queued samples not written at stop") != std::string::npos)
+      << log;
+}
