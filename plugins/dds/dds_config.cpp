@@ -127,12 +127,6 @@ DdsConfigResult parse_dds_config(std::string_view toml_text) {
                   "unknown key '" + std::string(k) + "' (expected " + std::string(kKnownKeys) + ")");
     }
   }
-  // A reliable writer may wait for history room: never on the dispatcher.
-  if (r.config.sample_path == SamplePath::kDispatcher && r.config.sample_reliability == Reliability::kReliable) {
-    return fail(DdsConfigErrc::kOutOfRange,
-                "'sample_path' = \"dispatcher\" needs sample_reliability = \"best-effort\" (a reliable writer can "
-                "block, and the dispatcher serves every output)");
-  }
   return r;
 }
 

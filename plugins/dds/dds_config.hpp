@@ -18,7 +18,7 @@ enum class Reliability : std::uint8_t { kBestEffort, kReliable };
 // Which thread writes EncoderSample (docs/dds.md, "Threads and cost").
 enum class SamplePath : std::uint8_t {
   kAuto,          // the dispatcher for best-effort samples, the writer thread for reliable ones
-  kDispatcher,    // on_samples writes them itself (best-effort only: it never blocks)
+  kDispatcher,    // on_samples writes them itself; a reliable writer then has max_blocking_time 0
   kWriterThread,  // queued to the plugin's writer thread, like the other topics
 };
 

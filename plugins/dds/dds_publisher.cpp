@@ -93,7 +93,9 @@ std::error_code DdsPublisher::start(std::string& message, std::string& note) {
   const dds_duration_t lease = DDS_MSECS(config_.liveliness_lease_ms);
   Spec specs[] = {
       {kEncoderSampleTopic, &cobridge_EncoderSample_desc,
-       encoder_sample_writer_qos(config_.sample_reliability, config_.sample_depth, lease), &sample_writer_},
+       encoder_sample_writer_qos(config_.sample_reliability, config_.sample_depth, lease,
+                                 config_.samples_on_dispatcher() ? 0 : kMaxBlocking),
+       &sample_writer_},
       {kEncoderEventTopic, &cobridge_EncoderEvent_desc, encoder_event_writer_qos(lease), &event_writer_},
       {kDeviceStatusTopic, &cobridge_DeviceStatus_desc, device_status_writer_qos(lease), &status_writer_},
   };

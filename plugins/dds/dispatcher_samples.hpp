@@ -3,7 +3,10 @@
 // for best-effort; docs/dds.md, "Threads and cost").
 //
 // Why: a best-effort KEEP_LAST writer never waits for history room or
-// acknowledgements, so dds_write cannot stall the dispatcher; writing there
+// acknowledgements, so dds_write cannot stall the dispatcher (a reliable one,
+// with sample_path = "dispatcher", gets max_blocking_time 0: when its
+// history cache is full the write fails at once, is counted, and the
+// subscriber sees the gap); writing there
 // saves the hand-over to the plugin's writer thread, whose wake-up and
 // context switch dominate the tail when the dispatcher, the writer thread and
 // a subscriber share cores (docs/performance.md, "DDS latency"). With

@@ -8,12 +8,13 @@ std::string topic_name(std::string_view prefix, std::string_view topic) {
   return name;
 }
 
-Qos encoder_sample_writer_qos(Reliability reliability, int32_t depth, dds_duration_t lease) {
+Qos encoder_sample_writer_qos(Reliability reliability, int32_t depth, dds_duration_t lease,
+                              dds_duration_t max_blocking) {
   Qos q(dds_create_qos());
   dds_qset_liveliness(q.get(), DDS_LIVELINESS_AUTOMATIC, lease);
   dds_qset_reliability(q.get(),
                        reliability == Reliability::kReliable ? DDS_RELIABILITY_RELIABLE : DDS_RELIABILITY_BEST_EFFORT,
-                       kMaxBlocking);
+                       max_blocking);
   dds_qset_history(q.get(), DDS_HISTORY_KEEP_LAST, depth);
   dds_qset_durability(q.get(), DDS_DURABILITY_VOLATILE);
   return q;

@@ -49,7 +49,11 @@ struct QosDelete {
 using Qos = std::unique_ptr<dds_qos_t, QosDelete>;
 
 // `lease` is the writers' liveliness lease (DdsConfig::liveliness_lease).
-[[nodiscard]] Qos encoder_sample_writer_qos(Reliability reliability, int32_t depth, dds_duration_t lease);
+// `max_blocking`: kMaxBlocking on the writer thread; 0 when the dispatcher
+// writes reliable samples itself (a full history cache then fails the write
+// at once instead of waiting).
+[[nodiscard]] Qos encoder_sample_writer_qos(Reliability reliability, int32_t depth, dds_duration_t lease,
+                                            dds_duration_t max_blocking = kMaxBlocking);
 [[nodiscard]] Qos encoder_event_writer_qos(dds_duration_t lease);
 [[nodiscard]] Qos device_status_writer_qos(dds_duration_t lease);
 [[nodiscard]] Qos gateway_status_writer_qos(dds_duration_t lease);

@@ -33,8 +33,9 @@
 //  2c. Issue 16: a summary that sets each spread run of the plugin against
 //     the bare stream of the same reliability from the same run of the
 //     bench: p50/p99/p99.9 and the ratio plugin / bare (target p99 <= 1.2x).
-//     Best-effort runs with sample_path "auto" (EncoderSample written on the
-//     dispatcher, i.e. the feeding thread here) and "writer-thread".
+//     Runs with EncoderSample written on the dispatcher (the feeding thread
+//     here; sample_path "auto" for best-effort, "dispatcher" for reliable)
+//     and on the plugin's writer thread.
 //  3. The wake-up hop: atomic notify -> waiting thread running, the
 //     mechanism by which the dispatcher wakes the plugin's writer thread.
 //
@@ -565,6 +566,8 @@ int main(int argc, char** argv) {
       runs.push_back({sp ? "spread, best-effort, writer thread, write_batch"
                          : "burst, best-effort, writer thread, write_batch",
                       feed, d + wt});
+      runs.push_back({sp ? "spread, reliable, dispatcher, write_batch" : "burst, reliable, dispatcher, write_batch",
+                      feed, d + rel + "sample_path = \"dispatcher\"\n", true});
       runs.push_back({sp ? "spread, reliable, writer thread, write_batch" : "burst, reliable, writer thread, write_batch",
                       feed, d + rel, true});
       runs.push_back({sp ? "spread, reliable, writer thread, no batching" : "burst, reliable, writer thread, no batching",

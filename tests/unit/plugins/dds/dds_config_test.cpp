@@ -30,6 +30,8 @@ TEST(DdsConfig, Issue16_SamplePath) {
   const DdsConfigResult d = parse_dds_config("sample_path = \"dispatcher\"");
   ASSERT_TRUE(d.ok()) << d.message;
   EXPECT_TRUE(d.config.samples_on_dispatcher());
+  EXPECT_TRUE(parse_dds_config("sample_path = \"dispatcher\"\nsample_reliability = \"reliable\"")
+                  .config.samples_on_dispatcher());
 }
 
 // docs/dds.md "Configuration": every key read.
@@ -70,8 +72,6 @@ TEST(DdsConfig, DocsDds_Refusals) {
       {"writebatch = true", DdsConfigErrc::kUnknownKey, "write_batch"},
       {"partition = 3", DdsConfigErrc::kWrongType, "'partition'"},
       {"sample_path = \"inline\"", DdsConfigErrc::kOutOfRange, "'sample_path' must be"},
-      {"sample_path = \"dispatcher\"\nsample_reliability = \"reliable\"", DdsConfigErrc::kOutOfRange,
-       "needs sample_reliability = \"best-effort\""},
       {"liveliness_lease_ms = 99", DdsConfigErrc::kOutOfRange, "'liveliness_lease_ms' must be 100..3600000"},
       {"liveliness_lease_ms = 3600001", DdsConfigErrc::kOutOfRange, "'liveliness_lease_ms'"},
       {"liveliness_lease_ms = \"1s\"", DdsConfigErrc::kWrongType, "'liveliness_lease_ms'"},
