@@ -43,8 +43,11 @@ struct DdsConfig {
   // instances of a gateway that died turn NOT_ALIVE_NO_WRITERS after at
   // most this long (docs/dds.md, "Many gateways in one domain").
   std::int64_t liveliness_lease_ms = 500;
-  // Who writes EncoderSample; resolved by samples_on_dispatcher().
-  SamplePath sample_path = SamplePath::kAuto;
+  // Who writes EncoderSample; resolved by samples_on_dispatcher(). The
+  // writer thread by default: writing on the dispatcher takes Cyclone's
+  // writer lock and a sendto there, and its latency benefit is not yet
+  // shown on a quiet host (docs/performance.md, "DDS latency").
+  SamplePath sample_path = SamplePath::kWriterThread;
 
   // True when on_samples writes EncoderSample on the dispatcher thread.
   [[nodiscard]] bool samples_on_dispatcher() const noexcept {

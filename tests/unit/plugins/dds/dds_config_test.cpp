@@ -19,8 +19,10 @@ TEST(DdsConfig, DocsDds_EmptyGivesDefaults) {
   EXPECT_EQ(r.config.topic_prefix, "");
   EXPECT_TRUE(r.config.write_batch);
   EXPECT_EQ(r.config.liveliness_lease_ms, 500);
-  EXPECT_EQ(r.config.sample_path, SamplePath::kAuto);
-  EXPECT_TRUE(r.config.samples_on_dispatcher()) << "best-effort samples are written on the dispatcher";
+  EXPECT_EQ(r.config.sample_path, SamplePath::kWriterThread);
+  EXPECT_FALSE(r.config.samples_on_dispatcher()) << "the writer thread writes by default";
+  EXPECT_TRUE(parse_dds_config("sample_path = \"auto\"").config.samples_on_dispatcher())
+      << "auto: best-effort samples on the dispatcher";
 }
 
 // Issue 16: sample_path; "auto" resolves by reliability.

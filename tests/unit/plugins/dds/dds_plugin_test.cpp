@@ -821,7 +821,7 @@ TEST(DdsPlugin, Issue16_DuplicateGatewayIdIsDetectedAndReported) {
 }
 
 // Issue 16, item 1: best-effort EncoderSample is written on the dispatcher
-// thread (sample_path "auto"): every sample arrives in order with its values
+// thread with sample_path "auto": every sample arrives in order with its values
 // (in-process delivery loses nothing), DeviceStatus still follows from the
 // writer thread, and the stale re-publication comes from the dispatcher side.
 TEST(DdsPlugin, Issue16_DispatcherPathDeliversInOrderAndRepublishesStale) {
@@ -829,7 +829,7 @@ TEST(DdsPlugin, Issue16_DispatcherPathDeliversInOrderAndRepublishesStale) {
                 true);
   Reader status(&cobridge_DeviceStatus_desc, "DeviceStatus", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_TRANSIENT_LOCAL,
                 true);
-  Plugin p(base_config());
+  Plugin p(base_config("sample_path = \"auto\"\n"));
   EXPECT_NE(p.log.all().find("samples written by the dispatcher"), std::string::npos) << p.log.all();
   expect_all_in_order(p, reader);
 
