@@ -46,7 +46,9 @@ void FrameDecoder::header(const can::Frame& f, std::uint8_t node, std::uint8_t k
   out.cob_id = static_cast<std::uint16_t>(f.id);
   out.raw_len = f.len > 8 ? 8 : f.len;
   std::memcpy(out.raw, f.data.data(), out.raw_len);
-  out.valid = COBRIDGE_VALID_RAW | (f.timestamp_ns != 0 ? COBRIDGE_VALID_RX_MONOTONIC : 0);
+  out.kind_sequence = ++kind_sequence_[node][kind < kKinds ? kind : 0];
+  out.valid = COBRIDGE_VALID_RAW | COBRIDGE_VALID_KIND_SEQUENCE |
+              (f.timestamp_ns != 0 ? COBRIDGE_VALID_RX_MONOTONIC : 0);
 }
 
 bool FrameDecoder::gateway_header(std::uint8_t node, std::uint8_t kind, std::int64_t timestamp_ns,
@@ -179,7 +181,8 @@ bool FrameDecoder::decode_tpdo(const can::Frame& f, std::uint8_t node, std::size
 bool FrameDecoder::make_status(std::uint8_t node_id, bool online, bool stale, std::uint8_t nmt_state,
                                std::int64_t timestamp_ns, Sample& out) noexcept {
   if (!gateway_header(node_id, COBRIDGE_SAMPLE_STATUS, timestamp_ns, out)) return false;
-  out.valid = COBRIDGE_VALID_STATUS | COBRIDGE_VALID_NMT_STATE | (out.valid & COBRIDGE_VALID_RX_MONOTONIC);
+  out.valid = COBRIDGE_VALID_STATUS | COBRIDGE_VALID_NMT_STATE |
+              (out.valid & (COBRIDGE_VALID_RX_MONOTONIC | COBRIDGE_VALID_KIND_SEQUENCE));
   // Staleness already detected stays; an offline device's values are stale.
   const bool is_stale = stale || stale_[node_id] || !online;
   out.online = online ? 1 : 0;
@@ -193,7 +196,7 @@ bool FrameDecoder::make_status(std::uint8_t node_id, bool online, bool stale, st
 bool FrameDecoder::make_command(std::uint8_t node_id, std::uint8_t kind, std::uint8_t status, std::uint32_t tag,
                                 std::uint32_t abort_code, std::int64_t timestamp_ns, Sample& out) noexcept {
   if (!gateway_header(node_id, COBRIDGE_SAMPLE_COMMAND, timestamp_ns, out)) return false;
-  out.valid = COBRIDGE_VALID_COMMAND | (out.valid & COBRIDGE_VALID_RX_MONOTONIC);
+  out.valid = COBRIDGE_VALID_COMMAND | (out.valid & (COBRIDGE_VALID_RX_MONOTONIC | COBRIDGE_VALID_KIND_SEQUENCE));
   out.command_kind = kind;
   out.command_status = status;
   out.command_tag = tag;

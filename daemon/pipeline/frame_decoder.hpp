@@ -5,7 +5,8 @@
 // EMCY (0x081..0x0FF) and heartbeat/boot-up (0x701..0x77F) become samples of
 // their own kinds; SYNC (0x080) only updates the counter that synchronous
 // TPDOs are stamped with. Every sample of a device gets the next sequence
-// number, so a gap downstream proves a loss.
+// number, so a gap downstream proves a loss; and the next number of its kind
+// (kind_sequence), so a gap in one kind proves a loss of that kind.
 //
 // Per frame: no allocation, no lock, no exception, no logging; problems are
 // counted (stats()). refresh() is called once per receive batch, after the
@@ -92,6 +93,9 @@ class FrameDecoder {
   std::uint32_t generation_ = 0;
   bool synced_ = false;
   std::array<std::uint32_t, DeviceTable::kNodes> sequence_{};
+  // Per node and sample kind (COBRIDGE_SAMPLE_*, 1..kKinds-1).
+  static constexpr std::size_t kKinds = 8;
+  std::array<std::array<std::uint32_t, kKinds>, DeviceTable::kNodes> kind_sequence_{};
   std::array<std::int64_t, DeviceTable::kNodes> last_pdo_ns_{};  // CLOCK_MONOTONIC
   std::int64_t mono_minus_real_ = 0;
   std::array<bool, DeviceTable::kNodes> stale_{};

@@ -26,7 +26,12 @@ class ConfigCategory final : public std::error_category {
 constexpr std::int64_t kMaxDomain = 232;
 // Writer history beyond this only costs memory: a late sample is useless.
 constexpr std::int64_t kMaxDepth = 10000;
-constexpr std::string_view kKnownKeys = "domain, sample_reliability, sample_depth, topic_prefix, write_batch";
+// Below 100 ms the participant's liveliness messages become traffic of their
+// own; above 1 h a dead gateway is as good as never detected.
+constexpr std::int64_t kMinLeaseMs = 100, kMaxLeaseMs = 3'600'000;
+constexpr std::string_view kKnownKeys =
+    "domain, sample_reliability, sample_depth, topic_prefix, partition, write_batch, liveliness_lease_ms, "
+    "sample_path";
 
 DdsConfigResult fail(DdsConfigErrc code, std::string message) {
   DdsConfigResult r;
@@ -88,16 +93,50 @@ DdsConfigResult parse_dds_config(std::string_view toml_text) {
       const auto* v = node.as_string();
       if (v == nullptr) return fail(DdsConfigErrc::kWrongType, "'topic_prefix' must be a string");
       r.config.topic_prefix = v->get();
+    } else if (k == "partition") {
+      const auto* v = node.as_string();
+      if (v == nullptr) return fail(DdsConfigErrc::kWrongType, "'partition' must be a string");
+      r.config.partition = v->get();
     } else if (k == "write_batch") {
       const auto* v = node.as_boolean();
       if (v == nullptr) return fail(DdsConfigErrc::kWrongType, "'write_batch' must be true or false");
       r.config.write_batch = v->get();
+    } else if (k == "liveliness_lease_ms") {
+      const auto* v = node.as_integer();
+      if (v == nullptr) return fail(DdsConfigErrc::kWrongType, "'liveliness_lease_ms' must be an integer");
+      if (v->get() < kMinLeaseMs || v->get() > kMaxLeaseMs) {
+        return fail(DdsConfigErrc::kOutOfRange, "'liveliness_lease_ms' must be " + std::to_string(kMinLeaseMs) +
+                                                    ".." + std::to_string(kMaxLeaseMs));
+      }
+      r.config.liveliness_lease_ms = v->get();
+    } else if (k == "sample_path") {
+      const auto* v = node.as_string();
+      if (v == nullptr) return fail(DdsConfigErrc::kWrongType, "'sample_path' must be a string");
+      if (v->get() == "auto") {
+        r.config.sample_path = SamplePath::kAuto;
+      } else if (v->get() == "dispatcher") {
+        r.config.sample_path = SamplePath::kDispatcher;
+      } else if (v->get() == "writer-thread") {
+        r.config.sample_path = SamplePath::kWriterThread;
+      } else {
+        return fail(DdsConfigErrc::kOutOfRange,
+                    "'sample_path' must be \"auto\", \"dispatcher\" or \"writer-thread\", not \"" + v->get() + "\"");
+      }
     } else {
       return fail(DdsConfigErrc::kUnknownKey,
                   "unknown key '" + std::string(k) + "' (expected " + std::string(kKnownKeys) + ")");
     }
   }
   return r;
+}
+
+std::string_view to_string(SamplePath p) noexcept {
+  switch (p) {
+    case SamplePath::kAuto: return "auto";
+    case SamplePath::kDispatcher: return "dispatcher";
+    case SamplePath::kWriterThread: return "writer-thread";
+  }
+  return "?";
 }
 
 }  // namespace cobridge::dds

@@ -15,6 +15,13 @@ namespace cobridge::dds {
 
 enum class Reliability : std::uint8_t { kBestEffort, kReliable };
 
+// Which thread writes EncoderSample (docs/dds.md, "Threads and cost").
+enum class SamplePath : std::uint8_t {
+  kAuto,          // the dispatcher for best-effort samples, the writer thread for reliable ones
+  kDispatcher,    // on_samples writes them itself; a reliable writer then has max_blocking_time 0
+  kWriterThread,  // queued to the plugin's writer thread, like the other topics
+};
+
 struct DdsConfig {
   // DDS domain id; the default port mapping allows 0..232.
   std::uint32_t domain = 0;
@@ -24,11 +31,29 @@ struct DdsConfig {
   std::int32_t sample_depth = 1;
   // Prepended to the topic names ("plant1/" -> "plant1/EncoderSample").
   std::string topic_prefix;
+  // DDS partition of every writer (and of the GatewayStatus reader); "" =
+  // the default partition. Subscribers must name the same partition.
+  std::string partition;
   // Cyclone's Internal/WriteBatch: the writer thread packs everything it
   // drained at once into one RTPS message (one sendto) instead of one per
   // sample, and flushes after each drained batch. Lower median latency and
   // a higher sustainable rate (docs/performance.md, "DDS latency").
   bool write_batch = true;
+  // Liveliness lease of every writer (AUTOMATIC): a subscriber sees the
+  // instances of a gateway that died turn NOT_ALIVE_NO_WRITERS after at
+  // most this long (docs/dds.md, "Many gateways in one domain").
+  std::int64_t liveliness_lease_ms = 500;
+  // Who writes EncoderSample; resolved by samples_on_dispatcher(). The
+  // writer thread by default: writing on the dispatcher takes Cyclone's
+  // writer lock and a sendto there, and its latency benefit is not yet
+  // shown on a quiet host (docs/performance.md, "DDS latency").
+  SamplePath sample_path = SamplePath::kWriterThread;
+
+  // True when on_samples writes EncoderSample on the dispatcher thread.
+  [[nodiscard]] bool samples_on_dispatcher() const noexcept {
+    return sample_path == SamplePath::kDispatcher ||
+           (sample_path == SamplePath::kAuto && sample_reliability == Reliability::kBestEffort);
+  }
 };
 
 enum class DdsConfigErrc {
@@ -51,6 +76,7 @@ struct DdsConfigResult {
 [[nodiscard]] DdsConfigResult parse_dds_config(std::string_view toml_text);
 
 [[nodiscard]] std::string_view to_string(Reliability r) noexcept;
+[[nodiscard]] std::string_view to_string(SamplePath p) noexcept;
 
 }  // namespace cobridge::dds
 

@@ -6,7 +6,10 @@
 //   sample_reliability = "best-effort"  or "reliable" (EncoderSample only)
 //   sample_depth       = 1              EncoderSample keep-last depth
 //   topic_prefix       = ""             prepended to the topic names
+//   partition          = ""             DDS partition of every writer
 //   write_batch        = true           one RTPS message per drained batch
+//   liveliness_lease_ms = 500           writers' liveliness lease
+//   sample_path        = "auto"         who writes EncoderSample (auto, dispatcher, writer-thread)
 //
 // Threads: create/start/stop/destroy on the daemon's control thread;
 // on_samples/on_device on the dispatcher thread, which the plugin never
@@ -16,9 +19,16 @@
 // whatever is queued at once (with write_batch: one RTPS message per take).
 // So a slow or reliable DDS subscriber cannot delay the other outputs
 // (Modbus, tap), which share the dispatcher. The hop costs a wake-up
-// (docs/performance.md, "DDS latency").
+// (docs/performance.md, "DDS latency"). Except for best-effort EncoderSample
+// (sample_path "auto"/"dispatcher"): a best-effort writer never blocks, so
+// on_samples writes those itself (DispatcherSamples) and queues only what
+// the writer thread needs, waking it only then. A third, slow thread (presence)
+// keeps the gateway's GatewayStatus current every kPresenceTick and reports
+// a duplicate gateway id in the domain (gateway_presence.hpp).
 #include "dds/dds_config.hpp"
 #include "dds/dds_publisher.hpp"
+#include "dds/dispatcher_samples.hpp"
+#include "dds/gateway_presence.hpp"
 
 #include <cobridge/plugin.h>
 
@@ -29,6 +39,7 @@
 #include <array>
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <cstring>
 #include <deque>
 #include <exception>
@@ -59,9 +70,16 @@ struct Instance {
   static constexpr std::size_t kRing = 1u << 16;  // ~16 s of four saturated buses' worth of bursts
   static constexpr std::size_t kBatch = 256;
   static constexpr std::chrono::milliseconds kStopDrain{300};
+  static constexpr std::chrono::milliseconds kPresenceTick{100};
 
   const cobridge_host_api* host = nullptr;
   std::unique_ptr<DdsPublisher> publisher;
+  std::unique_ptr<DispatcherSamples> direct;  // set when samples are written on the dispatcher
+  std::unique_ptr<GatewayPresence> presence;
+  std::thread presence_thread;
+  std::mutex presence_mutex;
+  std::condition_variable presence_cv;
+  bool presence_stop = false;  // under presence_mutex
   pipeline::SpscRing<cobridge_sample> ring{kRing};
   std::mutex device_mutex;
   std::deque<OwnedDevice> devices;          // pending announcements
@@ -140,6 +158,46 @@ struct Instance {
     final_drain();
   }
 
+  // Presence thread: GatewayStatus when the counts change, duplicate ids.
+  void run_presence() {
+    std::unique_lock lock(presence_mutex);
+    while (!presence_stop) {
+      lock.unlock();
+      const DuplicateChange d = presence->poll();
+      presence->publish(publisher->counts(), d == DuplicateChange::kGone);  // the other one disposed our key
+      try {
+        report(d);
+      } catch (...) {
+        // Logging is best effort.
+      }
+      lock.lock();
+      presence_cv.wait_for(lock, kPresenceTick, [this] { return presence_stop; });
+    }
+  }
+  void report(DuplicateChange d) const {
+    if (d == DuplicateChange::kDetected) {
+      log(COBRIDGE_LOG_ERROR, "duplicate gateway.id '" + std::string(publisher->gateway().id) + "' in DDS domain " +
+                                  std::to_string(publisher->config().domain) + ": " + presence->duplicate_of() +
+                                  " publishes under the same id, so the devices of both collide; give each gateway "
+                                  "its own [gateway] id");
+    } else if (d == DuplicateChange::kGone) {
+      log(COBRIDGE_LOG_INFO, "the other gateway with this gateway.id has left the DDS domain");
+    }
+  }
+  void start_presence() {
+    presence_stop = false;
+    presence_thread = std::thread([this] { run_presence(); });
+  }
+  void stop_presence() {
+    {
+      std::lock_guard lock(presence_mutex);
+      presence_stop = true;
+    }
+    presence_cv.notify_all();
+    if (presence_thread.joinable()) presence_thread.join();
+    if (presence) presence->stop();
+  }
+
   void start_writer() {
     running.store(true, std::memory_order_release);
     writer = std::thread([this] { run(); });
@@ -162,13 +220,27 @@ int dds_start(void* self) {
       return -1;
     }
     if (!note.empty()) inst->log(COBRIDGE_LOG_WARN, note);
+    const DdsConfig& cfg = inst->publisher->config();
+    inst->presence = std::make_unique<GatewayPresence>(inst->publisher->gateway(), cfg.topic_prefix, cfg.partition,
+                                                       DDS_MSECS(cfg.liveliness_lease_ms));
+    if (const std::error_code pec = inst->presence->start(inst->publisher->participant(), message)) {
+      inst->log(COBRIDGE_LOG_ERROR, message);
+      inst->presence.reset();
+      inst->publisher->stop();
+      return -1;
+    }
+    if (inst->direct) inst->direct->attach(inst->publisher->sample_writer());
     inst->start_writer();
+    inst->start_presence();
     const DdsConfig& c = inst->publisher->config();
     inst->log(COBRIDGE_LOG_INFO, "publishing on domain " + std::to_string(c.domain) + ", samples " +
                                      std::string(to_string(c.sample_reliability)) + " keep-last " +
                                      std::to_string(c.sample_depth) +
-                                     (c.write_batch ? ", write batching" : "") +
-                                     (c.topic_prefix.empty() ? std::string() : ", topic prefix '" + c.topic_prefix + "'"));
+                                     (c.write_batch ? ", write batching" : "") + ", liveliness lease " +
+                                     std::to_string(c.liveliness_lease_ms) + " ms, samples written by the " +
+                                     (inst->direct ? "dispatcher" : "writer thread") +
+                                     (c.topic_prefix.empty() ? std::string() : ", topic prefix '" + c.topic_prefix + "'") +
+                                     (c.partition.empty() ? std::string() : ", partition '" + c.partition + "'"));
     return 0;
   } catch (const std::exception& e) {
     inst->log(COBRIDGE_LOG_ERROR, std::string("start: ") + e.what());
@@ -181,13 +253,16 @@ int dds_start(void* self) {
 
 void dds_stop(void* self) {
   auto* inst = static_cast<Instance*>(self);
+  if (inst->direct) inst->direct->detach();  // the dispatcher no longer calls in
   inst->stop_writer();
+  inst->stop_presence();  // disposes GatewayStatus: subscribers see the gateway leave at once
   const auto t0 = std::chrono::steady_clock::now();
   inst->publisher->stop();
   const auto deleted = std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - t0);
   const PublisherStats s = inst->publisher->stats();
   try {
-    std::string msg = "stopped: " + std::to_string(s.samples) + " samples, " + std::to_string(s.events) +
+    const std::uint64_t samples = s.samples + (inst->direct ? inst->direct->written() : 0);
+    std::string msg = "stopped: " + std::to_string(samples) + " samples, " + std::to_string(s.events) +
                       " events, " + std::to_string(s.statuses) + " status updates written (final drain " +
                       std::to_string(inst->stop_drain.count()) + " ms, DDS entities deleted in " +
                       std::to_string(deleted.count()) + " ms)";
@@ -196,10 +271,13 @@ void dds_stop(void* self) {
     if (inst->stop_drops != 0)
       msg += "; " + std::to_string(inst->stop_drops) + " queued samples not written at stop (drain limit " +
              std::to_string(Instance::kStopDrain.count()) + " ms)";
-    if (s.write_failures != 0) {
-      msg += "; " + std::to_string(s.write_failures) + " writes failed (last: " + dds_strretcode(s.last_failure) + ")";
+    const std::uint64_t failures = s.write_failures + (inst->direct ? inst->direct->failures() : 0);
+    const std::int32_t last = inst->direct && inst->direct->failures() != 0 ? inst->direct->last_failure()
+                                                                             : s.last_failure;
+    if (failures != 0) {
+      msg += "; " + std::to_string(failures) + " writes failed (last: " + dds_strretcode(last) + ")";
     }
-    inst->log(s.write_failures != 0 ? COBRIDGE_LOG_WARN : COBRIDGE_LOG_INFO, msg);
+    inst->log(failures != 0 ? COBRIDGE_LOG_WARN : COBRIDGE_LOG_INFO, msg);
   } catch (...) {
     // Logging is best effort; stop itself has succeeded.
   }
@@ -208,6 +286,7 @@ void dds_stop(void* self) {
 void dds_destroy(void* self) {
   auto* inst = static_cast<Instance*>(self);
   inst->stop_writer();
+  inst->stop_presence();
   delete inst;
 }
 
@@ -215,6 +294,21 @@ void dds_on_samples(void* self, const cobridge_sample* samples, std::size_t coun
   if (samples == nullptr || count == 0) return;
   auto* inst = static_cast<Instance*>(self);
   std::uint64_t dropped = 0;
+  if (inst->direct && inst->direct->attached()) {
+    std::size_t queued = 0;
+    for (std::size_t i = 0; i < count; ++i) {
+      if (!inst->direct->write(samples[i])) continue;
+      if (inst->ring.try_push(samples[i])) {
+        ++queued;
+      } else {
+        ++dropped;
+      }
+    }
+    inst->direct->flush();
+    if (dropped != 0) inst->ring_drops.fetch_add(dropped, std::memory_order_relaxed);
+    if (queued != 0) inst->wake();
+    return;
+  }
   for (std::size_t i = 0; i < count; ++i)
     if (!inst->ring.try_push(samples[i])) ++dropped;
   if (dropped != 0) inst->ring_drops.fetch_add(dropped, std::memory_order_relaxed);
@@ -229,6 +323,7 @@ void dds_on_device(void* self, const cobridge_device_info* info) {
     return;
   }
   auto* inst = static_cast<Instance*>(self);
+  if (inst->direct) inst->direct->device(*info);
   try {
     OwnedDevice d;
     d.info = *info;
@@ -279,7 +374,10 @@ extern "C" COBRIDGE_PLUGIN_EXPORT int cobridge_plugin_create(const cobridge_host
     const char* gateway_id = host->gateway_id != nullptr ? host->gateway_id : "";
     auto inst = std::make_unique<Instance>();
     inst->host = host;
+    const bool direct = parsed.config.samples_on_dispatcher();
+    const bool batch = parsed.config.write_batch;
     inst->publisher = std::make_unique<DdsPublisher>(std::move(parsed.config), gateway_id);
+    if (direct) inst->direct = std::make_unique<DispatcherSamples>(inst->publisher->gateway(), batch);
     if (*gateway_id == '\0') {
       inst->log(COBRIDGE_LOG_WARN, "the gateway id is empty: keys of several gateways in one domain will collide");
     }

@@ -75,17 +75,29 @@ std::error_code DdsPublisher::start(std::string& message, std::string& note) {
               dds_strretcode(rc) + " (check CYCLONEDDS_URI)";
     return make_dds_error(rc);
   }
+  // Writers under a publisher of the configured partition.
+  publisher_ = dds_create_publisher(participant_, partition_qos(config_.partition).get(), nullptr);
+  if (publisher_ < 0) {
+    const dds_return_t rc = publisher_;
+    publisher_ = 0;
+    message = "cannot create a DDS publisher for partition '" + config_.partition + "': " + dds_strretcode(rc);
+    stop();
+    return make_dds_error(rc);
+  }
   struct Spec {
     std::string_view topic;
     const dds_topic_descriptor_t* type;
     Qos qos;
     dds_entity_t* writer;
   };
+  const dds_duration_t lease = DDS_MSECS(config_.liveliness_lease_ms);
   Spec specs[] = {
       {kEncoderSampleTopic, &cobridge_EncoderSample_desc,
-       encoder_sample_writer_qos(config_.sample_reliability, config_.sample_depth), &sample_writer_},
-      {kEncoderEventTopic, &cobridge_EncoderEvent_desc, encoder_event_writer_qos(), &event_writer_},
-      {kDeviceStatusTopic, &cobridge_DeviceStatus_desc, device_status_writer_qos(), &status_writer_},
+       encoder_sample_writer_qos(config_.sample_reliability, config_.sample_depth, lease,
+                                 config_.samples_on_dispatcher() ? 0 : kMaxBlocking),
+       &sample_writer_},
+      {kEncoderEventTopic, &cobridge_EncoderEvent_desc, encoder_event_writer_qos(lease), &event_writer_},
+      {kDeviceStatusTopic, &cobridge_DeviceStatus_desc, device_status_writer_qos(lease), &status_writer_},
   };
   for (Spec& spec : specs) {
     const std::string name = topic_name(config_.topic_prefix, spec.topic);
@@ -95,7 +107,7 @@ std::error_code DdsPublisher::start(std::string& message, std::string& note) {
       stop();
       return make_dds_error(topic);
     }
-    const dds_entity_t writer = dds_create_writer(participant_, topic, spec.qos.get(), nullptr);
+    const dds_entity_t writer = dds_create_writer(publisher_, topic, spec.qos.get(), nullptr);
     if (writer < 0) {
       message = "cannot create a writer for '" + name + "': " + dds_strretcode(writer);
       stop();
@@ -116,7 +128,7 @@ void DdsPublisher::stop() noexcept {
   // An explicit domain outlives its participants; it goes with the plugin
   // unless someone else in the process has joined it meanwhile.
   if (domain_ > 0 && dds_get_children(domain_, nullptr, 0) == 0) (void)dds_delete(domain_);
-  domain_ = participant_ = sample_writer_ = event_writer_ = status_writer_ = 0;
+  domain_ = participant_ = publisher_ = sample_writer_ = event_writer_ = status_writer_ = 0;
   unflushed_ = 0;
 }
 
@@ -143,6 +155,35 @@ void DdsPublisher::write_status(const DeviceSlot& slot) noexcept {
   cobridge_DeviceStatus st{};
   fill_device_status(st, slot, gateway_);
   write(status_writer_, &st, statuses_);
+  recount();
+}
+
+void DdsPublisher::recount() noexcept {
+  // Status changes are rare (a device appears, goes offline, turns stale):
+  // a scan of the table is cheaper than keeping counts right incrementally.
+  GatewayCounts c;
+  std::uint32_t buses = 0, buses_online = 0;  // bit per bus index (mod 32)
+  for (std::uint16_t i = 0; i < slots_.capacity(); ++i) {
+    const DeviceSlot* slot = slots_.find(i);
+    if (slot == nullptr || !slot->in_use) continue;
+    ++c.devices;
+    buses |= 1u << (slot->bus_index % 32u);
+    if (slot->state.online) {
+      ++c.devices_online;
+      buses_online |= 1u << (slot->bus_index % 32u);
+    }
+  }
+  c.buses = static_cast<std::uint16_t>(__builtin_popcount(buses));
+  c.buses_online = static_cast<std::uint16_t>(__builtin_popcount(buses_online));
+  counts_.store(static_cast<std::uint64_t>(c.devices) | static_cast<std::uint64_t>(c.devices_online) << 16 |
+                    static_cast<std::uint64_t>(c.buses) << 32 | static_cast<std::uint64_t>(c.buses_online) << 48,
+                std::memory_order_relaxed);
+}
+
+GatewayCounts DdsPublisher::counts() const noexcept {
+  const std::uint64_t v = counts_.load(std::memory_order_relaxed);
+  return {static_cast<std::uint16_t>(v), static_cast<std::uint16_t>(v >> 16), static_cast<std::uint16_t>(v >> 32),
+          static_cast<std::uint16_t>(v >> 48)};
 }
 
 void DdsPublisher::publish(std::span<const cobridge_sample> samples) noexcept {
@@ -157,9 +198,11 @@ void DdsPublisher::publish_one(const cobridge_sample& s) noexcept {
     case COBRIDGE_SAMPLE_TPDO: {
       const StatusChange change = slots_.apply(s);
       const DeviceSlot* slot = slots_.find(s.device_index);
-      cobridge_EncoderSample m{};
-      fill_encoder_sample(m, s, gw, slot, (s.valid & COBRIDGE_VALID_STATUS) != 0 && s.stale != 0);
-      write(sample_writer_, &m, samples_);
+      if (!config_.samples_on_dispatcher()) {
+        cobridge_EncoderSample m{};
+        fill_encoder_sample(m, s, gw, slot, (s.valid & COBRIDGE_VALID_STATUS) != 0 && s.stale != 0);
+        write(sample_writer_, &m, samples_);
+      }
       if (change != StatusChange::kNone && slot != nullptr) write_status(*slot);
       return;
     }
@@ -180,7 +223,7 @@ void DdsPublisher::publish_one(const cobridge_sample& s) noexcept {
       const DeviceSlot* slot = slots_.find(s.device_index);
       if (change == StatusChange::kNone || slot == nullptr) return;
       write_status(*slot);
-      if (change == StatusChange::kBecameStale && slot->has_last_tpdo) {
+      if (change == StatusChange::kBecameStale && slot->has_last_tpdo && !config_.samples_on_dispatcher()) {
         // Subscribers of EncoderSample alone learn that the values they hold
         // are stale: the last values again, same sequence, flagged.
         cobridge_sample last = slot->last_tpdo;
@@ -227,6 +270,7 @@ void DdsPublisher::device(const cobridge_device_info& info) noexcept {
     slot->state.updated_ns = realtime_ns();
     if (started()) write_status(*slot);
   }
+  recount();
   flush();
 }
 

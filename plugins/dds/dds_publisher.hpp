@@ -7,6 +7,9 @@
 //   HEARTBEAT, NMT_STATE, STATUS -> DeviceStatus when what it shows changed;
 //                                   on turning stale also the last
 //                                   EncoderSample again, with stale = true.
+// With config.samples_on_dispatcher() EncoderSample is DispatcherSamples'
+// (dispatcher_samples.hpp): publish() then only keeps DeviceStatus current
+// from the TPDOs it is given.
 //
 // The structs are filled on the stack and point at the slot table (the
 // plugin allocates nothing per sample; Cyclone's dds_write does, see
@@ -16,12 +19,13 @@
 // one dds_write_flush per writer, so a batch of samples costs one sendto.
 //
 // Thread contract: start/stop on the control thread; publish/device on the
-// plugin's writer thread (one thread) between start and stop; stats from
-// any thread.
+// plugin's writer thread (one thread) between start and stop; stats and
+// counts from any thread.
 #pragma once
 
 #include "dds/dds_config.hpp"
 #include "dds/device_slots.hpp"
+#include "dds/gateway_presence.hpp"
 #include "dds/sample_mapping.hpp"
 
 #include <cobridge/plugin.h>
@@ -71,6 +75,12 @@ class DdsPublisher {
 
   [[nodiscard]] PublisherStats stats() const noexcept;
   [[nodiscard]] const DdsConfig& config() const noexcept { return config_; }
+  [[nodiscard]] dds_entity_t participant() const noexcept { return participant_; }
+  // The EncoderSample writer, for DispatcherSamples (0 before start).
+  [[nodiscard]] dds_entity_t sample_writer() const noexcept { return sample_writer_; }
+  [[nodiscard]] const GatewayName& gateway() const noexcept { return gateway_; }
+  // Device and bus counts as of the last status change (any thread).
+  [[nodiscard]] GatewayCounts counts() const noexcept;
 
  private:
   void publish_one(const cobridge_sample& s) noexcept;
@@ -78,6 +88,8 @@ class DdsPublisher {
   void write(dds_entity_t writer, const void* data, std::atomic<std::uint64_t>& counter) noexcept;
   void forget_instance(const DeviceSlot& slot) noexcept;
   void flush() noexcept;
+  // Recounts devices and buses after a status change (writer thread).
+  void recount() noexcept;
 
   DdsConfig config_;
   std::string gateway_id_;
@@ -85,6 +97,7 @@ class DdsPublisher {
   DeviceSlots slots_;
   dds_entity_t domain_ = 0;  // > 0 when this publisher created the domain
   dds_entity_t participant_ = 0;
+  dds_entity_t publisher_ = 0;  // of config_.partition
   dds_entity_t sample_writer_ = 0;
   dds_entity_t event_writer_ = 0;
   dds_entity_t status_writer_ = 0;
@@ -92,6 +105,7 @@ class DdsPublisher {
   std::uint8_t unflushed_ = 0;
   std::atomic<std::uint64_t> samples_{0}, events_{0}, statuses_{0}, failures_{0}, unknown_kind_{0};
   std::atomic<std::int32_t> last_failure_{0};
+  std::atomic<std::uint64_t> counts_{0};  // GatewayCounts packed 4 x 16 bits
 };
 
 }  // namespace cobridge::dds

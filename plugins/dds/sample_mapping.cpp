@@ -55,6 +55,10 @@ std::uint64_t gateway_key(std::string_view gateway_id) noexcept {
   return h;
 }
 
+std::uint32_t topic_sequence(const cobridge_sample& s) noexcept {
+  return (s.valid & COBRIDGE_VALID_KIND_SEQUENCE) != 0 ? s.kind_sequence : s.sequence;
+}
+
 void fill_encoder_sample(cobridge_EncoderSample& out, const cobridge_sample& s, const GatewayName& gateway,
                          const DeviceSlot* slot, bool stale) noexcept {
   out.gateway_key = gateway.key;
@@ -74,7 +78,7 @@ void fill_encoder_sample(cobridge_EncoderSample& out, const cobridge_sample& s, 
   out.valid = static_cast<std::uint16_t>(s.valid & kSampleValidMask);
   out.rx_timestamp_ns = s.rx_timestamp_ns;
   out.publish_timestamp_ns = s.publish_timestamp_ns;
-  out.sequence_number = s.sequence;
+  out.sequence_number = topic_sequence(s);
   out.sync_counter = s.sync_counter;
   out.stale = stale;
 }
@@ -94,7 +98,7 @@ void fill_encoder_event(cobridge_EncoderEvent& out, const cobridge_sample& s, co
   out.error_reset = text.error_reset;
   out.rx_timestamp_ns = s.rx_timestamp_ns;
   out.publish_timestamp_ns = s.publish_timestamp_ns;
-  out.sequence_number = s.sequence;
+  out.sequence_number = topic_sequence(s);
 }
 
 void fill_device_status(cobridge_DeviceStatus& out, const DeviceSlot& slot, const GatewayName& gateway) noexcept {

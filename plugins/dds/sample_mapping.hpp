@@ -46,6 +46,12 @@ struct EmcyText {
 // The meaning of an EMCY per the device family's manual (canopen::classify).
 void describe_emcy(canopen::DeviceFamily family, const cobridge_sample& s, EmcyText& out) noexcept;
 
+// The number a topic carries for sample `s`: its per-device-and-kind
+// kind_sequence (COBRIDGE_VALID_KIND_SEQUENCE), so that a gap on the topic
+// is exactly a lost sample of that topic; from a daemon that does not set it,
+// the per-device sequence of all kinds (the pre-issue-16 meaning).
+[[nodiscard]] std::uint32_t topic_sequence(const cobridge_sample& s) noexcept;
+
 // EncoderSample from a TPDO sample. `slot` may be nullptr (device beyond the
 // table): the name is then "". `stale` overrides the sample's own flag (for
 // the re-publication of the last values when a device turns stale).

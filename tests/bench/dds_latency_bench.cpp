@@ -27,7 +27,15 @@
 //     feeding (plugin, writer thread, Cyclone), and the time on_samples
 //     takes per sample on the feeding (dispatcher) thread.
 //  2b. The floor of the spread feed: the same traffic written by a plain
-//     thread with one dds_write per sample (no plugin, queue or hop).
+//     thread with one dds_write per sample (no plugin, queue or hop), once
+//     best-effort and once reliable (keep-last 1, the plugin's QoS), in the
+//     same process layout as the plugin runs.
+//  2c. Issue 16: a summary that sets each spread run of the plugin against
+//     the bare stream of the same reliability from the same run of the
+//     bench: p50/p99/p99.9 and the ratio plugin / bare (target p99 <= 1.2x).
+//     Runs with EncoderSample written on the dispatcher (the feeding thread
+//     here; sample_path "dispatcher") and on the plugin's writer thread
+//     (the default).
 //  3. The wake-up hop: atomic notify -> waiting thread running, the
 //     mechanism by which the dispatcher wakes the plugin's writer thread.
 //
@@ -95,6 +103,7 @@ Figures figures(std::vector<std::uint64_t>& v) {
   f.max = v.back();
   return f;
 }
+double ratio(std::uint64_t a, std::uint64_t b) { return b != 0 ? static_cast<double>(a) / static_cast<double>(b) : 0.0; }
 void print(const char* what, const Figures& f) {
   std::printf("  %-44s n=%-8" PRIu64 " p50=%7.1f us  p99=%7.1f us  p99.9=%7.1f us  max=%8.1f us\n", what, f.count,
               static_cast<double>(f.p50) / 1e3, static_cast<double>(f.p99) / 1e3, static_cast<double>(f.p999) / 1e3,
@@ -297,8 +306,8 @@ void spread_feed(std::uint64_t total, unsigned rate, std::size_t max_batch, Take
 }
 
 // One run of the plugin at `rate` samples/s for `seconds`.
-void plugin_run(const char* label, Feed feed, const std::string& config, double seconds, unsigned rate,
-                PingSide& ping, int from_child, std::uint32_t run) {
+Figures plugin_run(const char* label, Feed feed, const std::string& config, double seconds, unsigned rate,
+                   PingSide& ping, int from_child, std::uint32_t run) {
   const std::filesystem::path plugin = COBRIDGE_DDS_PLUGIN_FILE;
   pipeline::PluginHost host({plugin.parent_path(), "bench-gw",
                              [](pipeline::LogLevel, std::string_view, std::string_view m) {
@@ -307,9 +316,9 @@ void plugin_run(const char* label, Feed feed, const std::string& config, double 
   pipeline::PluginError err;
   if (host.load({"dds", "dds", plugin, config}, &err)) {
     std::fprintf(stderr, "load failed: %s\n", err.message.c_str());
-    return;
+    return {};
   }
-  if (!host.start_all().empty()) return;
+  if (!host.start_all().empty()) return {};
   for (unsigned d = 0; d < kDevices; ++d) {
     cobridge_device_info info{};
     info.struct_size = sizeof info;
@@ -373,26 +382,28 @@ void plugin_run(const char* label, Feed feed, const std::string& config, double 
   std::printf("%s: %u samples/s for %.1f s, %" PRIu64 " sent in %" PRIu64 " deliveries, %zu received (%.3f%% lost)\n",
               label, rate, seconds, sent, delivers, lat.size(),
               sent != 0 ? 100.0 * (1.0 - static_cast<double>(lat.size()) / static_cast<double>(sent)) : 0.0);
-  print("rx_timestamp -> subscriber", figures(lat));
+  const Figures result = figures(lat);
+  print("rx_timestamp -> subscriber", result);
   print("  of which on_samples -> subscriber", figures(from_deliver));
   print("on_samples cost per sample (dispatcher)", figures(write_cost));
   std::printf("  heap allocations in the process: %llu = %.2f per sample\n", allocs,
               sent != 0 ? static_cast<double>(allocs) / static_cast<double>(sent) : 0.0);
+  return result;
 }
 
 // The floor for the same traffic: a plain thread writes EncoderSample with
 // dds_write at the spread feed's pace (no plugin, no queue, no wake-up hop),
 // best-effort, to the same subscriber.
-void bare_stream_run(std::uint32_t domain, double seconds, unsigned rate, PingSide& ping, int from_child,
-                     std::uint32_t run) {
+Figures bare_stream_run(std::uint32_t domain, double seconds, unsigned rate, PingSide& ping, int from_child,
+                        std::uint32_t run, bool reliable) {
   const dds_entity_t pp = dds_create_participant(domain, nullptr, nullptr);
   const dds_entity_t topic = dds_create_topic(pp, &cobridge_EncoderSample_desc, "EncoderSample", nullptr, nullptr);
-  dds_qos_t* q = qos(DDS_RELIABILITY_BEST_EFFORT, DDS_HISTORY_KEEP_LAST, 1);
+  dds_qos_t* q = qos(reliable ? DDS_RELIABILITY_RELIABLE : DDS_RELIABILITY_BEST_EFFORT, DDS_HISTORY_KEEP_LAST, 1);
   const dds_entity_t writer = dds_create_writer(pp, topic, q, nullptr);
   dds_delete_qos(q);
   if (pp < 0 || topic < 0 || writer < 0) {
     std::fprintf(stderr, "bare stream: cannot create the writer\n");
-    return;
+    return {};
   }
   usleep(500000);  // discovery
   Feeder feeder;
@@ -418,10 +429,22 @@ void bare_stream_run(std::uint32_t domain, double seconds, unsigned rate, PingSi
   const std::vector<std::uint64_t> pairs = read_run(from_child);
   std::vector<std::uint64_t> lat;
   for (std::size_t i = 0; i + 1 < pairs.size(); i += 2) lat.push_back(pairs[i]);
-  std::printf("bare Cyclone stream (one dds_write per sample, spread, best-effort): %u samples/s for %.1f s, %" PRIu64
+  std::printf("bare Cyclone stream (one dds_write per sample, spread, %s): %u samples/s for %.1f s, %" PRIu64
               " sent, %zu received\n",
-              rate, seconds, total, lat.size());
-  print("rx_timestamp -> subscriber", figures(lat));
+              reliable ? "reliable" : "best-effort", rate, seconds, total, lat.size());
+  const Figures result = figures(lat);
+  print("rx_timestamp -> subscriber", result);
+  return result;
+}
+
+// 2c: one line per plugin run against the bare stream of its reliability.
+void print_against(const char* label, const Figures& plugin, const Figures& bare) {
+  std::printf("  %-46s p50=%7.1f p99=%7.1f p99.9=%7.1f us | bare p50=%7.1f p99=%7.1f p99.9=%7.1f us | "
+              "ratio p50 %.2f p99 %.2f p99.9 %.2f\n",
+              label, static_cast<double>(plugin.p50) / 1e3, static_cast<double>(plugin.p99) / 1e3,
+              static_cast<double>(plugin.p999) / 1e3, static_cast<double>(bare.p50) / 1e3,
+              static_cast<double>(bare.p99) / 1e3, static_cast<double>(bare.p999) / 1e3, ratio(plugin.p50, bare.p50),
+              ratio(plugin.p99, bare.p99), ratio(plugin.p999, bare.p999));
 }
 
 // The wake-up hop: one thread bumps an atomic and notifies, the other waits
@@ -528,26 +551,48 @@ int main(int argc, char** argv) {
       const char* label;
       Feed feed;
       std::string config;
+      bool reliable = false;
     };
+    const std::string wt = "sample_path = \"writer-thread\"\n", dsp = "sample_path = \"dispatcher\"\n",
+                      rel = "sample_reliability = \"reliable\"\n",
+                      nob = "write_batch = false\n";
     std::vector<Run> runs;
     for (const Feed feed : {Feed::kSpread, Feed::kBurst}) {
       if (feeds != "both" && (feed == Feed::kSpread) != (feeds == "spread")) continue;
       const bool sp = feed == Feed::kSpread;
-      runs.push_back({sp ? "spread, best-effort, write_batch" : "burst, best-effort, write_batch", feed, d});
-      runs.push_back({sp ? "spread, best-effort, no batching" : "burst, best-effort, no batching", feed,
-                      d + "write_batch = false\n"});
-      runs.push_back({sp ? "spread, reliable, write_batch" : "burst, reliable, write_batch", feed,
-                      d + "sample_reliability = \"reliable\"\n"});
-      runs.push_back({sp ? "spread, reliable, no batching" : "burst, reliable, no batching", feed,
-                      d + "sample_reliability = \"reliable\"\nwrite_batch = false\n"});
+      runs.push_back({sp ? "spread, best-effort, dispatcher, write_batch" : "burst, best-effort, dispatcher, write_batch",
+                      feed, d + dsp});
+      runs.push_back({sp ? "spread, best-effort, dispatcher, no batching" : "burst, best-effort, dispatcher, no batching",
+                      feed, d + dsp + nob});
+      runs.push_back({sp ? "spread, best-effort, writer thread, write_batch"
+                         : "burst, best-effort, writer thread, write_batch",
+                      feed, d + wt});
+      runs.push_back({sp ? "spread, reliable, dispatcher, write_batch" : "burst, reliable, dispatcher, write_batch",
+                      feed, d + rel + dsp, true});
+      runs.push_back({sp ? "spread, reliable, writer thread, write_batch" : "burst, reliable, writer thread, write_batch",
+                      feed, d + rel, true});
+      runs.push_back({sp ? "spread, reliable, writer thread, no batching" : "burst, reliable, writer thread, no batching",
+                      feed, d + rel + nob, true});
     }
     // Allocations with no reader matched: the subscriber does not read this
     // topic (its latency line stays empty).
     runs.push_back({"no reader matched (allocations only), burst, best-effort, write_batch", Feed::kBurst,
                      d + "topic_prefix = \"unread/\"\n"});
     std::uint32_t run = 0;
-    if (feeds != "burst") bare_stream_run(domain, seconds, rate, ping, fds[0], ++run);
-    for (const Run& r : runs) plugin_run(r.label, r.feed, r.config, seconds, rate, ping, fds[0], ++run);
+    Figures bare_be, bare_rel;
+    if (feeds != "burst") {
+      bare_be = bare_stream_run(domain, seconds, rate, ping, fds[0], ++run, false);
+      bare_rel = bare_stream_run(domain, seconds, rate, ping, fds[0], ++run, true);
+    }
+    std::vector<std::pair<const Run*, Figures>> results;
+    for (const Run& r : runs) results.emplace_back(&r, plugin_run(r.label, r.feed, r.config, seconds, rate, ping, fds[0], ++run));
+    if (feeds != "burst") {
+      std::printf("plugin against bare Cyclone, same run, same layout (%s), %u samples/s, spread feed:\n",
+                  placement.c_str(), rate);
+      for (const auto& [r, fig] : results) {
+        if (r->feed == Feed::kSpread) print_against(r->label, fig, r->reliable ? bare_rel : bare_be);
+      }
+    }
     ping.ping(kStop, -1);
     (void)read_run(fds[0]);
   }

@@ -85,7 +85,8 @@ enum cobridge_sample_valid {
   COBRIDGE_VALID_EMCY = 1u << 11,   /* emcy_code, emcy_register, emcy_data */
   COBRIDGE_VALID_RAW = 1u << 12,    /* raw_len, raw */
   COBRIDGE_VALID_COMMAND = 1u << 13, /* ABI 2: command_tag, command_abort_code, command_kind, command_status */
-  COBRIDGE_VALID_RX_MONOTONIC = 1u << 14 /* ABI 2: rx_monotonic_ns */
+  COBRIDGE_VALID_RX_MONOTONIC = 1u << 14, /* ABI 2: rx_monotonic_ns */
+  COBRIDGE_VALID_KIND_SEQUENCE = 1u << 15 /* ABI 2 (issue 16): kind_sequence */
 };
 
 /* NMT states as they appear in the heartbeat byte (CiA 301 §7.2.8.3.2). */
@@ -108,7 +109,8 @@ typedef struct cobridge_sample {
   /* Time the dispatcher handed the sample to the plugins, same clock. */
   uint64_t publish_timestamp_ns;
   /* Per-device sequence number, +1 for every sample of the device (all
-   * kinds); a gap means samples were dropped before the dispatcher. Wraps. */
+   * kinds); a gap means samples were dropped before the dispatcher. Wraps.
+   * Per kind: kind_sequence. */
   uint32_t sequence;
   /* Index of the device in the gateway's device table (cobridge_device_info). */
   uint16_t device_index;
@@ -172,8 +174,15 @@ typedef struct cobridge_sample {
    * for ages that a step of the wall clock must not falsify (data age,
    * staleness); the published timestamps stay wall-clock. */
   uint64_t rx_monotonic_ns;
+  /* Issue 16 (COBRIDGE_VALID_KIND_SEQUENCE): per device AND kind, +1 for
+   * every sample of this kind of this device, assigned where `sequence` is
+   * (the bus RX thread). A gap in it is exactly a lost sample of this kind,
+   * so an output that publishes one kind per topic (DDS EncoderSample = TPDO,
+   * EncoderEvent = EMCY) can number its topic with it: a subscriber's gap is
+   * then a loss, never a heartbeat it was not sent. Starts at 1. Wraps. */
+  uint32_t kind_sequence;
   /* Room for fields of later ABI versions; zero. */
-  uint8_t reserved[24];
+  uint8_t reserved[20];
 } cobridge_sample;
 
 /* ------------------------------------------------------------------------ */

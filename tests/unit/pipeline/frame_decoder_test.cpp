@@ -185,6 +185,36 @@ TEST(FrameDecoder, SequencePerDeviceAcrossKinds) {
   EXPECT_EQ(s.stale, 1) << "an offline device's values are stale";
 }
 
+// Issue 16: kind_sequence counts each kind of each device on its own, so a
+// gap in the TPDOs of a device (what DDS EncoderSample numbers by) is a lost
+// TPDO, never a heartbeat or EMCY in between.
+TEST(FrameDecoder, KindSequencePerDeviceAndKind) {
+  DeviceTable table;
+  table.publish(plan_for(5, {{0x60200120, true}}));
+  table.publish(plan_for(6, {{0x60200120, true}}));
+  FrameDecoder d(0, table);
+  Sample s;
+  ASSERT_TRUE(d.decode(frame(0x185, {1, 0, 0, 0}), s));
+  EXPECT_NE(s.valid & COBRIDGE_VALID_KIND_SEQUENCE, 0);
+  EXPECT_EQ(s.kind_sequence, 1u);
+  ASSERT_TRUE(d.decode(frame(0x705, {0x05}), s));  // heartbeat: its own count
+  EXPECT_EQ(s.kind_sequence, 1u);
+  EXPECT_EQ(s.sequence, 2u);
+  ASSERT_TRUE(d.decode(frame(0x085, {0x00, 0x10, 0x01, 0, 0, 0, 0, 0}), s));  // EMCY
+  EXPECT_EQ(s.kind_sequence, 1u);
+  ASSERT_TRUE(d.decode(frame(0x186, {1, 0, 0, 0}), s));  // another device: its own count
+  EXPECT_EQ(s.kind_sequence, 1u);
+  ASSERT_TRUE(d.decode(frame(0x185, {2, 0, 0, 0}), s));
+  EXPECT_EQ(s.kind, COBRIDGE_SAMPLE_TPDO);
+  EXPECT_EQ(s.kind_sequence, 2u) << "the TPDOs of node 5 count on, past its heartbeat and EMCY";
+  EXPECT_EQ(s.sequence, 4u);
+  ASSERT_TRUE(d.decode(frame(0x705, {0x05}), s));
+  EXPECT_EQ(s.kind_sequence, 2u);
+  ASSERT_TRUE(d.make_status(5, false, false, COBRIDGE_NMT_OPERATIONAL, 5, s));
+  EXPECT_EQ(s.kind_sequence, 1u);
+  EXPECT_NE(s.valid & COBRIDGE_VALID_KIND_SEQUENCE, 0);
+}
+
 // A device already reported stale stays stale in a later status sample.
 TEST(FrameDecoder, StatusKeepsKnownStaleness) {
   DeviceTable table;

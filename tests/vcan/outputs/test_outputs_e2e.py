@@ -302,15 +302,16 @@ def main():
         # DDS: the same positions, in order, none missing, nothing foreign in
         # between. Stale re-publications (the plugin repeats the last value
         # with stale=true when a device goes quiet, e.g. during a UML stall)
-        # are not new values and are left out; sequence numbers are shared
-        # with heartbeat and status samples, so they are not contiguous here.
+        # are not new values and are left out. EncoderSample is numbered per
+        # device by TPDOs alone (issue 16), so the numbers are contiguous.
         d = [x for x in dds.get(node, []) if not x[3]]
         missing_d, gaps_d, first_d = match_in_order([x[2] for x in sent], [x[1] for x in d])
         check(missing_d == 0, f"{name}: DDS subscriber got every sent position, in order ({len(sent) - missing_d}/{len(sent)})")
         check(gaps_d == 0, f"{name}: no foreign DDS values between them")
         if first_d is not None:
             seqs = [x[2] for x in d[first_d:first_d + len(sent)]]
-            check(all(y > x for x, y in zip(seqs, seqs[1:])), f"{name}: DDS sequence numbers increase ({len(seqs)} samples)")
+            check(all(y == x + 1 for x, y in zip(seqs, seqs[1:])),
+                  f"{name}: DDS sequence numbers contiguous, no gap ({len(seqs)} samples)")
         # Modbus: values the device really sent, fresh.
         mine = [r for r in reads if r[0] == name]
         good = [r for r in mine if r[1] is not None]

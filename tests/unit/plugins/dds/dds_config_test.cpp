@@ -18,19 +18,37 @@ TEST(DdsConfig, DocsDds_EmptyGivesDefaults) {
   EXPECT_EQ(r.config.sample_depth, 1);
   EXPECT_EQ(r.config.topic_prefix, "");
   EXPECT_TRUE(r.config.write_batch);
+  EXPECT_EQ(r.config.liveliness_lease_ms, 500);
+  EXPECT_EQ(r.config.sample_path, SamplePath::kWriterThread);
+  EXPECT_FALSE(r.config.samples_on_dispatcher()) << "the writer thread writes by default";
+  EXPECT_TRUE(parse_dds_config("sample_path = \"auto\"").config.samples_on_dispatcher())
+      << "auto: best-effort samples on the dispatcher";
+}
+
+// Issue 16: sample_path; "auto" resolves by reliability.
+TEST(DdsConfig, Issue16_SamplePath) {
+  EXPECT_FALSE(parse_dds_config("sample_reliability = \"reliable\"").config.samples_on_dispatcher());
+  EXPECT_FALSE(parse_dds_config("sample_path = \"writer-thread\"").config.samples_on_dispatcher());
+  const DdsConfigResult d = parse_dds_config("sample_path = \"dispatcher\"");
+  ASSERT_TRUE(d.ok()) << d.message;
+  EXPECT_TRUE(d.config.samples_on_dispatcher());
+  EXPECT_TRUE(parse_dds_config("sample_path = \"dispatcher\"\nsample_reliability = \"reliable\"")
+                  .config.samples_on_dispatcher());
 }
 
 // docs/dds.md "Configuration": every key read.
 TEST(DdsConfig, DocsDds_AllKeys) {
   const DdsConfigResult r =
       parse_dds_config("domain = 42\nsample_reliability = \"reliable\"\nsample_depth = 16\ntopic_prefix = \"p/\"\n"
-                       "write_batch = false\n");
+                       "write_batch = false\nliveliness_lease_ms = 250\npartition = \"hall-3\"\n");
   ASSERT_TRUE(r.ok()) << r.message;
   EXPECT_EQ(r.config.domain, 42u);
   EXPECT_EQ(r.config.sample_reliability, Reliability::kReliable);
   EXPECT_EQ(r.config.sample_depth, 16);
   EXPECT_EQ(r.config.topic_prefix, "p/");
   EXPECT_FALSE(r.config.write_batch);
+  EXPECT_EQ(r.config.liveliness_lease_ms, 250);
+  EXPECT_EQ(r.config.partition, "hall-3");
 }
 
 // docs/dds.md "Configuration": refusals carry a code and name the key.
@@ -54,6 +72,11 @@ TEST(DdsConfig, DocsDds_Refusals) {
       {"write_batch = \"yes\"", DdsConfigErrc::kWrongType, "'write_batch' must be true or false"},
       {"write_batch = 1", DdsConfigErrc::kWrongType, "'write_batch'"},
       {"writebatch = true", DdsConfigErrc::kUnknownKey, "write_batch"},
+      {"partition = 3", DdsConfigErrc::kWrongType, "'partition'"},
+      {"sample_path = \"inline\"", DdsConfigErrc::kOutOfRange, "'sample_path' must be"},
+      {"liveliness_lease_ms = 99", DdsConfigErrc::kOutOfRange, "'liveliness_lease_ms' must be 100..3600000"},
+      {"liveliness_lease_ms = 3600001", DdsConfigErrc::kOutOfRange, "'liveliness_lease_ms'"},
+      {"liveliness_lease_ms = \"1s\"", DdsConfigErrc::kWrongType, "'liveliness_lease_ms'"},
   };
   for (const Case& c : cases) {
     const DdsConfigResult r = parse_dds_config(c.text);

@@ -1,0 +1,229 @@
+// cobridge_dds_probe: a DDS subscriber for the multi-gateway end-to-end test
+// (test_dds_multi_gateway.py), written as a cell controller would: it reads
+// EncoderSample (reliable, keep-all), DeviceStatus and GatewayStatus of every
+// gateway in the domain and prints what a subscriber can tell, one JSON
+// object per line on stdout:
+//   {"ev":"gateway","t":ns,"gateway_id":..,"state":"alive|disposed|no_writers",
+//    "devices":n,"devices_online":n,"duplicate":b,"incarnation":n}
+//                       every GatewayStatus sample or instance-state change
+//   {"ev":"sample_instance","t":ns,"gateway_id":..,"bus":b,"node":n,"state":..}
+//                       an EncoderSample instance turning not-alive / alive
+//   {"ev":"status","t":ns,"gateway_id":..,"bus":b,"node":n,"online":b}
+//                       a DeviceStatus whose online flag changed
+//   {"ev":"device","gateway_id":..,"bus":b,"node":n,"samples":N,"gaps":G,
+//    "lost":L,"repeats":R,"first":s,"last":s}
+//                       per EncoderSample instance, when the probe exits
+// Exits after --seconds or when the file --stop-file exists. Timestamps are
+// CLOCK_REALTIME ns when the probe took the sample.
+//
+// Gaps: consecutive samples of one instance whose sequence_number is not the
+// previous + 1 (wrap included); a repeat (same number: the stale
+// re-publication) is counted apart. With per-topic numbering a gap is a lost
+// sample, so the test asserts gaps == 0.
+#include "cobridge_idl/cobridge.h"
+
+#include <dds/dds.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <map>
+#include <string>
+#include <thread>
+#include <tuple>
+
+namespace {
+
+std::uint64_t now_ns() {
+  timespec ts{};
+  clock_gettime(CLOCK_REALTIME, &ts);
+  return static_cast<std::uint64_t>(ts.tv_sec) * 1'000'000'000ull + static_cast<std::uint64_t>(ts.tv_nsec);
+}
+
+const char* state_name(dds_instance_state_t s) {
+  switch (s) {
+    case DDS_IST_ALIVE: return "alive";
+    case DDS_NOT_ALIVE_DISPOSED_INSTANCE_STATE: return "disposed";
+    default: return "no_writers";
+  }
+}
+
+struct Device {
+  std::uint64_t samples = 0, gaps = 0, lost = 0, repeats = 0;
+  std::uint32_t first = 0, last = 0;
+  dds_instance_state_t state = DDS_IST_ALIVE;
+};
+using Key = std::tuple<std::string, int, int>;
+
+struct Options {
+  std::uint32_t domain = 0;
+  double seconds = 60;
+  std::string stop_file;
+};
+
+Options parse(int argc, char** argv) {
+  Options o;
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string k = argv[i];
+    if (k == "--domain") o.domain = static_cast<std::uint32_t>(std::atoi(argv[i + 1]));
+    if (k == "--seconds") o.seconds = std::atof(argv[i + 1]);
+    if (k == "--stop-file") o.stop_file = argv[i + 1];
+  }
+  return o;
+}
+
+dds_entity_t make_reader(dds_entity_t pp, const dds_topic_descriptor_t* type, const char* name, bool keep_all,
+                         bool transient) {
+  const dds_entity_t topic = dds_create_topic(pp, type, name, nullptr, nullptr);
+  dds_qos_t* q = dds_create_qos();
+  dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+  dds_qset_history(q, keep_all ? DDS_HISTORY_KEEP_ALL : DDS_HISTORY_KEEP_LAST, 16);
+  dds_qset_durability(q, transient ? DDS_DURABILITY_TRANSIENT_LOCAL : DDS_DURABILITY_VOLATILE);
+  const dds_entity_t r = dds_create_reader(pp, topic, q, nullptr);
+  dds_delete_qos(q);
+  if (r < 0) {
+    std::fprintf(stderr, "probe: reader %s: %s\n", name, dds_strretcode(r));
+    std::exit(2);
+  }
+  return r;
+}
+
+constexpr std::uint32_t kTake = 256;  // the same on every take of a reader
+// Takes per reader per wake-up: a reader that keeps up with 8 000 samples/s
+// must not starve the others (status and liveliness are judged in ms).
+constexpr int kRounds = 4;
+
+// An invalid sample (an instance's state change: disposed, no writers) has
+// only its key members set: the gateway's id is looked up by gateway_key
+// from the valid samples seen before.
+std::map<unsigned long long, std::string> g_ids;
+const char* gateway_id(unsigned long long key, const char* id, bool valid) {
+  if (valid && id != nullptr) return g_ids.insert_or_assign(key, id).first->second.c_str();
+  const auto it = g_ids.find(key);
+  return it != g_ids.end() ? it->second.c_str() : "?";
+}
+
+void take_samples(dds_entity_t reader, std::map<Key, Device>& devices) {
+  for (int round = 0; round < kRounds; ++round) {
+    void* buf[kTake] = {};
+    dds_sample_info_t info[kTake];
+    const int n = dds_take(reader, buf, info, kTake, kTake);
+    if (n <= 0) return;
+    const std::uint64_t t = now_ns();
+    for (int i = 0; i < n; ++i) {
+      const auto& s = *static_cast<const cobridge_EncoderSample*>(buf[i]);
+      const char* gw = gateway_id(s.gateway_key, s.gateway_id, info[i].valid_data);
+      Device& d = devices[Key{gw, s.bus, s.node_id}];
+      if (info[i].instance_state != d.state) {
+        d.state = info[i].instance_state;
+        std::printf("{\"ev\":\"sample_instance\",\"t\":%llu,\"gateway_id\":\"%s\",\"bus\":%d,\"node\":%d,"
+                    "\"state\":\"%s\"}\n",
+                    static_cast<unsigned long long>(t), gw, s.bus, s.node_id, state_name(d.state));
+      }
+      if (!info[i].valid_data) continue;
+      if (d.samples == 0) {
+        d.first = s.sequence_number;
+      } else if (s.sequence_number == d.last) {
+        ++d.repeats;
+      } else if (s.sequence_number != d.last + 1u) {
+        ++d.gaps;
+        d.lost += s.sequence_number - d.last - 1u;
+      }
+      d.last = s.sequence_number;
+      ++d.samples;
+    }
+    dds_return_loan(reader, buf, n);
+  }
+}
+
+void take_gateways(dds_entity_t reader) {
+  for (int round = 0; round < kRounds; ++round) {
+    void* buf[kTake] = {};
+    dds_sample_info_t info[kTake];
+    const int n = dds_take(reader, buf, info, kTake, kTake);
+    if (n <= 0) return;
+    const std::uint64_t t = now_ns();
+    for (int i = 0; i < n; ++i) {
+      const auto& s = *static_cast<const cobridge_GatewayStatus*>(buf[i]);
+      const bool v = info[i].valid_data;
+      std::printf("{\"ev\":\"gateway\",\"t\":%llu,\"gateway_id\":\"%s\",\"state\":\"%s\",\"valid\":%s,"
+                  "\"devices\":%d,\"devices_online\":%d,\"buses\":%d,\"buses_online\":%d,\"duplicate\":%s,"
+                  "\"incarnation\":%llu,\"pid\":%u}\n",
+                  static_cast<unsigned long long>(t), gateway_id(s.gateway_key, s.gateway_id, v),
+                  state_name(info[i].instance_state), v ? "true" : "false", v ? s.devices : -1,
+                  v ? s.devices_online : -1, v ? s.buses : -1, v ? s.buses_online : -1,
+                  v && s.duplicate_id ? "true" : "false", static_cast<unsigned long long>(v ? s.incarnation : 0),
+                  v ? s.pid : 0u);
+    }
+    dds_return_loan(reader, buf, n);
+  }
+}
+
+void take_status(dds_entity_t reader, std::map<Key, int>& online) {
+  for (int round = 0; round < kRounds; ++round) {
+    void* buf[kTake] = {};
+    dds_sample_info_t info[kTake];
+    const int n = dds_take(reader, buf, info, kTake, kTake);
+    if (n <= 0) return;
+    const std::uint64_t t = now_ns();
+    for (int i = 0; i < n; ++i) {
+      if (!info[i].valid_data) continue;
+      const auto& s = *static_cast<const cobridge_DeviceStatus*>(buf[i]);
+      const char* gw = gateway_id(s.gateway_key, s.gateway_id, true);
+      int& o = online.try_emplace(Key{gw, s.bus, s.node_id}, -1).first->second;
+      if (o == static_cast<int>(s.online)) continue;
+      o = s.online;
+      std::printf("{\"ev\":\"status\",\"t\":%llu,\"gateway_id\":\"%s\",\"bus\":%d,\"node\":%d,\"online\":%s}\n",
+                  static_cast<unsigned long long>(t), gw, s.bus, s.node_id, s.online ? "true" : "false");
+    }
+    dds_return_loan(reader, buf, n);
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const Options o = parse(argc, argv);
+  const dds_entity_t pp = dds_create_participant(static_cast<dds_domainid_t>(o.domain), nullptr, nullptr);
+  if (pp < 0) {
+    std::fprintf(stderr, "probe: participant: %s\n", dds_strretcode(pp));
+    return 2;
+  }
+  const dds_entity_t samples = make_reader(pp, &cobridge_EncoderSample_desc, "EncoderSample", true, false);
+  const dds_entity_t status = make_reader(pp, &cobridge_DeviceStatus_desc, "DeviceStatus", false, true);
+  const dds_entity_t gateways = make_reader(pp, &cobridge_GatewayStatus_desc, "GatewayStatus", false, true);
+  // One wait set over the three readers: the probe wakes on data or on an
+  // instance-state change (liveliness lost), not on a poll interval.
+  const dds_entity_t ws = dds_create_waitset(pp);
+  for (const dds_entity_t r : {samples, status, gateways}) {
+    const dds_entity_t rc = dds_create_readcondition(r, DDS_ANY_STATE);
+    dds_waitset_attach(ws, rc, r);
+  }
+  std::printf("{\"ev\":\"ready\",\"t\":%llu}\n", static_cast<unsigned long long>(now_ns()));
+  std::fflush(stdout);
+  std::map<Key, Device> devices;
+  std::map<Key, int> online;
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(o.seconds);
+  while (std::chrono::steady_clock::now() < end) {
+    if (!o.stop_file.empty() && ::access(o.stop_file.c_str(), F_OK) == 0) break;
+    (void)dds_waitset_wait(ws, nullptr, 0, DDS_MSECS(50));
+    take_samples(samples, devices);
+    take_status(status, online);
+    take_gateways(gateways);
+    std::fflush(stdout);
+  }
+  take_samples(samples, devices);
+  for (const auto& [k, d] : devices) {
+    std::printf("{\"ev\":\"device\",\"gateway_id\":\"%s\",\"bus\":%d,\"node\":%d,\"samples\":%llu,"
+                "\"gaps\":%llu,\"lost\":%llu,\"repeats\":%llu,\"first\":%u,\"last\":%u}\n",
+                std::get<0>(k).c_str(), std::get<1>(k), std::get<2>(k), static_cast<unsigned long long>(d.samples),
+                static_cast<unsigned long long>(d.gaps), static_cast<unsigned long long>(d.lost),
+                static_cast<unsigned long long>(d.repeats), d.first, d.last);
+  }
+  std::fflush(stdout);
+  dds_delete(pp);
+  return 0;
+}
