@@ -31,10 +31,10 @@
 #include "dds/gateway_presence.hpp"
 
 #include <cobridge/plugin.h>
+#include <cobridge/spsc_ring.hpp>
 
 #include "host_log.hpp"
 
-#include "pipeline/spsc_ring.hpp"
 
 #include <array>
 #include <atomic>
@@ -80,7 +80,7 @@ struct Instance {
   std::mutex presence_mutex;
   std::condition_variable presence_cv;
   bool presence_stop = false;  // under presence_mutex
-  pipeline::SpscRing<cobridge_sample> ring{kRing};
+  SpscRing<cobridge_sample> ring{kRing};
   std::mutex device_mutex;
   std::deque<OwnedDevice> devices;          // pending announcements
   std::atomic<bool> devices_pending{false}; // set with devices non-empty
@@ -341,6 +341,33 @@ void dds_on_device(void* self, const cobridge_device_info* info) {
   inst->wake();
 }
 
+// ABI 3: what the status page and /metrics show of this output. Control-plane
+// thread, between start and stop: atomics and one Cyclone status query per writer.
+std::size_t dds_stats(void* self, cobridge_stat* out, std::size_t max) {
+  const auto* inst = static_cast<const Instance*>(self);
+  if (!inst->publisher || !inst->publisher->started()) return 0;
+  const PublisherStats s = inst->publisher->stats();
+  const DdsPublisher::WriterCounts w = inst->publisher->writer_counts();
+  const std::uint64_t samples = s.samples + (inst->direct ? inst->direct->written() : 0);
+  const std::uint64_t failures = s.write_failures + (inst->direct ? inst->direct->failures() : 0);
+  const cobridge_stat figures[] = {
+      {"dds_writers", "DDS data writers (EncoderSample, EncoderEvent, DeviceStatus).", COBRIDGE_STAT_GAUGE, 0, w.writers},
+      {"dds_matched_readers", "DDS readers matched to those writers now.", COBRIDGE_STAT_GAUGE, 0, w.matched_readers},
+      {"dds_samples_written", "EncoderSample writes.", COBRIDGE_STAT_COUNTER, 0, samples},
+      {"dds_events_written", "EncoderEvent writes.", COBRIDGE_STAT_COUNTER, 0, s.events},
+      {"dds_write_failures", "DDS writes that failed (a full reliable history included).", COBRIDGE_STAT_COUNTER, 0,
+       failures},
+      {"dds_samples_dropped", "Samples dropped because the DDS writer thread fell behind.", COBRIDGE_STAT_COUNTER, 0,
+       inst->ring_drops.load(std::memory_order_relaxed)},
+  };
+  std::size_t n = 0;
+  for (const auto& f : figures) {
+    if (n == max) break;
+    out[n++] = f;
+  }
+  return n;
+}
+
 constexpr cobridge_plugin_ops kOps = {
     COBRIDGE_PLUGIN_ABI_VERSION,
     sizeof(cobridge_plugin_ops),
@@ -350,7 +377,7 @@ constexpr cobridge_plugin_ops kOps = {
     &dds_destroy,
     &dds_on_samples,
     &dds_on_device,
-    nullptr,  // stats (ABI 3)
+    &dds_stats,
 };
 
 }  // namespace

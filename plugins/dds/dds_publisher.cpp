@@ -209,7 +209,7 @@ void DdsPublisher::publish_one(const cobridge_sample& s) noexcept {
     case COBRIDGE_SAMPLE_EMCY: {
       const DeviceSlot* slot = slots_.find(s.device_index);
       EmcyText text;
-      describe_emcy(family_from_text(slot != nullptr ? slot->family.c_str() : ""), s, text);
+      describe_emcy(slot != nullptr ? slot->family.c_str() : "", s, text);
       cobridge_EncoderEvent e{};
       fill_encoder_event(e, s, gw, slot, text);
       write(event_writer_, &e, events_);
@@ -272,6 +272,17 @@ void DdsPublisher::device(const cobridge_device_info& info) noexcept {
   }
   recount();
   flush();
+}
+
+DdsPublisher::WriterCounts DdsPublisher::writer_counts() const noexcept {
+  WriterCounts c;
+  for (const dds_entity_t w : {sample_writer_, event_writer_, status_writer_}) {
+    if (w <= 0) continue;
+    ++c.writers;
+    dds_publication_matched_status_t st{};
+    if (dds_get_publication_matched_status(w, &st) == DDS_RETCODE_OK) c.matched_readers += st.current_count;
+  }
+  return c;
 }
 
 PublisherStats DdsPublisher::stats() const noexcept {

@@ -74,6 +74,14 @@ class DdsPublisher {
   void device(const cobridge_device_info& info) noexcept;
 
   [[nodiscard]] PublisherStats stats() const noexcept;
+  // Any thread while started (the status page): the data writers this
+  // publisher made, and the readers matched to them now (Cyclone's
+  // publication-matched status, summed).
+  struct WriterCounts {
+    std::uint32_t writers = 0;
+    std::uint32_t matched_readers = 0;
+  };
+  [[nodiscard]] WriterCounts writer_counts() const noexcept;
   [[nodiscard]] const DdsConfig& config() const noexcept { return config_; }
   [[nodiscard]] dds_entity_t participant() const noexcept { return participant_; }
   // The EncoderSample writer, for DispatcherSamples (0 before start).

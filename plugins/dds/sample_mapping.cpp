@@ -28,25 +28,15 @@ static_assert(cobridge_VALID_POSITION == COBRIDGE_VALID_POSITION && cobridge_VAL
 
 }  // namespace
 
-canopen::DeviceFamily family_from_text(const char* family) noexcept {
-  const std::string_view f = family != nullptr ? family : "";
-  if (f == "novotechnik-rotary" || f == "novotechnik_rotary") return canopen::DeviceFamily::novotechnik_rotary;
-  if (f == "novotechnik-multiturn" || f == "novotechnik_multiturn") {
-    return canopen::DeviceFamily::novotechnik_multiturn;
+void describe_emcy(const char* family, const cobridge_sample& s, EmcyText& out) noexcept {
+  cobridge_emcy_info info{};
+  if (cobridge_emcy_classify(family, s.emcy_code, s.emcy_register, s.emcy_data, &info) != 0) {
+    out = EmcyText{};
+    return;
   }
-  if (f == "ifm-rm" || f == "ifm_rm") return canopen::DeviceFamily::ifm_rm;
-  return canopen::DeviceFamily::generic;
-}
-
-void describe_emcy(canopen::DeviceFamily family, const cobridge_sample& s, EmcyText& out) noexcept {
-  canopen::Emcy e;
-  e.error_code = s.emcy_code;
-  e.error_register = s.emcy_register;
-  std::memcpy(e.manufacturer.data(), s.emcy_data, e.manufacturer.size());
-  const canopen::EmcyInfo info = canopen::classify(family, e);
-  copy_view(out.text, info.text);
-  copy_view(out.source, info.source);
-  out.error_reset = info.error_reset;
+  copy_view(out.text, std::string_view(info.text, info.text_len));
+  copy_view(out.source, std::string_view(info.source, info.source_len));
+  out.error_reset = info.error_reset != 0;
 }
 
 std::uint64_t gateway_key(std::string_view gateway_id) noexcept {

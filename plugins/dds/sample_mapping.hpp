@@ -11,9 +11,9 @@
 
 #include "dds/device_slots.hpp"
 
+#include <cobridge/emcy.h>
 #include <cobridge/plugin.h>
 
-#include "canopen/emcy.hpp"
 #include "cobridge_idl/cobridge.h"
 
 #include <array>
@@ -32,10 +32,6 @@ struct GatewayName {
 };
 [[nodiscard]] std::uint64_t gateway_key(std::string_view gateway_id) noexcept;
 
-// "novotechnik-rotary", "novotechnik-multiturn", "ifm-rm" (EDS [Cobridge]
-// Family, also with '_'); anything else is generic (CiA 301 texts only).
-[[nodiscard]] canopen::DeviceFamily family_from_text(const char* family) noexcept;
-
 // NUL-terminated copies of the EMCY meaning, for EncoderEvent's strings.
 struct EmcyText {
   std::array<char, 160> text{};
@@ -43,8 +39,10 @@ struct EmcyText {
   bool error_reset = false;
 };
 
-// The meaning of an EMCY per the device family's manual (canopen::classify).
-void describe_emcy(canopen::DeviceFamily family, const cobridge_sample& s, EmcyText& out) noexcept;
+// The meaning of an EMCY per the device family's manual, through the SDK
+// (cobridge_emcy_classify). `family` as announced: "novotechnik-rotary",
+// "novotechnik-multiturn", "ifm-rm"; anything else gets the CiA 301 texts.
+void describe_emcy(const char* family, const cobridge_sample& s, EmcyText& out) noexcept;
 
 // The number a topic carries for sample `s`: its per-device-and-kind
 // kind_sequence (COBRIDGE_VALID_KIND_SEQUENCE), so that a gap on the topic
