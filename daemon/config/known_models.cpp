@@ -2,9 +2,13 @@
 // with the configuration's Family enum.
 #include "config/known_models.hpp"
 
+#include <algorithm>
+#include <array>
+#include <utility>
 #include <vector>
 
 #include "device/families/family.hpp"
+#include "device/families/ifm_rm.hpp"
 #include "device/families/novotechnik_multiturn.hpp"
 #include "device/families/novotechnik_rotary.hpp"
 
@@ -13,10 +17,16 @@ namespace {
 
 namespace fam = device::families;
 
+// The configuration's name for each family module.
+const std::array<std::pair<const fam::Family*, Family>, 3> kFamilyEnum{{
+    {&fam::kNovotechnikRotary, Family::novotechnik_rotary},
+    {&fam::kNovotechnikMultiturn, Family::novotechnik_multiturn},
+    {&fam::kIfmRm, Family::ifm_rm},
+}};
+
 Family family_enum(const fam::Family& f) noexcept {
-  if (&f == &fam::kNovotechnikRotary) return Family::novotechnik_rotary;
-  if (&f == &fam::kNovotechnikMultiturn) return Family::novotechnik_multiturn;
-  return Family::ifm_rm;
+  const auto* it = std::find_if(kFamilyEnum.begin(), kFamilyEnum.end(), [&f](const auto& p) { return p.first == &f; });
+  return it != kFamilyEnum.end() ? it->second : Family::ifm_rm;
 }
 
 std::vector<KnownModel> build_table() {

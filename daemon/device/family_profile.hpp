@@ -208,7 +208,7 @@ struct FamilyProfile {
                                                 bool legacy_rsx_rfx = false) noexcept;
 
 // From an EDS: the family from [Cobridge] Family, the channel count from the
-// default of 0x6020/0, RSX/RFX from the product code (0x0BCD, 0x0BE1).
+// default of 0x6020/0, RSX/RFX from the product code (families::is_legacy_rsx_rfx).
 // nullopt when the description names no known family.
 [[nodiscard]] std::optional<FamilyProfile> family_profile_for(const DeviceDescription& description) noexcept;
 

@@ -21,8 +21,9 @@ namespace {
 namespace fam = device::families;
 
 Family family_enum(const fam::Family& f) noexcept {
-  if (&f == &fam::kNovotechnikRotary) return Family::novotechnik_rotary;
-  if (&f == &fam::kNovotechnikMultiturn) return Family::novotechnik_multiturn;
+  for (const Family e : {Family::novotechnik_rotary, Family::novotechnik_multiturn}) {
+    if (&family_facts(e) == &f) return e;
+  }
   return Family::ifm_rm;
 }
 

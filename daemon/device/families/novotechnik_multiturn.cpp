@@ -40,21 +40,14 @@ constexpr std::array<std::uint16_t, 83> kManualObjects{
 
 }  // namespace
 
-const Family kNovotechnikMultiturn{
+const Family kNovotechnikMultiturn = novotechnik_family({
     .name = "novotechnik-multiturn",
     .series = "multiturn series",
     .manual = "E",
-    .vendor = kNovotechnikVendor,
     .models = kModels,
-    .match_any_product = false,
-    .simulated_product = 0,
-    .factory_node_id = kNovotechnikFactoryNodeId,
-    .factory_bitrate_kbit = 250,
-    .lss_fastscan = true,
-    .addressing = Addressing{0x2000, 0, 0x2001, false, kNovotechnikBitRates},  // E§4.3
-    .store = StoreSubs{2, 3, 4},  // E§11 table, E§7.1
+    .lss_fastscan = true,  // CiA 305 V3.0.0 (E§6)
     .manual_objects = kManualObjects,
     .scaling_on_bit_value = false,  // E§5.3 as printed: 0 = scaling on
-};
+});
 
 }  // namespace cobridge::device::families

@@ -43,22 +43,15 @@ constexpr std::array<std::uint16_t, 53> kManualObjects{
 
 }  // namespace
 
-const Family kNovotechnikRotary{
+const Family kNovotechnikRotary = novotechnik_family({
     .name = "novotechnik-rotary",
     .series = "rotary series",
     .manual = "J",
-    .vendor = kNovotechnikVendor,
     .models = kModels,
-    .match_any_product = false,
-    .simulated_product = 0,
-    .factory_node_id = kNovotechnikFactoryNodeId,
-    .factory_bitrate_kbit = 250,
     .lss_fastscan = false,  // DSP-305 V1.1.2 (digest Y.2)
-    .addressing = Addressing{0x2000, 0, 0x2001, false, kNovotechnikBitRates},  // J§1.3.3
-    .store = StoreSubs{2, 3, 4},  // J§1.6.1, J§1.10
     .manual_objects = kManualObjects,
     .scaling_on_bit_value = true,  // J§1.4.1
-};
+});
 
 bool is_legacy_rsx_rfx(std::uint32_t product) noexcept {
   return product == kRsx7900Product || product == kRfx6900Product;

@@ -173,3 +173,30 @@ TEST(EdsCheck, ObjectTheFamilyManualNamesButTheFileLacksIsFound) {
   EXPECT_TRUE(mentions(f, "[6020]", "manual J")) << dump(f);
   EXPECT_TRUE(mentions(f, "[1017]", "manual J")) << dump(f);
 }
+
+// Issue 13: the shipped files carry the identity their family module defines
+// (vendor, product codes, family name), so that one place holds each fact.
+TEST(EdsCheck, EveryShippedEdsCarriesItsFamilysIdentity) {
+  for (const auto& entry : std::filesystem::directory_iterator(shipped_devices_dir())) {
+    if (entry.path().extension() != ".eds") continue;
+    EdsResult r = load_eds_file(entry.path());
+    ASSERT_TRUE(r.ok()) << entry.path();
+    const DeviceDescription& d = *r.description;
+    const families::Family* f = families::find_family(d.selection.family);
+    ASSERT_NE(f, nullptr) << entry.path();
+    EXPECT_EQ(d.device_info.vendor_number, f->vendor) << entry.path();
+    EXPECT_EQ(families::family_of(d.device_info.vendor_number, d.device_info.product_number), f) << entry.path();
+    for (const std::uint32_t p : d.selection.additional_products) EXPECT_TRUE(f->lists_product(p)) << entry.path();
+    EXPECT_EQ(d.selection.match_any_product, f->match_any_product) << entry.path();
+  }
+}
+
+TEST(EdsError, BecomesTheProjectsErrorShape) {
+  const EdsError e{"x.eds", 12, 3, EdsErrc::kBadDataType, "[6000] DataType=0x99 is not a CiA 301 data type"};
+  const cobridge::Error error = to_error(e);
+  EXPECT_EQ(error.kind, cobridge::Errc::kInvalidArgument);
+  EXPECT_EQ(error.code, make_error_code(EdsErrc::kBadDataType));
+  EXPECT_EQ(error.where, "x.eds:12:3");
+  EXPECT_EQ(error.to_string(), e.to_string());
+  EXPECT_EQ(to_error(EdsError{"y.eds", 0, 0, EdsErrc::kIo, "cannot open the file"}).kind, cobridge::Errc::kNotFound);
+}
