@@ -2,20 +2,17 @@
 #include "device/eds_check.hpp"
 
 #include <algorithm>
-#include <cstdio>
 #include <string>
 
+#include "device/eds_parser.hpp"
 #include "device/families/family.hpp"
 
 namespace cobridge::device {
 
 namespace {
 
-std::string hex4(std::uint32_t v) {
-  char buf[16];
-  std::snprintf(buf, sizeof buf, "%04X", v);
-  return buf;
-}
+// "6020" for 0x6020: the index as EDS section names write it.
+std::string hex4(std::uint32_t v) { return eds_detail::hex(v, 4).substr(2); }
 
 std::string section_name(std::uint16_t index, std::optional<std::uint8_t> sub = std::nullopt) {
   std::string s = "[" + hex4(index);
