@@ -88,14 +88,7 @@ ConfigPlanResult Builder::build_node_id(std::uint8_t new_node_id, std::optional<
     s.store = {StoreTarget{profile_.store.node_id, kNode}};
     plan_.steps.push_back(std::move(s));
   }
-  ConfigPlanResult result;
-  if (!errors_.empty()) {
-    result.errors = std::move(errors_);
-    return result;
-  }
-  fingerprint();
-  result.plan = std::move(plan_);
-  return result;
+  return finish();
 }
 
 // make_command_plan
@@ -159,6 +152,11 @@ ConfigPlanResult Builder::build() {
   store();
   add_nmt("start", canopen::NmtCommand::start);
 
+  return finish();
+}
+
+// The plan, fingerprinted, or every error found while building it.
+ConfigPlanResult Builder::finish() {
   ConfigPlanResult result;
   if (!errors_.empty()) {
     result.errors = std::move(errors_);

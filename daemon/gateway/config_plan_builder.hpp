@@ -51,6 +51,7 @@ class Builder {
   ConfigPlanResult build_command(CommandKind kind, std::int64_t value);
   ConfigPlanResult build();
  private:
+  ConfigPlanResult finish();
   void error(std::string setting, std::string reason);
   void add_nmt(std::string label, canopen::NmtCommand cmd);
   // The EDS entry of `o`, or an error naming the setting.
