@@ -5,6 +5,7 @@
 // (mapping entries), the family's manual (objects it names).
 #include "device/eds_check.hpp"
 
+#include "device/device_catalog.hpp"
 #include "device/eds.hpp"
 #include "device/families/family.hpp"
 
@@ -199,4 +200,15 @@ TEST(EdsError, BecomesTheProjectsErrorShape) {
   EXPECT_EQ(error.where, "x.eds:12:3");
   EXPECT_EQ(error.to_string(), e.to_string());
   EXPECT_EQ(to_error(EdsError{"y.eds", 0, 0, EdsErrc::kIo, "cannot open the file"}).kind, cobridge::Errc::kNotFound);
+}
+
+// The catalog runs the same check over what it loaded (for the daemon's and
+// the CLI's use): the shipped directory has no finding, a bad file has one.
+TEST(EdsCheck, CatalogChecksEveryLoadedDescription) {
+  DeviceCatalog shipped;
+  ASSERT_TRUE(shipped.load_directory(shipped_devices_dir()).empty());
+  EXPECT_TRUE(shipped.check().empty()) << dump(shipped.check());
+  DeviceCatalog bad;
+  ASSERT_TRUE(bad.load_file(fixture("bad_pdo_mapping_undefined.eds")).empty());
+  EXPECT_EQ(bad.check().size(), 1U);
 }
