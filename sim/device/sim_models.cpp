@@ -32,19 +32,20 @@ ModelInfo model_info(const fam::Family& f, const fam::Model& m, std::string_view
                    f.factory_bitrate_kbit};
 }
 
+// Per family: its models, then their legacy-product twins.
 std::vector<ModelInfo> build_table() {
-  std::vector<ModelInfo> current;
-  std::vector<ModelInfo> legacy;
+  std::vector<ModelInfo> out;
   for (const fam::Family* f : fam::all()) {
+    std::vector<ModelInfo> legacy;
     for (const fam::Model& m : f->models) {
       if (!m.simulated) continue;
-      current.push_back(model_info(*f, m, m.name, m.products.empty() ? f->simulated_product : m.products[0]));
+      out.push_back(model_info(*f, m, m.name, m.products.empty() ? f->simulated_product : m.products[0]));
       if (!m.legacy_product_name.empty() && m.products.size() > 1)
         legacy.push_back(model_info(*f, m, m.legacy_product_name, m.products[1]));
     }
+    out.insert(out.end(), legacy.begin(), legacy.end());
   }
-  current.insert(current.end(), legacy.begin(), legacy.end());
-  return current;
+  return out;
 }
 
 const std::vector<ModelInfo>& table() noexcept {
