@@ -1,10 +1,11 @@
 // Known models: the encoder models a [[device]] may name with `model = "..."`,
 // with the facts the configuration checks need (vendor, product codes,
-// channels, CAM count, which filters exist). Taken from the three manuals:
-// Novotechnik rotary series (J§1.2.1), ifm RM8/RM9 (F§7.3, F§7.5) and the
-// Novotechnik multiturn series (E§4.1, E§13 V03).
+// channels, CAM count, which filters exist). The facts are the device
+// families' (daemon/device/families/, one file pair per manual); this is
+// their view in the configuration's terms.
 //
-// Thread contract: a constant table; any thread.
+// Thread contract: a table built once on first use (thread-safe static);
+// any thread.
 #pragma once
 
 #include <cstdint>

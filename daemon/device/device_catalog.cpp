@@ -1,7 +1,10 @@
 #include "device/device_catalog.hpp"
 
+#include "device/eds_check.hpp"
+
 #include <algorithm>
 #include <cstdio>
+#include <iterator>
 #include <map>
 #include <string>
 #include <system_error>
@@ -150,6 +153,15 @@ const DeviceDescription* DeviceCatalog::select(std::uint32_t vendor, std::uint32
 std::vector<const DeviceDescription*> DeviceCatalog::candidates(std::uint32_t vendor, std::uint32_t product,
                                                                 std::optional<std::uint32_t> revision) const {
   return matching(vendor, product, revision, std::nullopt);
+}
+
+std::vector<Error> DeviceCatalog::check() const {
+  std::vector<Error> out;
+  for (const auto& d : descriptions_) {
+    auto findings = check_eds(*d);
+    out.insert(out.end(), std::make_move_iterator(findings.begin()), std::make_move_iterator(findings.end()));
+  }
+  return out;
 }
 
 std::vector<const DeviceDescription*> DeviceCatalog::all() const {

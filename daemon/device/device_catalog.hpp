@@ -54,6 +54,10 @@ class DeviceCatalog {
 
   [[nodiscard]] std::size_t size() const noexcept { return descriptions_.size(); }
   [[nodiscard]] const std::vector<EdsError>& errors() const noexcept { return errors_; }
+  // check_eds (device/eds_check.hpp) over every loaded description: what a
+  // third-party master importing these files would get wrong. Advisory: a
+  // description with findings stays loaded. Off the hot path (allocates).
+  [[nodiscard]] std::vector<Error> check() const;
   // All loaded descriptions in load order.
   [[nodiscard]] std::vector<const DeviceDescription*> all() const;
 

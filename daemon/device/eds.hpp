@@ -20,6 +20,7 @@
 #include <system_error>
 #include <vector>
 
+#include "base/error.hpp"
 #include "canopen/data_type.hpp"
 
 namespace cobridge::device {
@@ -190,7 +191,14 @@ struct EdsError {
 
   // "file:line:column: message" (line/column left out when 0).
   [[nodiscard]] std::string to_string() const;
+  // "file:line:column" (line/column left out when 0).
+  [[nodiscard]] std::string where() const;
 };
+
+// The project's one error shape: kind kNotFound / kFailed for a file that
+// cannot be opened or read (kIo), kInvalidArgument for its contents; the
+// EdsErrc as the precise code; where = "file:line:column".
+[[nodiscard]] Error to_error(const EdsError& error);
 
 // Either a description or the list of everything wrong with the file.
 struct EdsResult {

@@ -3,11 +3,16 @@
 #include <algorithm>
 #include <array>
 
+#include "device/families/ifm_rm.hpp"
+#include "device/families/novotechnik_multiturn.hpp"
+#include "device/families/novotechnik_rotary.hpp"
+
 namespace cobridge::device {
 
 namespace {
 
 using canopen::DeviceFamily;
+namespace fam = families;
 
 // J§1.8: position 0x7FF0 ("beyond measuring range") on a position or sensor error.
 constexpr std::array<std::int32_t, 1> kRotaryErrorPositions{canopen::kRotaryErrorPosition};
@@ -15,29 +20,31 @@ constexpr std::array<std::int32_t, 1> kRotaryErrorPositions{canopen::kRotaryErro
 constexpr std::array<std::int32_t, 3> kMultiturnErrorPositions{
     canopen::kMultiturnErrorPosition, canopen::kMultiturnOverflowPosition, canopen::kMultiturnUnderflowPosition};
 
-// F§7.4 0x3001: the index is ascending, unlike the CiA 305 LSS table.
-constexpr std::array<std::uint16_t, 8> kIfmBitRates{20, 50, 100, 125, 250, 500, 800, 1000};
-// J§1.2.2 / E§3.1 ordering codes.
-constexpr std::array<std::uint16_t, 6> kNovotechnikBitRates{50, 125, 250, 500, 800, 1000};
-
-constexpr std::uint32_t kRsx7900Product = 0x0BCD;  // J§1.2.1
-constexpr std::uint32_t kRfx6900Product = 0x0BE1;  // J§1.2.1
+// What every profile takes from its family's facts (device/families).
+void apply_family(FamilyProfile& p, const fam::Family& f) {
+  p.name = f.name;
+  p.series = f.series;
+  p.manual = f.manual;
+  p.store = f.store;
+  p.scaling_on_bit_value = f.scaling_on_bit_value;
+  p.cams_per_channel = f.models.front().cams_per_channel;
+  p.node_id_object = ObjectRef{f.addressing.node_id_index, 0};
+  p.node_id_encoding = f.addressing.node_id_offset == 1 ? NodeIdEncoding::minus_one : NodeIdEncoding::direct;
+  p.bitrate_object = ObjectRef{f.addressing.bitrate_index, 0};
+  p.bitrate_encoding = f.addressing.bitrate_is_table_index ? BitRateEncoding::ifm_index : BitRateEncoding::kbit_per_s;
+  p.bitrates = f.addressing.bitrates;
+}
 
 FamilyProfile rotary(std::uint8_t channels, bool legacy) {
   FamilyProfile p;
   p.family = DeviceFamily::novotechnik_rotary;
-  p.name = "novotechnik-rotary";
-  p.series = "rotary series";
-  p.manual = "J";
+  apply_family(p, fam::kNovotechnikRotary);
   p.channels = channels == 2 ? 2 : 1;
   p.legacy_rsx_rfx = legacy;
   p.position_type = DataType::kInteger32;  // J§1.3.2 0x6020
   p.error_positions = kRotaryErrorPositions;
-  p.cams_per_channel = 4;  // J§1.2.3
-  p.scaling_on_bit_value = true;  // J§1.4.1
   p.position_filter_in_operating_parameter = true;  // J§1.4.1 bits 14..12
-  // J§1.6.1 / J§1.10 (V10 notes): node-ID and bit rate with /4, RSX/RFX with /1.
-  p.store = StoreSubs{2, 3, static_cast<std::uint8_t>(legacy ? 1 : 4)};
+  if (legacy) p.store.node_id = fam::kRotaryLegacyNodeIdStoreSub;  // J§1.12 V10
   p.heartbeat = HeartbeatSupport::uncertain;  // J§1.2.2 vs J§1.3.1 0x1017
   return p;
 }
@@ -45,44 +52,30 @@ FamilyProfile rotary(std::uint8_t channels, bool legacy) {
 FamilyProfile multiturn() {
   FamilyProfile p;
   p.family = DeviceFamily::novotechnik_multiturn;
-  p.name = "novotechnik-multiturn";
-  p.series = "multiturn series";
-  p.manual = "E";
+  apply_family(p, fam::kNovotechnikMultiturn);
   p.position_type = DataType::kInteger32;  // E§4.2 0x6004
   p.position_alias = ObjectRef{0x6020, 1};  // E§4.1 0x1A00/1 default
   p.error_positions = kMultiturnErrorPositions;
-  p.cams_per_channel = 4;  // E§3.4
   p.temperature = ObjectRef{0x2002, 0};
   p.voltage = ObjectRef{0x2003, 0};
-  p.scaling_on_bit_value = false;  // E§5.3 as printed: 0 = scaling on
   p.position_filter = ObjectRef{0x2010, 1};
   p.speed_filter = ObjectRef{0x2010, 2};
-  p.store = StoreSubs{2, 3, 4};  // E§11 table, E§7.1
   return p;
 }
 
 FamilyProfile ifm() {
   FamilyProfile p;
   p.family = DeviceFamily::ifm_rm;
-  p.name = "ifm-rm";
-  p.series = "ifm RM series";
-  p.manual = "F";
+  apply_family(p, fam::kIfmRm);
   p.position_type = DataType::kUnsigned32;  // F§7.5 0x6004
   p.position_value_mask = 0x3FFFFFFFu;
   p.limit_switch_min_bit = 30;  // F§7.4 0x2104
   p.limit_switch_max_bit = 31;  // F§7.4 0x2105
   p.speed_unit = SpeedUnit::digits_per_s;  // F§7.4 0x3011
   p.speed_enable = ObjectRef{0x3010, 1};
-  p.cams_per_channel = 8;  // F§7.5 0x6300 "cams 1 to 8"
   p.has_alarms_warnings = false;  // F§4
-  p.scaling_on_bit_value = true;  // F§7.5 SFC
   p.event_timer_alias = ObjectRef{0x6200, 0};
-  p.node_id_object = ObjectRef{0x3000, 0};
-  p.node_id_encoding = NodeIdEncoding::minus_one;  // F§7.4
-  p.bitrate_object = ObjectRef{0x3001, 0};
-  p.bitrate_encoding = BitRateEncoding::ifm_index;
-  p.store = StoreSubs{1, 1, 1};  // F§7.3: 0x1010 has sub 1 only
-  p.save_with_reset = ObjectRef{0x2300, 0};
+  p.save_with_reset = ObjectRef{fam::kIfmSaveWithResetObject, 0};
   p.cams_stored = false;  // F§6.3.1 lists no 0x63xx object
   // F gives no entry limit; CiA 301 allows 64 one-bit entries in 8 bytes.
   p.max_pdo_entries = 64;
@@ -203,24 +196,22 @@ std::uint8_t FamilyProfile::decode_node_id(std::uint32_t value) const noexcept {
 
 std::optional<std::uint32_t> FamilyProfile::encode_bitrate(std::uint16_t kbit) const noexcept {
   if (bitrate_encoding == BitRateEncoding::ifm_index) {
-    const auto* it = std::find(kIfmBitRates.begin(), kIfmBitRates.end(), kbit);
-    if (it == kIfmBitRates.end()) return std::nullopt;
-    return static_cast<std::uint32_t>(it - kIfmBitRates.begin());
+    const auto it = std::find(bitrates.begin(), bitrates.end(), kbit);
+    if (it == bitrates.end()) return std::nullopt;
+    return static_cast<std::uint32_t>(it - bitrates.begin());
   }
-  if (std::find(kNovotechnikBitRates.begin(), kNovotechnikBitRates.end(), kbit) == kNovotechnikBitRates.end())
-    return std::nullopt;
+  if (std::find(bitrates.begin(), bitrates.end(), kbit) == bitrates.end()) return std::nullopt;
   return kbit;
 }
 
 std::optional<std::uint16_t> FamilyProfile::decode_bitrate(std::uint32_t value) const noexcept {
   if (bitrate_encoding == BitRateEncoding::ifm_index) {
-    if (value >= kIfmBitRates.size()) return std::nullopt;
-    return kIfmBitRates[value];
+    if (value >= bitrates.size()) return std::nullopt;
+    return bitrates[value];
   }
   if (value > 0xFFFFu) return std::nullopt;
   const auto kbit = static_cast<std::uint16_t>(value);
-  if (std::find(kNovotechnikBitRates.begin(), kNovotechnikBitRates.end(), kbit) == kNovotechnikBitRates.end())
-    return std::nullopt;
+  if (std::find(bitrates.begin(), bitrates.end(), kbit) == bitrates.end()) return std::nullopt;
   return kbit;
 }
 
@@ -238,9 +229,9 @@ bool FamilyProfile::is_error_position(std::int32_t position) const noexcept {
 }
 
 std::optional<canopen::DeviceFamily> family_from_name(std::string_view name) noexcept {
-  if (name == "novotechnik-rotary") return DeviceFamily::novotechnik_rotary;
-  if (name == "novotechnik-multiturn") return DeviceFamily::novotechnik_multiturn;
-  if (name == "ifm-rm") return DeviceFamily::ifm_rm;
+  if (name == fam::kNovotechnikRotary.name) return DeviceFamily::novotechnik_rotary;
+  if (name == fam::kNovotechnikMultiturn.name) return DeviceFamily::novotechnik_multiturn;
+  if (name == fam::kIfmRm.name) return DeviceFamily::ifm_rm;
   return std::nullopt;
 }
 
@@ -265,8 +256,7 @@ std::optional<FamilyProfile> family_profile_for(const DeviceDescription& descrip
     }
   }
   const std::uint32_t product = description.device_info.product_number;
-  const bool legacy = *family == DeviceFamily::novotechnik_rotary &&
-                      (product == kRsx7900Product || product == kRfx6900Product);
+  const bool legacy = *family == DeviceFamily::novotechnik_rotary && fam::is_legacy_rsx_rfx(product);
   return make_family_profile(*family, channels, legacy);
 }
 

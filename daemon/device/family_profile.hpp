@@ -5,6 +5,8 @@
 // parameters, how many CAMs a channel has, which semantic signal maps to which
 // object. Every fact cites the manual section it comes from (J = Novotechnik
 // rotary, E = Novotechnik multiturn, F = ifm RM8/RM9; see the device digest).
+// Identity, addressing, storage and scaling facts come from the family's
+// module in device/families; this adds the object-dictionary view.
 //
 // A profile is a small immutable value built from the EDS [Cobridge] Family
 // string (family_profile_for) or directly (make_family_profile). It is built
@@ -20,6 +22,9 @@
 #include "canopen/emcy.hpp"
 #include "config/config.hpp"
 #include "device/eds.hpp"
+#include "device/families/family.hpp"
+#include "device/families/ifm_rm.hpp"
+#include "device/families/novotechnik.hpp"
 
 namespace cobridge::device {
 
@@ -34,10 +39,10 @@ struct ObjectRef {
   return (std::uint32_t{object.index} << 16) | (std::uint32_t{object.sub} << 8) | bits;
 }
 
-// The 'save' signature of CiA 301 object 0x1010 (J§1.6.1, E§11, F§7.3).
-inline constexpr std::uint32_t kSaveSignature = 0x65766173;
-// F§6.3.4 / F§7.4 0x2300: the access code of "save parameters with reset".
-inline constexpr std::uint32_t kIfmSaveWithResetCode = 0x55AAAA55;
+// The 'save' signature of CiA 301 object 0x1010 and ifm's "save parameters
+// with reset" code: the families' facts (device/families).
+inline constexpr std::uint32_t kSaveSignature = families::kSaveSignature;
+inline constexpr std::uint32_t kIfmSaveWithResetCode = families::kIfmSaveWithResetCode;
 
 enum class SpeedUnit : std::uint8_t {
   deci_degree_per_s,  // 0.1 °/s (E§3.4; assumed for J, whose manual gives no unit)
@@ -64,11 +69,7 @@ enum class HeartbeatSupport : std::uint8_t {
 // 0x1010 sub-index that stores each group of parameters (J§1.10, E§11, F§6.3).
 // Communication parameters are stored with /2 rather than /1 on Novotechnik
 // because /1 sets the TPDO COB-IDs back to default (E§11 table, "D").
-struct StoreSubs {
-  std::uint8_t communication = 1;
-  std::uint8_t application = 1;
-  std::uint8_t node_id = 1;  // node-ID and bit rate
-};
+using StoreSubs = families::StoreSubs;
 
 // A CAM as the configuration numbers it (1..8) located on its channel.
 struct CamSlot {
@@ -126,6 +127,8 @@ struct FamilyProfile {
   NodeIdEncoding node_id_encoding = NodeIdEncoding::direct;
   ObjectRef bitrate_object{0x2001, 0};
   BitRateEncoding bitrate_encoding = BitRateEncoding::kbit_per_s;
+  // The bit rates the family offers, kbit/s (by index for ifm_index).
+  std::span<const std::uint16_t> bitrates = families::kNovotechnikBitRates;
   StoreSubs store;
   // 'save' is accepted in pre-operational only (J§1.10, E§11; F§6.1.1).
   bool store_only_pre_operational = true;
@@ -205,7 +208,7 @@ struct FamilyProfile {
                                                 bool legacy_rsx_rfx = false) noexcept;
 
 // From an EDS: the family from [Cobridge] Family, the channel count from the
-// default of 0x6020/0, RSX/RFX from the product code (0x0BCD, 0x0BE1).
+// default of 0x6020/0, RSX/RFX from the product code (families::is_legacy_rsx_rfx).
 // nullopt when the description names no known family.
 [[nodiscard]] std::optional<FamilyProfile> family_profile_for(const DeviceDescription& description) noexcept;
 

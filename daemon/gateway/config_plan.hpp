@@ -33,6 +33,7 @@
 #include <string>
 #include <vector>
 
+#include "base/error.hpp"
 #include "canopen/nmt.hpp"
 #include "config/config.hpp"
 #include "device/eds.hpp"
@@ -115,6 +116,9 @@ struct PlanError {
   bool out_of_range = false;  // the value is outside the object's type or EDS limits
   // "device 'lift': cam 5: the multiturn series has 4 CAMs (E§3.4)"
   [[nodiscard]] std::string to_string() const;
+  // The project's one error shape: kInvalidArgument, where = "device 'lift': cam 5",
+  // message = the reason.
+  [[nodiscard]] Error to_error() const;
 };
 
 struct ConfigPlanResult {

@@ -27,7 +27,7 @@ args=()
   [ "$web" = web ] && printf '[web]\nport = 8089\n'
   printf '[outputs.dds]\n[outputs.modbus]\nbind = "127.0.0.1"\nport = 1502\n[outputs.jsontap]\npath = "/dev/null"\n'
 } > "$work/rss.toml"
-"$build/tests/sim/app/cobridge-sim" --iface vcan0 "${args[@]}" --state-dir "$work/nv" > "$work/sim.log" 2>&1 &
+"$build/sim/app/cobridge-sim" --iface vcan0 "${args[@]}" --state-dir "$work/nv" > "$work/sim.log" 2>&1 &
 sim=$!
 "$build/daemon/cobridged" --foreground --config "$work/rss.toml" --plugin-dir "$build/lib/cobridge/plugins" > "$work/daemon.log" 2>&1 &
 daemon=$!

@@ -1,32 +1,42 @@
-// LSS abilities of the three families: see lss_families.hpp.
+// LSS abilities of the families: see lss_families.hpp.
 #include "gateway/discovery/lss_families.hpp"
 
-#include <algorithm>
+#include <vector>
+
+#include "device/families/novotechnik_rotary.hpp"
 
 namespace cobridge::gateway::discovery {
 
-bool is_pre_fastscan(std::uint32_t vendor, std::uint32_t product) noexcept {
-  return vendor == kVendorNovotechnik &&
-         std::find(kPreFastscanProducts.begin(), kPreFastscanProducts.end(), product) != kPreFastscanProducts.end();
-}
+namespace fam = device::families;
 
 namespace {
-bool is_novotechnik_multiturn(std::uint32_t vendor, std::uint32_t product) noexcept {
-  // E§4.1 and the pre-V03 codes of E§13.
-  return vendor == kVendorNovotechnik &&
-         (product == 0x0BB8 || product == 0x0BD5 || product == 0x0BB9 || product == 0x0BBC);
+std::vector<std::uint32_t> collect_pre_fastscan_products() {
+  std::vector<std::uint32_t> out;
+  for (const fam::Family* f : fam::all()) {
+    if (f->lss_fastscan) continue;
+    for (const fam::Model& m : f->models) out.insert(out.end(), m.products.begin(), m.products.end());
+  }
+  return out;
 }
 }  // namespace
 
+std::span<const std::uint32_t> pre_fastscan_products() noexcept {
+  static const std::vector<std::uint32_t> products = collect_pre_fastscan_products();
+  return products;
+}
+
+bool is_pre_fastscan(std::uint32_t vendor, std::uint32_t product) noexcept {
+  const fam::Family* f = fam::family_of(vendor, product);
+  return f != nullptr && !f->lss_fastscan;
+}
+
 std::optional<SdoNodeIdObject> sdo_node_id_object(const canopen::LssAddress& a) noexcept {
-  if (a.vendor == kVendorIfm) return SdoNodeIdObject{0x3000, 1, 1};  // F§7.4, F§6.3.3 (0x1010/1 only)
-  if (is_pre_fastscan(a.vendor, a.product)) {
-    // J§1.6.1: 0x1010/4, except RSX-7900 / RFX-6900 which use 0x1010/1.
-    const bool rsx_rfx = a.product == 0x0BCD || a.product == 0x0BE1;
-    return SdoNodeIdObject{0x2000, 0, static_cast<std::uint8_t>(rsx_rfx ? 1 : 4)};
-  }
-  if (is_novotechnik_multiturn(a.vendor, a.product)) return SdoNodeIdObject{0x2000, 0, 4};  // E§7.1, E§11
-  return std::nullopt;
+  const fam::Family* f = fam::family_of(a.vendor, a.product);
+  if (f == nullptr) return std::nullopt;
+  const fam::Addressing& how = f->addressing;
+  std::uint8_t save_sub = f->store.node_id;  // J§1.6.1, E§7.1 / E§11, F§6.3.3
+  if (f == &fam::kNovotechnikRotary && fam::is_legacy_rsx_rfx(a.product)) save_sub = fam::kRotaryLegacyNodeIdStoreSub;
+  return SdoNodeIdObject{how.node_id_index, how.node_id_offset, save_sub};
 }
 
 }  // namespace cobridge::gateway::discovery

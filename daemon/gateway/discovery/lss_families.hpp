@@ -1,25 +1,36 @@
-// What the three encoder families can do over LSS, and how to set the
-// node-ID by SDO where they cannot (digest G.6). To be replaced by
-// device::FamilyProfile (daemon/device/family_profile.hpp) once it exists.
+// What the encoder families can do over LSS, and how to set the node-ID by
+// SDO where they cannot (digest G.6): the discovery's view of the family
+// facts in device/families (which family is pre-Fastscan, which object holds
+// the node-ID, which 0x1010 sub-index stores it).
 //
 // Thread: any; constants only.
 #pragma once
 
 #include "canopen/lss.hpp"
+#include "device/families/family.hpp"
+#include "device/families/ifm_rm.hpp"
+#include "device/families/novotechnik.hpp"
 
-#include <array>
 #include <cstdint>
 #include <optional>
+#include <span>
 
 namespace cobridge::gateway::discovery {
 
-inline constexpr std::uint32_t kVendorNovotechnik = 0x00000182;  // J§1.2.1, E§4.1
-inline constexpr std::uint32_t kVendorIfm = 0x0069666D;          // F§7.3
+inline constexpr std::uint32_t kVendorNovotechnik = device::families::kNovotechnikVendor;
+inline constexpr std::uint32_t kVendorIfm = device::families::kIfmVendor;
 
-// The rotary series claims DSP-305 V1.1.2, older than Fastscan (digest Y.2):
-// these devices are separated by Slowscan. Product codes from J§1.2.1.
-inline constexpr std::array<std::uint32_t, 5> kPreFastscanProducts{0x0BE0, 0x0BF3, 0x0BBD, 0x0BCD, 0x0BE1};
+// A device of a family whose LSS is older than Fastscan (the rotary series
+// claims DSP-305 V1.1.2, digest Y.2): such devices are separated by Slowscan.
 [[nodiscard]] bool is_pre_fastscan(std::uint32_t vendor, std::uint32_t product) noexcept;
+// The product codes of the pre-Fastscan families, in registry order, as a
+// range (for (std::uint32_t p : kPreFastscanProducts)).
+[[nodiscard]] std::span<const std::uint32_t> pre_fastscan_products() noexcept;
+struct PreFastscanProducts {
+  [[nodiscard]] auto begin() const noexcept { return pre_fastscan_products().begin(); }
+  [[nodiscard]] auto end() const noexcept { return pre_fastscan_products().end(); }
+};
+inline constexpr PreFastscanProducts kPreFastscanProducts{};
 
 // The node-ID object of a family without (documented) LSS answers, and the
 // 0x1010 sub-index whose 'save' covers it.
@@ -30,7 +41,7 @@ struct SdoNodeIdObject {
 };
 [[nodiscard]] std::optional<SdoNodeIdObject> sdo_node_id_object(const canopen::LssAddress& a) noexcept;
 
-inline constexpr std::uint16_t kStoreObject = 0x1010;        // CiA 301 store parameters
-inline constexpr std::uint32_t kSaveSignature = 0x65766173;  // "save" (J§1.6.1, E§11, F§6.3.3)
+inline constexpr std::uint16_t kStoreObject = device::families::kStoreObject;
+inline constexpr std::uint32_t kSaveSignature = device::families::kSaveSignature;
 
 }  // namespace cobridge::gateway::discovery

@@ -4,7 +4,7 @@
 // time and online again when it speaks (issue 4, "Must show").
 //
 // The simulator is the build tree's: this binary lives in <build>/tests/, the
-// simulator in <build>/tests/sim/app/cobridge-sim.
+// simulator in <build>/sim/app/cobridge-sim.
 #include "gateway/bus_manager.hpp"
 
 #include "can/socketcan_channel.hpp"

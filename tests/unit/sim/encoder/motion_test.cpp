@@ -1,5 +1,5 @@
 // Motion grammar of the simulator (issue 3, DeviceSpec::motion in
-// tests/sim/device/sim_device.hpp). No manual section applies: the motion is
+// sim/device/sim_device.hpp). No manual section applies: the motion is
 // the simulated shaft, the manuals start at the sensor.
 #include "encoder/motion.hpp"
 

@@ -25,6 +25,7 @@
 #include "canopen/nmt.hpp"
 #include "canopen/object_dictionary.hpp"
 #include "device/eds.hpp"
+#include "device/families/family.hpp"
 
 #include <cstdint>
 #include <filesystem>
@@ -57,6 +58,8 @@ struct ModelInfo {
 // All models; find_model is case-insensitive. nullptr if unknown.
 [[nodiscard]] const ModelInfo* find_model(std::string_view name) noexcept;
 [[nodiscard]] std::string_view family_name(Family f) noexcept;
+// The family's facts (daemon/device/families): identity, bit rates, quirks.
+[[nodiscard]] const device::families::Family& family_facts(Family f) noexcept;
 // The whole table, for `--list-models` and the tests.
 [[nodiscard]] std::span<const ModelInfo> all_models() noexcept;
 
@@ -112,7 +115,7 @@ struct TruthRecord {
   std::uint32_t serial = 0;
   std::uint8_t node_id = 0;
   // As sent. SimDevice reads no clock, so it leaves timestamp_ns 0; the
-  // simulator (tests/sim/app) stamps it with CLOCK_REALTIME read in the truth
+  // simulator (sim/app) stamps it with CLOCK_REALTIME read in the truth
   // sink, i.e. right after the frame was written to the CAN socket.
   can::Frame frame;
   enum class Kind : std::uint8_t { tpdo, emcy, heartbeat, boot_up, sdo, lss, guard } kind = Kind::tpdo;

@@ -10,9 +10,6 @@ namespace cobridge::sim {
 
 namespace {
 
-constexpr std::array<std::uint16_t, 6> kNovotechnikRates{50, 125, 250, 500, 800, 1000};
-constexpr std::array<std::uint16_t, 8> kIfmRates{20, 50, 100, 125, 250, 500, 800, 1000};
-
 std::string quoted(std::string_view s) { return "'" + std::string(s) + "'"; }
 
 std::string rate_list(Family family) {
@@ -31,8 +28,7 @@ DeviceArgumentResult fail(std::string_view text, std::string message) {
 }  // namespace
 
 std::span<const std::uint16_t> family_bit_rates(Family family) noexcept {
-  if (family == Family::ifm_rm) return kIfmRates;
-  return kNovotechnikRates;
+  return family_facts(family).addressing.bitrates;  // J§1.2.2, E§3.1, F§7.4 0x3001
 }
 
 std::string_view to_string(LssProfile profile) noexcept {

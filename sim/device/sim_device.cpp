@@ -13,6 +13,7 @@
 
 #include "canopen/cob_id.hpp"
 #include "canopen/sync.hpp"
+#include "device/families/ifm_rm.hpp"
 #include "device/od_builder.hpp"
 #include "device/sim_device_impl.hpp"
 #include "device/storage.hpp"
@@ -91,8 +92,8 @@ std::optional<std::uint8_t> lss_index_for_kbit(std::uint16_t kbit) noexcept {
 }
 
 std::uint16_t ifm_kbit(std::uint8_t index) noexcept {
-  constexpr std::array<std::uint16_t, 8> kRates{20, 50, 100, 125, 250, 500, 800, 1000};
-  return index < kRates.size() ? kRates[index] : 0;
+  const auto& rates = device::families::kIfmBitRates;  // F§7.4 0x3001
+  return index < rates.size() ? rates[index] : 0;
 }
 
 std::optional<std::uint8_t> ifm_index_for_kbit(std::uint16_t kbit) noexcept {
@@ -100,6 +101,18 @@ std::optional<std::uint8_t> ifm_index_for_kbit(std::uint16_t kbit) noexcept {
     if (ifm_kbit(i) == kbit) return i;
   return std::nullopt;
 }
+
+namespace {
+// The node-ID object's value for `node` and back (F§7.4: ifm holds node-ID - 1,
+// keeping FFh, unconfigured, as FFh; Novotechnik the node-ID itself).
+std::uint8_t node_value(const device::families::Addressing& a, std::uint8_t node) noexcept {
+  return node == cob::kNodeIdUnconfigured ? node : static_cast<std::uint8_t>(node - a.node_id_offset);
+}
+std::uint8_t node_of_value(const device::families::Addressing& a, std::uint64_t raw) noexcept {
+  if (a.node_id_offset == 0) return static_cast<std::uint8_t>(raw);
+  return raw >= 0x7F ? cob::kNodeIdUnconfigured : static_cast<std::uint8_t>(raw + a.node_id_offset);
+}
+}  // namespace
 
 // ---------------------------------------------------------------------------
 // Construction
@@ -368,11 +381,8 @@ std::uint32_t SimDevice::Impl::kill(std::uint8_t store_sub) {
 }
 
 std::uint8_t SimDevice::Impl::node_from_od() const noexcept {
-  if (family == Family::ifm_rm) {
-    const std::uint8_t raw = od->get_u8(0x3000, 0).value_or(31);
-    return raw >= 0x7F ? cob::kNodeIdUnconfigured : static_cast<std::uint8_t>(raw + 1U);
-  }
-  return od->get_u8(0x2000, 0).value_or(factory_node);
+  const auto& a = family_facts(family).addressing;
+  return node_of_value(a, od->get_u8(a.node_id_index, 0).value_or(node_value(a, factory_node)));
 }
 
 std::uint16_t SimDevice::Impl::kbit_from_od() const noexcept {
@@ -381,12 +391,8 @@ std::uint16_t SimDevice::Impl::kbit_from_od() const noexcept {
 }
 
 void SimDevice::Impl::node_to_od(std::uint8_t node) noexcept {
-  if (family == Family::ifm_rm) {
-    // F§7.4: the object holds node-ID - 1; FFh (unconfigured) is kept as FFh.
-    (void)od->set_u8(0x3000, 0, node == cob::kNodeIdUnconfigured ? node : static_cast<std::uint8_t>(node - 1U));
-  } else {
-    (void)od->set_u8(0x2000, 0, node);
-  }
+  const auto& a = family_facts(family).addressing;
+  (void)od->set_u8(a.node_id_index, 0, node_value(a, node));
 }
 
 void SimDevice::Impl::kbit_to_od(std::uint16_t kbit) noexcept {
@@ -619,16 +625,13 @@ std::error_code SimDevice::Impl::power_on(TimePoint now) {
 
   // The node-ID the device boots with: what was stored, else the factory one.
   active_node = factory_node;
-  if (family == Family::ifm_rm) {
-    if (const auto raw = nv_data.params.get(0x3000, 0))
-      active_node = *raw >= 0x7F ? cob::kNodeIdUnconfigured : static_cast<std::uint8_t>(*raw + 1U);
-  } else if (const auto stored = nv_data.params.get(0x2000, 0)) {
-    active_node = static_cast<std::uint8_t>(*stored);
-  }
+  const auto& addressing = family_facts(family).addressing;
+  if (const auto stored = nv_data.params.get(addressing.node_id_index, 0))
+    active_node = node_of_value(addressing, *stored);
 
   if (const std::error_code ec = build_od(message)) return ec;
   load_parameters([](const device::ObjectDesc&) { return true; }, &nv_data.params);
-  if (!nv_data.params.get(family == Family::ifm_rm ? 0x3000 : 0x2000, 0)) node_to_od(factory_node);
+  if (!nv_data.params.get(addressing.node_id_index, 0)) node_to_od(factory_node);
   pending_node = active_node;
   active_kbit = pending_kbit = kbit_from_od();
 
@@ -786,11 +789,8 @@ canopen::LssAddress SimDevice::Impl::identity_of() const noexcept {
 canopen::LssStoreError SimDevice::Impl::lss_store(const canopen::LssSlave& s) {
   // J§1.5.3, E§6.3: store configuration persists node-ID and bit rate.
   const std::uint8_t node = s.pending_node_id();
-  if (family == Family::ifm_rm) {
-    nv_data.params.set(0x3000, 0, node == cob::kNodeIdUnconfigured ? node : static_cast<std::uint8_t>(node - 1U));
-  } else {
-    nv_data.params.set(0x2000, 0, node);
-  }
+  const auto& a = family_facts(family).addressing;
+  nv_data.params.set(a.node_id_index, 0, node_value(a, node));
   if (const auto bt = s.pending_bit_timing()) {
     const std::uint16_t kbit = canopen::lss_bit_rate_kbit(*bt);
     if (family == Family::ifm_rm) {

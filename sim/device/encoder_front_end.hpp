@@ -3,7 +3,7 @@
 //
 // This is the one place where the device turns motion into position, speed,
 // CAM and work-area values; the computations themselves are the encoder
-// library's (tests/sim/encoder: Motion, PositionPipeline, CamBank, WorkArea).
+// library's (sim/encoder: Motion, PositionPipeline, CamBank, WorkArea).
 // The device copies its object-dictionary values in with configure() after
 // every relevant write and reads a ChannelSample every 1 ms measuring cycle.
 // Thread: the device's thread; measure() is noexcept and allocation-free.

@@ -1,6 +1,6 @@
 // The simulated device's CAN controller: how it reacts to the bus state
 // the simulator announces with Linux CAN error frames (control `bus-error`,
-// tests/sim/app/bus_fault.hpp). The simulator's buses are vcan, which never
+// sim/app/bus_fault.hpp). The simulator's buses are vcan, which never
 // has errors, so the error frame stands for what every controller on the
 // real bus would have seen; each device goes through the CiA 301 fault
 // confinement states and reports them the way its manual says:

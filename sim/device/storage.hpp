@@ -14,14 +14,16 @@
 
 #include <cstdint>
 
+#include "device/families/family.hpp"
+#include "device/families/ifm_rm.hpp"
 #include "device/sim_device.hpp"
 
 namespace cobridge::sim {
 
-inline constexpr std::uint32_t kSignatureSave = 0x65766173;  // "save"
+inline constexpr std::uint32_t kSignatureSave = device::families::kSaveSignature;  // "save"
 inline constexpr std::uint32_t kSignatureLoad = 0x64616F6C;  // "load"
 inline constexpr std::uint32_t kSignatureKill = 0x6C6C696B;  // "kill" (J§1.10 V11, E§11)
-inline constexpr std::uint32_t kIfmSaveWithReset = 0x55AAAA55;  // F§6.3.4, 0x2300
+inline constexpr std::uint32_t kIfmSaveWithReset = device::families::kIfmSaveWithResetCode;  // F§6.3.4, 0x2300
 
 enum class Coverage : std::uint8_t { none, value, default_value };
 

@@ -1,0 +1,49 @@
+// The family registry: see family.hpp.
+#include "device/families/family.hpp"
+
+#include <algorithm>
+#include <array>
+
+#include "device/families/ifm_rm.hpp"
+#include "device/families/novotechnik_multiturn.hpp"
+#include "device/families/novotechnik_rotary.hpp"
+
+namespace cobridge::device::families {
+
+namespace {
+// A fourth family is one more entry here (docs/adding-a-device.md).
+constexpr std::array<const Family*, 3> kFamilies{&kNovotechnikRotary, &kNovotechnikMultiturn, &kIfmRm};
+}  // namespace
+
+bool Family::lists_product(std::uint32_t product) const noexcept {
+  return std::any_of(models.begin(), models.end(), [product](const Model& m) {
+    return std::find(m.products.begin(), m.products.end(), product) != m.products.end();
+  });
+}
+
+std::span<const Family* const> all() noexcept { return kFamilies; }
+
+const Family* find_family(std::string_view name) noexcept {
+  for (const Family* f : kFamilies) {
+    if (f->name == name) return f;
+  }
+  return nullptr;
+}
+
+const Family* family_of(std::uint32_t vendor, std::uint32_t product) noexcept {
+  for (const Family* f : kFamilies) {
+    if (f->vendor == vendor && (f->match_any_product || f->lists_product(product))) return f;
+  }
+  return nullptr;
+}
+
+ModelRef find_model(std::string_view name) noexcept {
+  for (const Family* f : kFamilies) {
+    for (const Model& m : f->models) {
+      if (m.name == name) return {f, &m};
+    }
+  }
+  return {};
+}
+
+}  // namespace cobridge::device::families

@@ -1,0 +1,34 @@
+// Novotechnik rotary sensors RFC-4800, RSA-3200, RFE-3200, RSX-7900,
+// RFX-6900 (manual J): identity, models and quirks.
+//
+// Quirks: LSS per DSP-305 V1.1.2, older than Fastscan (digest Y.2); node-ID
+// and bit rate stored with 0x1010/4, except RSX-7900 / RFX-6900 firmware
+// which stores them with /1 (J§1.6.1, J§1.12 V10); communication parameters
+// with /2 because /1 resets the TPDO COB-IDs (J§1.10); scaling on = 0x6000
+// bit 2 set (J§1.4.1); moving average in 0x6000 bits 14..12 (J§1.4.1).
+//
+// Thread contract: constants; any thread.
+#pragma once
+
+#include <cstdint>
+
+#include "device/families/family.hpp"
+
+namespace cobridge::device::families {
+
+// J§1.2.1 product codes (0x1018/2).
+inline constexpr std::uint32_t kRfc4800Product = 0x0BE0;
+inline constexpr std::uint32_t kRsa3200Product = 0x0BF3;
+inline constexpr std::uint32_t kRfe3200Product = 0x0BBD;
+inline constexpr std::uint32_t kRsx7900Product = 0x0BCD;
+inline constexpr std::uint32_t kRfx6900Product = 0x0BE1;
+
+// J§1.6.1 / J§1.12 V10: RSX-7900 / RFX-6900 store the node-ID with 0x1010/1.
+inline constexpr std::uint8_t kRotaryLegacyNodeIdStoreSub = 1;
+
+extern const Family kNovotechnikRotary;
+
+// J§1.12 V10: the product runs the RSX-7900 / RFX-6900 firmware rules.
+[[nodiscard]] bool is_legacy_rsx_rfx(std::uint32_t product) noexcept;
+
+}  // namespace cobridge::device::families
