@@ -46,6 +46,8 @@ int main(int argc, char** argv) {
     c->add_flag("--string", sdo_o.as_string, "treat the value as text");
     c->add_option("--timeout-ms", sdo_o.timeout_ms, "SDO timeout")->capture_default_str();
     c->add_flag("--json", sdo_o.json, "machine-readable output");
+    c->add_option("--control", sdo_o.control, "daemon control socket (used when a daemon owns the bus)")
+        ->capture_default_str();
   }
   sdo_w->add_option("value", sdo_o.value, "value: decimal, 0x-hex, or text with --string")->required();
   sdo_w->add_option("-s,--size", sdo_o.size, "bytes to write: 1, 2 or 4 (default 4)");
@@ -55,6 +57,9 @@ int main(int argc, char** argv) {
   nmt_c->add_option("-i,--iface", nmt_o.iface, "CAN interface")->required();
   nmt_c->add_option("command", nmt_o.command, "start, stop, preop, reset, reset-comm")->required();
   nmt_c->add_option("node", nmt_o.node, "1..127 or all")->required();
+  nmt_c->add_flag("--json", nmt_o.json, "machine-readable output");
+  nmt_c->add_option("--control", nmt_o.control, "daemon control socket (used when a daemon owns the bus)")
+      ->capture_default_str();
 
   LssSetNodeOptions lss_o;
   auto* lss_c = app.add_subcommand("lss", "layer setting services (CiA 305)");
@@ -69,6 +74,8 @@ int main(int argc, char** argv) {
   lss_set->add_flag("!--no-store", lss_o.store, "do not store the node-ID in the device");
   lss_set->add_option("--timeout-ms", lss_o.timeout_ms, "LSS answer timeout")->capture_default_str();
   lss_set->add_flag("--json", lss_o.json, "machine-readable output");
+  lss_set->add_option("--control", lss_o.control, "daemon control socket (used when a daemon owns the bus)")
+      ->capture_default_str();
 
   StatusOptions status_o;
   auto* status_c = app.add_subcommand("status", "show the running daemon's buses, devices, step timings and counters");

@@ -2,6 +2,7 @@
 #include "config/toml_limits.hpp"
 
 #include "config/known_models.hpp"
+#include "config/remote_access_section.hpp"
 #include "config/table_reader.hpp"
 #include "sys/install_paths.hpp"
 
@@ -116,13 +117,14 @@ class Loader {
       return LoadResult(sink_.take_sorted());
     }
     TableReader top(root, "the top level", "", "", sink_);
-    top.check_keys({"gateway", "logging", "bus", "device", "outputs", "web"});
+    top.check_keys({"gateway", "logging", "bus", "device", "outputs", "web", "control", "ascii_gateway"});
     read_gateway(top);
     read_logging(top);
     read_tables(root, "bus", &Loader::read_bus);
     read_tables(root, "device", &Loader::read_device);
     read_outputs(top);
     read_web(top);
+    read_remote_access(top, sink_, config_.remote);
     cross_check();
     if (!sink_.empty()) return LoadResult(sink_.take_sorted());
     config_.source = sink_.file();
