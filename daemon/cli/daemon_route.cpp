@@ -14,8 +14,9 @@ Errc kind_named(const std::string& text) {
   return Errc::kFailed;
 }
 
-// The Error of a {"ok":false,"error":{...}} answer.
-Error error_of(const Json& doc) {
+}  // namespace
+
+Error error_of_answer(const Json& doc) {
   const Json& e = doc["error"];
   if (e.type == Json::Type::string) return Error(Errc::kFailed, e.text);  // an older daemon
   Error out(kind_named(e["code"].str("failed")), e["message"].str(""), e["where"].str(""));
@@ -25,7 +26,7 @@ Error error_of(const Json& doc) {
   return out;
 }
 
-}  // namespace
+namespace {}  // namespace
 
 std::optional<std::pair<Error, DaemonAnswer>> via_daemon(const std::string& control, const std::string& line,
                                                          int timeout_ms) {
@@ -45,7 +46,7 @@ std::optional<std::pair<Error, DaemonAnswer>> via_daemon(const std::string& cont
     return std::pair{Error(Errc::kInternal, "the daemon's answer is not a JSON object: " + perr, control), a};
   a.doc = std::move(*doc);
   if (a.doc["ok"].type == Json::Type::boolean && a.doc["ok"].boolean) return std::pair{Error{}, std::move(a)};
-  Error e = error_of(a.doc);
+  Error e = error_of_answer(a.doc);
   // A daemon that serves other buses does not own this one.
   if (e.kind == Errc::kNotFound && e.where.empty() && e.message.find("serves no bus") != std::string::npos)
     return std::nullopt;

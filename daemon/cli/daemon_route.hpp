@@ -36,6 +36,9 @@ struct DaemonAnswer {
 std::optional<std::pair<Error, DaemonAnswer>> via_daemon(const std::string& control, const std::string& line,
                                                          int timeout_ms);
 
+// The Error of a {"ok":false,"error":{...}} answer (also an older daemon's {"error":"..."}).
+Error error_of_answer(const Json& doc);
+
 // Prints a failure of command `what` (text on stderr, or JSON on stdout) and
 // returns its exit code.
 int report_failure(const char* what, const Error& error, bool json);

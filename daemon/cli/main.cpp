@@ -33,6 +33,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 127));
   scan_c->add_option("--devices-dir", scan_o.devices_dir, "EDS directory used to name models");
   scan_c->add_flag("--json", scan_o.json, "machine-readable output");
+  scan_c->add_option("--control", scan_o.control, "daemon control socket (its view is shown when it owns the bus)")
+      ->capture_default_str();
 
   SdoOptions sdo_o;
   auto* sdo_c = app.add_subcommand("sdo", "read or write one object of one node (CiA 301 SDO)");

@@ -1,6 +1,7 @@
 #include "cli/status_command.hpp"
 
 #include "cli/control_client.hpp"
+#include "cli/daemon_route.hpp"
 #include "cli/json_value.hpp"
 
 #include <sys/socket.h>
@@ -105,20 +106,13 @@ void print_table(const Json& doc) {
 int status(const StatusOptions& o) {
   std::string error;
   const auto answer = request(o.control, "status", o.timeout_ms, error);
-  if (!answer) {
-    std::fprintf(stderr, "cobridge: status: %s\n", error.c_str());
-    return 1;
-  }
+  if (!answer) return report_failure("status", Error(Errc::kUnavailable, error), o.json);
   const auto doc = JsonParser(*answer).parse(error);
   if (!doc || doc->type != Json::Type::object) {
-    std::fprintf(stderr, "cobridge: status: the daemon's answer is not a JSON object: %s\n",
-                 doc ? "wrong type" : error.c_str());
-    return 1;
+    return report_failure("status", Error(Errc::kInternal, std::string("the daemon's answer is not a JSON object: ") +
+                                                         (doc ? "wrong type" : error)), o.json);
   }
-  if (!(*doc)["error"].is_null()) {
-    std::fprintf(stderr, "cobridge: status: the daemon refused: %s\n", (*doc)["error"].str().c_str());
-    return 1;
-  }
+  if (!(*doc)["error"].is_null()) return report_failure("status", error_of_answer(*doc), o.json);
   if (o.json) {
     std::printf("%s\n", answer->c_str());
   } else {
@@ -131,15 +125,11 @@ int commission(const CommissionOptions& o) {
   std::string error;
   const std::string line = o.bus.empty() ? "commission" : "commission " + o.bus;
   const auto answer = request(o.control, line, o.timeout_ms, error);
-  if (!answer) {
-    std::fprintf(stderr, "cobridge: commission: %s\n", error.c_str());
-    return 1;
-  }
+  if (!answer) return report_failure("commission", Error(Errc::kUnavailable, error), o.json);
   const auto doc = JsonParser(*answer).parse(error);
   if (!doc || doc->type != Json::Type::object) {
-    std::fprintf(stderr, "cobridge: commission: the daemon's answer is not a JSON object: %s\n",
-                 doc ? "wrong type" : error.c_str());
-    return 1;
+    return report_failure("commission", Error(Errc::kInternal, std::string("the daemon's answer is not a JSON object: ") +
+                                                             (doc ? "wrong type" : error)), o.json);
   }
   const bool ok = (*doc)["error"].is_null();
   if (o.json) {
@@ -150,8 +140,9 @@ int commission(const CommissionOptions& o) {
     std::printf("commissioning requested on %s; follow it with `cobridge status`\n", buses.c_str());
   }
   if (!ok) {
-    std::fprintf(stderr, "cobridge: commission: %s\n", (*doc)["error"].str().c_str());
-    return 1;
+    const Error e = error_of_answer(*doc);
+    if (!o.json) std::fprintf(stderr, "cobridge: commission: %s\n", e.to_string().c_str());
+    return exit_code(e.kind);
   }
   return 0;
 }

@@ -65,6 +65,8 @@ bool RemoteExecutor::lss_session(TimePoint now) const noexcept {
 void RemoteExecutor::on_frame(const can::Frame& frame, TimePoint now) {
   if (!active_) return;
   if (active_->cmd.op == RemoteOp::lss) {
+    if (frame.id == canopen::cob::kLssSlaveToMaster)
+      sys::logger("gateway")->debug("bus {}: LSS answer {:02X} for a client", bus_, frame.data[0]);
     lss_.on_frame(frame, now);
     return;
   }

@@ -3,6 +3,8 @@
 // manager learns (RemoteGate::on_lss_node_id).
 #include "gateway/remote/remote_executor.hpp"
 
+#include "sys/logging.hpp"
+
 namespace cobridge::gateway {
 namespace {
 
@@ -60,6 +62,7 @@ void RemoteExecutor::start_lss_step(TimePoint now, RemoteGate& gate) {
       ec = lss_.inquire(inquiry(s.kind), now);
       break;
   }
+  sys::logger("gateway")->debug("bus {}: client LSS step {} started: {}", bus_, lss_step_, ec ? ec.message() : "ok");
   if (ec) lss_step_done(ec, 0, now, gate);
 }
 

@@ -47,7 +47,7 @@ def cli_read(args, node, obj, control, timeout=40):
 
 
 def counters(daemon):
-    b = daemon.status()["buses"][0]
+    b = daemon.status()["buses"][0].get("counters", {})
     return {k: b.get(k, 0) for k in ("ring_drops", "hot_kernel_drops", "rx_overflow_drops", "hot_rx_frames")}
 
 
@@ -127,6 +127,18 @@ def load_phase(report, args, ws, daemon, sim, listener, expected):
                  "%r, %d TPDO frames decoded in %.0f s" % (drops, decoded, took))
 
 
+def scan_phase(report, args, ws):
+    rc, out, err = e2e.run_cli(args.cli, "scan", "-i", "vcan0", "--json", "--control", ws.control)
+    try:
+        doc = json.loads(out)
+    except ValueError:
+        doc = {}
+    report.check(rc == 0 and doc.get("via") == "daemon" and len(doc.get("devices", [])) == 4,
+                 "scan on the daemon's bus shows its discovery (no second master's probe)", out.strip()[:200])
+    rc, out, err = e2e.run_cli(args.cli, "scan", "-i", "vcan0", "--assign-from", "40", "--control", ws.control)
+    report.check(rc == 5, "scan --assign-from on the daemon's bus refused (exit code 5)", err.strip())
+
+
 def access_phase(report, args, ws, daemon, config, devices, bus):
     rc, out, err = e2e.run_cli(args.cli, "sdo", "write", "-i", "vcan0", "-n", "20", "1017:0", "100", "--size", "2",
                                "--json", "--control", ws.control)
@@ -195,6 +207,7 @@ def main():
                 report.check(rc == 0 and doc.get("via") == "daemon", "node %d %s read through the daemon" % (node, obj),
                              "%s %s" % (doc, err))
         report.check(expected[(10, "1018:4")] == "E9030000", "node 10 serial is 1001", str(expected[(10, "1018:4")]))
+        scan_phase(report, args, ws)
         load_phase(report, args, ws, daemon, sim, listener, expected)
         access_phase(report, args, ws, daemon, config, devices, bus)
         if report.failed:
