@@ -998,6 +998,7 @@ struct BusManager::Impl final : RemoteGate {
         // replacement part); its `identified` event restarts the plan.
         m->boot_up_at = now;
         m->started = false;
+        m->operator_hold = false;  // a restarted device is started again, whoever stopped it before
         drop_runner(*m, "the device rebooted");
         m->ident.reset();
         // Should discovery's re-identification not come, configure it anyway
