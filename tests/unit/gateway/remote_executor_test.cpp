@@ -56,7 +56,7 @@ gw::RemoteCommand upload(std::uint8_t node) {
   return c;
 }
 
-struct Fixture : ::testing::Test {
+struct RemoteExecutorTest : ::testing::Test {
   Recorder bus;
   Gate gate;
   gw::RemoteExecutor ex{bus, "line1", 100ms};
@@ -68,7 +68,7 @@ struct Fixture : ::testing::Test {
 
 // Rule: a command never interleaves with the daemon's own work on the node:
 // nothing is sent while the gate says the node is busy, and it starts once free.
-TEST_F(Fixture, WaitsForABusyNodeThenReads) {
+TEST_F(RemoteExecutorTest, WaitsForABusyNodeThenReads) {
   gate.busy.insert(10);
   ex.add(upload(10), replies, t0);
   ex.process(t0, gate);
@@ -93,7 +93,7 @@ TEST_F(Fixture, WaitsForABusyNodeThenReads) {
 // CiA 301 §7.2.8.3.3: a boot-up mid-transfer ends the transfer in the device;
 // the read starts again once the node is free, and the abort a reboot would
 // cause never reaches the client.
-TEST_F(Fixture, BootUpMidTransferRestartsTheRead) {
+TEST_F(RemoteExecutorTest, BootUpMidTransferRestartsTheRead) {
   gate.supervised.insert(10);
   ex.add(upload(10), replies, t0);
   ex.process(t0, gate);
@@ -115,7 +115,7 @@ TEST_F(Fixture, BootUpMidTransferRestartsTheRead) {
 }
 
 // CiA 301 §7.2.4.3.17: a device's abort is the answer (exit code 1, the code kept).
-TEST_F(Fixture, DeviceAbortIsReportedWithItsCode) {
+TEST_F(RemoteExecutorTest, DeviceAbortIsReportedWithItsCode) {
   ex.add(upload(10), replies, t0);
   ex.process(t0, gate);
   ex.on_frame(frame(0x58A, {0x80, 0x18, 0x10, 0x04, 0x00, 0x00, 0x02, 0x06}), t0 + 1ms);
@@ -128,7 +128,7 @@ TEST_F(Fixture, DeviceAbortIsReportedWithItsCode) {
 
 // Silence from a node no configured device holds is a timeout at once (no
 // reboot to wait for).
-TEST_F(Fixture, SilenceFromAnUnknownNodeIsATimeout) {
+TEST_F(RemoteExecutorTest, SilenceFromAnUnknownNodeIsATimeout) {
   ex.add(upload(99), replies, t0);
   ex.process(t0, gate);
   ex.process(t0 + 150ms, gate);
@@ -138,7 +138,7 @@ TEST_F(Fixture, SilenceFromAnUnknownNodeIsATimeout) {
 }
 
 // A node that stays busy past the deadline: a timeout naming why.
-TEST_F(Fixture, DeadlineWhileWaitingIsATimeout) {
+TEST_F(RemoteExecutorTest, DeadlineWhileWaitingIsATimeout) {
   gate.busy.insert(10);
   ex.add(upload(10), replies, t0);
   ex.process(t0 + 2001ms, gate);
@@ -149,7 +149,7 @@ TEST_F(Fixture, DeadlineWhileWaitingIsATimeout) {
 }
 
 // A command for a busy node does not hold up one for another node.
-TEST_F(Fixture, BusyNodeDoesNotBlockOthers) {
+TEST_F(RemoteExecutorTest, BusyNodeDoesNotBlockOthers) {
   gate.busy.insert(10);
   ex.add(upload(10), replies, t0);
   ex.add(upload(20), replies, t0);
@@ -159,7 +159,7 @@ TEST_F(Fixture, BusyNodeDoesNotBlockOthers) {
 }
 
 // CiA 301 §7.2.8.3.1: NMT is one frame 0x000 [cs, node]; the gate learns it.
-TEST_F(Fixture, NmtIsSentAndReported) {
+TEST_F(RemoteExecutorTest, NmtIsSentAndReported) {
   gw::RemoteCommand c;
   c.op = gw::RemoteOp::nmt;
   c.nmt = cobridge::canopen::NmtCommand::stop;
