@@ -16,8 +16,9 @@ Cyclone DDS and in Modbus TCP registers.
 
 The package holds the daemon (a systemd Type=notify service running as
 user cobridge), the command-line tool cobridge, the simulator cobridge-sim,
-the DDS and Modbus output plugins, the device descriptions (EDS) and the
-IDL of the DDS topics.")
+the DDS and Modbus output plugins, the device descriptions (EDS), the
+IDL of the DDS topics, and the plugin SDK (cobridge/plugin.h, cobridge/emcy.h,
+libcobridge_sdk.a and its CMake package cobridge-sdk) for out-of-tree plugins.")
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)  # cobridge_<version>_<arch>.deb
 set(CPACK_DEBIAN_PACKAGE_RELEASE "")
 set(CPACK_DEBIAN_PACKAGE_SECTION net)

@@ -190,6 +190,7 @@ void write_bus(JsonWriter& w, const BusStatus& b) {
   w.field("name", b.name);
   w.field("interface", b.interface);
   w.field("open", b.open);
+  w.field("bitrate_kbit", std::uint64_t{b.bitrate_kbit});
   w.field("last_bus_event", b.last_bus_event);
   w.key("counters");
   w.begin_object();
@@ -235,6 +236,24 @@ void write_bus(JsonWriter& w, const BusStatus& b) {
 
 }  // namespace
 
+// What each output plugin reports of itself (ABI 3 stats): Modbus clients
+// connected, DDS writers, ...
+void write_outputs(JsonWriter& w, const std::vector<pipeline::OutputStats>& outputs) {
+  w.begin_array();
+  for (const auto& o : outputs) {
+    w.begin_object();
+    w.field("instance", o.instance);
+    w.field("type", o.type);
+    w.field("running", o.running);
+    w.key("figures");
+    w.begin_object();
+    for (const auto& f : o.figures) w.field(f.name, f.value);
+    w.end_object();
+    w.end_object();
+  }
+  w.end_array();
+}
+
 std::string to_json(const StatusReport& report) {
   JsonWriter w;
   w.begin_object();
@@ -259,6 +278,8 @@ std::string to_json(const StatusReport& report) {
   w.begin_array();
   for (const auto& b : report.buses) write_bus(w, b);
   w.end_array();
+  w.key("outputs");
+  write_outputs(w, report.outputs);
   w.end_object();
   return w.take();
 }

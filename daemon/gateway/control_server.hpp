@@ -47,6 +47,7 @@
 #include "gateway/remote/peer_credentials.hpp"
 #include "gateway/remote/remote_replies.hpp"
 #include "gateway/remote/remote_target.hpp"
+#include "pipeline/plugin_host.hpp"
 
 #include <poll.h>
 #include <sys/types.h>
@@ -70,6 +71,7 @@ struct StatusReport {
   WallTime started{};
   std::string config_file;
   std::vector<BusStatus> buses;
+  std::vector<pipeline::OutputStats> outputs;  // each output plugin's own figures
 };
 
 // What a control command did: ok, or the reason it was refused.

@@ -91,6 +91,7 @@ struct BusStatus {
   std::string name;
   std::string interface;
   bool open = false;
+  std::uint16_t bitrate_kbit = 0;     // the configured bit rate (the page's bus load)
   std::string last_bus_event;         // e.g. "bus-off", "interface down"
   std::uint64_t rx_frames = 0;
   std::uint64_t tx_frames = 0;

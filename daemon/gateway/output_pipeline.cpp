@@ -154,6 +154,7 @@ void OutputPipeline::add_live_status(std::size_t bus_index, BusStatus& status, s
   if (bus_index >= buses_.size()) return;
   const Bus& bus = *buses_[bus_index];
   const pipeline::ReceiverStats hot = bus.receiver->stats();
+  if (const auto cfg = config_.get(); bus_index < cfg->buses.size()) status.bitrate_kbit = cfg->buses[bus_index].bitrate_kbit;
   status.unknown_node_frames = hot.decoder.unknown_node;
   status.ring_drops = hot.ring_drops;
   status.hot_rx_frames = hot.decoder.frames;

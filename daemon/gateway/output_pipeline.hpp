@@ -72,6 +72,8 @@ class OutputPipeline {
   // (they are refused as offline).
   void set_command_target(std::size_t bus_index, BusManager* target) noexcept;
   [[nodiscard]] std::size_t plugins_running() const noexcept { return host_.loaded_count(); }
+  // Any thread: each output's own figures (Modbus clients, DDS writers, ...).
+  [[nodiscard]] std::vector<pipeline::OutputStats> output_stats() const { return host_.stats(); }
   [[nodiscard]] pipeline::ReceiverStats receiver_stats(std::size_t bus_index) const;
   // Adds what the hot path knows to a bus manager's status: its counters and
   // each device's last values, heartbeat age and stale flag (ages against

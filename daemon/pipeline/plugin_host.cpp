@@ -2,9 +2,11 @@
 
 #include <dlfcn.h>
 
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdio>
+#include <string_view>
 #include <utility>
 
 namespace cobridge::pipeline {
@@ -96,6 +98,16 @@ void SharedLibrary::close() noexcept {
 // ---------------------------------------------------------------------------
 // PluginHost
 
+namespace {
+// [a-z][a-z0-9_]*: it becomes part of a Prometheus metric name.
+bool valid_stat_name(std::string_view name) {
+  if (name.empty() || name.size() > 64 || name[0] < 'a' || name[0] > 'z') return false;
+  for (const char c : name)
+    if (!((c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_')) return false;
+  return true;
+}
+}  // namespace
+
 struct PluginHost::Instance {
   PluginHost* owner = nullptr;
   std::string name;
@@ -110,6 +122,8 @@ struct PluginHost::Instance {
   void (*destroy)(void*) = nullptr;
   void (*on_samples)(void*, const cobridge_sample*, std::size_t) = nullptr;
   void (*on_device)(void*, const cobridge_device_info*) = nullptr;
+  std::size_t (*stats)(void*, cobridge_stat*, std::size_t) = nullptr;
+  std::string type;
   bool started = false;
 };
 
@@ -240,10 +254,13 @@ std::error_code PluginHost::load(const PluginSpec& spec, PluginError* error) {
   p->destroy = ops->destroy;
   p->on_samples = ops->on_samples;
   if (covers(size, offsetof(cobridge_plugin_ops, on_device))) p->on_device = ops->on_device;
+  if (covers(size, offsetof(cobridge_plugin_ops, stats))) p->stats = ops->stats;
 
   const char* type = ops->name != nullptr ? ops->name : "?";
+  p->type = type;
   options_.log(LogLevel::kInfo, p->name,
                "loaded " + p->file.string() + " (plugin " + type + ", ABI " + std::to_string(ops->abi_version) + ")");
+  const std::lock_guard lock(roster_mutex_);
   plugins_.push_back(std::move(p));
   return {};
 }
@@ -258,6 +275,7 @@ std::vector<PluginError> PluginHost::load_all(std::span<const PluginSpec> specs)
 }
 
 std::vector<PluginError> PluginHost::start_all() {
+  const std::lock_guard lock(roster_mutex_);
   std::vector<PluginError> errors;
   for (auto it = plugins_.begin(); it != plugins_.end();) {
     Instance& p = **it;
@@ -295,6 +313,7 @@ void PluginHost::announce(const cobridge_device_info& info) noexcept {
 }
 
 void PluginHost::stop_all() noexcept {
+  const std::lock_guard lock(roster_mutex_);
   for (auto it = plugins_.rbegin(); it != plugins_.rend(); ++it) {
     Instance& p = **it;
     if (p.started) {
@@ -317,6 +336,7 @@ void PluginHost::unload(Instance& p) noexcept {
 
 void PluginHost::unload_all() noexcept {
   stop_all();
+  const std::lock_guard lock(roster_mutex_);
   while (!plugins_.empty()) {
     unload(*plugins_.back());
     plugins_.pop_back();
@@ -327,6 +347,25 @@ std::size_t PluginHost::started_count() const noexcept {
   std::size_t n = 0;
   for (const auto& p : plugins_) n += p->started ? 1u : 0u;
   return n;
+}
+
+std::vector<OutputStats> PluginHost::stats() const {
+  const std::lock_guard lock(roster_mutex_);
+  std::vector<OutputStats> out;
+  std::array<cobridge_stat, kMaxStats> figures{};
+  for (const auto& p : plugins_) {
+    OutputStats o{p->name, p->type, p->started, {}};
+    if (p->started && p->stats != nullptr) {
+      const std::size_t n = std::min(p->stats(p->self, figures.data(), figures.size()), figures.size());
+      for (std::size_t i = 0; i < n; ++i) {
+        const cobridge_stat& f = figures[i];
+        if (f.name == nullptr || !valid_stat_name(f.name)) continue;  // a name that cannot be a metric
+        o.figures.push_back({f.name, f.help != nullptr ? f.help : "", f.kind == COBRIDGE_STAT_COUNTER, f.value});
+      }
+    }
+    out.push_back(std::move(o));
+  }
+  return out;
 }
 
 std::vector<std::string> PluginHost::instances() const {

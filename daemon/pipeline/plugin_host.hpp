@@ -26,6 +26,7 @@
 #include <filesystem>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <span>
 #include <string>
 #include <string_view>
@@ -101,8 +102,24 @@ enum class LogLevel : int {
   kCritical = COBRIDGE_LOG_CRITICAL,
 };
 
+// What one output instance reports about itself (ABI 3 ops->stats).
+struct OutputFigure {
+  std::string name;  // [a-z][a-z0-9_]*
+  std::string help;
+  bool counter = false;
+  std::uint64_t value = 0;
+};
+struct OutputStats {
+  std::string instance;
+  std::string type;
+  bool running = false;
+  std::vector<OutputFigure> figures;
+};
+
 class PluginHost {
  public:
+  static constexpr std::size_t kMaxStats = 16;  // figures read per instance
+
   // Receives plugin log lines (host->log); must be thread-safe. main wires
   // it to the "gateway" logger; the default writes to stderr.
   using LogSink = std::function<void(LogLevel level, std::string_view instance, std::string_view message)>;
@@ -148,6 +165,9 @@ class PluginHost {
 
   [[nodiscard]] std::size_t loaded_count() const noexcept { return plugins_.size(); }
   [[nodiscard]] std::size_t started_count() const noexcept;
+  // Any thread (status page, /metrics, `cobridge status`): each instance's
+  // own figures, in load order; waits while start/stop change the roster.
+  [[nodiscard]] std::vector<OutputStats> stats() const;
   // Instance names in load order.
   [[nodiscard]] std::vector<std::string> instances() const;
 
@@ -165,6 +185,10 @@ class PluginHost {
   // unique_ptr: each instance's cobridge_host_api must keep its address, the
   // plugin may hold on to it until destroy.
   std::vector<std::unique_ptr<Instance>> plugins_;
+  // Guards the roster (plugins_ and each `started`) against stats() from a
+  // control-plane thread; deliver()/announce() on the dispatcher never take
+  // it: the roster does not change while the dispatcher runs.
+  mutable std::mutex roster_mutex_;
 };
 
 }  // namespace cobridge::pipeline

@@ -4,6 +4,9 @@
 #include <chrono>
 #include <cstdio>
 #include <functional>
+#include <map>
+#include <string>
+#include <vector>
 
 namespace cobridge::web {
 namespace {
@@ -74,6 +77,24 @@ class Writer {
   std::string name_;
 };
 
+// The outputs' own figures (ABI 3 stats), one family per figure name: a name
+// two plugins both report (e.g. two Modbus instances) is one family with an
+// `output` label each, as the format wants.
+void output_families(Writer& w, const std::vector<pipeline::OutputStats>& outputs) {
+  w.family("cobridge_output_up", "gauge", "1 while the output plugin instance runs.");
+  for (const auto& o : outputs) w.sample({{"output", o.instance}, {"type", o.type}}, o.running ? 1 : 0);
+  std::map<std::string, std::vector<std::pair<const pipeline::OutputStats*, const pipeline::OutputFigure*>>> by_name;
+  for (const auto& o : outputs)
+    for (const auto& f : o.figures) by_name[f.name].emplace_back(&o, &f);
+  for (const auto& [name, samples] : by_name) {
+    const pipeline::OutputFigure& first = *samples.front().second;
+    const std::string metric = "cobridge_output_" + name + (first.counter ? "_total" : "");
+    w.family(metric, first.counter ? "counter" : "gauge", first.help.empty() ? "An output's own figure." : first.help);
+    for (const auto& [o, f] : samples)
+      w.sample({{"output", o->instance}, {"type", o->type}}, static_cast<double>(f->value));
+  }
+}
+
 std::string node_label(const DeviceStatus& d) { return d.node_id == 0 ? std::string() : std::to_string(d.node_id); }
 
 }  // namespace
@@ -95,6 +116,8 @@ std::string render_metrics(const gateway::StatusReport& report) {
   };
   w.family("cobridge_bus_open", "gauge", "1 while the bus's CAN interface is open.");
   for (const auto& b : report.buses) w.sample({{"bus", b.name}, {"interface", b.interface}}, b.open ? 1 : 0);
+  per_bus("cobridge_bus_bitrate", "gauge", "The bus's configured bit rate, bit/s.",
+          [](const BusStatus& b) { return static_cast<double>(b.bitrate_kbit) * 1000.0; });
   // Each bus has two sockets (docs/architecture.md): the hot path's and the control plane's.
   auto per_socket = [&](std::string_view name, std::string_view help, std::uint64_t BusStatus::*hot,
                         std::uint64_t BusStatus::*control) {
@@ -187,6 +210,7 @@ std::string render_metrics(const gateway::StatusReport& report) {
                v = d.values.speed;
                return d.values.present && d.values.has_speed;
              });
+  output_families(w, report.outputs);
   return w.take();
 }
 

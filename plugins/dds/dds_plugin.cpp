@@ -255,6 +255,7 @@ constexpr cobridge_plugin_ops kOps = {
     &dds_destroy,
     &dds_on_samples,
     &dds_on_device,
+    nullptr,  // stats (ABI 3)
 };
 
 }  // namespace

@@ -363,6 +363,7 @@ constexpr cobridge_plugin_ops kOps = {
     &tap_destroy,
     &tap_on_samples,
     &tap_on_device,
+    nullptr,  // stats: the tap reports nothing of its own
 };
 
 }  // namespace

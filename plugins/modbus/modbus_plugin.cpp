@@ -133,9 +133,31 @@ void modbus_on_device(void* self, const cobridge_device_info* info) {
   p->image->apply(*info);
 }
 
+// ABI 3: what the status page and /metrics show of this output. Control-plane
+// thread; the server's counters are atomics, so this only loads them.
+std::size_t modbus_stats(void* self, cobridge_stat* out, std::size_t max) {
+  const auto* p = static_cast<const Plugin*>(self);
+  if (!p->server) return 0;
+  const ServerStats s = p->server->stats();
+  const cobridge_stat figures[] = {
+      {"modbus_clients_connected", "Modbus TCP connections open now.", COBRIDGE_STAT_GAUGE, 0, s.connected},
+      {"modbus_connections", "Modbus TCP connections accepted.", COBRIDGE_STAT_COUNTER, 0, s.accepted},
+      {"modbus_refused", "Modbus TCP connections refused (allow list, max_clients).", COBRIDGE_STAT_COUNTER, 0,
+       s.refused_allow + s.refused_full},
+      {"modbus_requests", "Modbus requests answered.", COBRIDGE_STAT_COUNTER, 0, s.requests},
+      {"modbus_exceptions", "Modbus exception responses sent.", COBRIDGE_STAT_COUNTER, 0, s.exceptions},
+  };
+  std::size_t n = 0;
+  for (const auto& f : figures) {
+    if (n == max) break;
+    out[n++] = f;
+  }
+  return n;
+}
+
 constexpr cobridge_plugin_ops kOps = {
     COBRIDGE_PLUGIN_ABI_VERSION, sizeof(cobridge_plugin_ops), "modbus", &modbus_start, &modbus_stop,
-    &modbus_destroy,             &modbus_on_samples,          &modbus_on_device,
+    &modbus_destroy,             &modbus_on_samples,          &modbus_on_device, &modbus_stats,
 };
 
 }  // namespace

@@ -125,6 +125,7 @@ std::error_code TcpServer::start(std::string& message) {
   free_.reserve(config_.max_clients);
   for (std::uint32_t i = config_.max_clients; i > 0; --i) free_.push_back(i - 1);
   open_ = 0;
+  connected_.store(0, std::memory_order_relaxed);
   try {
     thread_ = std::thread([this] { run(); });
   } catch (const std::system_error& e) {
@@ -155,7 +156,7 @@ ServerStats TcpServer::stats() const noexcept {
   const auto r = std::memory_order_relaxed;
   return {accepted_.load(r),       refused_allow_.load(r), refused_full_.load(r), closed_idle_.load(r),
           closed_protocol_.load(r), closed_silent_.load(r), evicted_.load(r),      accept_pauses_.load(r),
-          requests_.load(r),        exceptions_.load(r)};
+          requests_.load(r),        exceptions_.load(r),   connected_.load(r)};
 }
 
 void TcpServer::run() noexcept {
@@ -280,6 +281,7 @@ void TcpServer::accept_all() noexcept {
       continue;
     }
     ++open_;
+    connected_.store(open_, std::memory_order_relaxed);
     accepted_.fetch_add(1, std::memory_order_relaxed);
     log_(COBRIDGE_LOG_DEBUG, "client " + address_text(ss) + " connected");
   }
@@ -295,6 +297,7 @@ void TcpServer::close_connection(std::uint32_t index) noexcept {
   c.generation = c.generation >= 0xFFFF'FFF0u ? 1 : c.generation + 1;
   free_.push_back(index);
   --open_;
+  connected_.store(open_, std::memory_order_relaxed);
 }
 
 void TcpServer::on_event(std::uint32_t index, std::uint32_t events) noexcept {

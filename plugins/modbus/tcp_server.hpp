@@ -44,6 +44,7 @@ struct ServerStats {
   std::uint64_t accept_pauses = 0;    // accept() out of descriptors (EMFILE/ENFILE): listening paused
   std::uint64_t requests = 0;         // frames answered
   std::uint64_t exceptions = 0;       // of which exception responses
+  std::uint64_t connected = 0;        // connections open now
 };
 
 class TcpServer {
@@ -126,6 +127,7 @@ class TcpServer {
   std::atomic<std::uint64_t> accept_pauses_{0};
   std::atomic<std::uint64_t> requests_{0};
   std::atomic<std::uint64_t> exceptions_{0};
+  std::atomic<std::uint64_t> connected_{0};  // open_, for stats() on other threads
 };
 
 }  // namespace cobridge::modbus

@@ -13,8 +13,12 @@ void __libc_free(void*);
 namespace {
 std::atomic<bool> g_counting{false};
 std::atomic<unsigned long long> g_allocs{0};
+// Static TLS of the executable: reading it never allocates.
+thread_local bool t_counting = false;
+thread_local unsigned long long t_allocs = 0;
 void count() noexcept {
   if (g_counting.load(std::memory_order_relaxed)) g_allocs.fetch_add(1, std::memory_order_relaxed);
+  if (t_counting) ++t_allocs;
 }
 }  // namespace
 
@@ -42,6 +46,16 @@ void start_counting_allocations() noexcept {
 unsigned long long stop_counting_allocations() noexcept {
   g_counting.store(false, std::memory_order_release);
   return g_allocs.load(std::memory_order_relaxed);
+}
+
+void start_counting_this_thread() noexcept {
+  t_allocs = 0;
+  t_counting = true;
+}
+
+unsigned long long stop_counting_this_thread() noexcept {
+  t_counting = false;
+  return t_allocs;
 }
 
 }  // namespace cobridge::bench

@@ -19,6 +19,7 @@
 #include <mutex>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace fs = std::filesystem;
@@ -203,6 +204,44 @@ TEST(PluginHostAbi, V1PluginLoadsAndReceivesSamples) {
   bool saw_start = false;
   for (const auto& l : log.lines()) saw_start |= (l.instance == "tap" && l.message == "start");
   EXPECT_TRUE(saw_start);
+}
+
+// Concept: ABI 3 stats — the host reads an output's own figures from a
+// control-plane thread only while it runs, keeps the instance/type, and
+// leaves out a figure whose name could not be a Prometheus metric name.
+TEST(PluginHostAbi, StatsAreReadWhileRunningAndBadNamesLeftOut) {
+  Record rec("test_v1");
+  LogCapture log;
+  PluginHost host({kTestPluginDir, "gw", log.sink()});
+  ASSERT_FALSE(host.load(spec("tap", "test_v1")));
+  auto before = host.stats();
+  ASSERT_EQ(before.size(), 1u);
+  EXPECT_FALSE(before[0].running);
+  EXPECT_TRUE(before[0].figures.empty()) << "not started: no figures";
+  EXPECT_EQ(rec->stats_calls, 0);
+
+  ASSERT_TRUE(host.start_all().empty());
+  const std::array<Sample, 2> batch = {tpdo(1, 1), tpdo(2, 2)};
+  host.deliver(batch);
+  std::vector<OutputStats> seen;
+  std::thread reader([&] { seen = host.stats(); });  // as the web thread does
+  reader.join();
+  ASSERT_EQ(seen.size(), 1u);
+  EXPECT_EQ(seen[0].instance, "tap");
+  EXPECT_EQ(seen[0].type, "test_v1");
+  EXPECT_TRUE(seen[0].running);
+  ASSERT_EQ(seen[0].figures.size(), 2u) << "Bad-Name must be left out";
+  EXPECT_EQ(seen[0].figures[0].name, "test_samples_seen");
+  EXPECT_TRUE(seen[0].figures[0].counter);
+  EXPECT_EQ(seen[0].figures[0].value, 2u);
+  EXPECT_EQ(seen[0].figures[1].name, "test_level");
+  EXPECT_FALSE(seen[0].figures[1].counter);
+  EXPECT_EQ(seen[0].figures[1].value, 7u);
+
+  host.stop_all();
+  const int calls = rec->stats_calls;
+  EXPECT_TRUE(host.stats()[0].figures.empty());
+  EXPECT_EQ(rec->stats_calls, calls) << "a stopped plugin's stats must not be called";
 }
 
 // Concept: backward compatibility — a plugin built for ABI 0, whose ops table

@@ -42,6 +42,20 @@ TEST(Metrics, ConventionalNamesAndLabels) {
     EXPECT_THAT(m, HasSubstr(std::string("# TYPE ") + lost + " counter\n")) << lost;
 }
 
+// Issue 14 item 2: what each output reports of itself (ABI 3 stats), one
+// family per figure with an `output` label per instance.
+TEST(Metrics, OutputFiguresAreOneFamilyPerName) {
+  const std::string m = render_metrics(cobridge::web::test::sample_report(1, 1));
+  EXPECT_THAT(m, HasSubstr("# TYPE cobridge_output_modbus_clients_connected gauge\n"));
+  EXPECT_THAT(m, HasSubstr("cobridge_output_modbus_clients_connected{output=\"modbus\",type=\"modbus\"} 3\n"));
+  EXPECT_THAT(m, HasSubstr("cobridge_output_modbus_clients_connected{output=\"modbus_scada2\",type=\"modbus\"} 3\n"));
+  EXPECT_THAT(m, HasSubstr("# TYPE cobridge_output_modbus_requests_total counter\n"));
+  EXPECT_THAT(m, HasSubstr("cobridge_output_up{output=\"dds\",type=\"dds\"} 0\n"));
+  EXPECT_EQ(m.find("# TYPE cobridge_output_modbus_clients_connected"),
+            m.rfind("# TYPE cobridge_output_modbus_clients_connected"))
+      << "one TYPE line per family";
+}
+
 // Runs promtool on the text; returns its exit status and output.
 int promtool(const std::string& text, std::string& output) {
   const auto file = std::filesystem::temp_directory_path() / ("cobridge-metrics-" + std::to_string(::getpid()));

@@ -23,6 +23,7 @@ inline gateway::StatusReport sample_report(int buses, int devices) {
     bus.name = "line" + std::to_string(b + 1);
     bus.interface = "can" + std::to_string(b);
     bus.open = true;
+    bus.bitrate_kbit = 250;
     bus.rx_frames = 1000;
     bus.hot_rx_frames = 50000;
     bus.ring_drops = 0;
@@ -55,6 +56,14 @@ inline gateway::StatusReport sample_report(int buses, int devices) {
     }
     r.buses.push_back(bus);
   }
+  // Two outputs of one type reporting the same figures, one stopped output.
+  for (const char* instance : {"modbus", "modbus_scada2"}) {
+    pipeline::OutputStats o{instance, "modbus", true, {}};
+    o.figures.push_back({"modbus_clients_connected", "Modbus TCP connections open now.", false, 3});
+    o.figures.push_back({"modbus_requests", "Modbus requests answered.", true, 1200});
+    r.outputs.push_back(o);
+  }
+  r.outputs.push_back({"dds", "dds", false, {}});
   // A name that needs escaping in labels and JSON.
   if (!r.buses.empty() && !r.buses[0].devices.empty()) r.buses[0].devices[0].name = "odd \"name\\";
   return r;

@@ -56,6 +56,9 @@ TEST(WebServer, StatusIsTheControlSocketsJson) {
   EXPECT_EQ(a.body, cobridge::gateway::to_json(report) + "\n");  // one schema, one writer
   EXPECT_THAT(a.body, HasSubstr("\"emcy_history\":[{\"code\":20480,\"text\":\"hardware fault\""));
   EXPECT_THAT(a.body, HasSubstr("\"values\":{\"position\":1234,\"position_eng\":12.500,\"unit\":\"deg\",\"speed\":-3"));
+  // Each output's own figures (issue 14 item 2: Modbus clients connected).
+  EXPECT_THAT(a.body, HasSubstr("\"outputs\":[{\"instance\":\"modbus\",\"type\":\"modbus\",\"running\":true,"
+                                "\"figures\":{\"modbus_clients_connected\":3,\"modbus_requests\":1200}}"));
 }
 
 TEST(WebServer, PageIsServedFromTheBinaryWithoutExternalFetches) {

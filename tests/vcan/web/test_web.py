@@ -13,12 +13,15 @@ Checks (docs/web.md):
 * a power cycle shows as a boot-up (boot_ups, metrics), the device back
   operational;
 * a silenced device is stale in the JSON and cobridge_value_stale 1;
+* each output's own figures: a Modbus client that connects shows as
+  modbus_clients_connected 1 in the JSON and /metrics, and 0 once it left;
 * bad requests get 4xx and change nothing;
 * 50 clients hammering /metrics: no frame or sample lost (kernel and ring
   drops stay 0) and every TPDO the simulator sent reached the hot path;
   prints FIGURE lines: request latency p50/p99 of 200 requests, RSS added.
 With --browser: headless Chromium loads the page and the DOM is checked
-(every device listed, values changing, the silenced device marked stale);
+(every device listed, values changing, a sparkline of positions drawn for
+each moving device, the Modbus output listed, the silenced device marked stale);
 screenshots are saved with --screenshot-dir.
 """
 import concurrent.futures
@@ -27,6 +30,8 @@ import json
 import os
 import re
 import shutil
+import socket
+import struct
 import subprocess
 import sys
 import tempfile
@@ -37,6 +42,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 import e2e  # noqa: E402
 
 PORT = 18080
+MODBUS_PORT = 15020
 DEVICES = [  # name, model, sim model, serial, node, motion
     ("rot-a", "RFC-4800", "RFC-4800", 1001, 10, "constant:0.3"),
     ("mt-a", "MC1-2800", "MC1-2800", 2001, 20, "constant:0.2"),
@@ -136,7 +142,8 @@ def main():
              "tpdo1": {"mapping": ["position", "speed"] if not m.startswith("RM") else ["position"],
                        "transmission": "event", "event_timer_ms": 10}}
             for (name, m, _, s, n, _) in DEVICES]
-    config = e2e.write_config(ws, [bus], devs, extra="[web]\nport = %d\n" % PORT)
+    config = e2e.write_config(ws, [bus], devs, extra="[web]\nport = %d\n\n[outputs.modbus]\nbind = \"127.0.0.1\"\n"
+                              "port = %d\n" % (PORT, MODBUS_PORT))
     daemon = e2e.Daemon(args.daemon, config, ws)
     shown = {}
     names = [d[0] for d in DEVICES]
@@ -179,6 +186,9 @@ def main():
             report.check(age is not None and age < 0.5, "%s: cobridge_value_age_seconds < 0.5" % name, str(age))
         report.check((metric(m, "cobridge_frames_received_total", bus="line1", socket="hot_path") or 0) > 100,
                      "cobridge_frames_received_total{bus=line1,socket=hot_path} counts")
+
+        # ---- each output's own figures (plugin ABI 3 stats)
+        modbus_figures(report)
 
         # ---- EMCY
         name, serial = DEVICES[0][0], DEVICES[0][3]
@@ -339,6 +349,51 @@ def main():
     return report.finish()
 
 
+def modbus_clients():
+    """modbus_clients_connected as /api/v1/status and /metrics show it."""
+    outs = [o for o in (status() or {}).get("outputs", []) if o["type"] == "modbus"]
+    api = outs[0]["figures"].get("modbus_clients_connected") if outs else None
+    return api, metric(metrics(), "cobridge_output_modbus_clients_connected", output="modbus")
+
+
+def wait_clients(want, within=3.0):
+    seen = (None, None)
+    t_end = time.time() + within
+    while time.time() < t_end:
+        seen = modbus_clients()
+        if seen == (want, float(want)):
+            break
+        time.sleep(0.1)
+    return seen
+
+
+def modbus_figures(report):
+    """A real Modbus TCP client (read holding registers 0, 1 register; Modbus
+    Application Protocol v1.1b3 §6.3) connects: the web shows it, then not."""
+    report.check(wait_clients(0) == (0, 0.0), "outputs: no Modbus client connected at first", str(modbus_clients()))
+    c = socket.create_connection(("127.0.0.1", MODBUS_PORT), timeout=5)
+    try:
+        c.sendall(struct.pack(">HHHBBHH", 1, 0, 6, 1, 3, 0, 1))
+        answer = c.recv(64)
+        report.check(len(answer) >= 9 and answer[7] == 3, "outputs: the Modbus client got its answer", answer.hex())
+        seen = wait_clients(1)
+        report.check(seen == (1, 1.0), "outputs: modbus_clients_connected 1 in the JSON and /metrics", str(seen))
+    finally:
+        c.close()
+    seen = wait_clients(0)
+    report.check(seen == (0, 0.0), "outputs: modbus_clients_connected back to 0 once it left", str(seen))
+
+
+def sparkline_points(dom, name):
+    """How many points the sparkline of a device row draws (0: none)."""
+    m = re.search(r'<tr class="device[^"]*" data-name="%s".*?<svg class="spark"[^>]*>(.*?)</svg>' % re.escape(name),
+                  dom, re.S)
+    if not m:
+        return 0
+    pts = re.search(r'points="([^"]*)"', m.group(1))
+    return len(pts.group(1).split()) if pts else 0
+
+
 def positions(dom, names):
     """The position text each device row shows (td.pos), by device name."""
     out = {}
@@ -373,10 +428,17 @@ def browser(report, ws, args, names, stale_name):
                 # A device whose values flow again after a fault or a power cycle is not stale.
                 fresh = re.search(r'<tr class="device[^"]*" data-name="%s"[^>]*data-stale="0"' % re.escape(n), doms[-1])
                 report.check(fresh is not None, "browser: %s not marked stale" % n)
+                pts = sparkline_points(doms[-1], n)
+                report.check(pts >= 2, "browser: %s sparkline drawn" % n, "%d points" % pts)
         m = re.search(r'<tr class="device ([^"]*)" data-name="%s"[^>]*data-stale="1"' % re.escape(stale_name), doms[-1])
         report.check(m is not None and "stale" in m.group(1), "browser: %s marked stale" % stale_name)
         report.check('class="flag stale"' in doms[-1], "browser: the STALE flag is shown")
         report.check('class="emcy"' in doms[-1], "browser: the EMCY history is shown")
+        load = re.search(r'data-load="([0-9.]+)"', doms[-1])
+        report.check(load is not None and float(load.group(1)) > 0, "browser: the bus load is shown",
+                     load.group(1) + " %" if load else "none")
+        report.check('data-output="modbus"' in doms[-1] and 'data-figure="modbus_clients_connected"' in doms[-1],
+                     "browser: the Modbus output and its clients connected are shown")
         if args.screenshot_dir:
             out = os.path.join(work, "web-status.png")
             t0 = time.time()

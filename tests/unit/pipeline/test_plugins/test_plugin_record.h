@@ -17,6 +17,7 @@ typedef struct test_plugin_record {
   int on_device_calls;
   /* Incremented by an op the host must never call (beyond struct_size). */
   int trap_calls;
+  int stats_calls;
   unsigned long samples_seen;
   long long position_sum;
   cobridge_sample last_sample;

@@ -54,9 +54,24 @@ static void v1_on_device(void* self, const cobridge_device_info* info) {
            strlen(info->name));
 }
 
+/* ABI 3: two well-formed figures, and one whose name cannot be a metric
+ * name (the host must leave it out). */
+static size_t v1_stats(void* self, cobridge_stat* out, size_t max) {
+  const cobridge_stat figures[3] = {
+      {"test_samples_seen", "Samples this instance saw.", COBRIDGE_STAT_COUNTER, 0, test_plugin_record.samples_seen},
+      {"Bad-Name", "not a metric name", COBRIDGE_STAT_GAUGE, 0, 1},
+      {"test_level", "A level.", COBRIDGE_STAT_GAUGE, 0, 7},
+  };
+  size_t i;
+  (void)self;
+  ++test_plugin_record.stats_calls;
+  for (i = 0; i < 3 && i < max; ++i) out[i] = figures[i];
+  return i;
+}
+
 static const cobridge_plugin_ops ops = {
     COBRIDGE_PLUGIN_ABI_VERSION, sizeof(cobridge_plugin_ops), "test_v1", v1_start, v1_stop, v1_destroy,
-    v1_on_samples, v1_on_device,
+    v1_on_samples, v1_on_device, v1_stats,
 };
 
 int cobridge_plugin_create(const cobridge_host_api* host, const char* config_toml, size_t config_len,

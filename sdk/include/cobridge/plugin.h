@@ -41,8 +41,9 @@ extern "C" {
 #endif
 
 /* History: 1 = first release; 2 = commands (cobridge_host_api.submit_command,
- * COBRIDGE_SAMPLE_COMMAND and the command_* sample fields). */
-#define COBRIDGE_PLUGIN_ABI_VERSION 2u
+ * COBRIDGE_SAMPLE_COMMAND and the command_* sample fields); 3 = the optional
+ * stats operation (what the status page and /metrics show of an output). */
+#define COBRIDGE_PLUGIN_ABI_VERSION 3u
 
 /* Name of the exported entry point, for dlsym(). */
 #define COBRIDGE_PLUGIN_ENTRY "cobridge_plugin_create"
@@ -285,6 +286,23 @@ typedef struct cobridge_host_api {
 /* ------------------------------------------------------------------------ */
 /* Plugin operations: what a plugin gives the daemon                        */
 
+/* One figure an output reports about itself (ABI 3, ops->stats), e.g. the
+ * Modbus clients connected or the DDS writers. */
+enum cobridge_stat_kind {
+  COBRIDGE_STAT_GAUGE = 0,  /* a level that goes up and down */
+  COBRIDGE_STAT_COUNTER = 1 /* only grows while the instance runs */
+};
+
+typedef struct cobridge_stat {
+  /* lower_snake_case, stable (it becomes a metric name
+   * cobridge_output_<name>, plus _total for a counter); static storage. */
+  const char* name;
+  const char* help; /* one line for people; static storage */
+  uint32_t kind;    /* enum cobridge_stat_kind */
+  uint32_t reserved_;
+  uint64_t value;
+} cobridge_stat;
+
 typedef struct cobridge_plugin_ops {
   uint32_t abi_version; /* COBRIDGE_PLUGIN_ABI_VERSION the plugin was built with */
   uint32_t struct_size; /* sizeof(cobridge_plugin_ops) as the plugin saw it */
@@ -311,6 +329,13 @@ typedef struct cobridge_plugin_ops {
 
   /* A device appeared or changed. Dispatcher thread; must not block. */
   void (*on_device)(void* self, const cobridge_device_info* info);
+
+  /* ABI 3. Fills up to `max` figures and returns how many it filled. Called
+   * between start and stop from a thread of the daemon's control plane
+   * (status page, /metrics, `cobridge status`), never the dispatcher, at most
+   * a few times a second: it must be thread-safe against the plugin's own
+   * threads, must not block, and should read counters, not compute. */
+  size_t (*stats)(void* self, cobridge_stat* out, size_t max);
 
   /* Later versions append here, never in between, e.g. for ABI 2:
    *   void (*on_bus)(void* self, const cobridge_bus_info* info);

@@ -1,0 +1,52 @@
+#include "app/bus_set.hpp"
+
+#include <algorithm>
+#include <thread>
+
+namespace cobridge::app {
+
+void BusSet::build(const config::Config& cfg, const device::DeviceCatalog& catalog, gateway::StateStore& state,
+                   gateway::OutputPipeline& outputs) {
+  for (std::size_t i = 0; i < cfg.buses.size(); ++i) {
+    gateway::BusManagerOptions options;
+    options.observer = outputs.observer(i);
+    buses_.push_back(std::make_unique<gateway::BusManager>(cfg, i, catalog, state, options));
+    outputs.set_command_target(i, buses_.back().get());
+  }
+}
+
+std::string BusSet::start(const config::Config& cfg) {
+  for (std::size_t i = 0; i < buses_.size(); ++i) {
+    if (const auto ec = buses_[i]->start()) {
+      stop();
+      return "bus " + cfg.buses[i].name + " (" + cfg.buses[i].interface + "): cannot start: " + ec.message();
+    }
+  }
+  return {};
+}
+
+void BusSet::stop() {
+  std::vector<std::thread> stoppers;
+  for (auto& b : buses_) stoppers.emplace_back([&b] { b->stop(); });
+  for (auto& t : stoppers) t.join();
+}
+
+void BusSet::reload(const config::Config& cfg) {
+  for (auto& b : buses_) b->reload(cfg);
+}
+
+bool BusSet::ready() const {
+  return std::all_of(buses_.begin(), buses_.end(), [](const auto& b) { return b->ready(); });
+}
+
+bool BusSet::serving() const {
+  return std::all_of(buses_.begin(), buses_.end(), [](const auto& b) { return b->serving(); });
+}
+
+std::vector<gateway::BusStatus> BusSet::statuses() const {
+  std::vector<gateway::BusStatus> out;
+  for (const auto& b : buses_) out.push_back(b->status());
+  return out;
+}
+
+}  // namespace cobridge::app

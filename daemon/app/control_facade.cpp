@@ -1,0 +1,64 @@
+#include "app/control_facade.hpp"
+
+#include "sys/logging.hpp"
+
+#include <unistd.h>
+
+#include <utility>
+
+namespace cobridge::app {
+
+ControlFacade::ControlFacade(const config::Config& cfg, BusSet& buses, const gateway::OutputPipeline& outputs,
+                             std::string version)
+    : config_(&cfg), buses_(buses), outputs_(outputs), version_(std::move(version)),
+      started_(std::chrono::system_clock::now()) {}
+
+void ControlFacade::set_config(const config::Config& cfg) {
+  const std::lock_guard lock(mutex_);
+  config_ = &cfg;
+}
+
+void ControlFacade::set_ready() {
+  const std::lock_guard lock(mutex_);
+  ready_ = true;
+}
+
+gateway::StatusReport ControlFacade::status() {
+  const std::lock_guard lock(mutex_);
+  gateway::StatusReport r;
+  r.gateway_id = config_->gateway.id;
+  r.version = version_;
+  r.pid = static_cast<long>(::getpid());
+  r.ready = ready_;
+  r.started = started_;
+  r.config_file = config_->source.string();
+  const auto now = std::chrono::steady_clock::now();
+  const auto wall = std::chrono::system_clock::now();
+  for (std::size_t i = 0; i < buses_.size(); ++i) {
+    gateway::BusStatus s = buses_[i].status();
+    outputs_.add_live_status(i, s, now, wall);
+    r.buses.push_back(std::move(s));
+  }
+  r.outputs = outputs_.output_stats();
+  return r;
+}
+
+gateway::ControlResult ControlFacade::commission(std::string_view bus) {
+  const std::lock_guard lock(mutex_);
+  gateway::ControlResult r;
+  for (std::size_t i = 0; i < buses_.size(); ++i) {
+    const auto& name = config_->buses[i].name;
+    if (!bus.empty() && name != bus) continue;
+    buses_[i].request_commission();
+    r.buses.push_back(name);
+  }
+  if (r.buses.empty()) {
+    std::string names;
+    for (const auto& b : config_->buses) names += (names.empty() ? "" : ", ") + b.name;
+    return {false, "unknown bus \"" + std::string(bus) + "\" (buses: " + names + ")", {}};
+  }
+  sys::logger("gateway")->info("control socket: commissioning requested on {}", bus.empty() ? "every bus" : bus);
+  return r;
+}
+
+}  // namespace cobridge::app

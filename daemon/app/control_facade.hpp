@@ -1,0 +1,46 @@
+// What the control socket and the web service see of the daemon: the status
+// report (gateway id, version, readiness, every bus with its live hot-path
+// figures) and the commissioning request.
+//
+// Thread: status() from the main thread (control socket) and the web
+// service's thread; commission() from the main thread. The lock keeps the
+// configuration pointer and the ready flag consistent; the buses and the
+// output pipeline are safe to read from any thread. set_config() and
+// set_ready() on the main thread.
+#pragma once
+
+#include "app/bus_set.hpp"
+#include "config/config.hpp"
+#include "gateway/control_server.hpp"
+#include "gateway/output_pipeline.hpp"
+
+#include <chrono>
+#include <mutex>
+#include <string>
+#include <string_view>
+
+namespace cobridge::app {
+
+class ControlFacade final : public gateway::ControlHandler {
+ public:
+  ControlFacade(const config::Config& cfg, BusSet& buses, const gateway::OutputPipeline& outputs,
+                std::string version);
+
+  // After an accepted reload: `cfg` must outlive the next set_config().
+  void set_config(const config::Config& cfg);
+  void set_ready();
+
+  gateway::StatusReport status() override;
+  gateway::ControlResult commission(std::string_view bus) override;
+
+ private:
+  const config::Config* config_;
+  BusSet& buses_;
+  const gateway::OutputPipeline& outputs_;
+  std::string version_;
+  std::chrono::system_clock::time_point started_;
+  bool ready_ = false;
+  std::mutex mutex_;
+};
+
+}  // namespace cobridge::app

@@ -1,0 +1,190 @@
+#include "app/daemon.hpp"
+
+#include "app/log_settings.hpp"
+#include "app/reload_rules.hpp"
+#include "app/validation.hpp"
+#include "sys/logging.hpp"
+
+#include <poll.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <utility>
+#include <vector>
+
+namespace cobridge::app {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using std::chrono::milliseconds;
+
+const char* plural(std::size_t n, const char* many = "s") { return n == 1 ? "" : many; }
+
+}  // namespace
+
+Daemon::Daemon(DaemonOptions options) : options_(std::move(options)) {}
+
+Daemon::~Daemon() = default;
+
+Error Daemon::start() {
+  if (signals_.error()) {
+    std::fprintf(stderr, "cobridged: signals: %s\n", signals_.error().message().c_str());
+    return Error(Errc::kFailed, "signals: " + signals_.error().message(), {}, signals_.error());
+  }
+  if (Error e = load_configuration()) return e;
+  auto log = sys::logger("gateway");
+  notifier_.emplace();
+  state_.emplace(cfg_->gateway.state_dir);
+  std::string state_problems;
+  if (state_->load(&state_problems)) log->warn("state file {}: {}", state_->path().string(), state_problems);
+
+  // Made here, started below once the control socket is ours; the control
+  // socket's status reads its hot-path counters.
+  outputs_.emplace(*cfg_, *catalog_, options_.plugin_dir);
+  facade_.emplace(*cfg_, buses_, *outputs_, options_.version);
+  // The control socket first: a second daemon started by mistake stops here,
+  // before it touches a bus the first one serves.
+  control_.emplace(*facade_);
+  std::string why;
+  if (control_->open(cfg_->gateway.control_socket, &why)) {
+    log->error("control socket: {}", why);
+    return Error(Errc::kFailed, "control socket: " + why);
+  }
+  if (Error e = start_outputs()) return e;
+  buses_.build(*cfg_, *catalog_, *state_, *outputs_);
+  if (std::string problem = buses_.start(*cfg_); !problem.empty()) {
+    log->error("{}", problem);
+    return Error(Errc::kFailed, problem);
+  }
+  if (Error e = start_web()) return e;
+  service_.emplace(*notifier_, buses_, *facade_);
+  return {};
+}
+
+Error Daemon::load_configuration() {
+  const auto& file = options_.config_file;
+  Validated v = validate(file);
+  if (!v.config) {
+    print(v, stderr);
+    std::fprintf(stderr, "cobridged: %s: %zu error%s; no bus was touched\n", file.c_str(), v.errors.size(),
+                 plural(v.errors.size()));
+    return Error(Errc::kFailed, std::to_string(v.errors.size()) + " configuration error" + plural(v.errors.size()),
+                 file.string());
+  }
+  cfg_ = std::make_unique<config::Config>(std::move(*v.config));
+  if (!options_.state_dir_override.empty()) cfg_->gateway.state_dir = options_.state_dir_override;
+  apply_logging(cfg_->logging, options_.foreground);
+  auto log = sys::logger("gateway");
+  for (const auto& w : v.warnings) log->warn("{}", w);
+  catalog_ = std::move(v.catalog);
+  log->info("cobridged {} starting: {} ({} buses, {} devices, {} device descriptions)", options_.version,
+            file.string(), cfg_->buses.size(), cfg_->devices.size(), catalog_->size());
+  return {};
+}
+
+// The hot path and the output plugins start before the buses, so every
+// device's first configuration already reaches the decoders.
+Error Daemon::start_outputs() {
+  auto log = sys::logger("gateway");
+  bool fatal = false;
+  const std::vector<std::string> problems = outputs_->start(&fatal);
+  for (const auto& p : problems) log->error("outputs: {}", p);
+  if (fatal) {
+    for (const auto& p : problems) std::fprintf(stderr, "%s\n", p.c_str());
+    std::fprintf(stderr, "cobridged: %s: %zu output problem%s; no bus was touched\n", options_.config_file.c_str(),
+                 problems.size(), plural(problems.size()));
+    return Error(Errc::kFailed, std::to_string(problems.size()) + " output problem" + plural(problems.size()),
+                 options_.config_file.string());
+  }
+  log->info("outputs: {} plugin{} running from {}", outputs_->plugins_running(),
+            plural(outputs_->plugins_running()), options_.plugin_dir.string());
+  return {};
+}
+
+// The web service last: it reads the status of running buses. A daemon told
+// to serve it does not run without it (like an output).
+Error Daemon::start_web() {
+  web_.emplace([this] { return facade_->status(); });
+  std::string why;
+  if (cfg_->web && cfg_->web->enabled && !web_->start(*cfg_->web, &why)) {
+    sys::logger("gateway")->error("web: {}", why);
+    std::fprintf(stderr, "cobridged: web: %s\n", why.c_str());
+    buses_.stop();
+    outputs_->stop();
+    return Error(Errc::kFailed, "web: " + why);
+  }
+  return {};
+}
+
+void Daemon::serve() {
+  std::vector<pollfd> fds;
+  while (true) {
+    const auto now = Clock::now();
+    const auto deadline = std::min(service_->next_deadline(), control_->process(now));
+    fds.clear();
+    fds.push_back({signals_.fd(), POLLIN, 0});
+    control_->add_poll_fds(fds);
+    const auto wait = std::clamp(std::chrono::duration_cast<milliseconds>(deadline - now), milliseconds(0),
+                                 ServiceStatus::kTick);
+    ::poll(fds.data(), fds.size(), static_cast<int>(wait.count()) + (deadline > now ? 1 : 0));
+
+    const sys::SignalAction action = signals_.take();
+    if (action == sys::SignalAction::stop) return;
+    if (action == sys::SignalAction::reload) reload();
+    service_->tick(Clock::now());
+  }
+}
+
+void Daemon::stop() {
+  const auto t0 = Clock::now();
+  auto log = sys::logger("gateway");
+  service_->stopping();
+  log->info("stopping");
+  web_->stop();
+  // The reverse of the start: no more plugin commands to the buses, the
+  // buses (their last status and command outcomes still reach the hot
+  // path), then the hot path and the plugins, then the control socket.
+  for (std::size_t i = 0; i < buses_.size(); ++i) outputs_->set_command_target(i, nullptr);
+  buses_.stop();
+  outputs_->stop();
+  control_->close();
+  log->info("stopped in {} ms", std::chrono::duration_cast<milliseconds>(Clock::now() - t0).count());
+}
+
+// Every part takes the new configuration, or none does.
+void Daemon::reload() {
+  auto log = sys::logger("gateway");
+  service_->reloading();
+  log->info("SIGHUP: reloading {}", options_.config_file.string());
+  Validated next = validate(options_.config_file);
+  std::string refusal;
+  if (next.config) {
+    if (!options_.state_dir_override.empty()) next.config->gateway.state_dir = options_.state_dir_override;
+    refusal = reload_refusal(*cfg_, *next.config);
+    if (refusal.empty()) refusal = outputs_->reload(*next.config);
+    if (!refusal.empty()) refusal += " (needs a restart)";
+  }
+  if (!next.config || !refusal.empty()) {
+    for (const auto& e : next.errors) log->error("{}", e);
+    if (!refusal.empty()) log->error("reload rejected: {}", refusal);
+    log->error("reload rejected; still running the previous configuration");
+    const std::size_t n = next.errors.size();
+    service_->reloaded("; reload rejected (" +
+                       (refusal.empty() ? std::to_string(n) + (n == 1 ? " config error" : " config errors") : refusal) +
+                       ")");
+    return;
+  }
+  for (const auto& w : next.warnings) log->warn("{}", w);
+  // New description files are not picked up by a reload: the buses keep the
+  // catalog they started with (a restart loads new ones).
+  auto fresh = std::make_unique<config::Config>(std::move(*next.config));
+  apply_logging(fresh->logging, options_.foreground);
+  buses_.reload(*fresh);
+  facade_->set_config(*fresh);
+  cfg_ = std::move(fresh);
+  service_->reloaded({});
+  log->info("reloaded: {} devices", cfg_->devices.size());
+}
+
+}  // namespace cobridge::app

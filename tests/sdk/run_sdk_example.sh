@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# The SDK as an out-of-tree plugin author sees it: install the "sdk"
+# component of this build into a fresh prefix, configure and build
+# examples/plugin-minimal against that prefix only (find_package), then load
+# the plugin through the daemon's PluginHost (sdk_example_host).
+#
+#   run_sdk_example.sh <build dir> <source dir> <sdk_example_host>
+set -euo pipefail
+build=$1 src=$2 host=$3
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+
+cmake --install "$build" --prefix "$tmp/prefix" --component sdk
+# The prefix holds the SDK and nothing of the daemon's headers.
+test -f "$tmp/prefix/include/cobridge/plugin.h"
+test -f "$tmp/prefix/include/cobridge/emcy.h"
+if find "$tmp/prefix/include" -name '*.hpp' | grep -q .; then
+  echo "run_sdk_example: the SDK installed a daemon header:" >&2
+  find "$tmp/prefix/include" -name '*.hpp' >&2
+  exit 1
+fi
+cmake -S "$src/examples/plugin-minimal" -B "$tmp/build" -DCMAKE_PREFIX_PATH="$tmp/prefix" \
+      -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
+cmake --build "$tmp/build"
+COBRIDGE_SDK_EXAMPLE_DIR="$tmp/build" "$host" --gtest_color=no
