@@ -3,6 +3,7 @@
 #include "canopen/cob_id.hpp"
 #include "canopen/lss_master.hpp"
 #include "cli/bus_session.hpp"
+#include "cli/daemon_route.hpp"
 
 #include <cstdio>
 
@@ -38,28 +39,34 @@ bool step(const char* what, BusSession& bus, canopen::LssMaster& m, std::error_c
 }  // namespace
 
 int lss_set_node_id(const LssSetNodeOptions& o) {
-  if (!canopen::cob::valid_node_id(o.node)) {
-    std::fprintf(stderr, "cobridge: lss: --node %u (allowed: 1..127)\n", o.node);
-    return 2;
+  if (!canopen::cob::valid_node_id(o.node))
+    return report_failure("lss", Error(Errc::kInvalidArgument, "--node " + std::to_string(o.node) + " (allowed: 1..127)"),
+                          o.json);
+  const std::string line = "lss-set-node-id " + o.iface + " " + std::to_string(o.vendor) + " " +
+                           std::to_string(o.product) + " " + std::to_string(o.revision) + " " +
+                           std::to_string(o.serial) + " " + std::to_string(o.node) + " " +
+                           (o.store ? "store" : "no-store") + " " + std::to_string(o.timeout_ms);
+  bool ok = true;
+  if (auto routed = via_daemon(o.control, line, 10000 + static_cast<int>(o.timeout_ms) * 8 + 5000)) {
+    if (routed->first) return report_daemon_failure("lss", *routed, o.json);
+  } else {
+    std::string error;
+    auto bus = BusSession::open(o.iface, error);
+    if (!bus) return report_failure("lss", Error(Errc::kUnavailable, error, o.iface), o.json);
+    canopen::LssMaster m(bus->channel(), canopen::LssMaster::Config{.timeout = std::chrono::milliseconds(o.timeout_ms)});
+    const canopen::LssAddress a{o.vendor, o.product, o.revision, o.serial};
+    const auto now = [] { return canopen::Clock::now(); };
+    ok = step("switch state selective", *bus, m, m.switch_state_selective(a, now())) &&
+         step("configure node-ID", *bus, m, m.configure_node_id(static_cast<uint8_t>(o.node), now())) &&
+         (!o.store || step("store configuration", *bus, m, m.store_configuration(now())));
+    // Always leave configuration state, also after a failure, so the device is
+    // not left listening to configuration commands.
+    (void)m.switch_state_global(canopen::LssMode::kWaiting);
   }
-  std::string error;
-  auto bus = BusSession::open(o.iface, error);
-  if (!bus) {
-    std::fprintf(stderr, "cobridge: lss: %s\n", error.c_str());
-    return 1;
-  }
-  canopen::LssMaster m(bus->channel(), canopen::LssMaster::Config{.timeout = std::chrono::milliseconds(o.timeout_ms)});
-  const canopen::LssAddress a{o.vendor, o.product, o.revision, o.serial};
-  const auto now = [] { return canopen::Clock::now(); };
-  bool ok = step("switch state selective", *bus, m, m.switch_state_selective(a, now())) &&
-            step("configure node-ID", *bus, m, m.configure_node_id(static_cast<uint8_t>(o.node), now())) &&
-            (!o.store || step("store configuration", *bus, m, m.store_configuration(now())));
-  // Always leave configuration state, also after a failure, so the device is
-  // not left listening to configuration commands.
-  (void)m.switch_state_global(canopen::LssMode::kWaiting);
-  if (!ok) return 1;
+  if (!ok) return exit_code(Errc::kFailed);
   if (o.json)
-    std::printf("{\"serial\":%u,\"node\":%u,\"stored\":%s}\n", o.serial, o.node, o.store ? "true" : "false");
+    std::printf("{\"ok\":true,\"bus\":\"%s\",\"serial\":%u,\"node\":%u,\"stored\":%s}\n", o.iface.c_str(), o.serial,
+                o.node, o.store ? "true" : "false");
   else
     std::printf("serial %u: node-ID %u%s (active after the device's next reset)\n", o.serial, o.node,
                 o.store ? ", stored" : "");

@@ -14,7 +14,10 @@ struct LssSetNodeOptions {
   bool store = true;
   unsigned timeout_ms = 100;
   bool json = false;
+  std::string control = "/run/cobridge/control.sock";  // the daemon that may own the bus
 };
+// Through the daemon when it owns the bus (discovery waits meanwhile, and the
+// stored node-ID goes to its state file); else on the interface.
 
 int lss_set_node_id(const LssSetNodeOptions& o);
 

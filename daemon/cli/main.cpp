@@ -33,6 +33,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 127));
   scan_c->add_option("--devices-dir", scan_o.devices_dir, "EDS directory used to name models");
   scan_c->add_flag("--json", scan_o.json, "machine-readable output");
+  scan_c->add_option("--control", scan_o.control, "daemon control socket (its view is shown when it owns the bus)")
+      ->capture_default_str();
 
   SdoOptions sdo_o;
   auto* sdo_c = app.add_subcommand("sdo", "read or write one object of one node (CiA 301 SDO)");
@@ -46,6 +48,8 @@ int main(int argc, char** argv) {
     c->add_flag("--string", sdo_o.as_string, "treat the value as text");
     c->add_option("--timeout-ms", sdo_o.timeout_ms, "SDO timeout")->capture_default_str();
     c->add_flag("--json", sdo_o.json, "machine-readable output");
+    c->add_option("--control", sdo_o.control, "daemon control socket (used when a daemon owns the bus)")
+        ->capture_default_str();
   }
   sdo_w->add_option("value", sdo_o.value, "value: decimal, 0x-hex, or text with --string")->required();
   sdo_w->add_option("-s,--size", sdo_o.size, "bytes to write: 1, 2 or 4 (default 4)");
@@ -55,6 +59,9 @@ int main(int argc, char** argv) {
   nmt_c->add_option("-i,--iface", nmt_o.iface, "CAN interface")->required();
   nmt_c->add_option("command", nmt_o.command, "start, stop, preop, reset, reset-comm")->required();
   nmt_c->add_option("node", nmt_o.node, "1..127 or all")->required();
+  nmt_c->add_flag("--json", nmt_o.json, "machine-readable output");
+  nmt_c->add_option("--control", nmt_o.control, "daemon control socket (used when a daemon owns the bus)")
+      ->capture_default_str();
 
   LssSetNodeOptions lss_o;
   auto* lss_c = app.add_subcommand("lss", "layer setting services (CiA 305)");
@@ -69,6 +76,8 @@ int main(int argc, char** argv) {
   lss_set->add_flag("!--no-store", lss_o.store, "do not store the node-ID in the device");
   lss_set->add_option("--timeout-ms", lss_o.timeout_ms, "LSS answer timeout")->capture_default_str();
   lss_set->add_flag("--json", lss_o.json, "machine-readable output");
+  lss_set->add_option("--control", lss_o.control, "daemon control socket (used when a daemon owns the bus)")
+      ->capture_default_str();
 
   StatusOptions status_o;
   auto* status_c = app.add_subcommand("status", "show the running daemon's buses, devices, step timings and counters");

@@ -3,6 +3,7 @@
 #include "canopen/cob_id.hpp"
 #include "canopen/nmt.hpp"
 #include "cli/bus_session.hpp"
+#include "cli/daemon_route.hpp"
 
 #include <cstdio>
 #include <cstdlib>
@@ -17,30 +18,31 @@ int nmt_send(const NmtOptions& o) {
   else if (o.command == "preop") cmd = NmtCommand::enter_preop;
   else if (o.command == "reset") cmd = NmtCommand::reset_node;
   else if (o.command == "reset-comm") cmd = NmtCommand::reset_comm;
-  else {
-    std::fprintf(stderr, "cobridge: nmt: unknown command '%s' (allowed: start, stop, preop, reset, reset-comm)\n",
-                 o.command.c_str());
-    return 2;
-  }
+  else
+    return report_failure("nmt", Error(Errc::kInvalidArgument, "unknown command '" + o.command +
+                                                                   "' (allowed: start, stop, preop, reset, reset-comm)"),
+                          o.json);
   unsigned node = 0;
   if (o.node != "all") {
     char* end = nullptr;
     node = static_cast<unsigned>(std::strtoul(o.node.c_str(), &end, 0));
-    if (o.node.empty() || *end != '\0' || !canopen::cob::valid_node_id(node)) {
-      std::fprintf(stderr, "cobridge: nmt: node '%s' (allowed: 1..127 or all)\n", o.node.c_str());
-      return 2;
-    }
+    if (o.node.empty() || *end != '\0' || !canopen::cob::valid_node_id(node))
+      return report_failure("nmt", Error(Errc::kInvalidArgument, "node '" + o.node + "' (allowed: 1..127 or all)"), o.json);
+  }
+  const std::string line = "nmt " + o.iface + " " + o.command + " " + std::to_string(node);
+  if (auto routed = via_daemon(o.control, line, 5000)) {
+    if (routed->first) return report_daemon_failure("nmt", *routed, o.json);
+    if (o.json) std::printf("%s\n", routed->second.line.c_str());
+    return 0;
   }
   std::string error;
   auto bus = BusSession::open(o.iface, error);
-  if (!bus) {
-    std::fprintf(stderr, "cobridge: nmt: %s\n", error.c_str());
-    return 1;
-  }
-  if (!bus->channel().send(canopen::make_nmt(cmd, static_cast<uint8_t>(node)))) {
-    std::fprintf(stderr, "cobridge: nmt: %s: could not send the frame\n", o.iface.c_str());
-    return 1;
-  }
+  if (!bus) return report_failure("nmt", Error(Errc::kUnavailable, error, o.iface), o.json);
+  if (!bus->channel().send(canopen::make_nmt(cmd, static_cast<uint8_t>(node))))
+    return report_failure("nmt", Error(Errc::kUnavailable, "could not send the frame", o.iface), o.json);
+  if (o.json)
+    std::printf("{\"ok\":true,\"bus\":\"%s\",\"node\":%u,\"command\":\"%s\"}\n", o.iface.c_str(), node,
+                o.command.c_str());
   return 0;
 }
 

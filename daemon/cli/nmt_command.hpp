@@ -9,7 +9,11 @@ struct NmtOptions {
   std::string iface;
   std::string command;  // start | stop | preop | reset | reset-comm
   std::string node;     // 1..127 or "all"
+  bool json = false;
+  std::string control = "/run/cobridge/control.sock";  // the daemon that may own the bus
 };
+// Through the daemon when it owns the bus (daemon_route.hpp), which then
+// knows the device was stopped / reset on purpose; else on the interface.
 
 int nmt_send(const NmtOptions& o);
 

@@ -4,6 +4,9 @@
 #include "canopen/lss_master.hpp"
 #include "canopen/nmt.hpp"
 #include "cli/bus_session.hpp"
+#include "cli/control_client.hpp"
+#include "cli/daemon_route.hpp"
+#include "cli/json_value.hpp"
 #include "device/device_catalog.hpp"
 #include "sys/install_paths.hpp"
 
@@ -75,13 +78,55 @@ std::string hex_or_clash(const std::set<uint32_t>& s) {
 
 }  // namespace
 
+// A daemon serving `iface` already discovers that bus: its view is printed
+// instead of a second master's probe. nullopt: no daemon owns the bus.
+std::optional<int> scan_via_daemon(const ScanOptions& o) {
+  std::string error;
+  bool no_daemon = false;
+  const auto answer = request(o.control, "status", 3000, error, &no_daemon);
+  if (!answer) return std::nullopt;
+  const auto doc = JsonParser(*answer).parse(error);
+  if (!doc) return std::nullopt;
+  for (const auto& b : (*doc)["buses"].items) {
+    if (b["interface"].str("") != o.iface) continue;
+    if (o.assign_from)
+      return report_failure("scan", Error(Errc::kUnavailable, "cobridged owns this bus: `cobridge commission --bus " +
+                                                                  b["name"].str() + "` assigns node-IDs through it",
+                                          o.iface),
+                            o.json);
+    if (o.json) {
+      std::printf("{\"ok\":true,\"via\":\"daemon\",\"bus\":%s,\"devices\":[", json_quote(b["name"].str()).c_str());
+    } else {
+      std::printf("(cobridged owns %s: its discovery's view of bus %s)\n%-6s %-10s %-12s %-12s %-14s %s\n", o.iface.c_str(),
+                  b["name"].str().c_str(), "NODE", "SERIAL", "MODEL", "NAME", "STATE", "LAST ERROR");
+    }
+    bool first = true;
+    for (const auto& d : b["devices"].items) {
+      if (o.json) {
+        std::printf("%s{\"node\":%s,\"vendor\":%lld,\"product\":%lld,\"revision\":%lld,\"serial\":%lld,\"model\":%s,"
+                    "\"name\":%s,\"state\":%s}",
+                    first ? "" : ",", d["node_id"].str("null").c_str(), d["identity"]["vendor"].integer(),
+                    d["identity"]["product"].integer(), d["identity"]["revision"].integer(),
+                    d["identity"]["serial"].integer(), json_quote(d["model"].str("")).c_str(),
+                    json_quote(d["name"].str("")).c_str(), json_quote(d["state"].str("")).c_str());
+      } else {
+        std::printf("%-6s %-10s %-12s %-12s %-14s %s\n", d["node_id"].str().c_str(), d["identity"]["serial"].str().c_str(),
+                    d["model"].str().c_str(), d["name"].str().c_str(), d["state"].str().c_str(),
+                    d["last_error"].str("").c_str());
+      }
+      first = false;
+    }
+    if (o.json) std::printf("]}\n");
+    return 0;
+  }
+  return std::nullopt;
+}
+
 int scan(const ScanOptions& o) {
+  if (const auto rc = scan_via_daemon(o)) return *rc;
   std::string error;
   auto bus = BusSession::open(o.iface, error);
-  if (!bus) {
-    std::fprintf(stderr, "cobridge: scan: %s\n", error.c_str());
-    return 1;
-  }
+  if (!bus) return report_failure("scan", Error(Errc::kUnavailable, error, o.iface), o.json);
   device::DeviceCatalog catalog;
   {
     std::string dir = o.devices_dir;

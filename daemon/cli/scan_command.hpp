@@ -24,6 +24,7 @@ struct ScanOptions {
   unsigned assign_from = 0;   // 0 = do not assign
   std::string devices_dir;    // EDS directory for model names; empty = default
   bool json = false;
+  std::string control = "/run/cobridge/control.sock";  // a daemon owning the bus answers from its discovery
 };
 
 int scan(const ScanOptions& o);

@@ -4,6 +4,10 @@
 #include "canopen/sdo_abort.hpp"
 #include "canopen/sdo_client.hpp"
 #include "cli/bus_session.hpp"
+#include "cli/daemon_route.hpp"
+
+#include <algorithm>
+#include <span>
 
 #include <cstdio>
 #include <cstdlib>
@@ -22,42 +26,98 @@ bool parse_u32(const std::string& s, uint32_t& out) {
   return true;
 }
 
-// Runs one started transfer to completion; prints the error and returns
-// nullopt on failure.
-std::optional<canopen::SdoClient::Result> finish(BusSession& bus, canopen::SdoClient& client,
-                                                 const SdoOptions& o) {
+// Runs one started transfer to completion on the interface itself.
+std::optional<canopen::SdoClient::Result> finish(BusSession& bus, canopen::SdoClient& client, const SdoOptions& o,
+                                                 Error& error) {
   bus.run([&](const can::Frame& f, TimePoint now) { client.on_frame(f, now); },
           [&](TimePoint now) { return client.process(now); }, [&] { return client.has_result(); },
           std::chrono::milliseconds(o.timeout_ms * 4 + 1000));
   auto r = client.take_result();
+  const std::string where = "node " + std::to_string(o.node) + " on " + o.iface;
   if (!r) {
-    std::fprintf(stderr, "cobridge: sdo: no result from node %u on %s\n", o.node, o.iface.c_str());
+    error = Error(Errc::kTimeout, "no result", where);
     return std::nullopt;
   }
   if (!r->ok()) {
-    std::fprintf(stderr, "cobridge: sdo: node %u %04X:%u: %s (0x%08X)\n", o.node, r->index, r->sub,
-                 r->error.message().c_str(), canopen::sdo_abort_wire_code(r->error));
+    const bool silent = r->error == canopen::make_error_code(canopen::SdoAbort::kProtocolTimedOut);
+    char text[32];
+    std::snprintf(text, sizeof text, "%04X:%u", r->index, r->sub);
+    error = Error(silent ? Errc::kTimeout : Errc::kFailed, r->error.message(), where + " object " + text, r->error);
+    if (!silent) {
+      std::snprintf(text, sizeof text, " (abort code 0x%08X)", canopen::sdo_abort_wire_code(r->error));
+      error.message += text;
+    }
     return std::nullopt;
   }
   return r;
 }
 
-bool setup(const SdoOptions& o, uint16_t& index, uint8_t& sub, std::unique_ptr<BusSession>& bus) {
+Error check(const SdoOptions& o, uint16_t& index, uint8_t& sub) {
   std::string error;
-  if (!canopen::cob::valid_node_id(o.node)) {
-    std::fprintf(stderr, "cobridge: sdo: --node %u is not a node-ID (allowed: 1..127)\n", o.node);
-    return false;
+  if (!canopen::cob::valid_node_id(o.node))
+    return Error(Errc::kInvalidArgument, "--node " + std::to_string(o.node) + " is not a node-ID (allowed: 1..127)");
+  if (!parse_object(o.object, index, sub, error)) return Error(Errc::kInvalidArgument, error, "object '" + o.object + "'");
+  return {};
+}
+
+std::unique_ptr<BusSession> open_bus(const SdoOptions& o, Error& err) {
+  std::string error;
+  auto bus = BusSession::open(o.iface, error);
+  if (!bus) err = Error(Errc::kUnavailable, error, o.iface);
+  return bus;
+}
+
+std::string object_words(const SdoOptions& o, uint16_t index, uint8_t sub) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%u %04X %u", o.node, index, sub);
+  return buf;
+}
+
+int daemon_timeout(const SdoOptions& o) { return static_cast<int>(std::max(10000U, o.timeout_ms * 8)) + 5000; }
+
+void print_read(const SdoOptions& o, uint16_t index, uint8_t sub, std::span<const uint8_t> d, const char* raw_json) {
+  if (o.json) {
+    if (raw_json != nullptr) {
+      std::printf("%s\n", raw_json);
+      return;
+    }
+    uint32_t v = 0;
+    for (std::size_t i = 0; i < d.size() && i < 4; ++i) v |= uint32_t{d[i]} << (8 * i);
+    std::printf("{\"ok\":true,\"bus\":\"%s\",\"node\":%u,\"index\":%u,\"sub\":%u,\"size\":%zu,\"hex\":\"",
+                o.iface.c_str(), o.node, index, sub, d.size());
+    for (uint8_t b : d) std::printf("%02X", b);
+    std::printf("\"");
+    if (!d.empty() && d.size() <= 4) std::printf(",\"value\":%u", v);
+    std::printf("}\n");
+  } else if (o.as_string || d.size() > 4) {
+    std::printf("%.*s\n", static_cast<int>(d.size()), reinterpret_cast<const char*>(d.data()));
+  } else {
+    uint32_t v = 0;
+    for (std::size_t i = 0; i < d.size(); ++i) v |= uint32_t{d[i]} << (8 * i);
+    std::printf("0x%0*X (%u)\n", static_cast<int>(d.size() * 2), v, v);
   }
-  if (!parse_object(o.object, index, sub, error)) {
-    std::fprintf(stderr, "cobridge: sdo: object '%s': %s\n", o.object.c_str(), error.c_str());
-    return false;
+}
+
+std::vector<uint8_t> hex_to_bytes(const std::string& h) {
+  std::vector<uint8_t> out;
+  for (std::size_t i = 0; i + 1 < h.size(); i += 2) out.push_back(static_cast<uint8_t>(std::stoul(h.substr(i, 2), nullptr, 16)));
+  return out;
+}
+
+Error encode_value(const SdoOptions& o, std::vector<uint8_t>& data) {
+  if (o.as_string) {
+    data.assign(o.value.begin(), o.value.end());
+    return {};
   }
-  bus = BusSession::open(o.iface, error);
-  if (!bus) {
-    std::fprintf(stderr, "cobridge: sdo: %s\n", error.c_str());
-    return false;
-  }
-  return true;
+  uint32_t v = 0;
+  if (!parse_u32(o.value, v)) return Error(Errc::kInvalidArgument, "value '" + o.value + "' is not a 32-bit number");
+  const unsigned size = o.size == 0 ? 4 : o.size;
+  if (size != 1 && size != 2 && size != 4)
+    return Error(Errc::kInvalidArgument, "--size " + std::to_string(size) + " (allowed: 1, 2, 4)");
+  if (size < 4 && (v >> (size * 8)) != 0 && (static_cast<int32_t>(v) >= 0))
+    return Error(Errc::kInvalidArgument, "value " + o.value + " does not fit " + std::to_string(size) + " byte(s)");
+  for (unsigned i = 0; i < size; ++i) data.push_back(static_cast<uint8_t>(v >> (8 * i)));
+  return {};
 }
 
 }  // namespace
@@ -88,63 +148,57 @@ bool parse_object(const std::string& text, uint16_t& index, uint8_t& sub, std::s
 int sdo_read(const SdoOptions& o) {
   uint16_t index = 0;
   uint8_t sub = 0;
-  std::unique_ptr<BusSession> bus;
-  if (!setup(o, index, sub, bus)) return 2;
+  if (Error e = check(o, index, sub)) return report_failure("sdo", e, o.json);
+  const std::string line = "sdo-read " + o.iface + " " + object_words(o, index, sub) + " " + std::to_string(o.timeout_ms);
+  if (auto routed = via_daemon(o.control, line, daemon_timeout(o))) {
+    if (routed->first) return report_daemon_failure("sdo", *routed, o.json);
+    const auto data = hex_to_bytes(routed->second.doc["hex"].str(""));
+    print_read(o, index, sub, data, routed->second.line.c_str());
+    return 0;
+  }
+  Error err;
+  auto bus = open_bus(o, err);
+  if (!bus) return report_failure("sdo", err, o.json);
   canopen::SdoClient client(bus->channel(), static_cast<uint8_t>(o.node),
                             canopen::SdoClient::Config{.timeout = std::chrono::milliseconds(o.timeout_ms)});
-  if (auto ec = client.start_upload(index, sub, canopen::Clock::now())) {
-    std::fprintf(stderr, "cobridge: sdo: %s\n", ec.message().c_str());
-    return 1;
-  }
-  auto r = finish(*bus, client, o);
-  if (!r) return 1;
-  const auto& d = r->data;
-  if (o.json) {
-    std::printf("{\"node\":%u,\"index\":%u,\"sub\":%u,\"size\":%zu,\"value\":%u,\"hex\":\"", o.node,
-                index, sub, d.size(), d.size() <= 4 ? r->as_u32() : 0u);
-    for (uint8_t b : d) std::printf("%02X", b);
-    std::printf("\"}\n");
-  } else if (o.as_string || d.size() > 4) {
-    std::printf("%.*s\n", static_cast<int>(d.size()), reinterpret_cast<const char*>(d.data()));
-  } else {
-    std::printf("0x%0*X (%u)\n", static_cast<int>(d.size() * 2), r->as_u32(), r->as_u32());
-  }
+  if (auto ec = client.start_upload(index, sub, canopen::Clock::now()))
+    return report_failure("sdo", Error(Errc::kUnavailable, ec.message(), o.iface, ec), o.json);
+  auto r = finish(*bus, client, o, err);
+  if (!r) return report_failure("sdo", err, o.json);
+  print_read(o, index, sub, r->data, nullptr);
   return 0;
 }
 
 int sdo_write(const SdoOptions& o) {
   uint16_t index = 0;
   uint8_t sub = 0;
-  std::unique_ptr<BusSession> bus;
-  if (!setup(o, index, sub, bus)) return 2;
+  if (Error e = check(o, index, sub)) return report_failure("sdo", e, o.json);
   std::vector<uint8_t> data;
-  if (o.as_string) {
-    data.assign(o.value.begin(), o.value.end());
-  } else {
-    uint32_t v = 0;
-    if (!parse_u32(o.value, v)) {
-      std::fprintf(stderr, "cobridge: sdo: value '%s' is not a 32-bit number\n", o.value.c_str());
-      return 2;
-    }
-    const unsigned size = o.size == 0 ? 4 : o.size;
-    if (size != 1 && size != 2 && size != 4) {
-      std::fprintf(stderr, "cobridge: sdo: --size %u (allowed: 1, 2, 4)\n", size);
-      return 2;
-    }
-    if (size < 4 && (v >> (size * 8)) != 0 && (static_cast<int32_t>(v) >= 0)) {
-      std::fprintf(stderr, "cobridge: sdo: value 0x%X does not fit %u byte(s)\n", v, size);
-      return 2;
-    }
-    for (unsigned i = 0; i < size; ++i) data.push_back(static_cast<uint8_t>(v >> (8 * i)));
+  if (Error e = encode_value(o, data)) return report_failure("sdo", e, o.json);
+  std::string hex;
+  char b[3];
+  for (const uint8_t v : data) {
+    std::snprintf(b, sizeof b, "%02X", v);
+    hex += b;
   }
+  const std::string line = "sdo-write " + o.iface + " " + object_words(o, index, sub) + " " + hex + " " +
+                           std::to_string(o.timeout_ms);
+  if (auto routed = via_daemon(o.control, line, daemon_timeout(o))) {
+    if (routed->first) return report_daemon_failure("sdo", *routed, o.json);
+    if (o.json) std::printf("%s\n", routed->second.line.c_str());
+    return 0;
+  }
+  Error err;
+  auto bus = open_bus(o, err);
+  if (!bus) return report_failure("sdo", err, o.json);
   canopen::SdoClient client(bus->channel(), static_cast<uint8_t>(o.node),
                             canopen::SdoClient::Config{.timeout = std::chrono::milliseconds(o.timeout_ms)});
-  if (auto ec = client.start_download(index, sub, data, canopen::Clock::now())) {
-    std::fprintf(stderr, "cobridge: sdo: %s\n", ec.message().c_str());
-    return 1;
-  }
-  if (!finish(*bus, client, o)) return 1;
-  if (o.json) std::printf("{\"node\":%u,\"index\":%u,\"sub\":%u,\"ok\":true}\n", o.node, index, sub);
+  if (auto ec = client.start_download(index, sub, data, canopen::Clock::now()))
+    return report_failure("sdo", Error(Errc::kUnavailable, ec.message(), o.iface, ec), o.json);
+  if (!finish(*bus, client, o, err)) return report_failure("sdo", err, o.json);
+  if (o.json)
+    std::printf("{\"ok\":true,\"bus\":\"%s\",\"node\":%u,\"index\":%u,\"sub\":%u,\"size\":%zu}\n", o.iface.c_str(),
+                o.node, index, sub, data.size());
   return 0;
 }
 

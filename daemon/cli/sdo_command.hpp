@@ -1,4 +1,4 @@
-// `cobridge sdo read|write`: one SDO transfer to one node over an interface.
+// `cobridge sdo read|write`: one SDO transfer to one node on a bus.
 #pragma once
 
 #include <cstdint>
@@ -15,11 +15,14 @@ struct SdoOptions {
   bool as_string = false;    // read: print as text; write: send text bytes
   unsigned timeout_ms = 500;
   bool json = false;
+  std::string control = "/run/cobridge/control.sock";  // the daemon that may own the bus
 };
 
 // Parses "0xIIII[:SS]" / "IIII:SS" (hex index, sub decimal or 0x-hex).
 bool parse_object(const std::string& text, uint16_t& index, uint8_t& sub, std::string& error);
 
+// Through the daemon when it owns the bus (daemon_route.hpp), else on the
+// interface directly. Exit codes: exit_code(Errc) (docs/operations.md).
 int sdo_read(const SdoOptions& o);
 int sdo_write(const SdoOptions& o);
 

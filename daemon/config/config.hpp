@@ -11,6 +11,8 @@
 // read-only; safe to read from any thread once published.
 #pragma once
 
+#include "config/remote_access.hpp"
+
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
@@ -202,6 +204,7 @@ struct Config {
   std::vector<Device> devices;
   std::vector<Output> outputs;
   std::optional<WebSettings> web;  // absent = no web service
+  RemoteAccess remote;             // [control], [ascii_gateway]
 
   [[nodiscard]] const Bus* find_bus(std::string_view name) const noexcept {
     for (const auto& b : buses) {

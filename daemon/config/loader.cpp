@@ -1,6 +1,7 @@
 // The Loader's frame: the sections in order, paths, arrays of tables and
 // entry names, and the syntax checks several sections share.
 #include "config/loader.hpp"
+#include "config/remote_access_section.hpp"
 
 #include "config/toml_limits.hpp"
 
@@ -73,13 +74,14 @@ LoadResult Loader::run(std::string_view text) {
     return LoadResult(sink_.take_sorted());
   }
   TableReader top(root, "the top level", "", "", sink_);
-  top.check_keys({"gateway", "logging", "bus", "device", "outputs", "web"});
+  top.check_keys({"gateway", "logging", "bus", "device", "outputs", "web", "control", "ascii_gateway"});
   read_gateway(top);
   read_logging(top);
   read_tables(root, "bus", &Loader::read_bus);
   read_tables(root, "device", &Loader::read_device);
   read_outputs(top);
   read_web(top);
+  read_remote_access(top, sink_, config_.remote);
   cross_check();
   if (!sink_.empty()) return LoadResult(sink_.take_sorted());
   config_.source = sink_.file();

@@ -12,6 +12,8 @@
 #include "gateway/identity_reader.hpp"
 #include "gateway/log_budget.hpp"
 #include "gateway/plan_runner.hpp"
+#include "gateway/remote/remote_executor.hpp"
+#include "gateway/remote/remote_target.hpp"
 #include "gateway/supervisor.hpp"
 #include "sys/logging.hpp"
 
@@ -48,6 +50,7 @@ constexpr milliseconds kFailedRetryPeriod{30000};  // a failed device is tried a
 constexpr milliseconds kMaxPollWait{1000};
 constexpr milliseconds kRebootFallbackDelay{500};
 constexpr std::size_t kMaxQueuedCommands = 16;    // per bus, waiting for the control thread
+constexpr std::size_t kMaxRemoteCommands = 256;   // client commands per bus, queued or waiting for their node
 // After a command that passed through pre-operational, a heartbeat sent
 // before the device got NMT start may still arrive: not a surprise reset.
 constexpr milliseconds kCommandSettle{500};
@@ -65,7 +68,7 @@ std::string hex32(std::uint32_t v) {
 
 }  // namespace
 
-struct BusManager::Impl {
+struct BusManager::Impl final : RemoteGate {
   // One configured device of this bus (or an unknown one discovery reported).
   struct Managed {
     config::Device cfg;
@@ -84,6 +87,7 @@ struct BusManager::Impl {
     bool want_configure = false;  // waiting for a runner slot
     bool started = false;         // NMT start sent after a successful plan
     bool failed_unanswered = false;  // the last failure was a silence (timeout, nothing sent)
+    bool operator_hold = false;      // stopped / pre-operational by a client's NMT command: left so
     unsigned attempts = 0;
     TimePoint not_before{};       // retry back-off
     TimePoint configure_started{};
@@ -207,6 +211,7 @@ struct BusManager::Impl {
     const TimePoint now0 = Clock::now();
     DiscoveryOptions dopt;
     discovery = std::make_unique<Discovery>(*channel, config, bus_index, state.on_bus(bus.name), dopt);
+    remote = std::make_unique<RemoteExecutor>(*channel, bus.name, milliseconds(bus.lss_timeout_ms));
     if (bus.sync_period_ms > 0) {
       canopen::SyncProducer::Config sc;
       sc.period = milliseconds(bus.sync_period_ms);
@@ -254,6 +259,7 @@ struct BusManager::Impl {
     }
     sync.stop();
     runners_abort();
+    remote->abort_all("the bus stopped");
     channel->close();
     open_flag.store(false);
     log->info("bus {}: stopped", bus.name);
@@ -285,7 +291,9 @@ struct BusManager::Impl {
   // ---- frames and components ----------------------------------------------
 
   void dispatch(const can::Frame& frame, TimePoint now) {
-    discovery->on_frame(frame, now);
+    // While a client's LSS command runs, its answers are not discovery's.
+    if (frame.id != canopen::cob::kLssSlaveToMaster || !remote->lss_session(now)) discovery->on_frame(frame, now);
+    remote->on_frame(frame, now);
     supervisor.on_frame(frame, now);
     for (auto& m : devices) {
       if (m.runner) m.runner->on_frame(frame, now);
@@ -297,7 +305,9 @@ struct BusManager::Impl {
     TimePoint next = kNever;
     next = std::min(next, channel->process(now));
     open_flag.store(channel->is_open());
-    next = std::min(next, discovery->process(now));
+    if (!remote->lss_session(now)) next = std::min(next, discovery->process(now));
+    next = std::min(next, remote->process(now, *this));
+    remote_waiting.store(remote->waiting(), std::memory_order_relaxed);
     next = std::min(next, supervisor.process(now, *channel));
     next = std::min(next, sync.process(now, *channel));
     for (auto& m : devices) {
@@ -428,6 +438,7 @@ struct BusManager::Impl {
     if (!channel->is_open()) return;
     for (auto& m : devices) {
       if (!m.ident_wanted || m.ident || m.runner || now < m.ident_at) continue;
+      if (m.st.node_id == remote->sdo_node()) continue;  // a client's transfer runs on it
       m.ident_wanted = false;
       m.ident = std::make_unique<IdentityReader>(sdo_of(m));
       if (m.ident->start(now)) {
@@ -648,6 +659,7 @@ struct BusManager::Impl {
     for (auto& m : devices) {
       if (active >= kMaxConcurrentPlans) break;
       if (!m.want_configure || m.runner || m.ident || now < m.not_before) continue;
+      if (m.st.node_id == remote->sdo_node()) continue;  // a client's transfer runs on it: next turn
       m.want_configure = false;
       if (begin_configuration(m, now)) {
         ++active;
@@ -917,7 +929,7 @@ struct BusManager::Impl {
       report_command(none, cmd, CommandOutcome{CommandStatus::unknown_device, 0, "not configured on this bus"});
       return;
     }
-    if (m->runner) {
+    if (m->runner || m->st.node_id == remote->sdo_node()) {
       report_command(*m, cmd,
                      CommandOutcome{CommandStatus::busy, 0, m->command ? "another command runs" : "being configured"});
       return;
@@ -986,6 +998,7 @@ struct BusManager::Impl {
         // replacement part); its `identified` event restarts the plan.
         m->boot_up_at = now;
         m->started = false;
+        m->operator_hold = false;  // a restarted device is started again, whoever stopped it before
         drop_runner(*m, "the device rebooted");
         m->ident.reset();
         // Should discovery's re-identification not come, configure it anyway
@@ -1027,6 +1040,10 @@ struct BusManager::Impl {
   // left as that master wants it (policy respect); either way it is logged.
   void on_nmt_state(Managed& m, canopen::NmtState nmt, TimePoint now) {
     if (!m.started || m.runner || now < m.preop_expected_until) return;
+    if (m.operator_hold && nmt != canopen::NmtState::operational) {
+      set_state(m, DeviceState::stopped);  // a client's NMT command: left as asked
+      return;
+    }
     const bool restart = bus.foreign_nmt == config::ForeignNmt::restart;
     if (nmt == canopen::NmtState::operational) {
       if (m.st.state != DeviceState::stopped) return;
@@ -1085,12 +1102,15 @@ struct BusManager::Impl {
     bool commission = false;
     std::optional<config::Config> reload_config;
     std::deque<DeviceCommand> commands;
+    std::deque<std::pair<RemoteCommand, std::shared_ptr<RemoteReplies>>> clients;
     {
       const std::lock_guard lock(mutex);
       commission = std::exchange(commission_requested, false);
       reload_config = std::exchange(pending_reload, std::nullopt);
       commands.swap(pending_commands);
+      clients.swap(pending_remote);
     }
+    for (auto& [c, to] : clients) remote->add(std::move(c), std::move(to), now);
     if (commission) discovery->request_commission();
     if (reload_config) apply_reload(std::move(*reload_config), now);
     for (auto& c : commands) start_command(std::move(c), now);
@@ -1158,6 +1178,52 @@ struct BusManager::Impl {
       if (!o.in_config) devices.push_back(std::move(o));  // still on the bus
     }
     dirty = true;
+  }
+
+  // ---- clients' commands (RemoteGate) ------------------------------------------
+
+  bool node_free(std::uint8_t node) const override {
+    if (discovery->commissioning() || !channel->is_open()) return false;
+    for (const auto& m : devices) {
+      if (node != 0 && m.st.node_id != node) continue;
+      if (m.runner || m.ident || m.command) return false;
+      const auto s = m.st.state;
+      if (s == DeviceState::identified || s == DeviceState::configuring || s == DeviceState::commissioning) return false;
+      if (m.want_configure && s != DeviceState::failed) return false;
+    }
+    return true;
+  }
+
+  bool node_supervised(std::uint8_t node) const override {
+    return std::any_of(devices.begin(), devices.end(),
+                       [&](const Managed& m) { return m.in_config && m.st.node_id == node && m.description != nullptr; });
+  }
+
+  bool lss_allowed() const override { return !discovery->commissioning() && channel->is_open(); }
+
+  void on_nmt_sent(canopen::NmtCommand command, std::uint8_t node, const std::string& caller) override {
+    const bool hold = command == canopen::NmtCommand::stop || command == canopen::NmtCommand::enter_preop;
+    for (auto& m : devices) {
+      if (!m.in_config || (node != 0 && m.st.node_id != node)) continue;
+      m.operator_hold = hold;
+      if (hold) {
+        m.st.last_error = "left " + std::string(command == canopen::NmtCommand::stop ? "stopped" : "pre-operational") +
+                          " by a client's NMT command (" + caller + ")";
+        set_state(m, DeviceState::stopped);
+      }
+    }
+  }
+
+  void on_lss_node_id(const canopen::LssAddress& device, std::uint8_t node, bool stored) override {
+    log->info("bus {}: a client set serial {} to node-ID {}{}", bus.name, device.serial, node,
+              stored ? " (stored)" : " (not stored)");
+    if (!stored) return;
+    DiscoveryEvent e;
+    e.kind = DiscoveryEventKind::commissioned;
+    e.node_id = node;
+    e.previous_node_id = canopen::cob::kNodeIdUnconfigured;
+    e.identity = device;
+    if (const auto ec = record_assignment(state, bus.name, e)) log->error("bus {}: state file: {}", bus.name, ec.message());
   }
 
   // ---- status ------------------------------------------------------------------
@@ -1243,6 +1309,7 @@ struct BusManager::Impl {
 
   std::unique_ptr<can::SocketCanChannel> channel;
   std::unique_ptr<Discovery> discovery;
+  std::unique_ptr<RemoteExecutor> remote;
   Supervisor supervisor;
   canopen::SyncProducer sync;
   std::vector<Managed> devices;
@@ -1265,7 +1332,8 @@ struct BusManager::Impl {
   std::atomic<bool> running{false};
   std::atomic<bool> open_flag{false};
   std::atomic<bool> ready_latched{false};
-  std::atomic<Clock::rep> loop_alive{0};  // steady_clock ticks of the last loop turn (watchdog)
+  std::atomic<Clock::rep> loop_alive{0};
+  std::atomic<std::size_t> remote_waiting{0};  // client commands in the executor (kMaxRemoteCommands)  // steady_clock ticks of the last loop turn (watchdog)
 
   // Shared with the callers of status()/reload()/request_commission().
   mutable std::mutex mutex;
@@ -1273,6 +1341,7 @@ struct BusManager::Impl {
   bool commission_requested = false;
   std::optional<config::Config> pending_reload;
   std::deque<DeviceCommand> pending_commands;
+  std::deque<std::pair<RemoteCommand, std::shared_ptr<RemoteReplies>>> pending_remote;
 };
 
 BusManager::BusManager(const config::Config& config, std::size_t bus_index, const device::DeviceCatalog& catalog,
@@ -1283,10 +1352,17 @@ BusManager::~BusManager() { stop(); }
 
 std::error_code BusManager::start() {
   if (impl_->thread.joinable()) return std::make_error_code(std::errc::device_or_resource_busy);
-  return impl_->start();
+  RemoteBus rb{impl_->bus.name, impl_->bus.interface, static_cast<unsigned>(impl_->bus_index + 1)};
+  const config::RemoteAccess access = impl_->config.remote;
+  if (const auto ec = impl_->start()) return ec;
+  BusRegistry::process().add(*this, std::move(rb), access);
+  return {};
 }
 
-void BusManager::stop() { impl_->stop(); }
+void BusManager::stop() {
+  BusRegistry::process().remove(*this);
+  impl_->stop();
+}
 
 bool BusManager::ready() const {
   if (impl_->ready_latched.load()) return true;
@@ -1339,11 +1415,24 @@ CommandStatus BusManager::submit(DeviceCommand command) {
   return CommandStatus::ok;
 }
 
+Error BusManager::submit_remote(RemoteCommand command, std::shared_ptr<RemoteReplies> reply_to) {
+  {
+    const std::lock_guard lock(impl_->mutex);
+    if (!impl_->running.load()) return Error(Errc::kUnavailable, "the bus does not run");
+    if (impl_->pending_remote.size() + impl_->remote_waiting.load(std::memory_order_relaxed) >= kMaxRemoteCommands)
+      return Error(Errc::kUnavailable, "too many client commands waiting on this bus; try again");
+    impl_->pending_remote.emplace_back(std::move(command), std::move(reply_to));
+  }
+  impl_->wake();
+  return {};
+}
+
 void BusManager::reload(const config::Config& config) {
   {
     const std::lock_guard lock(impl_->mutex);
     impl_->pending_reload = config;
   }
+  BusRegistry::process().update_access(config.remote);
   impl_->wake();
 }
 

@@ -10,8 +10,8 @@
 //
 // Threads: start() spawns the bus's control thread, which owns the control
 // socket and every protocol component; stop() ends and joins it within 1 s.
-// status(), ready(), request_commission(), reload() and submit() may be
-// called from any thread (they take a mutex; never on the hot path). Observer callbacks run on
+// status(), ready(), request_commission(), reload(), submit() and
+// submit_remote() may be called from any thread (they take a mutex; never on the hot path). Observer callbacks run on
 // the control thread and must not block.
 #pragma once
 
@@ -19,6 +19,8 @@
 #include "device/device_catalog.hpp"
 #include "gateway/device_command.hpp"
 #include "gateway/device_status.hpp"
+#include "gateway/remote/remote_command.hpp"
+#include "gateway/remote/remote_replies.hpp"
 #include "gateway/state_store.hpp"
 
 #include <memory>
@@ -83,6 +85,12 @@ class BusManager {
   // BusObserver::on_command_done. Returns ok when queued, busy when the
   // queue is full (then no outcome follows). Never blocks.
   [[nodiscard]] CommandStatus submit(DeviceCommand command);
+
+  // A client's SDO / NMT / LSS command (control socket, CiA 309-3 gateway;
+  // issue 15), run by the control thread's RemoteExecutor between its own
+  // work; the result goes to `reply_to`. Error kUnavailable when the queue
+  // is full or the bus does not run (then no result follows). Never blocks.
+  [[nodiscard]] Error submit_remote(RemoteCommand command, std::shared_ptr<RemoteReplies> reply_to);
 
  private:
   struct Impl;

@@ -1,9 +1,22 @@
-// ControlRequest: one request line of the control socket (`cobridge status`,
-// `cobridge commission [BUS]`), parsed. The line comes from any local process
-// that may connect, so every byte sequence gets a request or an error that
-// names what was wrong, never a crash.
-// Thread: any; a pure function (allocates only for the error text).
+// ControlRequest: one request line of the control socket, parsed. The line
+// comes from any local process that may connect, so every byte sequence gets
+// a request or an error that names what was wrong, never a crash.
+//
+//   status
+//   commission [BUS]
+//   sdo-read BUS NODE INDEX SUB [TIMEOUT_MS]          (INDEX hex, SUB decimal or 0x-hex)
+//   sdo-write BUS NODE INDEX SUB HEXBYTES [TIMEOUT_MS] (the bytes as on the wire, e.g. E803 = 1000 as u16)
+//   nmt BUS start|stop|preop|reset|reset-comm NODE     (NODE 0 = all nodes)
+//   lss-set-node-id BUS VENDOR PRODUCT REVISION SERIAL NODE store|no-store [TIMEOUT_MS]
+//
+// BUS is a bus name or its interface. `cobridge sdo|nmt|lss` send these
+// while a daemon owns the bus (issue 15).
+//
+// Thread: any; a pure function (allocates only for the texts).
 #pragma once
+
+#include "base/error.hpp"
+#include "gateway/remote/remote_command.hpp"
 
 #include <string>
 #include <string_view>
@@ -11,9 +24,10 @@
 namespace cobridge::gateway {
 
 struct ControlRequest {
-  enum class Kind { invalid, status, commission } kind = Kind::invalid;
-  std::string bus;    // commission: the bus to commission; empty = every bus
-  std::string error;  // invalid: what is wrong, printable ASCII only
+  enum class Kind { invalid, status, commission, remote } kind = Kind::invalid;
+  std::string bus;        // commission: the bus (empty = every bus); remote: bus name or interface
+  RemoteCommand command;  // remote: what to run (tag and caller left for the server)
+  Error error;            // invalid: kInvalidArgument with what is wrong, printable ASCII only
 };
 
 [[nodiscard]] ControlRequest parse_control_request(std::string_view line);

@@ -1,4 +1,6 @@
 #include "gateway/control_server.hpp"
+
+#include "gateway/control_answer.hpp"
 #include "gateway/control_request.hpp"
 
 #include "canopen/nmt.hpp"
@@ -107,13 +109,6 @@ class JsonWriter {
   bool first_ = true;
 };
 
-std::string error_json(std::string_view message) {
-  JsonWriter w;
-  w.begin_object();
-  w.field("error", message);
-  w.end_object();
-  return w.take();
-}
 
 // What a client sent, fit to be quoted back: printable ASCII, at most 40 chars.
 void write_device(JsonWriter& w, const DeviceStatus& d) {
@@ -309,7 +304,9 @@ std::string summary(const std::vector<BusStatus>& buses) {
 }
 
 ControlServer::ControlServer(ControlHandler& handler, ControlServerOptions options)
-    : handler_(handler), options_(options) {}
+    : handler_(handler),
+      options_(options),
+      remote_(options.remote != nullptr ? *options.remote : static_cast<RemoteTarget&>(BusRegistry::process())) {}
 
 ControlServer::~ControlServer() { close(); }
 
@@ -368,7 +365,31 @@ std::error_code ControlServer::open(const std::filesystem::path& path, std::stri
   return {};
 }
 
+void ControlServer::open_ascii_gateway() {
+  const auto access = remote_.access();
+  if (!access) return;  // no bus runs yet
+  ascii_tried_ = true;
+  const config::AsciiGatewaySettings& a = access->ascii;
+  if (!a.enabled) return;
+  AsciiServerOptions o;
+  o.max_clients = a.max_clients;
+  o.sdo_timeout = std::chrono::milliseconds(a.sdo_timeout_ms);
+  o.writes_enabled = a.writes_enabled;
+  ascii_ = std::make_unique<AsciiServer>(remote_, o);
+  const auto path = a.socket.empty() ? path_.parent_path() / "ascii.sock" : a.socket;
+  const auto log = sys::logger("gateway");
+  std::string why;
+  if (ascii_->open_unix(path, &why)) log->error("ascii gateway: {}", why);
+  else log->info("ascii gateway (CiA 309-3): {}{}", path.string(), a.writes_enabled ? "" : " (read-only)");
+  if (a.tcp_port != 0) {
+    if (ascii_->open_tcp(a.bind, a.tcp_port, &why)) log->error("ascii gateway: {}", why);
+    else log->info("ascii gateway (CiA 309-3): tcp {}:{}", a.bind, a.tcp_port);
+  }
+}
+
 void ControlServer::close() {
+  ascii_.reset();
+  ascii_tried_ = false;
   for (auto& c : clients_) drop(c);
   clients_.clear();
   if (listen_fd_ < 0) return;
@@ -382,7 +403,10 @@ void ControlServer::close() {
 
 void ControlServer::add_poll_fds(std::vector<pollfd>& fds) const {
   if (listen_fd_ >= 0) fds.push_back({listen_fd_, POLLIN, 0});
+  fds.push_back({replies_->fd(), POLLIN, 0});
+  if (ascii_) ascii_->add_poll_fds(fds);
   for (const auto& c : clients_) {
+    if (c.waiting_tag != 0) continue;  // nothing to read or write until its result is back
     const bool writing = c.out_done < c.out.size();
     fds.push_back({c.fd, static_cast<short>(writing ? POLLOUT : POLLIN), 0});
   }
@@ -390,7 +414,9 @@ void ControlServer::add_poll_fds(std::vector<pollfd>& fds) const {
 
 TimePoint ControlServer::process(TimePoint now) {
   if (listen_fd_ >= 0) accept_clients(now);
-  TimePoint next = kNever;
+  deliver(now);
+  if (!ascii_tried_ && listen_fd_ >= 0) open_ascii_gateway();
+  TimePoint next = ascii_ ? ascii_->process(now) : kNever;
   for (auto it = clients_.begin(); it != clients_.end();) {
     if (!serve(*it, now)) {
       drop(*it);
@@ -398,7 +424,8 @@ TimePoint ControlServer::process(TimePoint now) {
       continue;
     }
     // A request already buffered (pipelined) is due now: poll will not wake for it.
-    next = std::min(next, it->in.find('\n') != std::string::npos ? now : it->deadline);
+    const bool due = it->waiting_tag == 0 && it->in.find('\n') != std::string::npos;
+    next = std::min(next, due ? now : it->deadline);
     ++it;
   }
   return next;
@@ -415,7 +442,9 @@ void ControlServer::accept_clients(TimePoint now) {
     }
     if (clients_.size() >= options_.max_clients) {
       // Best effort: the socket is fresh, so a short answer fits its buffer.
-      const std::string busy = error_json("too many clients (limit " + std::to_string(options_.max_clients) + ")") + "\n";
+      const std::string busy =
+          error_answer(Error(Errc::kUnavailable, "too many clients (limit " + std::to_string(options_.max_clients) + ")")) +
+          "\n";
       (void)::send(fd, busy.data(), busy.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
       ::close(fd);
       continue;
@@ -423,6 +452,7 @@ void ControlServer::accept_clients(TimePoint now) {
     Client c;
     c.fd = fd;
     c.deadline = now + options_.client_timeout;
+    c.peer = peer_credentials(fd);
     clients_.push_back(std::move(c));
   }
 }
@@ -444,6 +474,7 @@ bool ControlServer::flush(Client& c) {
 }
 
 bool ControlServer::serve(Client& c, TimePoint now) {
+  if (c.waiting_tag != 0) return now < c.deadline;  // its command runs; deliver() answers
   // An answer is read before the next request is looked at.
   if (!flush(c)) return false;
   if (!c.out.empty()) return now < c.deadline;
@@ -469,7 +500,9 @@ bool ControlServer::serve(Client& c, TimePoint now) {
     answer(c, std::string_view(c.in).substr(0, nl), now);
     c.in.erase(0, nl + 1);
   } else if (c.in.size() > options_.max_line) {
-    c.out = error_json("request line longer than " + std::to_string(options_.max_line) + " bytes") + "\n";
+    c.out = error_answer(Error(Errc::kInvalidArgument,
+                               "request line longer than " + std::to_string(options_.max_line) + " bytes")) +
+            "\n";
     c.close_after_write = true;
     c.in.clear();
   } else if (c.peer_closed) {
@@ -477,14 +510,18 @@ bool ControlServer::serve(Client& c, TimePoint now) {
     if (c.in.find_first_not_of(" \t\r") != std::string::npos) answer(c, c.in, now);
     c.in.clear();
     c.close_after_write = true;
+    if (c.waiting_tag != 0) return true;  // answered when its command is done
   } else if (now >= c.deadline) {
     const std::string late =
-        error_json("request not completed within " + std::to_string(options_.client_timeout.count()) + " ms") + "\n";
+        error_answer(Error(Errc::kTimeout, "request not completed within " +
+                                               std::to_string(options_.client_timeout.count()) + " ms")) +
+        "\n";
     (void)::send(c.fd, late.data(), late.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
     return false;
   } else {
     return true;
   }
+  if (c.waiting_tag != 0) return true;
   // Most answers fit the socket buffer: hand this one over right away.
   if (!flush(c)) return false;
   if (!c.out.empty()) return now < c.deadline;
@@ -492,32 +529,70 @@ bool ControlServer::serve(Client& c, TimePoint now) {
 }
 
 void ControlServer::answer(Client& c, std::string_view line, TimePoint now) {
-  const ControlRequest req = parse_control_request(line);
+  ControlRequest req = parse_control_request(line);
   std::string reply;
   if (req.kind == ControlRequest::Kind::invalid) {
-    reply = error_json(req.error);
+    reply = error_answer(req.error);
   } else if (req.kind == ControlRequest::Kind::status) {
     reply = to_json(handler_.status());
-  } else {
+  } else if (req.kind == ControlRequest::Kind::commission) {
     const ControlResult r = handler_.commission(req.bus);
-    if (!r.ok) {
-      reply = error_json(r.message);
-    } else {
-      JsonWriter j;
-      j.begin_object();
-      j.field("ok", true);
-      j.key("buses");
-      j.begin_array();
-      for (const auto& b : r.buses) j.value(b);
-      j.end_array();
-      if (!r.message.empty()) j.field("message", r.message);
-      j.end_object();
-      reply = j.take();
-    }
+    reply = r.ok ? commission_answer(r.buses, r.message) : error_answer(Error(Errc::kNotFound, r.message));
+  } else {
+    submit(c, std::move(req), now);
+    if (c.waiting_tag != 0) return;
+    reply = std::exchange(c.out, {});
   }
   c.out += reply;
   c.out += '\n';
   c.deadline = now + options_.client_timeout;
+}
+
+void ControlServer::submit(Client& c, ControlRequest request, TimePoint now) {
+  RemoteCommand& cmd = request.command;
+  cmd.caller = c.peer.to_string() + " (control socket)";
+  if (cmd.is_write()) {
+    const auto access = remote_.access();
+    const auto log = sys::logger("gateway");
+    std::string refusal;
+    if (!access || !access->control.writes_enabled) {
+      refusal = "writes through the control socket are disabled ([control] writes_enabled = false)";
+    } else if (!access->control.write_group.empty() && c.peer.uid != 0 && c.peer.uid != ::geteuid() &&
+               !peer_in_group(c.peer, access->control.write_group)) {
+      refusal = "uid " + std::to_string(c.peer.uid) + " is not in the write group \"" +
+                access->control.write_group + "\" ([control] write_group)";
+    }
+    if (!refusal.empty()) {
+      log->warn("control socket: {} refused to {}: {}", to_string(cmd.op), cmd.caller, refusal);
+      c.out = error_answer(Error(Errc::kPermissionDenied, refusal, "bus '" + request.bus + "'"));
+      return;
+    }
+    log->info("control socket: {} on bus {} node {} by {}", to_string(cmd.op), request.bus, cmd.node, cmd.caller);
+  }
+  cmd.tag = next_tag_++;
+  const auto tag = cmd.tag;
+  const auto wait = cmd.deadline + std::chrono::seconds(2);
+  if (Error e = remote_.submit(request.bus, cmd, replies_)) {
+    c.out = error_answer(e);
+    return;
+  }
+  c.waiting_tag = tag;
+  c.pending = std::move(request);
+  c.deadline = now + wait;
+}
+
+void ControlServer::deliver(TimePoint now) {
+  for (const auto& r : replies_->take()) {
+    for (auto& c : clients_) {
+      if (c.waiting_tag != r.tag) continue;
+      c.out += remote_answer(c.pending, r);
+      c.out += '\n';
+      c.waiting_tag = 0;
+      c.pending = {};
+      c.deadline = now + options_.client_timeout;
+      break;
+    }
+  }
 }
 
 void ControlServer::drop(Client& c) {

@@ -8,7 +8,18 @@
 //
 //   status             -> {"gateway": ..., "buses": [...], ...}  (StatusReport)
 //   commission [BUS]   -> {"ok": true, "buses": [...]}   (every bus when BUS is left out)
-//   anything else      -> {"error": "..."}
+//   sdo-read, sdo-write, nmt, lss-set-node-id (control_request.hpp)
+//                      -> {"ok": true, ...}  (control_answer.hpp), answered when
+//                         the bus's control thread has run the command
+//   a failure          -> {"ok": false, "error": {"code": ..., "where": ..., "message": ...}}
+//
+// Clients' commands go to a RemoteTarget (the process's BusRegistry unless
+// the options name another): the daemon stays the one master of its buses.
+// Writes (sdo-write, nmt, lss-set-node-id) are refused unless [control]
+// writes_enabled is set and the caller (SO_PEERCRED) is root, the daemon's
+// own user or a member of [control] write_group; each write is logged with
+// the caller's uid and pid. While a client's command runs, that client's
+// next request waits; other clients are served meanwhile.
 //
 // A client may send several requests on one connection. No client can hold
 // the daemon up: every socket is non-blocking, a request line must be
@@ -18,13 +29,24 @@
 // the client does not read within `client_timeout` is dropped with the
 // connection, and there are at most `max_clients` connections.
 //
+// The CiA 309-3 ASCII gateway (remote/ascii_server.hpp) is driven from here
+// too, so the daemon's main loop serves it without a line of its own: it is
+// opened once the first bus runs and the registry holds [ascii_gateway]
+// enabled (socket: ascii_gateway.socket, default "ascii.sock" beside the
+// control socket), and closed with the control socket.
+//
 // Thread: the daemon's main loop owns it: add_poll_fds() before poll(),
 // process(now) after, like every component that waits on file descriptors.
 // The handler is called from process(), on that thread.
 #pragma once
 
 #include "canopen/clock.hpp"
+#include "gateway/control_request.hpp"
 #include "gateway/device_status.hpp"
+#include "gateway/remote/ascii_server.hpp"
+#include "gateway/remote/peer_credentials.hpp"
+#include "gateway/remote/remote_replies.hpp"
+#include "gateway/remote/remote_target.hpp"
 #include "pipeline/plugin_host.hpp"
 
 #include <poll.h>
@@ -73,6 +95,7 @@ struct ControlServerOptions {
   std::chrono::milliseconds client_timeout{2000};
   std::size_t max_line = 256;
   std::size_t max_clients = 16;
+  RemoteTarget* remote = nullptr;  // nullptr: BusRegistry::process()
 };
 
 class ControlServer {
@@ -106,6 +129,9 @@ class ControlServer {
     canopen::TimePoint deadline{};
     bool close_after_write = false;
     bool peer_closed = false;
+    PeerCredentials peer;
+    std::uint64_t waiting_tag = 0;  // a command of this client runs (0: none)
+    ControlRequest pending;         // that command, for its answer
   };
 
   void accept_clients(canopen::TimePoint now);
@@ -114,10 +140,21 @@ class ControlServer {
   // Writes what it can of the pending answer; false when the client is gone.
   static bool flush(Client& c);
   void answer(Client& c, std::string_view line, canopen::TimePoint now);
+  // A client's SDO/NMT/LSS command: checked, logged if a write, queued.
+  void submit(Client& c, ControlRequest request, canopen::TimePoint now);
+  // Writes the results that came back from the buses to their clients.
+  void deliver(canopen::TimePoint now);
+  // Opens the ASCII gateway once its settings are known (see above).
+  void open_ascii_gateway();
   void drop(Client& c);
 
   ControlHandler& handler_;
   ControlServerOptions options_;
+  RemoteTarget& remote_;
+  std::shared_ptr<RemoteReplies> replies_ = std::make_shared<RemoteReplies>();
+  std::uint64_t next_tag_ = 1;
+  bool ascii_tried_ = false;
+  std::unique_ptr<AsciiServer> ascii_;
   std::filesystem::path path_;
   int listen_fd_ = -1;
   dev_t socket_dev_ = 0;

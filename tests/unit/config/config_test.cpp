@@ -330,7 +330,9 @@ TEST(ConfigErrors, UnknownKeys) {
        {7, 1, "unknown key \"bitrat\" in [[bus]] (allowed: name, interface, bitrate, sync_period_ms"},
        {16, 1, "unknown key \"event_timer\" in [device.tpdo1] (allowed: mapping, transmission, event_timer_ms, "
                "inhibit_100us); did you mean \"event_timer_ms\"?"},
-       {18, 2, "unknown key \"colour\" in the top level (allowed: gateway, logging, bus, device, outputs, web)"}});
+       {18, 2,
+        "unknown key \"colour\" in the top level (allowed: gateway, logging, bus, device, outputs, web, control, "
+        "ascii_gateway)"}});
   const LoadResult r = load(kFixtures / "bad_unknown_keys.toml");
   EXPECT_THAT(r.diagnostics()[1].message, HasSubstr("did you mean \"bitrate\"?"));
   EXPECT_THAT(r.diagnostics()[0].message, ::testing::Not(HasSubstr("did you mean")));

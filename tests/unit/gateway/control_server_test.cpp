@@ -228,7 +228,8 @@ TEST(ControlServer, StatusAnswersOneLineOfJsonWithEveryField) {
 }
 
 // Protocol rule: `commission [BUS]` triggers the handler (request_commission
-// of that bus, or of every bus); a refusal comes back as {"error": ...}.
+// of that bus, or of every bus); a refusal comes back as the one Error shape
+// (issue 13 item 4): {"ok":false,"error":{"code":...,"where":...,"message":...}}.
 TEST(ControlServer, CommissionReachesTheHandlerAndErrorsAreJson) {
   FakeHandler h;
   ServerLoop loop(h, fast_options());
@@ -238,9 +239,10 @@ TEST(ControlServer, CommissionReachesTheHandlerAndErrorsAreJson) {
   c.send("commission line1\n");
   EXPECT_EQ(c.line(), "{\"ok\":true,\"buses\":[\"line1\"]}");
   c.send("commission nosuch\n");
-  EXPECT_EQ(c.line(), "{\"error\":\"unknown bus \\\"nosuch\\\"\"}");
+  EXPECT_EQ(c.line(),
+            "{\"ok\":false,\"error\":{\"code\":\"not_found\",\"where\":\"\",\"message\":\"unknown bus \\\"nosuch\\\"\"}}");
   c.send("commission a b\n");
-  EXPECT_NE(c.line().find("\"error\":\"usage"), std::string::npos);
+  EXPECT_NE(c.line().find("\"code\":\"invalid_argument\",\"where\":\"\",\"message\":\"usage"), std::string::npos);
   c.send("reboot\n");
   EXPECT_NE(c.line().find("unknown command \\\"reboot\\\""), std::string::npos);
   std::lock_guard lock(h.mutex);
@@ -298,13 +300,14 @@ TEST(ControlServer, OverlongLineIsRejectedAndGarbageIsAnError) {
   Client garbage(loop.path());
   garbage.send(std::string("\x01\xff\x7f\x00zz\n", 7));
   const std::string a = garbage.line();
-  EXPECT_NE(a.find("\"error\":\"unknown command \\\"???"), std::string::npos) << a;
+  EXPECT_NE(a.find("\"message\":\"unknown command \\\"???"), std::string::npos) << a;
   garbage.send("status\n");
   EXPECT_EQ(garbage.line().front(), '{');
 
   Client longer(loop.path());
   longer.send(std::string(200, 'x'));  // no newline at all
-  EXPECT_EQ(longer.line(), "{\"error\":\"request line longer than 64 bytes\"}");
+  EXPECT_EQ(longer.line(), "{\"ok\":false,\"error\":{\"code\":\"invalid_argument\",\"where\":\"\",\"message\":"
+                           "\"request line longer than 64 bytes\"}}");
   EXPECT_TRUE(longer.closed_within(300ms));
 
   Client exact(loop.path());  // 64 bytes is still a line
@@ -321,7 +324,8 @@ TEST(ControlServer, ConnectionsBeyondTheLimitAreRefused) {
   for (int i = 0; i < 4; ++i) inside.push_back(std::make_unique<Client>(loop.path()));
   std::this_thread::sleep_for(60ms);
   Client extra(loop.path());
-  EXPECT_EQ(extra.line(), "{\"error\":\"too many clients (limit 4)\"}");
+  EXPECT_EQ(extra.line(), "{\"ok\":false,\"error\":{\"code\":\"unavailable\",\"where\":\"\",\"message\":"
+                          "\"too many clients (limit 4)\"}}");
   inside[0]->send("commission\n");
   EXPECT_EQ(inside[0]->line(), "{\"ok\":true,\"buses\":[\"line1\"]}");
 }

@@ -1,0 +1,21 @@
+// ControlClient: one request line to cobridged's control socket
+// (gateway/control_server.hpp), one JSON answer line back.
+// Thread: the CLI's main thread; blocking I/O with a timeout.
+#pragma once
+
+#include <optional>
+#include <string>
+
+namespace cobridge::cli {
+
+// The daemon's control socket unless --control names another.
+inline constexpr const char* kDefaultControlSocket = "/run/cobridge/control.sock";
+
+// Sends `line`, returns the answer line (without newline), or nullopt with
+// `error` set. `no_daemon` (optional) is set when nothing listens on `path`
+// (no socket file, or connection refused): the caller may then work on the
+// bus itself.
+std::optional<std::string> request(const std::string& path, const std::string& line, int timeout_ms,
+                                   std::string& error, bool* no_daemon = nullptr);
+
+}  // namespace cobridge::cli

@@ -1,0 +1,73 @@
+#include "cli/daemon_route.hpp"
+
+#include "cli/control_client.hpp"
+
+#include <cstdio>
+
+namespace cobridge::cli {
+namespace {
+
+Errc kind_named(const std::string& text) {
+  for (int k = 0; k <= static_cast<int>(Errc::kInternal); ++k) {
+    if (name(static_cast<Errc>(k)) == text) return static_cast<Errc>(k);
+  }
+  return Errc::kFailed;
+}
+
+}  // namespace
+
+Error error_of_answer(const Json& doc) {
+  const Json& e = doc["error"];
+  if (e.type == Json::Type::string) return Error(Errc::kFailed, e.text);  // an older daemon
+  Error out(kind_named(e["code"].str("failed")), e["message"].str(""), e["where"].str(""));
+  const Json& detail = e["detail"];
+  if (!detail.is_null() && detail["category"].str("") == "sdo_abort" && !doc["abort_code"].is_null())
+    out.message += " (abort code " + doc["abort_code"].str("?") + ")";
+  return out;
+}
+
+namespace {}  // namespace
+
+std::optional<std::pair<Error, DaemonAnswer>> via_daemon(const std::string& control, const std::string& line,
+                                                         int timeout_ms) {
+  std::string error;
+  bool no_daemon = false;
+  const auto answer = request(control, line, timeout_ms, error, &no_daemon);
+  if (!answer) {
+    if (no_daemon) return std::nullopt;
+    const bool late = error.find("no answer within") != std::string::npos;
+    return std::pair{Error(late ? Errc::kTimeout : Errc::kUnavailable, error, control), DaemonAnswer{}};
+  }
+  DaemonAnswer a;
+  a.line = *answer;
+  std::string perr;
+  auto doc = JsonParser(*answer).parse(perr);
+  if (!doc || doc->type != Json::Type::object)
+    return std::pair{Error(Errc::kInternal, "the daemon's answer is not a JSON object: " + perr, control), a};
+  a.doc = std::move(*doc);
+  if (a.doc["ok"].type == Json::Type::boolean && a.doc["ok"].boolean) return std::pair{Error{}, std::move(a)};
+  Error e = error_of_answer(a.doc);
+  // A daemon that serves other buses does not own this one.
+  if (e.kind == Errc::kNotFound && e.where.empty() && e.message.find("serves no bus") != std::string::npos)
+    return std::nullopt;
+  return std::pair{std::move(e), std::move(a)};
+}
+
+int report_daemon_failure(const char* what, const std::pair<Error, DaemonAnswer>& routed, bool json) {
+  if (json && !routed.second.line.empty()) {
+    std::printf("%s\n", routed.second.line.c_str());  // the daemon's JSON, unchanged
+    return exit_code(routed.first.kind);
+  }
+  return report_failure(what, routed.first, json);
+}
+
+int report_failure(const char* what, const Error& error, bool json) {
+  if (json) {
+    std::printf("{\"ok\":false,\"error\":%s}\n", error.to_json().c_str());
+  } else {
+    std::fprintf(stderr, "cobridge: %s: %s\n", what, error.to_string().c_str());
+  }
+  return exit_code(error.kind);
+}
+
+}  // namespace cobridge::cli

@@ -1,0 +1,312 @@
+#include "gateway/remote/ascii_server.hpp"
+
+#include "sys/logging.hpp"
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <cstdio>
+
+namespace cobridge::gateway {
+namespace {
+
+using canopen::kNever;
+using canopen::TimePoint;
+
+constexpr const char* kHelp =
+    "commands: [seq] [[net] node] r|read idx sub [type] | w|write idx sub type value | start | stop | preop | "
+    "reset node | reset comm; [seq] [net] lss_switch_glob 0|1 | lss_switch_sel v p r s | lss_set_node n | "
+    "lss_store | lss_inquire_addr [0..3] | lss_get_node; [seq] [net] set network|node|sdo_timeout n; "
+    "[seq] info version; types b i8 i16 i32 i64 u8 u16 u32 u64 x8 x16 x32 x64 r32 r64 vs os";
+
+std::error_code sys_error(int err, const std::string& what, std::string* why) {
+  if (why != nullptr) *why = what + ": " + std::error_code(err, std::system_category()).message();
+  return {err, std::system_category()};
+}
+
+}  // namespace
+
+AsciiServer::AsciiServer(RemoteTarget& remote, AsciiServerOptions options) : remote_(remote), options_(options) {}
+
+AsciiServer::~AsciiServer() { close(); }
+
+std::error_code AsciiServer::open_unix(const std::filesystem::path& path, std::string* why) {
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  const std::string text = path.string();
+  if (text.empty() || text.size() >= sizeof addr.sun_path) return sys_error(ENAMETOOLONG, text, why);
+  text.copy(addr.sun_path, text.size());
+  std::error_code ec;
+  if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path(), ec);
+  struct stat st {};
+  if (::lstat(text.c_str(), &st) == 0) {
+    if (!S_ISSOCK(st.st_mode)) return sys_error(EEXIST, text + " exists and is not a socket", why);
+    ::unlink(text.c_str());  // the control socket proved this daemon is the only one
+  }
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+  if (fd < 0) return sys_error(errno, "socket()", why);
+  if (::bind(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0 || ::chmod(text.c_str(), 0660) != 0 ||
+      ::listen(fd, 128) != 0) {
+    const int err = errno;
+    ::close(fd);
+    return sys_error(err, "binding " + text, why);
+  }
+  unix_fd_ = fd;
+  unix_path_ = path;
+  return {};
+}
+
+std::error_code AsciiServer::open_tcp(const std::string& address, std::uint16_t port, std::string* why) {
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(port);
+  if (::inet_pton(AF_INET, address.c_str(), &addr.sin_addr) != 1) return sys_error(EINVAL, address, why);
+  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+  if (fd < 0) return sys_error(errno, "socket()", why);
+  const int one = 1;
+  ::setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
+  if (::bind(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0 || ::listen(fd, 128) != 0) {
+    const int err = errno;
+    ::close(fd);
+    return sys_error(err, "binding " + address + ":" + std::to_string(port), why);
+  }
+  tcp_fd_ = fd;
+  return {};
+}
+
+void AsciiServer::close() {
+  for (auto& c : clients_) ::close(c.fd);
+  clients_.clear();
+  if (unix_fd_ >= 0) {
+    ::close(unix_fd_);
+    ::unlink(unix_path_.c_str());
+    unix_fd_ = -1;
+  }
+  if (tcp_fd_ >= 0) ::close(tcp_fd_);
+  tcp_fd_ = -1;
+}
+
+void AsciiServer::add_poll_fds(std::vector<pollfd>& fds) const {
+  if (unix_fd_ >= 0) fds.push_back({unix_fd_, POLLIN, 0});
+  if (tcp_fd_ >= 0) fds.push_back({tcp_fd_, POLLIN, 0});
+  fds.push_back({replies_->fd(), POLLIN, 0});
+  for (const auto& c : clients_) {
+    if (c.out_done < c.out.size()) fds.push_back({c.fd, POLLOUT, 0});
+    else if (c.waiting_tag == 0) fds.push_back({c.fd, POLLIN, 0});
+  }
+}
+
+TimePoint AsciiServer::process(TimePoint now) {
+  if (unix_fd_ >= 0) accept_from(unix_fd_, false, now);
+  if (tcp_fd_ >= 0) accept_from(tcp_fd_, true, now);
+  deliver(now);
+  TimePoint next = kNever;
+  for (auto it = clients_.begin(); it != clients_.end();) {
+    if (!serve(*it, now)) {
+      ::close(it->fd);
+      it = clients_.erase(it);
+      continue;
+    }
+    const bool due = it->waiting_tag == 0 && it->in.find('\n') != std::string::npos;
+    next = std::min(next, due ? now : it->idle_until);
+    ++it;
+  }
+  return next;
+}
+
+void AsciiServer::accept_from(int listen_fd, bool tcp, TimePoint now) {
+  while (true) {
+    sockaddr_in peer{};
+    socklen_t len = sizeof peer;
+    const int fd = ::accept4(listen_fd, tcp ? reinterpret_cast<sockaddr*>(&peer) : nullptr, tcp ? &len : nullptr,
+                             SOCK_NONBLOCK | SOCK_CLOEXEC);
+    if (fd < 0) {
+      if (errno == EINTR || errno == ECONNABORTED) continue;
+      return;
+    }
+    if (clients_.size() >= options_.max_clients) {
+      const std::string busy = ascii_error("0", AsciiError::internal_state) + "\n";
+      (void)::send(fd, busy.data(), busy.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+      ::close(fd);
+      continue;
+    }
+    Client c;
+    c.fd = fd;
+    c.sdo_timeout = options_.sdo_timeout;
+    c.idle_until = now + options_.idle_timeout;
+    if (tcp) {
+      char a[INET_ADDRSTRLEN] = "?";
+      ::inet_ntop(AF_INET, &peer.sin_addr, a, sizeof a);
+      c.who = std::string("tcp ") + a + ":" + std::to_string(ntohs(peer.sin_port));
+    } else {
+      c.who = peer_credentials(fd).to_string();
+    }
+    clients_.push_back(std::move(c));
+  }
+}
+
+bool AsciiServer::flush(Client& c) {
+  while (c.out_done < c.out.size()) {
+    const ssize_t n = ::send(c.fd, c.out.data() + c.out_done, c.out.size() - c.out_done, MSG_NOSIGNAL | MSG_DONTWAIT);
+    if (n > 0) {
+      c.out_done += static_cast<std::size_t>(n);
+    } else if (n < 0 && errno == EINTR) {
+      continue;
+    } else {
+      return n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK);
+    }
+  }
+  c.out.clear();
+  c.out_done = 0;
+  return true;
+}
+
+void AsciiServer::read_input(Client& c) {
+  std::array<char, 1024> buf{};
+  while (c.in.size() <= options_.max_line && c.in.find('\n') == std::string::npos) {
+    const ssize_t n = ::recv(c.fd, buf.data(), buf.size(), MSG_DONTWAIT);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) return;
+    if (n <= 0) {
+      c.peer_closed = true;
+      return;
+    }
+    std::string_view chunk(buf.data(), static_cast<std::size_t>(n));
+    if (c.skipping) {
+      const auto nl = chunk.find('\n');
+      if (nl == std::string_view::npos) continue;
+      chunk.remove_prefix(nl + 1);
+      c.skipping = false;
+    }
+    c.in.append(chunk);
+  }
+}
+
+bool AsciiServer::serve(Client& c, TimePoint now) {
+  if (!flush(c)) return false;
+  if (c.waiting_tag != 0) return true;  // deliver() answers; the bus bounds the wait
+  if (!c.out.empty()) return now < c.idle_until;
+  read_input(c);
+  const std::size_t nl = c.in.find('\n');
+  if (nl != std::string::npos && nl <= options_.max_line) {
+    const std::string line = c.in.substr(0, nl);
+    c.in.erase(0, nl + 1);
+    c.idle_until = now + options_.idle_timeout;
+    answer(c, line, now);
+  } else if (c.in.size() > options_.max_line) {
+    // CiA 309-3 gives no limit; ours is max_line: the line is answered as a
+    // syntax error and skipped up to its end.
+    c.out += ascii_error("0", AsciiError::syntax) + "\n";
+    c.in.clear();
+    c.skipping = true;
+  } else if (c.peer_closed) {
+    return false;
+  } else if (now >= c.idle_until) {
+    return false;
+  }
+  if (!flush(c)) return false;
+  return true;
+}
+
+void AsciiServer::answer(Client& c, std::string_view line, TimePoint now) {
+  (void)now;
+  if (line.find_first_not_of(" \t\r") == std::string_view::npos) return;  // empty lines are ignored
+  AsciiRequest r = parse_ascii_request(line);
+  const std::string reply = run(c, std::move(r));
+  if (!reply.empty()) c.out += reply + "\n";
+}
+
+std::string AsciiServer::run(Client& c, AsciiRequest r) {
+  const std::string seq = r.seq.empty() ? "0" : r.seq;
+  switch (r.kind) {
+    case AsciiRequest::Kind::invalid: return ascii_error(seq, r.error);
+    case AsciiRequest::Kind::help: return "[" + seq + "] " + kHelp;
+    case AsciiRequest::Kind::info: return "[" + seq + "] cobridge CiA 309-3 gateway, nets 1.." +
+                                          std::to_string(remote_.buses().size());
+    case AsciiRequest::Kind::set_network:
+      if (r.value == 0 || r.value > remote_.buses().size()) return ascii_error(seq, AsciiError::unsupported_net);
+      c.net = r.value;
+      return ascii_ok(seq);
+    case AsciiRequest::Kind::set_node: c.node = static_cast<int>(r.value); return ascii_ok(seq);
+    case AsciiRequest::Kind::set_sdo_timeout: c.sdo_timeout = std::chrono::milliseconds(r.value); return ascii_ok(seq);
+    default: break;
+  }
+  const unsigned net = r.net != 0 ? r.net : c.net;
+  if (net == 0 || net > remote_.buses().size()) return ascii_error(seq, AsciiError::unsupported_net);
+  RemoteCommand& cmd = r.command;
+  if (r.kind != AsciiRequest::Kind::lss) {
+    const int node = r.node >= 0 ? r.node : c.node;
+    if (node < 0) return ascii_error(seq, AsciiError::no_default_node);
+    const bool nmt_all = r.kind == AsciiRequest::Kind::nmt && node == 0;
+    if (!nmt_all && (node < 1 || node > 127)) return ascii_error(seq, AsciiError::unsupported_node);
+    cmd.node = static_cast<std::uint8_t>(node);
+  }
+  cmd.sdo_timeout = c.sdo_timeout;
+  cmd.deadline = std::max(std::chrono::milliseconds(10000), 8 * c.sdo_timeout);
+  cmd.caller = c.who + " (CiA 309-3 gateway)";
+  if (cmd.is_write()) {
+    if (!options_.writes_enabled) return ascii_error(seq, AsciiError::not_supported);
+    sys::logger("gateway")->info("ascii gateway: {} on net {} node {} by {}", to_string(cmd.op), net, cmd.node, cmd.caller);
+  }
+  cmd.tag = next_tag_++;
+  const auto tag = cmd.tag;
+  if (Error e = remote_.submit("#" + std::to_string(net), cmd, replies_))
+    return ascii_error(seq, e.kind == Errc::kNotFound ? AsciiError::unsupported_net : AsciiError::internal_state);
+  r.seq = seq;
+  c.waiting_tag = tag;
+  c.pending = std::move(r);
+  return {};
+}
+
+void AsciiServer::deliver(TimePoint now) {
+  for (const auto& res : replies_->take()) {
+    for (auto& c : clients_) {
+      if (c.waiting_tag != res.tag) continue;
+      c.out += ascii_answer(c.pending, res) + "\n";
+      c.waiting_tag = 0;
+      c.pending = {};
+      c.idle_until = now + options_.idle_timeout;
+      break;
+    }
+  }
+}
+
+std::string ascii_answer(const AsciiRequest& r, const RemoteResult& result) {
+  if (result.error) {
+    if (result.abort_code != 0) return ascii_abort(r.seq, result.abort_code);
+    if (r.kind == AsciiRequest::Kind::read || r.kind == AsciiRequest::Kind::write) {
+      if (result.error.kind == Errc::kTimeout && result.error.code) return ascii_abort(r.seq, 0x05040000);
+    }
+    if (r.kind == AsciiRequest::Kind::lss && result.error.code.category().name() == std::string_view("lss_slave")) {
+      const auto last = r.command.lss_steps.empty() ? LssStep::Kind::switch_global : r.command.lss_steps.back().kind;
+      return ascii_error(r.seq, last == LssStep::Kind::store ? AsciiError::lss_store
+                                : last == LssStep::Kind::set_node_id ? AsciiError::lss_node_id
+                                                                      : AsciiError::lss_implementation);
+    }
+    return ascii_error(r.seq, result.error.kind == Errc::kTimeout ? AsciiError::timeout : AsciiError::internal_state);
+  }
+  if (r.kind == AsciiRequest::Kind::read) {
+    const auto text = ascii_format(r.type, result.data);
+    return text ? "[" + r.seq + "] " + *text : ascii_abort(r.seq, 0x06070010);  // length of the type does not match
+  }
+  if (r.kind == AsciiRequest::Kind::lss && !result.values.empty()) {
+    std::string out = "[" + r.seq + "]";
+    char buf[16];
+    const bool node_id = r.command.lss_steps.back().kind == LssStep::Kind::inquire_node_id;
+    for (const auto v : result.values) {
+      std::snprintf(buf, sizeof buf, node_id ? "%u" : "0x%08X", node_id ? (v & 0xFF) : v);
+      out += std::string(" ") + buf;
+    }
+    return out;
+  }
+  return ascii_ok(r.seq);
+}
+
+}  // namespace cobridge::gateway

@@ -1,0 +1,103 @@
+// AsciiServer: the CiA 309-3 ASCII gateway (issue 15, item 3) on a Unix
+// socket and optionally TCP (127.0.0.1 by default): the command set of
+// ascii_request.hpp, one request line -> one answer line, for `cocomm` and
+// other 309-3 clients. Every SDO / NMT / LSS request becomes a
+// RemoteCommand for the bus of its net (net N = the N-th configured bus),
+// queued with the daemon's own work exactly like `cobridge sdo` through the
+// control socket; the daemon stays the one master of the bus.
+//
+// Writes (w, NMT, LSS) are refused with "ERROR: 100" unless
+// [ascii_gateway] writes_enabled; each write is logged with the caller (uid
+// and pid on the Unix socket, the address on TCP). A connection runs one
+// request at a time (later lines wait, in order); "set network / node /
+// sdo_timeout" are per connection. No client can hold the daemon up: the
+// sockets are non-blocking, a line longer than `max_line` is answered
+// "ERROR: 101" and skipped, at most `max_clients` connections, an idle one
+// is closed after `idle_timeout`.
+//
+// Thread: the daemon's main thread, like ControlServer (which drives it):
+// add_poll_fds() before poll(), process(now) after.
+#pragma once
+
+#include "canopen/clock.hpp"
+#include "config/remote_access.hpp"
+#include "gateway/remote/ascii_request.hpp"
+#include "gateway/remote/peer_credentials.hpp"
+#include "gateway/remote/remote_replies.hpp"
+#include "gateway/remote/remote_target.hpp"
+
+#include <poll.h>
+
+#include <chrono>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <system_error>
+#include <vector>
+
+namespace cobridge::gateway {
+
+struct AsciiServerOptions {
+  std::size_t max_clients = 128;
+  std::size_t max_line = 1024;
+  std::chrono::milliseconds idle_timeout{60000};
+  std::chrono::milliseconds sdo_timeout{1000};
+  bool writes_enabled = false;
+};
+
+class AsciiServer {
+ public:
+  AsciiServer(RemoteTarget& remote, AsciiServerOptions options);
+  ~AsciiServer();
+  AsciiServer(const AsciiServer&) = delete;
+  AsciiServer& operator=(const AsciiServer&) = delete;
+
+  // Binds the Unix socket (mode 0660; a stale file replaced) / the TCP port.
+  std::error_code open_unix(const std::filesystem::path& path, std::string* why = nullptr);
+  std::error_code open_tcp(const std::string& address, std::uint16_t port, std::string* why = nullptr);
+  void close();
+  [[nodiscard]] std::size_t clients() const noexcept { return clients_.size(); }
+
+  void add_poll_fds(std::vector<pollfd>& fds) const;
+  canopen::TimePoint process(canopen::TimePoint now);
+
+ private:
+  struct Client {
+    int fd = -1;
+    std::string in;
+    std::string out;
+    std::size_t out_done = 0;
+    bool skipping = false;  // the rest of an overlong line
+    bool peer_closed = false;
+    std::string who;        // for the log of writes
+    unsigned net = 1;       // "set network"
+    int node = -1;          // "set node"; -1 = none
+    std::chrono::milliseconds sdo_timeout{1000};
+    std::uint64_t waiting_tag = 0;
+    AsciiRequest pending;
+    canopen::TimePoint idle_until{};
+  };
+
+  void accept_from(int listen_fd, bool tcp, canopen::TimePoint now);
+  bool serve(Client& c, canopen::TimePoint now);
+  void read_input(Client& c);
+  void answer(Client& c, std::string_view line, canopen::TimePoint now);
+  // The answer to a local request (set, info, help), or empty when queued.
+  std::string run(Client& c, AsciiRequest r);
+  void deliver(canopen::TimePoint now);
+  static bool flush(Client& c);
+
+  RemoteTarget& remote_;
+  AsciiServerOptions options_;
+  int unix_fd_ = -1;
+  int tcp_fd_ = -1;
+  std::filesystem::path unix_path_;
+  std::vector<Client> clients_;
+  std::shared_ptr<RemoteReplies> replies_ = std::make_shared<RemoteReplies>();
+  std::uint64_t next_tag_ = 1;
+};
+
+// The answer line to a finished RemoteCommand of request `r`.
+[[nodiscard]] std::string ascii_answer(const AsciiRequest& r, const RemoteResult& result);
+
+}  // namespace cobridge::gateway

@@ -1,0 +1,47 @@
+// DaemonRoute: the CLI maps the daemon's error answers to the same exit
+// codes as its own failures (issue 13 item 4, issue 15; docs/operations.md
+// "Exit codes"), and works on the bus itself only when no daemon listens.
+#include "cli/daemon_route.hpp"
+
+#include <gtest/gtest.h>
+
+using cobridge::Errc;
+using cobridge::cli::JsonParser;
+using cobridge::cli::error_of_answer;
+using cobridge::cli::via_daemon;
+
+namespace {
+cobridge::cli::Json parse(const char* text) {
+  std::string err;
+  auto doc = JsonParser(text).parse(err);
+  EXPECT_TRUE(doc.has_value()) << err;
+  return doc ? *doc : cobridge::cli::Json{};
+}
+}  // namespace
+
+TEST(DaemonRoute, ErrorAnswerKeepsKindWhereAndAbortCode) {
+  const auto e = error_of_answer(parse(
+      R"({"ok":false,"error":{"code":"failed","where":"bus 'line1' node 10 object 1234:0","message":"object does not exist",)"
+      R"("detail":{"category":"sdo_abort","value":100794368}},"abort_code":"0x06020000"})"));
+  EXPECT_EQ(e.kind, Errc::kFailed);
+  EXPECT_EQ(cobridge::exit_code(e.kind), 1);
+  EXPECT_EQ(e.where, "bus 'line1' node 10 object 1234:0");
+  EXPECT_NE(e.message.find("0x06020000"), std::string::npos);
+}
+
+TEST(DaemonRoute, EveryKindNameMapsToItsExitCode) {
+  for (int k = 0; k <= static_cast<int>(Errc::kInternal); ++k) {
+    const auto kind = static_cast<Errc>(k);
+    const std::string text = R"({"ok":false,"error":{"code":")" + std::string(cobridge::name(kind)) +
+                             R"(","where":"","message":"m"}})";
+    EXPECT_EQ(cobridge::exit_code(error_of_answer(parse(text.c_str())).kind), k) << cobridge::name(kind);
+  }
+}
+
+TEST(DaemonRoute, OlderDaemonsStringErrorIsAFailure) {
+  EXPECT_EQ(error_of_answer(parse(R"({"error":"unknown command"})")).kind, Errc::kFailed);
+}
+
+TEST(DaemonRoute, NoDaemonListeningMeansWorkDirectly) {
+  EXPECT_FALSE(via_daemon("/nonexistent/cobridge/control.sock", "status", 500).has_value());
+}

@@ -1,0 +1,175 @@
+// RemoteExecutor: a client's SDO / NMT command run by the daemon (issue 15,
+// item 1) against a recording sink and a scripted gate; the frames are the
+// CiA 301 §7.2.4.3 expedited upload (0x40 -> 0x43..0x4F) and abort (0x80),
+// §7.2.8.3.3 boot-up (0x700 + node, one byte 0x00).
+#include "gateway/remote/remote_executor.hpp"
+
+#include <gtest/gtest.h>
+
+#include <set>
+#include <vector>
+
+using namespace std::chrono_literals;
+using cobridge::Errc;
+using cobridge::can::Frame;
+using cobridge::canopen::TimePoint;
+namespace gw = cobridge::gateway;
+
+namespace {
+
+struct Recorder : cobridge::can::FrameSink {
+  bool send(const Frame& f) noexcept override {
+    sent.push_back(f);
+    return true;
+  }
+  std::vector<Frame> sent;
+};
+
+struct Gate : gw::RemoteGate {
+  bool node_free(std::uint8_t node) const override { return busy.count(node) == 0; }
+  bool node_supervised(std::uint8_t node) const override { return supervised.count(node) != 0; }
+  bool lss_allowed() const override { return true; }
+  void on_nmt_sent(cobridge::canopen::NmtCommand, std::uint8_t node, const std::string&) override { nmt.push_back(node); }
+  void on_lss_node_id(const cobridge::canopen::LssAddress&, std::uint8_t, bool) override {}
+  std::set<std::uint8_t> busy, supervised;
+  std::vector<std::uint8_t> nmt;
+};
+
+Frame frame(std::uint32_t id, std::initializer_list<std::uint8_t> bytes) {
+  Frame f;
+  f.id = id;
+  f.len = static_cast<std::uint8_t>(bytes.size());
+  std::size_t i = 0;
+  for (auto b : bytes) f.data[i++] = b;
+  return f;
+}
+
+gw::RemoteCommand upload(std::uint8_t node) {
+  gw::RemoteCommand c;
+  c.op = gw::RemoteOp::sdo_upload;
+  c.node = node;
+  c.index = 0x1018;
+  c.sub = 4;
+  c.sdo_timeout = 100ms;
+  c.deadline = 2000ms;
+  c.tag = 7;
+  return c;
+}
+
+struct RemoteExecutorTest : ::testing::Test {
+  Recorder bus;
+  Gate gate;
+  gw::RemoteExecutor ex{bus, "line1", 100ms};
+  std::shared_ptr<gw::RemoteReplies> replies = std::make_shared<gw::RemoteReplies>();
+  TimePoint t0 = TimePoint{} + 1h;
+};
+
+}  // namespace
+
+// Rule: a command never interleaves with the daemon's own work on the node:
+// nothing is sent while the gate says the node is busy, and it starts once free.
+TEST_F(RemoteExecutorTest, WaitsForABusyNodeThenReads) {
+  gate.busy.insert(10);
+  ex.add(upload(10), replies, t0);
+  ex.process(t0, gate);
+  ex.process(t0 + 500ms, gate);
+  EXPECT_TRUE(bus.sent.empty());
+  EXPECT_EQ(ex.sdo_node(), 0);
+  gate.busy.clear();
+  ex.process(t0 + 600ms, gate);
+  ASSERT_EQ(bus.sent.size(), 1U);
+  EXPECT_EQ(bus.sent[0].id, 0x60AU);
+  EXPECT_EQ(bus.sent[0].data[0], 0x40);
+  EXPECT_EQ(ex.sdo_node(), 10);
+  ex.on_frame(frame(0x58A, {0x43, 0x18, 0x10, 0x04, 0xE9, 0x03, 0x00, 0x00}), t0 + 601ms);
+  ex.process(t0 + 601ms, gate);
+  const auto r = replies->take();
+  ASSERT_EQ(r.size(), 1U);
+  EXPECT_FALSE(r[0].error);
+  EXPECT_EQ(r[0].tag, 7U);
+  EXPECT_EQ(r[0].data, (std::vector<std::uint8_t>{0xE9, 0x03, 0, 0}));
+}
+
+// CiA 301 §7.2.8.3.3: a boot-up mid-transfer ends the transfer in the device;
+// the read starts again once the node is free, and the abort a reboot would
+// cause never reaches the client.
+TEST_F(RemoteExecutorTest, BootUpMidTransferRestartsTheRead) {
+  gate.supervised.insert(10);
+  ex.add(upload(10), replies, t0);
+  ex.process(t0, gate);
+  ASSERT_EQ(bus.sent.size(), 1U);
+  ex.on_frame(frame(0x70A, {0x00}), t0 + 5ms);
+  gate.busy.insert(10);  // the bus manager configures it again
+  ex.process(t0 + 100ms, gate);
+  EXPECT_EQ(bus.sent.size(), 1U);
+  EXPECT_TRUE(replies->take().empty());
+  gate.busy.clear();
+  ex.process(t0 + 300ms, gate);
+  ASSERT_EQ(bus.sent.size(), 2U);
+  EXPECT_EQ(bus.sent[1].data[0], 0x40);
+  ex.on_frame(frame(0x58A, {0x43, 0x18, 0x10, 0x04, 1, 2, 3, 4}), t0 + 301ms);
+  ex.process(t0 + 301ms, gate);
+  const auto r = replies->take();
+  ASSERT_EQ(r.size(), 1U);
+  EXPECT_FALSE(r[0].error) << r[0].error.to_string();
+}
+
+// CiA 301 §7.2.4.3.17: a device's abort is the answer (exit code 1, the code kept).
+TEST_F(RemoteExecutorTest, DeviceAbortIsReportedWithItsCode) {
+  ex.add(upload(10), replies, t0);
+  ex.process(t0, gate);
+  ex.on_frame(frame(0x58A, {0x80, 0x18, 0x10, 0x04, 0x00, 0x00, 0x02, 0x06}), t0 + 1ms);
+  ex.process(t0 + 1ms, gate);
+  const auto r = replies->take();
+  ASSERT_EQ(r.size(), 1U);
+  EXPECT_EQ(r[0].error.kind, Errc::kFailed);
+  EXPECT_EQ(r[0].abort_code, 0x06020000U);
+}
+
+// Silence from a node no configured device holds is a timeout at once (no
+// reboot to wait for).
+TEST_F(RemoteExecutorTest, SilenceFromAnUnknownNodeIsATimeout) {
+  ex.add(upload(99), replies, t0);
+  ex.process(t0, gate);
+  ex.process(t0 + 150ms, gate);
+  const auto r = replies->take();
+  ASSERT_EQ(r.size(), 1U);
+  EXPECT_EQ(r[0].error.kind, Errc::kTimeout);
+}
+
+// A node that stays busy past the deadline: a timeout naming why.
+TEST_F(RemoteExecutorTest, DeadlineWhileWaitingIsATimeout) {
+  gate.busy.insert(10);
+  ex.add(upload(10), replies, t0);
+  ex.process(t0 + 2001ms, gate);
+  const auto r = replies->take();
+  ASSERT_EQ(r.size(), 1U);
+  EXPECT_EQ(r[0].error.kind, Errc::kTimeout);
+  EXPECT_NE(r[0].error.message.find("busy"), std::string::npos);
+}
+
+// A command for a busy node does not hold up one for another node.
+TEST_F(RemoteExecutorTest, BusyNodeDoesNotBlockOthers) {
+  gate.busy.insert(10);
+  ex.add(upload(10), replies, t0);
+  ex.add(upload(20), replies, t0);
+  ex.process(t0, gate);
+  ASSERT_EQ(bus.sent.size(), 1U);
+  EXPECT_EQ(bus.sent[0].id, 0x614U);
+}
+
+// CiA 301 §7.2.8.3.1: NMT is one frame 0x000 [cs, node]; the gate learns it.
+TEST_F(RemoteExecutorTest, NmtIsSentAndReported) {
+  gw::RemoteCommand c;
+  c.op = gw::RemoteOp::nmt;
+  c.nmt = cobridge::canopen::NmtCommand::stop;
+  c.node = 20;
+  ex.add(c, replies, t0);
+  ex.process(t0, gate);
+  ASSERT_EQ(bus.sent.size(), 1U);
+  EXPECT_EQ(bus.sent[0].id, 0x000U);
+  EXPECT_EQ(bus.sent[0].data[0], 0x02);
+  EXPECT_EQ(bus.sent[0].data[1], 20);
+  EXPECT_EQ(gate.nmt, (std::vector<std::uint8_t>{20}));
+  EXPECT_EQ(replies->take().size(), 1U);
+}
