@@ -4,7 +4,7 @@ of the three device manuals (see /work/shared/seeds and the digest).
 
 Identity facts (vendor IDs, product codes, family names, quirk constants) are
 not repeated here: they are read from the family modules in
-daemon/device/families/, the one place they are defined.
+daemon/families/, the one place they are defined.
 
     scripts/gen-eds.py [OUTPUT_DIR]      (default: config/devices next to tools/)
 
@@ -17,7 +17,7 @@ import sys
 
 BOOL, I8, I16, I32, U8, U16, U32, VS, DOMAIN = 0x1, 0x2, 0x3, 0x4, 0x5, 0x6, 0x7, 0x9, 0xF
 CREATION_DATE = "11-22-2025"  # fixed, for reproducible output
-FAMILIES_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "daemon", "device", "families")
+FAMILIES_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "daemon", "families")
 
 
 def family_source(file_name):
@@ -29,15 +29,15 @@ def family_fact(header, constant):
     """The value of `inline constexpr ... constant = <number>;` in a family header."""
     m = re.search(r"\b%s\s*=\s*(0x[0-9A-Fa-f]+|\d+)\s*;" % re.escape(constant), family_source(header))
     if not m:
-        sys.exit("gen-eds.py: %s is not defined in daemon/device/families/%s" % (constant, header))
+        sys.exit("gen-eds.py: %s is not defined in daemon/families/%s" % (constant, header))
     return int(m.group(1), 0)
 
 
 def family_name(module):
-    """The EDS [Cobridge] Family value: `.name = "..."` in daemon/device/families/<module>.cpp."""
+    """The EDS [Cobridge] Family value: `.name = "..."` in daemon/families/<module>.cpp."""
     m = re.search(r'\.name = "([^"]+)"', family_source(module + ".cpp"))
     if not m:
-        sys.exit("gen-eds.py: no family name in daemon/device/families/%s.cpp" % module)
+        sys.exit("gen-eds.py: no family name in daemon/families/%s.cpp" % module)
     return m.group(1)
 
 

@@ -1,4 +1,4 @@
-// The known models are the device families' models (device/families), seen
+// The known models are the device families' models (families), seen
 // with the configuration's Family enum.
 #include "config/known_models.hpp"
 
@@ -7,10 +7,10 @@
 #include <utility>
 #include <vector>
 
-#include "device/families/family.hpp"
-#include "device/families/ifm_rm.hpp"
-#include "device/families/novotechnik_multiturn.hpp"
-#include "device/families/novotechnik_rotary.hpp"
+#include "families/family.hpp"
+#include "families/ifm_rm.hpp"
+#include "families/novotechnik_multiturn.hpp"
+#include "families/novotechnik_rotary.hpp"
 
 namespace cobridge::config {
 namespace {

@@ -1,7 +1,7 @@
 // Known models: the encoder models a [[device]] may name with `model = "..."`,
 // with the facts the configuration checks need (vendor, product codes,
 // channels, CAM count, which filters exist). The facts are the device
-// families' (daemon/device/families/, one file pair per manual); this is
+// families' (daemon/families/, one file pair per manual); this is
 // their view in the configuration's terms.
 //
 // Thread contract: a table built once on first use (thread-safe static);

@@ -5,7 +5,7 @@
 #include <string>
 
 #include "device/eds_parser.hpp"
-#include "device/families/family.hpp"
+#include "families/family.hpp"
 
 namespace cobridge::device {
 

@@ -17,7 +17,7 @@
 //                  mapping parameters are UNSIGNED32
 //   CiA 306 §4.4   NrOfTXPDO / NrOfRXPDO count the PDO communication objects,
 //                  each with its mapping object
-//   the manual     every object the family's manual names (device/families)
+//   the manual     every object the family's manual names (families)
 //                  is defined
 //
 // Thread contract: a pure function of an immutable description; any thread,

@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <array>
 
-#include "device/families/ifm_rm.hpp"
-#include "device/families/novotechnik_multiturn.hpp"
-#include "device/families/novotechnik_rotary.hpp"
+#include "families/ifm_rm.hpp"
+#include "families/novotechnik_multiturn.hpp"
+#include "families/novotechnik_rotary.hpp"
 
 namespace cobridge::device {
 
@@ -20,7 +20,7 @@ constexpr std::array<std::int32_t, 1> kRotaryErrorPositions{canopen::kRotaryErro
 constexpr std::array<std::int32_t, 3> kMultiturnErrorPositions{
     canopen::kMultiturnErrorPosition, canopen::kMultiturnOverflowPosition, canopen::kMultiturnUnderflowPosition};
 
-// What every profile takes from its family's facts (device/families).
+// What every profile takes from its family's facts (families).
 void apply_family(FamilyProfile& p, const fam::Family& f) {
   p.name = f.name;
   p.series = f.series;

@@ -6,7 +6,7 @@
 // object. Every fact cites the manual section it comes from (J = Novotechnik
 // rotary, E = Novotechnik multiturn, F = ifm RM8/RM9; see the device digest).
 // Identity, addressing, storage and scaling facts come from the family's
-// module in device/families; this adds the object-dictionary view.
+// module in families; this adds the object-dictionary view.
 //
 // A profile is a small immutable value built from the EDS [Cobridge] Family
 // string (family_profile_for) or directly (make_family_profile). It is built
@@ -22,9 +22,9 @@
 #include "canopen/emcy.hpp"
 #include "config/config.hpp"
 #include "device/eds.hpp"
-#include "device/families/family.hpp"
-#include "device/families/ifm_rm.hpp"
-#include "device/families/novotechnik.hpp"
+#include "families/family.hpp"
+#include "families/ifm_rm.hpp"
+#include "families/novotechnik.hpp"
 
 namespace cobridge::device {
 
@@ -40,7 +40,7 @@ struct ObjectRef {
 }
 
 // The 'save' signature of CiA 301 object 0x1010 and ifm's "save parameters
-// with reset" code: the families' facts (device/families).
+// with reset" code: the families' facts (families).
 inline constexpr std::uint32_t kSaveSignature = families::kSaveSignature;
 inline constexpr std::uint32_t kIfmSaveWithResetCode = families::kIfmSaveWithResetCode;
 

@@ -13,7 +13,7 @@
 
 #include "canopen/cob_id.hpp"
 #include "canopen/sync.hpp"
-#include "device/families/ifm_rm.hpp"
+#include "families/ifm_rm.hpp"
 #include "device/od_builder.hpp"
 #include "device/sim_device_impl.hpp"
 #include "device/storage.hpp"

@@ -25,7 +25,7 @@
 #include "canopen/nmt.hpp"
 #include "canopen/object_dictionary.hpp"
 #include "device/eds.hpp"
-#include "device/families/family.hpp"
+#include "families/family.hpp"
 
 #include <cstdint>
 #include <filesystem>
@@ -58,7 +58,7 @@ struct ModelInfo {
 // All models; find_model is case-insensitive. nullptr if unknown.
 [[nodiscard]] const ModelInfo* find_model(std::string_view name) noexcept;
 [[nodiscard]] std::string_view family_name(Family f) noexcept;
-// The family's facts (daemon/device/families): identity, bit rates, quirks.
+// The family's facts (daemon/families): identity, bit rates, quirks.
 [[nodiscard]] const device::families::Family& family_facts(Family f) noexcept;
 // The whole table, for `--list-models` and the tests.
 [[nodiscard]] std::span<const ModelInfo> all_models() noexcept;

@@ -1,5 +1,5 @@
 // The model table behind `--device MODEL`: the device families' models
-// (daemon/device/families: product codes, factory node-IDs and bit rates,
+// (daemon/families: product codes, factory node-IDs and bit rates,
 // EDS files) as the simulator names them. A model with a product code from
 // before a firmware change (multiturn before E§13 V03) is offered a second
 // time under its legacy name ("MC1-2800-V02") reporting that code; ifm
@@ -9,10 +9,10 @@
 #include <cctype>
 #include <vector>
 
-#include "device/families/family.hpp"
-#include "device/families/ifm_rm.hpp"
-#include "device/families/novotechnik_multiturn.hpp"
-#include "device/families/novotechnik_rotary.hpp"
+#include "families/family.hpp"
+#include "families/ifm_rm.hpp"
+#include "families/novotechnik_multiturn.hpp"
+#include "families/novotechnik_rotary.hpp"
 
 namespace cobridge::sim {
 

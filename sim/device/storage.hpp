@@ -14,8 +14,8 @@
 
 #include <cstdint>
 
-#include "device/families/family.hpp"
-#include "device/families/ifm_rm.hpp"
+#include "families/family.hpp"
+#include "families/ifm_rm.hpp"
 #include "device/sim_device.hpp"
 
 namespace cobridge::sim {

@@ -11,12 +11,15 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 
 cmake --install "$build" --prefix "$tmp/prefix" --component sdk
-# The prefix holds the SDK and nothing of the daemon's headers.
+# The prefix holds exactly the SDK's headers (sdk/include) and nothing of
+# the daemon's.
 test -f "$tmp/prefix/include/cobridge/plugin.h"
 test -f "$tmp/prefix/include/cobridge/emcy.h"
-if find "$tmp/prefix/include" -name '*.hpp' | grep -q .; then
-  echo "run_sdk_example: the SDK installed a daemon header:" >&2
-  find "$tmp/prefix/include" -name '*.hpp' >&2
+installed=$(cd "$tmp/prefix/include" && find . -type f | sort)
+expected=$(cd "$src/sdk/include" && find . -type f | sort)
+if [ "$installed" != "$expected" ]; then
+  echo "run_sdk_example: the SDK installed other headers than sdk/include holds:" >&2
+  diff <(echo "$expected") <(echo "$installed") >&2 || true
   exit 1
 fi
 cmake -S "$src/examples/plugin-minimal" -B "$tmp/build" -DCMAKE_PREFIX_PATH="$tmp/prefix" \

@@ -3,7 +3,7 @@
 
 #include <vector>
 
-#include "device/families/novotechnik_rotary.hpp"
+#include "families/novotechnik_rotary.hpp"
 
 namespace cobridge::gateway::discovery {
 

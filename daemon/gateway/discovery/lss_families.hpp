@@ -1,15 +1,15 @@
 // What the encoder families can do over LSS, and how to set the node-ID by
 // SDO where they cannot (digest G.6): the discovery's view of the family
-// facts in device/families (which family is pre-Fastscan, which object holds
+// facts in families (which family is pre-Fastscan, which object holds
 // the node-ID, which 0x1010 sub-index stores it).
 //
 // Thread: any; constants only.
 #pragma once
 
 #include "canopen/lss.hpp"
-#include "device/families/family.hpp"
-#include "device/families/ifm_rm.hpp"
-#include "device/families/novotechnik.hpp"
+#include "families/family.hpp"
+#include "families/ifm_rm.hpp"
+#include "families/novotechnik.hpp"
 
 #include <cstdint>
 #include <optional>

@@ -7,7 +7,7 @@
 
 #include "device/device_catalog.hpp"
 #include "device/eds.hpp"
-#include "device/families/family.hpp"
+#include "families/family.hpp"
 
 #include "unit/device/source_paths.hpp"
 
@@ -168,7 +168,7 @@ TEST(EdsCheck, SubIndexZeroThatDisagreesWithTheEntriesIsFound) {
   EXPECT_TRUE(mentions(f, "[6010sub0]", "highest sub-index defined is 1")) << dump(f);
 }
 
-// The family's manual names objects its EDS must define (device/families).
+// The family's manual names objects its EDS must define (families).
 TEST(EdsCheck, ObjectTheFamilyManualNamesButTheFileLacksIsFound) {
   const auto f = check_changed("[DeviceInfo]", "[Cobridge]\nFamily=novotechnik-rotary\n\n[DeviceInfo]");
   EXPECT_TRUE(mentions(f, "[6020]", "manual J")) << dump(f);

@@ -1,5 +1,5 @@
 // cobridge-sim's model table, built from the device families
-// (daemon/device/families): names, product codes, factory node-IDs and bit
+// (daemon/families): names, product codes, factory node-IDs and bit
 // rates as the manuals give them (J§1.2.1, J§1.2.2, E§4.1, E§13 V03, F§5.3,
 // F§7.3).
 #include "device/sim_device.hpp"

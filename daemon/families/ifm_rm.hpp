@@ -13,7 +13,7 @@
 #include <array>
 #include <cstdint>
 
-#include "device/families/family.hpp"
+#include "families/family.hpp"
 
 namespace cobridge::device::families {
 

@@ -1,5 +1,5 @@
 // ifm RM8/RM9 series (manual F): see ifm_rm.hpp.
-#include "device/families/ifm_rm.hpp"
+#include "families/ifm_rm.hpp"
 
 #include <array>
 

@@ -1,11 +1,11 @@
-// The device families' facts (daemon/device/families), checked against the
+// The device families' facts (daemon/families), checked against the
 // manuals they cite: J = Novotechnik rotary, E = Novotechnik multiturn,
 // F = ifm RM8/RM9 (digest sections A.1, B.1, C.1).
-#include "device/families/family.hpp"
-#include "device/families/ifm_rm.hpp"
-#include "device/families/novotechnik.hpp"
-#include "device/families/novotechnik_multiturn.hpp"
-#include "device/families/novotechnik_rotary.hpp"
+#include "families/family.hpp"
+#include "families/ifm_rm.hpp"
+#include "families/novotechnik.hpp"
+#include "families/novotechnik_multiturn.hpp"
+#include "families/novotechnik_rotary.hpp"
 
 #include <gtest/gtest.h>
 
@@ -17,7 +17,7 @@ using namespace cobridge::device::families;
 
 namespace {
 std::filesystem::path devices_dir() {
-  // tests/unit/device/families/family_test.cpp -> repository root
+  // tests/unit/families/family_test.cpp -> repository root
   return std::filesystem::path(__FILE__).parent_path().parent_path().parent_path().parent_path().parent_path() /
          "config" / "devices";
 }

@@ -1,9 +1,9 @@
 // Novotechnik rotary series (manual J): see novotechnik_rotary.hpp.
-#include "device/families/novotechnik_rotary.hpp"
+#include "families/novotechnik_rotary.hpp"
 
 #include <array>
 
-#include "device/families/novotechnik.hpp"
+#include "families/novotechnik.hpp"
 
 namespace cobridge::device::families {
 

@@ -12,7 +12,7 @@
 
 #include <cstdint>
 
-#include "device/families/family.hpp"
+#include "families/family.hpp"
 
 namespace cobridge::device::families {
 

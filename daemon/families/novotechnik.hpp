@@ -9,7 +9,7 @@
 #include <span>
 #include <string_view>
 
-#include "device/families/family.hpp"
+#include "families/family.hpp"
 
 namespace cobridge::device::families {
 

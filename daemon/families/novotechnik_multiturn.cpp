@@ -1,9 +1,9 @@
 // Novotechnik multiturn series (manual E): see novotechnik_multiturn.hpp.
-#include "device/families/novotechnik_multiturn.hpp"
+#include "families/novotechnik_multiturn.hpp"
 
 #include <array>
 
-#include "device/families/novotechnik.hpp"
+#include "families/novotechnik.hpp"
 
 namespace cobridge::device::families {
 

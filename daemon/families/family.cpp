@@ -1,12 +1,12 @@
 // The family registry: see family.hpp.
-#include "device/families/family.hpp"
+#include "families/family.hpp"
 
 #include <algorithm>
 #include <array>
 
-#include "device/families/ifm_rm.hpp"
-#include "device/families/novotechnik_multiturn.hpp"
-#include "device/families/novotechnik_rotary.hpp"
+#include "families/ifm_rm.hpp"
+#include "families/novotechnik_multiturn.hpp"
+#include "families/novotechnik_rotary.hpp"
 
 namespace cobridge::device::families {
 
