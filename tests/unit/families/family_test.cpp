@@ -18,7 +18,7 @@ using namespace cobridge::device::families;
 namespace {
 std::filesystem::path devices_dir() {
   // tests/unit/families/family_test.cpp -> repository root
-  return std::filesystem::path(__FILE__).parent_path().parent_path().parent_path().parent_path().parent_path() /
+  return std::filesystem::path(__FILE__).parent_path().parent_path().parent_path().parent_path() /
          "config" / "devices";
 }
 }  // namespace

@@ -4,7 +4,7 @@
 // time and online again when it speaks (issue 4, "Must show").
 //
 // The simulator is the build tree's: this binary lives in <build>/tests/, the
-// simulator in <build>/sim/app/cobridge-sim.
+// simulator the build made (COBRIDGE_SIM_PATH, the cobridge-sim target).
 #include "gateway/bus_manager.hpp"
 
 #include "can/socketcan_channel.hpp"
@@ -48,11 +48,7 @@ constexpr std::uint16_t kHeartbeatMs = 100;
 
 fs::path repo_root() { return fs::path(__FILE__).parent_path().parent_path().parent_path().parent_path(); }
 
-fs::path simulator_path() {
-  std::error_code ec;
-  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
-  return self.parent_path() / "sim" / "app" / "cobridge-sim";
-}
+fs::path simulator_path() { return COBRIDGE_SIM_PATH; }
 
 // cobridge-sim as a child process; "ready" on its stdout means its devices
 // are powered on.
