@@ -31,7 +31,7 @@ std::string json_quote(std::string_view text) {
       case '\r': out += "\\r"; break;
       case '\t': out += "\\t"; break;
       default:
-        if (c < 0x20) {
+        if (c < 0x20 || c == 0x7F) {
           std::array<char, 8> buf{};
           std::snprintf(buf.data(), buf.size(), "\\u%04x", c);
           out += buf.data();

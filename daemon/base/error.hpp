@@ -64,7 +64,8 @@ struct Error {
   [[nodiscard]] std::string to_json() const;
 };
 
-// JSON string literal with quotes and escapes (RFC 8259), for the encoders
+// JSON string literal with quotes and escapes (RFC 8259; control characters
+// and DEL as \u00XX), for the encoders
 // that embed an Error in a larger document.
 [[nodiscard]] std::string json_quote(std::string_view text);
 

@@ -1,5 +1,7 @@
 #include "cli/watch_command.hpp"
 
+#include "base/error.hpp"
+
 #include "cobridge_idl/cobridge.h"
 
 #include <dds/dds.h>
@@ -27,23 +29,7 @@ struct Participant {
 };
 
 // A JSON string (RFC 8259 §7).
-void json_string(std::string& out, const char* s) {
-  out += '"';
-  for (const char* p = s != nullptr ? s : ""; *p != '\0'; ++p) {
-    const auto c = static_cast<unsigned char>(*p);
-    if (c == '"' || c == '\\') {
-      out += '\\';
-      out += static_cast<char>(c);
-    } else if (c < 0x20) {
-      char esc[8];
-      std::snprintf(esc, sizeof esc, "\\u%04x", c);
-      out += esc;
-    } else {
-      out += static_cast<char>(c);
-    }
-  }
-  out += '"';
-}
+void json_string(std::string& out, const char* s) { out += json_quote(s != nullptr ? s : ""); }
 
 template <typename T>
 void json_field(std::string& out, const char* key, T value) {

@@ -1,5 +1,7 @@
 #include "gateway/control_server.hpp"
 
+#include "base/error.hpp"
+
 #include "gateway/control_answer.hpp"
 #include "gateway/control_request.hpp"
 
@@ -82,28 +84,7 @@ class JsonWriter {
   }
   // Control characters are escaped; bytes >= 0x80 pass unchanged (names and
   // EMCY texts are UTF-8, and the answer to garbage echoes no raw input).
-  void string_literal(std::string_view s) {
-    out_ += '"';
-    for (const char ch : s) {
-      const auto c = static_cast<unsigned char>(ch);
-      switch (ch) {
-        case '"': out_ += "\\\""; break;
-        case '\\': out_ += "\\\\"; break;
-        case '\n': out_ += "\\n"; break;
-        case '\r': out_ += "\\r"; break;
-        case '\t': out_ += "\\t"; break;
-        default:
-          if (c < 0x20 || c == 0x7F) {
-            std::array<char, 8> buf{};
-            std::snprintf(buf.data(), buf.size(), "\\u%04x", static_cast<unsigned>(c));
-            out_ += buf.data();
-          } else {
-            out_ += ch;
-          }
-      }
-    }
-    out_ += '"';
-  }
+  void string_literal(std::string_view s) { out_ += json_quote(s); }
 
   std::string out_;
   bool first_ = true;
