@@ -92,9 +92,10 @@ def match_in_order(expected, got):
 
 def status(cli, work):
     try:
-        out = subprocess.run([cli, "status", "--control", f"{work}/control.sock", "--json"], capture_output=True,
-                             text=True, timeout=5).stdout
-        return json.loads(out)
+        r = subprocess.run([cli, "status", "--control", f"{work}/control.sock", "--json"], capture_output=True,
+                           text=True, timeout=5)
+        # Until the daemon listens, --json prints the error object and exits non-zero.
+        return json.loads(r.stdout) if r.returncode == 0 else None
     except Exception:
         return None
 
