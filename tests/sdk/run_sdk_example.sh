@@ -4,9 +4,9 @@
 # examples/plugin-minimal against that prefix only (find_package), then load
 # the plugin through the daemon's PluginHost (sdk_example_host).
 #
-#   run_sdk_example.sh <build dir> <source dir> <sdk_example_host>
+#   run_sdk_example.sh <build dir> <source dir> <sdk_example_host> [sanitizer flags]
 set -euo pipefail
-build=$1 src=$2 host=$3
+build=$1 src=$2 host=$3 sanitize=${4:-}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 
@@ -23,6 +23,7 @@ if [ "$installed" != "$expected" ]; then
   exit 1
 fi
 cmake -S "$src/examples/plugin-minimal" -B "$tmp/build" -DCMAKE_PREFIX_PATH="$tmp/prefix" \
-      -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
+      -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_FLAGS="$sanitize" -DCMAKE_MODULE_LINKER_FLAGS="$sanitize" \
+      -DCMAKE_SHARED_LINKER_FLAGS="$sanitize" >/dev/null
 cmake --build "$tmp/build"
 COBRIDGE_SDK_EXAMPLE_DIR="$tmp/build" "$host" --gtest_color=no
