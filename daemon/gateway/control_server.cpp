@@ -1,4 +1,5 @@
 #include "gateway/control_server.hpp"
+#include "gateway/pending_output.hpp"
 
 #include "base/error.hpp"
 
@@ -438,21 +439,7 @@ void ControlServer::accept_clients(TimePoint now) {
   }
 }
 
-bool ControlServer::flush(Client& c) {
-  while (c.out_done < c.out.size()) {
-    const ssize_t n = ::send(c.fd, c.out.data() + c.out_done, c.out.size() - c.out_done, MSG_NOSIGNAL | MSG_DONTWAIT);
-    if (n > 0) {
-      c.out_done += static_cast<std::size_t>(n);
-    } else if (n < 0 && errno == EINTR) {
-      continue;
-    } else {
-      return n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK);  // else the client went away
-    }
-  }
-  c.out.clear();
-  c.out_done = 0;
-  return true;
-}
+bool ControlServer::flush(Client& c) { return send_pending(c.fd, c.out, c.out_done); }
 
 bool ControlServer::serve(Client& c, TimePoint now) {
   if (c.waiting_tag != 0) return now < c.deadline;  // its command runs; deliver() answers

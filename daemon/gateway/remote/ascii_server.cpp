@@ -1,4 +1,5 @@
 #include "gateway/remote/ascii_server.hpp"
+#include "gateway/pending_output.hpp"
 
 #include "sys/logging.hpp"
 
@@ -152,21 +153,7 @@ void AsciiServer::accept_from(int listen_fd, bool tcp, TimePoint now) {
   }
 }
 
-bool AsciiServer::flush(Client& c) {
-  while (c.out_done < c.out.size()) {
-    const ssize_t n = ::send(c.fd, c.out.data() + c.out_done, c.out.size() - c.out_done, MSG_NOSIGNAL | MSG_DONTWAIT);
-    if (n > 0) {
-      c.out_done += static_cast<std::size_t>(n);
-    } else if (n < 0 && errno == EINTR) {
-      continue;
-    } else {
-      return n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK);
-    }
-  }
-  c.out.clear();
-  c.out_done = 0;
-  return true;
-}
+bool AsciiServer::flush(Client& c) { return send_pending(c.fd, c.out, c.out_done); }
 
 void AsciiServer::read_input(Client& c) {
   std::array<char, 1024> buf{};
