@@ -120,19 +120,22 @@ Error Daemon::start_web() {
 void Daemon::serve() {
   std::vector<pollfd> fds;
   while (true) {
+    // One clock read per turn: each is a system call under UML, and this
+    // loop answers clients' SDO commands.
     const auto now = Clock::now();
+    service_->tick(now);
     const auto deadline = std::min(service_->next_deadline(), control_->process(now));
     fds.clear();
     fds.push_back({signals_.fd(), POLLIN, 0});
     control_->add_poll_fds(fds);
     const auto wait = std::clamp(std::chrono::duration_cast<milliseconds>(deadline - now), milliseconds(0),
                                  ServiceStatus::kTick);
-    ::poll(fds.data(), fds.size(), static_cast<int>(wait.count()) + (deadline > now ? 1 : 0));
-
+    const int r = ::poll(fds.data(), fds.size(), static_cast<int>(wait.count()) + (deadline > now ? 1 : 0));
+    control_->note_ready(fds);
+    if (r < 0 || fds[0].revents == 0) continue;
     const sys::SignalAction action = signals_.take();
     if (action == sys::SignalAction::stop) return;
     if (action == sys::SignalAction::reload) reload();
-    service_->tick(Clock::now());
   }
 }
 

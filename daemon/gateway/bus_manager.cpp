@@ -133,7 +133,9 @@ void BusManager::Impl::run() {
     TimePoint now = Clock::now();
     take_commands(now);
 
-    for (std::size_t batch = 0; batch < kMaxReceiveBatches; ++batch) {
+    // Only when poll saw the socket readable (or never asked): an empty
+    // recvmmsg is a system call per turn, and a turn per client command.
+    for (std::size_t batch = 0; rx_ready && batch < kMaxReceiveBatches; ++batch) {
       const std::size_t n = channel->receive(frames);
       for (std::size_t i = 0; i < n; ++i) dispatch(frames[i], now);
       handle_bus_events(now);
@@ -186,6 +188,7 @@ void BusManager::Impl::wait(TimePoint next) {
     count = 2;
   }
   const int r = ::poll(fds.data(), count, static_cast<int>(timeout.count()));
+  rx_ready = r < 0 || count == 1 || fds[1].revents != 0;
   if (r > 0 && (fds[0].revents & POLLIN) != 0) {
     std::uint64_t v = 0;
     [[maybe_unused]] const auto n = ::read(wake_fd, &v, sizeof v);

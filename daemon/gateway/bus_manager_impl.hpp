@@ -281,6 +281,7 @@ struct BusManager::Impl final : RemoteGate {
 
   std::thread thread;
   int wake_fd = -1;
+  bool rx_ready = true;  // the last poll saw the CAN socket readable (or failed)
   std::atomic<bool> stop_requested{false};
   std::atomic<bool> running{false};
   std::atomic<bool> open_flag{false};

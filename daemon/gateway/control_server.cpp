@@ -383,29 +383,41 @@ void ControlServer::close() {
     ::unlink(path_.c_str());
 }
 
-void ControlServer::add_poll_fds(std::vector<pollfd>& fds) const {
-  if (listen_fd_ >= 0) fds.push_back({listen_fd_, POLLIN, 0});
-  fds.push_back({replies_->fd(), POLLIN, 0});
+void ControlServer::add_poll_fds(std::vector<pollfd>& fds) {
+  if (listen_fd_ >= 0) listen_slot_.add(fds, listen_fd_, POLLIN);
+  replies_slot_.add(fds, replies_->fd(), POLLIN);
   if (ascii_) ascii_->add_poll_fds(fds);
-  for (const auto& c : clients_) {
-    if (c.waiting_tag != 0) continue;  // nothing to read or write until its result is back
+  for (auto& c : clients_) {
+    if (c.waiting_tag != 0) {
+      c.slot.skip();  // nothing to read or write until its result is back
+      continue;
+    }
     const bool writing = c.out_done < c.out.size();
-    fds.push_back({c.fd, static_cast<short>(writing ? POLLOUT : POLLIN), 0});
+    c.slot.add(fds, c.fd, writing ? POLLOUT : POLLIN);
   }
 }
 
+void ControlServer::note_ready(const std::vector<pollfd>& fds) {
+  listen_slot_.note(fds);
+  replies_slot_.note(fds);
+  if (ascii_) ascii_->note_ready(fds);
+  for (auto& c : clients_) c.slot.note(fds);
+}
+
 TimePoint ControlServer::process(TimePoint now) {
-  if (listen_fd_ >= 0) accept_clients(now);
-  deliver(now);
+  if (listen_fd_ >= 0 && listen_slot_.take()) accept_clients(now);
+  if (replies_slot_.take()) deliver(now);
   if (!ascii_tried_ && listen_fd_ >= 0) open_ascii_gateway();
   TimePoint next = ascii_ ? ascii_->process(now) : kNever;
   for (auto it = clients_.begin(); it != clients_.end();) {
-    if (!serve(*it, now)) {
+    // A request already buffered (pipelined) is due now: poll will not wake for it.
+    const bool buffered = it->waiting_tag == 0 && it->in.find('\n') != std::string::npos;
+    const bool try_io = it->slot.take();
+    if ((try_io || buffered || now >= it->deadline) && !serve(*it, now)) {
       drop(*it);
       it = clients_.erase(it);
       continue;
     }
-    // A request already buffered (pipelined) is due now: poll will not wake for it.
     const bool due = it->waiting_tag == 0 && it->in.find('\n') != std::string::npos;
     next = std::min(next, due ? now : it->deadline);
     ++it;
@@ -558,6 +570,7 @@ void ControlServer::deliver(TimePoint now) {
       c.waiting_tag = 0;
       c.pending = {};
       c.deadline = now + options_.client_timeout;
+      c.slot.mark();  // its answer goes out in this turn
       break;
     }
   }

@@ -43,6 +43,7 @@
 #include "canopen/clock.hpp"
 #include "gateway/control_request.hpp"
 #include "gateway/device_status.hpp"
+#include "gateway/poll_slot.hpp"
 #include "gateway/remote/ascii_server.hpp"
 #include "gateway/remote/peer_credentials.hpp"
 #include "gateway/remote/remote_replies.hpp"
@@ -115,7 +116,10 @@ class ControlServer {
 
   // Appends the descriptors to wait on (the listening socket, each client
   // for reading or, while an answer is pending, writing).
-  void add_poll_fds(std::vector<pollfd>& fds) const;
+  void add_poll_fds(std::vector<pollfd>& fds);
+  // After poll() on those descriptors: which are ready (poll_slot.hpp).
+  // Optional: without it process() tries every descriptor.
+  void note_ready(const std::vector<pollfd>& fds);
   // Accepts, reads, answers and times out whatever is due; never blocks.
   // Returns the next client deadline (kNever when no client is connected).
   canopen::TimePoint process(canopen::TimePoint now);
@@ -132,6 +136,7 @@ class ControlServer {
     PeerCredentials peer;
     std::uint64_t waiting_tag = 0;  // a command of this client runs (0: none)
     ControlRequest pending;         // that command, for its answer
+    PollSlot slot;
   };
 
   void accept_clients(canopen::TimePoint now);
@@ -160,6 +165,8 @@ class ControlServer {
   dev_t socket_dev_ = 0;
   ino_t socket_ino_ = 0;
   std::vector<Client> clients_;
+  PollSlot listen_slot_;
+  PollSlot replies_slot_;
 };
 
 // The `status` answer: the report as one line of JSON (no newline).

@@ -94,23 +94,33 @@ void AsciiServer::close() {
   tcp_fd_ = -1;
 }
 
-void AsciiServer::add_poll_fds(std::vector<pollfd>& fds) const {
-  if (unix_fd_ >= 0) fds.push_back({unix_fd_, POLLIN, 0});
-  if (tcp_fd_ >= 0) fds.push_back({tcp_fd_, POLLIN, 0});
-  fds.push_back({replies_->fd(), POLLIN, 0});
-  for (const auto& c : clients_) {
-    if (c.out_done < c.out.size()) fds.push_back({c.fd, POLLOUT, 0});
-    else if (c.waiting_tag == 0) fds.push_back({c.fd, POLLIN, 0});
+void AsciiServer::add_poll_fds(std::vector<pollfd>& fds) {
+  if (unix_fd_ >= 0) unix_slot_.add(fds, unix_fd_, POLLIN);
+  if (tcp_fd_ >= 0) tcp_slot_.add(fds, tcp_fd_, POLLIN);
+  replies_slot_.add(fds, replies_->fd(), POLLIN);
+  for (auto& c : clients_) {
+    if (c.out_done < c.out.size()) c.slot.add(fds, c.fd, POLLOUT);
+    else if (c.waiting_tag == 0) c.slot.add(fds, c.fd, POLLIN);
+    else c.slot.skip();
   }
 }
 
+void AsciiServer::note_ready(const std::vector<pollfd>& fds) {
+  unix_slot_.note(fds);
+  tcp_slot_.note(fds);
+  replies_slot_.note(fds);
+  for (auto& c : clients_) c.slot.note(fds);
+}
+
 TimePoint AsciiServer::process(TimePoint now) {
-  if (unix_fd_ >= 0) accept_from(unix_fd_, false, now);
-  if (tcp_fd_ >= 0) accept_from(tcp_fd_, true, now);
-  deliver(now);
+  if (unix_fd_ >= 0 && unix_slot_.take()) accept_from(unix_fd_, false, now);
+  if (tcp_fd_ >= 0 && tcp_slot_.take()) accept_from(tcp_fd_, true, now);
+  if (replies_slot_.take()) deliver(now);
   TimePoint next = kNever;
   for (auto it = clients_.begin(); it != clients_.end();) {
-    if (!serve(*it, now)) {
+    const bool buffered = it->waiting_tag == 0 && it->in.find('\n') != std::string::npos;
+    const bool try_io = it->slot.take();
+    if ((try_io || buffered || now >= it->idle_until) && !serve(*it, now)) {
       ::close(it->fd);
       it = clients_.erase(it);
       continue;
@@ -260,6 +270,7 @@ void AsciiServer::deliver(TimePoint now) {
       c.waiting_tag = 0;
       c.pending = {};
       c.idle_until = now + options_.idle_timeout;
+      c.slot.mark();  // its answer goes out in this turn
       break;
     }
   }

@@ -21,6 +21,7 @@
 
 #include "canopen/clock.hpp"
 #include "config/remote_access.hpp"
+#include "gateway/poll_slot.hpp"
 #include "gateway/remote/ascii_request.hpp"
 #include "gateway/remote/peer_credentials.hpp"
 #include "gateway/remote/remote_replies.hpp"
@@ -58,7 +59,9 @@ class AsciiServer {
   void close();
   [[nodiscard]] std::size_t clients() const noexcept { return clients_.size(); }
 
-  void add_poll_fds(std::vector<pollfd>& fds) const;
+  void add_poll_fds(std::vector<pollfd>& fds);
+  // After poll(): which descriptors are ready (poll_slot.hpp); optional.
+  void note_ready(const std::vector<pollfd>& fds);
   canopen::TimePoint process(canopen::TimePoint now);
 
  private:
@@ -76,6 +79,7 @@ class AsciiServer {
     std::uint64_t waiting_tag = 0;
     AsciiRequest pending;
     canopen::TimePoint idle_until{};
+    PollSlot slot;
   };
 
   void accept_from(int listen_fd, bool tcp, canopen::TimePoint now);
@@ -95,6 +99,9 @@ class AsciiServer {
   std::vector<Client> clients_;
   std::shared_ptr<RemoteReplies> replies_ = std::make_shared<RemoteReplies>();
   std::uint64_t next_tag_ = 1;
+  PollSlot unix_slot_;
+  PollSlot tcp_slot_;
+  PollSlot replies_slot_;
 };
 
 // The answer line to a finished RemoteCommand of request `r`.

@@ -170,12 +170,14 @@ TimePoint RemoteExecutor::drive(TimePoint now, RemoteGate& gate) {
   if (active_->cmd.op == RemoteOp::lss) {
     const TimePoint next = lss_.process(now);
     if (auto r = lss_.take_result()) lss_step_done(r->error, r->value, now, gate);
-    return active_ ? next : now;
+    return active_ ? next : kNever;
   }
   const TimePoint next = sdo_->process(now);
+  // Done: process() starts the next command in the same turn, so no
+  // deadline is owed (an extra loop turn would delay the answer).
   if (auto r = sdo_->take_result()) {
     finish_sdo(*r, now, gate);
-    return now;
+    return kNever;
   }
   return next;
 }

@@ -93,7 +93,7 @@ StatusReport sample_report() {
   return r;
 }
 
-// Runs the server the way cobridged's main loop does: poll, then process.
+// Runs the server the way cobridged's main loop does (app/daemon.cpp serve()).
 class ServerLoop {
  public:
   ServerLoop(FakeHandler& handler, ControlServerOptions options)
@@ -104,16 +104,19 @@ class ServerLoop {
     const auto ec = server_.open(path_, &why);
     EXPECT_FALSE(ec) << why;
     thread_ = std::thread([this] {
+      // As cobridged's loop: process, poll, tell the server what poll saw
+      // (so only ready descriptors are touched: poll_slot.hpp).
+      std::vector<pollfd> fds;
       while (!stop_) {
-        std::vector<pollfd> fds;
-        server_.add_poll_fds(fds);
         const auto next = server_.process(Clock::now());
+        clients_ = server_.clients();
+        fds.clear();
+        server_.add_poll_fds(fds);
         auto wait = std::chrono::duration_cast<std::chrono::milliseconds>(next - Clock::now());
         if (next == cobridge::canopen::kNever || wait > 20ms) wait = 20ms;
         if (wait < 0ms) wait = 0ms;
         ::poll(fds.data(), fds.size(), static_cast<int>(wait.count()));
-        server_.process(Clock::now());
-        clients_ = server_.clients();
+        server_.note_ready(fds);
       }
       server_.close();
     });
