@@ -1,5 +1,7 @@
 #include "gateway/control_request.hpp"
 
+#include "base/number_text.hpp"
+
 #include <charconv>
 #include <vector>
 
@@ -40,29 +42,6 @@ std::vector<std::string_view> words(std::string_view s) {
   return out;
 }
 
-// Unsigned number: decimal, or hex with 0x (or always hex when `hex`).
-bool number(std::string_view w, std::uint64_t max, std::uint64_t& out, bool hex = false) {
-  int base = hex ? 16 : 10;
-  if (w.size() > 2 && w[0] == '0' && (w[1] == 'x' || w[1] == 'X')) {
-    w.remove_prefix(2);
-    base = 16;
-  }
-  if (w.empty()) return false;
-  const auto r = std::from_chars(w.data(), w.data() + w.size(), out, base);
-  return r.ec == std::errc() && r.ptr == w.data() + w.size() && out <= max;
-}
-
-bool hex_bytes(std::string_view w, std::vector<std::uint8_t>& out) {
-  if (w.empty() || w.size() % 2 != 0 || w.size() > 2 * 1024) return false;
-  for (std::size_t i = 0; i < w.size(); i += 2) {
-    std::uint8_t b = 0;
-    const auto r = std::from_chars(w.data() + i, w.data() + i + 2, b, 16);
-    if (r.ec != std::errc() || r.ptr != w.data() + i + 2) return false;
-    out.push_back(b);
-  }
-  return true;
-}
-
 ControlRequest invalid(std::string text) {
   ControlRequest r;
   r.error = Error(Errc::kInvalidArgument, std::move(text));
@@ -75,14 +54,14 @@ ControlRequest parse_sdo(const std::vector<std::string_view>& w, bool write) {
                             : "usage: sdo-read BUS NODE INDEX SUB [TIMEOUT_MS]";
   if (w.size() != fixed && w.size() != fixed + 1) return invalid(usage);
   std::uint64_t node = 0, index = 0, sub = 0, timeout = 500;
-  if (!number(w[2], 127, node) || node == 0) return invalid("node \"" + quoted_input(w[2]) + "\" (allowed: 1..127)");
-  if (!number(w[3], 0xFFFF, index, true)) return invalid("index \"" + quoted_input(w[3]) + "\" (hex 0..FFFF)");
-  if (!number(w[4], 0xFF, sub)) return invalid("sub-index \"" + quoted_input(w[4]) + "\" (0..255)");
+  if (!parse_unsigned(w[2], 127, node) || node == 0) return invalid("node \"" + quoted_input(w[2]) + "\" (allowed: 1..127)");
+  if (!parse_unsigned(w[3], 0xFFFF, index, true)) return invalid("index \"" + quoted_input(w[3]) + "\" (hex 0..FFFF)");
+  if (!parse_unsigned(w[4], 0xFF, sub)) return invalid("sub-index \"" + quoted_input(w[4]) + "\" (0..255)");
   ControlRequest r;
   r.command.op = write ? RemoteOp::sdo_download : RemoteOp::sdo_upload;
-  if (write && !hex_bytes(w[5], r.command.data))
+  if (write && !parse_hex_bytes(w[5], 1024, r.command.data))
     return invalid("data \"" + quoted_input(w[5]) + "\" (1..1024 bytes as hex digit pairs)");
-  if (w.size() == fixed + 1 && (!number(w[fixed], 60000, timeout) || timeout < 10))
+  if (w.size() == fixed + 1 && (!parse_unsigned(w[fixed], 60000, timeout) || timeout < 10))
     return invalid("timeout \"" + quoted_input(w[fixed]) + "\" (10..60000 ms)");
   r.kind = ControlRequest::Kind::remote;
   r.bus = std::string(w[1]);
@@ -106,7 +85,7 @@ ControlRequest parse_nmt(const std::vector<std::string_view>& w) {
   else if (w[2] == "reset-comm") r.command.nmt = NmtCommand::reset_comm;
   else return invalid("NMT command \"" + quoted_input(w[2]) + "\" (allowed: start, stop, preop, reset, reset-comm)");
   std::uint64_t node = 0;
-  if (!number(w[3], 127, node)) return invalid("node \"" + quoted_input(w[3]) + "\" (allowed: 0..127)");
+  if (!parse_unsigned(w[3], 127, node)) return invalid("node \"" + quoted_input(w[3]) + "\" (allowed: 0..127)");
   r.kind = ControlRequest::Kind::remote;
   r.bus = std::string(w[1]);
   r.command.op = RemoteOp::nmt;
@@ -119,12 +98,12 @@ ControlRequest parse_lss_set(const std::vector<std::string_view>& w) {
     return invalid("usage: lss-set-node-id BUS VENDOR PRODUCT REVISION SERIAL NODE store|no-store [TIMEOUT_MS]");
   std::uint64_t f[4]{};
   for (std::size_t i = 0; i < 4; ++i) {
-    if (!number(w[2 + i], 0xFFFFFFFF, f[i])) return invalid("identity field \"" + quoted_input(w[2 + i]) + "\" (32-bit)");
+    if (!parse_unsigned(w[2 + i], 0xFFFFFFFF, f[i])) return invalid("identity field \"" + quoted_input(w[2 + i]) + "\" (32-bit)");
   }
   std::uint64_t node = 0, timeout = 100;
-  if (!number(w[6], 127, node) || node == 0) return invalid("node \"" + quoted_input(w[6]) + "\" (allowed: 1..127)");
+  if (!parse_unsigned(w[6], 127, node) || node == 0) return invalid("node \"" + quoted_input(w[6]) + "\" (allowed: 1..127)");
   if (w[7] != "store" && w[7] != "no-store") return invalid("\"" + quoted_input(w[7]) + "\" (allowed: store, no-store)");
-  if (w.size() == 9 && (!number(w[8], 10000, timeout) || timeout < 10))
+  if (w.size() == 9 && (!parse_unsigned(w[8], 10000, timeout) || timeout < 10))
     return invalid("timeout \"" + quoted_input(w[8]) + "\" (10..10000 ms)");
   ControlRequest r;
   r.kind = ControlRequest::Kind::remote;

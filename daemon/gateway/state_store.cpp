@@ -1,5 +1,6 @@
 #include "gateway/state_store.hpp"
 
+#include "base/number_text.hpp"
 #include "sys/logging.hpp"
 
 #include <fcntl.h>
@@ -72,19 +73,6 @@ bool unescape(std::string_view s, std::string& out) {
     i += 2;
   }
   return true;
-}
-
-// Decimal, or hexadecimal with 0x; the whole text must be the number.
-bool parse_u32(std::string_view text, std::uint32_t& out) noexcept {
-  int base = 10;
-  if (text.size() > 2 && text[0] == '0' && (text[1] == 'x' || text[1] == 'X')) {
-    text.remove_prefix(2);
-    base = 16;
-  }
-  if (text.empty()) return false;
-  const auto* end = text.data() + text.size();
-  const auto r = std::from_chars(text.data(), end, out, base);
-  return r.ec == std::errc{} && r.ptr == end;
 }
 
 std::string hex(std::uint32_t v) {
@@ -163,12 +151,13 @@ bool StateStore::parse_line(std::string_view line, Assignment& out, std::string&
       return false;
     }
     unsigned field = 0;
-    std::uint32_t number = 0;
+    std::uint64_t wide = 0;
     const bool numeric = key == "serial" || key == "vendor" || key == "product" || key == "revision" || key == "node";
-    if (numeric && !parse_u32(value, number)) {
+    if (numeric && !parse_unsigned(value, 0xFFFFFFFFU, wide)) {
       why = "'" + std::string(key) + "' wants a number (decimal or 0x hex), got '" + value + "'";
       return false;
     }
+    const auto number = static_cast<std::uint32_t>(wide);
     if (key == "bus") {
       field = kBus;
       out.bus = value;

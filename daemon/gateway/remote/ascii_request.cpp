@@ -1,5 +1,7 @@
 #include "gateway/remote/ascii_request.hpp"
 
+#include "base/number_text.hpp"
+
 #include <charconv>
 #include <cstdio>
 #include <cstring>
@@ -66,21 +68,10 @@ bool split(std::string_view s, std::vector<std::string>& out) {
   return true;
 }
 
-bool unsigned_of(std::string_view w, std::uint64_t max, std::uint64_t& out) {
-  int base = 10;
-  if (w.size() > 2 && w[0] == '0' && (w[1] == 'x' || w[1] == 'X')) {
-    w.remove_prefix(2);
-    base = 16;
-  }
-  if (w.empty()) return false;
-  const auto r = std::from_chars(w.data(), w.data() + w.size(), out, base);
-  return r.ec == std::errc() && r.ptr == w.data() + w.size() && out <= max;
-}
-
 bool signed_of(std::string_view w, std::int64_t min, std::int64_t max, std::int64_t& out) {
   if (w.size() > 2 && w[0] == '0' && (w[1] == 'x' || w[1] == 'X')) {
     std::uint64_t u = 0;
-    if (!unsigned_of(w, ~0ULL, u)) return false;
+    if (!parse_unsigned(w, ~0ULL, u)) return false;
     out = static_cast<std::int64_t>(u);
     return true;
   }
@@ -90,7 +81,7 @@ bool signed_of(std::string_view w, std::int64_t min, std::int64_t max, std::int6
 
 bool is_number(std::string_view w) {
   std::uint64_t v = 0;
-  return unsigned_of(w, ~0ULL, v);
+  return parse_unsigned(w, ~0ULL, v);
 }
 
 void put_le(std::vector<std::uint8_t>& out, std::uint64_t v, std::size_t n) {
@@ -107,14 +98,7 @@ bool encode(AsciiType type, const std::string& value, std::vector<std::uint8_t>&
       out.assign(v.begin(), v.end());
       return true;
     case AsciiType::os:
-      if (v.empty() || v.size() % 2 != 0) return false;
-      for (std::size_t i = 0; i < v.size(); i += 2) {
-        std::uint8_t b = 0;
-        const auto r = std::from_chars(v.data() + i, v.data() + i + 2, b, 16);
-        if (r.ec != std::errc() || r.ptr != v.data() + i + 2) return false;
-        out.push_back(b);
-      }
-      return true;
+      return parse_hex_bytes(v, v.size(), out);
     case AsciiType::r32: {
       char* end = nullptr;
       const std::string s(v);
@@ -147,7 +131,7 @@ bool encode(AsciiType type, const std::string& value, std::vector<std::uint8_t>&
       const unsigned bits = static_cast<unsigned>(t.size * 8);
       const std::uint64_t max = type == AsciiType::b ? 1 : (bits == 64 ? ~0ULL : (1ULL << bits) - 1);
       std::uint64_t u = 0;
-      if (!unsigned_of(v, max, u)) return false;
+      if (!parse_unsigned(v, max, u)) return false;
       put_le(out, u, t.size);
       return true;
     }
@@ -236,7 +220,7 @@ AsciiRequest parse_sdo(AsciiRequest r, const std::vector<std::string>& w, std::s
   std::uint64_t index = 0, sub = 0;
   const std::size_t args = w.size() - i;
   if (write ? args != 4 : (args != 2 && args != 3)) return invalid(std::move(r), AsciiError::syntax);
-  if (!unsigned_of(w[i], 0xFFFF, index) || !unsigned_of(w[i + 1], 0xFF, sub)) return invalid(std::move(r), AsciiError::syntax);
+  if (!parse_unsigned(w[i], 0xFFFF, index) || !parse_unsigned(w[i + 1], 0xFF, sub)) return invalid(std::move(r), AsciiError::syntax);
   if (args >= 3) {
     const TypeInfo* t = type_named(w[i + 2]);
     if (t == nullptr) return invalid(std::move(r), w[i + 2] == "d" ? AsciiError::not_supported : AsciiError::syntax);
@@ -272,7 +256,7 @@ AsciiRequest parse_lss(AsciiRequest r, const std::vector<std::string>& w, std::s
   const std::size_t args = w.size() - i - 1;
   std::uint64_t v[4]{};
   for (std::size_t k = 0; k < args && k < 4; ++k) {
-    if (!unsigned_of(w[i + 1 + k], 0xFFFFFFFF, v[k])) return invalid(std::move(r), AsciiError::syntax);
+    if (!parse_unsigned(w[i + 1 + k], 0xFFFFFFFF, v[k])) return invalid(std::move(r), AsciiError::syntax);
   }
   auto& s = r.command.lss_steps;
   if (c == "lss_switch_glob" && args == 1 && v[0] <= 1) {
@@ -305,7 +289,7 @@ AsciiRequest parse_lss(AsciiRequest r, const std::vector<std::string>& w, std::s
 
 AsciiRequest parse_set(AsciiRequest r, const std::vector<std::string>& w, std::size_t i) {
   std::uint64_t v = 0;
-  if (w.size() - i != 3 || !unsigned_of(w[i + 2], 0xFFFFFFFF, v)) return invalid(std::move(r), AsciiError::syntax);
+  if (w.size() - i != 3 || !parse_unsigned(w[i + 2], 0xFFFFFFFF, v)) return invalid(std::move(r), AsciiError::syntax);
   r.value = static_cast<unsigned>(v);
   if (w[i + 1] == "network") r.kind = AsciiRequest::Kind::set_network;
   else if (w[i + 1] == "node") r.kind = AsciiRequest::Kind::set_node;
@@ -326,7 +310,7 @@ AsciiRequest parse_ascii_request(std::string_view line) {
   const std::string& s0 = w[0];
   std::uint64_t seq = 0;
   if (s0.size() < 3 || s0.front() != '[' || s0.back() != ']' ||
-      !unsigned_of(std::string_view(s0).substr(1, s0.size() - 2), 0xFFFFFFFF, seq) ||
+      !parse_unsigned(std::string_view(s0).substr(1, s0.size() - 2), 0xFFFFFFFF, seq) ||
       std::string_view(s0).substr(1, 2) == "0x")
     return invalid(std::move(r), AsciiError::syntax);
   r.seq = s0.substr(1, s0.size() - 2);
@@ -336,13 +320,13 @@ AsciiRequest parse_ascii_request(std::string_view line) {
   const bool n2 = n1 && i + 1 < w.size() && is_number(w[i + 1]);
   if (i >= w.size()) return invalid(std::move(r), AsciiError::syntax);
   if (n2) {
-    if (!unsigned_of(w[i], 0xFFFF, a)) return invalid(std::move(r), AsciiError::unsupported_net);
-    if (!unsigned_of(w[i + 1], 0xFF, b)) return invalid(std::move(r), AsciiError::unsupported_node);
+    if (!parse_unsigned(w[i], 0xFFFF, a)) return invalid(std::move(r), AsciiError::unsupported_net);
+    if (!parse_unsigned(w[i + 1], 0xFF, b)) return invalid(std::move(r), AsciiError::unsupported_node);
     r.net = static_cast<unsigned>(a);
     r.node = static_cast<int>(b);
     i += 2;
   } else if (n1) {
-    if (!unsigned_of(w[i], 0xFF, a)) return invalid(std::move(r), AsciiError::unsupported_node);
+    if (!parse_unsigned(w[i], 0xFF, a)) return invalid(std::move(r), AsciiError::unsupported_node);
     r.node = static_cast<int>(a);  // LSS and set: the one number is the net (fixed below)
     i += 1;
   }

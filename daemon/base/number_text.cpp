@@ -1,0 +1,33 @@
+#include "base/number_text.hpp"
+
+#include <charconv>
+
+namespace cobridge {
+
+bool parse_unsigned(std::string_view text, std::uint64_t max, std::uint64_t& out, bool hex) noexcept {
+  int base = hex ? 16 : 10;
+  if (text.size() > 2 && text[0] == '0' && (text[1] == 'x' || text[1] == 'X')) {
+    text.remove_prefix(2);
+    base = 16;
+  }
+  if (text.empty()) return false;
+  std::uint64_t v = 0;
+  const auto* end = text.data() + text.size();
+  const auto r = std::from_chars(text.data(), end, v, base);
+  if (r.ec != std::errc() || r.ptr != end || v > max) return false;
+  out = v;
+  return true;
+}
+
+bool parse_hex_bytes(std::string_view text, std::size_t max_bytes, std::vector<std::uint8_t>& out) {
+  if (text.empty() || text.size() % 2 != 0 || text.size() / 2 > max_bytes) return false;
+  for (std::size_t i = 0; i < text.size(); i += 2) {
+    std::uint8_t b = 0;
+    const auto r = std::from_chars(text.data() + i, text.data() + i + 2, b, 16);
+    if (r.ec != std::errc() || r.ptr != text.data() + i + 2) return false;
+    out.push_back(b);
+  }
+  return true;
+}
+
+}  // namespace cobridge
