@@ -1,5 +1,4 @@
 #include "gateway/control_server.hpp"
-#include "gateway/pending_output.hpp"
 
 #include "base/error.hpp"
 
@@ -392,7 +391,7 @@ void ControlServer::add_poll_fds(std::vector<pollfd>& fds) {
       c.slot.skip();  // nothing to read or write until its result is back
       continue;
     }
-    const bool writing = c.out_done < c.out.size();
+    const bool writing = c.writing();
     c.slot.add(fds, c.fd, writing ? POLLOUT : POLLIN);
   }
 }
@@ -427,20 +426,12 @@ TimePoint ControlServer::process(TimePoint now) {
 
 void ControlServer::accept_clients(TimePoint now) {
   while (true) {
-    const int fd = ::accept4(listen_fd_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
-    if (fd < 0) {
-      if (errno == EINTR || errno == ECONNABORTED) continue;
-      if (errno != EAGAIN && errno != EWOULDBLOCK)
-        sys::logger("gateway")->warn("control socket: accept: {}", std::error_code(errno, std::system_category()).message());
-      return;
-    }
+    const int fd = accept_connection(listen_fd_, "control socket");
+    if (fd < 0) return;
     if (clients_.size() >= options_.max_clients) {
-      // Best effort: the socket is fresh, so a short answer fits its buffer.
-      const std::string busy =
-          error_answer(Error(Errc::kUnavailable, "too many clients (limit " + std::to_string(options_.max_clients) + ")")) +
-          "\n";
-      (void)::send(fd, busy.data(), busy.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
-      ::close(fd);
+      refuse_connection(fd, error_answer(Error(Errc::kUnavailable, "too many clients (limit " +
+                                                                      std::to_string(options_.max_clients) + ")")) +
+                                "\n");
       continue;
     }
     Client c;
@@ -451,29 +442,14 @@ void ControlServer::accept_clients(TimePoint now) {
   }
 }
 
-bool ControlServer::flush(Client& c) { return send_pending(c.fd, c.out, c.out_done); }
-
 bool ControlServer::serve(Client& c, TimePoint now) {
   if (c.waiting_tag != 0) return now < c.deadline;  // its command runs; deliver() answers
   // An answer is read before the next request is looked at.
-  if (!flush(c)) return false;
+  if (!c.flush()) return false;
   if (!c.out.empty()) return now < c.deadline;
   if (c.close_after_write || c.peer_closed) return false;
 
-  // At most one line (plus one byte, to see that it is too long) is buffered:
-  // a client cannot make the daemon hold more than that.
-  std::array<char, 512> buf{};
-  while (c.in.find('\n') == std::string::npos && c.in.size() <= options_.max_line) {
-    const std::size_t room = std::min(buf.size(), options_.max_line + 1 - c.in.size());
-    const ssize_t n = ::recv(c.fd, buf.data(), room, MSG_DONTWAIT);
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) break;
-    if (n <= 0) {
-      c.peer_closed = true;
-      break;
-    }
-    c.in.append(buf.data(), static_cast<std::size_t>(n));
-  }
+  c.read(options_.max_line);
 
   const std::size_t nl = c.in.find('\n');
   if (nl != std::string::npos && nl <= options_.max_line) {
@@ -503,7 +479,7 @@ bool ControlServer::serve(Client& c, TimePoint now) {
   }
   if (c.waiting_tag != 0) return true;
   // Most answers fit the socket buffer: hand this one over right away.
-  if (!flush(c)) return false;
+  if (!c.flush()) return false;
   if (!c.out.empty()) return now < c.deadline;
   return !c.close_after_write;
 }

@@ -43,7 +43,7 @@
 #include "canopen/clock.hpp"
 #include "gateway/control_request.hpp"
 #include "gateway/device_status.hpp"
-#include "gateway/poll_slot.hpp"
+#include "gateway/line_connection.hpp"
 #include "gateway/remote/ascii_server.hpp"
 #include "gateway/remote/peer_credentials.hpp"
 #include "gateway/remote/remote_replies.hpp"
@@ -125,25 +125,17 @@ class ControlServer {
   canopen::TimePoint process(canopen::TimePoint now);
 
  private:
-  struct Client {
-    int fd = -1;
-    std::string in;
-    std::string out;
-    std::size_t out_done = 0;
+  struct Client : LineConnection {
     canopen::TimePoint deadline{};
     bool close_after_write = false;
-    bool peer_closed = false;
     PeerCredentials peer;
     std::uint64_t waiting_tag = 0;  // a command of this client runs (0: none)
     ControlRequest pending;         // that command, for its answer
-    PollSlot slot;
   };
 
   void accept_clients(canopen::TimePoint now);
   // Returns false when the client is to be closed now.
   bool serve(Client& c, canopen::TimePoint now);
-  // Writes what it can of the pending answer; false when the client is gone.
-  static bool flush(Client& c);
   void answer(Client& c, std::string_view line, canopen::TimePoint now);
   // A client's SDO/NMT/LSS command: checked, logged if a write, queued.
   void submit(Client& c, ControlRequest request, canopen::TimePoint now);

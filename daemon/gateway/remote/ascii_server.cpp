@@ -1,5 +1,4 @@
 #include "gateway/remote/ascii_server.hpp"
-#include "gateway/pending_output.hpp"
 
 #include "sys/logging.hpp"
 
@@ -99,7 +98,7 @@ void AsciiServer::add_poll_fds(std::vector<pollfd>& fds) {
   if (tcp_fd_ >= 0) tcp_slot_.add(fds, tcp_fd_, POLLIN);
   replies_slot_.add(fds, replies_->fd(), POLLIN);
   for (auto& c : clients_) {
-    if (c.out_done < c.out.size()) c.slot.add(fds, c.fd, POLLOUT);
+    if (c.writing()) c.slot.add(fds, c.fd, POLLOUT);
     else if (c.waiting_tag == 0) c.slot.add(fds, c.fd, POLLIN);
     else c.slot.skip();
   }
@@ -135,17 +134,11 @@ TimePoint AsciiServer::process(TimePoint now) {
 void AsciiServer::accept_from(int listen_fd, bool tcp, TimePoint now) {
   while (true) {
     sockaddr_in peer{};
-    socklen_t len = sizeof peer;
-    const int fd = ::accept4(listen_fd, tcp ? reinterpret_cast<sockaddr*>(&peer) : nullptr, tcp ? &len : nullptr,
-                             SOCK_NONBLOCK | SOCK_CLOEXEC);
-    if (fd < 0) {
-      if (errno == EINTR || errno == ECONNABORTED) continue;
-      return;
-    }
+    unsigned len = sizeof peer;
+    const int fd = accept_connection(listen_fd, "ascii gateway", tcp ? &peer : nullptr, tcp ? &len : nullptr);
+    if (fd < 0) return;
     if (clients_.size() >= options_.max_clients) {
-      const std::string busy = ascii_error("0", AsciiError::internal_state) + "\n";
-      (void)::send(fd, busy.data(), busy.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
-      ::close(fd);
+      refuse_connection(fd, ascii_error("0", AsciiError::internal_state) + "\n");
       continue;
     }
     Client c;
@@ -163,34 +156,11 @@ void AsciiServer::accept_from(int listen_fd, bool tcp, TimePoint now) {
   }
 }
 
-bool AsciiServer::flush(Client& c) { return send_pending(c.fd, c.out, c.out_done); }
-
-void AsciiServer::read_input(Client& c) {
-  std::array<char, 1024> buf{};
-  while (c.in.size() <= options_.max_line && c.in.find('\n') == std::string::npos) {
-    const ssize_t n = ::recv(c.fd, buf.data(), buf.size(), MSG_DONTWAIT);
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) return;
-    if (n <= 0) {
-      c.peer_closed = true;
-      return;
-    }
-    std::string_view chunk(buf.data(), static_cast<std::size_t>(n));
-    if (c.skipping) {
-      const auto nl = chunk.find('\n');
-      if (nl == std::string_view::npos) continue;
-      chunk.remove_prefix(nl + 1);
-      c.skipping = false;
-    }
-    c.in.append(chunk);
-  }
-}
-
 bool AsciiServer::serve(Client& c, TimePoint now) {
-  if (!flush(c)) return false;
+  if (!c.flush()) return false;
   if (c.waiting_tag != 0) return true;  // deliver() answers; the bus bounds the wait
   if (!c.out.empty()) return now < c.idle_until;
-  read_input(c);
+  c.read(options_.max_line);
   const std::size_t nl = c.in.find('\n');
   if (nl != std::string::npos && nl <= options_.max_line) {
     const std::string line = c.in.substr(0, nl);
@@ -208,7 +178,7 @@ bool AsciiServer::serve(Client& c, TimePoint now) {
   } else if (now >= c.idle_until) {
     return false;
   }
-  if (!flush(c)) return false;
+  if (!c.flush()) return false;
   return true;
 }
 

@@ -21,7 +21,7 @@
 
 #include "canopen/clock.hpp"
 #include "config/remote_access.hpp"
-#include "gateway/poll_slot.hpp"
+#include "gateway/line_connection.hpp"
 #include "gateway/remote/ascii_request.hpp"
 #include "gateway/remote/peer_credentials.hpp"
 #include "gateway/remote/remote_replies.hpp"
@@ -65,13 +65,7 @@ class AsciiServer {
   canopen::TimePoint process(canopen::TimePoint now);
 
  private:
-  struct Client {
-    int fd = -1;
-    std::string in;
-    std::string out;
-    std::size_t out_done = 0;
-    bool skipping = false;  // the rest of an overlong line
-    bool peer_closed = false;
+  struct Client : LineConnection {
     std::string who;        // for the log of writes
     unsigned net = 1;       // "set network"
     int node = -1;          // "set node"; -1 = none
@@ -79,17 +73,14 @@ class AsciiServer {
     std::uint64_t waiting_tag = 0;
     AsciiRequest pending;
     canopen::TimePoint idle_until{};
-    PollSlot slot;
   };
 
   void accept_from(int listen_fd, bool tcp, canopen::TimePoint now);
   bool serve(Client& c, canopen::TimePoint now);
-  void read_input(Client& c);
   void answer(Client& c, std::string_view line, canopen::TimePoint now);
   // The answer to a local request (set, info, help), or empty when queued.
   std::string run(Client& c, AsciiRequest r);
   void deliver(canopen::TimePoint now);
-  static bool flush(Client& c);
 
   RemoteTarget& remote_;
   AsciiServerOptions options_;
