@@ -174,6 +174,19 @@ TEST_F(SocketCanVcan, CanRst_RawFilterPassesExactlyTheMatchingIds) {
 
 // socket(7) SO_RXQ_OVFL: the kernel counts frames it dropped because our receive queue was full.
 // Under a 100 000 frame burst every frame is either received or counted: sent == received + drops.
+// socket(7) SO_RCVBUFFORCE: with CAP_NET_ADMIN (root, as here) the queue the
+// channel asks for is granted beyond net.core.rmem_max (UML: 208 KiB), so a
+// reader stalled by a loaded host loses no frame for as long as it covers.
+TEST_F(SocketCanVcan, SocketRcvbuf_AskedQueueGrantedBeyondRmemMax) {
+  constexpr int kAsked = 4 << 20;
+  auto rx = open_channel(SocketCanConfig{.interface = kIface, .receive_buffer_bytes = kAsked});
+  ASSERT_TRUE(rx->is_open());
+  int granted = 0;
+  socklen_t len = sizeof granted;
+  ASSERT_EQ(::getsockopt(rx->fd(), SOL_SOCKET, SO_RCVBUF, &granted, &len), 0);
+  EXPECT_GE(granted, kAsked) << "the kernel reports twice the size granted";
+}
+
 TEST_F(SocketCanVcan, SocketRxqOvfl_BurstIsFullyAccountedFor) {
   constexpr uint32_t kBurst = 100'000;
   constexpr uint32_t kBurstId = 0x123;
