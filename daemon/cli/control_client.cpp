@@ -11,19 +11,26 @@
 namespace cobridge::cli {
 
 std::optional<std::string> request(const std::string& path, const std::string& line, int timeout_ms,
-                                   std::string& error, bool* no_daemon) {
+                                   Error& failure, bool* no_daemon) {
+  failure = {};
+  std::string error;
+  Errc kind = Errc::kUnavailable;
+  const auto failed = [&]() -> std::optional<std::string> {
+    failure = Error(kind, error);
+    return std::nullopt;
+  };
   if (no_daemon != nullptr) *no_daemon = false;
   sockaddr_un addr{};
   addr.sun_family = AF_UNIX;
   if (path.empty() || path.size() >= sizeof addr.sun_path) {
     error = "control socket path \"" + path + "\" is empty or too long";
-    return std::nullopt;
+    return failed();
   }
   path.copy(addr.sun_path, path.size());
   const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
   if (fd < 0) {
     error = std::string("socket: ") + std::strerror(errno);
-    return std::nullopt;
+    return failed();
   }
   timeval tv{timeout_ms / 1000, static_cast<suseconds_t>((timeout_ms % 1000) * 1000)};
   ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
@@ -34,14 +41,17 @@ std::optional<std::string> request(const std::string& path, const std::string& l
     error = "cannot reach cobridged at " + path + ": " + std::strerror(err);
     if (err == ENOENT || err == ECONNREFUSED) error += " (is cobridged running? see --control)";
     if (no_daemon != nullptr) *no_daemon = err == ENOENT || err == ECONNREFUSED;
-    if (err == EACCES) error += " (the socket is for the service's user and group)";
-    return std::nullopt;
+    if (err == EACCES || err == EPERM) {
+      error += " (the socket, mode 0660, is for the service's user and group: ask to join that group)";
+      kind = Errc::kPermissionDenied;
+    }
+    return failed();
   }
   const std::string out = line + "\n";
   if (::send(fd, out.data(), out.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(out.size())) {
     error = std::string("sending the request: ") + std::strerror(errno);
     ::close(fd);
-    return std::nullopt;
+    return failed();
   }
   std::string answer;
   char buf[4096];
@@ -49,6 +59,7 @@ std::optional<std::string> request(const std::string& path, const std::string& l
     const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
     if (n < 0 && errno == EINTR) continue;
     if (n <= 0) {
+      if (n < 0 && errno == EAGAIN) kind = Errc::kTimeout;
       if (n < 0) error = std::string("reading the answer: ") +
                          (errno == EAGAIN ? "no answer within " + std::to_string(timeout_ms) + " ms"
                                           : std::string(std::strerror(errno)));
@@ -64,7 +75,7 @@ std::optional<std::string> request(const std::string& path, const std::string& l
   const auto nl = answer.find('\n');
   if (nl == std::string::npos) {
     if (error.empty()) error = "the daemon closed the connection without an answer";
-    return std::nullopt;
+    return failed();
   }
   answer.resize(nl);
   return answer;

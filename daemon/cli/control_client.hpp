@@ -3,6 +3,8 @@
 // Thread: the CLI's main thread; blocking I/O with a timeout.
 #pragma once
 
+#include "base/error.hpp"
+
 #include <optional>
 #include <string>
 
@@ -12,10 +14,12 @@ namespace cobridge::cli {
 inline constexpr const char* kDefaultControlSocket = "/run/cobridge/control.sock";
 
 // Sends `line`, returns the answer line (without newline), or nullopt with
-// `error` set. `no_daemon` (optional) is set when nothing listens on `path`
-// (no socket file, or connection refused): the caller may then work on the
-// bus itself.
+// `error` set: kPermissionDenied when the socket may not be opened (EACCES,
+// EPERM: the caller is not the service's user or in its group; no retry
+// helps), kTimeout when no answer came in time, else kUnavailable.
+// `no_daemon` (optional) is set when nothing listens on `path` (no socket
+// file, or connection refused): the caller may then work on the bus itself.
 std::optional<std::string> request(const std::string& path, const std::string& line, int timeout_ms,
-                                   std::string& error, bool* no_daemon = nullptr);
+                                   Error& error, bool* no_daemon = nullptr);
 
 }  // namespace cobridge::cli

@@ -30,13 +30,13 @@ namespace {}  // namespace
 
 std::optional<std::pair<Error, DaemonAnswer>> via_daemon(const std::string& control, const std::string& line,
                                                          int timeout_ms) {
-  std::string error;
+  Error error;
   bool no_daemon = false;
   const auto answer = request(control, line, timeout_ms, error, &no_daemon);
   if (!answer) {
     if (no_daemon) return std::nullopt;
-    const bool late = error.find("no answer within") != std::string::npos;
-    return std::pair{Error(late ? Errc::kTimeout : Errc::kUnavailable, error, control), DaemonAnswer{}};
+    error.where = control;
+    return std::pair{std::move(error), DaemonAnswer{}};
   }
   DaemonAnswer a;
   a.line = *answer;

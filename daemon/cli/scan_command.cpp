@@ -79,12 +79,17 @@ std::string hex_or_clash(const std::set<uint32_t>& s) {
 }  // namespace
 
 // A daemon serving `iface` already discovers that bus: its view is printed
-// instead of a second master's probe. nullopt: no daemon owns the bus.
+// instead of a second master's probe. nullopt: no daemon owns the bus (or
+// none answers). A control socket this user may not open is a failure
+// (permission_denied): a daemon may own the bus.
 std::optional<int> scan_via_daemon(const ScanOptions& o) {
-  std::string error;
+  Error failure;
   bool no_daemon = false;
-  const auto answer = request(o.control, "status", 3000, error, &no_daemon);
+  const auto answer = request(o.control, "status", 3000, failure, &no_daemon);
+  // A daemon this user may not ask could own the bus: no second master's probe.
+  if (!answer && failure.kind == Errc::kPermissionDenied) return report_failure("scan", failure, o.json);
   if (!answer) return std::nullopt;
+  std::string error;
   const auto doc = JsonParser(*answer).parse(error);
   if (!doc) return std::nullopt;
   for (const auto& b : (*doc)["buses"].items) {

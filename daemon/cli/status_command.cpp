@@ -105,8 +105,9 @@ void print_table(const Json& doc) {
 
 int status(const StatusOptions& o) {
   std::string error;
-  const auto answer = request(o.control, "status", o.timeout_ms, error);
-  if (!answer) return report_failure("status", Error(Errc::kUnavailable, error), o.json);
+  Error failure;
+  const auto answer = request(o.control, "status", o.timeout_ms, failure);
+  if (!answer) return report_failure("status", failure, o.json);
   const auto doc = JsonParser(*answer).parse(error);
   if (!doc || doc->type != Json::Type::object) {
     return report_failure("status", Error(Errc::kInternal, std::string("the daemon's answer is not a JSON object: ") +
@@ -124,8 +125,9 @@ int status(const StatusOptions& o) {
 int commission(const CommissionOptions& o) {
   std::string error;
   const std::string line = o.bus.empty() ? "commission" : "commission " + o.bus;
-  const auto answer = request(o.control, line, o.timeout_ms, error);
-  if (!answer) return report_failure("commission", Error(Errc::kUnavailable, error), o.json);
+  Error failure;
+  const auto answer = request(o.control, line, o.timeout_ms, failure);
+  if (!answer) return report_failure("commission", failure, o.json);
   const auto doc = JsonParser(*answer).parse(error);
   if (!doc || doc->type != Json::Type::object) {
     return report_failure("commission", Error(Errc::kInternal, std::string("the daemon's answer is not a JSON object: ") +

@@ -1,19 +1,38 @@
 #include "gateway/remote/peer_credentials.hpp"
 
 #include <grp.h>
-#include <pwd.h>
 #include <sys/socket.h>
 
-#include <vector>
+#include <algorithm>
+#include <cerrno>
 
 namespace cobridge::gateway {
+namespace {
+
+// SO_PEERGROUPS (Linux 4.13): the peer's supplementary groups at connect().
+// ERANGE tells the size needed; a process has at most NGROUPS_MAX (65536).
+std::vector<gid_t> peer_groups(int fd) {
+  std::vector<gid_t> groups(64);
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    socklen_t len = static_cast<socklen_t>(groups.size() * sizeof(gid_t));
+    if (::getsockopt(fd, SOL_SOCKET, SO_PEERGROUPS, groups.data(), &len) == 0) {
+      groups.resize(len / sizeof(gid_t));
+      return groups;
+    }
+    if (errno != ERANGE) break;
+    groups.resize(len / sizeof(gid_t) + 1);
+  }
+  return {};
+}
+
+}  // namespace
 
 std::string PeerCredentials::to_string() const {
   if (!known) return "unknown peer";
   return "uid " + std::to_string(uid) + " pid " + std::to_string(pid);
 }
 
-PeerCredentials peer_credentials(int fd) noexcept {
+PeerCredentials peer_credentials(int fd) {
   PeerCredentials p;
   ucred cred{};
   socklen_t len = sizeof cred;
@@ -22,6 +41,7 @@ PeerCredentials peer_credentials(int fd) noexcept {
   p.uid = cred.uid;
   p.gid = cred.gid;
   p.pid = cred.pid;
+  p.groups = peer_groups(fd);
   return p;
 }
 
@@ -30,23 +50,12 @@ bool peer_in_group(const PeerCredentials& peer, const std::string& group_name) {
   std::vector<char> buf(16384);
   struct group grp {};
   struct group* gr = nullptr;
-  if (::getgrnam_r(group_name.c_str(), &grp, buf.data(), buf.size(), &gr) != 0 || gr == nullptr) return false;
+  int rc = 0;
+  while ((rc = ::getgrnam_r(group_name.c_str(), &grp, buf.data(), buf.size(), &gr)) == ERANGE && buf.size() < (1u << 24))
+    buf.resize(buf.size() * 4);
+  if (rc != 0 || gr == nullptr) return false;
   const gid_t wanted = gr->gr_gid;
-  if (peer.gid == wanted) return true;
-  struct passwd pw {};
-  struct passwd* pwp = nullptr;
-  std::vector<char> pbuf(16384);
-  if (::getpwuid_r(peer.uid, &pw, pbuf.data(), pbuf.size(), &pwp) != 0 || pwp == nullptr) return false;
-  int n = 64;
-  std::vector<gid_t> groups(static_cast<std::size_t>(n));
-  if (::getgrouplist(pwp->pw_name, pwp->pw_gid, groups.data(), &n) < 0) {
-    groups.resize(static_cast<std::size_t>(n));
-    if (::getgrouplist(pwp->pw_name, pwp->pw_gid, groups.data(), &n) < 0) return false;
-  }
-  for (int i = 0; i < n; ++i) {
-    if (groups[static_cast<std::size_t>(i)] == wanted) return true;
-  }
-  return false;
+  return peer.gid == wanted || std::find(peer.groups.begin(), peer.groups.end(), wanted) != peer.groups.end();
 }
 
 }  // namespace cobridge::gateway

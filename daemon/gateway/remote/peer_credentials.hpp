@@ -1,31 +1,46 @@
 // PeerCredentials: who is at the other end of a local (Unix) socket, as the
-// kernel says (SO_PEERCRED), and whether that user is in a group. The
-// control socket logs every write with it and lets only the configured
-// group write (issue 15, item 2).
+// kernel says (SO_PEERCRED, SO_PEERGROUPS), and whether that process is in a
+// group. The control socket logs every write with it and lets only the
+// configured group write (issue 15, item 2).
 //
-// Thread: any; reads the user and group databases (getpwuid_r, getgrnam_r,
-// getgrouplist): the main thread, never the hot path.
+// Group membership is the process's, as the kernel recorded it when the
+// peer connected: its effective gid (SO_PEERCRED) and its supplementary
+// groups (SO_PEERGROUPS). These are the credentials the kernel checked
+// against the socket file's mode 0660, so "may connect" and "may write"
+// follow one rule: a service given a group by systemd's
+// SupplementaryGroups= (not listed in /etc/group) is a member, a process
+// that dropped the group (setgroups, setpriv --groups) is not, and a user
+// added to the group in /etc/group is one from the next login on, as for
+// any file. The group database only turns the group's name into its gid.
+//
+// Thread: any; peer_credentials() is two getsockopt calls, peer_in_group()
+// reads the group database (getgrnam_r): the main thread, never the hot path.
 #pragma once
 
 #include <sys/types.h>
 
 #include <string>
+#include <vector>
 
 namespace cobridge::gateway {
 
 struct PeerCredentials {
   bool known = false;  // false: not a Unix socket, or the kernel would not say
   uid_t uid = 0;
-  gid_t gid = 0;
+  gid_t gid = 0;  // effective gid at connect()
   pid_t pid = 0;
+  // Supplementary groups at connect(); empty when the kernel would not say
+  // (then only `gid` counts: a check fails closed).
+  std::vector<gid_t> groups;
 
   // "uid 1000 pid 4711" (or "unknown peer").
   [[nodiscard]] std::string to_string() const;
 };
 
-[[nodiscard]] PeerCredentials peer_credentials(int fd) noexcept;
-// True when the peer's uid has `group` as its primary group or among its
-// supplementary groups in the group database. False for an unknown group.
+[[nodiscard]] PeerCredentials peer_credentials(int fd);
+// True when the group named `group` exists and is the peer's effective gid
+// or one of its supplementary groups (as the kernel had them at connect()).
+// False for an unknown peer or group.
 [[nodiscard]] bool peer_in_group(const PeerCredentials& peer, const std::string& group);
 
 }  // namespace cobridge::gateway

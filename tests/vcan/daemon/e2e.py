@@ -265,7 +265,10 @@ class Daemon:
     """cobridged started through `sh -c 'WATCHDOG_PID=$$ exec ...'`, so the
     PID systemd would announce is the daemon's own."""
 
-    def __init__(self, daemon, config, ws, notify=None, watchdog_usec=None, log_name="daemon.log", extra_args=()):
+    def __init__(self, daemon, config, ws, notify=None, watchdog_usec=None, log_name="daemon.log", extra_args=(),
+                 run_as=()):
+        """run_as: a command prefix that starts the daemon as another user
+        (e.g. ["setpriv", "--reuid=...", "--regid=...", "--init-groups", "--"])."""
         env = dict(os.environ)
         env.pop("NOTIFY_SOCKET", None)
         env.pop("WATCHDOG_USEC", None)
@@ -277,6 +280,7 @@ class Daemon:
         if watchdog_usec is not None:
             env["WATCHDOG_USEC"] = str(watchdog_usec)
             cmd = ["/bin/sh", "-c", 'WATCHDOG_PID=$$; export WATCHDOG_PID; exec "$@"', "sh"] + cmd
+        cmd = list(run_as) + cmd
         self.ws = ws
         self.log_path = ws.path(log_name)
         self.log = open(self.log_path, "a")
