@@ -235,6 +235,20 @@ def main():
           "(within 10 s; target 1 s, see the FIGURE line)")
     st = [e for e in ev1 if e.get("ev") == "status" and e["gateway_id"] == "gw-b" and not e["online"]
           and e["t"] >= t_bus]
+    # Where the time goes: when the gateway decided (updated_ns of the
+    # sample) and when the subscriber had it; how late EncoderSamples were.
+    for e in st:
+        print(f"  gw-b node {e['node']} offline: decided after {(e.get('upd', 0) - t_bus) / 1e6:.0f} ms, "
+              f"seen after {(e['t'] - t_bus) / 1e6:.0f} ms", flush=True)
+    for e in gws:
+        if e["gateway_id"] == "gw-b" and e["valid"] and t_bus - 1e9 <= e["t"] <= t_bus + 6e9:
+            print(f"  gw-b GatewayStatus devices_online={e['devices_online']} written {(e.get('upd', 0) - t_bus) / 1e6:.0f} ms, "
+                  f"seen {(e['t'] - t_bus) / 1e6:.0f} ms after the bus loss", flush=True)
+    for e in ev1:
+        if e.get("ev") == "lag" and t_bus - 3e9 <= e["t"] <= t_bus + 1e9:
+            print(f"  EncoderSample lag {e['gateway_id']} at {(e['t'] - t_bus) / 1e6:+.0f} ms: rx {e['rx_ms']:.0f} ms, "
+                  f"dispatch {e['pub_ms']:.0f} ms ({e['n']} samples)", flush=True)
+    print(f"  work dir {work}", flush=True)
     off_nodes = {e["node"] for e in st}
     last_off = max(((e["t"] - t_bus) / 1e6 for e in st), default=None)
     print(f"FIGURE gw-b's bus loss: last DeviceStatus offline after {last_off} ms (target 1000 ms)", flush=True)
