@@ -5,13 +5,24 @@
 // EMCY samples, and the last TPDO sample (re-published with stale = true when
 // the gateway declares the device stale).
 //
+// Status ahead of samples (issue 16, "a gateway that loses its bus is
+// visible within 1 s"): heartbeat, NMT and STATUS samples reach the table
+// twice, first through apply_ahead() from the plugin's status lane, which
+// the writer thread serves before the sample queue, then through apply() in
+// the queue's order. A status change therefore never waits behind a backlog
+// of EncoderSamples (a slow reliable subscriber, a loaded host: seconds).
+// Each slot counts the status samples applied ahead; apply() skips that many
+// of the device's status samples (the lane holds a subset of the queue, in
+// its order), and a TPDO met while some are ahead is older than the state
+// shown, so it does not end `stale`.
+//
 // The table is allocated once, at construction; nothing in it allocates
 // afterwards. Strings longer than their slot are cut at a UTF-8 character
 // boundary.
 //
-// Thread contract: the dispatcher thread (on_samples, on_device) between
-// start and stop; the control thread otherwise. Never both at once, so there
-// is no lock.
+// Thread contract: the plugin's writer thread (DdsPublisher) between start
+// and stop; the control thread otherwise. Never both at once, so there is
+// no lock.
 #pragma once
 
 #include <cobridge/plugin.h>
@@ -66,7 +77,15 @@ struct DeviceSlot {
   DeviceState state;
   bool has_last_tpdo = false;
   cobridge_sample last_tpdo{};
+  // Status samples apply_ahead() applied that apply() has not met yet.
+  std::uint32_t status_ahead = 0;
+  // EncoderSample side, in queue order: the last TPDO was re-published
+  // stale and no TPDO (or STATUS not stale) came since.
+  bool samples_stale = false;
 };
+
+// Heartbeat, NMT state and STATUS: the samples that travel the status lane.
+[[nodiscard]] bool is_status_kind(const cobridge_sample& sample) noexcept;
 
 // What a sample did to its slot's DeviceStatus.
 enum class StatusChange : std::uint8_t {
@@ -96,9 +115,16 @@ class DeviceSlots {
   // from heartbeat (NMT state, online), NMT state, STATUS (online, stale,
   // NMT state) and EMCY (last code) samples. Returns what changed; kNone for
   // a sample whose device_index is beyond the table.
+  // In queue order: a status sample already applied ahead is skipped (kNone).
   StatusChange apply(const cobridge_sample& sample) noexcept;
+  // A status sample (is_status_kind) from the status lane, before the queue
+  // has reached it: applied now and counted, so apply() skips it later.
+  // kNone for other kinds (they wait for the queue).
+  StatusChange apply_ahead(const cobridge_sample& sample) noexcept;
 
  private:
+  StatusChange update(DeviceSlot& slot, const cobridge_sample& sample) noexcept;
+
   std::vector<DeviceSlot> slots_;
 };
 

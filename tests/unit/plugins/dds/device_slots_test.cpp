@@ -61,6 +61,54 @@ TEST(DeviceSlots, Cia301_7_2_2_StaleUntilTheNextTpdo) {
   EXPECT_FALSE(slots.find(2)->state.stale);
 }
 
+// Issue 16 ("a gateway that loses its bus is visible within 1 s"): a status
+// sample applied ahead of the queue (the status lane) changes DeviceStatus
+// at once; when the queue reaches it, it is skipped, and the TPDOs queued
+// before it (older than the state shown) do not end `stale`; the TPDOs
+// after it do.
+TEST(DeviceSlots, Issue16_StatusAheadOfTheQueueIsAppliedOnce) {
+  DeviceSlots slots(8);
+  cobridge_sample hb = sample(COBRIDGE_SAMPLE_HEARTBEAT);
+  hb.nmt_state = COBRIDGE_NMT_OPERATIONAL;
+  hb.valid = COBRIDGE_VALID_NMT_STATE;
+  EXPECT_EQ(slots.apply(hb), StatusChange::kChanged);
+  const cobridge_sample older = sample(COBRIDGE_SAMPLE_TPDO);
+  cobridge_sample lost = sample(COBRIDGE_SAMPLE_STATUS);
+  lost.valid = COBRIDGE_VALID_STATUS;
+  lost.online = 0;
+  lost.stale = 1;
+  lost.rx_timestamp_ns = 5000;
+  // The lane: offline and stale now, whatever is queued before it.
+  EXPECT_EQ(slots.apply_ahead(lost), StatusChange::kBecameStale);
+  EXPECT_FALSE(slots.find(2)->state.online);
+  EXPECT_EQ(slots.apply_ahead(older), StatusChange::kNone) << "only status samples take the lane";
+  // The queue: an older TPDO and a heartbeat queued before the loss change nothing.
+  EXPECT_EQ(slots.apply(older), StatusChange::kNone);
+  EXPECT_TRUE(slots.find(2)->state.stale);
+  EXPECT_EQ(slots.apply(lost), StatusChange::kNone) << "applied ahead already";
+  EXPECT_FALSE(slots.find(2)->state.online);
+  EXPECT_EQ(slots.find(2)->status_ahead, 0u);
+  EXPECT_EQ(slots.find(2)->state.updated_ns, 5000u);
+  // A TPDO after the loss is fresh again.
+  EXPECT_EQ(slots.apply(older), StatusChange::kChanged);
+  EXPECT_FALSE(slots.find(2)->state.stale);
+}
+
+// The lane may drop (full): a status sample it never carried is applied in
+// queue order as before.
+TEST(DeviceSlots, Issue16_StatusTheLaneDroppedIsAppliedInQueueOrder) {
+  DeviceSlots slots(8);
+  cobridge_sample on = sample(COBRIDGE_SAMPLE_STATUS);
+  on.valid = COBRIDGE_VALID_STATUS;
+  on.online = 1;
+  cobridge_sample off = on;
+  off.online = 0;
+  EXPECT_EQ(slots.apply_ahead(on), StatusChange::kChanged);
+  EXPECT_EQ(slots.apply(on), StatusChange::kNone);
+  EXPECT_EQ(slots.apply(off), StatusChange::kChanged);
+  EXPECT_FALSE(slots.find(2)->state.online);
+}
+
 // CiA 301 §7.2.7: an EMCY records the last error code and register.
 TEST(DeviceSlots, Cia301_7_2_7_EmcyIsTheLastError) {
   DeviceSlots slots(8);
