@@ -25,7 +25,9 @@
 // the writer thread needs, waking it only then. A third, slow thread (presence)
 // keeps the gateway's GatewayStatus current every kPresenceTick and reports
 // a duplicate gateway id in the domain (gateway_presence.hpp); the writer
-// thread wakes it at once when the device counts change.
+// thread wakes it at once when the device counts change, and it writes
+// GatewayStatus again every kPresenceRefresh (alive again after a lease
+// lost to starvation).
 //
 // Status lane (issue 16): heartbeat, NMT and STATUS samples are queued twice,
 // in the sample ring (their order among the TPDOs: the stale re-publication)
@@ -82,6 +84,10 @@ struct Instance {
   static constexpr std::size_t kBatch = 256;
   static constexpr std::chrono::milliseconds kStopDrain{300};
   static constexpr std::chrono::milliseconds kPresenceTick{100};
+  // GatewayStatus is written again this often even without a change: a
+  // gateway starved past its liveliness lease (a loaded host) turns not
+  // alive at the subscribers, and only a new sample makes it alive again.
+  static constexpr std::chrono::milliseconds kPresenceRefresh{1000};
   static constexpr std::size_t kLane = 1024;     // status samples: 10/s per device heartbeats and changes
   static constexpr std::size_t kLaneCheck = 8;   // samples written between looks at the lane
 
@@ -114,9 +120,8 @@ struct Instance {
   }
 
   // Dispatcher thread: into the sample ring, and a status sample into the
-  // lane too. Only what the ring took goes to the lane, so the lane is a
-  // subset of the ring in its order (DeviceSlots counts on it); a full lane
-  // only means the ring's copy is applied, later.
+  // lane too. Only what the ring took goes to the lane; a full lane only
+  // means the ring's copy is applied, later (DeviceSlots, by sequence).
   bool queue(const cobridge_sample& s) noexcept {
     if (!ring.try_push(s)) return false;
     if (is_status_kind(s)) (void)lane.try_push(s);
@@ -215,10 +220,16 @@ struct Instance {
   // Presence thread: GatewayStatus when the counts change, duplicate ids.
   void run_presence() {
     std::unique_lock lock(presence_mutex);
+    auto refresh_at = std::chrono::steady_clock::now() + kPresenceRefresh;
     while (!presence_stop) {
       lock.unlock();
       const DuplicateChange d = presence->poll();
-      presence->publish(publisher->counts(), d == DuplicateChange::kGone);  // the other one disposed our key
+      const auto now = std::chrono::steady_clock::now();
+      const bool refresh = now >= refresh_at;
+      // Forced when the other one disposed our key (kGone), and every kPresenceRefresh.
+      const std::uint64_t writes = presence->writes();
+      presence->publish(publisher->counts(), d == DuplicateChange::kGone || refresh);
+      if (refresh || presence->writes() != writes) refresh_at = now + kPresenceRefresh;
       try {
         report(d);
       } catch (...) {

@@ -63,21 +63,29 @@ bool is_status_kind(const cobridge_sample& s) noexcept {
 StatusChange DeviceSlots::apply(const cobridge_sample& s) noexcept {
   DeviceSlot* slot = find(s.device_index);
   if (slot == nullptr) return StatusChange::kNone;
-  if (is_status_kind(s) && slot->status_ahead != 0) {
-    --slot->status_ahead;  // applied ahead already
-    return StatusChange::kNone;
+  bool older = false;
+  if (slot->ahead) {
+    // Wrap-safe: the sequence counts every sample of the device.
+    const auto d = static_cast<std::int32_t>(s.sequence - slot->ahead_sequence);
+    if (d > 0) {
+      slot->ahead = false;  // the queue has passed what the lane applied
+    } else {
+      if (is_status_kind(s)) return StatusChange::kNone;  // applied ahead, or older than the state shown
+      older = true;
+    }
   }
-  return update(*slot, s);
+  return update(*slot, s, older);
 }
 
 StatusChange DeviceSlots::apply_ahead(const cobridge_sample& s) noexcept {
   DeviceSlot* slot = find(s.device_index);
   if (slot == nullptr || !is_status_kind(s)) return StatusChange::kNone;
-  ++slot->status_ahead;
-  return update(*slot, s);
+  slot->ahead = true;
+  slot->ahead_sequence = s.sequence;
+  return update(*slot, s, false);
 }
 
-StatusChange DeviceSlots::update(DeviceSlot& slot, const cobridge_sample& s) noexcept {
+StatusChange DeviceSlots::update(DeviceSlot& slot, const cobridge_sample& s, bool older_than_shown) noexcept {
   if (!slot.in_use) {
     // A device the host has not announced (yet): keyed by what the sample says.
     slot.in_use = true;
@@ -94,7 +102,7 @@ StatusChange DeviceSlots::update(DeviceSlot& slot, const cobridge_sample& s) noe
       // A fresh TPDO is current by definition (the decoder clears its stale
       // flag the same way), so a stale status ends here; unless a status
       // newer than this TPDO was applied ahead of the queue.
-      if (slot.status_ahead == 0) st.stale = false;
+      if (!older_than_shown) st.stale = false;
       break;
     case COBRIDGE_SAMPLE_EMCY:
       if ((valid & COBRIDGE_VALID_EMCY) != 0) {

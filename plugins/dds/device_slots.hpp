@@ -11,10 +11,12 @@
 // the writer thread serves before the sample queue, then through apply() in
 // the queue's order. A status change therefore never waits behind a backlog
 // of EncoderSamples (a slow reliable subscriber, a loaded host: seconds).
-// Each slot counts the status samples applied ahead; apply() skips that many
-// of the device's status samples (the lane holds a subset of the queue, in
-// its order), and a TPDO met while some are ahead is older than the state
-// shown, so it does not end `stale`.
+// Each slot keeps the per-device `sequence` (plugin.h) of the last status
+// applied ahead; in the queue, a status sample not newer than it is skipped
+// (applied already, or older than the state shown) and an older TPDO does
+// not end `stale`; the first sample past it ends the comparison. Numbers,
+// not counts: the lane may drop, and may even see a sample the queue has
+// already taken (both are pushed one after the other).
 //
 // The table is allocated once, at construction; nothing in it allocates
 // afterwards. Strings longer than their slot are cut at a UTF-8 character
@@ -77,8 +79,10 @@ struct DeviceSlot {
   DeviceState state;
   bool has_last_tpdo = false;
   cobridge_sample last_tpdo{};
-  // Status samples apply_ahead() applied that apply() has not met yet.
-  std::uint32_t status_ahead = 0;
+  // A status was applied ahead of the queue: its `sequence`, until the
+  // queue passes it.
+  bool ahead = false;
+  std::uint32_t ahead_sequence = 0;
   // EncoderSample side, in queue order: the last TPDO was re-published
   // stale and no TPDO (or STATUS not stale) came since.
   bool samples_stale = false;
@@ -115,15 +119,16 @@ class DeviceSlots {
   // from heartbeat (NMT state, online), NMT state, STATUS (online, stale,
   // NMT state) and EMCY (last code) samples. Returns what changed; kNone for
   // a sample whose device_index is beyond the table.
-  // In queue order: a status sample already applied ahead is skipped (kNone).
+  // In queue order: a status sample not newer than one applied ahead is
+  // skipped (kNone).
   StatusChange apply(const cobridge_sample& sample) noexcept;
   // A status sample (is_status_kind) from the status lane, before the queue
-  // has reached it: applied now and counted, so apply() skips it later.
-  // kNone for other kinds (they wait for the queue).
+  // has reached it: applied now and remembered by its sequence, so apply()
+  // skips it later. kNone for other kinds (they wait for the queue).
   StatusChange apply_ahead(const cobridge_sample& sample) noexcept;
 
  private:
-  StatusChange update(DeviceSlot& slot, const cobridge_sample& sample) noexcept;
+  StatusChange update(DeviceSlot& slot, const cobridge_sample& sample, bool older_than_shown) noexcept;
 
   std::vector<DeviceSlot> slots_;
 };

@@ -833,7 +833,10 @@ TEST(DdsPlugin, Issue16_DispatcherPathDeliversInOrderAndRepublishesStale) {
   EXPECT_NE(p.log.all().find("samples written by the dispatcher"), std::string::npos) << p.log.all();
   expect_all_in_order(p, reader);
 
-  cobridge_sample lost = header(0, 0, 5, COBRIDGE_SAMPLE_STATUS, 5000);
+  // plugin.h: `sequence` counts every sample of the device, so the status
+  // after TPDO 1500 is 1501 and the next TPDO 1502 (the plugin judges which
+  // is newer by it: the status lane).
+  cobridge_sample lost = header(0, 0, 5, COBRIDGE_SAMPLE_STATUS, 1501);
   lost.valid = COBRIDGE_VALID_STATUS | COBRIDGE_VALID_NMT_STATE;
   lost.stale = 1;
   lost.nmt_state = COBRIDGE_NMT_OPERATIONAL;
@@ -850,7 +853,7 @@ TEST(DdsPlugin, Issue16_DispatcherPathDeliversInOrderAndRepublishesStale) {
   });
   EXPECT_TRUE(stale_status);
   // A TPDO after the stale declaration clears it in DeviceStatus.
-  const cobridge_sample fresh = tpdo(0, 0, 5, 1501);
+  const cobridge_sample fresh = tpdo(0, 0, 5, 1502);
   p.host.deliver({&fresh, 1});
   const bool fresh_status = take_until<cobridge_DeviceStatus>(status.id(), [](const auto& s, const auto& info) {
     return info.valid_data && s.node_id == 5 && !s.stale;
