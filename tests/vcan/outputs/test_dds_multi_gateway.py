@@ -228,8 +228,8 @@ def main():
     # Issue 16: within 1 s. The daemon decides after the heartbeat consumer
     # time (100 ms heartbeats: 200 ms after the last one); the DDS plugin's
     # status lane publishes it at once even with seconds of EncoderSamples
-    # queued (before it: 4.2-4.8 s in loaded runs). Measured 78-265 ms in
-    # UML (docs/dds.md), so 1 s leaves about 0.7 s for a loaded host.
+    # queued (before it: 4.2-4.8 s in loaded runs). Measured 99-293 ms in
+    # ten UML runs at host load 8-13 (docs/dds.md): 1 s leaves 0.7 s.
     print(f"FIGURE gw-b's bus loss seen by a subscriber (GatewayStatus devices_online = 0): {bus_ms} ms "
           "(target 1000 ms)", flush=True)
     check(bus_ms is not None and bus_ms <= 1000, f"gw-b's bus loss: GatewayStatus devices_online = 0 after {bus_ms} ms "
@@ -253,11 +253,11 @@ def main():
     off_nodes = {e["node"] for e in st}
     last_off = max(((e["t"] - t_bus) / 1e6 for e in st), default=None)
     print(f"FIGURE gw-b's bus loss: last DeviceStatus offline after {last_off} ms (target 1000 ms)", flush=True)
-    # Target 1 s as well, met in 7 of 8 runs; in one run on a host loaded to
-    # 12 on 2 cores (the subscriber 6-9 s behind on EncoderSample) the
-    # DeviceStatus samples, written at once (GatewayStatus, written after
-    # them, arrived in 265 ms), took 2.3 s through Cyclone to the subscriber.
-    # Asserted within 10 s; the FIGURE line says how far from 1 s.
+    # Target 1 s as well, met in 8 of 10 runs; in two at host load 12 (the
+    # subscriber 1-9 s behind on EncoderSample) the DeviceStatus samples,
+    # written at once (GatewayStatus, written after them, arrived in 265 and
+    # 293 ms), took 1.4 and 2.3 s through Cyclone to the subscriber, not
+    # explained yet. Asserted within 10 s; the FIGURE line says how far from 1 s.
     check(len(off_nodes) == 4 and last_off is not None and last_off <= 10000,
           f"gw-b's bus loss: all 4 DeviceStatus offline, the last after {last_off} ms (within 10 s; target 1 s)")
     # Lost liveliness unregisters the dead writer; Cyclone's readers then show
