@@ -86,6 +86,9 @@ void BusManager::Impl::handle_bus_events(TimePoint now) {
     live_bus_event = text;
     dirty = true;
     if (ev.kind == can::BusEventKind::InterfaceDown) {
+      // Its devices cannot be heard any more: offline now (status and the
+      // outputs tell the truth at once), not one heartbeat consumer time later.
+      supervisor.bus_lost(now, "the CAN interface went down");
       for (auto& m : devices) {
         if (m.ident) {
           m.ident.reset();  // asked again when the interface is back

@@ -225,6 +225,14 @@ bool Supervisor::on_frame(const can::Frame& frame, TimePoint now) {
   return false;
 }
 
+void Supervisor::bus_lost(TimePoint now, const std::string& reason) {
+  for (std::uint8_t id = canopen::cob::kNodeIdMin; id <= canopen::cob::kNodeIdMax; ++id) {
+    const Node& n = nodes_[id];
+    // set_offline reports each loss once: the consumer's later timeout is not news.
+    if (n.watched || n.online) set_offline(id, now, reason);
+  }
+}
+
 TimePoint Supervisor::process(TimePoint now, can::FrameSink& sink) {
   TimePoint next = std::min(heartbeat_.process(now), guard_.process(now, sink));
   for (std::uint8_t id = canopen::cob::kNodeIdMin; id <= canopen::cob::kNodeIdMax; ++id) {

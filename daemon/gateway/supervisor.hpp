@@ -84,6 +84,11 @@ class Supervisor {
   // Feed every frame on 0x081..0x0FF and 0x701..0x77F. Returns true when it
   // concerned a node this supervisor knows.
   bool on_frame(const can::Frame& frame, canopen::TimePoint now);
+  // The bus is gone (its interface went down or was removed): every watched
+  // or online device is reported offline now, with `reason`, instead of one
+  // consumer time later; none of its heartbeats can arrive. The watches
+  // stay; the first heartbeat after the bus is back reports it online.
+  void bus_lost(canopen::TimePoint now, const std::string& reason);
   // Timeouts and guarding requests; returns the next deadline.
   canopen::TimePoint process(canopen::TimePoint now, can::FrameSink& sink);
 

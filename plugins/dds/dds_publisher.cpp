@@ -187,9 +187,35 @@ GatewayCounts DdsPublisher::counts() const noexcept {
 }
 
 void DdsPublisher::publish(std::span<const cobridge_sample> samples) noexcept {
+  write_samples(samples);
+  flush();
+}
+
+void DdsPublisher::write_samples(std::span<const cobridge_sample> samples) noexcept {
   if (!started()) return;
   for (const cobridge_sample& s : samples) publish_one(s);
+}
+
+void DdsPublisher::publish_status(std::span<const cobridge_sample> samples) noexcept {
+  if (!started()) return;
+  for (const cobridge_sample& s : samples) {
+    if (slots_.apply_ahead(s) == StatusChange::kNone) continue;
+    if (const DeviceSlot* slot = slots_.find(s.device_index); slot != nullptr) write_status(*slot);
+  }
   flush();
+}
+
+void DdsPublisher::republish_if_stale(DeviceSlot& slot, const cobridge_sample& status) noexcept {
+  if ((status.valid & COBRIDGE_VALID_STATUS) == 0) return;
+  const bool became_stale = status.stale != 0 && !slot.samples_stale;
+  slot.samples_stale = status.stale != 0;
+  if (!became_stale || !slot.has_last_tpdo || config_.samples_on_dispatcher()) return;
+  // The last values again, same sequence, flagged.
+  cobridge_sample last = slot.last_tpdo;
+  last.publish_timestamp_ns = status.publish_timestamp_ns;
+  cobridge_EncoderSample m{};
+  fill_encoder_sample(m, last, gateway_, &slot, true);
+  write(sample_writer_, &m, samples_);
 }
 
 void DdsPublisher::publish_one(const cobridge_sample& s) noexcept {
@@ -197,13 +223,15 @@ void DdsPublisher::publish_one(const cobridge_sample& s) noexcept {
   switch (s.kind) {
     case COBRIDGE_SAMPLE_TPDO: {
       const StatusChange change = slots_.apply(s);
-      const DeviceSlot* slot = slots_.find(s.device_index);
+      DeviceSlot* slot = slots_.find(s.device_index);
       if (!config_.samples_on_dispatcher()) {
         cobridge_EncoderSample m{};
         fill_encoder_sample(m, s, gw, slot, (s.valid & COBRIDGE_VALID_STATUS) != 0 && s.stale != 0);
         write(sample_writer_, &m, samples_);
       }
-      if (change != StatusChange::kNone && slot != nullptr) write_status(*slot);
+      if (slot == nullptr) return;
+      slot->samples_stale = false;
+      if (change != StatusChange::kNone) write_status(*slot);
       return;
     }
     case COBRIDGE_SAMPLE_EMCY: {
@@ -219,19 +247,13 @@ void DdsPublisher::publish_one(const cobridge_sample& s) noexcept {
     case COBRIDGE_SAMPLE_HEARTBEAT:
     case COBRIDGE_SAMPLE_NMT_STATE:
     case COBRIDGE_SAMPLE_STATUS: {
+      // kNone as well when the status lane applied it already.
       const StatusChange change = slots_.apply(s);
-      const DeviceSlot* slot = slots_.find(s.device_index);
-      if (change == StatusChange::kNone || slot == nullptr) return;
-      write_status(*slot);
-      if (change == StatusChange::kBecameStale && slot->has_last_tpdo && !config_.samples_on_dispatcher()) {
-        // Subscribers of EncoderSample alone learn that the values they hold
-        // are stale: the last values again, same sequence, flagged.
-        cobridge_sample last = slot->last_tpdo;
-        last.publish_timestamp_ns = s.publish_timestamp_ns;
-        cobridge_EncoderSample m{};
-        fill_encoder_sample(m, last, gw, slot, true);
-        write(sample_writer_, &m, samples_);
-      }
+      DeviceSlot* slot = slots_.find(s.device_index);
+      if (slot == nullptr) return;
+      if (change != StatusChange::kNone) write_status(*slot);
+      // In queue order, after the TPDOs before it, whoever applied it.
+      if (s.kind == COBRIDGE_SAMPLE_STATUS) republish_if_stale(*slot, s);
       return;
     }
     default:

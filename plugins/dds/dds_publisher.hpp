@@ -18,9 +18,15 @@
 // writer's RTPS message and publish()/device() send what they wrote with
 // one dds_write_flush per writer, so a batch of samples costs one sendto.
 //
-// Thread contract: start/stop on the control thread; publish/device on the
-// plugin's writer thread (one thread) between start and stop; stats and
-// counts from any thread.
+// Status ahead of samples (issue 16): publish_status() takes the status
+// samples (heartbeat, NMT state, STATUS) of the plugin's status lane before
+// the sample queue reaches them, so DeviceStatus and the GatewayStatus counts
+// follow a device going offline at once even with seconds of EncoderSamples
+// queued (device_slots.hpp says how the queue then skips them).
+//
+// Thread contract: start/stop on the control thread; publish, write_samples,
+// publish_status, flush and device on the plugin's writer thread (one
+// thread) between start and stop; stats and counts from any thread.
 #pragma once
 
 #include "dds/dds_config.hpp"
@@ -72,6 +78,14 @@ class DdsPublisher {
   // Both write, then flush what they wrote (write_batch).
   void publish(std::span<const cobridge_sample> samples) noexcept;
   void device(const cobridge_device_info& info) noexcept;
+  // publish() without the flush: the caller flushes (or publish_status does).
+  void write_samples(std::span<const cobridge_sample> samples) noexcept;
+  // Status samples from the status lane, ahead of the queue (each one also
+  // comes through publish() later, in order): DeviceStatus written for every
+  // change, then everything written so far is flushed.
+  void publish_status(std::span<const cobridge_sample> samples) noexcept;
+  // Sends what was written since the last flush (write_batch).
+  void flush() noexcept;
 
   [[nodiscard]] PublisherStats stats() const noexcept;
   // Any thread while started (the status page): the data writers this
@@ -95,7 +109,9 @@ class DdsPublisher {
   void write_status(const DeviceSlot& slot) noexcept;
   void write(dds_entity_t writer, const void* data, std::atomic<std::uint64_t>& counter) noexcept;
   void forget_instance(const DeviceSlot& slot) noexcept;
-  void flush() noexcept;
+  // STATUS in queue order: the last EncoderSample again, stale, when the
+  // device turns stale (subscribers of EncoderSample alone learn it).
+  void republish_if_stale(DeviceSlot& slot, const cobridge_sample& status) noexcept;
   // Recounts devices and buses after a status change (writer thread).
   void recount() noexcept;
 

@@ -55,25 +55,54 @@ DeviceSlot* DeviceSlots::apply(const cobridge_device_info& info) noexcept {
   return slot;
 }
 
+bool is_status_kind(const cobridge_sample& s) noexcept {
+  return s.kind == COBRIDGE_SAMPLE_HEARTBEAT || s.kind == COBRIDGE_SAMPLE_NMT_STATE ||
+         s.kind == COBRIDGE_SAMPLE_STATUS;
+}
+
 StatusChange DeviceSlots::apply(const cobridge_sample& s) noexcept {
   DeviceSlot* slot = find(s.device_index);
   if (slot == nullptr) return StatusChange::kNone;
-  if (!slot->in_use) {
-    // A device the host has not announced (yet): keyed by what the sample says.
-    slot->in_use = true;
-    slot->bus_index = s.bus_index;
-    slot->node_id = s.node_id;
+  bool older = false;
+  if (slot->ahead) {
+    // Wrap-safe: the sequence counts every sample of the device.
+    const auto d = static_cast<std::int32_t>(s.sequence - slot->ahead_sequence);
+    if (d > 0) {
+      slot->ahead = false;  // the queue has passed what the lane applied
+    } else {
+      if (is_status_kind(s)) return StatusChange::kNone;  // applied ahead, or older than the state shown
+      older = true;
+    }
   }
-  const DeviceState before = slot->state;
-  DeviceState& st = slot->state;
+  return update(*slot, s, older);
+}
+
+StatusChange DeviceSlots::apply_ahead(const cobridge_sample& s) noexcept {
+  DeviceSlot* slot = find(s.device_index);
+  if (slot == nullptr || !is_status_kind(s)) return StatusChange::kNone;
+  slot->ahead = true;
+  slot->ahead_sequence = s.sequence;
+  return update(*slot, s, false);
+}
+
+StatusChange DeviceSlots::update(DeviceSlot& slot, const cobridge_sample& s, bool older_than_shown) noexcept {
+  if (!slot.in_use) {
+    // A device the host has not announced (yet): keyed by what the sample says.
+    slot.in_use = true;
+    slot.bus_index = s.bus_index;
+    slot.node_id = s.node_id;
+  }
+  const DeviceState before = slot.state;
+  DeviceState& st = slot.state;
   const unsigned valid = s.valid;
   switch (s.kind) {
     case COBRIDGE_SAMPLE_TPDO:
-      slot->last_tpdo = s;
-      slot->has_last_tpdo = true;
+      slot.last_tpdo = s;
+      slot.has_last_tpdo = true;
       // A fresh TPDO is current by definition (the decoder clears its stale
-      // flag the same way), so a stale status ends here.
-      st.stale = false;
+      // flag the same way), so a stale status ends here; unless a status
+      // newer than this TPDO was applied ahead of the queue.
+      if (!older_than_shown) st.stale = false;
       break;
     case COBRIDGE_SAMPLE_EMCY:
       if ((valid & COBRIDGE_VALID_EMCY) != 0) {

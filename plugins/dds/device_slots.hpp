@@ -5,13 +5,26 @@
 // EMCY samples, and the last TPDO sample (re-published with stale = true when
 // the gateway declares the device stale).
 //
+// Status ahead of samples (issue 16, "a gateway that loses its bus is
+// visible within 1 s"): heartbeat, NMT and STATUS samples reach the table
+// twice, first through apply_ahead() from the plugin's status lane, which
+// the writer thread serves before the sample queue, then through apply() in
+// the queue's order. A status change therefore never waits behind a backlog
+// of EncoderSamples (a slow reliable subscriber, a loaded host: seconds).
+// Each slot keeps the per-device `sequence` (plugin.h) of the last status
+// applied ahead; in the queue, a status sample not newer than it is skipped
+// (applied already, or older than the state shown) and an older TPDO does
+// not end `stale`; the first sample past it ends the comparison. Numbers,
+// not counts: the lane may drop, and may even see a sample the queue has
+// already taken (both are pushed one after the other).
+//
 // The table is allocated once, at construction; nothing in it allocates
 // afterwards. Strings longer than their slot are cut at a UTF-8 character
 // boundary.
 //
-// Thread contract: the dispatcher thread (on_samples, on_device) between
-// start and stop; the control thread otherwise. Never both at once, so there
-// is no lock.
+// Thread contract: the plugin's writer thread (DdsPublisher) between start
+// and stop; the control thread otherwise. Never both at once, so there is
+// no lock.
 #pragma once
 
 #include <cobridge/plugin.h>
@@ -66,7 +79,17 @@ struct DeviceSlot {
   DeviceState state;
   bool has_last_tpdo = false;
   cobridge_sample last_tpdo{};
+  // A status was applied ahead of the queue: its `sequence`, until the
+  // queue passes it.
+  bool ahead = false;
+  std::uint32_t ahead_sequence = 0;
+  // EncoderSample side, in queue order: the last TPDO was re-published
+  // stale and no TPDO (or STATUS not stale) came since.
+  bool samples_stale = false;
 };
+
+// Heartbeat, NMT state and STATUS: the samples that travel the status lane.
+[[nodiscard]] bool is_status_kind(const cobridge_sample& sample) noexcept;
 
 // What a sample did to its slot's DeviceStatus.
 enum class StatusChange : std::uint8_t {
@@ -96,9 +119,17 @@ class DeviceSlots {
   // from heartbeat (NMT state, online), NMT state, STATUS (online, stale,
   // NMT state) and EMCY (last code) samples. Returns what changed; kNone for
   // a sample whose device_index is beyond the table.
+  // In queue order: a status sample not newer than one applied ahead is
+  // skipped (kNone).
   StatusChange apply(const cobridge_sample& sample) noexcept;
+  // A status sample (is_status_kind) from the status lane, before the queue
+  // has reached it: applied now and remembered by its sequence, so apply()
+  // skips it later. kNone for other kinds (they wait for the queue).
+  StatusChange apply_ahead(const cobridge_sample& sample) noexcept;
 
  private:
+  StatusChange update(DeviceSlot& slot, const cobridge_sample& sample, bool older_than_shown) noexcept;
+
   std::vector<DeviceSlot> slots_;
 };
 

@@ -61,6 +61,45 @@ TEST(ConsumerTime, IsOneAndAHalfProducerTimesPlusMargin) {
   EXPECT_EQ(consumer_time_for(0ms), 0ms);  // 0x1017 = 0: no heartbeat
 }
 
+// Issue 16 ("a gateway that loses its bus is visible within 1 s"): when the
+// CAN interface goes down, every watched device is offline at once with the
+// reason, not one consumer time later (CiA 301 §7.2.8.3.2.2 would report it
+// only then); the consumer's own timeout afterwards is not reported again,
+// and the first heartbeat after the bus is back brings it online.
+TEST_F(SupervisorTest, Issue16_BusLostTakesEveryWatchedDeviceOfflineAtOnce) {
+  sup.watch(5, canopen::DeviceFamily::novotechnik_rotary, heartbeat(100ms), t0);
+  sup.watch(6, canopen::DeviceFamily::novotechnik_rotary, heartbeat(100ms), t0);
+  sup.listen(7, canopen::DeviceFamily::novotechnik_rotary);  // being configured: not supervised yet
+  sup.on_frame(canopen::make_heartbeat(5, NmtState::operational), t0 + 10ms);
+  sup.on_frame(canopen::make_heartbeat(6, NmtState::operational), t0 + 10ms);
+  ASSERT_EQ(drain().size(), 2U);
+
+  sup.bus_lost(t0 + 50ms, "the CAN interface went down");
+  const auto lost = drain();
+  ASSERT_EQ(lost.size(), 2U);
+  for (const auto& c : lost) {
+    EXPECT_EQ(c.kind, Supervisor::ChangeKind::offline);
+    EXPECT_EQ(c.at, t0 + 50ms) << "at once, not after the consumer time";
+    EXPECT_EQ(c.reason, "the CAN interface went down");
+  }
+  EXPECT_FALSE(sup.online(5));
+  EXPECT_FALSE(sup.online(6));
+  EXPECT_FALSE(dev.online);
+  EXPECT_EQ(dev.state, DeviceState::offline);
+  EXPECT_EQ(dev.last_error, "the CAN interface went down");
+
+  sup.process(t0 + 10ms + consumer_time_for(100ms) + 1ms, sink);
+  EXPECT_TRUE(drain().empty()) << "the heartbeat timeout later is the same loss";
+  sup.bus_lost(t0 + 400ms, "the CAN interface went down");
+  EXPECT_TRUE(drain().empty()) << "reported once";
+
+  sup.on_frame(canopen::make_heartbeat(5, NmtState::operational), t0 + 500ms);
+  const auto back = drain();
+  ASSERT_EQ(back.size(), 1U);
+  EXPECT_EQ(back[0].kind, Supervisor::ChangeKind::online);
+  EXPECT_TRUE(sup.online(5));
+}
+
 // CiA 301 §7.2.8.3.2.2: heartbeat event when no heartbeat arrives within the
 // consumer time; the device is offline with reason and back on the next one.
 TEST_F(SupervisorTest, Cia301_7_2_8_3_2_2_HeartbeatLostThenBackOnline) {

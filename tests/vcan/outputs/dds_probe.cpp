@@ -25,6 +25,7 @@
 #include <dds/dds.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
@@ -106,6 +107,26 @@ const char* gateway_id(unsigned long long key, const char* id, bool valid) {
   return it != g_ids.end() ? it->second.c_str() : "?";
 }
 
+// How late EncoderSamples arrive, per gateway, printed every 500 ms as
+//   {"ev":"lag","t":ns,"gateway_id":..,"rx_ms":max,"pub_ms":max,"n":samples}
+// rx_ms: probe time - the frame's kernel receive time; pub_ms: probe time -
+// the gateway dispatcher's hand-out time. Shows a backlog building up.
+struct Lag {
+  std::uint64_t since = 0, rx = 0, pub = 0, n = 0;
+};
+std::map<std::string, Lag> g_lag;
+void note_lag(const char* gw, std::uint64_t t, const cobridge_EncoderSample& s) {
+  Lag& l = g_lag[gw];
+  if (l.since == 0) l.since = t;
+  if (t > s.rx_timestamp_ns) l.rx = std::max<std::uint64_t>(l.rx, t - s.rx_timestamp_ns);
+  if (t > s.publish_timestamp_ns) l.pub = std::max<std::uint64_t>(l.pub, t - s.publish_timestamp_ns);
+  ++l.n;
+  if (t - l.since < 500'000'000ull) return;
+  std::printf("{\"ev\":\"lag\",\"t\":%llu,\"gateway_id\":\"%s\",\"rx_ms\":%.1f,\"pub_ms\":%.1f,\"n\":%llu}\n",
+              static_cast<unsigned long long>(t), gw, static_cast<double>(l.rx) / 1e6, static_cast<double>(l.pub) / 1e6,
+              static_cast<unsigned long long>(l.n));
+  l = Lag{};
+}
 void take_samples(dds_entity_t reader, std::map<Key, Device>& devices) {
   for (int round = 0; round < kRounds; ++round) {
     void* buf[kTake] = {};
@@ -124,6 +145,7 @@ void take_samples(dds_entity_t reader, std::map<Key, Device>& devices) {
                     static_cast<unsigned long long>(t), gw, s.bus, s.node_id, state_name(d.state));
       }
       if (!info[i].valid_data) continue;
+      note_lag(gw, t, s);
       if (d.samples == 0) {
         d.first = s.sequence_number;
       } else if (s.sequence_number == d.last) {
@@ -151,12 +173,12 @@ void take_gateways(dds_entity_t reader) {
       const bool v = info[i].valid_data;
       std::printf("{\"ev\":\"gateway\",\"t\":%llu,\"gateway_id\":\"%s\",\"state\":\"%s\",\"valid\":%s,"
                   "\"devices\":%d,\"devices_online\":%d,\"buses\":%d,\"buses_online\":%d,\"duplicate\":%s,"
-                  "\"incarnation\":%llu,\"pid\":%u}\n",
+                  "\"incarnation\":%llu,\"pid\":%u,\"upd\":%llu}\n",
                   static_cast<unsigned long long>(t), gateway_id(s.gateway_key, s.gateway_id, v),
                   state_name(info[i].instance_state), v ? "true" : "false", v ? s.devices : -1,
                   v ? s.devices_online : -1, v ? s.buses : -1, v ? s.buses_online : -1,
                   v && s.duplicate_id ? "true" : "false", static_cast<unsigned long long>(v ? s.incarnation : 0),
-                  v ? s.pid : 0u);
+                  v ? s.pid : 0u, static_cast<unsigned long long>(v ? s.updated_ns : 0));
     }
     dds_return_loan(reader, buf, n);
   }
@@ -176,8 +198,10 @@ void take_status(dds_entity_t reader, std::map<Key, int>& online) {
       int& o = online.try_emplace(Key{gw, s.bus, s.node_id}, -1).first->second;
       if (o == static_cast<int>(s.online)) continue;
       o = s.online;
-      std::printf("{\"ev\":\"status\",\"t\":%llu,\"gateway_id\":\"%s\",\"bus\":%d,\"node\":%d,\"online\":%s}\n",
-                  static_cast<unsigned long long>(t), gw, s.bus, s.node_id, s.online ? "true" : "false");
+      std::printf("{\"ev\":\"status\",\"t\":%llu,\"gateway_id\":\"%s\",\"bus\":%d,\"node\":%d,\"online\":%s,"
+                  "\"upd\":%llu}\n",
+                  static_cast<unsigned long long>(t), gw, s.bus, s.node_id, s.online ? "true" : "false",
+                  static_cast<unsigned long long>(s.updated_ns));
     }
     dds_return_loan(reader, buf, n);
   }

@@ -225,19 +225,39 @@ def main():
     seen = {e["gateway_id"] for e in gws if e["valid"] and e["state"] == "alive"}
     check(seen == {"gw-a", "gw-b"}, f"GatewayStatus of both gateways seen ({sorted(seen)})")
     bus_ms = first_after(gws, t_bus, lambda e: e["gateway_id"] == "gw-b" and e["valid"] and e["devices_online"] == 0)
-    # Target 1 s (issue 16). Measured on the merged tree in a loaded UML:
-    # 4.2-4.8 s (the helper's branch alone measured 128-513 ms earlier), not
-    # understood yet: printed as a FIGURE, asserted only as "seen at all
-    # within 10 s" so that a regression to never is caught. docs/dds.md.
+    # Issue 16: within 1 s. The daemon decides after the heartbeat consumer
+    # time (100 ms heartbeats: 200 ms after the last one); the DDS plugin's
+    # status lane publishes it at once even with seconds of EncoderSamples
+    # queued (before it: 4.2-4.8 s in loaded runs). Measured 99-293 ms in
+    # eleven UML runs, ten at host load 8-13 (docs/dds.md): 1 s leaves 0.7 s.
     print(f"FIGURE gw-b's bus loss seen by a subscriber (GatewayStatus devices_online = 0): {bus_ms} ms "
           "(target 1000 ms)", flush=True)
-    check(bus_ms is not None and bus_ms <= 10000, f"gw-b's bus loss: GatewayStatus devices_online = 0 after {bus_ms} ms "
-          "(within 10 s; target 1 s, see the FIGURE line)")
+    check(bus_ms is not None and bus_ms <= 1000, f"gw-b's bus loss: GatewayStatus devices_online = 0 after {bus_ms} ms "
+          "(limit 1000 ms)")
     st = [e for e in ev1 if e.get("ev") == "status" and e["gateway_id"] == "gw-b" and not e["online"]
           and e["t"] >= t_bus]
+    # Where the time goes: when the gateway decided (updated_ns of the
+    # sample) and when the subscriber had it; how late EncoderSamples were.
+    for e in st:
+        print(f"  gw-b node {e['node']} offline: decided after {(e.get('upd', 0) - t_bus) / 1e6:.0f} ms, "
+              f"seen after {(e['t'] - t_bus) / 1e6:.0f} ms", flush=True)
+    for e in gws:
+        if e["gateway_id"] == "gw-b" and e["valid"] and t_bus - 1e9 <= e["t"] <= t_bus + 6e9:
+            print(f"  gw-b GatewayStatus devices_online={e['devices_online']} written {(e.get('upd', 0) - t_bus) / 1e6:.0f} ms, "
+                  f"seen {(e['t'] - t_bus) / 1e6:.0f} ms after the bus loss", flush=True)
+    for e in ev1:
+        if e.get("ev") == "lag" and t_bus - 3e9 <= e["t"] <= t_bus + 1e9:
+            print(f"  EncoderSample lag {e['gateway_id']} at {(e['t'] - t_bus) / 1e6:+.0f} ms: rx {e['rx_ms']:.0f} ms, "
+                  f"dispatch {e['pub_ms']:.0f} ms ({e['n']} samples)", flush=True)
+    print(f"  work dir {work}", flush=True)
     off_nodes = {e["node"] for e in st}
     last_off = max(((e["t"] - t_bus) / 1e6 for e in st), default=None)
     print(f"FIGURE gw-b's bus loss: last DeviceStatus offline after {last_off} ms (target 1000 ms)", flush=True)
+    # Target 1 s as well, met in 9 of 11 runs; in two at host load 12 (the
+    # subscriber 1-9 s behind on EncoderSample) the DeviceStatus samples,
+    # written at once (GatewayStatus, written after them, arrived in 265 and
+    # 293 ms), took 1.4 and 2.3 s through Cyclone to the subscriber, not
+    # explained yet. Asserted within 10 s; the FIGURE line says how far from 1 s.
     check(len(off_nodes) == 4 and last_off is not None and last_off <= 10000,
           f"gw-b's bus loss: all 4 DeviceStatus offline, the last after {last_off} ms (within 10 s; target 1 s)")
     # Lost liveliness unregisters the dead writer; Cyclone's readers then show

@@ -833,7 +833,10 @@ TEST(DdsPlugin, Issue16_DispatcherPathDeliversInOrderAndRepublishesStale) {
   EXPECT_NE(p.log.all().find("samples written by the dispatcher"), std::string::npos) << p.log.all();
   expect_all_in_order(p, reader);
 
-  cobridge_sample lost = header(0, 0, 5, COBRIDGE_SAMPLE_STATUS, 5000);
+  // plugin.h: `sequence` counts every sample of the device, so the status
+  // after TPDO 1500 is 1501 and the next TPDO 1502 (the plugin judges which
+  // is newer by it: the status lane).
+  cobridge_sample lost = header(0, 0, 5, COBRIDGE_SAMPLE_STATUS, 1501);
   lost.valid = COBRIDGE_VALID_STATUS | COBRIDGE_VALID_NMT_STATE;
   lost.stale = 1;
   lost.nmt_state = COBRIDGE_NMT_OPERATIONAL;
@@ -850,7 +853,7 @@ TEST(DdsPlugin, Issue16_DispatcherPathDeliversInOrderAndRepublishesStale) {
   });
   EXPECT_TRUE(stale_status);
   // A TPDO after the stale declaration clears it in DeviceStatus.
-  const cobridge_sample fresh = tpdo(0, 0, 5, 1501);
+  const cobridge_sample fresh = tpdo(0, 0, 5, 1502);
   p.host.deliver({&fresh, 1});
   const bool fresh_status = take_until<cobridge_DeviceStatus>(status.id(), [](const auto& s, const auto& info) {
     return info.valid_data && s.node_id == 5 && !s.stale;
@@ -955,4 +958,70 @@ TEST(DdsPlugin, Issue16_StalledReliableReaderDoesNotBlockTheDispatcher) {
   EXPECT_TRUE(log.find("dropped because the DDS writer fell behind") != std::string::npos ||
               log.find("queued samples not written at stop") != std::string::npos)
       << log;
+}
+
+// Issue 16, "a gateway that loses its bus is visible to subscribers within
+// 1 s": a device going offline reaches DeviceStatus and GatewayStatus at
+// once even with seconds of EncoderSamples queued before it. A reliable
+// reader that never takes (room for 10 samples) makes every EncoderSample
+// write wait its max_blocking_time, so 20 000 queued TPDOs are a backlog of
+// about 20 s; the offline STATUS behind them must still be seen within 1 s
+// (before the status lane it waited for the whole backlog: 2.5-4.8 s in
+// UML, vcan_outputs_dds_multi_gateway).
+TEST(DdsPlugin, Issue16_OfflineIsNotQueuedBehindASampleBacklog) {
+  const dds_entity_t pp = dds_create_participant(static_cast<dds_domainid_t>(test_domain()), nullptr, nullptr);
+  ASSERT_GT(pp, 0);
+  const dds_entity_t topic = dds_create_topic(pp, &cobridge_EncoderSample_desc, "EncoderSample", nullptr, nullptr);
+  dds_qos_t* rq = dds_create_qos();
+  dds_qset_reliability(rq, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+  dds_qset_history(rq, DDS_HISTORY_KEEP_ALL, 0);
+  dds_qset_resource_limits(rq, 10, DDS_LENGTH_UNLIMITED, DDS_LENGTH_UNLIMITED);
+  const dds_entity_t stalled = dds_create_reader(pp, topic, rq, nullptr);
+  dds_delete_qos(rq);
+  ASSERT_GT(stalled, 0);
+  Reader status(&cobridge_DeviceStatus_desc, "DeviceStatus", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_TRANSIENT_LOCAL,
+                true);
+  Reader gw(&cobridge_GatewayStatus_desc, "GatewayStatus", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_TRANSIENT_LOCAL,
+            false, 1);
+  double offline_ms = -1, gateway_ms = -1;
+  {
+    Plugin p(base_config("sample_reliability = \"reliable\"\nsample_depth = 10000\n"));
+    p.host.announce(device(0, 0, 5, "axis 1"));
+    std::uint32_t seq = 0;
+    cobridge_sample hb = header(0, 0, 5, COBRIDGE_SAMPLE_HEARTBEAT, ++seq);
+    hb.nmt_state = COBRIDGE_NMT_OPERATIONAL;
+    hb.valid = COBRIDGE_VALID_NMT_STATE;
+    p.host.deliver({&hb, 1});
+    std::vector<cobridge_sample> batch;
+    for (int b = 0; b < 80; ++b) {
+      batch.clear();
+      for (int i = 0; i < 250; ++i) batch.push_back(tpdo(0, 0, 5, ++seq));
+      p.host.deliver(batch);
+    }
+    cobridge_sample lost = header(0, 0, 5, COBRIDGE_SAMPLE_STATUS, ++seq);
+    lost.valid = COBRIDGE_VALID_STATUS | COBRIDGE_VALID_NMT_STATE;
+    lost.online = 0;
+    lost.nmt_state = COBRIDGE_NMT_OPERATIONAL;
+    const auto t0 = std::chrono::steady_clock::now();
+    p.host.deliver({&lost, 1});
+    auto ms_since = [&] {
+      return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    };
+    const bool offline = take_until<cobridge_DeviceStatus>(status.id(), [&](const auto& s, const auto& info) {
+      return info.valid_data && test_gateway() == s.gateway_id && !s.online && s.updated_ns == lost.rx_timestamp_ns;
+    }, 5s);
+    if (offline) offline_ms = ms_since();
+    const bool counted = take_until<cobridge_GatewayStatus>(gw.id(), [&](const auto& s, const auto& info) {
+      return info.valid_data && test_gateway() == s.gateway_id && s.devices == 1 && s.devices_online == 0;
+    }, 5s);
+    if (counted) gateway_ms = ms_since();
+    p.host.stop_all();
+  }
+  dds_delete(pp);
+  std::printf("  offline behind 20 000 queued samples: DeviceStatus after %.1f ms, GatewayStatus after %.1f ms\n",
+              offline_ms, gateway_ms);
+  EXPECT_GE(offline_ms, 0) << "DeviceStatus never showed the device offline";
+  EXPECT_LE(offline_ms, 1000);
+  EXPECT_GE(gateway_ms, 0) << "GatewayStatus never showed devices_online = 0";
+  EXPECT_LE(gateway_ms, 1000);
 }

@@ -61,6 +61,92 @@ TEST(DeviceSlots, Cia301_7_2_2_StaleUntilTheNextTpdo) {
   EXPECT_FALSE(slots.find(2)->state.stale);
 }
 
+// Issue 16 ("a gateway that loses its bus is visible within 1 s"): a status
+// sample applied ahead of the queue (the status lane) changes DeviceStatus
+// at once; when the queue reaches it, it is skipped, and the samples queued
+// before it (older than the state shown: a TPDO, a heartbeat) neither end
+// `stale` nor bring the device back online; the TPDOs after it end `stale`.
+TEST(DeviceSlots, Issue16_StatusAheadOfTheQueueIsAppliedOnce) {
+  DeviceSlots slots(8);
+  cobridge_sample hb = sample(COBRIDGE_SAMPLE_HEARTBEAT);
+  hb.nmt_state = COBRIDGE_NMT_OPERATIONAL;
+  hb.valid = COBRIDGE_VALID_NMT_STATE;
+  hb.sequence = 1;
+  EXPECT_EQ(slots.apply(hb), StatusChange::kChanged);
+  cobridge_sample older = sample(COBRIDGE_SAMPLE_TPDO);
+  older.sequence = 2;
+  cobridge_sample old_hb = hb;
+  old_hb.sequence = 3;
+  cobridge_sample lost = sample(COBRIDGE_SAMPLE_STATUS);
+  lost.valid = COBRIDGE_VALID_STATUS;
+  lost.online = 0;
+  lost.stale = 1;
+  lost.rx_timestamp_ns = 5000;
+  lost.sequence = 4;
+  cobridge_sample newer = older;
+  newer.sequence = 5;
+  // The lane: offline and stale now, whatever is queued before it.
+  EXPECT_EQ(slots.apply_ahead(lost), StatusChange::kBecameStale);
+  EXPECT_FALSE(slots.find(2)->state.online);
+  EXPECT_EQ(slots.apply_ahead(older), StatusChange::kNone) << "only status samples take the lane";
+  // The queue: what was queued before the loss changes nothing.
+  EXPECT_EQ(slots.apply(older), StatusChange::kNone);
+  EXPECT_EQ(slots.apply(old_hb), StatusChange::kNone);
+  EXPECT_TRUE(slots.find(2)->state.stale);
+  EXPECT_FALSE(slots.find(2)->state.online);
+  EXPECT_EQ(slots.apply(lost), StatusChange::kNone) << "applied ahead already";
+  EXPECT_EQ(slots.find(2)->state.updated_ns, 5000u);
+  // A TPDO after the loss is fresh again.
+  EXPECT_EQ(slots.apply(newer), StatusChange::kChanged);
+  EXPECT_FALSE(slots.find(2)->state.stale);
+  EXPECT_FALSE(slots.find(2)->ahead);
+}
+
+// The lane may drop (full): a later status it never carried is applied in
+// queue order as before. And the lane may see a sample the queue has taken
+// already (pushed one after the other): that changes nothing later on.
+TEST(DeviceSlots, Issue16_LaneDropsAndLateLaneSamplesAreHarmless) {
+  DeviceSlots slots(8);
+  cobridge_sample on = sample(COBRIDGE_SAMPLE_STATUS);
+  on.valid = COBRIDGE_VALID_STATUS;
+  on.online = 1;
+  on.sequence = 1;
+  cobridge_sample off = on;
+  off.online = 0;
+  off.sequence = 2;
+  EXPECT_EQ(slots.apply_ahead(on), StatusChange::kChanged);
+  EXPECT_EQ(slots.apply(on), StatusChange::kNone);
+  EXPECT_EQ(slots.apply(off), StatusChange::kChanged) << "not in the lane: applied in queue order";
+  EXPECT_FALSE(slots.find(2)->state.online);
+
+  cobridge_sample stale = on;
+  stale.stale = 1;
+  stale.sequence = 3;
+  EXPECT_EQ(slots.apply(stale), StatusChange::kBecameStale);
+  EXPECT_EQ(slots.apply_ahead(stale), StatusChange::kNone) << "the queue took it first";
+  cobridge_sample t = sample(COBRIDGE_SAMPLE_TPDO);
+  t.sequence = 4;
+  EXPECT_EQ(slots.apply(t), StatusChange::kChanged);
+  EXPECT_FALSE(slots.find(2)->state.stale) << "a newer TPDO still ends stale";
+}
+
+// Sequences wrap (plugin.h): "newer" is judged modulo 2^32.
+TEST(DeviceSlots, Issue16_AheadComparisonSurvivesTheWrap) {
+  DeviceSlots slots(8);
+  cobridge_sample lost = sample(COBRIDGE_SAMPLE_STATUS);
+  lost.valid = COBRIDGE_VALID_STATUS;
+  lost.stale = 1;
+  lost.sequence = 0xFFFFFFFFu;
+  EXPECT_EQ(slots.apply_ahead(lost), StatusChange::kBecameStale);
+  cobridge_sample t = sample(COBRIDGE_SAMPLE_TPDO);
+  t.sequence = 0xFFFFFFFEu;
+  EXPECT_EQ(slots.apply(t), StatusChange::kNone);
+  EXPECT_TRUE(slots.find(2)->state.stale);
+  t.sequence = 0;  // wrapped: newer
+  EXPECT_EQ(slots.apply(t), StatusChange::kChanged);
+  EXPECT_FALSE(slots.find(2)->state.stale);
+}
+
 // CiA 301 §7.2.7: an EMCY records the last error code and register.
 TEST(DeviceSlots, Cia301_7_2_7_EmcyIsTheLastError) {
   DeviceSlots slots(8);
