@@ -67,7 +67,8 @@ struct PluginSpec {
   std::string config_toml;
   // Where the caller's configuration names this instance ("cobridge.toml:40:1:
   // [outputs.dds]"): the `where` of its errors. Empty: "plugin '<instance>'".
-  std::string where;
+  // (Initialized so that {instance, type, file, config} stays warning-free.)
+  std::string where = {};
 };
 
 // RAII owner of one dlopen handle. Move-only; closing happens last, after

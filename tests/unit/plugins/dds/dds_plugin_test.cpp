@@ -495,9 +495,9 @@ TEST(DdsPlugin, DocsDds_UnknownKeyIsRejectedWithItsName) {
   EXPECT_NE(err.message.find("domian"), std::string::npos) << err.message;
   EXPECT_EQ(host.loaded_count(), 0u);
 
-  const std::error_code ec2 = host.load({"dds", "dds", kPlugin, "sample_reliability = \"sometimes\"\n"}, &err);
-  EXPECT_EQ(ec2, pipeline::PluginErrc::kCreateFailed);
-  EXPECT_NE(err.message.find("sometimes"), std::string::npos) << err.message;
+  const Error err2 = host.load({"dds", "dds", kPlugin, "sample_reliability = \"sometimes\"\n"});
+  EXPECT_EQ(err2.code, pipeline::PluginErrc::kCreateFailed);
+  EXPECT_NE(err2.message.find("sometimes"), std::string::npos) << err2.message;
 }
 
 // docs/dds.md "Configuration": topic_prefix is prepended to every topic name.
