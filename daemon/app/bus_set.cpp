@@ -15,11 +15,12 @@ void BusSet::build(const config::Config& cfg, const device::DeviceCatalog& catal
   }
 }
 
-std::string BusSet::start(const config::Config& cfg) {
+Error BusSet::start(const config::Config& cfg) {
   for (std::size_t i = 0; i < buses_.size(); ++i) {
     if (const auto ec = buses_[i]->start()) {
       stop();
-      return "bus " + cfg.buses[i].name + " (" + cfg.buses[i].interface + "): cannot start: " + ec.message();
+      return Error(Errc::kUnavailable, "cannot start: " + ec.message(),
+                   "bus " + cfg.buses[i].name + " (" + cfg.buses[i].interface + ")", ec);
     }
   }
   return {};

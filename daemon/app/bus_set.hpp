@@ -8,6 +8,7 @@
 // managers are safe to read from any thread).
 #pragma once
 
+#include "base/error.hpp"
 #include "config/config.hpp"
 #include "device/device_catalog.hpp"
 #include "gateway/bus_manager.hpp"
@@ -28,8 +29,8 @@ class BusSet {
              gateway::OutputPipeline& outputs);
 
   // Starts every bus; on the first failure stops those started and returns
-  // "bus NAME (IFACE): cannot start: why".
-  [[nodiscard]] std::string start(const config::Config& cfg);
+  // it (kUnavailable, where = "bus NAME (IFACE)", the BusManager's code).
+  [[nodiscard]] Error start(const config::Config& cfg);
 
   // In parallel: each stop() may take up to 1 s, and SIGTERM must be done in 1 s.
   void stop();

@@ -46,16 +46,15 @@ Error Daemon::start() {
   // The control socket first: a second daemon started by mistake stops here,
   // before it touches a bus the first one serves.
   control_.emplace(*facade_);
-  std::string why;
-  if (control_->open(cfg_->gateway.control_socket, &why)) {
-    log->error("control socket: {}", why);
-    return Error(Errc::kFailed, "control socket: " + why);
+  if (const Error e = control_->open(cfg_->gateway.control_socket)) {
+    log->error("control socket: {}", e.to_string());
+    return Error(Errc::kFailed, "control socket: " + e.message, e.where, e.code);
   }
   if (Error e = start_outputs()) return e;
   buses_.build(*cfg_, *catalog_, *state_, *outputs_);
-  if (std::string problem = buses_.start(*cfg_); !problem.empty()) {
-    log->error("{}", problem);
-    return Error(Errc::kFailed, problem);
+  if (const Error e = buses_.start(*cfg_)) {
+    log->error("{}", e.to_string());
+    return Error(Errc::kFailed, e.message, e.where, e.code);
   }
   if (Error e = start_web()) return e;
   service_.emplace(*notifier_, buses_, *facade_);
@@ -87,11 +86,10 @@ Error Daemon::load_configuration() {
 // device's first configuration already reaches the decoders.
 Error Daemon::start_outputs() {
   auto log = sys::logger("gateway");
-  bool fatal = false;
-  const std::vector<std::string> problems = outputs_->start(&fatal);
-  for (const auto& p : problems) log->error("outputs: {}", p);
-  if (fatal) {
-    for (const auto& p : problems) std::fprintf(stderr, "%s\n", p.c_str());
+  const std::vector<Error> problems = outputs_->start();
+  for (const auto& p : problems) log->error("outputs: {}", p.to_string());
+  if (!problems.empty()) {
+    for (const auto& p : problems) std::fprintf(stderr, "%s\n", p.to_string().c_str());
     std::fprintf(stderr, "cobridged: %s: %zu output problem%s; no bus was touched\n", options_.config_file.c_str(),
                  problems.size(), plural(problems.size()));
     return Error(Errc::kFailed, std::to_string(problems.size()) + " output problem" + plural(problems.size()),
@@ -106,13 +104,13 @@ Error Daemon::start_outputs() {
 // to serve it does not run without it (like an output).
 Error Daemon::start_web() {
   web_.emplace([this] { return facade_->status(); });
-  std::string why;
-  if (cfg_->web && cfg_->web->enabled && !web_->start(*cfg_->web, &why)) {
-    sys::logger("gateway")->error("web: {}", why);
-    std::fprintf(stderr, "cobridged: web: %s\n", why.c_str());
+  if (!cfg_->web || !cfg_->web->enabled) return {};
+  if (const Error e = web_->start(*cfg_->web)) {
+    sys::logger("gateway")->error("web: {}", e.to_string());
+    std::fprintf(stderr, "cobridged: web: %s\n", e.to_string().c_str());
     buses_.stop();
     outputs_->stop();
-    return Error(Errc::kFailed, "web: " + why);
+    return Error(Errc::kFailed, "web: " + e.message, e.where, e.code);
   }
   return {};
 }
@@ -169,7 +167,7 @@ void Daemon::reload() {
     if (!refusal.empty()) refusal += " (needs a restart)";
   }
   if (!next.config || !refusal.empty()) {
-    for (const auto& e : next.errors) log->error("{}", e);
+    for (const auto& e : next.errors) log->error("{}", e.to_string());
     if (!refusal.empty()) log->error("reload rejected: {}", refusal);
     log->error("reload rejected; still running the previous configuration");
     const std::size_t n = next.errors.size();

@@ -28,8 +28,8 @@ std::string hex(std::uint32_t v) {
   return buf;
 }
 
-std::string at(const config::SourceLocation& where, std::string message) {
-  return config::to_string(config::Diagnostic{where.file, where.line, where.column, std::move(message)});
+Error at(const config::SourceLocation& where, std::string message) {
+  return config::to_error(config::Diagnostic{where.file, where.line, where.column, std::move(message)});
 }
 
 bool same_file(const std::filesystem::path& a, const std::filesystem::path& b) {
@@ -39,7 +39,7 @@ bool same_file(const std::filesystem::path& a, const std::filesystem::path& b) {
 
 // A device with its own EDS file: the file must parse, match the identity
 // the configuration gives, name a known family, and join the catalog.
-void check_eds_device(const config::Device& d, device::DeviceCatalog& catalog, std::vector<std::string>& errors) {
+void check_eds_device(const config::Device& d, device::DeviceCatalog& catalog, std::vector<Error>& errors) {
   const std::string who = "device \"" + d.name + "\": ";
   device::EdsResult r = device::load_eds_file(d.eds);
   if (!r.ok()) {
@@ -48,7 +48,7 @@ void check_eds_device(const config::Device& d, device::DeviceCatalog& catalog, s
                                      (r.errors.size() == 1 ? "" : "s") + ", listed below)"));
     std::stable_sort(r.errors.begin(), r.errors.end(),
                      [](const device::EdsError& a, const device::EdsError& b) { return a.line < b.line; });
-    for (const auto& e : r.errors) errors.push_back(e.to_string());
+    for (const auto& e : r.errors) errors.push_back(device::to_error(e));
     return;
   }
   const auto& info = r.description->device_info;
@@ -76,7 +76,7 @@ void check_eds_device(const config::Device& d, device::DeviceCatalog& catalog, s
 // A device named by model: some description in the catalog must be of that
 // vendor, family, product and channel variant.
 void check_model_device(const config::Config& cfg, const config::Device& d, const device::DeviceCatalog& catalog,
-                        std::vector<std::string>& errors) {
+                        std::vector<Error>& errors) {
   const config::KnownModel* km = config::find_model(d.model);
   if (km == nullptr) return;  // the config loader has reported it
   const std::string variant = d.channels ? std::to_string(*d.channels) + "ch" : "";
@@ -110,7 +110,7 @@ void check_model_device(const config::Config& cfg, const config::Device& d, cons
 // every device's model or EDS resolves to one: the part of validation the
 // config layer cannot do (it links no device layer). Problems with files of a
 // device directory that no device needs are warnings; the daemon skips them.
-void load_catalog(const config::Config& cfg, device::DeviceCatalog& catalog, std::vector<std::string>& errors,
+void load_catalog(const config::Config& cfg, device::DeviceCatalog& catalog, std::vector<Error>& errors,
                   std::vector<std::string>& warnings) {
   for (const auto& dir : cfg.gateway.device_dirs) {
     std::error_code ec;
@@ -134,7 +134,7 @@ Validated validate(const std::filesystem::path& file) {
   Validated v;
   config::LoadResult r = config::load(file);
   if (!r) {
-    for (const auto& d : r.diagnostics()) v.errors.push_back(config::to_string(d));
+    for (const auto& d : r.diagnostics()) v.errors.push_back(config::to_error(d));
     return v;
   }
   v.catalog = std::make_unique<device::DeviceCatalog>();
@@ -145,7 +145,7 @@ Validated validate(const std::filesystem::path& file) {
 
 void print(const Validated& v, std::FILE* to) {
   for (const auto& w : v.warnings) std::fprintf(to, "warning: %s\n", w.c_str());
-  for (const auto& e : v.errors) std::fprintf(to, "%s\n", e.c_str());
+  for (const auto& e : v.errors) std::fprintf(to, "%s\n", e.to_string().c_str());
 }
 
 }  // namespace cobridge::app

@@ -6,6 +6,7 @@
 // I/O and allocation, no shared state.
 #pragma once
 
+#include "base/error.hpp"
 #include "config/config.hpp"
 #include "device/device_catalog.hpp"
 
@@ -21,13 +22,13 @@ namespace cobridge::app {
 struct Validated {
   std::optional<config::Config> config;  // set only when `errors` is empty
   std::unique_ptr<device::DeviceCatalog> catalog;
-  std::vector<std::string> errors;  // "file:line:column: message", in file order
+  std::vector<Error> errors;  // where = "file:line:column", in file order
   std::vector<std::string> warnings;
 };
 
 [[nodiscard]] Validated validate(const std::filesystem::path& file);
 
-// The warnings ("warning: ...") then the errors, one a line.
+// The warnings ("warning: ...") then the errors ("where: message"), one a line.
 void print(const Validated& v, std::FILE* to);
 
 }  // namespace cobridge::app

@@ -54,8 +54,9 @@ std::string errno_text(int err) {
   return std::error_code(err, std::system_category()).message();
 }
 
-ChannelError make_error(int err, std::string message) {
-  return ChannelError{std::error_code(err, std::system_category()), std::move(message)};
+// An open / filter failure of interface `name` (see the header).
+Error make_error(int err, const std::string& name, std::string message, Errc kind = Errc::kUnavailable) {
+  return Error(kind, std::move(message), name, std::error_code(err, std::system_category()));
 }
 
 // errno values that mean the interface is gone or down rather than busy.
@@ -166,14 +167,14 @@ SocketCanChannel::SocketCanChannel(SocketCanConfig config) : config_(std::move(c
 
 SocketCanChannel::~SocketCanChannel() { close(); }
 
-ChannelError SocketCanChannel::open() {
+Error SocketCanChannel::open() {
   close();
   want_open_ = true;
   backoff_ = config_.reopen_backoff_min;
   OpenOutcome o = open_socket();
   if (o.error) {
     want_open_ = false;
-    if (auto l = logger()) l->error("{}", o.error.message);
+    if (auto l = logger()) l->error("{}", o.error.to_string());
     return std::move(o.error);
   }
   if (o.interface_down) {
@@ -195,18 +196,19 @@ SocketCanChannel::OpenOutcome SocketCanChannel::open_socket() {
   const std::string& name = config_.interface;
   ifreq ifr{};
   if (!fill_ifreq(ifr, name))
-    return {make_error(ENODEV, "CAN interface name '" + name + "' is empty or too long"), false};
+    return {make_error(ENODEV, name, "CAN interface name is empty or longer than IFNAMSIZ-1",
+                       Errc::kInvalidArgument), false};
 
   const int fd = ::socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
   if (fd < 0) {
     const int err = errno;
-    return {make_error(err, name + ": socket(PF_CAN, SOCK_RAW, CAN_RAW) failed: " + errno_text(err) +
-                                " (is the can-raw module loaded?)"),
+    return {make_error(err, name, "socket(PF_CAN, SOCK_RAW, CAN_RAW) failed: " + errno_text(err) +
+                                      " (is the can-raw module loaded?)"),
             false};
   }
   auto fail = [&](int err, const std::string& what) {
     ::close(fd);
-    return OpenOutcome{make_error(err, name + ": " + what + ": " + errno_text(err)), false};
+    return OpenOutcome{make_error(err, name, what + ": " + errno_text(err)), false};
   };
   auto down = [&]() {
     ::close(fd);
@@ -276,13 +278,15 @@ void SocketCanChannel::close() noexcept {
   fd_ = -1;
 }
 
-ChannelError SocketCanChannel::set_filters(std::span<const Filter> filters) {
+Error SocketCanChannel::set_filters(std::span<const Filter> filters) {
   filters_.clear();
   filters_.reserve(filters.size());
   for (const Filter& f : filters) filters_.push_back(to_linux(f));
   filters_set_ = true;
-  if (fd_ >= 0 && !apply_filters())
-    return make_error(errno, config_.interface + ": CAN_RAW_FILTER failed: " + errno_text(errno));
+  if (fd_ >= 0 && !apply_filters()) {
+    const int err = errno;
+    return make_error(err, config_.interface, "CAN_RAW_FILTER failed: " + errno_text(err));
+  }
   return {};
 }
 

@@ -15,6 +15,8 @@
 // process() may log through the "can" spdlog logger.
 #pragma once
 
+#include "base/error.hpp"
+
 #include <linux/can.h>
 #include <sys/socket.h>
 #include <sys/uio.h>
@@ -85,13 +87,10 @@ struct ChannelStats {
   uint64_t reopens = 0;            // successful reopens after the interface went down
 };
 
-// Result of open(): empty code on success; otherwise an errno-based code and
-// a message naming the interface and the failing step.
-struct ChannelError {
-  std::error_code code;
-  std::string message;
-  explicit operator bool() const noexcept { return static_cast<bool>(code); }
-};
+// open() and set_filters() fail with the project's Error: where = the
+// interface name, message = the failing step and the errno text, code = the
+// errno (system_category); kind kUnavailable (the interface is not there or
+// not usable), kInvalidArgument for a name that cannot be an interface name.
 
 namespace detail {
 // CMSG_SPACE without the old-style casts of the libc macro.
@@ -118,7 +117,7 @@ class SocketCanChannel final : public FrameSink {
   // interface, or a socket call fails. An interface that exists but is down
   // is not a failure: the channel starts closed, reports InterfaceDown and
   // process() opens it once the interface is up.
-  [[nodiscard]] ChannelError open();
+  [[nodiscard]] Error open();
   void close() noexcept;
 
   [[nodiscard]] bool is_open() const noexcept { return fd_ >= 0; }
@@ -130,7 +129,7 @@ class SocketCanChannel final : public FrameSink {
   // Replaces the kernel acceptance filters (applied again after a reopen).
   // An empty span receives no data frames; the default after open() is
   // everything. Error frames are unaffected (see SocketCanConfig::error_mask).
-  [[nodiscard]] ChannelError set_filters(std::span<const Filter> filters);
+  [[nodiscard]] Error set_filters(std::span<const Filter> filters);
 
   // Reads up to out.size() data frames without blocking. Returns 0 only when
   // nothing is left to read (or the channel is closed). Error frames are
@@ -166,7 +165,7 @@ class SocketCanChannel final : public FrameSink {
                                                detail::cmsg_space(sizeof(uint32_t)) + 64;
 
   struct OpenOutcome {
-    ChannelError error;
+    Error error;
     bool interface_down = false;  // exists but not up (or went down while opening)
     bool missing = false;         // with interface_down: does not exist (wait_for_interface)
   };

@@ -9,14 +9,14 @@ namespace cobridge::cli {
 
 BusSession::BusSession(const std::string& iface) : channel_(can::SocketCanConfig{.interface = iface}) {}
 
-std::unique_ptr<BusSession> BusSession::open(const std::string& iface, std::string& error) {
+std::unique_ptr<BusSession> BusSession::open(const std::string& iface, Error& error) {
   std::unique_ptr<BusSession> s(new BusSession(iface));
-  if (auto e = s->channel_.open()) {
-    error = e.message;
+  if (Error e = s->channel_.open()) {
+    error = std::move(e);
     return nullptr;
   }
   if (!s->channel_.is_open()) {
-    error = iface + ": interface is down";
+    error = Error(Errc::kUnavailable, "interface is down", iface);
     return nullptr;
   }
   return s;

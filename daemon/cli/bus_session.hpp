@@ -8,6 +8,7 @@
 // Thread: one thread (the CLI's main thread).
 #pragma once
 
+#include "base/error.hpp"
 #include "can/socketcan_channel.hpp"
 #include "canopen/clock.hpp"
 
@@ -22,8 +23,9 @@ using canopen::TimePoint;
 
 class BusSession {
  public:
-  // Opens the interface; on failure returns nullptr and sets `error`.
-  static std::unique_ptr<BusSession> open(const std::string& iface, std::string& error);
+  // Opens the interface; on failure returns nullptr and sets `error` (kind
+  // kUnavailable, or kInvalidArgument for an impossible name; where = iface).
+  static std::unique_ptr<BusSession> open(const std::string& iface, Error& error);
 
   [[nodiscard]] can::SocketCanChannel& channel() noexcept { return channel_; }
 

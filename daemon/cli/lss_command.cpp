@@ -50,9 +50,9 @@ int lss_set_node_id(const LssSetNodeOptions& o) {
   if (auto routed = via_daemon(o.control, line, 10000 + static_cast<int>(o.timeout_ms) * 8 + 5000)) {
     if (routed->first) return report_daemon_failure("lss", *routed, o.json);
   } else {
-    std::string error;
+    Error error;
     auto bus = BusSession::open(o.iface, error);
-    if (!bus) return report_failure("lss", Error(Errc::kUnavailable, error, o.iface), o.json);
+    if (!bus) return report_failure("lss", error, o.json);
     canopen::LssMaster m(bus->channel(), canopen::LssMaster::Config{.timeout = std::chrono::milliseconds(o.timeout_ms)});
     const canopen::LssAddress a{o.vendor, o.product, o.revision, o.serial};
     const auto now = [] { return canopen::Clock::now(); };

@@ -35,9 +35,9 @@ int nmt_send(const NmtOptions& o) {
     if (o.json) std::printf("%s\n", routed->second.line.c_str());
     return 0;
   }
-  std::string error;
+  Error error;
   auto bus = BusSession::open(o.iface, error);
-  if (!bus) return report_failure("nmt", Error(Errc::kUnavailable, error, o.iface), o.json);
+  if (!bus) return report_failure("nmt", error, o.json);
   if (!bus->channel().send(canopen::make_nmt(cmd, static_cast<uint8_t>(node))))
     return report_failure("nmt", Error(Errc::kUnavailable, "could not send the frame", o.iface), o.json);
   if (o.json)

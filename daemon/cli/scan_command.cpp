@@ -129,9 +129,9 @@ std::optional<int> scan_via_daemon(const ScanOptions& o) {
 
 int scan(const ScanOptions& o) {
   if (const auto rc = scan_via_daemon(o)) return *rc;
-  std::string error;
+  Error error;
   auto bus = BusSession::open(o.iface, error);
-  if (!bus) return report_failure("scan", Error(Errc::kUnavailable, error, o.iface), o.json);
+  if (!bus) return report_failure("scan", error, o.json);
   device::DeviceCatalog catalog;
   {
     std::string dir = o.devices_dir;

@@ -60,13 +60,6 @@ Error check(const SdoOptions& o, uint16_t& index, uint8_t& sub) {
   return {};
 }
 
-std::unique_ptr<BusSession> open_bus(const SdoOptions& o, Error& err) {
-  std::string error;
-  auto bus = BusSession::open(o.iface, error);
-  if (!bus) err = Error(Errc::kUnavailable, error, o.iface);
-  return bus;
-}
-
 std::string object_words(const SdoOptions& o, uint16_t index, uint8_t sub) {
   char buf[64];
   std::snprintf(buf, sizeof buf, "%u %04X %u", o.node, index, sub);
@@ -157,7 +150,7 @@ int sdo_read(const SdoOptions& o) {
     return 0;
   }
   Error err;
-  auto bus = open_bus(o, err);
+  auto bus = BusSession::open(o.iface, err);
   if (!bus) return report_failure("sdo", err, o.json);
   canopen::SdoClient client(bus->channel(), static_cast<uint8_t>(o.node),
                             canopen::SdoClient::Config{.timeout = std::chrono::milliseconds(o.timeout_ms)});
@@ -189,7 +182,7 @@ int sdo_write(const SdoOptions& o) {
     return 0;
   }
   Error err;
-  auto bus = open_bus(o, err);
+  auto bus = BusSession::open(o.iface, err);
   if (!bus) return report_failure("sdo", err, o.json);
   canopen::SdoClient client(bus->channel(), static_cast<uint8_t>(o.node),
                             canopen::SdoClient::Config{.timeout = std::chrono::milliseconds(o.timeout_ms)});

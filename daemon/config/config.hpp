@@ -29,6 +29,10 @@ struct SourceLocation {
   std::string file;
   std::uint32_t line = 0;    // 1-based; 0 = unknown
   std::uint32_t column = 0;  // 1-based; 0 = unknown
+
+  // "file:line:column" ("file" when the line is unknown): the `where` of an
+  // Error about this place (diagnostic.cpp).
+  [[nodiscard]] std::string to_string() const;
 };
 
 // ---- [gateway] -----------------------------------------------------------

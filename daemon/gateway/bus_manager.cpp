@@ -70,9 +70,8 @@ std::error_code BusManager::Impl::start() {
   cc.wait_for_interface = true;  // a missing adapter is reported and waited for
   cc.reopen_backoff_max = kReopenBackoffMax;
   channel = std::make_unique<can::SocketCanChannel>(cc);
-  const auto err = channel->open();
-  if (err) {
-    log->error("bus {}: {}", bus.name, err.message);
+  if (const Error err = channel->open()) {
+    log->error("bus {}: {}", bus.name, err.to_string());
     channel.reset();
     return err.code;
   }
@@ -83,9 +82,8 @@ std::error_code BusManager::Impl::start() {
       {canopen::cob::kNmtErrorControlBase, 0x780, false},   // boot-up/heartbeat/guarding 0x700..0x77F
       {canopen::cob::kEmcyBase, 0x780, false},              // EMCY 0x081..0x0FF
   }};
-  const auto ferr = channel->set_filters(kFilters);
-  if (ferr) {
-    log->error("bus {}: {}", bus.name, ferr.message);
+  if (const Error ferr = channel->set_filters(kFilters)) {
+    log->error("bus {}: {}", bus.name, ferr.to_string());
     channel.reset();
     return ferr.code;
   }

@@ -291,18 +291,20 @@ ControlServer::ControlServer(ControlHandler& handler, ControlServerOptions optio
 
 ControlServer::~ControlServer() { close(); }
 
-std::error_code ControlServer::open(const std::filesystem::path& path, std::string* why) {
-  auto fail = [&](int err, const std::string& what) {
-    if (why != nullptr) *why = what + ": " + std::error_code(err, std::system_category()).message();
-    return std::error_code(err, std::system_category());
+Error ControlServer::open(const std::filesystem::path& path) {
+  const std::string text = path.string();
+  // where = the socket path; the message = the step and the errno text.
+  auto fail = [&](int err, const std::string& what, Errc kind = Errc::kFailed) {
+    const std::error_code ec(err, std::system_category());
+    return Error(kind, what + ": " + ec.message(), text, ec);
   };
   close();
   sockaddr_un addr{};
   addr.sun_family = AF_UNIX;
-  const std::string text = path.string();
   if (text.empty() || text.size() >= sizeof addr.sun_path)
-    return fail(ENAMETOOLONG, "control socket path \"" + text + "\" (at most " +
-                                  std::to_string(sizeof addr.sun_path - 1) + " bytes)");
+    return fail(ENAMETOOLONG, "control socket path of " + std::to_string(text.size()) + " bytes (at most " +
+                                  std::to_string(sizeof addr.sun_path - 1) + ")",
+                Errc::kInvalidArgument);
   text.copy(addr.sun_path, text.size());
 
   std::error_code ec;
@@ -316,13 +318,13 @@ std::error_code ControlServer::open(const std::filesystem::path& path, std::stri
   // fight the first, so that is an error. Anything else is not ours to delete.
   struct stat st {};
   if (::lstat(text.c_str(), &st) == 0) {
-    if (!S_ISSOCK(st.st_mode)) return fail(EEXIST, text + " exists and is not a socket");
+    if (!S_ISSOCK(st.st_mode)) return fail(EEXIST, "exists and is not a socket", Errc::kInvalidArgument);
     const int probe = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
     if (probe < 0) return fail(errno, "socket()");
     const bool alive = ::connect(probe, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) == 0;
     ::close(probe);
-    if (alive) return fail(EADDRINUSE, "another daemon is listening on " + text);
-    if (::unlink(text.c_str()) != 0) return fail(errno, "removing the stale socket " + text);
+    if (alive) return fail(EADDRINUSE, "another daemon is listening on it", Errc::kUnavailable);
+    if (::unlink(text.c_str()) != 0) return fail(errno, "removing the stale socket");
   }
 
   const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
@@ -330,14 +332,14 @@ std::error_code ControlServer::open(const std::filesystem::path& path, std::stri
   if (::bind(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0) {
     const int err = errno;
     ::close(fd);
-    return fail(err, "binding " + text);
+    return fail(err, "binding");
   }
   // Owner and group (operators in the service's group) may talk to it.
   if (::chmod(text.c_str(), 0660) != 0 || ::listen(fd, 16) != 0 || ::lstat(text.c_str(), &st) != 0) {
     const int err = errno;
     ::close(fd);
     ::unlink(text.c_str());
-    return fail(err, "setting up " + text);
+    return fail(err, "setting up (chmod, listen)");
   }
   listen_fd_ = fd;
   path_ = path;

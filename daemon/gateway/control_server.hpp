@@ -107,8 +107,10 @@ class ControlServer {
   ControlServer& operator=(const ControlServer&) = delete;
 
   // Creates the socket directory, replaces a stale socket file, binds,
-  // sets mode 0660 and listens. On failure `why` says what failed where.
-  std::error_code open(const std::filesystem::path& path, std::string* why = nullptr);
+  // sets mode 0660 and listens. Fails with where = the path, the errno as
+  // code; kind kUnavailable when another daemon listens there,
+  // kInvalidArgument for a path too long or a file that is not a socket.
+  [[nodiscard]] Error open(const std::filesystem::path& path);
   // Closes every connection and removes the socket file.
   void close();
   [[nodiscard]] bool is_open() const noexcept { return listen_fd_ >= 0; }

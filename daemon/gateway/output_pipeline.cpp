@@ -29,30 +29,15 @@ std::vector<pipeline::PluginSpec> plugin_specs(const config::Config& config) {
     spec.type = out.name;
     if (!out.plugin.empty()) spec.file = out.plugin;
     spec.config_toml = out.settings_toml;
+    spec.where = out.where.to_string() + ": [outputs." + out.name + "]";
     specs.push_back(std::move(spec));
   }
   return specs;
 }
 
-namespace {
-
-// "file:line:col: [outputs.<name>]: <message>" for a plugin host error.
-std::string located(const config::Config& config, const pipeline::PluginError& e) {
-  std::string where;
-  for (const auto& out : config.outputs) {
-    if (out.name == e.instance)
-      where = out.where.file + ":" + std::to_string(out.where.line) + ":" + std::to_string(out.where.column) + ": ";
-  }
-  return where + "[outputs." + e.instance + "]: " + e.message;
-}
-
-}  // namespace
-
-std::vector<std::string> check_outputs(const config::Config& config, const std::filesystem::path& plugin_dir) {
+std::vector<Error> check_outputs(const config::Config& config, const std::filesystem::path& plugin_dir) {
   pipeline::PluginHost host(host_options(config, plugin_dir, nullptr));
-  std::vector<std::string> problems;
-  for (const auto& e : host.load_all(plugin_specs(config))) problems.push_back(located(config, e));
-  return problems;
+  return host.load_all(plugin_specs(config));
 }
 
 OutputPipeline::OutputPipeline(const config::Config& config, const device::DeviceCatalog& catalog,
@@ -77,24 +62,20 @@ OutputPipeline::OutputPipeline(const config::Config& config, const device::Devic
 
 OutputPipeline::~OutputPipeline() { stop(); }
 
-std::vector<std::string> OutputPipeline::start(bool* fatal) {
-  std::vector<std::string> problems;
-  if (fatal) *fatal = false;
+std::vector<Error> OutputPipeline::start() {
   const auto config = config_.get();
-  for (const auto& e : host_.load_all(plugin_specs(*config))) problems.push_back(located(*config, e));
-  for (const auto& e : host_.start_all()) problems.push_back(located(*config, e));
+  std::vector<Error> problems = host_.load_all(plugin_specs(*config));
+  for (auto& e : host_.start_all()) problems.push_back(std::move(e));
   if (!problems.empty()) {
     // Nothing else starts: no receiver opens a bus for outputs that are not there.
-    if (fatal != nullptr) *fatal = true;
     host_.unload_all();
     return problems;
   }
   dispatcher_.start();
   for (std::size_t i = 0; i < buses_.size(); ++i) {
-    std::string why;
-    if (buses_[i]->receiver->start(&why)) {
-      problems.push_back("bus " + config->buses[i].name + ": hot path: " + why);
-      if (fatal) *fatal = true;
+    if (Error e = buses_[i]->receiver->start()) {
+      e.where = "bus " + config->buses[i].name + ": hot path: " + e.where;
+      problems.push_back(std::move(e));
     }
   }
   started_ = true;

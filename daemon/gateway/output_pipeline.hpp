@@ -17,6 +17,7 @@
 // change them).
 #pragma once
 
+#include "base/error.hpp"
 #include "config/config.hpp"
 #include "device/device_catalog.hpp"
 #include "gateway/output_bridge.hpp"
@@ -41,9 +42,8 @@ namespace cobridge::gateway {
 // Loads (dlopen + create, never start) every enabled output plugin from
 // `plugin_dir`, so that a missing file, a wrong ABI or a setting the plugin
 // refuses (an unknown key, a bad value) is found without touching a bus.
-// Returns one message per problem, "file:line:col: [outputs.<name>]: ...".
-[[nodiscard]] std::vector<std::string> check_outputs(const config::Config& config,
-                                                     const std::filesystem::path& plugin_dir);
+// Returns one Error per problem, where = "file:line:col: [outputs.<name>]".
+[[nodiscard]] std::vector<Error> check_outputs(const config::Config& config, const std::filesystem::path& plugin_dir);
 
 class OutputPipeline {
  public:
@@ -53,10 +53,10 @@ class OutputPipeline {
   OutputPipeline& operator=(const OutputPipeline&) = delete;
 
   // Loads and starts the plugins, then the dispatcher and the receivers.
-  // Returns every problem as a message; a plugin that cannot be loaded,
-  // created or started, or a receiver that cannot open its bus, sets
-  // *fatal: the daemon must not run without an output it was told to feed.
-  [[nodiscard]] std::vector<std::string> start(bool* fatal);
+  // Returns every problem: a plugin that cannot be loaded, created or
+  // started, or a receiver that cannot open its bus. Any problem is fatal:
+  // the daemon must not run without an output it was told to feed.
+  [[nodiscard]] std::vector<Error> start();
   void stop();
 
   // SIGHUP: the new configuration for the bridges (device settings such as

@@ -43,12 +43,9 @@ BusReceiver::~BusReceiver() {
   if (wake_fd_ >= 0) ::close(wake_fd_);
 }
 
-std::error_code BusReceiver::start(std::string* message) {
+Error BusReceiver::start() {
   if (running_.load()) return {};
-  if (auto e = channel_.open()) {
-    if (message) *message = e.message;
-    return e.code;
-  }
+  if (Error e = channel_.open()) return e;
   namespace cob = canopen::cob;
   // Only what becomes samples: SYNC + EMCY (0x080..0x0FF), TPDO1 (0x180..0x1FF),
   // TPDO2 (0x280..0x2FF), error control (0x700..0x77F).
@@ -58,10 +55,7 @@ std::error_code BusReceiver::start(std::string* message) {
       {cob::kTpdo2Base, 0x780, false},
       {cob::kNmtErrorControlBase, 0x780, false},
   };
-  if (auto e = channel_.set_filters(filters)) {
-    if (message) *message = e.message;
-    return e.code;
-  }
+  if (Error e = channel_.set_filters(filters)) return e;
   running_.store(true);
   thread_ = std::thread([this] { run(); });
   return {};

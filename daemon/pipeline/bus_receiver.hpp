@@ -14,6 +14,7 @@
 // start(), from a benchmark or test).
 #pragma once
 
+#include "base/error.hpp"
 #include "can/socketcan_channel.hpp"
 #include "pipeline/device_table.hpp"
 #include "pipeline/dispatcher.hpp"
@@ -69,8 +70,9 @@ class BusReceiver {
 
   [[nodiscard]] SpscRing<Sample>& ring() noexcept { return ring_; }
 
-  // Opens the socket and starts the RX thread.
-  std::error_code start(std::string* message = nullptr);
+  // Opens the socket and starts the RX thread; the channel's Error when the
+  // interface cannot be opened (where = the interface).
+  [[nodiscard]] Error start();
   void stop();
 
   // Control thread: online/offline/NMT changes of a device, command outcomes.

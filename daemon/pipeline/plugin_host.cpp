@@ -52,6 +52,23 @@ const std::error_category& plugin_category() noexcept {
 
 std::error_code make_error_code(PluginErrc e) noexcept { return {static_cast<int>(e), plugin_category()}; }
 
+// A missing file is not found; a newer ABI is unsupported by this host; a
+// start that fails is a failure of the running plugin; the rest are a file
+// or settings the host or the plugin refuses (bad input).
+Errc plugin_error_kind(PluginErrc e) noexcept {
+  switch (e) {
+    case PluginErrc::kFileNotFound: return Errc::kNotFound;
+    case PluginErrc::kAbiTooNew: return Errc::kUnsupported;
+    case PluginErrc::kStartFailed: return Errc::kFailed;
+    case PluginErrc::kNotLoadable:
+    case PluginErrc::kNoEntryPoint:
+    case PluginErrc::kCreateFailed:
+    case PluginErrc::kNullOps:
+    case PluginErrc::kBadOps: return Errc::kInvalidArgument;
+  }
+  return Errc::kInternal;
+}
+
 // ---------------------------------------------------------------------------
 // SharedLibrary
 
@@ -112,6 +129,7 @@ struct PluginHost::Instance {
   PluginHost* owner = nullptr;
   std::string name;
   std::filesystem::path file;
+  std::string where;  // of its errors (PluginSpec::where)
   SharedLibrary library;
   cobridge_host_api api{};
   void* self = nullptr;
@@ -169,21 +187,22 @@ int PluginHost::submit_trampoline(void* host, const cobridge_command* command) n
   }
 }
 
-void PluginHost::report(const PluginError& e) const {
-  options_.log(LogLevel::kError, e.instance, e.message);
+// The instance's own log names it already: the line is the message alone.
+void PluginHost::report(const std::string& instance, const Error& e) const {
+  options_.log(LogLevel::kError, instance, e.message);
 }
 
-std::error_code PluginHost::load(const PluginSpec& spec, PluginError* error) {
+Error PluginHost::load(const PluginSpec& spec) {
   auto p = std::make_unique<Instance>();
   p->owner = this;
   p->name = spec.instance.empty() ? spec.type : spec.instance;
   p->file = resolve(spec);
+  p->where = spec.where.empty() ? "plugin '" + p->name + "'" : spec.where;
 
   auto fail = [&](PluginErrc code, const std::string& reason) {
-    PluginError e{p->name, p->file, make_error_code(code), p->file.string() + ": " + reason};
-    report(e);
-    if (error != nullptr) *error = std::move(e);
-    return make_error_code(code);
+    Error e(plugin_error_kind(code), p->file.string() + ": " + reason, p->where, make_error_code(code));
+    report(p->name, e);
+    return e;
   };
 
   std::error_code fs_ec;
@@ -265,18 +284,17 @@ std::error_code PluginHost::load(const PluginSpec& spec, PluginError* error) {
   return {};
 }
 
-std::vector<PluginError> PluginHost::load_all(std::span<const PluginSpec> specs) {
-  std::vector<PluginError> errors;
+std::vector<Error> PluginHost::load_all(std::span<const PluginSpec> specs) {
+  std::vector<Error> errors;
   for (const auto& spec : specs) {
-    PluginError e;
-    if (load(spec, &e)) errors.push_back(std::move(e));
+    if (Error e = load(spec)) errors.push_back(std::move(e));
   }
   return errors;
 }
 
-std::vector<PluginError> PluginHost::start_all() {
+std::vector<Error> PluginHost::start_all() {
   const std::lock_guard lock(roster_mutex_);
-  std::vector<PluginError> errors;
+  std::vector<Error> errors;
   for (auto it = plugins_.begin(); it != plugins_.end();) {
     Instance& p = **it;
     if (p.started) {
@@ -289,9 +307,10 @@ std::vector<PluginError> PluginHost::start_all() {
       ++it;
       continue;
     }
-    PluginError e{p.name, p.file, make_error_code(PluginErrc::kStartFailed),
-                  p.file.string() + ": start failed (code " + std::to_string(rc) + ")"};
-    report(e);
+    Error e(plugin_error_kind(PluginErrc::kStartFailed),
+            p.file.string() + ": start failed (code " + std::to_string(rc) + ")", p.where,
+            make_error_code(PluginErrc::kStartFailed));
+    report(p.name, e);
     errors.push_back(std::move(e));
     unload(p);
     it = plugins_.erase(it);

@@ -18,6 +18,7 @@
 // plugin logs or submits on.
 #pragma once
 
+#include "base/error.hpp"
 #include "pipeline/sample.hpp"
 
 #include <cobridge/plugin.h>
@@ -49,13 +50,10 @@ enum class PluginErrc {
 [[nodiscard]] const std::error_category& plugin_category() noexcept;
 [[nodiscard]] std::error_code make_error_code(PluginErrc e) noexcept;
 
-// One failed plugin: which instance, which file, why.
-struct PluginError {
-  std::string instance;
-  std::filesystem::path file;
-  std::error_code code;
-  std::string message;  // "<file>: <reason>", ready to log
-};
+// A failed plugin is reported as the project's Error: code = the PluginErrc,
+// message = "<file>: <reason>", where = PluginSpec::where (or
+// "plugin '<instance>'"), kind from the PluginErrc (plugin_error_kind).
+[[nodiscard]] Errc plugin_error_kind(PluginErrc e) noexcept;
 
 // What the configuration says about one plugin instance.
 struct PluginSpec {
@@ -67,6 +65,10 @@ struct PluginSpec {
   std::filesystem::path file;
   // The instance's configuration table as TOML text (see plugin.h).
   std::string config_toml;
+  // Where the caller's configuration names this instance ("cobridge.toml:40:1:
+  // [outputs.dds]"): the `where` of its errors. Empty: "plugin '<instance>'".
+  // (Initialized so that {instance, type, file, config} stays warning-free.)
+  std::string where = {};
 };
 
 // RAII owner of one dlopen handle. Move-only; closing happens last, after
@@ -142,14 +144,14 @@ class PluginHost {
 
   // Loads and creates one instance. On failure nothing is kept and the error
   // is returned (and also logged through the sink).
-  [[nodiscard]] std::error_code load(const PluginSpec& spec, PluginError* error = nullptr);
+  [[nodiscard]] Error load(const PluginSpec& spec);
   // Loads every spec; returns the failures, the others stay loaded.
-  std::vector<PluginError> load_all(std::span<const PluginSpec> specs);
+  std::vector<Error> load_all(std::span<const PluginSpec> specs);
 
   // Starts every loaded, not yet started instance in load order. An
   // instance whose start fails is destroyed and unloaded; its error is
   // returned.
-  std::vector<PluginError> start_all();
+  std::vector<Error> start_all();
 
   // Dispatcher thread. Hands the batch to every started plugin.
   void deliver(std::span<const Sample> samples) noexcept;
@@ -179,7 +181,7 @@ class PluginHost {
   static void log_trampoline(void* host, int level, const char* msg) noexcept;
   static int submit_trampoline(void* host, const cobridge_command* command) noexcept;
   void unload(Instance& p) noexcept;
-  void report(const PluginError& e) const;
+  void report(const std::string& instance, const Error& e) const;
 
   Options options_;
   // unique_ptr: each instance's cobridge_host_api must keep its address, the

@@ -18,20 +18,25 @@ bool equal_constant_time(std::string_view a, std::string_view b) noexcept {
 
 }  // namespace
 
-bool AuthFile::load(const std::filesystem::path& file, std::string* why) {
-  auto fail = [&](const std::string& what) {
-    if (why != nullptr) *why = file.string() + ": " + what;
-    return false;
+Error AuthFile::load(const std::filesystem::path& file) {
+  auto fail = [&](const std::string& what, Errc kind = Errc::kInvalidArgument, int err = 0) {
+    return Error(kind, what, file.string(), err != 0 ? std::error_code(err, std::system_category()) : std::error_code{});
   };
   users_.clear();
   struct stat st {};
-  if (::stat(file.c_str(), &st) != 0) return fail(std::strerror(errno));
+  if (::stat(file.c_str(), &st) != 0) {
+    const int err = errno;
+    return fail(std::strerror(err), Errc::kNotFound, err);
+  }
   if (!S_ISREG(st.st_mode)) return fail("not a regular file");
   if ((st.st_mode & 077) != 0)
     return fail("readable or writable by group or others (mode " + std::to_string((st.st_mode >> 6) & 7) +
                 std::to_string((st.st_mode >> 3) & 7) + std::to_string(st.st_mode & 7) + "); chmod 600 it");
   std::ifstream in(file);
-  if (!in) return fail(std::strerror(errno));
+  if (!in) {
+    const int err = errno;
+    return fail(std::strerror(err), Errc::kNotFound, err);
+  }
   std::string line;
   std::size_t n = 0;
   while (std::getline(in, line)) {
@@ -44,7 +49,7 @@ bool AuthFile::load(const std::filesystem::path& file, std::string* why) {
     users_.emplace_back(line.substr(0, colon), line.substr(colon + 1));
   }
   if (users_.empty()) return fail("no user:password line");
-  return true;
+  return {};
 }
 
 bool AuthFile::check(std::string_view user, std::string_view password) const noexcept {

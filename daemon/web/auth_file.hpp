@@ -6,6 +6,8 @@
 // Thread: load on one thread, then check() from any (read-only).
 #pragma once
 
+#include "base/error.hpp"
+
 #include <filesystem>
 #include <string>
 #include <string_view>
@@ -16,8 +18,9 @@ namespace cobridge::web {
 
 class AuthFile {
  public:
-  // Returns false and says why (with the file name and line) on failure.
-  bool load(const std::filesystem::path& file, std::string* why);
+  // Fails with where = the file, the message naming the line when one is
+  // wrong; kind kNotFound (cannot be read) or kInvalidArgument (mode, contents).
+  [[nodiscard]] Error load(const std::filesystem::path& file);
   [[nodiscard]] bool check(std::string_view user, std::string_view password) const noexcept;
   [[nodiscard]] std::size_t users() const noexcept { return users_.size(); }
 

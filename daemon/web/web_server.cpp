@@ -18,24 +18,21 @@ namespace {
 
 constexpr std::size_t kConnectionMemory = 16 * 1024;  // request line + headers, per connection
 
-std::string at(const config::SourceLocation& l, std::string_view key) {
-  return l.file + ":" + std::to_string(l.line) + ":" + std::to_string(l.column) + ": web." + std::string(key) + ": ";
+// `e` placed at the [web] key the configuration names it with:
+// where = "file:line:col: web.<key>" (then the file's own place, if any).
+Error at(Error e, const config::SourceLocation& l, std::string_view key) {
+  e.where = l.to_string() + ": web." + std::string(key) + (e.where.empty() ? "" : ": " + e.where);
+  return e;
 }
 
-bool read_file(const std::filesystem::path& file, std::string& out, std::string* why) {
+Error read_pem(const std::filesystem::path& file, std::string& out) {
   std::ifstream in(file, std::ios::binary);
-  if (!in) {
-    if (why != nullptr) *why = "cannot read " + file.string();
-    return false;
-  }
+  if (!in) return Error(Errc::kNotFound, "cannot read " + file.string());
   std::ostringstream s;
   s << in.rdbuf();
   out = s.str();
-  if (out.find("-----BEGIN ") == std::string::npos) {
-    if (why != nullptr) *why = file.string() + " is not a PEM file";
-    return false;
-  }
-  return true;
+  if (out.find("-----BEGIN ") == std::string::npos) return Error(Errc::kInvalidArgument, file.string() + " is not a PEM file");
+  return {};
 }
 
 void mhd_log(void* /*cls*/, const char* fmt, va_list ap) {
@@ -86,20 +83,22 @@ MHD_Result on_request(void* cls, MHD_Connection* connection, const char* url, co
 
 }  // namespace
 
-std::vector<std::string> check_web_settings(const config::WebSettings& settings) {
-  std::vector<std::string> errors;
+std::vector<Error> check_web_settings(const config::WebSettings& settings) {
+  std::vector<Error> errors;
   if (!settings.enabled) return errors;
   std::string text;
-  std::string why;
-  if (!settings.tls_cert.empty() && !read_file(settings.tls_cert, text, &why))
-    errors.push_back(at(settings.tls_cert_at, "tls_cert") + why);
-  if (!settings.tls_key.empty() && !read_file(settings.tls_key, text, &why))
-    errors.push_back(at(settings.tls_key_at, "tls_key") + why);
+  if (!settings.tls_cert.empty()) {
+    if (Error e = read_pem(settings.tls_cert, text)) errors.push_back(at(std::move(e), settings.tls_cert_at, "tls_cert"));
+  }
+  if (!settings.tls_key.empty()) {
+    if (Error e = read_pem(settings.tls_key, text)) errors.push_back(at(std::move(e), settings.tls_key_at, "tls_key"));
+  }
   if ((!settings.tls_cert.empty() || !settings.tls_key.empty()) && MHD_is_feature_supported(MHD_FEATURE_TLS) != MHD_YES)
-    errors.push_back(at(settings.tls_cert_at, "tls_cert") + "this libmicrohttpd was built without TLS");
+    errors.push_back(at(Error(Errc::kUnsupported, "this libmicrohttpd was built without TLS"), settings.tls_cert_at,
+                        "tls_cert"));
   if (!settings.auth_file.empty()) {
     AuthFile auth;
-    if (!auth.load(settings.auth_file, &why)) errors.push_back(at(settings.auth_file_at, "auth_file") + why);
+    if (Error e = auth.load(settings.auth_file)) errors.push_back(at(std::move(e), settings.auth_file_at, "auth_file"));
   }
   return errors;
 }
@@ -109,22 +108,20 @@ WebServer::WebServer(StatusSource source, std::chrono::milliseconds refresh)
 
 WebServer::~WebServer() { stop(); }
 
-bool WebServer::start(const config::WebSettings& settings, std::string* why) {
+Error WebServer::start(const config::WebSettings& settings) {
   stop();
-  const auto problems = check_web_settings(settings);
-  if (!problems.empty()) {
-    if (why != nullptr) *why = problems.front();
-    return false;
-  }
+  auto problems = check_web_settings(settings);
+  if (!problems.empty()) return std::move(problems.front());
   if (!settings.auth_file.empty()) {
     AuthFile auth;
-    if (!auth.load(settings.auth_file, why)) return false;
+    if (Error e = auth.load(settings.auth_file)) return at(std::move(e), settings.auth_file_at, "auth_file");
     auth_ = std::move(auth);
   }
   unsigned flags = MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_EPOLL | MHD_USE_ERROR_LOG;
   const bool tls = !settings.tls_cert.empty();
   if (tls) {
-    if (!read_file(settings.tls_cert, tls_cert_, why) || !read_file(settings.tls_key, tls_key_, why)) return false;
+    if (Error e = read_pem(settings.tls_cert, tls_cert_)) return at(std::move(e), settings.tls_cert_at, "tls_cert");
+    if (Error e = read_pem(settings.tls_key, tls_key_)) return at(std::move(e), settings.tls_key_at, "tls_key");
     flags |= MHD_USE_TLS;
   }
   sockaddr_in v4{};
@@ -140,8 +137,7 @@ bool WebServer::start(const config::WebSettings& settings, std::string* why) {
     addr = reinterpret_cast<const sockaddr*>(&v6);
     flags |= MHD_USE_IPv6;
   } else {
-    if (why != nullptr) *why = "web.bind \"" + settings.bind + "\" is not an IP address";
-    return false;
+    return Error(Errc::kInvalidArgument, "web.bind \"" + settings.bind + "\" is not an IP address");
   }
   std::vector<MHD_OptionItem> options{
       {MHD_OPTION_CONNECTION_LIMIT, static_cast<intptr_t>(settings.max_clients), nullptr},
@@ -158,16 +154,14 @@ bool WebServer::start(const config::WebSettings& settings, std::string* why) {
   daemon_ = MHD_start_daemon(flags, settings.port, nullptr, nullptr, &on_request, this, MHD_OPTION_ARRAY,
                              options.data(), MHD_OPTION_END);
   if (daemon_ == nullptr) {
-    if (why != nullptr)
-      *why = "cannot listen on " + settings.bind + " port " + std::to_string(settings.port) +
-             " (address in use, not local, or a bad TLS certificate/key)";
-    return false;
+    return Error(Errc::kUnavailable, "cannot listen on " + settings.bind + " port " + std::to_string(settings.port) +
+                                         " (address in use, not local, or a bad TLS certificate/key)");
   }
   port_ = settings.port;
   if (const MHD_DaemonInfo* info = MHD_get_daemon_info(daemon_, MHD_DAEMON_INFO_BIND_PORT)) port_ = info->port;
   sys::logger("web")->info("web: serving http{}://{}:{}/ ({} clients at most{})", tls ? "s" : "", settings.bind, port_,
                            settings.max_clients, auth_ ? ", basic authentication" : "");
-  return true;
+  return {};
 }
 
 void WebServer::stop() {

@@ -17,6 +17,7 @@
 // (tests use it without a socket).
 #pragma once
 
+#include "base/error.hpp"
 #include "config/config.hpp"
 #include "gateway/control_server.hpp"
 #include "web/auth_file.hpp"
@@ -36,8 +37,8 @@ namespace cobridge::web {
 
 // The files [web] names, checked as the daemon would load them (readable
 // PEM files, an auth file readable by its owner only), for --check-config
-// and start(). One "file:line:col: web.<key>: ..." message per problem.
-[[nodiscard]] std::vector<std::string> check_web_settings(const config::WebSettings& settings);
+// and start(). One Error per problem, where = "file:line:col: web.<key>".
+[[nodiscard]] std::vector<Error> check_web_settings(const config::WebSettings& settings);
 
 struct HttpAnswer {
   unsigned status = 200;
@@ -62,8 +63,9 @@ class WebServer {
   WebServer& operator=(const WebServer&) = delete;
 
   // Loads the TLS files and the auth file, binds and starts the thread.
-  // On failure `why` says what failed.
-  bool start(const config::WebSettings& settings, std::string* why);
+  // Fails with the first problem of check_web_settings, kInvalidArgument for
+  // a bind that is not an IP address, kUnavailable when it cannot listen.
+  [[nodiscard]] Error start(const config::WebSettings& settings);
   void stop();
   [[nodiscard]] bool running() const noexcept { return daemon_ != nullptr; }
   // The bound port (the configured one, or the kernel's choice for port 0 in tests).

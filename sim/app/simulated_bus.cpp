@@ -33,7 +33,7 @@ SimulatedBus::SimulatedBus(std::string iface) : iface_(std::move(iface)), channe
 
 SimulatedBus::~SimulatedBus() = default;
 
-can::ChannelError SimulatedBus::open() { return channel_.open(); }
+Error SimulatedBus::open() { return channel_.open(); }
 
 can::FrameSink& SimulatedBus::sink_for(std::size_t device_index) {
   while (sinks_.size() <= device_index) sinks_.push_back(std::make_unique<DeviceSink>(*this, sinks_.size()));

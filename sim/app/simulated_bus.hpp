@@ -42,7 +42,7 @@ class SimulatedBus {
   SimulatedBus(const SimulatedBus&) = delete;
   SimulatedBus& operator=(const SimulatedBus&) = delete;
 
-  [[nodiscard]] can::ChannelError open();
+  [[nodiscard]] Error open();
   [[nodiscard]] const std::string& iface() const noexcept { return iface_; }
   [[nodiscard]] can::SocketCanChannel& channel() noexcept { return channel_; }
 

@@ -313,8 +313,7 @@ Figures plugin_run(const char* label, Feed feed, const std::string& config, doub
                              [](pipeline::LogLevel, std::string_view, std::string_view m) {
                                std::fprintf(stderr, "  plugin: %.*s\n", static_cast<int>(m.size()), m.data());
                              }});
-  pipeline::PluginError err;
-  if (host.load({"dds", "dds", plugin, config}, &err)) {
+  if (const Error err = host.load({"dds", "dds", plugin, config})) {
     std::fprintf(stderr, "load failed: %s\n", err.message.c_str());
     return {};
   }

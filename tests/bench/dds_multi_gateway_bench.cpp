@@ -139,8 +139,8 @@ int gateways(std::uint32_t domain, const std::string& config, double seconds) {
         [](pipeline::LogLevel, std::string_view, std::string_view m) {
           std::fprintf(stderr, "  plugin: %.*s\n", static_cast<int>(m.size()), m.data());
         }});
-    pipeline::PluginError err;
-    if (gw[g].host->load({"dds", "dds", plugin, "domain = " + std::to_string(domain) + "\n" + config}, &err) ||
+    const Error err = gw[g].host->load({"dds", "dds", plugin, "domain = " + std::to_string(domain) + "\n" + config});
+    if (err ||
         !gw[g].host->start_all().empty()) {
       std::fprintf(stderr, "plugin start failed: %s\n", err.message.c_str());
       return 1;

@@ -118,8 +118,8 @@ int main(int argc, char** argv) {
   };
   PluginHost host(options);
   PluginSpec spec{"modbus", "modbus", plugin, "bind = \"127.0.0.1\"\nport = 0\nmax_clients = 64\n"};
-  PluginError error;
-  if (host.load(spec, &error) || !host.start_all().empty()) {
+  const cobridge::Error error = host.load(spec);
+  if (error || !host.start_all().empty()) {
     std::fprintf(stderr, "cannot load %s: %s\n", plugin.c_str(), error.message.c_str());
     return 1;
   }

@@ -123,8 +123,7 @@ int main(int argc, char** argv) {
       spec.instance = name;
       spec.type = name;
       if (name == "jsontap") spec.config_toml = "path = \"/dev/null\"\n";
-      PluginError err;
-      if (auto ec = host.load(spec, &err)) {
+      if (const cobridge::Error err = host.load(spec)) {
         std::fprintf(stderr, "plugin %s: %s\n", name.c_str(), err.message.c_str());
         return 1;
       }

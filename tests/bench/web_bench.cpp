@@ -222,9 +222,8 @@ int main(int argc, char** argv) {
   config::WebSettings settings;
   settings.port = 0;
   settings.max_clients = static_cast<std::uint32_t>(clients + 16);
-  std::string why;
-  if (!server.start(settings, &why)) {
-    std::fprintf(stderr, "web server: %s\n", why.c_str());
+  if (const cobridge::Error e = server.start(settings)) {
+    std::fprintf(stderr, "web server: %s\n", e.to_string().c_str());
     return 1;
   }
   const std::uint16_t port = server.port();

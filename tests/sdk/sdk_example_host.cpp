@@ -49,8 +49,8 @@ TEST(SdkExample, InstalledSdkPluginLoadsAndNamesEmcyFromTheOneTable) {
   ASSERT_NE(dir, nullptr) << "run through tests/sdk/run_sdk_example.sh";
   Lines log;
   pipeline::PluginHost host({dir, "gw-sdk", log.sink()});
-  pipeline::PluginError error;
-  ASSERT_FALSE(host.load({"example", "emcylog", {}, {}}, &error)) << error.message;
+  const Error error = host.load({"example", "emcylog", {}, {}});
+  ASSERT_FALSE(error) << error.to_string();
   ASSERT_TRUE(host.start_all().empty());
 
   cobridge_device_info info{};

@@ -10,6 +10,8 @@
 
 namespace {
 
+using cobridge::Errc;
+using cobridge::Error;
 using cobridge::can::Filter;
 using cobridge::can::Frame;
 using cobridge::can::from_linux;
@@ -89,22 +91,31 @@ TEST(SocketCanChannelClosed, SendFailsAndCountsReceiveIsEmpty) {
 }
 
 // Opening an interface that does not exist (or on a kernel without CAN, as on the build host)
-// fails with a code and a message naming the interface.
-TEST(SocketCanChannelClosed, OpenFailureCarriesCodeAndMessage) {
+// fails with the project's Error (issue 13): kind unavailable, the errno as precise code, the
+// failing step as message, the interface as where.
+TEST(SocketCanChannelClosed, OpenFailureCarriesCodeMessageAndWhere) {
   SocketCanChannel ch(SocketCanConfig{.interface = "cbx-none0"});
-  const auto err = ch.open();
+  const Error err = ch.open();
   ASSERT_TRUE(err);
+  EXPECT_EQ(err.kind, Errc::kUnavailable);
   EXPECT_NE(err.code.value(), 0);
-  EXPECT_NE(err.message.find("cbx-none0"), std::string::npos) << err.message;
+  EXPECT_EQ(err.code.category(), std::system_category());
+  EXPECT_EQ(err.where, "cbx-none0");
+  EXPECT_FALSE(err.message.empty());
+  EXPECT_EQ(err.message.find("cbx-none0"), std::string::npos) << "where is not repeated: " << err.message;
+  EXPECT_EQ(err.to_string().rfind("cbx-none0: ", 0), 0u) << err.to_string();
   EXPECT_FALSE(ch.is_open());
   EXPECT_EQ(ch.process(SocketCanChannel::Clock::now()), SocketCanChannel::TimePoint::max());
 }
 
 TEST(SocketCanChannelClosed, OverlongInterfaceNameIsRejected) {
   SocketCanChannel ch(SocketCanConfig{.interface = "an-interface-name-longer-than-ifnamsiz"});
-  const auto err = ch.open();
+  const Error err = ch.open();
   ASSERT_TRUE(err);
+  EXPECT_EQ(err.kind, Errc::kInvalidArgument) << "a name no interface can have is bad input";
   EXPECT_EQ(err.code, std::error_code(ENODEV, std::system_category()));
+  EXPECT_EQ(err.where, "an-interface-name-longer-than-ifnamsiz");
+  EXPECT_NE(err.message.find("IFNAMSIZ"), std::string::npos) << err.message;
 }
 
 }  // namespace

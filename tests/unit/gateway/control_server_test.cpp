@@ -20,6 +20,8 @@
 #include <vector>
 
 using namespace std::chrono_literals;
+using cobridge::Errc;
+using cobridge::Error;
 using cobridge::gateway::BusStatus;
 using cobridge::gateway::ControlHandler;
 using cobridge::gateway::ControlResult;
@@ -100,9 +102,8 @@ class ServerLoop {
       : path_(std::filesystem::path("/tmp") / ("cobridge-ctl-test-" + std::to_string(::getpid())) / "control.sock"),
         server_(handler, options) {
     std::filesystem::remove_all(path_.parent_path());
-    std::string why;
-    const auto ec = server_.open(path_, &why);
-    EXPECT_FALSE(ec) << why;
+    const Error e = server_.open(path_);
+    EXPECT_FALSE(e) << e.to_string();
     thread_ = std::thread([this] {
       // As cobridged's loop: process, poll, tell the server what poll saw
       // (so only ready descriptors are touched: poll_slot.hpp).
@@ -374,17 +375,19 @@ TEST(ControlServer, SocketModeStaleFileAndLiveDaemon) {
     ::close(fd);
   }
   ControlServer first(h);
-  std::string why;
-  ASSERT_FALSE(first.open(path, &why)) << why;
+  const Error opened = first.open(path);
+  ASSERT_FALSE(opened) << opened.to_string();
   struct stat st {};
   ASSERT_EQ(::stat(path.c_str(), &st), 0);
   EXPECT_TRUE(S_ISSOCK(st.st_mode));
   EXPECT_EQ(st.st_mode & 0777, 0660u);
 
   ControlServer second(h);
-  const auto ec = second.open(path, &why);
-  EXPECT_EQ(ec, std::errc::address_in_use);
-  EXPECT_NE(why.find("another daemon"), std::string::npos) << why;
+  const Error taken = second.open(path);
+  EXPECT_EQ(taken.code, std::errc::address_in_use);
+  EXPECT_EQ(taken.kind, Errc::kUnavailable);
+  EXPECT_EQ(taken.where, path.string());
+  EXPECT_NE(taken.message.find("another daemon"), std::string::npos) << taken.to_string();
   EXPECT_TRUE(std::filesystem::exists(path));  // the first one's socket is left alone
 
   first.close();
@@ -392,7 +395,10 @@ TEST(ControlServer, SocketModeStaleFileAndLiveDaemon) {
 
   // Not a socket: never deleted.
   { std::FILE* f = std::fopen(path.c_str(), "w"); std::fclose(f); }
-  EXPECT_EQ(second.open(path, &why), std::errc::file_exists);
+  const Error not_socket = second.open(path);
+  EXPECT_EQ(not_socket.code, std::errc::file_exists);
+  EXPECT_EQ(not_socket.kind, Errc::kInvalidArgument);
+  EXPECT_EQ(not_socket.where, path.string());
   EXPECT_TRUE(std::filesystem::is_regular_file(path));
   std::filesystem::remove_all(dir);
 }

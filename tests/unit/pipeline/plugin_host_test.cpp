@@ -23,6 +23,8 @@
 #include <vector>
 
 namespace fs = std::filesystem;
+using cobridge::Errc;
+using cobridge::Error;
 using namespace cobridge::pipeline;
 
 namespace {
@@ -164,8 +166,8 @@ TEST(PluginHostAbi, V1PluginLoadsAndReceivesSamples) {
   LogCapture log;
   PluginHost host({kTestPluginDir, "gw-7", log.sink()});
 
-  PluginError error;
-  ASSERT_FALSE(host.load(spec("tap", "test_v1", "answer = 42"), &error)) << error.message;
+  const Error error = host.load(spec("tap", "test_v1", "answer = 42"));
+  ASSERT_FALSE(error) << error.to_string();
   EXPECT_EQ(rec->created, 1);
   EXPECT_EQ(rec->host_abi_version, COBRIDGE_PLUGIN_ABI_VERSION);
   EXPECT_STREQ(rec->gateway_id, "gw-7");
@@ -252,8 +254,8 @@ TEST(PluginHostAbi, OlderAbiPluginLoadsAndMissingOpsAreNeverCalled) {
   LogCapture log;
   PluginHost host({kTestPluginDir, "gw", log.sink()});
 
-  PluginError error;
-  ASSERT_FALSE(host.load(spec("old", "test_old_abi"), &error)) << error.message;
+  const Error error = host.load(spec("old", "test_old_abi"));
+  ASSERT_FALSE(error) << error.to_string();
   EXPECT_TRUE(host.start_all().empty());
   const std::array<Sample, 2> batch = {tpdo(1, 1), tpdo(2, 2)};
   host.deliver(batch);
@@ -276,10 +278,10 @@ TEST(PluginHostAbi, NewerAbiPluginIsRefusedWithClearMessage) {
   LogCapture log;
   PluginHost host({kTestPluginDir, "gw", log.sink()});
 
-  PluginError error;
-  const std::error_code ec = host.load(spec("future", "test_new_abi"), &error);
-  EXPECT_EQ(ec, PluginErrc::kAbiTooNew);
-  EXPECT_EQ(error.instance, "future");
+  const Error error = host.load(spec("future", "test_new_abi"));
+  EXPECT_EQ(error.code, PluginErrc::kAbiTooNew);
+  EXPECT_EQ(error.kind, Errc::kUnsupported);
+  EXPECT_EQ(error.where, "plugin 'future'") << "no PluginSpec::where: the instance names the place";
   EXPECT_NE(error.message.find("libcobridge_test_new_abi.so"), std::string::npos) << error.message;
   const std::string newer = "ABI version " + std::to_string(COBRIDGE_PLUGIN_ABI_VERSION + 1) + " is newer than the host's " +
                             std::to_string(COBRIDGE_PLUGIN_ABI_VERSION);
@@ -300,9 +302,10 @@ TEST(PluginHostAbi, NewerAbiPluginIsRefusedWithClearMessage) {
 // Concept: load errors are reported with code, file and reason.
 TEST(PluginHostLoadErrors, MissingFileIsReported) {
   PluginHost host({kTestPluginDir, "gw", quiet()});
-  PluginError error;
-  EXPECT_EQ(host.load(spec("x", "does_not_exist"), &error), PluginErrc::kFileNotFound);
-  EXPECT_EQ(error.file, kTestPluginDir / "libcobridge_does_not_exist.so");
+  Error error;
+  EXPECT_EQ((error = host.load(spec("x", "does_not_exist"))).code, PluginErrc::kFileNotFound);
+  EXPECT_EQ(error.kind, Errc::kNotFound);
+  EXPECT_EQ(error.where, "plugin 'x'");
   EXPECT_NE(error.message.find("libcobridge_does_not_exist.so: file not found"), std::string::npos)
       << error.message;
 }
@@ -319,16 +322,16 @@ TEST(PluginHostLoadErrors, RandomBytesNamedSoAreNotLoadable) {
     }
   }
   PluginHost host({dir.path(), "gw", quiet()});
-  PluginError error;
-  EXPECT_EQ(host.load(spec("g", "garbage"), &error), PluginErrc::kNotLoadable);
+  Error error;
+  EXPECT_EQ((error = host.load(spec("g", "garbage"))).code, PluginErrc::kNotLoadable);
   EXPECT_NE(error.message.find(garbage.string() + ": not a loadable shared object"), std::string::npos)
       << error.message;
 }
 
 TEST(PluginHostLoadErrors, SharedObjectWithoutEntryPointIsReported) {
   PluginHost host({kTestPluginDir, "gw", quiet()});
-  PluginError error;
-  EXPECT_EQ(host.load(spec("n", "test_no_entry"), &error), PluginErrc::kNoEntryPoint);
+  Error error;
+  EXPECT_EQ((error = host.load(spec("n", "test_no_entry"))).code, PluginErrc::kNoEntryPoint);
   EXPECT_NE(error.message.find("libcobridge_test_no_entry.so: no entry point cobridge_plugin_create"),
             std::string::npos)
       << error.message;
@@ -337,8 +340,8 @@ TEST(PluginHostLoadErrors, SharedObjectWithoutEntryPointIsReported) {
 TEST(PluginHostLoadErrors, CreateFailureCarriesThePluginsMessage) {
   Record rec("test_faulty");
   PluginHost host({kTestPluginDir, "gw", quiet()});
-  PluginError error;
-  EXPECT_EQ(host.load(spec("f", "test_faulty", "create_fails"), &error), PluginErrc::kCreateFailed);
+  Error error;
+  EXPECT_EQ((error = host.load(spec("f", "test_faulty", "create_fails"))).code, PluginErrc::kCreateFailed);
   EXPECT_NE(error.message.find("libcobridge_test_faulty.so: create failed: serial port /dev/ttyX4 does not exist"),
             std::string::npos)
       << error.message;
@@ -347,9 +350,35 @@ TEST(PluginHostLoadErrors, CreateFailureCarriesThePluginsMessage) {
 
 TEST(PluginHostLoadErrors, NullOpsTableIsRefused) {
   PluginHost host({kTestPluginDir, "gw", quiet()});
-  PluginError error;
-  EXPECT_EQ(host.load(spec("f", "test_faulty", "null_ops"), &error), PluginErrc::kNullOps);
+  Error error;
+  EXPECT_EQ((error = host.load(spec("f", "test_faulty", "null_ops"))).code, PluginErrc::kNullOps);
   EXPECT_NE(error.message.find("returned no ops table"), std::string::npos) << error.message;
+}
+
+// Concept: one error shape (issue 13) — a plugin failure is an Error whose
+// where is the place the caller's configuration names the instance, whose
+// message names the file and the reason, and whose code is the PluginErrc.
+TEST(PluginHostLoadErrors, ErrorCarriesTheCallersWhere) {
+  PluginHost host({kTestPluginDir, "gw", quiet()});
+  PluginSpec s = spec("x", "does_not_exist");
+  s.where = "cobridge.toml:40:1: [outputs.x]";
+  const Error error = host.load(s);
+  EXPECT_EQ(error.code, PluginErrc::kFileNotFound);
+  EXPECT_EQ(error.kind, Errc::kNotFound);
+  EXPECT_EQ(error.where, s.where);
+  EXPECT_EQ(error.to_string(), "cobridge.toml:40:1: [outputs.x]: " + host.resolve(s).string() + ": file not found");
+}
+
+// Concept: every PluginErrc maps to the kind a caller acts on (docs/operations.md).
+TEST(PluginHostLoadErrors, EveryCodeHasAKind) {
+  EXPECT_EQ(plugin_error_kind(PluginErrc::kFileNotFound), Errc::kNotFound);
+  EXPECT_EQ(plugin_error_kind(PluginErrc::kNotLoadable), Errc::kInvalidArgument);
+  EXPECT_EQ(plugin_error_kind(PluginErrc::kNoEntryPoint), Errc::kInvalidArgument);
+  EXPECT_EQ(plugin_error_kind(PluginErrc::kCreateFailed), Errc::kInvalidArgument);
+  EXPECT_EQ(plugin_error_kind(PluginErrc::kNullOps), Errc::kInvalidArgument);
+  EXPECT_EQ(plugin_error_kind(PluginErrc::kAbiTooNew), Errc::kUnsupported);
+  EXPECT_EQ(plugin_error_kind(PluginErrc::kBadOps), Errc::kInvalidArgument);
+  EXPECT_EQ(plugin_error_kind(PluginErrc::kStartFailed), Errc::kFailed);
 }
 
 // Concept: a table too small for the mandatory ops, or with a NULL mandatory
@@ -357,10 +386,10 @@ TEST(PluginHostLoadErrors, NullOpsTableIsRefused) {
 TEST(PluginHostLoadErrors, MalformedOpsTableIsRefusedAndDestroyed) {
   Record rec("test_faulty");
   PluginHost host({kTestPluginDir, "gw", quiet()});
-  PluginError error;
-  EXPECT_EQ(host.load(spec("f1", "test_faulty", "small_table"), &error), PluginErrc::kBadOps);
+  Error error;
+  EXPECT_EQ((error = host.load(spec("f1", "test_faulty", "small_table"))).code, PluginErrc::kBadOps);
   EXPECT_NE(error.message.find("struct_size 16 is below the minimum 48"), std::string::npos) << error.message;
-  EXPECT_EQ(host.load(spec("f2", "test_faulty", "missing_op"), &error), PluginErrc::kBadOps);
+  EXPECT_EQ((error = host.load(spec("f2", "test_faulty", "missing_op"))).code, PluginErrc::kBadOps);
   EXPECT_NE(error.message.find("lacks a mandatory op"), std::string::npos) << error.message;
   EXPECT_EQ(rec->created, 2);
   // small_table's struct_size does not even cover destroy: nothing may be
@@ -393,12 +422,15 @@ TEST(PluginHostIsolation, BrokenPluginsDoNotTakeOthersDown) {
   ASSERT_EQ(errors.size(), 5u);
   EXPECT_EQ(errors[0].code, PluginErrc::kFileNotFound);
   EXPECT_EQ(errors[1].code, PluginErrc::kNotLoadable);
-  EXPECT_EQ(errors[1].file, garbage);
+  EXPECT_NE(errors[1].message.find(garbage.string()), std::string::npos) << errors[1].message;
   EXPECT_EQ(errors[2].code, PluginErrc::kNoEntryPoint);
   EXPECT_EQ(errors[3].code, PluginErrc::kCreateFailed);
   EXPECT_EQ(errors[4].code, PluginErrc::kAbiTooNew);
-  for (const auto& e : errors) {
-    EXPECT_NE(e.message.find(e.file.string()), std::string::npos) << "message must name the file: " << e.message;
+  for (std::size_t i = 0; i < errors.size(); ++i) {
+    const auto& e = errors[i];
+    const PluginSpec& s = specs[i + 1];  // the failures are specs 1..5, in order
+    EXPECT_NE(e.message.find(host.resolve(s).string()), std::string::npos) << "message must name the file: " << e.message;
+    EXPECT_EQ(e.where, "plugin '" + s.instance + "'");
   }
   EXPECT_EQ(host.instances(), (std::vector<std::string>{"good", "old"}));
 
@@ -421,7 +453,8 @@ TEST(PluginHostIsolation, StartFailureUnloadsOnlyThatPlugin) {
   const auto errors = host.start_all();
   ASSERT_EQ(errors.size(), 1u);
   EXPECT_EQ(errors[0].code, PluginErrc::kStartFailed);
-  EXPECT_EQ(errors[0].instance, "bad");
+  EXPECT_EQ(errors[0].kind, Errc::kFailed);
+  EXPECT_EQ(errors[0].where, "plugin 'bad'");
   EXPECT_NE(errors[0].message.find("libcobridge_test_faulty.so: start failed (code 7)"), std::string::npos)
       << errors[0].message;
   EXPECT_EQ(faulty->stopped, 0) << "stop is only for a started plugin";
@@ -485,8 +518,8 @@ TEST(JsonTap, WritesOneLinePerSampleWithOnlyValidFields) {
   TempDir dir;
   const fs::path out = dir.path() / "tap.jsonl";
   PluginHost host({kJsonTapDir, "gw", quiet()});
-  PluginError error;
-  ASSERT_FALSE(host.load(spec("tap", "jsontap", tap_config(out, false)), &error)) << error.message;
+  const Error error = host.load(spec("tap", "jsontap", tap_config(out, false)));
+  ASSERT_FALSE(error) << error.to_string();
   ASSERT_TRUE(host.start_all().empty());
 
   Sample pos = tpdo(7, 12345);
@@ -553,12 +586,12 @@ TEST(JsonTap, FlushMakesEachBatchVisibleBeforeStop) {
 // plugin's own message, naming the offending key.
 TEST(JsonTap, RejectsBadConfiguration) {
   PluginHost host({kJsonTapDir, "gw", quiet()});
-  PluginError error;
-  EXPECT_EQ(host.load(spec("tap", "jsontap", "pth = \"/tmp/x\"\n"), &error), PluginErrc::kCreateFailed);
+  Error error;
+  EXPECT_EQ((error = host.load(spec("tap", "jsontap", "pth = \"/tmp/x\"\n"))).code, PluginErrc::kCreateFailed);
   EXPECT_NE(error.message.find("unknown key 'pth'"), std::string::npos) << error.message;
-  EXPECT_EQ(host.load(spec("tap", "jsontap", "flush = \"yes\"\n"), &error), PluginErrc::kCreateFailed);
+  EXPECT_EQ((error = host.load(spec("tap", "jsontap", "flush = \"yes\"\n"))).code, PluginErrc::kCreateFailed);
   EXPECT_NE(error.message.find("'flush' must be a boolean"), std::string::npos) << error.message;
-  EXPECT_EQ(host.load(spec("tap", "jsontap", "path = [\n"), &error), PluginErrc::kCreateFailed);
+  EXPECT_EQ((error = host.load(spec("tap", "jsontap", "path = [\n"))).code, PluginErrc::kCreateFailed);
   EXPECT_NE(error.message.find("config: "), std::string::npos) << error.message;
 }
 

@@ -22,6 +22,8 @@
 #include <string>
 
 using namespace std::chrono_literals;
+using cobridge::Errc;
+using cobridge::Error;
 using cobridge::web::AuthFile;
 using cobridge::web::Credentials;
 using cobridge::web::Resource;
@@ -116,8 +118,8 @@ class AuthTest : public ::testing::Test {
 
 TEST_F(AuthTest, BasicAuthenticationFromAFileOnlyItsOwnerReads) {
   AuthFile auth;
-  std::string why;
-  ASSERT_TRUE(auth.load(file_, &why)) << why;
+  const Error loaded = auth.load(file_);
+  ASSERT_FALSE(loaded) << loaded.to_string();
   EXPECT_EQ(auth.users(), 2U);
   EXPECT_TRUE(auth.check("alice", "s3cret"));
   EXPECT_TRUE(auth.check("bob", "hunter:2"));  // the first colon separates
@@ -136,8 +138,42 @@ TEST_F(AuthTest, BasicAuthenticationFromAFileOnlyItsOwnerReads) {
   EXPECT_EQ(server.handle("GET", "/metrics", &right).status, 200U);
 
   ::chmod(file_.c_str(), 0640);
-  EXPECT_FALSE(auth.load(file_, &why));
-  EXPECT_THAT(why, HasSubstr("chmod 600"));
+  const Error refused = auth.load(file_);
+  ASSERT_TRUE(refused);
+  EXPECT_EQ(refused.kind, Errc::kInvalidArgument);
+  EXPECT_EQ(refused.where, file_.string());
+  EXPECT_THAT(refused.message, HasSubstr("chmod 600"));
+}
+
+// Issue 13: the [web] files' problems are the project's Error, placed at the
+// key that names the file (where "file:line:col: web.<key>", then the file),
+// so --check-config and the daemon print them like every other error.
+TEST_F(AuthTest, WebSettingsProblemsAreErrorsAtTheirKey) {
+  ::chmod(file_.c_str(), 0640);
+  cobridge::config::WebSettings s;
+  s.tls_cert = "/nonexistent-dir/web.crt";
+  s.tls_key = file_;  // not PEM
+  s.auth_file = file_;
+  s.tls_cert_at = {"cobridge.toml", 40, 1};
+  s.tls_key_at = {"cobridge.toml", 41, 1};
+  s.auth_file_at = {"cobridge.toml", 42, 1};
+  const std::vector<Error> errors = cobridge::web::check_web_settings(s);
+  ASSERT_GE(errors.size(), 3U);
+  EXPECT_EQ(errors[0].kind, Errc::kNotFound);
+  EXPECT_EQ(errors[0].where, "cobridge.toml:40:1: web.tls_cert");
+  EXPECT_EQ(errors[0].message, "cannot read /nonexistent-dir/web.crt");
+  EXPECT_EQ(errors[1].kind, Errc::kInvalidArgument);
+  EXPECT_EQ(errors[1].where, "cobridge.toml:41:1: web.tls_key");
+  EXPECT_THAT(errors[1].message, HasSubstr("is not a PEM file"));
+  const Error& auth = errors.back();
+  EXPECT_EQ(auth.kind, Errc::kInvalidArgument);
+  EXPECT_EQ(auth.where, "cobridge.toml:42:1: web.auth_file: " + file_.string());
+  EXPECT_THAT(auth.message, HasSubstr("chmod 600"));
+
+  WebServer server([] { return cobridge::gateway::StatusReport{}; });
+  const Error refused = server.start(s);
+  EXPECT_EQ(refused.where, errors[0].where) << "start() refuses with the first problem";
+  EXPECT_FALSE(server.running());
 }
 
 // ---- over a socket -----------------------------------------------------------
@@ -171,8 +207,8 @@ TEST(WebServerSocket, AnswersOverHttpAndRefusesWhatItShould) {
   });
   cobridge::config::WebSettings s;
   s.port = 0;  // the kernel's choice
-  std::string why;
-  ASSERT_TRUE(server.start(s, &why)) << why;
+  const Error started = server.start(s);
+  ASSERT_FALSE(started) << started.to_string();
   const std::uint16_t port = server.port();
   ASSERT_NE(port, 0);
 

@@ -30,6 +30,7 @@
 namespace {
 
 using namespace std::chrono_literals;
+using cobridge::Errc;
 using cobridge::can::BusEvent;
 using cobridge::can::BusEventKind;
 using cobridge::can::Filter;
@@ -43,7 +44,7 @@ constexpr const char* kIface = "vcan0";
 std::unique_ptr<SocketCanChannel> open_channel(SocketCanConfig cfg) {
   auto ch = std::make_unique<SocketCanChannel>(std::move(cfg));
   const auto err = ch->open();
-  EXPECT_FALSE(err) << "cannot open " << ch->interface() << ": " << err.message;
+  EXPECT_FALSE(err) << "cannot open " << ch->interface() << ": " << err.to_string();
   EXPECT_TRUE(ch->is_open()) << ch->interface() << " exists but is not up";
   return ch;
 }
@@ -102,12 +103,15 @@ TEST_F(SocketCanVcan, CanRst_OpenMissingOrNonCanInterfaceFails) {
   const auto err = missing.open();
   ASSERT_TRUE(err);
   EXPECT_EQ(err.code, std::error_code(ENODEV, std::system_category()));
-  EXPECT_NE(err.message.find("vcan9"), std::string::npos) << err.message;
+  EXPECT_EQ(err.kind, Errc::kUnavailable);
+  EXPECT_EQ(err.where, "vcan9");
+  EXPECT_NE(err.message.find("no such network interface"), std::string::npos) << err.message;
   EXPECT_FALSE(missing.is_open());
 
   SocketCanChannel lo(SocketCanConfig{.interface = "lo"});
   const auto err_lo = lo.open();
   ASSERT_TRUE(err_lo) << "bound a CAN_RAW socket to lo";
+  EXPECT_EQ(err_lo.where, "lo");
   EXPECT_NE(err_lo.message.find("not a CAN interface"), std::string::npos) << err_lo.message;
 }
 
@@ -147,7 +151,7 @@ TEST_F(SocketCanVcan, CanRst_RawFilterPassesExactlyTheMatchingIds) {
   ASSERT_TRUE(tx->is_open() && rx->is_open());
   const std::array<Filter, 2> filters{Filter::exact(0x181), Filter{0x700, 0x780, false}};  // 0x181, 0x700..0x77F
   const auto ferr = rx->set_filters(filters);
-  ASSERT_FALSE(ferr) << ferr.message;
+  ASSERT_FALSE(ferr) << ferr.to_string();
 
   Frame ext = Frame::make(0x181, {9});
   ext.flags = Frame::kFlagExtended;  // same low bits, 29-bit format: must not pass
@@ -343,7 +347,7 @@ TEST_F(SocketCanVcan, CanRst_OpenWhileDownWaitsForUp) {
   ASSERT_EQ(run(std::string("ip link set ") + kIface + " down"), 0);
   SocketCanChannel ch(SocketCanConfig{.interface = kIface});
   const auto err = ch.open();
-  ASSERT_FALSE(err) << err.message;
+  ASSERT_FALSE(err) << err.to_string();
   EXPECT_FALSE(ch.is_open());
   EXPECT_EQ(event_kinds(ch), std::vector{BusEventKind::InterfaceDown});
   const auto t = Clock::now();
@@ -366,7 +370,7 @@ TEST_F(SocketCanVcan, CanRst_MissingInterfaceIsWaitedForAndReplugged) {
 
   SocketCanChannel ch(SocketCanConfig{.interface = late, .reopen_backoff_max = 500ms, .wait_for_interface = true});
   const auto err = ch.open();
-  ASSERT_FALSE(err) << err.message;
+  ASSERT_FALSE(err) << err.to_string();
   EXPECT_FALSE(ch.is_open());
   EXPECT_EQ(event_kinds(ch), std::vector{BusEventKind::InterfaceDown});
   auto t = Clock::now();

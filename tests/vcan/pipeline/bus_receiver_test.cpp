@@ -56,8 +56,8 @@ TEST(BusReceiverVcan, TpdosBecomeTimestampedSamplesWithoutLoss) {
   BusReceiver rx(BusReceiverOptions{.bus_index = 1, .interface = "vcan0"}, table, dispatcher);
   dispatcher.add_source(rx.ring());
   dispatcher.start();
-  std::string msg;
-  ASSERT_FALSE(rx.start(&msg)) << msg;
+  const Error started = rx.start();
+  ASSERT_FALSE(started) << started.to_string();
 
   can::SocketCanChannel tx(can::SocketCanConfig{.interface = "vcan0"});
   ASSERT_FALSE(tx.open()) << "vcan0 must exist (run inside tests/vcan/run-in-vcan)";

@@ -81,9 +81,8 @@ struct Plugin {
   pipeline::PluginHost host;
   explicit Plugin(const std::string& config)
       : host({kPlugin.parent_path(), test_gateway(), log.sink()}) {
-    pipeline::PluginError err;
-    const std::error_code ec = host.load({"dds", "dds", kPlugin, config}, &err);
-    EXPECT_FALSE(ec) << err.message;
+    const Error err = host.load({"dds", "dds", kPlugin, config});
+    EXPECT_FALSE(err) << err.to_string();
     const auto failed = host.start_all();
     EXPECT_TRUE(failed.empty()) << log.all();
     EXPECT_EQ(host.started_count(), 1u) << log.all();
@@ -491,15 +490,14 @@ TEST(DdsPlugin, J_1_8_1_EmcyAppearsOnEncoderEventWithText) {
 TEST(DdsPlugin, DocsDds_UnknownKeyIsRejectedWithItsName) {
   LogCapture log;
   pipeline::PluginHost host({kPlugin.parent_path(), test_gateway(), log.sink()});
-  pipeline::PluginError err;
-  const std::error_code ec = host.load({"dds", "dds", kPlugin, "domian = 3\n"}, &err);
-  EXPECT_EQ(ec, pipeline::PluginErrc::kCreateFailed);
+  const Error err = host.load({"dds", "dds", kPlugin, "domian = 3\n"});
+  EXPECT_EQ(err.code, pipeline::PluginErrc::kCreateFailed);
   EXPECT_NE(err.message.find("domian"), std::string::npos) << err.message;
   EXPECT_EQ(host.loaded_count(), 0u);
 
-  const std::error_code ec2 = host.load({"dds", "dds", kPlugin, "sample_reliability = \"sometimes\"\n"}, &err);
-  EXPECT_EQ(ec2, pipeline::PluginErrc::kCreateFailed);
-  EXPECT_NE(err.message.find("sometimes"), std::string::npos) << err.message;
+  const Error err2 = host.load({"dds", "dds", kPlugin, "sample_reliability = \"sometimes\"\n"});
+  EXPECT_EQ(err2.code, pipeline::PluginErrc::kCreateFailed);
+  EXPECT_NE(err2.message.find("sometimes"), std::string::npos) << err2.message;
 }
 
 // docs/dds.md "Configuration": topic_prefix is prepended to every topic name.

@@ -90,8 +90,7 @@ int main(int argc, char** argv) {
   spec.type = "modbus";
   spec.file = plugin;
   spec.config_toml = config;
-  PluginError error;
-  if (host.load(spec, &error)) {
+  if (const cobridge::Error error = host.load(spec)) {
     std::printf("ERROR %s\n", error.message.c_str());
     return 1;
   }
