@@ -361,11 +361,10 @@ void ControlServer::open_ascii_gateway() {
   ascii_ = std::make_unique<AsciiServer>(remote_, o);
   const auto path = a.socket.empty() ? path_.parent_path() / "ascii.sock" : a.socket;
   const auto log = sys::logger("gateway");
-  std::string why;
-  if (ascii_->open_unix(path, &why)) log->error("ascii gateway: {}", why);
+  if (const Error e = ascii_->open_unix(path)) log->error("ascii gateway: {}", e.to_string());
   else log->info("ascii gateway (CiA 309-3): {}{}", path.string(), a.writes_enabled ? "" : " (read-only)");
   if (a.tcp_port != 0) {
-    if (ascii_->open_tcp(a.bind, a.tcp_port, &why)) log->error("ascii gateway: {}", why);
+    if (const Error e = ascii_->open_tcp(a.bind, a.tcp_port)) log->error("ascii gateway: {}", e.to_string());
     else log->info("ascii gateway (CiA 309-3): tcp {}:{}", a.bind, a.tcp_port);
   }
 }

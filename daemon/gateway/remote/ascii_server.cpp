@@ -26,9 +26,10 @@ constexpr const char* kHelp =
     "lss_store | lss_inquire_addr [0..3] | lss_get_node; [seq] [net] set network|node|sdo_timeout n; "
     "[seq] info version; types b i8 i16 i32 i64 u8 u16 u32 u64 x8 x16 x32 x64 r32 r64 vs os";
 
-std::error_code sys_error(int err, const std::string& what, std::string* why) {
-  if (why != nullptr) *why = what + ": " + std::error_code(err, std::system_category()).message();
-  return {err, std::system_category()};
+// where = the socket (path or address:port); the message = the step and the errno text.
+Error sys_error(int err, const std::string& what, const std::string& where, Errc kind = Errc::kFailed) {
+  const std::error_code ec(err, std::system_category());
+  return Error(kind, what + ": " + ec.message(), where, ec);
 }
 
 }  // namespace
@@ -37,45 +38,46 @@ AsciiServer::AsciiServer(RemoteTarget& remote, AsciiServerOptions options) : rem
 
 AsciiServer::~AsciiServer() { close(); }
 
-std::error_code AsciiServer::open_unix(const std::filesystem::path& path, std::string* why) {
+Error AsciiServer::open_unix(const std::filesystem::path& path) {
   sockaddr_un addr{};
   addr.sun_family = AF_UNIX;
   const std::string text = path.string();
-  if (text.empty() || text.size() >= sizeof addr.sun_path) return sys_error(ENAMETOOLONG, text, why);
+  if (text.empty() || text.size() >= sizeof addr.sun_path) return sys_error(ENAMETOOLONG, "socket path too long", text, Errc::kInvalidArgument);
   text.copy(addr.sun_path, text.size());
   std::error_code ec;
   if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path(), ec);
   struct stat st {};
   if (::lstat(text.c_str(), &st) == 0) {
-    if (!S_ISSOCK(st.st_mode)) return sys_error(EEXIST, text + " exists and is not a socket", why);
+    if (!S_ISSOCK(st.st_mode)) return sys_error(EEXIST, "exists and is not a socket", text, Errc::kInvalidArgument);
     ::unlink(text.c_str());  // the control socket proved this daemon is the only one
   }
   const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-  if (fd < 0) return sys_error(errno, "socket()", why);
+  if (fd < 0) return sys_error(errno, "socket()", text);
   if (::bind(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0 || ::chmod(text.c_str(), 0660) != 0 ||
       ::listen(fd, 128) != 0) {
     const int err = errno;
     ::close(fd);
-    return sys_error(err, "binding " + text, why);
+    return sys_error(err, "binding", text);
   }
   unix_fd_ = fd;
   unix_path_ = path;
   return {};
 }
 
-std::error_code AsciiServer::open_tcp(const std::string& address, std::uint16_t port, std::string* why) {
+Error AsciiServer::open_tcp(const std::string& address, std::uint16_t port) {
+  const std::string where = address + ":" + std::to_string(port);
   sockaddr_in addr{};
   addr.sin_family = AF_INET;
   addr.sin_port = htons(port);
-  if (::inet_pton(AF_INET, address.c_str(), &addr.sin_addr) != 1) return sys_error(EINVAL, address, why);
+  if (::inet_pton(AF_INET, address.c_str(), &addr.sin_addr) != 1) return sys_error(EINVAL, "not an IPv4 address", where, Errc::kInvalidArgument);
   const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-  if (fd < 0) return sys_error(errno, "socket()", why);
+  if (fd < 0) return sys_error(errno, "socket()", where);
   const int one = 1;
   ::setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
   if (::bind(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0 || ::listen(fd, 128) != 0) {
     const int err = errno;
     ::close(fd);
-    return sys_error(err, "binding " + address + ":" + std::to_string(port), why);
+    return sys_error(err, "binding", where);
   }
   tcp_fd_ = fd;
   return {};

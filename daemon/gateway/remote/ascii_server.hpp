@@ -19,6 +19,7 @@
 // add_poll_fds() before poll(), process(now) after.
 #pragma once
 
+#include "base/error.hpp"
 #include "canopen/clock.hpp"
 #include "config/remote_access.hpp"
 #include "gateway/line_connection.hpp"
@@ -54,8 +55,9 @@ class AsciiServer {
   AsciiServer& operator=(const AsciiServer&) = delete;
 
   // Binds the Unix socket (mode 0660; a stale file replaced) / the TCP port.
-  std::error_code open_unix(const std::filesystem::path& path, std::string* why = nullptr);
-  std::error_code open_tcp(const std::string& address, std::uint16_t port, std::string* why = nullptr);
+  // Errors: where = the path or address:port, the message = the step and errno text.
+  [[nodiscard]] Error open_unix(const std::filesystem::path& path);
+  [[nodiscard]] Error open_tcp(const std::string& address, std::uint16_t port);
   void close();
   [[nodiscard]] std::size_t clients() const noexcept { return clients_.size(); }
 
