@@ -35,7 +35,8 @@ std::string detail_text(const families::EmcyDetail& d, std::string_view source) 
   if (d.kind != families::EmcyDetailKind::work_area) return s;
   const std::string bits = canopen::work_area_state_text(d.state);
   if (d.state_listed_as.empty()) return s + " (" + bits + ")";
-  return s + " (as 0x6400 bits: " + bits + "; as " + std::string(source) + " list: " + std::string(d.state_listed_as) + ")";
+  return s + " (as 0x6400 bits: " + bits + "; as " + std::string(source) + " list: " + std::string(d.state_listed_as) +
+         ")";
 }
 
 }  // namespace
@@ -53,7 +54,8 @@ std::string_view to_string(EmcyLevel level) noexcept {
 
 EmcyInfo classify_emcy(const families::Family* family, const canopen::Emcy& e) noexcept {
   const families::EmcyTable* table = table_of(family);
-  const families::EmcyRow* row = table != nullptr ? table->find(e.error_code, e.error_register, e.manufacturer) : nullptr;
+  const families::EmcyRow* row =
+      table != nullptr ? table->find(e.error_code, e.error_register, e.manufacturer) : nullptr;
   if (row == nullptr) return cia301_info(e);
   EmcyInfo info;
   info.text = row->text;
@@ -70,7 +72,8 @@ std::string describe_emcy(const families::Family* family, const canopen::Emcy& e
   std::string s = "EMCY " + hex(e.error_code, 4) + " " + std::string(info.text) + " (" + std::string(info.source) + ")";
   if (info.level != EmcyLevel::unspecified) s += ", level " + std::string(to_string(info.level));
   const families::EmcyTable* table = info.from_manual ? table_of(family) : nullptr;
-  if (table != nullptr && table->detail != nullptr) s += detail_text(table->detail(e.error_code, e.manufacturer), table->source);
+  if (table != nullptr && table->detail != nullptr)
+    s += detail_text(table->detail(e.error_code, e.manufacturer), table->source);
   if (table != nullptr && table->byte2_is_subcode) {
     s += ", sub-code " + std::to_string(e.error_register) + "/" + std::to_string(e.manufacturer[0]);
   } else {

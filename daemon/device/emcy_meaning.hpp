@@ -1,8 +1,8 @@
 // EmcyMeaning: what an EMCY (CiA 301 §7.2.7) from a device of a known family
 // means: the row of the family's own table (daemon/families, EmcyTable:
 // J§1.8.1, E§9.1) when one matches, else the CiA 301 text of the code
-// (canopen/emcy). The one lookup the gateway's log and status, the plugin
-// SDK (cobridge/emcy.h) and the simulator's UI use.
+// (canopen/emcy). The one lookup the gateway's log and status and the plugin
+// SDK (cobridge/emcy.h, hence the DDS and Modbus outputs) use.
 //
 // Thread contract: any thread. `classify_emcy()` is noexcept and returns
 // static text; `describe_emcy()` builds a std::string and belongs off the hot

@@ -31,7 +31,7 @@ extern const Family kNovotechnikMultiturn;
 // E§9.1: the measuring-range code (position valid / out of range (+) / (-)).
 inline constexpr std::uint16_t kMultiturnMeasurementEmcy = 0x5051;
 // E§9.1: what the position reads while a row's error is active.
-inline constexpr std::int32_t kMultiturnErrorPosition = 0x7FFFFFFC;      // measurement, unknown, hardware, ASIC, software
+inline constexpr std::int32_t kMultiturnErrorPosition = 0x7FFFFFFC;      // measurement/unknown/HW/ASIC/SW
 inline constexpr std::int32_t kMultiturnOverflowPosition = 0x7FFFFFF8;   // out of range (+)
 inline constexpr std::int32_t kMultiturnUnderflowPosition = -2147483640;  // 0x80000008, out of range (-)
 

@@ -73,7 +73,8 @@ EmcyDetail emcy_detail(std::uint16_t code, const EmcyDetailBytes& b) noexcept {
 }
 
 // Byte 2 is the CiA error register (byte2_is_subcode false).
-constexpr EmcyTable kEmcy{.source = "J§1.8.1", .rows = kEmcyRows, .error_positions = kErrorPositions, .detail = emcy_detail};
+constexpr EmcyTable kEmcy{
+    .source = "J§1.8.1", .rows = kEmcyRows, .error_positions = kErrorPositions, .detail = emcy_detail};
 
 }  // namespace
 

@@ -46,7 +46,8 @@ cobridge::canopen::Emcy make(uint16_t code, uint8_t reg, const uint8_t* manufact
 extern "C" int cobridge_emcy_classify(const char* family, uint16_t error_code, uint8_t error_register,
                                       const uint8_t* manufacturer, cobridge_emcy_info* out) {
   if (out == nullptr) return -1;
-  const auto info = cobridge::device::classify_emcy(family_from_name(family), make(error_code, error_register, manufacturer));
+  const auto info =
+      cobridge::device::classify_emcy(family_from_name(family), make(error_code, error_register, manufacturer));
   out->text = info.text.data();
   out->text_len = info.text.size();
   out->source = info.source.data();

@@ -214,7 +214,8 @@ void SimDevice::Impl::multiturn_publish(ChannelSample& s, const ChannelSample& b
                    device::families::multiturn_cam_emcy_bytes(static_cast<std::uint8_t>(s.cams ^ before.cams), s.cams)},
               EmcyLevel::warn);
   if (s.work_area != before.work_area)
-    send_emcy(Emcy{device::families::kNovotechnikWorkAreaEmcy, 1, device::families::multiturn_work_area_emcy_bytes(s.work_area)},
+    send_emcy(Emcy{device::families::kNovotechnikWorkAreaEmcy, 1,
+                   device::families::multiturn_work_area_emcy_bytes(s.work_area)},
               EmcyLevel::warn);
 }
 

@@ -281,7 +281,7 @@ PositionSample PositionPipeline::update(double shaft_turns, double seconds) noex
   if (measurement_error_) {
     error = true;
     if (s.family == FamilyId::novotechnik_rotary) sentinel = as_bits(fam::kRotaryErrorPosition);  // J§1.8
-    if (s.family == FamilyId::novotechnik_multiturn) sentinel = as_bits(fam::kMultiturnErrorPosition);  // E§9.1 0x5051/1/0
+    if (s.family == FamilyId::novotechnik_multiturn) sentinel = as_bits(fam::kMultiturnErrorPosition);  // E§9.1
   } else if (out.range == RangeState::warning_over || out.range == RangeState::error_over) {
     error = true;
     sentinel = as_bits(fam::kMultiturnOverflowPosition);  // E§9.1 0x5051/x/1

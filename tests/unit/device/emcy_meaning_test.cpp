@@ -80,7 +80,8 @@ TEST(EmcyMeaning, E9_1_UnknownSubCodeFallsBack) {
 
 // E§9.1 0x9080 / 0x9090: changed CAMs; the work-area state read both ways.
 TEST(EmcyMeaning, E9_1_DescribeCamAndBothWorkAreaReadings) {
-  const std::string cam = describe_emcy(kMultiturn, emcy(fam::kNovotechnikCamEmcy, 1, fam::multiturn_cam_emcy_bytes(3, 9)));
+  const std::string cam =
+      describe_emcy(kMultiturn, emcy(fam::kNovotechnikCamEmcy, 1, fam::multiturn_cam_emcy_bytes(3, 9)));
   EXPECT_THAT(cam, HasSubstr("(E§9.1), level Warn, changed CAMs 0x03, state 0x09, sub-code 1/0"));
   const std::string area =
       describe_emcy(kMultiturn, emcy(fam::kNovotechnikWorkAreaEmcy, 1, fam::multiturn_work_area_emcy_bytes(1)));

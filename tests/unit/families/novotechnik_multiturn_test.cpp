@@ -26,7 +26,9 @@ TEST(NovotechnikMultiturnEmcy, E9_1_EveryRowIsInTheModule) {
   constexpr std::int32_t err = 0x7FFFFFFC;
   constexpr std::int32_t over = 0x7FFFFFF8;
   constexpr auto under = static_cast<std::int32_t>(0x80000008u);
-  struct Want { std::uint16_t code; std::uint8_t b2; std::uint8_t b3; L level; std::int32_t pos; std::string_view text; };
+  struct Want {
+    std::uint16_t code; std::uint8_t b2; std::uint8_t b3; L level; std::int32_t pos; std::string_view text;
+  };
   const Want rows[] = {
       {0x0000, 0, 0, L::hard, 0, "sensor error reset, no error"},
       {0x1000, 1, 0, L::hard, err, "unknown error"},
