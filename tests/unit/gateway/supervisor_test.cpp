@@ -73,9 +73,9 @@ TEST(ConsumerTime, IsOneAndAHalfProducerTimesPlusMargin) {
 // only then); the consumer's own timeout afterwards is not reported again,
 // and the first heartbeat after the bus is back brings it online.
 TEST_F(SupervisorTest, Issue16_BusLostTakesEveryWatchedDeviceOfflineAtOnce) {
-  sup.watch(5, canopen::DeviceFamily::novotechnik_rotary, heartbeat(100ms), t0);
-  sup.watch(6, canopen::DeviceFamily::novotechnik_rotary, heartbeat(100ms), t0);
-  sup.listen(7, canopen::DeviceFamily::novotechnik_rotary);  // being configured: not supervised yet
+  sup.watch(5, &fam::kNovotechnikRotary, heartbeat(100ms), t0);
+  sup.watch(6, &fam::kNovotechnikRotary, heartbeat(100ms), t0);
+  sup.listen(7, &fam::kNovotechnikRotary);  // being configured: not supervised yet
   sup.on_frame(canopen::make_heartbeat(5, NmtState::operational), t0 + 10ms);
   sup.on_frame(canopen::make_heartbeat(6, NmtState::operational), t0 + 10ms);
   ASSERT_EQ(drain().size(), 2U);
