@@ -13,15 +13,6 @@
 namespace cobridge::app {
 namespace {
 
-std::string_view family_name(config::Family f) {
-  switch (f) {
-    case config::Family::novotechnik_rotary: return "novotechnik-rotary";
-    case config::Family::novotechnik_multiturn: return "novotechnik-multiturn";
-    case config::Family::ifm_rm: return "ifm-rm";
-  }
-  return "";
-}
-
 std::string hex(std::uint32_t v) {
   char buf[16];
   std::snprintf(buf, sizeof buf, "0x%X", v);
@@ -79,10 +70,11 @@ void check_model_device(const config::Config& cfg, const config::Device& d, cons
                         std::vector<Error>& errors) {
   const config::KnownModel* km = config::find_model(d.model);
   if (km == nullptr) return;  // the config loader has reported it
+  const std::string_view family = device::families::family(km->family).name;  // EDS [Cobridge] Family
   const std::string variant = d.channels ? std::to_string(*d.channels) + "ch" : "";
   bool found = false;
   for (const auto* x : catalog.all()) {
-    if (x->device_info.vendor_number != km->vendor || x->selection.family != family_name(km->family)) continue;
+    if (x->device_info.vendor_number != km->vendor || x->selection.family != family) continue;
     if (!km->products.empty()) {
       const auto& extra = x->selection.additional_products;
       const bool product_ok =
@@ -100,7 +92,7 @@ void check_model_device(const config::Config& cfg, const config::Device& d, cons
     for (const auto& dir : cfg.gateway.device_dirs) dirs += (dirs.empty() ? "" : ", ") + dir.string();
     errors.push_back(at(d.where, "device \"" + d.name + "\": model " + d.model +
                                      " has no device description (an EDS with VendorNumber " + hex(km->vendor) +
-                                     " and [Cobridge] Family=" + std::string(family_name(km->family)) +
+                                     " and [Cobridge] Family=" + std::string(family) +
                                      (variant.empty() ? "" : ", Variant=" + variant) + ") in " +
                                      (dirs.empty() ? "no device directory" : dirs)));
   }

@@ -1,26 +1,15 @@
 // EMCY: the CiA 301 emergency message (§7.2.7), its code classes and error
-// register bits, and what the three encoder manuals say their codes mean.
+// register bits: the standard's part. What a device family's manual says its
+// codes mean is in that family's module (daemon/families, EmcyTable);
+// device/emcy_meaning combines the two.
 //
 // A frame is `code_lo code_hi error_register b3 b4 b5 b6 b7` on 0x80 + node
 // (object 0x1014). Decoding and encoding are noexcept and allocation-free for
-// the bus RX thread. `classify()` is noexcept too and returns static text;
-// only `describe()` builds a std::string and belongs off the hot path (the
-// log line of the gateway, the simulator's UI).
-//
-// The vendors do not all use the bytes after the code the same way:
-//  * Novotechnik rotary (J§1.8.1): byte 2 is the CiA error register (always 1
-//    when an error is active); bytes 3-4, 5-6 and 7 carry the details.
-//  * Novotechnik multiturn (E§9.1): byte 2 (0/1/2) and byte 3 together form a
-//    sub-code, and every row has a level Info/Warn/Error/Hard that 0x2104
-//    filters. Such frames are decoded by (code, byte 2, byte 3), not by the
-//    CiA meaning of the error-register bits.
-//  * ifm RM (F§4, F§7.3 0x1003): one EMCY object, but no code table at all;
-//    only the CiA 301 classes can be given.
+// the bus RX thread; the texts are static.
 #pragma once
 
 #include <array>
 #include <cstdint>
-#include <optional>
 #include <string>
 #include <string_view>
 
@@ -77,10 +66,7 @@ inline constexpr uint16_t kPdoLengthError = 0x8210;
 inline constexpr uint16_t kPdoLengthExceeded = 0x8220;
 inline constexpr uint16_t kUnexpectedSyncLength = 0x8240;
 inline constexpr uint16_t kExternal = 0x9000;
-// Manufacturer codes used by Novotechnik (J§1.8.1, E§9.1).
-inline constexpr uint16_t kNovotechnikCam = 0x9080;
-inline constexpr uint16_t kNovotechnikWorkArea = 0x9090;
-inline constexpr uint16_t kNovotechnikMeasurement = 0x5051;
+// CiA 301 §7.2.7.1 codes of the voltage and temperature classes.
 inline constexpr uint16_t kSupplyVoltage = 0x3100;
 inline constexpr uint16_t kDeviceTemperature = 0x4210;
 }  // namespace emcy_code
@@ -104,45 +90,8 @@ enum class ErrorRegisterBit : uint8_t {
 // "generic|communication", or "none". Allocates.
 [[nodiscard]] std::string error_register_text(uint8_t error_register);
 
-enum class DeviceFamily : uint8_t { generic, novotechnik_rotary, ifm_rm, novotechnik_multiturn };
-[[nodiscard]] std::string_view to_string(DeviceFamily family) noexcept;
-
-// E§9.1 "Level"; the other manuals define none.
-enum class EmcyLevel : uint8_t { unspecified, info, warn, error, hard };
-[[nodiscard]] std::string_view to_string(EmcyLevel level) noexcept;
-
-struct EmcyInfo {
-  std::string_view text;       // the manual's meaning, else the CiA 301 text
-  std::string_view source;     // "J§1.8.1", "E§9.1" or "CiA 301"
-  EmcyLevel level = EmcyLevel::unspecified;
-  bool from_manual = false;    // a row of the family's own table matched
-  bool error_reset = false;    // announces that the error condition is gone
-  std::optional<int32_t> position_value;  // what the position reads meanwhile (E§9.1)
-};
-[[nodiscard]] EmcyInfo classify(DeviceFamily family, const Emcy& emcy) noexcept;
-
-// One log line: code, meaning, source, level and the decoded detail bytes
-// (channel, CAMs, work-area state). Allocates; off the hot path.
-[[nodiscard]] std::string describe(DeviceFamily family, const Emcy& emcy);
-
-// Error position values (J§1.8 and E§9.1): what a position object reads
-// while an error is active. nullopt when `position` is an ordinary value.
-inline constexpr int32_t kRotaryErrorPosition = 0x7FF0;
-inline constexpr int32_t kMultiturnErrorPosition = 0x7FFFFFFC;
-inline constexpr int32_t kMultiturnOverflowPosition = 0x7FFFFFF8;
-inline constexpr int32_t kMultiturnUnderflowPosition = -2147483640;  // 0x80000008
-[[nodiscard]] std::optional<std::string_view> error_position_meaning(DeviceFamily family,
-                                                                     int32_t position) noexcept;
-
-// Builders for the frames whose detail bytes carry data, so the simulator
-// does not have to know the byte positions.
-// J§1.8.1 0x9080: bytes 3-4 channel, bytes 5-6 CAMs, byte 7 new 0x6300 value.
-[[nodiscard]] Emcy rotary_cam_emcy(uint16_t channel, uint16_t cams, uint8_t state) noexcept;
-// J§1.8.1 0x9090: bytes 3-4 channel, byte 7 new 0x6400 value.
-[[nodiscard]] Emcy rotary_work_area_emcy(uint16_t channel, uint8_t state) noexcept;
-// E§9.1 0x9080: byte 4 changed CAMs 1-4, byte 7 CAM state bits.
-[[nodiscard]] Emcy multiturn_cam_emcy(uint8_t changed, uint8_t state) noexcept;
-// E§9.1 0x9090: byte 7 work-area state.
-[[nodiscard]] Emcy multiturn_work_area_emcy(uint8_t state) noexcept;
+// CiA 406 object 0x6400 (work area state) bits as text: "inside", or
+// "out of range|overflow|underflow". Allocates.
+[[nodiscard]] std::string work_area_state_text(uint8_t state);
 
 }  // namespace cobridge::canopen

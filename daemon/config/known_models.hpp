@@ -12,17 +12,13 @@
 #include <span>
 #include <string_view>
 
-namespace cobridge::config {
+#include "families/family.hpp"
 
-enum class Family : std::uint8_t {
-  novotechnik_rotary,      // manual J: RFC-4800, RSA-3200, RFE-3200, RSX-7900, RFX-6900
-  ifm_rm,                  // manual F: RM8xxx, RM9xxx
-  novotechnik_multiturn,   // manual E: MZ1-2200, MC1-2800, MB1-3600
-};
+namespace cobridge::config {
 
 struct KnownModel {
   std::string_view name;
-  Family family;
+  device::families::FamilyId family;  // the family's module: families::family(id)
   std::uint32_t vendor;
   // Product codes (0x1018/2) the model may report; empty = not checkable
   // (ifm prints an ambiguous product code, F§7.3).

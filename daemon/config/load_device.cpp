@@ -160,7 +160,7 @@ void Loader::read_preset(TableReader& r, Device& d, const KnownModel* model) {
   std::int64_t min = kI32Min;
   std::int64_t max = kU32;
   if (model != nullptr) {
-    if (model->family == Family::novotechnik_rotary) {
+    if (model->family == device::families::FamilyId::novotechnik_rotary) {
       max = kI32Max;
     } else {
       min = 0;

@@ -11,17 +11,18 @@ namespace cobridge::device {
 
 namespace {
 
-using canopen::DeviceFamily;
+using families::FamilyId;
 namespace fam = families;
 
 // J§1.8: position 0x7FF0 ("beyond measuring range") on a position or sensor error.
-constexpr std::array<std::int32_t, 1> kRotaryErrorPositions{canopen::kRotaryErrorPosition};
+constexpr std::array<std::int32_t, 1> kRotaryErrorPositions{fam::kRotaryErrorPosition};
 // E§9.1: unknown/hardware/measurement error, overflow, underflow.
 constexpr std::array<std::int32_t, 3> kMultiturnErrorPositions{
-    canopen::kMultiturnErrorPosition, canopen::kMultiturnOverflowPosition, canopen::kMultiturnUnderflowPosition};
+    fam::kMultiturnErrorPosition, fam::kMultiturnOverflowPosition, fam::kMultiturnUnderflowPosition};
 
 // What every profile takes from its family's facts (families).
 void apply_family(FamilyProfile& p, const fam::Family& f) {
+  p.family = &f;
   p.name = f.name;
   p.series = f.series;
   p.manual = f.manual;
@@ -37,7 +38,6 @@ void apply_family(FamilyProfile& p, const fam::Family& f) {
 
 FamilyProfile rotary(std::uint8_t channels, bool legacy) {
   FamilyProfile p;
-  p.family = DeviceFamily::novotechnik_rotary;
   apply_family(p, fam::kNovotechnikRotary);
   p.channels = channels == 2 ? 2 : 1;
   p.legacy_rsx_rfx = legacy;
@@ -51,7 +51,6 @@ FamilyProfile rotary(std::uint8_t channels, bool legacy) {
 
 FamilyProfile multiturn() {
   FamilyProfile p;
-  p.family = DeviceFamily::novotechnik_multiturn;
   apply_family(p, fam::kNovotechnikMultiturn);
   p.position_type = DataType::kInteger32;  // E§4.2 0x6004
   p.position_alias = ObjectRef{0x6020, 1};  // E§4.1 0x1A00/1 default
@@ -65,7 +64,6 @@ FamilyProfile multiturn() {
 
 FamilyProfile ifm() {
   FamilyProfile p;
-  p.family = DeviceFamily::ifm_rm;
   apply_family(p, fam::kIfmRm);
   p.position_type = DataType::kUnsigned32;  // F§7.5 0x6004
   p.position_value_mask = 0x3FFFFFFFu;
@@ -84,36 +82,22 @@ FamilyProfile ifm() {
   return p;
 }
 
-FamilyProfile generic() {
-  FamilyProfile p;
-  p.family = DeviceFamily::generic;
-  p.name = "generic";
-  p.series = "generic CiA 406 device";
-  p.manual = "CiA 406";
-  p.position_type = DataType::kUnsigned32;
-  p.cams_per_channel = 8;
-  p.max_pdo_entries = 64;
-  p.tpdo2_sync_only = false;
-  p.rtr_transmission = true;
-  return p;
-}
-
 }  // namespace
 
 ObjectRef FamilyProfile::position(std::uint8_t channel) const noexcept {
-  if (family == DeviceFamily::novotechnik_rotary) return {0x6020, channel};  // J§1.3.2
+  if (is(FamilyId::novotechnik_rotary)) return {0x6020, channel};  // J§1.3.2
   return {0x6004, 0};  // E§4.2, F§7.5, CiA 406
 }
 
 ObjectRef FamilyProfile::speed(std::uint8_t channel) const noexcept { return {0x6030, channel}; }
 
 ObjectRef FamilyProfile::preset(std::uint8_t channel) const noexcept {
-  if (family == DeviceFamily::novotechnik_rotary) return {0x6010, channel};  // J§1.3.2
+  if (is(FamilyId::novotechnik_rotary)) return {0x6010, channel};  // J§1.3.2
   return {0x6003, 0};  // E§4.2, F§7.5
 }
 
 DataType FamilyProfile::preset_type() const noexcept {
-  return family == DeviceFamily::novotechnik_rotary ? DataType::kInteger32 : DataType::kUnsigned32;
+  return is(FamilyId::novotechnik_rotary) ? DataType::kInteger32 : DataType::kUnsigned32;
 }
 
 ObjectRef FamilyProfile::cam_low(CamSlot slot) noexcept {
@@ -135,14 +119,14 @@ std::optional<CamSlot> FamilyProfile::cam_slot(std::uint8_t cam_index) const noe
 }
 
 std::string_view FamilyProfile::cam_limit_text() const noexcept {
-  switch (family) {
-    case DeviceFamily::novotechnik_rotary:
+  if (family == nullptr) return "CiA 406 defines at most 8 CAMs per channel";
+  switch (family->id) {
+    case FamilyId::novotechnik_rotary:
       return channels == 2 ? "the 2-channel rotary series has 4 CAMs per channel: 1..4 on channel 1, 5..8 on "
                              "channel 2 (J§1.2.3)"
                            : "the 1-channel rotary series has 4 CAMs (J§1.2.3)";
-    case DeviceFamily::novotechnik_multiturn: return "the multiturn series has 4 CAMs (E§3.4)";
-    case DeviceFamily::ifm_rm: return "the ifm RM series has 8 CAMs (F§7.5)";
-    case DeviceFamily::generic: break;
+    case FamilyId::novotechnik_multiturn: return "the multiturn series has 4 CAMs (E§3.4)";
+    case FamilyId::ifm_rm: return "the ifm RM series has 8 CAMs (F§7.5)";
   }
   return "CiA 406 defines at most 8 CAMs per channel";
 }
@@ -228,36 +212,29 @@ bool FamilyProfile::is_error_position(std::int32_t position) const noexcept {
   return std::find(error_positions.begin(), error_positions.end(), position) != error_positions.end();
 }
 
-std::optional<canopen::DeviceFamily> family_from_name(std::string_view name) noexcept {
-  if (name == fam::kNovotechnikRotary.name) return DeviceFamily::novotechnik_rotary;
-  if (name == fam::kNovotechnikMultiturn.name) return DeviceFamily::novotechnik_multiturn;
-  if (name == fam::kIfmRm.name) return DeviceFamily::ifm_rm;
-  return std::nullopt;
-}
-
-FamilyProfile make_family_profile(canopen::DeviceFamily family, std::uint8_t channels, bool legacy_rsx_rfx) noexcept {
+FamilyProfile make_family_profile(FamilyId family, std::uint8_t channels, bool legacy_rsx_rfx) noexcept {
   switch (family) {
-    case DeviceFamily::novotechnik_rotary: return rotary(channels, legacy_rsx_rfx);
-    case DeviceFamily::novotechnik_multiturn: return multiturn();
-    case DeviceFamily::ifm_rm: return ifm();
-    case DeviceFamily::generic: break;
+    case FamilyId::novotechnik_rotary: return rotary(channels, legacy_rsx_rfx);
+    case FamilyId::novotechnik_multiturn: return multiturn();
+    case FamilyId::ifm_rm: break;
   }
-  return generic();
+  return ifm();
 }
 
 std::optional<FamilyProfile> family_profile_for(const DeviceDescription& description) noexcept {
-  const auto family = family_from_name(description.selection.family);
-  if (!family) return std::nullopt;
+  const fam::Family* family = fam::find_family(description.selection.family);
+  if (family == nullptr) return std::nullopt;
+  const bool rotary = family->id == FamilyId::novotechnik_rotary;
   std::uint8_t channels = 1;
-  if (*family == DeviceFamily::novotechnik_rotary) {
+  if (rotary) {
     // J§1.3.2: 0x6020/0 is the number of channels (2, or 1 on 1-channel variants).
     if (const ObjectDesc* count = description.find(0x6020, 0)) {
       if (auto v = count->default_for_node(0); v && *v == 2) channels = 2;
     }
   }
   const std::uint32_t product = description.device_info.product_number;
-  const bool legacy = *family == DeviceFamily::novotechnik_rotary && fam::is_legacy_rsx_rfx(product);
-  return make_family_profile(*family, channels, legacy);
+  const bool legacy = rotary && fam::is_legacy_rsx_rfx(product);
+  return make_family_profile(family->id, channels, legacy);
 }
 
 }  // namespace cobridge::device

@@ -19,7 +19,6 @@
 #include <span>
 #include <string_view>
 
-#include "canopen/emcy.hpp"
 #include "config/config.hpp"
 #include "device/eds.hpp"
 #include "families/family.hpp"
@@ -85,7 +84,7 @@ struct SignalMapping {
 };
 
 struct FamilyProfile {
-  canopen::DeviceFamily family = canopen::DeviceFamily::generic;
+  const families::Family* family = nullptr;  // the family's module (never nullptr in a built profile)
   std::string_view name;    // EDS [Cobridge] Family value, e.g. "novotechnik-rotary"
   std::string_view series;  // for messages: "rotary series", "multiturn series", "ifm RM series"
   std::string_view manual;  // citation key: "J", "E", "F"
@@ -196,15 +195,12 @@ struct FamilyProfile {
   [[nodiscard]] bool transmission_type_allowed(std::uint8_t tpdo, std::uint8_t type) const noexcept;
   // Whether `position` is one of the family's error sentinels.
   [[nodiscard]] bool is_error_position(std::int32_t position) const noexcept;
+  [[nodiscard]] bool is(families::FamilyId id) const noexcept { return family != nullptr && family->id == id; }
 };
 
-// "novotechnik-rotary" | "novotechnik-multiturn" | "ifm-rm" (EDS [Cobridge] Family).
-[[nodiscard]] std::optional<canopen::DeviceFamily> family_from_name(std::string_view name) noexcept;
-
 // The profile of a family. `channels` matters for the rotary series only;
-// `legacy_rsx_rfx` for RSX-7900 / RFX-6900 (J§1.12 V10). Generic gives a
-// CiA 406 profile without family quirks.
-[[nodiscard]] FamilyProfile make_family_profile(canopen::DeviceFamily family, std::uint8_t channels = 1,
+// `legacy_rsx_rfx` for RSX-7900 / RFX-6900 (J§1.12 V10).
+[[nodiscard]] FamilyProfile make_family_profile(families::FamilyId family, std::uint8_t channels = 1,
                                                 bool legacy_rsx_rfx = false) noexcept;
 
 // From an EDS: the family from [Cobridge] Family, the channel count from the

@@ -23,6 +23,13 @@ bool Family::lists_product(std::uint32_t product) const noexcept {
 
 std::span<const Family* const> all() noexcept { return kFamilies; }
 
+const Family& family(FamilyId id) noexcept {
+  for (const Family* f : kFamilies) {
+    if (f->id == id) return *f;
+  }
+  return *kFamilies.front();  // unreachable: every FamilyId has its module
+}
+
 const Family* find_family(std::string_view name) noexcept {
   for (const Family* f : kFamilies) {
     if (f->name == name) return f;

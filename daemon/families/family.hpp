@@ -15,7 +15,15 @@
 #include <span>
 #include <string_view>
 
+#include "families/emcy_table.hpp"
+
 namespace cobridge::device::families {
+
+// The one identity of a family, for code that branches on it (a switch in
+// the configuration checks, the gateway, the simulator). Each Family names its
+// own; `family(id)` gives the facts back. A device no family knows has none
+// (a `const Family*` that is nullptr, or an empty optional).
+enum class FamilyId : std::uint8_t { novotechnik_rotary, novotechnik_multiturn, ifm_rm };
 
 // CiA 301 §7.5.2.13 object 0x1010: the 'save' signature, "save" read as an
 // UNSIGNED32 (J§1.6.1, E§11, F§6.3.3).
@@ -58,6 +66,7 @@ struct Addressing {
 };
 
 struct Family {
+  FamilyId id = FamilyId::novotechnik_rotary;
   std::string_view name;    // EDS [Cobridge] Family value, e.g. "novotechnik-rotary"
   std::string_view series;  // for messages: "rotary series"
   std::string_view manual;  // citation key: "J", "E", "F"
@@ -78,12 +87,16 @@ struct Family {
   std::span<const std::uint16_t> manual_objects;
   // 0x6000 bit 2 value that switches scaling on.
   bool scaling_on_bit_value = true;
+  // What the manual says its EMCY codes mean; nullptr when it lists none.
+  const EmcyTable* emcy = nullptr;
 
   [[nodiscard]] bool lists_product(std::uint32_t product) const noexcept;
 };
 
 // Every family, in a fixed order (rotary, multiturn, ifm).
 [[nodiscard]] std::span<const Family* const> all() noexcept;
+// The family of an identity.
+[[nodiscard]] const Family& family(FamilyId id) noexcept;
 // By EDS [Cobridge] Family name; nullptr if unknown.
 [[nodiscard]] const Family* find_family(std::string_view name) noexcept;
 // The family of a device identity (0x1018/1, 0x1018/2); nullptr if none.

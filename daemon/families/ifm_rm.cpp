@@ -37,6 +37,7 @@ constexpr std::array<std::uint16_t, 87> kManualObjects{
 }  // namespace
 
 const Family kIfmRm{
+    .id = FamilyId::ifm_rm,
     .name = "ifm-rm",
     .series = "ifm RM series",
     .manual = "F",
@@ -51,6 +52,7 @@ const Family kIfmRm{
     .store = StoreSubs{1, 1, 1},   // F§7.3: 0x1010 has sub 1 only
     .manual_objects = kManualObjects,
     .scaling_on_bit_value = true,  // F§7.5 SFC
+    .emcy = nullptr,               // F§4: no EMCY code table
 };
 
 }  // namespace cobridge::device::families

@@ -5,7 +5,8 @@
 // only (F§7.3); "save with reset" is 0x2300 written with 0x55AAAA55
 // (F§6.3.4); the product code is printed ambiguously ("0x43 0x41", F§7.3),
 // so devices are selected by vendor alone; factory node-ID 32 (F§5.3.1) at
-// 125 kbit/s (F§5.3.2).
+// 125 kbit/s (F§5.3.2). EMCY: one object (0x1014 writable, F§7.3) but no
+// code table (F§4), so only the CiA 301 texts apply (Family::emcy is nullptr).
 //
 // Thread contract: constants; any thread.
 #pragma once

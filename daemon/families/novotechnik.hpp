@@ -20,10 +20,26 @@ inline constexpr std::array<std::uint16_t, 6> kNovotechnikBitRates{50, 125, 250,
 // Factory node-ID (J§1.2.2, E§3.1); 250 kbit/s (ordering code _4) is cobridge-sim's choice.
 inline constexpr std::uint8_t kNovotechnikFactoryNodeId = 127;
 
+// Manufacturer EMCY codes of both families (J§1.8.1, E§9.1): a CAM state or
+// the work-area state changed; the frames carry the new 0x6300 / 0x6400 value.
+inline constexpr std::uint16_t kNovotechnikCamEmcy = 0x9080;
+inline constexpr std::uint16_t kNovotechnikWorkAreaEmcy = 0x9090;
+
+// What both manuals share of those frames: which of the two it is, and the
+// new state in byte 7 (J§1.8.1, E§9.1); each family adds its own bytes.
+[[nodiscard]] constexpr EmcyDetail novotechnik_emcy_detail(std::uint16_t code, const EmcyDetailBytes& b) noexcept {
+  EmcyDetail d;
+  if (code == kNovotechnikCamEmcy) d.kind = EmcyDetailKind::cam;
+  if (code == kNovotechnikWorkAreaEmcy) d.kind = EmcyDetailKind::work_area;
+  if (d.kind != EmcyDetailKind::none) d.state = b[4];
+  return d;
+}
+
 // A Novotechnik family: node-ID 0x2000 and bit rate 0x2001 in kbit/s (J§1.3.3,
 // E§4.3); node-ID and bit rate stored with 0x1010/4, communication with /2
 // (/1 resets the TPDO COB-IDs), application with /3 (J§1.10, E§11).
 struct NovotechnikFamily {
+  FamilyId id;
   std::string_view name;
   std::string_view series;
   std::string_view manual;
@@ -31,10 +47,12 @@ struct NovotechnikFamily {
   bool lss_fastscan;
   std::span<const std::uint16_t> manual_objects;
   bool scaling_on_bit_value;
+  const EmcyTable* emcy;
 };
 
 [[nodiscard]] constexpr Family novotechnik_family(const NovotechnikFamily& f) {
   Family out;
+  out.id = f.id;
   out.name = f.name;
   out.series = f.series;
   out.manual = f.manual;
@@ -47,6 +65,7 @@ struct NovotechnikFamily {
   out.store = StoreSubs{2, 3, 4};
   out.manual_objects = f.manual_objects;
   out.scaling_on_bit_value = f.scaling_on_bit_value;
+  out.emcy = f.emcy;
   return out;
 }
 

@@ -6,6 +6,9 @@
 // 0x6000 bit 2 CLEAR as E§5.3 prints it; the default TPDO1 mapping names
 // 0x6020/1 although the position object is 0x6004 (E§4.1, E§4.2);
 // node-ID and bit rate stored with 0x1010/4, communication with /2 (E§11).
+// EMCY (E§9.1): byte 2 (0/1/2) and byte 3 form a sub-code, not the CiA error
+// register, and every row has a level Info/Warn/Error/Hard that 0x2104
+// filters; the position reads a sentinel during some errors.
 //
 // Thread contract: constants; any thread.
 #pragma once
@@ -24,5 +27,17 @@ inline constexpr std::uint32_t kMc12800V02Product = 0x0BB9;
 inline constexpr std::uint32_t kMb13600V02Product = 0x0BBC;
 
 extern const Family kNovotechnikMultiturn;
+
+// E§9.1: the measuring-range code (position valid / out of range (+) / (-)).
+inline constexpr std::uint16_t kMultiturnMeasurementEmcy = 0x5051;
+// E§9.1: what the position reads while a row's error is active.
+inline constexpr std::int32_t kMultiturnErrorPosition = 0x7FFFFFFC;      // measurement/unknown/HW/ASIC/SW
+inline constexpr std::int32_t kMultiturnOverflowPosition = 0x7FFFFFF8;   // out of range (+)
+inline constexpr std::int32_t kMultiturnUnderflowPosition = -2147483640;  // 0x80000008, out of range (-)
+
+// E§9.1 0x9080: byte 4 the changed CAMs 1-4, byte 7 the CAM state bits.
+[[nodiscard]] EmcyDetailBytes multiturn_cam_emcy_bytes(std::uint8_t changed, std::uint8_t state) noexcept;
+// E§9.1 0x9090: byte 7 the work-area state.
+[[nodiscard]] EmcyDetailBytes multiturn_work_area_emcy_bytes(std::uint8_t state) noexcept;
 
 }  // namespace cobridge::device::families

@@ -41,9 +41,45 @@ constexpr std::array<std::uint16_t, 53> kManualObjects{
     0x6505, 0x6506, 0x6507,
 };
 
+std::uint16_t le16(const EmcyDetailBytes& b, std::size_t first) noexcept {
+  return static_cast<std::uint16_t>(b[first] | (b[first + 1] << 8));
+}
+
+// J§1.8.1, row by row. Byte 2 is the error register, so no row names it; the
+// 0x8110 rows differ in bytes 3-4 (1 overrun, 2 buffer overflow).
+constexpr std::array<EmcyRow, 9> kEmcyRows{{
+    {.code = 0x0000, .error_reset = true, .text = "sensor error reset, no error"},
+    {.code = 0x5000, .text = "sensor error (internal error bit set)"},
+    {.code = 0x6000, .text = "event timer value insufficient for the bit rate; TPDO1 sent only partially"},
+    {.code = 0x8110, .byte3 = 1, .byte4 = 0, .text = "CAN controller overflow, CAN overrun; data lost"},
+    {.code = 0x8110, .byte3 = 2, .byte4 = 0, .text = "CAN buffer overflow (CANopen library buffer full); data lost"},
+    {.code = 0x8120, .text = "CAN error passive"},
+    {.code = 0x8140, .text = "CAN recovered from bus-off"},
+    {.code = kNovotechnikCamEmcy, .text = "encoder CAM state changed (coded as 0x6300)"},
+    {.code = kNovotechnikWorkAreaEmcy, .text = "work area state changed (coded as 0x6400)"},
+}};
+
+constexpr std::array<ErrorPosition, 1> kErrorPositions{{
+    {kRotaryErrorPosition, "position or sensor error (J§1.8)"},
+}};
+
+// J§1.8.1: both frames name the channel in bytes 3-4; the CAM frame the CAMs in bytes 5-6.
+EmcyDetail emcy_detail(std::uint16_t code, const EmcyDetailBytes& b) noexcept {
+  EmcyDetail d = novotechnik_emcy_detail(code, b);
+  if (d.kind == EmcyDetailKind::none) return d;
+  d.channel = le16(b, 0);
+  if (d.kind == EmcyDetailKind::cam) d.cams = le16(b, 2);
+  return d;
+}
+
+// Byte 2 is the CiA error register (byte2_is_subcode false).
+constexpr EmcyTable kEmcy{
+    .source = "J§1.8.1", .rows = kEmcyRows, .error_positions = kErrorPositions, .detail = emcy_detail};
+
 }  // namespace
 
 const Family kNovotechnikRotary = novotechnik_family({
+    .id = FamilyId::novotechnik_rotary,
     .name = "novotechnik-rotary",
     .series = "rotary series",
     .manual = "J",
@@ -51,10 +87,20 @@ const Family kNovotechnikRotary = novotechnik_family({
     .lss_fastscan = false,  // DSP-305 V1.1.2 (digest Y.2)
     .manual_objects = kManualObjects,
     .scaling_on_bit_value = true,  // J§1.4.1
+    .emcy = &kEmcy,
 });
 
 bool is_legacy_rsx_rfx(std::uint32_t product) noexcept {
   return product == kRsx7900Product || product == kRfx6900Product;
+}
+
+EmcyDetailBytes rotary_cam_emcy_bytes(std::uint16_t channel, std::uint16_t cams, std::uint8_t state) noexcept {
+  return {static_cast<std::uint8_t>(channel & 0xFF), static_cast<std::uint8_t>(channel >> 8),
+          static_cast<std::uint8_t>(cams & 0xFF), static_cast<std::uint8_t>(cams >> 8), state};
+}
+
+EmcyDetailBytes rotary_work_area_emcy_bytes(std::uint16_t channel, std::uint8_t state) noexcept {
+  return {static_cast<std::uint8_t>(channel & 0xFF), static_cast<std::uint8_t>(channel >> 8), 0, 0, state};
 }
 
 }  // namespace cobridge::device::families

@@ -6,6 +6,10 @@
 // which stores them with /1 (J§1.6.1, J§1.12 V10); communication parameters
 // with /2 because /1 resets the TPDO COB-IDs (J§1.10); scaling on = 0x6000
 // bit 2 set (J§1.4.1); moving average in 0x6000 bits 14..12 (J§1.4.1).
+// EMCY (J§1.8.1): byte 2 is the CiA error register (1 while an error is
+// active); 0x8110 tells overrun from buffer overflow in bytes 3-4; the CAM and
+// work-area frames carry the channel in bytes 3-4, the CAMs in bytes 5-6 and
+// the new state in byte 7. The position reads 0x7FF0 during an error (J§1.8).
 //
 // Thread contract: constants; any thread.
 #pragma once
@@ -27,6 +31,15 @@ inline constexpr std::uint32_t kRfx6900Product = 0x0BE1;
 inline constexpr std::uint8_t kRotaryLegacyNodeIdStoreSub = 1;
 
 extern const Family kNovotechnikRotary;
+
+// J§1.8: the position value while a position or sensor error is active.
+inline constexpr std::int32_t kRotaryErrorPosition = 0x7FF0;
+
+// J§1.8.1 0x9080: bytes 3-4 channel, bytes 5-6 CAMs, byte 7 the new 0x6300 value.
+[[nodiscard]] EmcyDetailBytes rotary_cam_emcy_bytes(std::uint16_t channel, std::uint16_t cams,
+                                                    std::uint8_t state) noexcept;
+// J§1.8.1 0x9090: bytes 3-4 channel, byte 7 the new 0x6400 value.
+[[nodiscard]] EmcyDetailBytes rotary_work_area_emcy_bytes(std::uint16_t channel, std::uint8_t state) noexcept;
 
 // J§1.12 V10: the product runs the RSX-7900 / RFX-6900 firmware rules.
 [[nodiscard]] bool is_legacy_rsx_rfx(std::uint32_t product) noexcept;

@@ -20,7 +20,7 @@ void BusManager::Impl::check_configured_nodes(TimePoint now) {
   if (bus.discovery) return;
   for (auto& m : devices) {
     if (!m.in_config || m.st.node_id == 0 || m.runner) continue;
-    if (m.description == nullptr) supervisor.listen(m.st.node_id, canopen::DeviceFamily::generic);
+    if (m.description == nullptr) supervisor.listen(m.st.node_id, nullptr);
     request_identity(m, now, false);
   }
 }

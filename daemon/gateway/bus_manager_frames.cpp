@@ -219,7 +219,7 @@ void BusManager::Impl::on_nmt_state(Managed& m, canopen::NmtState nmt, TimePoint
   m.want_configure = true;
   m.attempts = 0;
   m.not_before = now;
-  supervisor.listen(m.st.node_id, m.profile ? m.profile->family : canopen::DeviceFamily::generic);
+  supervisor.listen(m.st.node_id, m.profile ? m.profile->family : nullptr);
   set_state(m, DeviceState::identified);
 }
 

@@ -99,7 +99,7 @@ struct PlanStep {
 struct ConfigPlan {
   std::string device;
   std::uint8_t node_id = 0;
-  canopen::DeviceFamily family = canopen::DeviceFamily::generic;
+  const device::families::Family* family = nullptr;
   config::StorePolicy store_policy = config::StorePolicy::on_change;
   std::vector<PlanStep> steps;
   // How the device is supervised after the plan (before any fallback).

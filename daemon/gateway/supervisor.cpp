@@ -1,6 +1,7 @@
 #include "gateway/supervisor.hpp"
 
 #include "canopen/cob_id.hpp"
+#include "device/emcy_meaning.hpp"
 
 #include <algorithm>
 
@@ -19,7 +20,7 @@ Supervisor::Supervisor() {
   changes_.reserve(32);
 }
 
-void Supervisor::watch(std::uint8_t node, canopen::DeviceFamily family, const Supervision& supervision,
+void Supervisor::watch(std::uint8_t node, const device::families::Family* family, const Supervision& supervision,
                        TimePoint now) {
   if (!canopen::cob::valid_node_id(node)) return;
   Node& n = nodes_[node];
@@ -52,7 +53,7 @@ void Supervisor::watch(std::uint8_t node, canopen::DeviceFamily family, const Su
   }
 }
 
-void Supervisor::listen(std::uint8_t node, canopen::DeviceFamily family) {
+void Supervisor::listen(std::uint8_t node, const device::families::Family* family) {
   if (!canopen::cob::valid_node_id(node)) return;
   Node& n = nodes_[node];
   heartbeat_.remove(node);
@@ -171,14 +172,14 @@ bool Supervisor::on_frame(const can::Frame& frame, TimePoint now) {
     if (!n.known) return false;
     const canopen::EmcyParse p = canopen::parse_emcy(frame);
     if (!p.ok()) return true;
-    const canopen::EmcyInfo info = canopen::classify(n.family, p.emcy);
+    const device::EmcyInfo info = device::classify_emcy(n.family, p.emcy);
     Change c;
     c.kind = ChangeKind::emcy;
     c.node = node;
     c.at = now;
     c.nmt = n.nmt;
     c.emcy_code = p.emcy.error_code;
-    c.emcy_text = canopen::describe(n.family, p.emcy);
+    c.emcy_text = device::describe_emcy(n.family, p.emcy);
     c.emcy_reset = info.error_reset;
     push(std::move(c));
     return true;

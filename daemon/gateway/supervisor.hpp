@@ -2,7 +2,7 @@
 // sees into changes of their DeviceStatus: heartbeat consumer (CiA 301
 // §7.2.8.3.2.2) or node guarding master (§7.2.8.3.2.1) per device, boot-up
 // messages (§7.2.8.3.3), and EMCY (§7.2.7) decoded with the device family's
-// table (canopen::describe).
+// table (device::describe_emcy: the family module's rows, else CiA 301).
 //
 // It wraps canopen::HeartbeatConsumer and canopen::NodeGuardMaster and adds
 // what they leave to the owner: a device that never sends its first heartbeat
@@ -22,6 +22,7 @@
 #include "canopen/heartbeat_consumer.hpp"
 #include "canopen/nmt.hpp"
 #include "canopen/node_guard.hpp"
+#include "families/family.hpp"
 #include "gateway/device_status.hpp"
 
 #include <array>
@@ -72,11 +73,11 @@ class Supervisor {
 
   // Start watching `node` (after it was configured and started, at `now`).
   // Replaces an earlier watch of the node.
-  void watch(std::uint8_t node, canopen::DeviceFamily family, const Supervision& supervision,
+  void watch(std::uint8_t node, const device::families::Family* family, const Supervision& supervision,
              canopen::TimePoint now);
   // EMCY and boot-up only (a device being configured: its heartbeat may not
   // run yet). watch() later upgrades it.
-  void listen(std::uint8_t node, canopen::DeviceFamily family);
+  void listen(std::uint8_t node, const device::families::Family* family);
   void unwatch(std::uint8_t node) noexcept;
   [[nodiscard]] bool watching(std::uint8_t node) const noexcept;
   [[nodiscard]] bool online(std::uint8_t node) const noexcept;
@@ -99,7 +100,7 @@ class Supervisor {
   struct Node {
     bool known = false;       // listen() or watch()
     bool watched = false;     // supervision running
-    canopen::DeviceFamily family = canopen::DeviceFamily::generic;
+    const device::families::Family* family = nullptr;  // nullptr: no family known, CiA 301 texts
     Supervision supervision;
     bool online = false;
     bool heard = false;       // a heartbeat / guarding reply since watch()

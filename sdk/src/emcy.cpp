@@ -1,31 +1,36 @@
-// The SDK's C face of canopen/emcy: family names as plugins see them, and
-// the classification of the daemon's own table (no second copy).
+// The SDK's C face of device/emcy_meaning: the family modules' own EMCY
+// tables (daemon/families) and the CiA 301 table (canopen/emcy), compiled
+// into libcobridge_sdk from the same sources as the daemon (no second copy).
 #include <cobridge/emcy.h>
 
+#include <array>
 #include <cstring>
 #include <string>
 #include <string_view>
 
-#include "canopen/emcy.hpp"
+#include "device/emcy_meaning.hpp"
+#include "families/family.hpp"
 
 namespace {
 
-using cobridge::canopen::DeviceFamily;
-using cobridge::canopen::EmcyLevel;
+namespace fam = cobridge::device::families;
+using fam::EmcyLevel;
 
 static_assert(static_cast<int>(EmcyLevel::info) == COBRIDGE_EMCY_LEVEL_INFO &&
                   static_cast<int>(EmcyLevel::warn) == COBRIDGE_EMCY_LEVEL_WARN &&
                   static_cast<int>(EmcyLevel::error) == COBRIDGE_EMCY_LEVEL_ERROR &&
                   static_cast<int>(EmcyLevel::hard) == COBRIDGE_EMCY_LEVEL_HARD,
-              "cobridge/emcy.h levels must equal canopen::EmcyLevel");
+              "cobridge/emcy.h levels must equal families::EmcyLevel");
 
-// The EDS [Cobridge] Family names, with '-' or '_'.
-DeviceFamily family_from_name(const char* family) noexcept {
-  const std::string_view f = family != nullptr ? family : "";
-  if (f == "novotechnik-rotary" || f == "novotechnik_rotary") return DeviceFamily::novotechnik_rotary;
-  if (f == "novotechnik-multiturn" || f == "novotechnik_multiturn") return DeviceFamily::novotechnik_multiturn;
-  if (f == "ifm-rm" || f == "ifm_rm") return DeviceFamily::ifm_rm;
-  return DeviceFamily::generic;
+// An EDS [Cobridge] Family name, with '-' or '_' (families::find_family
+// knows the '-' spelling); nullptr for NULL or an unknown name.
+const fam::Family* family_from_name(const char* family) noexcept {
+  if (family == nullptr) return nullptr;
+  std::array<char, 64> dashed{};
+  const std::size_t n = ::strnlen(family, dashed.size());
+  if (n == dashed.size()) return nullptr;  // longer than any family name
+  for (std::size_t i = 0; i < n; ++i) dashed[i] = family[i] == '_' ? '-' : family[i];
+  return fam::find_family(std::string_view(dashed.data(), n));
 }
 
 cobridge::canopen::Emcy make(uint16_t code, uint8_t reg, const uint8_t* manufacturer) noexcept {
@@ -41,7 +46,8 @@ cobridge::canopen::Emcy make(uint16_t code, uint8_t reg, const uint8_t* manufact
 extern "C" int cobridge_emcy_classify(const char* family, uint16_t error_code, uint8_t error_register,
                                       const uint8_t* manufacturer, cobridge_emcy_info* out) {
   if (out == nullptr) return -1;
-  const auto info = cobridge::canopen::classify(family_from_name(family), make(error_code, error_register, manufacturer));
+  const auto info =
+      cobridge::device::classify_emcy(family_from_name(family), make(error_code, error_register, manufacturer));
   out->text = info.text.data();
   out->text_len = info.text.size();
   out->source = info.source.data();
@@ -56,7 +62,7 @@ extern "C" size_t cobridge_emcy_describe(const char* family, uint16_t error_code
                                          const uint8_t* manufacturer, char* buf, size_t buf_len) {
   std::string line;
   try {
-    line = cobridge::canopen::describe(family_from_name(family), make(error_code, error_register, manufacturer));
+    line = cobridge::device::describe_emcy(family_from_name(family), make(error_code, error_register, manufacturer));
   } catch (...) {  // a C caller cannot take an exception (only bad_alloc is possible)
     line.clear();
   }

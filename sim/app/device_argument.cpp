@@ -12,7 +12,7 @@ namespace {
 
 std::string quoted(std::string_view s) { return "'" + std::string(s) + "'"; }
 
-std::string rate_list(Family family) {
+std::string rate_list(FamilyId family) {
   std::string out;
   for (const std::uint16_t r : family_bit_rates(family)) {
     if (!out.empty()) out += '|';
@@ -27,7 +27,7 @@ DeviceArgumentResult fail(std::string_view text, std::string message) {
 
 }  // namespace
 
-std::span<const std::uint16_t> family_bit_rates(Family family) noexcept {
+std::span<const std::uint16_t> family_bit_rates(FamilyId family) noexcept {
   return family_facts(family).addressing.bitrates;  // J§1.2.2, E§3.1, F§7.4 0x3001
 }
 
@@ -88,7 +88,7 @@ DeviceArgumentResult parse_device_argument(std::string_view text, ModelLookup lo
       }
     } else if (key == "channels") {
       const auto v = parse_unsigned(value, 0xFF);
-      if (model->family != Family::novotechnik_rotary) {
+      if (model->family != FamilyId::novotechnik_rotary) {
         if (!v || *v != 1) return fail(text, "channels: only the rotary series (J) has a 2-channel variant; allowed: 1");
       } else if (!v || (*v != 1 && *v != 2)) {
         return fail(text, "channels must be 1 or 2, got " + quoted(value));
@@ -113,7 +113,7 @@ DeviceArgumentResult parse_device_argument(std::string_view text, ModelLookup lo
       else if (value == "off") arg.spec.segmented_sdo = false;
       else return fail(text, "segmented must be on|off, got " + quoted(value));
     } else if (key == "c6") {
-      if (model->family != Family::ifm_rm) return fail(text, "c6 applies to ifm models only (F§7.3 TPDO2)");
+      if (model->family != FamilyId::ifm_rm) return fail(text, "c6 applies to ifm models only (F§7.3 TPDO2)");
       if (value == "on") arg.spec.ifm_c6 = true;
       else if (value == "off") arg.spec.ifm_c6 = false;
       else return fail(text, "c6 must be on|off, got " + quoted(value));

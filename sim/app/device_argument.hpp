@@ -38,7 +38,7 @@ struct DeviceArgumentResult {
 
 // Bit rates a family's devices can be ordered with (J§1.2.2, E§3.1: 50..1000;
 // F§7.4 0x3001: 20..1000), in kbit/s.
-[[nodiscard]] std::span<const std::uint16_t> family_bit_rates(Family family) noexcept;
+[[nodiscard]] std::span<const std::uint16_t> family_bit_rates(FamilyId family) noexcept;
 
 [[nodiscard]] std::string_view to_string(LssProfile profile) noexcept;
 

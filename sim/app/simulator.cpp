@@ -24,7 +24,7 @@ std::int64_t realtime_ns() noexcept {
 }
 
 std::string_view variant_of(const DeviceSpec& spec) {
-  if (spec.model->family != Family::novotechnik_rotary) return {};
+  if (spec.model->family != FamilyId::novotechnik_rotary) return {};
   return spec.channels == 2 ? "2ch" : "1ch";
 }
 

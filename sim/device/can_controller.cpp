@@ -81,9 +81,9 @@ std::uint32_t SimDevice::Impl::can_status_bits() const noexcept {
   unsigned bus_off = 0;
   unsigned timer = 0;
   switch (family) {
-    case Family::novotechnik_rotary: passive = 4; bus_off = 3; timer = 2; break;      // J§1.9.1
-    case Family::novotechnik_multiturn: passive = 16; bus_off = 17; timer = 18; break;  // E§10.1
-    case Family::ifm_rm: return 0;                                                     // F: no 0x1002
+    case FamilyId::novotechnik_rotary: passive = 4; bus_off = 3; timer = 2; break;      // J§1.9.1
+    case FamilyId::novotechnik_multiturn: passive = 16; bus_off = 17; timer = 18; break;  // E§10.1
+    case FamilyId::ifm_rm: return 0;                                                     // F: no 0x1002
   }
   switch (can_state) {
     case CanControllerState::error_active: return 0;
@@ -98,17 +98,17 @@ std::uint32_t SimDevice::Impl::can_status_bits() const noexcept {
 
 void SimDevice::Impl::send_can_emcy(std::uint16_t code) {
   switch (family) {
-    case Family::novotechnik_rotary:
+    case FamilyId::novotechnik_rotary:
       // J§1.8.1: register byte 1, bytes 3-7 zero.
-      send_emcy(canopen::Emcy{code, 1, {0, 0, 0, 0, 0}}, canopen::EmcyLevel::unspecified);
+      send_emcy(canopen::Emcy{code, 1, {0, 0, 0, 0, 0}}, device::families::EmcyLevel::unspecified);
       return;
-    case Family::novotechnik_multiturn:
+    case FamilyId::novotechnik_multiturn:
       // E§9.1: byte 2 is 0 in both rows, level Hard (never filtered by 0x2104).
-      send_emcy(canopen::Emcy{code, 0, {0, 0, 0, 0, 0}}, canopen::EmcyLevel::hard);
+      send_emcy(canopen::Emcy{code, 0, {0, 0, 0, 0, 0}}, device::families::EmcyLevel::hard);
       return;
-    case Family::ifm_rm:
+    case FamilyId::ifm_rm:
       // (ext) CiA 301 code with the device's error register (digest B.6).
-      send_emcy(canopen::Emcy{code, emcy.error_register(), {0, 0, 0, 0, 0}}, canopen::EmcyLevel::unspecified);
+      send_emcy(canopen::Emcy{code, emcy.error_register(), {0, 0, 0, 0, 0}}, device::families::EmcyLevel::unspecified);
       return;
   }
 }

@@ -8,28 +8,23 @@ namespace cobridge::sim {
 
 namespace {
 
-EncoderFamily to_encoder(Family f) noexcept {
-  // The encoder library mirrors the enumerators (position_pipeline.hpp).
-  return static_cast<EncoderFamily>(static_cast<std::uint8_t>(f));
-}
-
-WorkAreaRule rule_for(Family f) noexcept {
+WorkAreaRule rule_for(FamilyId f) noexcept {
   switch (f) {
-    case Family::novotechnik_rotary: return WorkAreaRule::rotary;
-    case Family::novotechnik_multiturn: return WorkAreaRule::multiturn;
-    case Family::ifm_rm: return WorkAreaRule::ifm;
+    case FamilyId::novotechnik_rotary: return WorkAreaRule::rotary;
+    case FamilyId::novotechnik_multiturn: return WorkAreaRule::multiturn;
+    case FamilyId::ifm_rm: return WorkAreaRule::ifm;
   }
   return WorkAreaRule::rotary;
 }
 
 }  // namespace
 
-void EncoderFrontEnd::set_family(Family family, Resolution physical) noexcept {
+void EncoderFrontEnd::set_family(FamilyId family, Resolution physical) noexcept {
   family_ = family;
   physical_ = physical;
   for (Channel& c : channels_) {
-    c.pipeline.emplace(PositionSettings::defaults(to_encoder(family), physical));
-    c.cams = CamBank(family == Family::ifm_rm ? 8 : 4);
+    c.pipeline.emplace(PositionSettings::defaults(family, physical));
+    c.cams = CamBank(family == FamilyId::ifm_rm ? 8 : 4);
     c.work_area.emplace(rule_for(family));
   }
 }

@@ -21,7 +21,6 @@
 #include "encoder/position_pipeline.hpp"
 #include "encoder/work_area.hpp"
 
-// Family is declared in sim_device.hpp; only its name is needed here.
 #include "device/sim_device.hpp"
 
 namespace cobridge::sim {
@@ -76,7 +75,7 @@ class EncoderFrontEnd {
   static constexpr int kMaxChannels = 2;
 
   // `physical` comes from 0x6501/0x6502 of the device's dictionary.
-  void set_family(Family family, Resolution physical) noexcept;
+  void set_family(FamilyId family, Resolution physical) noexcept;
   // Motion grammar of encoder/motion.hpp. The shaft keeps its time origin
   // across power cycles (an absolute encoder sees where the shaft went).
   [[nodiscard]] std::error_code set_motion(std::string_view spec, TimePoint now);
@@ -108,7 +107,7 @@ class EncoderFrontEnd {
   };
   [[nodiscard]] double seconds(TimePoint now) const noexcept;
 
-  Family family_ = Family::novotechnik_rotary;
+  FamilyId family_ = FamilyId::novotechnik_rotary;
   Resolution physical_{};
   Motion motion_{};
   bool started_ = false;

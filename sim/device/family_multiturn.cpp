@@ -11,6 +11,8 @@
 #include <optional>
 
 #include "canopen/emcy.hpp"
+#include "families/novotechnik.hpp"
+#include "families/novotechnik_multiturn.hpp"
 #include "device/sim_device_impl.hpp"
 
 namespace cobridge::sim {
@@ -18,7 +20,7 @@ namespace cobridge::sim {
 namespace {
 
 using canopen::Emcy;
-using canopen::EmcyLevel;
+using device::families::EmcyLevel;
 
 constexpr std::int16_t kNominalTemperature = 350;  // 35.0 degC internal
 constexpr std::uint16_t kNominalVoltage = 240;     // 24.0 V
@@ -165,11 +167,11 @@ void SimDevice::Impl::multiturn_publish(ChannelSample& s, const ChannelSample& b
   // Injected range errors force the E§9.1 values; a measurement / hardware
   // error comes from the pipeline (0x7FFFFFFC) like the range of the motion.
   if (!s.error_value && over_range_latched) {
-    s.position_bits = static_cast<std::uint32_t>(canopen::kMultiturnOverflowPosition);
+    s.position_bits = static_cast<std::uint32_t>(device::families::kMultiturnOverflowPosition);
     s.speed = 0;
     s.error_value = true;
   } else if (!s.error_value && under_range_latched) {
-    s.position_bits = static_cast<std::uint32_t>(canopen::kMultiturnUnderflowPosition);
+    s.position_bits = static_cast<std::uint32_t>(device::families::kMultiturnUnderflowPosition);
     s.speed = 0;
     s.error_value = true;
   }
@@ -208,9 +210,13 @@ void SimDevice::Impl::multiturn_publish(ChannelSample& s, const ChannelSample& b
     }
   }
   if (s.cams != before.cams)
-    send_emcy(canopen::multiturn_cam_emcy(static_cast<std::uint8_t>(s.cams ^ before.cams), s.cams), EmcyLevel::warn);
+    send_emcy(Emcy{device::families::kNovotechnikCamEmcy, 1,
+                   device::families::multiturn_cam_emcy_bytes(static_cast<std::uint8_t>(s.cams ^ before.cams), s.cams)},
+              EmcyLevel::warn);
   if (s.work_area != before.work_area)
-    send_emcy(canopen::multiturn_work_area_emcy(s.work_area), EmcyLevel::warn);
+    send_emcy(Emcy{device::families::kNovotechnikWorkAreaEmcy, 1,
+                   device::families::multiturn_work_area_emcy_bytes(s.work_area)},
+              EmcyLevel::warn);
 }
 
 void SimDevice::Impl::multiturn_fault(FaultKind fault, TimePoint now) {

@@ -6,10 +6,14 @@
 #include <algorithm>
 
 #include "canopen/emcy.hpp"
+#include "families/novotechnik.hpp"
+#include "families/novotechnik_rotary.hpp"
 #include "device/sim_device_impl.hpp"
 #include "device/storage.hpp"
 
 namespace cobridge::sim {
+
+namespace fam = device::families;
 
 namespace {
 
@@ -96,10 +100,12 @@ void SimDevice::Impl::rotary_publish(std::size_t ch, ChannelSample& s, const Cha
   if (first) return;
   if (s.cams != before.cams) {
     const auto changed = static_cast<std::uint16_t>(s.cams ^ before.cams);
-    send_emcy(canopen::rotary_cam_emcy(sub, changed, s.cams), canopen::EmcyLevel::unspecified);
+    send_emcy(canopen::Emcy{fam::kNovotechnikCamEmcy, 1, fam::rotary_cam_emcy_bytes(sub, changed, s.cams)},
+              fam::EmcyLevel::unspecified);
   }
   if (s.work_area != before.work_area)
-    send_emcy(canopen::rotary_work_area_emcy(sub, s.work_area), canopen::EmcyLevel::unspecified);
+    send_emcy(canopen::Emcy{fam::kNovotechnikWorkAreaEmcy, 1, fam::rotary_work_area_emcy_bytes(sub, s.work_area)},
+              fam::EmcyLevel::unspecified);
 }
 
 void SimDevice::Impl::rotary_fault(FaultKind fault, TimePoint now) {
@@ -113,13 +119,13 @@ void SimDevice::Impl::rotary_fault(FaultKind fault, TimePoint now) {
         const bool was_active = faults != 0;
         faults |= fault_bit(fault);
         encoder.set_measurement_error(true);
-        if (!was_active) send_emcy(kSensorError, canopen::EmcyLevel::unspecified);
+        if (!was_active) send_emcy(kSensorError, fam::EmcyLevel::unspecified);
       }
       return;
     case FaultKind::channel_disagreement:
       // J§1.9.2 alarm bit 0 exists on 2-channel sensors only.
       if (channels < 2 || (faults & fault_bit(fault)) != 0) return;
-      if (faults == 0) send_emcy(kSensorError, canopen::EmcyLevel::unspecified);
+      if (faults == 0) send_emcy(kSensorError, fam::EmcyLevel::unspecified);
       faults |= fault_bit(fault);
       return;
     case FaultKind::clear:
@@ -127,7 +133,7 @@ void SimDevice::Impl::rotary_fault(FaultKind fault, TimePoint now) {
       faults = 0;
       encoder.set_measurement_error(false);
       // J§1.8.1: when the internal error bit returns to 0, EMCY 0x0000.
-      send_emcy(canopen::Emcy{}, canopen::EmcyLevel::unspecified);
+      send_emcy(canopen::Emcy{}, fam::EmcyLevel::unspecified);
       return;
     default:
       return;  // J has no temperature or supply-voltage diagnostics

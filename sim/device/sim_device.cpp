@@ -47,16 +47,16 @@ bool is_writable(const canopen::ObjectDictionary& od, std::uint16_t index, std::
   return info && info->access == canopen::Access::kRw;
 }
 
-canopen::LssSlaveFeatures lss_features(const DeviceSpec& spec, Family family) {
+canopen::LssSlaveFeatures lss_features(const DeviceSpec& spec, FamilyId family) {
   LssProfile p = spec.lss;
-  if (p == LssProfile::family_default) p = family == Family::novotechnik_rotary ? LssProfile::v1 : LssProfile::v3;
+  if (p == LssProfile::family_default) p = family == FamilyId::novotechnik_rotary ? LssProfile::v1 : LssProfile::v3;
   canopen::LssSlaveFeatures f =
       p == LssProfile::v1 ? canopen::LssSlaveFeatures::rotary_j() : canopen::LssSlaveFeatures::multiturn_e();
   if (!spec.lss_fastscan) f.fastscan = false;
   f.node_id_assignment = spec.assign;
   // ifm: CiA table rates it can run at (F§7.4 minus 100 kbit/s, which the
   // CiA 305 table does not have): 1000, 800, 500, 250, 125, 50, 20.
-  if (family == Family::ifm_rm) f.bit_timings = 0x00DF;
+  if (family == FamilyId::ifm_rm) f.bit_timings = 0x00DF;
   return f;
 }
 
@@ -130,7 +130,7 @@ SimDevice::Impl::Impl(DeviceSpec spec_in, const device::DeviceDescription& descr
   tx.device = this;
   factory_node = spec.node_id == 0 ? model.factory_node_id : spec.node_id;
   factory_kbit = spec.bitrate_kbit != 0 ? spec.bitrate_kbit : model.factory_bitrate_kbit;
-  if (const device::ObjectDesc* ch = desc.find(0x6020, 0); ch != nullptr && family == Family::novotechnik_rotary)
+  if (const device::ObjectDesc* ch = desc.find(0x6020, 0); ch != nullptr && family == FamilyId::novotechnik_rotary)
     channels = static_cast<std::uint8_t>(std::clamp<std::uint64_t>(ch->default_for_node(0).value_or(1), 1, 2));
   guard.set_callback([this](canopen::GuardResponder::EventKind kind, TimePoint) {
     family_life_guarding(kind == canopen::GuardResponder::EventKind::life_guarding_lost);
@@ -196,7 +196,7 @@ void SimDevice::Impl::emit_truth(const can::Frame& frame, TruthRecord::Kind kind
   truth(r);
 }
 
-void SimDevice::Impl::send_emcy(const canopen::Emcy& e, canopen::EmcyLevel level) noexcept {
+void SimDevice::Impl::send_emcy(const canopen::Emcy& e, device::families::EmcyLevel level) noexcept {
   if (!nmt.allows(canopen::NmtService::emcy)) return;
   (void)emcy.send(e, level, now_cache);
 }
@@ -269,8 +269,8 @@ std::error_code SimDevice::Impl::build_od(std::string& message) {
     const auto current = od->get_string(0x1008, 0);
     if (!current || current->empty()) (void)od->set_string(0x1008, 0, model.name);
   }
-  if (od->contains(0x1009, 0)) (void)od->set_string(0x1009, 0, family == Family::ifm_rm ? "1.0" : "V 1.00");
-  if (od->contains(0x100A, 0)) (void)od->set_string(0x100A, 0, family == Family::ifm_rm ? "1.0" : "V 1.03");
+  if (od->contains(0x1009, 0)) (void)od->set_string(0x1009, 0, family == FamilyId::ifm_rm ? "1.0" : "V 1.00");
+  if (od->contains(0x100A, 0)) (void)od->set_string(0x100A, 0, family == FamilyId::ifm_rm ? "1.0" : "V 1.03");
   install_hooks();
   return {};
 }
@@ -288,7 +288,7 @@ void SimDevice::Impl::install_hooks() {
     previous = e.index;
     (void)od->set_hooks(e.index, hooks);
   }
-  if (family == Family::novotechnik_multiturn && od->contains(0x6020, 1)) (void)od->set_hooks(0x6020, hooks);
+  if (family == FamilyId::novotechnik_multiturn && od->contains(0x6020, 1)) (void)od->set_hooks(0x6020, hooks);
 }
 
 template <typename Select>
@@ -303,7 +303,7 @@ void SimDevice::Impl::load_parameters(Select select, const NvImage* image) {
       if (const auto stored = image->get(e.index, e.sub)) v = *stored;
     (void)set_raw(*od, e.index, e.sub, v);
   }
-  if (family == Family::ifm_rm) ifm_mirror_event_timer();
+  if (family == FamilyId::ifm_rm) ifm_mirror_event_timer();
 }
 
 std::error_code SimDevice::Impl::persist(std::string& message) const { return nv.save(nv_data, message); }
@@ -329,8 +329,8 @@ std::uint32_t SimDevice::Impl::save(std::uint8_t store_sub) {
   }
   // The preset's effect is an offset the device keeps with it (CiA 406
   // 0x6509); without it a stored preset would mean nothing after power-up.
-  const std::uint16_t preset_index = family == Family::novotechnik_rotary ? 0x6010 : 0x6003;
-  const auto preset_sub = static_cast<std::uint8_t>(family == Family::novotechnik_rotary ? 1 : 0);
+  const std::uint16_t preset_index = family == FamilyId::novotechnik_rotary ? 0x6010 : 0x6003;
+  const auto preset_sub = static_cast<std::uint8_t>(family == FamilyId::novotechnik_rotary ? 1 : 0);
   if (store_coverage(family, model.legacy_rsx_rfx, store_sub, preset_index, preset_sub) == Coverage::value) {
     for (std::size_t ch = 0; ch < channels; ++ch)
       nv_data.params.set(kOffsetKeyIndex, static_cast<std::uint8_t>(kOffsetKeySub + ch),
@@ -343,7 +343,7 @@ std::uint32_t SimDevice::Impl::save(std::uint8_t store_sub) {
 }
 
 std::uint32_t SimDevice::Impl::load(std::uint8_t store_sub) {
-  if (family == Family::ifm_rm) {
+  if (family == FamilyId::ifm_rm) {
     // F§6.3.5: factory settings, active only after a reset; EEPROM untouched.
     ifm_defaults_pending = true;
     return 0;
@@ -368,8 +368,8 @@ std::uint32_t SimDevice::Impl::kill(std::uint8_t store_sub) {
   legacy_kill = true;
   load_parameters(covered, nullptr);
   legacy_kill = false;
-  const std::uint16_t preset_index = family == Family::novotechnik_rotary ? 0x6010 : 0x6003;
-  const auto preset_sub = static_cast<std::uint8_t>(family == Family::novotechnik_rotary ? 1 : 0);
+  const std::uint16_t preset_index = family == FamilyId::novotechnik_rotary ? 0x6010 : 0x6003;
+  const auto preset_sub = static_cast<std::uint8_t>(family == FamilyId::novotechnik_rotary ? 1 : 0);
   if (store_coverage(family, model.legacy_rsx_rfx, store_sub, preset_index, preset_sub) != Coverage::none) {
     for (std::size_t ch = 0; ch < channels; ++ch)
       nv_data.params.erase(kOffsetKeyIndex, static_cast<std::uint8_t>(kOffsetKeySub + ch));
@@ -386,7 +386,7 @@ std::uint8_t SimDevice::Impl::node_from_od() const noexcept {
 }
 
 std::uint16_t SimDevice::Impl::kbit_from_od() const noexcept {
-  if (family == Family::ifm_rm) return ifm_kbit(od->get_u8(0x3001, 0).value_or(3));
+  if (family == FamilyId::ifm_rm) return ifm_kbit(od->get_u8(0x3001, 0).value_or(3));
   return od->get_u16(0x2001, 0).value_or(factory_kbit);
 }
 
@@ -396,7 +396,7 @@ void SimDevice::Impl::node_to_od(std::uint8_t node) noexcept {
 }
 
 void SimDevice::Impl::kbit_to_od(std::uint16_t kbit) noexcept {
-  if (family == Family::ifm_rm) {
+  if (family == FamilyId::ifm_rm) {
     if (const auto i = ifm_index_for_kbit(kbit)) (void)od->set_u8(0x3001, 0, *i);
   } else {
     (void)od->set_u16(0x2001, 0, kbit);
@@ -407,7 +407,7 @@ bool SimDevice::Impl::scaling_active() const noexcept {
   const std::uint64_t op = od->get_raw(0x6000, 0).value_or(0);
   const bool bit = (op & 0x04U) != 0;
   // J§1.4.1 and F§7.5 SFC: 1 = on. E§5.3 as printed: 0 = on (digest D).
-  return family == Family::novotechnik_multiturn ? !bit : bit;
+  return family == FamilyId::novotechnik_multiturn ? !bit : bit;
 }
 
 std::int64_t SimDevice::Impl::get_int(std::uint16_t index, std::uint8_t sub) const noexcept {
@@ -434,7 +434,7 @@ void SimDevice::Impl::configure_encoder() {
     c.total = static_cast<std::uint32_t>(od->get_raw(0x6002, 0).value_or(0));
     c.position_filter = od->get_u8(0x2010, 1).value_or(0);
     c.speed_integration_ms = od->get_u16(0x6031, 2).value_or(1);
-    if (family == Family::ifm_rm) {
+    if (family == FamilyId::ifm_rm) {
       const std::uint16_t op = od->get_u16(0x2100, 0).value_or(0);
       c.speed_enabled = od->get_u8(0x3010, 1).value_or(0) != 0;
       c.speed_mode = od->get_u8(0x3010, 2).value_or(0);
@@ -443,7 +443,7 @@ void SimDevice::Impl::configure_encoder() {
       c.limit_min = od->get_u32(0x2104, 0).value_or(0);
       c.limit_max = od->get_u32(0x2105, 0).value_or(0);
     }
-    c.cams.count = family == Family::ifm_rm ? 8 : 4;
+    c.cams.count = family == FamilyId::ifm_rm ? 8 : 4;
     c.cams.enable = od->get_u8(0x6301, s).value_or(0);
     c.cams.polarity = od->get_u8(0x6302, s).value_or(0);
     for (std::uint8_t k = 0; k < c.cams.count; ++k) {
@@ -454,7 +454,7 @@ void SimDevice::Impl::configure_encoder() {
     c.has_work_area = od->contains(0x6400, s);
     c.work_area.low = get_int(0x6401, s);
     c.work_area.high = get_int(0x6402, s);
-    if (family == Family::novotechnik_rotary) {
+    if (family == FamilyId::novotechnik_rotary) {
       // J§1.4.6.1: bit 0 for "position <= preset or >= sensor length".
       c.work_area.range_min = get_int(0x6010, s);
       c.work_area.range_max = c.total != 0 ? c.total : 0x4000;
@@ -469,8 +469,8 @@ void SimDevice::Impl::configure_encoder() {
 void SimDevice::Impl::restore_offsets(const NvImage* image) {
   for (std::size_t ch = 0; ch < channels; ++ch) {
     const auto key_sub = static_cast<std::uint8_t>(kOffsetKeySub + ch);
-    const std::uint16_t preset_index = family == Family::novotechnik_rotary ? 0x6010 : 0x6003;
-    const auto preset_sub = static_cast<std::uint8_t>(family == Family::novotechnik_rotary ? ch + 1 : 0);
+    const std::uint16_t preset_index = family == FamilyId::novotechnik_rotary ? 0x6010 : 0x6003;
+    const auto preset_sub = static_cast<std::uint8_t>(family == FamilyId::novotechnik_rotary ? ch + 1 : 0);
     std::int64_t off = 0;
     if (image != nullptr)
       if (const auto v = image->get(kOffsetKeyIndex, key_sub)) off = static_cast<std::int64_t>(*v);
@@ -496,7 +496,7 @@ std::uint32_t SimDevice::Impl::on_write(const canopen::WriteRequest& req) {
     const std::uint8_t subs = store_sub_count(family);
     if (req.index == kStore) {
       if (value == kSignatureSave) return req.sub <= subs ? save(req.sub) : 0;  // sub 5: "do not use", no-op
-      if (value == kSignatureKill && family != Family::ifm_rm && req.sub <= subs) return kill(req.sub);
+      if (value == kSignatureKill && family != FamilyId::ifm_rm && req.sub <= subs) return kill(req.sub);
       return kCannotStore;
     }
     if (value == kSignatureLoad && req.sub <= subs) {
@@ -521,7 +521,7 @@ void SimDevice::Impl::after_write(std::uint16_t index, std::uint8_t sub) {
     (void)od->set_u32(index, sub, 0);
     if (index == kRestore || index == kStore) {
       configure_encoder();
-      if (family == Family::novotechnik_multiturn) condition_configure();
+      if (family == FamilyId::novotechnik_multiturn) condition_configure();
       for (std::size_t i = 0; i < 2; ++i) reconfigure_tpdo(i, now);
       configure_guard();
       restart_heartbeat(now);
@@ -537,7 +537,7 @@ void SimDevice::Impl::after_write(std::uint16_t index, std::uint8_t sub) {
     case kGuardTime: case kLifeTimeFactor: configure_guard(); return;
     case kNmtStartup: nmt.set_autostart((od->get_u32(kNmtStartup, 0).value_or(0) & kAutostartBit) != 0); return;
     case 0x2000: case 0x2001:
-      if (family != Family::ifm_rm) {
+      if (family != FamilyId::ifm_rm) {
         pending_node = node_from_od();
         pending_kbit = kbit_from_od();
         return;
@@ -547,7 +547,7 @@ void SimDevice::Impl::after_write(std::uint16_t index, std::uint8_t sub) {
   }
   family_after_write(index, sub);
   if ((index >= 0x6000 && index < 0x7000) || index == 0x2010 || index == 0x3010) configure_encoder();
-  if (family == Family::novotechnik_multiturn && index >= 0x2300 && index < 0x2400) condition_configure();
+  if (family == FamilyId::novotechnik_multiturn && index >= 0x2300 && index < 0x2400) condition_configure();
 }
 
 std::uint32_t SimDevice::Impl::check_tpdo_write(const canopen::WriteRequest& req) {
@@ -569,7 +569,7 @@ std::uint32_t SimDevice::Impl::check_tpdo_write(const canopen::WriteRequest& req
   if (req.sub == 2) {
     const bool sync = v >= 1 && v <= 240;
     bool ok = false;
-    if (family == Family::ifm_rm) {
+    if (family == FamilyId::ifm_rm) {
       ok = v == 0 || sync || v >= 252;  // F§7.3 transmission-type table
     } else if (i == 0) {
       ok = v == 0 || sync || v == 254 || v == 255;  // J§1.3.1, E§4.1
@@ -589,8 +589,8 @@ std::uint32_t SimDevice::Impl::check_mapping_write(const canopen::WriteRequest& 
   // manuals list only 0x08000022 for a refusal of this kind. E also wants
   // pre-operational.
   if ((od->get_u32(comm, 1).value_or(0) & Tpdo::kInvalid) == 0) return kCannotStoreDeviceState;
-  if (family == Family::novotechnik_multiturn && !pre_operational()) return kCannotStoreDeviceState;
-  const std::size_t max_entries = family == Family::ifm_rm ? 2 : canopen::kNovotechnikMaxPdoEntries;
+  if (family == FamilyId::novotechnik_multiturn && !pre_operational()) return kCannotStoreDeviceState;
+  const std::size_t max_entries = family == FamilyId::ifm_rm ? 2 : canopen::kNovotechnikMaxPdoEntries;
   if (req.sub == 0) {
     const std::uint64_t n = req.as_unsigned();
     if (n > max_entries) return 0x06040042;  // CiA 301: number / length of mapped objects exceeded
@@ -646,14 +646,14 @@ std::error_code SimDevice::Impl::power_on(TimePoint now) {
   if (lss) lss->set_store_handler([this](const canopen::LssSlave& s) { return lss_store(s); });
   emcy.attach(od.get(), &Impl::emcy_thunk, this);
 
-  const bool novotechnik = family != Family::ifm_rm;
+  const bool novotechnik = family != FamilyId::ifm_rm;
   TpdoPolicy policy;
   policy.type0_off = novotechnik;
   policy.type255_every_cycle = novotechnik;
   policy.on_change = !novotechnik;
   policy.rtr = !novotechnik;
   for (auto& t : tpdo) t.set_policy(policy);
-  tpdo_present = {true, family != Family::ifm_rm || spec.ifm_c6};
+  tpdo_present = {true, family != FamilyId::ifm_rm || spec.ifm_c6};
 
   faults = 0;
   over_range_latched = under_range_latched = false;
@@ -672,7 +672,7 @@ std::error_code SimDevice::Impl::power_on(TimePoint now) {
   first_measure = true;
   configure_encoder();
   restore_offsets(&nv_data.params);
-  if (family == Family::novotechnik_multiturn) condition_power_up(now);
+  if (family == FamilyId::novotechnik_multiturn) condition_power_up(now);
   // The first measuring cycle runs before the boot-up, so the position
   // objects hold a real value from the first SDO read on.
   measure(now);
@@ -748,7 +748,7 @@ void SimDevice::Impl::reset_node(TimePoint now) {
   const NvImage* image = ifm_defaults_pending ? nullptr : &nv_data.params;
   ifm_defaults_pending = false;
   load_parameters([](const device::ObjectDesc&) { return true; }, image);
-  if (family != Family::ifm_rm || !nv_data.params.get(0x3000, 0)) {
+  if (family != FamilyId::ifm_rm || !nv_data.params.get(0x3000, 0)) {
     pending_node = node;
     pending_kbit = kbit;
   } else {
@@ -793,7 +793,7 @@ canopen::LssStoreError SimDevice::Impl::lss_store(const canopen::LssSlave& s) {
   nv_data.params.set(a.node_id_index, 0, node_value(a, node));
   if (const auto bt = s.pending_bit_timing()) {
     const std::uint16_t kbit = canopen::lss_bit_rate_kbit(*bt);
-    if (family == Family::ifm_rm) {
+    if (family == FamilyId::ifm_rm) {
       if (const auto i = ifm_index_for_kbit(kbit)) nv_data.params.set(0x3001, 0, *i);
     } else {
       nv_data.params.set(0x2001, 0, kbit);
@@ -1031,7 +1031,7 @@ void SimDevice::Impl::measure(TimePoint now) {
     last[ch] = s;
   }
   first_measure = false;
-  if (family == Family::novotechnik_multiturn) condition_cycle(last[0], now);
+  if (family == FamilyId::novotechnik_multiturn) condition_cycle(last[0], now);
   for (std::size_t i = 0; i < 2; ++i)
     if (tpdo_present[i]) tpdo[i].on_measure(now, changed);
 }
@@ -1048,54 +1048,54 @@ void SimDevice::Impl::inject(FaultKind fault, TimePoint now) {
 
 void SimDevice::Impl::family_factory() {
   switch (family) {
-    case Family::novotechnik_rotary: rotary_factory(); break;
-    case Family::novotechnik_multiturn: multiturn_factory(); break;
-    case Family::ifm_rm: ifm_factory(); break;
+    case FamilyId::novotechnik_rotary: rotary_factory(); break;
+    case FamilyId::novotechnik_multiturn: multiturn_factory(); break;
+    case FamilyId::ifm_rm: ifm_factory(); break;
   }
 }
 
 void SimDevice::Impl::family_adjust(canopen::EntryDef& def) const {
   switch (family) {
-    case Family::novotechnik_rotary: rotary_adjust(def); break;
-    case Family::novotechnik_multiturn: break;
-    case Family::ifm_rm: ifm_adjust(def); break;
+    case FamilyId::novotechnik_rotary: rotary_adjust(def); break;
+    case FamilyId::novotechnik_multiturn: break;
+    case FamilyId::ifm_rm: ifm_adjust(def); break;
   }
 }
 
 void SimDevice::Impl::family_extras() {
-  if (family == Family::novotechnik_multiturn) multiturn_extras();
+  if (family == FamilyId::novotechnik_multiturn) multiturn_extras();
 }
 
 std::uint32_t SimDevice::Impl::family_on_write(const canopen::WriteRequest& req) {
   switch (family) {
-    case Family::novotechnik_rotary: return rotary_on_write(req);
-    case Family::novotechnik_multiturn: return multiturn_on_write(req);
-    case Family::ifm_rm: return ifm_on_write(req);
+    case FamilyId::novotechnik_rotary: return rotary_on_write(req);
+    case FamilyId::novotechnik_multiturn: return multiturn_on_write(req);
+    case FamilyId::ifm_rm: return ifm_on_write(req);
   }
   return 0;
 }
 
 void SimDevice::Impl::family_after_write(std::uint16_t index, std::uint8_t sub) {
   switch (family) {
-    case Family::novotechnik_rotary: rotary_after_write(index, sub); break;
-    case Family::novotechnik_multiturn: multiturn_after_write(index, sub); break;
-    case Family::ifm_rm: ifm_after_write(index, sub); break;
+    case FamilyId::novotechnik_rotary: rotary_after_write(index, sub); break;
+    case FamilyId::novotechnik_multiturn: multiturn_after_write(index, sub); break;
+    case FamilyId::ifm_rm: ifm_after_write(index, sub); break;
   }
 }
 
 void SimDevice::Impl::family_publish(std::size_t ch, ChannelSample& s, const ChannelSample& before, bool first) {
   switch (family) {
-    case Family::novotechnik_rotary: rotary_publish(ch, s, before, first); break;
-    case Family::novotechnik_multiturn: multiturn_publish(s, before, first); break;
-    case Family::ifm_rm: ifm_publish(s, before, first); break;
+    case FamilyId::novotechnik_rotary: rotary_publish(ch, s, before, first); break;
+    case FamilyId::novotechnik_multiturn: multiturn_publish(s, before, first); break;
+    case FamilyId::ifm_rm: ifm_publish(s, before, first); break;
   }
 }
 
 void SimDevice::Impl::family_fault(FaultKind fault, TimePoint now) {
   switch (family) {
-    case Family::novotechnik_rotary: rotary_fault(fault, now); break;
-    case Family::novotechnik_multiturn: multiturn_fault(fault, now); break;
-    case Family::ifm_rm: ifm_fault(fault, now); break;
+    case FamilyId::novotechnik_rotary: rotary_fault(fault, now); break;
+    case FamilyId::novotechnik_multiturn: multiturn_fault(fault, now); break;
+    case FamilyId::ifm_rm: ifm_fault(fault, now); break;
   }
 }
 
@@ -1103,18 +1103,18 @@ void SimDevice::Impl::family_life_guarding(bool lost) {
   if (lost == life_guarding_lost) return;
   life_guarding_lost = lost;
   switch (family) {
-    case Family::novotechnik_rotary: break;  // J documents no reaction and no EMCY
-    case Family::novotechnik_multiturn: multiturn_life_guarding(lost); break;
-    case Family::ifm_rm: ifm_life_guarding(lost); break;
+    case FamilyId::novotechnik_rotary: break;  // J documents no reaction and no EMCY
+    case FamilyId::novotechnik_multiturn: multiturn_life_guarding(lost); break;
+    case FamilyId::ifm_rm: ifm_life_guarding(lost); break;
   }
   refresh_status();
 }
 
 void SimDevice::Impl::family_status() noexcept {
   switch (family) {
-    case Family::novotechnik_rotary: rotary_status(); break;
-    case Family::novotechnik_multiturn: multiturn_status(); break;
-    case Family::ifm_rm: break;  // F: no 0x1002, 0x6503, 0x6505
+    case FamilyId::novotechnik_rotary: rotary_status(); break;
+    case FamilyId::novotechnik_multiturn: multiturn_status(); break;
+    case FamilyId::ifm_rm: break;  // F: no 0x1002, 0x6503, 0x6505
   }
 }
 

@@ -41,12 +41,12 @@ namespace cobridge::sim {
 
 using canopen::TimePoint;
 
-enum class Family : std::uint8_t { novotechnik_rotary, novotechnik_multiturn, ifm_rm };
+using device::families::FamilyId;
 
 // One row of the model table (sim_models.cpp): what `--device MODEL` means.
 struct ModelInfo {
   std::string_view name;        // "RFC-4800", "MC1-2800", "RM9000", ...
-  Family family;
+  FamilyId family;
   std::uint32_t vendor;         // 0x1018/1
   std::uint32_t product;        // 0x1018/2
   std::uint8_t factory_node_id; // 127 (Novotechnik), 32 (ifm)
@@ -57,9 +57,9 @@ struct ModelInfo {
 
 // All models; find_model is case-insensitive. nullptr if unknown.
 [[nodiscard]] const ModelInfo* find_model(std::string_view name) noexcept;
-[[nodiscard]] std::string_view family_name(Family f) noexcept;
+[[nodiscard]] std::string_view family_name(FamilyId f) noexcept;
 // The family's facts (daemon/families): identity, bit rates, quirks.
-[[nodiscard]] const device::families::Family& family_facts(Family f) noexcept;
+[[nodiscard]] const device::families::Family& family_facts(FamilyId f) noexcept;
 // The whole table, for `--list-models` and the tests.
 [[nodiscard]] std::span<const ModelInfo> all_models() noexcept;
 

@@ -50,7 +50,7 @@ struct SimDevice::Impl {
   // ---- fixed at construction ------------------------------------------
   DeviceSpec spec;
   const ModelInfo& model;
-  Family family;
+  FamilyId family;
   const device::DeviceDescription& desc;
   can::FrameSink& bus;
   std::filesystem::path nv_file;
@@ -152,7 +152,7 @@ struct SimDevice::Impl {
   void configure_guard();
   void restart_heartbeat(TimePoint now);
   void refresh_status() noexcept;
-  void send_emcy(const canopen::Emcy& e, canopen::EmcyLevel level) noexcept;
+  void send_emcy(const canopen::Emcy& e, device::families::EmcyLevel level) noexcept;
 
   std::error_code build_od(std::string& message);
   void install_hooks();

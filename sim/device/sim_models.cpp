@@ -10,9 +10,6 @@
 #include <vector>
 
 #include "families/family.hpp"
-#include "families/ifm_rm.hpp"
-#include "families/novotechnik_multiturn.hpp"
-#include "families/novotechnik_rotary.hpp"
 
 namespace cobridge::sim {
 
@@ -20,15 +17,8 @@ namespace {
 
 namespace fam = device::families;
 
-Family family_enum(const fam::Family& f) noexcept {
-  for (const Family e : {Family::novotechnik_rotary, Family::novotechnik_multiturn}) {
-    if (&family_facts(e) == &f) return e;
-  }
-  return Family::ifm_rm;
-}
-
 ModelInfo model_info(const fam::Family& f, const fam::Model& m, std::string_view name, std::uint32_t product) {
-  return ModelInfo{name, family_enum(f), f.vendor, product, f.factory_node_id, m.legacy_rsx_rfx, m.eds_stem,
+  return ModelInfo{name, f.id, f.vendor, product, f.factory_node_id, m.legacy_rsx_rfx, m.eds_stem,
                    f.factory_bitrate_kbit};
 }
 
@@ -73,15 +63,8 @@ const ModelInfo* find_model(std::string_view name) noexcept {
 
 std::span<const ModelInfo> all_models() noexcept { return table(); }
 
-const fam::Family& family_facts(Family f) noexcept {
-  switch (f) {
-    case Family::novotechnik_rotary: return fam::kNovotechnikRotary;
-    case Family::novotechnik_multiturn: return fam::kNovotechnikMultiturn;
-    case Family::ifm_rm: break;
-  }
-  return fam::kIfmRm;
-}
+const fam::Family& family_facts(FamilyId f) noexcept { return fam::family(f); }
 
-std::string_view family_name(Family f) noexcept { return family_facts(f).name; }
+std::string_view family_name(FamilyId f) noexcept { return family_facts(f).name; }
 
 }  // namespace cobridge::sim

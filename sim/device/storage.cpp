@@ -41,9 +41,9 @@ bool ifm_stored(std::uint16_t index) noexcept {
 
 }  // namespace
 
-Coverage store_coverage(Family family, bool legacy, std::uint8_t store_sub, std::uint16_t index,
+Coverage store_coverage(FamilyId family, bool legacy, std::uint8_t store_sub, std::uint16_t index,
                         std::uint8_t sub) noexcept {
-  if (family == Family::ifm_rm) return store_sub == 1 && ifm_stored(index) ? Coverage::value : Coverage::none;
+  if (family == FamilyId::ifm_rm) return store_sub == 1 && ifm_stored(index) ? Coverage::value : Coverage::none;
   const Group g = novotechnik_group(index, sub);
   switch (store_sub) {
     case 1:
@@ -61,6 +61,6 @@ Coverage store_coverage(Family family, bool legacy, std::uint8_t store_sub, std:
   }
 }
 
-std::uint8_t store_sub_count(Family family) noexcept { return family == Family::ifm_rm ? 1 : 4; }
+std::uint8_t store_sub_count(FamilyId family) noexcept { return family == FamilyId::ifm_rm ? 1 : 4; }
 
 }  // namespace cobridge::sim

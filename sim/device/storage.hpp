@@ -27,11 +27,11 @@ inline constexpr std::uint32_t kIfmSaveWithReset = device::families::kIfmSaveWit
 
 enum class Coverage : std::uint8_t { none, value, default_value };
 
-[[nodiscard]] Coverage store_coverage(Family family, bool legacy_rsx_rfx, std::uint8_t store_sub,
+[[nodiscard]] Coverage store_coverage(FamilyId family, bool legacy_rsx_rfx, std::uint8_t store_sub,
                                       std::uint16_t index, std::uint8_t sub) noexcept;
 
 // Highest 0x1010 / 0x1011 sub-index that takes a signature on this device
 // (sub 5 'save' is accepted by Novotechnik but stores nothing a user sets).
-[[nodiscard]] std::uint8_t store_sub_count(Family family) noexcept;
+[[nodiscard]] std::uint8_t store_sub_count(FamilyId family) noexcept;
 
 }  // namespace cobridge::sim

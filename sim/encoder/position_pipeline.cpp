@@ -6,8 +6,16 @@
 #include <cmath>
 #include <limits>
 
+#include "families/novotechnik_multiturn.hpp"
+#include "families/novotechnik_rotary.hpp"
+
 namespace cobridge::sim {
 namespace {
+
+namespace fam = device::families;
+
+// An error position as the position object's raw bits.
+constexpr std::uint32_t as_bits(std::int32_t position) noexcept { return static_cast<std::uint32_t>(position); }
 
 constexpr double kTenthDegreesPerTurn = 3600.0;  // 1 turn/s = 360 deg/s = 3600 x 0.1 deg/s
 constexpr double kTimeEpsilon = 1e-9;
@@ -29,7 +37,7 @@ std::int64_t to_count(double counts) noexcept {
   return static_cast<std::int64_t>(std::floor(std::clamp(counts, -kLimit, kLimit)));
 }
 
-bool wraps(EncoderFamily f) noexcept { return f != EncoderFamily::novotechnik_multiturn; }
+bool wraps(FamilyId f) noexcept { return f != FamilyId::novotechnik_multiturn; }
 
 std::uint32_t clamp_u32(std::uint64_t v) noexcept {
   return v > std::numeric_limits<std::uint32_t>::max() ? std::numeric_limits<std::uint32_t>::max()
@@ -44,11 +52,11 @@ std::uint32_t as_int32_bits(std::int64_t v) noexcept {
 
 }  // namespace
 
-Resolution physical_resolution(EncoderFamily family) noexcept {
+Resolution physical_resolution(FamilyId family) noexcept {
   switch (family) {
-    case EncoderFamily::novotechnik_rotary: return {0x4000, 1};
-    case EncoderFamily::novotechnik_multiturn: return {0x10000, 44};
-    case EncoderFamily::ifm_rm: return {4096, 4096};
+    case FamilyId::novotechnik_rotary: return {0x4000, 1};
+    case FamilyId::novotechnik_multiturn: return {0x10000, 44};
+    case FamilyId::ifm_rm: return {4096, 4096};
   }
   return {0x4000, 1};
 }
@@ -79,11 +87,11 @@ RangeStatusBits range_status_bits(RangeState state) noexcept {
   return b;
 }
 
-PositionSettings PositionSettings::defaults(EncoderFamily family) noexcept {
+PositionSettings PositionSettings::defaults(FamilyId family) noexcept {
   return defaults(family, physical_resolution(family));
 }
 
-PositionSettings PositionSettings::defaults(EncoderFamily family, Resolution physical) noexcept {
+PositionSettings PositionSettings::defaults(FamilyId family, Resolution physical) noexcept {
   PositionSettings s;
   s.family = family;
   s.physical = physical;
@@ -91,15 +99,15 @@ PositionSettings PositionSettings::defaults(EncoderFamily family, Resolution phy
   s.total_range = clamp_u32(physical.total());
   s.warning_margin = physical.steps_per_rev;
   switch (family) {
-    case EncoderFamily::novotechnik_rotary:
+    case FamilyId::novotechnik_rotary:
       s.scaling_bit_active_high = true;  // J§1.4.1: bit 2 = 1 scaling on
       break;
-    case EncoderFamily::novotechnik_multiturn:
+    case FamilyId::novotechnik_multiturn:
       s.scaling_bit_active_high = false;  // E§5.3 as printed: bit 2 = 0 scaling on
       s.position_filter = 0;              // E§4.3 0x2010/1
       s.speed_integration_ms = 1;         // E§4.2 0x6031/2, paired with 0x2010/2 = 3
       break;
-    case EncoderFamily::ifm_rm:
+    case FamilyId::ifm_rm:
       s.scaling_bit_active_high = true;  // F§7.5 SFC: 1 = enabled
       s.speed_enabled = false;           // F§7.4 0x3010/1: off in the factory setting
       s.speed_mode = 0;
@@ -125,9 +133,9 @@ bool PositionPipeline::scaling_active() const noexcept {
 
 unsigned PositionPipeline::filter_exponent() const noexcept {
   switch (settings_.family) {
-    case EncoderFamily::novotechnik_rotary: return (settings_.operating_parameter >> 12) & 0x7U;  // J§1.4.1
-    case EncoderFamily::novotechnik_multiturn: return std::min<unsigned>(settings_.position_filter, 7);  // E§5.1
-    case EncoderFamily::ifm_rm: return 0;
+    case FamilyId::novotechnik_rotary: return (settings_.operating_parameter >> 12) & 0x7U;  // J§1.4.1
+    case FamilyId::novotechnik_multiturn: return std::min<unsigned>(settings_.position_filter, 7);  // E§5.1
+    case FamilyId::ifm_rm: return 0;
   }
   return 0;
 }
@@ -156,15 +164,15 @@ double PositionPipeline::speed_turns_per_s() const noexcept {
   std::size_t age = 1;
   double window = 0.0;
   switch (settings_.family) {
-    case EncoderFamily::novotechnik_rotary:
+    case FamilyId::novotechnik_rotary:
       // J§1.4.1: the 2^n moving average applies to speed too; the mean of n
       // one-cycle speeds telescopes to the difference over n cycles.
       age = std::size_t{1} << filter_exponent();
       break;
-    case EncoderFamily::novotechnik_multiturn:
+    case FamilyId::novotechnik_multiturn:
       window = settings_.speed_integration_ms / 1000.0;  // E§4.2 0x6031/2
       break;
-    case EncoderFamily::ifm_rm: {
+    case FamilyId::ifm_rm: {
       static constexpr double kWindows[] = {0.005, 0.05, 0.5};  // F§7.4 0x3010/2
       window = kWindows[std::min<unsigned>(settings_.speed_mode, 2)];
       break;
@@ -251,12 +259,12 @@ PositionSample PositionPipeline::update(double shaft_turns, double seconds) noex
   if (wraps(s.family)) count = floor_mod(count, ptotal);
 
   PositionSample out;
-  out.range = s.family == EncoderFamily::novotechnik_multiturn ? classify(count) : RangeState::in_range;
+  out.range = s.family == FamilyId::novotechnik_multiturn ? classify(count) : RangeState::in_range;
   last_count_ = count;
 
   const double turns_per_s = speed_turns_per_s() * (counting_ccw() ? -1.0 : 1.0);
   double speed = 0.0;
-  if (s.family == EncoderFamily::ifm_rm) {
+  if (s.family == FamilyId::ifm_rm) {
     speed = s.speed_enabled ? turns_per_s * static_cast<double>(output_units_per_rev()) : 0.0;  // digits/s
   } else {
     speed = turns_per_s * kTenthDegreesPerTurn;  // 0.1 deg/s (E§3.4; J unit assumed, digest A.7.4)
@@ -272,14 +280,14 @@ PositionSample PositionPipeline::update(double shaft_turns, double seconds) noex
   bool error = false;
   if (measurement_error_) {
     error = true;
-    if (s.family == EncoderFamily::novotechnik_rotary) sentinel = kRotaryErrorPosition;                 // J§1.8
-    if (s.family == EncoderFamily::novotechnik_multiturn) sentinel = kMultiturnMeasurementErrorPosition;  // E§9.1
+    if (s.family == FamilyId::novotechnik_rotary) sentinel = as_bits(fam::kRotaryErrorPosition);  // J§1.8
+    if (s.family == FamilyId::novotechnik_multiturn) sentinel = as_bits(fam::kMultiturnErrorPosition);  // E§9.1
   } else if (out.range == RangeState::warning_over || out.range == RangeState::error_over) {
     error = true;
-    sentinel = kMultiturnOverflowPosition;
+    sentinel = as_bits(fam::kMultiturnOverflowPosition);  // E§9.1 0x5051/x/1
   } else if (out.range == RangeState::warning_under || out.range == RangeState::error_under) {
     error = true;
-    sentinel = kMultiturnUnderflowPosition;
+    sentinel = as_bits(fam::kMultiturnUnderflowPosition);  // E§9.1 0x5051/x/2
   }
 
   if (error) {
@@ -287,7 +295,7 @@ PositionSample PositionPipeline::update(double shaft_turns, double seconds) noex
     out.speed = 0;  // J§1.8, E§9: speed value set to 0
     out.speed32 = 0;
     out.speed_saturated = false;
-    if (s.family == EncoderFamily::ifm_rm) {
+    if (s.family == FamilyId::ifm_rm) {
       // F documents no error value: hold the last position (digest B.6).
       out.position = last_.position;
       out.value = last_.value;
@@ -311,7 +319,7 @@ PositionSample PositionPipeline::update(double shaft_turns, double seconds) noex
 }
 
 std::uint32_t PositionPipeline::encode(std::int64_t value) const noexcept {
-  if (settings_.family != EncoderFamily::ifm_rm) return as_int32_bits(value);
+  if (settings_.family != FamilyId::ifm_rm) return as_int32_bits(value);
   // F§7.4 0x2104/0x2105: bits 29..0 carry the value, bit 30 = at/below min, bit 31 = at/above max.
   std::uint32_t bits = static_cast<std::uint32_t>(value) & 0x3FFFFFFFU;
   if (settings_.limit_min_enabled && value <= static_cast<std::int64_t>(settings_.limit_min)) bits |= 1U << 30;

@@ -25,11 +25,12 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "families/family.hpp"
+
 namespace cobridge::sim {
 
-// Mirrors sim::Family of the device library (same enumerators, same values) so
-// the device can static_cast; this library must not depend on the device.
-enum class EncoderFamily : std::uint8_t { novotechnik_rotary = 0, novotechnik_multiturn = 1, ifm_rm = 2 };
+// The family identity of daemon/families (the simulator's device library uses it too).
+using device::families::FamilyId;
 
 struct Resolution {
   std::uint32_t steps_per_rev = 0;  // 0x6501
@@ -42,7 +43,7 @@ struct Resolution {
 // Physical resolution per family: rotary 0x4000 x 1 (14 bit, J§1.2.3, 0x6501/0x6502);
 // multiturn 0x10000 x 44 = 0x2C0000 (E§4.2); ifm "see label" (F§7.5), default
 // 4096 x 4096 (12 bit x 12 bit; 0x2102 default 0x1000000 = 4096 x 4096, F§7.4).
-[[nodiscard]] Resolution physical_resolution(EncoderFamily family) noexcept;
+[[nodiscard]] Resolution physical_resolution(FamilyId family) noexcept;
 
 // Preset semantics (digest A.7.3, S.5).
 enum class PresetMode : std::uint8_t {
@@ -69,13 +70,9 @@ struct RangeStatusBits {
 };
 [[nodiscard]] RangeStatusBits range_status_bits(RangeState state) noexcept;
 
-inline constexpr std::uint32_t kRotaryErrorPosition = 0x7FF0;                   // J§1.8
-inline constexpr std::uint32_t kMultiturnMeasurementErrorPosition = 0x7FFFFFFC;  // E§9.1 0x5051/1/0
-inline constexpr std::uint32_t kMultiturnOverflowPosition = 0x7FFFFFF8;         // E§9.1 0x5051/x/1
-inline constexpr std::uint32_t kMultiturnUnderflowPosition = 0x80000008;        // E§9.1 0x5051/x/2
 
 struct PositionSettings {
-  EncoderFamily family = EncoderFamily::novotechnik_rotary;
+  FamilyId family = FamilyId::novotechnik_rotary;
   Resolution physical{};
   // 0x6000 bit 2 polarity (digest D, S.3): J 1 = on, E 0 = on (as printed), F 1 = on.
   bool scaling_bit_active_high = true;
@@ -101,8 +98,8 @@ struct PositionSettings {
   std::uint32_t limit_max = 0;            // F 0x2105 (linked to 0x6402)
 
   // Factory defaults of a family (OD defaults of J§1.3.2, E§4.2, F§7.4/§7.5).
-  [[nodiscard]] static PositionSettings defaults(EncoderFamily family) noexcept;
-  [[nodiscard]] static PositionSettings defaults(EncoderFamily family, Resolution physical) noexcept;
+  [[nodiscard]] static PositionSettings defaults(FamilyId family) noexcept;
+  [[nodiscard]] static PositionSettings defaults(FamilyId family, Resolution physical) noexcept;
 };
 
 // What one measuring cycle produces.

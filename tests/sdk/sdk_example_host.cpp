@@ -6,7 +6,8 @@
 //
 // The plugin directory comes from COBRIDGE_SDK_EXAMPLE_DIR; the test is run
 // only by the sdk_example ctest test, after the script built the plugin.
-#include "canopen/emcy.hpp"
+#include "families/novotechnik.hpp"
+#include "families/novotechnik_rotary.hpp"
 #include "pipeline/plugin_host.hpp"
 
 #include <gtest/gtest.h>
@@ -64,13 +65,12 @@ TEST(SdkExample, InstalledSdkPluginLoadsAndNamesEmcyFromTheOneTable) {
   host.deliver(batch);
   host.stop_all();
 
-  canopen::Emcy e;
-  e.error_code = 0x9080;
-  e.error_register = 0x01;
-  const canopen::EmcyInfo want = canopen::classify(canopen::DeviceFamily::novotechnik_rotary, e);
-  ASSERT_TRUE(want.from_manual) << "0x9080 is a row of the rotary manual's table (J§1.8.1)";
-  const std::string expected = "emcylog: 2 EMCY; last: node 5 0x9080 " + std::string(want.text) + " (" +
-                               std::string(want.source) + ")";
+  // The row of the rotary family's module (J§1.8.1) the SDK must have given.
+  const auto& table = *cobridge::device::families::kNovotechnikRotary.emcy;
+  const auto* want = table.find(0x9080, 0x01, {});
+  ASSERT_NE(want, nullptr) << "0x9080 is a row of the rotary manual's table (J§1.8.1)";
+  const std::string expected = "emcylog: 2 EMCY; last: node 5 0x9080 " + std::string(want->text) + " (" +
+                               std::string(table.source) + ")";
   // The host logs its own lines (loaded, started) through the same sink.
   const std::lock_guard lock(log.mutex);
   std::string all;

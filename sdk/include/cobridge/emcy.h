@@ -2,9 +2,10 @@
  *
  * The daemon hands plugins EMCY samples as raw bytes (cobridge_sample:
  * emcy_code, emcy_register, emcy_data). These functions give the text the
- * device family's manual assigns to them, from the same table the daemon logs
- * with (daemon/canopen/emcy.cpp, compiled into libcobridge_sdk; there is no
- * second copy).
+ * device family's manual assigns to them, from the same tables the daemon logs
+ * with (each family's module in daemon/families, the CiA 301 table of
+ * daemon/canopen/emcy.cpp, combined by daemon/device/emcy_meaning.cpp; all
+ * compiled into libcobridge_sdk, there is no second copy).
  *
  * Thread: any. cobridge_emcy_classify() is allocation-free and returns static
  * text, so it may run on a plugin's publishing thread. cobridge_emcy_describe()

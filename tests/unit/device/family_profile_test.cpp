@@ -7,12 +7,14 @@
 #include <string>
 
 #include "device/eds.hpp"
+#include "families/novotechnik_multiturn.hpp"
+#include "families/novotechnik_rotary.hpp"
 #include "unit/device/source_paths.hpp"
 
 namespace cobridge::device {
 namespace {
 
-using canopen::DeviceFamily;
+using families::FamilyId;
 
 DeviceDescription load(const std::string& file) {
   EdsResult r = load_eds_file(test::shipped_devices_dir() / file);
@@ -20,18 +22,18 @@ DeviceDescription load(const std::string& file) {
   return r.ok() ? *r.description : DeviceDescription{};
 }
 
-FamilyProfile rotary1() { return make_family_profile(DeviceFamily::novotechnik_rotary, 1); }
-FamilyProfile rotary2() { return make_family_profile(DeviceFamily::novotechnik_rotary, 2); }
-FamilyProfile multiturn() { return make_family_profile(DeviceFamily::novotechnik_multiturn); }
-FamilyProfile ifm() { return make_family_profile(DeviceFamily::ifm_rm); }
+FamilyProfile rotary1() { return make_family_profile(FamilyId::novotechnik_rotary, 1); }
+FamilyProfile rotary2() { return make_family_profile(FamilyId::novotechnik_rotary, 2); }
+FamilyProfile multiturn() { return make_family_profile(FamilyId::novotechnik_multiturn); }
+FamilyProfile ifm() { return make_family_profile(FamilyId::ifm_rm); }
 
-// The EDS [Cobridge] Family strings select the family.
-TEST(FamilyProfile, FamilyFromCobridgeSectionName) {
-  EXPECT_EQ(family_from_name("novotechnik-rotary"), DeviceFamily::novotechnik_rotary);
-  EXPECT_EQ(family_from_name("novotechnik-multiturn"), DeviceFamily::novotechnik_multiturn);
-  EXPECT_EQ(family_from_name("ifm-rm"), DeviceFamily::ifm_rm);
-  EXPECT_EQ(family_from_name("ifm"), std::nullopt);
-  EXPECT_EQ(family_from_name(""), std::nullopt);
+// A profile names its family's module (the one identity, daemon/families).
+TEST(FamilyProfile, ProfileNamesItsFamilyModule) {
+  EXPECT_EQ(rotary1().family, &families::kNovotechnikRotary);
+  EXPECT_EQ(multiturn().family, &families::kNovotechnikMultiturn);
+  EXPECT_EQ(ifm().family, &families::kIfmRm);
+  EXPECT_TRUE(ifm().is(FamilyId::ifm_rm));
+  EXPECT_FALSE(ifm().is(FamilyId::novotechnik_rotary));
 }
 
 // J§1.3.2: 0x6020/0 is the number of channels; J§1.2.1 / J§1.12 V10: RSX-7900
@@ -39,7 +41,7 @@ TEST(FamilyProfile, FamilyFromCobridgeSectionName) {
 TEST(FamilyProfile, J1_3_2_ChannelsAndLegacyFromShippedEds) {
   auto p1 = family_profile_for(load("novotechnik-rfc4800-1ch.eds"));
   ASSERT_TRUE(p1);
-  EXPECT_EQ(p1->family, DeviceFamily::novotechnik_rotary);
+  EXPECT_TRUE(p1->is(FamilyId::novotechnik_rotary));
   EXPECT_EQ(p1->channels, 1);
   EXPECT_FALSE(p1->legacy_rsx_rfx);
   auto p2 = family_profile_for(load("novotechnik-rfc4800-2ch.eds"));
@@ -54,10 +56,10 @@ TEST(FamilyProfile, J1_3_2_ChannelsAndLegacyFromShippedEds) {
   EXPECT_EQ(rfx->channels, 2);
   auto mt = family_profile_for(load("novotechnik-multiturn.eds"));
   ASSERT_TRUE(mt);
-  EXPECT_EQ(mt->family, DeviceFamily::novotechnik_multiturn);
+  EXPECT_TRUE(mt->is(FamilyId::novotechnik_multiturn));
   auto rm = family_profile_for(load("ifm-rm8-rm9.eds"));
   ASSERT_TRUE(rm);
-  EXPECT_EQ(rm->family, DeviceFamily::ifm_rm);
+  EXPECT_TRUE(rm->is(FamilyId::ifm_rm));
   DeviceDescription none;
   EXPECT_FALSE(family_profile_for(none));
 }
@@ -181,7 +183,7 @@ TEST(FamilyProfile, StoreSubIndices_J1_10_E11_F6_3) {
   EXPECT_EQ(rotary1().store.communication, 2);
   EXPECT_EQ(rotary1().store.application, 3);
   EXPECT_EQ(rotary1().store.node_id, 4);
-  EXPECT_EQ(make_family_profile(DeviceFamily::novotechnik_rotary, 1, true).store.node_id, 1);
+  EXPECT_EQ(make_family_profile(FamilyId::novotechnik_rotary, 1, true).store.node_id, 1);
   EXPECT_EQ(multiturn().store.communication, 2);
   EXPECT_EQ(multiturn().store.application, 3);
   EXPECT_EQ(multiturn().store.node_id, 4);

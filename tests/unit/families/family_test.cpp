@@ -34,6 +34,14 @@ TEST(Families, RegistryListsEachFamilyOnceUnderItsEdsName) {
   EXPECT_EQ(find_family("generic"), nullptr);
 }
 
+// The one identity: each FamilyId names exactly its own module.
+TEST(Families, EachIdNamesItsModule) {
+  EXPECT_EQ(&family(FamilyId::novotechnik_rotary), &kNovotechnikRotary);
+  EXPECT_EQ(&family(FamilyId::novotechnik_multiturn), &kNovotechnikMultiturn);
+  EXPECT_EQ(&family(FamilyId::ifm_rm), &kIfmRm);
+  for (const Family* f : all()) EXPECT_EQ(&family(f->id), f) << f->name;
+}
+
 // J§1.2.1: vendor 0x182 and one product code per series.
 TEST(Families, RotaryIdentityIsJ121) {
   EXPECT_EQ(kNovotechnikRotary.vendor, 0x00000182U);

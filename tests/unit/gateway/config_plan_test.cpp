@@ -14,7 +14,6 @@
 namespace cobridge::gateway {
 namespace {
 
-using canopen::DeviceFamily;
 using config::Signal;
 
 struct Fixture {

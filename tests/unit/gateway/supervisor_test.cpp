@@ -4,6 +4,11 @@
 
 #include "canopen/emcy.hpp"
 #include "canopen/nmt.hpp"
+#include "device/emcy_meaning.hpp"
+#include "families/ifm_rm.hpp"
+#include "families/novotechnik.hpp"
+#include "families/novotechnik_multiturn.hpp"
+#include "families/novotechnik_rotary.hpp"
 
 #include <gtest/gtest.h>
 
@@ -15,6 +20,7 @@ namespace {
 using namespace std::chrono_literals;
 using canopen::NmtState;
 using canopen::TimePoint;
+namespace fam = device::families;
 
 class CaptureSink final : public can::FrameSink {
  public:
@@ -67,9 +73,9 @@ TEST(ConsumerTime, IsOneAndAHalfProducerTimesPlusMargin) {
 // only then); the consumer's own timeout afterwards is not reported again,
 // and the first heartbeat after the bus is back brings it online.
 TEST_F(SupervisorTest, Issue16_BusLostTakesEveryWatchedDeviceOfflineAtOnce) {
-  sup.watch(5, canopen::DeviceFamily::novotechnik_rotary, heartbeat(100ms), t0);
-  sup.watch(6, canopen::DeviceFamily::novotechnik_rotary, heartbeat(100ms), t0);
-  sup.listen(7, canopen::DeviceFamily::novotechnik_rotary);  // being configured: not supervised yet
+  sup.watch(5, &fam::kNovotechnikRotary, heartbeat(100ms), t0);
+  sup.watch(6, &fam::kNovotechnikRotary, heartbeat(100ms), t0);
+  sup.listen(7, &fam::kNovotechnikRotary);  // being configured: not supervised yet
   sup.on_frame(canopen::make_heartbeat(5, NmtState::operational), t0 + 10ms);
   sup.on_frame(canopen::make_heartbeat(6, NmtState::operational), t0 + 10ms);
   ASSERT_EQ(drain().size(), 2U);
@@ -103,7 +109,7 @@ TEST_F(SupervisorTest, Issue16_BusLostTakesEveryWatchedDeviceOfflineAtOnce) {
 // CiA 301 §7.2.8.3.2.2: heartbeat event when no heartbeat arrives within the
 // consumer time; the device is offline with reason and back on the next one.
 TEST_F(SupervisorTest, Cia301_7_2_8_3_2_2_HeartbeatLostThenBackOnline) {
-  sup.watch(5, canopen::DeviceFamily::novotechnik_rotary, heartbeat(100ms), t0);
+  sup.watch(5, &fam::kNovotechnikRotary, heartbeat(100ms), t0);
   const auto consumer = consumer_time_for(100ms);  // 200 ms
   ASSERT_TRUE(sup.on_frame(canopen::make_heartbeat(5, NmtState::operational), t0 + 10ms));
   auto changes = drain();
@@ -151,10 +157,10 @@ TEST_F(SupervisorTest, Cia301_7_2_8_3_2_2_HeartbeatLostThenBackOnline) {
 // anew: online is reported again with its first heartbeat under the new
 // producer time (CiA 301 §7.2.8.3.2.2, monitoring restarts).
 TEST_F(SupervisorTest, Cia301_7_2_8_3_2_2_RewatchReportsOnlineAgain) {
-  sup.watch(5, canopen::DeviceFamily::ifm_rm, heartbeat(100ms), t0);
+  sup.watch(5, &fam::kIfmRm, heartbeat(100ms), t0);
   sup.on_frame(canopen::make_heartbeat(5, NmtState::operational), t0);
   ASSERT_EQ(drain().size(), 1U);
-  sup.watch(5, canopen::DeviceFamily::ifm_rm, heartbeat(200ms), t0 + 1s);
+  sup.watch(5, &fam::kIfmRm, heartbeat(200ms), t0 + 1s);
   EXPECT_FALSE(sup.online(5));
   sup.on_frame(canopen::make_heartbeat(5, NmtState::operational), t0 + 1s + 10ms);
   const auto changes = drain();
@@ -168,7 +174,7 @@ TEST_F(SupervisorTest, Cia301_7_2_8_3_2_2_RewatchReportsOnlineAgain) {
 // the gateway adds its own check so a started device that never sends one is
 // reported.
 TEST_F(SupervisorTest, Cia301_0x1016_NoHeartbeatAfterStartIsReported) {
-  sup.watch(5, canopen::DeviceFamily::ifm_rm, heartbeat(100ms), t0);
+  sup.watch(5, &fam::kIfmRm, heartbeat(100ms), t0);
   EXPECT_EQ(sup.process(t0, sink), t0 + consumer_time_for(100ms));
   sup.process(t0 + consumer_time_for(100ms), sink);
   const auto changes = drain();
@@ -184,7 +190,7 @@ TEST_F(SupervisorTest, Cia301_0x1016_NoHeartbeatAfterStartIsReported) {
 // "rebooted", counted, and supervision stops until the manager has
 // reconfigured it (no false "heartbeat lost" meanwhile).
 TEST_F(SupervisorTest, Cia301_7_2_8_3_3_BootUpIsRebootedAndSuspendsSupervision) {
-  sup.watch(5, canopen::DeviceFamily::novotechnik_multiturn, heartbeat(100ms), t0);
+  sup.watch(5, &fam::kNovotechnikMultiturn, heartbeat(100ms), t0);
   sup.on_frame(canopen::make_heartbeat(5, NmtState::operational), t0 + 10ms);
   drain();
   ASSERT_TRUE(sup.on_frame(canopen::make_boot_up(5), t0 + 50ms));
@@ -200,7 +206,7 @@ TEST_F(SupervisorTest, Cia301_7_2_8_3_3_BootUpIsRebootedAndSuspendsSupervision) 
   EXPECT_TRUE(drain().empty());
 
   // Reconfigured and started again by the manager.
-  sup.watch(5, canopen::DeviceFamily::novotechnik_multiturn, heartbeat(100ms), t0 + 10s);
+  sup.watch(5, &fam::kNovotechnikMultiturn, heartbeat(100ms), t0 + 10s);
   sup.on_frame(canopen::make_heartbeat(5, NmtState::operational), t0 + 10s + 20ms);
   changes = drain();
   ASSERT_EQ(changes.size(), 1U);
@@ -210,7 +216,7 @@ TEST_F(SupervisorTest, Cia301_7_2_8_3_3_BootUpIsRebootedAndSuspendsSupervision) 
 // A boot-up of a device being configured (listen(), not yet watched) is
 // reported as well: the manager restarts its plan.
 TEST_F(SupervisorTest, Cia301_7_2_8_3_3_BootUpWhileListening) {
-  sup.listen(7, canopen::DeviceFamily::ifm_rm);
+  sup.listen(7, &fam::kIfmRm);
   EXPECT_FALSE(sup.on_frame(canopen::make_boot_up(8), t0));  // not ours
   ASSERT_TRUE(sup.on_frame(canopen::make_boot_up(7), t0));
   const auto changes = drain();
@@ -222,14 +228,14 @@ TEST_F(SupervisorTest, Cia301_7_2_8_3_3_BootUpWhileListening) {
 // J§1.8.1: EMCY 0x9080 (CAM state changed) is decoded with the rotary
 // family's table, counted, and the last one kept.
 TEST_F(SupervisorTest, J_1_8_1_EmcyDecodedWithFamilyTable) {
-  sup.watch(5, canopen::DeviceFamily::novotechnik_rotary, heartbeat(100ms), t0);
-  const auto emcy = canopen::rotary_cam_emcy(1, 0x0003, 0x01);
+  sup.watch(5, &fam::kNovotechnikRotary, heartbeat(100ms), t0);
+  const canopen::Emcy emcy{fam::kNovotechnikCamEmcy, 1, fam::rotary_cam_emcy_bytes(1, 0x0003, 0x01)};
   ASSERT_TRUE(sup.on_frame(canopen::make_emcy(5, emcy), t0 + 1ms));
   auto changes = drain();
   ASSERT_EQ(changes.size(), 1U);
   EXPECT_EQ(changes[0].kind, Supervisor::ChangeKind::emcy);
   EXPECT_EQ(dev.last_emcy_code, 0x9080);
-  EXPECT_EQ(dev.last_emcy_text, canopen::describe(canopen::DeviceFamily::novotechnik_rotary, emcy));
+  EXPECT_EQ(dev.last_emcy_text, device::describe_emcy(&fam::kNovotechnikRotary, emcy));
   EXPECT_NE(dev.last_emcy_text.find("J§1.8.1"), std::string::npos) << dev.last_emcy_text;
   EXPECT_EQ(dev.emcy_count, 1U);
 
@@ -246,9 +252,9 @@ TEST_F(SupervisorTest, J_1_8_1_EmcyDecodedWithFamilyTable) {
 
 // E§9.1: the multiturn table decodes (code, byte 2, byte 3) sub-codes.
 TEST_F(SupervisorTest, E_9_1_EmcyUsesMultiturnTable) {
-  sup.watch(6, canopen::DeviceFamily::novotechnik_multiturn, heartbeat(100ms), t0);
+  sup.watch(6, &fam::kNovotechnikMultiturn, heartbeat(100ms), t0);
   canopen::Emcy e;
-  e.error_code = canopen::emcy_code::kNovotechnikMeasurement;
+  e.error_code = fam::kMultiturnMeasurementEmcy;
   e.error_register = 1;
   e.manufacturer[0] = 0;
   sup.on_frame(canopen::make_emcy(6, e), t0);
@@ -273,7 +279,7 @@ TEST_F(SupervisorTest, Cia301_7_2_8_3_2_1_NodeGuardingLostThenRecovered) {
   s.mode = Supervision::Mode::guarding;
   s.guard_time = 100ms;
   s.life_time_factor = 3;
-  sup.watch(5, canopen::DeviceFamily::novotechnik_rotary, s, t0);
+  sup.watch(5, &fam::kNovotechnikRotary, s, t0);
   sup.process(t0, sink);
   ASSERT_EQ(sink.frames.size(), 1U);
   std::uint8_t node = 0;
@@ -303,7 +309,7 @@ TEST_F(SupervisorTest, Cia301_7_2_8_3_2_1_NodeGuardingLostThenRecovered) {
 // CiA 301 §7.2.8.3.2.2: a heartbeat with another state (e.g. the device was
 // stopped) is reported as an NMT state change, not as a loss.
 TEST_F(SupervisorTest, Cia301_7_2_8_3_2_2_StateChangeReported) {
-  sup.watch(5, canopen::DeviceFamily::novotechnik_rotary, heartbeat(100ms), t0);
+  sup.watch(5, &fam::kNovotechnikRotary, heartbeat(100ms), t0);
   sup.on_frame(canopen::make_heartbeat(5, NmtState::operational), t0);
   drain();
   sup.on_frame(canopen::make_heartbeat(5, NmtState::pre_operational), t0 + 100ms);
@@ -318,7 +324,7 @@ TEST_F(SupervisorTest, Cia301_7_2_8_3_2_2_StateChangeReported) {
 // pre-operational has reset unseen (its boot-up was lost, e.g. with the
 // interface); the change is reported so the manager configures it again.
 TEST_F(SupervisorTest, Cia301_7_2_8_3_2_2_BackPreOperationalAfterLossIsReported) {
-  sup.watch(5, canopen::DeviceFamily::novotechnik_rotary, heartbeat(100ms), t0);
+  sup.watch(5, &fam::kNovotechnikRotary, heartbeat(100ms), t0);
   sup.on_frame(canopen::make_heartbeat(5, NmtState::operational), t0);
   sup.process(t0 + 1s, sink);
   drain();

@@ -10,9 +10,9 @@ namespace cobridge::sim {
 namespace {
 
 constexpr std::array<ModelInfo, 3> kTestModels{{
-    {"RFC-4800", Family::novotechnik_rotary, 0x182, 0x0BE0, 127, false, "novotechnik-rfc4800", 250},
-    {"MC1-2800", Family::novotechnik_multiturn, 0x182, 0x0BB8, 127, false, "novotechnik-multiturn", 250},
-    {"RM9000", Family::ifm_rm, 0x0069666D, 0x4341, 32, false, "ifm-rm8-rm9", 125},
+    {"RFC-4800", FamilyId::novotechnik_rotary, 0x182, 0x0BE0, 127, false, "novotechnik-rfc4800", 250},
+    {"MC1-2800", FamilyId::novotechnik_multiturn, 0x182, 0x0BB8, 127, false, "novotechnik-multiturn", 250},
+    {"RM9000", FamilyId::ifm_rm, 0x0069666D, 0x4341, 32, false, "ifm-rm8-rm9", 125},
 }};
 
 const ModelInfo* lookup(std::string_view name) noexcept {

@@ -38,7 +38,7 @@ TEST(SimModels, MultiturnBothProductCodeGenerations) {
   EXPECT_EQ(find_model("MZ1-2200-V02")->product, 0x0BD5U);
   EXPECT_EQ(find_model("MC1-2800-V02")->product, 0x0BB9U);
   EXPECT_EQ(find_model("MB1-3600-V02")->product, 0x0BBCU);
-  EXPECT_EQ(find_model("MB1-3600-V02")->family, Family::novotechnik_multiturn);
+  EXPECT_EQ(find_model("MB1-3600-V02")->family, FamilyId::novotechnik_multiturn);
   EXPECT_EQ(find_model("MB1-3600-V02")->eds_stem, "novotechnik-multiturn");
 }
 

@@ -12,7 +12,7 @@ using abort_code::kOk;
 using abort_code::kValueExceeded;
 using abort_code::kWrongState;
 
-PositionPipeline make(EncoderFamily f) { return PositionPipeline(PositionSettings::defaults(f)); }
+PositionPipeline make(FamilyId f) { return PositionPipeline(PositionSettings::defaults(f)); }
 
 // Feed `turns_per_s` for `cycles` 1 ms cycles starting at t0; returns the last sample.
 PositionSample run(PositionPipeline& p, double turns_per_s, int cycles, double t0 = 0.0, double start = 0.0) {
@@ -28,7 +28,7 @@ PositionSample run(PositionPipeline& p, double turns_per_s, int cycles, double t
 
 // J§1.2.3: 14-bit single turn; J§1.3.2 0x6501 = 0x6001 = 0x6002 = 0x4000.
 TEST(PositionPipelineRotary, J_1_2_3_FourteenBitSingleTurnWraps) {
-  auto p = make(EncoderFamily::novotechnik_rotary);
+  auto p = make(FamilyId::novotechnik_rotary);
   EXPECT_EQ(p.settings().units_per_rev, 0x4000U);
   EXPECT_EQ(p.update(0.25, 0.0).position, 0x1000U);
   EXPECT_EQ(p.update(1.25, 0.001).position, 0x1000U);
@@ -38,7 +38,7 @@ TEST(PositionPipelineRotary, J_1_2_3_FourteenBitSingleTurnWraps) {
 
 // J§1.4.1 bit 0 counting direction; digest S.6: ccw reads total-1-pos; speed follows.
 TEST(PositionPipelineRotary, J_1_4_1_CounterClockwiseMirrorsPositionAndSpeed) {
-  auto p = make(EncoderFamily::novotechnik_rotary);
+  auto p = make(FamilyId::novotechnik_rotary);
   p.settings().operating_parameter = 0x0001;
   EXPECT_EQ(p.update(0.25, 0.0).position, 0x3FFFU - 0x1000U);
   const auto s = run(p, 0.5, 10, 0.001, 0.25);
@@ -47,7 +47,7 @@ TEST(PositionPipelineRotary, J_1_4_1_CounterClockwiseMirrorsPositionAndSpeed) {
 
 // J§1.4.1 bit 2 = 1 scaling on (digest D: J polarity); J§1.4.2 0x6001 scaling.
 TEST(PositionPipelineRotary, J_1_4_1_ScalingBitOneIsOn) {
-  auto p = make(EncoderFamily::novotechnik_rotary);
+  auto p = make(FamilyId::novotechnik_rotary);
   p.settings().units_per_rev = 0x1000;
   p.settings().total_range = 0x1000;
   EXPECT_FALSE(p.scaling_active());
@@ -60,7 +60,7 @@ TEST(PositionPipelineRotary, J_1_4_1_ScalingBitOneIsOn) {
 
 // J§1.4.2: 0x6001 writable only with scaling on; only reductions (digest A.7.2, S.4).
 TEST(PositionPipelineRotary, J_1_4_2_ScalingWriteRules) {
-  const auto s = PositionSettings::defaults(EncoderFamily::novotechnik_rotary);
+  const auto s = PositionSettings::defaults(FamilyId::novotechnik_rotary);
   EXPECT_EQ(check_scaling_write_allowed(s, 0x0000), kWrongState);
   EXPECT_EQ(check_scaling_write_allowed(s, 0x0004), kOk);
   EXPECT_EQ(check_units_per_rev(s, 0x4001), kValueExceeded);
@@ -73,8 +73,8 @@ TEST(PositionPipelineRotary, J_1_4_2_ScalingWriteRules) {
 
 // J§1.4.1 bits 14..12: moving average over 2^n values for position and speed.
 TEST(PositionPipelineRotary, J_1_4_1_MovingAverageDelaysPosition) {
-  auto plain = make(EncoderFamily::novotechnik_rotary);
-  auto avg = make(EncoderFamily::novotechnik_rotary);
+  auto plain = make(FamilyId::novotechnik_rotary);
+  auto avg = make(FamilyId::novotechnik_rotary);
   avg.settings().operating_parameter = 2U << 12;  // 4 values
   EXPECT_EQ(avg.filter_exponent(), 2U);
   const auto a = run(plain, 1.0, 10);
@@ -87,9 +87,9 @@ TEST(PositionPipelineRotary, J_1_4_1_MovingAverageDelaysPosition) {
 
 // Digest A.7.4: speed 0.1 deg/s, INTEGER16 saturating at +-32767.
 TEST(PositionPipelineRotary, DigestA74_SpeedTenthDegreePerSecondSaturates) {
-  auto p = make(EncoderFamily::novotechnik_rotary);
+  auto p = make(FamilyId::novotechnik_rotary);
   EXPECT_EQ(run(p, 0.5, 5).speed, 1800);
-  auto q = make(EncoderFamily::novotechnik_rotary);
+  auto q = make(FamilyId::novotechnik_rotary);
   const auto s = run(q, -10.0, 5);
   EXPECT_EQ(s.speed, -32767);
   EXPECT_TRUE(s.speed_saturated);
@@ -97,7 +97,7 @@ TEST(PositionPipelineRotary, DigestA74_SpeedTenthDegreePerSecondSaturates) {
 
 // Digest A.7.3 reading 1 (CiA 406): writing P makes the current position read P.
 TEST(PositionPipelineRotary, DigestA73_PresetCurrentReadsP) {
-  auto p = make(EncoderFamily::novotechnik_rotary);
+  auto p = make(FamilyId::novotechnik_rotary);
   p.update(0.25, 0.0);
   EXPECT_EQ(p.preset(100), kOk);
   EXPECT_EQ(p.last().value, 100);
@@ -112,7 +112,7 @@ TEST(PositionPipelineRotary, DigestA73_PresetCurrentReadsP) {
 
 // Digest A.7.3 reading 2 (J§1.4.6.1 hint): the preset is added, range [P, P+total).
 TEST(PositionPipelineRotary, DigestA73_PresetOffsetAddedSwitch) {
-  auto s = PositionSettings::defaults(EncoderFamily::novotechnik_rotary);
+  auto s = PositionSettings::defaults(FamilyId::novotechnik_rotary);
   s.preset_mode = PresetMode::offset_added;
   PositionPipeline p(s);
   p.update(0.25, 0.0);
@@ -123,7 +123,7 @@ TEST(PositionPipelineRotary, DigestA73_PresetOffsetAddedSwitch) {
 
 // J§1.8: position or sensor error -> position 0x7FF0, speed 0.
 TEST(PositionPipelineRotary, J_1_8_MeasurementErrorValue) {
-  auto p = make(EncoderFamily::novotechnik_rotary);
+  auto p = make(FamilyId::novotechnik_rotary);
   run(p, 1.0, 5);
   p.set_measurement_error(true);
   const auto s = p.update(0.1, 0.01);
@@ -138,7 +138,7 @@ TEST(PositionPipelineRotary, J_1_8_MeasurementErrorValue) {
 
 // E§4.2: 0x6001 = 0x10000, 0x6002 = 0x2C0000 (44 turns); 0x600C raw.
 TEST(PositionPipelineMultiturn, E_4_2_SixteenBitTimesFortyFour) {
-  auto p = make(EncoderFamily::novotechnik_multiturn);
+  auto p = make(FamilyId::novotechnik_multiturn);
   EXPECT_EQ(p.settings().total_range, 0x2C0000U);
   const auto s = p.update(2.5, 0.0);
   EXPECT_EQ(s.position, 0x28000U);
@@ -148,7 +148,7 @@ TEST(PositionPipelineMultiturn, E_4_2_SixteenBitTimesFortyFour) {
 
 // E§5.3 bit 2 = 0 scaling on (as printed, digest C.7.1/D); E§5.4/§5.5 coupling.
 TEST(PositionPipelineMultiturn, E_5_3_ScalingBitZeroIsOn) {
-  auto p = make(EncoderFamily::novotechnik_multiturn);
+  auto p = make(FamilyId::novotechnik_multiturn);
   const auto& s = p.settings();
   EXPECT_TRUE(p.scaling_active());
   EXPECT_EQ(check_scaling_write_allowed(s, 0x0000), kOk);
@@ -189,7 +189,7 @@ TEST(PositionPipelineMultiturn, E_5_2_SpeedFilterIntegrationCoupling) {
 // E§3.4 / E§4.2 0x6031/2: speed in 0.1 deg/s averaged over the integration time.
 TEST(PositionPipelineMultiturn, E_4_2_SpeedAveragedOverIntegrationTime) {
   for (const std::uint16_t ms : {std::uint16_t{1}, std::uint16_t{25}}) {
-    auto p = make(EncoderFamily::novotechnik_multiturn);
+    auto p = make(FamilyId::novotechnik_multiturn);
     p.settings().speed_integration_ms = ms;
     PositionSample s;
     // 1 turn/s from 50 ms to 60 ms, standing still before and after.
@@ -205,7 +205,7 @@ TEST(PositionPipelineMultiturn, E_4_2_SpeedAveragedOverIntegrationTime) {
 
 // E§5.1: position filter 0x2010/1 averages 2^n positions.
 TEST(PositionPipelineMultiturn, E_5_1_PositionFilter) {
-  auto p = make(EncoderFamily::novotechnik_multiturn);
+  auto p = make(FamilyId::novotechnik_multiturn);
   p.settings().position_filter = 3;  // 8 positions
   PositionSample s;
   for (int i = 0; i < 8; ++i) s = p.update(i < 7 ? 1.0 : 2.0, i * 0.001);
@@ -214,7 +214,7 @@ TEST(PositionPipelineMultiturn, E_5_1_PositionFilter) {
 
 // E§10.1 bits 10/11: Info in the last revolution before a limit (digest C.7.4).
 TEST(PositionPipelineMultiturn, E_10_1_InfoInLastRevolution) {
-  auto p = make(EncoderFamily::novotechnik_multiturn);
+  auto p = make(FamilyId::novotechnik_multiturn);
   EXPECT_EQ(p.update(0.5, 0.0).range, RangeState::info_under);
   EXPECT_EQ(p.update(43.5, 0.001).range, RangeState::info_over);
   EXPECT_EQ(p.update(43.5, 0.001).position, 0x2B8000U);  // still a valid position
@@ -224,7 +224,7 @@ TEST(PositionPipelineMultiturn, E_10_1_InfoInLastRevolution) {
 
 // E§9.1 0x5051/2/x: Warning beyond a limit, sentinel positions, speed 0.
 TEST(PositionPipelineMultiturn, E_9_1_WarningSentinels) {
-  auto p = make(EncoderFamily::novotechnik_multiturn);
+  auto p = make(FamilyId::novotechnik_multiturn);
   run(p, 1.0, 10, 0.0, 43.9);
   auto s = p.update(44.5, 0.02);
   EXPECT_EQ(s.range, RangeState::warning_over);
@@ -244,7 +244,7 @@ TEST(PositionPipelineMultiturn, E_9_1_WarningSentinels) {
 
 // E§9.1 0x5051/1/x and E§4.3 0x2100: the Error latches until back in range and reset.
 TEST(PositionPipelineMultiturn, E_9_1_ErrorLatchesUntilPositionErrorReset) {
-  auto p = make(EncoderFamily::novotechnik_multiturn);
+  auto p = make(FamilyId::novotechnik_multiturn);
   auto s = p.update(46.0, 0.0);
   EXPECT_EQ(s.range, RangeState::error_over);
   EXPECT_EQ(s.position, 0x7FFFFFF8U);
@@ -266,7 +266,7 @@ TEST(PositionPipelineMultiturn, E_9_1_ErrorLatchesUntilPositionErrorReset) {
 
 // E§9.1 0x5051/1/0: measurement error -> 0x7FFFFFFC.
 TEST(PositionPipelineMultiturn, E_9_1_MeasurementErrorValue) {
-  auto p = make(EncoderFamily::novotechnik_multiturn);
+  auto p = make(FamilyId::novotechnik_multiturn);
   p.set_measurement_error(true);
   const auto s = p.update(5.0, 0.0);
   EXPECT_EQ(s.position, 0x7FFFFFFCU);
@@ -275,7 +275,7 @@ TEST(PositionPipelineMultiturn, E_9_1_MeasurementErrorValue) {
 
 // E§4.2 0x6003/0x6509 (digest C.7.3): CiA 406 preset, INTEGER32 output without wrap.
 TEST(PositionPipelineMultiturn, E_4_2_PresetAndOffsetNoWrap) {
-  auto p = make(EncoderFamily::novotechnik_multiturn);
+  auto p = make(FamilyId::novotechnik_multiturn);
   p.update(10.0, 0.0);
   EXPECT_EQ(p.preset(0), kOk);
   EXPECT_EQ(p.offset(), -0xA0000);
@@ -289,7 +289,7 @@ TEST(PositionPipelineMultiturn, E_4_2_PresetAndOffsetNoWrap) {
 
 // F§7.5 0x6501/0x6502 "see label": default 12 bit x 12 bit; 0x2102 default 0x1000000.
 TEST(PositionPipelineIfm, F_7_5_DefaultResolutionWrapsAtTotal) {
-  auto p = make(EncoderFamily::ifm_rm);
+  auto p = make(FamilyId::ifm_rm);
   EXPECT_EQ(p.settings().total_range, 0x1000000U);
   EXPECT_EQ(p.update(1.5, 0.0).position, 6144U);
   EXPECT_EQ(p.update(4096.25, 0.001).position, 1024U);
@@ -299,7 +299,7 @@ TEST(PositionPipelineIfm, F_7_5_DefaultResolutionWrapsAtTotal) {
 
 // F§7.5 SFC bit 2 = 1 enables 0x6001/0x6002 scaling.
 TEST(PositionPipelineIfm, F_7_5_ScalingFunction) {
-  auto p = make(EncoderFamily::ifm_rm);
+  auto p = make(FamilyId::ifm_rm);
   p.settings().units_per_rev = 1024;
   p.settings().total_range = 1024U * 4096U;
   EXPECT_EQ(p.update(1.5, 0.0).position, 6144U);
@@ -309,7 +309,7 @@ TEST(PositionPipelineIfm, F_7_5_ScalingFunction) {
 
 // F§7.4 0x2100 bits 1/2, 0x2104/0x2105: bit 30 at/below min, bit 31 at/above max.
 TEST(PositionPipelineIfm, F_7_4_LimitSwitchBits) {
-  auto p = make(EncoderFamily::ifm_rm);
+  auto p = make(FamilyId::ifm_rm);
   auto& s = p.settings();
   s.limit_min = 100;
   s.limit_max = 5000;
@@ -327,12 +327,12 @@ TEST(PositionPipelineIfm, F_7_4_LimitSwitchBits) {
 
 // F§7.4 0x3010 speed control: off by default; 0x3011/0x6030 in digits/s; F§7.5 0x6030 saturates.
 TEST(PositionPipelineIfm, F_7_4_SpeedEnableFilterAndSaturation) {
-  auto p = make(EncoderFamily::ifm_rm);
+  auto p = make(FamilyId::ifm_rm);
   EXPECT_EQ(run(p, 1.0, 20).speed, 0);
-  auto q = make(EncoderFamily::ifm_rm);
+  auto q = make(FamilyId::ifm_rm);
   q.settings().speed_enabled = true;
   EXPECT_EQ(run(q, 1.0, 20).speed, 4096);
-  auto r = make(EncoderFamily::ifm_rm);
+  auto r = make(FamilyId::ifm_rm);
   r.settings().speed_enabled = true;
   const auto s = run(r, 10.0, 20);
   EXPECT_EQ(s.speed, 32767);
@@ -345,7 +345,7 @@ TEST(PositionPipelineIfm, F_7_4_SpeedEnableFilterAndSaturation) {
 // F§7.4 0x3010/2: filter 0 = 5 ms, 2 = 500 ms.
 TEST(PositionPipelineIfm, F_7_4_SpeedFilterWindow) {
   for (const std::uint8_t mode : {std::uint8_t{0}, std::uint8_t{2}}) {
-    auto p = make(EncoderFamily::ifm_rm);
+    auto p = make(FamilyId::ifm_rm);
     p.settings().speed_enabled = true;
     p.settings().speed_mode = mode;
     PositionSample s;
@@ -363,7 +363,7 @@ TEST(PositionPipelineIfm, F_7_4_SpeedFilterWindow) {
 
 // F§7.4 0x2101/0x2102: AU <= PAU; GA <= PGA, GA = PGA x AU / PAU, multiple of PAU below PGA.
 TEST(PositionPipelineIfm, F_7_4_TotalResolutionRules) {
-  const auto s = PositionSettings::defaults(EncoderFamily::ifm_rm);
+  const auto s = PositionSettings::defaults(FamilyId::ifm_rm);
   EXPECT_EQ(check_ifm_resolution_per_rev(s, 4096), kOk);
   EXPECT_EQ(check_ifm_resolution_per_rev(s, 4097), kValueExceeded);
   EXPECT_EQ(ifm_total_resolution_for(s, 1024), 4194304U);
@@ -376,7 +376,7 @@ TEST(PositionPipelineIfm, F_7_4_TotalResolutionRules) {
 
 // F§7.4 0x2103: the preset must not exceed the total resolution; F§7.5 0x6509 offset.
 TEST(PositionPipelineIfm, F_7_4_PresetAndOffset) {
-  auto p = make(EncoderFamily::ifm_rm);
+  auto p = make(FamilyId::ifm_rm);
   p.update(2.0, 0.0);
   EXPECT_EQ(p.preset(0x1000000), kValueExceeded);
   EXPECT_EQ(p.preset(4096), kOk);
