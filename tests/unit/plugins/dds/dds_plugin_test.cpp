@@ -909,6 +909,20 @@ TEST(DdsPlugin, Issue16_PartitionSeparatesReaders) {
   dds_delete(pp);
 }
 
+// A reliable EncoderSample reader in participant `pp` that never takes and
+// has room for 10 samples: every reliable write to it waits its
+// max_blocking_time once the room is used up (issue 16: a stalled reader).
+static dds_entity_t stalled_sample_reader(dds_entity_t pp) {
+  const dds_entity_t topic = dds_create_topic(pp, &cobridge_EncoderSample_desc, "EncoderSample", nullptr, nullptr);
+  dds_qos_t* rq = dds_create_qos();
+  dds_qset_reliability(rq, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+  dds_qset_history(rq, DDS_HISTORY_KEEP_ALL, 0);
+  dds_qset_resource_limits(rq, 10, DDS_LENGTH_UNLIMITED, DDS_LENGTH_UNLIMITED);
+  const dds_entity_t reader = dds_create_reader(pp, topic, rq, nullptr);
+  dds_delete_qos(rq);
+  return reader;
+}
+
 // Issue 16, item 1: a reliable subscriber that stops reading must not stall
 // the dispatcher (which Modbus and the tap share). The reader keeps at most
 // 10 samples and never takes, so the reliable writer's history fills and
@@ -919,13 +933,7 @@ TEST(DdsPlugin, Issue16_PartitionSeparatesReaders) {
 TEST(DdsPlugin, Issue16_StalledReliableReaderDoesNotBlockTheDispatcher) {
   const dds_entity_t pp = dds_create_participant(static_cast<dds_domainid_t>(test_domain()), nullptr, nullptr);
   ASSERT_GT(pp, 0);
-  const dds_entity_t topic = dds_create_topic(pp, &cobridge_EncoderSample_desc, "EncoderSample", nullptr, nullptr);
-  dds_qos_t* rq = dds_create_qos();
-  dds_qset_reliability(rq, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
-  dds_qset_history(rq, DDS_HISTORY_KEEP_ALL, 0);
-  dds_qset_resource_limits(rq, 10, DDS_LENGTH_UNLIMITED, DDS_LENGTH_UNLIMITED);
-  const dds_entity_t stalled = dds_create_reader(pp, topic, rq, nullptr);
-  dds_delete_qos(rq);
+  const dds_entity_t stalled = stalled_sample_reader(pp);
   ASSERT_GT(stalled, 0);
   std::string log;
   std::chrono::nanoseconds longest{0};
@@ -967,13 +975,7 @@ TEST(DdsPlugin, Issue16_StalledReliableReaderDoesNotBlockTheDispatcher) {
 TEST(DdsPlugin, Issue16_OfflineIsNotQueuedBehindASampleBacklog) {
   const dds_entity_t pp = dds_create_participant(static_cast<dds_domainid_t>(test_domain()), nullptr, nullptr);
   ASSERT_GT(pp, 0);
-  const dds_entity_t topic = dds_create_topic(pp, &cobridge_EncoderSample_desc, "EncoderSample", nullptr, nullptr);
-  dds_qos_t* rq = dds_create_qos();
-  dds_qset_reliability(rq, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
-  dds_qset_history(rq, DDS_HISTORY_KEEP_ALL, 0);
-  dds_qset_resource_limits(rq, 10, DDS_LENGTH_UNLIMITED, DDS_LENGTH_UNLIMITED);
-  const dds_entity_t stalled = dds_create_reader(pp, topic, rq, nullptr);
-  dds_delete_qos(rq);
+  const dds_entity_t stalled = stalled_sample_reader(pp);
   ASSERT_GT(stalled, 0);
   Reader status(&cobridge_DeviceStatus_desc, "DeviceStatus", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_TRANSIENT_LOCAL,
                 true);
