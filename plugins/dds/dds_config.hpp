@@ -17,8 +17,9 @@ enum class Reliability : std::uint8_t { kBestEffort, kReliable };
 
 // Which thread writes EncoderSample (docs/dds.md, "Threads and cost").
 enum class SamplePath : std::uint8_t {
-  kAuto,          // the dispatcher for best-effort samples, the writer thread for reliable ones
-  kDispatcher,    // on_samples writes them itself; a reliable writer then has max_blocking_time 0
+  kAuto,          // the dispatcher; a write that finds the reliable history full, and those
+                  // after it, go to the writer thread, which waits for room (spill)
+  kDispatcher,    // the dispatcher only: a full reliable history fails the write at once
   kWriterThread,  // queued to the plugin's writer thread, like the other topics
 };
 
@@ -43,17 +44,17 @@ struct DdsConfig {
   // instances of a gateway that died turn NOT_ALIVE_NO_WRITERS after at
   // most this long (docs/dds.md, "Many gateways in one domain").
   std::int64_t liveliness_lease_ms = 500;
-  // Who writes EncoderSample; resolved by samples_on_dispatcher(). The
-  // writer thread by default: writing on the dispatcher takes Cyclone's
-  // writer lock and a sendto there, and its latency benefit is not yet
-  // shown on a quiet host (docs/performance.md, "DDS latency").
-  SamplePath sample_path = SamplePath::kWriterThread;
+  // Who writes EncoderSample. "auto" by default: the dispatcher's direct
+  // write is what keeps the p99 at bare Cyclone's (docs/performance.md,
+  // "Issue 16"), the spill keeps the writer thread's patience with a slow
+  // reliable reader.
+  SamplePath sample_path = SamplePath::kAuto;
 
-  // True when on_samples writes EncoderSample on the dispatcher thread.
-  [[nodiscard]] bool samples_on_dispatcher() const noexcept {
-    return sample_path == SamplePath::kDispatcher ||
-           (sample_path == SamplePath::kAuto && sample_reliability == Reliability::kBestEffort);
-  }
+  // True when on_samples writes EncoderSample on the dispatcher thread (the
+  // sample writer then has max_blocking_time 0).
+  [[nodiscard]] bool samples_on_dispatcher() const noexcept { return sample_path != SamplePath::kWriterThread; }
+  // True when a write that finds the history full goes to the writer thread.
+  [[nodiscard]] bool spill_to_writer_thread() const noexcept { return sample_path == SamplePath::kAuto; }
 };
 
 enum class DdsConfigErrc {

@@ -19,10 +19,12 @@
 // whatever is queued at once (with write_batch: one RTPS message per take).
 // So a slow or reliable DDS subscriber cannot delay the other outputs
 // (Modbus, tap), which share the dispatcher. The hop costs a wake-up
-// (docs/performance.md, "DDS latency"). Except for best-effort EncoderSample
-// (sample_path "auto"/"dispatcher"): a best-effort writer never blocks, so
-// on_samples writes those itself (DispatcherSamples) and queues only what
-// the writer thread needs, waking it only then. A third, slow thread (presence)
+// (docs/performance.md, "DDS latency"). Except for EncoderSample (sample_path
+// "auto", the default, and "dispatcher"): on_samples writes those itself,
+// never waiting (DispatcherSamples: max_blocking_time 0; with "auto" what
+// finds a reliable history full is spilled to the writer thread, which
+// waits for room), and queues only what the writer thread needs, waking it
+// only then. A third, slow thread (presence)
 // keeps the gateway's GatewayStatus current every kPresenceTick and reports
 // a duplicate gateway id in the domain (gateway_presence.hpp); the writer
 // thread wakes it at once when the device counts change, and it writes
@@ -41,6 +43,7 @@
 #include "dds/dds_publisher.hpp"
 #include "dds/dispatcher_samples.hpp"
 #include "dds/gateway_presence.hpp"
+#include "dds/topics.hpp"
 
 #include <cobridge/plugin.h>
 #include <cobridge/spsc_ring.hpp>
@@ -114,6 +117,13 @@ struct Instance {
   std::chrono::milliseconds stop_drain{};  // how long the final drain took
   std::thread writer;
   std::array<cobridge_sample, kBatch> batch{};
+  std::array<SpilledSample, kBatch> spilled{};
+
+  // Samples lost because the writer thread fell behind: its queue's and the
+  // spill ring's.
+  [[nodiscard]] std::uint64_t dropped() const noexcept {
+    return ring_drops.load(std::memory_order_relaxed) + (direct ? direct->spill_drops() : 0);
+  }
 
   void log(int level, const std::string& msg) const noexcept {
     plugin::host_log(host, level, msg);
@@ -138,6 +148,7 @@ struct Instance {
   bool drain() {
     bool any = drain_devices();
     if (drain_lane()) any = true;
+    if (drain_spilled()) any = true;
     // A few batches per turn, so that a stop is seen between them even with
     // a long backlog behind a slow reliable subscriber.
     for (int i = 0; i < 4 && drain_batch(); ++i) any = true;
@@ -151,6 +162,22 @@ struct Instance {
     if (n == 0) return false;
     publisher->publish_status({lane_batch.data(), n});
     kick_presence();
+    return true;
+  }
+
+  // EncoderSamples the dispatcher could not write, in order; each waits up to
+  // kMaxBlocking for room in the reliable history. Flushed before the
+  // dispatcher is told, so its next direct write goes out after them.
+  bool drain_spilled() {
+    if (!direct) return false;
+    const std::size_t n = direct->take_spilled(std::span<SpilledSample>(spilled.data(), spilled.size()));
+    if (n == 0) return false;
+    for (std::size_t i = 0; i < n; ++i) {
+      publisher->write_spilled(spilled[i].sample, spilled[i].stale, kMaxBlocking);
+      if ((i + 1) % kLaneCheck == 0) (void)drain_lane();
+    }
+    publisher->flush();
+    direct->spilled_done(n);
     return true;
   }
 
@@ -201,10 +228,14 @@ struct Instance {
   void final_drain() {
     const auto t0 = std::chrono::steady_clock::now();
     (void)drain_devices();
-    while (std::chrono::steady_clock::now() - t0 < kStopDrain && drain_batch()) {
+    while (std::chrono::steady_clock::now() - t0 < kStopDrain && (drain_spilled() || drain_batch())) {
     }
     for (std::size_t n; (n = ring.pop_batch(std::span<cobridge_sample>(batch.data(), batch.size()))) != 0;)
       stop_drops += n;
+    if (direct) {
+      for (std::size_t n; (n = direct->take_spilled(std::span<SpilledSample>(spilled.data(), spilled.size()))) != 0;)
+        stop_drops += n;
+    }
     stop_drain = std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - t0);
   }
 
@@ -304,7 +335,9 @@ int dds_start(void* self) {
                                      std::to_string(c.sample_depth) +
                                      (c.write_batch ? ", write batching" : "") + ", liveliness lease " +
                                      std::to_string(c.liveliness_lease_ms) + " ms, samples written by the " +
-                                     (inst->direct ? "dispatcher" : "writer thread") +
+                                     (!inst->direct                                  ? "writer thread"
+                                      : c.spill_to_writer_thread() ? "dispatcher (spilling to the writer thread)"
+                                                                   : "dispatcher") +
                                      (c.topic_prefix.empty() ? std::string() : ", topic prefix '" + c.topic_prefix + "'") +
                                      (c.partition.empty() ? std::string() : ", partition '" + c.partition + "'"));
     return 0;
@@ -332,7 +365,10 @@ void dds_stop(void* self) {
                       " events, " + std::to_string(s.statuses) + " status updates written (final drain " +
                       std::to_string(inst->stop_drain.count()) + " ms, DDS entities deleted in " +
                       std::to_string(deleted.count()) + " ms)";
-    if (const auto drops = inst->ring_drops.load(); drops != 0)
+    if (inst->direct && inst->direct->spilled() != 0)
+      msg += "; " + std::to_string(inst->direct->spilled()) +
+             " samples found the reliable history full and were written by the writer thread";
+    if (const auto drops = inst->dropped(); drops != 0)
       msg += "; " + std::to_string(drops) + " samples dropped because the DDS writer fell behind";
     if (inst->stop_drops != 0)
       msg += "; " + std::to_string(inst->stop_drops) + " queued samples not written at stop (drain limit " +
@@ -372,7 +408,7 @@ void dds_on_samples(void* self, const cobridge_sample* samples, std::size_t coun
     }
     inst->direct->flush();
     if (dropped != 0) inst->ring_drops.fetch_add(dropped, std::memory_order_relaxed);
-    if (queued != 0) inst->wake();
+    if (queued != 0 || inst->direct->spilling()) inst->wake();
     return;
   }
   for (std::size_t i = 0; i < count; ++i)
@@ -424,7 +460,10 @@ std::size_t dds_stats(void* self, cobridge_stat* out, std::size_t max) {
       {"dds_write_failures", "DDS writes that failed (a full reliable history included).", COBRIDGE_STAT_COUNTER, 0,
        failures},
       {"dds_samples_dropped", "Samples dropped because the DDS writer thread fell behind.", COBRIDGE_STAT_COUNTER, 0,
-       inst->ring_drops.load(std::memory_order_relaxed)},
+       inst->dropped()},
+      {"dds_samples_spilled",
+       "EncoderSamples that found the reliable history full on the dispatcher and were handed to the writer thread.",
+       COBRIDGE_STAT_COUNTER, 0, inst->direct ? inst->direct->spilled() : 0},
   };
   std::size_t n = 0;
   for (const auto& f : figures) {
@@ -468,9 +507,10 @@ extern "C" COBRIDGE_PLUGIN_EXPORT int cobridge_plugin_create(const cobridge_host
     auto inst = std::make_unique<Instance>();
     inst->host = host;
     const bool direct = parsed.config.samples_on_dispatcher();
+    const bool spill = parsed.config.spill_to_writer_thread();
     const bool batch = parsed.config.write_batch;
     inst->publisher = std::make_unique<DdsPublisher>(std::move(parsed.config), gateway_id);
-    if (direct) inst->direct = std::make_unique<DispatcherSamples>(inst->publisher->gateway(), batch);
+    if (direct) inst->direct = std::make_unique<DispatcherSamples>(inst->publisher->gateway(), batch, spill);
     if (*gateway_id == '\0') {
       inst->log(COBRIDGE_LOG_WARN, "the gateway id is empty: keys of several gateways in one domain will collide");
     }

@@ -143,12 +143,32 @@ void DdsPublisher::flush() noexcept {
 void DdsPublisher::write(dds_entity_t writer, const void* data, std::atomic<std::uint64_t>& counter) noexcept {
   const dds_return_t rc = dds_write(writer, data);
   unflushed_ |= writer == sample_writer_ ? kFlushSample : writer == event_writer_ ? kFlushEvent : kFlushStatus;
+  tally(rc, counter);
+}
+
+void DdsPublisher::tally(dds_return_t rc, std::atomic<std::uint64_t>& counter) noexcept {
   if (rc == DDS_RETCODE_OK) {
     counter.fetch_add(1, std::memory_order_relaxed);
   } else {
     failures_.fetch_add(1, std::memory_order_relaxed);
     last_failure_.store(rc, std::memory_order_relaxed);
   }
+}
+
+void DdsPublisher::write_spilled(const cobridge_sample& s, bool stale, dds_duration_t patience) noexcept {
+  if (!started()) return;
+  cobridge_EncoderSample m{};
+  fill_encoder_sample(m, s, gateway_, slots_.find(s.device_index), stale);
+  const dds_time_t give_up = dds_time() + patience;
+  dds_return_t rc = dds_write(sample_writer_, &m);
+  // Room comes with the reader's acknowledgements; a few short naps rather
+  // than a spin (the writer thread has nothing else that cannot wait).
+  while (rc == DDS_RETCODE_TIMEOUT && dds_time() < give_up) {
+    dds_sleepfor(DDS_USECS(100));
+    rc = dds_write(sample_writer_, &m);
+  }
+  unflushed_ |= kFlushSample;
+  tally(rc, samples_);
 }
 
 void DdsPublisher::write_status(const DeviceSlot& slot) noexcept {

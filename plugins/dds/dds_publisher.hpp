@@ -86,6 +86,11 @@ class DdsPublisher {
   void publish_status(std::span<const cobridge_sample> samples) noexcept;
   // Sends what was written since the last flush (write_batch).
   void flush() noexcept;
+  // An EncoderSample the dispatcher could not write (DispatcherSamples'
+  // spill ring): a full reliable history is waited for up to `patience`
+  // (the sample writer itself has max_blocking_time 0 then), in short
+  // sleeps; what still finds no room is counted as a failure.
+  void write_spilled(const cobridge_sample& s, bool stale, dds_duration_t patience) noexcept;
 
   [[nodiscard]] PublisherStats stats() const noexcept;
   // Any thread while started (the status page): the data writers this
@@ -108,6 +113,8 @@ class DdsPublisher {
   void publish_one(const cobridge_sample& s) noexcept;
   void write_status(const DeviceSlot& slot) noexcept;
   void write(dds_entity_t writer, const void* data, std::atomic<std::uint64_t>& counter) noexcept;
+  // Counts a write's outcome: `counter` on success, a failure otherwise.
+  void tally(dds_return_t rc, std::atomic<std::uint64_t>& counter) noexcept;
   void forget_instance(const DeviceSlot& slot) noexcept;
   // STATUS in queue order: the last EncoderSample again, stale, when the
   // device turns stale (subscribers of EncoderSample alone learn it).

@@ -2,8 +2,8 @@
 
 namespace cobridge::dds {
 
-DispatcherSamples::DispatcherSamples(const GatewayName& gateway, bool write_batch, std::size_t capacity)
-    : gateway_(gateway), write_batch_(write_batch), devices_(capacity) {}
+DispatcherSamples::DispatcherSamples(const GatewayName& gateway, bool write_batch, bool spill, std::size_t capacity)
+    : gateway_(gateway), write_batch_(write_batch), spill_(spill), devices_(capacity) {}
 
 void DispatcherSamples::device(const cobridge_device_info& info) noexcept {
   if (info.device_index >= devices_.size()) return;
@@ -16,6 +16,11 @@ void DispatcherSamples::device(const cobridge_device_info& info) noexcept {
 }
 
 void DispatcherSamples::put(const cobridge_sample& s, const Device& d, bool stale) noexcept {
+  // Behind spilled samples the writer thread has not written yet: after them.
+  if (spill_ && spilling()) {
+    (void)spill(s, stale);
+    return;
+  }
   cobridge_EncoderSample m{};
   fill_encoder_sample(m, s, gateway_, nullptr, stale);
   m.device_name = const_cast<char*>(d.name.c_str());  // Cyclone only reads it
@@ -23,10 +28,21 @@ void DispatcherSamples::put(const cobridge_sample& s, const Device& d, bool stal
   unflushed_ = true;
   if (rc == DDS_RETCODE_OK) {
     written_.fetch_add(1, std::memory_order_relaxed);
-  } else {
-    failures_.fetch_add(1, std::memory_order_relaxed);
-    last_failure_.store(rc, std::memory_order_relaxed);
+    return;
   }
+  if (spill_ && rc == DDS_RETCODE_TIMEOUT && spill(s, stale)) return;  // history full: the writer thread waits
+  failures_.fetch_add(1, std::memory_order_relaxed);
+  last_failure_.store(rc, std::memory_order_relaxed);
+}
+
+bool DispatcherSamples::spill(const cobridge_sample& s, bool stale) noexcept {
+  if (!spill_ring_.try_push(SpilledSample{s, stale})) {
+    spill_drops_.fetch_add(1, std::memory_order_relaxed);
+    return false;
+  }
+  ++spilled_;
+  spilled_total_.fetch_add(1, std::memory_order_relaxed);
+  return true;
 }
 
 bool DispatcherSamples::write(const cobridge_sample& s) noexcept {

@@ -34,8 +34,8 @@
 //     the bare stream of the same reliability from the same run of the
 //     bench: p50/p99/p99.9 and the ratio plugin / bare (target p99 <= 1.2x).
 //     Runs with EncoderSample written on the dispatcher (the feeding thread
-//     here; sample_path "dispatcher") and on the plugin's writer thread
-//     (the default).
+//     here; sample_path "auto", the default) and on the plugin's writer
+//     thread ("writer-thread").
 //  3. The wake-up hop: atomic notify -> waiting thread running, the
 //     mechanism by which the dispatcher wakes the plugin's writer thread.
 //
@@ -552,26 +552,25 @@ int main(int argc, char** argv) {
       std::string config;
       bool reliable = false;
     };
-    const std::string wt = "sample_path = \"writer-thread\"\n", dsp = "sample_path = \"dispatcher\"\n",
-                      rel = "sample_reliability = \"reliable\"\n",
+    // sample_path "auto" is the default (the dispatcher writes, a full
+    // reliable history spills to the writer thread).
+    const std::string wt = "sample_path = \"writer-thread\"\n", rel = "sample_reliability = \"reliable\"\n",
                       nob = "write_batch = false\n";
     std::vector<Run> runs;
     for (const Feed feed : {Feed::kSpread, Feed::kBurst}) {
       if (feeds != "both" && (feed == Feed::kSpread) != (feeds == "spread")) continue;
       const bool sp = feed == Feed::kSpread;
-      runs.push_back({sp ? "spread, best-effort, dispatcher, write_batch" : "burst, best-effort, dispatcher, write_batch",
-                      feed, d + dsp});
-      runs.push_back({sp ? "spread, best-effort, dispatcher, no batching" : "burst, best-effort, dispatcher, no batching",
-                      feed, d + dsp + nob});
+      runs.push_back({sp ? "spread, best-effort, auto (default), write_batch" : "burst, best-effort, auto (default), write_batch",
+                      feed, d});
+      runs.push_back({sp ? "spread, best-effort, auto, no batching" : "burst, best-effort, auto, no batching",
+                      feed, d + nob});
       runs.push_back({sp ? "spread, best-effort, writer thread, write_batch"
                          : "burst, best-effort, writer thread, write_batch",
                       feed, d + wt});
-      runs.push_back({sp ? "spread, reliable, dispatcher, write_batch" : "burst, reliable, dispatcher, write_batch",
-                      feed, d + rel + dsp, true});
-      runs.push_back({sp ? "spread, reliable, writer thread, write_batch" : "burst, reliable, writer thread, write_batch",
+      runs.push_back({sp ? "spread, reliable, auto (default), write_batch" : "burst, reliable, auto (default), write_batch",
                       feed, d + rel, true});
-      runs.push_back({sp ? "spread, reliable, writer thread, no batching" : "burst, reliable, writer thread, no batching",
-                      feed, d + rel + nob, true});
+      runs.push_back({sp ? "spread, reliable, writer thread, write_batch" : "burst, reliable, writer thread, write_batch",
+                      feed, d + rel + wt, true});
     }
     // Allocations with no reader matched: the subscriber does not read this
     // topic (its latency line stays empty).

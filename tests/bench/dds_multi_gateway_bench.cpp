@@ -14,7 +14,7 @@
 // target names.
 //
 // Usage: cobridge_bench_dds_multi_gateway [seconds = 10] [reliable|best-effort]
-//                                         [writer-thread|dispatcher]
+//                                         [auto|writer-thread|dispatcher]
 #include "pipeline/plugin_host.hpp"
 #include "pipeline/sample.hpp"
 
@@ -185,9 +185,10 @@ int gateways(std::uint32_t domain, const std::string& config, double seconds) {
 int main(int argc, char** argv) {
   const double seconds = argc > 1 ? std::atof(argv[1]) : 10.0;
   const std::string rel = argc > 2 ? argv[2] : "reliable";
-  const std::string path = argc > 3 ? argv[3] : "writer-thread";
-  if (seconds <= 0 || (rel != "reliable" && rel != "best-effort") || (path != "writer-thread" && path != "dispatcher")) {
-    std::fprintf(stderr, "usage: %s [seconds] [reliable|best-effort] [writer-thread|dispatcher]\n", argv[0]);
+  const std::string path = argc > 3 ? argv[3] : "auto";
+  if (seconds <= 0 || (rel != "reliable" && rel != "best-effort") ||
+      (path != "auto" && path != "writer-thread" && path != "dispatcher")) {
+    std::fprintf(stderr, "usage: %s [seconds] [reliable|best-effort] [auto|writer-thread|dispatcher]\n", argv[0]);
     return 2;
   }
   setvbuf(stdout, nullptr, _IOLBF, 0);

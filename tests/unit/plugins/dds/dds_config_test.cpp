@@ -19,21 +19,24 @@ TEST(DdsConfig, DocsDds_EmptyGivesDefaults) {
   EXPECT_EQ(r.config.topic_prefix, "");
   EXPECT_TRUE(r.config.write_batch);
   EXPECT_EQ(r.config.liveliness_lease_ms, 500);
-  EXPECT_EQ(r.config.sample_path, SamplePath::kWriterThread);
-  EXPECT_FALSE(r.config.samples_on_dispatcher()) << "the writer thread writes by default";
-  EXPECT_TRUE(parse_dds_config("sample_path = \"auto\"").config.samples_on_dispatcher())
-      << "auto: best-effort samples on the dispatcher";
+  EXPECT_EQ(r.config.sample_path, SamplePath::kAuto);
+  EXPECT_TRUE(r.config.samples_on_dispatcher()) << "the dispatcher writes samples by default";
+  EXPECT_TRUE(r.config.spill_to_writer_thread()) << "and spills a full reliable history to the writer thread";
 }
 
-// Issue 16: sample_path; "auto" resolves by reliability.
+// Issue 16, item 1: sample_path; "auto" writes on the dispatcher and spills,
+// whatever the reliability; "dispatcher" never spills; "writer-thread" never
+// writes on the dispatcher.
 TEST(DdsConfig, Issue16_SamplePath) {
-  EXPECT_FALSE(parse_dds_config("sample_reliability = \"reliable\"").config.samples_on_dispatcher());
+  const DdsConfig reliable = parse_dds_config("sample_reliability = \"reliable\"").config;
+  EXPECT_TRUE(reliable.samples_on_dispatcher());
+  EXPECT_TRUE(reliable.spill_to_writer_thread());
   EXPECT_FALSE(parse_dds_config("sample_path = \"writer-thread\"").config.samples_on_dispatcher());
-  const DdsConfigResult d = parse_dds_config("sample_path = \"dispatcher\"");
+  EXPECT_FALSE(parse_dds_config("sample_path = \"writer-thread\"").config.spill_to_writer_thread());
+  const DdsConfigResult d = parse_dds_config("sample_path = \"dispatcher\"\nsample_reliability = \"reliable\"");
   ASSERT_TRUE(d.ok()) << d.message;
   EXPECT_TRUE(d.config.samples_on_dispatcher());
-  EXPECT_TRUE(parse_dds_config("sample_path = \"dispatcher\"\nsample_reliability = \"reliable\"")
-                  .config.samples_on_dispatcher());
+  EXPECT_FALSE(d.config.spill_to_writer_thread());
 }
 
 // docs/dds.md "Configuration": every key read.
