@@ -367,7 +367,7 @@ void dds_stop(void* self) {
                       std::to_string(deleted.count()) + " ms)";
     if (inst->direct && inst->direct->spilled() != 0)
       msg += "; " + std::to_string(inst->direct->spilled()) +
-             " samples found the reliable history full and were written by the writer thread";
+             " samples handed to the writer thread (reliable history full, or the dispatcher behind)";
     if (const auto drops = inst->dropped(); drops != 0)
       msg += "; " + std::to_string(drops) + " samples dropped because the DDS writer fell behind";
     if (inst->stop_drops != 0)
@@ -462,7 +462,7 @@ std::size_t dds_stats(void* self, cobridge_stat* out, std::size_t max) {
       {"dds_samples_dropped", "Samples dropped because the DDS writer thread fell behind.", COBRIDGE_STAT_COUNTER, 0,
        inst->dropped()},
       {"dds_samples_spilled",
-       "EncoderSamples that found the reliable history full on the dispatcher and were handed to the writer thread.",
+       "EncoderSamples the dispatcher handed to the writer thread (reliable history full, or dispatcher behind).",
        COBRIDGE_STAT_COUNTER, 0, inst->direct ? inst->direct->spilled() : 0},
   };
   std::size_t n = 0;

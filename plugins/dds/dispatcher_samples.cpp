@@ -17,7 +17,9 @@ void DispatcherSamples::device(const cobridge_device_info& info) noexcept {
 
 void DispatcherSamples::put(const cobridge_sample& s, const Device& d, bool stale) noexcept {
   // Behind spilled samples the writer thread has not written yet: after them.
-  if (spill_ && spilling()) {
+  // Behind the bus too: the writer thread batches what piles up (one sendto
+  // per batch) and the dispatcher, which status samples must pass, catches up.
+  if (spill_ && (spilling() || behind(s))) {
     (void)spill(s, stale);
     return;
   }
@@ -33,6 +35,10 @@ void DispatcherSamples::put(const cobridge_sample& s, const Device& d, bool stal
   if (spill_ && rc == DDS_RETCODE_TIMEOUT && spill(s, stale)) return;  // history full: the writer thread waits
   failures_.fetch_add(1, std::memory_order_relaxed);
   last_failure_.store(rc, std::memory_order_relaxed);
+}
+
+bool DispatcherSamples::behind(const cobridge_sample& s) noexcept {
+  return s.kind == COBRIDGE_SAMPLE_TPDO && s.publish_timestamp_ns > s.rx_timestamp_ns + kBehindNs;
 }
 
 bool DispatcherSamples::spill(const cobridge_sample& s, bool stale) noexcept {

@@ -15,7 +15,12 @@
 //     of them (order kept), waiting up to kMaxBlocking for room each, like
 //     the writer-thread path. A reader that keeps up costs the direct path's
 //     latency; one that lags gets the writer thread's patience; a spill ring
-//     that is full drops and counts.
+//     that is full drops and counts. A TPDO the dispatcher hands over more
+//     than kBehindNs after its frame arrived spills too: the dispatcher is
+//     behind (a CPU too slow for a dds_write and, with small batches, a
+//     sendto per sample: measured in UML), and every status sample waits
+//     behind it in the daemon's rings; the writer thread writes the backlog
+//     in large batches and the plugin's status lane goes past it.
 // With write_batch, one dds_write_flush per on_samples call sends the batch
 // as one RTPS message.
 //
@@ -58,6 +63,9 @@ struct SpilledSample {
 class DispatcherSamples {
  public:
   static constexpr std::size_t kSpill = 1u << 15;  // 8 s of four devices at 1 kHz
+  // Frame to dispatcher beyond this: behind. The direct path's p99.9 on a
+  // loaded 2-core host is ~0.2 ms (docs/performance.md, "Issue 16").
+  static constexpr std::uint64_t kBehindNs = 2'000'000;
 
   // `spill`: a write that finds the reliable history full goes to the writer
   // thread (sample_path "auto") instead of failing ("dispatcher").
@@ -103,6 +111,8 @@ class DispatcherSamples {
     cobridge_sample last{};
   };
   void put(const cobridge_sample& s, const Device& d, bool stale) noexcept;
+  // A TPDO handed out more than kBehindNs after its frame arrived.
+  static bool behind(const cobridge_sample& s) noexcept;
   // Into the spill ring; false (counted) when it is full.
   bool spill(const cobridge_sample& s, bool stale) noexcept;
 

@@ -1050,6 +1050,40 @@ TEST(DdsPlugin, Issue16_AutoSpillsAFullReliableHistoryToTheWriterThreadInOrder) 
   EXPECT_GE(got.size(), 15u) << "the first 10 and batch C at least";
 }
 
+// Issue 16, item 1, sample_path "auto": a TPDO the dispatcher hands out more
+// than DispatcherSamples::kBehindNs after its frame arrived (the dispatcher
+// is behind) goes to the writer thread, and so does what follows until that
+// has been written; then the dispatcher writes directly again. Every sample
+// arrives, in order, with its values and name (the writer thread fills them
+// from its own device table).
+TEST(DdsPlugin, Issue16_AutoHandsABacklogToTheWriterThread) {
+  Reader reader(&cobridge_EncoderSample_desc, "EncoderSample", DDS_RELIABILITY_BEST_EFFORT, DDS_DURABILITY_VOLATILE,
+                true);
+  Plugin p(base_config());
+  p.host.announce(device(0, 0, 5, "axis 1"));
+  std::vector<cobridge_sample> late, on_time;
+  for (std::uint32_t seq = 1; seq <= 300; ++seq) {
+    cobridge_sample s = tpdo(0, 0, 5, seq);
+    if (seq <= 200) s.publish_timestamp_ns = s.rx_timestamp_ns + 5'000'000;  // 5 ms behind
+    (seq <= 200 ? late : on_time).push_back(s);
+  }
+  p.host.deliver(late);
+  const std::uint64_t spilled = figure(p, "dds_samples_spilled");
+  EXPECT_EQ(spilled, 200u) << "every late TPDO went to the writer thread";
+  const auto deadline = std::chrono::steady_clock::now() + 10s;
+  while (figure(p, "dds_samples_written") < 200 && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(2ms);
+  p.host.deliver(on_time);
+  EXPECT_EQ(figure(p, "dds_samples_spilled"), spilled) << "on time again: written on the dispatcher";
+  std::vector<GotSample> got;
+  reader.take<cobridge_EncoderSample>(300, [&](const cobridge_EncoderSample& v) { got.push_back(copy_sample(v)); });
+  ASSERT_EQ(got.size(), 300u);
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    expect_values(got[i], i < 200 ? late[i] : on_time[i - 200], "axis 1");
+    if (::testing::Test::HasFailure()) return;
+  }
+}
+
 // Issue 16, "a gateway that loses its bus is visible to subscribers within
 // 1 s": a device going offline reaches DeviceStatus and GatewayStatus at
 // once even with seconds of EncoderSamples queued before it. A reliable
