@@ -910,19 +910,30 @@ TEST(DdsPlugin, Issue16_PartitionSeparatesReaders) {
   dds_delete(pp);
 }
 
-// A reliable EncoderSample reader in participant `pp` that never takes and
-// has room for 10 samples: every reliable write to it waits its
-// max_blocking_time once the room is used up (issue 16: a stalled reader).
-static dds_entity_t stalled_sample_reader(dds_entity_t pp) {
-  const dds_entity_t topic = dds_create_topic(pp, &cobridge_EncoderSample_desc, "EncoderSample", nullptr, nullptr);
-  dds_qos_t* rq = dds_create_qos();
-  dds_qset_reliability(rq, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
-  dds_qset_history(rq, DDS_HISTORY_KEEP_ALL, 0);
-  dds_qset_resource_limits(rq, 10, DDS_LENGTH_UNLIMITED, DDS_LENGTH_UNLIMITED);
-  const dds_entity_t reader = dds_create_reader(pp, topic, rq, nullptr);
-  dds_delete_qos(rq);
-  return reader;
-}
+// A reliable EncoderSample reader in a participant of its own that takes
+// only when the test does and has room for 10 samples: every reliable write
+// to it waits its max_blocking_time once the room is used up (issue 16: a
+// stalled reader). The participant goes with the object.
+struct StalledReader {
+  dds_entity_t pp = dds_create_participant(static_cast<dds_domainid_t>(test_domain()), nullptr, nullptr);
+  dds_entity_t reader = make(pp);
+  StalledReader() = default;
+  StalledReader(const StalledReader&) = delete;
+  StalledReader& operator=(const StalledReader&) = delete;
+  ~StalledReader() {
+    if (pp > 0) dds_delete(pp);
+  }
+  static dds_entity_t make(dds_entity_t pp) {
+    const dds_entity_t topic = dds_create_topic(pp, &cobridge_EncoderSample_desc, "EncoderSample", nullptr, nullptr);
+    dds_qos_t* rq = dds_create_qos();
+    dds_qset_reliability(rq, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+    dds_qset_history(rq, DDS_HISTORY_KEEP_ALL, 0);
+    dds_qset_resource_limits(rq, 10, DDS_LENGTH_UNLIMITED, DDS_LENGTH_UNLIMITED);
+    const dds_entity_t reader = dds_create_reader(pp, topic, rq, nullptr);
+    dds_delete_qos(rq);
+    return reader;
+  }
+};
 
 // Issue 16, item 1: a reliable subscriber that stops reading must not stall
 // the dispatcher (which Modbus and the tap share). The reader keeps at most
@@ -932,10 +943,8 @@ static dds_entity_t stalled_sample_reader(dds_entity_t pp) {
 // keep up with is dropped from the plugin's queue and counted, never waited
 // for. The longest on_samples call is printed, not judged.
 TEST(DdsPlugin, Issue16_StalledReliableReaderDoesNotBlockTheDispatcher) {
-  const dds_entity_t pp = dds_create_participant(static_cast<dds_domainid_t>(test_domain()), nullptr, nullptr);
-  ASSERT_GT(pp, 0);
-  const dds_entity_t stalled = stalled_sample_reader(pp);
-  ASSERT_GT(stalled, 0);
+  const StalledReader stalled_reader;
+  ASSERT_GT(stalled_reader.reader, 0);
   std::string log;
   std::chrono::nanoseconds longest{0};
   {
@@ -956,7 +965,6 @@ TEST(DdsPlugin, Issue16_StalledReliableReaderDoesNotBlockTheDispatcher) {
     p.host.stop_all();
     log = p.log.all();
   }
-  dds_delete(pp);
   std::printf("  longest on_samples (250 samples) with a stalled reliable reader: %.3f ms\n",
               static_cast<double>(longest.count()) / 1e6);
   // The DDS side fell behind and said so; the dispatcher did not wait for it.
@@ -988,10 +996,9 @@ static std::uint64_t figure(const Plugin& p, const std::string& name) {
 // rejects while the write still returns OK (a subscriber in another process
 // makes the writer's history fill instead: a write that times out).
 TEST(DdsPlugin, Issue16_AutoSpillsAFullReliableHistoryToTheWriterThreadInOrder) {
-  const dds_entity_t pp = dds_create_participant(static_cast<dds_domainid_t>(test_domain()), nullptr, nullptr);
-  ASSERT_GT(pp, 0);
-  const dds_entity_t reader = stalled_sample_reader(pp);
-  ASSERT_GT(reader, 0);
+  const StalledReader stalled_reader;
+  ASSERT_GT(stalled_reader.reader, 0);
+  const dds_entity_t reader = stalled_reader.reader;
   std::mutex m;
   std::vector<std::uint32_t> got;
   std::atomic<bool> taking{true};
@@ -1041,7 +1048,6 @@ TEST(DdsPlugin, Issue16_AutoSpillsAFullReliableHistoryToTheWriterThreadInOrder) 
   taking = false;
   taker.join();
   p.host.stop_all();
-  dds_delete(pp);
   std::printf("  %zu of 205 samples arrived, %llu spilled to the writer thread, %llu failed\n", got.size(),
               static_cast<unsigned long long>(spilled), static_cast<unsigned long long>(figure(p, "dds_write_failures")));
   ASSERT_FALSE(got.empty());
@@ -1093,10 +1099,8 @@ TEST(DdsPlugin, Issue16_AutoHandsABacklogToTheWriterThread) {
 // (before the status lane it waited for the whole backlog: 2.5-4.8 s in
 // UML, vcan_outputs_dds_multi_gateway).
 TEST(DdsPlugin, Issue16_OfflineIsNotQueuedBehindASampleBacklog) {
-  const dds_entity_t pp = dds_create_participant(static_cast<dds_domainid_t>(test_domain()), nullptr, nullptr);
-  ASSERT_GT(pp, 0);
-  const dds_entity_t stalled = stalled_sample_reader(pp);
-  ASSERT_GT(stalled, 0);
+  const StalledReader stalled_reader;
+  ASSERT_GT(stalled_reader.reader, 0);
   Reader status(&cobridge_DeviceStatus_desc, "DeviceStatus", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_TRANSIENT_LOCAL,
                 true);
   Reader gw(&cobridge_GatewayStatus_desc, "GatewayStatus", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_TRANSIENT_LOCAL,
@@ -1135,7 +1139,6 @@ TEST(DdsPlugin, Issue16_OfflineIsNotQueuedBehindASampleBacklog) {
     if (counted) gateway_ms = ms_since();
     p.host.stop_all();
   }
-  dds_delete(pp);
   std::printf("  offline behind 20 000 queued samples: DeviceStatus after %.1f ms, GatewayStatus after %.1f ms\n",
               offline_ms, gateway_ms);
   EXPECT_GE(offline_ms, 0) << "DeviceStatus never showed the device offline";
