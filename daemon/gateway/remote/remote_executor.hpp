@@ -22,7 +22,9 @@
 //
 // Thread: the bus's control thread owns it, like every protocol component:
 // frames and `now` are passed in, process(now, gate) returns the next
-// deadline. Results are pushed to each command's RemoteReplies.
+// deadline. Results are pushed to each command's RemoteReplies, after the
+// answer line was sent to the client from this thread when the command
+// carries a DirectAnswer (the main thread then only does its bookkeeping).
 #pragma once
 
 #include "can/frame.hpp"
