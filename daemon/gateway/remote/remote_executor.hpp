@@ -16,7 +16,9 @@
 //     up one for another node;
 //   * LSS runs only when the gate allows it (no commissioning under way),
 //     and discovery waits while an LSS command runs and while devices may
-//     still be in LSS configuration state (lss_session());
+//     still be in LSS configuration state (lss_session(): 10 s after a
+//     step that can switch them there, a step of a session still held, or
+//     a device's answer; not after an inquiry nobody answered outside one);
 //   * NMT and LSS results go to the gate, so the bus manager knows what a
 //     client did (a device stopped on purpose, a node-ID set).
 //
