@@ -4,6 +4,7 @@
 
 #include "gateway/control_answer.hpp"
 #include "gateway/control_request.hpp"
+#include "gateway/remote/direct_answer.hpp"
 
 #include "canopen/nmt.hpp"
 #include "sys/logging.hpp"
@@ -439,6 +440,7 @@ void ControlServer::accept_clients(TimePoint now) {
     c.fd = fd;
     c.deadline = now + options_.client_timeout;
     c.peer = peer_credentials(fd);
+    c.direct = std::make_shared<DirectAnswer>(fd);
     clients_.push_back(std::move(c));
   }
 }
@@ -529,7 +531,8 @@ void ControlServer::submit(Client& c, ControlRequest request, TimePoint now) {
   cmd.tag = next_tag_++;
   const auto tag = cmd.tag;
   const auto wait = cmd.deadline + std::chrono::seconds(2);
-  if (Error e = remote_.submit(request.bus, cmd, replies_)) {
+  if (Error e = remote_.submit(request.bus, with_direct_answer(c, request), replies_)) {
+    if (c.direct) c.direct->arm({});
     c.out = error_answer(e);
     return;
   }
@@ -538,12 +541,28 @@ void ControlServer::submit(Client& c, ControlRequest request, TimePoint now) {
   c.deadline = now + wait;
 }
 
+RemoteCommand ControlServer::with_direct_answer(Client& c, const ControlRequest& request) {
+  RemoteCommand cmd = request.command;
+  // Only while nothing else is owed to the client: its answers stay in order.
+  if (!c.direct || !c.out.empty()) return cmd;
+  c.direct->arm([request](const RemoteResult& r) { return remote_answer(request, r) + '\n'; });
+  cmd.direct = c.direct;
+  return cmd;
+}
+
 void ControlServer::deliver(TimePoint now) {
-  for (const auto& r : replies_->take()) {
+  for (auto& r : replies_->take()) {
     for (auto& c : clients_) {
       if (c.waiting_tag != r.tag) continue;
-      c.out += remote_answer(c.pending, r);
-      c.out += '\n';
+      if (r.answer.empty()) {
+        c.out += remote_answer(c.pending, r);
+        c.out += '\n';
+      } else {
+        // The bus thread sent the answer, or its start: the rest goes from
+        // here (the buffer was empty when the command was queued).
+        c.out = std::move(r.answer);
+        c.out_done = r.answer_sent;
+      }
       c.waiting_tag = 0;
       c.pending = {};
       c.deadline = now + options_.client_timeout;
@@ -554,6 +573,8 @@ void ControlServer::deliver(TimePoint now) {
 }
 
 void ControlServer::drop(Client& c) {
+  if (c.waiting_tag != 0 && c.direct) c.direct->shut();
+  c.direct.reset();
   if (c.fd >= 0) ::close(c.fd);
   c.fd = -1;
 }

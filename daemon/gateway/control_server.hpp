@@ -37,13 +37,18 @@
 //
 // Thread: the daemon's main loop owns it: add_poll_fds() before poll(),
 // process(now) after, like every component that waits on file descriptors.
-// The handler is called from process(), on that thread.
+// The handler is called from process(), on that thread. One exception: the
+// answer to an SDO / NMT / LSS command is written to the client by the bus's
+// control thread that ran it (remote/direct_answer.hpp), when nothing else
+// is owed to the client; the main thread then only learns that the command
+// is done, and sends what the socket did not take.
 #pragma once
 
 #include "canopen/clock.hpp"
 #include "gateway/control_request.hpp"
 #include "gateway/device_status.hpp"
 #include "gateway/line_connection.hpp"
+#include "gateway/remote/direct_answer.hpp"
 #include "gateway/remote/ascii_server.hpp"
 #include "gateway/remote/peer_credentials.hpp"
 #include "gateway/remote/remote_replies.hpp"
@@ -56,6 +61,7 @@
 #include <chrono>
 #include <cstddef>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <system_error>
@@ -133,6 +139,7 @@ class ControlServer {
     PeerCredentials peer;
     std::uint64_t waiting_tag = 0;  // a command of this client runs (0: none)
     ControlRequest pending;         // that command, for its answer
+    std::shared_ptr<DirectAnswer> direct;  // the bus threads' way to answer it
   };
 
   void accept_clients(canopen::TimePoint now);
@@ -141,7 +148,11 @@ class ControlServer {
   void answer(Client& c, std::string_view line, canopen::TimePoint now);
   // A client's SDO/NMT/LSS command: checked, logged if a write, queued.
   void submit(Client& c, ControlRequest request, canopen::TimePoint now);
-  // Writes the results that came back from the buses to their clients.
+  // The command of `request` to queue, armed to answer `c` from the bus
+  // thread when that keeps the order of its answers.
+  static RemoteCommand with_direct_answer(Client& c, const ControlRequest& request);
+  // Takes the results that came back from the buses: the client is free
+  // again, and what of its answer the bus thread did not send goes out.
   void deliver(canopen::TimePoint now);
   // Opens the ASCII gateway once its settings are known (see above).
   void open_ascii_gateway();

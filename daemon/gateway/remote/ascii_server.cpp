@@ -1,5 +1,7 @@
 #include "gateway/remote/ascii_server.hpp"
 
+#include "gateway/remote/direct_answer.hpp"
+
 #include "sys/logging.hpp"
 
 #include <arpa/inet.h>
@@ -84,7 +86,7 @@ Error AsciiServer::open_tcp(const std::string& address, std::uint16_t port) {
 }
 
 void AsciiServer::close() {
-  for (auto& c : clients_) ::close(c.fd);
+  for (auto& c : clients_) drop(c);
   clients_.clear();
   if (unix_fd_ >= 0) {
     ::close(unix_fd_);
@@ -122,7 +124,7 @@ TimePoint AsciiServer::process(TimePoint now) {
     const bool buffered = it->waiting_tag == 0 && it->in.find('\n') != std::string::npos;
     const bool try_io = it->slot.take();
     if ((try_io || buffered || now >= it->idle_until) && !serve(*it, now)) {
-      ::close(it->fd);
+      drop(*it);
       it = clients_.erase(it);
       continue;
     }
@@ -147,6 +149,7 @@ void AsciiServer::accept_from(int listen_fd, bool tcp, TimePoint now) {
     c.fd = fd;
     c.sdo_timeout = options_.sdo_timeout;
     c.idle_until = now + options_.idle_timeout;
+    c.direct = std::make_shared<DirectAnswer>(fd);
     if (tcp) {
       char a[INET_ADDRSTRLEN] = "?";
       ::inet_ntop(AF_INET, &peer.sin_addr, a, sizeof a);
@@ -226,19 +229,37 @@ std::string AsciiServer::run(Client& c, AsciiRequest r) {
   }
   cmd.tag = next_tag_++;
   const auto tag = cmd.tag;
-  if (Error e = remote_.submit("#" + std::to_string(net), cmd, replies_))
-    return ascii_error(seq, e.kind == Errc::kNotFound ? AsciiError::unsupported_net : AsciiError::internal_state);
   r.seq = seq;
+  if (Error e = remote_.submit("#" + std::to_string(net), with_direct_answer(c, r), replies_)) {
+    if (c.direct) c.direct->arm({});
+    return ascii_error(seq, e.kind == Errc::kNotFound ? AsciiError::unsupported_net : AsciiError::internal_state);
+  }
   c.waiting_tag = tag;
   c.pending = std::move(r);
   return {};
 }
 
+RemoteCommand AsciiServer::with_direct_answer(Client& c, const AsciiRequest& r) {
+  RemoteCommand cmd = r.command;
+  // Only while nothing else is owed to the client: its answers stay in order.
+  if (!c.direct || !c.out.empty()) return cmd;
+  c.direct->arm([r](const RemoteResult& res) { return ascii_answer(r, res) + '\n'; });
+  cmd.direct = c.direct;
+  return cmd;
+}
+
 void AsciiServer::deliver(TimePoint now) {
-  for (const auto& res : replies_->take()) {
+  for (auto& res : replies_->take()) {
     for (auto& c : clients_) {
       if (c.waiting_tag != res.tag) continue;
-      c.out += ascii_answer(c.pending, res) + "\n";
+      if (res.answer.empty()) {
+        c.out += ascii_answer(c.pending, res) + "\n";
+      } else {
+        // The bus thread sent the answer, or its start: the rest goes from
+        // here (the buffer was empty when the command was queued).
+        c.out = std::move(res.answer);
+        c.out_done = res.answer_sent;
+      }
       c.waiting_tag = 0;
       c.pending = {};
       c.idle_until = now + options_.idle_timeout;
@@ -277,6 +298,13 @@ std::string ascii_answer(const AsciiRequest& r, const RemoteResult& result) {
     return out;
   }
   return ascii_ok(r.seq);
+}
+
+void AsciiServer::drop(Client& c) {
+  if (c.waiting_tag != 0 && c.direct) c.direct->shut();
+  c.direct.reset();
+  if (c.fd >= 0) ::close(c.fd);
+  c.fd = -1;
 }
 
 }  // namespace cobridge::gateway

@@ -16,13 +16,17 @@
 // is closed after `idle_timeout`.
 //
 // Thread: the daemon's main thread, like ControlServer (which drives it):
-// add_poll_fds() before poll(), process(now) after.
+// add_poll_fds() before poll(), process(now) after. The answer to an SDO /
+// NMT / LSS request is written by the bus's control thread that ran it
+// (direct_answer.hpp) when nothing else is owed to the client; the main
+// thread learns it is done and sends what the socket did not take.
 #pragma once
 
 #include "base/error.hpp"
 #include "canopen/clock.hpp"
 #include "config/remote_access.hpp"
 #include "gateway/line_connection.hpp"
+#include "gateway/remote/direct_answer.hpp"
 #include "gateway/remote/ascii_request.hpp"
 #include "gateway/remote/peer_credentials.hpp"
 #include "gateway/remote/remote_replies.hpp"
@@ -75,6 +79,7 @@ class AsciiServer {
     std::uint64_t waiting_tag = 0;
     AsciiRequest pending;
     canopen::TimePoint idle_until{};
+    std::shared_ptr<DirectAnswer> direct;  // the bus threads' way to answer it
   };
 
   void accept_from(int listen_fd, bool tcp, canopen::TimePoint now);
@@ -82,7 +87,13 @@ class AsciiServer {
   void answer(Client& c, std::string_view line, canopen::TimePoint now);
   // The answer to a local request (set, info, help), or empty when queued.
   std::string run(Client& c, AsciiRequest r);
+  // The command of `r` to queue, armed to answer `c` from the bus thread
+  // when that keeps the order of its answers.
+  static RemoteCommand with_direct_answer(Client& c, const AsciiRequest& r);
+  // Takes the results that came back: the client is free again, and what
+  // of its answer the bus thread did not send goes out.
   void deliver(canopen::TimePoint now);
+  void drop(Client& c);
 
   RemoteTarget& remote_;
   AsciiServerOptions options_;

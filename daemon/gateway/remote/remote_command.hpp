@@ -5,10 +5,13 @@
 // master of the bus: the bus manager's control thread runs these commands
 // between its own work, never on a node it is configuring (issue 15).
 //
-// RemoteResult is the outcome, delivered through RemoteReplies.
+// RemoteResult is the outcome, delivered through RemoteReplies; when the
+// command carries its client's DirectAnswer, the bus thread has already
+// written the answer line (or what of it the socket took).
 //
-// Thread contract: plain values; built on the main thread (control socket,
-// ASCII gateway), executed on the bus's control thread.
+// Thread contract: plain values (and a handle on the client's connection);
+// built on the main thread (control socket, ASCII gateway), executed on the
+// bus's control thread.
 #pragma once
 
 #include "base/error.hpp"
@@ -16,11 +19,15 @@
 #include "canopen/nmt.hpp"
 
 #include <chrono>
+#include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
 namespace cobridge::gateway {
+
+class DirectAnswer;
 
 enum class RemoteOp : std::uint8_t {
   sdo_upload,    // read index:sub of `node`
@@ -61,6 +68,9 @@ struct RemoteCommand {
   std::chrono::milliseconds deadline{10000};
   std::uint64_t tag = 0;  // the submitter's, echoed in the result
   std::string caller;     // "uid 1000 pid 42 (control socket)", for the log of writes
+  // Set when the bus thread may write the answer to the client itself
+  // (direct_answer.hpp); null: the answer takes the main thread's path.
+  std::shared_ptr<DirectAnswer> direct;
 
   [[nodiscard]] bool is_write() const noexcept { return op != RemoteOp::sdo_upload; }
 };
@@ -72,6 +82,10 @@ struct RemoteResult {
   std::vector<std::uint8_t> data;  // sdo_upload: the value as read
   std::uint32_t value = 0;         // lss: the last inquired value
   std::vector<std::uint32_t> values;  // lss: every inquired value, in order
+  // With a DirectAnswer: the answer line and how many of its bytes the bus
+  // thread sent; the main thread sends the rest. Empty without one.
+  std::string answer;
+  std::size_t answer_sent = 0;
 };
 
 [[nodiscard]] const char* to_string(RemoteOp op) noexcept;

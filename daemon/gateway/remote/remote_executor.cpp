@@ -1,5 +1,7 @@
 #include "gateway/remote/remote_executor.hpp"
 
+#include "gateway/remote/direct_answer.hpp"
+
 #include "canopen/cob_id.hpp"
 #include "canopen/sdo_abort.hpp"
 #include "sys/logging.hpp"
@@ -228,6 +230,9 @@ void RemoteExecutor::retry_later(TimePoint now, const char* why) {
 
 void RemoteExecutor::reply(Entry& e, RemoteResult result) {
   result.tag = e.cmd.tag;
+  // The client reads its answer before the main thread hears of it.
+  if (e.cmd.direct) e.cmd.direct->send(result);
+  e.cmd.direct.reset();
   if (e.to) e.to->push(std::move(result));
   e.to.reset();
 }

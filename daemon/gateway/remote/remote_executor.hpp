@@ -16,13 +16,17 @@
 //     up one for another node;
 //   * LSS runs only when the gate allows it (no commissioning under way),
 //     and discovery waits while an LSS command runs and while devices may
-//     still be in LSS configuration state (lss_session());
+//     still be in LSS configuration state (lss_session(): 10 s after a
+//     step that can switch them there, a step of a session still held, or
+//     a device's answer; not after an inquiry nobody answered outside one);
 //   * NMT and LSS results go to the gate, so the bus manager knows what a
 //     client did (a device stopped on purpose, a node-ID set).
 //
 // Thread: the bus's control thread owns it, like every protocol component:
 // frames and `now` are passed in, process(now, gate) returns the next
-// deadline. Results are pushed to each command's RemoteReplies.
+// deadline. Results are pushed to each command's RemoteReplies, after the
+// answer line was sent to the client from this thread when the command
+// carries a DirectAnswer (the main thread then only does its bookkeeping).
 #pragma once
 
 #include "can/frame.hpp"

@@ -34,7 +34,13 @@ void RemoteExecutor::start_lss_step(TimePoint now, RemoteGate& gate) {
     return;
   }
   const LssStep& s = steps[lss_step_];
-  lss_session_until_ = now + kLssSessionHold;
+  // Discovery waits while devices may be in configuration state: after a
+  // step that can put them there, or any step of a session still held. An
+  // inquiry outside a session (nobody may be listening) holds nothing
+  // unless a device answers it (lss_step_done).
+  const bool opens =
+      (s.kind == LssStep::Kind::switch_global && s.value != 0) || s.kind == LssStep::Kind::switch_selective;
+  if (opens || now < lss_session_until_) lss_session_until_ = now + kLssSessionHold;
   std::error_code ec;
   switch (s.kind) {
     case LssStep::Kind::switch_global: {
@@ -86,6 +92,8 @@ void RemoteExecutor::lss_step_done(std::error_code ec, std::uint32_t value, Time
     active_.reset();
     return;
   }
+  // A device answered (CiA 305: only one in configuration state does).
+  if (s.kind != LssStep::Kind::switch_global) lss_session_until_ = now + kLssSessionHold;
   if (s.kind >= LssStep::Kind::inquire_vendor) {
     lss_value_ = value;
     lss_values_.push_back(value);

@@ -1,11 +1,22 @@
 // AsciiServer (gateway/remote/ascii_server.hpp): a gateway that cannot open
 // says what failed where, in the one error shape (base/error.hpp), and the
-// daemon keeps running without it.
+// daemon keeps running without it; the answer to a CiA 309-3 read reaches
+// the client from the thread that finished it (issue 15).
 #include "gateway/remote/ascii_server.hpp"
+
+#include "gateway/remote/direct_answer.hpp"
 
 #include <gtest/gtest.h>
 
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/un.h>
 #include <unistd.h>
+
+#include <chrono>
+#include <deque>
+#include <mutex>
+#include <thread>
 
 #include <filesystem>
 #include <fstream>
@@ -61,6 +72,84 @@ TEST(AsciiServer, OpensOnAFreshPathWithMode0660) {
                 std::filesystem::perms::group_read | std::filesystem::perms::group_write);
   server.close();
   EXPECT_FALSE(std::filesystem::exists(dir / "ascii.sock"));
+  std::filesystem::remove_all(dir);
+}
+
+// One bus (net 1) whose control thread is the test: finish() ends the
+// oldest command the way RemoteExecutor::reply() does.
+class HeldCommands final : public RemoteTarget {
+ public:
+  [[nodiscard]] std::vector<RemoteBus> buses() const override { return {{"line1", "vcan0", 1}}; }
+  [[nodiscard]] cobridge::Error submit(std::string_view, RemoteCommand c, std::shared_ptr<RemoteReplies> to) override {
+    const std::lock_guard lock(mutex_);
+    held_.emplace_back(std::move(c), std::move(to));
+    return {};
+  }
+  [[nodiscard]] std::optional<cobridge::config::RemoteAccess> access() const override { return std::nullopt; }
+  [[nodiscard]] std::size_t held() {
+    const std::lock_guard lock(mutex_);
+    return held_.size();
+  }
+  void finish(RemoteResult result) {
+    std::unique_lock lock(mutex_);
+    auto [cmd, to] = std::move(held_.front());
+    held_.pop_front();
+    lock.unlock();
+    result.tag = cmd.tag;
+    if (cmd.direct) cmd.direct->send(result);
+    to->push(std::move(result));
+  }
+
+ private:
+  std::mutex mutex_;
+  std::deque<std::pair<RemoteCommand, std::shared_ptr<RemoteReplies>>> held_;
+};
+
+// What a client reads within `ms`, without the server turning meanwhile.
+std::string read_line(int fd, int ms) {
+  std::string got;
+  char c = 0;
+  pollfd p{fd, POLLIN, 0};
+  while (::poll(&p, 1, ms) > 0 && ::recv(fd, &c, 1, 0) == 1) {
+    if (c == '\n') return got;
+    got += c;
+  }
+  return got + "<timeout>";
+}
+
+// CiA 309-3 "[seq] net node r index sub type" -> "[seq] value", sent by the
+// bus's thread (here the test's) while the main loop does not run.
+TEST(AsciiServer, ReadAnswerReachesTheClientWithoutTheMainLoop) {
+  const auto dir = std::filesystem::temp_directory_path() / ("cobridge-ascii-direct-" + std::to_string(::getpid()));
+  HeldCommands bus;
+  AsciiServer server(bus, {});
+  ASSERT_FALSE(server.open_unix(dir / "ascii.sock"));
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  (dir / "ascii.sock").string().copy(addr.sun_path, sizeof addr.sun_path - 1);
+  ASSERT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+  auto run_until_held = [&](std::size_t n) {
+    for (int i = 0; i < 200 && bus.held() < n; ++i) {
+      (void)server.process(std::chrono::steady_clock::now());
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    return bus.held() == n;
+  };
+  const std::string first = "[1] 1 20 r 0x1018 4 u32\n[2] 1 20 r 0x1018 1 u32\n";  // pipelined
+  ASSERT_EQ(::send(fd, first.data(), first.size(), 0), static_cast<ssize_t>(first.size()));
+  ASSERT_TRUE(run_until_held(1));
+  RemoteResult r;
+  r.data = {0xD1, 0x07, 0x00, 0x00};
+  bus.finish(r);
+  EXPECT_EQ(read_line(fd, 500), "[1] 2001");
+  // The main loop learns it is done and takes the next line, in order.
+  ASSERT_TRUE(run_until_held(1));
+  r.data = {0x82, 0x01, 0x00, 0x00};
+  bus.finish(r);
+  EXPECT_EQ(read_line(fd, 500), "[2] 386");
+  ::close(fd);
+  server.close();
   std::filesystem::remove_all(dir);
 }
 

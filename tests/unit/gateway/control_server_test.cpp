@@ -5,6 +5,8 @@
 // involved; the tests name the protocol rule they check.
 #include "gateway/control_server.hpp"
 
+#include "gateway/remote/direct_answer.hpp"
+
 #include <gtest/gtest.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
@@ -12,8 +14,11 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <deque>
 #include <chrono>
 #include <filesystem>
+#include <memory>
+#include <optional>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -29,6 +34,11 @@ using cobridge::gateway::ControlServer;
 using cobridge::gateway::ControlServerOptions;
 using cobridge::gateway::DeviceState;
 using cobridge::gateway::DeviceStatus;
+using cobridge::gateway::RemoteBus;
+using cobridge::gateway::RemoteCommand;
+using cobridge::gateway::RemoteReplies;
+using cobridge::gateway::RemoteResult;
+using cobridge::gateway::RemoteTarget;
 using cobridge::gateway::StatusReport;
 using Clock = std::chrono::steady_clock;
 
@@ -190,6 +200,40 @@ class Client {
   int fd_ = -1;
   bool connected_ = false;
   std::string buffer_;
+};
+
+// A bus whose control thread is the test: commands wait until finish()
+// ends the oldest one the way RemoteExecutor::reply() does.
+class HeldCommands final : public RemoteTarget {
+ public:
+  [[nodiscard]] std::vector<RemoteBus> buses() const override { return {{"line1", "vcan0", 1}}; }
+  [[nodiscard]] Error submit(std::string_view, RemoteCommand command, std::shared_ptr<RemoteReplies> to) override {
+    std::lock_guard lock(mutex_);
+    held_.push_back({std::move(command), std::move(to)});
+    return {};
+  }
+  [[nodiscard]] std::optional<cobridge::config::RemoteAccess> access() const override { return std::nullopt; }
+
+  [[nodiscard]] std::size_t held() {
+    std::lock_guard lock(mutex_);
+    return held_.size();
+  }
+  // False when no command waits.
+  bool finish(RemoteResult result) {
+    std::unique_lock lock(mutex_);
+    if (held_.empty()) return false;
+    auto [cmd, to] = std::move(held_.front());
+    held_.pop_front();
+    lock.unlock();
+    result.tag = cmd.tag;
+    if (cmd.direct) cmd.direct->send(result);
+    to->push(std::move(result));
+    return true;
+  }
+
+ private:
+  std::mutex mutex_;
+  std::deque<std::pair<RemoteCommand, std::shared_ptr<RemoteReplies>>> held_;
 };
 
 ControlServerOptions fast_options() {
@@ -414,4 +458,74 @@ TEST(ControlServer, SummaryCountsOperationalDevices) {
   // Issue 10, item 8: the bus whose adapter is missing is named.
   EXPECT_EQ(cobridge::gateway::summary(r.buses),
             "2 buses (1 open; waiting for line2 (can1)), 1/2 devices operational");
+}
+
+// Issue 15 (an SDO read through the daemon adds <= 1 ms): the answer to a
+// client's command reaches the client from the thread that finished the
+// command, while the main loop does not run; the main loop then only frees
+// the connection for its next request.
+TEST(ControlServer, CommandAnswerReachesTheClientWithoutTheMainLoop) {
+  FakeHandler h;
+  HeldCommands bus;
+  ControlServerOptions o = fast_options();
+  o.remote = &bus;
+  const auto dir = std::filesystem::path("/tmp") / ("cobridge-ctl-direct-" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  ControlServer server(h, o);
+  ASSERT_FALSE(server.open(dir / "control.sock"));
+  Client c(dir / "control.sock");
+  ASSERT_TRUE(c.connected());
+  // Turns the main loop until the bus holds `n` commands.
+  auto run_until_held = [&](std::size_t n) {
+    for (int i = 0; i < 200 && bus.held() < n; ++i) {
+      (void)server.process(Clock::now());
+      std::this_thread::sleep_for(1ms);
+    }
+    return bus.held() == n;
+  };
+  c.send("sdo-read line1 20 1018 4\n");
+  ASSERT_TRUE(run_until_held(1));
+  RemoteResult r;
+  r.data = {0xD1, 0x07, 0x00, 0x00};
+  ASSERT_TRUE(bus.finish(r));
+  EXPECT_EQ(c.line(500ms), "{\"ok\":true,\"via\":\"daemon\",\"bus\":\"line1\",\"node\":20,\"index\":4120,"
+                           "\"sub\":4,\"size\":4,\"hex\":\"D1070000\",\"value\":2001}");
+  // The main loop learns the command is done: the next request is taken.
+  c.send("sdo-read line1 20 1018 1\n");
+  ASSERT_TRUE(run_until_held(1));
+  r.data = {0x2A, 0x00, 0x00, 0x00};
+  ASSERT_TRUE(bus.finish(r));
+  EXPECT_NE(c.line(500ms).find("\"sub\":1,\"size\":4,\"hex\":\"2A000000\",\"value\":42}"), std::string::npos);
+  server.close();
+  std::filesystem::remove_all(dir);
+}
+
+// An answer the client's socket does not take at once (here longer than its
+// buffer) is finished by the main loop: one whole line, nothing lost or
+// doubled, and the next request is served after it.
+TEST(ControlServer, AnswerTheSocketCannotTakeIsFinishedByTheMainLoop) {
+  FakeHandler h;
+  HeldCommands bus;
+  ControlServerOptions o = fast_options();
+  o.remote = &bus;
+  ServerLoop loop(h, o);
+  Client c(loop.path());
+  ASSERT_TRUE(c.connected());
+  c.send("sdo-read line1 20 2000 0\n");
+  for (int i = 0; i < 200 && bus.held() == 0; ++i) std::this_thread::sleep_for(1ms);
+  RemoteResult r;
+  r.data.assign(400000, 0xAB);
+  ASSERT_TRUE(bus.finish(r));
+  const std::string a = c.line(5000ms);
+  const std::string head = "{\"ok\":true,\"via\":\"daemon\",\"bus\":\"line1\",\"node\":20,\"index\":8192,"
+                           "\"sub\":0,\"size\":400000,\"hex\":\"";
+  ASSERT_EQ(a.size(), head.size() + 800000 + 2) << a.substr(0, 200);
+  EXPECT_EQ(a.substr(0, head.size()), head);
+  EXPECT_EQ(a.find_first_not_of("AB", head.size()), a.size() - 2);
+  EXPECT_EQ(a.substr(a.size() - 2), "\"}");
+  c.send("sdo-read line1 20 1018 4\n");
+  for (int i = 0; i < 200 && bus.held() == 0; ++i) std::this_thread::sleep_for(1ms);
+  r.data = {0xD1, 0x07, 0x00, 0x00};
+  ASSERT_TRUE(bus.finish(r));
+  EXPECT_NE(c.line(2000ms).find("\"value\":2001}"), std::string::npos);
 }

@@ -173,3 +173,63 @@ TEST_F(RemoteExecutorTest, NmtIsSentAndReported) {
   EXPECT_EQ(gate.nmt, (std::vector<std::uint8_t>{20}));
   EXPECT_EQ(replies->take().size(), 1U);
 }
+
+namespace {
+
+gw::RemoteCommand lss(std::initializer_list<gw::LssStep> steps) {
+  gw::RemoteCommand c;
+  c.op = gw::RemoteOp::lss;
+  c.lss_steps = steps;
+  c.tag = 9;
+  return c;
+}
+
+gw::LssStep step(gw::LssStep::Kind kind, std::uint32_t value = 0) {
+  gw::LssStep s;
+  s.kind = kind;
+  s.value = value;
+  return s;
+}
+
+}  // namespace
+
+// CiA 305 §8.3.2: only a device in configuration state answers an inquiry.
+// After "switch state global: waiting" nobody is; an inquiry nobody answers
+// then proves no session, so discovery (which waits out a session) is not
+// held for 10 s: the case where a power-cycled device came back through the
+// 500 ms fallback instead of discovery's re-identification (issue 15
+// gateway test, no_stall, ran within 10 s of such an inquiry).
+TEST_F(RemoteExecutorTest, InquiryNobodyAnswersOutsideASessionHoldsNothing) {
+  ex.add(lss({step(gw::LssStep::Kind::switch_global, 1)}), replies, t0);
+  ex.process(t0, gate);
+  EXPECT_TRUE(ex.lss_session(t0 + 5s));  // devices may be in configuration state
+  ex.add(lss({step(gw::LssStep::Kind::switch_global, 0)}), replies, t0 + 1s);
+  ex.process(t0 + 1s, gate);
+  EXPECT_FALSE(ex.lss_session(t0 + 1s));
+  ex.add(lss({step(gw::LssStep::Kind::inquire_node_id)}), replies, t0 + 2s);
+  ex.process(t0 + 2s, gate);
+  ASSERT_EQ(bus.sent.size(), 3U);
+  EXPECT_EQ(bus.sent[2].id, 0x7E5U);
+  EXPECT_EQ(bus.sent[2].data[0], 0x5E);
+  EXPECT_TRUE(ex.lss_session(t0 + 2s));  // while the command runs
+  ex.process(t0 + 2s + 150ms, gate);     // the LSS timeout (100 ms) passed
+  const auto r = replies->take();
+  ASSERT_EQ(r.size(), 3U);
+  EXPECT_EQ(r[2].error.kind, Errc::kTimeout);
+  EXPECT_FALSE(ex.lss_session(t0 + 2s + 150ms));
+}
+
+// An inquiry a device answers shows a device in configuration state: the
+// session is held again, whoever opened it.
+TEST_F(RemoteExecutorTest, AnsweredInquiryHoldsTheSession) {
+  ex.add(lss({step(gw::LssStep::Kind::inquire_node_id)}), replies, t0);
+  ex.process(t0, gate);
+  ex.on_frame(frame(0x7E4, {0x5E, 20, 0, 0, 0, 0, 0, 0}), t0 + 5ms);
+  ex.process(t0 + 5ms, gate);
+  const auto r = replies->take();
+  ASSERT_EQ(r.size(), 1U);
+  EXPECT_FALSE(r[0].error);
+  EXPECT_EQ(r[0].value & 0xFF, 20U);
+  EXPECT_TRUE(ex.lss_session(t0 + 9s));
+  EXPECT_FALSE(ex.lss_session(t0 + 11s));
+}

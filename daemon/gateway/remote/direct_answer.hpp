@@ -1,0 +1,64 @@
+// DirectAnswer: a client's connection as the bus's control thread sees it,
+// so that the thread that finishes a client's command writes the answer
+// line to the client itself and the daemon's main thread is not on the
+// answer's path (issue 15: an SDO read through the daemon adds <= 1 ms; the
+// main thread's wake-up to copy the answer was one of its hand-overs).
+//
+// One per connection of the control socket or the CiA 309-3 gateway. It
+// holds its own duplicate of the socket, so a connection the main thread
+// closes while a command runs never leaves the bus thread a descriptor
+// number that another socket may reuse.
+//
+// The answer goes out directly only when that keeps the order and loses
+// nothing: the server arms it for a command only while nothing else is
+// owed to the client (its output buffer is empty) and writes nothing to
+// the connection until it has learnt the command's result; the bus thread
+// sends the whole line with one non-blocking send (MSG_DONTWAIT,
+// MSG_NOSIGNAL). What the socket did not take (all of it on EAGAIN, the
+// rest of a partial write, nothing on an error) travels back in the
+// RemoteResult, and the main thread sends it as before.
+//
+// Threads: construct, arm() and shut() on the main thread (the server's);
+// send() on the bus's control thread, through RemoteExecutor. arm() happens
+// before the command is queued and the main thread reads the result after
+// RemoteReplies handed it over (both take a mutex), so the two never use
+// the armed format at once. Destroyed on whichever releases it last.
+// Never on the hot path (once per client command).
+#pragma once
+
+#include "gateway/remote/remote_command.hpp"
+
+#include <functional>
+#include <string>
+
+namespace cobridge::gateway {
+
+class DirectAnswer {
+ public:
+  // Duplicates `fd` (close-on-exec); without a duplicate (EMFILE) every
+  // answer takes the main thread's path.
+  explicit DirectAnswer(int fd);
+  ~DirectAnswer();
+  DirectAnswer(const DirectAnswer&) = delete;
+  DirectAnswer& operator=(const DirectAnswer&) = delete;
+
+  // The answer line of the next command, newline included.
+  using Format = std::function<std::string(const RemoteResult&)>;
+  // Main thread, before queueing a command on this connection, only while
+  // its output buffer is empty.
+  void arm(Format format);
+  // Main thread, closing a connection whose command still runs: the peer
+  // sees the end at once (not when the command ends) and send() fails.
+  void shut() const noexcept;
+
+  // Bus thread, when the armed command is done: formats its answer into
+  // result.answer and sends what the socket takes now (result.answer_sent).
+  // Disarms; nothing happens when not armed.
+  void send(RemoteResult& result);
+
+ private:
+  int fd_ = -1;
+  Format format_;
+};
+
+}  // namespace cobridge::gateway
