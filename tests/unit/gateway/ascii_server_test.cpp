@@ -4,7 +4,7 @@
 // the client from the thread that finished it (issue 15).
 #include "gateway/remote/ascii_server.hpp"
 
-#include "gateway/remote/direct_answer.hpp"
+#include "held_commands.hpp"
 
 #include <gtest/gtest.h>
 
@@ -75,35 +75,7 @@ TEST(AsciiServer, OpensOnAFreshPathWithMode0660) {
   std::filesystem::remove_all(dir);
 }
 
-// One bus (net 1) whose control thread is the test: finish() ends the
-// oldest command the way RemoteExecutor::reply() does.
-class HeldCommands final : public RemoteTarget {
- public:
-  [[nodiscard]] std::vector<RemoteBus> buses() const override { return {{"line1", "vcan0", 1}}; }
-  [[nodiscard]] cobridge::Error submit(std::string_view, RemoteCommand c, std::shared_ptr<RemoteReplies> to) override {
-    const std::lock_guard lock(mutex_);
-    held_.emplace_back(std::move(c), std::move(to));
-    return {};
-  }
-  [[nodiscard]] std::optional<cobridge::config::RemoteAccess> access() const override { return std::nullopt; }
-  [[nodiscard]] std::size_t held() {
-    const std::lock_guard lock(mutex_);
-    return held_.size();
-  }
-  void finish(RemoteResult result) {
-    std::unique_lock lock(mutex_);
-    auto [cmd, to] = std::move(held_.front());
-    held_.pop_front();
-    lock.unlock();
-    result.tag = cmd.tag;
-    if (cmd.direct) cmd.direct->send(result);
-    to->push(std::move(result));
-  }
-
- private:
-  std::mutex mutex_;
-  std::deque<std::pair<RemoteCommand, std::shared_ptr<RemoteReplies>>> held_;
-};
+using cobridge::gateway::testing::HeldCommands;
 
 // What a client reads within `ms`, without the server turning meanwhile.
 std::string read_line(int fd, int ms) {

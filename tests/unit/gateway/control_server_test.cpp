@@ -5,7 +5,7 @@
 // involved; the tests name the protocol rule they check.
 #include "gateway/control_server.hpp"
 
-#include "gateway/remote/direct_answer.hpp"
+#include "held_commands.hpp"
 
 #include <gtest/gtest.h>
 #include <sys/socket.h>
@@ -202,39 +202,7 @@ class Client {
   std::string buffer_;
 };
 
-// A bus whose control thread is the test: commands wait until finish()
-// ends the oldest one the way RemoteExecutor::reply() does.
-class HeldCommands final : public RemoteTarget {
- public:
-  [[nodiscard]] std::vector<RemoteBus> buses() const override { return {{"line1", "vcan0", 1}}; }
-  [[nodiscard]] Error submit(std::string_view, RemoteCommand command, std::shared_ptr<RemoteReplies> to) override {
-    std::lock_guard lock(mutex_);
-    held_.push_back({std::move(command), std::move(to)});
-    return {};
-  }
-  [[nodiscard]] std::optional<cobridge::config::RemoteAccess> access() const override { return std::nullopt; }
-
-  [[nodiscard]] std::size_t held() {
-    std::lock_guard lock(mutex_);
-    return held_.size();
-  }
-  // False when no command waits.
-  bool finish(RemoteResult result) {
-    std::unique_lock lock(mutex_);
-    if (held_.empty()) return false;
-    auto [cmd, to] = std::move(held_.front());
-    held_.pop_front();
-    lock.unlock();
-    result.tag = cmd.tag;
-    if (cmd.direct) cmd.direct->send(result);
-    to->push(std::move(result));
-    return true;
-  }
-
- private:
-  std::mutex mutex_;
-  std::deque<std::pair<RemoteCommand, std::shared_ptr<RemoteReplies>>> held_;
-};
+using cobridge::gateway::testing::HeldCommands;
 
 ControlServerOptions fast_options() {
   ControlServerOptions o;

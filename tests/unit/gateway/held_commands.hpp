@@ -1,0 +1,58 @@
+// HeldCommands: a RemoteTarget with one bus (net 1, "line1" on vcan0) whose
+// control thread is the test: submitted commands wait until finish() ends
+// the oldest one the way RemoteExecutor::reply() does (the client's
+// DirectAnswer first, then the reply queue). For the control socket and
+// CiA 309-3 gateway tests.
+//
+// Threads: submit() from the server under test, finish()/held() from the
+// test; both under the mutex.
+#pragma once
+
+#include "gateway/remote/direct_answer.hpp"
+#include "gateway/remote/remote_replies.hpp"
+#include "gateway/remote/remote_target.hpp"
+
+#include <cstddef>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+namespace cobridge::gateway::testing {
+
+class HeldCommands final : public RemoteTarget {
+ public:
+  [[nodiscard]] std::vector<RemoteBus> buses() const override { return {{"line1", "vcan0", 1}}; }
+  [[nodiscard]] Error submit(std::string_view, RemoteCommand command, std::shared_ptr<RemoteReplies> to) override {
+    const std::lock_guard lock(mutex_);
+    held_.emplace_back(std::move(command), std::move(to));
+    return {};
+  }
+  [[nodiscard]] std::optional<config::RemoteAccess> access() const override { return std::nullopt; }
+
+  [[nodiscard]] std::size_t held() {
+    const std::lock_guard lock(mutex_);
+    return held_.size();
+  }
+  // False when no command waits.
+  bool finish(RemoteResult result) {
+    std::unique_lock lock(mutex_);
+    if (held_.empty()) return false;
+    auto [cmd, to] = std::move(held_.front());
+    held_.pop_front();
+    lock.unlock();
+    result.tag = cmd.tag;
+    if (cmd.direct) cmd.direct->send(result);
+    to->push(std::move(result));
+    return true;
+  }
+
+ private:
+  std::mutex mutex_;
+  std::deque<std::pair<RemoteCommand, std::shared_ptr<RemoteReplies>>> held_;
+};
+
+}  // namespace cobridge::gateway::testing
