@@ -36,8 +36,7 @@ Error Daemon::start() {
   auto log = sys::logger("gateway");
   notifier_.emplace();
   state_.emplace(cfg_->gateway.state_dir);
-  std::string state_problems;
-  if (state_->load(&state_problems)) log->warn("state file {}: {}", state_->path().string(), state_problems);
+  if (const Error e = state_->load()) log->warn("state file {}", e.to_string());
 
   // Made here, started below once the control socket is ours; the control
   // socket's status reads its hot-path counters.

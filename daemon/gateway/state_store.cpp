@@ -1,7 +1,6 @@
 #include "gateway/state_store.hpp"
 
 #include "base/number_text.hpp"
-#include "sys/logging.hpp"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -211,7 +210,7 @@ bool StateStore::parse_line(std::string_view line, Assignment& out, std::string&
   return true;
 }
 
-std::error_code StateStore::load(std::string* message) {
+Error StateStore::load() {
   std::vector<Assignment> loaded;
   std::string problems;
   {
@@ -219,14 +218,10 @@ std::error_code StateStore::load(std::string* message) {
     if (!std::filesystem::exists(path_, ec)) {
       const std::lock_guard lock(mutex_);
       items_.clear();
-      if (message != nullptr) message->clear();
       return {};
     }
     std::ifstream in(path_, std::ios::binary);
-    if (!in) {
-      if (message != nullptr) *message = path_.string() + ": cannot be read";
-      return make_error_code(StateStoreErrc::read_failed);
-    }
+    if (!in) return Error(Errc::kFailed, "cannot be read", path_.string(), make_error_code(StateStoreErrc::read_failed));
     std::string line;
     std::uint32_t number = 0;
     std::string why;
@@ -250,10 +245,7 @@ std::error_code StateStore::load(std::string* message) {
       }
       if (!replaced) loaded.push_back(std::move(a));
     }
-    if (in.bad()) {
-      if (message != nullptr) *message = path_.string() + ": read error";
-      return make_error_code(StateStoreErrc::read_failed);
-    }
+    if (in.bad()) return Error(Errc::kFailed, "read error", path_.string(), make_error_code(StateStoreErrc::read_failed));
   }
   {
     const std::lock_guard lock(mutex_);
@@ -261,12 +253,9 @@ std::error_code StateStore::load(std::string* message) {
   }
   if (!problems.empty()) {
     problems.pop_back();
-    auto log = sys::logger("gateway");
-    log->warn("{}", problems);
-    if (message != nullptr) *message = problems;
-    return make_error_code(StateStoreErrc::malformed_lines);
+    return Error(Errc::kInvalidArgument, "lines skipped:\n" + problems, path_.string(),
+                 make_error_code(StateStoreErrc::malformed_lines));
   }
-  if (message != nullptr) message->clear();
   return {};
 }
 

@@ -15,6 +15,8 @@
 // path.
 #pragma once
 
+#include "base/error.hpp"
+
 #include <cstdint>
 #include <filesystem>
 #include <mutex>
@@ -52,10 +54,11 @@ class StateStore {
 
   explicit StateStore(std::filesystem::path dir);
   // Reads the file; a missing file is an empty store, a malformed line is
-  // reported (file:line) and skipped. Returns malformed_lines (with every
-  // problem in `message`, one per line) when lines were skipped: the good
-  // lines are loaded all the same.
-  std::error_code load(std::string* message = nullptr);
+  // reported (file:line) and skipped. When lines were skipped: kInvalidArgument
+  // with code malformed_lines, where = the file and every problem in the
+  // message, one per line (the good lines are loaded all the same); a file
+  // that cannot be read: kFailed with read_failed. The caller logs it.
+  [[nodiscard]] Error load();
   [[nodiscard]] std::optional<Assignment> find(const std::string& bus, std::uint32_t vendor,
                                                std::uint32_t product, std::uint32_t serial) const;
   [[nodiscard]] std::vector<Assignment> on_bus(const std::string& bus) const;

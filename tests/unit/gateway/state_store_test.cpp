@@ -57,9 +57,8 @@ Assignment sample(std::uint32_t serial, std::uint8_t node, std::string bus = "li
 
 TEST_F(StateStoreTest, MissingFileIsAnEmptyStore) {
   StateStore store(dir_);
-  std::string message = "x";
-  EXPECT_FALSE(store.load(&message));
-  EXPECT_TRUE(message.empty());
+  const cobridge::Error e = store.load();
+  EXPECT_FALSE(e) << e.to_string();
   EXPECT_TRUE(store.on_bus("line1").empty());
   EXPECT_FALSE(store.find("line1", 0x182, 0x0BE0, 1).has_value());
 }
@@ -122,10 +121,12 @@ TEST_F(StateStoreTest, MalformedLinesAreReportedWithFileLineAndSkipped) {
       "\x01\x02\xff\xfe=\n"                                                                     // 8: binary
       "bus=line1 serial=0x3EA vendor=0x182 product=0xBE0 revision=0x1 node=6 future=1\r\n");    // 9: good
   StateStore store(dir_);
-  std::string message;
-  const auto ec = store.load(&message);
-  EXPECT_EQ(ec, make_error_code(StateStoreErrc::malformed_lines));
+  const cobridge::Error e = store.load();
+  EXPECT_EQ(e.kind, cobridge::Errc::kInvalidArgument);
+  EXPECT_EQ(e.code, make_error_code(StateStoreErrc::malformed_lines));
   const std::string file = (dir_ / "assignments.state").string();
+  EXPECT_EQ(e.where, file);
+  const std::string& message = e.message;
   for (int line : {4, 5, 6, 7, 8}) {
     EXPECT_NE(message.find(file + ":" + std::to_string(line) + ":"), std::string::npos) << "line " << line << "\n"
                                                                                           << message;
