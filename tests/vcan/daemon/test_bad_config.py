@@ -45,6 +45,28 @@ def staged_fixtures(ws):
     return out
 
 
+def bad_state_file(report, args, ws, config):
+    """docs/operations.md, "Errors": a state file with malformed lines is not
+    a bad configuration: the daemon starts, keeps the good lines and warns
+    once, naming the file and each skipped line (file:line: why)."""
+    os.makedirs(ws.state, exist_ok=True)
+    state = os.path.join(ws.state, "assignments.state")
+    with open(state, "w") as f:
+        f.write("# remembered node-IDs\n"
+                "bus=line1 serial=0x1 vendor=0x12 product=0x34 revision=0x1 node=5\n"
+                "bus=line1 serial=zz vendor=1 product=1 revision=1 node=1\n"
+                "garbage\n")
+    daemon = e2e.Daemon(args.daemon, config, ws, log_name="daemon-badstate.log")
+    up = daemon.wait_socket(10)
+    rc, _ = daemon.stop()
+    with open(daemon.log_path) as f:
+        log = f.read()
+    warnings = [l for l in log.splitlines() if "state file %s: lines skipped:" % state in l]
+    report.check(up and rc == 0, "a malformed state file does not stop the daemon", "exit %s" % rc)
+    report.check(len(warnings) == 1 and "%s:3:" % state in log and "%s:4:" % state in log and "%s:2:" % state not in log,
+                 "the skipped lines are logged once, each as file:line", log[-600:])
+
+
 def main():
     args = e2e.parse_args()
     report = e2e.Report("test_bad_config")
@@ -95,6 +117,7 @@ def main():
         r = subprocess.run([args.daemon, "--check-config", good], capture_output=True, text=True, timeout=20)
         frames = [f for li in listeners for f in li.snapshot(t0)]
         report.check(not frames, "--check-config of a good configuration never opens a bus", "%d frames" % len(frames))
+        bad_state_file(report, args, ws, good)
     finally:
         for li in listeners:
             li.close()
