@@ -11,6 +11,7 @@ daemon/families/, the one place they are defined.
 The output is deterministic (no timestamps), so running the script again must
 leave `git diff config/devices` empty. Edit the tables here, never the .eds.
 """
+import argparse
 import os
 import re
 import sys
@@ -669,7 +670,14 @@ def multiturn_file():
 
 def main():
     here = os.path.dirname(os.path.abspath(__file__))
-    out_dir = sys.argv[1] if len(sys.argv) > 1 else os.path.join(here, "..", "config", "devices")
+    ap = argparse.ArgumentParser(description="Writes the CiA 306 EDS files of the three device families.")
+    ap.add_argument("out_dir", nargs="?", default=os.path.join(here, "..", "config", "devices"),
+                    help="where to write the .eds files (default: config/devices)")
+    out_dir = ap.parse_args().out_dir
+    # An option-like directory name is a mistyped option, never an output
+    # folder: '--help' once wrote twelve EDS files into ./--help/.
+    if os.path.basename(os.path.normpath(out_dir)).startswith("-"):
+        ap.error("output directory '%s' looks like an option" % out_dir)
     os.makedirs(out_dir, exist_ok=True)
     files = list(rotary_files()) + [ifm_file(), multiturn_file()]
     for name, text in files:
