@@ -159,7 +159,7 @@ void BusManager::Impl::run() {
     update_ready(now);
     publish_if_dirty();
 
-    wait(next);
+    wait(now, next);
   }
   sync.stop();
   runners_abort();
@@ -169,8 +169,11 @@ void BusManager::Impl::run() {
   log->info("bus {}: stopped", bus.name);
 }
 
-void BusManager::Impl::wait(TimePoint next) {
-  const TimePoint now = Clock::now();
+// `now` is the turn's clock reading, not a fresh one: a clock read is a
+// system call under UML and this turn is on a client's SDO round trip
+// (issue 15). A deadline is then met late by at most the turn's own work
+// (microseconds), against the millisecond rounding of poll's timeout.
+void BusManager::Impl::wait(TimePoint now, TimePoint next) {
   milliseconds timeout = kMaxPollWait;
   if (next != kNever) {
     const auto until = std::chrono::ceil<milliseconds>(next - now);

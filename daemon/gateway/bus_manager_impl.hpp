@@ -124,7 +124,7 @@ struct BusManager::Impl final : RemoteGate {
   void stop();
   void wake() noexcept;
   void run();
-  void wait(TimePoint next);
+  void wait(TimePoint now, TimePoint next);
 
   // ---- frames and components ----------------------------------------------
 

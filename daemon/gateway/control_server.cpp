@@ -390,7 +390,10 @@ void ControlServer::add_poll_fds(std::vector<pollfd>& fds) {
   if (ascii_) ascii_->add_poll_fds(fds);
   for (auto& c : clients_) {
     if (c.waiting_tag != 0) {
-      c.slot.skip();  // nothing to read or write until its result is back
+      // Nothing to write until its result is back; its next request tells
+      // us to collect a result the bus thread pushed quietly.
+      if (c.wake_asked) c.slot.skip();
+      else c.slot.add(fds, c.fd, POLLIN);
       continue;
     }
     const bool writing = c.writing();
@@ -407,13 +410,14 @@ void ControlServer::note_ready(const std::vector<pollfd>& fds) {
 
 TimePoint ControlServer::process(TimePoint now) {
   if (listen_fd_ >= 0 && listen_slot_.take()) accept_clients(now);
-  if (replies_slot_.take()) deliver(now);
+  deliver(now, replies_slot_.take());
   if (!ascii_tried_ && listen_fd_ >= 0) open_ascii_gateway();
   TimePoint next = ascii_ ? ascii_->process(now) : kNever;
   for (auto it = clients_.begin(); it != clients_.end();) {
     // A request already buffered (pipelined) is due now: poll will not wake for it.
     const bool buffered = it->waiting_tag == 0 && it->in.find('\n') != std::string::npos;
     const bool try_io = it->slot.take();
+    if (try_io && it->waiting_tag != 0) await_result(*it, now);
     if ((try_io || buffered || now >= it->deadline) && !serve(*it, now)) {
       drop(*it);
       it = clients_.erase(it);
@@ -550,8 +554,13 @@ RemoteCommand ControlServer::with_direct_answer(Client& c, const ControlRequest&
   return cmd;
 }
 
-void ControlServer::deliver(TimePoint now) {
-  for (auto& r : replies_->take()) {
+void ControlServer::await_result(Client& c, TimePoint now) {
+  if (replies_->want_wake()) c.wake_asked = true;
+  else deliver(now, false);
+}
+
+void ControlServer::deliver(TimePoint now, bool drain) {
+  for (auto& r : drain ? replies_->take() : replies_->take_quiet()) {
     for (auto& c : clients_) {
       if (c.waiting_tag != r.tag) continue;
       if (r.answer.empty()) {
@@ -564,6 +573,7 @@ void ControlServer::deliver(TimePoint now) {
         c.out_done = r.answer_sent;
       }
       c.waiting_tag = 0;
+      c.wake_asked = false;
       c.pending = {};
       c.deadline = now + options_.client_timeout;
       c.slot.mark();  // its answer goes out in this turn

@@ -140,6 +140,7 @@ class ControlServer {
     std::uint64_t waiting_tag = 0;  // a command of this client runs (0: none)
     ControlRequest pending;         // that command, for its answer
     std::shared_ptr<DirectAnswer> direct;  // the bus threads' way to answer it
+    bool wake_asked = false;        // waiting for its result's wake-up, socket not polled
   };
 
   void accept_clients(canopen::TimePoint now);
@@ -153,7 +154,13 @@ class ControlServer {
   static RemoteCommand with_direct_answer(Client& c, const ControlRequest& request);
   // Takes the results that came back from the buses: the client is free
   // again, and what of its answer the bus thread did not send goes out.
-  void deliver(canopen::TimePoint now);
+  // `drain`: fd() was readable (take() reads the eventfd); otherwise only
+  // the results pushed quietly are collected, without a system call.
+  void deliver(canopen::TimePoint now, bool drain);
+  // A waiting client's socket became readable (its next request or its
+  // end) before its result was collected: collects it, or asks the bus
+  // thread for a wake-up with it and stops polling the socket until then.
+  void await_result(Client& c, canopen::TimePoint now);
   // Opens the ASCII gateway once its settings are known (see above).
   void open_ascii_gateway();
   void drop(Client& c);

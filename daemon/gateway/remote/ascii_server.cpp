@@ -103,7 +103,7 @@ void AsciiServer::add_poll_fds(std::vector<pollfd>& fds) {
   replies_slot_.add(fds, replies_->fd(), POLLIN);
   for (auto& c : clients_) {
     if (c.writing()) c.slot.add(fds, c.fd, POLLOUT);
-    else if (c.waiting_tag == 0) c.slot.add(fds, c.fd, POLLIN);
+    else if (c.waiting_tag == 0 || !c.wake_asked) c.slot.add(fds, c.fd, POLLIN);
     else c.slot.skip();
   }
 }
@@ -118,11 +118,12 @@ void AsciiServer::note_ready(const std::vector<pollfd>& fds) {
 TimePoint AsciiServer::process(TimePoint now) {
   if (unix_fd_ >= 0 && unix_slot_.take()) accept_from(unix_fd_, false, now);
   if (tcp_fd_ >= 0 && tcp_slot_.take()) accept_from(tcp_fd_, true, now);
-  if (replies_slot_.take()) deliver(now);
+  deliver(now, replies_slot_.take());
   TimePoint next = kNever;
   for (auto it = clients_.begin(); it != clients_.end();) {
     const bool buffered = it->waiting_tag == 0 && it->in.find('\n') != std::string::npos;
     const bool try_io = it->slot.take();
+    if (try_io && it->waiting_tag != 0) await_result(*it, now);
     if ((try_io || buffered || now >= it->idle_until) && !serve(*it, now)) {
       drop(*it);
       it = clients_.erase(it);
@@ -248,8 +249,13 @@ RemoteCommand AsciiServer::with_direct_answer(Client& c, const AsciiRequest& r) 
   return cmd;
 }
 
-void AsciiServer::deliver(TimePoint now) {
-  for (auto& res : replies_->take()) {
+void AsciiServer::await_result(Client& c, TimePoint now) {
+  if (replies_->want_wake()) c.wake_asked = true;
+  else deliver(now, false);
+}
+
+void AsciiServer::deliver(TimePoint now, bool drain) {
+  for (auto& res : drain ? replies_->take() : replies_->take_quiet()) {
     for (auto& c : clients_) {
       if (c.waiting_tag != res.tag) continue;
       if (res.answer.empty()) {
@@ -261,6 +267,7 @@ void AsciiServer::deliver(TimePoint now) {
         c.out_done = res.answer_sent;
       }
       c.waiting_tag = 0;
+      c.wake_asked = false;
       c.pending = {};
       c.idle_until = now + options_.idle_timeout;
       c.slot.mark();  // its answer goes out in this turn

@@ -80,6 +80,7 @@ class AsciiServer {
     AsciiRequest pending;
     canopen::TimePoint idle_until{};
     std::shared_ptr<DirectAnswer> direct;  // the bus threads' way to answer it
+    bool wake_asked = false;  // waiting for its result's wake-up, socket not polled
   };
 
   void accept_from(int listen_fd, bool tcp, canopen::TimePoint now);
@@ -92,7 +93,11 @@ class AsciiServer {
   static RemoteCommand with_direct_answer(Client& c, const AsciiRequest& r);
   // Takes the results that came back: the client is free again, and what
   // of its answer the bus thread did not send goes out.
-  void deliver(canopen::TimePoint now);
+  // `drain`: fd() was readable; otherwise only what was pushed quietly is
+  // collected, without a system call.
+  void deliver(canopen::TimePoint now, bool drain);
+  // As in ControlServer: a waiting client's socket is readable first.
+  void await_result(Client& c, canopen::TimePoint now);
   void drop(Client& c);
 
   RemoteTarget& remote_;

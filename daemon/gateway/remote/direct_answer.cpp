@@ -37,4 +37,16 @@ void DirectAnswer::send(RemoteResult& result) {
   }
 }
 
+void hand_back(RemoteCommand& command, RemoteResult result, RemoteReplies* to) {
+  result.tag = command.tag;
+  if (command.direct) command.direct->send(result);
+  command.direct.reset();
+  if (to == nullptr) return;
+  // A client that has its whole answer needs nothing more from the main
+  // thread until its next request, which wakes that thread anyway.
+  const bool sent_whole = !result.answer.empty() && result.answer_sent == result.answer.size();
+  if (sent_whole) to->push_quiet(std::move(result));
+  else to->push(std::move(result));
+}
+
 }  // namespace cobridge::gateway

@@ -27,6 +27,7 @@
 #pragma once
 
 #include "gateway/remote/remote_command.hpp"
+#include "gateway/remote/remote_replies.hpp"
 
 #include <functional>
 #include <string>
@@ -60,5 +61,11 @@ class DirectAnswer {
   int fd_ = -1;
   Format format_;
 };
+
+// How a finished command's result goes back (the bus's control thread, in
+// RemoteExecutor): the client's answer first, from this thread, when the
+// command carries an armed DirectAnswer; then the result to `to` (if any), quietly
+// (no wake-up of the main thread) when the client has its whole answer.
+void hand_back(RemoteCommand& command, RemoteResult result, RemoteReplies* to);
 
 }  // namespace cobridge::gateway

@@ -229,11 +229,8 @@ void RemoteExecutor::retry_later(TimePoint now, const char* why) {
 }
 
 void RemoteExecutor::reply(Entry& e, RemoteResult result) {
-  result.tag = e.cmd.tag;
   // The client reads its answer before the main thread hears of it.
-  if (e.cmd.direct) e.cmd.direct->send(result);
-  e.cmd.direct.reset();
-  if (e.to) e.to->push(std::move(result));
+  hand_back(e.cmd, std::move(result), e.to.get());
   e.to.reset();
 }
 

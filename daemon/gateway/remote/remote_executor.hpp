@@ -26,7 +26,8 @@
 // frames and `now` are passed in, process(now, gate) returns the next
 // deadline. Results are pushed to each command's RemoteReplies, after the
 // answer line was sent to the client from this thread when the command
-// carries a DirectAnswer (the main thread then only does its bookkeeping).
+// carries a DirectAnswer (the main thread then only does its bookkeeping,
+// and is not woken for it: RemoteReplies::push_quiet).
 #pragma once
 
 #include "can/frame.hpp"

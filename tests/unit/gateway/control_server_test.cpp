@@ -108,13 +108,14 @@ StatusReport sample_report() {
 // Runs the server the way cobridged's main loop does (app/daemon.cpp serve()).
 class ServerLoop {
  public:
-  ServerLoop(FakeHandler& handler, ControlServerOptions options)
+  // `max_wait`: the longest poll; cobridged's is ServiceStatus::kTick.
+  ServerLoop(FakeHandler& handler, ControlServerOptions options, std::chrono::milliseconds max_wait = 20ms)
       : path_(std::filesystem::path("/tmp") / ("cobridge-ctl-test-" + std::to_string(::getpid())) / "control.sock"),
         server_(handler, options) {
     std::filesystem::remove_all(path_.parent_path());
     const Error e = server_.open(path_);
     EXPECT_FALSE(e) << e.to_string();
-    thread_ = std::thread([this] {
+    thread_ = std::thread([this, max_wait] {
       // As cobridged's loop: process, poll, tell the server what poll saw
       // (so only ready descriptors are touched: poll_slot.hpp).
       std::vector<pollfd> fds;
@@ -124,10 +125,11 @@ class ServerLoop {
         fds.clear();
         server_.add_poll_fds(fds);
         auto wait = std::chrono::duration_cast<std::chrono::milliseconds>(next - Clock::now());
-        if (next == cobridge::canopen::kNever || wait > 20ms) wait = 20ms;
+        if (next == cobridge::canopen::kNever || wait > max_wait) wait = max_wait;
         if (wait < 0ms) wait = 0ms;
         ::poll(fds.data(), fds.size(), static_cast<int>(wait.count()));
         server_.note_ready(fds);
+        ++turns_;
       }
       server_.close();
     });
@@ -139,12 +141,15 @@ class ServerLoop {
   }
   [[nodiscard]] const std::filesystem::path& path() const { return path_; }
   [[nodiscard]] std::size_t clients() const { return clients_; }
+  // Wake-ups of the loop so far.
+  [[nodiscard]] std::size_t turns() const { return turns_; }
 
  private:
   std::filesystem::path path_;
   ControlServer server_;
   std::atomic<bool> stop_{false};
   std::atomic<std::size_t> clients_{0};
+  std::atomic<std::size_t> turns_{0};
   std::thread thread_;
 };
 
@@ -496,4 +501,70 @@ TEST(ControlServer, AnswerTheSocketCannotTakeIsFinishedByTheMainLoop) {
   r.data = {0xD1, 0x07, 0x00, 0x00};
   ASSERT_TRUE(bus.finish(r));
   EXPECT_NE(c.line(2000ms).find("\"value\":2001}"), std::string::npos);
+}
+
+// Issue 15: a command whose answer the bus thread sent whole does not wake
+// the main loop (its turn would sit between the client and the client's
+// next request on UML's one CPU); the client's next request wakes it, and
+// the result collected in that turn frees the connection, so the request is
+// taken at once. The loop here polls for up to 10 s, so a request left for
+// the loop's own tick would fail the test rather than pass late.
+TEST(ControlServer, AWholeDirectAnswerDoesNotWakeTheLoopAndTheNextRequestIsTakenAtOnce) {
+  FakeHandler h;
+  HeldCommands bus;
+  ControlServerOptions o = fast_options();
+  o.client_timeout = 30s;
+  o.remote = &bus;
+  ServerLoop loop(h, o, 10s);
+  Client c(loop.path());
+  ASSERT_TRUE(c.connected());
+  auto held = [&](std::size_t n) {
+    for (int i = 0; i < 2000 && bus.held() < n; ++i) std::this_thread::sleep_for(1ms);
+    return bus.held() == n;
+  };
+  c.send("sdo-read line1 20 1018 4\n");
+  ASSERT_TRUE(held(1));
+  std::this_thread::sleep_for(50ms);  // the loop is back in poll
+  const std::size_t before = loop.turns();
+  RemoteResult r;
+  r.data = {0xD1, 0x07, 0x00, 0x00};
+  ASSERT_TRUE(bus.finish(r));
+  EXPECT_NE(c.line(2000ms).find("\"value\":2001}"), std::string::npos);
+  std::this_thread::sleep_for(100ms);
+  EXPECT_EQ(loop.turns(), before) << "the main loop was woken for an answer the client already had";
+  c.send("sdo-read line1 20 1018 1\n");
+  ASSERT_TRUE(held(1)) << "the next request was not taken within 2 s";
+  r.data = {0x2A, 0x00, 0x00, 0x00};
+  ASSERT_TRUE(bus.finish(r));
+  EXPECT_NE(c.line(2000ms).find("\"value\":42}"), std::string::npos);
+}
+
+// A client that sends its next request before its result came back (the
+// loop sees it first): the loop asks for a wake-up, the quiet hand-back
+// gives it, and both answers arrive in order.
+TEST(ControlServer, ARequestBeforeTheResultIsTakenWhenTheResultComes) {
+  FakeHandler h;
+  HeldCommands bus;
+  ControlServerOptions o = fast_options();
+  o.client_timeout = 30s;
+  o.remote = &bus;
+  ServerLoop loop(h, o, 10s);
+  Client c(loop.path());
+  ASSERT_TRUE(c.connected());
+  auto held = [&](std::size_t n) {
+    for (int i = 0; i < 2000 && bus.held() < n; ++i) std::this_thread::sleep_for(1ms);
+    return bus.held() == n;
+  };
+  c.send("sdo-read line1 20 1018 4\n");
+  ASSERT_TRUE(held(1));
+  c.send("sdo-read line1 20 1018 1\n");
+  std::this_thread::sleep_for(50ms);  // seen by the loop, the result not there
+  RemoteResult r;
+  r.data = {0xD1, 0x07, 0x00, 0x00};
+  ASSERT_TRUE(bus.finish(r));
+  EXPECT_NE(c.line(2000ms).find("\"value\":2001}"), std::string::npos);
+  ASSERT_TRUE(held(1)) << "the pipelined request was not taken within 2 s";
+  r.data = {0x2A, 0x00, 0x00, 0x00};
+  ASSERT_TRUE(bus.finish(r));
+  EXPECT_NE(c.line(2000ms).find("\"value\":42}"), std::string::npos);
 }

@@ -1,7 +1,7 @@
 // HeldCommands: a RemoteTarget with one bus (net 1, "line1" on vcan0) whose
 // control thread is the test: submitted commands wait until finish() ends
-// the oldest one the way RemoteExecutor::reply() does (the client's
-// DirectAnswer first, then the reply queue). For the control socket and
+// the oldest one the way RemoteExecutor::reply() does (hand_back: the
+// client's DirectAnswer first, then the reply queue). For the control socket and
 // CiA 309-3 gateway tests.
 //
 // Threads: submit() from the server under test, finish()/held() from the
@@ -44,9 +44,7 @@ class HeldCommands final : public RemoteTarget {
     auto [cmd, to] = std::move(held_.front());
     held_.pop_front();
     lock.unlock();
-    result.tag = cmd.tag;
-    if (cmd.direct) cmd.direct->send(result);
-    to->push(std::move(result));
+    hand_back(cmd, std::move(result), to.get());
     return true;
   }
 
