@@ -410,7 +410,7 @@ void ControlServer::note_ready(const std::vector<pollfd>& fds) {
 
 TimePoint ControlServer::process(TimePoint now) {
   if (listen_fd_ >= 0 && listen_slot_.take()) accept_clients(now);
-  deliver(now, replies_slot_.take());
+  collect(now, replies_slot_.take());
   if (!ascii_tried_ && listen_fd_ >= 0) open_ascii_gateway();
   TimePoint next = ascii_ ? ascii_->process(now) : kNever;
   for (auto it = clients_.begin(); it != clients_.end();) {
@@ -555,8 +555,16 @@ RemoteCommand ControlServer::with_direct_answer(Client& c, const ControlRequest&
 }
 
 void ControlServer::await_result(Client& c, TimePoint now) {
-  if (replies_->want_wake()) c.wake_asked = true;
-  else deliver(now, false);
+  c.wake_asked = true;
+  collect(now, false);
+}
+
+void ControlServer::collect(TimePoint now, bool drain) {
+  deliver(now, drain);
+  // While a client waits for its result's wake-up, the next push must
+  // give one (another client's quiet push may have used the last).
+  const auto asked = [](const Client& c) { return c.waiting_tag != 0 && c.wake_asked; };
+  while (std::any_of(clients_.begin(), clients_.end(), asked) && !replies_->want_wake()) deliver(now, false);
 }
 
 void ControlServer::deliver(TimePoint now, bool drain) {

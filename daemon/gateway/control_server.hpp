@@ -161,6 +161,8 @@ class ControlServer {
   // end) before its result was collected: collects it, or asks the bus
   // thread for a wake-up with it and stops polling the socket until then.
   void await_result(Client& c, canopen::TimePoint now);
+  // deliver(), then keeps a wake-up asked for while a client waits for one.
+  void collect(canopen::TimePoint now, bool drain);
   // Opens the ASCII gateway once its settings are known (see above).
   void open_ascii_gateway();
   void drop(Client& c);

@@ -118,7 +118,7 @@ void AsciiServer::note_ready(const std::vector<pollfd>& fds) {
 TimePoint AsciiServer::process(TimePoint now) {
   if (unix_fd_ >= 0 && unix_slot_.take()) accept_from(unix_fd_, false, now);
   if (tcp_fd_ >= 0 && tcp_slot_.take()) accept_from(tcp_fd_, true, now);
-  deliver(now, replies_slot_.take());
+  collect(now, replies_slot_.take());
   TimePoint next = kNever;
   for (auto it = clients_.begin(); it != clients_.end();) {
     const bool buffered = it->waiting_tag == 0 && it->in.find('\n') != std::string::npos;
@@ -250,8 +250,16 @@ RemoteCommand AsciiServer::with_direct_answer(Client& c, const AsciiRequest& r) 
 }
 
 void AsciiServer::await_result(Client& c, TimePoint now) {
-  if (replies_->want_wake()) c.wake_asked = true;
-  else deliver(now, false);
+  c.wake_asked = true;
+  collect(now, false);
+}
+
+void AsciiServer::collect(TimePoint now, bool drain) {
+  deliver(now, drain);
+  // While a client waits for its result's wake-up, the next push must
+  // give one (another client's quiet push may have used the last).
+  const auto asked = [](const Client& c) { return c.waiting_tag != 0 && c.wake_asked; };
+  while (std::any_of(clients_.begin(), clients_.end(), asked) && !replies_->want_wake()) deliver(now, false);
 }
 
 void AsciiServer::deliver(TimePoint now, bool drain) {

@@ -98,6 +98,7 @@ class AsciiServer {
   void deliver(canopen::TimePoint now, bool drain);
   // As in ControlServer: a waiting client's socket is readable first.
   void await_result(Client& c, canopen::TimePoint now);
+  void collect(canopen::TimePoint now, bool drain);
   void drop(Client& c);
 
   RemoteTarget& remote_;

@@ -136,6 +136,13 @@ class ServerLoop {
   }
   ~ServerLoop() {
     stop_ = true;
+    // A connection ends the loop's poll at once (it may wait 10 s).
+    const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    path_.string().copy(addr.sun_path, sizeof addr.sun_path - 1);
+    (void)::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr);
+    ::close(fd);
     thread_.join();
     std::filesystem::remove_all(path_.parent_path());
   }
@@ -567,4 +574,41 @@ TEST(ControlServer, ARequestBeforeTheResultIsTakenWhenTheResultComes) {
   r.data = {0x2A, 0x00, 0x00, 0x00};
   ASSERT_TRUE(bus.finish(r));
   EXPECT_NE(c.line(2000ms).find("\"value\":42}"), std::string::npos);
+}
+
+// Two clients: A's next request came before its result and A waits for the
+// wake-up; B's result, handed back quietly first, must not use it up, or
+// A's request would wait for the loop's tick (10 s here).
+TEST(ControlServer, AnotherClientsQuietResultDoesNotUseUpTheWakeUpAsked) {
+  FakeHandler h;
+  HeldCommands bus;
+  ControlServerOptions o = fast_options();
+  o.client_timeout = 30s;
+  o.remote = &bus;
+  ServerLoop loop(h, o, 10s);
+  Client a(loop.path());
+  Client b(loop.path());
+  ASSERT_TRUE(a.connected() && b.connected());
+  auto held = [&](std::size_t n) {
+    for (int i = 0; i < 2000 && bus.held() < n; ++i) std::this_thread::sleep_for(1ms);
+    return bus.held() == n;
+  };
+  b.send("sdo-read line1 21 1018 4\n");
+  ASSERT_TRUE(held(1));
+  a.send("sdo-read line1 20 1018 4\n");
+  ASSERT_TRUE(held(2));
+  a.send("sdo-read line1 20 1018 1\n");
+  std::this_thread::sleep_for(50ms);  // A seen readable, its result not there
+  RemoteResult r;
+  r.data = {0x01, 0x00, 0x00, 0x00};
+  ASSERT_TRUE(bus.finish(r));  // B's
+  EXPECT_NE(b.line(2000ms).find("\"value\":1}"), std::string::npos);
+  std::this_thread::sleep_for(50ms);
+  r.data = {0xD1, 0x07, 0x00, 0x00};
+  ASSERT_TRUE(bus.finish(r));  // A's first
+  EXPECT_NE(a.line(2000ms).find("\"value\":2001}"), std::string::npos);
+  ASSERT_TRUE(held(1)) << "A's next request was not taken within 2 s";
+  r.data = {0x2A, 0x00, 0x00, 0x00};
+  ASSERT_TRUE(bus.finish(r));
+  EXPECT_NE(a.line(2000ms).find("\"value\":42}"), std::string::npos);
 }
