@@ -27,6 +27,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 
 FAIL = []
@@ -69,9 +70,12 @@ def config_text(work, repo, gw, iface, first_node, first_serial, tag):
 
 
 def operational(cli, work, tag):
+    # 30 s per call, inside the 90 s the caller allows: on a loaded host the
+    # CLI alone took more than 5 s to start in UML (TimeoutExpired on every
+    # poll, so the check failed with both gateways 4/4 operational).
     try:
         out = subprocess.run([cli, "status", "--control", f"{work}/control-{tag}.sock", "--json"],
-                             capture_output=True, text=True, timeout=5).stdout
+                             capture_output=True, text=True, timeout=30).stdout
         st = json.loads(out)
         return sum(1 for b in st["buses"] for d in b["devices"] if d["state"] == "operational")
     except Exception:
@@ -102,6 +106,61 @@ def wait_log(path, text, limit_s):
             return time.time() - t
         time.sleep(0.1)
     return None
+
+
+def udp_sockets(pid):
+    """The UDP sockets of process pid: {local port: (Recv-Q bytes, drops)},
+    from /proc/net/udp{,6} (drops: datagrams the kernel discarded, e.g. a
+    full receive buffer)."""
+    inodes = set()
+    try:
+        for fd in os.listdir(f"/proc/{pid}/fd"):
+            try:
+                link = os.readlink(f"/proc/{pid}/fd/{fd}")
+            except OSError:
+                continue
+            if link.startswith("socket:["):
+                inodes.add(int(link[8:-1]))
+    except OSError:
+        return {}
+    out = {}
+    for table in ("/proc/net/udp", "/proc/net/udp6"):
+        try:
+            rows = open(table).read().splitlines()[1:]
+        except OSError:
+            continue
+        for row in rows:
+            c = row.split()
+            if len(c) >= 13 and int(c[9]) in inodes:
+                out[int(c[1].split(":")[1], 16)] = (int(c[4].split(":")[1], 16), int(c[-1]))
+    return out
+
+
+class ProbeSockets:
+    """Samples the subscriber's UDP sockets every 200 ms: whether status
+    samples can be lost (drops) or queued behind samples (Recv-Q) there."""
+
+    def __init__(self, proc):
+        self.proc, self.rows, self.stop = proc, [], False
+        self.thread = threading.Thread(target=self.run, daemon=True)
+        self.thread.start()
+
+    def run(self):
+        while not self.stop and self.proc.poll() is None:
+            t = now_ns()
+            for port, (rxq, drops) in udp_sockets(self.proc.pid).items():
+                self.rows.append((t, port, rxq, drops))
+            time.sleep(0.2)
+
+    def report(self, t0, t1, label):
+        per_port = {}
+        for t, port, rxq, drops in self.rows:
+            if t0 <= t <= t1:
+                a = per_port.setdefault(port, [drops, drops, 0])
+                a[1], a[2] = drops, max(a[2], rxq)
+        for port, (d0, d1, rxq) in sorted(per_port.items()):
+            print(f"  subscriber UDP port {port} {label}: {d1 - d0} datagrams dropped, Recv-Q up to {rxq} bytes",
+                  flush=True)
 
 
 def main():
@@ -160,6 +219,7 @@ def main():
         # Phase 1: both gateways at 4 x 1 kHz into one subscriber.
         stop1 = start_probe("probe1")
         t_probe_start = now_ns()
+        socks = ProbeSockets(procs["probe1"])
         time.sleep(3.0)  # discovery and matching
         time.sleep(a.seconds)
 
@@ -174,6 +234,7 @@ def main():
         procs["daemon-gw-a"].send_signal(signal.SIGKILL)
         procs["daemon-gw-a"].wait()
         time.sleep(2.5)
+        socks.stop = True
         ev1 = stop_probe("probe1", stop1)
         t_probe_end = now_ns()
 
@@ -250,14 +311,22 @@ def main():
             print(f"  EncoderSample lag {e['gateway_id']} at {(e['t'] - t_bus) / 1e6:+.0f} ms: rx {e['rx_ms']:.0f} ms, "
                   f"dispatch {e['pub_ms']:.0f} ms ({e['n']} samples)", flush=True)
     print(f"  work dir {work}", flush=True)
+    print(f"  net.core.rmem_max in UML: {open('/proc/sys/net/core/rmem_max').read().strip()} (caps Cyclone's "
+          "1 MiB receive buffer request)", flush=True)
+    socks.report(t_probe_start, t_bus, "before the bus loss")
+    socks.report(t_bus, t_bus + 2.5e9, "in the 2.5 s after it")
     off_nodes = {e["node"] for e in st}
     last_off = max(((e["t"] - t_bus) / 1e6 for e in st), default=None)
     print(f"FIGURE gw-b's bus loss: last DeviceStatus offline after {last_off} ms (target 1000 ms)", flush=True)
     # Target 1 s as well, met in 9 of 11 runs; in two at host load 12 (the
     # subscriber 1-9 s behind on EncoderSample) the DeviceStatus samples,
     # written at once (GatewayStatus, written after them, arrived in 265 and
-    # 293 ms), took 1.4 and 2.3 s through Cyclone to the subscriber, not
-    # explained yet. Asserted within 10 s; the FIGURE line says how far from 1 s.
+    # 293 ms), took 1.4 and 2.3 s through Cyclone to the subscriber.
+    # Loaded again (10 busy loops, six runs): 1.1-5.2 s, no datagram lost
+    # in four of them (the "subscriber UDP port" lines) but the subscriber's
+    # unicast socket full of EncoderSamples ahead of its DeviceStatus; a
+    # larger buffer or a status-only subscriber did not reach 1 s (docs/dds.md).
+    # So within 10 s; the FIGURE line says how far from 1 s.
     check(len(off_nodes) == 4 and last_off is not None and last_off <= 10000,
           f"gw-b's bus loss: all 4 DeviceStatus offline, the last after {last_off} ms (within 10 s; target 1 s)")
     # Lost liveliness unregisters the dead writer; Cyclone's readers then show
