@@ -1,5 +1,6 @@
 #include "gateway/remote/ascii_server.hpp"
 
+#include "gateway/remote/awaited_results.hpp"
 #include "gateway/remote/direct_answer.hpp"
 
 #include "sys/logging.hpp"
@@ -255,11 +256,7 @@ void AsciiServer::await_result(Client& c, TimePoint now) {
 }
 
 void AsciiServer::collect(TimePoint now, bool drain) {
-  deliver(now, drain);
-  // While a client waits for its result's wake-up, the next push must
-  // give one (another client's quiet push may have used the last).
-  const auto asked = [](const Client& c) { return c.waiting_tag != 0 && c.wake_asked; };
-  while (std::any_of(clients_.begin(), clients_.end(), asked) && !replies_->want_wake()) deliver(now, false);
+  collect_results(clients_, *replies_, drain, [&](bool d) { deliver(now, d); });
 }
 
 void AsciiServer::deliver(TimePoint now, bool drain) {

@@ -510,35 +510,47 @@ TEST(ControlServer, AnswerTheSocketCannotTakeIsFinishedByTheMainLoop) {
   EXPECT_NE(c.line(2000ms).find("\"value\":2001}"), std::string::npos);
 }
 
+// The quiet hand-back tests' server: commands held by the test, a loop
+// that polls for up to 10 s, so that a request left for the loop's own tick
+// fails a test (bounded at 2 s) rather than passing late.
+struct SlowTick {
+  static ControlServerOptions options(HeldCommands& remote) {
+    ControlServerOptions o = fast_options();
+    o.client_timeout = 30s;
+    o.remote = &remote;
+    return o;
+  }
+  // Whether the bus holds `n` commands within 2 s.
+  bool held(std::size_t n) {
+    for (int i = 0; i < 2000 && bus.held() < n; ++i) std::this_thread::sleep_for(1ms);
+    return bus.held() == n;
+  }
+  FakeHandler h;
+  HeldCommands bus;
+  ServerLoop loop{h, options(bus), 10s};
+};
+
 // Issue 15: a command whose answer the bus thread sent whole does not wake
 // the main loop (its turn would sit between the client and the client's
 // next request on UML's one CPU); the client's next request wakes it, and
 // the result collected in that turn frees the connection, so the request is
-// taken at once. The loop here polls for up to 10 s, so a request left for
-// the loop's own tick would fail the test rather than pass late.
+// taken at once.
 TEST(ControlServer, AWholeDirectAnswerDoesNotWakeTheLoopAndTheNextRequestIsTakenAtOnce) {
-  FakeHandler h;
-  HeldCommands bus;
-  ControlServerOptions o = fast_options();
-  o.client_timeout = 30s;
-  o.remote = &bus;
-  ServerLoop loop(h, o, 10s);
-  Client c(loop.path());
+  SlowTick t;
+  HeldCommands& bus = t.bus;
+  Client c(t.loop.path());
   ASSERT_TRUE(c.connected());
-  auto held = [&](std::size_t n) {
-    for (int i = 0; i < 2000 && bus.held() < n; ++i) std::this_thread::sleep_for(1ms);
-    return bus.held() == n;
-  };
+  auto held = [&](std::size_t n) { return t.held(n); };
   c.send("sdo-read line1 20 1018 4\n");
   ASSERT_TRUE(held(1));
   std::this_thread::sleep_for(50ms);  // the loop is back in poll
-  const std::size_t before = loop.turns();
+  const std::size_t before = t.loop.turns();
   RemoteResult r;
   r.data = {0xD1, 0x07, 0x00, 0x00};
   ASSERT_TRUE(bus.finish(r));
   EXPECT_NE(c.line(2000ms).find("\"value\":2001}"), std::string::npos);
   std::this_thread::sleep_for(100ms);
-  EXPECT_EQ(loop.turns(), before) << "the main loop was woken for an answer the client already had";
+  EXPECT_EQ(t.loop.turns(), before) << "the main loop was woken for an answer the client already had";
   c.send("sdo-read line1 20 1018 1\n");
   ASSERT_TRUE(held(1)) << "the next request was not taken within 2 s";
   r.data = {0x2A, 0x00, 0x00, 0x00};
@@ -550,18 +562,11 @@ TEST(ControlServer, AWholeDirectAnswerDoesNotWakeTheLoopAndTheNextRequestIsTaken
 // loop sees it first): the loop asks for a wake-up, the quiet hand-back
 // gives it, and both answers arrive in order.
 TEST(ControlServer, ARequestBeforeTheResultIsTakenWhenTheResultComes) {
-  FakeHandler h;
-  HeldCommands bus;
-  ControlServerOptions o = fast_options();
-  o.client_timeout = 30s;
-  o.remote = &bus;
-  ServerLoop loop(h, o, 10s);
-  Client c(loop.path());
+  SlowTick t;
+  HeldCommands& bus = t.bus;
+  Client c(t.loop.path());
   ASSERT_TRUE(c.connected());
-  auto held = [&](std::size_t n) {
-    for (int i = 0; i < 2000 && bus.held() < n; ++i) std::this_thread::sleep_for(1ms);
-    return bus.held() == n;
-  };
+  auto held = [&](std::size_t n) { return t.held(n); };
   c.send("sdo-read line1 20 1018 4\n");
   ASSERT_TRUE(held(1));
   c.send("sdo-read line1 20 1018 1\n");
@@ -580,19 +585,12 @@ TEST(ControlServer, ARequestBeforeTheResultIsTakenWhenTheResultComes) {
 // wake-up; B's result, handed back quietly first, must not use it up, or
 // A's request would wait for the loop's tick (10 s here).
 TEST(ControlServer, AnotherClientsQuietResultDoesNotUseUpTheWakeUpAsked) {
-  FakeHandler h;
-  HeldCommands bus;
-  ControlServerOptions o = fast_options();
-  o.client_timeout = 30s;
-  o.remote = &bus;
-  ServerLoop loop(h, o, 10s);
-  Client a(loop.path());
-  Client b(loop.path());
+  SlowTick t;
+  HeldCommands& bus = t.bus;
+  Client a(t.loop.path());
+  Client b(t.loop.path());
   ASSERT_TRUE(a.connected() && b.connected());
-  auto held = [&](std::size_t n) {
-    for (int i = 0; i < 2000 && bus.held() < n; ++i) std::this_thread::sleep_for(1ms);
-    return bus.held() == n;
-  };
+  auto held = [&](std::size_t n) { return t.held(n); };
   b.send("sdo-read line1 21 1018 4\n");
   ASSERT_TRUE(held(1));
   a.send("sdo-read line1 20 1018 4\n");
