@@ -131,15 +131,24 @@ void BusManager::Impl::run() {
     TimePoint now = Clock::now();
     take_commands(now);
 
+    bool lost = false;  // the interface went down in this turn
     // Only when poll saw the socket readable (or never asked): an empty
     // recvmmsg is a system call per turn, and a turn per client command.
     for (std::size_t batch = 0; rx_ready && batch < kMaxReceiveBatches; ++batch) {
       const std::size_t n = channel->receive(frames);
       for (std::size_t i = 0; i < n; ++i) dispatch(frames[i], now);
-      handle_bus_events(now);
+      lost = handle_bus_events(now) || lost;
       if (n < frames.size()) break;
     }
-    handle_bus_events(now);
+    if (handle_bus_events(now) || lost) {
+      // A lost bus is news at once: status and the outputs hear of it
+      // before the channel's reopen attempt, whose bind to an interface the
+      // kernel is still deleting waits for the unregistration (2.5-3 s in
+      // UML, vcan_daemon_adapter_hotplug).
+      open_flag.store(channel->is_open());
+      (void)handle_outputs(now);
+      publish_if_dirty();
+    }
     if (!discovery_started && channel->is_open()) {
       // Not before: probes sent to a missing interface would mark every
       // device absent.

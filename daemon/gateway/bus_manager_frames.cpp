@@ -73,7 +73,8 @@ bool BusManager::Impl::handle_outputs(TimePoint now) {
   return more;
 }
 
-void BusManager::Impl::handle_bus_events(TimePoint now) {
+bool BusManager::Impl::handle_bus_events(TimePoint now) {
+  bool lost = false;
   for (const auto& ev : channel->take_events()) {
     const std::string text(can::to_string(ev.kind));
     const bool good_news = ev.kind == can::BusEventKind::InterfaceReopened ||
@@ -89,6 +90,7 @@ void BusManager::Impl::handle_bus_events(TimePoint now) {
       // Its devices cannot be heard any more: offline now (status and the
       // outputs tell the truth at once), not one heartbeat consumer time later.
       supervisor.bus_lost(now, "the CAN interface went down");
+      lost = true;
       for (auto& m : devices) {
         if (m.ident) {
           m.ident.reset();  // asked again when the interface is back
@@ -107,6 +109,7 @@ void BusManager::Impl::handle_bus_events(TimePoint now) {
       on_interface_back(now);
     }
   }
+  return lost;
 }
 
 void BusManager::Impl::on_interface_back(TimePoint now) {

@@ -133,7 +133,8 @@ struct BusManager::Impl final : RemoteGate {
 
   // Returns true when something was done that deserves another turn at once.
   bool handle_outputs(TimePoint now);
-  void handle_bus_events(TimePoint now);
+  // True when the interface went down (its devices were taken offline).
+  bool handle_bus_events(TimePoint now);
 
   // Devices may have rebooted unseen while the interface was away (their
   // boot-up went nowhere; a factory-fresh one has no heartbeat to tell us):
