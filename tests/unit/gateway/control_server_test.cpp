@@ -525,10 +525,27 @@ struct SlowTick {
     for (int i = 0; i < 2000 && bus.held() < n; ++i) std::this_thread::sleep_for(1ms);
     return bus.held() == n;
   }
+  // Ends the oldest held command with a 4-byte value (little-endian).
+  bool finish(std::uint32_t value) {
+    RemoteResult r;
+    r.data = {static_cast<std::uint8_t>(value), static_cast<std::uint8_t>(value >> 8),
+              static_cast<std::uint8_t>(value >> 16), static_cast<std::uint8_t>(value >> 24)};
+    return bus.finish(r);
+  }
   FakeHandler h;
   HeldCommands bus;
   ServerLoop loop{h, options(bus), 10s};
 };
+
+// The oldest held command ends with 2001, which `c` reads; then its next
+// request (already sent) must be taken, and its answer 42 read.
+void answer_then_take_next(SlowTick& t, Client& c, const char* not_taken) {
+  ASSERT_TRUE(t.finish(2001));
+  EXPECT_NE(c.line(2000ms).find("\"value\":2001}"), std::string::npos);
+  ASSERT_TRUE(t.held(1)) << not_taken;
+  ASSERT_TRUE(t.finish(42));
+  EXPECT_NE(c.line(2000ms).find("\"value\":42}"), std::string::npos);
+}
 
 // Issue 15: a command whose answer the bus thread sent whole does not wake
 // the main loop (its turn would sit between the client and the client's
@@ -537,24 +554,19 @@ struct SlowTick {
 // taken at once.
 TEST(ControlServer, AWholeDirectAnswerDoesNotWakeTheLoopAndTheNextRequestIsTakenAtOnce) {
   SlowTick t;
-  HeldCommands& bus = t.bus;
   Client c(t.loop.path());
   ASSERT_TRUE(c.connected());
-  auto held = [&](std::size_t n) { return t.held(n); };
   c.send("sdo-read line1 20 1018 4\n");
-  ASSERT_TRUE(held(1));
+  ASSERT_TRUE(t.held(1));
   std::this_thread::sleep_for(50ms);  // the loop is back in poll
   const std::size_t before = t.loop.turns();
-  RemoteResult r;
-  r.data = {0xD1, 0x07, 0x00, 0x00};
-  ASSERT_TRUE(bus.finish(r));
+  ASSERT_TRUE(t.finish(2001));
   EXPECT_NE(c.line(2000ms).find("\"value\":2001}"), std::string::npos);
   std::this_thread::sleep_for(100ms);
   EXPECT_EQ(t.loop.turns(), before) << "the main loop was woken for an answer the client already had";
   c.send("sdo-read line1 20 1018 1\n");
-  ASSERT_TRUE(held(1)) << "the next request was not taken within 2 s";
-  r.data = {0x2A, 0x00, 0x00, 0x00};
-  ASSERT_TRUE(bus.finish(r));
+  ASSERT_TRUE(t.held(1)) << "the next request was not taken within 2 s";
+  ASSERT_TRUE(t.finish(42));
   EXPECT_NE(c.line(2000ms).find("\"value\":42}"), std::string::npos);
 }
 
@@ -563,22 +575,13 @@ TEST(ControlServer, AWholeDirectAnswerDoesNotWakeTheLoopAndTheNextRequestIsTaken
 // gives it, and both answers arrive in order.
 TEST(ControlServer, ARequestBeforeTheResultIsTakenWhenTheResultComes) {
   SlowTick t;
-  HeldCommands& bus = t.bus;
   Client c(t.loop.path());
   ASSERT_TRUE(c.connected());
-  auto held = [&](std::size_t n) { return t.held(n); };
   c.send("sdo-read line1 20 1018 4\n");
-  ASSERT_TRUE(held(1));
+  ASSERT_TRUE(t.held(1));
   c.send("sdo-read line1 20 1018 1\n");
   std::this_thread::sleep_for(50ms);  // seen by the loop, the result not there
-  RemoteResult r;
-  r.data = {0xD1, 0x07, 0x00, 0x00};
-  ASSERT_TRUE(bus.finish(r));
-  EXPECT_NE(c.line(2000ms).find("\"value\":2001}"), std::string::npos);
-  ASSERT_TRUE(held(1)) << "the pipelined request was not taken within 2 s";
-  r.data = {0x2A, 0x00, 0x00, 0x00};
-  ASSERT_TRUE(bus.finish(r));
-  EXPECT_NE(c.line(2000ms).find("\"value\":42}"), std::string::npos);
+  answer_then_take_next(t, c, "the pipelined request was not taken within 2 s");
 }
 
 // Two clients: A's next request came before its result and A waits for the
@@ -586,27 +589,17 @@ TEST(ControlServer, ARequestBeforeTheResultIsTakenWhenTheResultComes) {
 // A's request would wait for the loop's tick (10 s here).
 TEST(ControlServer, AnotherClientsQuietResultDoesNotUseUpTheWakeUpAsked) {
   SlowTick t;
-  HeldCommands& bus = t.bus;
   Client a(t.loop.path());
   Client b(t.loop.path());
   ASSERT_TRUE(a.connected() && b.connected());
-  auto held = [&](std::size_t n) { return t.held(n); };
   b.send("sdo-read line1 21 1018 4\n");
-  ASSERT_TRUE(held(1));
+  ASSERT_TRUE(t.held(1));
   a.send("sdo-read line1 20 1018 4\n");
-  ASSERT_TRUE(held(2));
+  ASSERT_TRUE(t.held(2));
   a.send("sdo-read line1 20 1018 1\n");
   std::this_thread::sleep_for(50ms);  // A seen readable, its result not there
-  RemoteResult r;
-  r.data = {0x01, 0x00, 0x00, 0x00};
-  ASSERT_TRUE(bus.finish(r));  // B's
+  ASSERT_TRUE(t.finish(1));  // B's
   EXPECT_NE(b.line(2000ms).find("\"value\":1}"), std::string::npos);
   std::this_thread::sleep_for(50ms);
-  r.data = {0xD1, 0x07, 0x00, 0x00};
-  ASSERT_TRUE(bus.finish(r));  // A's first
-  EXPECT_NE(a.line(2000ms).find("\"value\":2001}"), std::string::npos);
-  ASSERT_TRUE(held(1)) << "A's next request was not taken within 2 s";
-  r.data = {0x2A, 0x00, 0x00, 0x00};
-  ASSERT_TRUE(bus.finish(r));
-  EXPECT_NE(a.line(2000ms).find("\"value\":42}"), std::string::npos);
+  answer_then_take_next(t, a, "A's next request was not taken within 2 s");  // A's first
 }
