@@ -6,6 +6,10 @@ namespace cobridge::canopen {
 
 namespace {
 
+// A Fastscan begins again twice at most: a third failed confirm says the
+// waits are not what fails (the slave left, or the bus loses frames).
+constexpr uint32_t kMaxFastscanRestarts = 2;
+
 class LssCategory final : public std::error_category {
  public:
   [[nodiscard]] const char* name() const noexcept override { return "lss"; }
@@ -128,14 +132,15 @@ void LssMaster::arm(Phase phase, LssCs expect, TimePoint now) noexcept {
   // The first step of an operation (Fastscan probe, identify, Slowscan
   // probe) decides "nobody there": it always waits the full timeout, and
   // its answers teach the waits of the steps that follow.
-  const bool first = current_.steps == 1;
+  // A Fastscan begun again (restart) asks again from its probe.
+  const bool first = current_.steps == 1 || phase == Phase::kFastscanProbe;
   const bool learnt = search_phase() && !first && timing_.learning();
   deadline_ = now + (learnt ? search_wait() : config_.timeout);
 }
 
-// A rescan (careful_) waits 4 x the learnt wait for silence, within the
-// timeout: the late answer that spoilt the first search is then caught,
-// without paying the full timeout for every 1-bit of the field.
+// A restarted Fastscan (careful_) waits 4 x the learnt wait for silence,
+// within the timeout: the late answer that spoilt the first pass is then
+// caught, without paying the full timeout for every 1-bit of every field.
 Duration LssMaster::search_wait() const noexcept {
   const Duration w = timing_.no_answer_wait();
   return careful_ ? std::min(config_.timeout, 4 * w) : w;
@@ -248,9 +253,16 @@ std::error_code LssMaster::fastscan(TimePoint now, const FastscanKnown& known) n
 std::error_code LssMaster::fastscan(TimePoint now, const FastscanPlan& plan) noexcept {
   if (auto ec = begin(LssOperation::kFastscan, now)) return ec;
   plan_ = plan;
-  if (!send_lss(LssCs::kFastscan, 0, kLssFastscanReset, 0, 0)) return LssErrc::kSendFailed;
-  arm(Phase::kFastscanProbe, LssCs::kIdentifySlave, now);
+  if (!fastscan_probe(now)) return LssErrc::kSendFailed;
   return {};
+}
+
+// The reset (BitChecked 0x80) sends every non-configured slave back to the
+// first field (LSSPos 0), whatever field each had reached.
+bool LssMaster::fastscan_probe(TimePoint now) noexcept {
+  if (!send_lss(LssCs::kFastscan, 0, kLssFastscanReset, 0, 0)) return false;
+  arm(Phase::kFastscanProbe, LssCs::kIdentifySlave, now);
+  return true;
 }
 
 std::error_code LssMaster::slowscan(const LssRange& bounds, TimePoint now) noexcept {
@@ -377,12 +389,15 @@ void LssMaster::fastscan_confirm_done(TimePoint now) noexcept {
     return fastscan_field(static_cast<uint8_t>(fs_field_ + 1), now);
   }
   if (fs_guess_) return fastscan_next_guess(now);  // a wrong guess: nobody moved on
-  if (timing_.learning() && !careful_) {
-    // A bit decided too early (a late answer taken for the next step's):
-    // search this field again with full timeouts before giving up.
+  if (timing_.learning() && current_.restarts < kMaxFastscanRestarts) {
+    // A bit decided on a late answer (taken for the next step's), or this
+    // confirm's own answer late: then the slave did match and moved on to
+    // the next field, and would ignore a search of this one. Only the reset
+    // brings it back: the scan begins again, with longer waits.
     careful_ = true;
-    ++current_.rescans;
-    return fastscan_search(now);
+    ++current_.restarts;
+    if (!fastscan_probe(now)) finish(LssErrc::kSendFailed, now);
+    return;
   }
   finish(LssErrc::kFastscanLost, now);
 }

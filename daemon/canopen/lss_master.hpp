@@ -10,8 +10,9 @@
 // ("is anybody there?") waits `Config::timeout`; later search steps wait what
 // the bus taught (AnswerTiming, between `min_timeout` and `timeout`), and an
 // answered step ends once the other slaves' answers have had time to come.
-// A Fastscan field whose confirmation then fails (a bit decided on a late
-// answer) is searched again with longer waits. Cost of an unguided Fastscan:
+// A Fastscan whose field confirmation fails (a bit decided on a late answer,
+// or the confirm's own answer late) begins again from its reset with longer
+// waits, twice at most. Cost of an unguided Fastscan:
 // 1 probe + 4 x (32 bits + 1 confirm) = 133 exchanges per device, one silent
 // per 1-bit of the address; a FastscanPlan confirms known fields whole.
 // Slowscan: at most 65 identify steps of 6 frames each, plus switch selective.
@@ -103,7 +104,7 @@ class LssMaster {
     uint32_t frames_sent = 0;  // cost accounting
     uint32_t steps = 0;        // request/answer exchanges (each waits for answers)
     uint32_t silent_steps = 0; // exchanges that ended without an answer (each cost a timeout)
-    uint32_t rescans = 0;      // Fastscan fields searched again, carefully, after a failed confirm
+    uint32_t restarts = 0;     // Fastscans begun again from the reset, carefully, after a failed confirm
     Duration elapsed{};        // from start to the end of the operation
   };
 
@@ -183,6 +184,7 @@ class LssMaster {
   void arm(Phase phase, LssCs expect, TimePoint now) noexcept;
   void finish(std::error_code ec, TimePoint now) noexcept;
   void on_step_done(TimePoint now) noexcept;
+  [[nodiscard]] bool fastscan_probe(TimePoint now) noexcept;
   void fastscan_field(uint8_t field, TimePoint now) noexcept;
   void fastscan_next_guess(TimePoint now) noexcept;
   void fastscan_search(TimePoint now) noexcept;
@@ -197,7 +199,7 @@ class LssMaster {
   Config config_;
   AnswerTiming timing_;
   TimePoint step_sent_{};
-  bool careful_ = false;  // a rescan: longer waits for silence and for other slaves' answers
+  bool careful_ = false;  // a restarted Fastscan: longer waits for silence and for other slaves' answers
   Phase phase_ = Phase::kIdle;
   LssCs expect_ = LssCs::kSwitchSelectiveResponse;
   TimePoint deadline_ = kNever;

@@ -15,6 +15,7 @@
 #include <array>
 #include <chrono>
 #include <cstddef>
+#include <cstdint>
 #include <cstdio>
 #include <ostream>
 #include <map>
@@ -63,6 +64,12 @@ class LssTestBus {
   }
   // Makes one slave answer later than the others (e.g. later than the timeout).
   void set_slave_latency(std::size_t i, Duration latency) { nodes_.at(i)->port.latency = latency; }
+  // Makes one answer of one slave late: its k-th answer from now (0 = the next).
+  void delay_answer(std::size_t i, std::size_t k, Duration latency) {
+    auto& port = nodes_.at(i)->port;
+    port.late_at = port.answers + k;
+    port.late_latency = latency;
+  }
 
   LssMaster& master() { return master_; }
   LssSlave& slave(std::size_t i) { return *nodes_.at(i)->slave; }
@@ -131,13 +138,16 @@ class LssTestBus {
    public:
     SlavePort(LssTestBus& bus, Duration l) : latency(l), bus_(bus) {}
     [[nodiscard]] bool send(const can::Frame& f) noexcept override {
-      TimePoint at = bus_.now_ + latency;
+      TimePoint at = bus_.now_ + (answers++ == late_at ? late_latency : latency);
       if (at < bus_.last_answer_ + bus_.gap_) at = bus_.last_answer_ + bus_.gap_;
       bus_.last_answer_ = at;
       bus_.events_.emplace(at, Event{f, false});
       return true;
     }
     Duration latency;
+    std::size_t answers = 0;
+    std::size_t late_at = SIZE_MAX;  // the answer (by count) sent `late_latency` after its request
+    Duration late_latency{};
 
    private:
     LssTestBus& bus_;
