@@ -43,8 +43,9 @@ bool BusManager::Impl::handle_outputs(TimePoint now) {
   }
   for (auto& t : discovery->take_timings()) {
     if (t.exchanges != 0)
-      log->info("bus {}: {}{}{}: {:.0f} ms, {} LSS exchanges, {} timeouts", bus.name, t.step,
-                t.device.empty() ? "" : " ", t.device, t.milliseconds, t.exchanges, t.timeouts);
+      log->info("bus {}: {}{}{}: {:.0f} ms, {} LSS exchanges, {} timeouts{}", bus.name, t.step,
+                t.device.empty() ? "" : " ", t.device, t.milliseconds, t.exchanges, t.timeouts,
+                t.restarts == 0 ? std::string{} : fmt::format(", begun again {}x after late answers", t.restarts));
     add_step(std::move(t));
   }
   for (const auto& c : supervisor.take_changes()) {

@@ -204,6 +204,7 @@ void write_bus(JsonWriter& w, const BusStatus& b) {
     if (s.exchanges != 0) {
       w.field("exchanges", std::uint64_t{s.exchanges});
       w.field("timeouts", std::uint64_t{s.timeouts});
+      w.field("restarts", std::uint64_t{s.restarts});
     }
     w.key("at");
     w.time(s.at);

@@ -84,6 +84,7 @@ struct StepTiming {
   double milliseconds = 0;
   std::uint32_t exchanges = 0;  // LSS steps: request/answer exchanges
   std::uint32_t timeouts = 0;   // LSS steps: exchanges that waited out a timeout
+  std::uint32_t restarts = 0;   // Fastscan: begun again after a failed confirm (late answers)
   WallTime at{};
 };
 

@@ -27,6 +27,7 @@ void Report::timing(std::string step, std::string device, const canopen::LssMast
   timing(std::move(step), std::move(device), r.elapsed);
   timings_.back().exchanges = r.steps;
   timings_.back().timeouts = r.silent_steps;
+  timings_.back().restarts = r.restarts;
 }
 
 }  // namespace cobridge::gateway::discovery

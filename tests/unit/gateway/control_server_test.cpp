@@ -99,7 +99,7 @@ StatusReport sample_report() {
   e.last_emcy_code = 0;
   e.last_emcy_text.clear();
   b.devices.push_back(e);
-  b.steps.push_back({"fastscan", "winch", 312.5, {}});
+  b.steps.push_back({"fastscan", "winch", 312.5, 167, 14, 1, {}});
   b.problems.push_back("unknown serial 99 at node 5");
   r.buses.push_back(b);
   return r;
@@ -246,6 +246,7 @@ TEST(ControlServer, StatusAnswersOneLineOfJsonWithEveryField) {
         "\"state\":\"operational\"", "\"online\":true", "\"since\":\"2024-05-01T12:00:00.123Z\"",
         "\"last_emcy\":{\"code\":20480,\"text\":\"hardware \\\"fault\\\"\\n\"}", "\"node_id\":null",
         "\"state\":\"offline\"", "\"last_emcy\":null", "\"step\":\"fastscan\"", "\"ms\":312.500",
+        "\"exchanges\":167,\"timeouts\":14,\"restarts\":1",
         "\"problems\":[\"unknown serial 99 at node 5\"]"}) {
     EXPECT_NE(a.find(part), std::string::npos) << part << " missing in " << a;
   }
