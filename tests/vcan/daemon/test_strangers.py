@@ -70,11 +70,13 @@ def scenario(args, report, label, stranger, stranger_serial, policy):
             report.check(bool(hb) or answer is not None, "%s: the stranger booted at node 40" % label)
         # Item 5: how each device was found: exchanges and timeouts of every LSS step.
         steps = [x for b in st["buses"] for x in b["steps"] if x["step"].startswith("fastscan")]
-        report.check(bool(steps) and all(0 < x.get("exchanges", 0) <= 170 and 0 <= x.get("timeouts", -1) <= x["exchanges"]
-                                         for x in steps),
+        # 133 exchanges a pass (1 probe + 4 x 33); a pass spoilt by late answers begins again (restarts).
+        report.check(bool(steps) and all(0 < x.get("exchanges", 0) <= 170 * (1 + x.get("restarts", 0)) and
+                                         0 <= x.get("timeouts", -1) <= x["exchanges"] for x in steps),
                      "%s: status shows each Fastscan's exchanges and timeouts" % label,
-                     "; ".join("%s %s: %d exchanges, %d timeouts, %.0f ms" % (
-                         x["step"], x["device"] or "-", x.get("exchanges", 0), x.get("timeouts", 0), x["ms"])
+                     "; ".join("%s %s: %d exchanges, %d timeouts, %d restarts, %.0f ms" % (
+                         x["step"], x["device"] or "-", x.get("exchanges", 0), x.get("timeouts", 0),
+                         x.get("restarts", 0), x["ms"])
                          for x in steps[:4]))
         log = open(daemon.log_path).read()
         found_lines = [ln for ln in log.splitlines() if "fastscan" in ln.lower() and str(stranger_serial) in ln]
