@@ -107,9 +107,9 @@ class HeadlessPage:
     def dom(self):
         return self.evaluate("document.documentElement.outerHTML")
 
-    def screenshot_png(self, height=1000):
+    def screenshot_png(self, width=1400, height=1000):
         self._call("Emulation.setDeviceMetricsOverride",
-                   {"width": 1400, "height": height, "deviceScaleFactor": 1, "mobile": False})
+                   {"width": width, "height": height, "deviceScaleFactor": 1, "mobile": False})
         return base64.b64decode(self._call("Page.captureScreenshot", {"format": "png"}, timeout=120)["data"])
 
     def close(self):
