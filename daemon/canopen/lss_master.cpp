@@ -273,14 +273,11 @@ std::error_code LssMaster::slowscan(const LssRange& bounds, TimePoint now) noexc
   return {};
 }
 
-bool LssMaster::on_frame(const can::Frame& f, TimePoint now, TimePoint arrived) noexcept {
+bool LssMaster::on_frame(const can::Frame& f, TimePoint now) noexcept {
   if (!is_lss_frame(f, cob::kLssSlaveToMaster)) return false;
-  // Answers that came after the deadline belong to a step already decided;
-  // one that came before this step's request answers an earlier one.
-  if (phase_ == Phase::kIdle || f.data[0] != static_cast<uint8_t>(expect_)) return true;
-  if (std::min(now, arrived) > deadline_ || std::min(now, arrived) < step_sent_) return true;
+  // Answers that come after the deadline belong to a step already decided.
+  if (phase_ == Phase::kIdle || f.data[0] != static_cast<uint8_t>(expect_) || now > deadline_) return true;
   ++current_.answers;
-  // Learnt as this thread saw it (`now`): its own lateness is in every wait.
   timing_.record(now - step_sent_);
   if (phase_ != Phase::kAwaitReply) {
     // Answered: the others' answers to this step come within the slowest

@@ -150,11 +150,7 @@ class LssMaster {
   void cancel() noexcept;
 
   // Feed every received frame. Returns true when it was an LSS answer (0x7E4).
-  // `arrived`: when the kernel received it (canopen::received_at), which
-  // decides the step it answers: a thread that ran late reads in time an
-  // answer that came in time. Without it, `now`.
-  bool on_frame(const can::Frame& frame, TimePoint now, TimePoint arrived) noexcept;
-  bool on_frame(const can::Frame& frame, TimePoint now) noexcept { return on_frame(frame, now, now); }
+  bool on_frame(const can::Frame& frame, TimePoint now) noexcept;
   // Drives timeouts and search steps; returns the next deadline or kNever.
   TimePoint process(TimePoint now) noexcept;
 

@@ -5,24 +5,10 @@
 
 namespace cobridge::gateway {
 
-namespace {
-long long realtime_now_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
-}  // namespace
-
 void BusManager::Impl::dispatch(const can::Frame& frame, TimePoint now) {
-  // An LSS answer counts for the step it came in (its kernel stamp), not
-  // the one running when this thread read it: a Fastscan bit is decided by
-  // silence, and a starved thread must not turn an answer into silence.
-  // One realtime clock read per LSS answer (none per other frame).
-  const bool lss = frame.id == canopen::cob::kLssSlaveToMaster;
-  const TimePoint arrived =
-      lss ? canopen::received_at(frame.timestamp_ns, now, realtime_now_ns()) : now;
   // While a client's LSS command runs, its answers are not discovery's.
-  if (!lss || !remote->lss_session(now)) discovery->on_frame(frame, now, arrived);
-  remote->on_frame(frame, now, arrived);
+  if (frame.id != canopen::cob::kLssSlaveToMaster || !remote->lss_session(now)) discovery->on_frame(frame, now);
+  remote->on_frame(frame, now);
   supervisor.on_frame(frame, now);
   for (auto& m : devices) {
     if (m.runner) m.runner->on_frame(frame, now);

@@ -130,9 +130,9 @@ struct Discovery::Impl final : discovery::ProbeListener {
   [[nodiscard]] const discovery::NodePicture& at(std::uint8_t n) const { return probe.picture()[n]; }
 
   // ---- frames in ---------------------------------------------------------
-  bool on_frame(const can::Frame& f, TimePoint now, TimePoint arrived) noexcept {
+  bool on_frame(const can::Frame& f, TimePoint now) noexcept {
     if (f.is_extended() || f.is_rtr() || f.is_error()) return false;
-    if (f.id == canopen::cob::kLssSlaveToMaster) return work.on_lss_frame(f, now, arrived);
+    if (f.id == canopen::cob::kLssSlaveToMaster) return work.on_lss_frame(f, now);
     if (f.id > canopen::cob::kSdoTxBase && f.id <= canopen::cob::kSdoTxBase + 127 && f.len == 8) {
       bool used = probe.on_sdo_answer(f, now);
       if (work.on_sdo_frame(f, now)) used = true;
@@ -389,9 +389,7 @@ void Discovery::start(TimePoint now) {
   }
 }
 
-bool Discovery::on_frame(const can::Frame& frame, TimePoint now, TimePoint arrived) noexcept {
-  return impl_->on_frame(frame, now, arrived);
-}
+bool Discovery::on_frame(const can::Frame& frame, TimePoint now) noexcept { return impl_->on_frame(frame, now); }
 
 TimePoint Discovery::process(TimePoint now) { return impl_->process(now); }
 

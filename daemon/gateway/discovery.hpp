@@ -119,9 +119,7 @@ class Discovery {
   void start(canopen::TimePoint now);
   // Feed every received frame (it consumes none: the heartbeat consumer and
   // SDO clients still need them). Returns true when the frame was of use here.
-  // `arrived`: when the kernel received it (LssMaster::on_frame).
-  bool on_frame(const can::Frame& frame, canopen::TimePoint now, canopen::TimePoint arrived) noexcept;
-  bool on_frame(const can::Frame& frame, canopen::TimePoint now) noexcept { return on_frame(frame, now, now); }
+  bool on_frame(const can::Frame& frame, canopen::TimePoint now) noexcept;
   // Runs timeouts and the commissioning steps; returns the next deadline.
   canopen::TimePoint process(canopen::TimePoint now);
 

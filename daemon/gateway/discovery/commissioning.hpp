@@ -90,9 +90,7 @@ class Commissioning {
   // A job is about node `n`: the periodic probe leaves it alone.
   [[nodiscard]] bool busy(std::uint8_t n) const noexcept { return work_[n].busy; }
 
-  bool on_lss_frame(const can::Frame& f, canopen::TimePoint now, canopen::TimePoint arrived) noexcept {
-    return lss_.on_frame(f, now, arrived);
-  }
+  bool on_lss_frame(const can::Frame& f, canopen::TimePoint now) noexcept { return lss_.on_frame(f, now); }
   bool on_sdo_frame(const can::Frame& f, canopen::TimePoint now) noexcept {
     return sdo_ && sdo_->on_frame(f, now);
   }

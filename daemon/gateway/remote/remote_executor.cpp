@@ -64,12 +64,12 @@ bool RemoteExecutor::lss_session(TimePoint now) const noexcept {
   return (active_ && active_->cmd.op == RemoteOp::lss) || now < lss_session_until_;
 }
 
-void RemoteExecutor::on_frame(const can::Frame& frame, TimePoint now, TimePoint arrived) {
+void RemoteExecutor::on_frame(const can::Frame& frame, TimePoint now) {
   if (!active_) return;
   if (active_->cmd.op == RemoteOp::lss) {
     if (frame.id == canopen::cob::kLssSlaveToMaster)
       sys::logger("gateway")->debug("bus {}: LSS answer {:02X} for a client", bus_, frame.data[0]);
-    lss_.on_frame(frame, now, arrived);
+    lss_.on_frame(frame, now);
     return;
   }
   if (!sdo_) return;

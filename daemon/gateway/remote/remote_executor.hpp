@@ -70,9 +70,7 @@ class RemoteExecutor {
   RemoteExecutor& operator=(const RemoteExecutor&) = delete;
 
   void add(RemoteCommand command, std::shared_ptr<RemoteReplies> reply_to, canopen::TimePoint now);
-  // `arrived`: when the kernel received it (LssMaster::on_frame).
-  void on_frame(const can::Frame& frame, canopen::TimePoint now, canopen::TimePoint arrived);
-  void on_frame(const can::Frame& frame, canopen::TimePoint now) { on_frame(frame, now, now); }
+  void on_frame(const can::Frame& frame, canopen::TimePoint now);
   canopen::TimePoint process(canopen::TimePoint now, RemoteGate& gate);
 
   // The node of the running client SDO transfer; 0 when none.
