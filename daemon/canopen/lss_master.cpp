@@ -6,9 +6,9 @@ namespace cobridge::canopen {
 
 namespace {
 
-// A Fastscan begins again twice at most: a third failed confirm says the
-// waits are not what fails (the slave left, or the bus loses frames).
-constexpr uint32_t kMaxFastscanRestarts = 2;
+// A scan begins again twice at most: a third failure says the waits are
+// not what fails (the slave left, or the bus loses frames).
+constexpr uint32_t kMaxScanRestarts = 2;
 
 class LssCategory final : public std::error_category {
  public:
@@ -132,8 +132,8 @@ void LssMaster::arm(Phase phase, LssCs expect, TimePoint now) noexcept {
   // The first step of an operation (Fastscan probe, identify, Slowscan
   // probe) decides "nobody there": it always waits the full timeout, and
   // its answers teach the waits of the steps that follow.
-  // A Fastscan begun again (restart) asks again from its probe.
-  const bool first = current_.steps == 1 || phase == Phase::kFastscanProbe;
+  // A scan begun again (restart) asks again from its probe.
+  const bool first = current_.steps == 1 || phase == Phase::kFastscanProbe || phase == Phase::kSlowscanProbe;
   const bool learnt = search_phase() && !first && timing_.learning();
   deadline_ = now + (learnt ? search_wait() : config_.timeout);
 }
@@ -267,10 +267,28 @@ bool LssMaster::fastscan_probe(TimePoint now) noexcept {
 
 std::error_code LssMaster::slowscan(const LssRange& bounds, TimePoint now) noexcept {
   if (auto ec = begin(LssOperation::kSlowscan, now)) return ec;
-  ss_range_ = bounds;
-  if (!send_identify(bounds)) return LssErrc::kSendFailed;
-  arm(Phase::kSlowscanProbe, LssCs::kIdentifySlave, now);
+  ss_bounds_ = bounds;
+  if (!slowscan_probe(now)) return LssErrc::kSendFailed;
   return {};
+}
+
+bool LssMaster::slowscan_probe(TimePoint now) noexcept {
+  ss_range_ = ss_bounds_;
+  if (!send_identify(ss_range_)) return false;
+  arm(Phase::kSlowscanProbe, LssCs::kIdentifySlave, now);
+  return true;
+}
+
+// Slowscan's switch selective unanswered: a halving step decided on a late
+// answer led the search away from the slave. It begins again from its
+// bounds with longer waits, as a Fastscan does (kMaxScanRestarts).
+void LssMaster::on_reply_missing(TimePoint now) noexcept {
+  if (current_.operation != LssOperation::kSlowscan || !timing_.learning() ||
+      current_.restarts >= kMaxScanRestarts)
+    return finish(LssErrc::kTimeout, now);
+  careful_ = true;
+  ++current_.restarts;
+  if (!slowscan_probe(now)) finish(LssErrc::kSendFailed, now);
 }
 
 bool LssMaster::on_frame(const can::Frame& f, TimePoint now) noexcept {
@@ -317,7 +335,7 @@ void LssMaster::on_step_done(TimePoint now) noexcept {
   if (!answered_) ++current_.silent_steps;
   switch (phase_) {
     case Phase::kIdle: return;
-    case Phase::kAwaitReply: finish(LssErrc::kTimeout, now); return;
+    case Phase::kAwaitReply: on_reply_missing(now); return;
     case Phase::kCollect:
       current_.answered = answered_;
       finish({}, now);
@@ -389,7 +407,7 @@ void LssMaster::fastscan_confirm_done(TimePoint now) noexcept {
     return fastscan_field(static_cast<uint8_t>(fs_field_ + 1), now);
   }
   if (fs_guess_) return fastscan_next_guess(now);  // a wrong guess: nobody moved on
-  if (timing_.learning() && current_.restarts < kMaxFastscanRestarts) {
+  if (timing_.learning() && current_.restarts < kMaxScanRestarts) {
     // A bit decided on a late answer (taken for the next step's), or this
     // confirm's own answer late: then the slave did match and moved on to
     // the next field, and would ignore a search of this one. Only the reset

@@ -12,7 +12,8 @@
 // answered step ends once the other slaves' answers have had time to come.
 // A Fastscan whose field confirmation fails (a bit decided on a late answer,
 // or the confirm's own answer late) begins again from its reset with longer
-// waits, twice at most. Cost of an unguided Fastscan:
+// waits, twice at most; so does a Slowscan whose final switch selective is
+// unanswered. Cost of an unguided Fastscan:
 // 1 probe + 4 x (32 bits + 1 confirm) = 133 exchanges per device, one silent
 // per 1-bit of the address; a FastscanPlan confirms known fields whole.
 // Slowscan: at most 65 identify steps of 6 frames each, plus switch selective.
@@ -104,7 +105,7 @@ class LssMaster {
     uint32_t frames_sent = 0;  // cost accounting
     uint32_t steps = 0;        // request/answer exchanges (each waits for answers)
     uint32_t silent_steps = 0; // exchanges that ended without an answer (each cost a timeout)
-    uint32_t restarts = 0;     // Fastscans begun again from the reset, carefully, after a failed confirm
+    uint32_t restarts = 0;     // Fastscan / Slowscan begun again, carefully, after a step decided on a late answer
     Duration elapsed{};        // from start to the end of the operation
   };
 
@@ -185,6 +186,8 @@ class LssMaster {
   void finish(std::error_code ec, TimePoint now) noexcept;
   void on_step_done(TimePoint now) noexcept;
   [[nodiscard]] bool fastscan_probe(TimePoint now) noexcept;
+  [[nodiscard]] bool slowscan_probe(TimePoint now) noexcept;
+  void on_reply_missing(TimePoint now) noexcept;
   void fastscan_field(uint8_t field, TimePoint now) noexcept;
   void fastscan_next_guess(TimePoint now) noexcept;
   void fastscan_search(TimePoint now) noexcept;
@@ -215,6 +218,7 @@ class LssMaster {
   uint8_t fs_bit_ = 0;
   // Slowscan: [lo, hi] of the field being searched, and the midpoint probed
   LssRange ss_range_;
+  LssRange ss_bounds_;  // the whole Slowscan's, for a restart
   uint32_t ss_lo_ = 0;
   uint32_t ss_hi_ = 0;
   uint32_t ss_mid_ = 0;

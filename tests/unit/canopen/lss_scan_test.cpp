@@ -389,6 +389,31 @@ TEST(LssScanTest, CiA305_FastscanBeginsAgainWhenAConfirmsAnswerIsLate) {
   EXPECT_EQ(r->steps, (1u + 33u) + (1u + 4u * 33u));  // the 1st pass up to the vendor's confirm, then whole
 }
 
+// Slowscan (CiA 305 identify remote slave, halving the serial range): one
+// halving step's answer comes later than the learnt wait, so the step is
+// taken for silence and the search leaves the half the slave is in; its
+// switch selective then goes unanswered. The Slowscan begins again from its
+// bounds with longer waits and finds the slave. (CI 2026-11-26,
+// vcan_daemon_mixed_clash: "Slowscan found no device with ... serial 1001".)
+TEST(LssScanTest, CiA305_SlowscanBeginsAgainWhenAHalvingAnswerIsLate) {
+  LssTestBus bus(LssMasterConfig{100ms, 2ms});
+  const LssAddress a{0x182, 0x0BE0, 0x00010003, 42};
+  bus.add_slave(a, 127, LssSlave::Features::rotary_j());
+  const LssRange bounds{0x182, 0x0BE0, 0x00010003, 0x00010003, 0, 0xFFFFFFFF};
+  ASSERT_FALSE(bus.master().slowscan(bounds, bus.now()));  // learns 1 ms answers: a 5 ms wait
+  auto r = bus.run_result();
+  ASSERT_TRUE(r && !r->error);
+  ASSERT_FALSE(bus.master().switch_state_global(LssMode::kWaiting));
+  bus.run();
+  bus.delay_answer(0, 1, 6ms);  // answer 0: the probe; answer 1: the first halving step
+  ASSERT_FALSE(bus.master().slowscan(bounds, bus.now()));
+  r = bus.run_result();
+  ASSERT_TRUE(r.has_value());
+  ASSERT_FALSE(r->error) << r->error.message();
+  EXPECT_EQ(r->address, a);
+  EXPECT_EQ(r->restarts, 1u);
+}
+
 // Slowscan: four rotary slaves (J§1.2.1 vendor 0x182, RFC-4800 product
 // 0x0BE0), all at the default node-ID 127 (J§1.2.2), no Fastscan (J§1
 // intro). Binary search with identify remote slave (CiA 305) finds the
