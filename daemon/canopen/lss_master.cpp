@@ -138,7 +138,7 @@ void LssMaster::arm(Phase phase, LssCs expect, TimePoint now) noexcept {
   deadline_ = now + (learnt ? search_wait() : config_.timeout);
 }
 
-// A restarted Fastscan (careful_) waits 4 x the learnt wait for silence,
+// A scan begun again (careful_) waits 4 x the learnt wait for silence,
 // within the timeout: the late answer that spoilt the first pass is then
 // caught, without paying the full timeout for every 1-bit of every field.
 Duration LssMaster::search_wait() const noexcept {
@@ -283,12 +283,17 @@ bool LssMaster::slowscan_probe(TimePoint now) noexcept {
 // answer led the search away from the slave. It begins again from its
 // bounds with longer waits, as a Fastscan does (kMaxScanRestarts).
 void LssMaster::on_reply_missing(TimePoint now) noexcept {
-  if (current_.operation != LssOperation::kSlowscan || !timing_.learning() ||
-      current_.restarts >= kMaxScanRestarts)
-    return finish(LssErrc::kTimeout, now);
+  if (current_.operation != LssOperation::kSlowscan || !begin_again()) return finish(LssErrc::kTimeout, now);
+  if (!slowscan_probe(now)) finish(LssErrc::kSendFailed, now);
+}
+
+// The one rule for a scan begun again: only with learnt waits (fixed ones
+// would fail the same way), twice at most, and from then on carefully.
+bool LssMaster::begin_again() noexcept {
+  if (!timing_.learning() || current_.restarts >= kMaxScanRestarts) return false;
   careful_ = true;
   ++current_.restarts;
-  if (!slowscan_probe(now)) finish(LssErrc::kSendFailed, now);
+  return true;
 }
 
 bool LssMaster::on_frame(const can::Frame& f, TimePoint now) noexcept {
@@ -407,13 +412,11 @@ void LssMaster::fastscan_confirm_done(TimePoint now) noexcept {
     return fastscan_field(static_cast<uint8_t>(fs_field_ + 1), now);
   }
   if (fs_guess_) return fastscan_next_guess(now);  // a wrong guess: nobody moved on
-  if (timing_.learning() && current_.restarts < kMaxScanRestarts) {
+  if (begin_again()) {
     // A bit decided on a late answer (taken for the next step's), or this
     // confirm's own answer late: then the slave did match and moved on to
     // the next field, and would ignore a search of this one. Only the reset
     // brings it back: the scan begins again, with longer waits.
-    careful_ = true;
-    ++current_.restarts;
     if (!fastscan_probe(now)) finish(LssErrc::kSendFailed, now);
     return;
   }

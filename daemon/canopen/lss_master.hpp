@@ -188,6 +188,7 @@ class LssMaster {
   [[nodiscard]] bool fastscan_probe(TimePoint now) noexcept;
   [[nodiscard]] bool slowscan_probe(TimePoint now) noexcept;
   void on_reply_missing(TimePoint now) noexcept;
+  [[nodiscard]] bool begin_again() noexcept;
   void fastscan_field(uint8_t field, TimePoint now) noexcept;
   void fastscan_next_guess(TimePoint now) noexcept;
   void fastscan_search(TimePoint now) noexcept;
@@ -202,7 +203,7 @@ class LssMaster {
   Config config_;
   AnswerTiming timing_;
   TimePoint step_sent_{};
-  bool careful_ = false;  // a restarted Fastscan: longer waits for silence and for other slaves' answers
+  bool careful_ = false;  // a scan begun again: longer waits for silence and for other slaves' answers
   Phase phase_ = Phase::kIdle;
   LssCs expect_ = LssCs::kSwitchSelectiveResponse;
   TimePoint deadline_ = kNever;
