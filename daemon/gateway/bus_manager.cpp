@@ -188,18 +188,17 @@ void BusManager::Impl::wait(TimePoint now, TimePoint next) {
     const auto until = std::chrono::ceil<milliseconds>(next - now);
     timeout = std::clamp(until, milliseconds(0), kMaxPollWait);
   }
-  std::array<pollfd, 2> fds{};
-  fds[0].fd = wake_fd;
-  fds[0].events = POLLIN;
-  nfds_t count = 1;
-  if (channel->fd() >= 0) {
-    fds[1].fd = channel->fd();
-    fds[1].events = POLLIN;
-    count = 2;
-  }
-  const int r = ::poll(fds.data(), count, static_cast<int>(timeout.count()));
-  rx_ready = r < 0 || count == 1 || fds[1].revents != 0;
-  if (r > 0 && (fds[0].revents & POLLIN) != 0) {
+  // The wake-up, the CAN socket, then the clients' connections the remote
+  // executor holds on loan (their requests come straight here: issue 15).
+  poll_fds.clear();
+  poll_fds.push_back({wake_fd, POLLIN, 0});
+  const bool can = channel->fd() >= 0;
+  if (can) poll_fds.push_back({channel->fd(), POLLIN, 0});
+  remote->add_poll_fds(poll_fds);
+  const int r = ::poll(poll_fds.data(), poll_fds.size(), static_cast<int>(timeout.count()));
+  rx_ready = r < 0 || !can || poll_fds[1].revents != 0;
+  remote->note_ready(poll_fds);
+  if (r > 0 && (poll_fds[0].revents & POLLIN) != 0) {
     std::uint64_t v = 0;
     [[maybe_unused]] const auto n = ::read(wake_fd, &v, sizeof v);
   }

@@ -32,6 +32,8 @@
 #include "gateway/supervisor.hpp"
 #include "sys/logging.hpp"
 
+#include <poll.h>
+
 #include <algorithm>
 #include <array>
 #include <atomic>
@@ -283,6 +285,7 @@ struct BusManager::Impl final : RemoteGate {
   std::thread thread;
   int wake_fd = -1;
   bool rx_ready = true;  // the last poll saw the CAN socket readable (or failed)
+  std::vector<pollfd> poll_fds;  // wait()'s, kept for its capacity
   std::atomic<bool> stop_requested{false};
   std::atomic<bool> running{false};
   std::atomic<bool> open_flag{false};

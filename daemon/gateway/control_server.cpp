@@ -5,6 +5,7 @@
 #include "gateway/control_answer.hpp"
 #include "gateway/control_request.hpp"
 #include "gateway/remote/awaited_results.hpp"
+#include "gateway/remote/connection_loan.hpp"
 #include "gateway/remote/direct_answer.hpp"
 
 #include "canopen/nmt.hpp"
@@ -394,7 +395,7 @@ void ControlServer::add_poll_fds(std::vector<pollfd>& fds) {
     if (c.waiting_tag != 0) {
       // Nothing to write until its result is back; its next request tells
       // us to collect a result the bus thread pushed quietly.
-      if (c.wake_asked) c.slot.skip();
+      if (c.wake_asked || c.lent) c.slot.skip();
       else c.slot.add(fds, c.fd, POLLIN);
       continue;
     }
@@ -462,8 +463,11 @@ bool ControlServer::serve(Client& c, TimePoint now) {
 
   const std::size_t nl = c.in.find('\n');
   if (nl != std::string::npos && nl <= options_.max_line) {
-    answer(c, std::string_view(c.in).substr(0, nl), now);
+    // Taken out first: what stays buffered decides whether the connection
+    // may be lent with the command (lend_with).
+    const std::string line = c.in.substr(0, nl);
     c.in.erase(0, nl + 1);
+    answer(c, line, now);
   } else if (c.in.size() > options_.max_line) {
     c.out = error_answer(Error(Errc::kInvalidArgument,
                                "request line longer than " + std::to_string(options_.max_line) + " bytes")) +
@@ -547,13 +551,42 @@ void ControlServer::submit(Client& c, ControlRequest request, TimePoint now) {
   c.deadline = now + wait;
 }
 
-RemoteCommand ControlServer::with_direct_answer(Client& c, const ControlRequest& request) {
+DirectAnswer::Format ControlServer::answer_line(ControlRequest request) {
+  return [request = std::move(request)](const RemoteResult& r) { return remote_answer(request, r) + '\n'; };
+}
+
+RemoteCommand ControlServer::with_direct_answer(Client& c, const ControlRequest& request) const {
   RemoteCommand cmd = request.command;
   // Only while nothing else is owed to the client: its answers stay in order.
   if (!c.direct || !c.out.empty()) return cmd;
-  c.direct->arm([request](const RemoteResult& r) { return remote_answer(request, r) + '\n'; });
+  // Its next request already here waits for this result: a wake-up, not a
+  // quiet hand-back that would leave it for the loop's tick.
+  cmd.wake_owner = !c.in.empty();
+  c.direct->arm(answer_line(request));
   cmd.direct = c.direct;
+  lend_with(c, cmd, request.bus);
   return cmd;
+}
+
+void ControlServer::lend_with(Client& c, RemoteCommand& cmd, const std::string& bus) const {
+  // Reads only (writes are checked and logged here), and only while nothing
+  // of the client is buffered here: then one thread reads it at a time.
+  if (cmd.op != RemoteOp::sdo_upload || !c.in.empty() || c.peer_closed || c.skipping || c.close_after_write) return;
+  auto loan = std::make_shared<ConnectionLoan>();
+  loan->connection = c.direct;
+  loan->max_line = options_.max_line;
+  loan->idle_timeout = options_.client_timeout;
+  loan->take = [bus, caller = cmd.caller](std::string_view line, DirectAnswer& connection) {
+    ControlRequest next = parse_control_request(line);
+    std::optional<RemoteCommand> taken;
+    if (next.kind != ControlRequest::Kind::remote || next.command.op != RemoteOp::sdo_upload || next.bus != bus)
+      return taken;
+    next.command.caller = caller;
+    taken = next.command;
+    connection.arm(answer_line(std::move(next)));
+    return taken;
+  };
+  cmd.loan = std::move(loan);
 }
 
 void ControlServer::await_result(Client& c, TimePoint now) {
@@ -569,7 +602,19 @@ void ControlServer::deliver(TimePoint now, bool drain) {
   for (auto& r : drain ? replies_->take() : replies_->take_quiet()) {
     for (auto& c : clients_) {
       if (c.waiting_tag != r.tag) continue;
-      if (r.answer.empty()) {
+      if (r.kept) {
+        // The client has its answer; the bus thread reads its next request
+        // and gives the connection back when it does not run that itself.
+        c.lent = true;
+        c.wake_asked = false;
+        c.pending = {};
+        c.deadline = kNever;
+        break;
+      }
+      if (r.returned) {
+        c.in = std::move(r.input);
+        c.peer_closed = c.peer_closed || r.peer_closed;
+      } else if (r.answer.empty()) {
         c.out += remote_answer(c.pending, r);
         c.out += '\n';
       } else {
@@ -580,8 +625,10 @@ void ControlServer::deliver(TimePoint now, bool drain) {
       }
       c.waiting_tag = 0;
       c.wake_asked = false;
+      c.lent = false;
       c.pending = {};
-      c.deadline = now + options_.client_timeout;
+      // An idle client given back is past its time: told so, then closed.
+      c.deadline = r.idle ? now : now + options_.client_timeout;
       c.slot.mark();  // its answer goes out in this turn
       break;
     }

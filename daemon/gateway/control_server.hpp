@@ -41,7 +41,11 @@
 // answer to an SDO / NMT / LSS command is written to the client by the bus's
 // control thread that ran it (remote/direct_answer.hpp), when nothing else
 // is owed to the client; the main thread then only learns that the command
-// is done, and sends what the socket did not take.
+// is done, and sends what the socket did not take. And after a read whose
+// client took its whole answer, the connection stays on loan with that bus
+// thread, which reads the client's next request itself and gives the
+// connection back for anything but another read on the same bus
+// (remote/connection_loan.hpp).
 #pragma once
 
 #include "canopen/clock.hpp"
@@ -141,6 +145,7 @@ class ControlServer {
     ControlRequest pending;         // that command, for its answer
     std::shared_ptr<DirectAnswer> direct;  // the bus threads' way to answer it
     bool wake_asked = false;        // waiting for its result's wake-up, socket not polled
+    bool lent = false;              // the bus thread reads it (waiting_tag kept), socket not polled
   };
 
   void accept_clients(canopen::TimePoint now);
@@ -150,8 +155,12 @@ class ControlServer {
   // A client's SDO/NMT/LSS command: checked, logged if a write, queued.
   void submit(Client& c, ControlRequest request, canopen::TimePoint now);
   // The command of `request` to queue, armed to answer `c` from the bus
-  // thread when that keeps the order of its answers.
-  static RemoteCommand with_direct_answer(Client& c, const ControlRequest& request);
+  // thread when that keeps the order of its answers, and lending it the
+  // connection when it may read the next request itself (lend_with).
+  RemoteCommand with_direct_answer(Client& c, const ControlRequest& request) const;
+  void lend_with(Client& c, RemoteCommand& cmd, const std::string& bus) const;
+  // The answer line of a request's result (run on the bus thread).
+  static DirectAnswer::Format answer_line(ControlRequest request);
   // Takes the results that came back from the buses: the client is free
   // again, and what of its answer the bus thread did not send goes out.
   // `drain`: fd() was readable (take() reads the eventfd); otherwise only

@@ -36,6 +36,9 @@ class PollSlot {
   }
   // Something else made it worth a try (an answer to send, a new client).
   void mark() noexcept { ready_ = true; }
+  // Known not ready until the next poll says otherwise (a descriptor just
+  // added whose owner reports every poll: no try before it).
+  void clear() noexcept { ready_ = false; }
   // Whether to try it now; back to "unknown" afterwards.
   [[nodiscard]] bool take() noexcept {
     const bool r = ready_;

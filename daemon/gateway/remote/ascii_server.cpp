@@ -245,6 +245,9 @@ RemoteCommand AsciiServer::with_direct_answer(Client& c, const AsciiRequest& r) 
   RemoteCommand cmd = r.command;
   // Only while nothing else is owed to the client: its answers stay in order.
   if (!c.direct || !c.out.empty()) return cmd;
+  // Its next request already here waits for this result: a wake-up, not a
+  // quiet hand-back that would leave it for the loop's tick.
+  cmd.wake_owner = !c.in.empty();
   c.direct->arm([r](const RemoteResult& res) { return ascii_answer(r, res) + '\n'; });
   cmd.direct = c.direct;
   return cmd;

@@ -18,7 +18,7 @@ DirectAnswer::~DirectAnswer() {
 void DirectAnswer::arm(Format format) { format_ = std::move(format); }
 
 void DirectAnswer::shut() const noexcept {
-  if (fd_ >= 0) (void)::shutdown(fd_, SHUT_WR);
+  if (fd_ >= 0) (void)::shutdown(fd_, SHUT_RDWR);
 }
 
 void DirectAnswer::send(RemoteResult& result) {
@@ -37,16 +37,27 @@ void DirectAnswer::send(RemoteResult& result) {
   }
 }
 
-void hand_back(RemoteCommand& command, RemoteResult result, RemoteReplies* to) {
+bool answer_client(RemoteCommand& command, RemoteResult& result) {
   result.tag = command.tag;
   if (command.direct) command.direct->send(result);
   command.direct.reset();
-  if (to == nullptr) return;
+  return !result.answer.empty() && result.answer_sent == result.answer.size();
+}
+
+bool hand_back_quietly(const RemoteCommand& command, bool sent_whole) {
+  return sent_whole && !command.wake_owner;
+}
+
+void push_result(RemoteReplies& to, RemoteResult result, bool quietly) {
   // A client that has its whole answer needs nothing more from the main
   // thread until its next request, which wakes that thread anyway.
-  const bool sent_whole = !result.answer.empty() && result.answer_sent == result.answer.size();
-  if (sent_whole) to->push_quiet(std::move(result));
-  else to->push(std::move(result));
+  if (quietly) to.push_quiet(std::move(result));
+  else to.push(std::move(result));
+}
+
+void hand_back(RemoteCommand& command, RemoteResult result, RemoteReplies* to) {
+  const bool whole = answer_client(command, result);
+  if (to != nullptr) push_result(*to, std::move(result), hand_back_quietly(command, whole));
 }
 
 }  // namespace cobridge::gateway

@@ -18,12 +18,14 @@
 // rest of a partial write, nothing on an error) travels back in the
 // RemoteResult, and the main thread sends it as before.
 //
-// Threads: construct, arm() and shut() on the main thread (the server's);
-// send() on the bus's control thread, through RemoteExecutor. arm() happens
-// before the command is queued and the main thread reads the result after
-// RemoteReplies handed it over (both take a mutex), so the two never use
-// the armed format at once. Destroyed on whichever releases it last.
-// Never on the hot path (once per client command).
+// Threads: construct and shut() on the main thread (the server's); arm()
+// on the main thread before it queues a command, or on the bus thread that
+// holds the connection on loan (connection_loan.hpp) when it takes the
+// client's next request itself; send() on the bus's control thread, through
+// RemoteExecutor. arm() happens before the command is queued and the main
+// thread reads the result after RemoteReplies handed it over (both take a
+// mutex), so two threads never use the armed format at once. Destroyed on
+// whichever releases it last. Never on the hot path (once per client command).
 #pragma once
 
 #include "gateway/remote/remote_command.hpp"
@@ -45,12 +47,16 @@ class DirectAnswer {
 
   // The answer line of the next command, newline included.
   using Format = std::function<std::string(const RemoteResult&)>;
-  // Main thread, before queueing a command on this connection, only while
-  // its output buffer is empty.
+  // Before queueing a command on this connection, only while its output
+  // buffer is empty (see Threads).
   void arm(Format format);
-  // Main thread, closing a connection whose command still runs: the peer
-  // sees the end at once (not when the command ends) and send() fails.
+  // Main thread, closing a connection whose command still runs or that is
+  // on loan: the peer sees the end at once (not when the command ends),
+  // send() fails and the bus thread holding it reads its end.
   void shut() const noexcept;
+  // The duplicate (-1 without one): the bus thread polls and reads it while
+  // it holds the connection on loan.
+  [[nodiscard]] int fd() const noexcept { return fd_; }
 
   // Bus thread, when the armed command is done: formats its answer into
   // result.answer and sends what the socket takes now (result.answer_sent).
@@ -64,8 +70,14 @@ class DirectAnswer {
 
 // How a finished command's result goes back (the bus's control thread, in
 // RemoteExecutor): the client's answer first, from this thread, when the
-// command carries an armed DirectAnswer; then the result to `to` (if any), quietly
-// (no wake-up of the main thread) when the client has its whole answer.
+// command carries an armed DirectAnswer (answer_client: true when the
+// client has it whole); then the result to `to` (push_result), quietly (no
+// wake-up of the main thread) when the client has its whole answer and the
+// main thread holds no next request of it (hand_back_quietly).
+// hand_back does it all.
+[[nodiscard]] bool answer_client(RemoteCommand& command, RemoteResult& result);
+[[nodiscard]] bool hand_back_quietly(const RemoteCommand& command, bool sent_whole);
+void push_result(RemoteReplies& to, RemoteResult result, bool quietly);
 void hand_back(RemoteCommand& command, RemoteResult result, RemoteReplies* to);
 
 }  // namespace cobridge::gateway

@@ -28,6 +28,7 @@
 namespace cobridge::gateway {
 
 class DirectAnswer;
+struct ConnectionLoan;
 
 enum class RemoteOp : std::uint8_t {
   sdo_upload,    // read index:sub of `node`
@@ -71,6 +72,13 @@ struct RemoteCommand {
   // Set when the bus thread may write the answer to the client itself
   // (direct_answer.hpp); null: the answer takes the main thread's path.
   std::shared_ptr<DirectAnswer> direct;
+  // Set when the connection may stay with the bus thread after this
+  // command, which then reads the client's next request itself
+  // (connection_loan.hpp); null: the main thread reads it.
+  std::shared_ptr<ConnectionLoan> loan;
+  // The submitter holds the client's next request: wake it with the result
+  // even when the bus thread sent the whole answer (no quiet hand-back).
+  bool wake_owner = false;
 
   [[nodiscard]] bool is_write() const noexcept { return op != RemoteOp::sdo_upload; }
 };
@@ -86,6 +94,16 @@ struct RemoteResult {
   // thread sent; the main thread sends the rest. Empty without one.
   std::string answer;
   std::size_t answer_sent = 0;
+  // The connection's loan (connection_loan.hpp). kept: the client has its
+  // whole answer and the bus thread now reads its requests (the main thread
+  // leaves the socket alone). returned: the bus thread gives the connection
+  // back, with what it read that it does not run itself (`input`), the
+  // client's end (`peer_closed`), or an idle client (`idle`).
+  bool kept = false;
+  bool returned = false;
+  std::string input;
+  bool peer_closed = false;
+  bool idle = false;
 };
 
 [[nodiscard]] const char* to_string(RemoteOp op) noexcept;

@@ -5,6 +5,7 @@
 // involved; the tests name the protocol rule they check.
 #include "gateway/control_server.hpp"
 
+#include "gateway/remote/connection_loan.hpp"
 #include "held_commands.hpp"
 
 #include <gtest/gtest.h>
@@ -603,4 +604,64 @@ TEST(ControlServer, AnotherClientsQuietResultDoesNotUseUpTheWakeUpAsked) {
   EXPECT_NE(b.line(2000ms).find("\"value\":1}"), std::string::npos);
   std::this_thread::sleep_for(50ms);
   answer_then_take_next(t, a, "A's next request was not taken within 2 s");  // A's first
+}
+
+// Issue 15: a read lends the connection to the bus thread
+// (remote/connection_loan.hpp), which takes the next read on the same bus
+// itself and nothing else; while lent the main loop leaves the socket
+// alone, and what the bus thread gives back is served as if read here.
+TEST(ControlServer, AReadLendsTheConnectionAndWhatComesBackIsServedHere) {
+  SlowTick t;
+  Client c(t.loop.path());
+  ASSERT_TRUE(c.connected());
+  c.send("sdo-read line1 20 1018 4\n");
+  ASSERT_TRUE(t.held(1));
+  auto held = t.bus.take();
+  ASSERT_TRUE(held);
+  auto& [cmd, to] = *held;
+  ASSERT_TRUE(cmd.loan);
+  const auto loan = cmd.loan;
+  // The bus thread's part: the whole answer sent, the connection kept.
+  RemoteResult r;
+  r.data = {0xD1, 0x07, 0x00, 0x00};
+  r.kept = cobridge::gateway::answer_client(cmd, r);
+  ASSERT_TRUE(r.kept);
+  cobridge::gateway::push_result(*to, r, true);
+  EXPECT_NE(c.line(2000ms).find("\"value\":2001}"), std::string::npos);
+
+  // What the loan takes: a read on this bus; not a write, another bus, status.
+  EXPECT_FALSE(loan->take("sdo-write line1 20 2000 0 01", *loan->connection));
+  EXPECT_FALSE(loan->take("sdo-read line2 20 1018 1", *loan->connection));
+  EXPECT_FALSE(loan->take("status", *loan->connection));
+  const auto next = loan->take("sdo-read line1 20 1018 1", *loan->connection);
+  ASSERT_TRUE(next);
+  EXPECT_EQ(next->node, 20);
+  EXPECT_EQ(next->sub, 1);
+
+  c.send("status\n");
+  std::this_thread::sleep_for(100ms);
+  {
+    const std::lock_guard lock(t.h.mutex);
+    EXPECT_EQ(t.h.status_calls, 0) << "the main loop read a connection it had lent";
+  }
+  RemoteResult back;
+  back.input = "status\n";
+  cobridge::gateway::give_back(cmd.tag, *to, back);
+  EXPECT_NE(c.line(2000ms).find("\"gateway\":"), std::string::npos);
+}
+
+// Pipelined requests: the second is already read here, so the first is not
+// lent (one thread reads a connection at a time, in order).
+TEST(ControlServer, ARequestWithAnotherBehindItIsNotLent) {
+  SlowTick t;
+  Client c(t.loop.path());
+  ASSERT_TRUE(c.connected());
+  c.send("sdo-read line1 20 1018 4\nsdo-read line1 20 1018 1\n");
+  ASSERT_TRUE(t.held(1));
+  auto held = t.bus.take();
+  ASSERT_TRUE(held);
+  EXPECT_FALSE(held->first.loan);
+  cobridge::gateway::hand_back(held->first, RemoteResult{}, held->second.get());
+  EXPECT_NE(c.line(2000ms).find("\"ok\":true"), std::string::npos);
+  ASSERT_TRUE(t.held(1));
 }

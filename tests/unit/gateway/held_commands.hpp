@@ -39,13 +39,19 @@ class HeldCommands final : public RemoteTarget {
   }
   // False when no command waits.
   bool finish(RemoteResult result) {
-    std::unique_lock lock(mutex_);
-    if (held_.empty()) return false;
-    auto [cmd, to] = std::move(held_.front());
-    held_.pop_front();
-    lock.unlock();
-    hand_back(cmd, std::move(result), to.get());
+    auto held = take();
+    if (!held) return false;
+    hand_back(held->first, std::move(result), held->second.get());
     return true;
+  }
+  // The oldest command and where its result goes, for a test that ends it
+  // itself (a connection kept on loan, connection_loan.hpp).
+  std::optional<std::pair<RemoteCommand, std::shared_ptr<RemoteReplies>>> take() {
+    const std::lock_guard lock(mutex_);
+    if (held_.empty()) return std::nullopt;
+    auto oldest = std::move(held_.front());
+    held_.pop_front();
+    return oldest;
   }
 
  private:
