@@ -11,6 +11,7 @@
 #include "gateway/remote/connection_loan.hpp"
 
 #include "gateway/remote/remote_executor.hpp"
+#include "scripted_gate.hpp"
 
 #include <gtest/gtest.h>
 #include <poll.h>
@@ -29,32 +30,7 @@ namespace gw = cobridge::gateway;
 
 namespace {
 
-struct Recorder : cobridge::can::FrameSink {
-  bool send(const Frame& f) noexcept override {
-    sent.push_back(f);
-    return true;
-  }
-  std::vector<Frame> sent;
-};
-
-struct FreeGate : gw::RemoteGate {
-  bool node_free(std::uint8_t) const override { return true; }
-  bool node_supervised(std::uint8_t) const override { return false; }
-  bool lss_allowed() const override { return true; }
-  void on_nmt_sent(cobridge::canopen::NmtCommand, std::uint8_t, const std::string&) override {}
-  void on_lss_node_id(const cobridge::canopen::LssAddress&, std::uint8_t, bool) override {}
-};
-
-gw::RemoteCommand upload(std::uint8_t node) {
-  gw::RemoteCommand c;
-  c.op = gw::RemoteOp::sdo_upload;
-  c.node = node;
-  c.index = 0x1018;
-  c.sub = 4;
-  c.sdo_timeout = 100ms;
-  c.deadline = 2000ms;
-  return c;
-}
+gw::RemoteCommand upload(std::uint8_t node) { return gw::testing::RemoteBus::upload(node); }
 
 gw::DirectAnswer::Format answer_line(std::string what) {
   return [what](const gw::RemoteResult& r) {
@@ -77,7 +53,7 @@ std::shared_ptr<gw::ConnectionLoan> loan_of(std::shared_ptr<gw::DirectAnswer> co
   return loan;
 }
 
-struct ConnectionLoanTest : ::testing::Test {
+struct ConnectionLoanTest : ::testing::Test, gw::testing::RemoteBus {
   ConnectionLoanTest() {
     EXPECT_EQ(::socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, fds.data()), 0);
     connection = std::make_shared<gw::DirectAnswer>(fds[0]);
@@ -96,6 +72,12 @@ struct ConnectionLoanTest : ::testing::Test {
     ex.add(std::move(c), replies, now);
     ex.process(now, gate);
     answer(5, value);
+  }
+  // The first read done and the connection kept; its result taken.
+  void lend() {
+    first_read(7);
+    (void)replies->take();
+    ASSERT_EQ(ex.connections_held(), 1U);
   }
   // The device's expedited answer, then the executor's turn.
   void answer(std::uint8_t node, std::uint8_t value) {
@@ -135,11 +117,7 @@ struct ConnectionLoanTest : ::testing::Test {
 
   std::array<int, 2> fds{-1, -1};  // [0]: the daemon's, [1]: the client's
   std::shared_ptr<gw::DirectAnswer> connection;
-  Recorder bus;
-  FreeGate gate;
-  gw::RemoteExecutor ex{bus, "line1", 100ms};
-  std::shared_ptr<gw::RemoteReplies> replies = std::make_shared<gw::RemoteReplies>();
-  TimePoint now = TimePoint{} + 1h;
+  TimePoint now = t0;  // every node free (the gate as scripted by default)
 };
 
 }  // namespace
@@ -165,8 +143,7 @@ TEST_F(ConnectionLoanTest, AReadItTakesRunsHereAndIsAnsweredWithoutTheMainThread
 }
 
 TEST_F(ConnectionLoanTest, ALineItDoesNotTakeGoesBackWithItsBytes) {
-  first_read(7);
-  (void)replies->take();
+  lend();
   client_sends("status\n");
   turn();
   const gw::RemoteResult back = only_result();
@@ -180,9 +157,8 @@ TEST_F(ConnectionLoanTest, ALineItDoesNotTakeGoesBackWithItsBytes) {
 
 // Pipelined requests: the second would be read here while the first is
 // queued, so both go back to the main thread, in order.
-TEST_F(ConnectionLoanTest, MoreThanOneLineOrAPartLineGoesBackInOrder) {
-  first_read(7);
-  (void)replies->take();
+TEST_F(ConnectionLoanTest, PipelinedLinesGoBackInOrder) {
+  lend();
   client_sends("read 6\nread 5\n");
   turn();
   EXPECT_EQ(only_result().input, "read 6\nread 5\n");
@@ -190,16 +166,14 @@ TEST_F(ConnectionLoanTest, MoreThanOneLineOrAPartLineGoesBackInOrder) {
 }
 
 TEST_F(ConnectionLoanTest, ThePartOfALineGoesBack) {
-  first_read(7);
-  (void)replies->take();
+  lend();
   client_sends("read");
   turn();
   EXPECT_EQ(only_result().input, "read");
 }
 
 TEST_F(ConnectionLoanTest, TheClientsEndGoesBack) {
-  first_read(7);
-  (void)replies->take();
+  lend();
   ::close(fds[1]);
   fds[1] = -1;
   turn();
@@ -210,8 +184,7 @@ TEST_F(ConnectionLoanTest, TheClientsEndGoesBack) {
 }
 
 TEST_F(ConnectionLoanTest, AnIdleConnectionGoesBackAfterItsTimeout) {
-  first_read(7);
-  (void)replies->take();
+  lend();
   ex.process(now, gate);  // its idle time starts
   now += 1999ms;
   ex.process(now, gate);
@@ -225,8 +198,7 @@ TEST_F(ConnectionLoanTest, AnIdleConnectionGoesBackAfterItsTimeout) {
 }
 
 TEST_F(ConnectionLoanTest, TheBusStoppingGivesEveryConnectionBack) {
-  first_read(7);
-  (void)replies->take();
+  lend();
   ex.abort_all("the bus stopped");
   const gw::RemoteResult back = only_result();
   EXPECT_TRUE(back.returned);
@@ -237,8 +209,7 @@ TEST_F(ConnectionLoanTest, TheBusStoppingGivesEveryConnectionBack) {
 // A client that does not read: the answer the socket cannot take is the
 // main thread's to finish, so the connection goes back with it (woken).
 TEST_F(ConnectionLoanTest, AnAnswerTheSocketDoesNotTakeEndsTheLoan) {
-  first_read(7);
-  (void)replies->take();
+  lend();
   client_sends("read 6\n");
   turn();
   const std::string filler(4096, 'f');

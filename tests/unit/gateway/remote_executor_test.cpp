@@ -4,6 +4,8 @@
 // §7.2.8.3.3 boot-up (0x700 + node, one byte 0x00).
 #include "gateway/remote/remote_executor.hpp"
 
+#include "scripted_gate.hpp"
+
 #include <gtest/gtest.h>
 
 #include <set>
@@ -17,24 +19,6 @@ namespace gw = cobridge::gateway;
 
 namespace {
 
-struct Recorder : cobridge::can::FrameSink {
-  bool send(const Frame& f) noexcept override {
-    sent.push_back(f);
-    return true;
-  }
-  std::vector<Frame> sent;
-};
-
-struct Gate : gw::RemoteGate {
-  bool node_free(std::uint8_t node) const override { return busy.count(node) == 0; }
-  bool node_supervised(std::uint8_t node) const override { return supervised.count(node) != 0; }
-  bool lss_allowed() const override { return true; }
-  void on_nmt_sent(cobridge::canopen::NmtCommand, std::uint8_t node, const std::string&) override { nmt.push_back(node); }
-  void on_lss_node_id(const cobridge::canopen::LssAddress&, std::uint8_t, bool) override {}
-  std::set<std::uint8_t> busy, supervised;
-  std::vector<std::uint8_t> nmt;
-};
-
 Frame frame(std::uint32_t id, std::initializer_list<std::uint8_t> bytes) {
   Frame f;
   f.id = id;
@@ -44,25 +28,8 @@ Frame frame(std::uint32_t id, std::initializer_list<std::uint8_t> bytes) {
   return f;
 }
 
-gw::RemoteCommand upload(std::uint8_t node) {
-  gw::RemoteCommand c;
-  c.op = gw::RemoteOp::sdo_upload;
-  c.node = node;
-  c.index = 0x1018;
-  c.sub = 4;
-  c.sdo_timeout = 100ms;
-  c.deadline = 2000ms;
-  c.tag = 7;
-  return c;
-}
 
-struct RemoteExecutorTest : ::testing::Test {
-  Recorder bus;
-  Gate gate;
-  gw::RemoteExecutor ex{bus, "line1", 100ms};
-  std::shared_ptr<gw::RemoteReplies> replies = std::make_shared<gw::RemoteReplies>();
-  TimePoint t0 = TimePoint{} + 1h;
-};
+struct RemoteExecutorTest : ::testing::Test, gw::testing::RemoteBus {};
 
 }  // namespace
 
