@@ -602,22 +602,15 @@ void ControlServer::deliver(TimePoint now, bool drain) {
   for (auto& r : drain ? replies_->take() : replies_->take_quiet()) {
     for (auto& c : clients_) {
       if (c.waiting_tag != r.tag) continue;
-      if (r.kept) {
-        // The client has its answer; the bus thread reads its next request
-        // and gives the connection back when it does not run that itself.
-        c.lent = true;
-        c.wake_asked = false;
-        c.pending = {};
-        c.deadline = kNever;
+      if (take_loan_news(c, r)) {
+        c.deadline = kNever;  // the bus thread times an idle client out
         break;
       }
-      if (r.returned) {
-        c.in = std::move(r.input);
-        c.peer_closed = c.peer_closed || r.peer_closed;
-      } else if (r.answer.empty()) {
+      // A connection given back (r.returned) has its input and no answer.
+      if (!r.returned && r.answer.empty()) {
         c.out += remote_answer(c.pending, r);
         c.out += '\n';
-      } else {
+      } else if (!r.returned) {
         // The bus thread sent the answer, or its start: the rest goes from
         // here (the buffer was empty when the command was queued).
         c.out = std::move(r.answer);
@@ -625,7 +618,6 @@ void ControlServer::deliver(TimePoint now, bool drain) {
       }
       c.waiting_tag = 0;
       c.wake_asked = false;
-      c.lent = false;
       c.pending = {};
       // An idle client given back is past its time: told so, then closed.
       c.deadline = r.idle ? now : now + options_.client_timeout;

@@ -1,6 +1,7 @@
 #include "gateway/remote/ascii_server.hpp"
 
 #include "gateway/remote/awaited_results.hpp"
+#include "gateway/remote/connection_loan.hpp"
 #include "gateway/remote/direct_answer.hpp"
 
 #include "sys/logging.hpp"
@@ -104,7 +105,7 @@ void AsciiServer::add_poll_fds(std::vector<pollfd>& fds) {
   replies_slot_.add(fds, replies_->fd(), POLLIN);
   for (auto& c : clients_) {
     if (c.writing()) c.slot.add(fds, c.fd, POLLOUT);
-    else if (c.waiting_tag == 0 || !c.wake_asked) c.slot.add(fds, c.fd, POLLIN);
+    else if (c.waiting_tag == 0 || !(c.wake_asked || c.lent)) c.slot.add(fds, c.fd, POLLIN);
     else c.slot.skip();
   }
 }
@@ -222,9 +223,7 @@ std::string AsciiServer::run(Client& c, AsciiRequest r) {
     if (!nmt_all && (node < 1 || node > 127)) return ascii_error(seq, AsciiError::unsupported_node);
     cmd.node = static_cast<std::uint8_t>(node);
   }
-  cmd.sdo_timeout = c.sdo_timeout;
-  cmd.deadline = std::max(std::chrono::milliseconds(10000), 8 * c.sdo_timeout);
-  cmd.caller = c.who + " (CiA 309-3 gateway)";
+  fill_command(r, cmd.node, c.sdo_timeout, c.who);
   if (cmd.is_write()) {
     if (!options_.writes_enabled) return ascii_error(seq, AsciiError::not_supported);
     sys::logger("gateway")->info("ascii gateway: {} on net {} node {} by {}", to_string(cmd.op), net, cmd.node, cmd.caller);
@@ -232,7 +231,7 @@ std::string AsciiServer::run(Client& c, AsciiRequest r) {
   cmd.tag = next_tag_++;
   const auto tag = cmd.tag;
   r.seq = seq;
-  if (Error e = remote_.submit("#" + std::to_string(net), with_direct_answer(c, r), replies_)) {
+  if (Error e = remote_.submit("#" + std::to_string(net), with_direct_answer(c, r, net), replies_)) {
     if (c.direct) c.direct->arm({});
     return ascii_error(seq, e.kind == Errc::kNotFound ? AsciiError::unsupported_net : AsciiError::internal_state);
   }
@@ -241,16 +240,56 @@ std::string AsciiServer::run(Client& c, AsciiRequest r) {
   return {};
 }
 
-RemoteCommand AsciiServer::with_direct_answer(Client& c, const AsciiRequest& r) {
+void AsciiServer::fill_command(AsciiRequest& r, std::uint8_t node, std::chrono::milliseconds sdo_timeout,
+                               const std::string& who) {
+  RemoteCommand& cmd = r.command;
+  cmd.node = node;
+  cmd.sdo_timeout = sdo_timeout;
+  cmd.deadline = std::max(std::chrono::milliseconds(10000), 8 * sdo_timeout);
+  cmd.caller = who + " (CiA 309-3 gateway)";
+}
+
+DirectAnswer::Format AsciiServer::answer_line(AsciiRequest r) {
+  return [r = std::move(r)](const RemoteResult& res) { return ascii_answer(r, res) + '\n'; };
+}
+
+RemoteCommand AsciiServer::with_direct_answer(Client& c, const AsciiRequest& r, unsigned net) const {
   RemoteCommand cmd = r.command;
   // Only while nothing else is owed to the client: its answers stay in order.
   if (!c.direct || !c.out.empty()) return cmd;
   // Its next request already here waits for this result: a wake-up, not a
   // quiet hand-back that would leave it for the loop's tick.
   cmd.wake_owner = !c.in.empty();
-  c.direct->arm([r](const RemoteResult& res) { return ascii_answer(r, res) + '\n'; });
+  c.direct->arm(answer_line(r));
   cmd.direct = c.direct;
+  lend_with(c, cmd, r.kind, net);
   return cmd;
+}
+
+void AsciiServer::lend_with(Client& c, RemoteCommand& cmd, AsciiRequest::Kind kind, unsigned net) const {
+  // Reads only, and only while nothing of the client is buffered here (as
+  // the control socket: connection_loan.hpp).
+  if (kind != AsciiRequest::Kind::read || !c.in.empty() || c.peer_closed || c.skipping) return;
+  auto loan = std::make_shared<ConnectionLoan>();
+  loan->connection = c.direct;
+  loan->max_line = options_.max_line;
+  loan->idle_timeout = options_.idle_timeout;
+  // The connection's defaults cannot change while lent ("set" goes back).
+  loan->take = [net, default_net = c.net, default_node = c.node, timeout = c.sdo_timeout, who = c.who](
+                   std::string_view line, DirectAnswer& connection) {
+    AsciiRequest next = parse_ascii_request(line);
+    std::optional<RemoteCommand> taken;
+    const int node = next.node >= 0 ? next.node : default_node;
+    if (next.kind != AsciiRequest::Kind::read || (next.net != 0 ? next.net : default_net) != net || node < 1 ||
+        node > 127)
+      return taken;  // the main thread answers it (or its error)
+    if (next.seq.empty()) next.seq = "0";
+    fill_command(next, static_cast<std::uint8_t>(node), timeout, who);
+    taken = next.command;
+    connection.arm(answer_line(std::move(next)));
+    return taken;
+  };
+  cmd.loan = std::move(loan);
 }
 
 void AsciiServer::await_result(Client& c, TimePoint now) {
@@ -266,9 +305,14 @@ void AsciiServer::deliver(TimePoint now, bool drain) {
   for (auto& res : drain ? replies_->take() : replies_->take_quiet()) {
     for (auto& c : clients_) {
       if (c.waiting_tag != res.tag) continue;
-      if (res.answer.empty()) {
+      if (take_loan_news(c, res)) {
+        c.idle_until = kNever;  // the bus thread times an idle client out
+        break;
+      }
+      // A connection given back (res.returned) has its input and no answer.
+      if (!res.returned && res.answer.empty()) {
         c.out += ascii_answer(c.pending, res) + "\n";
-      } else {
+      } else if (!res.returned) {
         // The bus thread sent the answer, or its start: the rest goes from
         // here (the buffer was empty when the command was queued).
         c.out = std::move(res.answer);
@@ -277,7 +321,8 @@ void AsciiServer::deliver(TimePoint now, bool drain) {
       c.waiting_tag = 0;
       c.wake_asked = false;
       c.pending = {};
-      c.idle_until = now + options_.idle_timeout;
+      // An idle client given back is past its time: closed.
+      c.idle_until = res.idle ? now : now + options_.idle_timeout;
       c.slot.mark();  // its answer goes out in this turn
       break;
     }

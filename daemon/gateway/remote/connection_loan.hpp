@@ -95,4 +95,25 @@ class LoanedConnections {
 // Gives a connection back to its main thread (RemoteResult::returned).
 void give_back(std::uint64_t tag, RemoteReplies& to, RemoteResult result);
 
+// Main thread: what a result of its client's command says of the loan, for
+// a server whose clients have `lent`, `wake_asked`, `pending`, `in` and
+// `peer_closed`. True: kept, the bus thread reads the client now (the
+// server leaves its socket alone). False: the client is the server's again,
+// with what the bus thread read of it (returned) as its input.
+template <typename Client>
+bool take_loan_news(Client& c, RemoteResult& r) {
+  if (r.kept) {
+    c.lent = true;
+    c.wake_asked = false;
+    c.pending = {};
+    return true;
+  }
+  c.lent = false;
+  if (r.returned) {
+    c.in += r.input;
+    c.peer_closed = c.peer_closed || r.peer_closed;
+  }
+  return false;
+}
+
 }  // namespace cobridge::gateway

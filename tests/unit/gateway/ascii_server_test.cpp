@@ -4,6 +4,7 @@
 // the client from the thread that finished it (issue 15).
 #include "gateway/remote/ascii_server.hpp"
 
+#include "gateway/remote/connection_loan.hpp"
 #include "held_commands.hpp"
 
 #include <gtest/gtest.h>
@@ -89,40 +90,114 @@ std::string read_line(int fd, int ms) {
   return got + "<timeout>";
 }
 
-// CiA 309-3 "[seq] net node r index sub type" -> "[seq] value", sent by the
-// bus's thread (here the test's) while the main loop does not run.
-TEST(AsciiServer, ReadAnswerReachesTheClientWithoutTheMainLoop) {
-  const auto dir = std::filesystem::temp_directory_path() / ("cobridge-ascii-direct-" + std::to_string(::getpid()));
-  HeldCommands bus;
-  AsciiServer server(bus, {});
-  ASSERT_FALSE(server.open_unix(dir / "ascii.sock"));
-  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  sockaddr_un addr{};
-  addr.sun_family = AF_UNIX;
-  (dir / "ascii.sock").string().copy(addr.sun_path, sizeof addr.sun_path - 1);
-  ASSERT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
-  auto run_until_held = [&](std::size_t n) {
+// A gateway over one held bus (net 1) and one connected client; the test
+// turns the server's loop itself.
+struct HeldGateway {
+  HeldGateway() {
+    std::filesystem::remove_all(dir);
+    EXPECT_FALSE(server.open_unix(dir / "ascii.sock"));
+    fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    (dir / "ascii.sock").string().copy(addr.sun_path, sizeof addr.sun_path - 1);
+    EXPECT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+  }
+  ~HeldGateway() {
+    ::close(fd);
+    server.close();
+    std::filesystem::remove_all(dir);
+  }
+  void send(const std::string& text) const {
+    ASSERT_EQ(::send(fd, text.data(), text.size(), 0), static_cast<ssize_t>(text.size()));
+  }
+  // Turns the loop until the bus holds `n` commands (at most 200 turns).
+  bool run_until_held(std::size_t n) {
     for (int i = 0; i < 200 && bus.held() < n; ++i) {
       (void)server.process(std::chrono::steady_clock::now());
       std::this_thread::sleep_for(std::chrono::milliseconds(1));
     }
     return bus.held() == n;
-  };
-  const std::string first = "[1] 1 20 r 0x1018 4 u32\n[2] 1 20 r 0x1018 1 u32\n";  // pipelined
-  ASSERT_EQ(::send(fd, first.data(), first.size(), 0), static_cast<ssize_t>(first.size()));
-  ASSERT_TRUE(run_until_held(1));
+  }
+  // Turns the loop a few times (what the main thread does on its own).
+  void turn(int times = 20) {
+    for (int i = 0; i < times; ++i) {
+      (void)server.process(std::chrono::steady_clock::now());
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  }
+
+  std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("cobridge-ascii-held-" + std::to_string(::getpid()));
+  HeldCommands bus;
+  AsciiServer server{bus, {}};
+  int fd = -1;
+};
+
+// CiA 309-3 "[seq] net node r index sub type" -> "[seq] value", sent by the
+// bus's thread (here the test's) while the main loop does not run.
+TEST(AsciiServer, ReadAnswerReachesTheClientWithoutTheMainLoop) {
+  HeldGateway g;
+  g.send("[1] 1 20 r 0x1018 4 u32\n[2] 1 20 r 0x1018 1 u32\n");  // pipelined
+  ASSERT_TRUE(g.run_until_held(1));
   RemoteResult r;
   r.data = {0xD1, 0x07, 0x00, 0x00};
-  bus.finish(r);
-  EXPECT_EQ(read_line(fd, 500), "[1] 2001");
+  g.bus.finish(r);
+  EXPECT_EQ(read_line(g.fd, 500), "[1] 2001");
   // The main loop learns it is done and takes the next line, in order.
-  ASSERT_TRUE(run_until_held(1));
+  ASSERT_TRUE(g.run_until_held(1));
   r.data = {0x82, 0x01, 0x00, 0x00};
-  bus.finish(r);
-  EXPECT_EQ(read_line(fd, 500), "[2] 386");
-  ::close(fd);
-  server.close();
-  std::filesystem::remove_all(dir);
+  g.bus.finish(r);
+  EXPECT_EQ(read_line(g.fd, 500), "[2] 386");
+}
+
+// Issue 15: a read lends the connection to the bus thread
+// (connection_loan.hpp), which takes another read on the same net itself,
+// with the connection's default node, and nothing else; what it gives back
+// is served by the main loop as if read there.
+TEST(AsciiServer, AReadLendsTheConnectionForTheNextReadOnItsNet) {
+  HeldGateway g;
+  g.send("[1] set node 20\n");
+  g.turn();
+  EXPECT_EQ(read_line(g.fd, 500), "[1] OK");
+
+  g.send("[3] r 0x1018 4 u32\n");
+  ASSERT_TRUE(g.run_until_held(1));
+  auto held = g.bus.take();
+  ASSERT_TRUE(held && held->first.loan);
+  const auto loan = held->first.loan;
+  RemoteResult r;
+  r.data = {0xD1, 0x07, 0x00, 0x00};
+  r.kept = answer_client(held->first, r);
+  ASSERT_TRUE(r.kept);
+  push_result(*held->second, r, true);
+  EXPECT_EQ(read_line(g.fd, 500), "[3] 2001");
+
+  EXPECT_FALSE(loan->take("[4] 2 20 r 0x1018 1", *loan->connection));  // another net
+  EXPECT_FALSE(loan->take("[4] 1 20 w 0x2000 0 u8 1", *loan->connection));
+  EXPECT_FALSE(loan->take("[4] set node 5", *loan->connection));
+  EXPECT_FALSE(loan->take("[4] 1 0 r 0x1018 1", *loan->connection));  // node 0: the main thread's error
+  auto next = loan->take("[5] r 0x1018 1 u32", *loan->connection);
+  ASSERT_TRUE(next);
+  EXPECT_EQ(next->node, 20);  // the default node
+  EXPECT_EQ(next->sub, 1);
+  next->direct = loan->connection;
+  RemoteResult one;
+  one.data = {0x2A, 0, 0, 0};
+  (void)answer_client(*next, one);
+  EXPECT_EQ(read_line(g.fd, 500), "[5] 42");
+
+  // While lent, the main loop does not read the client: the bus thread does.
+  g.send("[6] info version\n");
+  g.turn();
+  EXPECT_EQ(read_line(g.fd, 100), "<timeout>");
+  char buf[64];
+  RemoteResult back;
+  const ssize_t n = ::recv(loan->connection->fd(), buf, sizeof buf, MSG_DONTWAIT);
+  ASSERT_EQ(n, 17);
+  back.input.assign(buf, static_cast<std::size_t>(n));
+  give_back(held->first.tag, *held->second, back);
+  g.turn();
+  EXPECT_EQ(read_line(g.fd, 500).rfind("[6] cobridge", 0), 0U);
 }
 
 }  // namespace
