@@ -160,6 +160,7 @@ struct Instance {
   bool drain_lane() {
     const std::size_t n = lane.pop_batch(std::span<cobridge_sample>(lane_batch.data(), lane_batch.size()));
     if (n == 0) return false;
+    (void)drain_devices();  // after the pop: see drain_batch
     publisher->publish_status({lane_batch.data(), n});
     kick_presence();
     return true;
@@ -172,6 +173,7 @@ struct Instance {
     if (!direct) return false;
     const std::size_t n = direct->take_spilled(std::span<SpilledSample>(spilled.data(), spilled.size()));
     if (n == 0) return false;
+    (void)drain_devices();  // after the pop: see drain_batch
     for (std::size_t i = 0; i < n; ++i) {
       publisher->write_spilled(spilled[i].sample, spilled[i].stale, kMaxBlocking);
       if ((i + 1) % kLaneCheck == 0) (void)drain_lane();
@@ -214,6 +216,11 @@ struct Instance {
   bool drain_batch() {
     const std::size_t n = ring.pop_batch(std::span<cobridge_sample>(batch.data(), batch.size()));
     if (n == 0) return false;
+    // After the pop, not only before it: a device announced and then given
+    // samples between drain()'s first look and this pop must be known before
+    // they are written, or they go out without its name. The pop's acquire
+    // makes the announcement queued before them visible here.
+    (void)drain_devices();
     for (std::size_t at = 0; at < n; at += kLaneCheck) {
       publisher->write_samples({batch.data() + at, std::min(kLaneCheck, n - at)});
       (void)drain_lane();  // flushes what was written before it, when it has anything

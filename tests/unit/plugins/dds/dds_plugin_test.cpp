@@ -875,6 +875,39 @@ TEST(DdsPlugin, Issue16_SamplePathWriterThreadAndReliableDispatcher) {
   expect_all_in_order(p, reader);
 }
 
+// CiA 301 §7.2.2 (PDO) and docs/dds.md (EncoderSample.device_name): a
+// device's first sample, delivered right after its announcement, carries its
+// name on both writing paths. The writer thread once applied announcements
+// only before its look at the sample ring, so one made while it was busy lost
+// the race to its own samples (found by CI: "axis 2" went out nameless).
+TEST(DdsPlugin, AFirstSampleRightAfterItsAnnouncementCarriesTheName) {
+  for (const char* path : {"writer-thread", "auto"}) {
+    SCOPED_TRACE(path);
+    Reader reader(&cobridge_EncoderSample_desc, "EncoderSample", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_VOLATILE,
+                  true);
+    Plugin p(base_config(std::string("sample_reliability = \"reliable\"\nsample_path = \"") + path + "\"\n"));
+    constexpr std::uint16_t kDevices = 400;
+    std::vector<std::string> names;
+    for (std::uint16_t i = 0; i < kDevices; ++i) names.push_back("dev " + std::to_string(i));
+    for (std::uint16_t i = 0; i < kDevices; ++i) {
+      const auto bus = static_cast<std::uint8_t>(i / 100);
+      const auto node = static_cast<std::uint8_t>(1 + i % 100);
+      p.host.announce(device(i, bus, node, names[i].c_str()));
+      const cobridge_sample s = tpdo(i, bus, node, 1);
+      p.host.deliver({&s, 1});
+    }
+    std::size_t nameless = 0;
+    std::size_t got = 0;
+    reader.take<cobridge_EncoderSample>(kDevices, [&](const cobridge_EncoderSample& s) {
+      ++got;
+      const std::uint16_t i = static_cast<std::uint16_t>(s.bus * 100 + s.node_id - 1);
+      if (i >= kDevices || names[i] != s.device_name) ++nameless;
+    });
+    EXPECT_EQ(got, kDevices);
+    EXPECT_EQ(nameless, 0u) << "samples without (or with another) device name";
+  }
+}
+
 // Issue 16, docs/dds.md "Many gateways in one domain": `partition` puts every
 // writer in that DDS partition; a reader of the partition gets the samples,
 // a reader of the default partition does not.
