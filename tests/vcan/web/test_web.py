@@ -111,11 +111,12 @@ def keys(x):
     return None
 
 
-def same_shape(status, cli, control):
+def same_shape(cli, control):
     """/api/v1/status against `cobridge status --json`, a few times: the two
     are read one after the other, and a device may change in between (a
-    periodic discovery step, an EMCY). Returns (same, what differed)."""
-    diff = "no document"
+    periodic discovery step, an EMCY). Returns (same, what differed, the
+    status document, the CLI's document) of the last reading."""
+    diff, st, cli_doc = "no document", None, None
     for _ in range(3):
         r = subprocess.run([cli, "status", "--json", "--control", control], stdout=subprocess.PIPE, text=True,
                            timeout=10)
@@ -125,10 +126,10 @@ def same_shape(status, cli, control):
             continue
         a, b = keys(st), keys(cli_doc)
         if a == b:
-            return True, ""
+            return True, "", st, cli_doc
         diff = "HTTP %s | CLI %s" % (json.dumps(a, sort_keys=True), json.dumps(b, sort_keys=True))
         time.sleep(0.2)
-    return False, diff
+    return False, diff, st, cli_doc
 
 
 def rss_kib(pid):
@@ -179,12 +180,8 @@ def main():
         print("FIGURE daemon RSS before any HTTP request: %d KiB" % rss_kib(daemon.pid), flush=True)
 
         # ---- one schema, one source
-        same, diff = same_shape(status, args.cli, ws.control)
+        same, diff, st, cli_doc = same_shape(args.cli, ws.control)
         report.check(same, "/api/v1/status has the keys of `cobridge status --json`", diff)
-        cli = subprocess.run([args.cli, "status", "--json", "--control", ws.control], stdout=subprocess.PIPE,
-                             text=True, timeout=10)
-        st = status()
-        cli_doc = json.loads(cli.stdout) if cli.returncode == 0 else None
         report.check(st is not None and cli_doc is not None and
                      [(d["name"], d["node_id"], d["state"]) for b in st["buses"] for d in b["devices"]] ==
                      [(d["name"], d["node_id"], d["state"]) for b in cli_doc["buses"] for d in b["devices"]],
