@@ -284,6 +284,8 @@ void BusManager::Impl::apply_reload(config::Config next, TimePoint now) {
     if (!o.in_config) devices.push_back(std::move(o));  // still on the bus
   }
   dirty = true;
+  // The moment the bus thread runs with the new settings (SIGHUP only asks).
+  log->info("bus {}: new configuration applied", bus.name);
 }
 
 BusManager::BusManager(const config::Config& config, std::size_t bus_index, const device::DeviceCatalog& catalog,

@@ -2,6 +2,8 @@
 // commands (issue 15) may do now, and what they did. Control thread only.
 #include "gateway/bus_manager_impl.hpp"
 
+#include <utility>
+
 namespace cobridge::gateway {
 
 bool BusManager::Impl::node_free(std::uint8_t node) const {
@@ -25,11 +27,19 @@ void BusManager::Impl::on_nmt_sent(canopen::NmtCommand command, std::uint8_t nod
   const bool hold = command == canopen::NmtCommand::stop || command == canopen::NmtCommand::enter_preop;
   for (auto& m : devices) {
     if (!m.in_config || (node != 0 && m.st.node_id != node)) continue;
-    m.operator_hold = hold;
+    const bool held = std::exchange(m.operator_hold, hold);
     if (hold) {
       m.st.last_error = "left " + std::string(command == canopen::NmtCommand::stop ? "stopped" : "pre-operational") +
                         " by a client's NMT command (" + caller + ")";
       set_state(m, DeviceState::stopped);
+    } else if (held && m.started && command == canopen::NmtCommand::start && m.st.state == DeviceState::stopped &&
+               supervisor.nmt(m.st.node_id) == canopen::NmtState::operational) {
+      // Started again before any heartbeat showed it stopped: the heartbeat
+      // never changes, so no NMT state change will tell; it runs as it did.
+      log->info("bus {}: device {} (node {}) is operational again (a client's NMT start)", bus.name, m.st.name,
+                m.st.node_id);
+      m.st.last_error.clear();
+      set_state(m, m.st.online ? DeviceState::operational : DeviceState::offline);
     }
   }
 }

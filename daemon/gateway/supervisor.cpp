@@ -82,6 +82,10 @@ bool Supervisor::online(std::uint8_t node) const noexcept {
   return canopen::cob::valid_node_id(node) && nodes_[node].online;
 }
 
+canopen::NmtState Supervisor::nmt(std::uint8_t node) const noexcept {
+  return canopen::cob::valid_node_id(node) ? nodes_[node].nmt : canopen::NmtState::boot_up;
+}
+
 void Supervisor::push(Change change) { changes_.push_back(std::move(change)); }
 
 void Supervisor::set_online(std::uint8_t node, TimePoint at) {

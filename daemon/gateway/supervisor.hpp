@@ -81,6 +81,8 @@ class Supervisor {
   void unwatch(std::uint8_t node) noexcept;
   [[nodiscard]] bool watching(std::uint8_t node) const noexcept;
   [[nodiscard]] bool online(std::uint8_t node) const noexcept;
+  // The NMT state its last heartbeat / guarding reply reported (boot_up: none yet).
+  [[nodiscard]] canopen::NmtState nmt(std::uint8_t node) const noexcept;
 
   // Feed every frame on 0x081..0x0FF and 0x701..0x77F. Returns true when it
   // concerned a node this supervisor knows.

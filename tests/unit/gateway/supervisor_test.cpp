@@ -153,6 +153,20 @@ TEST_F(SupervisorTest, Cia301_7_2_8_3_2_2_HeartbeatLostThenBackOnline) {
   EXPECT_TRUE(dev.last_error.empty());
 }
 
+// The NMT state the last heartbeat reported (CiA 301 §7.2.8.3.2.2: the
+// heartbeat carries it); a client's NMT start relies on it when the stop it
+// follows never showed in a heartbeat (issue 24: test_ascii_gateway).
+TEST_F(SupervisorTest, Cia301_7_2_8_3_2_2_LastReportedNmtState) {
+  EXPECT_EQ(sup.nmt(5), NmtState::boot_up);  // nothing heard yet
+  sup.watch(5, &fam::kNovotechnikRotary, heartbeat(100ms), t0);
+  sup.on_frame(canopen::make_heartbeat(5, NmtState::operational), t0 + 10ms);
+  EXPECT_EQ(sup.nmt(5), NmtState::operational);
+  sup.on_frame(canopen::make_heartbeat(5, NmtState::stopped), t0 + 110ms);
+  EXPECT_EQ(sup.nmt(5), NmtState::stopped);
+  EXPECT_EQ(sup.nmt(0), NmtState::boot_up);    // not a node-ID
+  EXPECT_EQ(sup.nmt(200), NmtState::boot_up);
+}
+
 // A device reconfigured while running (new settings on reload) is watched
 // anew: online is reported again with its first heartbeat under the new
 // producer time (CiA 301 §7.2.8.3.2.2, monitoring restarts).

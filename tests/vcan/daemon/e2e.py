@@ -24,13 +24,16 @@ SOURCE_DIR = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "..",
 DEVICES_DIR = os.path.join(SOURCE_DIR, "config", "devices")
 
 
-def parse_args():
+def parse_args(extra=None):
+    """The common arguments; extra(parser) adds a test's own."""
     p = argparse.ArgumentParser()
     p.add_argument("--daemon", required=True)
     p.add_argument("--cli", required=True)
     p.add_argument("--sim", required=True)
     p.add_argument("--keep", action="store_true", help="keep the work directory")
     p.add_argument("--plugins", help="the output plugin directory (--plugin-dir of cobridged)")
+    if extra:
+        extra(p)
     return p.parse_args()
 
 
@@ -384,6 +387,25 @@ class Daemon:
         took = time.time() - t0
         self.log.close()
         return rc, took
+
+    def log_size(self):
+        """Where the log ends now: a mark for wait_log."""
+        try:
+            return os.path.getsize(self.log_path)
+        except OSError:
+            return 0
+
+    def wait_log(self, text, since=0, timeout=10):
+        """Waits until `text` appears in the log after byte offset `since`;
+        returns True when it did (a condition, not a fixed sleep)."""
+        end = time.time() + timeout
+        while time.time() < end:
+            with open(self.log_path, errors="replace") as f:
+                f.seek(since)
+                if text in f.read():
+                    return True
+            time.sleep(0.02)
+        return False
 
     def tail(self, n=40):
         try:

@@ -201,8 +201,10 @@ def scenario_foreign_stop(report, daemon, listener, ws, config_path):
     # Policy respect (SIGHUP): stop node 20 -> status stopped, left so; started by the other master -> operational.
     text = open(config_path).read().replace('name = "line1"', 'name = "line1"\nforeign_nmt = "respect"')
     open(config_path, "w").write(text)
+    mark = daemon.log_size()
     os.kill(daemon.pid, signal.SIGHUP)
-    time.sleep(1.0)
+    report.check(daemon.wait_log("bus line1: new configuration applied", mark, 10),
+                 "SIGHUP: the bus runs with the new policy (logged by its thread)")
     t1 = time.time()
     send(ctl, 0x000, [0x02, 20])
     st, took = daemon.wait_until(lambda s: any(d["name"] == "mt-a" and d["state"] == "stopped" and

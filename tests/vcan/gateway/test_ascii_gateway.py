@@ -98,12 +98,17 @@ def commands(report, path, daemon):
     c.send("[24] 1 10 r 0x1018 4 u32\n[25] 1 20 r 0x1018 4 u32\n[26] 2 30 r 0x1018 4 u32\n")
     got = [c.line(), c.line(), c.line()]
     report.check(got == ["[24] 1001", "[25] 2001", "[26] 3001"], "pipelined requests answered in order", repr(got))
-    expect(report, c, "[27] 1 20 w 0x1017 0 u16 100", "[27] OK", "write u16 (heartbeat time, same value)")
-    expect(report, c, "[28] 1 20 r 0x1017 0 u16", "[28] 100", "read back")
+    # A value other than the stored one (configured: 100 ms), so the read-back
+    # proves the write reached the device; then the configured value again.
+    expect(report, c, "[27] 1 20 w 0x1017 0 u16 80", "[27] OK", "write u16 (heartbeat time 100 -> 80 ms)")
+    expect(report, c, "[28] 1 20 r 0x1017 0 u16", "[28] 80", "read back: the new value")
+    expect(report, c, "[27] 1 20 w 0x1017 0 u16 100", "[27] OK", "write u16 (heartbeat time back to 100 ms)")
+    expect(report, c, "[28] 1 20 r 0x1017 0 u16", "[28] 100", "read back: the configured value again")
     expect(report, c, "[29] 1 20 stop", "[29] OK", "NMT stop")
-    time.sleep(1.0)
-    d = daemon.devices()["mt-a"]
-    report.check(d["state"] == "stopped", "the daemon knows the device was stopped by a client", d["last_error"])
+    st, took = daemon.wait_until(lambda s: any(d["name"] == "mt-a" and d["state"] == "stopped"
+                                               for b in s["buses"] for d in b["devices"]), 5, interval=0.05)
+    report.check(took is not None, "the daemon knows the device was stopped by a client",
+                 "" if took is not None else str(daemon.devices()["mt-a"]))
     expect(report, c, "[30] 1 20 start", "[30] OK", "NMT start")
     _, took = daemon.wait_until(e2e.all_operational(["mt-a"]), 5, interval=0.05)
     report.check(took is not None, "operational again after NMT start")
