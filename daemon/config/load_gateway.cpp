@@ -57,7 +57,13 @@ void Loader::read_gateway(TableReader& top) {
         r.error(e, "gateway.device_dirs entry " + in_quotes(dir.string()) + " is not a directory");
         continue;
       }
-      g.device_dirs.push_back(dir);
+      // The installed directory named again (or one directory twice) is one
+      // set of files: loading it twice would call each file a duplicate of itself.
+      const bool listed = std::any_of(g.device_dirs.begin(), g.device_dirs.end(), [&](const fs::path& d) {
+        std::error_code eq;
+        return fs::equivalent(d, dir, eq);
+      });
+      if (!listed) g.device_dirs.push_back(dir);
     }
   }
 }

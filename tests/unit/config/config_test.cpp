@@ -97,6 +97,19 @@ TEST(ConfigExample, LoadsGatewayAndLogging) {
   EXPECT_EQ(c.logging.modules[1], std::make_pair(std::string("modbus"), LogLevel::warn));
 }
 
+// doc §[gateway] device_dirs (issue 24): one directory named twice, by
+// another spelling, is loaded once; its files are not duplicates of themselves.
+TEST(ConfigGateway, ADeviceDirectoryNamedTwiceIsListedOnce) {
+  const std::string base = kExample.parent_path().string();
+  const std::string abs = (kRepo / "config" / "devices").string();
+  const LoadResult r =
+      load_string("[gateway]\ndevice_dirs = [\"devices\", \"./devices/\", \"" + abs + "\"]\n", "twice.toml", base);
+  ASSERT_TRUE(r.ok());
+  const auto installed = installed_device_dirs();
+  ASSERT_EQ(r.config().gateway.device_dirs.size(), installed.size() + 1);
+  EXPECT_TRUE(fs::equivalent(r.config().gateway.device_dirs.back(), abs));
+}
+
 // doc §[[bus]]; sync counter 0 or 2..240 per CiA 301 0x1019
 TEST(ConfigExample, LoadsTwoBuses) {
   const LoadResult r = load(kExample);
