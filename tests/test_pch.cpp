@@ -1,0 +1,1 @@
+// The precompiled header of every test executable (tests/CMakeLists.txt).
