@@ -7,7 +7,7 @@
 # ccache: used when installed (scripts/setup-deps installs it); its directory
 #   is CCACHE_DIR, or /var/cache/cobridge-ccache when unset (kept between
 #   runs on one machine; the first, cold, run gains nothing).
-option(COBRIDGE_UNITY "Compile libraries as unity batches" OFF)
+option(COBRIDGE_UNITY "Compile libraries as unity batches" ON)
 set(COBRIDGE_UNITY_BATCH 8 CACHE STRING "Files per unity batch")
 if(COBRIDGE_UNITY)
   set(CMAKE_UNITY_BUILD ON)

@@ -335,6 +335,11 @@ def main():
     with_node = [e for e in native if e.get("BUS") == "line1" and e.get("NODE") in ("10", "30")]
     check(bool(with_node), "journal: BUS= and NODE= fields", "%d entries, e.g. %r" % (
         len(with_node), with_node[0]["MESSAGE"] if with_node else None))
+    # Issue 24: the descriptions the package ships load silently (a duplicate a
+    # user adds still warns: DeviceCatalog.DuplicateIdentityIsAnErrorNamingBothFiles).
+    dups = [line for line in journal("-o", "cat").splitlines() if "duplicate identity" in line]
+    check(not dups, "journal: the shipped device descriptions load without a 'duplicate identity' warning",
+          "%d lines, e.g. %r" % (len(dups), dups[:1]))
     print("journalctl -u cobridged -o cat (last 12 lines):", flush=True)
     print("\n".join(journal("-o", "cat").splitlines()[-12:]), flush=True)
     print("journalctl -u cobridged -p warning -o short-monotonic (last 5 lines):", flush=True)

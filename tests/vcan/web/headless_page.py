@@ -23,6 +23,10 @@ class BrowserError(Exception):
     pass
 
 
+class BrowserCrashed(BrowserError):
+    """Chromium ended (its pipe closed): the browser died, not the page."""
+
+
 class HeadlessPage:
     def __init__(self, work, size=(1400, 700), start_within=300.0):
         home = os.path.join(work, "chrome-home")
@@ -40,9 +44,11 @@ class HeadlessPage:
                 "--disable-background-networking", "--disable-component-update", "--disable-sync",
                 "--disable-default-apps", "--mute-audio", "--disable-breakpad", "--remote-debugging-pipe",
                 "--user-data-dir=" + os.path.join(home, "profile"), "--window-size=%d,%d" % size, "about:blank"]
-        self._proc = subprocess.Popen(args, env=dict(os.environ, HOME=home), stdin=subprocess.DEVNULL,
-                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                                      preexec_fn=wire, pass_fds=(3, 4))
+        self.log_path = os.path.join(work, "chromium.log")  # its stderr, for a crash's report
+        with open(self.log_path, "wb") as log:
+            self._proc = subprocess.Popen(args, env=dict(os.environ, HOME=home), stdin=subprocess.DEVNULL,
+                                          stdout=subprocess.DEVNULL, stderr=log,
+                                          preexec_fn=wire, pass_fds=(3, 4))
         os.close(to_child_r)
         os.close(from_child_w)
         self._buf = b""
@@ -56,6 +62,14 @@ class HeadlessPage:
         self._session = self._call("Target.attachToTarget", {"targetId": page["targetId"], "flatten": True},
                                    session=False)["sessionId"]
         self.started_in = time.time() - t0
+
+    @staticmethod
+    def log_tail(work, n=12):
+        try:
+            with open(os.path.join(work, "chromium.log"), errors="replace") as f:
+                return "".join(f.readlines()[-n:])
+        except OSError:
+            return ""
 
     def _send(self, method, params, session):
         self._next_id += 1
@@ -83,7 +97,7 @@ class HeadlessPage:
             if ready:
                 chunk = os.read(self._from_child, 1 << 16)
                 if not chunk:
-                    raise BrowserError("%s: Chromium closed its pipe (exit %s)" % (method, self._proc.poll()))
+                    raise BrowserCrashed("%s: Chromium closed its pipe (exit %s)" % (method, self._proc.poll()))
                 self._buf += chunk
 
     def open(self, url, timeout=120.0):

@@ -40,7 +40,7 @@ import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "daemon"))
 import e2e  # noqa: E402
-from headless_page import BrowserError, HeadlessPage  # noqa: E402
+from headless_page import BrowserCrashed, BrowserError, HeadlessPage  # noqa: E402
 
 PORT = 18080
 MODBUS_PORT = 15020
@@ -430,6 +430,29 @@ def shown_fresh(dom, name):
     return re.search(r'<tr class="device[^"]*" data-name="%s"[^>]*data-stale="0"' % re.escape(name), dom) is not None
 
 
+def open_page(work, url):
+    """A Chromium with the page open. Chromium's --single-process mode inside
+    UML has died on its own at start or at the first navigation (CI,
+    2026-11-27: "Page.navigate: Chromium closed its pipe"): that is the
+    browser, not the page, so a crash there gets one fresh Chromium, and
+    says so with the first one's stderr. Anything else fails at once."""
+    for attempt in (1, 2):
+        where = os.path.join(work, "chromium-%d" % attempt)
+        os.makedirs(where)
+        page = None
+        try:
+            page = HeadlessPage(where)
+            page.open(url)
+            return page
+        except BrowserCrashed as e:
+            print("FIGURE chromium crashed (attempt %d): %s; its stderr ends:\n%s" % (
+                attempt, e, HeadlessPage.log_tail(where)), flush=True)
+            if page is not None:
+                page.close()
+            if attempt == 2:
+                raise
+
+
 def browser(report, ws, args, names, stale_name):
     url = "http://127.0.0.1:%d/" % PORT
     work = tempfile.mkdtemp(prefix="cobridge-chrome-", dir="/tmp")
@@ -439,8 +462,7 @@ def browser(report, ws, args, names, stale_name):
         # twice a few seconds apart: every device listed, its values changed in
         # between, the silenced device marked stale. One Chromium for every view.
         t0 = time.time()
-        page = HeadlessPage(work)
-        page.open(url)
+        page = open_page(work, url)
         # A sparkline's polyline is drawn from the second position on. 43 s in
         # UML alone; > 200 s with a build beside it (2026-11-26).
         drawn = page.wait_for("document.querySelectorAll('svg.spark polyline').length >= %d" % (len(names) - 1), 300)
