@@ -26,6 +26,7 @@ each moving device, the Modbus output listed, the silenced device marked stale);
 screenshots are saved with --screenshot-dir.
 """
 import http.client
+import glob
 import json
 import os
 import re
@@ -430,39 +431,16 @@ def shown_fresh(dom, name):
     return re.search(r'<tr class="device[^"]*" data-name="%s"[^>]*data-stale="0"' % re.escape(name), dom) is not None
 
 
-def open_page(work, url):
-    """A Chromium with the page open. Chromium's --single-process mode inside
-    UML has died on its own at start or at the first navigation (CI,
-    2026-11-27: "Page.navigate: Chromium closed its pipe"): that is the
-    browser, not the page, so a crash there gets one fresh Chromium, and
-    says so with the first one's stderr. Anything else fails at once."""
-    for attempt in (1, 2):
-        where = os.path.join(work, "chromium-%d" % attempt)
-        os.makedirs(where)
-        page = None
-        try:
-            page = HeadlessPage(where)
-            page.open(url)
-            return page
-        except BrowserCrashed as e:
-            print("FIGURE chromium crashed (attempt %d): %s; its stderr ends:\n%s" % (
-                attempt, e, HeadlessPage.log_tail(where)), flush=True)
-            if page is not None:
-                page.close()
-            if attempt == 2:
-                raise
-
-
-def browser(report, ws, args, names, stale_name):
-    url = "http://127.0.0.1:%d/" % PORT
-    work = tempfile.mkdtemp(prefix="cobridge-chrome-", dir="/tmp")
-    page = None
+def take_views(work, url, names, stale_name, screenshot):
+    """Everything Chromium does, in one Chromium: the page as a person sees it
+    once its own polls (1 s, real time) ran, twice a few seconds apart (every
+    device listed, its values changed in between, the silenced device marked
+    stale), and a screenshot when asked. Returns (doms, png); the caller
+    checks them. Raises BrowserError (BrowserCrashed: Chromium died)."""
+    page = HeadlessPage(work)
     try:
-        # The page as a person sees it once its own polls (1 s, real time) ran,
-        # twice a few seconds apart: every device listed, its values changed in
-        # between, the silenced device marked stale. One Chromium for every view.
         t0 = time.time()
-        page = open_page(work, url)
+        page.open(url)
         # A sparkline's polyline is drawn from the second position on. 43 s in
         # UML alone; > 200 s with a build beside it (2026-11-26).
         drawn = page.wait_for("document.querySelectorAll('svg.spark polyline').length >= %d" % (len(names) - 1), 300)
@@ -478,7 +456,7 @@ def browser(report, ws, args, names, stale_name):
             return all(now[n] != first[n] and shown_fresh(dom, n) for n in moving)
 
         # A few seconds on, or longer while a starved UML lets the page's polls
-        # come late (they run in real time); the checks below decide.
+        # come late (they run in real time); the caller's checks decide.
         time.sleep(3)
         doms.append(page.dom())
         t_end = time.time() + 60
@@ -487,40 +465,69 @@ def browser(report, ws, args, names, stale_name):
             doms[-1] = page.dom()
         print("FIGURE the page showed new values %.1f s after the first view" % (time.time() - t0 - drawn_at),
               flush=True)
-        second = positions(doms[-1], names)
-        for n in names:
-            report.check(first[n] is not None and second[n] is not None, "browser: %s listed" % n)
-            if n != stale_name:
-                report.check(first[n] not in (None, "\u2013") and first[n] != second[n],
-                             "browser: %s values change on the page" % n, "%s -> %s" % (first[n], second[n]))
-                # A device whose values flow again after a fault or a power cycle is not stale.
-                report.check(shown_fresh(doms[-1], n), "browser: %s not marked stale" % n)
-                pts = sparkline_points(doms[-1], n)
-                report.check(pts >= 2, "browser: %s sparkline drawn" % n, "%d points" % pts)
-        m = re.search(r'<tr class="device ([^"]*)" data-name="%s"[^>]*data-stale="1"' % re.escape(stale_name), doms[-1])
-        report.check(m is not None and "stale" in m.group(1), "browser: %s marked stale" % stale_name)
-        report.check('class="flag stale"' in doms[-1], "browser: the STALE flag is shown")
-        report.check('class="emcy"' in doms[-1], "browser: the EMCY history is shown")
-        load = re.search(r'data-load="([0-9.]+)"', doms[-1])
-        report.check(load is not None and float(load.group(1)) > 0, "browser: the bus load is shown",
-                     load.group(1) + " %" if load else "none")
-        report.check('data-output="modbus"' in doms[-1] and 'data-figure="modbus_clients_connected"' in doms[-1],
-                     "browser: the Modbus output and its clients connected are shown")
-        if args.screenshot_dir:
-            png = page.screenshot_png(width=1600, height=1000)  # the device table's whole width
-            ok = png.startswith(b"\x89PNG") and len(png) > 10000
-            report.check(ok, "browser: screenshot taken", "%d bytes" % len(png))
-            if ok:
-                os.makedirs(args.screenshot_dir, exist_ok=True)
-                with open(os.path.join(args.screenshot_dir, "web-status.png"), "wb") as f:
-                    f.write(png)
+        png = page.screenshot_png(width=1600, height=1000) if screenshot else None  # the table's whole width
         print("FIGURE the browser part took %.1f s" % (time.time() - t0), flush=True)
-    except BrowserError as e:
-        report.check(False, "browser: Chromium drove the page", str(e))
+        return doms, png
     finally:
-        if page is not None:
-            page.close()
+        page.close()
+
+
+def views_with_one_fresh_chromium(work, url, names, stale_name, screenshot):
+    """take_views; Chromium's --single-process mode inside UML has died on its
+    own (CI, 2026-11-27, twice, 10-20 s into its life: "Page.navigate" and
+    "Runtime.evaluate: Chromium closed its pipe"; passing by hand in the same
+    tree). That is the browser, not the page: one fresh Chromium, and the
+    first one's stderr printed. Any other browser error fails at once."""
+    for attempt in (1, 2):
+        where = os.path.join(work, "chromium-%d" % attempt)
+        os.makedirs(where)
+        try:
+            return take_views(where, url, names, stale_name, screenshot)
+        except BrowserCrashed as e:
+            print("FIGURE chromium died (attempt %d): %s; its stderr ends:\n%s" % (
+                attempt, e, HeadlessPage.log_tail(where, 25)), flush=True)
+            if attempt == 2:
+                raise
+
+
+def browser(report, ws, args, names, stale_name):
+    url = "http://127.0.0.1:%d/" % PORT
+    work = tempfile.mkdtemp(prefix="cobridge-chrome-", dir="/tmp")
+    try:
+        doms, png = views_with_one_fresh_chromium(work, url, names, stale_name, bool(args.screenshot_dir))
+    except BrowserError as e:
+        logs = sorted(glob.glob(os.path.join(work, "*", "chromium.log")))
+        report.check(False, "browser: Chromium drove the page", "%s; its stderr ends:\n%s" % (
+            e, HeadlessPage.log_tail(os.path.dirname(logs[-1]), 25) if logs else "(no log)"))
+        return
+    finally:
         shutil.rmtree(work, ignore_errors=True)
+    first, second = positions(doms[0], names), positions(doms[-1], names)
+    for n in names:
+        report.check(first[n] is not None and second[n] is not None, "browser: %s listed" % n)
+        if n != stale_name:
+            report.check(first[n] not in (None, "\u2013") and first[n] != second[n],
+                         "browser: %s values change on the page" % n, "%s -> %s" % (first[n], second[n]))
+            # A device whose values flow again after a fault or a power cycle is not stale.
+            report.check(shown_fresh(doms[-1], n), "browser: %s not marked stale" % n)
+            pts = sparkline_points(doms[-1], n)
+            report.check(pts >= 2, "browser: %s sparkline drawn" % n, "%d points" % pts)
+    m = re.search(r'<tr class="device ([^"]*)" data-name="%s"[^>]*data-stale="1"' % re.escape(stale_name), doms[-1])
+    report.check(m is not None and "stale" in m.group(1), "browser: %s marked stale" % stale_name)
+    report.check('class="flag stale"' in doms[-1], "browser: the STALE flag is shown")
+    report.check('class="emcy"' in doms[-1], "browser: the EMCY history is shown")
+    load = re.search(r'data-load="([0-9.]+)"', doms[-1])
+    report.check(load is not None and float(load.group(1)) > 0, "browser: the bus load is shown",
+                 load.group(1) + " %" if load else "none")
+    report.check('data-output="modbus"' in doms[-1] and 'data-figure="modbus_clients_connected"' in doms[-1],
+                 "browser: the Modbus output and its clients connected are shown")
+    if png is not None:
+        ok = png.startswith(b"\x89PNG") and len(png) > 10000
+        report.check(ok, "browser: screenshot taken", "%d bytes" % len(png))
+        if ok:
+            os.makedirs(args.screenshot_dir, exist_ok=True)
+            with open(os.path.join(args.screenshot_dir, "web-status.png"), "wb") as f:
+                f.write(png)
 
 
 if __name__ == "__main__":
