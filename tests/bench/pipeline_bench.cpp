@@ -18,7 +18,6 @@
 //   its writer dropped nothing. The main thread's CPU time at that rate is
 //   the RX + dispatcher cost.
 #include "alloc_counter.hpp"
-#include "rotary_fleet.hpp"
 #include "pipeline/bus_receiver.hpp"
 #include "pipeline/dispatcher.hpp"
 #include "pipeline/plugin_host.hpp"
@@ -91,9 +90,16 @@ int main(int argc, char** argv) {
   // 32 devices on one bus, rotary default mapping (J§1.7.2): pos i32 | speed i16.
   constexpr int kDevices = 32;
   DeviceTable table;
-  if (std::string err; !bench::publish_rotary_fleet(table, kDevices, err)) {
-    std::fprintf(stderr, "decode plan: %s\n", err.c_str());
-    return 1;
+  for (int n = 1; n <= kDevices; ++n) {
+    DecodePlan p;
+    p.active = true;
+    p.indexed = true;
+    p.node_id = static_cast<std::uint8_t>(n);
+    p.device_index = static_cast<std::uint16_t>(n - 1);
+    std::string err;
+    std::vector<MappedObject> map = {{0x60200120, true}, {0x60300110, true}};
+    build_pdo_decode(map, p.tpdo[0], err);
+    table.publish(p);
   }
 
   std::mutex log_mutex;
@@ -127,7 +133,20 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "start: %s\n", e.message.c_str());
       return 1;
     }
-    bench::announce_rotary_fleet(host, kDevices);
+    for (int n = 1; n <= kDevices; ++n) {
+      cobridge_device_info info{};
+      info.struct_size = sizeof info;
+      info.device_index = static_cast<std::uint16_t>(n - 1);
+      info.node_id = static_cast<std::uint8_t>(n);
+      info.change = COBRIDGE_DEVICE_ADDED;
+      const std::string name = "enc" + std::to_string(n);
+      info.name = name.c_str();
+      info.bus_name = "vcan0";
+      info.model = "RFC-4800";
+      info.family = "novotechnik-rotary";
+      info.position_unit = "counts";
+      host.announce(info);
+    }
   }
 
   CountingSink sink(loaded.empty() ? nullptr : &host);

@@ -7,7 +7,6 @@
 // frames after a warm-up. A count, not a time: it cannot flake. Not built in
 // the sanitizer builds (their runtimes own malloc).
 #include "alloc_counter.hpp"
-#include "rotary_fleet.hpp"
 #include "pipeline/bus_receiver.hpp"
 #include "pipeline/dispatcher.hpp"
 #include "pipeline/plugin_host.hpp"
@@ -36,17 +35,49 @@ class HostSink : public SampleSink {
   PluginHost& host_;
 };
 
+// 32 rotary encoders, default TPDO1 mapping (J§1.7.2: position INTEGER32,
+// speed INTEGER16).
+void add_devices(DeviceTable& table) {
+  for (int n = 1; n <= kDevices; ++n) {
+    DecodePlan p;
+    p.active = true;
+    p.indexed = true;
+    p.node_id = static_cast<std::uint8_t>(n);
+    p.device_index = static_cast<std::uint16_t>(n - 1);
+    std::string err;
+    const std::vector<MappedObject> map = {{0x60200120, true}, {0x60300110, true}};
+    ASSERT_TRUE(build_pdo_decode(map, p.tpdo[0], err)) << err;
+    table.publish(p);
+  }
+}
+
+void announce(PluginHost& host) {
+  for (int n = 1; n <= kDevices; ++n) {
+    cobridge_device_info info{};
+    info.struct_size = sizeof info;
+    info.device_index = static_cast<std::uint16_t>(n - 1);
+    info.node_id = static_cast<std::uint8_t>(n);
+    info.change = COBRIDGE_DEVICE_ADDED;
+    const std::string name = "enc" + std::to_string(n);
+    info.name = name.c_str();
+    info.bus_name = "vcan0";
+    info.model = "RFC-4800";
+    info.family = "novotechnik-rotary";
+    info.position_unit = "counts";
+    host.announce(info);
+  }
+}
+
 TEST(HotPathAllocations, ZeroPerFrameThroughModbusAndTheJsonTap) {
   DeviceTable table;
-  std::string err;
-  ASSERT_TRUE(bench::publish_rotary_fleet(table, kDevices, err)) << err;
+  add_devices(table);
   PluginHost host(PluginHost::Options{.plugin_dir = COBRIDGE_TEST_PLUGIN_DIR,
                                       .gateway_id = "alloc",
                                       .log = [](LogLevel, std::string_view, std::string_view) {}});
   ASSERT_FALSE(host.load(PluginSpec{"modbus", "modbus", {}, "bind = \"127.0.0.1\"\nport = 0\n"}));
   ASSERT_FALSE(host.load(PluginSpec{"jsontap", "jsontap", {}, "path = \"/dev/null\"\n"}));
   ASSERT_TRUE(host.start_all().empty());
-  bench::announce_rotary_fleet(host, kDevices);
+  announce(host);
 
   HostSink sink(host);
   Dispatcher dispatcher(sink);  // not started: drained on this thread
