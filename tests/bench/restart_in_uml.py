@@ -12,7 +12,7 @@ before exec to every device operational, two ways in the same run:
 
 Prints FIGURE lines for scripts/bench; runs inside UML (real SocketCAN):
   tests/vcan/run-in-vcan --ifaces 1 -- /usr/bin/python3 tests/bench/restart_in_uml.py \
-      --daemon build/daemon/cobridged --cli build/daemon/cli/cobridge --sim build/sim/cobridge-sim \
+      --daemon build/daemon/cobridged --cli build/daemon/cli/cobridge --sim build/sim/app/cobridge-sim \
       --plugins build/lib/cobridge/plugins
 Exits non-zero when a restart does not reach operational or writes anything.
 """

@@ -30,9 +30,12 @@ class SpscRing {
   static_assert(std::is_trivially_copyable_v<T>, "ring elements are copied with plain stores");
 
  public:
-  // capacity is rounded up to a power of two (at least 2).
+  // capacity is rounded up to a power of two (at least 2). The slots are not
+  // value-initialised (no slot is read before it is written): untouched pages
+  // stay unmapped, so a deep ring costs memory only as deep as it is used, and
+  // starting costs no page faults (8 MiB zeroed took ~0.5 s under UML).
   explicit SpscRing(std::size_t capacity)
-      : mask_(round_up(capacity) - 1), slots_(std::make_unique<T[]>(mask_ + 1)) {}
+      : mask_(round_up(capacity) - 1), slots_(std::make_unique_for_overwrite<T[]>(mask_ + 1)) {}
 
   SpscRing(const SpscRing&) = delete;
   SpscRing& operator=(const SpscRing&) = delete;
