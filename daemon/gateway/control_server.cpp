@@ -505,8 +505,7 @@ void ControlServer::answer(Client& c, std::string_view line, TimePoint now) {
   } else if (req.kind == ControlRequest::Kind::status) {
     reply = to_json(handler_.status());
   } else if (req.kind == ControlRequest::Kind::commission) {
-    const ControlResult r = handler_.commission(req.bus);
-    reply = r.ok ? commission_answer(r.buses, r.message) : error_answer(Error(Errc::kNotFound, r.message));
+    reply = commission(c, req.bus);
   } else {
     submit(c, std::move(req), now);
     if (c.waiting_tag != 0) return;
@@ -517,21 +516,39 @@ void ControlServer::answer(Client& c, std::string_view line, TimePoint now) {
   c.deadline = now + options_.client_timeout;
 }
 
+std::string ControlServer::write_refusal(const Client& c) const {
+  const auto access = remote_.access();
+  if (!access || !access->control.writes_enabled)
+    return "writes through the control socket are disabled ([control] writes_enabled = false)";
+  if (!access->control.write_group.empty() && c.peer.uid != 0 && c.peer.uid != ::geteuid() &&
+      !peer_in_group(c.peer, access->control.write_group))
+    return "uid " + std::to_string(c.peer.uid) + " is not in the write group \"" + access->control.write_group +
+           "\" ([control] write_group)";
+  return {};
+}
+
+// Commissioning reassigns node-IDs (LSS): a bus write like any other, under
+// the same policy, logged with its caller.
+std::string ControlServer::commission(const Client& c, const std::string& bus) {
+  const auto log = sys::logger("gateway");
+  const std::string caller = c.peer.to_string() + " (control socket)";
+  const std::string where = bus.empty() ? std::string("every bus") : "bus '" + bus + "'";
+  if (std::string refusal = write_refusal(c); !refusal.empty()) {
+    log->warn("control socket: commission of {} refused to {}: {}", where, caller, refusal);
+    return error_answer(Error(Errc::kPermissionDenied, refusal, where));
+  }
+  const ControlResult r = handler_.commission(bus);
+  if (!r.ok) return error_answer(Error(Errc::kNotFound, r.message));
+  log->info("control socket: commission of {} by {}", where, caller);
+  return commission_answer(r.buses, r.message);
+}
+
 void ControlServer::submit(Client& c, ControlRequest request, TimePoint now) {
   RemoteCommand& cmd = request.command;
   cmd.caller = c.peer.to_string() + " (control socket)";
   if (cmd.is_write()) {
-    const auto access = remote_.access();
     const auto log = sys::logger("gateway");
-    std::string refusal;
-    if (!access || !access->control.writes_enabled) {
-      refusal = "writes through the control socket are disabled ([control] writes_enabled = false)";
-    } else if (!access->control.write_group.empty() && c.peer.uid != 0 && c.peer.uid != ::geteuid() &&
-               !peer_in_group(c.peer, access->control.write_group)) {
-      refusal = "uid " + std::to_string(c.peer.uid) + " is not in the write group \"" +
-                access->control.write_group + "\" ([control] write_group)";
-    }
-    if (!refusal.empty()) {
+    if (std::string refusal = write_refusal(c); !refusal.empty()) {
       log->warn("control socket: {} refused to {}: {}", to_string(cmd.op), cmd.caller, refusal);
       c.out = error_answer(Error(Errc::kPermissionDenied, refusal, "bus '" + request.bus + "'"));
       return;

@@ -152,6 +152,11 @@ class ControlServer {
   // Returns false when the client is to be closed now.
   bool serve(Client& c, canopen::TimePoint now);
   void answer(Client& c, std::string_view line, canopen::TimePoint now);
+  // Why `c` may not write to a bus ([control] writes_enabled, write_group);
+  // empty when it may.
+  [[nodiscard]] std::string write_refusal(const Client& c) const;
+  // `commission [bus]`: a write (node-IDs change), checked and logged with the caller.
+  std::string commission(const Client& c, const std::string& bus);
   // A client's SDO/NMT/LSS command: checked, logged if a write, queued.
   void submit(Client& c, ControlRequest request, canopen::TimePoint now);
   // The command of `request` to queue, armed to answer `c` from the bus

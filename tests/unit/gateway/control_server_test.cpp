@@ -225,6 +225,16 @@ ControlServerOptions fast_options() {
   return o;
 }
 
+namespace config = cobridge::config;
+
+// [control] writes_enabled, any caller that may connect.
+config::RemoteAccess writes_open() {
+  config::RemoteAccess a;
+  a.control.writes_enabled = true;
+  a.control.write_group.clear();
+  return a;
+}
+
 }  // namespace
 
 // Protocol rule: `status` -> one line, one JSON document with every bus and
@@ -262,7 +272,11 @@ TEST(ControlServer, StatusAnswersOneLineOfJsonWithEveryField) {
 // (issue 13 item 4): {"ok":false,"error":{"code":...,"where":...,"message":...}}.
 TEST(ControlServer, CommissionReachesTheHandlerAndErrorsAreJson) {
   FakeHandler h;
-  ServerLoop loop(h, fast_options());
+  HeldCommands bus;
+  bus.set_access(writes_open());
+  ControlServerOptions o = fast_options();
+  o.remote = &bus;
+  ServerLoop loop(h, o);
   Client c(loop.path());
   c.send("commission\n");
   EXPECT_EQ(c.line(), "{\"ok\":true,\"buses\":[\"line1\"]}");
@@ -277,6 +291,38 @@ TEST(ControlServer, CommissionReachesTheHandlerAndErrorsAreJson) {
   EXPECT_NE(c.line().find("unknown command \\\"reboot\\\""), std::string::npos);
   std::lock_guard lock(h.mutex);
   EXPECT_EQ(h.commissioned, (std::vector<std::string>{"", "line1", "nosuch"}));
+}
+
+// Issue 25, item 3: `commission` reassigns node-IDs, a bus write: with
+// [control] writes_enabled off, or a caller outside write_group, it is
+// refused (permission_denied) and the handler never called.
+TEST(ControlServer, CommissionIsUnderTheWritePolicy) {
+  FakeHandler h;
+  HeldCommands bus;
+  ControlServerOptions o = fast_options();
+  o.remote = &bus;
+  ServerLoop loop(h, o);
+  Client c(loop.path());
+  c.send("commission\n");  // no configuration at all
+  EXPECT_NE(c.line().find("\"code\":\"permission_denied\",\"where\":\"every bus\""), std::string::npos);
+  config::RemoteAccess closed = writes_open();
+  closed.control.writes_enabled = false;
+  bus.set_access(closed);
+  c.send("commission line1\n");
+  EXPECT_NE(c.line().find("writes_enabled = false"), std::string::npos);
+  if (::geteuid() != 0) {
+    // As a caller that is neither root nor the daemon's user: a group nobody is in.
+    config::RemoteAccess grouped = writes_open();
+    grouped.control.write_group = "cobridge-test-nosuch-group";
+    bus.set_access(grouped);
+    c.send("commission line1\n");
+    EXPECT_NE(c.line().find("permission_denied"), std::string::npos);
+  }
+  bus.set_access(writes_open());
+  c.send("commission line1\n");
+  EXPECT_EQ(c.line(), "{\"ok\":true,\"buses\":[\"line1\"]}");
+  std::lock_guard lock(h.mutex);
+  EXPECT_EQ(h.commissioned, (std::vector<std::string>{"line1"}));
 }
 
 // Protocol rule: a client trickling one byte at a time cannot hold the
@@ -356,8 +402,8 @@ TEST(ControlServer, ConnectionsBeyondTheLimitAreRefused) {
   Client extra(loop.path());
   EXPECT_EQ(extra.line(), "{\"ok\":false,\"error\":{\"code\":\"unavailable\",\"where\":\"\",\"message\":"
                           "\"too many clients (limit 4)\"}}");
-  inside[0]->send("commission\n");
-  EXPECT_EQ(inside[0]->line(), "{\"ok\":true,\"buses\":[\"line1\"]}");
+  inside[0]->send("status\n");
+  EXPECT_NE(inside[0]->line().find("\"gateway\":"), std::string::npos);
 }
 
 // Protocol rule: a request without newline followed by end of input still

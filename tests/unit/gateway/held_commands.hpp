@@ -31,7 +31,15 @@ class HeldCommands final : public RemoteTarget {
     held_.emplace_back(std::move(command), std::move(to));
     return {};
   }
-  [[nodiscard]] std::optional<config::RemoteAccess> access() const override { return std::nullopt; }
+  [[nodiscard]] std::optional<config::RemoteAccess> access() const override {
+    const std::lock_guard lock(mutex_);
+    return access_;
+  }
+  // What access() answers from now on (nothing = no configuration: writes refused).
+  void set_access(std::optional<config::RemoteAccess> access) {
+    const std::lock_guard lock(mutex_);
+    access_ = std::move(access);
+  }
 
   [[nodiscard]] std::size_t held() {
     const std::lock_guard lock(mutex_);
@@ -55,7 +63,8 @@ class HeldCommands final : public RemoteTarget {
   }
 
  private:
-  std::mutex mutex_;
+  mutable std::mutex mutex_;
+  std::optional<config::RemoteAccess> access_;
   std::deque<std::pair<RemoteCommand, std::shared_ptr<RemoteReplies>>> held_;
 };
 

@@ -156,6 +156,10 @@ def writes_off_phase(report, args, ws):
     rc, doc, out = cli(args, ws, as_user("cbt-reader"), *READ)
     report.check(rc == 0 and doc.get("via") == "daemon" and doc.get("hex") == "D2070000",
                  "writes_enabled = false: reads still answered (cbt-reader, serial 2002)", out)
+    rc, doc, out = cli(args, ws, [], "commission", "--json")
+    report.check(refused(rc, doc) and "writes_enabled = false" in doc["error"].get("message", ""),
+                 "issue 25 item 3: writes_enabled = false: root's `commission` (node-IDs reassigned) refused, exit 4",
+                 out)
 
 
 def reader_phase(report, args, ws, daemon):
@@ -179,8 +183,14 @@ def reader_phase(report, args, ws, daemon):
         doc = {}
     report.check(rc == 0 and doc.get("ok") is False and doc.get("error", {}).get("code") == "permission_denied",
                  "a raw control-socket client of the reader: sdo-write answered permission_denied", line)
+    rc, doc, out = cli(args, ws, reader, "commission", "--bus", "line1", "--json")
+    report.check(refused(rc, doc) and 'uid 64102 is not in the write group "cbt-admin"' in
+                 doc.get("error", {}).get("message", ""),
+                 "issue 25 item 3: the reader's `commission` refused like its other writes, exit 4", out)
     text = log_text(daemon)
     report.check("refused to uid 64102 pid" in text, "every refused write logged with the caller's uid")
+    report.check("commission of bus 'line1' refused to uid 64102 pid" in text,
+                 "the refused commission logged with the caller's uid")
 
 
 def writer_phase(report, args, ws, daemon):
@@ -199,6 +209,9 @@ def writer_phase(report, args, ws, daemon):
     rc, doc, out = cli(args, ws, as_user("cbt-member"), "nmt", "-i", "vcan0", "start", "20", "--json")
     report.check(rc == 0 and "control socket: NMT on bus vcan0 node 20 by uid 64104 pid" in log_text(daemon),
                  "a write group member's NMT start done and logged with its uid", out)
+    rc, doc, out = cli(args, ws, as_user("cbt-member"), "commission", "--bus", "line1", "--json")
+    report.check(rc == 0 and "control socket: commission of bus 'line1' by uid 64104 pid" in log_text(daemon),
+                 "issue 25 item 3: a write group member's `commission` done and logged with its uid", out)
     rc, doc, out = cli(args, ws, as_user("cbt-member", ["cbt-svc"]), *WRITE)
     report.check(refused(rc, doc),
                  "cbt-member with the write group dropped from its process (the database still lists it): refused",
