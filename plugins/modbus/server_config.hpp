@@ -2,7 +2,7 @@
 // of its [outputs.<name>] table. Unknown keys are errors that name the key,
 // so a typo never silently falls back to a default.
 //
-//   bind              = "0.0.0.0"   IPv4 or IPv6 address to listen on
+//   bind              = "127.0.0.1" IPv4 or IPv6 address to listen on ("0.0.0.0": every interface)
 //   port              = 1502        TCP port (502 needs CAP_NET_BIND_SERVICE); 0 = any free port
 //   max_clients       = 32          connections served at once; more are closed at accept
 //   allow             = []          CIDR networks allowed to connect; empty = all
@@ -29,7 +29,7 @@
 namespace cobridge::modbus {
 
 struct ServerConfig {
-  std::string bind = "0.0.0.0";
+  std::string bind = "127.0.0.1";
   std::uint16_t port = 1502;
   std::uint32_t max_clients = 32;
   AllowList allow;

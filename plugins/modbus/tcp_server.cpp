@@ -1,5 +1,7 @@
 #include "tcp_server.hpp"
 
+#include "write_record.hpp"
+
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
@@ -283,7 +285,8 @@ void TcpServer::accept_all() noexcept {
     ++open_;
     connected_.store(open_, std::memory_order_relaxed);
     accepted_.fetch_add(1, std::memory_order_relaxed);
-    log_(COBRIDGE_LOG_DEBUG, "client " + address_text(ss) + " connected");
+    c.peer = address_text(ss);
+    log_(COBRIDGE_LOG_DEBUG, "client " + c.peer + " connected");
   }
 }
 
@@ -379,6 +382,9 @@ bool TcpServer::process(Connection& c) noexcept {
     }
     requests_.fetch_add(1, std::memory_order_relaxed);
     if ((c.out[c.out_len + 7] & 0x80u) != 0) exceptions_.fetch_add(1, std::memory_order_relaxed);
+    if (auto w = describe_write(c.peer, std::span<const std::uint8_t>(c.in + off - fc.length, fc.length),
+                                std::span<const std::uint8_t>(c.out + c.out_len, n)))
+      log_(COBRIDGE_LOG_INFO, *w);
     c.out_len += n;
   }
   if (!ok) {

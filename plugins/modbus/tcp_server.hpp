@@ -81,6 +81,7 @@ class TcpServer {
     std::size_t out_head = 0;
     std::size_t out_len = 0;
     std::uint64_t last_rx_ns = 0;
+    std::string peer;          // "address:port", for the write log
     std::uint8_t in[kMaxFrameSize];
     std::uint8_t out[kOutBuffer];
   };

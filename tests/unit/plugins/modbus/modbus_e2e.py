@@ -347,6 +347,30 @@ class Writes(HostCase):
             time.sleep(0.02)
         self.fail(f"slot {slot}: command_status {regs} never became {want}")
 
+    def test_every_write_is_logged_with_the_client(self):
+        """Issue 25, item 5: a write, applied or refused, is logged at info
+        with the client's address and port, the registers and the values."""
+        base = DEVICE_BASE + 1 * STRIDE
+        with connect(self.host.port) as s:
+            here = "127.0.0.1:%d" % s.getsockname()[1]
+            s.sendall(frame(0x31, 1, struct.pack(">BHHB", 0x10, base + 28, 2, 4) + struct.pack(">HH", 0, 100)))
+            s.settimeout(5)
+            self.assertIsNotNone(recv_frame(s))
+            s.sendall(frame(0x32, 1, struct.pack(">BHH", 0x06, 5, 7)))  # a read-only register
+            r = recv_frame(s)
+            self.assertEqual(r[7], 0x86)
+        want = ["write by %s (unit 1): registers %d..%d = 0x0000 0x0064: applied" % (here, base + 28, base + 29),
+                "write by %s (unit 1): register 5 = 0x0007: refused, exception 0x%02X" % (here, r[8])]
+        deadline = time.monotonic() + 3
+        while time.monotonic() < deadline and not all(any(w in l for l in self.host.log) for w in want):
+            time.sleep(0.02)
+        info = [l for l in self.host.log if l.startswith("LOG ") and "write by" in l]
+        for w in want:
+            self.assertTrue(any(w in l for l in info), "%r not logged; logged: %r" % (w, info))
+        # At info: the level of the "listening on" line.
+        level = next(l.split()[1] for l in self.host.log if "listening on" in l)
+        self.assertTrue(all(l.split()[1] == level for l in info if here in l), info)
+
     def test_preset_is_submitted_and_its_outcome_shown(self):
         base = DEVICE_BASE + 2 * STRIDE
         value = -123456

@@ -13,7 +13,7 @@ namespace {
 TEST(ModbusConfig, DefaultsWhenEmpty) {
   ServerConfig c;
   ASSERT_TRUE(parse_config("", c));
-  EXPECT_EQ(c.bind, "0.0.0.0");
+  EXPECT_EQ(c.bind, "127.0.0.1");  // issue 25 item 5: loopback, as web and 309-3
   EXPECT_EQ(c.port, 1502);
   EXPECT_EQ(c.max_clients, 32u);
   EXPECT_EQ(c.idle_timeout_s, 60u);
