@@ -49,6 +49,7 @@ Error Daemon::start() {
     log->error("control socket: {}", e.to_string());
     return Error(Errc::kFailed, "control socket: " + e.message, e.where, e.code);
   }
+  open_beacons();
   if (Error e = start_outputs()) return e;
   buses_.build(*cfg_, *catalog_, *state_, *outputs_);
   if (const Error e = buses_.start(*cfg_)) {
@@ -79,6 +80,23 @@ Error Daemon::load_configuration() {
   log->info("cobridged {} starting: {} ({} buses, {} devices, {} device descriptions)", options_.version,
             file.string(), cfg_->buses.size(), cfg_->devices.size(), catalog_->size());
   return {};
+}
+
+// Makes this daemon findable from each interface it serves (the CLI then
+// goes through the control socket instead of opening the bus beside it).
+// Another daemon on the same interface is a second master: said loudly, not
+// refused (a gateway pair on one bus is a deployment choice).
+void Daemon::open_beacons() {
+  auto log = sys::logger("gateway");
+  const std::string control = std::filesystem::absolute(cfg_->gateway.control_socket).string();
+  for (const auto& bus : cfg_->buses) {
+    sys::BusBeacon beacon;
+    if (const Error e = beacon.open(bus.interface, control)) {
+      log->warn("bus {}: {}", bus.name, e.to_string());
+      continue;
+    }
+    beacons_.push_back(std::move(beacon));
+  }
 }
 
 // The hot path and the output plugins start before the buses, so every
@@ -124,11 +142,14 @@ void Daemon::serve() {
     const auto deadline = std::min(service_->next_deadline(), control_->process(now));
     fds.clear();
     fds.push_back({signals_.fd(), POLLIN, 0});
+    for (const auto& b : beacons_) fds.push_back({b.fd(), POLLIN, 0});
     control_->add_poll_fds(fds);
     const auto wait = std::clamp(std::chrono::duration_cast<milliseconds>(deadline - now), milliseconds(0),
                                  ServiceStatus::kTick);
     const int r = ::poll(fds.data(), fds.size(), static_cast<int>(wait.count()) + (deadline > now ? 1 : 0));
     control_->note_ready(fds);
+    for (std::size_t i = 0; r > 0 && i < beacons_.size(); ++i)
+      if (fds[1 + i].revents != 0) beacons_[i].serve();
     if (r < 0 || fds[0].revents == 0) continue;
     const sys::SignalAction action = signals_.take();
     if (action == sys::SignalAction::stop) return;
@@ -149,6 +170,7 @@ void Daemon::stop() {
   buses_.stop();
   outputs_->stop();
   control_->close();
+  beacons_.clear();
   log->info("stopped in {} ms", std::chrono::duration_cast<milliseconds>(Clock::now() - t0).count());
 }
 

@@ -24,6 +24,7 @@
 #include "gateway/control_server.hpp"
 #include "gateway/output_pipeline.hpp"
 #include "gateway/state_store.hpp"
+#include "sys/bus_beacon.hpp"
 #include "sys/notifier.hpp"
 #include "sys/signals.hpp"
 #include "web/web_server.hpp"
@@ -32,6 +33,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace cobridge::app {
 
@@ -63,6 +65,7 @@ class Daemon {
   [[nodiscard]] Error load_configuration();
   [[nodiscard]] Error start_outputs();
   [[nodiscard]] Error start_web();
+  void open_beacons();
   void reload();
 
   DaemonOptions options_;
@@ -75,6 +78,7 @@ class Daemon {
   std::optional<gateway::OutputPipeline> outputs_;
   std::optional<ControlFacade> facade_;
   std::optional<gateway::ControlServer> control_;
+  std::vector<sys::BusBeacon> beacons_;  // one per served interface (sys/bus_beacon.hpp)
   std::optional<web::WebServer> web_;
   std::optional<ServiceStatus> service_;
 };

@@ -1,6 +1,7 @@
 #include "cli/daemon_route.hpp"
 
 #include "cli/control_client.hpp"
+#include "sys/bus_beacon.hpp"
 
 #include <cstdio>
 
@@ -26,16 +27,24 @@ Error error_of_answer(const Json& doc) {
   return out;
 }
 
-namespace {}  // namespace
+std::string control_for(const std::string& control, const std::string& iface, bool& owned, Error& error) {
+  const auto owner = sys::find_bus_owner(iface, 2000, error);
+  owned = owner.has_value() || static_cast<bool>(error);
+  return owner ? owner->control : control;
+}
 
-std::optional<std::pair<Error, DaemonAnswer>> via_daemon(const std::string& control, const std::string& line,
-                                                         int timeout_ms) {
+std::optional<std::pair<Error, DaemonAnswer>> via_daemon(const std::string& control, const std::string& iface,
+                                                         const std::string& line, int timeout_ms) {
   Error error;
+  bool owned = false;
+  const std::string path = control_for(control, iface, owned, error);
+  if (error) return std::pair{std::move(error), DaemonAnswer{}};
   bool no_daemon = false;
-  const auto answer = request(control, line, timeout_ms, error, &no_daemon);
+  const auto answer = request(path, line, timeout_ms, error, &no_daemon);
   if (!answer) {
-    if (no_daemon) return std::nullopt;
-    error.where = control;
+    if (no_daemon && !owned) return std::nullopt;
+    if (owned) error.message = "cobridged serves " + iface + " (its control socket " + path + "): " + error.message;
+    error.where = path;
     return std::pair{std::move(error), DaemonAnswer{}};
   }
   DaemonAnswer a;
@@ -43,12 +52,12 @@ std::optional<std::pair<Error, DaemonAnswer>> via_daemon(const std::string& cont
   std::string perr;
   auto doc = JsonParser(*answer).parse(perr);
   if (!doc || doc->type != Json::Type::object)
-    return std::pair{Error(Errc::kInternal, "the daemon's answer is not a JSON object: " + perr, control), a};
+    return std::pair{Error(Errc::kInternal, "the daemon's answer is not a JSON object: " + perr, path), a};
   a.doc = std::move(*doc);
   if (a.doc["ok"].type == Json::Type::boolean && a.doc["ok"].boolean) return std::pair{Error{}, std::move(a)};
   Error e = error_of_answer(a.doc);
   // A daemon that serves other buses does not own this one.
-  if (e.kind == Errc::kNotFound && e.where.empty() && e.message.find("serves no bus") != std::string::npos)
+  if (!owned && e.kind == Errc::kNotFound && e.where.empty() && e.message.find("serves no bus") != std::string::npos)
     return std::nullopt;
   return std::pair{std::move(e), std::move(a)};
 }

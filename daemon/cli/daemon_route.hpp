@@ -30,11 +30,19 @@ struct DaemonAnswer {
   std::string line;  // as received, for --json
 };
 
-// Sends `line` to the daemon at `control`. nullopt: no daemon owns this bus
-// (nothing listens, or it serves no such interface): work directly. Else the
-// answer, or the Error it carried (also a transport failure).
-std::optional<std::pair<Error, DaemonAnswer>> via_daemon(const std::string& control, const std::string& line,
-                                                         int timeout_ms);
+// The control socket to ask about `iface`: that of the daemon serving it,
+// found from the interface alone (sys/bus_beacon.hpp), whatever `control`
+// says; else `control`. `owned`: a daemon serves `iface`. A beacon that does
+// not answer sets `error` (the bus is not opened beside a daemon).
+std::string control_for(const std::string& control, const std::string& iface, bool& owned, Error& error);
+
+// Sends `line`, a command on interface `iface`, to the daemon serving it
+// (control_for). nullopt: no daemon owns this bus (no beacon, and nothing
+// listens at `control` or it serves no such interface): work directly. Else
+// the answer, or the Error it carried (also a transport failure, and any
+// failure to reach a daemon that serves `iface`).
+std::optional<std::pair<Error, DaemonAnswer>> via_daemon(const std::string& control, const std::string& iface,
+                                                         const std::string& line, int timeout_ms);
 
 // The Error of a {"ok":false,"error":{...}} answer (also an older daemon's {"error":"..."}).
 Error error_of_answer(const Json& doc);

@@ -47,7 +47,7 @@ int lss_set_node_id(const LssSetNodeOptions& o) {
                            std::to_string(o.serial) + " " + std::to_string(o.node) + " " +
                            (o.store ? "store" : "no-store") + " " + std::to_string(o.timeout_ms);
   bool ok = true;
-  if (auto routed = via_daemon(o.control, line, 10000 + static_cast<int>(o.timeout_ms) * 8 + 5000)) {
+  if (auto routed = via_daemon(o.control, o.iface, line, 10000 + static_cast<int>(o.timeout_ms) * 8 + 5000)) {
     if (routed->first) return report_daemon_failure("lss", *routed, o.json);
   } else {
     Error error;

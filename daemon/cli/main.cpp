@@ -8,6 +8,7 @@
 #include "cli/sdo_command.hpp"
 #include "cli/status_command.hpp"
 #include "cli/watch_command.hpp"
+#include "sys/logging.hpp"
 
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
@@ -111,7 +112,8 @@ int main(int argc, char** argv) {
 
   CLI11_PARSE(app, argc, argv);
   // The commands print their own errors; the layers' log lines are for -v.
-  spdlog::set_level(verbose ? spdlog::level::debug : spdlog::level::off);
+  // (setup_logging: loggers made later take this level too, not only those made so far.)
+  cobridge::sys::setup_logging(cobridge::sys::LogTarget::console, verbose ? spdlog::level::debug : spdlog::level::off);
 
   if (*scan_c) return scan(scan_o);
   if (*sdo_r) return sdo_read(sdo_o);

@@ -30,7 +30,7 @@ int nmt_send(const NmtOptions& o) {
       return report_failure("nmt", Error(Errc::kInvalidArgument, "node '" + o.node + "' (allowed: 1..127 or all)"), o.json);
   }
   const std::string line = "nmt " + o.iface + " " + o.command + " " + std::to_string(node);
-  if (auto routed = via_daemon(o.control, line, 5000)) {
+  if (auto routed = via_daemon(o.control, o.iface, line, 5000)) {
     if (routed->first) return report_daemon_failure("nmt", *routed, o.json);
     if (o.json) std::printf("%s\n", routed->second.line.c_str());
     return 0;

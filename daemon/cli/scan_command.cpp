@@ -84,8 +84,13 @@ std::string hex_or_clash(const std::set<uint32_t>& s) {
 // (permission_denied): a daemon may own the bus.
 std::optional<int> scan_via_daemon(const ScanOptions& o) {
   Error failure;
+  bool owned = false;
+  const std::string control = control_for(o.control, o.iface, owned, failure);
+  if (failure) return report_failure("scan", failure, o.json);
   bool no_daemon = false;
-  const auto answer = request(o.control, "status", 3000, failure, &no_daemon);
+  const auto answer = request(control, "status", 3000, failure, &no_daemon);
+  // The daemon serving this interface could not be asked: no second master's probe.
+  if (!answer && owned) return report_failure("scan", failure, o.json);
   // A daemon this user may not ask could own the bus: no second master's probe.
   if (!answer && failure.kind == Errc::kPermissionDenied) return report_failure("scan", failure, o.json);
   if (!answer) return std::nullopt;

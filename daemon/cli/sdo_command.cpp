@@ -68,10 +68,23 @@ std::string object_words(const SdoOptions& o, uint16_t index, uint8_t sub) {
 
 int daemon_timeout(const SdoOptions& o) { return static_cast<int>(std::max(10000U, o.timeout_ms * 8)) + 5000; }
 
+// With --string, the value as text (up to its first NUL, as a VISIBLE_STRING
+// is read): ,"string":"..." for the JSON answer.
+std::string string_field(const SdoOptions& o, std::span<const uint8_t> d) {
+  if (!o.as_string) return {};
+  std::string text(reinterpret_cast<const char*>(d.data()), d.size());
+  text = text.substr(0, text.find('\0'));
+  return ",\"string\":" + json_quote(text);
+}
+
 void print_read(const SdoOptions& o, uint16_t index, uint8_t sub, std::span<const uint8_t> d, const char* raw_json) {
   if (o.json) {
     if (raw_json != nullptr) {
-      std::printf("%s\n", raw_json);
+      // The daemon's answer, with the decoded string added before its closing brace.
+      std::string doc(raw_json);
+      const std::size_t end = doc.rfind('}');
+      if (end != std::string::npos) doc.insert(end, string_field(o, d));
+      std::printf("%s\n", doc.c_str());
       return;
     }
     uint32_t v = 0;
@@ -81,7 +94,7 @@ void print_read(const SdoOptions& o, uint16_t index, uint8_t sub, std::span<cons
     for (uint8_t b : d) std::printf("%02X", b);
     std::printf("\"");
     if (!d.empty() && d.size() <= 4) std::printf(",\"value\":%u", v);
-    std::printf("}\n");
+    std::printf("%s}\n", string_field(o, d).c_str());
   } else if (o.as_string || d.size() > 4) {
     std::printf("%.*s\n", static_cast<int>(d.size()), reinterpret_cast<const char*>(d.data()));
   } else {
@@ -143,7 +156,7 @@ int sdo_read(const SdoOptions& o) {
   uint8_t sub = 0;
   if (Error e = check(o, index, sub)) return report_failure("sdo", e, o.json);
   const std::string line = "sdo-read " + o.iface + " " + object_words(o, index, sub) + " " + std::to_string(o.timeout_ms);
-  if (auto routed = via_daemon(o.control, line, daemon_timeout(o))) {
+  if (auto routed = via_daemon(o.control, o.iface, line, daemon_timeout(o))) {
     if (routed->first) return report_daemon_failure("sdo", *routed, o.json);
     const auto data = hex_to_bytes(routed->second.doc["hex"].str(""));
     print_read(o, index, sub, data, routed->second.line.c_str());
@@ -176,7 +189,7 @@ int sdo_write(const SdoOptions& o) {
   }
   const std::string line = "sdo-write " + o.iface + " " + object_words(o, index, sub) + " " + hex + " " +
                            std::to_string(o.timeout_ms);
-  if (auto routed = via_daemon(o.control, line, daemon_timeout(o))) {
+  if (auto routed = via_daemon(o.control, o.iface, line, daemon_timeout(o))) {
     if (routed->first) return report_daemon_failure("sdo", *routed, o.json);
     if (o.json) std::printf("%s\n", routed->second.line.c_str());
     return 0;

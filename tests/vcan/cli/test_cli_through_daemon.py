@@ -171,6 +171,34 @@ def scan_phase(report, args, ws):
     report.check(rc == 5, "scan --assign-from on the daemon's bus refused (exit code 5)", err.strip())
 
 
+def beacon_phase(report, args, ws, listener, expected):
+    """Issue 25, item 2: the daemon is found from the interface alone (its
+    abstract socket @cobridge/bus/vcan0), whatever --control says: the CLI
+    without --control (the default path does not exist here), or with a wrong
+    one, goes through the daemon, prints no library log line without -v, and
+    never opens the bus beside it."""
+    report.check(not os.path.exists("/run/cobridge/control.sock"), "the default control socket path is not the daemon's")
+    for control in ([], ["--control", "/nonexistent/control.sock"]):
+        since = time.time()
+        rc, out, err = e2e.run_cli(args.cli, "sdo", "read", "-i", "vcan0", "-n", "20", "1008:0", "--string", "--json",
+                                   *control)
+        try:
+            doc = json.loads(out)
+        except ValueError:
+            doc = {}
+        want = bytes.fromhex(expected[(20, "1008:0")]).split(b"\0")[0].decode()
+        report.check(rc == 0 and doc.get("via") == "daemon" and doc.get("string") == want and err.strip() == "",
+                     "sdo read %s: found the daemon from vcan0, decoded string %r, nothing on stderr" % (
+                         " ".join(control) or "(no --control)", want), "rc %d %s %s" % (rc, out.strip(), err.strip()))
+        time.sleep(0.2)
+        # CiA 301 7.2.4.3.3: 0x40 = initiate upload request (the segments follow it).
+        opened = [f for f in listener.snapshot(since) if f[1] == 0x614 and f[2][:1] == b"\x40"]
+        report.check(len(opened) == 1, "exactly one SDO upload started on the bus (the daemon's)", "%d" % len(opened))
+    rc, out, err = e2e.run_cli(args.cli, "scan", "-i", "vcan0", "--json")
+    report.check(rc == 0 and '"via":"daemon"' in out.replace(" ", ""), "scan without --control shows the daemon's view",
+                 out.strip()[:120] + err.strip())
+
+
 def access_phase(report, args, ws, daemon, config, devices, bus):
     rc, out, err = e2e.run_cli(args.cli, "sdo", "write", "-i", "vcan0", "-n", "20", "1017:0", "100", "--size", "2",
                                "--json", "--control", ws.control)
@@ -242,6 +270,7 @@ def main():
                              "node %d %s read through the daemon: the simulator's value %s" % (
                                  node, obj, expected[(node, obj)]), "%s %s" % (doc, err))
         scan_phase(report, args, ws)
+        beacon_phase(report, args, ws, listener, expected)
         load_phase(report, args, ws, daemon, sim, listener, expected)
         access_phase(report, args, ws, daemon, config, devices, bus)
         if report.failed:
