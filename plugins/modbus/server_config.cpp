@@ -33,6 +33,20 @@ ConfigResult get_bool(const toml::node& node, std::string_view key, bool& out) {
   return {};
 }
 
+// `allow` / `write_allow`: an array of CIDR strings.
+ConfigResult parse_networks(std::string_view key, const toml::node& node, IpAllowList& out) {
+  const std::string k(key);
+  const auto* a = node.as_array();
+  if (a == nullptr) return fail(ConfigErrc::kBadType, "'" + k + "' must be an array of CIDR strings");
+  for (const toml::node& e : *a) {
+    const auto* s = e.as_string();
+    if (s == nullptr) return fail(ConfigErrc::kBadType, "'" + k + "' entries must be strings");
+    if (!out.add(s->get()))
+      return fail(ConfigErrc::kBadValue, "'" + k + "' entry \"" + s->get() + "\" is not an address or CIDR network");
+  }
+  return {};
+}
+
 ConfigResult apply_key(std::string_view k, const toml::node& node, ServerConfig& c) {
   std::int64_t n = 0;
   ConfigResult r;
@@ -76,20 +90,13 @@ ConfigResult apply_key(std::string_view k, const toml::node& node, ServerConfig&
     } else {
       return fail(ConfigErrc::kBadValue, "'word_order' = \"" + s->get() + "\" (expected \"big\" or \"little\")");
     }
-  } else if (k == "allow") {
-    const auto* a = node.as_array();
-    if (a == nullptr) return fail(ConfigErrc::kBadType, "'allow' must be an array of CIDR strings");
-    for (const toml::node& e : *a) {
-      const auto* s = e.as_string();
-      if (s == nullptr) return fail(ConfigErrc::kBadType, "'allow' entries must be strings");
-      if (!c.allow.add(s->get())) {
-        return fail(ConfigErrc::kBadValue, "'allow' entry \"" + s->get() + "\" is not an address or CIDR network");
-      }
-    }
+  } else if (k == "allow" || k == "write_allow") {
+    return parse_networks(k, node, k == "allow" ? c.allow : c.write_allow);
   } else {
     return fail(ConfigErrc::kUnknownKey,
                 "unknown key '" + std::string(k) +
-                    "' (expected bind, port, max_clients, allow, idle_timeout_s, first_request_timeout_ms, unit_id, "
+                    "' (expected bind, port, max_clients, allow, write_allow, idle_timeout_s, first_request_timeout_ms, "
+                    "unit_id, "
                     "word_order, "
                     "writes_enabled, offline_exception, max_devices)");
   }

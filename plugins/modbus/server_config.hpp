@@ -6,6 +6,7 @@
 //   port              = 1502        TCP port (502 needs CAP_NET_BIND_SERVICE); 0 = any free port
 //   max_clients       = 32          connections served at once; more are closed at accept
 //   allow             = []          CIDR networks allowed to connect; empty = all
+//   write_allow       = []          CIDR networks whose writes are taken (writes_enabled); empty = all
 //   idle_timeout_s    = 60          close a connection silent for this long; 0 = never
 //   first_request_timeout_ms = 2000 close a connection that sent no request this long
 //                                   after connecting; 0 = only idle_timeout_s applies
@@ -18,9 +19,10 @@
 // Thread contract: parsed on the daemon's control thread (plugin create).
 #pragma once
 
-#include "allow_list.hpp"
 #include "register_image.hpp"
 #include "request.hpp"
+
+#include <cobridge/ip_allow_list.hpp>
 
 #include <cstdint>
 #include <string>
@@ -32,7 +34,8 @@ struct ServerConfig {
   std::string bind = "127.0.0.1";
   std::uint16_t port = 1502;
   std::uint32_t max_clients = 32;
-  AllowList allow;
+  IpAllowList allow;
+  IpAllowList write_allow;  // empty: writes (when enabled) from every allowed client
   std::uint32_t idle_timeout_s = 60;
   std::uint32_t first_request_timeout_ms = 2000;
   int unit_id = -1;

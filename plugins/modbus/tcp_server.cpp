@@ -60,7 +60,10 @@ std::string address_text(const sockaddr_storage& ss) {
 }  // namespace
 
 TcpServer::TcpServer(const ServerConfig& config, const RegisterImage& image, LogFn log, WriteTarget* writes)
-    : config_(config), policy_(config.policy()), image_(image), log_(std::move(log)), writes_(writes) {}
+    : config_(config), policy_(config.policy()), image_(image), log_(std::move(log)), writes_(writes) {
+  read_only_ = policy_;
+  read_only_.writes_enabled = false;  // a client outside write_allow: writes answer 0x01 as when disabled
+}
 
 TcpServer::~TcpServer() { stop(); }
 
@@ -286,6 +289,7 @@ void TcpServer::accept_all() noexcept {
     connected_.store(open_, std::memory_order_relaxed);
     accepted_.fetch_add(1, std::memory_order_relaxed);
     c.peer = address_text(ss);
+    c.may_write = config_.write_allow.contains(reinterpret_cast<const sockaddr*>(&ss));
     log_(COBRIDGE_LOG_DEBUG, "client " + c.peer + " connected");
   }
 }
@@ -372,7 +376,8 @@ bool TcpServer::process(Connection& c) noexcept {
       c.reading = false;  // the client does not read its answers: stop reading its requests
       break;
     }
-    const std::size_t n = handle_request(std::span<const std::uint8_t>(c.in + off, fc.length), image_, policy_, now,
+    const std::size_t n = handle_request(std::span<const std::uint8_t>(c.in + off, fc.length), image_,
+                                         c.may_write ? policy_ : read_only_, now,
                                          std::span<std::uint8_t>(c.out + c.out_len, kOutBuffer - c.out_len), writes_);
     off += fc.length;
     if (n == 0) {

@@ -82,6 +82,7 @@ class TcpServer {
     std::size_t out_len = 0;
     std::uint64_t last_rx_ns = 0;
     std::string peer;          // "address:port", for the write log
+    bool may_write = false;    // in write_allow (writes_enabled is checked per request)
     std::uint8_t in[kMaxFrameSize];
     std::uint8_t out[kOutBuffer];
   };
@@ -103,6 +104,7 @@ class TcpServer {
 
   ServerConfig config_;
   RequestPolicy policy_;
+  RequestPolicy read_only_;  // policy_ without writes: clients outside write_allow
   const RegisterImage& image_;
   LogFn log_;
   WriteTarget* writes_;

@@ -661,6 +661,43 @@ class ConcurrentClients(HostCase):
         self.assert_serving()
 
 
+class WriteAllow(HostCase):
+    """Issue 25, item 6: with writes_enabled, only clients inside write_allow
+    write; the others still read, and their writes answer exception 0x01
+    (MBAP §7, as when writes are disabled) and are logged as refused."""
+    CONFIG = 'writes_enabled = true\nwrite_allow = ["10.0.0.0/8"]\n'
+
+    def test_a_client_outside_write_allow_reads_but_may_not_write(self):
+        base = DEVICE_BASE + 1 * STRIDE
+        with connect(self.host.port) as s:
+            s.settimeout(5)
+            s.sendall(frame(0x41, 1, struct.pack(">BHHB", 0x10, base + 28, 2, 4) + struct.pack(">HH", 0, 100)))
+            r = recv_frame(s)
+            self.assertEqual(r[7:9], bytes([0x90, 0x01]), r.hex())
+            s.sendall(read_req(0x42, base, 2))
+            r = recv_frame(s)
+            self.assertEqual(r[7], 0x03, r.hex())
+            here = "127.0.0.1:%d" % s.getsockname()[1]
+        deadline = time.monotonic() + 3
+        while time.monotonic() < deadline and not any(here in l and "refused, exception 0x01" in l for l in self.host.log):
+            time.sleep(0.02)
+        self.assertTrue(any(here in l and "refused, exception 0x01" in l for l in self.host.log), self.host.log[-5:])
+        self.assertFalse([l for l in self.host.log if l.startswith("COMMAND")], "a refused write reached the host")
+
+
+class WriteAllowLoopback(HostCase):
+    """Issue 25, item 6: a client inside write_allow writes."""
+    CONFIG = 'writes_enabled = true\nwrite_allow = ["127.0.0.1/32"]\n'
+
+    def test_a_client_inside_write_allow_writes(self):
+        base = DEVICE_BASE + 1 * STRIDE
+        with connect(self.host.port) as s:
+            s.settimeout(5)
+            s.sendall(frame(0x43, 1, struct.pack(">BHHB", 0x10, base + 28, 2, 4) + struct.pack(">HH", 0, 100)))
+            r = recv_frame(s)
+        self.assertEqual(r[7], 0x10, r.hex())
+
+
 class Hostile(unittest.TestCase):
     """Issue 10, items 10-12: clients a plant's network produces."""
 

@@ -70,15 +70,34 @@ TEST(ModbusConfig, BadValuesAreRejected) {
   EXPECT_EQ(parse_config("port = \"502\"", c).code, ConfigErrc::kBadType);
   EXPECT_EQ(parse_config("allow = [\"10.0.0.0/33\"]", c).code, ConfigErrc::kBadValue);
   EXPECT_EQ(parse_config("allow = [\"example.com\"]", c).code, ConfigErrc::kBadValue);
+  const ConfigResult w = parse_config("write_allow = [\"10.1.0.0/16\", \"scada\"]", c);
+  EXPECT_EQ(w.code, ConfigErrc::kBadValue);
+  EXPECT_EQ(w.message, "config: 'write_allow' entry \"scada\" is not an address or CIDR network");
   EXPECT_EQ(parse_config("bind = \"localhost\"", c).code, ConfigErrc::kBadValue);
   EXPECT_EQ(parse_config("max_devices = 0", c).code, ConfigErrc::kBadValue);
   EXPECT_EQ(parse_config("unit_id = 256", c).code, ConfigErrc::kBadValue);
   EXPECT_EQ(parse_config("port = ", c).code, ConfigErrc::kSyntax);
 }
 
+// Issue 25, item 6: write_allow is its own list; empty allows every client's writes.
+TEST(ModbusConfig, WriteAllowIsParsedApartFromAllow) {
+  ServerConfig c;
+  ASSERT_TRUE(parse_config("allow = [\"10.0.0.0/8\"]\nwrite_allow = [\"10.1.2.3\"]", c));
+  sockaddr_in in{};
+  in.sin_family = AF_INET;
+  ASSERT_EQ(inet_pton(AF_INET, "10.9.9.9", &in.sin_addr), 1);
+  EXPECT_TRUE(c.allow.contains(reinterpret_cast<const sockaddr*>(&in)));
+  EXPECT_FALSE(c.write_allow.contains(reinterpret_cast<const sockaddr*>(&in)));
+  ASSERT_EQ(inet_pton(AF_INET, "10.1.2.3", &in.sin_addr), 1);
+  EXPECT_TRUE(c.write_allow.contains(reinterpret_cast<const sockaddr*>(&in)));
+  ServerConfig d;
+  ASSERT_TRUE(parse_config("", d));
+  EXPECT_TRUE(d.write_allow.empty());
+}
+
 // IPv4 clients on a dual-stack socket arrive as ::ffff:a.b.c.d (RFC 4291 §2.5.5.2).
 TEST(ModbusConfig, AllowListMatchesV4MappedAddresses) {
-  AllowList a;
+  cobridge::IpAllowList a;
   ASSERT_TRUE(a.add("127.0.0.0/8"));
   sockaddr_in6 in6{};
   in6.sin6_family = AF_INET6;

@@ -1,15 +1,49 @@
-#include "allow_list.hpp"
+// IpAllowList: the IP networks (CIDR) a listener accepts a client, or a
+// client's writes, from. An empty list allows everyone. IPv4 clients that
+// reach an IPv6 socket as v4-mapped addresses (::ffff:a.b.c.d) are matched
+// against the IPv4 entries. Part of the plugin SDK so that the daemon's
+// listeners (CiA 309-3 gateway) and the plugins' (Modbus TCP) match
+// addresses with one implementation; header-only.
+//
+// Thread contract: built while a configuration is parsed, then only read
+// (contains) by the thread that accepts clients.
+#pragma once
 
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
 
+#include <array>
 #include <charconv>
+#include <cstdint>
 #include <cstring>
+#include <string>
+#include <string_view>
+#include <vector>
 
-namespace cobridge::modbus {
+namespace cobridge {
 
-bool AllowList::add(std::string_view cidr) {
+class IpAllowList {
+ public:
+  // Adds "a.b.c.d[/n]" or "ipv6[/n]"; returns false if the text is not a network.
+  [[nodiscard]] bool add(std::string_view cidr);
+  [[nodiscard]] bool empty() const noexcept { return nets_.empty(); }
+  // True if the address (AF_INET or AF_INET6 sockaddr) is allowed.
+  [[nodiscard]] bool contains(const sockaddr* addr) const noexcept;
+  // IPv4 address in host byte order.
+  [[nodiscard]] bool contains_v4(std::uint32_t addr) const noexcept;
+
+ private:
+  struct Net {
+    bool v6 = false;
+    std::array<std::uint8_t, 16> addr{};
+    unsigned prefix = 0;
+  };
+  [[nodiscard]] static bool match(const Net& n, const std::uint8_t* addr) noexcept;
+  std::vector<Net> nets_;
+};
+
+inline bool IpAllowList::add(std::string_view cidr) {
   Net net;
   std::string_view host = cidr;
   std::string_view len;
@@ -38,7 +72,7 @@ bool AllowList::add(std::string_view cidr) {
   return true;
 }
 
-bool AllowList::match(const Net& n, const std::uint8_t* addr) noexcept {
+inline bool IpAllowList::match(const Net& n, const std::uint8_t* addr) noexcept {
   const unsigned full = n.prefix / 8;
   if (std::memcmp(n.addr.data(), addr, full) != 0) return false;
   const unsigned rest = n.prefix % 8;
@@ -47,7 +81,7 @@ bool AllowList::match(const Net& n, const std::uint8_t* addr) noexcept {
   return (n.addr[full] & mask) == (addr[full] & mask);
 }
 
-bool AllowList::contains_v4(std::uint32_t addr) const noexcept {
+inline bool IpAllowList::contains_v4(std::uint32_t addr) const noexcept {
   if (nets_.empty()) return true;
   const std::uint8_t bytes[4] = {static_cast<std::uint8_t>(addr >> 24), static_cast<std::uint8_t>(addr >> 16),
                                  static_cast<std::uint8_t>(addr >> 8), static_cast<std::uint8_t>(addr)};
@@ -57,7 +91,7 @@ bool AllowList::contains_v4(std::uint32_t addr) const noexcept {
   return false;
 }
 
-bool AllowList::contains(const sockaddr* addr) const noexcept {
+inline bool IpAllowList::contains(const sockaddr* addr) const noexcept {
   if (nets_.empty()) return true;
   if (addr == nullptr) return false;
   if (addr->sa_family == AF_INET) {
@@ -82,4 +116,4 @@ bool AllowList::contains(const sockaddr* addr) const noexcept {
   return false;
 }
 
-}  // namespace cobridge::modbus
+}  // namespace cobridge
