@@ -1,10 +1,21 @@
 #include "config/remote_access_section.hpp"
 
 #include <arpa/inet.h>
+#include <grp.h>
 #include <netinet/in.h>
+
+#include <vector>
 
 namespace cobridge::config {
 namespace {
+
+bool group_exists(const std::string& name) {
+  // getgrnam_r: the loader may run beside the web thread (SIGHUP reload).
+  group g{};
+  group* found = nullptr;
+  std::vector<char> buf(16384);
+  return ::getgrnam_r(name.c_str(), &g, buf.data(), buf.size(), &found) == 0 && found != nullptr;
+}
 
 void read_control(TableReader& top, DiagnosticSink& sink, ControlAccess& out) {
   const toml::table* t = top.subtable("control");
@@ -13,6 +24,13 @@ void read_control(TableReader& top, DiagnosticSink& sink, ControlAccess& out) {
   r.check_keys({"writes_enabled", "write_group"});
   if (auto v = r.boolean("writes_enabled")) out.writes_enabled = *v;
   if (auto v = r.string("write_group")) out.write_group = *v;
+  // A group nobody can be in would refuse every write but root's, silently:
+  // checked when writes are on, the only time it is used.
+  if (!out.writes_enabled || out.write_group.empty() || group_exists(out.write_group)) return;
+  const toml::node* at = r.find("write_group") != nullptr ? r.find("write_group") : r.find("writes_enabled");
+  r.error(*at, "control.write_group " + in_quotes(out.write_group) +
+                   " is not a group on this machine (the package creates cobridge-admin; \"\" = anyone who may "
+                   "connect)");
 }
 
 void read_ascii(TableReader& top, DiagnosticSink& sink, AsciiGatewaySettings& out) {

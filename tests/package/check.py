@@ -9,6 +9,7 @@ on the console that run-package-test turns into PASS/FAIL:
 
 Debian's /usr/bin/python3; Modbus TCP by a plain socket request.
 """
+import grp
 import json
 import os
 import pwd
@@ -167,6 +168,12 @@ def main():
         pw = None
     check(pw is not None and uid == pw.pw_uid, "runs as system user cobridge",
           "uid %s, cobridge %s" % (uid, pw.pw_uid if pw else "missing"))
+    try:
+        admin = grp.getgrnam("cobridge-admin").gr_gid
+    except KeyError:
+        admin = None
+    check(admin is not None, "issue 25 item 6: the package made group cobridge-admin ([control] write_group's default)",
+          "gid %s" % admin)
     stf = "/var/lib/cobridge/assignments.state"
     ok = os.path.isdir("/var/lib/cobridge") and pw is not None and os.stat("/var/lib/cobridge").st_uid == pw.pw_uid \
         and os.path.isfile(stf) and os.stat(stf).st_uid == pw.pw_uid

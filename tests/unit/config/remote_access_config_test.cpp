@@ -21,12 +21,12 @@ TEST(RemoteAccessConfig, DefaultsAreReadOnly) {
 
 TEST(RemoteAccessConfig, SectionsAreRead) {
   const std::string text = std::string(kBase) +
-                           "[control]\nwrites_enabled = true\nwrite_group = \"ops\"\n"
+                           "[control]\nwrites_enabled = true\nwrite_group = \"root\"\n"
                            "[ascii_gateway]\nsocket = \"/run/x/a.sock\"\ntcp_port = 5309\nwrites_enabled = true\n";
   const auto r = load_string(text, "t.toml", "/tmp");
   ASSERT_TRUE(r.ok());
   EXPECT_TRUE(r.config().remote.control.writes_enabled);
-  EXPECT_EQ(r.config().remote.control.write_group, "ops");
+  EXPECT_EQ(r.config().remote.control.write_group, "root");
   EXPECT_TRUE(r.config().remote.ascii.enabled);  // the section switches it on
   EXPECT_EQ(r.config().remote.ascii.tcp_port, 5309);
   EXPECT_EQ(r.config().remote.ascii.socket, "/run/x/a.sock");
@@ -37,4 +37,21 @@ TEST(RemoteAccessConfig, BadValuesAreReported) {
   const auto r = load_string(text, "t.toml", "/tmp");
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.diagnostics().size(), 3U);
+}
+
+// Issue 25, item 6: a write group that does not exist would refuse every
+// write but root's without a word: with writes on it is an error at its line.
+TEST(RemoteAccessConfig, AWriteGroupThatDoesNotExistIsAnErrorWhenWritesAreOn) {
+  const std::string on = std::string(kBase) + "[control]\nwrites_enabled = true\nwrite_group = \"cbt-no-such-group\"\n";
+  const auto r = load_string(on, "t.toml", "/tmp");
+  ASSERT_FALSE(r.ok());
+  ASSERT_EQ(r.diagnostics().size(), 1U);
+  EXPECT_EQ(r.diagnostics()[0].line, 7U);
+  EXPECT_NE(r.diagnostics()[0].message.find("control.write_group \"cbt-no-such-group\" is not a group on this machine"),
+            std::string::npos)
+      << r.diagnostics()[0].message;
+  const std::string off = std::string(kBase) + "[control]\nwrite_group = \"cbt-no-such-group\"\n";
+  EXPECT_TRUE(load_string(off, "t.toml", "/tmp").ok());
+  const std::string anyone = std::string(kBase) + "[control]\nwrites_enabled = true\nwrite_group = \"\"\n";
+  EXPECT_TRUE(load_string(anyone, "t.toml", "/tmp").ok());
 }
