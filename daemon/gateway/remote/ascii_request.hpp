@@ -15,6 +15,8 @@
 // (octet string as hex digits). Without a type a read answers the bytes as
 // hex digits. Answers: "[<seq>] OK", "[<seq>] <value>", "[<seq>] ERROR: <code>"
 // with the 309-3 error numbers below or an SDO abort code as 0xXXXXXXXX.
+// Integer values: decimal or 0x-hex, signed ones with an optional '-', the
+// number refused (101) unless the type holds it (base/number_text.hpp).
 //
 // Thread: any; pure functions. Every byte sequence gives a request or an
 // error number, never a crash.
