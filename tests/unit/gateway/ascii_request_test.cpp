@@ -151,6 +151,13 @@ TEST(AsciiRequest, AValueItsTypeCannotHoldIsASyntaxError) {
   EXPECT_TRUE(r.command.data.empty());
 }
 
+// Found by the fuzz target's "accepted implies representable": a control
+// byte 0x01 at a word's start passed for the parser's mark of a quoted word.
+TEST(AsciiRequest, AControlByteIsNoQuote) {
+  EXPECT_EQ(parse_ascii_request("[1] 10 w 0x2000 0 i16 \x01" "6").error, AsciiError::syntax);
+  EXPECT_EQ(parse_ascii_request("[1] 10 w 0x2000 0 vs \x01" "abc").error, AsciiError::syntax);
+}
+
 TEST(AsciiRequest, EveryIntegerFormIsRangeCheckedForItsType) {
   for (const auto& c : kIntegerCases) {
     const std::string line = std::string("[1] 10 w 0x2000 0 ") + c.type + " " + c.text;
