@@ -155,6 +155,8 @@ std::string ascii_abort(std::string_view seq, std::uint32_t abort_code) {
   return "[" + std::string(seq) + "] ERROR: " + buf;
 }
 
+std::string ascii_line(std::string_view answer) { return std::string(answer) + "\r\n"; }
+
 std::optional<std::string> ascii_format(AsciiType type, std::span<const std::uint8_t> d) {
   char buf[64];
   if (type == AsciiType::none || type == AsciiType::os) {

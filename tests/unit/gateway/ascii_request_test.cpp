@@ -85,6 +85,28 @@ TEST(AsciiRequest, FormatsByType) {
   EXPECT_EQ(ascii_format(AsciiType::none, two), "E803");
 }
 
+// CiA 309-3 (answer syntax): every answer ends with CR LF; `cocomm` reads up
+// to "\r\n" and waits for ever on a bare LF (issue 25, item 1).
+TEST(AsciiRequest, AnswerLinesEndWithCrLf) {
+  using cobridge::gateway::ascii_abort;
+  using cobridge::gateway::ascii_error;
+  using cobridge::gateway::ascii_line;
+  using cobridge::gateway::ascii_ok;
+  EXPECT_EQ(ascii_line(ascii_ok("1")), "[1] OK\r\n");
+  EXPECT_EQ(ascii_line(ascii_error("2", AsciiError::syntax)), "[2] ERROR: 101\r\n");
+  EXPECT_EQ(ascii_line(ascii_abort("3", 0x06020000)), "[3] ERROR: 0x06020000\r\n");
+  EXPECT_EQ(ascii_line("[4] 1001"), "[4] 1001\r\n");
+}
+
+// CiA 309-3 (request syntax): a request ended by CR LF is the request ended by LF.
+TEST(AsciiRequest, ATrailingCrIsNoPartOfTheLastWord) {
+  const auto r = parse_ascii_request("[3] 10 w 0x1017 0 u16 1000\r");
+  ASSERT_EQ(r.kind, AsciiRequest::Kind::write);
+  EXPECT_EQ(r.command.data, (std::vector<std::uint8_t>{0xE8, 0x03}));
+  EXPECT_EQ(parse_ascii_request("[4] 10 w 0x2001 0 vs abc\r").command.data,
+            (std::vector<std::uint8_t>{'a', 'b', 'c'}));
+}
+
 namespace {
 
 // One write of `text` as `type`: the little-endian value it writes, or
