@@ -19,6 +19,18 @@ bool parse_unsigned(std::string_view text, std::uint64_t max, std::uint64_t& out
   return true;
 }
 
+bool parse_signed(std::string_view text, std::int64_t min, std::int64_t max, std::int64_t& out) noexcept {
+  if (min > 0 || max < 0) return false;
+  const bool negative = !text.empty() && text[0] == '-';
+  if (negative) text.remove_prefix(1);
+  // The magnitude's bound, in unsigned arithmetic: -min does not fit int64 for INT64_MIN.
+  const std::uint64_t limit = negative ? 0 - static_cast<std::uint64_t>(min) : static_cast<std::uint64_t>(max);
+  std::uint64_t magnitude = 0;
+  if (!parse_unsigned(text, limit, magnitude)) return false;  // a second sign is refused there
+  out = negative ? static_cast<std::int64_t>(0 - magnitude) : static_cast<std::int64_t>(magnitude);
+  return true;
+}
+
 bool parse_hex_bytes(std::string_view text, std::size_t max_bytes, std::vector<std::uint8_t>& out) {
   if (text.empty() || text.size() % 2 != 0 || text.size() / 2 > max_bytes) return false;
   for (std::size_t i = 0; i < text.size(); i += 2) {

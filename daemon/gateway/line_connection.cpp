@@ -35,6 +35,19 @@ void LineConnection::read(std::size_t max_line) {
   }
 }
 
+std::string LineConnection::take_line() {
+  const std::size_t nl = in.find('\n');
+  std::string line(line_body(std::string_view(in).substr(0, nl + 1)));
+  in.erase(0, nl + 1);
+  return line;
+}
+
+std::string_view line_body(std::string_view line) noexcept {
+  if (!line.empty() && line.back() == '\n') line.remove_suffix(1);
+  if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+  return line;
+}
+
 bool LineConnection::flush() {
   while (out_done < out.size()) {
     const ssize_t n = ::send(fd, out.data() + out_done, out.size() - out_done, MSG_NOSIGNAL | MSG_DONTWAIT);

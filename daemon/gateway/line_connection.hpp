@@ -32,6 +32,8 @@ struct LineConnection {
 
   [[nodiscard]] bool has_line() const noexcept { return in.find('\n') != std::string::npos; }
   [[nodiscard]] bool writing() const noexcept { return out_done < out.size(); }
+  // The first whole line (has_line()) taken out of `in`, without its line end.
+  [[nodiscard]] std::string take_line();
   // Receives without blocking until a whole line or more than `max_line`
   // bytes are buffered, or the socket is drained; sets peer_closed at its end.
   void read(std::size_t max_line);
@@ -39,6 +41,10 @@ struct LineConnection {
   // False when the client is gone (an error other than EAGAIN / EINTR).
   [[nodiscard]] bool flush();
 };
+
+// A request line without its end: the LF and a CR before it, so that a line
+// ended CR LF (CiA 309-3 clients, telnet) means what one ended LF does.
+[[nodiscard]] std::string_view line_body(std::string_view line) noexcept;
 
 // Accepts one waiting connection (non-blocking, close-on-exec). -1 when none
 // waits or accept failed (a failure other than "none waiting" is logged,

@@ -14,7 +14,10 @@
 // r64, vs (visible string, "quoted" when it has blanks, "" for a quote), os
 // (octet string as hex digits). Without a type a read answers the bytes as
 // hex digits. Answers: "[<seq>] OK", "[<seq>] <value>", "[<seq>] ERROR: <code>"
-// with the 309-3 error numbers below or an SDO abort code as 0xXXXXXXXX.
+// with the 309-3 error numbers below or an SDO abort code as 0xXXXXXXXX,
+// each ended by CR LF (ascii_line). A request line ends with LF or CR LF.
+// Integer values: decimal or 0x-hex, signed ones with an optional '-', the
+// number refused (101) unless the type holds it (base/number_text.hpp).
 //
 // Thread: any; pure functions. Every byte sequence gives a request or an
 // error number, never a crash.
@@ -63,10 +66,13 @@ struct AsciiRequest {
 
 [[nodiscard]] AsciiRequest parse_ascii_request(std::string_view line);
 
-// "[seq] OK" etc. (no newline).
+// "[seq] OK" etc. (no line end: ascii_line adds it).
 [[nodiscard]] std::string ascii_ok(std::string_view seq);
 [[nodiscard]] std::string ascii_error(std::string_view seq, AsciiError error);
 [[nodiscard]] std::string ascii_abort(std::string_view seq, std::uint32_t abort_code);
+// An answer as it goes on the wire: ended by CR LF (CiA 309-3; `cocomm`
+// reads an answer up to its "\r\n" and waits for ever on a bare LF).
+[[nodiscard]] std::string ascii_line(std::string_view answer);
 // The value of an upload as `type` says; nullopt when the size does not fit the type.
 [[nodiscard]] std::optional<std::string> ascii_format(AsciiType type, std::span<const std::uint8_t> data);
 

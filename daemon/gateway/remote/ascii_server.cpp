@@ -145,7 +145,7 @@ void AsciiServer::accept_from(int listen_fd, bool tcp, TimePoint now) {
     const int fd = accept_connection(listen_fd, "ascii gateway", tcp ? &peer : nullptr, tcp ? &len : nullptr);
     if (fd < 0) return;
     if (clients_.size() >= options_.max_clients) {
-      refuse_connection(fd, ascii_error("0", AsciiError::internal_state) + "\n");
+      refuse_connection(fd, ascii_line(ascii_error("0", AsciiError::internal_state)));
       continue;
     }
     Client c;
@@ -171,14 +171,13 @@ bool AsciiServer::serve(Client& c, TimePoint now) {
   c.read(options_.max_line);
   const std::size_t nl = c.in.find('\n');
   if (nl != std::string::npos && nl <= options_.max_line) {
-    const std::string line = c.in.substr(0, nl);
-    c.in.erase(0, nl + 1);
+    const std::string line = c.take_line();
     c.idle_until = now + options_.idle_timeout;
     answer(c, line, now);
   } else if (c.in.size() > options_.max_line) {
     // CiA 309-3 gives no limit; ours is max_line: the line is answered as a
     // syntax error and skipped up to its end.
-    c.out += ascii_error("0", AsciiError::syntax) + "\n";
+    c.out += ascii_line(ascii_error("0", AsciiError::syntax));
     c.in.clear();
     c.skipping = true;
   } else if (c.peer_closed) {
@@ -195,7 +194,7 @@ void AsciiServer::answer(Client& c, std::string_view line, TimePoint now) {
   if (line.find_first_not_of(" \t\r") == std::string_view::npos) return;  // empty lines are ignored
   AsciiRequest r = parse_ascii_request(line);
   const std::string reply = run(c, std::move(r));
-  if (!reply.empty()) c.out += reply + "\n";
+  if (!reply.empty()) c.out += ascii_line(reply);
 }
 
 std::string AsciiServer::run(Client& c, AsciiRequest r) {
@@ -250,7 +249,7 @@ void AsciiServer::fill_command(AsciiRequest& r, std::uint8_t node, std::chrono::
 }
 
 DirectAnswer::Format AsciiServer::answer_line(AsciiRequest r) {
-  return [r = std::move(r)](const RemoteResult& res) { return ascii_answer(r, res) + '\n'; };
+  return [r = std::move(r)](const RemoteResult& res) { return ascii_line(ascii_answer(r, res)); };
 }
 
 RemoteCommand AsciiServer::with_direct_answer(Client& c, const AsciiRequest& r, unsigned net) const {
@@ -311,7 +310,7 @@ void AsciiServer::deliver(TimePoint now, bool drain) {
       }
       // A connection given back (res.returned) has its input and no answer.
       if (!res.returned && res.answer.empty()) {
-        c.out += ascii_answer(c.pending, res) + "\n";
+        c.out += ascii_line(ascii_answer(c.pending, res));
       } else if (!res.returned) {
         // The bus thread sent the answer, or its start: the rest goes from
         // here (the buffer was empty when the command was queued).

@@ -1,5 +1,7 @@
 #include "gateway/remote/connection_loan.hpp"
 
+#include "gateway/line_connection.hpp"
+
 #include <sys/socket.h>
 
 #include <algorithm>
@@ -74,7 +76,7 @@ bool LoanedConnections::read_request(Held& h, const Run& run) {
     buf.resize(static_cast<std::size_t>(n));
     // Exactly one whole line: the bus thread's to run, if the loan takes it.
     if (buf.back() == '\n' && buf.find('\n') == buf.size() - 1) {
-      const std::string_view line(buf.data(), buf.size() - 1);
+      const std::string_view line = line_body(buf);
       if (auto cmd = h.loan->take(line, *h.loan->connection)) {
         cmd->tag = h.tag;
         cmd->direct = h.loan->connection;

@@ -46,7 +46,7 @@ namespace cobridge::gateway {
 
 struct ConnectionLoan {
   std::shared_ptr<DirectAnswer> connection;
-  // The command a request line (without its newline) asks, with its answer
+  // The command a request line (without its LF or CR LF) asks, with its answer
   // armed on `connection`; nullopt: not one the bus thread runs alone.
   std::function<std::optional<RemoteCommand>(std::string_view line, DirectAnswer& connection)> take;
   std::size_t max_line = 256;

@@ -8,6 +8,7 @@
 namespace {
 
 using cobridge::parse_hex_bytes;
+using cobridge::parse_signed;
 using cobridge::parse_unsigned;
 
 TEST(NumberText, DecimalAndPrefixedHexUpToTheLimit) {
@@ -28,6 +29,39 @@ TEST(NumberText, AnythingElseIsRefusedAndLeavesTheOutputAlone) {
     EXPECT_FALSE(parse_unsigned(bad, 127, v)) << bad;
   EXPECT_EQ(v, 42U);
   EXPECT_FALSE(parse_unsigned("0x10000", 0xFFFF, v));
+}
+
+// Issue 25: a signed number's hex digits are its magnitude, range-checked
+// like its decimal form (0x12345 for a 16-bit value was truncated to 0x2345).
+TEST(NumberText, SignedDecimalAndHexWithinTheRange) {
+  std::int64_t v = 0;
+  EXPECT_TRUE(parse_signed("-32768", -32768, 32767, v));
+  EXPECT_EQ(v, -32768);
+  EXPECT_TRUE(parse_signed("0x7FFF", -32768, 32767, v));
+  EXPECT_EQ(v, 32767);
+  EXPECT_TRUE(parse_signed("-0x8000", -32768, 32767, v));
+  EXPECT_EQ(v, -32768);
+  EXPECT_TRUE(parse_signed("-0", -1, 1, v));
+  EXPECT_EQ(v, 0);
+  EXPECT_TRUE(parse_signed("010", -100, 100, v));  // no octal
+  EXPECT_EQ(v, 10);
+  EXPECT_TRUE(parse_signed("-9223372036854775808", INT64_MIN, INT64_MAX, v));
+  EXPECT_EQ(v, INT64_MIN);
+  EXPECT_TRUE(parse_signed("-0x8000000000000000", INT64_MIN, INT64_MAX, v));
+  EXPECT_EQ(v, INT64_MIN);
+  EXPECT_TRUE(parse_signed("0x7FFFFFFFFFFFFFFF", INT64_MIN, INT64_MAX, v));
+  EXPECT_EQ(v, INT64_MAX);
+}
+
+TEST(NumberText, SignedOutOfRangeOrMalformedIsRefusedAndLeavesTheOutputAlone) {
+  std::int64_t v = 42;
+  for (const char* bad : {"", "-", "--1", "+1", "-+1", "- 1", "32768", "-32769", "0x8000", "0xFFFF", "0x12345",
+                          "-0x8001", "0x", "-0x", "1a", "0x1g", "99999999999999999999999"})
+    EXPECT_FALSE(parse_signed(bad, -32768, 32767, v)) << bad;
+  for (const char* bad : {"9223372036854775808", "-9223372036854775809", "0x8000000000000000",
+                          "0xFFFFFFFFFFFFFFFF", "-0x8000000000000001", "0x10000000000000000"})
+    EXPECT_FALSE(parse_signed(bad, INT64_MIN, INT64_MAX, v)) << bad;
+  EXPECT_EQ(v, 42);
 }
 
 TEST(NumberText, HexBytesArePairsWithinTheLimit) {

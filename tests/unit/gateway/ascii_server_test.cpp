@@ -78,14 +78,16 @@ TEST(AsciiServer, OpensOnAFreshPathWithMode0660) {
 
 using cobridge::gateway::testing::HeldCommands;
 
-// What a client reads within `ms`, without the server turning meanwhile.
+// What a client reads within `ms`, without the server turning meanwhile, as
+// `cocomm` reads an answer: up to CR LF (CiA 309-3), returned without it; a
+// bare LF does not end it (cocomm waits on, here until "<timeout>").
 std::string read_line(int fd, int ms) {
   std::string got;
   char c = 0;
   pollfd p{fd, POLLIN, 0};
   while (::poll(&p, 1, ms) > 0 && ::recv(fd, &c, 1, 0) == 1) {
-    if (c == '\n') return got;
     got += c;
+    if (got.size() >= 2 && got.compare(got.size() - 2, 2, "\r\n") == 0) return got.substr(0, got.size() - 2);
   }
   return got + "<timeout>";
 }
@@ -198,6 +200,78 @@ TEST(AsciiServer, AReadLendsTheConnectionForTheNextReadOnItsNet) {
   give_back(held->first.tag, *held->second, back);
   g.turn();
   EXPECT_EQ(read_line(g.fd, 500).rfind("[6] cobridge", 0), 0U);
+}
+
+// CiA 309-3 (answer syntax): every answer ends with CR LF, whoever sends it
+// (the main loop, the bus thread, the main loop after the bus thread), the
+// error answers of lines that are no request included; a request ended by
+// CR LF is served as one ended by LF (issue 25, item 1: `cocomm` hung on
+// every answer ended by a bare LF).
+TEST(AsciiServer, EveryAnswerEndsWithCrLfAndCrLfRequestsAreServed) {
+  HeldGateway g;
+  g.send("[1] set node 20\r\n");
+  g.turn();
+  EXPECT_EQ(read_line(g.fd, 500), "[1] OK");
+  g.send("garbage\r\n[2] 1 20 jump\n[3] 1 20 w 0x2000 0 i16 0x12345\r\n");
+  g.turn();
+  EXPECT_EQ(read_line(g.fd, 500), "[0] ERROR: 101");  // no sequence number
+  EXPECT_EQ(read_line(g.fd, 500), "[2] ERROR: 100");
+  EXPECT_EQ(read_line(g.fd, 500), "[3] ERROR: 101");  // the value does not fit i16
+  g.send("[4] " + std::string(2000, 'x') + "\r\n[5] help\r\n");
+  g.turn(40);
+  EXPECT_EQ(read_line(g.fd, 500), "[0] ERROR: 101");  // longer than max_line
+  EXPECT_EQ(read_line(g.fd, 500).rfind("[5] commands:", 0), 0U);
+
+  // Answered by the bus thread (direct_answer.hpp).
+  g.send("[6] r 0x1018 4 u32\r\n");
+  ASSERT_TRUE(g.run_until_held(1));
+  RemoteResult r;
+  r.data = {0xD1, 0x07, 0x00, 0x00};
+  g.bus.finish(r);
+  EXPECT_EQ(read_line(g.fd, 500), "[6] 2001");
+  g.turn();
+
+  // Answered by the main loop (no connection for the bus thread to write to).
+  g.send("[7] 1 20 r 0x1018 1 u32\r\n");
+  ASSERT_TRUE(g.run_until_held(1));
+  auto held = g.bus.take();
+  ASSERT_TRUE(held);
+  held->first.direct.reset();
+  held->first.loan.reset();
+  RemoteResult abort;
+  abort.error = cobridge::Error(Errc::kFailed, "aborted");
+  abort.abort_code = 0x06020000;
+  hand_back(held->first, abort, held->second.get());
+  g.turn();
+  EXPECT_EQ(read_line(g.fd, 500), "[7] ERROR: 0x06020000");
+}
+
+// A connection beyond max_clients is told why before it is closed, in the
+// same line shape.
+TEST(AsciiServer, ARefusedConnectionsAnswerEndsWithCrLf) {
+  const auto dir = std::filesystem::temp_directory_path() / ("cobridge-ascii-full-" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  HeldCommands bus;
+  AsciiServerOptions options;
+  options.max_clients = 0;
+  AsciiServer server(bus, options);
+  ASSERT_FALSE(server.open_unix(dir / "ascii.sock"));
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  (dir / "ascii.sock").string().copy(addr.sun_path, sizeof addr.sun_path - 1);
+  ASSERT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+  for (int i = 0; i < 20 && server.clients() == 0; ++i) {
+    std::vector<pollfd> fds;
+    server.add_poll_fds(fds);
+    (void)::poll(fds.data(), fds.size(), 10);
+    server.note_ready(fds);
+    (void)server.process(std::chrono::steady_clock::now());
+  }
+  EXPECT_EQ(read_line(fd, 500), "[0] ERROR: 102");
+  ::close(fd);
+  server.close();
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

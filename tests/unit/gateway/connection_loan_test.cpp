@@ -142,6 +142,19 @@ TEST_F(ConnectionLoanTest, AReadItTakesRunsHereAndIsAnsweredWithoutTheMainThread
   EXPECT_EQ(ex.connections_held(), 1U);
 }
 
+// CiA 309-3 clients end a request with CR LF as well as LF (issue 25): the
+// loan's `take` sees the line without either.
+TEST_F(ConnectionLoanTest, ALineEndedCrLfIsTakenLikeOneEndedLf) {
+  lend();
+  client_sends("read 6\r\n");
+  turn();
+  ASSERT_EQ(bus.sent.size(), 2U);
+  EXPECT_EQ(bus.sent[1].id, 0x606U);  // taken: CiA 301 SDO request of node 6
+  answer(6, 9);
+  EXPECT_EQ(client_reads(), "first 7\nread 9\n");
+  EXPECT_TRUE(replies->take().empty()) << "a CR LF line went back to the main thread";
+}
+
 TEST_F(ConnectionLoanTest, ALineItDoesNotTakeGoesBackWithItsBytes) {
   lend();
   client_sends("status\n");

@@ -39,6 +39,20 @@ TEST_F(LineConnectionTest, StopsAtTheFirstWholeLineAndKeepsThePipelinedRest) {
   EXPECT_FALSE(conn_.peer_closed);
 }
 
+// CiA 309-3 clients end a request with CR LF, others with LF: the line taken
+// is the same (issue 25); a CR elsewhere is the line's own.
+TEST_F(LineConnectionTest, ALineIsTakenWithoutItsLfOrCrLf) {
+  send("[1] info version\r\n[2] help\n\r\n");
+  conn_.read(256);
+  ASSERT_TRUE(conn_.has_line());
+  EXPECT_EQ(conn_.take_line(), "[1] info version");
+  EXPECT_EQ(conn_.take_line(), "[2] help");
+  EXPECT_EQ(conn_.take_line(), "");
+  EXPECT_EQ(conn_.in, "");
+  EXPECT_EQ(cobridge::gateway::line_body("a\rb\r\r\n"), "a\rb\r");
+  EXPECT_EQ(cobridge::gateway::line_body("half\r"), "half");
+}
+
 TEST_F(LineConnectionTest, BuffersAtMostOneLinePlusOneByte) {
   send(std::string(5000, 'x'));
   conn_.read(100);

@@ -3,6 +3,12 @@ SocketCAN (UML) with cobridge-sim, driven by a client written here from the
 standard (CiA 309-3 request "[<seq>] [[<net>] <node>] <command>", answers
 "[<seq>] OK | <value> | ERROR: <code>"), not by cobridge's own code.
 
+Every answer must end with CR LF (CiA 309-3; issue 25): the client below
+takes a line ended by a bare LF as a wrong answer, and cocomm_session()
+talks as CANopenNode's `cocomm` does (blocking socket, "[n] " prefixed,
+each answer read byte by byte up to CR LF before the next command), which
+hung for ever on a bare LF: here a bounded wait fails the check instead.
+
 Checks every supported command and its error answers: read/write by type,
 SDO abort codes, NMT, LSS (switch selective, inquire, node-ID, switch
 global), set network/node/sdo_timeout, info/help, errors 100/101/105/106/107,
@@ -12,6 +18,7 @@ nor a stalled client hold up discovery / configuration or the hot path.
 """
 import os
 import socket
+import struct
 import sys
 import threading
 import time
@@ -48,7 +55,9 @@ class Client:
                 raise EOFError("connection closed")
             self.buf += chunk
         out, self.buf = self.buf.split(b"\n", 1)
-        return out.decode().rstrip("\r")
+        if not out.endswith(b"\r"):
+            return out.decode() + "<bare LF, not CR LF>"  # CiA 309-3: fails every comparison
+        return out[:-1].decode()
 
     def ask(self, line):
         self.send(line + "\n")
@@ -56,6 +65,75 @@ class Client:
 
     def close(self):
         self.s.close()
+
+
+class Cocomm:
+    """A client as CANopenNode's cocomm: a blocking socket; a command without
+    a sequence number is sent as "[n] <command>" (n counting from 1); its
+    answer is read byte by byte up to CR LF, the only end cocomm knows,
+    before the next command goes out. cocomm would wait for ever; this one
+    gives up after `limit` seconds and says what it had (a test failure,
+    not a CI run that hangs)."""
+
+    def __init__(self, path=None, tcp=None, limit=10.0):
+        family, address = (socket.AF_INET, ("127.0.0.1", tcp)) if tcp else (socket.AF_UNIX, path)
+        self.s = socket.socket(family, socket.SOCK_STREAM)
+        self.s.connect(address)
+        self.s.setblocking(True)
+        # Blocking reads that return after 0.5 s without a byte (EAGAIN), so
+        # that the bound below is checked: the socket itself stays blocking.
+        self.s.setsockopt(socket.SOL_SOCKET, socket.SO_RCVTIMEO, struct.pack("ll", 0, 500000))
+        self.limit = limit
+        self.n = 0
+
+    def ask(self, command, end="\n"):
+        """The answer to `command` (CR LF stripped), or None when no CR LF came within the limit."""
+        self.n += 1
+        line = command if command.startswith("[") else "[%d] %s" % (self.n, command)
+        self.s.sendall((line + end).encode())
+        got = b""
+        deadline = time.time() + self.limit
+        while not got.endswith(b"\r\n"):
+            if time.time() > deadline:
+                self.unanswered = got
+                return None
+            try:
+                byte = self.s.recv(1)
+            except (BlockingIOError, socket.timeout):
+                continue
+            if not byte:
+                self.unanswered = got + b"<closed>"
+                return None
+            got += byte
+        return got[:-2].decode()
+
+    def close(self):
+        self.s.close()
+
+
+def cocomm_session(report, path):
+    """Issue 25, item 1: several commands on one connection as cocomm sends
+    them (LF-ended, as cocomm does, and CR LF-ended), on the Unix socket and
+    on TCP: a read, a write, an NMT command, an absent node, a value its
+    type cannot hold, a line that is no request."""
+    for where, c in (("unix", Cocomm(path=path)), ("tcp", Cocomm(tcp=TCP_PORT))):
+        session = [
+            ("1 10 r 0x1018 4 u32", "\n", lambda a: a == "[1] 1001", "read"),
+            ("1 20 w 0x1017 0 u16 100", "\r\n", lambda a: a == "[2] OK", "write (CR LF request)"),
+            ("1 20 start", "\n", lambda a: a == "[3] OK", "NMT start"),
+            ("1 99 r 0x1000 0 u32", "\r\n", lambda a: a.startswith("[4] ERROR: "), "absent node: an ERROR answer"),
+            ("1 20 w 0x6003 0 i16 0x12345", "\n", lambda a: a == "[5] ERROR: 101", "i16 0x12345: ERROR: 101"),
+            ("[x] 1 10 r 0x1018 4 u32", "\r\n", lambda a: a == "[0] ERROR: 101", "no request: [0] ERROR: 101"),
+            ("1 20 r 0x1018 4 u32", "\r\n", lambda a: a == "[7] 2001", "read after the errors"),
+        ]
+        for command, end, ok, what in session:
+            got = c.ask(command, end)
+            if got is None:
+                report.check(False, "cocomm-like client (%s): %s answered CR LF-ended" % (where, what),
+                             "no CR LF within %.0f s; got %r" % (c.limit, c.unanswered))
+                break  # the connection is out of step now
+            report.check(ok(got), "cocomm-like client (%s): %s" % (where, what), "got %r" % got)
+        c.close()
 
 
 def expect(report, c, request, answer, what=None):
@@ -230,6 +308,7 @@ def main():
         while not os.path.exists(path) and time.time() < end:
             time.sleep(0.05)
         report.check(os.path.exists(path), "gateway socket up", path)
+        cocomm_session(report, path)
         commands(report, path, daemon)
         tcp_and_concurrency(report, path, daemon)
         no_stall(report, path, daemon, sim, listener)
