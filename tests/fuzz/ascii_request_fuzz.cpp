@@ -47,7 +47,8 @@ const IntegerType* integer_type(AsciiType t) {
 }
 
 // The number a value's text denotes: sign and magnitude; `ok` false when
-// the text is no number of the grammar or its magnitude passes 2^64 - 1.
+// the text is no number of the grammar (decimal without a leading 0 before
+// digits, or 0x-hex) or its magnitude passes 2^64 - 1.
 struct Denoted {
   bool ok = false;
   bool negative = false;
@@ -68,6 +69,8 @@ Denoted denoted(std::string_view t, bool sign_allowed) {
     n.negative = true;
     t.remove_prefix(1);
   }
+  // "010": octal to CANopenNode, so no number of our grammar (refused).
+  if (t.size() > 1 && t[0] == '0' && t[1] >= '0' && t[1] <= '9') return n;
   unsigned base = 10;
   if (t.size() > 2 && t[0] == '0' && (t[1] == 'x' || t[1] == 'X')) {
     base = 16;

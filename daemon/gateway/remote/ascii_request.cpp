@@ -83,7 +83,16 @@ void put_le(std::vector<std::uint8_t>& out, std::uint64_t v, std::size_t n) {
 // denotes is in the type's range, in every form, so that nothing is cut to
 // the type's width; hex digits are a magnitude, never a bit pattern
 // (base/number_text.hpp: "0xFFFF" is no i16; -1 is "-1" or "-0x1").
+// "010", "-07": octal in CANopenNode's gateway (strtol base 0), decimal to
+// our parser. The same text must not write two different values depending
+// on the gateway, so it is refused rather than guessed.
+bool ambiguous_leading_zero(std::string_view v) {
+  if (!v.empty() && v.front() == '-') v.remove_prefix(1);
+  return v.size() > 1 && v[0] == '0' && v[1] >= '0' && v[1] <= '9';
+}
+
 bool encode_integer(AsciiType type, std::string_view v, std::vector<std::uint8_t>& out) {
+  if (ambiguous_leading_zero(v)) return false;
   const TypeInfo& t = info(type);
   const unsigned bits = static_cast<unsigned>(t.size * 8);
   if (type == AsciiType::i8 || type == AsciiType::i16 || type == AsciiType::i32 || type == AsciiType::i64) {

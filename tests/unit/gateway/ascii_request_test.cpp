@@ -122,7 +122,8 @@ constexpr std::uint64_t kMaxU64 = ~0ULL;
 // CiA 309-3 §5 (numbers, decimal or 0x-hex) and the data types of CiA 301
 // §7.1: each integer type's minimum, maximum, one past each, in every form
 // (decimal, '-', 0x, -0x); hex for a signed type is a magnitude, never a
-// bit pattern (0xFFFF is no i16); no octal (a leading 0 is decimal).
+// bit pattern (0xFFFF is no i16); a leading 0 before digits is refused (octal
+// to CANopenNode).
 const IntegerCase kIntegerCases[] = {
     {"b", "0", 0}, {"b", "1", 1}, {"b", "2", {}}, {"b", "0x1", 1}, {"b", "0x2", {}}, {"b", "-0", {}}, {"b", "-1", {}},
     {"i8", "-128", 0x80}, {"i8", "127", 0x7F}, {"i8", "128", {}}, {"i8", "-129", {}}, {"i8", "0x7F", 0x7F},
@@ -155,7 +156,8 @@ const IntegerCase kIntegerCases[] = {
     // Not numbers of any form: refused for every type.
     {"i16", "0x", {}}, {"i16", "-0x", {}}, {"i16", "-", {}}, {"i16", "+1", {}}, {"i16", "--1", {}}, {"i16", "1.0", {}},
     {"i16", "1e3", {}}, {"i16", "0x1g", {}}, {"u16", "0x-1", {}}, {"u16", "+1", {}},
-    {"u8", "010", 10}, {"i8", "-010", 0xF6},  // decimal, not octal
+    // Octal to CANopenNode (strtol base 0), decimal to us: refused, not guessed.
+    {"u8", "010", {}}, {"i8", "-010", {}}, {"u16", "00", {}}, {"u8", "0", 0}, {"i8", "-0", 0},
 };
 
 std::size_t width_of(std::string_view type) {
