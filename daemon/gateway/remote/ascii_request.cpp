@@ -2,6 +2,9 @@
 
 #include "base/number_text.hpp"
 
+#include <cctype>
+#include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 
@@ -109,6 +112,31 @@ bool encode_integer(AsciiType type, std::string_view v, std::vector<std::uint8_t
   return true;
 }
 
+// A REAL32/REAL64 value: a finite number the type holds. Out of range
+// (1e39 as r32: ERANGE, inf), too small to be kept (1e-50: ERANGE, 0),
+// "inf", "nan" and leading blanks are refused: none would be the number typed.
+template <typename Real>
+bool encode_real(std::string_view v, std::vector<std::uint8_t>& out) {
+  const std::string s(v);
+  if (s.empty() || std::isspace(static_cast<unsigned char>(s.front())) != 0) return false;
+  char* end = nullptr;
+  errno = 0;
+  Real r{};
+  if constexpr (sizeof(Real) == 4) r = std::strtof(s.c_str(), &end);
+  else r = std::strtod(s.c_str(), &end);
+  if (*end != '\0' || errno == ERANGE || !std::isfinite(r)) return false;
+  if constexpr (sizeof(Real) == 4) {
+    std::uint32_t u = 0;
+    std::memcpy(&u, &r, 4);
+    put_le(out, u, 4);
+  } else {
+    std::uint64_t u = 0;
+    std::memcpy(&u, &r, 8);
+    put_le(out, u, 8);
+  }
+  return true;
+}
+
 // The bytes of `value` as `type` (CiA 301 §7.1: little-endian).
 bool encode(AsciiType type, const std::string& value, std::vector<std::uint8_t>& out) {
   const bool quoted = !value.empty() && value[0] == '\x01';
@@ -119,26 +147,10 @@ bool encode(AsciiType type, const std::string& value, std::vector<std::uint8_t>&
       return true;
     case AsciiType::os:
       return parse_hex_bytes(v, v.size(), out);
-    case AsciiType::r32: {
-      char* end = nullptr;
-      const std::string s(v);
-      const float f = std::strtof(s.c_str(), &end);
-      if (s.empty() || *end != '\0') return false;
-      std::uint32_t u = 0;
-      std::memcpy(&u, &f, 4);
-      put_le(out, u, 4);
-      return true;
-    }
-    case AsciiType::r64: {
-      char* end = nullptr;
-      const std::string s(v);
-      const double d = std::strtod(s.c_str(), &end);
-      if (s.empty() || *end != '\0') return false;
-      std::uint64_t u = 0;
-      std::memcpy(&u, &d, 8);
-      put_le(out, u, 8);
-      return true;
-    }
+    case AsciiType::r32:
+      return encode_real<float>(v, out);
+    case AsciiType::r64:
+      return encode_real<double>(v, out);
     default:
       return encode_integer(type, v, out);
   }

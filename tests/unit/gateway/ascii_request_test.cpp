@@ -197,3 +197,17 @@ TEST(AsciiRequest, EveryIntegerFormIsRangeCheckedForItsType) {
     EXPECT_EQ(r.command.data, want) << line;
   }
 }
+
+// CiA 301 §7.1.4 REAL32/REAL64: a value the type cannot hold (1e39 as r32
+// would become infinity), one too small to keep (1e-50 would become 0),
+// "inf", "nan" and leading blanks are refused like an integer out of range.
+TEST(AsciiRequest, ARealItsTypeCannotHoldIsASyntaxError) {
+  for (const char* bad : {"[1] 10 w 0x2000 0 r32 1e39", "[1] 10 w 0x2000 0 r32 1e-50", "[1] 10 w 0x2000 0 r32 inf",
+                          "[1] 10 w 0x2000 0 r64 nan", "[1] 10 w 0x2000 0 r64 1e309", "[1] 10 w 0x2000 0 r64 -inf"}) {
+    const auto r = parse_ascii_request(bad);
+    EXPECT_EQ(r.kind, AsciiRequest::Kind::invalid) << bad;
+  }
+  const auto ok = parse_ascii_request("[1] 10 w 0x2000 0 r32 -1.5");
+  ASSERT_EQ(ok.kind, AsciiRequest::Kind::write);
+  EXPECT_EQ(ok.command.data, (std::vector<std::uint8_t>{0x00, 0x00, 0xC0, 0xBF}));
+}
