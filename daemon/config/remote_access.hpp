@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 namespace cobridge::config {
 
@@ -29,6 +30,8 @@ struct AsciiGatewaySettings {
   std::uint16_t tcp_port = 0;      // 0 = no TCP listener
   std::string bind = "127.0.0.1";  // the TCP listener's address
   bool writes_enabled = false;
+  std::vector<std::string> write_allow;  // TCP: CIDR networks whose writes are taken; empty = every client
+  std::string write_group = "cobridge-admin";  // Unix socket: root, the daemon's user and members write; "" = all
   std::uint32_t max_clients = 128;
   std::uint32_t sdo_timeout_ms = 1000;  // default per request ("set sdo_timeout" changes it per connection)
 };

@@ -362,6 +362,8 @@ void ControlServer::open_ascii_gateway() {
   o.max_clients = a.max_clients;
   o.sdo_timeout = std::chrono::milliseconds(a.sdo_timeout_ms);
   o.writes_enabled = a.writes_enabled;
+  for (const std::string& net : a.write_allow) (void)o.write_allow.add(net);  // checked by the loader
+  o.write_group = a.write_group;
   ascii_ = std::make_unique<AsciiServer>(remote_, o);
   const auto path = a.socket.empty() ? path_.parent_path() / "ascii.sock" : a.socket;
   const auto log = sys::logger("gateway");

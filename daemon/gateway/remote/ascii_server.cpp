@@ -138,6 +138,13 @@ TimePoint AsciiServer::process(TimePoint now) {
   return next;
 }
 
+// The Unix socket's write_group, as the control socket's: root, the
+// daemon's own user, or a member (by the groups the kernel recorded).
+bool AsciiServer::may_write_unix(const PeerCredentials& creds) const {
+  if (options_.write_group.empty()) return true;
+  return creds.uid == 0 || creds.uid == ::geteuid() || peer_in_group(creds, options_.write_group);
+}
+
 void AsciiServer::accept_from(int listen_fd, bool tcp, TimePoint now) {
   while (true) {
     sockaddr_in peer{};
@@ -157,8 +164,11 @@ void AsciiServer::accept_from(int listen_fd, bool tcp, TimePoint now) {
       char a[INET_ADDRSTRLEN] = "?";
       ::inet_ntop(AF_INET, &peer.sin_addr, a, sizeof a);
       c.who = std::string("tcp ") + a + ":" + std::to_string(ntohs(peer.sin_port));
+      c.may_write = options_.write_allow.contains_v4(ntohl(peer.sin_addr.s_addr));  // the listener is IPv4
     } else {
-      c.who = peer_credentials(fd).to_string();
+      const PeerCredentials creds = peer_credentials(fd);
+      c.who = creds.to_string();
+      c.may_write = may_write_unix(creds);
     }
     clients_.push_back(std::move(c));
   }
@@ -225,6 +235,11 @@ std::string AsciiServer::run(Client& c, AsciiRequest r) {
   fill_command(r, cmd.node, c.sdo_timeout, c.who);
   if (cmd.is_write()) {
     if (!options_.writes_enabled) return ascii_error(seq, AsciiError::not_supported);
+    if (!c.may_write) {
+      sys::logger("gateway")->warn("ascii gateway: {} on net {} node {} refused to {}: not in {}", to_string(cmd.op), net,
+                                   cmd.node, cmd.caller, c.who.rfind("tcp ", 0) == 0 ? "write_allow" : "write_group");
+      return ascii_error(seq, AsciiError::not_supported);
+    }
     sys::logger("gateway")->info("ascii gateway: {} on net {} node {} by {}", to_string(cmd.op), net, cmd.node, cmd.caller);
   }
   cmd.tag = next_tag_++;

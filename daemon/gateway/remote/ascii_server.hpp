@@ -34,6 +34,8 @@
 #include "gateway/remote/remote_replies.hpp"
 #include "gateway/remote/remote_target.hpp"
 
+#include <cobridge/ip_allow_list.hpp>
+
 #include <poll.h>
 
 #include <chrono>
@@ -51,6 +53,8 @@ struct AsciiServerOptions {
   std::chrono::milliseconds idle_timeout{60000};
   std::chrono::milliseconds sdo_timeout{1000};
   bool writes_enabled = false;
+  IpAllowList write_allow;  // TCP clients whose writes are taken (empty: all)
+  std::string write_group;  // Unix socket: root, the daemon's user or members write (empty: all)
 };
 
 class AsciiServer {
@@ -75,6 +79,7 @@ class AsciiServer {
  private:
   struct Client : LineConnection {
     std::string who;        // for the log of writes
+    bool may_write = false; // write_allow / write_group, decided at accept (writes_enabled per request)
     unsigned net = 1;       // "set network"
     int node = -1;          // "set node"; -1 = none
     std::chrono::milliseconds sdo_timeout{1000};
@@ -87,6 +92,7 @@ class AsciiServer {
   };
 
   void accept_from(int listen_fd, bool tcp, canopen::TimePoint now);
+  [[nodiscard]] bool may_write_unix(const PeerCredentials& creds) const;
   bool serve(Client& c, canopen::TimePoint now);
   void answer(Client& c, std::string_view line, canopen::TimePoint now);
   // The answer to a local request (set, info, help), or empty when queued.

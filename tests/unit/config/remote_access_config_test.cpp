@@ -4,6 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <string>
+#include <vector>
+
 using cobridge::config::load_string;
 
 namespace {
@@ -22,7 +25,8 @@ TEST(RemoteAccessConfig, DefaultsAreReadOnly) {
 TEST(RemoteAccessConfig, SectionsAreRead) {
   const std::string text = std::string(kBase) +
                            "[control]\nwrites_enabled = true\nwrite_group = \"root\"\n"
-                           "[ascii_gateway]\nsocket = \"/run/x/a.sock\"\ntcp_port = 5309\nwrites_enabled = true\n";
+                           "[ascii_gateway]\nsocket = \"/run/x/a.sock\"\ntcp_port = 5309\nwrites_enabled = true\n"
+                           "write_group = \"root\"\nwrite_allow = [\"10.0.0.0/8\", \"127.0.0.1\"]\n";
   const auto r = load_string(text, "t.toml", "/tmp");
   ASSERT_TRUE(r.ok());
   EXPECT_TRUE(r.config().remote.control.writes_enabled);
@@ -30,6 +34,18 @@ TEST(RemoteAccessConfig, SectionsAreRead) {
   EXPECT_TRUE(r.config().remote.ascii.enabled);  // the section switches it on
   EXPECT_EQ(r.config().remote.ascii.tcp_port, 5309);
   EXPECT_EQ(r.config().remote.ascii.socket, "/run/x/a.sock");
+  EXPECT_EQ(r.config().remote.ascii.write_group, "root");
+  EXPECT_EQ(r.config().remote.ascii.write_allow, (std::vector<std::string>{"10.0.0.0/8", "127.0.0.1"}));
+}
+
+// Issue 25, item 6: the 309-3 write_allow entries are networks; a name is refused at its place.
+TEST(RemoteAccessConfig, AsciiWriteAllowEntriesMustBeNetworks) {
+  const std::string text = std::string(kBase) + "[ascii_gateway]\nwrite_allow = [\"10.0.0.0/8\", \"scada-host\"]\n";
+  const auto r = load_string(text, "t.toml", "/tmp");
+  ASSERT_FALSE(r.ok());
+  ASSERT_EQ(r.diagnostics().size(), 1U);
+  EXPECT_EQ(r.diagnostics()[0].line, 6U);
+  EXPECT_NE(r.diagnostics()[0].message.find("\"scada-host\" is not an address or CIDR network"), std::string::npos);
 }
 
 TEST(RemoteAccessConfig, BadValuesAreReported) {

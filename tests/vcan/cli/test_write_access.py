@@ -239,6 +239,80 @@ def outsider_phase(report, args, ws, listener):
     report.check(rc == 3 and "Permission denied" in line, "a raw client of the outsider cannot connect", line)
 
 
+ASCII_CLIENT = r"""
+import socket, sys
+kind, where, line = sys.argv[1], sys.argv[2], sys.argv[3]
+if kind == "unix":
+    s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    s.settimeout(10)
+    s.connect(where)
+else:
+    s = socket.create_connection(("127.0.0.1", int(where)), timeout=10)
+print("local %s" % (s.getsockname()[1] if kind == "tcp" else "-"))
+s.sendall((line + "\r\n").encode())
+data = b""
+while not data.endswith(b"\r\n"):  # as cocomm: the answer ends with CR LF
+    chunk = s.recv(1)
+    if not chunk:
+        break
+    data += chunk
+print(data.decode().strip())
+"""
+
+ASCII_TCP_PORT = 5309
+
+
+def ascii_socket(ws):
+    """Beside the control socket: a directory the service's user owns."""
+    return os.path.join(os.path.dirname(ws.control), "ascii.sock")
+
+
+def ascii_request(ws, prefix, kind, line):
+    """One CiA 309-3 request as `prefix`'s user: (client's local port, answer)."""
+    where = ascii_socket(ws) if kind == "unix" else str(ASCII_TCP_PORT)
+    r = subprocess.run(prefix + ["/usr/bin/python3", "-c", ASCII_CLIENT, kind, where, line], capture_output=True,
+                       text=True, timeout=30)
+    lines = r.stdout.strip().splitlines()
+    return (lines[0].split()[1] if lines else "?"), (lines[1] if len(lines) > 1 else r.stderr.strip())
+
+
+def ascii_phase(report, args, ws, bus, devices):
+    """Issue 25, item 6: the 309-3 gateway's writes have their own allow list
+    (write_allow, TCP) and group (write_group, Unix socket), as the control
+    socket has; a refusal answers ERROR: 100 and is logged with the caller."""
+    extra = ('[ascii_gateway]\nsocket = %s\ntcp_port = %d\nwrites_enabled = true\nwrite_group = "cbt-admin"\n'
+             'write_allow = ["10.0.0.0/8"]\n' % (e2e.toml_value(ascii_socket(ws)), ASCII_TCP_PORT))
+    config = e2e.write_config(ws, [bus], devices, extra=extra)
+    daemon = e2e.Daemon(args.daemon, config, ws, run_as=as_user("cbt-svc"), log_name="daemon-ascii.log")
+    try:
+        _, took = daemon.wait_until(e2e.all_operational(["rot-a", "mt-a"]), 60, interval=0.1)
+        report.check(took is not None, "309-3 phase: daemon with [ascii_gateway] up, devices operational")
+        write = "[1] 20 w 0x1017 0 u16 100"
+        _, answer = ascii_request(ws, as_user("cbt-reader"), "unix", write)
+        report.check(answer == "[1] ERROR: 100", "309-3 Unix socket: cbt-reader (not in write_group) may not write",
+                     answer)
+        _, answer = ascii_request(ws, as_user("cbt-reader"), "unix", "[2] 20 r 0x1018 4 u32")
+        report.check(answer == "[2] 2002", "309-3 Unix socket: cbt-reader still reads", answer)
+        _, answer = ascii_request(ws, as_user("cbt-member"), "unix", write)
+        report.check(answer == "[1] OK", "309-3 Unix socket: cbt-member (write_group) writes", answer)
+        port, answer = ascii_request(ws, [], "tcp", write)
+        report.check(answer == "[1] ERROR: 100", "309-3 TCP: a client outside write_allow (127.0.0.1) may not write",
+                     answer)
+        _, answer = ascii_request(ws, [], "tcp", "[3] 20 r 0x1018 4 u32")
+        report.check(answer == "[3] 2002", "309-3 TCP: the same client still reads", answer)
+        text = log_text(daemon)
+        report.check("refused to uid 64102 pid" in text and "not in write_group" in text,
+                     "the refused Unix-socket write logged with the caller's uid")
+        report.check("by uid 64104 pid" in text, "the allowed write logged with the member's uid")
+        report.check(("refused to tcp 127.0.0.1:%s" % port) in text and "not in write_allow" in text,
+                     "the refused TCP write logged with the client's address and port", port)
+        e2e.check_clean_exit(report, daemon, "309-3 phase: SIGTERM -> exit 0 within 1 s")
+        daemon = None
+    finally:
+        if daemon is not None:
+            daemon.stop()
+
+
 def main():
     args = e2e.parse_args()
     args.daemon, args.cli = os.path.abspath(args.daemon), os.path.abspath(args.cli)  # run through setpriv
@@ -295,6 +369,7 @@ def main():
             print(daemon.tail(80))
         e2e.check_clean_exit(report, daemon)
         daemon = None
+        ascii_phase(report, args, ws, bus, devices)
     finally:
         e2e.shut_down(ws, daemon, sim, listener)
         for m in mounted:

@@ -297,7 +297,8 @@ def main():
                for (name, m, _, s, n, bus) in DEVICES]
     path = os.path.join(ws.run, "ascii.sock")
     extra = '[outputs.modbus]\nbind = "127.0.0.1"\nport = 1502\n'
-    extra += "[ascii_gateway]\nsocket = %s\ntcp_port = %d\nwrites_enabled = true\n" % (e2e.toml_value(path), TCP_PORT)
+    extra += "[ascii_gateway]\nsocket = %s\ntcp_port = %d\nwrites_enabled = true\nwrite_group = \"root\"\n" % (
+        e2e.toml_value(path), TCP_PORT)
     config = e2e.write_config(ws, buses, devices, extra=extra)
     daemon = e2e.Daemon(args.daemon, config, ws, extra_args=["--plugin-dir", args.plugins])
     try:
