@@ -522,11 +522,7 @@ std::string ControlServer::write_refusal(const Client& c) const {
   const auto access = remote_.access();
   if (!access || !access->control.writes_enabled)
     return "writes through the control socket are disabled ([control] writes_enabled = false)";
-  if (!access->control.write_group.empty() && c.peer.uid != 0 && c.peer.uid != ::geteuid() &&
-      !peer_in_group(c.peer, access->control.write_group))
-    return "uid " + std::to_string(c.peer.uid) + " is not in the write group \"" + access->control.write_group +
-           "\" ([control] write_group)";
-  return {};
+  return write_group_refusal(c.peer, access->control.write_group, ::geteuid());
 }
 
 // Commissioning reassigns node-IDs (LSS): a bus write like any other, under

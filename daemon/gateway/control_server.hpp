@@ -17,8 +17,9 @@
 // the options name another): the daemon stays the one master of its buses.
 // Writes (sdo-write, nmt, lss-set-node-id) are refused unless [control]
 // writes_enabled is set and the caller (SO_PEERCRED) is root, the daemon's
-// own user or a member of [control] write_group; each write is logged with
-// the caller's uid and pid. While a client's command runs, that client's
+// own user or a member of [control] write_group (a caller the kernel cannot
+// name is none of them: remote/peer_credentials.hpp); each write is logged
+// with the caller's uid and pid. While a client's command runs, that client's
 // next request waits; other clients are served meanwhile.
 //
 // A client may send several requests on one connection. No client can hold

@@ -1,9 +1,42 @@
 #include "web/http_route.hpp"
 
 namespace cobridge::web {
+namespace {
 
-HttpRoute route_request(std::string_view method, std::string_view path) noexcept {
+bool is_control(unsigned char c) noexcept { return c < 0x20 || c == 0x7F; }
+
+int hex_digit(char c) noexcept {
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  return -1;
+}
+
+// "%XX" at `i` standing for a control byte.
+bool escapes_control(std::string_view s, std::size_t i) noexcept {
+  if (s[i] != '%' || i + 2 >= s.size()) return false;
+  const int high = hex_digit(s[i + 1]);
+  const int low = hex_digit(s[i + 2]);
+  return high >= 0 && low >= 0 && is_control(static_cast<unsigned char>(high * 16 + low));
+}
+
+}  // namespace
+
+bool is_clean_target(std::string_view raw) noexcept {
+  for (std::size_t i = 0; i < raw.size(); ++i) {
+    const auto c = static_cast<unsigned char>(raw[i]);
+    if (is_control(c) || c == ' ' || escapes_control(raw, i)) return false;
+  }
+  return true;
+}
+
+HttpRoute route_request(std::string_view method, std::string_view path, bool clean_target) noexcept {
   HttpRoute r;
+  if (!clean_target) {
+    r.status = 400;
+    r.reason = "bad request target: it may hold no control byte and no space, sent or percent-encoded";
+    return r;
+  }
   if (method == "HEAD") {
     r.head = true;
   } else if (method != "GET") {

@@ -43,16 +43,33 @@ void mhd_log(void* /*cls*/, const char* fmt, va_list ap) {
   sys::logger("web")->debug("libmicrohttpd: {}", text);
 }
 
+// libmicrohttpd calls this with the request target as sent, before it
+// decodes it in place, and gives what it returns to on_request as the
+// request's state: where the target's C string ends, or nullptr when the
+// target is not clean. The target ends where libmicrohttpd wrote a NUL over
+// the space before the version; a NUL the client sent ends the C string
+// before that, and on_request sees the gap (target_was_clean).
+void* on_target(void* /*cls*/, const char* uri, MHD_Connection* /*connection*/) {
+  const std::string_view raw(uri);
+  return is_clean_target(raw) ? const_cast<char*>(uri + raw.size()) : nullptr;
+}
+
+bool target_was_clean(const void* state, const char* version) {
+  const auto* end = static_cast<const char*>(state);
+  return end != nullptr && version != nullptr && end + 1 == version;
+}
+
 MHD_Result on_request(void* cls, MHD_Connection* connection, const char* url, const char* method,
-                      const char* /*version*/, const char* /*upload_data*/, std::size_t* /*upload_data_size*/,
-                      void** /*request_state*/) {
+                      const char* version, const char* /*upload_data*/, std::size_t* /*upload_data_size*/,
+                      void** request_state) {
   auto* server = static_cast<WebServer*>(cls);
+  const bool clean_target = target_was_clean(*request_state, version);
   char* password = nullptr;
   char* user = MHD_basic_auth_get_username_password(connection, &password);
   Credentials credentials{user != nullptr ? user : "", password != nullptr ? password : ""};
   HttpAnswer a;
   try {
-    a = server->handle(method, url, user != nullptr ? &credentials : nullptr);
+    a = server->handle(method, url, user != nullptr ? &credentials : nullptr, clean_target);
   } catch (const std::exception& e) {
     a.status = 500;
     a.body = "internal error\n";
@@ -145,6 +162,7 @@ Error WebServer::start(const config::WebSettings& settings) {
       {MHD_OPTION_CONNECTION_MEMORY_LIMIT, static_cast<intptr_t>(kConnectionMemory), nullptr},
       {MHD_OPTION_SOCK_ADDR, 0, const_cast<sockaddr*>(addr)},
       {MHD_OPTION_EXTERNAL_LOGGER, reinterpret_cast<intptr_t>(&mhd_log), nullptr},
+      {MHD_OPTION_URI_LOG_CALLBACK, reinterpret_cast<intptr_t>(&on_target), nullptr},
   };
   if (tls) {
     options.push_back({MHD_OPTION_HTTPS_MEM_CERT, 0, tls_cert_.data()});
@@ -182,9 +200,10 @@ WebServer::Snapshot& WebServer::snapshot() {
   return snap_;
 }
 
-HttpAnswer WebServer::handle(std::string_view method, std::string_view path, const Credentials* credentials) {
+HttpAnswer WebServer::handle(std::string_view method, std::string_view path, const Credentials* credentials,
+                             bool clean_target) {
   HttpAnswer a;
-  const HttpRoute route = route_request(method, path);
+  const HttpRoute route = route_request(method, path, clean_target);
   a.content_type = content_type(route.resource);
   if (route.status != 200) {
     a.status = route.status;

@@ -9,7 +9,7 @@
 // Bounded by construction: one internal thread (epoll), at most
 // `max_clients` connections, a per-connection memory limit that caps the
 // request header size, an idle timeout, GET and HEAD only, no request body
-// read. TLS (GnuTLS, through libmicrohttpd) and HTTP basic authentication
+// read, a request target with a control byte or a space refused (400). TLS (GnuTLS, through libmicrohttpd) and HTTP basic authentication
 // from a file are optional.
 //
 // Threads: start()/stop() on the main thread; requests are answered on
@@ -71,8 +71,10 @@ class WebServer {
   // The bound port (the configured one, or the kernel's choice for port 0 in tests).
   [[nodiscard]] std::uint16_t port() const noexcept { return port_; }
 
-  // One request: `credentials` is nullptr when the client sent none.
-  [[nodiscard]] HttpAnswer handle(std::string_view method, std::string_view path, const Credentials* credentials);
+  // One request: `credentials` is nullptr when the client sent none;
+  // `clean_target` is is_clean_target() of the request target as sent.
+  [[nodiscard]] HttpAnswer handle(std::string_view method, std::string_view path, const Credentials* credentials,
+                                  bool clean_target = true);
   // Test hook: require these users (as if an auth file were loaded).
   void set_auth(AuthFile auth) { auth_ = std::move(auth); }
 

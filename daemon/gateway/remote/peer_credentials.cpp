@@ -37,6 +37,8 @@ PeerCredentials peer_credentials(int fd) {
   ucred cred{};
   socklen_t len = sizeof cred;
   if (::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) != 0 || len != sizeof cred) return p;
+  // A socket without credentials (TCP) answers uid and gid -1, pid 0.
+  if (cred.uid == kNoUid || cred.gid == kNoGid) return p;
   p.known = true;
   p.uid = cred.uid;
   p.gid = cred.gid;
@@ -56,6 +58,17 @@ bool peer_in_group(const PeerCredentials& peer, const std::string& group_name) {
   if (rc != 0 || gr == nullptr) return false;
   const gid_t wanted = gr->gr_gid;
   return peer.gid == wanted || std::find(peer.groups.begin(), peer.groups.end(), wanted) != peer.groups.end();
+}
+
+std::string write_group_refusal(const PeerCredentials& peer, const std::string& write_group,
+                                uid_t daemon_uid) {
+  if (write_group.empty()) return {};
+  const std::string rule = "the write group \"" + write_group + "\" ([control] write_group)";
+  if (!peer.known)
+    return "the caller is unknown (the kernel gave no credentials for the connection), so it cannot be checked "
+           "against " + rule;
+  if (peer.uid == 0 || peer.uid == daemon_uid || peer_in_group(peer, write_group)) return {};
+  return "uid " + std::to_string(peer.uid) + " is not in " + rule;
 }
 
 }  // namespace cobridge::gateway

@@ -3,13 +3,16 @@
 // [control] write_group. The answer must be the process's groups as the
 // kernel recorded them at connect() (SO_PEERCRED gid, SO_PEERGROUPS), the
 // same credentials the kernel checked against the socket file's mode, not
-// the user's entry in the group database. Real Unix sockets; callers with
+// the user's entry in the group database. A caller the kernel cannot name
+// has no identity and may not write (issue 25, item 10). Real Unix sockets
+// (and one TCP connection, which carries no credentials); callers with
 // other credentials are forked children that change their groups and user
 // (needs root, as the machines and CI run).
 #include "gateway/remote/peer_credentials.hpp"
 
 #include <grp.h>
 #include <gtest/gtest.h>
+#include <netinet/in.h>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <sys/wait.h>
@@ -22,6 +25,7 @@
 using cobridge::gateway::peer_credentials;
 using cobridge::gateway::peer_in_group;
 using cobridge::gateway::PeerCredentials;
+using cobridge::gateway::write_group_refusal;
 
 namespace {
 
@@ -106,6 +110,34 @@ TEST(PeerCredentials, NotASocketIsAnUnknownPeerInNoGroup) {
   EXPECT_FALSE(p.known);
   EXPECT_EQ(p.to_string(), "unknown peer");
   EXPECT_FALSE(peer_in_group(p, "root"));
+  // Issue 25, item 10: an unknown peer counted as uid 0 in the write check.
+  EXPECT_NE(p.uid, 0u) << "an unknown peer is never taken for root";
+  EXPECT_NE(p.gid, 0u) << "nor for group root";
+}
+
+// A TCP connection carries no credentials: the kernel answers SO_PEERCRED
+// with uid and gid -1 and pid 0 (and no error). That is no identity either.
+TEST(PeerCredentials, ATcpPeerHasNoCredentialsAndIsUnknown) {
+  const int l = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t len = sizeof a;
+  ASSERT_EQ(::bind(l, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+  ASSERT_EQ(::listen(l, 1), 0);
+  ASSERT_EQ(::getsockname(l, reinterpret_cast<sockaddr*>(&a), &len), 0);
+  const int c = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  ASSERT_EQ(::connect(c, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+  const int s = ::accept4(l, nullptr, nullptr, SOCK_CLOEXEC);
+  ASSERT_GE(s, 0);
+  const PeerCredentials p = peer_credentials(s);
+  ::close(s);
+  ::close(c);
+  ::close(l);
+  EXPECT_FALSE(p.known) << p.to_string();
+  EXPECT_EQ(p.to_string(), "unknown peer");
+  EXPECT_NE(p.uid, 0u);
+  EXPECT_FALSE(peer_in_group(p, "root"));
 }
 
 // Like systemd's SupplementaryGroups=: user nobody's process carries group
@@ -162,4 +194,42 @@ TEST(PeerCredentials, ManySupplementaryGroupsAreAllSeen) {
   std::sort(many.begin(), many.end());
   EXPECT_EQ(theirs, many);
   EXPECT_TRUE(peer_in_group(p, "users"));
+}
+
+// Issue 25, item 10: the write rule took an unknown peer for uid 0 (root)
+// and let it write. A peer without identity is refused whenever the rule
+// asks for a user or group, whoever the daemon runs as, with the reason.
+TEST(PeerCredentials, AnUnknownPeerIsRefusedAWriteThatNeedsAGroup) {
+  const PeerCredentials unknown = peer_credentials(-1);
+  ASSERT_FALSE(unknown.known);
+  for (const uid_t daemon_uid : {uid_t{0}, uid_t{998}}) {
+    for (const char* group : {"root", "cobridge-admin", "no-such-group-cobridge"}) {
+      const std::string why = write_group_refusal(unknown, group, daemon_uid);
+      EXPECT_NE(why.find("the caller is unknown"), std::string::npos) << group << ", daemon uid " << daemon_uid;
+      EXPECT_NE(why.find("write group \"" + std::string(group) + "\" ([control] write_group)"), std::string::npos)
+          << why;
+    }
+  }
+  // A write group of "" asks for no identity: whoever may open the socket writes.
+  EXPECT_EQ(write_group_refusal(unknown, "", 0), "");
+}
+
+// The rule for a peer the kernel named: root, the daemon's own user or a
+// member of the group; anyone else refused with its uid.
+TEST(PeerCredentials, AKnownPeerWritesAsRootTheDaemonsUserOrAMember) {
+  PeerCredentials p;
+  p.known = true;
+  p.uid = 0;
+  p.gid = 0;
+  EXPECT_EQ(write_group_refusal(p, "no-such-group-cobridge", 998), "") << "root";
+  p.uid = 998;
+  p.gid = 998;
+  EXPECT_EQ(write_group_refusal(p, "no-such-group-cobridge", 998), "") << "the daemon's own user";
+  p.uid = 4711;
+  p.gid = 4711;
+  EXPECT_EQ(write_group_refusal(p, "no-such-group-cobridge", 998),
+            "uid 4711 is not in the write group \"no-such-group-cobridge\" ([control] write_group)");
+  p.groups = {gid_of("users")};
+  EXPECT_EQ(write_group_refusal(p, "users", 998), "") << "a member";
+  EXPECT_EQ(write_group_refusal(p, "", 998), "");
 }

@@ -238,4 +238,55 @@ TEST(WebServerSocket, AnswersOverHttpAndRefusesWhatItShould) {
   server.stop();
 }
 
+// A request's bytes for a failure message: control bytes as \xNN.
+std::string printable(const std::string& bytes) {
+  std::string out;
+  for (const char ch : bytes) {
+    const auto u = static_cast<unsigned char>(ch);
+    if (u >= 0x20 && u < 0x7F) {
+      out += ch;
+    } else {
+      const char* hex = "0123456789abcdef";
+      out += std::string("\\x") + hex[u >> 4] + hex[u & 15];
+    }
+  }
+  return out;
+}
+
+// Issue 25, item 9: libmicrohttpd hands the request target on as a C string,
+// so "GET /metrics\0x" was answered 200 with the metrics (the path cut at the
+// NUL), and so was "/metrics%00x" (cut at the decoded NUL). A target holding
+// a NUL, another control byte or a space, sent or percent-encoded, gets 400,
+// and the daemon is not asked for anything.
+TEST(WebServerSocket, ATargetWithAControlByteOrASpaceGets400) {
+  std::atomic<int> calls{0};
+  WebServer server([&] {
+    ++calls;
+    return cobridge::web::test::sample_report(1, 2);
+  });
+  cobridge::config::WebSettings s;
+  s.port = 0;
+  const Error started = server.start(s);
+  ASSERT_FALSE(started) << started.to_string();
+  const std::string tail = " HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n";
+  const std::string targets[] = {std::string("/metrics\0x", 10), std::string("/metrics\0", 9),
+                                 std::string("/\0/metrics", 10), "/metrics\x01", "/metrics\tx", "/metrics\rx",
+                                 "/metrics\x1f", "/metrics\x7f", "/metrics x", "/metrics?a b", "/metrics%00x",
+                                 "/metrics%0a", "/metrics%1F", "/metrics%7f", "/metrics?x=%00"};
+  for (const std::string& target : targets) {
+    for (const char* method : {"GET ", "HEAD "}) {
+      const std::string answer = exchange(server.port(), method + target + tail);
+      const std::string status_line = answer.substr(0, answer.find('\r'));
+      EXPECT_EQ(status_line.rfind("HTTP/1.1 400 ", 0), 0u) << method << printable(target) << " -> " << status_line;
+      EXPECT_EQ(answer.find("# HELP"), std::string::npos) << method << printable(target) << ": the metrics";
+    }
+  }
+  EXPECT_EQ(calls.load(), 0) << "no refused request asked the daemon for its status";
+  // The same requests without the bad byte are served.
+  const std::string metrics = exchange(server.port(), "GET /metrics?x=%41" + tail);
+  EXPECT_EQ(metrics.rfind("HTTP/1.1 200 ", 0), 0u) << metrics;
+  EXPECT_THAT(metrics, HasSubstr("# HELP"));
+  server.stop();
+}
+
 }  // namespace

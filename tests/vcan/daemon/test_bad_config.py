@@ -42,6 +42,15 @@ def staged_fixtures(ws):
     with open(deep, "w") as f:
         f.write('[[bus]]\nname = "line1"\ninterface = "vcan0"\nx = ' + "[" * 50000 + "]" * 50000 + "\n")
     out.append(("daemon/bad_deep_nesting.toml", deep))
+    # Issue 25, item 12: 100 000 levels of dotted keys and table headers
+    # (toml++ recursed per segment: SIGSEGV), each form in its own file.
+    keys = ".".join(["a"] * 100000)
+    for form, text in (("dotted_key", keys + " = 1"), ("table_header", "[" + keys + "]"),
+                       ("array_header", "[[" + keys + "]]"), ("inline_key", "x = { " + keys + " = 1 }")):
+        name = "daemon-bad_deep_%s.toml" % form
+        with open(ws.path(name), "w") as f:
+            f.write('[[bus]]\nname = "line1"\ninterface = "vcan0"\n\n' + text + "\n")
+        out.append(("daemon/bad_deep_%s.toml" % form, ws.path(name)))
     return out
 
 
@@ -79,6 +88,7 @@ def main():
             t0 = time.time()
             r = subprocess.run([args.daemon, "--check-config", path], capture_output=True, text=True, timeout=20)
             diags = [l for l in r.stderr.splitlines() if l.startswith(ws.dir) and DIAGNOSTIC.match(l)]
+            # returncode < 0: killed by a signal (a stack overflow is -11, SIGSEGV).
             report.check(r.returncode == 1 and diags,
                          "%s: --check-config exits 1 with file:line:col diagnostics" % name,
                          "exit %d, first: %s" % (r.returncode, diags[0] if diags else r.stderr.strip()[:200]))
@@ -86,6 +96,10 @@ def main():
                 report.check("malformed.eds:25:" in r.stderr and "malformed.eds:47:" in r.stderr,
                              "%s: each EDS problem named with its file and line" % name, r.stderr.strip()[:400])
             expected = {"bad_deep_nesting.toml": "nested more than 32 levels deep",
+                        "bad_deep_dotted_key.toml": ":5:60: key nested more than 32 levels deep",
+                        "bad_deep_table_header.toml": ":5:65: table header nested more than 32 levels deep",
+                        "bad_deep_array_header.toml": ":5:64: table header nested more than 32 levels deep",
+                        "bad_deep_inline_key.toml": ":5:64: key nested more than 32 levels deep",
                         "bad_unknown_family.toml": "names no device family cobridge knows",
                         "bad_long_control_socket.toml": "a Unix socket path may have at most 107",
                         "bad_output_unknown_key.toml": "unknown key 'prot'",

@@ -31,6 +31,30 @@ def write(ws, bad=False):
     return e2e.write_config(ws, buses, devices)
 
 
+def deep_sighup(report, daemon, notify, ws):
+    path = write(ws)
+    with open(path, "a") as f:
+        f.write("\n" + ".".join(["a"] * 100000) + " = 1\n")
+    n = len(notify.all())
+    daemon.proc.send_signal(signal.SIGHUP)
+    rejected = notify.wait_for(lambda m: m.startswith("STATUS=") and "reload rejected" in m, 5, after_index=n)
+    rdy = notify.wait_for(lambda m: "READY=1" in m.split("\n"), 5, after_index=n)
+    time.sleep(0.3)
+    alive = daemon.proc.poll() is None
+    report.check(alive and rejected is not None and rdy is not None,
+                 "deep dotted key on SIGHUP: the daemon runs on, READY=1, STATUS= says rejected",
+                 "exit %s; %s" % (daemon.proc.poll(), rejected[2] if rejected else notify.all()[n:]))
+    if alive:
+        devs = {d["name"]: d for b in daemon.status()["buses"] for d in b["devices"]}
+        report.check(devs.get("rot-a", {}).get("node_id") == 10 and devs.get("mt-a", {}).get("state") == "operational",
+                     "deep dotted key on SIGHUP: still running the old configuration")
+    with open(daemon.log_path) as f:
+        log = f.read()
+    report.check("%s:" % path in log and "key nested more than 32 levels deep" in log,
+                 "deep dotted key on SIGHUP: the error is logged with file:line:col and the limit",
+                 "; ".join(l for l in log.splitlines() if "nested" in l)[-300:])
+
+
 def main():
     args = e2e.parse_args()
     report = e2e.Report("test_notify")
@@ -112,6 +136,11 @@ def main():
         with open(daemon.log_path) as f:
             log = f.read()
         report.check("node_id 200 is out of range" in log, "bad file on SIGHUP: the error is logged with its place")
+
+        # Issue 25, item 12: a file with a dotted key 100 000 levels deep swapped
+        # in; SIGHUP crashed the daemon (toml++ recursed per segment). Rejected
+        # like any bad file: the old configuration kept, the error logged.
+        deep_sighup(report, daemon, notify, ws)
         write(ws)
 
         # SIGTERM: STOPPING=1 and exit 0 within 1 s.
