@@ -7,6 +7,7 @@
 
 #include "gateway/remote/connection_loan.hpp"
 #include "held_commands.hpp"
+#include "unit/support/eventually.hpp"
 
 #include <gtest/gtest.h>
 #include <sys/socket.h>
@@ -41,6 +42,7 @@ using cobridge::gateway::RemoteReplies;
 using cobridge::gateway::RemoteResult;
 using cobridge::gateway::RemoteTarget;
 using cobridge::gateway::StatusReport;
+using cobridge::test::eventually;
 using Clock = std::chrono::steady_clock;
 
 namespace {
@@ -128,6 +130,7 @@ class ServerLoop {
         auto wait = std::chrono::duration_cast<std::chrono::milliseconds>(next - Clock::now());
         if (next == cobridge::canopen::kNever || wait > max_wait) wait = max_wait;
         if (wait < 0ms) wait = 0ms;
+        ++polls_;
         ::poll(fds.data(), fds.size(), static_cast<int>(wait.count()));
         server_.note_ready(fds);
         ++turns_;
@@ -151,6 +154,16 @@ class ServerLoop {
   [[nodiscard]] std::size_t clients() const { return clients_; }
   // Wake-ups of the loop so far.
   [[nodiscard]] std::size_t turns() const { return turns_; }
+  // Entries into poll so far: one more than turns() while the loop waits
+  // there, so a count taken then grows only once a wake-up's turn is over.
+  [[nodiscard]] std::size_t polls() const { return polls_; }
+  // polls() while the loop waits in poll (its turn, with all it did, is
+  // over), 0 while it is in a turn. polls_ is read first: a wake-up between
+  // the two reads shows as a turn.
+  [[nodiscard]] std::size_t waiting_in_poll() const {
+    const std::size_t p = polls_;
+    return p == turns_ + 1 ? p : 0;
+  }
 
  private:
   std::filesystem::path path_;
@@ -158,6 +171,7 @@ class ServerLoop {
   std::atomic<bool> stop_{false};
   std::atomic<std::size_t> clients_{0};
   std::atomic<std::size_t> turns_{0};
+  std::atomic<std::size_t> polls_{0};
   std::thread thread_;
 };
 
@@ -234,6 +248,11 @@ config::RemoteAccess writes_open() {
   a.control.write_group.clear();
   return a;
 }
+
+// How long a test watches for something that must NOT happen (a wake-up of
+// the loop, a read of a lent connection): an absence holds only over a
+// window. Each such test first waits for what makes the absence meaningful.
+constexpr auto kAbsenceWindow = 100ms;
 
 }  // namespace
 
@@ -362,8 +381,8 @@ TEST(ControlServer, SilentClientIsClosedAfterTheTimeout) {
   ASSERT_TRUE(quiet.connected());
   EXPECT_FALSE(quiet.closed_within(300ms));
   EXPECT_TRUE(quiet.closed_within(700ms));
-  std::this_thread::sleep_for(50ms);
-  EXPECT_EQ(loop.clients(), 0u);
+  // The loop counts its clients after the turn that closed this one.
+  EXPECT_TRUE(eventually([&] { return loop.clients() == 0u; }, 2s)) << loop.clients() << " clients counted";
 }
 
 // Protocol rule: a line longer than max_line is answered with an error and
@@ -398,7 +417,8 @@ TEST(ControlServer, ConnectionsBeyondTheLimitAreRefused) {
   ServerLoop loop(h, fast_options());
   std::vector<std::unique_ptr<Client>> inside;
   for (int i = 0; i < 4; ++i) inside.push_back(std::make_unique<Client>(loop.path()));
-  std::this_thread::sleep_for(60ms);
+  // All four accepted (connect() returns once queued): the next is the fifth.
+  ASSERT_TRUE(eventually([&] { return loop.clients() == 4u; }, 2s)) << loop.clients() << " of 4 accepted";
   Client extra(loop.path());
   EXPECT_EQ(extra.line(), "{\"ok\":false,\"error\":{\"code\":\"unavailable\",\"where\":\"\",\"message\":"
                           "\"too many clients (limit 4)\"}}");
@@ -503,12 +523,14 @@ TEST(ControlServer, CommandAnswerReachesTheClientWithoutTheMainLoop) {
   ASSERT_FALSE(server.open(dir / "control.sock"));
   Client c(dir / "control.sock");
   ASSERT_TRUE(c.connected());
-  // Turns the main loop until the bus holds `n` commands.
+  // Turns the main loop until the bus holds `n` commands (2 s at most).
   auto run_until_held = [&](std::size_t n) {
-    for (int i = 0; i < 200 && bus.held() < n; ++i) {
-      (void)server.process(Clock::now());
-      std::this_thread::sleep_for(1ms);
-    }
+    (void)eventually(
+        [&] {
+          (void)server.process(Clock::now());
+          return bus.held() >= n;
+        },
+        2s);
     return bus.held() == n;
   };
   c.send("sdo-read line1 20 1018 4\n");
@@ -540,7 +562,7 @@ TEST(ControlServer, AnswerTheSocketCannotTakeIsFinishedByTheMainLoop) {
   Client c(loop.path());
   ASSERT_TRUE(c.connected());
   c.send("sdo-read line1 20 2000 0\n");
-  for (int i = 0; i < 200 && bus.held() == 0; ++i) std::this_thread::sleep_for(1ms);
+  ASSERT_TRUE(eventually([&] { return bus.held() != 0; }, 2s));
   RemoteResult r;
   r.data.assign(400000, 0xAB);
   ASSERT_TRUE(bus.finish(r));
@@ -552,7 +574,7 @@ TEST(ControlServer, AnswerTheSocketCannotTakeIsFinishedByTheMainLoop) {
   EXPECT_EQ(a.find_first_not_of("AB", head.size()), a.size() - 2);
   EXPECT_EQ(a.substr(a.size() - 2), "\"}");
   c.send("sdo-read line1 20 1018 4\n");
-  for (int i = 0; i < 200 && bus.held() == 0; ++i) std::this_thread::sleep_for(1ms);
+  ASSERT_TRUE(eventually([&] { return bus.held() != 0; }, 2s));
   r.data = {0xD1, 0x07, 0x00, 0x00};
   ASSERT_TRUE(bus.finish(r));
   EXPECT_NE(c.line(2000ms).find("\"value\":2001}"), std::string::npos);
@@ -570,8 +592,21 @@ struct SlowTick {
   }
   // Whether the bus holds `n` commands within 2 s.
   bool held(std::size_t n) {
-    for (int i = 0; i < 2000 && bus.held() < n; ++i) std::this_thread::sleep_for(1ms);
+    (void)eventually([&] { return bus.held() >= n; }, 2s);
     return bus.held() == n;
+  }
+  // Waits (2 s at most) until the loop waits in poll, the turn that took
+  // the last request over; returns its entries into poll then (0: never).
+  std::size_t settled() {
+    std::size_t polls = 0;
+    (void)eventually([&] { return (polls = loop.waiting_in_poll()) != 0; }, 2s);
+    return polls;
+  }
+  // Whether the loop, settled after `polls` entries into poll, woke, took
+  // its turn for what woke it and is back in poll, within 2 s. In these
+  // tests nothing but the test's own step wakes it (the tick is 10 s).
+  bool turned(std::size_t polls) {
+    return eventually([&] { return loop.polls() > polls; }, 2s);
   }
   // Ends the oldest held command with a 4-byte value (little-endian).
   bool finish(std::uint32_t value) {
@@ -606,11 +641,12 @@ TEST(ControlServer, AWholeDirectAnswerDoesNotWakeTheLoopAndTheNextRequestIsTaken
   ASSERT_TRUE(c.connected());
   c.send("sdo-read line1 20 1018 4\n");
   ASSERT_TRUE(t.held(1));
-  std::this_thread::sleep_for(50ms);  // the loop is back in poll
+  ASSERT_NE(t.settled(), 0u) << "the loop did not go back to poll";
   const std::size_t before = t.loop.turns();
   ASSERT_TRUE(t.finish(2001));
   EXPECT_NE(c.line(2000ms).find("\"value\":2001}"), std::string::npos);
-  std::this_thread::sleep_for(100ms);
+  // The client has its answer: no wake-up of the loop over the window.
+  std::this_thread::sleep_for(kAbsenceWindow);
   EXPECT_EQ(t.loop.turns(), before) << "the main loop was woken for an answer the client already had";
   c.send("sdo-read line1 20 1018 1\n");
   ASSERT_TRUE(t.held(1)) << "the next request was not taken within 2 s";
@@ -627,8 +663,10 @@ TEST(ControlServer, ARequestBeforeTheResultIsTakenWhenTheResultComes) {
   ASSERT_TRUE(c.connected());
   c.send("sdo-read line1 20 1018 4\n");
   ASSERT_TRUE(t.held(1));
+  const std::size_t polls = t.settled();
+  ASSERT_NE(polls, 0u) << "the loop did not go back to poll";
   c.send("sdo-read line1 20 1018 1\n");
-  std::this_thread::sleep_for(50ms);  // seen by the loop, the result not there
+  ASSERT_TRUE(t.turned(polls)) << "the loop did not wake for the next request";  // seen, the result not there
   answer_then_take_next(t, c, "the pipelined request was not taken within 2 s");
 }
 
@@ -644,11 +682,16 @@ TEST(ControlServer, AnotherClientsQuietResultDoesNotUseUpTheWakeUpAsked) {
   ASSERT_TRUE(t.held(1));
   a.send("sdo-read line1 20 1018 4\n");
   ASSERT_TRUE(t.held(2));
+  std::size_t polls = t.settled();
+  ASSERT_NE(polls, 0u) << "the loop did not go back to poll";
   a.send("sdo-read line1 20 1018 1\n");
-  std::this_thread::sleep_for(50ms);  // A seen readable, its result not there
+  ASSERT_TRUE(t.turned(polls)) << "the loop did not wake for A's next request";  // seen, A's result not there
+  polls = t.settled();
   ASSERT_TRUE(t.finish(1));  // B's
   EXPECT_NE(b.line(2000ms).find("\"value\":1}"), std::string::npos);
-  std::this_thread::sleep_for(50ms);
+  // B's result takes the wake-up A asked for; the loop collects it and must
+  // ask again before A's result comes.
+  ASSERT_TRUE(t.turned(polls)) << "B's result did not wake the loop";
   answer_then_take_next(t, a, "A's next request was not taken within 2 s");  // A's first
 }
 
@@ -684,8 +727,14 @@ TEST(ControlServer, AReadLendsTheConnectionAndWhatComesBackIsServedHere) {
   EXPECT_EQ(next->node, 20);
   EXPECT_EQ(next->sub, 1);
 
+  const std::size_t polls = t.settled();
+  ASSERT_NE(polls, 0u) << "the loop did not go back to poll";
   c.send("status\n");
-  std::this_thread::sleep_for(100ms);
+  // The result came back quietly: the loop learns of the loan only in the
+  // turn this request wakes it for, and must leave the request to the bus
+  // thread in that turn and over the window after.
+  ASSERT_TRUE(t.turned(polls)) << "the loop did not wake for the request";
+  std::this_thread::sleep_for(kAbsenceWindow);
   {
     const std::lock_guard lock(t.h.mutex);
     EXPECT_EQ(t.h.status_calls, 0) << "the main loop read a connection it had lent";

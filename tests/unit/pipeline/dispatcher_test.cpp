@@ -1,6 +1,8 @@
 // Dispatcher: two bus producers, one consumer thread that sleeps when idle.
 #include "pipeline/dispatcher.hpp"
 
+#include "unit/support/eventually.hpp"
+
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -9,6 +11,8 @@
 #include <vector>
 
 using namespace cobridge::pipeline;
+using namespace std::chrono_literals;
+using cobridge::test::eventually;
 
 namespace {
 
@@ -66,17 +70,23 @@ TEST(Dispatcher, SleepsWhenIdleAndWakesOnPush) {
   SpscRing<Sample> a(64);
   d.add_source(a);
   d.start();
-  std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  const auto sleeps = d.stats().sleeps;
-  EXPECT_GE(sleeps, 1u);
-  EXPECT_LE(sleeps, 5u) << "an idle dispatcher must block, not poll in a loop";
+  ASSERT_TRUE(eventually([&] { return d.stats().sleeps >= 1; }, 2s)) << "the idle dispatcher never went to sleep";
+  // Not spinning is an absence, watched over a window: asleep, the
+  // dispatcher counts one sleep per poll timeout (100 ms) at most; spinning,
+  // thousands.
+  constexpr auto kIdleWindow = 50ms;
+  const auto asleep = d.stats().sleeps;
+  const auto watch_start = std::chrono::steady_clock::now();
+  std::this_thread::sleep_for(kIdleWindow);
+  const auto watched = std::chrono::steady_clock::now() - watch_start;
+  const auto timeouts = static_cast<std::uint64_t>(watched / 100ms);
+  EXPECT_LE(d.stats().sleeps - asleep, timeouts + 2) << "an idle dispatcher must block, not poll in a loop";
   Sample s{};
   s.sequence = 1;
   ASSERT_TRUE(a.try_push(s));
   const auto t0 = std::chrono::steady_clock::now();
   d.wake();
-  while (sink.delivered.load() == 0 && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(2))
-    std::this_thread::sleep_for(std::chrono::microseconds(100));
+  EXPECT_TRUE(eventually([&] { return sink.delivered.load() != 0; }, 2s));
   const auto waited = std::chrono::steady_clock::now() - t0;
   EXPECT_EQ(sink.delivered.load(), 1u);
   EXPECT_LT(waited, std::chrono::milliseconds(50)) << "woken by the eventfd, not by the 100 ms poll timeout";

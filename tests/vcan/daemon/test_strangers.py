@@ -21,6 +21,13 @@ import e2e
 # defect's bound: before, the configured encoders took 15.7 s, or never came.
 TARGET = 4.0
 BOUND = 10.0
+# The bus's discovery period. A search begun again at a periodic round sends
+# its first Fastscan frame as soon as the non-configured check that follows
+# the round is answered (the check waits lss_timeout_ms, 100 ms, at most):
+# that no search begins is an absence, watched over SEARCH_WINDOW after the
+# check.
+PERIOD_S = 5
+SEARCH_WINDOW = 1.0
 CONFIGURED = [("rot-a", "RFC-4800", 1001, 10), ("rot-b", "RFC-4800", 1002, 11)]
 STRANGERS = [("multiturn of a configured model", "MC1-2800:serial=9999,node=unconfigured", 9999, "ignore"),
              ("another vendor's device refusing node-IDs",
@@ -28,6 +35,20 @@ STRANGERS = [("multiturn of a configured model", "MC1-2800:serial=9999,node=unco
               "ignore"),
              ("another vendor's device, policy assign",
               "MC1-2800:serial=888,node=unconfigured,vendor=0x4711,product=0x22,revision=1", 888, "assign")]
+
+
+def begins_fastscan(can_id, data):
+    """The first request of a Fastscan (CiA 305: BitChecked 80h)."""
+    return can_id == 0x7E5 and data[0] == 0x51 and data[5] == 0x80
+
+
+def periodic_round(st):
+    """The status step of the first periodic discovery round, or None. The
+    daemon logs no line for a round at info; its status lists each full
+    round as a "probe" step: the start-up's own first (after "probe-expected":
+    the configured devices have node-IDs), then one per period."""
+    probes = [x for b in st["buses"] for x in b["steps"] if x["step"] == "probe"]
+    return probes[1] if len(probes) > 1 else None
 
 
 def scenario(args, report, label, stranger, stranger_serial, policy):
@@ -42,8 +63,8 @@ def scenario(args, report, label, stranger, stranger_serial, policy):
         devices.append({"name": "mt-a", "bus": "line1", "serial": 5555, "model": "MC1-2800", "node_id": 20,
                         "heartbeat_ms": 100})
     sim = e2e.Simulator(args.sim, ws, {"vcan0": devs})
-    bus = {"name": "line1", "interface": "vcan0", "bitrate": 250, "discovery_period_s": 5, "node_pool": "40-60",
-           "unknown_devices": policy}
+    bus = {"name": "line1", "interface": "vcan0", "bitrate": 250, "discovery_period_s": PERIOD_S,
+           "node_pool": "40-60", "unknown_devices": policy}
     daemon = e2e.Daemon(args.daemon, e2e.write_config(ws, [bus], devices), ws)
     names = [c[0] for c in CONFIGURED]
     try:
@@ -55,7 +76,18 @@ def scenario(args, report, label, stranger, stranger_serial, policy):
                          label, BOUND, TARGET),
                      "%.2f s" % took_total if took is not None else "never; %s" % (
                          st and [(d["name"], d["state"]) for b in st["buses"] for d in b["devices"]]))
-        time.sleep(6.0)  # past a periodic discovery: no scan loop
+        # Past a periodic discovery round and the non-configured check after
+        # it, where a search of the stranger would begin again.
+        st, _ = daemon.wait_until(lambda s: periodic_round(s) is not None, PERIOD_S + 20, interval=0.05)
+        last = st and periodic_round(st)
+        report.check(bool(last), "%s: a periodic discovery round ran" % label)
+        round_start = e2e.iso_to_epoch(last["at"]) - last["ms"] / 1000.0 if last else time.time()
+        check = listener.wait_for(lambda i, d: i == 0x7E5 and d[0] == 0x4C, 5, since=round_start)
+        report.check(check is not None, "%s: the periodic round is followed by the non-configured check" % label)
+        time.sleep(max(0.0, (check[0] if check else time.time()) + SEARCH_WINDOW - time.time()))
+        again = [f for f in listener.snapshot(round_start) if begins_fastscan(f[1], f[2])]
+        report.check(not again, "%s: the periodic round begins no search (no scan loop)" % label,
+                     "%d Fastscans begun" % len(again))
         st = daemon.status()
         devs_st = [d for b in st["buses"] for d in b["devices"]]
         seen = [d for d in devs_st if d["identity"]["serial"] == stranger_serial]
@@ -80,8 +112,7 @@ def scenario(args, report, label, stranger, stranger_serial, policy):
                          for x in steps[:4]))
         log = open(daemon.log_path).read()
         found_lines = [ln for ln in log.splitlines() if "fastscan" in ln.lower() and str(stranger_serial) in ln]
-        fastscans = len([f for f in listener.snapshot(daemon.started) if f[1] == 0x7E5 and f[2][0] == 0x51
-                         and f[2][5] == 0x80])
+        fastscans = len([f for f in listener.snapshot(daemon.started) if begins_fastscan(f[1], f[2])])
         report.check(fastscans <= 3, "%s: Fastscan not repeated in a loop" % label, "%d Fastscan runs" % fastscans)
         # Issue 11: the stranger is scanned once (a search longer than a
         # probe and a few guesses), not again at the next period.

@@ -12,6 +12,7 @@
 #include "canopen/emcy.hpp"
 #include "cobridge_idl/cobridge.h"
 #include "dds/sample_mapping.hpp"
+#include "unit/support/eventually.hpp"
 
 #include <dds/dds.h>
 #include <fcntl.h>
@@ -39,6 +40,7 @@ extern char** environ;
 namespace fs = std::filesystem;
 using namespace cobridge;
 using namespace std::chrono_literals;
+using cobridge::test::eventually;
 
 namespace {
 
@@ -606,13 +608,17 @@ TEST(DdsPlugin, DocsDds_WatchPrintsWhatAPublisherWrote) {
 
   Child watch({kCli.string(), "watch", "--domain", std::to_string(test_domain()), "--gateway", test_gateway(),
                "--json", "--count", "3", "--timeout", "20"});
-  // Samples are volatile: keep publishing until watch has seen enough.
+  // Samples are volatile: keep publishing until watch has seen enough. After
+  // each, watch has up to a publish period to print (or to end, done); one
+  // written before watch's reader matched is lost, and the next goes out.
+  constexpr auto kPublishPeriod = 20ms;
   std::uint32_t seq = 0;
   const auto deadline = std::chrono::steady_clock::now() + 25s;
   while (watch.running() && std::chrono::steady_clock::now() < deadline) {
+    const std::size_t printed = watch.out().size();
     const cobridge_sample s[] = {tpdo(0, 0, 5, ++seq)};
     p.host.deliver(s);
-    std::this_thread::sleep_for(20ms);
+    (void)eventually([&] { return !watch.running() || watch.out().size() != printed; }, kPublishPeriod);
   }
   ASSERT_EQ(watch.wait(), 0) << watch.out();
   const std::string out = watch.out();
@@ -793,12 +799,12 @@ TEST(DdsPlugin, Issue16_DuplicateGatewayIdIsDetectedAndReported) {
             false, 16);
   {
     Plugin second(base_config());
-    const auto deadline = std::chrono::steady_clock::now() + 10s;
     const std::string want = "duplicate gateway.id '" + test_gateway() + "'";
-    while (std::chrono::steady_clock::now() < deadline &&
-           (first->log.all().find(want) == std::string::npos || second.log.all().find(want) == std::string::npos)) {
-      std::this_thread::sleep_for(20ms);
-    }
+    (void)eventually(
+        [&] {
+          return first->log.all().find(want) != std::string::npos && second.log.all().find(want) != std::string::npos;
+        },
+        10s);
     EXPECT_NE(first->log.all().find(want), std::string::npos) << first->log.all();
     EXPECT_NE(second.log.all().find(want), std::string::npos) << second.log.all();
     EXPECT_NE(second.log.all().find(" pid " + std::to_string(::getpid())), std::string::npos) << second.log.all();
@@ -809,11 +815,7 @@ TEST(DdsPlugin, Issue16_DuplicateGatewayIdIsDetectedAndReported) {
     });
     EXPECT_EQ(flagged.size(), 2u) << "both incarnations publish duplicate_id";
   }
-  const auto deadline = std::chrono::steady_clock::now() + 10s;
-  while (std::chrono::steady_clock::now() < deadline &&
-         first->log.all().find("has left the DDS domain") == std::string::npos) {
-    std::this_thread::sleep_for(20ms);
-  }
+  (void)eventually([&] { return first->log.all().find("has left the DDS domain") != std::string::npos; }, 10s);
   EXPECT_NE(first->log.all().find("has left the DDS domain"), std::string::npos) << first->log.all();
 }
 
@@ -1058,9 +1060,12 @@ TEST(DdsPlugin, Issue16_AutoSpillsAFullReliableHistoryToTheWriterThreadInOrder) 
     return figure(p, "dds_samples_written") + figure(p, "dds_write_failures") + figure(p, "dds_samples_dropped");
   };
   auto wait_accounted = [&](std::uint64_t n) {
-    const auto deadline = std::chrono::steady_clock::now() + 10s;
-    while (accounted() < n && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(5ms);
+    (void)eventually([&] { return accounted() >= n; }, 10s);
     return accounted();
+  };
+  auto taken = [&] {
+    std::lock_guard lock(m);
+    return got.size();
   };
   deliver(100);
   std::thread taker(take_all);
@@ -1068,16 +1073,17 @@ TEST(DdsPlugin, Issue16_AutoSpillsAFullReliableHistoryToTheWriterThreadInOrder) 
   EXPECT_EQ(wait_accounted(200), 200u) << "every sample written or counted failed";
   const std::uint64_t spilled = figure(p, "dds_samples_spilled");
   EXPECT_GE(spilled, 1u) << "the full history sent samples to the writer thread";
-  std::this_thread::sleep_for(50ms);  // the taker empties the reader
+  // The taker has every sample written: the reader is empty, the backlog gone.
+  const std::uint64_t written = figure(p, "dds_samples_written");
+  EXPECT_TRUE(eventually([&] { return taken() >= written; }, 10s)) << taken() << " of " << written << " taken";
   deliver(5);
   EXPECT_EQ(wait_accounted(205), 205u);
   EXPECT_EQ(figure(p, "dds_samples_spilled"), spilled) << "after the backlog the dispatcher writes directly again";
-  const auto deadline = std::chrono::steady_clock::now() + 5s;
   auto has_last = [&] {
     std::lock_guard lock(m);
     return !got.empty() && got.back() == 205u;
   };
-  while (!has_last() && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(5ms);
+  (void)eventually(has_last, 5s);
   taking = false;
   taker.join();
   const std::uint64_t failed = figure(p, "dds_write_failures");
