@@ -141,8 +141,7 @@ TimePoint AsciiServer::process(TimePoint now) {
 // The Unix socket's write_group, as the control socket's: root, the
 // daemon's own user, or a member (by the groups the kernel recorded).
 bool AsciiServer::may_write_unix(const PeerCredentials& creds) const {
-  if (options_.write_group.empty()) return true;
-  return creds.uid == 0 || creds.uid == ::geteuid() || peer_in_group(creds, options_.write_group);
+  return write_group_refusal(creds, options_.write_group, ::geteuid()).empty();
 }
 
 void AsciiServer::accept_from(int listen_fd, bool tcp, TimePoint now) {

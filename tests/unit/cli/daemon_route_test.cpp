@@ -2,8 +2,15 @@
 // codes as its own failures (issue 13 item 4, issue 15; docs/operations.md
 // "Exit codes"), and works on the bus itself only when no daemon listens.
 #include "cli/daemon_route.hpp"
+#include "sys/bus_beacon.hpp"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <string>
+#include <thread>
 
 using cobridge::Errc;
 using cobridge::cli::JsonParser;
@@ -43,5 +50,27 @@ TEST(DaemonRoute, OlderDaemonsStringErrorIsAFailure) {
 }
 
 TEST(DaemonRoute, NoDaemonListeningMeansWorkDirectly) {
-  EXPECT_FALSE(via_daemon("/nonexistent/cobridge/control.sock", "status", 500).has_value());
+  EXPECT_FALSE(via_daemon("/nonexistent/cobridge/control.sock", "cbt-nobus0", "status", 500).has_value());
+}
+
+// Issue 25, item 2: a daemon serving the interface is used whatever the
+// control path given; one that cannot be reached is an error, never "work
+// directly" beside it.
+TEST(DaemonRoute, ADaemonServingTheInterfaceIsFoundWhateverTheControlPath) {
+  const std::string iface = "cbt-route" + std::to_string(::getpid());
+  cobridge::sys::BusBeacon beacon;
+  ASSERT_FALSE(beacon.open(iface, "/nonexistent/elsewhere/control.sock"));
+  std::atomic<bool> stop{false};
+  std::thread served([&] {
+    while (!stop) {
+      beacon.serve();
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  });
+  const auto routed = via_daemon("/nonexistent/cobridge/control.sock", iface, "status", 500);
+  stop = true;
+  served.join();
+  ASSERT_TRUE(routed.has_value()) << "worked directly beside a daemon that serves the interface";
+  EXPECT_EQ(routed->first.where, "/nonexistent/elsewhere/control.sock");
+  EXPECT_NE(routed->first.message.find("cobridged serves " + iface), std::string::npos) << routed->first.message;
 }
