@@ -17,9 +17,12 @@
 
 namespace {
 
-// The installed plugin directory (beside the executable), or the build tree's when running uninstalled.
+// The plugin directory of this executable's install tree (<prefix>/lib/cobridge/plugins
+// from <prefix>/<bindir>/cobridged; in the build tree build/lib/cobridge/plugins,
+// the same layout). No compiled-in fallback path: an installed binary never
+// loads plugins from a build tree.
 std::filesystem::path default_plugin_dir() {
-  return cobridge::sys::installed_or(cobridge::sys::InstallDir::plugins, COBRIDGE_BUILD_PLUGIN_DIR);
+  return cobridge::sys::installed_dir(cobridge::sys::InstallDir::plugins, cobridge::sys::executable());
 }
 
 int run(cobridge::app::DaemonOptions options) {

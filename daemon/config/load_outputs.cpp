@@ -41,6 +41,10 @@ void Loader::read_outputs(TableReader& top) {
     if (auto v = r.string("plugin")) {
       if (v->empty()) {
         r.error(*r.find("plugin"), r.path("plugin") + " must name a file, got \"\"");
+      } else if (v->find('/') != std::string::npos || *v == "." || *v == "..") {
+        // Plugins load from the plugin directory only (docs/plugins.md).
+        r.error(*r.find("plugin"), r.path("plugin") + " " + in_quotes(*v) +
+                                       " must be a file name in the plugin directory, not a path");
       } else {
         out.plugin = *v;
       }

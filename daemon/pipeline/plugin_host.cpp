@@ -1,5 +1,9 @@
 #include "pipeline/plugin_host.hpp"
 
+#include "pipeline/plugin_trust.hpp"
+
+#include <unistd.h>
+
 #include <dlfcn.h>
 
 #include <algorithm>
@@ -19,6 +23,7 @@ class PluginCategory final : public std::error_category {
   std::string message(int ev) const override {
     switch (static_cast<PluginErrc>(ev)) {
       case PluginErrc::kFileNotFound: return "plugin file not found";
+      case PluginErrc::kNotTrusted: return "plugin file not trusted";
       case PluginErrc::kNotLoadable: return "not a loadable shared object";
       case PluginErrc::kNoEntryPoint: return "no " COBRIDGE_PLUGIN_ENTRY " entry point";
       case PluginErrc::kCreateFailed: return "plugin create failed";
@@ -58,6 +63,7 @@ std::error_code make_error_code(PluginErrc e) noexcept { return {static_cast<int
 Errc plugin_error_kind(PluginErrc e) noexcept {
   switch (e) {
     case PluginErrc::kFileNotFound: return Errc::kNotFound;
+    case PluginErrc::kNotTrusted: return Errc::kPermissionDenied;
     case PluginErrc::kAbiTooNew: return Errc::kUnsupported;
     case PluginErrc::kStartFailed: return Errc::kFailed;
     case PluginErrc::kNotLoadable:
@@ -152,9 +158,8 @@ PluginHost::PluginHost(Options options) : options_(std::move(options)) {
 PluginHost::~PluginHost() { unload_all(); }
 
 std::filesystem::path PluginHost::resolve(const PluginSpec& spec) const {
-  if (!spec.file.empty()) {
-    return spec.file.is_absolute() ? spec.file : options_.plugin_dir / spec.file;
-  }
+  // Only a file name (the loader refuses paths): never outside the plugin directory.
+  if (!spec.file.empty()) return options_.plugin_dir / spec.file.filename();
   return options_.plugin_dir / ("libcobridge_" + spec.type + ".so");
 }
 
@@ -209,7 +214,8 @@ Error PluginHost::load(const PluginSpec& spec) {
   if (!std::filesystem::exists(p->file, fs_ec)) {
     return fail(PluginErrc::kFileNotFound, "file not found");
   }
-  std::string why;
+  std::string why = plugin_distrust(p->file, ::geteuid());
+  if (!why.empty()) return fail(PluginErrc::kNotTrusted, "refused: " + why);
   p->library = SharedLibrary::open(p->file, why);
   if (!p->library) return fail(PluginErrc::kNotLoadable, "not a loadable shared object (" + why + ")");
 

@@ -38,6 +38,7 @@ namespace cobridge::pipeline {
 
 enum class PluginErrc {
   kFileNotFound = 1,  // no such file in the plugin directory
+  kNotTrusted,        // owner or mode of the file or its directory (plugin_trust.hpp): never opened
   kNotLoadable,       // dlopen refused it (not a shared object, missing dependency, ...)
   kNoEntryPoint,      // the library does not export COBRIDGE_PLUGIN_ENTRY
   kCreateFailed,      // the entry point returned non-zero (message is the plugin's)

@@ -4,8 +4,10 @@
 // package under /usr) lays out X/<bindir>/cobridged beside
 // X/<datadir>/cobridge/devices and X/<libdir>/cobridge/plugins; the relative
 // layout is compiled in (GNUInstallDirs), the prefix is read from
-// /proc/self/exe. A build tree has no such layout next to its executables:
-// callers name their build-tree fallback.
+// /proc/self/exe. The build tree keeps the plugins in the same place
+// relative to build/daemon/cobridged (build/lib/cobridge/plugins), so the
+// daemon needs no fallback and has none compiled in (issue 25, item 8); the
+// data directories may name a build-tree fallback (installed_or).
 //
 // Thread: any; reads /proc/self/exe and stats directories, no state.
 #pragma once

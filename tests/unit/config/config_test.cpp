@@ -257,6 +257,18 @@ TEST(ConfigExample, KeepsOutputSectionsOpaque) {
   EXPECT_TRUE(again.ok());
 }
 
+// Issue 25, item 8: plugins load from the plugin directory only: `plugin`
+// names a file there, never a path.
+TEST(ConfigOutputs, PluginIsAFileNameNotAPath) {
+  for (const char* bad : {"/tmp/evil.so", "../lib/x.so", "sub/x.so", ".."}) {
+    const LoadResult r = load_string(std::string("[outputs.tap]\nplugin = \"") + bad + "\"\n", "p.toml");
+    ASSERT_FALSE(r.ok()) << bad;
+    EXPECT_EQ(r.diagnostics()[0].line, 2U);
+    EXPECT_THAT(r.diagnostics()[0].message, HasSubstr("must be a file name in the plugin directory, not a path"));
+  }
+  EXPECT_TRUE(load_string("[outputs.tap]\nplugin = \"libcobridge_jsontap.so\"\n", "p.toml").ok());
+}
+
 // ---- defaults ----------------------------------------------------------------
 
 // doc §[gateway], §[[bus]], §[[device]]: defaults

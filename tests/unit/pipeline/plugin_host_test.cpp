@@ -328,6 +328,36 @@ TEST(PluginHostLoadErrors, RandomBytesNamedSoAreNotLoadable) {
       << error.message;
 }
 
+// Issue 25, item 8: a plugin runs with the service's rights, so a file or
+// directory someone else could have written is refused before dlopen (the
+// reason is the trust check's, not "not a loadable shared object").
+TEST(PluginHostLoadErrors, AFileOthersCouldWriteIsRefusedBeforeItIsOpened) {
+  TempDir dir;
+  const fs::path file = dir.path() / "libcobridge_shared.so";
+  std::ofstream(file) << "not even ELF";
+  PluginHost host({dir.path(), "gw", quiet()});
+  fs::permissions(file, fs::perms::group_write | fs::perms::others_write, fs::perm_options::add);
+  Error error = host.load(spec("s", "shared"));
+  EXPECT_EQ(error.code, PluginErrc::kNotTrusted);
+  EXPECT_EQ(error.kind, Errc::kPermissionDenied);
+  EXPECT_NE(error.message.find("refused: plugin file " + file.string() + " is writable by group or others (mode 06"),
+            std::string::npos)
+      << error.message;
+  fs::permissions(file, fs::perms::group_write | fs::perms::others_write, fs::perm_options::remove);
+  fs::permissions(dir.path(), fs::perms::others_write, fs::perm_options::add);
+  error = host.load(spec("s", "shared"));
+  EXPECT_NE(error.message.find("plugin directory " + dir.path().string() + " is writable by group or others"),
+            std::string::npos)
+      << error.message;
+  fs::permissions(dir.path(), fs::perms::others_write, fs::perm_options::remove);
+  if (::geteuid() == 0) {  // only root can give the file away
+    ASSERT_EQ(::chown(file.c_str(), 12345, 12345), 0);
+    error = host.load(spec("s", "shared"));
+    EXPECT_NE(error.message.find("is owned by uid 12345, neither root nor the daemon's user"), std::string::npos)
+        << error.message;
+  }
+}
+
 TEST(PluginHostLoadErrors, SharedObjectWithoutEntryPointIsReported) {
   PluginHost host({kTestPluginDir, "gw", quiet()});
   Error error;
@@ -372,6 +402,7 @@ TEST(PluginHostLoadErrors, ErrorCarriesTheCallersWhere) {
 // Concept: every PluginErrc maps to the kind a caller acts on (docs/operations.md).
 TEST(PluginHostLoadErrors, EveryCodeHasAKind) {
   EXPECT_EQ(plugin_error_kind(PluginErrc::kFileNotFound), Errc::kNotFound);
+  EXPECT_EQ(plugin_error_kind(PluginErrc::kNotTrusted), Errc::kPermissionDenied);
   EXPECT_EQ(plugin_error_kind(PluginErrc::kNotLoadable), Errc::kInvalidArgument);
   EXPECT_EQ(plugin_error_kind(PluginErrc::kNoEntryPoint), Errc::kInvalidArgument);
   EXPECT_EQ(plugin_error_kind(PluginErrc::kCreateFailed), Errc::kInvalidArgument);
@@ -402,9 +433,13 @@ TEST(PluginHostLoadErrors, MalformedOpsTableIsRefusedAndDestroyed) {
 // Concept: isolation — every kind of broken plugin in one configuration is
 // reported, and the good plugins around them load, start and keep receiving.
 TEST(PluginHostIsolation, BrokenPluginsDoNotTakeOthersDown) {
-  TempDir dir;
-  const fs::path garbage = dir.path() / "libcobridge_garbage.so";
+  // In the plugin directory: plugins load from there only.
+  const fs::path garbage = kTestPluginDir / ("libcobridge_garbage_" + std::to_string(::getpid()) + ".so");
   std::ofstream(garbage) << "this is not an ELF file";
+  struct Remove {
+    fs::path p;
+    ~Remove() { fs::remove(p); }
+  } remove_garbage{garbage};
 
   Record v1("test_v1");
   Record old("test_old_abi");
@@ -412,7 +447,7 @@ TEST(PluginHostIsolation, BrokenPluginsDoNotTakeOthersDown) {
   const std::vector<PluginSpec> specs = {
       spec("good", "test_v1"),
       spec("missing", "does_not_exist"),
-      PluginSpec{"garbage", "garbage", garbage, {}},
+      PluginSpec{"garbage", "garbage", garbage.filename(), {}},
       spec("noentry", "test_no_entry"),
       spec("fails", "test_faulty", "create_fails"),
       spec("future", "test_new_abi"),
@@ -497,7 +532,8 @@ TEST(PluginHostLifecycle, ResolvesPluginFiles) {
   PluginHost host({"/opt/plugins", "gw", quiet()});
   EXPECT_EQ(host.resolve(spec("a", "dds")), fs::path("/opt/plugins/libcobridge_dds.so"));
   EXPECT_EQ(host.resolve(PluginSpec{"b", "dds", "custom.so", {}}), fs::path("/opt/plugins/custom.so"));
-  EXPECT_EQ(host.resolve(PluginSpec{"c", "dds", "/usr/lib/x.so", {}}), fs::path("/usr/lib/x.so"));
+  // Issue 25, item 8: never outside the plugin directory (the loader refuses paths too).
+  EXPECT_EQ(host.resolve(PluginSpec{"c", "dds", "/usr/lib/x.so", {}}), fs::path("/opt/plugins/x.so"));
 }
 
 // ---------------------------------------------------------------------------
