@@ -16,6 +16,8 @@ class ConfigCategory final : public std::error_category {
       case DdsConfigErrc::kUnknownKey: return "unknown key";
       case DdsConfigErrc::kWrongType: return "wrong value type";
       case DdsConfigErrc::kOutOfRange: return "value out of range";
+      case DdsConfigErrc::kMissingKey: return "required key missing";
+      case DdsConfigErrc::kBadFile: return "file cannot be used";
     }
     return "unknown error";
   }
@@ -31,12 +33,66 @@ constexpr std::int64_t kMaxDepth = 10000;
 constexpr std::int64_t kMinLeaseMs = 100, kMaxLeaseMs = 3'600'000;
 constexpr std::string_view kKnownKeys =
     "domain, sample_reliability, sample_depth, topic_prefix, partition, write_batch, liveliness_lease_ms, "
-    "sample_path";
+    "sample_path, security";
 
 DdsConfigResult fail(DdsConfigErrc code, std::string message) {
   DdsConfigResult r;
   r.error = make_error_code(code);
   r.message = "config: " + std::move(message);
+  return r;
+}
+
+DdsConfigResult fail(std::error_code ec, std::string message) {
+  DdsConfigResult r;
+  r.error = ec;
+  r.message = "config: " + std::move(message);
+  return r;
+}
+
+// One key of [security]: a non-empty absolute path. Absolute because the
+// plugin is given its table, not the configuration file's folder.
+std::error_code read_path(std::string_view key, const toml::node& node, std::string& out, std::string& message) {
+  const auto* v = node.as_string();
+  if (v == nullptr) {
+    message = "'security." + std::string(key) + "' must be a string (a file path)";
+    return make_error_code(DdsConfigErrc::kWrongType);
+  }
+  if (v->get().empty() || v->get().front() != '/') {
+    message = "'security." + std::string(key) + "' must be an absolute path, not \"" + v->get() + "\"";
+    return make_error_code(DdsConfigErrc::kOutOfRange);
+  }
+  out = v->get();
+  return {};
+}
+
+// [security]: the six files, all or none (a table without them all is a
+// mistake, never a quiet fallback to an open DDS), then checked on disk.
+DdsConfigResult parse_security(const toml::node& node, DdsConfigResult r) {
+  const auto* table = node.as_table();
+  if (table == nullptr) return fail(DdsConfigErrc::kWrongType, "'security' must be a table ([outputs.dds.security])");
+  DdsSecurity s;
+  std::string message;
+  for (const auto& [key, value] : *table) {
+    const std::string_view k = key.str();
+    std::string* target = k == "plugin_dir" ? &s.plugin_dir : nullptr;
+    for (const SecurityFileKey& f : kSecurityFileKeys)
+      if (k == f.key) target = &(s.*f.member);
+    if (target == nullptr) {
+      return fail(DdsConfigErrc::kUnknownKey, "unknown key 'security." + std::string(k) +
+                                                  "' (expected identity_ca, identity_certificate, private_key, "
+                                                  "permissions_ca, governance, permissions, plugin_dir)");
+    }
+    if (const std::error_code ec = read_path(k, value, *target, message)) return fail(ec, message);
+  }
+  std::string missing;
+  for (const SecurityFileKey& f : kSecurityFileKeys)
+    if ((s.*f.member).empty()) missing += (missing.empty() ? "'security." : ", 'security.") + std::string(f.key) + "'";
+  if (!missing.empty()) {
+    return fail(DdsConfigErrc::kMissingKey, "DDS Security needs all six files, missing " + missing +
+                                                " (leave out [outputs.dds.security] for an open DDS)");
+  }
+  if (const std::error_code ec = check_security(s, message)) return fail(ec, message);
+  r.config.security = std::move(s);
   return r;
 }
 
@@ -122,6 +178,9 @@ DdsConfigResult parse_dds_config(std::string_view toml_text) {
         return fail(DdsConfigErrc::kOutOfRange,
                     "'sample_path' must be \"auto\", \"dispatcher\" or \"writer-thread\", not \"" + v->get() + "\"");
       }
+    } else if (k == "security") {
+      r = parse_security(node, std::move(r));
+      if (!r.ok()) return r;
     } else {
       return fail(DdsConfigErrc::kUnknownKey,
                   "unknown key '" + std::string(k) + "' (expected " + std::string(kKnownKeys) + ")");

@@ -3,10 +3,14 @@
 // a typo does not silently fall back to a default.
 //
 // Thread contract: parse_dds_config runs in cobridge_plugin_create on the
-// daemon's control thread; it allocates and may be slow.
+// daemon's control thread; it allocates, reads the DDS Security files
+// (dds_security.hpp) and may be slow.
 #pragma once
 
+#include "dds/dds_security.hpp"
+
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <system_error>
@@ -49,6 +53,9 @@ struct DdsConfig {
   // "Issue 16"), the spill keeps the writer thread's patience with a slow
   // reliable reader.
   SamplePath sample_path = SamplePath::kAuto;
+  // [outputs.dds.security]: DDS Security with these files (checked at load,
+  // dds_security.hpp); none = off, anyone on the network may read and write.
+  std::optional<DdsSecurity> security;
 
   // True when on_samples writes EncoderSample on the dispatcher thread (the
   // sample writer then has max_blocking_time 0).
@@ -62,6 +69,8 @@ enum class DdsConfigErrc {
   kUnknownKey,  // a key the plugin does not know
   kWrongType,   // a key with a value of the wrong TOML type
   kOutOfRange,  // a value outside its range or set
+  kMissingKey,  // a key required with others is absent (the security files)
+  kBadFile,     // a file named by a key cannot be used (missing, unreadable, open to others)
 };
 
 [[nodiscard]] const std::error_category& dds_config_category() noexcept;

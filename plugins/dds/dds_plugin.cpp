@@ -10,6 +10,7 @@
 //   write_batch        = true           one RTPS message per drained batch
 //   liveliness_lease_ms = 500           writers' liveliness lease
 //   sample_path        = "auto"         who writes EncoderSample (auto, dispatcher, writer-thread)
+//   [security]                          DDS Security: six files, all or none (dds_security.hpp)
 //
 // Threads: create/start/stop/destroy on the daemon's control thread;
 // on_samples/on_device on the dispatcher thread, which the plugin never
@@ -41,6 +42,7 @@
 // per status sample (rare) and one empty-ring check per kLaneCheck samples.
 #include "dds/dds_config.hpp"
 #include "dds/dds_publisher.hpp"
+#include "dds/dds_security.hpp"
 #include "dds/dispatcher_samples.hpp"
 #include "dds/gateway_presence.hpp"
 #include "dds/topics.hpp"
@@ -328,6 +330,8 @@ int dds_start(void* self) {
     inst->presence = std::make_unique<GatewayPresence>(inst->publisher->gateway(), cfg.topic_prefix, cfg.partition,
                                                        DDS_MSECS(cfg.liveliness_lease_ms));
     if (const std::error_code pec = inst->presence->start(inst->publisher->participant(), message)) {
+      if (cfg.security && pec.category() == dds_category())
+        message += security_failure_hint(-pec.value(), *cfg.security);
       inst->log(COBRIDGE_LOG_ERROR, message);
       inst->presence.reset();
       inst->publisher->stop();
@@ -347,6 +351,7 @@ int dds_start(void* self) {
                                                                    : "dispatcher") +
                                      (c.topic_prefix.empty() ? std::string() : ", topic prefix '" + c.topic_prefix + "'") +
                                      (c.partition.empty() ? std::string() : ", partition '" + c.partition + "'"));
+    inst->log(COBRIDGE_LOG_INFO, security_log_line(c.security ? &*c.security : nullptr));
     return 0;
   } catch (const std::exception& e) {
     inst->log(COBRIDGE_LOG_ERROR, std::string("start: ") + e.what());

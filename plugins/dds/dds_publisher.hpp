@@ -67,7 +67,8 @@ class DdsPublisher {
 
   // Creates the domain (with write_batch: Cyclone's WriteBatch followed by
   // the user's CYCLONEDDS_URI, so the user's settings still apply and win),
-  // the participant, topics and writers, then publishes the DeviceStatus of
+  // the participant (secured with config.security: dds_security.hpp),
+  // topics and writers, then publishes the DeviceStatus of
   // every device already known. On failure nothing is left and `message`
   // says which step failed. `note` is set when start succeeded but
   // write_batch could not be applied (the process already had the domain).
@@ -116,6 +117,10 @@ class DdsPublisher {
   // Counts a write's outcome: `counter` on success, a failure otherwise.
   void tally(dds_return_t rc, std::atomic<std::uint64_t>& counter) noexcept;
   void forget_instance(const DeviceSlot& slot) noexcept;
+  // The participant of config_.domain, secured with config_.security (start).
+  [[nodiscard]] std::error_code create_participant(dds_domainid_t domain, std::string& message);
+  // With DDS Security on: what to add to a failed creation's message.
+  [[nodiscard]] std::string security_hint(dds_return_t rc) const;
   // STATUS in queue order: the last EncoderSample again, stale, when the
   // device turns stale (subscribers of EncoderSample alone learn it).
   void republish_if_stale(DeviceSlot& slot, const cobridge_sample& status) noexcept;

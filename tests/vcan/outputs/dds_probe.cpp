@@ -1,6 +1,7 @@
-// cobridge_dds_probe: a DDS subscriber for the multi-gateway end-to-end test
-// (test_dds_multi_gateway.py), written as a cell controller would: it reads
-// EncoderSample (reliable, keep-all), DeviceStatus and GatewayStatus of every
+// cobridge_dds_probe: a DDS subscriber for the multi-gateway and security
+// end-to-end tests (test_dds_multi_gateway.py, test_dds_security.py),
+// written as a cell controller would: it reads EncoderSample (reliable,
+// keep-all), DeviceStatus, GatewayStatus and EncoderEvent of every
 // gateway in the domain and prints what a subscriber can tell, one JSON
 // object per line on stdout:
 //   {"ev":"gateway","t":ns,"gateway_id":..,"state":"alive|disposed|no_writers",
@@ -13,8 +14,22 @@
 //   {"ev":"device","gateway_id":..,"bus":b,"node":n,"samples":N,"gaps":G,
 //    "lost":L,"repeats":R,"first":s,"last":s}
 //                       per EncoderSample instance, when the probe exits
+//   {"ev":"event","t":ns,"gateway_id":..,"bus":b,"node":n,"code":c}
+//                       every EncoderEvent
+//   {"ev":"refused","topic":..,"error":..}
+//                       a topic or reader DDS Security did not allow (the
+//                       probe goes on without it)
+//   {"ev":"totals","samples":N,"statuses":N,"events":N,"gateways":N}
+//                       valid samples taken per topic, when the probe exits
 // Exits after --seconds or when the file --stop-file exists. Timestamps are
 // CLOCK_REALTIME ns when the probe took the sample.
+//
+// DDS Security (docs/dds.md, "Security"; test_dds_security.py): with
+// --security-dir DIR --identity NAME the participant is created with the
+// files scripts/dds-test-ca made for NAME in DIR, set here as a subscriber
+// written independently of the gateway would set them (the dds.sec.*
+// participant properties of Cyclone DDS 0.10); without them it is a plain
+// participant.
 //
 // Gaps: consecutive samples of one instance whose sequence_number is not the
 // previous + 1 (wrap included); a repeat (same number: the stale
@@ -63,6 +78,7 @@ struct Options {
   std::uint32_t domain = 0;
   double seconds = 60;
   std::string stop_file;
+  std::string security_dir, identity;
 };
 
 Options parse(int argc, char** argv) {
@@ -72,25 +88,67 @@ Options parse(int argc, char** argv) {
     if (k == "--domain") o.domain = static_cast<std::uint32_t>(std::atoi(argv[i + 1]));
     if (k == "--seconds") o.seconds = std::atof(argv[i + 1]);
     if (k == "--stop-file") o.stop_file = argv[i + 1];
+    if (k == "--security-dir") o.security_dir = argv[i + 1];
+    if (k == "--identity") o.identity = argv[i + 1];
   }
   return o;
 }
 
+// The participant QoS of a secured subscriber: Cyclone's three builtin
+// plugins by full path (Debian keeps them off the search path) and the
+// identity's files as file: URIs.
+dds_qos_t* security_qos(const Options& o) {
+  dds_qos_t* q = dds_create_qos();
+  const std::string lib = COBRIDGE_DDS_SECURITY_PLUGIN_DIR, dir = o.security_dir + "/";
+  const auto set = [q](const char* name, const std::string& value) { dds_qset_prop(q, name, value.c_str()); };
+  set("dds.sec.auth.library.path", lib + "/libdds_security_auth.so");
+  set("dds.sec.auth.library.init", "init_authentication");
+  set("dds.sec.auth.library.finalize", "finalize_authentication");
+  set("dds.sec.access.library.path", lib + "/libdds_security_ac.so");
+  set("dds.sec.access.library.init", "init_access_control");
+  set("dds.sec.access.library.finalize", "finalize_access_control");
+  set("dds.sec.crypto.library.path", lib + "/libdds_security_crypto.so");
+  set("dds.sec.crypto.library.init", "init_crypto");
+  set("dds.sec.crypto.library.finalize", "finalize_crypto");
+  set("dds.sec.auth.identity_ca", "file:" + dir + "identity_ca.pem");
+  set("dds.sec.auth.identity_certificate", "file:" + dir + o.identity + ".pem");
+  set("dds.sec.auth.private_key", "file:" + dir + o.identity + "_key.pem");
+  set("dds.sec.access.permissions_ca", "file:" + dir + "permissions_ca.pem");
+  set("dds.sec.access.governance", "file:" + dir + "governance.p7s");
+  set("dds.sec.access.permissions", "file:" + dir + o.identity + "_permissions.p7s");
+  return q;
+}
+
+// A reader, or 0 when DDS Security refused its topic or the reader itself
+// (reported as a "refused" line); any other failure ends the probe.
 dds_entity_t make_reader(dds_entity_t pp, const dds_topic_descriptor_t* type, const char* name, bool keep_all,
                          bool transient) {
   const dds_entity_t topic = dds_create_topic(pp, type, name, nullptr, nullptr);
-  dds_qos_t* q = dds_create_qos();
-  dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
-  dds_qset_history(q, keep_all ? DDS_HISTORY_KEEP_ALL : DDS_HISTORY_KEEP_LAST, 16);
-  dds_qset_durability(q, transient ? DDS_DURABILITY_TRANSIENT_LOCAL : DDS_DURABILITY_VOLATILE);
-  const dds_entity_t r = dds_create_reader(pp, topic, q, nullptr);
-  dds_delete_qos(q);
+  dds_entity_t r = topic;
+  if (topic > 0) {
+    dds_qos_t* q = dds_create_qos();
+    dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+    dds_qset_history(q, keep_all ? DDS_HISTORY_KEEP_ALL : DDS_HISTORY_KEEP_LAST, 16);
+    dds_qset_durability(q, transient ? DDS_DURABILITY_TRANSIENT_LOCAL : DDS_DURABILITY_VOLATILE);
+    r = dds_create_reader(pp, topic, q, nullptr);
+    dds_delete_qos(q);
+  }
+  if (r == DDS_RETCODE_NOT_ALLOWED_BY_SECURITY) {
+    std::printf("{\"ev\":\"refused\",\"topic\":\"%s\",\"error\":\"%s\"}\n", name, dds_strretcode(r));
+    return 0;
+  }
   if (r < 0) {
     std::fprintf(stderr, "probe: reader %s: %s\n", name, dds_strretcode(r));
     std::exit(2);
   }
   return r;
 }
+
+// Valid samples taken, per topic (the "totals" line).
+struct Totals {
+  std::uint64_t samples = 0, statuses = 0, events = 0, gateways = 0;
+};
+Totals g_totals;
 
 constexpr std::uint32_t kTake = 256;  // the same on every take of a reader
 // Takes per reader per wake-up: a reader that keeps up with 8 000 samples/s
@@ -145,6 +203,7 @@ void take_samples(dds_entity_t reader, std::map<Key, Device>& devices) {
                     static_cast<unsigned long long>(t), gw, s.bus, s.node_id, state_name(d.state));
       }
       if (!info[i].valid_data) continue;
+      ++g_totals.samples;
       note_lag(gw, t, s);
       if (d.samples == 0) {
         d.first = s.sequence_number;
@@ -171,6 +230,7 @@ void take_gateways(dds_entity_t reader) {
     for (int i = 0; i < n; ++i) {
       const auto& s = *static_cast<const cobridge_GatewayStatus*>(buf[i]);
       const bool v = info[i].valid_data;
+      if (v) ++g_totals.gateways;
       std::printf("{\"ev\":\"gateway\",\"t\":%llu,\"gateway_id\":\"%s\",\"state\":\"%s\",\"valid\":%s,"
                   "\"devices\":%d,\"devices_online\":%d,\"buses\":%d,\"buses_online\":%d,\"duplicate\":%s,"
                   "\"incarnation\":%llu,\"pid\":%u,\"upd\":%llu}\n",
@@ -193,6 +253,7 @@ void take_status(dds_entity_t reader, std::map<Key, int>& online) {
     const std::uint64_t t = now_ns();
     for (int i = 0; i < n; ++i) {
       if (!info[i].valid_data) continue;
+      ++g_totals.statuses;
       const auto& s = *static_cast<const cobridge_DeviceStatus*>(buf[i]);
       const char* gw = gateway_id(s.gateway_key, s.gateway_id, true);
       int& o = online.try_emplace(Key{gw, s.bus, s.node_id}, -1).first->second;
@@ -207,11 +268,32 @@ void take_status(dds_entity_t reader, std::map<Key, int>& online) {
   }
 }
 
+void take_events(dds_entity_t reader) {
+  for (int round = 0; round < kRounds; ++round) {
+    void* buf[kTake] = {};
+    dds_sample_info_t info[kTake];
+    const int n = dds_take(reader, buf, info, kTake, kTake);
+    if (n <= 0) return;
+    const std::uint64_t t = now_ns();
+    for (int i = 0; i < n; ++i) {
+      if (!info[i].valid_data) continue;
+      ++g_totals.events;
+      const auto& e = *static_cast<const cobridge_EncoderEvent*>(buf[i]);
+      std::printf("{\"ev\":\"event\",\"t\":%llu,\"gateway_id\":\"%s\",\"bus\":%d,\"node\":%d,\"code\":%u}\n",
+                  static_cast<unsigned long long>(t), gateway_id(e.gateway_key, e.gateway_id, true), e.bus, e.node_id,
+                  static_cast<unsigned>(e.code));
+    }
+    dds_return_loan(reader, buf, n);
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   const Options o = parse(argc, argv);
-  const dds_entity_t pp = dds_create_participant(static_cast<dds_domainid_t>(o.domain), nullptr, nullptr);
+  dds_qos_t* pqos = o.security_dir.empty() ? nullptr : security_qos(o);
+  const dds_entity_t pp = dds_create_participant(static_cast<dds_domainid_t>(o.domain), pqos, nullptr);
+  if (pqos != nullptr) dds_delete_qos(pqos);
   if (pp < 0) {
     std::fprintf(stderr, "probe: participant: %s\n", dds_strretcode(pp));
     return 2;
@@ -219,10 +301,12 @@ int main(int argc, char** argv) {
   const dds_entity_t samples = make_reader(pp, &cobridge_EncoderSample_desc, "EncoderSample", true, false);
   const dds_entity_t status = make_reader(pp, &cobridge_DeviceStatus_desc, "DeviceStatus", false, true);
   const dds_entity_t gateways = make_reader(pp, &cobridge_GatewayStatus_desc, "GatewayStatus", false, true);
-  // One wait set over the three readers: the probe wakes on data or on an
+  const dds_entity_t events = make_reader(pp, &cobridge_EncoderEvent_desc, "EncoderEvent", true, false);
+  // One wait set over the readers: the probe wakes on data or on an
   // instance-state change (liveliness lost), not on a poll interval.
   const dds_entity_t ws = dds_create_waitset(pp);
-  for (const dds_entity_t r : {samples, status, gateways}) {
+  for (const dds_entity_t r : {samples, status, gateways, events}) {
+    if (r == 0) continue;  // refused by DDS Security
     const dds_entity_t rc = dds_create_readcondition(r, DDS_ANY_STATE);
     dds_waitset_attach(ws, rc, r);
   }
@@ -234,12 +318,13 @@ int main(int argc, char** argv) {
   while (std::chrono::steady_clock::now() < end) {
     if (!o.stop_file.empty() && ::access(o.stop_file.c_str(), F_OK) == 0) break;
     (void)dds_waitset_wait(ws, nullptr, 0, DDS_MSECS(50));
-    take_samples(samples, devices);
-    take_status(status, online);
-    take_gateways(gateways);
+    if (samples != 0) take_samples(samples, devices);
+    if (status != 0) take_status(status, online);
+    if (gateways != 0) take_gateways(gateways);
+    if (events != 0) take_events(events);
     std::fflush(stdout);
   }
-  take_samples(samples, devices);
+  if (samples != 0) take_samples(samples, devices);
   for (const auto& [k, d] : devices) {
     std::printf("{\"ev\":\"device\",\"gateway_id\":\"%s\",\"bus\":%d,\"node\":%d,\"samples\":%llu,"
                 "\"gaps\":%llu,\"lost\":%llu,\"repeats\":%llu,\"first\":%u,\"last\":%u}\n",
@@ -247,6 +332,9 @@ int main(int argc, char** argv) {
                 static_cast<unsigned long long>(d.gaps), static_cast<unsigned long long>(d.lost),
                 static_cast<unsigned long long>(d.repeats), d.first, d.last);
   }
+  std::printf("{\"ev\":\"totals\",\"samples\":%llu,\"statuses\":%llu,\"events\":%llu,\"gateways\":%llu}\n",
+              static_cast<unsigned long long>(g_totals.samples), static_cast<unsigned long long>(g_totals.statuses),
+              static_cast<unsigned long long>(g_totals.events), static_cast<unsigned long long>(g_totals.gateways));
   std::fflush(stdout);
   dds_delete(pp);
   return 0;

@@ -22,6 +22,7 @@ TEST(DdsConfig, DocsDds_EmptyGivesDefaults) {
   EXPECT_EQ(r.config.sample_path, SamplePath::kAuto);
   EXPECT_TRUE(r.config.samples_on_dispatcher()) << "the dispatcher writes samples by default";
   EXPECT_TRUE(r.config.spill_to_writer_thread()) << "and spills a full reliable history to the writer thread";
+  EXPECT_FALSE(r.config.security.has_value()) << "DDS Security is off without [outputs.dds.security]";
 }
 
 // Issue 16, item 1: sample_path; "auto" writes on the dispatcher and spills,
@@ -80,6 +81,12 @@ TEST(DdsConfig, DocsDds_Refusals) {
       {"liveliness_lease_ms = 99", DdsConfigErrc::kOutOfRange, "'liveliness_lease_ms' must be 100..3600000"},
       {"liveliness_lease_ms = 3600001", DdsConfigErrc::kOutOfRange, "'liveliness_lease_ms'"},
       {"liveliness_lease_ms = \"1s\"", DdsConfigErrc::kWrongType, "'liveliness_lease_ms'"},
+      {"security = \"on\"", DdsConfigErrc::kWrongType, "'security' must be a table"},
+      {"[security]\nidentity_ca = 3", DdsConfigErrc::kWrongType, "'security.identity_ca' must be a string"},
+      {"[security]\ngovernance = \"governance.p7s\"", DdsConfigErrc::kOutOfRange,
+       "'security.governance' must be an absolute path"},
+      {"[security]\nprivate_key = \"\"", DdsConfigErrc::kOutOfRange, "'security.private_key'"},
+      {"[security]\nidentity = \"/a\"", DdsConfigErrc::kUnknownKey, "'security.identity'"},
   };
   for (const Case& c : cases) {
     const DdsConfigResult r = parse_dds_config(c.text);
@@ -87,6 +94,33 @@ TEST(DdsConfig, DocsDds_Refusals) {
     EXPECT_NE(r.message.find(c.mentions), std::string::npos) << c.text << " -> " << r.message;
     EXPECT_EQ(r.message.rfind("config: ", 0), 0u) << r.message;
   }
+}
+
+// OMG DDS Security 1.1, 9.3.1 (authentication: identity CA, identity
+// certificate, private key) and 9.4.1 (access control: permissions CA,
+// governance, permissions): the builtin plugins need all six, so
+// [outputs.dds.security] is all six or none. A partial set, an empty table
+// included, is refused naming every missing key, before any file is read.
+TEST(DdsConfig, OmgDdsSec11_9_3_1_and_9_4_1_SecurityIsAllSixFilesOrNone) {
+  const char* keys[] = {"identity_ca", "identity_certificate", "private_key", "permissions_ca", "governance",
+                        "permissions"};
+  for (const char* left_out : keys) {
+    std::string text = "[security]\n";
+    for (const char* k : keys)
+      if (k != left_out) text += std::string(k) + " = \"/nonexistent/" + k + "\"\n";
+    const DdsConfigResult r = parse_dds_config(text);
+    EXPECT_EQ(r.error, make_error_code(DdsConfigErrc::kMissingKey)) << left_out << ": " << r.message;
+    EXPECT_NE(r.message.find("missing 'security." + std::string(left_out) + "'"), std::string::npos) << r.message;
+    EXPECT_EQ(r.message.find("/nonexistent"), std::string::npos) << "no file is looked at: " << r.message;
+  }
+  const DdsConfigResult empty = parse_dds_config("[security]\n");
+  EXPECT_EQ(empty.error, make_error_code(DdsConfigErrc::kMissingKey));
+  for (const char* k : keys) EXPECT_NE(empty.message.find("'security." + std::string(k) + "'"), std::string::npos) << k;
+  const DdsConfigResult two = parse_dds_config("[security]\nidentity_ca = \"/a\"\ngovernance = \"/b\"\n");
+  EXPECT_NE(two.message.find("missing 'security.identity_certificate', 'security.private_key', "
+                             "'security.permissions_ca', 'security.permissions'"),
+            std::string::npos)
+      << two.message;
 }
 
 }  // namespace

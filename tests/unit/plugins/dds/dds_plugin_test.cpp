@@ -12,6 +12,7 @@
 #include "canopen/emcy.hpp"
 #include "cobridge_idl/cobridge.h"
 #include "dds/sample_mapping.hpp"
+#include "unit/plugins/dds/test_ca.hpp"
 #include "unit/support/eventually.hpp"
 
 #include <dds/dds.h>
@@ -755,6 +756,73 @@ TEST(DdsPlugin, Issue16_GatewayStatusCountsDevicesAndIsDisposedOnStop) {
     return s.gateway_key == dds::gateway_key(test_gateway()) && info.instance_state == DDS_IST_NOT_ALIVE_DISPOSED;
   });
   EXPECT_TRUE(disposed);
+}
+
+// `cobridge watch` in another process, a participant without credentials:
+// exit 0 with a DeviceStatus line when it got one within 3 s, 3 otherwise.
+// Another process because Cyclone delivers between participants of one
+// process directly, whatever their security.
+std::pair<int, std::string> plain_watch_status() {
+  Child watch({kCli.string(), "watch", "--domain", std::to_string(test_domain()), "--gateway", test_gateway(),
+               "--json", "--count", "1", "--timeout", "3"});
+  const int rc = watch.wait();
+  return {rc, watch.out()};
+}
+
+// OMG DDS Security 1.1, 8.8.1 (a secured participant's entities are checked
+// against its permissions, 9.4.1.3) and 9.4.1.2 (the test governance admits
+// no unauthenticated participant): with [security] the plugin starts
+// secured as the gateway's identity, all its topics, writers and the
+// GatewayStatus reader allowed, its start log says so, and a participant
+// without credentials gets nothing from it; without the table the same
+// participant gets DeviceStatus and the log says the topics are open.
+TEST(DdsPlugin, OmgDdsSec11_8_8_1_SecurityTableSecuresTheOutputAndTheLogSaysSo) {
+  ASSERT_TRUE(fs::exists(kCli)) << kCli;
+  {
+    Plugin open(base_config());
+    open.host.announce(device(0, 0, 5, "axis 1"));
+    const auto [rc, out] = plain_watch_status();
+    EXPECT_EQ(rc, 0) << "an open output is read by anyone: " << out;
+    EXPECT_NE(out.find("\"topic\":\"DeviceStatus\""), std::string::npos) << out;
+    EXPECT_NE(open.log.all().find("DDS Security: off (any participant on the network may read the topics)"),
+              std::string::npos)
+        << open.log.all();
+  }
+  Plugin secured(base_config(dds::test::TestCa::get().table("gateway")));
+  EXPECT_NE(secured.log.all().find("DDS Security: on, identity 'CN=gateway,O=cobridge test'"), std::string::npos)
+      << secured.log.all();
+  secured.host.announce(device(0, 0, 5, "axis 1"));
+  const auto [rc, out] = plain_watch_status();
+  EXPECT_EQ(rc, 3) << "count not reached";
+  EXPECT_EQ(out, "") << "a participant without credentials got something from the secured output";
+}
+
+// A secured output joining a domain that a plain participant of the same
+// process made crashed Cyclone 0.10.2 (SIGSEGV in its gc thread): the
+// output refuses to start instead, saying why.
+TEST(DdsPlugin, DocsDds_SecuredOutputWantsItsDomainToItselfInTheProcess) {
+  Reader plain(&cobridge_DeviceStatus_desc, "DeviceStatus", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_TRANSIENT_LOCAL,
+               true);
+  LogCapture log;
+  pipeline::PluginHost host({kPlugin.parent_path(), test_gateway(), log.sink()});
+  const Error err = host.load({"dds", "dds", kPlugin, base_config(dds::test::TestCa::get().table("gateway"))});
+  ASSERT_FALSE(err) << err.to_string();
+  EXPECT_FALSE(host.start_all().empty());
+  EXPECT_EQ(host.started_count(), 0u);
+  EXPECT_NE(log.all().find("already has a participant in this process"), std::string::npos) << log.all();
+}
+
+// OMG DDS Security 1.1, 9.4.1.3: an identity whose permissions grant no
+// publication (reader-all subscribes only) cannot start the output; the
+// error names the permissions document and the subject.
+TEST(DdsPlugin, OmgDdsSec11_9_4_1_3_PermissionsWithoutPublishStopTheStart) {
+  LogCapture log;
+  pipeline::PluginHost host({kPlugin.parent_path(), test_gateway(), log.sink()});
+  const Error err = host.load({"dds", "dds", kPlugin, base_config(dds::test::TestCa::get().table("reader-all"))});
+  ASSERT_FALSE(err) << err.to_string();
+  EXPECT_FALSE(host.start_all().empty());
+  EXPECT_EQ(host.started_count(), 0u);
+  EXPECT_NE(log.all().find("does not grant it to 'CN=reader-all,O=cobridge test'"), std::string::npos) << log.all();
 }
 
 // Issue 16, item 3: every writer offers liveliness AUTOMATIC with the
