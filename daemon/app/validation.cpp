@@ -1,5 +1,7 @@
 #include "app/validation.hpp"
 
+#include "app/exposure.hpp"
+
 #include "config/known_models.hpp"
 #include "config/load.hpp"
 #include "device/eds.hpp"
@@ -131,6 +133,7 @@ Validated validate(const std::filesystem::path& file) {
   }
   v.catalog = std::make_unique<device::DeviceCatalog>();
   load_catalog(r.config(), *v.catalog, v.errors, v.warnings);
+  for (auto& w : exposure_warnings(r.config())) v.warnings.push_back(std::move(w));
   if (v.errors.empty()) v.config = std::move(r).config();
   return v;
 }

@@ -34,6 +34,7 @@ struct AsciiGatewaySettings {
   std::string write_group = "cobridge-admin";  // Unix socket: root, the daemon's user and members write; "" = all
   std::uint32_t max_clients = 128;
   std::uint32_t sdo_timeout_ms = 1000;  // default per request ("set sdo_timeout" changes it per connection)
+  std::string where;                    // "file:line:column" of the [ascii_gateway] header, for warnings
 };
 
 struct RemoteAccess {

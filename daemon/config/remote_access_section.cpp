@@ -1,5 +1,7 @@
 #include "config/remote_access_section.hpp"
 
+#include "config/loader.hpp"
+
 #include <cobridge/ip_allow_list.hpp>
 
 #include <arpa/inet.h>
@@ -67,6 +69,7 @@ void read_ascii(TableReader& top, DiagnosticSink& sink, AsciiGatewaySettings& ou
   r.check_keys({"enabled", "socket", "tcp_port", "bind", "writes_enabled", "write_allow", "write_group", "max_clients",
                 "sdo_timeout_ms"});
   out.enabled = true;
+  out.where = detail::location(sink, *t).to_string();
   if (auto v = r.boolean("enabled")) out.enabled = *v;
   if (auto v = r.string("socket")) {
     if (v->empty() || v->front() != '/') {

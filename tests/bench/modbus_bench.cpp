@@ -116,8 +116,10 @@ int main(int argc, char** argv) {
     std::lock_guard lock(log_mutex);
     if (msg.find("listening on") != std::string_view::npos) listening = msg;
   };
+  options.plugin_dir = std::filesystem::path(plugin).parent_path();  // plugins load from their directory only
   PluginHost host(options);
-  PluginSpec spec{"modbus", "modbus", plugin, "bind = \"127.0.0.1\"\nport = 0\nmax_clients = 64\n"};
+  PluginSpec spec{"modbus", "modbus", std::filesystem::path(plugin).filename(),
+                  "bind = \"127.0.0.1\"\nport = 0\nmax_clients = 64\n"};
   const cobridge::Error error = host.load(spec);
   if (error || !host.start_all().empty()) {
     std::fprintf(stderr, "cannot load %s: %s\n", plugin.c_str(), error.message.c_str());

@@ -21,6 +21,7 @@
 #include "pipeline/plugin_host.hpp"
 
 #include <chrono>
+#include <filesystem>
 #include <csignal>
 #include <mutex>
 #include <cstdio>
@@ -84,11 +85,13 @@ int main(int argc, char** argv) {
     std::printf("LOG %d %.*s\n", static_cast<int>(level), static_cast<int>(msg.size()), msg.data());
     std::fflush(stdout);
   };
+  // Plugins load from their directory only (plugin_trust.hpp): the given file's.
+  options.plugin_dir = std::filesystem::path(plugin).parent_path();
   PluginHost host(options);
   PluginSpec spec;
   spec.instance = "modbus";
   spec.type = "modbus";
-  spec.file = plugin;
+  spec.file = std::filesystem::path(plugin).filename();
   spec.config_toml = config;
   if (const cobridge::Error error = host.load(spec)) {
     std::printf("ERROR %s\n", error.message.c_str());
