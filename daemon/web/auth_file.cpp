@@ -1,5 +1,7 @@
 #include "web/auth_file.hpp"
 
+#include "web/password_hash.hpp"
+
 #include <sys/stat.h>
 
 #include <cerrno>
@@ -7,16 +9,6 @@
 #include <fstream>
 
 namespace cobridge::web {
-namespace {
-
-bool equal_constant_time(std::string_view a, std::string_view b) noexcept {
-  unsigned diff = a.size() == b.size() ? 0U : 1U;
-  for (std::size_t i = 0; i < a.size(); ++i)
-    diff |= static_cast<unsigned>(static_cast<unsigned char>(a[i]) ^ static_cast<unsigned char>(i < b.size() ? b[i] : '\0'));
-  return diff == 0;
-}
-
-}  // namespace
 
 Error AuthFile::load(const std::filesystem::path& file) {
   auto fail = [&](const std::string& what, Errc kind = Errc::kInvalidArgument, int err = 0) {
