@@ -182,7 +182,7 @@ struct WebSettings {
   std::uint16_t port = 8080;
   std::filesystem::path tls_cert;   // PEM; both or neither of cert and key
   std::filesystem::path tls_key;
-  std::filesystem::path auth_file;  // "user:password" lines; empty = no authentication
+  std::filesystem::path auth_file;  // "user:hash" lines (crypt(3) hashes); empty = no authentication
   std::uint32_t max_clients = 64;   // connections at once; more are refused
   std::uint32_t timeout_s = 10;     // an idle or slow connection is closed after this
   SourceLocation where;             // the [web] header

@@ -33,21 +33,39 @@ Error AuthFile::load(const std::filesystem::path& file) {
   std::size_t n = 0;
   while (std::getline(in, line)) {
     ++n;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
+    // Trailing blanks (an editor's, a CRLF file's) are no part of a hash:
+    // kept, they would make the line's password never match.
+    while (!line.empty() && (line.back() == '\r' || line.back() == ' ' || line.back() == '\t')) line.pop_back();
     if (line.empty() || line[0] == '#') continue;
-    const auto colon = line.find(':');
-    if (colon == std::string::npos || colon == 0 || colon + 1 == line.size())
-      return fail("line " + std::to_string(n) + ": expected user:password");
-    users_.emplace_back(line.substr(0, colon), line.substr(colon + 1));
+    if (Error e = read_line(line, file.string() + ":" + std::to_string(n))) {
+      users_.clear();
+      return e;
+    }
   }
-  if (users_.empty()) return fail("no user:password line");
+  if (users_.empty()) return fail("no user:hash line");
+  return {};
+}
+
+Error AuthFile::read_line(const std::string& line, const std::string& where) {
+  const auto colon = line.find(':');
+  if (colon == std::string::npos || colon == 0 || colon + 1 == line.size())
+    return Error(Errc::kInvalidArgument, "expected user:hash", where);
+  User user{line.substr(0, colon), line.substr(colon + 1)};
+  if (const std::string problem = hash_problem(user.hash); !problem.empty())
+    return Error(Errc::kInvalidArgument, "user \"" + user.name + "\": " + problem, where);
+  for (const User& u : users_) {
+    if (u.name == user.name) return Error(Errc::kInvalidArgument, "user \"" + user.name + "\" is named twice", where);
+  }
+  users_.push_back(std::move(user));
   return {};
 }
 
 bool AuthFile::check(std::string_view user, std::string_view password) const noexcept {
-  bool ok = false;
-  for (const auto& [u, p] : users_) ok |= equal_constant_time(u, user) & equal_constant_time(p, password);
-  return ok;
+  if (users_.empty()) return false;
+  const User* found = nullptr;
+  for (const User& u : users_) found = equal_constant_time(u.name, user) ? &u : found;
+  const bool match = verify_password(password, found != nullptr ? found->hash : users_.front().hash);
+  return match && found != nullptr;
 }
 
 }  // namespace cobridge::web

@@ -9,6 +9,13 @@
 
 namespace cobridge::web::test {
 
+// Users for the authentication tests: crypt(3) hashes made with
+// `openssl passwd -6 -salt aliceSalt 's3cret'` and `... -salt bobSalt 'hunter:2'`.
+inline constexpr const char* kAliceHash =
+    "$6$aliceSalt$GWaoQP4ejM4uMr3JQOephVSTIhnZxBBq.ICGLg73B16sy1dAN1jClN0Q8yfRP84CyNQha.vBsBvupt/hP4OTC/";
+inline constexpr const char* kBobHash =
+    "$6$bobSalt$vcMPHIEgVxXbrTFn0iYwC4ucNZXRWDHHonu8HLqTYkUiQ8dLrf5DkUTJLNRXwiQ2HgbgACEFqQyE0hIJB6eCT.";
+
 inline gateway::StatusReport sample_report(int buses, int devices) {
   using namespace std::chrono_literals;
   gateway::StatusReport r;

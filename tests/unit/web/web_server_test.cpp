@@ -109,7 +109,8 @@ class AuthTest : public ::testing::Test {
  protected:
   void SetUp() override {
     file_ = std::filesystem::temp_directory_path() / ("cobridge-web-users-" + std::to_string(::getpid()));
-    std::ofstream(file_) << "# operators\nalice:s3cret\nbob:hunter:2\n";
+    std::ofstream(file_) << "# operators\nalice:" << cobridge::web::test::kAliceHash << "\nbob:"
+                         << cobridge::web::test::kBobHash << "\n";
     ::chmod(file_.c_str(), 0600);
   }
   void TearDown() override { std::filesystem::remove(file_); }
