@@ -8,6 +8,7 @@
 // starts and read through a signalfd, so nothing runs in a signal handler.
 #include "app/config_check.hpp"
 #include "app/daemon.hpp"
+#include "app/hash_password_command.hpp"
 #include "sys/install_paths.hpp"
 
 #include <CLI/CLI.hpp>
@@ -45,6 +46,10 @@ int main(int argc, char** argv) {
   app.add_option("--check-config", check_file,
                  "validate FILE (and the device descriptions it needs), print every problem, exit 0 or 1; "
                  "never opens a bus");
+  bool hash_password = false;
+  app.add_flag("--hash-password", hash_password,
+               "read a password (twice from a terminal, else the first line of stdin) and print its yescrypt "
+               "hash for web.auth_file's user:hash lines");
   app.add_flag("-f,--foreground", foreground, "log to the console (the default when not under systemd)");
   app.add_option("--state-dir", state_dir, "override gateway.state_dir");
   std::string plugin_dir;
@@ -52,6 +57,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("cobridged ") + COBRIDGE_VERSION);
   CLI11_PARSE(app, argc, argv);
 
+  if (hash_password) return cobridge::app::hash_password_command(stdin, stdout, stderr);
   const std::filesystem::path plugins = plugin_dir.empty() ? default_plugin_dir() : std::filesystem::path(plugin_dir);
   if (!check_file.empty()) return cobridge::app::check_config(check_file, plugins);
   return run({config_file, foreground, state_dir, plugins, COBRIDGE_VERSION});
