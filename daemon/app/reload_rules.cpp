@@ -38,7 +38,7 @@ bool web_change(const config::Config& running, const config::Config& next) {
   if (!a) return false;
   return a->enabled != b->enabled || a->bind != b->bind || a->port != b->port || a->tls_cert != b->tls_cert ||
          a->tls_key != b->tls_key || a->auth_file != b->auth_file || a->max_clients != b->max_clients ||
-         a->timeout_s != b->timeout_s;
+         a->timeout_s != b->timeout_s || a->hosts != b->hosts;
 }
 
 }  // namespace

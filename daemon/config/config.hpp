@@ -185,8 +185,13 @@ struct WebSettings {
   std::filesystem::path auth_file;  // "user:hash" lines (crypt(3) hashes); empty = no authentication
   std::uint32_t max_clients = 64;   // connections at once; more are refused
   std::uint32_t timeout_s = 10;     // an idle or slow connection is closed after this
+  // The names a request's Host may carry besides the address the connection
+  // arrived at (and localhost on a loopback connection), canonical
+  // (config/host_name.hpp); DNS rebinding defence, docs/web.md. Absent: for
+  // a wildcard bind, any Host (with a warning); else just those defaults.
+  std::optional<std::vector<std::string>> hosts;
   SourceLocation where;             // the [web] header
-  SourceLocation tls_cert_at, tls_key_at, auth_file_at;
+  SourceLocation tls_cert_at, tls_key_at, auth_file_at, hosts_at;
 };
 
 // ---- [outputs.<name>] ----------------------------------------------------

@@ -1,4 +1,5 @@
 // [web]: the HTTP status service.
+#include "config/host_name.hpp"
 #include "config/loader.hpp"
 
 #include <arpa/inet.h>
@@ -11,6 +12,32 @@
 #include <system_error>
 
 namespace cobridge::config::detail {
+namespace {
+
+// web.hosts: DNS names or IP literals, no port, kept canonical.
+void read_hosts(TableReader& r, DiagnosticSink& sink, WebSettings& w) {
+  const toml::node* n = r.find("hosts");
+  if (n == nullptr) return;
+  w.hosts_at = location(sink, *n);
+  const toml::array* a = n->as_array();
+  if (a == nullptr) {
+    r.error(*n, "web.hosts must be an array of host names (e.g. [\"gw1.plant.local\", \"10.1.2.3\"])");
+    return;
+  }
+  w.hosts.emplace();
+  for (const toml::node& e : *a) {
+    const auto* s = e.as_string();
+    const auto host = s != nullptr ? canonical_host(s->get()) : std::nullopt;
+    if (!host) {
+      r.error(e, "web.hosts entry " + (s ? in_quotes(s->get()) : std::string("(not a string)")) +
+                     " is not a host name or IP address (a name as clients type it, without scheme or port)");
+      continue;
+    }
+    w.hosts->push_back(*host);
+  }
+}
+
+}  // namespace
 
 // ---- [web] -------------------------------------------------------------
 
@@ -18,7 +45,7 @@ void Loader::read_web(TableReader& top) {
   const toml::table* t = top.subtable("web");
   if (t == nullptr) return;
   TableReader r(*t, "[web]", "", "web.", sink_);
-  r.check_keys({"enabled", "bind", "port", "tls_cert", "tls_key", "auth_file", "max_clients", "timeout_s"});
+  r.check_keys({"enabled", "bind", "port", "tls_cert", "tls_key", "auth_file", "max_clients", "timeout_s", "hosts"});
   WebSettings w;
   w.where = location(sink_, *t);
   if (auto v = r.boolean("enabled")) w.enabled = *v;
@@ -48,6 +75,7 @@ void Loader::read_web(TableReader& top) {
   file("tls_cert", w.tls_cert, w.tls_cert_at);
   file("tls_key", w.tls_key, w.tls_key_at);
   file("auth_file", w.auth_file, w.auth_file_at);
+  read_hosts(r, sink_, w);
   if (w.tls_cert.empty() != w.tls_key.empty()) {
     const bool has_cert = !w.tls_cert.empty();
     r.error(*r.find(has_cert ? "tls_cert" : "tls_key"),

@@ -59,6 +59,9 @@ TEST(ReloadRules, WebAndOutputsRunWithTheirStartSettings) {
   next.web.reset();
   EXPECT_EQ(reload_refusal(running(), next), "[web] changed");
   next = running();
+  next.web->hosts = std::vector<std::string>{"gw1.plant.local"};
+  EXPECT_EQ(reload_refusal(running(), next), "[web] changed") << "web.hosts (issue 25, item 9)";
+  next = running();
   next.outputs[0].settings_toml = "path = \"/tmp/y\"\n";
   EXPECT_EQ(reload_refusal(running(), next), "[outputs.tap] changed");
 }

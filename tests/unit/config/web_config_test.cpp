@@ -39,6 +39,38 @@ TEST(WebConfig, EveryKey) {
   EXPECT_EQ(w.max_clients, 8U);
   EXPECT_EQ(w.timeout_s, 5U);
   EXPECT_EQ(w.auth_file_at.line, 16U);
+  // Canonical: lower case, no final dot, IPv6 without brackets as inet_ntop writes it.
+  ASSERT_TRUE(w.hosts.has_value());
+  EXPECT_EQ(*w.hosts, (std::vector<std::string>{"gw1.plant.local", "10.1.2.3", "2001:db8::1", "::1"}));
+  EXPECT_EQ(w.hosts_at.line, 19U);
+}
+
+// Issue 25, item 9: web.hosts absent is not web.hosts = [] (docs/web.md, "Host").
+TEST(WebConfig, HostsAbsentIsNotHostsEmpty) {
+  const std::string bus = "[[bus]]\nname = \"line1\"\ninterface = \"vcan0\"\n\n";
+  const auto absent = cobridge::config::load_string(bus + "[web]\nbind = \"0.0.0.0\"\n", "absent.toml");
+  ASSERT_TRUE(absent.ok());
+  EXPECT_FALSE(absent.config().web->hosts.has_value());
+  const auto empty = cobridge::config::load_string(bus + "[web]\nbind = \"0.0.0.0\"\nhosts = []\n", "empty.toml");
+  ASSERT_TRUE(empty.ok());
+  ASSERT_TRUE(empty.config().web->hosts.has_value());
+  EXPECT_TRUE(empty.config().web->hosts->empty());
+}
+
+TEST(WebConfig, HostsMistakesAtTheirPlace) {
+  const fs::path path = kFixtures / "bad_web_hosts.toml";
+  const auto r = load(path);
+  ASSERT_FALSE(r.ok());
+  const auto& d = r.diagnostics();
+  std::string all;
+  for (const auto& x : d) all += to_string(x) + "\n";
+  ASSERT_EQ(d.size(), 5U) << all;
+  for (std::size_t i = 0; i < d.size(); ++i) {
+    EXPECT_EQ(d[i].line, 9U + i) << all;
+    EXPECT_THAT(d[i].message, HasSubstr("is not a host name or IP address")) << all;
+  }
+  EXPECT_THAT(d[0].message, HasSubstr("\"gw1.plant.local:8080\""));
+  EXPECT_THAT(d[3].message, HasSubstr("(not a string)"));
 }
 
 TEST(WebConfig, MistakesAtTheirPlace) {
