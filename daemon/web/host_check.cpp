@@ -33,14 +33,11 @@ bool is_loopback_name(std::string_view host) noexcept {
 
 }  // namespace
 
-HostField parse_host_field(const char* value, unsigned lines) {
+HostField parse_host_field(const char* value, unsigned lines, bool required) {
   HostField f;
-  if (lines > 1) {
-    f.kind = HostField::Kind::invalid;
-    return f;
-  }
-  if (value == nullptr) return f;
+  if (value == nullptr && !required) return f;
   f.kind = HostField::Kind::invalid;
+  if (value == nullptr || lines > 1) return f;
   const auto part = host_part(value);
   const auto host = part ? config::canonical_host(*part) : std::nullopt;
   if (!host) return f;

@@ -11,8 +11,8 @@
 // when that address or the bind is the loopback; each web.hosts name. With
 // a wildcard bind (0.0.0.0, ::) and no web.hosts at all, any Host is
 // accepted (the gateway cannot know its names) and host_check_warning()
-// says so. A request without Host (HTTP/1.0) is not a browser's and passes;
-// libmicrohttpd answers an HTTP/1.1 one without Host 400 itself.
+// says so. An HTTP/1.0 request without Host is not a browser's and passes;
+// an HTTP/1.1 one gets 400 (RFC 9112 §3.2).
 //
 // Thread: built on the main thread by WebServer::start(); check() from any
 // (read-only).
@@ -33,9 +33,11 @@ struct HostField {
   std::string host;  // Kind::host: canonical (config/host_name.hpp), the port cut off
 };
 
-// `value`: the field's value, nullptr when the request has none (absent);
-// `lines`: how many Host field lines the request had (two or more: invalid).
-[[nodiscard]] HostField parse_host_field(const char* value, unsigned lines = 1);
+// `value`: the field's value, nullptr when the request has none; `lines`:
+// how many Host field lines the request had (two or more: invalid);
+// `required`: the request is HTTP/1.1, where a missing Host is invalid too
+// (RFC 9112 §3.2; libmicrohttpd 0.9.75 does not refuse it), else absent.
+[[nodiscard]] HostField parse_host_field(const char* value, unsigned lines, bool required = true);
 
 class HostCheck {
  public:

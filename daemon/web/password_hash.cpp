@@ -21,7 +21,8 @@ struct CryptState {
 bool equal_constant_time(std::string_view a, std::string_view b) noexcept {
   unsigned diff = a.size() == b.size() ? 0U : 1U;
   for (std::size_t i = 0; i < a.size(); ++i)
-    diff |= static_cast<unsigned>(static_cast<unsigned char>(a[i]) ^ static_cast<unsigned char>(i < b.size() ? b[i] : '\0'));
+    diff |= static_cast<unsigned>(static_cast<unsigned char>(a[i]) ^
+                                  static_cast<unsigned char>(i < b.size() ? b[i] : '\0'));
   return diff == 0;
 }
 

@@ -1,15 +1,19 @@
 #include "web/web_server.hpp"
 
 #include "sys/logging.hpp"
+#include "web/login_log.hpp"
 #include "web/metrics.hpp"
+#include "web/peer_address.hpp"
 #include "web/status_page.hpp"
 
 #include <arpa/inet.h>
 #include <microhttpd.h>
 #include <netinet/in.h>
+#include <strings.h>
 
 #include <cstdarg>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 
@@ -59,17 +63,43 @@ bool target_was_clean(const void* state, const char* version) {
   return end != nullptr && version != nullptr && end + 1 == version;
 }
 
+MHD_Result count_host_lines(void* cls, MHD_ValueKind /*kind*/, const char* key, const char* /*value*/) {
+  if (::strcasecmp(key, MHD_HTTP_HEADER_HOST) == 0) ++*static_cast<unsigned*>(cls);
+  return MHD_YES;
+}
+
+// The Host field (all its lines counted: two are a 400; required from
+// HTTP/1.1 on) and both ends of the connection.
+void read_origin(MHD_Connection* connection, const char* version, HttpRequest& r) {
+  unsigned lines = 0;
+  MHD_get_connection_values(connection, MHD_HEADER_KIND, &count_host_lines, &lines);
+  const bool required = version == nullptr || std::strcmp(version, MHD_HTTP_VERSION_1_0) != 0;
+  r.host = parse_host_field(MHD_lookup_connection_value(connection, MHD_HEADER_KIND, MHD_HTTP_HEADER_HOST), lines,
+                            required);
+  if (const MHD_ConnectionInfo* ci = MHD_get_connection_info(connection, MHD_CONNECTION_INFO_CLIENT_ADDRESS)) {
+    r.client = address_text(ci->client_addr);
+    r.throttle_key = throttle_key(ci->client_addr);
+  }
+  if (const MHD_ConnectionInfo* ci = MHD_get_connection_info(connection, MHD_CONNECTION_INFO_CONNECTION_FD))
+    r.local = local_address(ci->connect_fd);
+}
+
 MHD_Result on_request(void* cls, MHD_Connection* connection, const char* url, const char* method,
                       const char* version, const char* /*upload_data*/, std::size_t* /*upload_data_size*/,
                       void** request_state) {
   auto* server = static_cast<WebServer*>(cls);
-  const bool clean_target = target_was_clean(*request_state, version);
   char* password = nullptr;
   char* user = MHD_basic_auth_get_username_password(connection, &password);
   Credentials credentials{user != nullptr ? user : "", password != nullptr ? password : ""};
   HttpAnswer a;
   try {
-    a = server->handle(method, url, user != nullptr ? &credentials : nullptr, clean_target);
+    HttpRequest r;
+    r.method = method;
+    r.path = url;
+    r.clean_target = target_was_clean(*request_state, version);
+    r.credentials = user != nullptr ? &credentials : nullptr;
+    read_origin(connection, version, r);
+    a = server->handle(r);
   } catch (const std::exception& e) {
     a.status = 500;
     a.body = "internal error\n";
@@ -89,6 +119,8 @@ MHD_Result on_request(void* cls, MHD_Connection* connection, const char* url, co
                           "default-src 'none'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; "
                           "connect-src 'self'; img-src data:; base-uri 'none'; form-action 'none'");
   if (a.status == 405) MHD_add_response_header(response, MHD_HTTP_HEADER_ALLOW, "GET, HEAD");
+  if (a.retry_after_s > 0)
+    MHD_add_response_header(response, MHD_HTTP_HEADER_RETRY_AFTER, std::to_string(a.retry_after_s).c_str());
   MHD_Result r;
   if (a.ask_credentials)
     r = MHD_queue_basic_auth_fail_response(connection, "cobridge", response);
@@ -134,6 +166,9 @@ Error WebServer::start(const config::WebSettings& settings) {
     if (Error e = auth.load(settings.auth_file)) return at(std::move(e), settings.auth_file_at, "auth_file");
     auth_ = std::move(auth);
   }
+  host_check_ = HostCheck(settings);
+  if (const std::string warning = host_check_warning(settings); !warning.empty())
+    sys::logger("web")->warn("web: {}", warning);
   unsigned flags = MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_EPOLL | MHD_USE_ERROR_LOG;
   const bool tls = !settings.tls_cert.empty();
   if (tls) {
@@ -200,44 +235,102 @@ WebServer::Snapshot& WebServer::snapshot() {
   return snap_;
 }
 
+namespace {
+
+void refuse(HttpAnswer& a, unsigned status, const std::string& why) {
+  a.status = status;
+  a.content_type = content_type(Resource::none);
+  a.body = why + "\n";
+}
+
+bool refuse_route(const HttpRoute& route, HttpAnswer& a) {
+  if (route.status == 200) return false;
+  refuse(a, route.status, route.reason);
+  return true;
+}
+
+}  // namespace
+
 HttpAnswer WebServer::handle(std::string_view method, std::string_view path, const Credentials* credentials,
                              bool clean_target) {
+  HttpRequest r;
+  r.method = method;
+  r.path = path;
+  r.credentials = credentials;
+  r.clean_target = clean_target;
+  return handle(r);
+}
+
+HttpAnswer WebServer::handle(const HttpRequest& request) {
   HttpAnswer a;
-  const HttpRoute route = route_request(method, path, clean_target);
+  const HttpRoute route = route_request(request.method, request.path, request.clean_target);
   a.content_type = content_type(route.resource);
-  if (route.status != 200) {
-    a.status = route.status;
-    a.body = std::string(route.reason) + "\n";
-  } else if (auth_ && (credentials == nullptr || !auth_->check(credentials->user, credentials->password))) {
-    a.status = 401;
-    a.ask_credentials = true;
-    a.content_type = content_type(Resource::none);
-    a.body = "authentication required\n";
-  } else {
-    switch (route.resource) {
-      case Resource::page: a.body = std::string(status_page_html()); break;
-      case Resource::health: a.body = "ok\n"; break;
-      case Resource::status_json: {
-        const std::lock_guard lock(mutex_);
-        a.body = snapshot().json;
-        break;
-      }
-      case Resource::metrics: {
-        const std::lock_guard lock(mutex_);
-        Snapshot& s = snapshot();
-        if (!s.have_metrics) {
-          s.metrics = render_metrics(s.report);
-          s.have_metrics = true;
-        }
-        a.body = s.metrics;
-        break;
-      }
-      case Resource::none: break;
-    }
-  }
+  if (!refuse_host(request, a) && !refuse_route(route, a) && !refuse_login(request, a)) serve(route.resource, a);
   // HEAD keeps the body here: libmicrohttpd sends its length and not the bytes.
   a.content_length = a.body.size();
   return a;
+}
+
+bool WebServer::refuse_host(const HttpRequest& r, HttpAnswer& a) const {
+  switch (host_check_.check(r.host, r.local)) {
+    case HostCheck::Verdict::ok: return false;
+    case HostCheck::Verdict::bad_request:
+      refuse(a, 400, "bad request: the Host header must be one host[:port] (RFC 9112 section 3.2)");
+      return true;
+    case HostCheck::Verdict::misdirected:
+      refuse(a, 421, "misdirected request: this server does not answer for that Host (web.hosts lists its names)");
+      return true;
+  }
+  return false;
+}
+
+bool WebServer::refuse_login(const HttpRequest& r, HttpAnswer& a) {
+  if (!auth_) return false;
+  const std::string& client = r.throttle_key.empty() ? r.client : r.throttle_key;
+  const std::string_view user = r.credentials != nullptr ? r.credentials->user : std::string_view();
+  const auto now = clock_();
+  if (const auto wait = throttle_.wait(client, now); wait > LoginThrottle::Clock::duration::zero()) {
+    // In the backoff window: answered at once, the credentials not even hashed.
+    const LoginThrottle::Verdict v = throttle_.refused(client, now);
+    if (v.log) sys::logger("web")->warn("web: {}", refused_login_line(r.client, user, v));
+    a.retry_after_s = seconds_up(wait);
+    refuse(a, 429, "too many failed logins from this address: retry after " + std::to_string(a.retry_after_s) + " s");
+    return true;
+  }
+  if (r.credentials != nullptr && auth_->check(user, r.credentials->password)) {
+    throttle_.succeeded(client);
+    return false;
+  }
+  if (r.credentials != nullptr) {  // none sent is a browser's first request, not a failure
+    const LoginThrottle::Verdict v = throttle_.failed(client, now);
+    if (v.log) sys::logger("web")->warn("web: {}", failed_login_line(r.client, user, v));
+  }
+  refuse(a, 401, "authentication required");
+  a.ask_credentials = true;
+  return true;
+}
+
+void WebServer::serve(Resource resource, HttpAnswer& a) {
+  switch (resource) {
+    case Resource::page: a.body = std::string(status_page_html()); break;
+    case Resource::health: a.body = "ok\n"; break;
+    case Resource::status_json: {
+      const std::lock_guard lock(mutex_);
+      a.body = snapshot().json;
+      break;
+    }
+    case Resource::metrics: {
+      const std::lock_guard lock(mutex_);
+      Snapshot& s = snapshot();
+      if (!s.have_metrics) {
+        s.metrics = render_metrics(s.report);
+        s.have_metrics = true;
+      }
+      a.body = s.metrics;
+      break;
+    }
+    case Resource::none: break;
+  }
 }
 
 }  // namespace cobridge::web

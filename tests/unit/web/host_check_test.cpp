@@ -33,7 +33,7 @@ WebSettings with_hosts(const std::string& bind, std::vector<std::string> hosts) 
 }
 
 Verdict judge(const HostCheck& c, const char* host, const std::string& local) {
-  return c.check(parse_host_field(host, host != nullptr ? 1 : 0), local);
+  return c.check(parse_host_field(host, host != nullptr ? 1 : 0, false), local);
 }
 
 // RFC 9110 §7.2: Host = uri-host [ ":" port ]; compared without the port.
@@ -44,7 +44,7 @@ TEST(HostField, Rfc9110Sec7_2_HostWithoutPortCanonical) {
   EXPECT_EQ(parse_host_field("[::1]:8080", 1).host, "::1");
   EXPECT_EQ(parse_host_field("[::1]", 1).host, "::1");
   EXPECT_EQ(parse_host_field("localhost:", 1).host, "localhost") << "port = *DIGIT may be empty";
-  EXPECT_EQ(parse_host_field(nullptr, 0).kind, HostField::Kind::absent);
+  EXPECT_EQ(parse_host_field(nullptr, 0, false).kind, HostField::Kind::absent) << "HTTP/1.0";
 }
 
 // RFC 9112 §3.2: "A server MUST respond with a 400 (Bad Request) ... to any
@@ -55,6 +55,7 @@ TEST(HostField, Rfc9112Sec3_2_InvalidOrRepeatedHostIsABadRequest) {
                           "user@gw1", "gw1/x", "gw 1", "http://gw1", "[10.1.2.3]", "gw1\r", "*"})
     EXPECT_EQ(parse_host_field(bad, 1).kind, HostField::Kind::invalid) << bad;
   EXPECT_EQ(parse_host_field("gw1.plant.local", 2).kind, HostField::Kind::invalid) << "two Host lines";
+  EXPECT_EQ(parse_host_field(nullptr, 0).kind, HostField::Kind::invalid) << "HTTP/1.1 without Host";
   const HostCheck any;
   EXPECT_EQ(any.check(parse_host_field("gw1", 2), "127.0.0.1"), Verdict::bad_request);
   EXPECT_EQ(judge(any, "gw1:http", "127.0.0.1"), Verdict::bad_request);

@@ -6,6 +6,7 @@
 #include "web/http_route.hpp"
 #include "web/metrics.hpp"
 #include "web/status_page.hpp"
+#include "http_client.hpp"
 #include "web_fixture.hpp"
 
 #include <arpa/inet.h>
@@ -130,12 +131,21 @@ TEST_F(AuthTest, BasicAuthenticationFromAFileOnlyItsOwnerReads) {
 
   WebServer server([] { return cobridge::gateway::StatusReport{}; });
   server.set_auth(auth);
+  auto now = std::chrono::steady_clock::now();
+  server.set_clock([&] { return now; });
   const auto none = server.handle("GET", "/metrics", nullptr);
   EXPECT_EQ(none.status, 401U);
   EXPECT_TRUE(none.ask_credentials);
+  const Credentials right{"alice", "s3cret"};
+  EXPECT_EQ(server.handle("GET", "/metrics", &right).status, 200U) << "no credentials sent is no failed login";
   const Credentials wrong{"alice", "nope"};
   EXPECT_EQ(server.handle("GET", "/metrics", &wrong).status, 401U);
-  const Credentials right{"alice", "s3cret"};
+  // Issue 25, item 9.2: then the right password too waits out the window (RFC 6585 §4).
+  const auto backoff = server.handle("GET", "/metrics", &right);
+  EXPECT_EQ(backoff.status, 429U);
+  EXPECT_EQ(backoff.retry_after_s, 1);
+  EXPECT_FALSE(backoff.ask_credentials);
+  now += 1s;
   EXPECT_EQ(server.handle("GET", "/metrics", &right).status, 200U);
 
   ::chmod(file_.c_str(), 0640);
@@ -179,26 +189,7 @@ TEST_F(AuthTest, WebSettingsProblemsAreErrorsAtTheirKey) {
 
 // ---- over a socket -----------------------------------------------------------
 
-std::string exchange(std::uint16_t port, const std::string& request) {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_port = htons(port);
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
-    ::close(fd);
-    return "connect failed";
-  }
-  timeval tv{5, 0};
-  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
-  (void)::send(fd, request.data(), request.size(), MSG_NOSIGNAL);
-  std::string out;
-  char buf[4096];
-  ssize_t n;
-  while ((n = ::recv(fd, buf, sizeof buf, 0)) > 0) out.append(buf, static_cast<std::size_t>(n));
-  ::close(fd);
-  return out;
-}
+using cobridge::web::test::http_exchange;
 
 TEST(WebServerSocket, AnswersOverHttpAndRefusesWhatItShould) {
   std::atomic<int> calls{0};
@@ -213,27 +204,27 @@ TEST(WebServerSocket, AnswersOverHttpAndRefusesWhatItShould) {
   const std::uint16_t port = server.port();
   ASSERT_NE(port, 0);
 
-  const auto status = exchange(port, "GET /api/v1/status HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
+  const auto status = http_exchange(port, "GET /api/v1/status HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n");
   EXPECT_THAT(status, HasSubstr("HTTP/1.1 200"));
   EXPECT_THAT(status, HasSubstr("Content-Type: application/json"));
   EXPECT_THAT(status, HasSubstr("\"gateway\":\"gw-1\""));
 
-  const auto head = exchange(port, "HEAD /metrics HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
+  const auto head = http_exchange(port, "HEAD /metrics HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n");
   EXPECT_THAT(head, HasSubstr("HTTP/1.1 200"));
   EXPECT_THAT(head, Not(HasSubstr("# HELP")));
 
-  const auto post = exchange(port, "POST /api/v1/status HTTP/1.1\r\nHost: x\r\nContent-Length: 5\r\n"
+  const auto post = http_exchange(port, "POST /api/v1/status HTTP/1.1\r\nHost: localhost\r\nContent-Length: 5\r\n"
                                    "Connection: close\r\n\r\nhello");
   EXPECT_THAT(post, HasSubstr("HTTP/1.1 405"));
   EXPECT_THAT(post, HasSubstr("Allow: GET, HEAD"));
 
-  EXPECT_THAT(exchange(port, "GET /nothing HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n"), HasSubstr("HTTP/1.1 404"));
+  EXPECT_THAT(http_exchange(port, "GET /nothing HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n"), HasSubstr("HTTP/1.1 404"));
   // Not HTTP: libmicrohttpd closes the connection without an answer, or says 400.
-  const auto garbage = exchange(port, "garbage\r\n\r\n");
+  const auto garbage = http_exchange(port, "garbage\r\n\r\n");
   EXPECT_TRUE(garbage.empty() || garbage.find("HTTP/1.1 400") == 0) << garbage;
   // A request header bigger than the per-connection memory limit.
-  const std::string big = "GET / HTTP/1.1\r\nHost: x\r\nX-Big: " + std::string(64 * 1024, 'a') + "\r\n\r\n";
-  EXPECT_THAT(exchange(port, big), HasSubstr("HTTP/1.1 431"));
+  const std::string big = "GET / HTTP/1.1\r\nHost: localhost\r\nX-Big: " + std::string(64 * 1024, 'a') + "\r\n\r\n";
+  EXPECT_THAT(http_exchange(port, big), HasSubstr("HTTP/1.1 431"));
 
   EXPECT_EQ(calls.load(), 1);  // only the one GET of the status asked the daemon
   server.stop();
@@ -269,14 +260,14 @@ TEST(WebServerSocket, ATargetWithAControlByteOrASpaceGets400) {
   s.port = 0;
   const Error started = server.start(s);
   ASSERT_FALSE(started) << started.to_string();
-  const std::string tail = " HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n";
+  const std::string tail = " HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n";
   const std::string targets[] = {std::string("/metrics\0x", 10), std::string("/metrics\0", 9),
                                  std::string("/\0/metrics", 10), "/metrics\x01", "/metrics\tx", "/metrics\rx",
                                  "/metrics\x1f", "/metrics\x7f", "/metrics x", "/metrics?a b", "/metrics%00x",
                                  "/metrics%0a", "/metrics%1F", "/metrics%7f", "/metrics?x=%00"};
   for (const std::string& target : targets) {
     for (const char* method : {"GET ", "HEAD "}) {
-      const std::string answer = exchange(server.port(), method + target + tail);
+      const std::string answer = http_exchange(server.port(), method + target + tail);
       const std::string status_line = answer.substr(0, answer.find('\r'));
       EXPECT_EQ(status_line.rfind("HTTP/1.1 400 ", 0), 0u) << method << printable(target) << " -> " << status_line;
       EXPECT_EQ(answer.find("# HELP"), std::string::npos) << method << printable(target) << ": the metrics";
@@ -284,7 +275,7 @@ TEST(WebServerSocket, ATargetWithAControlByteOrASpaceGets400) {
   }
   EXPECT_EQ(calls.load(), 0) << "no refused request asked the daemon for its status";
   // The same requests without the bad byte are served.
-  const std::string metrics = exchange(server.port(), "GET /metrics?x=%41" + tail);
+  const std::string metrics = http_exchange(server.port(), "GET /metrics?x=%41" + tail);
   EXPECT_EQ(metrics.rfind("HTTP/1.1 200 ", 0), 0u) << metrics;
   EXPECT_THAT(metrics, HasSubstr("# HELP"));
   server.stop();
