@@ -61,8 +61,9 @@ class HostCheck {
 
 // The warning for [web] settings under which any Host is accepted (a
 // wildcard bind without web.hosts), naming the fix; "" when there is none.
-// WebServer::start() logs it. For --check-config's exposure warnings
-// (daemon/app/config_check.*, another change) to print as well.
+// WebServer::start() logs it. Not yet among --check-config's exposure
+// warnings: app/exposure.cpp's web_exposure() is the place to add it
+// (prefixed with the [web] table's file:line:col), left to that file's owner.
 [[nodiscard]] std::string host_check_warning(const config::WebSettings& settings);
 
 }  // namespace cobridge::web
