@@ -1,5 +1,7 @@
 #include "app/exposure.hpp"
 
+#include "web/host_check.hpp"
+
 #include <arpa/inet.h>
 #include <sys/stat.h>
 
@@ -26,6 +28,8 @@ void web_exposure(const config::WebSettings& w, std::vector<std::string>& out) {
   if (!is_loopback(w.bind) && w.auth_file.empty())
     out.push_back(here + " on a non-loopback address without authentication (auth_file): whoever reaches it reads "
                          "every device's status and the metrics");
+  if (const std::string any_host = web::host_check_warning(w); !any_host.empty())
+    out.push_back(w.where.to_string() + ": " + any_host);
   struct stat st {};
   if (!w.tls_key.empty() && ::stat(w.tls_key.c_str(), &st) == 0 && (st.st_mode & (S_IRWXG | S_IRWXO)) != 0)
     out.push_back(w.tls_key_at.to_string() + ": web.tls_key " + w.tls_key.string() +

@@ -61,9 +61,8 @@ class HostCheck {
 
 // The warning for [web] settings under which any Host is accepted (a
 // wildcard bind without web.hosts), naming the fix; "" when there is none.
-// WebServer::start() logs it. Not yet among --check-config's exposure
-// warnings: app/exposure.cpp's web_exposure() is the place to add it
-// (prefixed with the [web] table's file:line:col), left to that file's owner.
+// One of the exposure warnings (app/exposure.cpp): printed by --check-config
+// and logged at start and on reload, at the [web] table's file:line:col.
 [[nodiscard]] std::string host_check_warning(const config::WebSettings& settings);
 
 }  // namespace cobridge::web

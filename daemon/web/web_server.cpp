@@ -166,9 +166,7 @@ Error WebServer::start(const config::WebSettings& settings) {
     if (Error e = auth.load(settings.auth_file)) return at(std::move(e), settings.auth_file_at, "auth_file");
     auth_ = std::move(auth);
   }
-  host_check_ = HostCheck(settings);
-  if (const std::string warning = host_check_warning(settings); !warning.empty())
-    sys::logger("web")->warn("web: {}", warning);
+  host_check_ = HostCheck(settings);  // host_check_warning() is among the exposure warnings (app/exposure.cpp)
   unsigned flags = MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_EPOLL | MHD_USE_ERROR_LOG;
   const bool tls = !settings.tls_cert.empty();
   if (tls) {

@@ -48,7 +48,11 @@ TEST(Exposure, AWebPageOnTheNetworkWithoutTlsOrPasswordsIsNamedAtItsSection) {
   EXPECT_THAT(warnings_of("\n[web]\nbind = \"0.0.0.0\"\n"),
               ElementsAre(HasSubstr("plant.toml:6:1: [web] serves 0.0.0.0:8080 on a non-loopback address without TLS"),
                           HasSubstr("plant.toml:6:1: [web] serves 0.0.0.0:8080 on a non-loopback address without "
-                                    "authentication")));
+                                    "authentication"),
+                          HasSubstr("plant.toml:6:1: web.bind \"0.0.0.0\" without web.hosts")));
+  // Named hosts close the DNS-rebinding door (RFC 9110 §7.2 Host).
+  EXPECT_THAT(warnings_of("\n[web]\nbind = \"0.0.0.0\"\nhosts = [\"gw1.plant.local\"]\n"),
+              ElementsAre(HasSubstr("without TLS"), HasSubstr("without authentication")));
 }
 
 TEST(Exposure, The309TcpListenerOnTheNetworkAndItsWritesWithoutAnAllowList) {
