@@ -76,6 +76,23 @@ def bad_state_file(report, args, ws, config):
                  "the skipped lines are logged once, each as file:line", log[-600:])
 
 
+def exposure(report, args, ws):
+    """Issue 25, item 7: a valid file that opens doors to the network passes,
+    with a warning at each line that opens one."""
+    open_ = e2e.write_config(ws, [{"name": "line1", "interface": "vcan0"}],
+                             [{"name": "enc", "bus": "line1", "serial": 1, "model": "RM9", "node_id": 5}],
+                             file_name="exposed.toml",
+                             extra='[outputs.modbus]\nbind = "0.0.0.0"\nwrites_enabled = true\n'
+                                   '[web]\nbind = "0.0.0.0"\n')
+    r = subprocess.run([args.daemon, "--check-config", open_], capture_output=True, text=True, timeout=20)
+    warned = [l for l in r.stderr.splitlines() if l.startswith("warning: %s:" % open_)]
+    report.check(r.returncode == 0 and any("[outputs.modbus] listens on 0.0.0.0" in l for l in warned) and
+                 any("writes_enabled and no write_allow" in l for l in warned) and
+                 any("[web] serves 0.0.0.0:8080" in l and "without TLS" in l for l in warned),
+                 "--check-config passes an exposed file and warns at file:line about each door",
+                 "exit %d; %s" % (r.returncode, " | ".join(warned)[:400]))
+
+
 def main():
     args = e2e.parse_args()
     report = e2e.Report("test_bad_config")
@@ -131,6 +148,7 @@ def main():
         r = subprocess.run([args.daemon, "--check-config", good], capture_output=True, text=True, timeout=20)
         frames = [f for li in listeners for f in li.snapshot(t0)]
         report.check(not frames, "--check-config of a good configuration never opens a bus", "%d frames" % len(frames))
+        exposure(report, args, ws)
         bad_state_file(report, args, ws, good)
     finally:
         for li in listeners:

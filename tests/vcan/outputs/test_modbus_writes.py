@@ -16,6 +16,7 @@ families, standing still (motion constant:0) so positions are exact:
  * a command to a device that does not answer (cable pulled): 0x0B.
 """
 import os
+import re
 import sys
 import time
 
@@ -42,9 +43,9 @@ def s32(hi, lo):
 
 
 class Client:
-    def __init__(self):
+    def __init__(self, source="127.0.0.1"):
         from pymodbus.client import ModbusTcpClient
-        self.c = ModbusTcpClient("127.0.0.1", port=PORT, timeout=3)
+        self.c = ModbusTcpClient("127.0.0.1", port=PORT, timeout=3, source_address=(source, 0))
         if not self.c.connect():
             raise RuntimeError("Modbus connect failed")
 
@@ -82,7 +83,8 @@ def main():
     devices = [{"name": name, "bus": "line1", "serial": s, "model": m, "node_id": n, "heartbeat_ms": 100,
                 "tpdo1": {"mapping": ["position"], "transmission": "event", "event_timer_ms": 10}}
                for (name, m, _, s, n) in DEVICES]
-    extra = "[outputs.modbus]\nbind = \"127.0.0.1\"\nport = %d\nwrites_enabled = true\n" % PORT
+    # Issue 25, items 5-6: writes from 127.0.0.1 only (a second client from 127.0.0.2 reads, may not write).
+    extra = "[outputs.modbus]\nbind = \"127.0.0.1\"\nport = %d\nwrites_enabled = true\nwrite_allow = [\"127.0.0.1/32\"]\n" % PORT
     daemon = e2e.Daemon(args.daemon, e2e.write_config(ws, [bus], devices, extra=extra), ws,
                         extra_args=("--plugin-dir", args.plugins))
     names = [d[0] for d in DEVICES]
@@ -172,9 +174,29 @@ def main():
                      "rot: command to the offline device answers 0x0B", str(r))
         sim.command("silence 1001 off")
 
-        # The daemon logged each command and its outcome.
-        with open(daemon.log_path) as f:
-            log = f.read()
+        # A client outside write_allow reads, and its write is refused (0x01) and logged with its address.
+        other = Client("127.0.0.2")
+        try:
+            regs = other.slot("mt")
+            report.check(regs is not None, "a client outside write_allow (127.0.0.2) reads the map")
+            r = other.command("mt", 1, 4242)
+            report.check(r.isError() and getattr(r, "exception_code", None) == 0x01,
+                         "its preset is refused with exception 0x01 (issue 25 item 6)", str(r))
+        finally:
+            other.close()
+        # The daemon logged each command and its outcome, and every write with its client
+        # (the refused one last: waited for, the log is written by the server thread).
+        end = time.time() + 5
+        while True:
+            with open(daemon.log_path) as f:
+                log = f.read()
+            if "127.0.0.2" in log or time.time() > end:
+                break
+            time.sleep(0.05)
+        report.check(re.search(r"\[modbus\] \[info\] write by 127\.0\.0\.1:\d+ \(unit 1\): registers \d+\.\.\d+ = .*: applied",
+                               log) is not None, "every Modbus write logged at info with the client's address and port")
+        report.check(re.search(r"write by 127\.0\.0\.2:\d+ \(unit 1\): registers .*: refused, exception 0x01", log)
+                     is not None, "the refused write logged with its client too")
         report.check("device mt: preset to 20007 requested by an output" in log and "device mt: store done" in log,
                      "daemon log names the commands and their outcome")
     finally:
