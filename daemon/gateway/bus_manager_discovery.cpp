@@ -108,6 +108,9 @@ void BusManager::Impl::on_discovery_event(const DiscoveryEvent& e, TimePoint now
       log->warn("bus {}: {}", bus.name, e.text);
       add_problem(e.text, e.device);
       break;
+    case DiscoveryEventKind::retry:
+      on_retry(e);
+      break;
     case DiscoveryEventKind::clash_resolved:
       log->info("bus {}: {}", bus.name, e.text);
       clear_problems([&](const Problem& p) { return p.clash_node == e.node_id; });
@@ -161,6 +164,7 @@ void BusManager::Impl::on_identified(const DiscoveryEvent& e, TimePoint now) {
 
   m->st.identity = e.identity;
   m->st.node_id = e.node_id;
+  m->st.next_retry = {};  // commissioned (the failures so far stay counted)
   // Remember where it is even before it is configured (a restart then
   // needs no scan); a replacement also drops the replaced device's line.
   if (const auto ec = record_assignment(state, bus.name, e))
@@ -177,6 +181,18 @@ void BusManager::Impl::on_identified(const DiscoveryEvent& e, TimePoint now) {
   m->want_configure = true;
   m->attempts = 0;
   m->not_before = now;
+}
+
+void BusManager::Impl::on_retry(const DiscoveryEvent& e) {
+  log->warn("bus {}: {}", bus.name, e.text);
+  Managed* m = e.device.empty() ? nullptr : find_device(e.device);
+  if (m == nullptr) return;
+  m->st.commission_failures = e.count;
+  m->st.next_retry = wall_now() + std::chrono::duration_cast<std::chrono::system_clock::duration>(e.retry_in);
+  m->st.last_error = e.text;
+  if (m->st.identity.serial == 0) m->st.identity = e.identity;
+  set_state(*m, DeviceState::failed);
+  dirty = true;
 }
 
 void BusManager::Impl::note_unknown(const DiscoveryEvent& e) {

@@ -165,6 +165,8 @@ struct BusManager::Impl final : RemoteGate {
   void on_discovery_event(const DiscoveryEvent& e, TimePoint now);
   void on_identified(const DiscoveryEvent& e, TimePoint now);
   void note_unknown(const DiscoveryEvent& e);
+  // Commissioning failed and is tried again (issue 26): status and log say so.
+  void on_retry(const DiscoveryEvent& e);
   bool resolve_description(Managed& m);
 
   // ---- configuration ---------------------------------------------------------

@@ -132,6 +132,9 @@ void write_device(JsonWriter& w, const DeviceStatus& d) {
   w.field("configurations", std::uint64_t{d.configurations});
   w.field("emcy_count", std::uint64_t{d.emcy_count});
   w.field("fingerprint", d.fingerprint);
+  w.field("commission_failures", std::uint64_t{d.commission_failures});
+  w.key("next_retry");
+  w.time(d.next_retry);
   w.key("emcy_history");
   w.begin_array();
   for (const auto& e : d.emcy_history) {

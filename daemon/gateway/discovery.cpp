@@ -42,6 +42,7 @@ const char* to_string(DiscoveryEventKind k) noexcept {
     case DiscoveryEventKind::clash_detected: return "clash-detected";
     case DiscoveryEventKind::clash_resolved: return "clash-resolved";
     case DiscoveryEventKind::problem: return "problem";
+    case DiscoveryEventKind::retry: return "retry";
   }
   return "?";
 }

@@ -58,6 +58,7 @@ enum class DiscoveryEventKind : std::uint8_t {
   clash_detected,  // several devices answer at node_id (count = how many seen)
   clash_resolved,  // the clash at node_id has been taken apart: a probe found at most one device left
   problem,         // something an operator must know (text); nothing was changed
+  retry,           // commissioning a device failed (text = cause); tried again after retry_in (count = failures)
 };
 [[nodiscard]] const char* to_string(DiscoveryEventKind k) noexcept;
 
@@ -73,7 +74,8 @@ struct DiscoveryEvent {
   std::string replaces;               // swap: the configured device whose place it took
   canopen::LssAddress replaced;       // swap: who held that place before (revision 0 when unknown;
                                       // vendor/product 0 when never seen and not configured)
-  std::uint32_t count = 0;            // clash: devices seen at node_id (a lower bound)
+  std::uint32_t count = 0;            // clash: devices seen at node_id (a lower bound); retry: failures so far
+  canopen::Duration retry_in{};       // retry: when the next try is due
   std::string text;                   // human-readable, for logs and `cobridge status` problems
 };
 

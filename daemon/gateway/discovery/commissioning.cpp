@@ -110,6 +110,7 @@ void Commissioning::expand_move(std::uint8_t n) {
 bool Commissioning::drive(TimePoint now, bool probing) {
   if (current_) return drive_current(now);
   if (tasks_.empty()) {
+    start_due_retries(now);
     // A search for non-configured devices (LSS at FFh) may start while a
     // probe runs; jobs that move or reset configured devices wait for it.
     auto next = jobs_.begin();
@@ -172,7 +173,7 @@ TimePoint Commissioning::next_deadline(TimePoint now) {
   TimePoint next = lss_.process(now);
   if (!outbox_.empty()) next = std::min(next, now + std::chrono::milliseconds(1));
   if (current_) next = std::min(next, task_deadline_);
-  return next;
+  return std::min(next, retries_.next_due());
 }
 
 void Commissioning::start_task(TimePoint now) {
@@ -290,6 +291,38 @@ std::string Commissioning::device_of(const Task& t) const {
   return who(t.ctx);
 }
 
+// ---- retries (issue 26) ------------------------------------------------------------
+
+// Never dropped: the device is tried again once its wait is over, whatever
+// failed; the event tells the bus manager (status, log) each time.
+void Commissioning::retry_later(const Ctx& c, const std::string& cause, TimePoint now) {
+  if (!canopen::cob::valid_node_id(c.target)) return;  // nowhere to go: nothing to try again
+  if (run_) run_->failed.insert(c.identity.serial);
+  const RetryEntry& e = retries_.failed(c.identity, c.device, c.from, cause, now);
+  const auto wait = CommissionRetries::wait_after(e.failures);
+  DiscoveryEvent ev;
+  ev.kind = DiscoveryEventKind::retry;
+  ev.node_id = c.from;
+  ev.target_node_id = c.target;
+  ev.identity = c.identity;
+  ev.device = c.device;
+  ev.count = e.failures;
+  ev.retry_in = wait;
+  ev.text = who(c) + ": commissioning failed (try " + std::to_string(e.failures) + "): " + cause + "; next try in " +
+            std::to_string(std::chrono::duration_cast<std::chrono::seconds>(wait).count()) + " s";
+  report_.event(std::move(ev));
+}
+
+// A device still at its old node-ID is probed again (its move job follows
+// from the probe); one at FFh is searched by the non-configured job.
+void Commissioning::start_due_retries(TimePoint now) {
+  const std::vector<RetryEntry> due = retries_.take_due(now);
+  if (due.empty()) return;
+  for (const auto& e : due)
+    if (canopen::cob::valid_node_id(e.node)) probe_.want(e.node);
+  queue(Job{Job::Kind::non_configured, 0});
+}
+
 // ---- boot-ups ----------------------------------------------------------------------
 
 void Commissioning::wait_boot(const Ctx& c, TimePoint now) {
@@ -305,6 +338,7 @@ void Commissioning::on_bootups(const std::bitset<128>& booted, TimePoint now) {
     for (auto& w : boot_waits_) {
       if (w.seen || w.ctx.target != n) continue;
       w.seen = true;
+      retries_.succeeded(w.ctx.identity);
       report_.timing("boot-up", who(w.ctx), now - std::max(last_reset_, w.registered));
       DiscoveryEvent e;
       e.kind = DiscoveryEventKind::commissioned;

@@ -36,6 +36,11 @@
 //     non-configured is answered but Fastscan finds nobody, Slowscan over the
 //     pre-Fastscan products looks for them (devices found that hold a node-ID
 //     are left). See lss_outcomes.cpp.
+//   * nobody left behind (issue 26): a device whose configure node-ID or
+//     switch selective fails is tried again with a doubling wait (1 s ... 30
+//     s, CommissionRetries) until it is commissioned; each failure is a
+//     `retry` event with its cause. A device that failed in a Fastscan loop
+//     ends that loop (it would be found first again); its retry comes back.
 // Each step is timed (Report::timing).
 //
 // Thread: the bus's control thread (the bus manager's): no threads, no clock
@@ -45,6 +50,7 @@
 #include "can/frame_sink.hpp"
 #include "canopen/lss_master.hpp"
 #include "canopen/sdo_client.hpp"
+#include "gateway/discovery/commission_retries.hpp"
 #include "gateway/discovery/decisions.hpp"
 #include "gateway/discovery/fastscan_search.hpp"
 #include "gateway/discovery/identity_probe.hpp"
@@ -121,6 +127,7 @@ class Commissioning {
     std::vector<std::pair<LssAddress, std::uint8_t>> known;  // (c): identity -> node to restore
     bool moved_any = false;
     bool slowscanned = false;  // non-configured job: the Slowscan fallback ran
+    std::set<std::uint32_t> failed;  // serials whose commissioning failed in this run
   };
   struct NodeWork {
     // The next clash strategy to try here (see expand_clash); reset once
@@ -157,6 +164,9 @@ class Commissioning {
   void start_sdo_fallback(const Ctx& c);
   void on_sdo_done(canopen::TimePoint now, std::error_code err);
   [[nodiscard]] std::string device_of(const Task& t) const;
+  // Retries (issue 26): a failure scheduled again; due ones searched again.
+  void retry_later(const Ctx& c, const std::string& cause, canopen::TimePoint now);
+  void start_due_retries(canopen::TimePoint now);
 
   // clash_resolution.cpp: strategies (a), (b), (c)
   void expand_clash(std::uint8_t n);
@@ -187,6 +197,7 @@ class Commissioning {
   Report& report_;
   canopen::LssMaster lss_;
   FastscanSearch search_;
+  CommissionRetries retries_;
   std::optional<canopen::SdoClient> sdo_;  // the SDO node-ID fallback's download in flight
   std::deque<can::Frame> outbox_;
 

@@ -101,8 +101,9 @@ void Commissioning::on_switch_selective(Task& t, const Result& r, TimePoint now)
     start_sdo_fallback(t.ctx);
     return;
   }
-  report_.problem(who(t.ctx) + ": no answer to LSS switch selective (" + describe(t.ctx.identity) + ")", t.ctx.from,
-                  t.ctx.identity);
+  const std::string why = "no answer to LSS switch selective (" + describe(t.ctx.identity) + ")";
+  report_.problem(who(t.ctx) + ": " + why, t.ctx.from, t.ctx.identity);
+  retry_later(t.ctx, why, now);
   std::erase_if(tasks_, [g = t.ctx.group](const Task& x) { return x.ctx.group == g; });
 }
 
@@ -141,11 +142,10 @@ void Commissioning::on_slowscan_loop(const Task& t, const Result& r) {
 void Commissioning::on_configure_id(const Task& t, const Result& r, TimePoint now) {
   if (r.error || r.slave_error != 0) {
     if (t.ctx.target == canopen::cob::kNodeIdUnconfigured) return;  // (c): nobody had to answer
-    if (t.ctx.from == canopen::cob::kNodeIdUnconfigured)
-      search_.note_stranger(t.ctx.identity, "refuses LSS node-ID " + std::to_string(t.ctx.target) + " (" +
-                                                slave_error_text(r) + "); left non-configured");
+    const std::string why = "LSS configure node-ID " + std::to_string(t.ctx.target) + " failed: " + slave_error_text(r);
+    retry_later(t.ctx, why, now);
     current_ = t;
-    fail_current("LSS configure node-ID " + std::to_string(t.ctx.target) + " failed: " + slave_error_text(r));
+    fail_current(why);
     return;
   }
   if (t.ctx.boot_wait && canopen::cob::valid_node_id(t.ctx.target)) wait_boot(t.ctx, now);
@@ -190,6 +190,12 @@ void Commissioning::on_fastscan(const Task& t, const Result& r, TimePoint now) {
     // A device reported before (it keeps answering at FFh): the loop ends
     // here, and the general scan backs off (the targeted one still runs).
     if (general) search_.back_off(now, std::chrono::seconds(s_.bus.discovery_period_s));
+    push_front({global_task(LssMode::kWaiting)});
+    return;
+  }
+  if (run_ && run_->failed.contains(r.address.serial)) {
+    // Failed in this run already: it would be found first again and again.
+    // The loop ends here; its retry (CommissionRetries) comes back for it.
     push_front({global_task(LssMode::kWaiting)});
     return;
   }

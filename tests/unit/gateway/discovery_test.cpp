@@ -99,6 +99,10 @@ class TestDevice {
         continue;
       }
       if (f.id == canopen::cob::kLssMasterToSlave) {
+        if (f.data[0] == static_cast<std::uint8_t>(canopen::LssCs::kConfigureNodeId) && ignore_configure_node_id > 0) {
+          --ignore_configure_node_id;  // lost on the wire: no answer
+          continue;
+        }
         if (lss_enabled_ && answer_lss) {
           ++lss_frames_seen_;
           lss_->on_frame(f);
@@ -113,6 +117,7 @@ class TestDevice {
   }
   bool answer_sdo = true;  // false: its SDO answers are lost (collided on the wire)
   bool answer_lss = true;  // false: LSS requests do not reach it (it hears and says nothing)
+  unsigned ignore_configure_node_id = 0;  // so many LSS configure node-ID requests are lost
   // Taken off the bus (a technician removes it): silent from now on.
   void unplug() { unplugged_ = true; }
 
@@ -498,6 +503,58 @@ TEST(DiscoveryTest, NonConfiguredDeviceFoundByFastscan_CiA305_E6) {
   EXPECT_EQ(moved[0].node_id, 20);
   EXPECT_EQ(rig.step("fastscan").second, 2);
   rig.print_timings("non-configured device");
+}
+
+// Issue 26, nobody left behind (CiA 305 §8.3.1 configure node-ID): the first
+// configure node-ID of a non-configured device gets no answer; the device is
+// searched again after 1 s (not at the next discovery period, 10 s here) and
+// configured, and the failed try is reported as a `retry` event (the bus
+// manager's status: commission_failures, next_retry, last_error).
+TEST(DiscoveryTest, UnansweredConfigureNodeIdIsTriedAgainAfterOneSecond_CiA305_8_3_1) {
+  Rig rig;
+  rig.with(device("mt-a", 2001, 20));
+  auto& mt = rig.add(Kind::multiturn, multiturn(2001), canopen::cob::kNodeIdUnconfigured);
+  mt.ignore_configure_node_id = 1;
+  rig.start();
+  rig.run(3s);
+  const auto retries = rig.of(DiscoveryEventKind::retry);
+  ASSERT_EQ(retries.size(), 1u);
+  EXPECT_EQ(retries[0].device, "mt-a");
+  EXPECT_EQ(retries[0].count, 1u);
+  EXPECT_EQ(retries[0].retry_in, 1s);
+  EXPECT_EQ(retries[0].node_id, canopen::cob::kNodeIdUnconfigured);
+  EXPECT_EQ(retries[0].target_node_id, 20);
+  EXPECT_NE(retries[0].text.find("LSS configure node-ID 20 failed: no LSS answer"), std::string::npos)
+      << retries[0].text;
+  EXPECT_EQ(mt.node(), 20) << "configured on the second try, well before the next discovery period";
+  EXPECT_EQ(mt.stored_node(), 20);
+  const auto moved = rig.of(DiscoveryEventKind::commissioned);
+  ASSERT_EQ(moved.size(), 1u);
+  EXPECT_EQ(moved[0].node_id, 20);
+  rig.run(60s);
+  EXPECT_EQ(rig.of(DiscoveryEventKind::retry).size(), 1u) << "commissioned: no more tries";
+}
+
+// Issue 26: a device that never answers configure node-ID is never dropped:
+// tried again and again, each wait double the last, at most 30 s.
+TEST(DiscoveryTest, DeviceThatKeepsRefusingIsTriedWithBoundedBackoff_CiA305_8_3_1) {
+  Rig rig;
+  rig.with(device("mt-a", 2001, 20));
+  auto& mt = rig.add(Kind::multiturn, multiturn(2001), canopen::cob::kNodeIdUnconfigured);
+  mt.ignore_configure_node_id = 1000;
+  rig.start();
+  rig.run(180s);
+  const auto retries = rig.of(DiscoveryEventKind::retry);
+  ASSERT_GE(retries.size(), 7u);
+  for (std::size_t i = 0; i < retries.size(); ++i) {
+    EXPECT_EQ(retries[i].count, i + 1);
+    EXPECT_LE(retries[i].retry_in, 30s);
+  }
+  EXPECT_EQ(retries.back().retry_in, 30s);
+  EXPECT_EQ(mt.node(), canopen::cob::kNodeIdUnconfigured);
+  mt.ignore_configure_node_id = 0;  // it answers again
+  rig.run(40s);
+  EXPECT_EQ(mt.node(), 20);
 }
 
 // Policy manual: nothing is commissioned until request_commission().
