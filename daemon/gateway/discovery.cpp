@@ -229,6 +229,7 @@ struct Discovery::Impl final : discovery::ProbeListener {
     }
     if (d.device.empty()) unplaced.push_back(Unplaced{n, a, false, false});
     if (d.target != 0) decisions.remember(a, d.target);
+    if (d.target == n) work.at_target(a);
     report_identified(n, a, d, bootup);
     if (!d.problem.empty()) report.problem(d.problem, n, a);
     if (d.target != 0 && d.target != n) {

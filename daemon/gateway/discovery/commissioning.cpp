@@ -138,7 +138,7 @@ bool Commissioning::drive_current(TimePoint now) {
       return !current_;
     case Op::wait_boots: {
       const bool all = std::all_of(boot_waits_.begin(), boot_waits_.end(), [](const BootWait& w) { return w.seen; });
-      if (all || now >= task_deadline_) finish_wait_boots();
+      if (all || now >= task_deadline_) finish_wait_boots(now);
       return !current_;
     }
     default: break;
@@ -313,6 +313,8 @@ void Commissioning::retry_later(const Ctx& c, const std::string& cause, TimePoin
   report_.event(std::move(ev));
 }
 
+void Commissioning::at_target(const LssAddress& a) { retries_.succeeded(a); }
+
 // A device still at its old node-ID is probed again (its move job follows
 // from the probe); one at FFh is searched by the non-configured job.
 void Commissioning::start_due_retries(TimePoint now) {
@@ -358,12 +360,14 @@ void Commissioning::on_bootups(const std::bitset<128>& booted, TimePoint now) {
   }
 }
 
-void Commissioning::finish_wait_boots() {
+void Commissioning::finish_wait_boots(TimePoint now) {
   current_.reset();
   for (const auto& w : boot_waits_)
-    if (!w.seen)
-      report_.problem(who(w.ctx) + ": no boot-up at node " + std::to_string(w.ctx.target) + " after the reset",
-                      w.ctx.target, w.ctx.identity);
+    if (!w.seen) {
+      const std::string why = "no boot-up at node " + std::to_string(w.ctx.target) + " after the reset";
+      report_.problem(who(w.ctx) + ": " + why, w.ctx.target, w.ctx.identity);
+      retry_later(w.ctx, why, now);  // a probe of its target finding it there ends the tries
+    }
   boot_waits_.clear();
 }
 
@@ -415,9 +419,11 @@ void Commissioning::on_sdo_done(TimePoint now, std::error_code err) {
   report_.timing(t.index == kStoreObject ? "sdo-save" : "sdo-node-id", who(t.ctx), now - current_started_);
   if (err) {
     const bool timed_out = err == make_error_code(canopen::SdoAbort::kProtocolTimedOut);
-    fail_current("SDO write " + hex32(t.index).substr(6) + "/" + std::to_string(t.sub) + " failed (" +
-                 (timed_out ? std::string("timeout") : "abort " + hex32(static_cast<std::uint32_t>(err.value()))) +
-                 ")");
+    const std::string why = "SDO write " + hex32(t.index).substr(6) + "/" + std::to_string(t.sub) + " failed (" +
+                            (timed_out ? std::string("timeout") : "abort " + hex32(static_cast<std::uint32_t>(err.value()))) +
+                            ")";
+    retry_later(t.ctx, why, now);
+    fail_current(why);
     return;
   }
   current_.reset();

@@ -100,6 +100,8 @@ class Commissioning {
   bool on_sdo_frame(const can::Frame& f, canopen::TimePoint now) noexcept {
     return sdo_ && sdo_->on_frame(f, now);
   }
+  // A probe found `a` at the node-ID it must have: no more retries for it.
+  void at_target(const LssAddress& a);
   // Boot-ups seen: the moves waiting for them are done (commissioned).
   void on_bootups(const std::bitset<128>& booted, canopen::TimePoint now);
 
@@ -160,7 +162,7 @@ class Commissioning {
   void mark_reset(canopen::TimePoint now);
   bool send_now(const can::Frame& f);
   void wait_boot(const Ctx& c, canopen::TimePoint now);
-  void finish_wait_boots();
+  void finish_wait_boots(canopen::TimePoint now);
   void start_sdo_fallback(const Ctx& c);
   void on_sdo_done(canopen::TimePoint now, std::error_code err);
   [[nodiscard]] std::string device_of(const Task& t) const;
