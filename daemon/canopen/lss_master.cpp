@@ -21,6 +21,8 @@ class LssCategory final : public std::error_category {
       case LssErrc::kTimeout: return "no LSS answer within the timeout";
       case LssErrc::kNotFound: return "no matching LSS slave answered";
       case LssErrc::kFastscanLost: return "LSS Fastscan: the slave stopped answering during the scan";
+      case LssErrc::kFastscanUnconfirmed:
+        return "LSS Fastscan: no slave confirmed the identity found (switch selective unanswered)";
     }
     return "unknown LSS error";
   }
@@ -133,7 +135,10 @@ void LssMaster::arm(Phase phase, LssCs expect, TimePoint now) noexcept {
   // probe) decides "nobody there": it always waits the full timeout, and
   // its answers teach the waits of the steps that follow.
   // A scan begun again (restart) asks again from its probe.
-  const bool first = current_.steps == 1 || phase == Phase::kFastscanProbe || phase == Phase::kSlowscanProbe;
+  // The verification of a Fastscan's result waits the full timeout too: a
+  // slow answer taken for silence would cost a whole scan.
+  const bool first = current_.steps == 1 || phase == Phase::kFastscanProbe || phase == Phase::kSlowscanProbe ||
+                     phase == Phase::kFastscanVerify;
   const bool learnt = search_phase() && !first && timing_.learning();
   deadline_ = now + (learnt ? search_wait() : config_.timeout);
 }
@@ -302,6 +307,10 @@ bool LssMaster::on_frame(const can::Frame& f, TimePoint now) noexcept {
   if (phase_ == Phase::kIdle || f.data[0] != static_cast<uint8_t>(expect_) || now > deadline_) return true;
   ++current_.answers;
   timing_.record(now - step_sent_);
+  if (phase_ == Phase::kFastscanVerify) {
+    finish({}, now);  // the slave found is there, in configuration state again
+    return true;
+  }
   if (phase_ != Phase::kAwaitReply) {
     // Answered: the others' answers to this step come within the slowest
     // answer time seen; then the step is decided (AnswerTiming).
@@ -361,6 +370,7 @@ void LssMaster::on_step_done(TimePoint now) noexcept {
       return;
     }
     case Phase::kFastscanConfirm: return fastscan_confirm_done(now);
+    case Phase::kFastscanVerify: return fastscan_unverified(now);
     case Phase::kSlowscanProbe:
       if (!answered_) return finish(LssErrc::kNotFound, now);
       phase_ = Phase::kSlowscanRevision;
@@ -408,7 +418,7 @@ void LssMaster::fastscan_search(TimePoint now) noexcept {
 
 void LssMaster::fastscan_confirm_done(TimePoint now) noexcept {
   if (answered_) {
-    if (fs_field_ == kLastField) return finish({}, now);
+    if (fs_field_ == kLastField) return fastscan_verify(now);
     return fastscan_field(static_cast<uint8_t>(fs_field_ + 1), now);
   }
   if (fs_guess_) return fastscan_next_guess(now);  // a wrong guess: nobody moved on
@@ -421,6 +431,23 @@ void LssMaster::fastscan_confirm_done(TimePoint now) noexcept {
     return;
   }
   finish(LssErrc::kFastscanLost, now);
+}
+
+// The slave found entered configuration state with the last confirm. Back
+// to waiting, then switch selective to the identity found: the answer (0x44)
+// can only come from the slave that has it.
+void LssMaster::fastscan_verify(TimePoint now) noexcept {
+  const bool sent = send_lss(LssCs::kSwitchStateGlobal, static_cast<uint8_t>(LssMode::kWaiting)) &&
+                    send_switch_selective(current_.address);
+  if (!sent) return finish(LssErrc::kSendFailed, now);
+  arm(Phase::kFastscanVerify, LssCs::kSwitchSelectiveResponse, now);
+}
+
+// Nobody has the identity found: a late answer decided a bit and a confirm.
+// The scan begins again from its reset, carefully.
+void LssMaster::fastscan_unverified(TimePoint now) noexcept {
+  if (!begin_again()) return finish(LssErrc::kFastscanUnconfirmed, now);
+  if (!fastscan_probe(now)) finish(LssErrc::kSendFailed, now);
 }
 
 void LssMaster::fastscan_bit_step(TimePoint now) noexcept {

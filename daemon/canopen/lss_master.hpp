@@ -13,9 +13,19 @@
 // A Fastscan whose field confirmation fails (a bit decided on a late answer,
 // or the confirm's own answer late) begins again from its reset with longer
 // waits, twice at most; so does a Slowscan whose final switch selective is
-// unanswered. Cost of an unguided Fastscan:
-// 1 probe + 4 x (32 bits + 1 confirm) = 133 exchanges per device, one silent
-// per 1-bit of the address; a FastscanPlan confirms known fields whole.
+// unanswered.
+// A found identity is a verified identity (issue 26): a Fastscan answer
+// (0x4F) says nothing of the step it answers, so a late answer taken for a
+// later step's can decide a bit, and even a confirm, wrongly: once (UML, 32
+// slaves) an identity that exists nowhere came out. Before its result is
+// given, the Fastscan sends switch state global waiting and a switch state
+// selective to the identity found: only that slave answers (0x44, which no
+// other step's answer can be taken for) and re-enters configuration state.
+// Unanswered within the timeout, the scan begins again (as above); with no
+// restart left, kFastscanUnconfirmed. Cost of an unguided Fastscan:
+// 1 probe + 4 x (32 bits + 1 confirm) + 1 verify = 134 exchanges per device,
+// one silent per 1-bit of the address; a FastscanPlan confirms known fields
+// whole.
 // Slowscan: at most 65 identify steps of 6 frames each, plus switch selective.
 // Thread: the one thread that owns the LSS channel (bus manager); never
 // blocks, does not allocate per frame.
@@ -43,6 +53,7 @@ enum class LssErrc : int {
   kTimeout = 4,           // a confirmed service got no answer within the timeout
   kNotFound = 5,          // Fastscan/Slowscan: no (unconfigured / matching) slave answered
   kFastscanLost = 6,      // a Fastscan field confirm got no answer (slave left mid-scan)
+  kFastscanUnconfirmed = 7,  // nobody answered the switch selective to the identity a Fastscan found
 };
 
 [[nodiscard]] const std::error_category& lss_category() noexcept;
@@ -172,6 +183,7 @@ class LssMaster {
     kFastscanProbe,
     kFastscanBit,
     kFastscanConfirm,
+    kFastscanVerify,  // switch selective to the identity found: answered only by that slave
     kSlowscanProbe,
     kSlowscanRevision,
     kSlowscanSerial,
@@ -195,6 +207,8 @@ class LssMaster {
   void fastscan_confirm_done(TimePoint now) noexcept;
   void fastscan_bit_step(TimePoint now) noexcept;
   void fastscan_confirm(TimePoint now) noexcept;
+  void fastscan_verify(TimePoint now) noexcept;
+  void fastscan_unverified(TimePoint now) noexcept;
   void slowscan_step(TimePoint now) noexcept;
   [[nodiscard]] bool search_phase() const noexcept;
   [[nodiscard]] Duration search_wait() const noexcept;

@@ -18,6 +18,11 @@ namespace {
 using test::LssTestBus;
 using namespace std::chrono_literals;
 
+// Issue 26: a Fastscan's result is verified by a switch state selective to
+// it (after switch state global waiting): one more exchange, 5 more frames.
+constexpr uint32_t kVerify = 1;
+constexpr uint32_t kVerifyFrames = 5;
+
 // Configure node-ID, store, back to waiting: what the gateway does with the
 // slave a scan has put into configuration state.
 void assign(LssTestBus& bus, uint8_t node_id) {
@@ -150,7 +155,7 @@ TEST(LssScanTest, CiA305_FastscanWithKnownVendorAndProduct) {
   auto r = bus.run_result();
   ASSERT_TRUE(r && !r->error) << (r ? r->error.message() : "no result");
   EXPECT_EQ(r->address, a);
-  EXPECT_EQ(r->frames_sent, 1u + 1u + 1u + 33u + 33u);
+  EXPECT_EQ(r->frames_sent, 1u + 1u + 1u + 33u + 33u + kVerifyFrames);
   EXPECT_EQ(bus.slave(1).mode(), LssMode::kWaiting);
 
   // A known vendor nobody has: not found at the vendor confirm.
@@ -190,15 +195,15 @@ TEST(LssScanTest, CiA305_FastscanCostPerDevice) {
     ASSERT_FALSE(bus.master().fastscan(bus.now()));
     auto r = bus.run_result();
     ASSERT_TRUE(r && !r->error);
-    EXPECT_EQ(r->frames_sent, 133u);
-    EXPECT_EQ(r->elapsed, 133 * timeout);
+    EXPECT_EQ(r->frames_sent, 133u + kVerifyFrames);
+    EXPECT_EQ(r->elapsed, 133 * timeout + 1ms);  // the verify's answer, 1 ms after it
     const std::size_t answers = bus.count(0x7E4);
     assign(bus, 1);
     ASSERT_FALSE(bus.master().fastscan(bus.now()));
     auto second = bus.run_result();
     ASSERT_TRUE(second && !second->error);
-    EXPECT_EQ(second->frames_sent, 133u);
-    EXPECT_EQ(second->elapsed, 133 * timeout);
+    EXPECT_EQ(second->frames_sent, 133u + kVerifyFrames);
+    EXPECT_EQ(second->elapsed, 133 * timeout + 1ms);
     assign(bus, 2);
     ASSERT_FALSE(bus.master().fastscan(bus.now()));
     auto none_left = bus.run_result();
@@ -235,8 +240,8 @@ TEST(LssScanTest, CiA305_FastscanWaitsWhatTheBusNeeds) {
       ASSERT_FALSE(bus.master().fastscan(bus.now()));
       auto r = bus.run_result();
       ASSERT_TRUE(r && !r->error) << (r ? r->error.message() : "no result");
-      EXPECT_EQ(r->frames_sent, 133u);
-      EXPECT_EQ(r->steps, 133u);
+      EXPECT_EQ(r->frames_sent, 133u + kVerifyFrames);
+      EXPECT_EQ(r->steps, 133u + kVerify);
       EXPECT_EQ(r->restarts, 0u);
       found[pass].push_back(r->address);
       took[pass] += r->elapsed;
@@ -291,12 +296,12 @@ TEST(LssScanTest, CiA305_FastscanGuidedByKnownIdentities) {
   };
   // Vendor 0x182 (2 targets) first, product confirmed, revision searched
   // (32 bits + confirm; silent = its 1-bits), serial 2002 guessed first.
-  expect_scan(mt2, 1u + 1u + 1u + 33u + 1u, popcount(mt2.revision), 21);
+  expect_scan(mt2, 1u + 1u + 1u + 33u + 1u + kVerify, popcount(mt2.revision), 21);
   // The other one: its serial is the second guess (one silent step).
-  expect_scan(mt1, 1u + 1u + 1u + 33u + 2u, popcount(mt1.revision) + 1u, 20);
+  expect_scan(mt1, 1u + 1u + 1u + 33u + 2u + kVerify, popcount(mt1.revision) + 1u, 20);
   // The ifm: vendor 0x182 guessed wrong (silent), product 0x4341 right,
   // revision and serial searched: one field unknown beyond the revision.
-  expect_scan(ifm, 1u + 2u + 1u + 33u + 33u, 1u + popcount(ifm.revision) + popcount(ifm.serial), 40);
+  expect_scan(ifm, 1u + 2u + 1u + 33u + 33u + kVerify, 1u + popcount(ifm.revision) + popcount(ifm.serial), 40);
   // A targeted scan (no search_unknown) does not find the stranger: every
   // vendor guess is silent, then "not found".
   FastscanPlan targeted = plan;
@@ -312,11 +317,12 @@ TEST(LssScanTest, CiA305_FastscanGuidedByKnownIdentities) {
   r = bus.run_result();
   ASSERT_TRUE(r && !r->error);
   EXPECT_EQ(r->address, stranger);
-  EXPECT_EQ(r->steps, 1u + 2u + 4u * 33u);
+  EXPECT_EQ(r->steps, 1u + 2u + 4u * 33u + kVerify);
 }
 
 // Issue 11, item 1: a device whose whole identity is known (configuration +
-// remembered revision) is confirmed at FFh in 5 exchanges, none silent; the
+// remembered revision) is confirmed at FFh in 5 exchanges and verified in a
+// 6th, none silent; the
 // same plan with nobody at FFh costs the probe's one timeout.
 TEST(LssScanTest, CiA305_FastscanOfAWholeKnownIdentity) {
   LssTestBus bus(LssMasterConfig{100ms, 2ms});
@@ -328,7 +334,7 @@ TEST(LssScanTest, CiA305_FastscanOfAWholeKnownIdentity) {
   auto r = bus.run_result();
   ASSERT_TRUE(r && !r->error);
   EXPECT_EQ(r->address, a);
-  EXPECT_EQ(r->steps, 5u);
+  EXPECT_EQ(r->steps, 5u + kVerify);
   EXPECT_EQ(r->silent_steps, 0u);
   EXPECT_LT(r->elapsed, 20ms);
   assign(bus, 20);
@@ -386,7 +392,55 @@ TEST(LssScanTest, CiA305_FastscanBeginsAgainWhenAConfirmsAnswerIsLate) {
   ASSERT_FALSE(r->error) << r->error.message();
   EXPECT_EQ(r->address, a);
   EXPECT_EQ(r->restarts, 1u);
-  EXPECT_EQ(r->steps, (1u + 33u) + (1u + 4u * 33u));  // the 1st pass up to the vendor's confirm, then whole
+  EXPECT_EQ(r->steps, (1u + 33u) + (1u + 4u * 33u + kVerify));  // the 1st pass up to the vendor's confirm, then whole
+}
+
+// Issue 26, CiA 305 Fastscan + switch state selective: a late answer is taken
+// for a later step's. The slave's answer to the serial's bit-1 step (its bit
+// 1 is 0) comes 12 ms late: bit 1 is taken for silence (1), bit 0 is silent
+// (nobody has serial 2), and the late answer lands in the final confirm's
+// window, "confirming" serial 3, which nobody has (before: the result, with
+// no slave in configuration state). The switch selective to the identity
+// found is unanswered, the scan begins again, and the result is the slave's.
+TEST(LssScanTest, CiA305_LateAnswerFromAnEarlierBitStepGivesNoWrongIdentity) {
+  LssTestBus bus(LssMasterConfig{100ms, 2ms});
+  const LssAddress a{0x182, 0x0BB8, 0x00010003, 0x00000001};
+  bus.add_slave(a, 0xFF);
+  LssMaster::FastscanKnown known;
+  known.vendor = a.vendor;
+  known.product = a.product;
+  known.revision = a.revision;
+  ASSERT_FALSE(bus.master().fastscan(bus.now(), known));  // learns 1 ms answers: a 5 ms wait
+  ASSERT_TRUE(bus.run_result());
+  ASSERT_FALSE(bus.master().switch_state_global(LssMode::kWaiting));
+  bus.run();
+  // Answers: the probe, the 3 confirms, serial bits 31..2 (30), then bit 1's.
+  bus.delay_answer(0, 34, 12ms);
+  ASSERT_FALSE(bus.master().fastscan(bus.now(), known));
+  const auto r = bus.run_result();
+  ASSERT_TRUE(r.has_value());
+  ASSERT_FALSE(r->error) << r->error.message();
+  EXPECT_EQ(r->address, a);
+  EXPECT_EQ(r->restarts, 1u);
+  EXPECT_EQ(bus.slave(0).mode(), LssMode::kConfiguration);
+}
+
+// The same late answer with fixed waits (nothing learnt, so no restart): the
+// identity nobody confirms is not given as a result.
+TEST(LssScanTest, CiA305_FastscanResultNobodyConfirmsIsNoResult) {
+  LssTestBus bus(LssMasterConfig{5ms, 5ms});
+  const LssAddress a{0x182, 0x0BB8, 0x00010003, 0x00000001};
+  bus.add_slave(a, 0xFF);
+  LssMaster::FastscanKnown known;
+  known.vendor = a.vendor;
+  known.product = a.product;
+  known.revision = a.revision;
+  bus.delay_answer(0, 34, 12ms);
+  ASSERT_FALSE(bus.master().fastscan(bus.now(), known));
+  const auto r = bus.run_result();
+  ASSERT_TRUE(r.has_value());
+  EXPECT_EQ(r->error, LssErrc::kFastscanUnconfirmed);
+  EXPECT_NE(r->address, a);  // what the bits said; not given as found
 }
 
 // Slowscan (CiA 305 identify remote slave, halving the serial range): one

@@ -72,14 +72,15 @@ def six_fresh(args, ws, report, listener):
     steps = [x for x in fastscans(st) if x["device"] in ("mt-a", "mt-b")] if st else []
     popcount = bin(MT_REVISION).count("1")
     # Guided: probe + vendor + product (<= 2 product codes of the model)
-    # + revision searched (32 bits + confirm) + serial (<= 2 guesses) = 39;
+    # + revision searched (32 bits + confirm) + serial (<= 2 guesses)
+    # + the switch selective that verifies the identity found (issue 26) = 40;
     # a revision bit decided on a late answer (a loaded host) begins the
     # scan again (restarts): one more guided pass each. Unguided: 133.
     # Timeouts: the pass that finds the device waits only on the revision's
     # one bits, the confirm and the wrong guesses; a pass given up after late
     # answers may have waited on every exchange it made (a starved UML once
     # took 25 timeouts in 73 exchanges with one restart).
-    guided = 1 + 1 + 2 + 33 + 2
+    guided = 1 + 1 + 2 + 33 + 2 + 1
     ok = len(steps) >= 2 and all(x["exchanges"] <= guided * (1 + x.get("restarts", 0)) and
                                  x["timeouts"] <= popcount + 2 + 1 + guided * x.get("restarts", 0)
                                  for x in steps)
@@ -111,8 +112,9 @@ def whole_identity_known(args, ws, report, listener):
         report.check(took is not None, "factory-fresh multiturns with remembered identities operational",
                      "%.2f s after start" % took if took else "never")
         steps = [x for x in fastscans(st) if x["device"] in names] if st else []
-        report.check(len(steps) >= 2 and all(x["exchanges"] == 5 and x["timeouts"] == 0 for x in steps),
-                     "whole identity known: confirmed in 5 exchanges, no timeout",
+        # 5 exchanges confirm it, a 6th (switch selective, issue 26) verifies it.
+        report.check(len(steps) >= 2 and all(x["exchanges"] == 6 and x["timeouts"] == 0 for x in steps),
+                     "whole identity known: confirmed and verified in 6 exchanges, no timeout",
                      "FIGURE whole identity at FFh: " + describe(steps) + " (target 50 ms)")
         if report.failed:
             print(daemon.tail(60))
