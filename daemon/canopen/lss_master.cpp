@@ -1,5 +1,6 @@
 #include "canopen/lss_master.hpp"
 
+#include <algorithm>
 #include <string>
 
 namespace cobridge::canopen {
@@ -313,9 +314,16 @@ bool LssMaster::on_frame(const can::Frame& f, TimePoint now) noexcept {
   }
   if (phase_ != Phase::kAwaitReply) {
     // Answered: the others' answers to this step come within the slowest
-    // answer time seen; then the step is decided (AnswerTiming).
-    if (!answered_ && timing_.learning())
-      deadline_ = std::min(deadline_, now + (careful_ ? timing_.no_answer_wait() : timing_.settle()));
+    // answer time seen; then the step is decided (AnswerTiming). Identical
+    // answers do not merge on vcan (32 slaves: 32 frames, one after the
+    // other): every answer keeps the step open that long again, within the
+    // timeout, so that a burst belongs to the step that caused it and does
+    // not spill into the next one (issue 26).
+    if (timing_.learning()) {
+      const TimePoint quiet = now + (careful_ ? timing_.no_answer_wait() : timing_.settle());
+      deadline_ = answered_ ? std::min(std::max(quiet, deadline_), step_sent_ + config_.timeout)
+                            : std::min(deadline_, quiet);
+    }
     answered_ = true;
     return true;
   }
