@@ -64,6 +64,10 @@ bool LssSlave::on_frame(const can::Frame& f) noexcept {
     case LssCs::kConfigureNodeId: {
       if (!configuring) return false;
       const uint8_t id = f.data[1];
+      if (node_id_requests_lost_ < features_.lose_node_id_requests) {
+        ++node_id_requests_lost_;
+        return true;
+      }
       if (features_.node_id_assignment == LssSlaveFeatures::NodeIdAssignment::ignore) return true;
       if (!lss_node_id_acceptable(id) ||
           features_.node_id_assignment == LssSlaveFeatures::NodeIdAssignment::refuse) {

@@ -38,6 +38,9 @@ struct LssSlaveFeatures {
   // every node-ID (answers error 1, "out of range") or not answer at all.
   enum class NodeIdAssignment : uint8_t { accept, refuse, ignore };
   NodeIdAssignment node_id_assignment = NodeIdAssignment::accept;
+  // The first so many configure node-ID requests go unanswered (lost on the
+  // wire, a busy slave: issue 26's fault), then as node_id_assignment says.
+  uint8_t lose_node_id_requests = 0;
 
   // Rotary series, J§1.5 (DSP-305 V1.1.2): no Fastscan (added in V2.2) and
   // no inquire. J documents no identify service either; it is kept on
@@ -136,6 +139,7 @@ class LssSlave {
   bool ignore_ = false;
   bool reset_requested_ = false;
   uint32_t tx_failures_ = 0;
+  uint8_t node_id_requests_lost_ = 0;  // of features_.lose_node_id_requests
 };
 
 }  // namespace cobridge::canopen

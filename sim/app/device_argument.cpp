@@ -132,6 +132,10 @@ DeviceArgumentResult parse_device_argument(std::string_view text, ModelLookup lo
       else if (value == "refuse") arg.spec.assign = A::refuse;
       else if (value == "ignore") arg.spec.assign = A::ignore;
       else return fail(text, "assign must be accept|refuse|ignore, got " + quoted(value));
+    } else if (key == "lose_configure") {
+      const auto v = parse_unsigned(value, 255);
+      if (!v) return fail(text, "lose_configure must be 0..255, got " + quoted(value));
+      arg.spec.lose_configure = static_cast<std::uint8_t>(*v);
     } else if (key == "motion") {
       // Checked here so that a typo is an argument error (exit 2), not a
       // device that fails to power on after the buses opened.
@@ -141,7 +145,7 @@ DeviceArgumentResult parse_device_argument(std::string_view text, ModelLookup lo
     } else {
       return fail(text, "unknown key " + quoted(key) +
                             " (allowed: serial, node, channels, bitrate, lss, segmented, c6, fastscan, vendor, product, "
-                            "revision, assign, motion)");
+                            "revision, assign, lose_configure, motion)");
     }
   }
   return DeviceArgumentResult{arg, {}};

@@ -54,6 +54,7 @@ canopen::LssSlaveFeatures lss_features(const DeviceSpec& spec, FamilyId family) 
       p == LssProfile::v1 ? canopen::LssSlaveFeatures::rotary_j() : canopen::LssSlaveFeatures::multiturn_e();
   if (!spec.lss_fastscan) f.fastscan = false;
   f.node_id_assignment = spec.assign;
+  f.lose_node_id_requests = spec.lose_configure;
   // ifm: CiA table rates it can run at (F§7.4 minus 100 kbit/s, which the
   // CiA 305 table does not have): 1000, 800, 500, 250, 125, 50, 20.
   if (family == FamilyId::ifm_rm) f.bit_timings = 0x00DF;

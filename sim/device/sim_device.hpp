@@ -94,6 +94,7 @@ struct DeviceSpec {
   std::optional<std::uint32_t> revision;
   // How it takes an LSS configure node-ID: accept, refuse (error 1) or ignore.
   canopen::LssSlaveFeatures::NodeIdAssignment assign = canopen::LssSlaveFeatures::NodeIdAssignment::accept;
+  std::uint8_t lose_configure = 0;  // the first N LSS configure node-ID requests unanswered
 };
 
 // Faults injected at run time (control socket / stdin / command line).

@@ -147,6 +147,23 @@ TEST_F(LssSlaveTest, CiA305_ConfigureNodeIdRefusedOrIgnored) {
   EXPECT_EQ(silent.pending_node_id(), 0xFF);
 }
 
+// Issue 26's fault (cobridge-sim `lose_configure=N`): the first N configure
+// node-ID requests go unanswered, the next is answered. CiA 305 0x11.
+TEST_F(LssSlaveTest, CiA305_ConfigureNodeIdLostOnceThenAnswered) {
+  auto f = LssSlave::Features::multiturn_e();
+  f.lose_node_id_requests = 1;
+  LssSlave s = make(kJAddress, 0xFF, f);
+  to_configuration(s);
+  sink.frames.clear();
+  EXPECT_TRUE(s.on_frame(lss_tx({0x11, 0x05, 0, 0, 0, 0, 0, 0})));
+  EXPECT_TRUE(sink.frames.empty());
+  EXPECT_EQ(s.pending_node_id(), 0xFF);
+  EXPECT_TRUE(s.on_frame(lss_tx({0x11, 0x05, 0, 0, 0, 0, 0, 0})));
+  ASSERT_EQ(sink.frames.size(), 1u);
+  EXPECT_EQ(sink.frames[0], lss_rx({0x11, 0x00, 0, 0, 0, 0, 0, 0}));
+  EXPECT_EQ(s.pending_node_id(), 5);
+}
+
 TEST_F(LssSlaveTest, CiA305_ConfigureNodeIdFFhAllowed) {
   LssSlave s = make();
   to_configuration(s);

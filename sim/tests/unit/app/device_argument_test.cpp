@@ -63,6 +63,9 @@ TEST(DeviceArgument, ForeignIdentityAndAssignment) {
   EXPECT_EQ(s.assign, canopen::LssSlaveFeatures::NodeIdAssignment::refuse);
   EXPECT_EQ(ok("MC1-2800:assign=ignore").assign, canopen::LssSlaveFeatures::NodeIdAssignment::ignore);
   EXPECT_NE(error("MC1-2800:assign=maybe").find("assign must be accept|refuse|ignore"), std::string::npos);
+  // Issue 26's fault: the first N configure node-ID requests are lost.
+  EXPECT_EQ(ok("MC1-2800:node=unconfigured,lose_configure=2").lose_configure, 2);
+  EXPECT_NE(error("MC1-2800:lose_configure=300").find("lose_configure must be 0..255"), std::string::npos);
   EXPECT_NE(error("MC1-2800:vendor=x").find("vendor must be a 32-bit number"), std::string::npos);
 }
 
