@@ -425,6 +425,33 @@ TEST(LssScanTest, CiA305_LateAnswerFromAnEarlierBitStepGivesNoWrongIdentity) {
   EXPECT_EQ(bus.slave(0).mode(), LssMode::kConfiguration);
 }
 
+// Issue 26, CiA 305 Fastscan: three slaves answer each step one after the
+// other (answers do not merge on vcan). At the serial's bit-3 step the third
+// answer comes later than the learnt settle time after the first one, but
+// within it after the second: it belongs to the burst of bit 3, not to bit 2
+// (which nobody answers: every serial here has bit 2 set). Before, the step
+// ended the settle time after its first answer, the answer was taken for
+// bit 2's, and the scan had to begin again.
+TEST(LssScanTest, CiA305_EveryAnswerOfABurstBelongsToItsStep) {
+  LssTestBus bus(LssMasterConfig{100ms, 2ms}, 1ms, 250us);
+  const LssAddress a{0x182, 0x0BB8, 0x00010003, 4};
+  bus.add_slave(a, 0xFF);
+  bus.add_slave({a.vendor, a.product, a.revision, 5}, 0xFF);
+  bus.add_slave({a.vendor, a.product, a.revision, 6}, 0xFF);
+  LssMaster::FastscanKnown known;
+  known.vendor = a.vendor;
+  known.product = a.product;
+  known.revision = a.revision;
+  // Slave 6's answers: the probe, the 3 confirms, serial bits 31..4 (28), then bit 3's.
+  bus.delay_answer(2, 32, 2600us);
+  ASSERT_FALSE(bus.master().fastscan(bus.now(), known));
+  const auto r = bus.run_result();
+  ASSERT_TRUE(r.has_value());
+  ASSERT_FALSE(r->error) << r->error.message();
+  EXPECT_EQ(r->address, a);
+  EXPECT_EQ(r->restarts, 0u);
+}
+
 // The same late answer with fixed waits (nothing learnt, so no restart): the
 // identity nobody confirms is not given as a result.
 TEST(LssScanTest, CiA305_FastscanResultNobodyConfirmsIsNoResult) {
