@@ -186,7 +186,13 @@ void BusManager::Impl::on_identified(const DiscoveryEvent& e, TimePoint now) {
 void BusManager::Impl::on_retry(const DiscoveryEvent& e) {
   log->warn("bus {}: {}", bus.name, e.text);
   Managed* m = e.device.empty() ? nullptr : find_device(e.device);
-  if (m == nullptr) return;
+  if (m == nullptr) {
+    add_problem(e.text, "");
+    return;
+  }
+  // One problem line per device, the latest try's; cleared once it is operational.
+  clear_problems([&](const Problem& p) { return p.device == e.device; });
+  add_problem(e.text, e.device);
   m->st.commission_failures = e.count;
   m->st.next_retry = wall_now() + std::chrono::duration_cast<std::chrono::system_clock::duration>(e.retry_in);
   m->st.last_error = e.text;

@@ -268,10 +268,10 @@ void Commissioning::fail_group(int group) {
   tasks_.push_front(global_task(LssMode::kWaiting));
 }
 
-void Commissioning::fail_current(const std::string& why) {
+void Commissioning::fail_current(const std::string& why, bool report) {
   const Task t = *current_;
   current_.reset();
-  report_.problem(who(t.ctx) + ": " + why, t.ctx.from, t.ctx.identity);
+  if (report) report_.problem(who(t.ctx) + ": " + why, t.ctx.from, t.ctx.identity);
   fail_group(t.ctx.group);
 }
 
@@ -295,8 +295,8 @@ std::string Commissioning::device_of(const Task& t) const {
 
 // Never dropped: the device is tried again once its wait is over, whatever
 // failed; the event tells the bus manager (status, log) each time.
-void Commissioning::retry_later(const Ctx& c, const std::string& cause, TimePoint now) {
-  if (!canopen::cob::valid_node_id(c.target)) return;  // nowhere to go: nothing to try again
+bool Commissioning::retry_later(const Ctx& c, const std::string& cause, TimePoint now) {
+  if (!canopen::cob::valid_node_id(c.target)) return false;  // nowhere to go: nothing to try again
   if (run_) run_->failed.insert(c.identity.serial);
   const RetryEntry& e = retries_.failed(c.identity, c.device, c.from, cause, now);
   const auto wait = CommissionRetries::wait_after(e.failures);
@@ -311,6 +311,7 @@ void Commissioning::retry_later(const Ctx& c, const std::string& cause, TimePoin
   ev.text = who(c) + ": commissioning failed (try " + std::to_string(e.failures) + "): " + cause + "; next try in " +
             std::to_string(std::chrono::duration_cast<std::chrono::seconds>(wait).count()) + " s";
   report_.event(std::move(ev));
+  return true;
 }
 
 void Commissioning::at_target(const LssAddress& a) { retries_.succeeded(a); }
@@ -365,8 +366,8 @@ void Commissioning::finish_wait_boots(TimePoint now) {
   for (const auto& w : boot_waits_)
     if (!w.seen) {
       const std::string why = "no boot-up at node " + std::to_string(w.ctx.target) + " after the reset";
-      report_.problem(who(w.ctx) + ": " + why, w.ctx.target, w.ctx.identity);
-      retry_later(w.ctx, why, now);  // a probe of its target finding it there ends the tries
+      // A probe of its target finding it there ends the tries.
+      if (!retry_later(w.ctx, why, now)) report_.problem(who(w.ctx) + ": " + why, w.ctx.target, w.ctx.identity);
     }
   boot_waits_.clear();
 }
@@ -422,8 +423,7 @@ void Commissioning::on_sdo_done(TimePoint now, std::error_code err) {
     const std::string why = "SDO write " + hex32(t.index).substr(6) + "/" + std::to_string(t.sub) + " failed (" +
                             (timed_out ? std::string("timeout") : "abort " + hex32(static_cast<std::uint32_t>(err.value()))) +
                             ")";
-    retry_later(t.ctx, why, now);
-    fail_current(why);
+    fail_current(why, !retry_later(t.ctx, why, now));
     return;
   }
   current_.reset();

@@ -158,7 +158,8 @@ class Commissioning {
   bool drive_current(canopen::TimePoint now);
   void push_front(std::vector<Task> ts);
   void fail_group(int group);
-  void fail_current(const std::string& why);
+  // `report`: a problem event too (not when a retry event says it).
+  void fail_current(const std::string& why, bool report = true);
   void mark_reset(canopen::TimePoint now);
   bool send_now(const can::Frame& f);
   void wait_boot(const Ctx& c, canopen::TimePoint now);
@@ -167,7 +168,8 @@ class Commissioning {
   void on_sdo_done(canopen::TimePoint now, std::error_code err);
   [[nodiscard]] std::string device_of(const Task& t) const;
   // Retries (issue 26): a failure scheduled again; due ones searched again.
-  void retry_later(const Ctx& c, const std::string& cause, canopen::TimePoint now);
+  // False when the device has nowhere to go (nothing to try again).
+  bool retry_later(const Ctx& c, const std::string& cause, canopen::TimePoint now);
   void start_due_retries(canopen::TimePoint now);
 
   // clash_resolution.cpp: strategies (a), (b), (c)

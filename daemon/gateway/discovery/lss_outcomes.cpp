@@ -102,8 +102,7 @@ void Commissioning::on_switch_selective(Task& t, const Result& r, TimePoint now)
     return;
   }
   const std::string why = "no answer to LSS switch selective (" + describe(t.ctx.identity) + ")";
-  report_.problem(who(t.ctx) + ": " + why, t.ctx.from, t.ctx.identity);
-  retry_later(t.ctx, why, now);
+  if (!retry_later(t.ctx, why, now)) report_.problem(who(t.ctx) + ": " + why, t.ctx.from, t.ctx.identity);
   std::erase_if(tasks_, [g = t.ctx.group](const Task& x) { return x.ctx.group == g; });
 }
 
@@ -143,9 +142,9 @@ void Commissioning::on_configure_id(const Task& t, const Result& r, TimePoint no
   if (r.error || r.slave_error != 0) {
     if (t.ctx.target == canopen::cob::kNodeIdUnconfigured) return;  // (c): nobody had to answer
     const std::string why = "LSS configure node-ID " + std::to_string(t.ctx.target) + " failed: " + slave_error_text(r);
-    retry_later(t.ctx, why, now);
+    const bool retried = retry_later(t.ctx, why, now);
     current_ = t;
-    fail_current(why);
+    fail_current(why, !retried);
     return;
   }
   if (t.ctx.boot_wait && canopen::cob::valid_node_id(t.ctx.target)) wait_boot(t.ctx, now);

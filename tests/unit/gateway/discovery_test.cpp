@@ -531,6 +531,10 @@ TEST(DiscoveryTest, UnansweredConfigureNodeIdIsTriedAgainAfterOneSecond_CiA305_8
   const auto moved = rig.of(DiscoveryEventKind::commissioned);
   ASSERT_EQ(moved.size(), 1u);
   EXPECT_EQ(moved[0].node_id, 20);
+  // The retry event says it (the bus manager's problem line, cleared once the
+  // device is operational); no second, permanent problem event.
+  for (const auto& e : rig.of(DiscoveryEventKind::problem))
+    EXPECT_EQ(e.text.find("configure node-ID"), std::string::npos) << e.text;
   rig.run(60s);
   EXPECT_EQ(rig.of(DiscoveryEventKind::retry).size(), 1u) << "commissioned: no more tries";
 }

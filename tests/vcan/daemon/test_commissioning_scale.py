@@ -102,6 +102,9 @@ def check_retried(report, st, daemon, lossy):
                if by_name[n].get("commission_failures", 0) < 1 or "%s: commissioning failed (try 1)" % n not in log]
     report.check(not missing, "%d devices that lost a configure node-ID: tried again, counted in status and log"
                  % len(lossy), "not so: " + ", ".join(missing))
+    # Operational now: no problem line says otherwise.
+    stale = [p for b in st["buses"] for p in b["problems"] for (n, _, _) in lossy if n in p]
+    report.check(not stale, "no stale problem line once they are operational", "; ".join(stale[:3]))
 
 
 def figures(report, st, seen_steps, devs, took):
