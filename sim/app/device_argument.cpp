@@ -145,7 +145,8 @@ DeviceArgumentResult parse_device_argument(std::string_view text, ModelLookup lo
     } else {
       return fail(text, "unknown key " + quoted(key) +
                             " (allowed: serial, node, channels, bitrate, lss, segmented, c6, fastscan, vendor, product, "
-                            "revision, assign, lose_configure, motion)");
+                            "revision, assign, lose_configure, "
+                            "motion)");
     }
   }
   return DeviceArgumentResult{arg, {}};

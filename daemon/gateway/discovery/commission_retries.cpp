@@ -14,7 +14,8 @@ canopen::Duration CommissionRetries::wait_after(std::uint32_t failures) noexcept
 }
 
 RetryEntry* CommissionRetries::entry(const canopen::LssAddress& a) {
-  auto it = std::find_if(entries_.begin(), entries_.end(), [&](const RetryEntry& e) { return same_device(e.identity, a); });
+  auto it = std::find_if(entries_.begin(), entries_.end(),
+                         [&](const RetryEntry& e) { return same_device(e.identity, a); });
   return it == entries_.end() ? nullptr : &*it;
 }
 

@@ -420,9 +420,9 @@ void Commissioning::on_sdo_done(TimePoint now, std::error_code err) {
   report_.timing(t.index == kStoreObject ? "sdo-save" : "sdo-node-id", who(t.ctx), now - current_started_);
   if (err) {
     const bool timed_out = err == make_error_code(canopen::SdoAbort::kProtocolTimedOut);
+    const std::string abort = "abort " + hex32(static_cast<std::uint32_t>(err.value()));
     const std::string why = "SDO write " + hex32(t.index).substr(6) + "/" + std::to_string(t.sub) + " failed (" +
-                            (timed_out ? std::string("timeout") : "abort " + hex32(static_cast<std::uint32_t>(err.value()))) +
-                            ")";
+                            (timed_out ? std::string("timeout") : abort) + ")";
     fail_current(why, !retry_later(t.ctx, why, now));
     return;
   }
