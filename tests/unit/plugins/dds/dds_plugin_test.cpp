@@ -609,6 +609,10 @@ TEST(DdsPlugin, DocsDds_WatchPrintsWhatAPublisherWrote) {
 
   Child watch({kCli.string(), "watch", "--domain", std::to_string(test_domain()), "--gateway", test_gateway(),
                "--json", "--count", "3", "--timeout", "20"});
+  // The late joiner learns the status (transient-local) on its own: wait
+  // for that line first, so the samples below cannot fill --count before it.
+  ASSERT_TRUE(eventually([&] { return watch.out().find("\"topic\":\"DeviceStatus\"") != std::string::npos; }, 15s))
+      << watch.out();
   // Samples are volatile: keep publishing until watch has seen enough. After
   // each, watch has up to a publish period to print (or to end, done); one
   // written before watch's reader matched is lost, and the next goes out.
