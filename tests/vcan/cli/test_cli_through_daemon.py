@@ -190,9 +190,12 @@ def beacon_phase(report, args, ws, listener, expected):
         report.check(rc == 0 and doc.get("via") == "daemon" and doc.get("string") == want and err.strip() == "",
                      "sdo read %s: found the daemon from vcan0, decoded string %r, nothing on stderr" % (
                          " ".join(control) or "(no --control)", want), "rc %d %s %s" % (rc, out.strip(), err.strip()))
-        time.sleep(0.2)
+        # The listener (a Python thread beside 4 kHz of TPDOs) has read up to the
+        # CLI's end once it holds a frame stamped after it.
+        done = time.time()
+        listener.wait_for(lambda can_id, data: True, 10, since=done)
         # CiA 301 7.2.4.3.3: 0x40 = initiate upload request (the segments follow it).
-        opened = [f for f in listener.snapshot(since) if f[1] == 0x614 and f[2][:1] == b"\x40"]
+        opened = [f for f in listener.snapshot(since) if f[0] <= done and f[1] == 0x614 and f[2][:1] == b"\x40"]
         report.check(len(opened) == 1, "exactly one SDO upload started on the bus (the daemon's)", "%d" % len(opened))
     rc, out, err = e2e.run_cli(args.cli, "scan", "-i", "vcan0", "--json")
     report.check(rc == 0 and '"via":"daemon"' in out.replace(" ", ""), "scan without --control shows the daemon's view",
