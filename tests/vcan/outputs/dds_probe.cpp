@@ -185,106 +185,85 @@ void note_lag(const char* gw, std::uint64_t t, const cobridge_EncoderSample& s) 
               static_cast<unsigned long long>(l.n));
   l = Lag{};
 }
-void take_samples(dds_entity_t reader, std::map<Key, Device>& devices) {
+// Takes from `reader` until it is empty (at most kRounds batches of kTake);
+// `each` sees every sample, valid or not, with its info and the batch's time.
+template <typename T, typename F>
+void take_all(dds_entity_t reader, F&& each) {
   for (int round = 0; round < kRounds; ++round) {
     void* buf[kTake] = {};
     dds_sample_info_t info[kTake];
     const int n = dds_take(reader, buf, info, kTake, kTake);
     if (n <= 0) return;
     const std::uint64_t t = now_ns();
-    for (int i = 0; i < n; ++i) {
-      const auto& s = *static_cast<const cobridge_EncoderSample*>(buf[i]);
-      const char* gw = gateway_id(s.gateway_key, s.gateway_id, info[i].valid_data);
-      Device& d = devices[Key{gw, s.bus, s.node_id}];
-      if (info[i].instance_state != d.state) {
-        d.state = info[i].instance_state;
-        std::printf("{\"ev\":\"sample_instance\",\"t\":%llu,\"gateway_id\":\"%s\",\"bus\":%d,\"node\":%d,"
-                    "\"state\":\"%s\"}\n",
-                    static_cast<unsigned long long>(t), gw, s.bus, s.node_id, state_name(d.state));
-      }
-      if (!info[i].valid_data) continue;
-      ++g_totals.samples;
-      note_lag(gw, t, s);
-      if (d.samples == 0) {
-        d.first = s.sequence_number;
-      } else if (s.sequence_number == d.last) {
-        ++d.repeats;
-      } else if (s.sequence_number != d.last + 1u) {
-        ++d.gaps;
-        d.lost += s.sequence_number - d.last - 1u;
-      }
-      d.last = s.sequence_number;
-      ++d.samples;
-    }
+    for (int i = 0; i < n; ++i) each(*static_cast<const T*>(buf[i]), info[i], t);
     dds_return_loan(reader, buf, n);
   }
+}
+
+void take_samples(dds_entity_t reader, std::map<Key, Device>& devices) {
+  take_all<cobridge_EncoderSample>(reader, [&](const auto& s, const dds_sample_info_t& info, std::uint64_t t) {
+    const char* gw = gateway_id(s.gateway_key, s.gateway_id, info.valid_data);
+    Device& d = devices[Key{gw, s.bus, s.node_id}];
+    if (info.instance_state != d.state) {
+      d.state = info.instance_state;
+      std::printf("{\"ev\":\"sample_instance\",\"t\":%llu,\"gateway_id\":\"%s\",\"bus\":%d,\"node\":%d,"
+                  "\"state\":\"%s\"}\n",
+                  static_cast<unsigned long long>(t), gw, s.bus, s.node_id, state_name(d.state));
+    }
+    if (!info.valid_data) return;
+    ++g_totals.samples;
+    note_lag(gw, t, s);
+    if (d.samples == 0) {
+      d.first = s.sequence_number;
+    } else if (s.sequence_number == d.last) {
+      ++d.repeats;
+    } else if (s.sequence_number != d.last + 1u) {
+      ++d.gaps;
+      d.lost += s.sequence_number - d.last - 1u;
+    }
+    d.last = s.sequence_number;
+    ++d.samples;
+  });
 }
 
 void take_gateways(dds_entity_t reader) {
-  for (int round = 0; round < kRounds; ++round) {
-    void* buf[kTake] = {};
-    dds_sample_info_t info[kTake];
-    const int n = dds_take(reader, buf, info, kTake, kTake);
-    if (n <= 0) return;
-    const std::uint64_t t = now_ns();
-    for (int i = 0; i < n; ++i) {
-      const auto& s = *static_cast<const cobridge_GatewayStatus*>(buf[i]);
-      const bool v = info[i].valid_data;
-      if (v) ++g_totals.gateways;
-      std::printf("{\"ev\":\"gateway\",\"t\":%llu,\"gateway_id\":\"%s\",\"state\":\"%s\",\"valid\":%s,"
-                  "\"devices\":%d,\"devices_online\":%d,\"buses\":%d,\"buses_online\":%d,\"duplicate\":%s,"
-                  "\"incarnation\":%llu,\"pid\":%u,\"upd\":%llu}\n",
-                  static_cast<unsigned long long>(t), gateway_id(s.gateway_key, s.gateway_id, v),
-                  state_name(info[i].instance_state), v ? "true" : "false", v ? s.devices : -1,
-                  v ? s.devices_online : -1, v ? s.buses : -1, v ? s.buses_online : -1,
-                  v && s.duplicate_id ? "true" : "false", static_cast<unsigned long long>(v ? s.incarnation : 0),
-                  v ? s.pid : 0u, static_cast<unsigned long long>(v ? s.updated_ns : 0));
-    }
-    dds_return_loan(reader, buf, n);
-  }
+  take_all<cobridge_GatewayStatus>(reader, [&](const auto& s, const dds_sample_info_t& info, std::uint64_t t) {
+    const bool v = info.valid_data;
+    if (v) ++g_totals.gateways;
+    std::printf("{\"ev\":\"gateway\",\"t\":%llu,\"gateway_id\":\"%s\",\"state\":\"%s\",\"valid\":%s,"
+                "\"devices\":%d,\"devices_online\":%d,\"buses\":%d,\"buses_online\":%d,\"duplicate\":%s,"
+                "\"incarnation\":%llu,\"pid\":%u,\"upd\":%llu}\n",
+                static_cast<unsigned long long>(t), gateway_id(s.gateway_key, s.gateway_id, v),
+                state_name(info.instance_state), v ? "true" : "false", v ? s.devices : -1,
+                v ? s.devices_online : -1, v ? s.buses : -1, v ? s.buses_online : -1,
+                v && s.duplicate_id ? "true" : "false", static_cast<unsigned long long>(v ? s.incarnation : 0),
+                v ? s.pid : 0u, static_cast<unsigned long long>(v ? s.updated_ns : 0));
+  });
 }
 
 void take_status(dds_entity_t reader, std::map<Key, int>& online) {
-  for (int round = 0; round < kRounds; ++round) {
-    void* buf[kTake] = {};
-    dds_sample_info_t info[kTake];
-    const int n = dds_take(reader, buf, info, kTake, kTake);
-    if (n <= 0) return;
-    const std::uint64_t t = now_ns();
-    for (int i = 0; i < n; ++i) {
-      if (!info[i].valid_data) continue;
-      ++g_totals.statuses;
-      const auto& s = *static_cast<const cobridge_DeviceStatus*>(buf[i]);
-      const char* gw = gateway_id(s.gateway_key, s.gateway_id, true);
-      int& o = online.try_emplace(Key{gw, s.bus, s.node_id}, -1).first->second;
-      if (o == static_cast<int>(s.online)) continue;
-      o = s.online;
-      std::printf("{\"ev\":\"status\",\"t\":%llu,\"gateway_id\":\"%s\",\"bus\":%d,\"node\":%d,\"online\":%s,"
-                  "\"upd\":%llu}\n",
-                  static_cast<unsigned long long>(t), gw, s.bus, s.node_id, s.online ? "true" : "false",
-                  static_cast<unsigned long long>(s.updated_ns));
-    }
-    dds_return_loan(reader, buf, n);
-  }
+  take_all<cobridge_DeviceStatus>(reader, [&](const auto& s, const dds_sample_info_t& info, std::uint64_t t) {
+    if (!info.valid_data) return;
+    ++g_totals.statuses;
+    const char* gw = gateway_id(s.gateway_key, s.gateway_id, true);
+    int& o = online.try_emplace(Key{gw, s.bus, s.node_id}, -1).first->second;
+    if (o == static_cast<int>(s.online)) return;
+    o = s.online;
+    std::printf("{\"ev\":\"status\",\"t\":%llu,\"gateway_id\":\"%s\",\"bus\":%d,\"node\":%d,\"online\":%s,"
+                "\"upd\":%llu}\n",
+                static_cast<unsigned long long>(t), gw, s.bus, s.node_id, s.online ? "true" : "false",
+                static_cast<unsigned long long>(s.updated_ns));
+  });
 }
 
 void take_events(dds_entity_t reader) {
-  for (int round = 0; round < kRounds; ++round) {
-    void* buf[kTake] = {};
-    dds_sample_info_t info[kTake];
-    const int n = dds_take(reader, buf, info, kTake, kTake);
-    if (n <= 0) return;
-    const std::uint64_t t = now_ns();
-    for (int i = 0; i < n; ++i) {
-      if (!info[i].valid_data) continue;
-      ++g_totals.events;
-      const auto& e = *static_cast<const cobridge_EncoderEvent*>(buf[i]);
-      std::printf("{\"ev\":\"event\",\"t\":%llu,\"gateway_id\":\"%s\",\"bus\":%d,\"node\":%d,\"code\":%u}\n",
-                  static_cast<unsigned long long>(t), gateway_id(e.gateway_key, e.gateway_id, true), e.bus, e.node_id,
-                  static_cast<unsigned>(e.code));
-    }
-    dds_return_loan(reader, buf, n);
-  }
+  take_all<cobridge_EncoderEvent>(reader, [&](const auto& e, const dds_sample_info_t& info, std::uint64_t t) {
+    if (!info.valid_data) return;
+    ++g_totals.events;
+    std::printf("{\"ev\":\"event\",\"t\":%llu,\"gateway_id\":\"%s\",\"bus\":%d,\"node\":%d,\"code\":%u}\n",
+                static_cast<unsigned long long>(t), gateway_id(e.gateway_key, e.gateway_id, true), e.bus, e.node_id,
+                static_cast<unsigned>(e.code));
+  });
 }
 
 }  // namespace
