@@ -2,7 +2,8 @@
 // (canopen::LssMaster) against cobridge-sim over a real vcan.
 //
 // * CiA 305 Fastscan (digest Y.2): unconfigured devices of mixed models (CI:
-//   four, at the serial extremes; COBRIDGE_SOAK=1, label "soak": eight)
+//   four, at the serial extremes, with the daemon's learnt waits;
+//   COBRIDGE_SOAK=1, label "soak": eight, every step the full 100 ms)
 //   (node=unconfigured, lss=v3) are each found exactly once, given their own
 //   node-ID (0x11, J§1.5.1 / E§6.1) and stored (0x17, J§1.5.3 / E§6.3); after
 //   a simulator restart on the same state directory they boot up on the
@@ -48,10 +49,21 @@ using canopen::LssMaster;
 using namespace std::chrono_literals;
 
 constexpr const char* kIface = "vcan0";
-// Every search step waits this long (lss_master.hpp). UML usually answers
-// within a few ms, but on a loaded host it stalls for tens of ms (25 ms lost
-// an answer mid-scan); 60 ms makes one full Fastscan (133 steps) about 8 s.
+// The daemon's defaults (docs/configuration.md, lss_timeout_ms and
+// lss_timeout_min_ms): a scan's first step waits 100 ms, later unanswered
+// steps what the bus taught, never under 10 ms. COBRIDGE_SOAK=1 waits the
+// full 100 ms at every step (nothing learnt), the slowest the master can be.
 constexpr auto kLssTimeout = 100ms;
+constexpr auto kLssTimeoutMin = 10ms;
+
+bool soak_run() {
+  const char* soak = std::getenv("COBRIDGE_SOAK");
+  return soak != nullptr && std::string(soak) == "1";
+}
+
+LssMaster::Config search_config() {
+  return LssMaster::Config{kLssTimeout, soak_run() ? kLssTimeout : kLssTimeoutMin};
+}
 
 // cobridge-sim as a child process: stdin/stdout are pipes, "ready" on stdout
 // means every device is powered on.
@@ -196,8 +208,7 @@ std::vector<std::pair<std::uint32_t, std::string>> fastscan_devices() {
       {0x00B20002, "RFC-4800:serial=0x00B20002,node=unconfigured,lss=v3"},
       {0x00C30003, "RM9000:serial=0x00C30003,node=unconfigured,lss=v3"},
       {0x00B20003, "RFC-4800:serial=0x00B20003,node=unconfigured,lss=v3,channels=2"}};
-  const char* soak = std::getenv("COBRIDGE_SOAK");
-  if (soak == nullptr || std::string(soak) != "1") all.resize(4);
+  if (!soak_run()) all.resize(4);
   return all;
 }
 
@@ -220,7 +231,7 @@ TEST(LssDiscovery, Fastscan_UnconfiguredMixedDevices_E6_J1_5) {
   {
     SimProcess sim(args);
     ASSERT_TRUE(sim.wait_ready(20s)) << "cobridge-sim did not start";
-    LssMaster master(ch, LssMaster::Config{kLssTimeout});
+    LssMaster master(ch, search_config());
     // Confirmed services (configure, store) get a longer answer window than a
     // Fastscan step: the device's store writes its non-volatile memory (an
     // fsync, slow on UML's hostfs when another UML runs beside it), and only
@@ -289,7 +300,7 @@ TEST(LssDiscovery, Slowscan_FourRotaryAtFactoryNode127_J1_5) {
   const auto boots = collect_boot_ups(ch, 4, 10s);
   EXPECT_EQ(boots, (std::multiset<int>{127, 127, 127, 127}));
 
-  LssMaster master(ch, LssMaster::Config{kLssTimeout});
+  LssMaster master(ch, search_config());
   LssMaster confirmed(ch, LssMaster::Config{std::chrono::milliseconds(1000)});  // see the Fastscan test
   canopen::LssRange bounds;
   bounds.vendor = 0x00000182;
