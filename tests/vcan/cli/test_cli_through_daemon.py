@@ -4,7 +4,7 @@ SDO client / NMT, queued with its own work (CiA 301 §7.2.4: one SDO client
 per server channel; §7.2.8.3.3: a boot-up ends every transfer).
 
 Scenario (UML, real SocketCAN, cobridge-sim): 4 encoders sending TPDO1 every
-1 ms; 4 CLI processes at a time make --reads SDO reads in all (CI: 160; the
+1 ms; 4 CLI processes at a time make --reads SDO reads in all (CI: 64; the
 soak run, label "soak": 1,000) (expedited
 0x1018:4 serial, segmented 0x1008:0 device name) while node 10 is power
 cycled over and over and the daemon configures it again after each boot-up.
