@@ -22,19 +22,22 @@ BusManager::Impl::Impl(const config::Config& config_in, std::size_t index, const
 void BusManager::Impl::build_devices() {
   devices.clear();
   for (const auto& d : config.devices) {
-    if (d.bus_index != bus_index) continue;
-    Managed m;
-    m.cfg = d;
-    m.st.name = d.name;
-    m.st.bus = bus.name;
-    m.st.node_id = d.node_id.value_or(0);
-    m.st.identity.serial = d.serial;
-    m.st.identity.vendor = d.vendor.value_or(0);
-    m.st.identity.product = d.product.value_or(0);
-    m.st.model = d.model;
-    m.st.since = wall_now();
-    devices.push_back(std::move(m));
+    if (d.bus_index == bus_index) devices.push_back(make_managed(d));
   }
+}
+
+BusManager::Impl::Managed BusManager::Impl::make_managed(const config::Device& d) const {
+  Managed m;
+  m.cfg = d;
+  m.st.name = d.name;
+  m.st.bus = bus.name;
+  m.st.node_id = d.node_id.value_or(0);
+  m.st.identity.serial = d.serial;
+  m.st.identity.vendor = d.vendor.value_or(0);
+  m.st.identity.product = d.product.value_or(0);
+  m.st.model = d.model;
+  m.st.since = wall_now();
+  return m;
 }
 
 BusManager::Impl::Managed* BusManager::Impl::find_device(std::string_view name) {
@@ -248,14 +251,7 @@ void BusManager::Impl::apply_reload(config::Config next, TimePoint now) {
     if (d.bus_index != bus_index) continue;
     auto it = std::find_if(old.begin(), old.end(), [&](const Managed& o) { return o.in_config && o.cfg.name == d.name; });
     if (it == old.end()) {
-      Managed m;
-      m.cfg = d;
-      m.st.name = d.name;
-      m.st.bus = bus.name;
-      m.st.node_id = d.node_id.value_or(0);
-      m.st.identity.serial = d.serial;
-      m.st.since = wall_now();
-      devices.push_back(std::move(m));
+      devices.push_back(make_managed(d));
       continue;
     }
     Managed m = std::move(*it);

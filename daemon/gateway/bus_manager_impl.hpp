@@ -111,6 +111,9 @@ struct BusManager::Impl final : RemoteGate {
   // ---- set-up (constructor / reload) -------------------------------------
 
   void build_devices();
+  // A configured device as it starts out, before anything is heard of it:
+  // the one way start-up and a reload make one, so both show the same.
+  Managed make_managed(const config::Device& d) const;
   Managed* find_device(std::string_view name);
   // Any configured device at `node`, also one not seen yet.
   Managed* find_configured_node(std::uint8_t node);

@@ -416,6 +416,35 @@ TEST_F(BusManagerVcan, Issue4_ReloadReconfiguresOnlyTheChangedDevice) {
   EXPECT_EQ(a->fingerprint, find(s, "ifm")->fingerprint);
 }
 
+// A device that a reload adds is shown as start-up shows a configured
+// device: with the model, vendor and product its configuration names, at
+// once, not blank until it is heard of (one construction path for both).
+TEST_F(BusManagerVcan, ReloadAddedDeviceShowsItsConfiguredIdentityAtOnce) {
+  ASSERT_TRUE(wait_for(*manager_, 20s, all_operational).has_value()) << describe(manager_->status());
+  config::Config next = *config_;
+  config::Device spare = next.devices.front();
+  spare.name = "spare";
+  spare.serial = 0x4242;
+  spare.model = "MC1-2800";
+  spare.vendor = 0x00000182;  // E§4.1 0x1018:1
+  spare.product = 0x00000BB9;  // E§4.1 0x1018:2 (MC1-2800 before V03)
+  spare.node_id = 44;
+  next.devices.push_back(spare);
+  manager_->reload(next);
+  ASSERT_TRUE(wait_for(*manager_, 5s, [](const BusStatus& s) { return find(s, "spare") != nullptr; }).has_value())
+      << describe(manager_->status());
+  const auto now = manager_->status();
+  const auto* d = find(now, "spare");
+  EXPECT_EQ(d->model, "MC1-2800");
+  EXPECT_EQ(d->identity.vendor, 0x00000182U);
+  EXPECT_EQ(d->identity.product, 0x00000BB9U);
+  EXPECT_EQ(d->identity.serial, 0x4242U);
+  EXPECT_EQ(d->node_id, 44);
+  // The other tests see the bus as configured at start.
+  manager_->reload(*config_);
+  ASSERT_TRUE(wait_for(*manager_, 5s, [](const BusStatus& s) { return find(s, "spare") == nullptr; }).has_value());
+}
+
 // Issue 4 supervision "bus-off and interface loss": a controller state change
 // reported by an error frame (kernel SocketCAN "Network Problem
 // Notifications", CAN_ERR_CRTL) shows as the bus's last event.
