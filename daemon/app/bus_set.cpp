@@ -15,12 +15,12 @@ void BusSet::build(const config::Config& cfg, const device::DeviceCatalog& catal
   }
 }
 
-Error BusSet::start(const config::Config& cfg) {
+Error BusSet::start() {
   for (std::size_t i = 0; i < buses_.size(); ++i) {
-    if (const auto ec = buses_[i]->start()) {
+    if (Error e = buses_[i]->start()) {
       stop();
-      return Error(Errc::kUnavailable, "cannot start: " + ec.message(),
-                   "bus " + cfg.buses[i].name + " (" + cfg.buses[i].interface + ")", ec);
+      e.message = "cannot start: " + e.message;
+      return e;
     }
   }
   return {};

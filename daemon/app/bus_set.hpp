@@ -29,8 +29,8 @@ class BusSet {
              gateway::OutputPipeline& outputs);
 
   // Starts every bus; on the first failure stops those started and returns
-  // it (kUnavailable, where = "bus NAME (IFACE)", the BusManager's code).
-  [[nodiscard]] Error start(const config::Config& cfg);
+  // it as the bus gave it (where = "bus NAME: IFACE", its kind and code).
+  [[nodiscard]] Error start();
 
   // In parallel: each stop() may take up to 1 s, and SIGTERM must be done in 1 s.
   void stop();

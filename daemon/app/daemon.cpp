@@ -52,7 +52,7 @@ Error Daemon::start() {
   open_beacons();
   if (Error e = start_outputs()) return e;
   buses_.build(*cfg_, *catalog_, *state_, *outputs_);
-  if (const Error e = buses_.start(*cfg_)) {
+  if (const Error e = buses_.start()) {
     log->error("{}", e.to_string());
     return Error(Errc::kFailed, e.message, e.where, e.code);
   }

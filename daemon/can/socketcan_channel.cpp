@@ -174,8 +174,7 @@ Error SocketCanChannel::open() {
   OpenOutcome o = open_socket();
   if (o.error) {
     want_open_ = false;
-    if (auto l = logger()) l->error("{}", o.error.to_string());
-    return std::move(o.error);
+    return std::move(o.error);  // the caller reports it, once, with its own context
   }
   if (o.interface_down) {
     // Not an error: the daemon may start before the link is configured.

@@ -66,17 +66,20 @@ BusManager::Impl::~Impl() {
   if (wake_fd >= 0) ::close(wake_fd);
 }
 
-std::error_code BusManager::Impl::start() {
-  if (wake_fd < 0) return std::make_error_code(std::errc::too_many_files_open);
+Error BusManager::Impl::start() {
+  const std::string where = "bus " + bus.name;
+  if (wake_fd < 0)
+    return Error(Errc::kUnavailable, "no eventfd for the control thread", where,
+                 std::make_error_code(std::errc::too_many_files_open));
   can::SocketCanConfig cc;
   cc.interface = bus.interface;
   cc.wait_for_interface = true;  // a missing adapter is reported and waited for
   cc.reopen_backoff_max = kReopenBackoffMax;
   channel = std::make_unique<can::SocketCanChannel>(cc);
-  if (const Error err = channel->open()) {
-    log->error("bus {}: {}", bus.name, err.to_string());
+  if (Error err = channel->open()) {
     channel.reset();
-    return err.code;
+    err.where = err.where.empty() ? where : where + ": " + err.where;
+    return err;
   }
   // What the control plane needs; the TPDOs go to the hot path's own socket.
   static constexpr std::array<can::Filter, 4> kFilters{{
@@ -85,10 +88,10 @@ std::error_code BusManager::Impl::start() {
       {canopen::cob::kNmtErrorControlBase, 0x780, false},   // boot-up/heartbeat/guarding 0x700..0x77F
       {canopen::cob::kEmcyBase, 0x780, false},              // EMCY 0x081..0x0FF
   }};
-  if (const Error ferr = channel->set_filters(kFilters)) {
-    log->error("bus {}: {}", bus.name, ferr.to_string());
+  if (Error ferr = channel->set_filters(kFilters)) {
     channel.reset();
-    return ferr.code;
+    ferr.where = ferr.where.empty() ? where : where + ": " + ferr.where;
+    return ferr;
   }
   started_at = Clock::now();
   publish_all();
@@ -290,11 +293,13 @@ BusManager::BusManager(const config::Config& config, std::size_t bus_index, cons
 
 BusManager::~BusManager() { stop(); }
 
-std::error_code BusManager::start() {
-  if (impl_->thread.joinable()) return std::make_error_code(std::errc::device_or_resource_busy);
+Error BusManager::start() {
+  if (impl_->thread.joinable())
+    return Error(Errc::kFailed, "already started", "bus " + impl_->bus.name,
+                 std::make_error_code(std::errc::device_or_resource_busy));
   RemoteBus rb{impl_->bus.name, impl_->bus.interface, static_cast<unsigned>(impl_->bus_index + 1)};
   const config::RemoteAccess access = impl_->config.remote;
-  if (const auto ec = impl_->start()) return ec;
+  if (Error e = impl_->start()) return e;
   BusRegistry::process().add(*this, std::move(rb), access);
   return {};
 }

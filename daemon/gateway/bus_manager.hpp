@@ -63,8 +63,9 @@ class BusManager {
   BusManager(const BusManager&) = delete;
   BusManager& operator=(const BusManager&) = delete;
 
-  // Opens the bus and starts the control thread.
-  std::error_code start();
+  // Opens the bus and starts the control thread. A failure is returned, not
+  // logged: its where names the bus and the interface.
+  Error start();
   void stop();
 
   // True once every configured device is operational or has timed out

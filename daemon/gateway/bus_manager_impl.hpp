@@ -125,7 +125,7 @@ struct BusManager::Impl final : RemoteGate {
   // with stop() then writes into a live eventfd, never into a closed (and
   // possibly reused) descriptor.
   ~Impl();
-  std::error_code start();
+  Error start();
   void stop();
   void wake() noexcept;
   void run();

@@ -246,7 +246,7 @@ heartbeat_ms = )" + std::to_string(kHeartbeatMs) + R"(
     BusManagerOptions options;
     options.ready_timeout = 20s;
     manager_ = std::make_unique<BusManager>(*config_, 0, *catalog_, *store_, options);
-    if (const auto ec = manager_->start()) setup_error_ = "BusManager::start: " + ec.message();
+    if (const Error e = manager_->start()) setup_error_ = "BusManager::start: " + e.to_string();
   }
 
   static void TearDownTestSuite() {
