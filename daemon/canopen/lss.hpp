@@ -6,7 +6,7 @@
 // ship at node-ID 127 (J§1.2.2, E§3.1) are told apart. Every LSS frame is 8
 // bytes; byte 0 is the command specifier, multi-byte values are little-endian
 // in bytes 1..4 (J§1.5, E§6). The manuals document only 0x04, 0x40..0x44,
-// 0x11, 0x13 and 0x17; the other specifiers come from CiA 305 (digest Y.1).
+// 0x11, 0x13 and 0x17; the other specifiers come from CiA 305 itself.
 // Thread-safety: constants and pure functions only; callable from any thread.
 #pragma once
 
@@ -105,7 +105,7 @@ struct LssRange {
 
 // Standard CiA bit-timing table (table selector 0). J§1.5.2 and E§6.2 list
 // 0, 1, 2, 3, 4 and 6; 5 is reserved, 7 and 8 exist in CiA 305 but the
-// Novotechnik devices answer "not supported" for them (digest A.5).
+// Novotechnik devices answer "not supported" for them (J§1.5.2 error 1).
 inline constexpr uint8_t kLssBitTimingTableStandard = 0;
 enum class LssBitTiming : uint8_t {
   k1000 = 0,

@@ -7,7 +7,8 @@
 // rotary series (J) claims DSP-305 V1.1.2, which predates Fastscan, while the
 // multiturn series (E) claims V3.0.0. Configured values become active only
 // when the owner calls `activate_pending()` (NMT reset communication or power
-// up, digest S.12); the slave never resets itself.
+// up: CiA 305 makes a configured node-ID active only then); the slave never
+// resets itself.
 // Thread: the single thread that drives the simulated device; `on_frame` does
 // not allocate and never blocks (the store handler must not block either).
 #pragma once
@@ -77,8 +78,8 @@ class LssSlave {
   [[nodiscard]] uint8_t active_node_id() const noexcept { return active_node_id_; }
   [[nodiscard]] uint8_t pending_node_id() const noexcept { return pending_node_id_; }
   // Fastscan and identify non-configured answer only while this is true: both
-  // the active and the pending node-ID are FFh (the CANopenNode rule quoted in
-  // digest Y.2), so a slave stops answering as soon as it is configured.
+  // the active and the pending node-ID are FFh (CiA 305: only non-configured
+  // slaves take part), so a slave stops answering as soon as it is configured.
   [[nodiscard]] bool unconfigured() const noexcept;
 
   [[nodiscard]] std::optional<uint8_t> active_bit_timing() const noexcept { return active_bit_timing_; }

@@ -11,7 +11,7 @@
 // device families offers it: J§1.2.3, E§3.2).
 //
 // Why segmented support although the Novotechnik manuals say "segmented: no":
-// the strings 0x1008..0x100A are longer than 4 bytes (digest A.4/C.4); the
+// the strings 0x1008..0x100A are longer than 4 bytes (J§1.3.1, E§4.1); the
 // gateway must be able to read them from devices that do segment, and must
 // tolerate an abort from those that do not.
 //
@@ -47,7 +47,7 @@ struct SdoClientConfig {
   std::size_t buffer_size = 1024;
   // Accept a download confirmation whose index matches but whose sub-index
   // does not. F§7.2.1 prints `60 10 10 00` as the answer to a write of
-  // 0x1010/1 (digest B.9.1 treats it as a misprint); enable this only for a
+  // 0x1010/1 (most likely a misprint: CiA 301 echoes the sub-index); enable this only for a
   // device proven to answer that way.
   bool accept_download_sub_mismatch = false;
   // When a frame could not be queued mid-transfer, re-try sending it this

@@ -39,13 +39,13 @@ namespace cobridge::canopen {
 // Declared outside SdoServer so that `Config{}` can be a default argument.
 struct SdoServerConfig {
   // Segmented transfer on/off. The Novotechnik manuals say "segmented: no"
-  // (J§1.2.4, E§3.2), yet their 0x1008 names are longer than 4 bytes; the
-  // digest (A.4, S.1) suggests "on" as the simulator default.
+  // (J§1.2.4, E§3.2), yet their 0x1008 names are longer than 4 bytes, so
+  // the simulator segments by default: the master must handle both.
   bool segmented = true;
   // Abort sent when segmented is off and an upload needs it (object longer
   // than 4 bytes, or empty) or a segmented download is initiated. 0x08000000
   // "general error" because a simulator should only send codes the manual
-  // lists (J§1.6.3, E§7.3; digest S.2), and 0x06010000 is not among them.
+  // lists (J§1.6.3, E§7.3), and 0x06010000 is not among them.
   uint32_t segmented_disabled_abort = 0x08000000;
   // Responses say how many bytes they carry: expedited upload 0x43/47/4B/4F
   // and segmented upload initiate 0x41 with the size. When false: 0x42 and
@@ -55,7 +55,8 @@ struct SdoServerConfig {
   // 0x05040000.
   Duration segment_timeout = std::chrono::milliseconds(1000);
   // Replaces the CiA 301 length codes 0x06070010/12/13 when non-zero. The
-  // manuals list no length code; the digest (A.4) suggests 0x08000000.
+  // manuals list no length code (J§1.6.3, E§7.3); 0x08000000 "general
+  // error" is the listed code nearest to it.
   uint32_t length_abort_override = 0;
   // Transfer buffer size; 0 means the dictionary's largest value (at least 4).
   // Values larger than the buffer are refused with 0x05040005 (out of memory).

@@ -4,7 +4,8 @@
 // polarity the scaling bit has, which 0x1010 sub-index stores which
 // parameters, how many CAMs a channel has, which semantic signal maps to which
 // object. Every fact cites the manual section it comes from (J = Novotechnik
-// rotary, E = Novotechnik multiturn, F = ifm RM8/RM9; see the device digest).
+// rotary, E = Novotechnik multiturn, F = ifm RM8/RM9: the manuals' own
+// section numbers).
 // Identity, addressing, storage and scaling facts come from the family's
 // module in families; this adds the object-dictionary view.
 //

@@ -1,7 +1,7 @@
 // Novotechnik rotary sensors RFC-4800, RSA-3200, RFE-3200, RSX-7900,
 // RFX-6900 (manual J): identity, models and quirks.
 //
-// Quirks: LSS per DSP-305 V1.1.2, older than Fastscan (digest Y.2); node-ID
+// Quirks: LSS per DSP-305 V1.1.2 (J§1 intro), older than Fastscan; node-ID
 // and bit rate stored with 0x1010/4, except RSX-7900 / RFX-6900 firmware
 // which stores them with /1 (J§1.6.1, J§1.12 V10); communication parameters
 // with /2 because /1 resets the TPDO COB-IDs (J§1.10); scaling on = 0x6000

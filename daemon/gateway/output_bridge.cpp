@@ -64,7 +64,7 @@ pipeline::DecodePlan OutputBridge::make_plan(const DeviceStatus& device, const s
       bool is_signed = false;
       if (desc) {
         const device::ObjectDesc* od = desc->find(index, sub);
-        // The multiturn default mapping names 0x6020/1, an alias of 0x6004 (E§4.1, digest C.3).
+        // The multiturn default mapping names 0x6020/1, an alias of 0x6004 (E§4.1 0x1A00/1, E§8.2).
         if (!od && index == 0x6020) od = desc->find(0x6004, 0);
         if (od) is_signed = device::is_signed_integer(od->data_type);
       }

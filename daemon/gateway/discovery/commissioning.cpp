@@ -372,7 +372,7 @@ void Commissioning::finish_wait_boots(TimePoint now) {
   boot_waits_.clear();
 }
 
-// ---- SDO node-ID fallback (digest G.6) ------------------------------------------------
+// ---- SDO node-ID fallback (J§1.3.3 0x2000, E§4.3 0x2000, F§7.4 0x3000) ----------------
 
 void Commissioning::start_sdo_fallback(const Ctx& c) {
   const auto obj = sdo_node_id_object(c.identity);

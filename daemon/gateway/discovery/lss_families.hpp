@@ -1,5 +1,5 @@
 // What the encoder families can do over LSS, and how to set the node-ID by
-// SDO where they cannot (digest G.6): the discovery's view of the family
+// SDO where they cannot (J§1.3.3, E§4.3, F§7.4): the discovery's view of the family
 // facts in families (which family is pre-Fastscan, which object holds
 // the node-ID, which 0x1010 sub-index stores it).
 //
@@ -21,7 +21,7 @@ inline constexpr std::uint32_t kVendorNovotechnik = device::families::kNovotechn
 inline constexpr std::uint32_t kVendorIfm = device::families::kIfmVendor;
 
 // A device of a family whose LSS is older than Fastscan (the rotary series
-// claims DSP-305 V1.1.2, digest Y.2): such devices are separated by Slowscan.
+// claims DSP-305 V1.1.2, J§1 intro): such devices are separated by Slowscan.
 [[nodiscard]] bool is_pre_fastscan(std::uint32_t vendor, std::uint32_t product) noexcept;
 // The product codes of the pre-Fastscan families, in registry order, as a
 // range (for (std::uint32_t p : kPreFastscanProducts)).
