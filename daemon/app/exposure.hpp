@@ -1,5 +1,5 @@
 // Exposure: what a configuration opens to the network, said where it is
-// written (issue 25, item 7). The daemon runs as configured; these are
+// written. The daemon runs as configured; these are
 // warnings, printed by --check-config and logged at start and on reload, so
 // that a plant's reviewer sees every door in one place:
 //   - a listener on a non-loopback address without TLS or authentication

@@ -318,7 +318,7 @@ bool LssMaster::on_frame(const can::Frame& f, TimePoint now) noexcept {
     // answers do not merge on vcan (32 slaves: 32 frames, one after the
     // other): every answer keeps the step open that long again, within the
     // timeout, so that a burst belongs to the step that caused it and does
-    // not spill into the next one (issue 26).
+    // not spill into the next one.
     if (timing_.learning()) {
       const TimePoint quiet = now + (careful_ ? timing_.no_answer_wait() : timing_.settle());
       deadline_ = answered_ ? std::min(std::max(quiet, deadline_), step_sent_ + config_.timeout)

@@ -14,7 +14,7 @@
 // or the confirm's own answer late) begins again from its reset with longer
 // waits, twice at most; so does a Slowscan whose final switch selective is
 // unanswered.
-// A found identity is a verified identity (issue 26): a Fastscan answer
+// A found identity is a verified identity: a Fastscan answer
 // (0x4F) says nothing of the step it answers, so a late answer taken for a
 // later step's can decide a bit, and even a confirm, wrongly: once (UML, 32
 // slaves) an identity that exists nowhere came out. Before its result is

@@ -40,7 +40,7 @@ struct LssSlaveFeatures {
   enum class NodeIdAssignment : uint8_t { accept, refuse, ignore };
   NodeIdAssignment node_id_assignment = NodeIdAssignment::accept;
   // The first so many configure node-ID requests go unanswered (lost on the
-  // wire, a busy slave: issue 26's fault), then as node_id_assignment says.
+  // wire, a busy slave), then as node_id_assignment says.
   uint8_t lose_node_id_requests = 0;
 
   // Rotary series, J§1.5 (DSP-305 V1.1.2): no Fastscan (added in V2.2) and

@@ -1,4 +1,4 @@
-// DaemonRoute: `cobridge sdo|nmt|lss` while cobridged owns the bus (issue 15).
+// DaemonRoute: `cobridge sdo|nmt|lss` while cobridged owns the bus.
 //
 // A second master on a bus the daemon serves would share the node's SDO
 // channel with the daemon's own client (CiA 301 allows one), run LSS

@@ -3,7 +3,7 @@
 // whole file, e.g. it cannot be read) and a message that says what is wrong
 // and what is allowed.
 //
-// Kept beside cobridge::Error (issue 13) because the loader needs the place
+// Kept beside cobridge::Error because the loader needs the place
 // as numbers: it reports every problem of a file sorted by line and column,
 // and the tests compare places. Every layer above reports it as an Error
 // (to_error), so the CLI, the daemon and the web API print one shape.

@@ -61,7 +61,7 @@ SourceLocation location(const DiagnosticSink& sink, const toml::node& n) {
 std::string at(const SourceLocation& l) { return std::to_string(l.line) + ":" + std::to_string(l.column); }
 
 LoadResult Loader::run(std::string_view text) {
-  // Before the parser, which recurses per nesting level (issue 10, item 13).
+  // Before the parser, which recurses per nesting level.
   if (const auto v = check_toml_limits(text)) {
     sink_.add(v->line, v->column, v->message);
     return LoadResult(sink_.take_sorted());

@@ -2,9 +2,9 @@
 // it. toml++ builds and walks its tables recursively, one call per level, so
 // a file nested 50 000 levels deep overflows the stack (`--check-config`
 // crashed, and so did a running daemon on SIGHUP), whatever form the nesting
-// takes: arrays and inline tables (`a = [[[...]]]`, issue 10 item 13), dotted
+// takes: arrays and inline tables (`a = [[[...]]]`), dotted
 // keys (`a.a.a... = 1`), table headers (`[a.a...]`, `[[a.a...]]`) and dotted
-// keys inside inline tables (issue 25 item 12).
+// keys inside inline tables.
 //
 // So the text's nesting is counted before parsing, in levels: each segment
 // of a table header or key is one (`[a.b]` is 2, `a.b.c = 1` is 3; a quoted

@@ -185,8 +185,8 @@ void BusManager::Impl::run() {
 }
 
 // `now` is the turn's clock reading, not a fresh one: a clock read is a
-// system call under UML and this turn is on a client's SDO round trip
-// (issue 15). A deadline is then met late by at most the turn's own work
+// system call under UML and this turn is on a client's SDO round trip.
+// A deadline is then met late by at most the turn's own work
 // (microseconds), against the millisecond rounding of poll's timeout.
 void BusManager::Impl::wait(TimePoint now, TimePoint next) {
   milliseconds timeout = kMaxPollWait;
@@ -195,7 +195,7 @@ void BusManager::Impl::wait(TimePoint now, TimePoint next) {
     timeout = std::clamp(until, milliseconds(0), kMaxPollWait);
   }
   // The wake-up, the CAN socket, then the clients' connections the remote
-  // executor holds on loan (their requests come straight here: issue 15).
+  // executor holds on loan (their requests come straight here).
   poll_fds.clear();
   poll_fds.push_back({wake_fd, POLLIN, 0});
   const bool can = channel->fd() >= 0;

@@ -30,7 +30,7 @@
 namespace cobridge::gateway {
 
 // Told about devices as they are configured and change state, so the hot
-// path (issue 5) can decode their PDOs and the plugins can publish status.
+// path can decode their PDOs and the plugins can publish status.
 class BusObserver {
  public:
   virtual ~BusObserver() = default;
@@ -87,8 +87,8 @@ class BusManager {
   // queue is full (then no outcome follows). Never blocks.
   [[nodiscard]] CommandStatus submit(DeviceCommand command);
 
-  // A client's SDO / NMT / LSS command (control socket, CiA 309-3 gateway;
-  // issue 15), run by the control thread's RemoteExecutor between its own
+  // A client's SDO / NMT / LSS command (control socket, CiA 309-3 gateway),
+  // run by the control thread's RemoteExecutor between its own
   // work; the result goes to `reply_to`. Error kUnavailable when the queue
   // is full or the bus does not run (then no result follows). Never blocks.
   [[nodiscard]] Error submit_remote(RemoteCommand command, std::shared_ptr<RemoteReplies> reply_to);

@@ -168,7 +168,7 @@ struct BusManager::Impl final : RemoteGate {
   void on_discovery_event(const DiscoveryEvent& e, TimePoint now);
   void on_identified(const DiscoveryEvent& e, TimePoint now);
   void note_unknown(const DiscoveryEvent& e);
-  // Commissioning failed and is tried again (issue 26): status and log say so.
+  // Commissioning failed and is tried again: status and log say so.
   void on_retry(const DiscoveryEvent& e);
   bool resolve_description(Managed& m);
 
@@ -194,7 +194,7 @@ struct BusManager::Impl final : RemoteGate {
 
   // Plans leave the NMT start to us, so that a device found different by
   // the quick check is not started half configured, and so that the hot path
-  // has the device's mapping before its first TPDO (issue 10, item 4).
+  // has the device's mapping before its first TPDO.
   bool announce_and_start(Managed& m, TimePoint now);
   static Supervision fallback_guarding(const ConfigPlan& plan);
   void runners_abort();

@@ -1,5 +1,5 @@
 // BusManager::Impl as the RemoteGate: what clients' SDO / NMT / LSS
-// commands (issue 15) may do now, and what they did. Control thread only.
+// commands may do now, and what they did. Control thread only.
 #include "gateway/bus_manager_impl.hpp"
 
 #include <utility>

@@ -10,7 +10,7 @@
 //   lss-set-node-id BUS VENDOR PRODUCT REVISION SERIAL NODE store|no-store [TIMEOUT_MS]
 //
 // BUS is a bus name or its interface. `cobridge sdo|nmt|lss` send these
-// while a daemon owns the bus (issue 15).
+// while a daemon owns the bus.
 //
 // Thread: any; a pure function (allocates only for the texts).
 #pragma once

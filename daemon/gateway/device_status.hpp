@@ -73,7 +73,7 @@ struct DeviceStatus {
   std::uint32_t configurations = 0;   // plans run (with writes)
   std::uint32_t emcy_count = 0;
   std::string fingerprint;            // of the applied configuration
-  // LSS commissioning (issue 26): tries that failed so far (the cause is in
+  // LSS commissioning: tries that failed so far (the cause is in
   // last_error), and when the next one is due ({} = none scheduled).
   std::uint32_t commission_failures = 0;
   WallTime next_retry{};

@@ -1,5 +1,5 @@
 // What the gateway knows of the devices a Fastscan may find at node-ID FFh,
-// turned into a canopen::FastscanPlan (issue 11, item 1).
+// turned into a canopen::FastscanPlan.
 //
 // Known identities are confirmed whole instead of searched bit by bit:
 //  * devices commissioning itself took off their node-ID: whole identities;

@@ -138,7 +138,7 @@ void OutputBridge::on_device_configured(const DeviceStatus& device, const std::v
 void OutputBridge::on_device_status(const DeviceStatus& device) {
   if (device.node_id == 0) return;
   // Known at this node from now on: its heartbeats, EMCY and status carry
-  // its own index, never a default one (issue 10, item 4).
+  // its own index, never a default one.
   forget_old_node(device);
   const auto index = device_index(device);
   if (!index) return;  // not published: see on_device_configured

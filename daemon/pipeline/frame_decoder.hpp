@@ -43,7 +43,7 @@ class FrameDecoder {
   // The two clocks as read once per receive batch: frames carry kernel
   // CLOCK_REALTIME stamps; samples also get them on CLOCK_MONOTONIC, and
   // staleness is judged on it, so a wall-clock step never marks good data
-  // stale or stale data fresh (issue 10, item 7).
+  // stale or stale data fresh.
   void set_clocks(std::int64_t realtime_ns, std::int64_t monotonic_ns) noexcept {
     mono_minus_real_ = monotonic_ns - realtime_ns;
   }

@@ -1,5 +1,5 @@
-// PluginTrust: whether a plugin file may be loaded into the daemon (issue 25,
-// item 8). A plugin runs with all of the service's rights, on its hot path,
+// PluginTrust: whether a plugin file may be loaded into the daemon.
+// A plugin runs with all of the service's rights, on its hot path,
 // so the file, and the directory it is in, must be as trusted as the daemon
 // itself: owned by root (or by the user the daemon runs as, for a developer's
 // own build) and writable by nobody else. Checked with stat() before dlopen,

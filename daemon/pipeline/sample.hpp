@@ -60,7 +60,7 @@ static_assert(offsetof(Sample, command_abort_code) == 84);
 static_assert(offsetof(Sample, command_kind) == 88);
 static_assert(offsetof(Sample, command_status) == 89);
 static_assert(offsetof(Sample, rx_monotonic_ns) == 96);
-static_assert(offsetof(Sample, kind_sequence) == 104);  // issue 16, from the reserved tail
+static_assert(offsetof(Sample, kind_sequence) == 104);  // ABI 2, from the reserved tail
 static_assert(offsetof(Sample, reserved) == 108);
 // Host API: ABI 1's fields keep their offsets; submit_command follows.
 static_assert(offsetof(cobridge_host_api, gateway_id) == 24);

@@ -1,5 +1,5 @@
 // BusBeacon: how a running cobridged is found from the name of a CAN
-// interface it serves, whatever its control socket's path (issue 25, item 2).
+// interface it serves, whatever its control socket's path.
 //
 // A CLI that opened the interface beside a running daemon would be a second
 // CANopen master (its own SDO client on the node's one SDO channel, NMT and

@@ -6,7 +6,7 @@
 // layout is compiled in (GNUInstallDirs), the prefix is read from
 // /proc/self/exe. The build tree keeps the plugins in the same place
 // relative to build/daemon/cobridged (build/lib/cobridge/plugins), so the
-// daemon needs no fallback and has none compiled in (issue 25, item 8); the
+// daemon needs no fallback and has none compiled in; the
 // data directories may name a build-tree fallback (installed_or).
 //
 // Thread: any; reads /proc/self/exe and stats directories, no state.

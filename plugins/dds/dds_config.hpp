@@ -49,8 +49,8 @@ struct DdsConfig {
   // most this long (docs/dds.md, "Many gateways in one domain").
   std::int64_t liveliness_lease_ms = 500;
   // Who writes EncoderSample. "auto" by default: the dispatcher's direct
-  // write is what keeps the p99 at bare Cyclone's (docs/performance.md,
-  // "Issue 16"), the spill keeps the writer thread's patience with a slow
+  // write is what keeps the p99 at bare Cyclone's (docs/performance-notes.md,
+  // "DDS latency"), the spill keeps the writer thread's patience with a slow
   // reliable reader.
   SamplePath sample_path = SamplePath::kAuto;
   // [outputs.dds.security]: DDS Security with these files (checked at load,

@@ -32,7 +32,7 @@
 // GatewayStatus again every kPresenceRefresh (alive again after a lease
 // lost to starvation).
 //
-// Status lane (issue 16): heartbeat, NMT and STATUS samples are queued twice,
+// Status lane: heartbeat, NMT and STATUS samples are queued twice,
 // in the sample ring (their order among the TPDOs: the stale re-publication)
 // and in a small status ring that the writer thread serves first and again
 // every kLaneCheck samples of a batch. A reliable subscriber that lags, or a

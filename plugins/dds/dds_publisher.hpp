@@ -18,7 +18,7 @@
 // writer's RTPS message and publish()/device() send what they wrote with
 // one dds_write_flush per writer, so a batch of samples costs one sendto.
 //
-// Status ahead of samples (issue 16): publish_status() takes the status
+// Status ahead of samples: publish_status() takes the status
 // samples (heartbeat, NMT state, STATUS) of the plugin's status lane before
 // the sample queue reaches them, so DeviceStatus and the GatewayStatus counts
 // follow a device going offline at once even with seconds of EncoderSamples

@@ -5,8 +5,7 @@
 // EMCY samples, and the last TPDO sample (re-published with stale = true when
 // the gateway declares the device stale).
 //
-// Status ahead of samples (issue 16, "a gateway that loses its bus is
-// visible within 1 s"): heartbeat, NMT and STATUS samples reach the table
+// Status ahead of samples: heartbeat, NMT and STATUS samples reach the table
 // twice, first through apply_ahead() from the plugin's status lane, which
 // the writer thread serves before the sample queue, then through apply() in
 // the queue's order. A status change therefore never waits behind a backlog

@@ -4,8 +4,8 @@
 //
 // Why: writing there saves the hand-over to the plugin's writer thread,
 // whose wake-up and context switch dominate the tail when the dispatcher,
-// the writer thread and a subscriber share cores (docs/performance.md,
-// "Issue 16"). It cannot stall the dispatcher: a best-effort KEEP_LAST writer
+// the writer thread and a subscriber share cores (docs/performance-notes.md,
+// "DDS latency"). It cannot stall the dispatcher: a best-effort KEEP_LAST writer
 // never waits, and the sample writer has max_blocking_time 0, so a reliable
 // write that finds the history cache full (a reader that acknowledges too
 // slowly; WhcHigh) fails at once with DDS_RETCODE_TIMEOUT. Then:
@@ -64,7 +64,7 @@ class DispatcherSamples {
  public:
   static constexpr std::size_t kSpill = 1u << 15;  // 8 s of four devices at 1 kHz
   // Frame to dispatcher beyond this: behind. The direct path's p99.9 on a
-  // loaded 2-core host is ~0.2 ms (docs/performance.md, "Issue 16").
+  // loaded 2-core host is ~0.2 ms (docs/performance-notes.md, "DDS latency").
   static constexpr std::uint64_t kBehindNs = 2'000'000;
 
   // `spill`: a write that finds the reliable history full goes to the writer

@@ -47,7 +47,7 @@ void describe_emcy(const char* family, const cobridge_sample& s, EmcyText& out) 
 // The number a topic carries for sample `s`: its per-device-and-kind
 // kind_sequence (COBRIDGE_VALID_KIND_SEQUENCE), so that a gap on the topic
 // is exactly a lost sample of that topic; from a daemon that does not set it,
-// the per-device sequence of all kinds (the pre-issue-16 meaning).
+// the per-device sequence of all kinds (its meaning in plugin ABI 1).
 [[nodiscard]] std::uint32_t topic_sequence(const cobridge_sample& s) noexcept;
 
 // EncoderSample from a TPDO sample. `slot` may be nullptr (device beyond the

@@ -2,7 +2,7 @@
 // (function 0x06 or 0x10): who wrote (the client's address and port), which
 // registers, which values, and whether it was applied or refused with which
 // exception. A write moves an encoder's preset or resets a node, so the
-// journal must be able to say who did it (issue 25, item 5).
+// journal must be able to say who did it.
 //
 // Thread contract: called by the server thread after a request is answered;
 // allocates (a write is rare; reads never reach it).

@@ -1,4 +1,4 @@
-// Commission retries (issue 26, "nobody left behind"): the devices whose
+// Commission retries: the devices whose
 // commissioning failed (no answer to LSS configure node-ID, a slave error,
 // no answer to switch selective) and when each is tried again.
 //

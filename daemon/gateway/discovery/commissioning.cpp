@@ -291,7 +291,7 @@ std::string Commissioning::device_of(const Task& t) const {
   return who(t.ctx);
 }
 
-// ---- retries (issue 26) ------------------------------------------------------------
+// ---- retries ------------------------------------------------------------
 
 // Never dropped: the device is tried again once its wait is over, whatever
 // failed; the event tells the bus manager (status, log) each time.

@@ -36,7 +36,7 @@
 //     non-configured is answered but Fastscan finds nobody, Slowscan over the
 //     pre-Fastscan products looks for them (devices found that hold a node-ID
 //     are left). See lss_outcomes.cpp.
-//   * nobody left behind (issue 26): a device whose configure node-ID or
+//   * nobody left behind: a device whose configure node-ID or
 //     switch selective fails is tried again with a doubling wait (1 s ... 30
 //     s, CommissionRetries) until it is commissioned; each failure is a
 //     `retry` event with its cause. A device that failed in a Fastscan loop
@@ -167,7 +167,7 @@ class Commissioning {
   void start_sdo_fallback(const Ctx& c);
   void on_sdo_done(canopen::TimePoint now, std::error_code err);
   [[nodiscard]] std::string device_of(const Task& t) const;
-  // Retries (issue 26): a failure scheduled again; due ones searched again.
+  // Retries: a failure scheduled again; due ones searched again.
   // False when the device has nowhere to go (nothing to try again).
   bool retry_later(const Ctx& c, const std::string& cause, canopen::TimePoint now);
   void start_due_retries(canopen::TimePoint now);

@@ -4,7 +4,7 @@
 //
 // Non-configured devices are found by Fastscan (CiA 305; only V3 slaves
 // answer) once "identify non-configured remote slave" was answered. Every
-// Fastscan is guided by what is known (issue 11 item 1, FastscanKnowledge):
+// Fastscan is guided by what is known (FastscanKnowledge):
 // the configured devices not present (vendor, product, serial, and the
 // revision the state file remembers) are confirmed whole with BitChecked 0
 // instead of searched bit by bit; the general Fastscan also prefers the

@@ -23,7 +23,7 @@ class Report {
   void problem(std::string text, std::uint8_t node = 0, const canopen::LssAddress& id = {});
   void timing(std::string step, std::string device, canopen::Duration d);
   // An LSS operation's step: also how many exchanges it took and how many of
-  // them waited out a timeout (issue 11: how each device was found).
+  // them waited out a timeout (how each device was found).
   void timing(std::string step, std::string device, const canopen::LssMaster::Result& r);
 
   [[nodiscard]] std::vector<DiscoveryEvent> take_events() { return std::exchange(events_, {}); }

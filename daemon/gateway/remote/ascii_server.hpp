@@ -1,4 +1,4 @@
-// AsciiServer: the CiA 309-3 ASCII gateway (issue 15, item 3) on a Unix
+// AsciiServer: the CiA 309-3 ASCII gateway on a Unix
 // socket and optionally TCP (127.0.0.1 by default): the command set of
 // ascii_request.hpp, one request line -> one answer line, for `cocomm` and
 // other 309-3 clients. Every SDO / NMT / LSS request becomes a

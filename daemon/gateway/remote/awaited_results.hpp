@@ -1,5 +1,5 @@
 // collect_results: how the control socket and the CiA 309-3 gateway take
-// the results of their clients' commands (issue 15). Results whose answer
+// the results of their clients' commands. Results whose answer
 // the bus thread sent whole come back quietly (RemoteReplies::push_quiet);
 // a client whose next request arrived first waits for a wake-up
 // (wake_asked), and while any does, one stays asked for: another client's

@@ -1,6 +1,6 @@
 // ConnectionLoan: a client's connection lent by the main thread to the bus's
 // control thread between two commands, so that the bus thread reads the
-// client's next request itself (issue 15: an SDO read through the daemon
+// client's next request itself (an SDO read through the daemon
 // adds <= 1 ms). Without it every request takes two hand-overs before the
 // CAN frame goes out (client -> main thread -> bus thread), each a wake-up
 // that UML's one CPU makes expensive; with it, one (client -> bus thread),

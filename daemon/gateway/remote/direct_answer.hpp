@@ -1,7 +1,7 @@
 // DirectAnswer: a client's connection as the bus's control thread sees it,
 // so that the thread that finishes a client's command writes the answer
 // line to the client itself and the daemon's main thread is not on the
-// answer's path (issue 15: an SDO read through the daemon adds <= 1 ms; the
+// answer's path (an SDO read through the daemon adds <= 1 ms; the
 // main thread's wake-up to copy the answer was one of its hand-overs).
 //
 // One per connection of the control socket or the CiA 309-3 gateway. It

@@ -1,7 +1,7 @@
 // PeerCredentials: who is at the other end of a local (Unix) socket, as the
 // kernel says (SO_PEERCRED, SO_PEERGROUPS), and whether that process is in a
 // group. The control socket logs every write with it and lets only the
-// configured group write (issue 15, item 2).
+// configured group write.
 //
 // Group membership is the process's, as the kernel recorded it when the
 // peer connected: its effective gid (SO_PEERCRED) and its supplementary
@@ -15,8 +15,8 @@
 //
 // A peer the kernel cannot name (getsockopt fails, or a TCP connection,
 // which carries no credentials) has no identity: not uid 0, in no group, and
-// refused by every write check that asks for a user or group (issue 25,
-// item 10: it counted as root).
+// refused by every write check that asks for a user or group (never taken
+// for root).
 //
 // Thread: any; peer_credentials() is two getsockopt calls, peer_in_group()
 // and write_group_refusal() read the group database (getgrnam_r): the main

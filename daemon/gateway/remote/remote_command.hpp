@@ -3,7 +3,7 @@
 // through the control socket (`cobridge sdo|nmt|lss` while cobridged runs)
 // and CiA 309-3 clients through the ASCII gateway. The daemon stays the one
 // master of the bus: the bus manager's control thread runs these commands
-// between its own work, never on a node it is configuring (issue 15).
+// between its own work, never on a node it is configuring.
 //
 // RemoteResult is the outcome, delivered through RemoteReplies; when the
 // command carries its client's DirectAnswer, the bus thread has already

@@ -2,7 +2,7 @@
 // control socket, CiA 309-3 clients) with the daemon's own protocol
 // services, queued with the bus manager's work.
 //
-// The rules that keep the daemon the one master of its bus (issue 15):
+// The rules that keep the daemon the one master of its bus:
 //   * one client SDO transfer at a time per bus, and only on a node the bus
 //     manager says is free (RemoteGate::node_free: no configuration,
 //     identity read or plugin command runs on it, it is not on its way back

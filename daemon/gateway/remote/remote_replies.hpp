@@ -10,7 +10,7 @@
 //
 // push_quiet() is for a result whose client already has its whole answer
 // (DirectAnswer): waking the owner then would put its turn between the
-// client and the client's next request on UML's one CPU (issue 15). The
+// client and the client's next request on UML's one CPU. The
 // owner collects such results on its next turn (any wake-up, at most its
 // poll tick later), or asks for a wake-up with want_wake() when a client's
 // next request is there before its result.

@@ -86,7 +86,7 @@ enum cobridge_sample_valid {
   COBRIDGE_VALID_RAW = 1u << 12,    /* raw_len, raw */
   COBRIDGE_VALID_COMMAND = 1u << 13, /* ABI 2: command_tag, command_abort_code, command_kind, command_status */
   COBRIDGE_VALID_RX_MONOTONIC = 1u << 14, /* ABI 2: rx_monotonic_ns */
-  COBRIDGE_VALID_KIND_SEQUENCE = 1u << 15 /* ABI 2 (issue 16): kind_sequence */
+  COBRIDGE_VALID_KIND_SEQUENCE = 1u << 15 /* ABI 2: kind_sequence */
 };
 
 /* NMT states as they appear in the heartbeat byte (CiA 301 §7.2.8.3.2). */
@@ -174,7 +174,7 @@ typedef struct cobridge_sample {
    * for ages that a step of the wall clock must not falsify (data age,
    * staleness); the published timestamps stay wall-clock. */
   uint64_t rx_monotonic_ns;
-  /* Issue 16 (COBRIDGE_VALID_KIND_SEQUENCE): per device AND kind, +1 for
+  /* ABI 2 (COBRIDGE_VALID_KIND_SEQUENCE): per device AND kind, +1 for
    * every sample of this kind of this device, assigned where `sequence` is
    * (the bus RX thread). A gap in it is exactly a lost sample of this kind,
    * so an output that publishes one kind per topic (DDS EncoderSample = TPDO,
