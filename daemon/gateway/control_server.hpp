@@ -58,7 +58,7 @@
 #include "gateway/remote/peer_credentials.hpp"
 #include "gateway/remote/remote_replies.hpp"
 #include "gateway/remote/remote_target.hpp"
-#include "pipeline/plugin_host.hpp"
+#include "gateway/status_report.hpp"
 
 #include <poll.h>
 #include <sys/types.h>
@@ -73,18 +73,6 @@
 #include <vector>
 
 namespace cobridge::gateway {
-
-// Everything `cobridge status` shows: the daemon, then each bus.
-struct StatusReport {
-  std::string gateway_id;
-  std::string version;
-  long pid = 0;
-  bool ready = false;  // READY=1 has been told (all known devices configured or timed out)
-  WallTime started{};
-  std::string config_file;
-  std::vector<BusStatus> buses;
-  std::vector<pipeline::OutputStats> outputs;  // each output plugin's own figures
-};
 
 // What a control command did: ok, or the reason it was refused.
 struct ControlResult {
@@ -197,10 +185,5 @@ class ControlServer {
   PollSlot listen_slot_;
   PollSlot replies_slot_;
 };
-
-// The `status` answer: the report as one line of JSON (no newline).
-[[nodiscard]] std::string to_json(const StatusReport& report);
-// "2 buses, 5/6 devices operational" (sd_notify STATUS=, log lines).
-[[nodiscard]] std::string summary(const std::vector<BusStatus>& buses);
 
 }  // namespace cobridge::gateway

@@ -6,7 +6,7 @@
 // Thread: any; a pure function of the report.
 #pragma once
 
-#include "gateway/control_server.hpp"
+#include "gateway/status_report.hpp"
 
 #include <string>
 
