@@ -25,8 +25,9 @@ namespace cobridge::app {
 class BusSet {
  public:
   // One BusManager per bus, connected to `outputs` (which must outlive them).
+  // Each bus is put in `registry` while it runs (clients' commands find it there).
   void build(const config::Config& cfg, const device::DeviceCatalog& catalog, gateway::StateStore& state,
-             gateway::OutputPipeline& outputs);
+             gateway::OutputPipeline& outputs, gateway::BusRegistry& registry);
 
   // Starts every bus; on the first failure stops those started and returns
   // it as the bus gave it (where = "bus NAME: IFACE", its kind and code).

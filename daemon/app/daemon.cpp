@@ -44,14 +44,16 @@ Error Daemon::start() {
   facade_.emplace(*cfg_, buses_, *outputs_, options_.version);
   // The control socket first: a second daemon started by mistake stops here,
   // before it touches a bus the first one serves.
-  control_.emplace(*facade_);
+  gateway::ControlServerOptions control_options;
+  control_options.remote = &registry_;
+  control_.emplace(*facade_, control_options);
   if (const Error e = control_->open(cfg_->gateway.control_socket)) {
     log->error("control socket: {}", e.to_string());
     return Error(Errc::kFailed, "control socket: " + e.message, e.where, e.code);
   }
   open_beacons();
   if (Error e = start_outputs()) return e;
-  buses_.build(*cfg_, *catalog_, *state_, *outputs_);
+  buses_.build(*cfg_, *catalog_, *state_, *outputs_, registry_);
   if (const Error e = buses_.start()) {
     log->error("{}", e.to_string());
     return Error(Errc::kFailed, e.message, e.where, e.code);

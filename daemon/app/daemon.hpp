@@ -74,6 +74,7 @@ class Daemon {
   std::unique_ptr<device::DeviceCatalog> catalog_;
   std::optional<sys::Notifier> notifier_;
   std::optional<gateway::StateStore> state_;
+  gateway::BusRegistry registry_;  // the buses clients' commands may reach; outlives them
   BusSet buses_;
   std::optional<gateway::OutputPipeline> outputs_;
   std::optional<ControlFacade> facade_;

@@ -300,12 +300,12 @@ Error BusManager::start() {
   RemoteBus rb{impl_->bus.name, impl_->bus.interface, static_cast<unsigned>(impl_->bus_index + 1)};
   const config::RemoteAccess access = impl_->config.remote;
   if (Error e = impl_->start()) return e;
-  BusRegistry::process().add(*this, std::move(rb), access);
+  if (impl_->options.registry != nullptr) impl_->options.registry->add(*this, std::move(rb), access);
   return {};
 }
 
 void BusManager::stop() {
-  BusRegistry::process().remove(*this);
+  if (impl_->options.registry != nullptr) impl_->options.registry->remove(*this);
   impl_->stop();
 }
 
@@ -377,7 +377,7 @@ void BusManager::reload(const config::Config& config) {
     const std::lock_guard lock(impl_->mutex);
     impl_->pending_reload = config;
   }
-  BusRegistry::process().update_access(config.remote);
+  if (impl_->options.registry != nullptr) impl_->options.registry->update_access(config.remote);
   impl_->wake();
 }
 

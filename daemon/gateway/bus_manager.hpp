@@ -49,10 +49,16 @@ class BusObserver {
   virtual void on_device_removed(const DeviceStatus& /*device*/) {}
 };
 
+class BusRegistry;
+
 struct BusManagerOptions {
   // How long start-up waits for the known devices before ready() is true anyway.
   std::chrono::milliseconds ready_timeout{10000};
   BusObserver* observer = nullptr;
+  // Where clients' commands (control socket, CiA 309-3) find this bus while
+  // it runs; the daemon makes one and passes it to every bus and to the
+  // control socket. nullptr: the bus takes no client commands.
+  BusRegistry* registry = nullptr;
 };
 
 class BusManager {

@@ -31,7 +31,7 @@ using canopen::TimePoint;
 ControlServer::ControlServer(ControlHandler& handler, ControlServerOptions options)
     : handler_(handler),
       options_(options),
-      remote_(options.remote != nullptr ? *options.remote : static_cast<RemoteTarget&>(BusRegistry::process())) {}
+      remote_(options.remote != nullptr ? *options.remote : static_cast<RemoteTarget&>(no_buses_)) {}
 
 ControlServer::~ControlServer() { close(); }
 

@@ -13,8 +13,8 @@
 //                         the bus's control thread has run the command
 //   a failure          -> {"ok": false, "error": {"code": ..., "where": ..., "message": ...}}
 //
-// Clients' commands go to a RemoteTarget (the process's BusRegistry unless
-// the options name another): the daemon stays the one master of its buses.
+// Clients' commands go to a RemoteTarget (the daemon's BusRegistry, which
+// app/ makes and hands to the buses and to this server): the daemon stays the one master of its buses.
 // Writes (sdo-write, nmt, lss-set-node-id) are refused unless [control]
 // writes_enabled is set and the caller (SO_PEERCRED) is root, the daemon's
 // own user or a member of [control] write_group (a caller the kernel cannot
@@ -95,7 +95,7 @@ struct ControlServerOptions {
   std::chrono::milliseconds client_timeout{2000};
   std::size_t max_line = 256;
   std::size_t max_clients = 16;
-  RemoteTarget* remote = nullptr;  // nullptr: BusRegistry::process()
+  RemoteTarget* remote = nullptr;  // nullptr: no bus takes client commands
 };
 
 class ControlServer {
@@ -171,6 +171,7 @@ class ControlServer {
   void drop(Client& c);
 
   ControlHandler& handler_;
+  BusRegistry no_buses_;  // the target when the options name none
   ControlServerOptions options_;
   RemoteTarget& remote_;
   std::shared_ptr<RemoteReplies> replies_ = std::make_shared<RemoteReplies>();

@@ -5,11 +5,6 @@
 
 namespace cobridge::gateway {
 
-BusRegistry& BusRegistry::process() {
-  static BusRegistry registry;
-  return registry;
-}
-
 void BusRegistry::add(BusManager& manager, RemoteBus bus, const config::RemoteAccess& access) {
   const std::lock_guard lock(mutex_);
   entries_.push_back(Entry{&manager, std::move(bus)});

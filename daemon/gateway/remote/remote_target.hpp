@@ -49,9 +49,6 @@ class RemoteTarget {
 
 class BusRegistry final : public RemoteTarget {
  public:
-  // The daemon's one registry.
-  static BusRegistry& process();
-
   void add(BusManager& manager, RemoteBus bus, const config::RemoteAccess& access);
   void update_access(const config::RemoteAccess& access);
   void remove(const BusManager& manager);

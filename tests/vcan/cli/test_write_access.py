@@ -226,6 +226,10 @@ def outsider_phase(report, args, ws, listener):
     rc, doc, out = cli(args, ws, outsider, "status")
     report.check(rc == 4 and "Permission denied" in out and "mode 0660" in out,
                  "a user outside the socket's group: `status` exit 4, says the socket is the service's", out)
+    # The member's `commission` before this phase makes the daemon's own LSS
+    # and SDO traffic: the window below opens once that has ended.
+    daemon_quiet = listener.wait_quiet(lambda i, d: i in (0x614, 0x7E5), quiet=1.0, timeout=20)
+    report.check(daemon_quiet is not None, "the daemon's own commissioning traffic ended before the outsider's phase")
     since = time.time()
     rc, doc, out = cli(args, ws, outsider, *READ)
     report.check(refused(rc, doc) and "Permission denied" in doc["error"].get("message", ""),

@@ -199,6 +199,19 @@ class CanListener(_SocketReader):
         with self.lock:
             return [f for f in self.frames if f[0] >= since]
 
+    def wait_quiet(self, pred, quiet, timeout):
+        """Waits until no frame for which pred(can_id, data) holds has arrived
+        for `quiet` seconds; returns the time the quiet began, or None when
+        the bus was never that quiet within `timeout`."""
+        end = time.time() + timeout
+        while time.time() < end:
+            now = time.time()
+            last = max([f[0] for f in self.snapshot(now - quiet) if pred(f[1], f[2])], default=None)
+            if last is None:
+                return now - quiet
+            time.sleep(min(0.05, max(0.0, last + quiet - now)))
+        return None
+
     def wait_for(self, pred, timeout, since=0.0):
         """The first frame after `since` for which pred(can_id, data) holds, or None."""
         end = time.time() + timeout
