@@ -262,148 +262,17 @@ void PlanRunner::on_result(const canopen::SdoClient::Result& r, canopen::TimePoi
 }
 
 void PlanRunner::on_success(std::uint32_t value, canopen::TimePoint now) {
-  const PlanStep& s = plan_.steps[step_];
   switch (phase_) {
-    case Phase::kWriteRead: {
-      const SdoWrite& w = writes_[write_pos_];
-      const std::uint32_t current = value & w.size_mask();
-      if (((current ^ w.value) & w.owned()) == 0) {
-        next_write(now);
-        return;
-      }
-      written_ = w.merged(current);
-      phase_ = Phase::kWriteDownload;
-      download(w.index, w.sub, written_, w.size, now);
-      return;
-    }
-    case Phase::kWriteDownload: {
-      const SdoWrite& w = writes_[write_pos_];
-      ++result_.writes;
-      ++step_writes_;
-      result_.changed_groups |= w.groups;
-      if (verify_now_) {
-        phase_ = Phase::kWriteVerify;
-        upload(w.index, w.sub, now);
-      } else {
-        next_write(now);
-      }
-      return;
-    }
-    case Phase::kWriteVerify: {
-      const SdoWrite& w = writes_[write_pos_];
-      const std::uint32_t read = value & w.size_mask();
-      if (((read ^ written_) & w.owned()) != 0) {
-        fail(PlanRunErrc::verify_mismatch,
-             where() + object_text(w.index, w.sub) + " written " + hex(written_) + " but read back " + hex(read), now);
-        return;
-      }
-      next_write(now);
-      return;
-    }
+    case Phase::kWriteRead:
+    case Phase::kWriteDownload:
+    case Phase::kWriteVerify: on_write_answer(value, now); return;
     case Phase::kMapReadCob:
-      cob_id_ = value;
-      phase_ = Phase::kMapReadCount;
-      upload(s.map_index, 0, now);
-      return;
     case Phase::kMapReadCount:
-    case Phase::kMapReadEntry: {
-      if (phase_ == Phase::kMapReadCount) {
-        if ((value & 0xFFu) != s.mapping.size()) mapping_differs_ = true;
-        entry_pos_ = 0;
-      } else {
-        if (value != s.mapping[entry_pos_]) mapping_differs_ = true;
-        ++entry_pos_;
-      }
-      if (!mapping_differs_ && entry_pos_ < s.mapping.size()) {
-        phase_ = Phase::kMapReadEntry;
-        upload(s.map_index, static_cast<std::uint8_t>(entry_pos_ + 1), now);
-        return;
-      }
-      // J§1.7.2 / E§8.2 steps 1-5, or only the COB-ID when just its bit 31 is wrong.
-      ops_.clear();
-      const std::uint32_t disabled = cob_id_ | kPdoInvalid;
-      const std::uint32_t enabled = cob_id_ & ~kPdoInvalid;
-      const bool wanted = !s.mapping.empty();
-      if (mapping_differs_) {
-        ops_.push_back(Transfer{false, s.comm_index, 1, disabled, 4});
-        ops_.push_back(Transfer{false, s.map_index, 0, 0, 1});
-        for (std::size_t i = 0; i < s.mapping.size(); ++i)
-          ops_.push_back(Transfer{false, s.map_index, static_cast<std::uint8_t>(i + 1), s.mapping[i], 4});
-        if (wanted) {
-          ops_.push_back(Transfer{false, s.map_index, 0, static_cast<std::uint32_t>(s.mapping.size()), 1});
-          ops_.push_back(Transfer{false, s.comm_index, 1, enabled, 4});
-        }
-      } else if (wanted && cob_id_ != enabled) {
-        ops_.push_back(Transfer{false, s.comm_index, 1, enabled, 4});
-      } else if (!wanted && cob_id_ != disabled) {
-        ops_.push_back(Transfer{false, s.comm_index, 1, disabled, 4});
-      }
-      if (ops_.empty()) {
-        end_step(now);
-        return;
-      }
-      op_pos_ = 0;
-      phase_ = Phase::kMapDownload;
-      transfer_ = ops_[0];
-      retries_left_ = options_.sdo_retries;
-      launch(now);
-      return;
-    }
-    case Phase::kMapDownload:
-      ++result_.writes;
-      ++step_writes_;
-      result_.changed_groups |= kComm;
-      ++op_pos_;
-      if (op_pos_ < ops_.size()) {
-        transfer_ = ops_[op_pos_];
-        retries_left_ = options_.sdo_retries;
-        launch(now);
-        return;
-      }
-      phase_ = Phase::kMapVerifyCount;
-      upload(s.map_index, 0, now);
-      return;
+    case Phase::kMapReadEntry: on_mapping_read(value, now); return;
+    case Phase::kMapDownload: on_mapping_written(now); return;
     case Phase::kMapVerifyCount:
-    case Phase::kMapVerifyEntry: {
-      if (phase_ == Phase::kMapVerifyCount) {
-        if ((value & 0xFFu) != s.mapping.size()) {
-          fail(PlanRunErrc::verify_mismatch,
-               where() + object_text(s.map_index, 0) + " written " + std::to_string(s.mapping.size()) +
-                   " entries but read back " + std::to_string(value & 0xFFu),
-               now);
-          return;
-        }
-        entry_pos_ = 0;
-      } else {
-        if (value != s.mapping[entry_pos_]) {
-          fail(PlanRunErrc::verify_mismatch,
-               where() + object_text(s.map_index, static_cast<std::uint8_t>(entry_pos_ + 1)) + " written " +
-                   hex(s.mapping[entry_pos_]) + " but read back " + hex(value),
-               now);
-          return;
-        }
-        ++entry_pos_;
-      }
-      if (entry_pos_ < s.mapping.size()) {
-        phase_ = Phase::kMapVerifyEntry;
-        upload(s.map_index, static_cast<std::uint8_t>(entry_pos_ + 1), now);
-      } else {
-        phase_ = Phase::kMapVerifyCob;
-        upload(s.comm_index, 1, now);
-      }
-      return;
-    }
-    case Phase::kMapVerifyCob: {
-      const std::uint32_t expected = s.mapping.empty() ? (cob_id_ | kPdoInvalid) : (cob_id_ & ~kPdoInvalid);
-      if (value != expected) {
-        fail(PlanRunErrc::verify_mismatch,
-             where() + object_text(s.comm_index, 1) + " written " + hex(expected) + " but read back " + hex(value),
-             now);
-        return;
-      }
-      end_step(now);
-      return;
-    }
+    case Phase::kMapVerifyEntry:
+    case Phase::kMapVerifyCob: on_mapping_verify(value, now); return;
     case Phase::kStore:
       ++result_.saves;
       result_.stored = true;
@@ -413,6 +282,152 @@ void PlanRunner::on_success(std::uint32_t value, canopen::TimePoint now) {
     case Phase::kIdle:
     case Phase::kNmt:
     case Phase::kDone: return;
+  }
+}
+
+// A value write: read what is there, write only what differs, read it back.
+void PlanRunner::on_write_answer(std::uint32_t value, canopen::TimePoint now) {
+  const SdoWrite& w = writes_[write_pos_];
+  if (phase_ == Phase::kWriteRead) {
+    const std::uint32_t current = value & w.size_mask();
+    if (((current ^ w.value) & w.owned()) == 0) {
+      next_write(now);
+      return;
+    }
+    written_ = w.merged(current);
+    phase_ = Phase::kWriteDownload;
+    download(w.index, w.sub, written_, w.size, now);
+    return;
+  }
+  if (phase_ == Phase::kWriteDownload) {
+    ++result_.writes;
+    ++step_writes_;
+    result_.changed_groups |= w.groups;
+    if (!verify_now_) {
+      next_write(now);
+      return;
+    }
+    phase_ = Phase::kWriteVerify;
+    upload(w.index, w.sub, now);
+    return;
+  }
+  const std::uint32_t read = value & w.size_mask();
+  if (((read ^ written_) & w.owned()) != 0) {
+    fail(PlanRunErrc::verify_mismatch,
+         where() + object_text(w.index, w.sub) + " written " + hex(written_) + " but read back " + hex(read), now);
+    return;
+  }
+  next_write(now);
+}
+
+// A PDO mapping: its COB-ID, count and entries as the device has them.
+void PlanRunner::on_mapping_read(std::uint32_t value, canopen::TimePoint now) {
+  const PlanStep& s = plan_.steps[step_];
+  if (phase_ == Phase::kMapReadCob) {
+    cob_id_ = value;
+    phase_ = Phase::kMapReadCount;
+    upload(s.map_index, 0, now);
+    return;
+  }
+  if (phase_ == Phase::kMapReadCount) {
+    if ((value & 0xFFu) != s.mapping.size()) mapping_differs_ = true;
+    entry_pos_ = 0;
+  } else {
+    if (value != s.mapping[entry_pos_]) mapping_differs_ = true;
+    ++entry_pos_;
+  }
+  if (!mapping_differs_ && entry_pos_ < s.mapping.size()) {
+    phase_ = Phase::kMapReadEntry;
+    upload(s.map_index, static_cast<std::uint8_t>(entry_pos_ + 1), now);
+    return;
+  }
+  plan_mapping_writes(s);
+  if (ops_.empty()) {
+    end_step(now);
+    return;
+  }
+  op_pos_ = 0;
+  phase_ = Phase::kMapDownload;
+  transfer_ = ops_[0];
+  retries_left_ = options_.sdo_retries;
+  launch(now);
+}
+
+// J§1.7.2 / E§8.2 steps 1-5, or only the COB-ID when just its bit 31 is wrong.
+void PlanRunner::plan_mapping_writes(const PlanStep& s) {
+  ops_.clear();
+  const std::uint32_t disabled = cob_id_ | kPdoInvalid;
+  const std::uint32_t enabled = cob_id_ & ~kPdoInvalid;
+  const bool wanted = !s.mapping.empty();
+  if (mapping_differs_) {
+    ops_.push_back(Transfer{false, s.comm_index, 1, disabled, 4});
+    ops_.push_back(Transfer{false, s.map_index, 0, 0, 1});
+    for (std::size_t i = 0; i < s.mapping.size(); ++i)
+      ops_.push_back(Transfer{false, s.map_index, static_cast<std::uint8_t>(i + 1), s.mapping[i], 4});
+    if (wanted) {
+      ops_.push_back(Transfer{false, s.map_index, 0, static_cast<std::uint32_t>(s.mapping.size()), 1});
+      ops_.push_back(Transfer{false, s.comm_index, 1, enabled, 4});
+    }
+  } else if (wanted && cob_id_ != enabled) {
+    ops_.push_back(Transfer{false, s.comm_index, 1, enabled, 4});
+  } else if (!wanted && cob_id_ != disabled) {
+    ops_.push_back(Transfer{false, s.comm_index, 1, disabled, 4});
+  }
+}
+
+void PlanRunner::on_mapping_written(canopen::TimePoint now) {
+  ++result_.writes;
+  ++step_writes_;
+  result_.changed_groups |= kComm;
+  ++op_pos_;
+  if (op_pos_ < ops_.size()) {
+    transfer_ = ops_[op_pos_];
+    retries_left_ = options_.sdo_retries;
+    launch(now);
+    return;
+  }
+  phase_ = Phase::kMapVerifyCount;
+  upload(plan_.steps[step_].map_index, 0, now);
+}
+
+// The mapping read back after writing it: count, entries, then the COB-ID.
+void PlanRunner::on_mapping_verify(std::uint32_t value, canopen::TimePoint now) {
+  const PlanStep& s = plan_.steps[step_];
+  if (phase_ == Phase::kMapVerifyCob) {
+    const std::uint32_t expected = s.mapping.empty() ? (cob_id_ | kPdoInvalid) : (cob_id_ & ~kPdoInvalid);
+    if (value != expected) {
+      fail(PlanRunErrc::verify_mismatch,
+           where() + object_text(s.comm_index, 1) + " written " + hex(expected) + " but read back " + hex(value), now);
+      return;
+    }
+    end_step(now);
+    return;
+  }
+  if (phase_ == Phase::kMapVerifyCount) {
+    if ((value & 0xFFu) != s.mapping.size()) {
+      fail(PlanRunErrc::verify_mismatch,
+           where() + object_text(s.map_index, 0) + " written " + std::to_string(s.mapping.size()) +
+               " entries but read back " + std::to_string(value & 0xFFu),
+           now);
+      return;
+    }
+    entry_pos_ = 0;
+  } else {
+    if (value != s.mapping[entry_pos_]) {
+      fail(PlanRunErrc::verify_mismatch,
+           where() + object_text(s.map_index, static_cast<std::uint8_t>(entry_pos_ + 1)) + " written " +
+               hex(s.mapping[entry_pos_]) + " but read back " + hex(value),
+           now);
+      return;
+    }
+    ++entry_pos_;
+  }
+  if (entry_pos_ < s.mapping.size()) {
+    phase_ = Phase::kMapVerifyEntry;
+    upload(s.map_index, static_cast<std::uint8_t>(entry_pos_ + 1), now);
+  } else {
+    phase_ = Phase::kMapVerifyCob;
+    upload(s.comm_index, 1, now);
   }
 }
 

@@ -143,6 +143,11 @@ class PlanRunner {
   void drain(canopen::TimePoint now);
   void on_result(const canopen::SdoClient::Result& r, canopen::TimePoint now);
   void on_success(std::uint32_t value, canopen::TimePoint now);
+  void on_write_answer(std::uint32_t value, canopen::TimePoint now);
+  void on_mapping_read(std::uint32_t value, canopen::TimePoint now);
+  void plan_mapping_writes(const PlanStep& s);
+  void on_mapping_written(canopen::TimePoint now);
+  void on_mapping_verify(std::uint32_t value, canopen::TimePoint now);
   void on_failure(const canopen::SdoClient::Result& r, canopen::TimePoint now);
 
   void fail(PlanRunErrc code, std::string message, canopen::TimePoint now, std::error_code sdo = {});
