@@ -97,18 +97,18 @@ void output_families(Writer& w, const std::vector<pipeline::OutputStats>& output
 
 std::string node_label(const DeviceStatus& d) { return d.node_id == 0 ? std::string() : std::to_string(d.node_id); }
 
-}  // namespace
-
-std::string render_metrics(const gateway::StatusReport& report) {
-  Writer w;
+void gateway_families(Writer& w, const gateway::StatusReport& report) {
   w.family("cobridge_info", "gauge", "The gateway's identity (value 1).");
   w.sample({{"gateway", report.gateway_id}, {"version", report.version}}, 1);
   w.family("cobridge_ready", "gauge", "1 once every known device was configured or timed out (sd_notify READY=1).");
   w.sample({}, report.ready ? 1 : 0);
   w.family("cobridge_start_time_seconds", "gauge", "When the daemon started, seconds since the Unix epoch.");
   w.sample({}, std::chrono::duration<double>(report.started.time_since_epoch()).count());
+}
 
-  // ---- per bus
+// Per bus: the interface, the two sockets' counters (docs/architecture.md)
+// and what the hot path counted instead of publishing.
+void bus_families(Writer& w, const gateway::StatusReport& report) {
   auto per_bus = [&](std::string_view name, std::string_view type, std::string_view help,
                      const std::function<double(const BusStatus&)>& get) {
     w.family(name, type, help);
@@ -153,8 +153,10 @@ std::string render_metrics(const gateway::StatusReport& report) {
           [](const BusStatus& b) { return static_cast<double>(b.error_frames); });
   per_bus("cobridge_bus_reopens_total", "counter", "Times the interface was reopened after it went down.",
           [](const BusStatus& b) { return static_cast<double>(b.reopens); });
+}
 
-  // ---- per device
+// Per device: liveness, state, counters and the last values.
+void device_families(Writer& w, const gateway::StatusReport& report) {
   auto per_device = [&](std::string_view name, std::string_view type, std::string_view help,
                         const std::function<bool(const DeviceStatus&, double&)>& get) {
     w.family(name, type, help);
@@ -210,6 +212,15 @@ std::string render_metrics(const gateway::StatusReport& report) {
                v = d.values.speed;
                return d.values.present && d.values.has_speed;
              });
+}
+
+}  // namespace
+
+std::string render_metrics(const gateway::StatusReport& report) {
+  Writer w;
+  gateway_families(w, report);
+  bus_families(w, report);
+  device_families(w, report);
   output_families(w, report.outputs);
   return w.take();
 }
