@@ -132,20 +132,13 @@ std::optional<int> scan_via_daemon(const ScanOptions& o) {
   return std::nullopt;
 }
 
-int scan(const ScanOptions& o) {
-  if (const auto rc = scan_via_daemon(o)) return *rc;
-  Error error;
-  auto bus = BusSession::open(o.iface, error);
-  if (!bus) return report_failure("scan", error, o.json);
-  device::DeviceCatalog catalog;
-  {
-    std::string dir = o.devices_dir;
-    if (dir.empty()) dir = sys::installed_or(sys::InstallDir::devices, COBRIDGE_SOURCE_DEVICE_DIR).string();
-    if (!dir.empty()) (void)catalog.load_directory(dir);
-  }
+namespace {
 
+// Listens for boot-ups and heartbeats, then asks every node-ID for its
+// identity (0x1018:1, then 2..4 of the nodes that answered).
+std::map<unsigned, NodeReport> probe_nodes(BusSession& bus, const ScanOptions& o) {
   std::map<unsigned, NodeReport> reports;
-  bus->listen(
+  bus.listen(
       [&](const can::Frame& f, TimePoint) {
         const auto ec = canopen::parse_error_control(f);
         if (!ec.ok()) return;
@@ -158,65 +151,138 @@ int scan(const ScanOptions& o) {
 
   std::vector<unsigned> all;
   for (unsigned n = 1; n <= 127; ++n) all.push_back(n);
-  probe_identity(*bus, all, 1, reports, o.sdo_timeout_ms);
+  probe_identity(bus, all, 1, reports, o.sdo_timeout_ms);
   std::vector<unsigned> found;
   for (auto& [n, r] : reports)
     if (!r.answers[1].empty()) found.push_back(n);
-  for (uint8_t sub = 2; sub <= 4; ++sub) probe_identity(*bus, found, sub, reports, o.sdo_timeout_ms);
+  for (uint8_t sub = 2; sub <= 4; ++sub) probe_identity(bus, found, sub, reports, o.sdo_timeout_ms);
 
-  // Fastscan: non-configured devices.
+  return reports;
+}
+
+// CiA 305 Fastscan for non-configured devices; with --assign-from each one
+// found gets the next free node-ID (reserved in `reports`), stored.
+std::vector<NodeReport> fastscan_unconfigured(BusSession& bus, const ScanOptions& o,
+                                              std::map<unsigned, NodeReport>& reports) {
   std::vector<NodeReport> lss_found;
-  if (o.fastscan) {
-    canopen::LssMaster m(bus->channel(),
-                         canopen::LssMaster::Config{.timeout = std::chrono::milliseconds(o.lss_timeout_ms)});
-    unsigned next_id = o.assign_from;
-    for (;;) {
-      std::optional<canopen::LssMaster::Result> r;
-      auto run = [&](std::error_code start) {
-        r.reset();
-        if (start) return false;
-        bus->run([&](const can::Frame& f, TimePoint now) { m.on_frame(f, now); },
-                 [&](TimePoint now) {
-                   auto d = m.process(now);
-                   if (!r) r = m.take_result();
-                   return d;
-                 },
-                 [&] { return r.has_value(); }, std::chrono::seconds(120));
-        return r && !r->error;
-      };
-      if (!run(m.fastscan(canopen::Clock::now()))) break;  // none (left)
-      NodeReport nr;
-      nr.unconfigured = true;
-      nr.answers[1].insert(r->address.vendor);
-      nr.answers[2].insert(r->address.product);
-      nr.answers[3].insert(r->address.revision);
-      nr.answers[4].insert(r->address.serial);
-      if (o.assign_from == 0) {
-        (void)m.switch_state_global(canopen::LssMode::kWaiting);
-        lss_found.push_back(nr);
-        break;
-      }
-      while (next_id <= 127 && reports.count(next_id) != 0) ++next_id;
-      if (next_id > 127) {
-        std::fprintf(stderr, "cobridge: scan: no free node-ID left from %u\n", o.assign_from);
-        (void)m.switch_state_global(canopen::LssMode::kWaiting);
-        break;
-      }
-      const bool ok = run(m.configure_node_id(static_cast<uint8_t>(next_id), canopen::Clock::now())) &&
-                      run(m.store_configuration(canopen::Clock::now()));
+  canopen::LssMaster m(bus.channel(),
+                       canopen::LssMaster::Config{.timeout = std::chrono::milliseconds(o.lss_timeout_ms)});
+  unsigned next_id = o.assign_from;
+  for (;;) {
+    std::optional<canopen::LssMaster::Result> r;
+    auto run = [&](std::error_code start) {
+      r.reset();
+      if (start) return false;
+      bus.run([&](const can::Frame& f, TimePoint now) { m.on_frame(f, now); },
+               [&](TimePoint now) {
+                 auto d = m.process(now);
+                 if (!r) r = m.take_result();
+                 return d;
+               },
+               [&] { return r.has_value(); }, std::chrono::seconds(120));
+      return r && !r->error;
+    };
+    if (!run(m.fastscan(canopen::Clock::now()))) break;  // none (left)
+    NodeReport nr;
+    nr.unconfigured = true;
+    nr.answers[1].insert(r->address.vendor);
+    nr.answers[2].insert(r->address.product);
+    nr.answers[3].insert(r->address.revision);
+    nr.answers[4].insert(r->address.serial);
+    if (o.assign_from == 0) {
       (void)m.switch_state_global(canopen::LssMode::kWaiting);
-      if (!ok) {
-        std::fprintf(stderr, "cobridge: scan: assigning node-ID %u failed: %s\n", next_id,
-                     r ? r->error.message().c_str() : "no answer");
-        break;
-      }
-      nr.assigned = next_id;
-      reports[next_id].node = next_id;  // reserve it
-      reports[next_id].seen = "lss";
       lss_found.push_back(nr);
-      ++next_id;
+      break;
     }
+    while (next_id <= 127 && reports.count(next_id) != 0) ++next_id;
+    if (next_id > 127) {
+      std::fprintf(stderr, "cobridge: scan: no free node-ID left from %u\n", o.assign_from);
+      (void)m.switch_state_global(canopen::LssMode::kWaiting);
+      break;
+    }
+    const bool ok = run(m.configure_node_id(static_cast<uint8_t>(next_id), canopen::Clock::now())) &&
+                    run(m.store_configuration(canopen::Clock::now()));
+    (void)m.switch_state_global(canopen::LssMode::kWaiting);
+    if (!ok) {
+      std::fprintf(stderr, "cobridge: scan: assigning node-ID %u failed: %s\n", next_id,
+                   r ? r->error.message().c_str() : "no answer");
+      break;
+    }
+    nr.assigned = next_id;
+    reports[next_id].node = next_id;  // reserve it
+    reports[next_id].seen = "lss";
+    lss_found.push_back(nr);
+    ++next_id;
   }
+  return lss_found;
+}
+
+void print_json(const std::vector<NodeReport>& rows) {
+  std::printf("[");
+  bool first = true;
+  for (const auto& r : rows) {
+    std::printf("%s{\"node\":%s,\"seen\":\"%s\",\"model\":\"%s\",\"clash\":%s", first ? "" : ",",
+                r.unconfigured ? "null" : std::to_string(r.node).c_str(),
+                r.unconfigured ? "fastscan" : r.seen.c_str(), r.model.c_str(),
+                (r.answers[1].size() > 1 || r.answers[2].size() > 1 || r.answers[3].size() > 1 ||
+                 r.answers[4].size() > 1)
+                    ? "true"
+                    : "false");
+    const char* names[] = {"", "vendor", "product", "revision", "serial"};
+    for (int s = 1; s <= 4; ++s) {
+      std::printf(",\"%s\":[", names[s]);
+      bool f2 = true;
+      for (uint32_t v : r.answers[static_cast<std::size_t>(s)]) {
+        std::printf("%s%u", f2 ? "" : ",", v);
+        f2 = false;
+      }
+      std::printf("]");
+    }
+    if (r.assigned) std::printf(",\"assigned\":%u", r.assigned);
+    std::printf("}");
+    first = false;
+  }
+  std::printf("]\n");
+}
+
+void print_table(const std::vector<NodeReport>& rows, const std::string& iface) {
+  std::printf("%-6s %-12s %-10s %-10s %-12s %-12s %-14s %s\n", "NODE", "VENDOR", "PRODUCT", "REVISION",
+              "SERIAL", "MODEL", "SEEN", "NOTE");
+  for (const auto& r : rows) {
+    const bool clash = r.answers[1].size() > 1 || r.answers[2].size() > 1 || r.answers[3].size() > 1 ||
+                       r.answers[4].size() > 1;
+    std::string node = r.unconfigured ? "FFh" : std::to_string(r.node);
+    std::string note = clash ? "CLASH: several devices on this node-ID" : "";
+    if (r.assigned) note = "assigned node-ID " + std::to_string(r.assigned) + ", stored";
+    if (r.unconfigured && !r.assigned) note = "non-configured (use --assign-from N)";
+    if (!r.unconfigured && r.answers[1].empty()) note = "no SDO answer";
+    std::printf("%-6s %-12s %-10s %-10s %-12s %-12s %-14s %s\n", node.c_str(),
+                hex_or_clash(r.answers[1]).c_str(), hex_or_clash(r.answers[2]).c_str(),
+                hex_or_clash(r.answers[3]).c_str(),
+                r.answers[4].size() == 1 ? std::to_string(*r.answers[4].begin()).c_str()
+                                         : hex_or_clash(r.answers[4]).c_str(),
+                r.model.empty() ? "-" : r.model.c_str(), r.unconfigured ? "fastscan" : r.seen.c_str(),
+                note.c_str());
+  }
+  if (rows.empty()) std::printf("(no device answered on %s)\n", iface.c_str());
+}
+
+}  // namespace
+
+int scan(const ScanOptions& o) {
+  if (const auto rc = scan_via_daemon(o)) return *rc;
+  Error error;
+  auto bus = BusSession::open(o.iface, error);
+  if (!bus) return report_failure("scan", error, o.json);
+  device::DeviceCatalog catalog;
+  {
+    std::string dir = o.devices_dir;
+    if (dir.empty()) dir = sys::installed_or(sys::InstallDir::devices, COBRIDGE_SOURCE_DEVICE_DIR).string();
+    if (!dir.empty()) (void)catalog.load_directory(dir);
+  }
+  std::map<unsigned, NodeReport> reports = probe_nodes(*bus, o);
+  std::vector<NodeReport> lss_found;
+  if (o.fastscan) lss_found = fastscan_unconfigured(*bus, o, reports);
 
   std::vector<NodeReport> rows;
   for (auto& [n, r] : reports)
@@ -225,54 +291,10 @@ int scan(const ScanOptions& o) {
   for (auto& r : rows)
     if (r.answers[1].size() == 1 && r.answers[2].size() == 1)
       r.model = model_name(catalog, *r.answers[1].begin(), *r.answers[2].begin());
-
-  if (o.json) {
-    std::printf("[");
-    bool first = true;
-    for (const auto& r : rows) {
-      std::printf("%s{\"node\":%s,\"seen\":\"%s\",\"model\":\"%s\",\"clash\":%s", first ? "" : ",",
-                  r.unconfigured ? "null" : std::to_string(r.node).c_str(),
-                  r.unconfigured ? "fastscan" : r.seen.c_str(), r.model.c_str(),
-                  (r.answers[1].size() > 1 || r.answers[2].size() > 1 || r.answers[3].size() > 1 ||
-                   r.answers[4].size() > 1)
-                      ? "true"
-                      : "false");
-      const char* names[] = {"", "vendor", "product", "revision", "serial"};
-      for (int s = 1; s <= 4; ++s) {
-        std::printf(",\"%s\":[", names[s]);
-        bool f2 = true;
-        for (uint32_t v : r.answers[static_cast<std::size_t>(s)]) {
-          std::printf("%s%u", f2 ? "" : ",", v);
-          f2 = false;
-        }
-        std::printf("]");
-      }
-      if (r.assigned) std::printf(",\"assigned\":%u", r.assigned);
-      std::printf("}");
-      first = false;
-    }
-    std::printf("]\n");
-  } else {
-    std::printf("%-6s %-12s %-10s %-10s %-12s %-12s %-14s %s\n", "NODE", "VENDOR", "PRODUCT", "REVISION",
-                "SERIAL", "MODEL", "SEEN", "NOTE");
-    for (const auto& r : rows) {
-      const bool clash = r.answers[1].size() > 1 || r.answers[2].size() > 1 || r.answers[3].size() > 1 ||
-                         r.answers[4].size() > 1;
-      std::string node = r.unconfigured ? "FFh" : std::to_string(r.node);
-      std::string note = clash ? "CLASH: several devices on this node-ID" : "";
-      if (r.assigned) note = "assigned node-ID " + std::to_string(r.assigned) + ", stored";
-      if (r.unconfigured && !r.assigned) note = "non-configured (use --assign-from N)";
-      if (!r.unconfigured && r.answers[1].empty()) note = "no SDO answer";
-      std::printf("%-6s %-12s %-10s %-10s %-12s %-12s %-14s %s\n", node.c_str(),
-                  hex_or_clash(r.answers[1]).c_str(), hex_or_clash(r.answers[2]).c_str(),
-                  hex_or_clash(r.answers[3]).c_str(),
-                  r.answers[4].size() == 1 ? std::to_string(*r.answers[4].begin()).c_str()
-                                           : hex_or_clash(r.answers[4]).c_str(),
-                  r.model.empty() ? "-" : r.model.c_str(), r.unconfigured ? "fastscan" : r.seen.c_str(),
-                  note.c_str());
-    }
-    if (rows.empty()) std::printf("(no device answered on %s)\n", o.iface.c_str());
-  }
+  if (o.json)
+    print_json(rows);
+  else
+    print_table(rows, o.iface);
   return 0;
 }
 
