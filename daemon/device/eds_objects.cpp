@@ -104,49 +104,78 @@ void Parser::read_entry(const Section& s, std::uint16_t index, std::uint8_t sub,
   d.index = index;
   d.sub = sub;
   d.line = s.line;
-  bool ok = true;
+  bool ok = read_name(s, d);
+  ok = read_data_type(s, type, d) && ok;
+  ok = read_access(s, d) && ok;
+  ok = read_flags(s, d) && ok;
+  if (!ok) return;  // values cannot be checked without a valid type
+  if (!read_values(s, d)) return;
+  if (seen_.count({index, sub}) != 0) {
+    error(s.line, 0, EdsErrc::kDuplicateSection,
+          "[" + s.name + "] describes " + hex(index, 4) + " sub " + std::to_string(sub) +
+              " again (first at line " + std::to_string(seen_[{index, sub}]) + ")");
+    return;
+  }
+  seen_[{index, sub}] = s.line;
+  desc_.entries.push_back(std::move(d));
+}
+
+bool Parser::read_name(const Section& s, ObjectDesc& d) {
   if (const Line* l = s.get("parametername")) {
     d.name = std::string(l->value);
-  } else {
-    error(s.line, 0, EdsErrc::kMissingKey, "[" + s.name + "] ParameterName is missing (required by CiA 306)");
-    ok = false;
+    return true;
   }
+  error(s.line, 0, EdsErrc::kMissingKey, "[" + s.name + "] ParameterName is missing (required by CiA 306)");
+  return false;
+}
+
+bool Parser::read_data_type(const Section& s, ObjectType type, ObjectDesc& d) {
   const Line* dt = s.get("datatype");
   if (dt == nullptr && type == ObjectType::kDomain) {
     d.data_type = DataType::kDomain;
-  } else if (dt == nullptr) {
+    return true;
+  }
+  if (dt == nullptr) {
     error(s.line, 0, EdsErrc::kMissingKey, "[" + s.name + "] DataType is missing (required for a VAR)");
-    ok = false;
-  } else {
-    const auto code = parse_unsigned(dt->value);
-    const std::optional<DataType> data_type = code ? canopen::data_type_from_code(*code) : std::nullopt;
-    if (!code) {
-      error(dt->line, dt->value_column, EdsErrc::kBadNumber,
-            where(s, *dt) + " is not a number (allowed: decimal, 0x hexadecimal, 0 octal)");
-      ok = false;
-    } else if (!data_type) {
-      error(dt->line, 0, EdsErrc::kBadDataType,
-            where(s, *dt) + " is not a CiA 301 data type (allowed: 0x0001..0x001B" +
-                (*code == 0x0E || *code == 0x17 ? ", except the reserved 0x000E and 0x0017)" : ")"));
-      ok = false;
-    } else {
-      d.data_type = *data_type;
-    }
+    return false;
   }
-  if (const Line* l = s.get("accesstype")) {
-    const std::string a = lower(l->value);
-    const auto it = std::find_if(kAccess.begin(), kAccess.end(), [&](const auto& p) { return p.first == a; });
-    if (it == kAccess.end()) {
-      error(l->line, 0, EdsErrc::kBadAccessType,
-            where(s, *l) + " is not a CiA 306 access type (allowed: ro, wo, rw, rwr, rww, const)");
-      ok = false;
-    } else {
-      d.access = it->second;
-    }
-  } else {
+  const auto code = parse_unsigned(dt->value);
+  const std::optional<DataType> data_type = code ? canopen::data_type_from_code(*code) : std::nullopt;
+  if (!code) {
+    error(dt->line, dt->value_column, EdsErrc::kBadNumber,
+          where(s, *dt) + " is not a number (allowed: decimal, 0x hexadecimal, 0 octal)");
+    return false;
+  }
+  if (!data_type) {
+    error(dt->line, 0, EdsErrc::kBadDataType,
+          where(s, *dt) + " is not a CiA 301 data type (allowed: 0x0001..0x001B" +
+              (*code == 0x0E || *code == 0x17 ? ", except the reserved 0x000E and 0x0017)" : ")"));
+    return false;
+  }
+  d.data_type = *data_type;
+  return true;
+}
+
+bool Parser::read_access(const Section& s, ObjectDesc& d) {
+  const Line* l = s.get("accesstype");
+  if (l == nullptr) {
     error(s.line, 0, EdsErrc::kMissingKey, "[" + s.name + "] AccessType is missing (required for a VAR)");
-    ok = false;
+    return false;
   }
+  const std::string a = lower(l->value);
+  const auto it = std::find_if(kAccess.begin(), kAccess.end(), [&](const auto& p) { return p.first == a; });
+  if (it == kAccess.end()) {
+    error(l->line, 0, EdsErrc::kBadAccessType,
+          where(s, *l) + " is not a CiA 306 access type (allowed: ro, wo, rw, rwr, rww, const)");
+    return false;
+  }
+  d.access = it->second;
+  return true;
+}
+
+// PDOMapping, and CompactSubObj (refused: one section per sub-index).
+bool Parser::read_flags(const Section& s, ObjectDesc& d) {
+  bool ok = true;
   if (const Line* l = s.get("pdomapping")) {
     const auto v = parse_unsigned(l->value);
     if (!v || *v > 1) {
@@ -163,8 +192,12 @@ void Parser::read_entry(const Section& s, std::uint16_t index, std::uint8_t sub,
       ok = false;
     }
   }
-  if (!ok) return;  // values cannot be checked without a valid type
+  return ok;
+}
 
+// LowLimit, HighLimit and DefaultValue in the entry's type, and consistent
+// with each other; false when any of them is in error.
+bool Parser::read_values(const Section& s, ObjectDesc& d) {
   const std::size_t before = errors_.size();
   const Line* lo = s.get("lowlimit");
   const Line* hi = s.get("highlimit");
@@ -172,7 +205,7 @@ void Parser::read_entry(const Section& s, std::uint16_t index, std::uint8_t sub,
   if (lo != nullptr) d.low_limit = value(s, *lo, d.data_type, false);
   if (hi != nullptr) d.high_limit = value(s, *hi, d.data_type, false);
   if (dv != nullptr) d.default_value = value(s, *dv, d.data_type, true);
-  if (errors_.size() != before) return;
+  if (errors_.size() != before) return false;
 
   const bool sign = is_signed_integer(d.data_type);
   auto as_signed = [&](std::uint64_t raw) {
@@ -203,14 +236,7 @@ void Parser::read_entry(const Section& s, std::uint16_t index, std::uint8_t sub,
             where(s, *dv) + " is outside the limits (allowed: " + range + ")");
     }
   }
-  if (seen_.count({index, sub}) != 0) {
-    error(s.line, 0, EdsErrc::kDuplicateSection,
-          "[" + s.name + "] describes " + hex(index, 4) + " sub " + std::to_string(sub) +
-              " again (first at line " + std::to_string(seen_[{index, sub}]) + ")");
-    return;
-  }
-  seen_[{index, sub}] = s.line;
-  desc_.entries.push_back(std::move(d));
+  return true;
 }
 
 void Parser::read_objects() {

@@ -124,6 +124,11 @@ class Parser {
   std::optional<ObjectType> object_type(const Section& s);
   // Reads the entry keys of a VAR object or a sub-object section.
   void read_entry(const Section& s, std::uint16_t index, std::uint8_t sub, ObjectType type);
+  bool read_name(const Section& s, ObjectDesc& d);
+  bool read_data_type(const Section& s, ObjectType type, ObjectDesc& d);
+  bool read_access(const Section& s, ObjectDesc& d);
+  bool read_flags(const Section& s, ObjectDesc& d);
+  bool read_values(const Section& s, ObjectDesc& d);
   void read_objects();
   void check_listed_sections();
   void check_identity();
