@@ -18,8 +18,18 @@ void Loader::read_device(const toml::table& t) {
   r.check_keys({"name", "bus", "serial", "vendor", "product", "node_id", "model", "channels", "eds", "tpdo1", "tpdo2",
                 "heartbeat_ms", "guarding", "direction", "scaling", "preset", "cam", "work_area", "position_filter",
                 "speed_filter", "store"});
-
   read_name(r, name_node, d.name, spots.name, spots.has_name);
+  read_address(r, d, spots);
+  const KnownModel* model = read_model(r, d);
+  read_communication(r, d);
+  read_functions(r, d, model);
+  config_.devices.push_back(std::move(d));
+  device_spots_.push_back(spots);
+}
+
+// Where the device is: its bus, serial (the LSS address with vendor and
+// product) and node-ID.
+void Loader::read_address(TableReader& r, Device& d, DeviceSpots& spots) {
   if (auto v = r.string("bus")) {
     d.bus = *v;
     spots.bus = location(sink_, *r.find("bus"));
@@ -40,7 +50,11 @@ void Loader::read_device(const toml::table& t) {
     d.node_id = static_cast<std::uint8_t>(*v);
     spots.node_id = location(sink_, *r.find("node_id"));
   }
+}
 
+// What the device is: a known model or an EDS file, and its channels; the
+// model found, or nullptr.
+const KnownModel* Loader::read_model(TableReader& r, Device& d) {
   const KnownModel* model = nullptr;
   if (auto v = r.string("model")) {
     model = find_model(*v);
@@ -63,7 +77,6 @@ void Loader::read_device(const toml::table& t) {
     }
   }
   if (model != nullptr) check_identity(r, d, *model);
-
   if (auto v = r.integer("channels", 1, 2)) {
     if (model == nullptr || model->max_channels < 2) {
       r.error(*r.find("channels"), "channels is only allowed with a model of the rotary series (RFC-4800, RSA-3200, "
@@ -72,7 +85,11 @@ void Loader::read_device(const toml::table& t) {
       d.channels = static_cast<std::uint8_t>(*v);
     }
   }
+  return model;
+}
 
+// TPDOs and the error control the device produces.
+void Loader::read_communication(TableReader& r, Device& d) {
   d.tpdo1 = read_tpdo(r, "tpdo1");
   d.tpdo2 = read_tpdo(r, "tpdo2");
   if (auto v = r.integer("heartbeat_ms", 0, kU16)) d.heartbeat_ms = static_cast<std::uint16_t>(*v);
@@ -82,10 +99,14 @@ void Loader::read_device(const toml::table& t) {
     // guarding, not both; configuring both would leave it to the device.
     r.error(*r.find("guarding"), "give either heartbeat_ms or [device.guarding], not both");
   }
+}
+
+// The encoder's own functions: direction, scaling, preset, CAMs, work area,
+// filters, and when to store.
+void Loader::read_functions(TableReader& r, Device& d, const KnownModel* model) {
   d.direction = r.choice<Direction>("direction", {{"cw", Direction::cw}, {"ccw", Direction::ccw}});
   d.scaling = read_scaling(r);
   read_preset(r, d, model);
-
   std::int64_t max_cam = 8;
   if (model != nullptr) {
     const std::uint8_t channels = d.channels.value_or(model->max_channels);
@@ -93,7 +114,6 @@ void Loader::read_device(const toml::table& t) {
   }
   read_cams(r, d, max_cam);
   d.work_area = read_work_area(r);
-
   if (auto v = r.integer("position_filter", 0, 7)) {
     if (model != nullptr && !model->position_filter) {
       r.error(*r.find("position_filter"), "position_filter is not supported by model " + in_quotes(model->name));
@@ -113,8 +133,6 @@ void Loader::read_device(const toml::table& t) {
           "store", {{"on-change", StorePolicy::on_change}, {"always", StorePolicy::always}, {"never", StorePolicy::never}})) {
     d.store = *v;
   }
-  config_.devices.push_back(std::move(d));
-  device_spots_.push_back(spots);
 }
 
 void Loader::check_eds(TableReader& r, Device& d, const std::string& value) {

@@ -104,6 +104,10 @@ class Loader {
   std::optional<WorkArea> read_work_area(TableReader& device);
   void read_cams(TableReader& device, Device& d, std::int64_t max_index);
   void read_device(const toml::table& t);
+  void read_address(TableReader& r, Device& d, DeviceSpots& spots);
+  const KnownModel* read_model(TableReader& r, Device& d);
+  void read_communication(TableReader& r, Device& d);
+  void read_functions(TableReader& r, Device& d, const KnownModel* model);
   void check_eds(TableReader& r, Device& d, const std::string& value);
   void check_identity(TableReader& r, const Device& d, const KnownModel& model);
   void read_preset(TableReader& r, Device& d, const KnownModel* model);
