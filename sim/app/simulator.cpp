@@ -149,7 +149,7 @@ std::string Simulator::stats() const {
     s += " " + bus->iface() + ":sent=" + std::to_string(b.device_frames) + ",refused=" +
          std::to_string(b.device_refused) + ",received=" + std::to_string(b.received) + ",local=" +
          std::to_string(b.local_deliveries) + ",local_overflow=" + std::to_string(b.local_overflow) +
-         ",injected=" + std::to_string(b.injected) + ",rx_overflow=" + std::to_string(c.rx_overflow_drops);
+         ",injected=" + std::to_string(b.injected) + ",lss_merged=" + std::to_string(b.lss_merged) + ",rx_overflow=" + std::to_string(c.rx_overflow_drops);
   }
   return s;
 }

@@ -20,7 +20,19 @@ tries; then a second start with every device remembered.
 request (cobridge-sim `lose_configure=1`, issue 26's fault): each still ends
 operational, its status counts the failed try (commission_failures >= 1) and
 the log names it ("commissioning failed (try 1)").
+--latency PATH: cobridge-sim-latency (sim/tools) reads vcan0 beside the
+daemon and the simulator with kernel receive times and pairs every LSS
+answer (0x7E4, CiA 305 §8.3) and SDO answer (0x580+n, CiA 301 §7.2.4.3)
+with its request: the simulator's answers leave within 1 ms of the request
+at p99 (issue 26 item 4: a slow simulator must not hide or cause a master
+defect), and it missed no frame. It also counts the SDO writes (initiate
+download requests) of each start.
+--truth: the simulator writes its truth file; each device's node-ID in
+status is the one the simulator's own frames carry at the end.
 """
+import os
+import signal
+import subprocess
 import sys
 import time
 
@@ -31,6 +43,78 @@ PRODUCT = 0x0BB8      # MC1-2800 (E§4.1), what cobridge-sim reports
 REVISION = 0x00010003
 FIRST_SERIAL = 9001
 FIRST_NODE = 20
+
+
+LATENCY_P99_BOUND_US = 1000.0
+
+
+class LatencyObserver:
+    """cobridge-sim-latency on vcan0, from before a start until it is done."""
+
+    def __init__(self, path, iface="vcan0"):
+        self.proc = subprocess.Popen([path, "--iface", iface], stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                                     stderr=subprocess.PIPE, text=True)
+        line = self.proc.stdout.readline()
+        if line.strip() != "ready":
+            raise RuntimeError("cobridge-sim-latency did not start: %r %s" % (line, self.proc.stderr.read()))
+
+    def stop(self):
+        """Its summary: {"lss": {...}, "sdo": {...}, "frames": N, "drops": N}."""
+        self.proc.send_signal(signal.SIGTERM)
+        out, err = self.proc.communicate(timeout=30)
+        result = {}
+        for line in out.splitlines():
+            words = line.split()
+            if words and words[0] in ("lss", "sdo"):
+                result[words[0]] = {k: float(v) for k, v in (w.split("=") for w in words[1:])}
+            elif words:
+                result.update({k: int(v) for k, v in (w.split("=") for w in words)})
+        if "lss" not in result or "drops" not in result:
+            raise RuntimeError("cobridge-sim-latency: no summary: %r %r" % (out, err))
+        return result
+
+
+def latency_figures(report, lat, what, count):
+    for svc in ("lss", "sdo"):
+        x = lat[svc]
+        print("FIGURE %s: simulator %s answer latency (request -> answer on vcan0, kernel timestamps): "
+              "n=%d p50 %.0f us, p99 %.0f us, max %.0f us; %d requests unanswered, %d answers late" % (
+                  what, svc.upper(), x["answers"], x["p50_us"], x["p99_us"], x["max_us"], x["unanswered"],
+                  x["mismatched"]))
+    print("FIGURE %s: SDO writes %d (%.1f per device); frames read %d, dropped %d" % (
+        what, lat["sdo"]["downloads"], lat["sdo"]["downloads"] / count, lat["frames"], lat["drops"]))
+    report.check(lat["drops"] == 0, "%s: the latency observer read every frame" % what,
+                 "%d dropped by the kernel" % lat["drops"])
+
+
+def check_latency(report, lat):
+    """Issue 26 item 4: the simulator's LSS and SDO answers leave within 1 ms at p99."""
+    for svc in ("lss", "sdo"):
+        x = lat[svc]
+        report.check(x["answers"] > 0 and x["p99_us"] <= LATENCY_P99_BOUND_US,
+                     "simulator %s answers within %.0f us of the request at p99 (CiA %s)"
+                     % (svc.upper(), LATENCY_P99_BOUND_US, "305 §8.3" if svc == "lss" else "301 §7.2.4.3"),
+                     "n=%d p99 %.0f us" % (x["answers"], x["p99_us"]))
+
+
+def truth_nodes(path):
+    """serial -> the node-ID of that device's last frame in the truth file."""
+    last = {}
+    with open(path) as f:
+        for line in f:
+            w = line.split()
+            if len(w) >= 5:
+                last[int(w[2])] = int(w[3])
+    return last
+
+
+def check_truth(report, st, devs, truth_path):
+    by_name = {d["name"]: d for b in st["buses"] for d in b["devices"]}
+    nodes = truth_nodes(truth_path)
+    wrong = ["%s: status %s, truth %s" % (n, by_name.get(n, {}).get("node_id"), nodes.get(s))
+             for (n, s, node) in devs if nodes.get(s) != node or by_name.get(n, {}).get("node_id") != node]
+    report.check(not wrong, "every device's node-ID in status is the one its own frames carry (truth file)",
+                 "; ".join(wrong[:5]))
 
 
 def devices(count):
@@ -152,6 +236,19 @@ def figures(report, st, seen_steps, devs, took):
     print("FIGURE Fastscans begun again after late answers: %d" % restarts)
 
 
+def extra_args(p):
+    p.add_argument("--latency", help="cobridge-sim-latency: measure and bound the simulator's answer latency")
+
+
+def start_observer(report, args):
+    if not args.latency:
+        return None
+    if not os.access(args.latency, os.X_OK):
+        report.check(False, "cobridge-sim-latency at %s" % args.latency, "missing")
+        return None
+    return LatencyObserver(args.latency)
+
+
 def main():
     count = 8
     if "--count" in sys.argv:
@@ -161,7 +258,7 @@ def main():
     lose = "--lose-configure" in sys.argv
     if lose:
         sys.argv.remove("--lose-configure")
-    args = e2e.parse_args()
+    args = e2e.parse_args(extra_args)
     report = e2e.Report("test_commissioning_scale_%d" % count)
     ws = e2e.Workspace("commissioning-scale", args.keep)
     devs = devices(count)
@@ -169,31 +266,48 @@ def main():
     lossy = [d for (i, d) in enumerate(devs) if lose and i % 4 == 0]
     specs = ["MC1-2800:serial=%d,node=unconfigured%s" % (s, ",lose_configure=1" if (n, s, node) in lossy else "")
              for (n, s, node) in devs]
-    sim = e2e.Simulator(args.sim, ws, {"vcan0": specs})
-    daemon = None
+    truth = ws.path("truth.txt")
+    # SCHED_FIFO: real encoders answer in microseconds whatever the master does on its CPU.
+    sim = e2e.Simulator(args.sim, ws, {"vcan0": specs}, extra_args=("--truth", truth, "--rt-priority", "10"))
+    daemon = observer = None
     try:
         config = config_for(ws, devs)
         seen_steps = {}
+        observer = start_observer(report, args)
         daemon, st, took = run_daemon(args, ws, config, names, 60 + 4 * count, "daemon-1.log", seen_steps)
+        lat1 = observer.stop() if observer else None
+        observer = None
+        print("FIGURE simulator loop (its own view of how late it woke): " + sim.command("stats"))
         report.check(took is not None, "%d factory-fresh devices operational" % count,
                      "%.2f s after start" % took if took else "never")
         if st is not None:
             check_identities(report, st, devs)
+            check_truth(report, st, devs, truth)
             check_once(report, daemon, devs)
             if lossy:
                 check_retried(report, st, daemon, lossy)
             if took is not None:
                 figures(report, st, seen_steps, devs, took)
+        if lat1:
+            latency_figures(report, lat1, "first start", count)
+            check_latency(report, lat1)
         if report.failed:
             print(daemon.tail(80))
         e2e.check_clean_exit(report, daemon, "first start: SIGTERM -> exit 0 within 1 s")
         daemon = None
+        observer = start_observer(report, args)
         daemon, st, took = run_daemon(args, ws, config, names, 30, "daemon-2.log")
+        lat2 = observer.stop() if observer else None
+        observer = None
         report.check(took is not None, "second start: all %d operational" % count,
                      "FIGURE second start -> all operational %.2f s" % took if took else "never")
+        if lat2:
+            latency_figures(report, lat2, "second start", count)
         e2e.check_clean_exit(report, daemon, "second start: SIGTERM -> exit 0 within 1 s")
         daemon = None
     finally:
+        if observer:
+            observer.proc.kill()
         e2e.shut_down(ws, daemon, sim)
     return report.finish()
 
