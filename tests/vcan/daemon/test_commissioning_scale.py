@@ -20,6 +20,11 @@ tries; then a second start with every device remembered.
 request (cobridge-sim `lose_configure=1`, issue 26's fault): each still ends
 operational, its status counts the failed try (commission_failures >= 1) and
 the log names it ("commissioning failed (try 1)").
+--late-lss: every 4th device from the third on sends every 16th LSS answer
+40 ms late (cobridge-sim `late_lss`, `late_lss_ms`; CiA 305 sets no answer
+time, the master's timeout is its own): beside the lost configure node-IDs,
+every device still ends operational, its identity exact, commissioned once,
+and the simulator did send late answers (its `stats`: lss_late).
 --latency PATH: cobridge-sim-latency (sim/tools) reads vcan0 beside the
 daemon and the simulator with kernel receive times and pairs every LSS
 answer (0x7E4, CiA 305 §8.3) and SDO answer (0x580+n, CiA 301 §7.2.4.3)
@@ -46,6 +51,8 @@ FIRST_NODE = 20
 
 
 LATENCY_P99_BOUND_US = 1000.0
+LATE_EVERY = 16     # every 16th LSS answer of a late device ...
+LATE_MS = 40        # ... leaves 40 ms late
 
 
 class LatencyObserver:
@@ -258,14 +265,20 @@ def main():
     lose = "--lose-configure" in sys.argv
     if lose:
         sys.argv.remove("--lose-configure")
+    late = "--late-lss" in sys.argv
+    if late:
+        sys.argv.remove("--late-lss")
     args = e2e.parse_args(extra_args)
     report = e2e.Report("test_commissioning_scale_%d" % count)
     ws = e2e.Workspace("commissioning-scale", args.keep)
     devs = devices(count)
     names = [d[0] for d in devs]
     lossy = [d for (i, d) in enumerate(devs) if lose and i % 4 == 0]
-    specs = ["MC1-2800:serial=%d,node=unconfigured%s" % (s, ",lose_configure=1" if (n, s, node) in lossy else "")
-             for (n, s, node) in devs]
+    slow = [d for (i, d) in enumerate(devs) if late and i % 4 == 2]
+    specs = ["MC1-2800:serial=%d,node=unconfigured%s%s" % (
+        s, ",lose_configure=1" if (n, s, node) in lossy else "",
+        ",late_lss=%d,late_lss_ms=%d" % (LATE_EVERY, LATE_MS) if (n, s, node) in slow else "")
+        for (n, s, node) in devs]
     truth = ws.path("truth.txt")
     # SCHED_FIFO: real encoders answer in microseconds whatever the master does on its CPU.
     sim = e2e.Simulator(args.sim, ws, {"vcan0": specs}, extra_args=("--truth", truth, "--rt-priority", "10"))
@@ -277,7 +290,12 @@ def main():
         daemon, st, took = run_daemon(args, ws, config, names, 60 + 4 * count, "daemon-1.log", seen_steps)
         lat1 = observer.stop() if observer else None
         observer = None
-        print("FIGURE simulator loop (its own view of how late it woke): " + sim.command("stats"))
+        stats = sim.command("stats")
+        print("FIGURE simulator loop (its own view of how late it woke): " + stats)
+        if slow:
+            sent_late = int(stats.split("lss_late=")[1].split(",")[0])
+            report.check(sent_late > 0, "%d devices sent LSS answers %d ms late (cobridge-sim late_lss)"
+                         % (len(slow), LATE_MS), "%d late answers" % sent_late)
         report.check(took is not None, "%d factory-fresh devices operational" % count,
                      "%.2f s after start" % took if took else "never")
         if st is not None:
