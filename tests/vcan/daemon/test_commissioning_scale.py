@@ -280,13 +280,6 @@ def main():
         ",late_lss=%d,late_lss_ms=%d" % (LATE_EVERY, LATE_MS) if (n, s, node) in slow else "")
         for (n, s, node) in devs]
     truth = ws.path("truth.txt")
-    # The simulator writes a device's non-volatile memory (LSS store, 0x1010)
-    # with fsync from its one loop, so on hostfs every device waits for each
-    # store (one run each on a loaded host: SDO answer p99 9.6 ms, max 104 ms;
-    # on UML's tmpfs 3.2 ms, max 11 ms).
-    # Its memory only has to outlive the daemon here: /run is tmpfs in UML.
-    ws.sim_state = os.path.join(ws.run, "sim-state")
-    os.makedirs(ws.sim_state)
     # SCHED_FIFO: real encoders answer in microseconds whatever the master does on its CPU.
     sim = e2e.Simulator(args.sim, ws, {"vcan0": specs}, extra_args=("--truth", truth, "--rt-priority", "10"))
     daemon = observer = None
@@ -301,7 +294,7 @@ def main():
         print("FIGURE simulator loop (its own view of how late it woke): " + stats)
         wakes, late_wakes = (int(stats.split(k + "=")[1].split()[0]) for k in ("timed_wakes", "late_over_1ms"))
         print("FIGURE UML floor, same run: %.1f %% of the simulator's timed wake-ups more than 1 ms late "
-              "(at SCHED_FIFO inside UML, so UML itself was not running)" % (100.0 * late_wakes / max(wakes, 1)))
+              "(at SCHED_FIFO inside UML: the host or UML's own kernel kept it from running)" % (100.0 * late_wakes / max(wakes, 1)))
         if slow:
             sent_late = int(stats.split("lss_late=")[1].split(",")[0])
             report.check(sent_late > 0, "%d devices sent LSS answers %d ms late (cobridge-sim late_lss)"
