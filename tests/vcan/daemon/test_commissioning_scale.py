@@ -293,8 +293,9 @@ def main():
         stats = sim.command("stats")
         print("FIGURE simulator loop (its own view of how late it woke): " + stats)
         wakes, late_wakes = (int(stats.split(k + "=")[1].split()[0]) for k in ("timed_wakes", "late_over_1ms"))
-        print("FIGURE UML floor, same run: %.1f %% of the simulator's timed wake-ups more than 1 ms late "
-              "(at SCHED_FIFO inside UML: the host or UML's own kernel kept it from running)" % (100.0 * late_wakes / max(wakes, 1)))
+        print("FIGURE UML floor, same run: %.1f %% of the simulator's timed wake-ups more than 1 ms late (at "
+              "SCHED_FIFO inside UML: the host or UML's own kernel kept it from running)"
+              % (100.0 * late_wakes / max(wakes, 1)))
         if slow:
             sent_late = int(stats.split("lss_late=")[1].split(",")[0])
             report.check(sent_late > 0, "%d devices sent LSS answers %d ms late (cobridge-sim late_lss)"
