@@ -100,7 +100,7 @@ bool drain(int fd, Reader& r) {
     }
     const int n = ::recvmmsg(fd, msgs.data(), kBatch, MSG_DONTWAIT, nullptr);
     if (n < 0) return errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR;
-    for (int i = 0; i < n; ++i) take_control(r, msgs[static_cast<unsigned>(i)].msg_hdr, frames[static_cast<unsigned>(i)]);
+    for (unsigned i = 0; i < static_cast<unsigned>(n); ++i) take_control(r, msgs[i].msg_hdr, frames[i]);
     if (n < static_cast<int>(kBatch)) return true;
   }
 }

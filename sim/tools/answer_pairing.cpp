@@ -44,10 +44,11 @@ LatencySummary summarize(std::vector<std::int64_t> latencies_ns) {
 
 void AnswerPairing::on_frame(std::uint32_t id, const std::uint8_t* data, std::uint8_t len, std::int64_t t_ns) {
   if (len == 0) return;
+  const auto node = [](std::uint32_t offset) { return static_cast<std::uint8_t>(offset); };
   if (id == kLssMasterToSlave) on_lss_request(data[0], t_ns);
   else if (id == kLssSlaveToMaster) on_lss_answer(data[0], t_ns);
-  else if (id > kSdoRequestBase && id < kSdoRequestBase + 128) on_sdo_request(static_cast<std::uint8_t>(id - kSdoRequestBase), data[0], t_ns);
-  else if (id > kSdoAnswerBase && id < kSdoAnswerBase + 128) on_sdo_answer(static_cast<std::uint8_t>(id - kSdoAnswerBase), t_ns);
+  else if (id > kSdoRequestBase && id < kSdoRequestBase + 128) on_sdo_request(node(id - kSdoRequestBase), data[0], t_ns);
+  else if (id > kSdoAnswerBase && id < kSdoAnswerBase + 128) on_sdo_answer(node(id - kSdoAnswerBase), t_ns);
 }
 
 void AnswerPairing::on_lss_request(std::uint8_t cs, std::int64_t t_ns) {
