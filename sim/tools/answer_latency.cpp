@@ -16,6 +16,7 @@
 // Output (one line each, at the end):
 //   lss requests=N answers=N unanswered=N mismatched=N downloads=0 p50_us=X p99_us=X max_us=X
 //   sdo requests=N answers=N unanswered=N mismatched=N downloads=N p50_us=X p99_us=X max_us=X
+//   echo requests=N ... (cobridge-bus-echo's pings and answers: the same run's floor)
 // (downloads: SDO writes, CiA 301 initiate download requests)
 //   frames=N drops=N
 // Thread: one (main).
@@ -152,6 +153,7 @@ int main(int argc, char** argv) {
   r.pairing.finish();
   print("lss", r.pairing.lss());
   print("sdo", r.pairing.sdo());
+  print("echo", r.pairing.echo());
   std::printf("frames=%llu drops=%u\n", static_cast<unsigned long long>(r.frames), r.drops);
   return 0;
 }

@@ -10,6 +10,8 @@ constexpr std::uint32_t kLssMasterToSlave = 0x7E5;
 constexpr std::uint32_t kLssSlaveToMaster = 0x7E4;
 constexpr std::uint32_t kSdoRequestBase = 0x600;  // + node-ID, client -> server
 constexpr std::uint32_t kSdoAnswerBase = 0x580;   // + node-ID, server -> client
+constexpr std::uint32_t kEchoPing = 0x7F0;        // cobridge-bus-echo
+constexpr std::uint32_t kEchoAnswer = 0x7F1;
 
 // Whether an LSS answer with specifier `answer` answers a request with
 // specifier `request` (CiA 305 §8.3.2-8.3.5).
@@ -47,6 +49,8 @@ void AnswerPairing::on_frame(std::uint32_t id, const std::uint8_t* data, std::ui
   const auto node = [](std::uint32_t offset) { return static_cast<std::uint8_t>(offset); };
   if (id == kLssMasterToSlave) on_lss_request(data[0], t_ns);
   else if (id == kLssSlaveToMaster) on_lss_answer(data[0], t_ns);
+  else if (id == kEchoPing) on_request(echo_, echo_pending_, t_ns);
+  else if (id == kEchoAnswer) on_answer(echo_, echo_pending_, t_ns);
   else if (id > kSdoRequestBase && id < kSdoRequestBase + 128) on_sdo_request(node(id - kSdoRequestBase), data[0], t_ns);
   else if (id > kSdoAnswerBase && id < kSdoAnswerBase + 128) on_sdo_answer(node(id - kSdoAnswerBase), t_ns);
 }
@@ -67,24 +71,28 @@ void AnswerPairing::on_lss_answer(std::uint8_t cs, std::int64_t t_ns) {
   lss_.latency_ns.push_back(t_ns - lss_pending_.t_ns);
 }
 
-void AnswerPairing::on_sdo_request(std::uint8_t node, std::uint8_t cs, std::int64_t t_ns) {
-  Pending& p = sdo_pending_[node];
-  if (p.open) ++sdo_.unanswered;
-  ++sdo_.requests;
-  if ((cs & 0xE0) == 0x20) ++sdo_.downloads;
+void AnswerPairing::on_request(ServiceCounts& c, Pending& p, std::int64_t t_ns) {
+  if (p.open) ++c.unanswered;
+  ++c.requests;
   p = Pending{t_ns, 0, true, false};
 }
 
-void AnswerPairing::on_sdo_answer(std::uint8_t node, std::int64_t t_ns) {
-  Pending& p = sdo_pending_[node];
+void AnswerPairing::on_answer(ServiceCounts& c, Pending& p, std::int64_t t_ns) {
   if (!p.open) {
-    ++sdo_.mismatched;
+    ++c.mismatched;
     return;
   }
   p.open = false;
-  ++sdo_.answers;
-  sdo_.latency_ns.push_back(t_ns - p.t_ns);
+  ++c.answers;
+  c.latency_ns.push_back(t_ns - p.t_ns);
 }
+
+void AnswerPairing::on_sdo_request(std::uint8_t node, std::uint8_t cs, std::int64_t t_ns) {
+  if ((cs & 0xE0) == 0x20) ++sdo_.downloads;
+  on_request(sdo_, sdo_pending_[node], t_ns);
+}
+
+void AnswerPairing::on_sdo_answer(std::uint8_t node, std::int64_t t_ns) { on_answer(sdo_, sdo_pending_[node], t_ns); }
 
 void AnswerPairing::finish() {
   if (lss_pending_.open && !lss_pending_.answered) ++lss_.unanswered;
@@ -93,6 +101,8 @@ void AnswerPairing::finish() {
     if (p.open) ++sdo_.unanswered;
     p.open = false;
   }
+  if (echo_pending_.open) ++echo_.unanswered;
+  echo_pending_.open = false;
 }
 
 }  // namespace cobridge::sim::tools

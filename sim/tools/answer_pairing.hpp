@@ -17,6 +17,9 @@
 // request per node-ID; its answer closes it. An answer with no pending
 // request is counted `mismatched`.
 //
+// Echo (cobridge-bus-echo, 0x7F0 -> 0x7F1): the same as one SDO node; the
+// floor any answering process meets in the same run.
+//
 // Thread: the reader's only; nothing here is thread-safe.
 #pragma once
 
@@ -54,6 +57,7 @@ class AnswerPairing {
 
   [[nodiscard]] const ServiceCounts& lss() const noexcept { return lss_; }
   [[nodiscard]] const ServiceCounts& sdo() const noexcept { return sdo_; }
+  [[nodiscard]] const ServiceCounts& echo() const noexcept { return echo_; }
 
  private:
   struct Pending {
@@ -66,9 +70,13 @@ class AnswerPairing {
   void on_lss_answer(std::uint8_t cs, std::int64_t t_ns);
   void on_sdo_request(std::uint8_t node, std::uint8_t cs, std::int64_t t_ns);
   void on_sdo_answer(std::uint8_t node, std::int64_t t_ns);
+  static void on_request(ServiceCounts& c, Pending& p, std::int64_t t_ns);
+  static void on_answer(ServiceCounts& c, Pending& p, std::int64_t t_ns);
 
   ServiceCounts lss_;
   ServiceCounts sdo_;
+  ServiceCounts echo_;
+  Pending echo_pending_;
   Pending lss_pending_;
   std::array<Pending, 128> sdo_pending_{};
 };

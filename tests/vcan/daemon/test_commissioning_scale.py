@@ -32,6 +32,10 @@ with its request: the simulator's answers leave within 1 ms of the request
 at p99 (a slow simulator must not hide or cause a master defect), and it
 missed no frame. It also counts the SDO writes (initiate download requests)
 of each start.
+--echo PATH: cobridge-bus-echo answers pings (0x7F0 -> 0x7F1) beside the
+simulator at the same priority while a pinger sends one every 5 ms: the
+latency of the smallest responder in the same run, the floor the simulator's
+figures are judged against (printed, not bounded).
 Always: the simulator writes its truth file, and each device's node-ID in
 status is the one the simulator's own frames carry at the end.
 """
@@ -51,6 +55,7 @@ FIRST_NODE = 20
 
 
 LATENCY_P99_BOUND_US = 1000.0
+SIM_RT_PRIORITY = "10"  # SCHED_FIFO: real encoders answer in microseconds whatever the master does
 LATE_EVERY = 16     # every 16th LSS answer of a late device ...
 LATE_MS = 40        # ... leaves 40 ms late
 
@@ -72,13 +77,32 @@ class LatencyObserver:
         result = {}
         for line in out.splitlines():
             words = line.split()
-            if words and words[0] in ("lss", "sdo"):
+            if words and words[0] in ("lss", "sdo", "echo"):
                 result[words[0]] = {k: float(v) for k, v in (w.split("=") for w in words[1:])}
             elif words:
                 result.update({k: int(v) for k, v in (w.split("=") for w in words)})
         if "lss" not in result or "drops" not in result:
             raise RuntimeError("cobridge-sim-latency: no summary: %r %r" % (out, err))
         return result
+
+
+class EchoFloor:
+    """cobridge-bus-echo: an answerer at the simulator's priority and a pinger."""
+
+    def __init__(self, path):
+        self.procs = []
+        for args in (["--answer", "--rt-priority", SIM_RT_PRIORITY], ["--ping", "5"]):
+            p = subprocess.Popen([path] + args, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, text=True)
+            self.procs.append(p)
+            if p.stdout.readline().strip() != "ready":
+                self.stop()
+                raise RuntimeError("cobridge-bus-echo %s did not start" % " ".join(args))
+
+    def stop(self):
+        for p in reversed(self.procs):
+            p.send_signal(signal.SIGTERM)
+            p.wait(10)
+        self.procs = []
 
 
 def latency_figures(report, lat, what, count):
@@ -88,6 +112,10 @@ def latency_figures(report, lat, what, count):
               "n=%d p50 %.0f us, p99 %.0f us, max %.0f us; %d requests unanswered, %d answers late" % (
                   what, svc.upper(), x["answers"], x["p50_us"], x["p99_us"], x["max_us"], x["unanswered"],
                   x["mismatched"]))
+    x = lat["echo"]
+    if x["requests"]:
+        print("FIGURE %s: same-run floor, cobridge-bus-echo answer latency: n=%d p50 %.0f us, p99 %.0f us, "
+              "max %.0f us" % (what, x["answers"], x["p50_us"], x["p99_us"], x["max_us"]))
     print("FIGURE %s: SDO writes %d (%.1f per device); frames read %d, dropped %d" % (
         what, lat["sdo"]["downloads"], lat["sdo"]["downloads"] / count, lat["frames"], lat["drops"]))
     report.check(lat["drops"] == 0, "%s: the latency observer read every frame" % what,
@@ -245,14 +273,16 @@ def figures(report, st, seen_steps, devs, took):
 
 def extra_args(p):
     p.add_argument("--latency", help="cobridge-sim-latency: measure and bound the simulator's answer latency")
+    p.add_argument("--echo", help="cobridge-bus-echo: the same run's floor beside the latency figures")
 
 
 def start_observer(report, args):
     if not args.latency:
         return None
-    if not os.access(args.latency, os.X_OK):
-        report.check(False, "cobridge-sim-latency at %s" % args.latency, "missing")
-        return None
+    for tool in (args.latency, args.echo):
+        if tool and not os.access(tool, os.X_OK):
+            report.check(False, "%s at %s" % (os.path.basename(tool), tool), "missing")
+            return None
     return LatencyObserver(args.latency)
 
 
@@ -280,14 +310,17 @@ def main():
         ",late_lss=%d,late_lss_ms=%d" % (LATE_EVERY, LATE_MS) if (n, s, node) in slow else "")
         for (n, s, node) in devs]
     truth = ws.path("truth.txt")
-    # SCHED_FIFO: real encoders answer in microseconds whatever the master does on its CPU.
-    sim = e2e.Simulator(args.sim, ws, {"vcan0": specs}, extra_args=("--truth", truth, "--rt-priority", "10"))
-    daemon = observer = None
+    sim = e2e.Simulator(args.sim, ws, {"vcan0": specs}, extra_args=("--truth", truth, "--rt-priority", SIM_RT_PRIORITY))
+    daemon = observer = echo = None
     try:
         config = config_for(ws, devs)
         seen_steps = {}
         observer = start_observer(report, args)
+        echo = EchoFloor(args.echo) if observer and args.echo else None
         daemon, st, took = run_daemon(args, ws, config, names, 60 + 4 * count, "daemon-1.log", seen_steps)
+        if echo:
+            echo.stop()
+            echo = None
         lat1 = observer.stop() if observer else None
         observer = None
         stats = sim.command("stats")
@@ -328,6 +361,8 @@ def main():
         e2e.check_clean_exit(report, daemon, "second start: SIGTERM -> exit 0 within 1 s")
         daemon = None
     finally:
+        if echo:
+            echo.stop()
         if observer:
             observer.proc.kill()
         e2e.shut_down(ws, daemon, sim)

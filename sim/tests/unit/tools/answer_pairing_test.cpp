@@ -62,6 +62,17 @@ TEST(AnswerPairing, SdoAnswerClosesItsNodesRequest_CiA301_7_2_4_3) {
   EXPECT_EQ(p.sdo().latency_ns, (std::vector<std::int64_t>{300, 900}));
 }
 
+TEST(AnswerPairing, EchoPingsArePairedWithTheirAnswers) {
+  AnswerPairing p;
+  frame(p, 0x7F0, 0, 0);
+  frame(p, 0x7F1, 0, 120);
+  frame(p, 0x7F0, 1, 10'000);
+  p.finish();
+  EXPECT_EQ(p.echo().requests, 2U);
+  EXPECT_EQ(p.echo().unanswered, 1U);
+  EXPECT_EQ(p.echo().latency_ns, (std::vector<std::int64_t>{120}));
+}
+
 TEST(AnswerPairing, NearestRankPercentiles) {
   std::vector<std::int64_t> v;
   for (std::int64_t i = 100; i >= 1; --i) v.push_back(i);
