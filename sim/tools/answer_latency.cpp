@@ -14,8 +14,8 @@
 //   cobridge-sim-latency [--iface vcan0]      prints "ready", then reads
 //
 // Output (one line each, at the end):
-//   lss requests=N answers=N unanswered=N mismatched=N downloads=0 p50_us=X p99_us=X max_us=X
-//   sdo requests=N answers=N unanswered=N mismatched=N downloads=N p50_us=X p99_us=X max_us=X
+//   lss requests=N answers=N unanswered=N mismatched=N downloads=0 repeats=N p50_us=X p99_us=X max_us=X
+//   sdo requests=N answers=N unanswered=N mismatched=N downloads=N repeats=0 p50_us=X p99_us=X max_us=X
 //   echo requests=N ... (cobridge-bus-echo's pings and answers: the same run's floor)
 // (downloads: SDO writes, CiA 301 initiate download requests)
 //   frames=N drops=N
@@ -108,11 +108,11 @@ bool drain(int fd, Reader& r) {
 
 void print(const char* name, const ServiceCounts& c) {
   const auto s = cobridge::sim::tools::summarize(c.latency_ns);
-  std::printf("%s requests=%llu answers=%llu unanswered=%llu mismatched=%llu downloads=%llu p50_us=%.1f p99_us=%.1f "
-              "max_us=%.1f\n",
+  std::printf("%s requests=%llu answers=%llu unanswered=%llu mismatched=%llu downloads=%llu repeats=%llu "
+              "p50_us=%.1f p99_us=%.1f max_us=%.1f\n",
               name, static_cast<unsigned long long>(c.requests), static_cast<unsigned long long>(c.answers),
               static_cast<unsigned long long>(c.unanswered), static_cast<unsigned long long>(c.mismatched),
-              static_cast<unsigned long long>(c.downloads),
+              static_cast<unsigned long long>(c.downloads), static_cast<unsigned long long>(c.repeats),
               static_cast<double>(s.p50_ns) / 1e3, static_cast<double>(s.p99_ns) / 1e3,
               static_cast<double>(s.max_ns) / 1e3);
 }

@@ -66,6 +66,7 @@ void AnswerPairing::on_lss_answer(std::uint8_t cs, std::int64_t t_ns) {
     ++lss_.mismatched;
     return;
   }
+  if (lss_pending_.answered) ++lss_.repeats;
   lss_pending_.answered = true;
   ++lss_.answers;
   lss_.latency_ns.push_back(t_ns - lss_pending_.t_ns);

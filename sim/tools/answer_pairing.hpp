@@ -45,6 +45,7 @@ struct ServiceCounts {
   std::uint64_t unanswered = 0;  // requests that got no answer before the next one (or the end)
   std::uint64_t mismatched = 0;  // answers that are not the latest request's (LSS: late)
   std::uint64_t downloads = 0;   // SDO: initiate download requests (CiA 301 ccs 1), the writes
+  std::uint64_t repeats = 0;     // LSS: answers to a request already answered (measured too)
   std::vector<std::int64_t> latency_ns;
 };
 

@@ -25,6 +25,7 @@ TEST(AnswerPairing, EveryFastscanAnswerIsMeasuredFromItsRequest_CiA305_8_3_5) {
   EXPECT_EQ(p.lss().requests, 3U);
   EXPECT_EQ(p.lss().answers, 2U);
   EXPECT_EQ(p.lss().unanswered, 2U);
+  EXPECT_EQ(p.lss().repeats, 1U);  // the second slave's frame
   EXPECT_EQ(p.lss().latency_ns, (std::vector<std::int64_t>{300, 500}));
 }
 
