@@ -27,6 +27,9 @@ constexpr const char* kDeviceHelp =
     "  segmented=on|off  segmented SDO upload for long strings (default on)\n"
     "  fastscan=on|off   answer LSS Fastscan (v3 only, and only while unconfigured; default on)\n"
     "  c6=on|off         ifm only: the \"C6\" variant whose TPDO2 is active (F§7.3; default off)\n"
+    "  lose_configure=N  the first N LSS configure node-ID requests get no answer (default 0)\n"
+    "  late_lss=N,late_lss_ms=T  every Nth LSS answer leaves T ms late (1..255, 1..60000; default\n"
+    "                  none): a slave slower than the master's LSS timeout\n"
     "  motion=SPEC     must be the last key (default constant:0); SPEC is one of\n"
     "                    constant:<turns/s>\n"
     "                    sine:<amplitude turns>:<period s>[:<offset turns>]\n"
@@ -64,6 +67,7 @@ CommandLineResult parse_command_line(int argc, const char* const* argv, ModelLoo
   std::vector<std::string> ifaces;
   std::vector<std::string> devices;
   std::string state_dir, truth, control, devices_dir;
+  int rt_priority = 0;
   auto* iface_opt = app.add_option("--iface", ifaces, "CAN interface (repeatable); the --device options after it are on it")
                         ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
                         ->type_size(1)
@@ -77,6 +81,11 @@ CommandLineResult parse_command_line(int argc, const char* const* argv, ModelLoo
                  "(nothing survives the process)");
   app.add_option("--truth", truth, "write the truth file (one line per frame a device sent) to FILE");
   app.add_option("--control", control, "also accept control commands on a Unix stream socket at PATH");
+  app.add_option("--rt-priority", rt_priority,
+                 "run under SCHED_FIFO at priority N (1..99; needs CAP_SYS_NICE): the devices answer within\n"
+                 "microseconds on a real bus, so beside the master on one CPU (UML) the simulator is not\n"
+                 "made to wait behind it (default: the normal scheduler)")
+      ->check(CLI::Range(1, 99));
   app.add_option("--devices-dir", devices_dir,
                  "EDS directory (default: " + installed_devices_dir.string() + ", else " +
                      source_devices_dir.string() + ")");
@@ -156,6 +165,7 @@ CommandLineResult parse_command_line(int argc, const char* const* argv, ModelLoo
   result.options.state_dir = state_dir;
   result.options.truth_file = truth;
   result.options.control_path = control;
+  result.options.rt_priority = rt_priority;
   if (!devices_dir.empty()) {
     if (!std::filesystem::is_directory(devices_dir))
       return error("--devices-dir '" + devices_dir + "': not a directory");

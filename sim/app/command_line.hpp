@@ -29,6 +29,7 @@ struct SimOptions {
   std::filesystem::path truth_file;   // empty: none
   std::filesystem::path control_path; // empty: stdin only
   std::filesystem::path devices_dir;  // resolved (installed dir or source tree)
+  int rt_priority = 0;                // SCHED_FIFO priority of the loop thread; 0: the normal scheduler
 };
 
 struct CommandLineResult {

@@ -136,6 +136,14 @@ DeviceArgumentResult parse_device_argument(std::string_view text, ModelLookup lo
       const auto v = parse_unsigned(value, 255);
       if (!v) return fail(text, "lose_configure must be 0..255, got " + quoted(value));
       arg.spec.lose_configure = static_cast<std::uint8_t>(*v);
+    } else if (key == "late_lss") {
+      const auto v = parse_unsigned(value, 255);
+      if (!v) return fail(text, "late_lss must be 0..255, got " + quoted(value));
+      arg.spec.late_lss = static_cast<std::uint8_t>(*v);
+    } else if (key == "late_lss_ms") {
+      const auto v = parse_unsigned(value, 60000);
+      if (!v) return fail(text, "late_lss_ms must be 0..60000, got " + quoted(value));
+      arg.spec.late_lss_ms = static_cast<std::uint16_t>(*v);
     } else if (key == "motion") {
       // Checked here so that a typo is an argument error (exit 2), not a
       // device that fails to power on after the buses opened.
@@ -145,10 +153,12 @@ DeviceArgumentResult parse_device_argument(std::string_view text, ModelLookup lo
     } else {
       return fail(text, "unknown key " + quoted(key) +
                             " (allowed: serial, node, channels, bitrate, lss, segmented, c6, fastscan, vendor, product, "
-                            "revision, assign, lose_configure, "
+                            "revision, assign, lose_configure, late_lss, late_lss_ms, "
                             "motion)");
     }
   }
+  if ((arg.spec.late_lss == 0) != (arg.spec.late_lss_ms == 0))
+    return fail(text, "late_lss and late_lss_ms go together (every Nth LSS answer, T ms late)");
   return DeviceArgumentResult{arg, {}};
 }
 

@@ -5,9 +5,12 @@
 #include "sys/install_paths.hpp"
 #include "sys/signals.hpp"
 
+#include <sched.h>
 #include <sys/prctl.h>
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 
 int main(int argc, char** argv) {
   using namespace cobridge;
@@ -28,6 +31,14 @@ int main(int argc, char** argv) {
   }
   // 1 ms event timers want wake-ups close to their deadline, not 50 us late.
   ::prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);
+  if (cl.options.rt_priority > 0) {
+    const sched_param p{cl.options.rt_priority};
+    if (::sched_setscheduler(0, SCHED_FIFO, &p) != 0) {
+      std::fprintf(stderr, "cobridge-sim: --rt-priority %d: %s (SCHED_FIFO needs CAP_SYS_NICE)\n",
+                   cl.options.rt_priority, std::strerror(errno));
+      return 1;
+    }
+  }
 
   sim::Simulator simulator(cl.options);
   if (const auto failure = simulator.start()) {

@@ -1,5 +1,7 @@
 #include "app/simulated_bus.hpp"
 
+#include "canopen/cob_id.hpp"
+
 #include <algorithm>
 
 namespace cobridge::sim {
@@ -50,13 +52,28 @@ void SimulatedBus::set_silent(std::size_t i, bool silent) {
   silent_[i] = silent ? 1 : 0;
 }
 
+bool SimulatedBus::merges_with_sent_answer(const can::Frame& frame) noexcept {
+  if (!in_instant_ || frame.id != canopen::cob::kLssSlaveToMaster || frame.is_extended()) return false;
+  if (lss_answered_ && frame.len == lss_answer_.len && frame.data == lss_answer_.data) {
+    ++stats_.lss_merged;
+    return true;
+  }
+  return false;
+}
+
 bool SimulatedBus::device_send(std::size_t index, const can::Frame& frame) noexcept {
+  // Sent: on the wire it is the frame already there, seen once by everybody.
+  if (merges_with_sent_answer(frame)) return true;
   // Identifier 0 back to back wins every arbitration: nobody else gets on.
   if (traffic_.flooding(now_) || !channel_.send(frame)) {
     ++stats_.device_refused;
     return false;
   }
   ++stats_.device_frames;
+  if (in_instant_ && frame.id == canopen::cob::kLssSlaveToMaster && !lss_answered_) {
+    lss_answer_ = frame;
+    lss_answered_ = true;
+  }
   queue_local(frame, static_cast<std::uint32_t>(index));
   return true;
 }
@@ -93,7 +110,11 @@ void SimulatedBus::receive(canopen::TimePoint now) noexcept {
   for (int batch = 0; batch < 8; ++batch) {
     const std::size_t n = channel_.receive(rx_);
     for (std::size_t k = 0; k < n; ++k) {
+      // One request, one instant: the answers it causes go out together.
+      in_instant_ = true;
+      lss_answered_ = false;
       for (auto& d : devices_) d->on_frame(rx_[k], now);
+      in_instant_ = false;
       deliver_local(now);
     }
     stats_.received += n;

@@ -6,6 +6,10 @@
 // through a fixed ring (never re-entrantly: a device's on_frame never runs
 // inside another device's send). The bus also carries the bus-level faults:
 // while it floods, the devices lose arbitration and their frames are refused.
+// Slaves that answer one LSS request with the same frame (CiA 305: every
+// slave a Fastscan step or an identify request matches answers it) send it at
+// the same instant, and identical frames put on the wire together are one
+// frame there: the bus sends the first and counts the others as merged.
 // Thread: the simulator's loop thread. receive/process/the device sinks are
 // the per-frame path: no allocation, no logging.
 #pragma once
@@ -30,6 +34,7 @@ struct BusStats {
   std::uint64_t local_overflow = 0;     // sibling deliveries lost because the ring was full
   std::uint64_t received = 0;           // frames received from the interface
   std::uint64_t injected = 0;           // flood / babble / error frames sent
+  std::uint64_t lss_merged = 0;         // LSS answers identical to one already sent for the same request
 };
 
 class SimulatedBus {
@@ -80,6 +85,7 @@ class SimulatedBus {
   static constexpr std::uint32_t kNoDevice = UINT32_MAX;
 
   bool device_send(std::size_t index, const can::Frame& frame) noexcept;
+  [[nodiscard]] bool merges_with_sent_answer(const can::Frame& frame) noexcept;
   void queue_local(const can::Frame& frame, std::uint32_t source) noexcept;
 
   std::string iface_;
@@ -91,6 +97,11 @@ class SimulatedBus {
   std::size_t head_ = 0;  // next to deliver
   std::size_t tail_ = 0;  // next free
   bool delivering_ = false;
+  // While a received frame is handed to the devices (one instant on the
+  // wire): the LSS answer sent for it, if any.
+  bool in_instant_ = false;
+  bool lss_answered_ = false;
+  can::Frame lss_answer_{};
   canopen::TimePoint now_{};
   TrafficGenerator traffic_;
   std::array<can::Frame, can::SocketCanChannel::kBatch> rx_{};

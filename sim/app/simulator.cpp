@@ -145,11 +145,14 @@ std::string Simulator::stats() const {
                   " truth_lines=" + std::to_string(truth_.lines());
   for (const auto& bus : buses_) {
     const BusStats& b = bus->stats();
+    std::uint64_t late = 0;
+    for (std::size_t i = 0; i < bus->size(); ++i) late += bus->device(i).late_lss_answers();
     const can::ChannelStats c = bus->channel().stats();
     s += " " + bus->iface() + ":sent=" + std::to_string(b.device_frames) + ",refused=" +
          std::to_string(b.device_refused) + ",received=" + std::to_string(b.received) + ",local=" +
          std::to_string(b.local_deliveries) + ",local_overflow=" + std::to_string(b.local_overflow) +
-         ",injected=" + std::to_string(b.injected) + ",rx_overflow=" + std::to_string(c.rx_overflow_drops);
+         ",injected=" + std::to_string(b.injected) + ",lss_merged=" + std::to_string(b.lss_merged) +
+         ",lss_late=" + std::to_string(late) + ",rx_overflow=" + std::to_string(c.rx_overflow_drops);
   }
   return s;
 }

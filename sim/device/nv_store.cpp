@@ -132,12 +132,13 @@ std::error_code NvStore::save(const NvContents& contents, std::string& message) 
     }
     done += static_cast<std::size_t>(n);
   }
-  // The rename is only atomic against crashes if the data reached the disk.
-  const int sync_result = ::fsync(fd);
-  const int sync_errno = errno;
-  if (::close(fd) != 0 || sync_result != 0) {
-    message = fmt::format("{}: flush failed", tmp.string());
-    return {sync_result != 0 ? sync_errno : errno, std::generic_category()};
+  // No fsync: the memory outlives the simulator process (a killed simulator
+  // leaves the old or the new file, the rename is atomic), not a crash of the
+  // host. A flush to disk would stop every device of the simulator's one
+  // loop for the disk's time (milliseconds on a loaded host) at each store.
+  if (::close(fd) != 0) {
+    message = fmt::format("{}: close failed", tmp.string());
+    return {errno, std::generic_category()};
   }
   if (::rename(tmp.c_str(), path_.c_str()) != 0) {
     message = fmt::format("{}: rename failed", path_.string());

@@ -7,9 +7,10 @@
 // ifm 0x2300 wrote (erased by 'kill'), and `history`, the condition-
 // monitoring recorder that only 0x2300 sub-commands clear (E§5.8). Each line
 // is `index:sub=hex` (numeric values as their little-endian bit pattern)
-// under a `[params]` or `[history]` header. Saving writes a temporary file,
-// flushes it and renames it over the old one, so a crash leaves either the
-// old or the new image, never half of one.
+// under a `[params]` or `[history]` header. Saving writes a temporary file
+// and renames it over the old one, so a simulator killed at any point leaves
+// either the old or the new image, never half of one (the host's own crash
+// is not simulated: no fsync, which would hold every device's answers).
 // Thread: the device's thread; file I/O, called off the per-frame path
 // (store commands, power on).
 #pragma once

@@ -129,6 +129,7 @@ SimDevice::Impl::Impl(DeviceSpec spec_in, const device::DeviceDescription& descr
                                 : state_dir / fmt::format("{}-{}.nv", family_name(family), spec.serial)),
       nv(nv_file) {
   tx.device = this;
+  late_lss = LateAnswers(spec.late_lss, std::chrono::milliseconds(spec.late_lss_ms));
   factory_node = spec.node_id == 0 ? model.factory_node_id : spec.node_id;
   factory_kbit = spec.bitrate_kbit != 0 ? spec.bitrate_kbit : model.factory_bitrate_kbit;
   if (const device::ObjectDesc* ch = desc.find(0x6020, 0); ch != nullptr && family == FamilyId::novotechnik_rotary)
@@ -144,8 +145,9 @@ bool SimDevice::Impl::emcy_thunk(void* context, const can::Frame& frame) noexcep
 }
 
 bool SimDevice::Impl::Tx::send(const can::Frame& frame) noexcept {
-  const auto kind = frame.id == canopen::cob::kLssSlaveToMaster ? TruthRecord::Kind::lss : TruthRecord::Kind::sdo;
-  return device->send(frame, kind);
+  const bool lss_answer = frame.id == canopen::cob::kLssSlaveToMaster;
+  if (lss_answer && device->powered && device->late_lss.hold(frame, device->now_cache)) return true;
+  return device->send(frame, lss_answer ? TruthRecord::Kind::lss : TruthRecord::Kind::sdo);
 }
 
 // ---------------------------------------------------------------------------
@@ -684,6 +686,7 @@ std::error_code SimDevice::Impl::power_on(TimePoint now) {
 
 void SimDevice::Impl::power_off() noexcept {
   powered = false;
+  late_lss.clear();
   lss.reset();
   sdo.reset();
   emcy.attach(nullptr, nullptr, nullptr);
@@ -1018,6 +1021,7 @@ TimePoint SimDevice::Impl::process(TimePoint now) {
     next = std::min(next, tpdo[i].next_deadline());
   }
   if (sdo) next = std::min(next, sdo->process(now));
+  next = std::min(next, late_lss.release(now, [this](const can::Frame& f) { (void)send(f, TruthRecord::Kind::lss); }));
   return next;
 }
 
@@ -1141,6 +1145,7 @@ void SimDevice::inject(FaultKind fault, TimePoint now) { impl_->inject(fault, no
 void SimDevice::set_truth_sink(TruthSink sink) { impl_->truth = std::move(sink); }
 const DeviceSpec& SimDevice::spec() const noexcept { return impl_->spec; }
 std::uint8_t SimDevice::node_id() const noexcept { return impl_->active_node; }
+std::uint64_t SimDevice::late_lss_answers() const noexcept { return impl_->late_lss.released(); }
 canopen::NmtState SimDevice::nmt_state() const noexcept { return impl_->nmt.state(); }
 canopen::LssAddress SimDevice::identity() const noexcept { return impl_->identity_of(); }
 std::uint16_t SimDevice::bitrate_kbit() const noexcept { return impl_->active_kbit; }

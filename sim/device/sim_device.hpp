@@ -95,6 +95,8 @@ struct DeviceSpec {
   // How it takes an LSS configure node-ID: accept, refuse (error 1) or ignore.
   canopen::LssSlaveFeatures::NodeIdAssignment assign = canopen::LssSlaveFeatures::NodeIdAssignment::accept;
   std::uint8_t lose_configure = 0;  // the first N LSS configure node-ID requests unanswered
+  std::uint8_t late_lss = 0;        // every Nth LSS answer leaves late_lss_ms late (0: none)
+  std::uint16_t late_lss_ms = 0;
 };
 
 // Faults injected at run time (control socket / stdin / command line).
@@ -161,6 +163,7 @@ class SimDevice {
 
   [[nodiscard]] const DeviceSpec& spec() const noexcept;
   [[nodiscard]] std::uint8_t node_id() const noexcept;     // active node-ID (0xFF = unconfigured)
+  [[nodiscard]] std::uint64_t late_lss_answers() const noexcept;  // sent late (late_lss) so far
   [[nodiscard]] canopen::NmtState nmt_state() const noexcept;
   [[nodiscard]] canopen::LssAddress identity() const noexcept;
 

@@ -23,6 +23,7 @@
 #include "canopen/sdo_server.hpp"
 #include "device/emcy_producer.hpp"
 #include "device/encoder_front_end.hpp"
+#include "device/late_answers.hpp"
 #include "device/nv_store.hpp"
 #include "device/sim_device.hpp"
 #include "device/tpdo.hpp"
@@ -92,6 +93,7 @@ struct SimDevice::Impl {
   TimePoint next_heartbeat = canopen::kNever;
   TimePoint next_measure = canopen::kNever;
   TimePoint now_cache{};
+  LateAnswers late_lss;                // spec.late_lss: LSS answers held back
   bool reset_node_requested = false;   // ifm 0x2300: after the SDO confirmation
   bool ifm_defaults_pending = false;   // ifm 'load' (F§6.3.5)
   bool first_measure = true;

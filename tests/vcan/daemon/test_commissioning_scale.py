@@ -20,7 +20,28 @@ tries; then a second start with every device remembered.
 request (cobridge-sim `lose_configure=1`, issue 26's fault): each still ends
 operational, its status counts the failed try (commission_failures >= 1) and
 the log names it ("commissioning failed (try 1)").
+--late-lss: every 4th device from the third on sends every 16th LSS answer
+40 ms late (cobridge-sim `late_lss`, `late_lss_ms`; CiA 305 sets no answer
+time, the master's timeout is its own): beside the lost configure node-IDs,
+every device still ends operational, its identity exact, commissioned once,
+and the simulator did send late answers (its `stats`: lss_late).
+--latency PATH: cobridge-sim-latency (sim/tools) reads vcan0 beside the
+daemon and the simulator with kernel receive times and pairs every LSS
+answer (0x7E4, CiA 305 §8.3) and SDO answer (0x580+n, CiA 301 §7.2.4.3)
+with its request: the simulator's answers leave within 1 ms of the request
+at p99 (a slow simulator must not hide or cause a master defect), and it
+missed no frame. It also counts the SDO writes (initiate download requests)
+of each start.
+--echo PATH: cobridge-bus-echo answers pings (0x7F0 -> 0x7F1) beside the
+simulator at the same priority while a pinger sends one every 5 ms: the
+latency of the smallest responder in the same run, the floor the simulator's
+figures are judged against (printed, not bounded).
+Always: the simulator writes its truth file, and each device's node-ID in
+status is the one the simulator's own frames carry at the end.
 """
+import os
+import signal
+import subprocess
 import sys
 import time
 
@@ -31,6 +52,109 @@ PRODUCT = 0x0BB8      # MC1-2800 (E§4.1), what cobridge-sim reports
 REVISION = 0x00010003
 FIRST_SERIAL = 9001
 FIRST_NODE = 20
+
+
+LATENCY_P99_BOUND_US = 1000.0
+SIM_RT_PRIORITY = "10"  # SCHED_FIFO: real encoders answer in microseconds whatever the master does
+LATE_EVERY = 16     # every 16th LSS answer of a late device ...
+LATE_MS = 40        # ... leaves 40 ms late
+
+
+class LatencyObserver:
+    """cobridge-sim-latency on vcan0, from before a start until it is done."""
+
+    def __init__(self, path, iface="vcan0"):
+        self.proc = subprocess.Popen([path, "--iface", iface], stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                                     stderr=subprocess.PIPE, text=True)
+        line = self.proc.stdout.readline()
+        if line.strip() != "ready":
+            raise RuntimeError("cobridge-sim-latency did not start: %r %s" % (line, self.proc.stderr.read()))
+
+    def stop(self):
+        """Its summary: {"lss": {...}, "sdo": {...}, "frames": N, "drops": N}."""
+        self.proc.send_signal(signal.SIGTERM)
+        out, err = self.proc.communicate(timeout=30)
+        result = {}
+        for line in out.splitlines():
+            words = line.split()
+            if words and words[0] in ("lss", "sdo", "echo"):
+                result[words[0]] = {k: float(v) for k, v in (w.split("=") for w in words[1:])}
+            elif words:
+                result.update({k: int(v) for k, v in (w.split("=") for w in words)})
+        if "lss" not in result or "drops" not in result:
+            raise RuntimeError("cobridge-sim-latency: no summary: %r %r" % (out, err))
+        return result
+
+
+class EchoFloor:
+    """cobridge-bus-echo: an answerer at the simulator's priority and a pinger."""
+
+    def __init__(self, path):
+        self.procs = []
+        for args in (["--answer", "--rt-priority", SIM_RT_PRIORITY], ["--ping", "5"]):
+            p = subprocess.Popen([path] + args, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, text=True)
+            self.procs.append(p)
+            if p.stdout.readline().strip() != "ready":
+                self.stop()
+                raise RuntimeError("cobridge-bus-echo %s did not start" % " ".join(args))
+
+    def stop(self):
+        for p in reversed(self.procs):
+            p.send_signal(signal.SIGTERM)
+            p.wait(10)
+        self.procs = []
+
+
+def latency_figures(report, lat, what, count):
+    for svc in ("lss", "sdo"):
+        x = lat[svc]
+        print("FIGURE %s: simulator %s answer latency (request -> answer on vcan0, kernel timestamps): "
+              "n=%d p50 %.0f us, p99 %.0f us, max %.0f us; %d requests unanswered, %d answers late" % (
+                  what, svc.upper(), x["answers"], x["p50_us"], x["p99_us"], x["max_us"], x["unanswered"],
+                  x["mismatched"]))
+    x = lat["echo"]
+    if x["requests"]:
+        print("FIGURE %s: same-run floor, cobridge-bus-echo answer latency: n=%d p50 %.0f us, p99 %.0f us, "
+              "max %.0f us" % (what, x["answers"], x["p50_us"], x["p99_us"], x["max_us"]))
+    print("FIGURE %s: SDO writes %d (%.1f per device); frames read %d, dropped %d" % (
+        what, lat["sdo"]["downloads"], lat["sdo"]["downloads"] / count, lat["frames"], lat["drops"]))
+    report.check(lat["drops"] == 0, "%s: the latency observer read every frame" % what,
+                 "%d dropped by the kernel" % lat["drops"])
+
+
+def check_latency(report, lat):
+    """The simulator's LSS and SDO answers leave within 1 ms of their request at p99."""
+    x = lat["lss"]
+    report.check(x["repeats"] == 0, "one LSS answer frame per request on the wire (CiA 305 §8.3.4: the slaves "
+                 "a Fastscan step matches send the same frame at once, one frame on a bus)",
+                 "%d answers to %d requests, %d of them a second answer" % (x["answers"], x["requests"],
+                                                                             x["repeats"]))
+    for svc in ("lss", "sdo"):
+        x = lat[svc]
+        report.check(x["answers"] > 0 and x["p99_us"] <= LATENCY_P99_BOUND_US,
+                     "simulator %s answers within %.0f us of the request at p99 (CiA %s)"
+                     % (svc.upper(), LATENCY_P99_BOUND_US, "305 §8.3" if svc == "lss" else "301 §7.2.4.3"),
+                     "n=%d p99 %.0f us" % (x["answers"], x["p99_us"]))
+
+
+def truth_nodes(path):
+    """serial -> the node-ID of that device's last frame in the truth file."""
+    last = {}
+    with open(path) as f:
+        for line in f:
+            w = line.split()
+            if len(w) >= 5:
+                last[int(w[2])] = int(w[3])
+    return last
+
+
+def check_truth(report, st, devs, truth_path):
+    by_name = {d["name"]: d for b in st["buses"] for d in b["devices"]}
+    nodes = truth_nodes(truth_path)
+    wrong = ["%s: status %s, truth %s" % (n, by_name.get(n, {}).get("node_id"), nodes.get(s))
+             for (n, s, node) in devs if nodes.get(s) != node or by_name.get(n, {}).get("node_id") != node]
+    report.check(not wrong, "every device's node-ID in status is the one its own frames carry (truth file)",
+                 "; ".join(wrong[:5]))
 
 
 def devices(count):
@@ -152,6 +276,21 @@ def figures(report, st, seen_steps, devs, took):
     print("FIGURE Fastscans begun again after late answers: %d" % restarts)
 
 
+def extra_args(p):
+    p.add_argument("--latency", help="cobridge-sim-latency: measure and bound the simulator's answer latency")
+    p.add_argument("--echo", help="cobridge-bus-echo: the same run's floor beside the latency figures")
+
+
+def start_observer(report, args):
+    if not args.latency:
+        return None
+    for tool in (args.latency, args.echo):
+        if tool and not os.access(tool, os.X_OK):
+            report.check(False, "%s at %s" % (os.path.basename(tool), tool), "missing")
+            return None
+    return LatencyObserver(args.latency)
+
+
 def main():
     count = 8
     if "--count" in sys.argv:
@@ -161,39 +300,76 @@ def main():
     lose = "--lose-configure" in sys.argv
     if lose:
         sys.argv.remove("--lose-configure")
-    args = e2e.parse_args()
+    late = "--late-lss" in sys.argv
+    if late:
+        sys.argv.remove("--late-lss")
+    args = e2e.parse_args(extra_args)
     report = e2e.Report("test_commissioning_scale_%d" % count)
     ws = e2e.Workspace("commissioning-scale", args.keep)
     devs = devices(count)
     names = [d[0] for d in devs]
     lossy = [d for (i, d) in enumerate(devs) if lose and i % 4 == 0]
-    specs = ["MC1-2800:serial=%d,node=unconfigured%s" % (s, ",lose_configure=1" if (n, s, node) in lossy else "")
-             for (n, s, node) in devs]
-    sim = e2e.Simulator(args.sim, ws, {"vcan0": specs})
-    daemon = None
+    slow = [d for (i, d) in enumerate(devs) if late and i % 4 == 2]
+    specs = ["MC1-2800:serial=%d,node=unconfigured%s%s" % (
+        s, ",lose_configure=1" if (n, s, node) in lossy else "",
+        ",late_lss=%d,late_lss_ms=%d" % (LATE_EVERY, LATE_MS) if (n, s, node) in slow else "")
+        for (n, s, node) in devs]
+    truth = ws.path("truth.txt")
+    sim = e2e.Simulator(args.sim, ws, {"vcan0": specs}, extra_args=("--truth", truth, "--rt-priority", SIM_RT_PRIORITY))
+    daemon = observer = echo = None
     try:
         config = config_for(ws, devs)
         seen_steps = {}
+        observer = start_observer(report, args)
+        echo = EchoFloor(args.echo) if observer and args.echo else None
         daemon, st, took = run_daemon(args, ws, config, names, 60 + 4 * count, "daemon-1.log", seen_steps)
+        if echo:
+            echo.stop()
+            echo = None
+        lat1 = observer.stop() if observer else None
+        observer = None
+        stats = sim.command("stats")
+        print("FIGURE simulator loop (its own view of how late it woke): " + stats)
+        wakes, late_wakes = (int(stats.split(k + "=")[1].split()[0]) for k in ("timed_wakes", "late_over_1ms"))
+        print("FIGURE UML floor, same run: %.1f %% of the simulator's timed wake-ups more than 1 ms late (at "
+              "SCHED_FIFO inside UML: the host or UML's own kernel kept it from running)"
+              % (100.0 * late_wakes / max(wakes, 1)))
+        if slow:
+            sent_late = int(stats.split("lss_late=")[1].split(",")[0])
+            report.check(sent_late > 0, "%d devices sent LSS answers %d ms late (cobridge-sim late_lss)"
+                         % (len(slow), LATE_MS), "%d late answers" % sent_late)
         report.check(took is not None, "%d factory-fresh devices operational" % count,
                      "%.2f s after start" % took if took else "never")
         if st is not None:
             check_identities(report, st, devs)
+            check_truth(report, st, devs, truth)
             check_once(report, daemon, devs)
             if lossy:
                 check_retried(report, st, daemon, lossy)
             if took is not None:
                 figures(report, st, seen_steps, devs, took)
+        if lat1:
+            latency_figures(report, lat1, "first start", count)
+            check_latency(report, lat1)
         if report.failed:
             print(daemon.tail(80))
         e2e.check_clean_exit(report, daemon, "first start: SIGTERM -> exit 0 within 1 s")
         daemon = None
+        observer = start_observer(report, args)
         daemon, st, took = run_daemon(args, ws, config, names, 30, "daemon-2.log")
+        lat2 = observer.stop() if observer else None
+        observer = None
         report.check(took is not None, "second start: all %d operational" % count,
                      "FIGURE second start -> all operational %.2f s" % took if took else "never")
+        if lat2:
+            latency_figures(report, lat2, "second start", count)
         e2e.check_clean_exit(report, daemon, "second start: SIGTERM -> exit 0 within 1 s")
         daemon = None
     finally:
+        if echo:
+            echo.stop()
+        if observer:
+            observer.proc.kill()
         e2e.shut_down(ws, daemon, sim)
     return report.finish()
 

@@ -66,6 +66,14 @@ TEST(DeviceArgument, ForeignIdentityAndAssignment) {
   // Issue 26's fault: the first N configure node-ID requests are lost.
   EXPECT_EQ(ok("MC1-2800:node=unconfigured,lose_configure=2").lose_configure, 2);
   EXPECT_NE(error("MC1-2800:lose_configure=300").find("lose_configure must be 0..255"), std::string::npos);
+  // Late LSS answers: every Nth, T ms late; the two keys go together.
+  const DeviceSpec late = ok("MC1-2800:node=unconfigured,late_lss=3,late_lss_ms=150");
+  EXPECT_EQ(late.late_lss, 3);
+  EXPECT_EQ(late.late_lss_ms, 150);
+  EXPECT_NE(error("MC1-2800:late_lss=3").find("late_lss and late_lss_ms go together"), std::string::npos);
+  EXPECT_NE(error("MC1-2800:late_lss_ms=5").find("late_lss and late_lss_ms go together"), std::string::npos);
+  EXPECT_NE(error("MC1-2800:late_lss=256,late_lss_ms=5").find("late_lss must be 0..255"), std::string::npos);
+  EXPECT_NE(error("MC1-2800:late_lss=1,late_lss_ms=60001").find("late_lss_ms must be 0..60000"), std::string::npos);
   EXPECT_NE(error("MC1-2800:vendor=x").find("vendor must be a 32-bit number"), std::string::npos);
 }
 

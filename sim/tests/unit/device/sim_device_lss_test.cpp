@@ -130,5 +130,31 @@ TEST(SimDeviceLss, BitTimingStored_E6_2) {
   std::filesystem::remove_all(dir);
 }
 
+// cobridge-sim `late_lss=2,late_lss_ms=150`: every 2nd LSS answer leaves
+// 150 ms after its request, unchanged (CiA 305 §8.3 sets no answer time; a
+// master's timeout does); the others at once.
+TEST(SimDeviceLss, EverySecondAnswerLeavesLate_CiA305_8_3) {
+  DeviceSpec spec;
+  spec.late_lss = 2;
+  spec.late_lss_ms = 150;
+  Bench b("MC1-2800", "novotechnik-multiturn.eds", spec, temp_state_dir("lss-late"));
+  b.power_on();
+  const std::size_t from = b.rec.frames.size();
+  b.deliver(lss({0x04, 0x01}));
+  b.deliver(lss({0x5E}));  // inquire node-ID: 1st answer, at once
+  ASSERT_EQ(b.frames_with_id(0x7E4, from).size(), 1u);
+  b.deliver(lss({0x11, 0x30}));  // configure node-ID: 2nd answer, held
+  EXPECT_EQ(b.frames_with_id(0x7E4, from).size(), 1u);
+  b.run_for(149ms);
+  EXPECT_EQ(b.frames_with_id(0x7E4, from).size(), 1u);
+  b.run_for(1ms);
+  const auto answers = b.frames_with_id(0x7E4, from);
+  ASSERT_EQ(answers.size(), 2u);
+  EXPECT_EQ(answers[1], Frame::make8(0x7E4, {0x11, 0, 0, 0, 0, 0, 0, 0}));
+  b.deliver(lss({0x17}));  // store: 3rd answer, at once
+  EXPECT_EQ(b.frames_with_id(0x7E4, from).size(), 3u);
+  std::filesystem::remove_all(temp_state_dir("lss-late"));
+}
+
 }  // namespace
 }  // namespace cobridge::sim::test
