@@ -22,7 +22,7 @@ bool FastscanPlan::add(const FastscanTarget& t) noexcept {
 std::optional<uint32_t> FastscanPlan::next_candidate(const LssAddress& settled, uint8_t field,
                                                      Tried& tried) const noexcept {
   // The value most untried consistent targets share; ties go to the earlier
-  // target (the caller lists what it expects most first). n <= 32: the
+  // target (the caller lists what it expects most first). n <= 64: the
   // quadratic count costs nothing next to one CAN exchange.
   std::optional<uint32_t> best;
   std::size_t best_count = 0;

@@ -50,9 +50,11 @@ struct FastscanTarget {
 
 class FastscanPlan {
  public:
-  static constexpr std::size_t kMaxTargets = 32;
+  // 32 configured devices, each with its serial and a guessed revision
+  // beside the unknown one (FastscanKnowledge).
+  static constexpr std::size_t kMaxTargets = 64;
   // Which targets' values were tried for the field being settled (bit i = target i).
-  using Tried = uint32_t;
+  using Tried = uint64_t;
 
   // Adds a target. A full plan sets search_unknown instead (still finds every
   // slave, only slower) and returns false. Duplicates are kept once.

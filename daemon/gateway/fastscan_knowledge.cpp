@@ -38,12 +38,17 @@ void add_device(FastscanPlan& plan, const config::Device& d, bool with_serial, c
   else if (m) products.assign(m->products.begin(), m->products.end());
   if (products.empty()) products.emplace_back(std::nullopt);
   for (const U32& p : products) {
-    // A new device of a model (serial unknown) most likely has the revision
-    // of the ones seen before: guessed first, searched when it is not.
-    if (!with_serial)
+    // A device whose revision is not known most likely has the revision of
+    // the devices of its model seen before: guessed first, searched when no
+    // guess is answered (the target with the revision unknown stays).
+    if (!revision) {
       for (const auto& a : remembered)
         if (a.revision != 0 && vendor == a.vendor && p == a.product)
-          (void)plan.add(FastscanTarget::of(vendor, p, a.revision, std::nullopt));
+          (void)plan.add(FastscanTarget::of(vendor, p, a.revision, serial));
+      for (const auto& f : k.found)
+        if (vendor == f.vendor && p == f.product)
+          (void)plan.add(FastscanTarget::of(vendor, p, f.revision, serial));
+    }
     (void)plan.add(FastscanTarget::of(vendor, p, revision, serial));
   }
 }

@@ -6,7 +6,10 @@
 //  * configured devices not present at a node-ID: vendor (configured, else
 //    the model's, else its EDS file's), product (configured, else each
 //    product code of the model),
-//    serial (configured), revision when the remembered table has one;
+//    serial (configured), revision when the remembered table has one for
+//    that serial, else guessed from the revisions of the same vendor and
+//    product found in this round or remembered (devices of one delivery
+//    share their firmware), and searched when no guess is answered;
 //  * configured models a new device may be (a same-model replacement, or a
 //    device the `assign` policy places): vendor and product, the revisions
 //    remembered for that product guessed, serial searched;
@@ -32,6 +35,7 @@ struct FastscanKnowledge {
   std::vector<const config::Device*> absent;    // configured devices not at a node-ID
   std::vector<const config::Device*> models;    // configured devices whose model a new device may be
   std::span<const Assignment> remembered;       // revisions (and products) seen before
+  std::span<const canopen::LssAddress> found;   // identities found in this round so far
   // serial -> the VendorNumber of the device's EDS file (no vendor configured, no model)
   std::span<const std::pair<std::uint32_t, std::uint32_t>> eds_vendors;
   bool general = false;                         // also search what no target names

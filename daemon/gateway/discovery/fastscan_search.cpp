@@ -43,6 +43,7 @@ canopen::FastscanPlan FastscanSearch::plan(bool general, const BusSettings& s, c
     if (general) k.models.push_back(&c);
   }
   k.remembered = s.previous;
+  k.found = found;
   k.eds_vendors = s.eds_vendors;
   k.general = general;
   return make_fastscan_plan(k);

@@ -86,6 +86,45 @@ TEST(FastscanKnowledge, ModelGuessesTheRememberedRevision) {
   EXPECT_EQ(p.target(2).field, (FastscanTarget::of(0x182, 0x0BB9, std::nullopt, std::nullopt).field));
 }
 
+// Factory-fresh devices of one delivery share a revision: once a Fastscan of
+// this round has found one (or the table remembers one of the same vendor
+// and product), a configured device whose revision is unknown is tried with
+// that revision first (one CiA 305 confirm instead of 32 bit steps); the
+// target with the revision unknown stays, so another revision is searched.
+TEST(FastscanKnowledge, AbsentDeviceGuessesTheRevisionFoundInThisRound_CiA305_8_3_4) {
+  const config::Device mt = device("MC1-2800", 2002);
+  const std::vector<LssAddress> found{{0x182, 0x0BB8, 0x10003, 2001}};
+  FastscanKnowledge k;
+  k.absent = {&mt};
+  k.found = found;
+  const auto p = make_fastscan_plan(k);
+  ASSERT_EQ(p.size(), 3u);
+  EXPECT_EQ(p.target(0).field, (FastscanTarget::of(0x182, 0x0BB8, 0x10003, 2002).field));
+  EXPECT_EQ(p.target(1).field, (FastscanTarget::of(0x182, 0x0BB8, std::nullopt, 2002).field));
+  EXPECT_EQ(p.target(2).field, (FastscanTarget::of(0x182, 0x0BB9, std::nullopt, 2002).field));
+  // The revision field: the guess first, and a bit search still allowed.
+  canopen::FastscanPlan::Tried tried = 0;
+  LssAddress settled{0x182, 0x0BB8, 0, 0};
+  EXPECT_EQ(p.next_candidate(settled, 2, tried), U32(0x10003));
+  EXPECT_TRUE(p.may_search(settled, 2));
+}
+
+// 32 configured devices with a guessed revision each fit one plan (64 targets).
+TEST(FastscanKnowledge, ThirtyTwoDevicesWithGuessesFitOnePlan) {
+  std::vector<config::Device> devices;
+  for (std::uint32_t s = 9000; s < 9032; ++s) {
+    devices.push_back(device("MC1-2800", s));
+    devices.back().product = 0x0BB8;
+  }
+  const std::vector<LssAddress> found{{0x182, 0x0BB8, 0x10000, 8999}};
+  FastscanKnowledge k;
+  for (const auto& d : devices) k.absent.push_back(&d);
+  k.found = found;
+  const auto p = make_fastscan_plan(k);
+  EXPECT_EQ(p.size(), 64u);
+  EXPECT_FALSE(p.search_unknown);
+}
+
 // A device described by an EDS file (no vendor, no model configured): the
 // file's VendorNumber is confirmed whole; the product is searched.
 TEST(FastscanKnowledge, VendorFromTheDevicesEdsFile_CiA306_DeviceInfo) {

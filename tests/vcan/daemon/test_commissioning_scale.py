@@ -29,13 +29,16 @@ and the simulator did send late answers (its `stats`: lss_late).
 daemon and the simulator with kernel receive times and pairs every LSS
 answer (0x7E4, CiA 305 §8.3) and SDO answer (0x580+n, CiA 301 §7.2.4.3)
 with its request: the simulator's answers leave within 1 ms of the request
-at p99 (a slow simulator must not hide or cause a master defect), and it
-missed no frame. It also counts the SDO writes (initiate download requests)
+at p99, or, where the host keeps UML itself from that, no later than twice
+the same run's floor (--echo): a slow simulator must not hide or cause a
+master defect. The absolute 1 ms is the bench's verdict (scripts/bench
+--only commissioning), on a host left to the bench. The observer missed no
+frame. It also counts the SDO writes (initiate download requests)
 of each start.
 --echo PATH: cobridge-bus-echo answers pings (0x7F0 -> 0x7F1) beside the
 simulator at the same priority while a pinger sends one every 5 ms: the
 latency of the smallest responder in the same run, the floor the simulator's
-figures are judged against (printed, not bounded).
+figures are judged against.
 Always: the simulator writes its truth file, and each device's node-ID in
 status is the one the simulator's own frames carry at the end.
 """
@@ -55,6 +58,7 @@ FIRST_NODE = 20
 
 
 LATENCY_P99_BOUND_US = 1000.0
+FLOOR_RATIO_BOUND = 2.0  # simulator p99 / the same run's echo floor p99
 SIM_RT_PRIORITY = "10"  # SCHED_FIFO: real encoders answer in microseconds whatever the master does
 LATE_EVERY = 16     # every 16th LSS answer of a late device ...
 LATE_MS = 40        # ... leaves 40 ms late
@@ -129,12 +133,17 @@ def check_latency(report, lat):
                  "a Fastscan step matches send the same frame at once, one frame on a bus)",
                  "%d answers to %d requests, %d of them a second answer" % (x["answers"], x["requests"],
                                                                              x["repeats"]))
+    floor = lat["echo"]["p99_us"] if lat["echo"]["requests"] else None
     for svc in ("lss", "sdo"):
         x = lat[svc]
-        report.check(x["answers"] > 0 and x["p99_us"] <= LATENCY_P99_BOUND_US,
-                     "simulator %s answers within %.0f us of the request at p99 (CiA %s)"
-                     % (svc.upper(), LATENCY_P99_BOUND_US, "305 §8.3" if svc == "lss" else "301 §7.2.4.3"),
-                     "n=%d p99 %.0f us" % (x["answers"], x["p99_us"]))
+        within = x["p99_us"] <= LATENCY_P99_BOUND_US
+        near_floor = floor is not None and x["p99_us"] <= FLOOR_RATIO_BOUND * floor
+        report.check(x["answers"] > 0 and (within or near_floor),
+                     "simulator %s answers within %.0f us of the request at p99, or within %.0fx the same run's "
+                     "floor (CiA %s)" % (svc.upper(), LATENCY_P99_BOUND_US, FLOOR_RATIO_BOUND,
+                                         "305 §8.3" if svc == "lss" else "301 §7.2.4.3"),
+                     "n=%d p99 %.0f us; floor p99 %s" % (x["answers"], x["p99_us"],
+                                                         "%.0f us" % floor if floor is not None else "not measured"))
 
 
 def truth_nodes(path):
