@@ -46,7 +46,7 @@ void add_scan(CLI::App& app, Commands& k) {
   scan_c->add_option("-i,--iface", scan_o.iface, "CAN interface (e.g. can0, vcan0)")->required();
   scan_c->add_option("--listen-ms", scan_o.listen_ms, "how long to listen for boot-up/heartbeat")->capture_default_str();
   scan_c->add_option("--sdo-timeout-ms", scan_o.sdo_timeout_ms, "SDO answer window")->capture_default_str();
-  scan_c->add_option("--lss-timeout-ms", scan_o.lss_timeout_ms, "LSS answer window per Fastscan step")->capture_default_str();
+  scan_c->add_option("--lss-timeout-ms", scan_o.lss_timeout_ms, "the longest LSS answer window of a Fastscan step (shorter once answers were seen, as the daemon's)")->capture_default_str();
   scan_c->add_flag("!--no-fastscan", scan_o.fastscan, "skip LSS Fastscan");
   scan_c->add_option("--assign-from", scan_o.assign_from,
                      "give each non-configured device found by Fastscan the next free node-ID from N, and store it")

@@ -134,6 +134,9 @@ std::optional<int> scan_via_daemon(const ScanOptions& o) {
 
 namespace {
 
+// The floor of the learnt LSS waits (the daemon's lss_timeout_min_ms default).
+constexpr std::chrono::milliseconds kLearntFloor{10};
+
 // Listens for boot-ups and heartbeats, then asks every node-ID for its
 // identity (0x1018:1, then 2..4 of the nodes that answered).
 std::map<unsigned, NodeReport> probe_nodes(BusSession& bus, const ScanOptions& o) {
@@ -160,35 +163,55 @@ std::map<unsigned, NodeReport> probe_nodes(BusSession& bus, const ScanOptions& o
   return reports;
 }
 
+// Runs one LSS service of `m` to its result; false when it failed.
+bool run_lss(BusSession& bus, canopen::LssMaster& m, std::error_code start,
+             std::optional<canopen::LssMaster::Result>& r) {
+  r.reset();
+  if (start) return false;
+  bus.run([&](const can::Frame& f, TimePoint now) { m.on_frame(f, now); },
+          [&](TimePoint now) {
+            auto d = m.process(now);
+            if (!r) r = m.take_result();
+            return d;
+          },
+          [&] { return r.has_value(); }, std::chrono::seconds(120));
+  return r && !r->error;
+}
+
+// One non-configured device by CiA 305 Fastscan, or nullopt when none is
+// left. A scan that fails otherwise than "nobody answered" (an answer later
+// than the learnt wait) is begun again, twice at most, and said on stderr.
+std::optional<canopen::LssAddress> fastscan_one(BusSession& bus, canopen::LssMaster& m) {
+  std::optional<canopen::LssMaster::Result> r;
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    if (run_lss(bus, m, m.fastscan(canopen::Clock::now()), r)) return r->address;
+    if (!r || r->error == make_error_code(canopen::LssErrc::kNotFound)) return std::nullopt;
+    std::fprintf(stderr, "cobridge: scan: Fastscan failed (%s); scanning again\n", r->error.message().c_str());
+  }
+  return std::nullopt;
+}
+
 // CiA 305 Fastscan for non-configured devices; with --assign-from each one
-// found gets the next free node-ID (reserved in `reports`), stored.
+// found gets the next free node-ID (reserved in `reports`), stored. Search
+// steps wait as the daemon's do (docs/configuration.md, lss_timeout_ms and
+// lss_timeout_min_ms); configure and store, which a device answers after
+// writing its memory, wait up to a second.
 std::vector<NodeReport> fastscan_unconfigured(BusSession& bus, const ScanOptions& o,
                                               std::map<unsigned, NodeReport>& reports) {
   std::vector<NodeReport> lss_found;
-  canopen::LssMaster m(bus.channel(),
-                       canopen::LssMaster::Config{.timeout = std::chrono::milliseconds(o.lss_timeout_ms)});
+  const auto ceiling = std::chrono::milliseconds(o.lss_timeout_ms);
+  canopen::LssMaster m(bus.channel(), canopen::LssMaster::Config{ceiling, std::min(ceiling, kLearntFloor)});
+  canopen::LssMaster confirmed(bus.channel(), canopen::LssMaster::Config{std::chrono::milliseconds(1000), {}});
   unsigned next_id = o.assign_from;
   for (;;) {
-    std::optional<canopen::LssMaster::Result> r;
-    auto run = [&](std::error_code start) {
-      r.reset();
-      if (start) return false;
-      bus.run([&](const can::Frame& f, TimePoint now) { m.on_frame(f, now); },
-               [&](TimePoint now) {
-                 auto d = m.process(now);
-                 if (!r) r = m.take_result();
-                 return d;
-               },
-               [&] { return r.has_value(); }, std::chrono::seconds(120));
-      return r && !r->error;
-    };
-    if (!run(m.fastscan(canopen::Clock::now()))) break;  // none (left)
+    const auto found = fastscan_one(bus, m);
+    if (!found) break;  // none (left)
     NodeReport nr;
     nr.unconfigured = true;
-    nr.answers[1].insert(r->address.vendor);
-    nr.answers[2].insert(r->address.product);
-    nr.answers[3].insert(r->address.revision);
-    nr.answers[4].insert(r->address.serial);
+    nr.answers[1].insert(found->vendor);
+    nr.answers[2].insert(found->product);
+    nr.answers[3].insert(found->revision);
+    nr.answers[4].insert(found->serial);
     if (o.assign_from == 0) {
       (void)m.switch_state_global(canopen::LssMode::kWaiting);
       lss_found.push_back(nr);
@@ -200,8 +223,10 @@ std::vector<NodeReport> fastscan_unconfigured(BusSession& bus, const ScanOptions
       (void)m.switch_state_global(canopen::LssMode::kWaiting);
       break;
     }
-    const bool ok = run(m.configure_node_id(static_cast<uint8_t>(next_id), canopen::Clock::now())) &&
-                    run(m.store_configuration(canopen::Clock::now()));
+    std::optional<canopen::LssMaster::Result> r;
+    const bool ok =
+        run_lss(bus, confirmed, confirmed.configure_node_id(static_cast<uint8_t>(next_id), canopen::Clock::now()), r) &&
+        run_lss(bus, confirmed, confirmed.store_configuration(canopen::Clock::now()), r);
     (void)m.switch_state_global(canopen::LssMode::kWaiting);
     if (!ok) {
       std::fprintf(stderr, "cobridge: scan: assigning node-ID %u failed: %s\n", next_id,

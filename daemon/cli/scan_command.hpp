@@ -19,7 +19,7 @@ struct ScanOptions {
   std::string iface;
   unsigned listen_ms = 300;
   unsigned sdo_timeout_ms = 100;
-  unsigned lss_timeout_ms = 20;
+  unsigned lss_timeout_ms = 100;  // the longest a search step waits; learnt waits from 10 ms
   bool fastscan = true;
   unsigned assign_from = 0;   // 0 = do not assign
   std::string devices_dir;    // EDS directory for model names; empty = default

@@ -22,6 +22,8 @@
 // Thread: one (main).
 #include "answer_pairing.hpp"
 
+#include "stop_signals.hpp"
+
 #include <linux/can.h>
 #include <linux/can/raw.h>
 #include <net/if.h>
@@ -129,12 +131,7 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  sigset_t stop;
-  sigemptyset(&stop);
-  sigaddset(&stop, SIGTERM);
-  sigaddset(&stop, SIGINT);
-  ::sigprocmask(SIG_BLOCK, &stop, nullptr);
-  const int sfd = ::signalfd(-1, &stop, SFD_CLOEXEC);
+  const int sfd = cobridge::sim::tools::stop_signal_fd();
   const int fd = open_socket(iface);
   if (fd < 0 || sfd < 0) {
     std::fprintf(stderr, "cobridge-sim-latency: %s: %s\n", iface.c_str(), std::strerror(errno));

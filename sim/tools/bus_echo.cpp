@@ -11,6 +11,8 @@
 // cobridge-sim-latency pairs 0x7F0 -> 0x7F1 as its `echo` line.
 // 0x7F0/0x7F1 are not used by CiA 301/305 services nor by the simulated devices.
 // Thread: one (main).
+#include "stop_signals.hpp"
+
 #include <linux/can.h>
 #include <linux/can/raw.h>
 #include <net/if.h>
@@ -99,12 +101,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "cobridge-bus-echo: --rt-priority %d: %s\n", priority, std::strerror(errno));
     return 1;
   }
-  sigset_t stop;
-  sigemptyset(&stop);
-  sigaddset(&stop, SIGTERM);
-  sigaddset(&stop, SIGINT);
-  ::sigprocmask(SIG_BLOCK, &stop, nullptr);
-  const int sfd = ::signalfd(-1, &stop, SFD_CLOEXEC);
+  const int sfd = cobridge::sim::tools::stop_signal_fd();
   const int fd = open_socket(iface, ping_ms == 0);
   if (fd < 0 || sfd < 0) {
     std::fprintf(stderr, "cobridge-bus-echo: %s: %s\n", iface.c_str(), std::strerror(errno));
