@@ -27,6 +27,18 @@ set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
 # systemd-sysusers / systemd-tmpfiles in postinst; deb-systemd-helper and
 # deb-systemd-invoke (init-system-helpers) for enabling and starting the unit.
 set(CPACK_DEBIAN_PACKAGE_DEPENDS "systemd, init-system-helpers (>= 1.54~)")
+# The web service dlopens libmicrohttpd (daemon/web/microhttpd.hpp), which
+# dpkg-shlibdeps cannot see: the package that ships its SONAME is named here.
+if(COBRIDGE_MICROHTTPD_SONAME)
+  get_filename_component(_mhd_dir "${COBRIDGE_MICROHTTPD_FILE}" DIRECTORY)
+  execute_process(COMMAND dpkg-query -S "${_mhd_dir}/${COBRIDGE_MICROHTTPD_SONAME}" OUTPUT_VARIABLE _mhd_owner
+                  RESULT_VARIABLE _mhd_rc ERROR_QUIET)
+  string(REGEX MATCH "^([^:]+)" _mhd_pkg "${_mhd_owner}")
+  if(NOT _mhd_rc EQUAL 0 OR NOT _mhd_pkg)
+    message(FATAL_ERROR "no Debian package owns ${_mhd_dir}/${COBRIDGE_MICROHTTPD_SONAME} (dpkg-query -S)")
+  endif()
+  string(APPEND CPACK_DEBIAN_PACKAGE_DEPENDS ", ${_mhd_pkg}")
+endif()
 set(CPACK_DEBIAN_PACKAGE_CONTROL_EXTRA
     ${PROJECT_SOURCE_DIR}/packaging/deb/conffiles ${PROJECT_SOURCE_DIR}/packaging/deb/postinst
     ${PROJECT_SOURCE_DIR}/packaging/deb/prerm ${PROJECT_SOURCE_DIR}/packaging/deb/postrm)

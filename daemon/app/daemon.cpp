@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <future>
 #include <utility>
 #include <vector>
 
@@ -52,11 +53,22 @@ Error Daemon::start() {
     return Error(Errc::kFailed, "control socket: " + e.message, e.where, e.code);
   }
   open_beacons();
-  if (Error e = start_outputs()) return e;
+  if (Error e = output_problems(outputs_->load(), "no bus was touched")) return e;
+  if (Error e = output_problems(outputs_->start_receivers(), "no bus was touched")) return e;
+  // The plugins start (a DDS participant takes tenths of a second) while the
+  // buses come up; the dispatcher holds what the buses produce meanwhile.
+  auto plugins = std::async(std::launch::async, [this] { return start_plugins(); });
   buses_.build(*cfg_, *catalog_, *state_, *outputs_, registry_);
-  if (const Error e = buses_.start()) {
-    log->error("{}", e.to_string());
-    return Error(Errc::kFailed, e.message, e.where, e.code);
+  const Error bus_error = buses_.start();
+  std::vector<Error> plugin_problems = plugins.get();
+  if (bus_error) {
+    log->error("{}", bus_error.to_string());
+    return Error(Errc::kFailed, bus_error.message, bus_error.where, bus_error.code);
+  }
+  if (Error e = output_problems(std::move(plugin_problems), "the buses were stopped again")) {
+    buses_.stop();
+    outputs_->stop();
+    return e;
   }
   if (Error e = start_web()) return e;
   service_.emplace(*notifier_, buses_, *facade_);
@@ -101,22 +113,27 @@ void Daemon::open_beacons() {
   }
 }
 
-// The hot path and the output plugins start before the buses, so every
-// device's first configuration already reaches the decoders.
-Error Daemon::start_outputs() {
+// A problem of the outputs is fatal: logged, and printed for an operator
+// starting the daemon by hand, with what became of the buses (`aftermath`).
+Error Daemon::output_problems(std::vector<Error> problems, const char* aftermath) {
+  if (problems.empty()) return {};
   auto log = sys::logger("gateway");
-  const std::vector<Error> problems = outputs_->start();
   for (const auto& p : problems) log->error("outputs: {}", p.to_string());
-  if (!problems.empty()) {
-    for (const auto& p : problems) std::fprintf(stderr, "%s\n", p.to_string().c_str());
-    std::fprintf(stderr, "cobridged: %s: %zu output problem%s; no bus was touched\n", options_.config_file.c_str(),
-                 problems.size(), plural(problems.size()));
-    return Error(Errc::kFailed, std::to_string(problems.size()) + " output problem" + plural(problems.size()),
-                 options_.config_file.string());
-  }
-  log->info("outputs: {} plugin{} running from {}", outputs_->plugins_running(),
-            plural(outputs_->plugins_running()), options_.plugin_dir.string());
-  return {};
+  for (const auto& p : problems) std::fprintf(stderr, "%s\n", p.to_string().c_str());
+  std::fprintf(stderr, "cobridged: %s: %zu output problem%s; %s\n", options_.config_file.c_str(), problems.size(),
+               plural(problems.size()), aftermath);
+  return Error(Errc::kFailed, std::to_string(problems.size()) + " output problem" + plural(problems.size()),
+               options_.config_file.string());
+}
+
+// Runs on a helper thread while the main thread starts the buses; logs when
+// the plugins run, so the log shows when the outputs were ready.
+std::vector<Error> Daemon::start_plugins() {
+  std::vector<Error> problems = outputs_->start_plugins();
+  if (problems.empty())
+    sys::logger("gateway")->info("outputs: {} plugin{} running from {}", outputs_->plugins_running(),
+                                 plural(outputs_->plugins_running()), options_.plugin_dir.string());
+  return problems;
 }
 
 // The web service last: it reads the status of running buses. A daemon told

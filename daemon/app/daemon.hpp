@@ -5,14 +5,19 @@
 //   configuration  validated with the device descriptions it needs
 //   state store    the commissioned devices (state file)
 //   control socket first to open: a second daemon stops here, before any bus
-//   outputs        the hot path and the output plugins (their own threads)
-//   buses          one BusManager each (its own control thread)
+//   outputs        the plugins loaded (settings checked), then the hot path's
+//                  receivers (their own threads)
+//   buses          one BusManager each (its own control thread), while a
+//                  helper thread starts the plugins; the dispatcher holds the
+//                  samples until they run
+
 //   web service    last, it reads the status of running buses (its own thread)
 //
 // The main thread runs serve(): it polls the signalfd and the control socket,
 // reloads on SIGHUP and tells systemd what it should know (ServiceStatus).
 //
-// Thread: construct, start(), serve() and stop() on the main thread.
+// Thread: construct, start(), serve() and stop() on the main thread (start()
+// waits for its helper thread before it returns).
 #pragma once
 
 #include "app/bus_set.hpp"
@@ -63,7 +68,8 @@ class Daemon {
 
  private:
   [[nodiscard]] Error load_configuration();
-  [[nodiscard]] Error start_outputs();
+  [[nodiscard]] Error output_problems(std::vector<Error> problems, const char* aftermath);
+  [[nodiscard]] std::vector<Error> start_plugins();  // a helper thread, while the buses start
   [[nodiscard]] Error start_web();
   void open_beacons();
   void reload();

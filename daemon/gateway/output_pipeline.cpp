@@ -62,23 +62,38 @@ OutputPipeline::OutputPipeline(const config::Config& config, const device::Devic
 
 OutputPipeline::~OutputPipeline() { stop(); }
 
-std::vector<Error> OutputPipeline::start() {
+std::vector<Error> OutputPipeline::load() {
+  std::vector<Error> problems = host_.load_all(plugin_specs(*config_.get()));
+  // Nothing else starts: no receiver opens a bus for outputs that are not there.
+  if (!problems.empty()) host_.unload_all();
+  return problems;
+}
+
+std::vector<Error> OutputPipeline::start_receivers() {
   const auto config = config_.get();
-  std::vector<Error> problems = host_.load_all(plugin_specs(*config));
-  for (auto& e : host_.start_all()) problems.push_back(std::move(e));
-  if (!problems.empty()) {
-    // Nothing else starts: no receiver opens a bus for outputs that are not there.
-    host_.unload_all();
-    return problems;
-  }
-  dispatcher_.start();
+  std::vector<Error> problems;
+  dispatcher_.hold();
+  started_ = true;
   for (std::size_t i = 0; i < buses_.size(); ++i) {
     if (Error e = buses_[i]->receiver->start()) {
       e.where = "bus " + config->buses[i].name + ": hot path: " + e.where;
       problems.push_back(std::move(e));
     }
   }
-  started_ = true;
+  return problems;
+}
+
+std::vector<Error> OutputPipeline::start_plugins() {
+  std::vector<Error> problems = host_.start_all();
+  dispatcher_.start();  // delivers what was held, also when a plugin failed (the caller stops all)
+  return problems;
+}
+
+std::vector<Error> OutputPipeline::start() {
+  std::vector<Error> problems = load();
+  if (!problems.empty()) return problems;
+  problems = start_receivers();
+  for (auto& e : start_plugins()) problems.push_back(std::move(e));
   return problems;
 }
 

@@ -52,10 +52,25 @@ class OutputPipeline {
   OutputPipeline(const OutputPipeline&) = delete;
   OutputPipeline& operator=(const OutputPipeline&) = delete;
 
-  // Loads and starts the plugins, then the dispatcher and the receivers.
-  // Returns every problem: a plugin that cannot be loaded, created or
-  // started, or a receiver that cannot open its bus. Any problem is fatal:
-  // the daemon must not run without an output it was told to feed.
+  // Starting takes three steps, so that the slow one (a DDS participant
+  // comes up in tenths of a second) overlaps the buses' start:
+  //  1. load(): every plugin loaded and created (its settings checked),
+  //     before any bus is touched;
+  //  2. start_receivers(): the hot path's RX threads open their buses and
+  //     fill the rings; the dispatcher holds samples and device
+  //     announcements (Dispatcher::hold) until
+  //  3. start_plugins(): the plugins start, then the dispatcher delivers
+  //     everything held, in order. May run on a helper thread while the
+  //     caller starts the bus managers; nothing else touches the pipeline
+  //     meanwhile except the bus managers' observers and stats readers.
+  // Each returns every problem (a plugin that cannot be loaded, created or
+  // started, a receiver that cannot open its bus); any problem is fatal:
+  // the daemon must not run without an output it was told to feed. After a
+  // failed load() nothing is left loaded.
+  [[nodiscard]] std::vector<Error> load();
+  [[nodiscard]] std::vector<Error> start_receivers();
+  [[nodiscard]] std::vector<Error> start_plugins();
+  // The three in order (tests, tools).
   [[nodiscard]] std::vector<Error> start();
   void stop();
 

@@ -32,6 +32,7 @@ void Dispatcher::start() {
 }
 
 void Dispatcher::stop() {
+  holding_.store(false, std::memory_order_release);
   if (!running_.exchange(false)) return;
   const std::uint64_t one = 1;
   (void)!::write(event_fd_, &one, sizeof one);
@@ -59,10 +60,12 @@ void Dispatcher::post(std::function<void()> task) {
     tasks_.push_back(std::move(task));
   }
   tasks_pending_.store(true, std::memory_order_release);
-  if (!running_.load(std::memory_order_acquire)) {
+  if (!running_.load(std::memory_order_acquire) && !holding_.load(std::memory_order_acquire)) {
     run_tasks();  // not started (or stopped): run here, there is no other consumer
     return;
   }
+  // Also when holding: the count waits in the eventfd, so a thread starting
+  // right now cannot sleep past this task.
   const std::uint64_t one = 1;
   (void)!::write(event_fd_, &one, sizeof one);
 }

@@ -1,15 +1,16 @@
 #include "sys/journal_sink.hpp"
 
+#include "sys/journal_socket.hpp"
+
 #include <sys/stat.h>
-#include <sys/uio.h>
 #include <syslog.h>
-#include <systemd/sd-journal.h>
 #include <unistd.h>
 
 #include <cctype>
 #include <charconv>
 #include <cstdlib>
 #include <cstring>
+#include <memory>
 
 namespace cobridge::sys {
 namespace {
@@ -21,15 +22,6 @@ std::string_view leading_number(std::string_view s) {
   while (n < s.size() && n < 3 && is_digit(s[n])) ++n;
   if (n == 0 || (n < s.size() && is_digit(s[n]))) return {};
   return s.substr(0, n);
-}
-
-int send_to_journal(const std::vector<std::string>& fields) {
-  std::vector<iovec> iov(fields.size());
-  for (std::size_t i = 0; i < fields.size(); ++i) {
-    iov[i].iov_base = const_cast<char*>(fields[i].data());
-    iov[i].iov_len = fields[i].size();
-  }
-  return sd_journal_sendv(iov.data(), static_cast<int>(iov.size()));
 }
 
 }  // namespace
@@ -82,8 +74,13 @@ std::vector<std::string> journal_fields(std::string_view identifier, std::string
   return f;
 }
 
-JournalSink::JournalSink(std::string identifier, Send send)
-    : identifier_(std::move(identifier)), send_(send ? std::move(send) : Send(&send_to_journal)) {}
+JournalSink::JournalSink(std::string identifier, Send send) : identifier_(std::move(identifier)), send_(std::move(send)) {
+  if (!send_) {
+    send_ = [socket = std::make_shared<JournalSocket>()](const std::vector<std::string>& fields) {
+      return socket->send(fields);
+    };
+  }
+}
 
 void JournalSink::sink_it_(const spdlog::details::log_msg& msg) {
   std::string_view text(msg.payload.data(), msg.payload.size());

@@ -1,5 +1,5 @@
 // Journal sink: spdlog records sent to systemd-journald as native entries
-// (sd_journal_sendv): PRIORITY= from the level, MESSAGE= the text alone (the
+// (sys/journal_socket.hpp): PRIORITY= from the level, MESSAGE= the text alone (the
 // journal stamps time and process itself, so no console pattern), the module
 // in COBRIDGE_MODULE=, and BUS= / NODE= when the text names them ("bus line1:
 // device x (node 10) ..." as the bus manager writes it). `journalctl -u
@@ -31,8 +31,8 @@ namespace cobridge::sys {
 [[nodiscard]] std::vector<std::string> journal_fields(std::string_view identifier, std::string_view module,
                                                       spdlog::level::level_enum level, std::string_view message);
 
-// Sends each record's journal_fields(); `send` is sd_journal_sendv unless a
-// test replaces it (it gets the fields and returns 0 or -errno).
+// Sends each record's journal_fields(); `send` is a JournalSocket to journald
+// unless a test replaces it (it gets the fields and returns 0 or -errno).
 class JournalSink final : public spdlog::sinks::base_sink<std::mutex> {
  public:
   using Send = std::function<int(const std::vector<std::string>& fields)>;

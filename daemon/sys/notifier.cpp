@@ -1,29 +1,67 @@
 #include "sys/notifier.hpp"
 
-#include <systemd/sd-daemon.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
 
+#include <cerrno>
+#include <charconv>
+#include <cstddef>
 #include <cstdlib>
+#include <cstring>
 #include <ctime>
 #include <string>
 
 namespace cobridge::sys {
+namespace {
+
+// The whole value of an environment variable as an unsigned number.
+bool env_number(const char* name, unsigned long long& out) {
+  const char* text = std::getenv(name);
+  if (text == nullptr || text[0] == '\0') return false;
+  const char* end = text + std::strlen(text);
+  const auto r = std::from_chars(text, end, out);
+  return r.ec == std::errc() && r.ptr == end;
+}
+
+}  // namespace
+
+std::error_code notify_datagram(std::string_view address, std::string_view message) {
+  // sd_notify(3): "/path" is a file system socket, "@name" an abstract one.
+  if (address.empty() || (address[0] != '/' && address[0] != '@')) return std::make_error_code(std::errc::address_family_not_supported);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  if (address.size() >= sizeof addr.sun_path) return std::make_error_code(std::errc::filename_too_long);
+  std::memcpy(addr.sun_path, address.data(), address.size());
+  if (address[0] == '@') addr.sun_path[0] = '\0';
+  // A file system path is NUL-terminated; an abstract name is exactly its bytes.
+  const auto len = static_cast<socklen_t>(offsetof(sockaddr_un, sun_path) + address.size() + (address[0] == '/' ? 1 : 0));
+  const int fd = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+  if (fd < 0) return {errno, std::system_category()};
+  const ssize_t n = ::sendto(fd, message.data(), message.size(), MSG_NOSIGNAL, reinterpret_cast<const sockaddr*>(&addr), len);
+  const int err = errno;
+  ::close(fd);
+  if (n < 0) return {err, std::system_category()};
+  return {};
+}
 
 Notifier::Notifier() {
   const char* socket = std::getenv("NOTIFY_SOCKET");
   enabled_ = socket != nullptr && socket[0] != '\0';
-  uint64_t usec = 0;
-  // sd_watchdog_enabled checks WATCHDOG_PID against our pid, so a forked
-  // helper never pings in the daemon's name.
-  if (enabled_ && sd_watchdog_enabled(0, &usec) > 0 && usec > 0)
+  if (enabled_) socket_ = socket;
+  // As sd_watchdog_enabled(3): WATCHDOG_PID, when set, must be our pid, so a
+  // forked helper never pings in the daemon's name.
+  unsigned long long usec = 0;
+  unsigned long long pid = 0;
+  const bool ours = std::getenv("WATCHDOG_PID") == nullptr ||
+                    (env_number("WATCHDOG_PID", pid) && pid == static_cast<unsigned long long>(::getpid()));
+  if (enabled_ && ours && env_number("WATCHDOG_USEC", usec) && usec > 0)
     watchdog_period_ = std::chrono::microseconds(static_cast<int64_t>(usec / 2));
 }
 
 std::error_code Notifier::send(std::string_view message) {
   if (!enabled_) return {};
-  const std::string text(message);
-  const int rc = sd_notify(0, text.c_str());
-  if (rc < 0) return {-rc, std::system_category()};
-  return {};
+  return notify_datagram(socket_, message);
 }
 
 std::error_code Notifier::ready() { return send("READY=1"); }

@@ -1,6 +1,10 @@
 // Notifier: the daemon's side of the systemd notify protocol (sd_notify(3)).
 //
-// READY, STATUS, WATCHDOG, RELOADING, STOPPING go to $NOTIFY_SOCKET. Without
+// READY, STATUS, WATCHDOG, RELOADING, STOPPING go to $NOTIFY_SOCKET, one
+// datagram each. The protocol is written here rather than linked from
+// libsystemd (systemd documents it as stable for reimplementation): the
+// library and its compression and crypto chain would be loaded on every start
+// for a few datagrams, and each mapped library costs start-up time. Without
 // systemd (the variable unset) every call does nothing and succeeds, so the
 // daemon runs the same in a terminal. The watchdog interval comes from
 // $WATCHDOG_USEC; the caller pings only while its buses are really served.
@@ -8,10 +12,15 @@
 #pragma once
 
 #include <chrono>
+#include <string>
 #include <string_view>
 #include <system_error>
 
 namespace cobridge::sys {
+
+// One datagram to a notify socket address as $NOTIFY_SOCKET gives it: an
+// absolute path, or "@name" for the abstract namespace. Any thread.
+std::error_code notify_datagram(std::string_view address, std::string_view message);
 
 class Notifier {
  public:
@@ -31,6 +40,7 @@ class Notifier {
  private:
   std::error_code send(std::string_view message);
   bool enabled_ = false;
+  std::string socket_;
   std::chrono::microseconds watchdog_period_{0};
 };
 

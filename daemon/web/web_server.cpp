@@ -3,11 +3,11 @@
 #include "sys/logging.hpp"
 #include "web/login_log.hpp"
 #include "web/metrics.hpp"
+#include "web/microhttpd.hpp"
 #include "web/peer_address.hpp"
 #include "web/status_page.hpp"
 
 #include <arpa/inet.h>
-#include <microhttpd.h>
 #include <netinet/in.h>
 #include <strings.h>
 
@@ -63,6 +63,9 @@ bool target_was_clean(const void* state, const char* version) {
   return end != nullptr && version != nullptr && end + 1 == version;
 }
 
+// The callbacks run on libmicrohttpd's thread, so the library is loaded.
+const Microhttpd& mhd() { return *microhttpd(); }
+
 MHD_Result count_host_lines(void* cls, MHD_ValueKind /*kind*/, const char* key, const char* /*value*/) {
   if (::strcasecmp(key, MHD_HTTP_HEADER_HOST) == 0) ++*static_cast<unsigned*>(cls);
   return MHD_YES;
@@ -72,15 +75,15 @@ MHD_Result count_host_lines(void* cls, MHD_ValueKind /*kind*/, const char* key, 
 // HTTP/1.1 on) and both ends of the connection.
 void read_origin(MHD_Connection* connection, const char* version, HttpRequest& r) {
   unsigned lines = 0;
-  MHD_get_connection_values(connection, MHD_HEADER_KIND, &count_host_lines, &lines);
+  mhd().get_connection_values(connection, MHD_HEADER_KIND, &count_host_lines, &lines);
   const bool required = version == nullptr || std::strcmp(version, MHD_HTTP_VERSION_1_0) != 0;
-  r.host = parse_host_field(MHD_lookup_connection_value(connection, MHD_HEADER_KIND, MHD_HTTP_HEADER_HOST), lines,
+  r.host = parse_host_field(mhd().lookup_connection_value(connection, MHD_HEADER_KIND, MHD_HTTP_HEADER_HOST), lines,
                             required);
-  if (const MHD_ConnectionInfo* ci = MHD_get_connection_info(connection, MHD_CONNECTION_INFO_CLIENT_ADDRESS)) {
+  if (const MHD_ConnectionInfo* ci = mhd().get_connection_info(connection, MHD_CONNECTION_INFO_CLIENT_ADDRESS)) {
     r.client = address_text(ci->client_addr);
     r.throttle_key = throttle_key(ci->client_addr);
   }
-  if (const MHD_ConnectionInfo* ci = MHD_get_connection_info(connection, MHD_CONNECTION_INFO_CONNECTION_FD))
+  if (const MHD_ConnectionInfo* ci = mhd().get_connection_info(connection, MHD_CONNECTION_INFO_CONNECTION_FD))
     r.local = local_address(ci->connect_fd);
 }
 
@@ -89,7 +92,7 @@ MHD_Result on_request(void* cls, MHD_Connection* connection, const char* url, co
                       void** request_state) {
   auto* server = static_cast<WebServer*>(cls);
   char* password = nullptr;
-  char* user = MHD_basic_auth_get_username_password(connection, &password);
+  char* user = mhd().basic_auth_get_username_password(connection, &password);
   Credentials credentials{user != nullptr ? user : "", password != nullptr ? password : ""};
   HttpAnswer a;
   try {
@@ -106,27 +109,27 @@ MHD_Result on_request(void* cls, MHD_Connection* connection, const char* url, co
     a.content_length = a.body.size();
     sys::logger("web")->error("{} {}: {}", method, url, e.what());
   }
-  if (user != nullptr) MHD_free(user);
-  if (password != nullptr) MHD_free(password);
+  if (user != nullptr) mhd().free(user);
+  if (password != nullptr) mhd().free(password);
 
-  MHD_Response* response = MHD_create_response_from_buffer(a.body.size(), a.body.data(), MHD_RESPMEM_MUST_COPY);
+  MHD_Response* response = mhd().create_response_from_buffer(a.body.size(), a.body.data(), MHD_RESPMEM_MUST_COPY);
   if (response == nullptr) return MHD_NO;
-  MHD_add_response_header(response, MHD_HTTP_HEADER_CONTENT_TYPE, a.content_type);
-  MHD_add_response_header(response, MHD_HTTP_HEADER_CACHE_CONTROL, "no-store");
-  MHD_add_response_header(response, "X-Content-Type-Options", "nosniff");
-  MHD_add_response_header(response, "X-Frame-Options", "DENY");
-  MHD_add_response_header(response, "Content-Security-Policy",
+  mhd().add_response_header(response, MHD_HTTP_HEADER_CONTENT_TYPE, a.content_type);
+  mhd().add_response_header(response, MHD_HTTP_HEADER_CACHE_CONTROL, "no-store");
+  mhd().add_response_header(response, "X-Content-Type-Options", "nosniff");
+  mhd().add_response_header(response, "X-Frame-Options", "DENY");
+  mhd().add_response_header(response, "Content-Security-Policy",
                           "default-src 'none'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; "
                           "connect-src 'self'; img-src data:; base-uri 'none'; form-action 'none'");
-  if (a.status == 405) MHD_add_response_header(response, MHD_HTTP_HEADER_ALLOW, "GET, HEAD");
+  if (a.status == 405) mhd().add_response_header(response, MHD_HTTP_HEADER_ALLOW, "GET, HEAD");
   if (a.retry_after_s > 0)
-    MHD_add_response_header(response, MHD_HTTP_HEADER_RETRY_AFTER, std::to_string(a.retry_after_s).c_str());
+    mhd().add_response_header(response, MHD_HTTP_HEADER_RETRY_AFTER, std::to_string(a.retry_after_s).c_str());
   MHD_Result r;
   if (a.ask_credentials)
-    r = MHD_queue_basic_auth_fail_response(connection, "cobridge", response);
+    r = mhd().queue_basic_auth_fail_response(connection, "cobridge", response);
   else
-    r = MHD_queue_response(connection, a.status, response);
-  MHD_destroy_response(response);
+    r = mhd().queue_response(connection, a.status, response);
+  mhd().destroy_response(response);
   return r;
 }
 
@@ -142,9 +145,15 @@ std::vector<Error> check_web_settings(const config::WebSettings& settings) {
   if (!settings.tls_key.empty()) {
     if (Error e = read_pem(settings.tls_key, text)) errors.push_back(at(std::move(e), settings.tls_key_at, "tls_key"));
   }
-  if ((!settings.tls_cert.empty() || !settings.tls_key.empty()) && MHD_is_feature_supported(MHD_FEATURE_TLS) != MHD_YES)
-    errors.push_back(at(Error(Errc::kUnsupported, "this libmicrohttpd was built without TLS"), settings.tls_cert_at,
-                        "tls_cert"));
+  if (!settings.tls_cert.empty() || !settings.tls_key.empty()) {
+    std::string why;
+    const Microhttpd* lib = microhttpd(&why);
+    if (lib == nullptr)
+      errors.push_back(at(Error(Errc::kUnavailable, "cannot load the HTTP library: " + why), settings.tls_cert_at, "tls_cert"));
+    else if (lib->is_feature_supported(MHD_FEATURE_TLS) != MHD_YES)
+      errors.push_back(at(Error(Errc::kUnsupported, "this libmicrohttpd was built without TLS"), settings.tls_cert_at,
+                          "tls_cert"));
+  }
   if (!settings.auth_file.empty()) {
     AuthFile auth;
     if (Error e = auth.load(settings.auth_file)) errors.push_back(at(std::move(e), settings.auth_file_at, "auth_file"));
@@ -159,6 +168,9 @@ WebServer::~WebServer() { stop(); }
 
 Error WebServer::start(const config::WebSettings& settings) {
   stop();
+  std::string why;
+  const Microhttpd* lib = microhttpd(&why);
+  if (lib == nullptr) return Error(Errc::kUnavailable, "cannot load the HTTP library: " + why);
   auto problems = check_web_settings(settings);
   if (!problems.empty()) return std::move(problems.front());
   if (!settings.auth_file.empty()) {
@@ -202,14 +214,14 @@ Error WebServer::start(const config::WebSettings& settings) {
     options.push_back({MHD_OPTION_HTTPS_MEM_KEY, 0, tls_key_.data()});
   }
   options.push_back({MHD_OPTION_END, 0, nullptr});
-  daemon_ = MHD_start_daemon(flags, settings.port, nullptr, nullptr, &on_request, this, MHD_OPTION_ARRAY,
+  daemon_ = lib->start_daemon(flags, settings.port, nullptr, nullptr, &on_request, this, MHD_OPTION_ARRAY,
                              options.data(), MHD_OPTION_END);
   if (daemon_ == nullptr) {
     return Error(Errc::kUnavailable, "cannot listen on " + settings.bind + " port " + std::to_string(settings.port) +
                                          " (address in use, not local, or a bad TLS certificate/key)");
   }
   port_ = settings.port;
-  if (const MHD_DaemonInfo* info = MHD_get_daemon_info(daemon_, MHD_DAEMON_INFO_BIND_PORT)) port_ = info->port;
+  if (const MHD_DaemonInfo* info = lib->get_daemon_info(daemon_, MHD_DAEMON_INFO_BIND_PORT)) port_ = info->port;
   sys::logger("web")->info("web: serving http{}://{}:{}/ ({} clients at most{})", tls ? "s" : "", settings.bind, port_,
                            settings.max_clients, auth_ ? ", basic authentication" : "");
   return {};
@@ -217,7 +229,7 @@ Error WebServer::start(const config::WebSettings& settings) {
 
 void WebServer::stop() {
   if (daemon_ == nullptr) return;
-  MHD_stop_daemon(daemon_);
+  mhd().stop_daemon(daemon_);
   daemon_ = nullptr;
 }
 

@@ -8,7 +8,8 @@ before exec to every device operational, two ways in the same run:
   * as an operator sees it: the status through the control socket, polled
     every 5 ms (from exec);
   * by the daemon's own log stamps: its first line ("starting"), the first
-    plugin running, and the last "operational" line.
+    bus serving, the plugins running (they start while the buses come up),
+    and the last "operational" line.
 
 Prints FIGURE lines for scripts/bench; runs inside UML (real SocketCAN):
   tests/vcan/run-in-vcan --ifaces 1 -- /usr/bin/python3 tests/bench/restart_in_uml.py \
@@ -41,8 +42,8 @@ def stamp(line):
 
 
 def log_marks(path):
-    """(first line, first plugin running, last device operational) stamps."""
-    first = plugins = last_op = None
+    """(first line, plugins running, first bus serving, last device operational) stamps."""
+    first = plugins = serving = last_op = None
     with open(path) as f:
         for line in f:
             t = stamp(line)
@@ -51,9 +52,11 @@ def log_marks(path):
             first = first if first is not None else t
             if plugins is None and "outputs:" in line and "running" in line:
                 plugins = t
+            if serving is None and re.search(r"bus \S+: serving", line):
+                serving = t
             if re.search(r"device \S+ operational at node", line):
                 last_op = t
-    return first, plugins, last_op
+    return first, plugins, serving, last_op
 
 
 def writes_in(path):
@@ -73,8 +76,8 @@ def restart_once(args, config, ws, k):
                         extra_args=["--plugin-dir", args.plugins] if args.plugins else [])
     _, took = daemon.wait_until(e2e.all_operational(NAMES), 30, interval=0.005)
     rc, _ = daemon.stop()
-    first, plugins, last_op = log_marks(daemon.log_path)
-    return t_exec, took, first, plugins, last_op, writes_in(daemon.log_path), rc
+    first, plugins, serving, last_op = log_marks(daemon.log_path)
+    return t_exec, took, first, plugins, last_op, writes_in(daemon.log_path), rc, serving
 
 
 def main():
@@ -101,6 +104,8 @@ def main():
         logged = [r[4] - r[0] for r in runs if r[4] is not None]
         to_plugins = [r[3] - r[2] for r in runs if r[3] is not None and r[2] is not None]
         exec_to_log = [r[2] - r[0] for r in runs if r[2] is not None]
+        to_serving = [r[7] - r[2] for r in runs if r[7] is not None and r[2] is not None]
+        serving_to_op = [r[4] - r[7] for r in runs if r[7] is not None and r[4] is not None]
         if exec_s:
             print("FIGURE restart_operational_from_exec_s median=%.3f max=%.3f (n=%d, status polled)" % (
                 median(exec_s), max(exec_s), len(exec_s)))
@@ -110,6 +115,9 @@ def main():
         if to_plugins and exec_to_log:
             print("FIGURE restart_phases_s exec_to_first_log=%.3f first_log_to_plugins=%.3f (medians)" % (
                 median(exec_to_log), median(to_plugins)), flush=True)
+        if to_serving and serving_to_op:
+            print("FIGURE restart_bus_phases_s first_log_to_serving=%.3f serving_to_operational=%.3f (medians)" % (
+                median(to_serving), median(serving_to_op)), flush=True)
     finally:
         e2e.shut_down(ws, None, sim)
     return report.finish()

@@ -92,3 +92,49 @@ TEST(Dispatcher, SleepsWhenIdleAndWakesOnPush) {
   EXPECT_LT(waited, std::chrono::milliseconds(50)) << "woken by the eventfd, not by the 100 ms poll timeout";
   d.stop();
 }
+
+// The daemon starts its receivers and buses while the plugins start: what
+// they produce meanwhile waits (samples in the ring, announcements in order)
+// and reaches the sink once the dispatcher starts, announcements first.
+TEST(Dispatcher, HoldsSamplesAndTasksUntilStarted) {
+  struct OrderSink : SampleSink {
+    void deliver(std::span<const Sample> batch) noexcept override {
+      for (const Sample& s : batch) order.push_back(static_cast<int>(s.sequence));
+      delivered.fetch_add(batch.size(), std::memory_order_release);
+    }
+    std::vector<int> order;  // > 0 a sample's sequence, < 0 a task
+    std::atomic<std::size_t> delivered{0};
+  } sink;
+  Dispatcher d(sink);
+  SpscRing<Sample> ring(1024);
+  d.add_source(ring);
+  d.hold();
+  std::atomic<int> tasks_run{0};
+  const auto poster = std::this_thread::get_id();
+  std::atomic<bool> ran_on_poster{false};
+  for (std::uint32_t i = 1; i <= 500; ++i) {
+    Sample s{};
+    s.sequence = i;
+    ASSERT_TRUE(ring.try_push(s));
+    d.wake();
+    if (i % 100 == 0) {
+      d.post([&, i] {
+        if (std::this_thread::get_id() == poster) ran_on_poster = true;
+        sink.order.push_back(-static_cast<int>(i));
+        tasks_run.fetch_add(1, std::memory_order_release);
+      });
+    }
+  }
+  // Without hold() each post() would have run its task on this thread, before returning.
+  EXPECT_EQ(tasks_run.load(), 0);
+  EXPECT_EQ(sink.delivered.load(), 0u);
+  d.start();
+  EXPECT_TRUE(eventually([&] { return sink.delivered.load(std::memory_order_acquire) == 500; }, 5s));
+  EXPECT_EQ(tasks_run.load(std::memory_order_acquire), 5);
+  d.stop();
+  EXPECT_FALSE(ran_on_poster.load());
+  std::vector<int> expected = {-100, -200, -300, -400, -500};
+  for (int i = 1; i <= 500; ++i) expected.push_back(i);
+  EXPECT_EQ(sink.order, expected);
+  EXPECT_EQ(d.stats().samples, 500u);
+}

@@ -7,6 +7,7 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include <cstddef>
 #include <cstdlib>
 #include <string>
 
@@ -48,6 +49,36 @@ class NotifySocket {
 
 }  // namespace
 
+// sd_notify(3): "@name" is a socket in the abstract namespace.
+TEST(Notifier, ReachesAnAbstractSocket) {
+  const std::string name = "cobridge-notify-test-abstract-" + std::to_string(getpid());
+  const int fd = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  name.copy(addr.sun_path + 1, sizeof addr.sun_path - 2);
+  ASSERT_EQ(::bind(fd, reinterpret_cast<sockaddr*>(&addr), static_cast<socklen_t>(offsetof(sockaddr_un, sun_path) + 1 + name.size())), 0);
+  ::setenv("NOTIFY_SOCKET", ("@" + name).c_str(), 1);
+  Notifier n;
+  EXPECT_FALSE(n.ready());
+  char buf[64];
+  const ssize_t got = ::recv(fd, buf, sizeof buf, MSG_DONTWAIT);
+  EXPECT_EQ(std::string(buf, got > 0 ? static_cast<size_t>(got) : 0), "READY=1");
+  ::unsetenv("NOTIFY_SOCKET");
+  ::close(fd);
+}
+
+// A socket that is not there is the caller's to hear of (ServiceStatus logs it).
+TEST(Notifier, ReportsASocketThatIsNotThere) {
+  ::setenv("NOTIFY_SOCKET", "/nonexistent/cobridge-notify", 1);
+  Notifier n;
+  EXPECT_TRUE(n.enabled());
+  EXPECT_EQ(n.ready(), std::errc::no_such_file_or_directory);
+  ::setenv("NOTIFY_SOCKET", "vsock:2:1234", 1);
+  Notifier vsock;
+  EXPECT_TRUE(vsock.ready());
+  ::unsetenv("NOTIFY_SOCKET");
+}
+
 TEST(Notifier, DisabledWithoutNotifySocketAndSilent) {
   ::unsetenv("NOTIFY_SOCKET");
   Notifier n;
@@ -84,4 +115,13 @@ TEST(Notifier, WatchdogPeriodIsHalfOfWatchdogUsecForOurPid) {
   ::setenv("WATCHDOG_PID", "1", 1);
   Notifier other;
   EXPECT_EQ(other.watchdog_period().count(), 0);
+  ::setenv("WATCHDOG_PID", "12x", 1);
+  Notifier garbled;
+  EXPECT_EQ(garbled.watchdog_period().count(), 0);
+  ::unsetenv("WATCHDOG_PID");  // not set: the interval is ours (systemd sets it for the main process)
+  Notifier unnamed;
+  EXPECT_EQ(unnamed.watchdog_period().count(), 1000000);
+  ::setenv("WATCHDOG_USEC", "0", 1);
+  Notifier off;
+  EXPECT_EQ(off.watchdog_period().count(), 0);
 }
