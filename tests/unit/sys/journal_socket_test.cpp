@@ -13,29 +13,18 @@
 #include <string>
 #include <vector>
 
+#include "unit/support/datagram_receiver.hpp"
+
 using cobridge::sys::journal_datagram;
 using cobridge::sys::JournalSocket;
 
 namespace {
 
+namespace test = cobridge::test;
+
 class FakeJournald {
  public:
-  FakeJournald() {
-    path_ = "/tmp/cobridge-journal-test-" + std::to_string(getpid());
-    ::unlink(path_.c_str());
-    fd_ = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-    sockaddr_un addr{};
-    addr.sun_family = AF_UNIX;
-    path_.copy(addr.sun_path, sizeof addr.sun_path - 1);
-    EXPECT_EQ(::bind(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
-    timeval tv{2, 0};
-    ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
-  }
-  ~FakeJournald() {
-    ::close(fd_);
-    ::unlink(path_.c_str());
-  }
-  const std::string& path() const { return path_; }
+  const std::string& path() const { return socket_.path(); }
 
   // One message: its bytes, or the content of the file descriptor it passed.
   std::string next(bool* passed_fd = nullptr) {
@@ -47,7 +36,7 @@ class FakeJournald {
     msg.msg_iovlen = 1;
     msg.msg_control = control;
     msg.msg_controllen = sizeof control;
-    const ssize_t n = ::recvmsg(fd_, &msg, 0);
+    const ssize_t n = ::recvmsg(socket_.fd(), &msg, 0);
     if (n < 0) return "<nothing>";
     const cmsghdr* c = CMSG_FIRSTHDR(&msg);
     if (passed_fd != nullptr) *passed_fd = c != nullptr && c->cmsg_type == SCM_RIGHTS;
@@ -63,8 +52,7 @@ class FakeJournald {
   }
 
  private:
-  std::string path_;
-  int fd_ = -1;
+  test::DatagramReceiver socket_{"journal-test", 2};
 };
 
 }  // namespace

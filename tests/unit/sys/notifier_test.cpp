@@ -11,40 +11,30 @@
 #include <cstdlib>
 #include <string>
 
+#include "unit/support/datagram_receiver.hpp"
+
 using cobridge::sys::Notifier;
 
 namespace {
 
 class NotifySocket {
  public:
-  NotifySocket() {
-    path_ = "/tmp/cobridge-notify-test-" + std::to_string(getpid());
-    ::unlink(path_.c_str());
-    fd_ = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-    sockaddr_un addr{};
-    addr.sun_family = AF_UNIX;
-    path_.copy(addr.sun_path, sizeof addr.sun_path - 1);
-    EXPECT_EQ(::bind(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
-    timeval tv{1, 0};
-    ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
-    ::setenv("NOTIFY_SOCKET", path_.c_str(), 1);
-  }
+  NotifySocket() { ::setenv("NOTIFY_SOCKET", socket_.path().c_str(), 1); }
   ~NotifySocket() {
     ::unsetenv("NOTIFY_SOCKET");
     ::unsetenv("WATCHDOG_USEC");
     ::unsetenv("WATCHDOG_PID");
-    ::close(fd_);
-    ::unlink(path_.c_str());
   }
+  NotifySocket(const NotifySocket&) = delete;
+  NotifySocket& operator=(const NotifySocket&) = delete;
   std::string next() {
     char buf[512];
-    const ssize_t n = ::recv(fd_, buf, sizeof buf, 0);
+    const ssize_t n = ::recv(socket_.fd(), buf, sizeof buf, 0);
     return n > 0 ? std::string(buf, static_cast<size_t>(n)) : std::string("<nothing>");
   }
 
  private:
-  std::string path_;
-  int fd_ = -1;
+  cobridge::test::DatagramReceiver socket_{"notify-test", 1};
 };
 
 }  // namespace
