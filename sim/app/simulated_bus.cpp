@@ -63,7 +63,8 @@ bool SimulatedBus::merges_with_sent_answer(const can::Frame& frame) noexcept {
 
 bool SimulatedBus::device_send(std::size_t index, const can::Frame& frame) noexcept {
   // Sent: on the wire it is the frame already there, seen once by everybody.
-  if (merges_with_sent_answer(frame)) return true;
+  last_send_merged_ = merges_with_sent_answer(frame);
+  if (last_send_merged_) return true;
   // Identifier 0 back to back wins every arbitration: nobody else gets on.
   if (traffic_.flooding(now_) || !channel_.send(frame)) {
     ++stats_.device_refused;

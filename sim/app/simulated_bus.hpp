@@ -73,6 +73,9 @@ class SimulatedBus {
   }
 
   [[nodiscard]] const BusStats& stats() const noexcept { return stats_; }
+  // The frame of the last device send was merged with an identical LSS
+  // answer already on the wire: it left with that frame, at its time.
+  [[nodiscard]] bool last_send_merged() const noexcept { return last_send_merged_; }
   // Delivers the sibling frames queued so far (also called by receive/process).
   void deliver_local(canopen::TimePoint now) noexcept;
 
@@ -102,6 +105,7 @@ class SimulatedBus {
   bool in_instant_ = false;
   bool lss_answered_ = false;
   can::Frame lss_answer_{};
+  bool last_send_merged_ = false;
   canopen::TimePoint now_{};
   TrafficGenerator traffic_;
   std::array<can::Frame, can::SocketCanChannel::kBatch> rx_{};

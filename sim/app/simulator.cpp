@@ -66,6 +66,7 @@ std::optional<Simulator::Failure> Simulator::start() {
 
   for (const BusOptions& b : options_.buses) {
     auto bus = std::make_unique<SimulatedBus>(b.iface);
+    auto last_sent_ns = std::make_shared<std::int64_t>(0);  // this bus's last truth stamp
     if (const auto err = bus->open()) return Failure{1, "--iface '" + b.iface + "': " + err.message};
     for (const DeviceSpec& spec : b.devices) {
       const device::DeviceDescription* desc =
@@ -78,13 +79,17 @@ std::optional<Simulator::Failure> Simulator::start() {
       SimulatedBus* raw = bus.get();
       auto dev = std::make_unique<SimDevice>(spec, *desc, raw->sink_for(raw->size()), options_.state_dir);
       if (truth_.is_open()) {
-        dev->set_truth_sink([this, raw](const TruthRecord& r) {
+        dev->set_truth_sink([this, raw, last_sent_ns](const TruthRecord& r) {
           // The device calls this right after the frame went to the socket:
           // CLOCK_REALTIME read here is the send time, comparable with the
-          // SO_TIMESTAMPNS receive time of a reader on the same host. One
-          // clock read per frame, only with --truth.
+          // SO_TIMESTAMPNS receive time of a reader on the same host. A
+          // merged LSS answer left with the frame already sent and takes its
+          // time: one clock read per frame on the wire (a system call under
+          // UML), not 32 per Fastscan step.
           TruthRecord copy = r;
-          if (copy.frame.timestamp_ns == 0) copy.frame.timestamp_ns = realtime_ns();
+          if (copy.frame.timestamp_ns == 0)
+            copy.frame.timestamp_ns = raw->last_send_merged() ? *last_sent_ns : realtime_ns();
+          *last_sent_ns = copy.frame.timestamp_ns;
           truth_.write(raw->iface(), copy, now_);
         });
       }
@@ -142,7 +147,9 @@ std::string Simulator::stats() const {
                   " late_over_1ms=" + std::to_string(loop_.late_over_1ms) +
                   " max_late_us=" + std::to_string(loop_.max_late_ns / 1000) + " mean_late_us=" +
                   std::to_string(loop_.timed_wakes == 0 ? 0 : loop_.late_sum_ns / loop_.timed_wakes / 1000) +
-                  " truth_lines=" + std::to_string(truth_.lines());
+                  " truth_lines=" + std::to_string(truth_.lines()) +
+                  " busy_over_1ms=" + std::to_string(loop_.busy_over_1ms) +
+                  " max_busy_us=" + std::to_string(loop_.max_busy_ns / 1000);
   for (const auto& bus : buses_) {
     const BusStats& b = bus->stats();
     std::uint64_t late = 0;
@@ -240,6 +247,14 @@ std::string Simulator::execute(std::string_view line) {
   return "ok " + what + " " + std::to_string(c.serial);
 }
 
+void Simulator::note_busy(canopen::TimePoint turn_start) noexcept {
+  // The turn's own length, wake-up to the next wait: a request that arrives
+  // meanwhile waits that long, whatever the kernel's wake-up adds.
+  const auto busy = std::chrono::duration_cast<std::chrono::nanoseconds>(canopen::Clock::now() - turn_start).count();
+  loop_.max_busy_ns = std::max<std::int64_t>(loop_.max_busy_ns, busy);
+  if (busy > 1'000'000) ++loop_.busy_over_1ms;
+}
+
 int Simulator::run(sys::Signals& signals) {
   std::vector<pollfd> fds;
   fds.reserve(16 + buses_.size());
@@ -284,6 +299,7 @@ int Simulator::run(sys::Signals& signals) {
       ts.tv_nsec = static_cast<long>(ns % 1'000'000'000);
       tsp = &ts;
     }
+    note_busy(now);
     const canopen::TimePoint before = now;
     const int n = ::ppoll(fds.data(), static_cast<nfds_t>(fds.size()), tsp, nullptr);
     if (n < 0 && errno != EINTR) {

@@ -31,6 +31,8 @@ struct LoopStats {
   std::uint64_t late_over_1ms = 0;       // ... more than 1 ms after the deadline
   std::int64_t max_late_ns = 0;
   std::uint64_t late_sum_ns = 0;
+  std::uint64_t busy_over_1ms = 0;  // turns that took more than 1 ms from wake-up to the next wait
+  std::int64_t max_busy_ns = 0;
 };
 
 class Simulator {
@@ -63,6 +65,7 @@ class Simulator {
   [[nodiscard]] SimulatedBus* find_bus(std::string_view iface);
   [[nodiscard]] std::string list() const;
   [[nodiscard]] std::string stats() const;
+  void note_busy(canopen::TimePoint turn_start) noexcept;
 
   SimOptions options_;
   device::DeviceCatalog catalog_;  // before the buses: the devices point into it

@@ -63,9 +63,11 @@ class Report:
 class Workspace:
     """A state directory on the shared file system and a socket directory on /run."""
 
-    def __init__(self, name, keep=False):
+    def __init__(self, name, keep=False, base="/tmp"):
+        """base: where the state directory goes; "/run" puts it on UML's own tmpfs (see
+        test_commissioning_scale.py), gone with the machine."""
         self.keep = keep
-        self.dir = tempfile.mkdtemp(prefix="cobridge-e2e-%s-" % name, dir="/tmp")
+        self.dir = tempfile.mkdtemp(prefix="cobridge-e2e-%s-" % name, dir=base)
         self.run = tempfile.mkdtemp(prefix="cobridge-e2e-%s-" % name, dir="/run")
         self.state = os.path.join(self.dir, "state")
         self.sim_state = os.path.join(self.dir, "sim-state")
