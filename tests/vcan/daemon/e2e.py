@@ -306,9 +306,12 @@ class Daemon:
     PID systemd would announce is the daemon's own."""
 
     def __init__(self, daemon, config, ws, notify=None, watchdog_usec=None, log_name="daemon.log", extra_args=(),
-                 run_as=()):
+                 run_as=(), stamp_exec=False):
         """run_as: a command prefix that starts the daemon as another user
-        (e.g. ["setpriv", "--reuid=...", "--regid=...", "--init-groups", "--"])."""
+        (e.g. ["setpriv", "--reuid=...", "--regid=...", "--init-groups", "--"]).
+        stamp_exec: self.exec_time is the wall time in the child just before
+        its exec, as a service manager's exec; without it, only self.started
+        (before the fork, which costs 40-70 ms of a large Python under UML)."""
         env = dict(os.environ)
         env.pop("NOTIFY_SOCKET", None)
         env.pop("WATCHDOG_USEC", None)
@@ -325,8 +328,23 @@ class Daemon:
         self.log_path = ws.path(log_name)
         self.log = open(self.log_path, "a")
         self.started = time.time()
-        self.proc = subprocess.Popen(cmd, env=env, stdin=subprocess.DEVNULL, stdout=self.log,
-                                     stderr=subprocess.STDOUT)
+        self.exec_time = None
+        if not stamp_exec:
+            self.proc = subprocess.Popen(cmd, env=env, stdin=subprocess.DEVNULL, stdout=self.log,
+                                         stderr=subprocess.STDOUT)
+            return
+        r, w = os.pipe()
+        try:
+            self.proc = subprocess.Popen(cmd, env=env, stdin=subprocess.DEVNULL, stdout=self.log,
+                                         stderr=subprocess.STDOUT, pass_fds=(w,),
+                                         preexec_fn=lambda: os.write(w, repr(time.time()).encode()))
+            os.close(w)
+            w = -1
+            self.exec_time = float(os.read(r, 64))
+        finally:
+            os.close(r)
+            if w >= 0:
+                os.close(w)
 
     @property
     def pid(self):
