@@ -1,0 +1,145 @@
+// MasterElection: which of several gateways on one bus is its NMT master,
+// decided on the bus itself, after CiA 302-2's NMT flying master.
+//
+// The frames (CiA 302-2, identifiers in the NMT range below 0x80):
+//   0x71 [priority, node-ID]  "NMT master node-ID": a claim of the master
+//                              role, and the active master's answer to 0x73
+//   0x72 (no data)            "flying master request": start a negotiation
+//   0x73 (no data)            "active master request": who is master?
+//   0x76 (no data)            "force flying master negotiation"
+//   0x700 + node-ID [state]   each gateway's heartbeat (CiA 301): master
+//                              operational (05h), every other pre-operational
+//                              (7Fh), so a candump shows the roles
+// A gateway starts by asking (0x73). The active master answers with 0x71 and
+// the newcomer is standby. When nobody answers, or when a standby misses the
+// master's heartbeat for 1.5 periods, it sends 0x72 and every candidate
+// waits priority * 300 ms + node-ID * 2 ms before claiming with 0x71: the
+// best (lowest priority value, then lowest node-ID) claims first and the
+// others, seeing the claim, stand by. A claim is held for a settle time
+// before the role is taken; two claims in that time (or two masters after a
+// healed bus split: the master repeats its claim every tenth heartbeat) are
+// settled by the same order, so the bus never keeps two masters. The role becomes master only after the settle time; until
+// then, and as standby, the owner sends nothing but these frames.
+// Where this differs from CiA 302-2: no NMT startup object (0x1F80) or
+// timing object (0x1F90) in an object dictionary (the settings come from the
+// gateway's configuration); the active master does not re-announce itself on
+// slaves' boot-ups; a returning gateway of higher priority takes the role
+// back only when configured to (preempt, after a hold time) and never while
+// the master reports itself busy (a device mid-configuration).
+//
+// Thread: one thread (the bus control thread) calls everything; no locks,
+// no allocation after construction. The callback runs synchronously from
+// on_frame()/process() and must not block.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string_view>
+
+#include "can/frame.hpp"
+#include "can/frame_sink.hpp"
+#include "canopen/clock.hpp"
+
+namespace cobridge::canopen {
+
+namespace cob {
+inline constexpr uint32_t kMasterNodeId = 0x71;         // claim / answer: [priority, node-ID]
+inline constexpr uint32_t kFlyingMasterRequest = 0x72;  // start a negotiation
+inline constexpr uint32_t kActiveMasterRequest = 0x73;  // who is the active master?
+inline constexpr uint32_t kForceNegotiation = 0x76;     // force a negotiation
+}  // namespace cob
+
+struct MasterElectionConfig {
+  uint8_t node_id = 0;    // this gateway's node-ID on the bus, 1..127
+  uint8_t priority = 0;   // 0 (high) .. 2 (low), CiA 302-2
+  Duration heartbeat{std::chrono::milliseconds(100)};
+  bool preempt = false;   // take the role back from a master of lower rank
+  Duration hold{std::chrono::seconds(10)};  // ... after this long as standby
+  Duration settle{std::chrono::milliseconds(50)};
+};
+
+enum class MasterRole : uint8_t { starting, negotiating, claiming, master, standby };
+[[nodiscard]] std::string_view to_string(MasterRole role) noexcept;
+
+enum class ElectionCause : uint8_t {
+  master_answered,      // our active master request was answered
+  no_master,            // nobody answered it
+  master_lost,          // the master's heartbeat stopped
+  negotiation_requested,  // another gateway asked for a negotiation
+  won,                  // our claim held for the settle time
+  claimed,              // another gateway claimed first while we waited
+  better_claim,         // a claim of higher rank than ours
+  preempted,            // a gateway of higher rank asked for the role back
+};
+[[nodiscard]] std::string_view to_string(ElectionCause cause) noexcept;
+
+struct ElectionEvent {
+  MasterRole role = MasterRole::starting;
+  MasterRole previous = MasterRole::starting;
+  ElectionCause cause = ElectionCause::no_master;
+  uint8_t master_node = 0;  // the master known after the event, 0 = none
+  uint8_t master_priority = 0;
+  TimePoint time{};
+};
+
+class MasterElection {
+ public:
+  using Callback = std::function<void(const ElectionEvent&)>;
+  static constexpr Duration kPrioritySlot{std::chrono::milliseconds(300)};
+  static constexpr Duration kNodeSlot{std::chrono::milliseconds(2)};
+  static constexpr unsigned kAnnounceEvery = 10;  // master heartbeats per repeated claim
+
+  explicit MasterElection(MasterElectionConfig config) noexcept : config_(config) {}
+  void set_callback(Callback callback) { callback_ = std::move(callback); }
+
+  // Asks who the master is; the answer (or its absence) decides the role.
+  void start(TimePoint now, can::FrameSink& out) noexcept;
+  // Every received frame; true when it was an election frame or the
+  // master's heartbeat.
+  bool on_frame(const can::Frame& frame, TimePoint now, can::FrameSink& out) noexcept;
+  // Timers: heartbeat, answer wait, negotiation slot, settle, master loss.
+  // Returns the next deadline.
+  TimePoint process(TimePoint now, can::FrameSink& out) noexcept;
+
+  // While busy (a device mid-configuration), a request to give the role back
+  // waits; the role is handed over once the owner clears it.
+  void set_busy(bool busy) noexcept { busy_ = busy; }
+
+  [[nodiscard]] MasterRole role() const noexcept { return role_; }
+  [[nodiscard]] bool is_master() const noexcept { return role_ == MasterRole::master; }
+  [[nodiscard]] uint8_t master_node() const noexcept { return master_node_; }
+  [[nodiscard]] uint8_t master_priority() const noexcept { return master_priority_; }
+  [[nodiscard]] const ElectionEvent& last_event() const noexcept { return last_; }
+  [[nodiscard]] const MasterElectionConfig& config() const noexcept { return config_; }
+  [[nodiscard]] Duration master_timeout() const noexcept { return config_.heartbeat + config_.heartbeat / 2; }
+
+ private:
+  // Rank order: lower priority value first, then lower node-ID.
+  [[nodiscard]] bool outranks_us(uint8_t priority, uint8_t node) const noexcept;
+  void change(MasterRole role, ElectionCause cause, TimePoint now) noexcept;
+  void negotiate(ElectionCause cause, TimePoint now) noexcept;
+  void claim(TimePoint now, can::FrameSink& out) noexcept;
+  void follow(uint8_t priority, uint8_t node, ElectionCause cause, TimePoint now) noexcept;
+  void on_claim(uint8_t priority, uint8_t node, TimePoint now, can::FrameSink& out) noexcept;
+  void on_force(TimePoint now, can::FrameSink& out) noexcept;
+  void send_claim(can::FrameSink& out) noexcept;
+  void send_heartbeat(can::FrameSink& out) noexcept;
+  TimePoint step_role(TimePoint now, can::FrameSink& out) noexcept;
+
+  MasterElectionConfig config_;
+  Callback callback_;
+  MasterRole role_ = MasterRole::starting;
+  uint8_t master_node_ = 0;
+  uint8_t master_priority_ = 0;
+  TimePoint deadline_ = kNever;        // of the present role's wait (answer, slot, settle)
+  TimePoint master_seen_ = kNever;     // standby: the master's last frame
+  TimePoint next_heartbeat_ = kNever;
+  TimePoint standby_since_ = kNever;
+  bool busy_ = false;
+  bool handover_pending_ = false;  // a force request waits for busy_ to clear
+  bool preempt_sent_ = false;
+  unsigned beats_ = 0;
+  ElectionEvent last_{};
+};
+
+}  // namespace cobridge::canopen
