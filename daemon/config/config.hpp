@@ -13,6 +13,7 @@
 
 #include "config/remote_access.hpp"
 
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
@@ -174,6 +175,16 @@ struct Device {
 
 // ---- [web] ---------------------------------------------------------------
 
+// [redundancy]: a hot-standby pair of gateways on the same buses
+// (docs/operations.md "Hot standby"); absent = the only master.
+struct RedundancySettings {
+  std::uint8_t node_id = 0;   // this gateway's node-ID on every bus: heartbeat and claims
+  std::uint8_t priority = 0;  // 0 (high) .. 2 (low); equal priorities: the lower node-ID
+  std::chrono::milliseconds heartbeat{100};  // the master's (and the standby's) heartbeat
+  bool preempt = false;       // take the role back from a gateway of lower rank
+  std::chrono::seconds hold{10};  // ... after this long as standby
+};
+
 // The read-only HTTP status service (daemon/web/, docs/web.md): not an
 // output plugin, a control-plane service of the daemon.
 struct WebSettings {
@@ -213,6 +224,7 @@ struct Config {
   std::vector<Device> devices;
   std::vector<Output> outputs;
   std::optional<WebSettings> web;  // absent = no web service
+  std::optional<RedundancySettings> redundancy;  // absent = no standby: this gateway is master
   RemoteAccess remote;             // [control], [ascii_gateway]
 
   [[nodiscard]] const Bus* find_bus(std::string_view name) const noexcept {

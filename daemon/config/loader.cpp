@@ -74,7 +74,7 @@ LoadResult Loader::run(std::string_view text) {
     return LoadResult(sink_.take_sorted());
   }
   TableReader top(root, "the top level", "", "", sink_);
-  top.check_keys({"gateway", "logging", "bus", "device", "outputs", "web", "control", "ascii_gateway"});
+  top.check_keys({"gateway", "logging", "bus", "device", "outputs", "web", "control", "ascii_gateway", "redundancy"});
   read_gateway(top);
   read_logging(top);
   read_tables(root, "bus", &Loader::read_bus);
@@ -82,7 +82,9 @@ LoadResult Loader::run(std::string_view text) {
   read_outputs(top);
   read_web(top);
   read_remote_access(top, sink_, config_.remote);
+  read_redundancy(top);
   cross_check();
+  check_redundancy_node();
   if (!sink_.empty()) return LoadResult(sink_.take_sorted());
   config_.source = sink_.file();
   return LoadResult(std::move(config_));

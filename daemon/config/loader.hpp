@@ -115,6 +115,10 @@ class Loader {
   void read_outputs(TableReader& top);
   // ---- [web] -------------------------------------------------------------
   void read_web(TableReader& top);
+  // ---- [redundancy] -------------------------------------------------------
+  void read_redundancy(TableReader& top);
+  void check_redundancy_node();
+  SourceLocation redundancy_node_spot_;
   // ---- checks across sections ---------------------------------------------
   void cross_check();
   static std::optional<std::uint32_t> vendor_of(const Device& d);
