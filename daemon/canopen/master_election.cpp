@@ -39,7 +39,9 @@ std::string_view to_string(ElectionCause cause) noexcept {
 void MasterElection::start(TimePoint now, can::FrameSink& out) noexcept {
   role_ = MasterRole::starting;
   master_node_ = 0;
+  gateways_[config_.node_id & 0x7F] = true;
   (void)out.send(can::Frame::make(cob::kActiveMasterRequest, {}));
+  (void)out.send(can::Frame::make(cob::kMasterResponse, {config_.priority, config_.node_id}));
   // The active master answers at once; a full heartbeat period covers its
   // bus thread's turn and the frames queued before the answer.
   deadline_ = now + master_timeout();
@@ -130,12 +132,23 @@ void MasterElection::on_force(TimePoint now, can::FrameSink& out) noexcept {
   negotiate(ElectionCause::preempted, now);
 }
 
+bool MasterElection::owns(const can::Frame& frame) const noexcept {
+  if (frame.is_extended() || frame.is_rtr()) return false;
+  if (frame.id >= cob::kMasterNodeId && frame.id <= cob::kForceNegotiation) return true;
+  return frame.id > cob::kNmtErrorControlBase && frame.id <= cob::kNmtErrorControlBase + 127 &&
+         gateways_[frame.id - cob::kNmtErrorControlBase];
+}
+
 bool MasterElection::on_frame(const can::Frame& frame, TimePoint now, can::FrameSink& out) noexcept {
   if (frame.is_extended() || frame.is_rtr()) return false;
   switch (frame.id) {
     case cob::kMasterNodeId:
-      if (frame.len < 2 || frame.data[1] == config_.node_id) return true;
+      if (frame.len < 2 || frame.data[1] == config_.node_id || frame.data[1] > 127) return true;
+      gateways_[frame.data[1]] = true;
       on_claim(frame.data[0], frame.data[1], now, out);
+      return true;
+    case cob::kMasterResponse:
+      if (frame.len >= 2 && frame.data[1] <= 127) gateways_[frame.data[1]] = true;
       return true;
     case cob::kFlyingMasterRequest:
       if (role_ == MasterRole::master) {

@@ -6,6 +6,10 @@
 //                              role, and the active master's answer to 0x73
 //   0x72 (no data)            "flying master request": start a negotiation
 //   0x73 (no data)            "active master request": who is master?
+//   0x74 [priority, node-ID]  "NMT master response": a gateway able to be
+//                              master is here (sent at start; the node-ID in
+//                              it is our addition, so that each gateway
+//                              knows the other's heartbeat is no device's)
 //   0x76 (no data)            "force flying master negotiation"
 //   0x700 + node-ID [state]   each gateway's heartbeat (CiA 301): master
 //                              operational (05h), every other pre-operational
@@ -32,6 +36,7 @@
 // on_frame()/process() and must not block.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <string_view>
@@ -46,6 +51,7 @@ namespace cob {
 inline constexpr uint32_t kMasterNodeId = 0x71;         // claim / answer: [priority, node-ID]
 inline constexpr uint32_t kFlyingMasterRequest = 0x72;  // start a negotiation
 inline constexpr uint32_t kActiveMasterRequest = 0x73;  // who is the active master?
+inline constexpr uint32_t kMasterResponse = 0x74;       // a master-capable gateway: [priority, node-ID]
 inline constexpr uint32_t kForceNegotiation = 0x76;     // force a negotiation
 }  // namespace cob
 
@@ -112,6 +118,12 @@ class MasterElection {
   [[nodiscard]] const ElectionEvent& last_event() const noexcept { return last_; }
   [[nodiscard]] const MasterElectionConfig& config() const noexcept { return config_; }
   [[nodiscard]] Duration master_timeout() const noexcept { return config_.heartbeat + config_.heartbeat / 2; }
+  // A node-ID a gateway of this bus uses (ours, or one heard claiming or
+  // announcing itself): its heartbeat is the election's, not a device's.
+  [[nodiscard]] bool is_gateway(uint8_t node) const noexcept { return node < 128 && gateways_[node]; }
+  // Frames that belong to the election only: 0x71..0x76, and the heartbeat
+  // of a gateway.
+  [[nodiscard]] bool owns(const can::Frame& frame) const noexcept;
 
  private:
   // Rank order: lower priority value first, then lower node-ID.
@@ -139,6 +151,7 @@ class MasterElection {
   bool handover_pending_ = false;  // a force request waits for busy_ to clear
   bool preempt_sent_ = false;
   unsigned beats_ = 0;
+  std::array<bool, 128> gateways_{};
   ElectionEvent last_{};
 };
 

@@ -82,6 +82,7 @@ struct Bus {
   bool discovery = true;
   std::uint32_t discovery_period_s = 10;
   std::vector<std::uint8_t> node_pool;  // sorted, unique, each 1..127
+  bool node_pool_default = false;       // not written: 1..127 (less [redundancy] node_id)
   Commissioning commissioning = Commissioning::automatic;
   SwapPolicy swap_policy = SwapPolicy::same_model;
   std::uint32_t lss_timeout_ms = 100;     // ceiling of every LSS wait

@@ -16,6 +16,7 @@ void Loader::read_node_pool(TableReader& r, Bus& bus) {
   const toml::node* n = r.find("node_pool");
   if (n == nullptr) {
     for (int id = 1; id <= 127; ++id) bus.node_pool.push_back(static_cast<std::uint8_t>(id));
+    bus.node_pool_default = true;
     return;
   }
   std::array<bool, 128> in_pool{};

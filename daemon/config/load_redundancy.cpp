@@ -2,6 +2,8 @@
 // against the devices' (a gateway's heartbeat must not look like a device's).
 #include "config/loader.hpp"
 
+#include <algorithm>
+
 namespace cobridge::config::detail {
 
 void Loader::read_redundancy(TableReader& top) {
@@ -42,7 +44,11 @@ void Loader::check_redundancy_node() {
                                      "'s node-ID (" + at(d.where) + "); the gateways need a node-ID of their own");
     }
   }
-  for (const Bus& b : config_.buses) {
+  for (Bus& b : config_.buses) {
+    if (b.node_pool_default) {  // the gateway's own node-ID is never given to a device
+      b.node_pool.erase(std::remove(b.node_pool.begin(), b.node_pool.end(), node), b.node_pool.end());
+      continue;
+    }
     for (const std::uint8_t n : b.node_pool) {
       if (n == node) {
         add(redundancy_node_spot_, "redundancy.node_id " + std::to_string(node) + " is in bus " + in_quotes(b.name) +

@@ -82,8 +82,9 @@ Error BusManager::Impl::start() {
     return err;
   }
   // What the control plane needs; the TPDOs go to the hot path's own socket.
-  static constexpr std::array<can::Filter, 4> kFilters{{
+  static constexpr std::array<can::Filter, 5> kFilters{{
       {canopen::cob::kSdoTxBase, 0x780, false},            // SDO responses 0x580..0x5FF
+      {canopen::cob::kMasterNodeId & ~0x7U, 0x7F8, false},  // the master election 0x70..0x77 ([redundancy])
       can::Filter::exact(canopen::cob::kLssSlaveToMaster),  // LSS 0x7E4
       {canopen::cob::kNmtErrorControlBase, 0x780, false},   // boot-up/heartbeat/guarding 0x700..0x77F
       {canopen::cob::kEmcyBase, 0x780, false},              // EMCY 0x081..0x0FF
@@ -155,9 +156,10 @@ void BusManager::Impl::run() {
       (void)handle_outputs(now);
       publish_if_dirty();
     }
-    if (!discovery_started && channel->is_open()) {
+    if (config.redundancy && !election && channel->is_open()) start_election(now);
+    if (!discovery_started && channel->is_open() && !standby()) {
       // Not before: probes sent to a missing interface would mark every
-      // device absent.
+      // device absent; nor as standby, whose probes are the master's.
       discovery->start(now);
       discovery_started = true;
       check_configured_nodes(now);

@@ -272,6 +272,13 @@ void BusManager::Impl::start_command(DeviceCommand cmd, TimePoint now) {
     report_command(none, cmd, CommandOutcome{CommandStatus::unknown_device, 0, "not configured on this bus"});
     return;
   }
+  if (standby()) {
+    report_command(*m, cmd,
+                   CommandOutcome{CommandStatus::busy, 0,
+                                  "this gateway is standby; the master (node " +
+                                      std::to_string(election->master_node()) + ") runs commands"});
+    return;
+  }
   if (m->runner || m->st.node_id == remote->sdo_node()) {
     report_command(*m, cmd,
                    CommandOutcome{CommandStatus::busy, 0, m->command ? "another command runs" : "being configured"});

@@ -6,6 +6,7 @@
 namespace cobridge::gateway {
 
 void BusManager::Impl::dispatch(const can::Frame& frame, TimePoint now) {
+  if (election_frame(frame, now)) return;  // a gateway's, not a device's
   // While a client's LSS command runs, its answers are not discovery's.
   if (frame.id != canopen::cob::kLssSlaveToMaster || !remote->lss_session(now)) discovery->on_frame(frame, now);
   remote->on_frame(frame, now);
@@ -20,6 +21,12 @@ TimePoint BusManager::Impl::run_components(TimePoint now) {
   TimePoint next = kNever;
   next = std::min(next, channel->process(now));
   open_flag.store(channel->is_open());
+  if (election) {
+    // The role is not handed over in the middle of a device's configuration.
+    election->set_busy(std::any_of(devices.begin(), devices.end(), [](const Managed& m) { return m.runner != nullptr; }));
+    next = std::min(next, election->process(now, *channel));
+    if (standby()) return run_standby(now, next);
+  }
   if (!remote->lss_session(now)) next = std::min(next, discovery->process(now));
   next = std::min(next, remote->process(now, *this));
   remote_waiting.store(remote->waiting(), std::memory_order_relaxed);

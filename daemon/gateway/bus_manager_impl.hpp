@@ -18,6 +18,7 @@
 #include "can/bus_event.hpp"
 #include "can/socketcan_channel.hpp"
 #include "canopen/cob_id.hpp"
+#include "canopen/master_election.hpp"
 #include "canopen/nmt.hpp"
 #include "canopen/sdo_client.hpp"
 #include "canopen/sync.hpp"
@@ -286,6 +287,15 @@ struct BusManager::Impl final : RemoteGate {
   bool discovery_started = false;
   bool dirty = true;
   TimePoint started_at{};
+  // [redundancy]: the bus's master role (bus_manager_election.cpp).
+  std::optional<canopen::MasterElection> election;
+  WallTime election_at{};
+  void start_election(TimePoint now);
+  [[nodiscard]] bool standby() const noexcept { return election && !election->is_master(); }
+  [[nodiscard]] bool election_frame(const can::Frame& frame, TimePoint now);
+  void on_election(const canopen::ElectionEvent& e);
+  [[nodiscard]] TimePoint run_standby(TimePoint now, TimePoint next);
+  void describe_role(BusStatus& s) const;
 
   std::thread thread;
   int wake_fd = -1;

@@ -60,6 +60,7 @@ void BusManager::Impl::publish_all() {
   for (const auto& m : devices) s.devices.push_back(m.st);
   s.steps = steps;
   for (const auto& p : problems) s.problems.push_back(p.text);
+  describe_role(s);
   const std::lock_guard lock(mutex);
   published = std::move(s);
 }

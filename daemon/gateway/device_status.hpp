@@ -111,6 +111,11 @@ struct BusStatus {
   std::uint64_t status_drops = 0;         // status events lost (the bus's control ring full)
   std::uint64_t bad_length_frames = 0;    // PDO/EMCY/heartbeat of the wrong length: not published
   std::uint64_t tx_dropped = 0;           // frames the control socket could not send (ENOBUFS after back-off)
+  // [redundancy] only (role empty without it: this gateway is the only master).
+  std::string role;                   // master, standby, starting, negotiating, claiming
+  std::uint8_t master_node = 0;       // the bus's master gateway, 0 = none known
+  std::string election_cause;         // why the role is what it is
+  WallTime election_at{};             // when the role last changed
   std::vector<DeviceStatus> devices;
   std::vector<StepTiming> steps;      // most recent last, bounded
   std::vector<std::string> problems;  // unknown serial, clash, wrong model, ...

@@ -152,6 +152,18 @@ void write_device(JsonWriter& w, const DeviceStatus& d) {
   w.end_object();
 }
 
+// [redundancy]: the role of this gateway on the bus and why.
+void write_redundancy(JsonWriter& w, const BusStatus& b) {
+  w.key("redundancy");
+  w.begin_object();
+  w.field("role", b.role);
+  w.field("master_node", std::uint64_t{b.master_node});
+  w.field("cause", b.election_cause);
+  w.key("since");
+  w.time(b.election_at);
+  w.end_object();
+}
+
 void write_bus(JsonWriter& w, const BusStatus& b) {
   w.begin_object();
   w.field("name", b.name);
@@ -159,6 +171,7 @@ void write_bus(JsonWriter& w, const BusStatus& b) {
   w.field("open", b.open);
   w.field("bitrate_kbit", std::uint64_t{b.bitrate_kbit});
   w.field("last_bus_event", b.last_bus_event);
+  if (!b.role.empty()) write_redundancy(w, b);
   w.key("counters");
   w.begin_object();
   w.field("rx_frames", b.rx_frames);

@@ -149,7 +149,7 @@ TEST(MasterElection, CiA302_2_ANewcomerFindsTheMasterAndStandsBy) {
   EXPECT_FALSE(sent_id(b, cob::kMasterNodeId));
   EXPECT_FALSE(sent_id(b, cob::kForceNegotiation));  // no preemption unless configured
   for (const auto& s : b.sent) {
-    const bool election = s.frame.id == cob::kActiveMasterRequest;
+    const bool election = s.frame.id == cob::kActiveMasterRequest || s.frame.id == cob::kMasterResponse;
     const bool heartbeat = s.frame.id == cob::kNmtErrorControlBase + 1 && s.frame.data[0] == 0x7F;
     EXPECT_TRUE(election || heartbeat) << "standby sent 0x" << std::hex << s.frame.id;
   }
@@ -254,6 +254,26 @@ TEST(MasterElection, MalformedClaimsAreIgnored) {
   EXPECT_EQ(a.election.role(), MasterRole::starting);
   bus.run(1s);
   EXPECT_TRUE(a.election.is_master());
+}
+
+// Each gateway learns the other's node-ID (its 0x74 at start, its claims),
+// so that the peer's heartbeat is the election's and never taken for a
+// device's; frames of devices stay theirs.
+TEST(MasterElection, EachKnowsTheOthersNodeIdAndOwnsOnlyElectionFrames) {
+  Bus bus;
+  auto& a = bus.add(20);
+  bus.start(a);
+  bus.run(1s);
+  auto& b = bus.add(21);
+  bus.start(b);
+  bus.run(500ms);
+  EXPECT_TRUE(a.election.is_gateway(21));
+  EXPECT_TRUE(b.election.is_gateway(20));
+  EXPECT_FALSE(a.election.is_gateway(5));
+  EXPECT_TRUE(a.election.owns(Frame::make(cob::kNmtErrorControlBase + 21, {0x7F})));
+  EXPECT_FALSE(a.election.owns(Frame::make(cob::kNmtErrorControlBase + 5, {0x05})));
+  EXPECT_TRUE(a.election.owns(Frame::make(cob::kActiveMasterRequest, {})));
+  EXPECT_FALSE(a.election.owns(Frame::make(0x000, {0x01, 0x00})));  // NMT start: not the election's
 }
 
 }  // namespace

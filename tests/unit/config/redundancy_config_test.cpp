@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <string>
 
 using cobridge::config::load_string;
@@ -79,6 +80,15 @@ TEST(RedundancyConfig, TheGatewaysNodeIdIsNoDevicesAndInNoPool) {
   r = load_string(kBase + "[redundancy]\nmode = \"hot-standby\"\nnode_id = 41\n", "t.toml", "/tmp");
   ASSERT_FALSE(r.ok());
   EXPECT_NE(all(r).find("redundancy.node_id 41 is in bus \"line1\"'s node_pool"), std::string::npos) << all(r);
+  // The default pool (1..127, nothing written) simply leaves it out.
+  const std::string no_pool =
+      "[gateway]\nid = \"t\"\nstate_dir = \"/tmp/x\"\ncontrol_socket = \"/run/x/control.sock\"\n"
+      "[[bus]]\nname = \"line1\"\ninterface = \"vcan0\"\n[redundancy]\nmode = \"hot-standby\"\nnode_id = 120\n";
+  r = load_string(no_pool, "t.toml", "/tmp");
+  ASSERT_TRUE(r.ok()) << all(r);
+  const auto& pool = r.config().buses[0].node_pool;
+  EXPECT_EQ(pool.size(), 126U);
+  EXPECT_EQ(std::count(pool.begin(), pool.end(), 120), 0);
 }
 
 }  // namespace

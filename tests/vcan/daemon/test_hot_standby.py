@@ -1,0 +1,219 @@
+"""Hot standby: two cobridged on one bus ([redundancy], docs/operations.md
+"Hot standby"), one master decided on the bus (CiA 302-2 flying master:
+0x73 active master request, 0x72 negotiation, 0x71 claims).
+
+Two daemons with their own state directories on the same vcan, the simulator
+with three devices. Checks, from the daemons' status and from every frame on
+the bus (kernel receive stamps):
+  * the first started is master, the second standby naming it; their
+    heartbeats say so (05h master, 7Fh standby);
+  * the master is killed (SIGKILL: its frames stop) KILLS times, at random
+    moments; each time the survivor is master within 1 s of the dead one's
+    last frame (printed per kill, p100 asserted), every device operational
+    again with 0 configuration writes, and the dead one, started again on
+    its state directory, joins as standby without an election of its own;
+  * at no time do both gateways' heartbeats say master within one period,
+    and the standby's frames are only its heartbeat and election frames;
+  * a device rebooted right after a takeover is configured by the new master.
+Runs inside UML:
+  tests/vcan/run-in-vcan -- /usr/bin/python3 tests/vcan/daemon/test_hot_standby.py --daemon ... --kills 3
+"""
+import os
+import random
+import signal
+import time
+
+import e2e
+
+DEVICES = [("rot-a", "RFC-4800", "RFC-4800", 1001, 10),
+           ("mt-a", "MC1-2800", "MC1-2800", 2001, 20),
+           ("ifm-a", "RM9", "RM9000", 3001, 30)]
+NAMES = [d[0] for d in DEVICES]
+NODE = {"a": 120, "b": 121}
+HB = 0x700
+ELECTION_IDS = range(0x71, 0x77)
+
+
+def config(ws, node):
+    bus = {"name": "line1", "interface": "vcan0", "bitrate": 250, "discovery_period_s": 3600}
+    devices = [{"name": n, "bus": "line1", "serial": s, "model": m, "node_id": nid, "heartbeat_ms": 100,
+                "tpdo1": {"mapping": ["position"], "transmission": "event", "event_timer_ms": 20}}
+               for (n, m, _, s, nid) in DEVICES]
+    extra = '[redundancy]\nmode = "hot-standby"\nnode_id = %d\n' % node
+    return e2e.write_config(ws, [bus], devices, extra=extra)
+
+
+def redundancy(daemon):
+    try:
+        st = daemon.status()
+    except (OSError, ValueError):
+        return None
+    return st["buses"][0].get("redundancy")
+
+
+def role_is(daemon, role, master=None, timeout=10):
+    end = time.time() + timeout
+    while time.time() < end:
+        r = redundancy(daemon)
+        if r and r["role"] == role and (master is None or r["master_node"] == master):
+            return r
+        time.sleep(0.01)
+    return None
+
+
+def writes_since(daemon, offset):
+    with open(daemon.log_path) as f:
+        f.seek(offset)
+        text = f.read()
+    return text.count(" writes"), sum(int(w.split(" writes")[0].split()[-1])
+                                      for w in text.split("\n") if "operational at node" in w and " writes" in w)
+
+
+class Pair:
+    def __init__(self, args, report):
+        self.args, self.report = args, report
+        self.ws = {k: e2e.Workspace("standby-" + k, args.keep, base="/run") for k in NODE}
+        self.cfg = {k: config(self.ws[k], NODE[k]) for k in NODE}
+        self.daemon = {}
+        self.starts = {k: 0 for k in NODE}
+
+    def start(self, k):
+        self.starts[k] += 1
+        self.daemon[k] = e2e.Daemon(self.args.daemon, self.cfg[k], self.ws[k], log_name="daemon-%d.log" % self.starts[k])
+        return self.daemon[k]
+
+    def kill(self, k):
+        d = self.daemon[k]
+        os.kill(d.pid, signal.SIGKILL)
+        d.proc.wait(5)
+        d.log.close()
+
+
+def master_overlap(frames):
+    """Times at which both gateways' heartbeats said master (05h) within 150 ms."""
+    last = {}
+    overlaps = []
+    for t, cid, data in frames:
+        for k, node in NODE.items():
+            if cid == HB + node and data[:1] == b"\x05":
+                last[k] = t
+                other = "b" if k == "a" else "a"
+                if other in last and t - last[other] < 0.15:
+                    overlaps.append(t)
+    return overlaps
+
+
+def one_takeover(pair, report, listener, master, standby, i):
+    """Kills the master; returns the takeover time in seconds or None."""
+    time.sleep(random.uniform(0.0, 1.0))
+    pair.kill(master)
+    dead = NODE[master]
+    t_kill = time.time()
+    r = role_is(pair.daemon[standby], "master", timeout=5)
+    frames = listener.snapshot(t_kill - 1.0)
+    last_dead = max([t for t, cid, _ in frames if cid == HB + dead or cid in ELECTION_IDS and t < t_kill], default=t_kill)
+    took = None
+    if r:
+        became = e2e.iso_to_epoch(r["since"])
+        took = became - last_dead
+    print("FIGURE takeover %d: %s" % (i, "%.3f s after the master's last frame" % took if took is not None else "none"))
+    return took
+
+
+def main():
+    args = e2e.parse_args(lambda p: p.add_argument("--kills", type=int, default=3))
+    report = e2e.Report("test_hot_standby")
+    listener = e2e.CanListener("vcan0")
+    pair = Pair(args, report)
+    keep_logs = os.environ.get("STANDBY_LOGS")
+    sim = e2e.Simulator(args.sim, pair.ws["a"], {"vcan0": ["%s:serial=%d,node=%d%s" % (
+        sm, s, n, ",bitrate=250" if sm.startswith("RM") else "") for (_, _, sm, s, n) in DEVICES]})
+    try:
+        a = pair.start("a")
+        report.check(a.wait_socket(), "gateway a: control socket up")
+        report.check(role_is(a, "master", NODE["a"], timeout=10) is not None, "gateway a alone: master of the bus",
+                     str(redundancy(a)))
+        _, took = a.wait_until(e2e.all_operational(NAMES), 30, interval=0.05)
+        report.check(took is not None, "gateway a: every device operational")
+        b = pair.start("b")
+        report.check(b.wait_socket(), "gateway b: control socket up")
+        rb = role_is(b, "standby", NODE["a"], timeout=10)
+        report.check(rb is not None, "gateway b: standby, naming a (node 120) as master", str(redundancy(b)))
+        tx0 = b.status()["buses"][0]["counters"]["tx_frames"]
+        t_b = time.time()
+        time.sleep(1.0)
+        tx1 = b.status()["buses"][0]["counters"]["tx_frames"]
+        t_e = time.time()
+        frames = listener.snapshot(t_b)
+        hb = {k: {d[:1] for t, cid, d in frames if cid == HB + NODE[k]} for k in NODE}
+        report.check(hb["a"] == {b"\x05"} and hb["b"] == {b"\x7f"},
+                     "the heartbeats tell the roles: a 05h (master), b 7Fh (standby)", str(hb))
+        # Everything b sent in the window (its control socket's count) is its heartbeat: no NMT, SYNC,
+        # SDO, LSS or guarding. The window's edges may hold one heartbeat more or less.
+        b_heartbeats = len([1 for t, cid, _ in frames if cid == HB + NODE["b"] and t <= t_e])
+        report.check(abs((tx1 - tx0) - b_heartbeats) <= 1,
+                     "the standby sends nothing but its heartbeat",
+                     "%d frames sent, %d of them heartbeats on the bus" % (tx1 - tx0, b_heartbeats))
+
+        master, standby = "a", "b"
+        takeovers = []
+        for i in range(1, args.kills + 1):
+            log_offset = os.path.getsize(pair.daemon[standby].log_path)
+            took = one_takeover(pair, report, listener, master, standby, i)
+            takeovers.append(took)
+            survivor = pair.daemon[standby]
+            _, back = survivor.wait_until(e2e.all_operational(NAMES), 20, interval=0.05)
+            n_lines, n_writes = writes_since(survivor, log_offset)
+            report.check(back is not None and n_writes == 0,
+                         "kill %d: the new master (%s) has every device operational, 0 configuration writes" % (
+                             i, standby), "%s; %d writes in %d lines" % (back, n_writes, n_lines))
+            returned = pair.start(master)
+            returned.wait_socket()
+            r = role_is(returned, "standby", NODE[standby], timeout=10)
+            report.check(r is not None and r["cause"] == "an active master answered",
+                         "kill %d: %s back on its state directory joins as standby, no election" % (i, master),
+                         str(redundancy(returned)))
+            master, standby = standby, master
+
+        ok = [t for t in takeovers if t is not None]
+        if ok:
+            ok.sort()
+            print("FIGURE takeover p50 %.3f s, p100 %.3f s (%d kills)" % (ok[len(ok) // 2], ok[-1], len(ok)))
+        report.check(len(ok) == len(takeovers) and max(ok) <= 1.0,
+                     "every takeover within 1 s of the master's last frame", str(takeovers))
+        overlaps = master_overlap(listener.snapshot(0))
+        report.check(not overlaps, "never two masters: no two master heartbeats within one period",
+                     "%d overlaps" % len(overlaps))
+
+        # A device that reboots right after a takeover is configured by the new master.
+        pair.kill(master)
+        r = role_is(pair.daemon[standby], "master", timeout=5)
+        report.check(r is not None, "one more takeover")
+        off = os.path.getsize(pair.daemon[standby].log_path)
+        sim.command("power-off 2001")
+        time.sleep(0.3)
+        sim.command("power-on 2001")
+        survivor = pair.daemon[standby]
+        configured = survivor.wait_log("mt-a operational at node 20", since=off, timeout=20)
+        st, back = survivor.wait_until(
+            lambda s: any(d["name"] == "mt-a" and d["state"] == "operational" for bb in s["buses"]
+                          for d in bb["devices"]), 20, interval=0.05)
+        report.check(back is not None and configured,
+                     "a device rebooted right after the takeover: configured by the new master", "%s" % back)
+    finally:
+        if keep_logs:
+            import shutil
+            for k, ws in pair.ws.items():
+                shutil.copytree(ws.dir, os.path.join(keep_logs, k), dirs_exist_ok=True)
+        for d in pair.daemon.values():
+            if d.proc.poll() is None:
+                d.stop()
+        sim.stop()
+        listener.close()
+        for ws in pair.ws.values():
+            ws.cleanup()
+    return report.finish()
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
