@@ -2,6 +2,7 @@
 
 #include "app/number_text.hpp"
 #include "encoder/motion.hpp"
+#include "families/family_traits.hpp"
 
 #include <array>
 #include <string>
@@ -88,7 +89,7 @@ DeviceArgumentResult parse_device_argument(std::string_view text, ModelLookup lo
       }
     } else if (key == "channels") {
       const auto v = parse_unsigned(value, 0xFF);
-      if (model->family != FamilyId::novotechnik_rotary) {
+      if (!device::families::traits(model->family).channel_count_in_eds) {
         if (!v || *v != 1) return fail(text, "channels: only the rotary series (J) has a 2-channel variant; allowed: 1");
       } else if (!v || (*v != 1 && *v != 2)) {
         return fail(text, "channels must be 1 or 2, got " + quoted(value));
@@ -113,7 +114,7 @@ DeviceArgumentResult parse_device_argument(std::string_view text, ModelLookup lo
       else if (value == "off") arg.spec.segmented_sdo = false;
       else return fail(text, "segmented must be on|off, got " + quoted(value));
     } else if (key == "c6") {
-      if (model->family != FamilyId::ifm_rm) return fail(text, "c6 applies to ifm models only (F§7.3 TPDO2)");
+      if (!device::families::traits(model->family).tpdo2_needs_variant) return fail(text, "c6 applies to ifm models only (F§7.3 TPDO2)");
       if (value == "on") arg.spec.ifm_c6 = true;
       else if (value == "off") arg.spec.ifm_c6 = false;
       else return fail(text, "c6 must be on|off, got " + quoted(value));

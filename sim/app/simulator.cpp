@@ -3,6 +3,7 @@
 #include "app/control_command.hpp"
 #include "canopen/nmt.hpp"
 #include "sys/signals.hpp"
+#include "families/family_traits.hpp"
 
 #include <poll.h>
 #include <unistd.h>
@@ -24,7 +25,7 @@ std::int64_t realtime_ns() noexcept {
 }
 
 std::string_view variant_of(const DeviceSpec& spec) {
-  if (spec.model->family != FamilyId::novotechnik_rotary) return {};
+  if (!device::families::traits(spec.model->family).channel_count_in_eds) return {};  // J§1.3.2
   return spec.channels == 2 ? "2ch" : "1ch";
 }
 
