@@ -142,7 +142,7 @@ struct SimDevice::Impl {
   // Values the EDS leaves open ("see label", "e.g."), by NvImage::key.
   std::map<std::uint32_t, std::uint64_t> factory;
 
-  // ---- sim_device.cpp: shared runtime -----------------------------------
+  // ---- shared runtime (the concept files above) --------------------------
   std::error_code power_on(TimePoint now);
   void power_off() noexcept;
   // TPDO policy, faults, status, guarding and controller state as after power-up.
