@@ -7,6 +7,8 @@
 #include <map>
 #include <system_error>
 
+#include "families/family_traits.hpp"
+
 namespace cobridge::config::detail {
 
 void Loader::read_device(const toml::table& t) {
@@ -178,7 +180,7 @@ void Loader::read_preset(TableReader& r, Device& d, const KnownModel* model) {
   std::int64_t min = kI32Min;
   std::int64_t max = kU32;
   if (model != nullptr) {
-    if (model->family == device::families::FamilyId::novotechnik_rotary) {
+    if (device::families::traits(model->family).preset_signed) {
       max = kI32Max;
     } else {
       min = 0;

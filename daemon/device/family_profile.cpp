@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 
+#include "families/family_traits.hpp"
 #include "families/ifm_rm.hpp"
 #include "families/novotechnik_multiturn.hpp"
 #include "families/novotechnik_rotary.hpp"
@@ -34,6 +35,9 @@ void apply_family(FamilyProfile& p, const fam::Family& f) {
   p.bitrate_object = ObjectRef{f.addressing.bitrate_index, 0};
   p.bitrate_encoding = f.addressing.bitrate_is_table_index ? BitRateEncoding::ifm_index : BitRateEncoding::kbit_per_s;
   p.bitrates = f.addressing.bitrates;
+  const fam::FamilyTraits& t = fam::traits(f.id);
+  if (t.position_alias) p.position_alias = ObjectRef{t.position_alias->index, t.position_alias->sub(1)};
+  p.speed_unit = t.speed_unit;
 }
 
 FamilyProfile rotary(std::uint8_t channels, bool legacy) {
@@ -53,7 +57,6 @@ FamilyProfile multiturn() {
   FamilyProfile p;
   apply_family(p, fam::kNovotechnikMultiturn);
   p.position_type = DataType::kInteger32;  // E§4.2 0x6004
-  p.position_alias = ObjectRef{0x6020, 1};  // E§4.1 0x1A00/1 default
   p.error_positions = kMultiturnErrorPositions;
   p.temperature = ObjectRef{0x2002, 0};
   p.voltage = ObjectRef{0x2003, 0};
@@ -69,7 +72,6 @@ FamilyProfile ifm() {
   p.position_value_mask = 0x3FFFFFFFu;
   p.limit_switch_min_bit = 30;  // F§7.4 0x2104
   p.limit_switch_max_bit = 31;  // F§7.4 0x2105
-  p.speed_unit = SpeedUnit::digits_per_s;  // F§7.4 0x3011
   p.speed_enable = ObjectRef{0x3010, 1};
   p.has_alarms_warnings = false;  // F§4
   p.event_timer_alias = ObjectRef{0x6200, 0};
@@ -85,19 +87,22 @@ FamilyProfile ifm() {
 }  // namespace
 
 ObjectRef FamilyProfile::position(std::uint8_t channel) const noexcept {
-  if (is(FamilyId::novotechnik_rotary)) return {0x6020, channel};  // J§1.3.2
-  return {0x6004, 0};  // E§4.2, F§7.5, CiA 406
+  if (family == nullptr) return {0x6004, 0};  // CiA 406
+  const fam::ChannelObject o = fam::traits(family->id).position;  // J§1.3.2, E§4.2, F§7.5
+  return {o.index, o.sub(channel)};
 }
 
 ObjectRef FamilyProfile::speed(std::uint8_t channel) const noexcept { return {0x6030, channel}; }
 
 ObjectRef FamilyProfile::preset(std::uint8_t channel) const noexcept {
-  if (is(FamilyId::novotechnik_rotary)) return {0x6010, channel};  // J§1.3.2
-  return {0x6003, 0};  // E§4.2, F§7.5
+  if (family == nullptr) return {0x6003, 0};  // CiA 406
+  const fam::ChannelObject o = fam::traits(family->id).preset;  // J§1.3.2, E§4.2, F§7.5
+  return {o.index, o.sub(channel)};
 }
 
 DataType FamilyProfile::preset_type() const noexcept {
-  return is(FamilyId::novotechnik_rotary) ? DataType::kInteger32 : DataType::kUnsigned32;
+  const bool is_signed = family != nullptr && fam::traits(family->id).preset_signed;
+  return is_signed ? DataType::kInteger32 : DataType::kUnsigned32;
 }
 
 ObjectRef FamilyProfile::cam_low(CamSlot slot) noexcept {
@@ -224,16 +229,16 @@ FamilyProfile make_family_profile(FamilyId family, std::uint8_t channels, bool l
 std::optional<FamilyProfile> family_profile_for(const DeviceDescription& description) noexcept {
   const fam::Family* family = fam::find_family(description.selection.family);
   if (family == nullptr) return std::nullopt;
-  const bool rotary = family->id == FamilyId::novotechnik_rotary;
   std::uint8_t channels = 1;
-  if (rotary) {
+  if (fam::traits(family->id).channel_count_in_eds) {
     // J§1.3.2: 0x6020/0 is the number of channels (2, or 1 on 1-channel variants).
     if (const ObjectDesc* count = description.find(0x6020, 0)) {
       if (auto v = count->default_for_node(0); v && *v == 2) channels = 2;
     }
   }
   const std::uint32_t product = description.device_info.product_number;
-  const bool legacy = rotary && fam::is_legacy_rsx_rfx(product);
+  const fam::Model* model = family->model_of(product);
+  const bool legacy = model != nullptr && model->legacy_rsx_rfx;
   return make_family_profile(family->id, channels, legacy);
 }
 

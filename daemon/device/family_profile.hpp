@@ -23,6 +23,7 @@
 #include "config/config.hpp"
 #include "device/eds.hpp"
 #include "families/family.hpp"
+#include "families/family_traits.hpp"
 #include "families/ifm_rm.hpp"
 #include "families/novotechnik.hpp"
 
@@ -44,10 +45,8 @@ struct ObjectRef {
 inline constexpr std::uint32_t kSaveSignature = families::kSaveSignature;
 inline constexpr std::uint32_t kIfmSaveWithResetCode = families::kIfmSaveWithResetCode;
 
-enum class SpeedUnit : std::uint8_t {
-  deci_degree_per_s,  // 0.1 °/s (E§3.4; assumed for J, whose manual gives no unit)
-  digits_per_s,       // steps per second (F§7.4 0x3011)
-};
+// 0.1 °/s (E§3.4; assumed for J) or steps per second (F§7.4 0x3011).
+using SpeedUnit = families::SpeedUnit;
 
 enum class NodeIdEncoding : std::uint8_t {
   direct,     // object value = node-ID (J§1.3.3 / E§4.3 0x2000)
@@ -205,7 +204,7 @@ struct FamilyProfile {
                                                 bool legacy_rsx_rfx = false) noexcept;
 
 // From an EDS: the family from [Cobridge] Family, the channel count from the
-// default of 0x6020/0, RSX/RFX from the product code (families::is_legacy_rsx_rfx).
+// default of 0x6020/0, RSX/RFX from the model that lists the product code (Model::legacy_rsx_rfx).
 // nullopt when the description names no known family.
 [[nodiscard]] std::optional<FamilyProfile> family_profile_for(const DeviceDescription& description) noexcept;
 

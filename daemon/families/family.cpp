@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 
+#include "families/family_traits.hpp"
 #include "families/ifm_rm.hpp"
 #include "families/novotechnik_multiturn.hpp"
 #include "families/novotechnik_rotary.hpp"
@@ -13,6 +14,7 @@ namespace cobridge::device::families {
 namespace {
 // A fourth family is one more entry here (docs/adding-a-device.md).
 constexpr std::array<const Family*, 3> kFamilies{&kNovotechnikRotary, &kNovotechnikMultiturn, &kIfmRm};
+static_assert(kFamilies.size() == kFamilyTraits.size(), "every family has its FamilyTraits and its Family");
 }  // namespace
 
 bool Family::lists_product(std::uint32_t product) const noexcept {
@@ -24,10 +26,19 @@ bool Family::lists_product(std::uint32_t product) const noexcept {
 std::span<const Family* const> all() noexcept { return kFamilies; }
 
 const Family& family(FamilyId id) noexcept {
-  for (const Family* f : kFamilies) {
-    if (f->id == id) return *f;
+  switch (id) {
+    case FamilyId::novotechnik_rotary: return kNovotechnikRotary;
+    case FamilyId::novotechnik_multiturn: return kNovotechnikMultiturn;
+    case FamilyId::ifm_rm: return kIfmRm;
   }
-  return *kFamilies.front();  // unreachable: every FamilyId has its module
+  return *kFamilies.front();  // unreachable: the switch names every FamilyId
+}
+
+const Model* Family::model_of(std::uint32_t product) const noexcept {
+  for (const Model& m : models) {
+    if (std::find(m.products.begin(), m.products.end(), product) != m.products.end()) return &m;
+  }
+  return nullptr;
 }
 
 const Family* find_family(std::string_view name) noexcept {

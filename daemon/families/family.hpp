@@ -19,9 +19,10 @@
 
 namespace cobridge::device::families {
 
-// The one identity of a family, for code that branches on it (a switch in
-// the configuration checks, the gateway, the simulator). Each Family names its
-// own; `family(id)` gives the facts back. A device no family knows has none
+// The one identity of a family, for code that branches on it (a switch
+// without `default`, so that -Wswitch names every place a new family must be
+// handled). Each Family names its own; `family(id)` gives the facts back and
+// `traits(id)` (family_traits.hpp) the behaviour that differs by family. A device no family knows has none
 // (a `const Family*` that is nullptr, or an empty optional).
 enum class FamilyId : std::uint8_t { novotechnik_rotary, novotechnik_multiturn, ifm_rm };
 
@@ -91,6 +92,8 @@ struct Family {
   const EmcyTable* emcy = nullptr;
 
   [[nodiscard]] bool lists_product(std::uint32_t product) const noexcept;
+  // The model that lists `product`; nullptr if none does.
+  [[nodiscard]] const Model* model_of(std::uint32_t product) const noexcept;
 };
 
 // Every family, in a fixed order (rotary, multiturn, ifm).

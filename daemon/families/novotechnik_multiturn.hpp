@@ -16,6 +16,7 @@
 #include <cstdint>
 
 #include "families/family.hpp"
+#include "families/traits.hpp"
 
 namespace cobridge::device::families {
 
@@ -39,5 +40,37 @@ inline constexpr std::int32_t kMultiturnUnderflowPosition = -2147483640;  // 0x8
 [[nodiscard]] EmcyDetailBytes multiturn_cam_emcy_bytes(std::uint8_t changed, std::uint8_t state) noexcept;
 // E§9.1 0x9090: byte 7 the work-area state.
 [[nodiscard]] EmcyDetailBytes multiturn_work_area_emcy_bytes(std::uint8_t state) noexcept;
+
+// What the multiturn series does where the families differ (traits.hpp).
+inline constexpr FamilyTraits kNovotechnikMultiturnTraits{
+    .id = FamilyId::novotechnik_multiturn,
+    .channel_count_in_eds = false,
+    .position = {0x6004, false},                            // E§4.2
+    .preset = {0x6003, false},                              // E§4.2
+    .preset_signed = false,                                 // E§4.2 UNSIGNED32
+    .position_alias = ChannelObject{0x6020, true},          // E§4.1 0x1A00/1 default
+    .hardware_version = "V 1.00",                           // E§4.1 prints only an example
+    .software_version = "V 1.03",
+    .position_wraps = false,                                // E§9.1 overflow / underflow
+    .range_monitoring = true,                               // E§9.1 0x5051
+    .error_position = kMultiturnErrorPosition,              // E§9.1
+    .limit_switch_flags = false,
+    .speed_switchable = false,
+    .speed_unit = SpeedUnit::deci_degree_per_s,             // E§3.4
+    .work_area_range = WorkAreaRange::cia406_limits,        // E§4.2 0x650A
+    .condition_monitoring = true,                           // E§4.3, E§5.8
+    .store_subs = 4,                                        // E§11
+    .kill_signature = true,                                 // E§11
+    .load = LoadAction::revert_to_stored,                   // E§11
+    .address_activation = AddressActivation::last_written,  // E§4.3
+    .max_mapped_objects = 5,                                // E§8.2
+    .mapping_needs_pre_operational = true,                  // E§8.2 step 1
+    .tpdo_type0_off = true,                                 // E§4.1 0x1800/2
+    .tpdo_async_every_cycle = true,                         // E§4.1 0x1800/2
+    .rtr_transmission = false,
+    .tpdo2_sync_only = true,                                // E§4.1 0x1801/2
+    .tpdo2_needs_variant = false,
+    .lss_bit_timings = 0x005F,                              // E§6.2: 1000, 800, 500, 250, 125, 50
+};
 
 }  // namespace cobridge::device::families

@@ -17,6 +17,7 @@
 #include <cstdint>
 
 #include "families/family.hpp"
+#include "families/traits.hpp"
 
 namespace cobridge::device::families {
 
@@ -43,5 +44,37 @@ inline constexpr std::int32_t kRotaryErrorPosition = 0x7FF0;
 
 // J§1.12 V10: the product runs the RSX-7900 / RFX-6900 firmware rules.
 [[nodiscard]] bool is_legacy_rsx_rfx(std::uint32_t product) noexcept;
+
+// What the rotary series does where the families differ (traits.hpp).
+inline constexpr FamilyTraits kNovotechnikRotaryTraits{
+    .id = FamilyId::novotechnik_rotary,
+    .channel_count_in_eds = true,                          // J§1.3.2 0x6020/0
+    .position = {0x6020, true},                            // J§1.3.2
+    .preset = {0x6010, true},                              // J§1.3.2
+    .preset_signed = true,                                 // J§1.3.2 INTEGER32
+    .position_alias = std::nullopt,
+    .hardware_version = "V 1.00",                          // J§1.3.1 example
+    .software_version = "V 1.03",                          // J§1.3.1 example
+    .position_wraps = true,
+    .range_monitoring = false,
+    .error_position = kRotaryErrorPosition,                // J§1.8
+    .limit_switch_flags = false,
+    .speed_switchable = false,
+    .speed_unit = SpeedUnit::deci_degree_per_s,            // J gives no unit; E§3.4's assumed
+    .work_area_range = WorkAreaRange::preset_to_length,    // J§1.4.6.1
+    .condition_monitoring = false,
+    .store_subs = 4,                                       // J§1.10
+    .kill_signature = true,                                // J§1.10
+    .load = LoadAction::revert_to_stored,                  // J§1.10
+    .address_activation = AddressActivation::last_written, // J§1.3.3
+    .max_mapped_objects = 5,                               // J§1.7.2
+    .mapping_needs_pre_operational = false,                // J§1.7.2 asks for the PDO disabled only
+    .tpdo_type0_off = true,                                // J§1.3.1 0x1800/2
+    .tpdo_async_every_cycle = true,                        // J§1.3.1 0x1800/2
+    .rtr_transmission = false,
+    .tpdo2_sync_only = true,                               // J§1.3.1 0x1801/2
+    .tpdo2_needs_variant = false,
+    .lss_bit_timings = 0x005F,                             // J§1.5.2: 1000, 800, 500, 250, 125, 50
+};
 
 }  // namespace cobridge::device::families

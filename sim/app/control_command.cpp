@@ -88,108 +88,132 @@ std::string_view control_help() noexcept {
          "  quit                              end cobridge-sim\n";
 }
 
-ControlParse parse_control_command(std::string_view line) {
-  const auto w = split_words(line);
-  if (w.empty()) return fail("empty command (try 'help')");
-  const std::string_view verb = w[0];
+namespace {
+
+// One command line being parsed: its words and the command they build.
+struct CommandWords {
+  std::vector<std::string_view> w;
   ControlCommand c;
 
-  auto want_args = [&](std::size_t n, std::string_view usage) -> std::optional<ControlParse> {
+  [[nodiscard]] std::optional<ControlParse> want_args(std::size_t n, std::string_view usage) const {
     if (w.size() != n + 1) return fail("usage: " + std::string(usage));
     return std::nullopt;
-  };
-  auto serial_at = [&](std::size_t i) -> bool {
+  }
+  bool serial_at(std::size_t i) {
     const auto v = parse_unsigned(w[i], UINT32_MAX);
     if (!v) return false;
     c.serial = static_cast<std::uint32_t>(*v);
     return true;
-  };
-  auto duration_at = [&](std::size_t i) -> bool {
+  }
+  bool duration_at(std::size_t i) {
     const auto v = parse_unsigned(w[i], kMaxDurationMs);
     if (!v || *v == 0) return false;
     c.duration_ms = static_cast<std::uint32_t>(*v);
     return true;
-  };
-
-  if (verb == "list" || verb == "stats" || verb == "help" || verb == "quit") {
-    if (auto e = want_args(0, verb)) return *e;
-    c.verb = verb == "list" ? ControlVerb::list
-             : verb == "stats" ? ControlVerb::stats
-             : verb == "help" ? ControlVerb::help
-                              : ControlVerb::quit;
-    return ControlParse{c, {}};
   }
+  [[nodiscard]] ControlParse bad_serial() const {
+    return fail("serial must be a number (decimal or 0x hex), got '" + std::string(w[1]) + "'");
+  }
+  [[nodiscard]] ControlParse done() const { return ControlParse{c, {}}; }
+};
+
+// Commands on one simulated device: `<verb> <serial> ...`.
+std::optional<ControlParse> parse_device_command(CommandWords& p, std::string_view verb) {
   if (verb == "power-cycle" || verb == "power-off" || verb == "power-on") {
-    if (auto e = want_args(1, std::string(verb) + " <serial>")) return *e;
-    if (!serial_at(1)) return fail("serial must be a number (decimal or 0x hex), got '" + std::string(w[1]) + "'");
-    c.verb = verb == "power-cycle" ? ControlVerb::power_cycle
-             : verb == "power-off" ? ControlVerb::power_off
-                                   : ControlVerb::power_on;
-    return ControlParse{c, {}};
+    if (auto e = p.want_args(1, std::string(verb) + " <serial>")) return *e;
+    if (!p.serial_at(1)) return p.bad_serial();
+    p.c.verb = verb == "power-cycle" ? ControlVerb::power_cycle
+               : verb == "power-off" ? ControlVerb::power_off
+                                     : ControlVerb::power_on;
+    return p.done();
   }
   if (verb == "silence") {
-    if (auto e = want_args(2, "silence <serial> on|off")) return *e;
-    if (!serial_at(1)) return fail("serial must be a number (decimal or 0x hex), got '" + std::string(w[1]) + "'");
-    if (w[2] != "on" && w[2] != "off") return fail("silence wants on|off, got '" + std::string(w[2]) + "'");
-    c.verb = ControlVerb::silence;
-    c.on = w[2] == "on";
-    return ControlParse{c, {}};
+    if (auto e = p.want_args(2, "silence <serial> on|off")) return *e;
+    if (!p.serial_at(1)) return p.bad_serial();
+    if (p.w[2] != "on" && p.w[2] != "off") return fail("silence wants on|off, got '" + std::string(p.w[2]) + "'");
+    p.c.verb = ControlVerb::silence;
+    p.c.on = p.w[2] == "on";
+    return p.done();
   }
   if (verb == "reboot-on-sdo") {
-    if (auto e = want_args(2, "reboot-on-sdo <serial> <n>")) return *e;
-    if (!serial_at(1)) return fail("serial must be a number (decimal or 0x hex), got '" + std::string(w[1]) + "'");
-    const auto n = parse_unsigned(w[2], 1000000);
-    if (!n) return fail("n must be 0..1000000, got '" + std::string(w[2]) + "'");
-    c.verb = ControlVerb::reboot_on_sdo;
-    c.count = static_cast<std::uint32_t>(*n);
-    return ControlParse{c, {}};
+    if (auto e = p.want_args(2, "reboot-on-sdo <serial> <n>")) return *e;
+    if (!p.serial_at(1)) return p.bad_serial();
+    const auto n = parse_unsigned(p.w[2], 1000000);
+    if (!n) return fail("n must be 0..1000000, got '" + std::string(p.w[2]) + "'");
+    p.c.verb = ControlVerb::reboot_on_sdo;
+    p.c.count = static_cast<std::uint32_t>(*n);
+    return p.done();
   }
   if (verb == "fault") {
-    if (auto e = want_args(2, "fault <serial> <kind>")) return *e;
-    if (!serial_at(1)) return fail("serial must be a number (decimal or 0x hex), got '" + std::string(w[1]) + "'");
-    const auto k = parse_fault_kind(w[2]);
-    if (!k) return fail("fault kind must be " + fault_kind_names() + ", got '" + std::string(w[2]) + "'");
-    c.verb = ControlVerb::fault;
-    c.fault = *k;
-    return ControlParse{c, {}};
+    if (auto e = p.want_args(2, "fault <serial> <kind>")) return *e;
+    if (!p.serial_at(1)) return p.bad_serial();
+    const auto k = parse_fault_kind(p.w[2]);
+    if (!k) return fail("fault kind must be " + fault_kind_names() + ", got '" + std::string(p.w[2]) + "'");
+    p.c.verb = ControlVerb::fault;
+    p.c.fault = *k;
+    return p.done();
   }
   if (verb == "move") {
-    if (auto e = want_args(2, "move <serial> <turns>")) return *e;
-    if (!serial_at(1)) return fail("serial must be a number (decimal or 0x hex), got '" + std::string(w[1]) + "'");
-    const auto t = parse_real(w[2]);
-    if (!t) return fail("turns must be a decimal number such as 0.25 or -3, got '" + std::string(w[2]) + "'");
-    c.verb = ControlVerb::move;
-    c.turns = *t;
-    return ControlParse{c, {}};
+    if (auto e = p.want_args(2, "move <serial> <turns>")) return *e;
+    if (!p.serial_at(1)) return p.bad_serial();
+    const auto t = parse_real(p.w[2]);
+    if (!t) return fail("turns must be a decimal number such as 0.25 or -3, got '" + std::string(p.w[2]) + "'");
+    p.c.verb = ControlVerb::move;
+    p.c.turns = *t;
+    return p.done();
   }
+  return std::nullopt;
+}
+
+// Commands on one bus: `<verb> <iface> ...`.
+std::optional<ControlParse> parse_bus_command(CommandWords& p, std::string_view verb) {
   if (verb == "flood") {
-    if (auto e = want_args(2, "flood <iface> <ms>")) return *e;
-    c.iface = std::string(w[1]);
-    if (!duration_at(2)) return fail("ms must be 1..3600000, got '" + std::string(w[2]) + "'");
-    c.verb = ControlVerb::flood;
-    return ControlParse{c, {}};
+    if (auto e = p.want_args(2, "flood <iface> <ms>")) return *e;
+    p.c.iface = std::string(p.w[1]);
+    if (!p.duration_at(2)) return fail("ms must be 1..3600000, got '" + std::string(p.w[2]) + "'");
+    p.c.verb = ControlVerb::flood;
+    return p.done();
   }
   if (verb == "babble") {
-    if (auto e = want_args(3, "babble <iface> <cob-id hex> <ms>")) return *e;
-    c.iface = std::string(w[1]);
-    const auto id = parse_hex32(w[2]);
-    if (!id || *id > 0x1FFFFFFF) return fail("cob-id must be hex 0..7FF (or 29-bit), got '" + std::string(w[2]) + "'");
-    c.cob_id = *id;
-    if (!duration_at(3)) return fail("ms must be 1..3600000, got '" + std::string(w[3]) + "'");
-    c.verb = ControlVerb::babble;
-    return ControlParse{c, {}};
+    if (auto e = p.want_args(3, "babble <iface> <cob-id hex> <ms>")) return *e;
+    p.c.iface = std::string(p.w[1]);
+    const auto id = parse_hex32(p.w[2]);
+    if (!id || *id > 0x1FFFFFFF) return fail("cob-id must be hex 0..7FF (or 29-bit), got '" + std::string(p.w[2]) + "'");
+    p.c.cob_id = *id;
+    if (!p.duration_at(3)) return fail("ms must be 1..3600000, got '" + std::string(p.w[3]) + "'");
+    p.c.verb = ControlVerb::babble;
+    return p.done();
   }
   if (verb == "bus-error") {
-    if (auto e = want_args(2, "bus-error <iface> error-warning|error-passive|error-active|bus-off|restarted")) return *e;
-    c.iface = std::string(w[1]);
-    const auto k = parse_bus_error_kind(w[2]);
+    if (auto e = p.want_args(2, "bus-error <iface> error-warning|error-passive|error-active|bus-off|restarted")) return *e;
+    p.c.iface = std::string(p.w[1]);
+    const auto k = parse_bus_error_kind(p.w[2]);
     if (!k)
       return fail("bus-error kind must be error-warning|error-passive|error-active|bus-off|restarted, got '" +
-                  std::string(w[2]) + "'");
-    c.verb = ControlVerb::bus_error;
-    c.bus_error = *k;
-    return ControlParse{c, {}};
+                  std::string(p.w[2]) + "'");
+    p.c.verb = ControlVerb::bus_error;
+    p.c.bus_error = *k;
+    return p.done();
   }
+  return std::nullopt;
+}
+
+}  // namespace
+
+ControlParse parse_control_command(std::string_view line) {
+  CommandWords p{split_words(line), {}};
+  if (p.w.empty()) return fail("empty command (try 'help')");
+  const std::string_view verb = p.w[0];
+  if (verb == "list" || verb == "stats" || verb == "help" || verb == "quit") {
+    if (auto e = p.want_args(0, verb)) return *e;
+    p.c.verb = verb == "list" ? ControlVerb::list
+               : verb == "stats" ? ControlVerb::stats
+               : verb == "help" ? ControlVerb::help
+                                : ControlVerb::quit;
+    return p.done();
+  }
+  if (auto r = parse_device_command(p, verb)) return *r;
+  if (auto r = parse_bus_command(p, verb)) return *r;
   return fail("unknown command '" + std::string(verb) + "' (try 'help')");
 }
 

@@ -3,6 +3,7 @@
 #include "app/control_command.hpp"
 #include "canopen/nmt.hpp"
 #include "sys/signals.hpp"
+#include "families/family_traits.hpp"
 
 #include <poll.h>
 #include <unistd.h>
@@ -24,7 +25,7 @@ std::int64_t realtime_ns() noexcept {
 }
 
 std::string_view variant_of(const DeviceSpec& spec) {
-  if (spec.model->family != FamilyId::novotechnik_rotary) return {};
+  if (!device::families::traits(spec.model->family).channel_count_in_eds) return {};  // J§1.3.2
   return spec.channels == 2 ? "2ch" : "1ch";
 }
 
@@ -42,28 +43,7 @@ Simulator::~Simulator() {
   truth_.flush();
 }
 
-std::optional<Simulator::Failure> Simulator::start() {
-  const auto errors = catalog_.load_directory(options_.devices_dir);
-  if (catalog_.size() == 0) {
-    std::string msg = "no device description could be loaded from " + options_.devices_dir.string();
-    if (!errors.empty()) msg += ": " + errors.front().message;
-    return Failure{2, msg};
-  }
-  if (!options_.state_dir.empty()) {
-    std::error_code ec;
-    std::filesystem::create_directories(options_.state_dir, ec);
-    if (ec) return Failure{2, "--state-dir '" + options_.state_dir.string() + "': " + ec.message()};
-  }
-  if (!options_.truth_file.empty()) {
-    if (const auto ec = truth_.open(options_.truth_file.c_str()))
-      return Failure{2, "--truth '" + options_.truth_file.string() + "': " + ec.message()};
-  }
-  if (!options_.control_path.empty()) {
-    if (const auto ec = control_.listen(options_.control_path))
-      return Failure{2, "--control '" + options_.control_path.string() + "': " + ec.message()};
-  }
-  control_.watch_input(STDIN_FILENO, STDOUT_FILENO);
-
+std::optional<Simulator::Failure> Simulator::open_buses() {
   for (const BusOptions& b : options_.buses) {
     auto bus = std::make_unique<SimulatedBus>(b.iface);
     auto last_sent_ns = std::make_shared<std::int64_t>(0);  // this bus's last truth stamp
@@ -97,6 +77,32 @@ std::optional<Simulator::Failure> Simulator::start() {
     }
     buses_.push_back(std::move(bus));
   }
+  return std::nullopt;
+}
+
+std::optional<Simulator::Failure> Simulator::start() {
+  const auto errors = catalog_.load_directory(options_.devices_dir);
+  if (catalog_.size() == 0) {
+    std::string msg = "no device description could be loaded from " + options_.devices_dir.string();
+    if (!errors.empty()) msg += ": " + errors.front().message;
+    return Failure{2, msg};
+  }
+  if (!options_.state_dir.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(options_.state_dir, ec);
+    if (ec) return Failure{2, "--state-dir '" + options_.state_dir.string() + "': " + ec.message()};
+  }
+  if (!options_.truth_file.empty()) {
+    if (const auto ec = truth_.open(options_.truth_file.c_str()))
+      return Failure{2, "--truth '" + options_.truth_file.string() + "': " + ec.message()};
+  }
+  if (!options_.control_path.empty()) {
+    if (const auto ec = control_.listen(options_.control_path))
+      return Failure{2, "--control '" + options_.control_path.string() + "': " + ec.message()};
+  }
+  control_.watch_input(STDIN_FILENO, STDOUT_FILENO);
+
+  if (auto failure = open_buses()) return failure;
   const canopen::TimePoint now = canopen::Clock::now();
   now_ = now;
   for (auto& bus : buses_) {
@@ -185,23 +191,29 @@ std::string Simulator::execute(std::string_view line) {
     default: break;
   }
 
-  if (c.verb == ControlVerb::flood || c.verb == ControlVerb::babble || c.verb == ControlVerb::bus_error) {
-    SimulatedBus* bus = find_bus(c.iface);
-    if (bus == nullptr) return "error no simulated bus on interface '" + c.iface + "'";
-    const auto d = std::chrono::milliseconds(c.duration_ms);
-    if (c.verb == ControlVerb::flood) {
-      bus->start_flood(now, d);
-      return "ok flood " + c.iface + " " + std::to_string(c.duration_ms) + " ms";
-    }
-    if (c.verb == ControlVerb::babble) {
-      bus->start_babble(c.cob_id, now, d);
-      return "ok babble " + c.iface + " " + std::to_string(c.duration_ms) + " ms";
-    }
-    const bool sent = bus->send_error_frame(c.bus_error, now);
-    if (!sent) return "error " + c.iface + ": the error frame was not accepted by the interface";
-    return "ok bus-error " + c.iface + " " + std::string(to_string(c.bus_error));
-  }
+  if (c.verb == ControlVerb::flood || c.verb == ControlVerb::babble || c.verb == ControlVerb::bus_error)
+    return execute_on_bus(c, now);
+  return execute_on_device(c, now);
+}
 
+std::string Simulator::execute_on_bus(const ControlCommand& c, canopen::TimePoint now) {
+  SimulatedBus* bus = find_bus(c.iface);
+  if (bus == nullptr) return "error no simulated bus on interface '" + c.iface + "'";
+  const auto d = std::chrono::milliseconds(c.duration_ms);
+  if (c.verb == ControlVerb::flood) {
+    bus->start_flood(now, d);
+    return "ok flood " + c.iface + " " + std::to_string(c.duration_ms) + " ms";
+  }
+  if (c.verb == ControlVerb::babble) {
+    bus->start_babble(c.cob_id, now, d);
+    return "ok babble " + c.iface + " " + std::to_string(c.duration_ms) + " ms";
+  }
+  const bool sent = bus->send_error_frame(c.bus_error, now);
+  if (!sent) return "error " + c.iface + ": the error frame was not accepted by the interface";
+  return "ok bus-error " + c.iface + " " + std::string(to_string(c.bus_error));
+}
+
+std::string Simulator::execute_on_device(const ControlCommand& c, canopen::TimePoint now) {
   const auto loc = find_device(c.serial);
   if (!loc) return "error no device with serial " + std::to_string(c.serial);
   SimulatedBus& bus = *loc->bus;
@@ -255,6 +267,30 @@ void Simulator::note_busy(canopen::TimePoint turn_start) noexcept {
   if (busy > 1'000'000) ++loop_.busy_over_1ms;
 }
 
+namespace {
+
+// The ppoll timeout until `deadline`, to the nanosecond; a deadline already
+// past means "poll, do not wait", never a busy loop.
+timespec* poll_timeout(canopen::TimePoint deadline, canopen::TimePoint now, timespec& ts) {
+  const auto wait = std::max(canopen::Duration::zero(), deadline - now);
+  const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(wait).count();
+  ts.tv_sec = static_cast<time_t>(ns / 1'000'000'000);
+  ts.tv_nsec = static_cast<long>(ns % 1'000'000'000);
+  return &ts;
+}
+
+// How late the kernel woke the loop for `deadline`: the limit of every timer
+// the simulator runs.
+void count_wake(LoopStats& loop, canopen::TimePoint deadline, canopen::TimePoint now) {
+  const auto late = std::chrono::duration_cast<std::chrono::nanoseconds>(now - deadline).count();
+  ++loop.timed_wakes;
+  if (late > 0) loop.late_sum_ns += static_cast<std::uint64_t>(late);
+  loop.max_late_ns = std::max<std::int64_t>(loop.max_late_ns, late);
+  if (late > 1'000'000) ++loop.late_over_1ms;
+}
+
+}  // namespace
+
 int Simulator::run(sys::Signals& signals) {
   std::vector<pollfd> fds;
   fds.reserve(16 + buses_.size());
@@ -287,18 +323,10 @@ int Simulator::run(sys::Signals& signals) {
     }
     control_.append_poll_fds(fds);
 
-    // The timeout from the earliest deadline, to the nanosecond (ppoll);
-    // never a busy loop: a deadline already past means "poll, do not wait".
+    // The timeout from the earliest deadline.
     timespec ts{};
-    timespec* tsp = nullptr;
     const bool timed = deadline != canopen::kNever;
-    if (timed) {
-      const auto wait = std::max(canopen::Duration::zero(), deadline - now);
-      const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(wait).count();
-      ts.tv_sec = static_cast<time_t>(ns / 1'000'000'000);
-      ts.tv_nsec = static_cast<long>(ns % 1'000'000'000);
-      tsp = &ts;
-    }
+    timespec* tsp = timed ? poll_timeout(deadline, now, ts) : nullptr;
     note_busy(now);
     const canopen::TimePoint before = now;
     const int n = ::ppoll(fds.data(), static_cast<nfds_t>(fds.size()), tsp, nullptr);
@@ -307,14 +335,7 @@ int Simulator::run(sys::Signals& signals) {
       return 1;
     }
     now = canopen::Clock::now();
-    if (n == 0 && timed && deadline > before) {
-      // How late the kernel woke us: the limit of every timer we simulate.
-      const auto late = std::chrono::duration_cast<std::chrono::nanoseconds>(now - deadline).count();
-      ++loop_.timed_wakes;
-      if (late > 0) loop_.late_sum_ns += static_cast<std::uint64_t>(late);
-      loop_.max_late_ns = std::max<std::int64_t>(loop_.max_late_ns, late);
-      if (late > 1'000'000) ++loop_.late_over_1ms;
-    }
+    if (n == 0 && timed && deadline > before) count_wake(loop_, deadline, now);
     if (n > 0) {
       if ((fds[0].revents & POLLIN) != 0 && signals.take() == sys::SignalAction::stop) break;
       control_.service(fds, [this](std::string_view line) { return execute(line); });

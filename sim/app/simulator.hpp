@@ -9,6 +9,7 @@
 
 #include "app/command_line.hpp"
 #include "app/control_channel.hpp"
+#include "app/control_command.hpp"
 #include "app/simulated_bus.hpp"
 #include "app/truth_writer.hpp"
 #include "device/device_catalog.hpp"
@@ -66,6 +67,11 @@ class Simulator {
   [[nodiscard]] std::string list() const;
   [[nodiscard]] std::string stats() const;
   void note_busy(canopen::TimePoint turn_start) noexcept;
+  // Opens every --iface bus and creates its devices (not yet powered).
+  [[nodiscard]] std::optional<Failure> open_buses();
+  // The control commands on a bus (flood, babble, bus-error) and on a device.
+  [[nodiscard]] std::string execute_on_bus(const ControlCommand& c, canopen::TimePoint now);
+  [[nodiscard]] std::string execute_on_device(const ControlCommand& c, canopen::TimePoint now);
 
   SimOptions options_;
   device::DeviceCatalog catalog_;  // before the buses: the devices point into it

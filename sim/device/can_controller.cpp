@@ -10,7 +10,7 @@
 //                  0x1002 bits 3+2 (J) / 17+18 (E): bus-off, bus-off timer started
 //   recovered      EMCY 0x8140 "recovered from bus-off", bits cleared
 //
-// The EMCY bytes are the J§1.8.1 / E§9.1 rows; ifm (F) documents no codes,
+// The EMCY bytes are the J§1.8.1, E§9.1 rows; ifm (F) documents no codes,
 // so it sends the CiA 301 ones with its error register, marked (ext) in
 // docs/devices.md. Leaving error passive has no row in either table and no
 // EMCY here; it clears the status bit.
@@ -107,7 +107,7 @@ void SimDevice::Impl::send_can_emcy(std::uint16_t code) {
       send_emcy(canopen::Emcy{code, 0, {0, 0, 0, 0, 0}}, device::families::EmcyLevel::hard);
       return;
     case FamilyId::ifm_rm:
-      // (ext) CiA 301 code with the device's error register (digest B.6).
+      // (ext) CiA 301 code with the device's error register (F§4).
       send_emcy(canopen::Emcy{code, emcy.error_register(), {0, 0, 0, 0, 0}}, device::families::EmcyLevel::unspecified);
       return;
   }

@@ -3,6 +3,7 @@
 #include <chrono>
 
 #include "encoder/abort_code.hpp"
+#include "families/family_traits.hpp"
 
 namespace cobridge::sim {
 
@@ -24,7 +25,7 @@ void EncoderFrontEnd::set_family(FamilyId family, Resolution physical) noexcept 
   physical_ = physical;
   for (Channel& c : channels_) {
     c.pipeline.emplace(PositionSettings::defaults(family, physical));
-    c.cams = CamBank(family == FamilyId::ifm_rm ? 8 : 4);
+    c.cams = CamBank(device::families::family(family).models.front().cams_per_channel);  // J§1.2.3, E§3.4, F§7.5
     c.work_area.emplace(rule_for(family));
   }
 }
@@ -141,7 +142,7 @@ ChannelSample EncoderFrontEnd::measure(int channel, TimePoint now) noexcept {
   s.error_value = p.error_value;
   s.speed_saturated = p.speed_saturated;
   s.range = p.range;
-  // J§1.8.1 / E§9.1 0x5000: CAM and work-area states stay unchanged while the
+  // J§1.8.1, E§9.1 0x5000: CAM and work-area states stay unchanged while the
   // position is an error value.
   if (!p.error_value) {
     const CamUpdate u = ch.cams.evaluate(p.value);

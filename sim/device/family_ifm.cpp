@@ -3,7 +3,7 @@
 // the CiA 406 objects (0x2000 position, 0x2100 <-> 0x6000 bit 0, 0x2101..
 // 0x2103 <-> 0x6001..0x6003, 0x2104/0x2105 <-> 0x6401/0x6402), the event
 // timer known by three names (0x1800/5 = 0x6200, mirrored read-only in
-// 0x2200; digest B.3), limit-switch bits 30/31 in the position (F§7.4),
+// 0x2200; F§7.3, F§7.5 0x6200), limit-switch bits 30/31 in the position (F§7.4),
 // save-with-reset 0x2300, the bootloader object 0x4000 that refuses every
 // value, the error history 0x1003 (F§4). F documents no EMCY codes: the
 // CiA 301 classes are used and flagged "(ext)" in docs/devices.md.
@@ -45,9 +45,9 @@ void SimDevice::Impl::ifm_factory() {
   factory[NvImage::key(0x650A, 3)] = total - 1U;
   factory[NvImage::key(0x6402, 1)] = 0;
   factory[NvImage::key(0x6507, 0)] = 0x01000302;
-  factory[NvImage::key(0x6000, 0)] = 0;  // shared with 0x2100 bit 0, CW (digest B.7.1)
+  factory[NvImage::key(0x6000, 0)] = 0;  // shared with 0x2100 bit 0, CW (F§7.4 0x2100)
   factory[NvImage::key(0x6301, 1)] = 0;
-  // Mapping F leaves open (digest B.3): the position alone.
+  // Mapping F leaves open (F§7.3): the position alone.
   factory[NvImage::key(0x1A00, 0)] = 1;
   factory[NvImage::key(0x1A00, 1)] = 0x60040020;
   factory[NvImage::key(0x1A01, 0)] = 1;
@@ -145,7 +145,7 @@ void SimDevice::Impl::ifm_after_write(std::uint16_t index, std::uint8_t sub) {
 }
 
 void SimDevice::Impl::ifm_mirror_event_timer() noexcept {
-  // Digest B.3: one event timer, three objects. 0x2200 is read-only, so no
+  // F§7.3, F§7.5 0x6200: one event timer, three objects. 0x2200 is read-only, so no
   // parameter load reaches it; 0x6200 has no 0 (its low limit is 1).
   const auto ms = static_cast<std::uint16_t>(std::min<std::uint64_t>(od->get_raw(0x1800, 5).value_or(0), 0xFFFF));
   if (ms != 0) (void)od->set_u16(0x6200, 0, ms);
@@ -178,7 +178,7 @@ void SimDevice::Impl::ifm_fault(FaultKind fault, TimePoint now) {
   if (fault == FaultKind::channel_disagreement || (faults & fault_bit(fault)) != 0) return;
   faults |= fault_bit(fault);
   refresh_status();
-  // (ext) CiA 301 classes; F has no table (digest B.6).
+  // (ext) CiA 301 classes; F has no table (F§4).
   std::uint16_t code = canopen::emcy_code::kDeviceHardware;
   if (fault == FaultKind::temperature_high || fault == FaultKind::temperature_low)
     code = canopen::emcy_code::kDeviceTemperature;

@@ -1,6 +1,6 @@
 // Novotechnik multiturn series MZ1-2200 / MC1-2800 / MB1-3600 (manual E).
 // What E adds: position 0x6004 (INTEGER32) with the hidden alias 0x6020/1
-// the default mapping names (digest C.3), raw position 0x600C, preset 0x6003,
+// the default mapping names (E§4.1), raw position 0x600C, preset 0x6003,
 // inverted scaling bit (E§5.3 as printed), the E§9.1 EMCY table with its
 // levels (filtered by 0x2104 in EmcyProducer), the 32-bit error position
 // values, latched out-of-range errors reset by 0x2100 (E§4.3), 0x1029
@@ -49,7 +49,7 @@ constexpr std::uint32_t kErrorPositionFaults =
     fault_bit(FaultKind::measurement_error) | fault_bit(FaultKind::hardware_fault);
 
 std::uint8_t speed_filter_for(std::uint64_t integration_ms) noexcept {
-  switch (integration_ms) {  // E§5.2 table; 0 -> 0 and 1 -> 3 where not unique (digest C.7.5)
+  switch (integration_ms) {  // E§5.2 table; 0 -> 0 and 1 -> 3 where not unique (E§5.2)
     case 0: return 0;
     case 1: return 3;
     case 2: return 4;
@@ -86,7 +86,7 @@ void SimDevice::Impl::multiturn_factory() {
 }
 
 void SimDevice::Impl::multiturn_extras() {
-  // Digest C.3 / C.9.3: the documented default mapping 0x60200120 names an
+  // E§4.1: the documented default mapping 0x60200120 names an
   // object E does not list; the device answers it as the position.
   canopen::EntryDef def;
   def.index = 0x6020;
@@ -117,7 +117,7 @@ std::uint32_t SimDevice::Impl::multiturn_on_write(const canopen::WriteRequest& r
     case 0x6003:
       return encoder.check_preset(0, static_cast<std::int64_t>(req.as_unsigned()));
     case 0x2300:
-      // E§4.3 / E§5.8: the only commands that clear the history recorder.
+      // E§4.3, E§5.8: the only commands that clear the history recorder.
       if (req.sub == 0 || req.as_unsigned() == 0) return 0;
       if (const std::uint32_t r = condition.reset_command(req.sub)) return r;
       condition_publish();
@@ -196,7 +196,7 @@ void SimDevice::Impl::multiturn_publish(ChannelSample& s, const ChannelSample& b
     refresh_status();
   }
   if (range_changed) {
-    // E§9.1 0x5051 rows for the range model of the motion (digest C.7.4).
+    // E§9.1 0x5051 rows for the range model of the motion.
     switch (s.range) {
       case RangeState::warning_over: send_emcy(Emcy{0x5051, 2, {1, 0, 0, 0, 0}}, EmcyLevel::warn); break;
       case RangeState::warning_under: send_emcy(Emcy{0x5051, 2, {2, 0, 0, 0, 0}}, EmcyLevel::warn); break;

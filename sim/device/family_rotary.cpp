@@ -42,7 +42,7 @@ void SimDevice::Impl::rotary_adjust(canopen::EntryDef& def) const { (void)def; }
 
 std::uint32_t SimDevice::Impl::novotechnik_scaling_write(const canopen::WriteRequest& req) {
   using namespace canopen::od_abort;
-  // J§1.4.2 / E§5.4: writable only while scaling is on (per the family's
+  // J§1.4.2, E§5.4: writable only while scaling is on (per the family's
   // polarity of 0x6000 bit 2); only reductions of the physical resolution.
   if (!scaling_active()) return kCannotStoreDeviceState;
   const std::uint64_t v = req.as_unsigned();
@@ -55,7 +55,7 @@ std::uint32_t SimDevice::Impl::novotechnik_scaling_write(const canopen::WriteReq
 }
 
 void SimDevice::Impl::novotechnik_scaling_after(std::uint16_t index) {
-  // Digest A.7.2 / C.7.2: total = per revolution x distinguishable turns.
+  // J§1.4.2, E§5.4, E§5.5: total = per revolution x distinguishable turns.
   const std::uint64_t turns = std::max<std::uint64_t>(od->get_raw(0x6502, 0).value_or(1), 1);
   if (index == 0x6001) {
     (void)od->set_u32(0x6002, 0, static_cast<std::uint32_t>(od->get_raw(0x6001, 0).value_or(0) * turns));

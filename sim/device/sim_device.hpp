@@ -79,12 +79,12 @@ struct DeviceSpec {
   std::uint8_t channels = 1;      // rotary: 1 or 2
   std::uint16_t bitrate_kbit = 0; // 0 = family default (ordering code / 125 for ifm)
   LssProfile lss = LssProfile::family_default;
-  bool segmented_sdo = true;      // digest S.1: on by default
+  bool segmented_sdo = true;      // on: J§1.3.1 strings (0x1008) exceed 4 bytes
   std::string motion = "constant:0";  // see motion.hpp for the grammar
   // ifm "C6" variant: TPDO2 (0x1801) is "only active for CANopen C6 encoders"
-  // (F§7.3, digest B.3). Off by default: plain RM8/RM9 send TPDO1 only.
+  // (F§7.3 0x1801). Off by default: plain RM8/RM9 send TPDO1 only.
   bool ifm_c6 = false;
-  // Fastscan answered only while unconfigured anyway (digest Y.2); this
+  // Fastscan answered only while unconfigured anyway (CiA 305 V3 Fastscan); this
   // switch removes it even from a v3 LSS profile.
   bool lss_fastscan = true;
   // Another vendor's (or an unknown) device: identity fields instead of the

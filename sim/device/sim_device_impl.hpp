@@ -1,16 +1,24 @@
 // SimDevice::Impl: the state of one simulated encoder, shared by the
 // concept files of this folder (private header).
 //
-// sim_device.cpp holds the CANopen runtime that all families share (power,
-// NMT, SDO, LSS, error control, TPDOs, storage commands, the measuring
-// cycle); family_rotary.cpp / family_multiturn.cpp / family_ifm.cpp hold
-// what each manual adds (OD quirks and write rules, which objects carry the
-// position, fault EMCYs and status bits).
+// The CANopen runtime all families share is one file per concept:
+// sim_device.cpp (facade, transmit path), od_setup.cpp (object dictionary),
+// node_addressing.cpp (node-ID, bit rate, LSS), store_commands.cpp
+// (save/load/kill), encoder_settings.cpp (encoder set-up, measuring cycle),
+// sdo_hooks.cpp (shared write rules), power_and_reset.cpp (power, boot, NMT
+// resets), error_control.cpp (NMT states, heartbeat, guarding, status),
+// tpdo_runtime.cpp (TPDOs), frame_input.cpp (received frames, timers),
+// can_controller.cpp (bus errors). What differs by family is a value of
+// `traits` (families/traits.hpp) or a hook of family_dispatch.cpp, which
+// switches to family_rotary.cpp / family_multiturn.cpp / family_ifm.cpp
+// (OD quirks and write rules, fault EMCYs and status bits).
 // Thread: the simulator's bus thread; nothing here is thread-safe.
 #pragma once
 
 #include <array>
+#include <chrono>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -28,8 +36,29 @@
 #include "device/sim_device.hpp"
 #include "device/tpdo.hpp"
 #include "encoder/condition_monitor.hpp"
+#include "families/family_traits.hpp"
 
 namespace cobridge::sim {
+
+namespace cob = canopen::cob;
+using canopen::NmtState;
+
+// Objects the shared runtime reads or writes (CiA 301 §7.5.2).
+namespace device_objects {
+inline constexpr std::uint16_t kStatusRegister = 0x1002;
+inline constexpr std::uint16_t kCobIdSync = 0x1005;
+inline constexpr std::uint16_t kGuardTime = 0x100C;
+inline constexpr std::uint16_t kLifeTimeFactor = 0x100D;
+inline constexpr std::uint16_t kStore = 0x1010;
+inline constexpr std::uint16_t kRestore = 0x1011;
+inline constexpr std::uint16_t kHeartbeatTime = 0x1017;
+inline constexpr std::uint16_t kIdentity = 0x1018;
+inline constexpr std::uint16_t kTpdoComm = 0x1800;
+inline constexpr std::uint16_t kTpdoMap = 0x1A00;
+inline constexpr std::uint16_t kNmtStartup = 0x1F80;
+inline constexpr std::uint32_t kAutostartBit = 0x08;  // J§1.3.1, E§4.1: bit 3, not CiA 302's bit 2
+inline constexpr std::chrono::milliseconds kMeasuringCycle{1};  // J§1.2.5, E§3.3
+}  // namespace device_objects
 
 // The fault confinement state of the device's CAN controller (CiA 301 / ISO
 // 11898-1), as the simulator's error frames set it (can_controller.cpp).
@@ -52,6 +81,7 @@ struct SimDevice::Impl {
   DeviceSpec spec;
   const ModelInfo& model;
   FamilyId family;
+  const device::families::FamilyTraits& traits;  // what differs by family (families/traits.hpp)
   const device::DeviceDescription& desc;
   can::FrameSink& bus;
   std::filesystem::path nv_file;
@@ -112,14 +142,20 @@ struct SimDevice::Impl {
   // Values the EDS leaves open ("see label", "e.g."), by NvImage::key.
   std::map<std::uint32_t, std::uint64_t> factory;
 
-  // ---- sim_device.cpp: shared runtime -----------------------------------
+  // ---- shared runtime (the concept files above) --------------------------
   std::error_code power_on(TimePoint now);
   void power_off() noexcept;
+  // TPDO policy, faults, status, guarding and controller state as after power-up.
+  void clear_runtime_state();
   void boot(TimePoint now);
   void reset_node(TimePoint now);
   void reset_communication(TimePoint now);  // the communication area from the stored image
   void reset_communication(TimePoint now, const NvImage* image);  // ... from `image` (null = defaults)
   void on_frame(const can::Frame& frame, TimePoint now);
+  void on_nmt_frame(const can::Frame& frame, TimePoint now);  // a node it addresses, configured
+  void on_lss_frame(const can::Frame& frame, TimePoint now);
+  void on_sync(TimePoint now);                                   // a valid SYNC NMT allows
+  void on_rtr_frame(const can::Frame& frame, TimePoint now);     // node guarding or a TPDO request
   TimePoint process(TimePoint now);
   void inject(FaultKind fault, TimePoint now);
 
@@ -161,8 +197,8 @@ struct SimDevice::Impl {
   [[nodiscard]] std::uint64_t factory_value(const device::ObjectDesc& e, std::uint8_t node) const noexcept;
   // Writes factory values (overlaid with `image` where it has a value) to the
   // writable entries `select` picks.
-  template <typename Select>
-  void load_parameters(Select select, const NvImage* image);
+  using EntrySelect = std::function<bool(const device::ObjectDesc&)>;
+  void load_parameters(const EntrySelect& select, const NvImage* image);
   [[nodiscard]] std::uint32_t save(std::uint8_t store_sub);
   [[nodiscard]] std::uint32_t load(std::uint8_t store_sub);
   [[nodiscard]] std::uint32_t kill(std::uint8_t store_sub);
@@ -179,6 +215,11 @@ struct SimDevice::Impl {
   [[nodiscard]] std::uint16_t kbit_from_od() const noexcept;
   void node_to_od(std::uint8_t node) noexcept;
   void kbit_to_od(std::uint16_t kbit) noexcept;
+  // The family's node-ID or bit-rate object (J§1.3.3, E§4.3 0x2000/0x2001; F§7.4 0x3000/0x3001).
+  [[nodiscard]] bool is_address_object(std::uint16_t index) const noexcept {
+    const auto& a = family_facts(family).addressing;
+    return index == a.node_id_index || index == a.bitrate_index;
+  }
 
   [[nodiscard]] bool scaling_active() const noexcept;
   [[nodiscard]] canopen::LssAddress identity_of() const noexcept;
@@ -193,6 +234,7 @@ struct SimDevice::Impl {
   void family_factory();                                 // fill `factory`
   void family_adjust(canopen::EntryDef& def) const;      // before insert
   void family_extras();                                  // entries the EDS lacks
+  void family_after_load() noexcept;                     // after parameters were (re)loaded
   std::uint32_t family_on_write(const canopen::WriteRequest& req);
   void family_after_write(std::uint16_t index, std::uint8_t sub);
   // Writes the sample to the family's objects; may change `s` (error values,
@@ -243,6 +285,21 @@ struct SimDevice::Impl {
 // Sets a numeric entry from its little-endian bit pattern, whatever its type
 // (the typed setters want a value of the entry's own signedness).
 std::uint32_t set_raw(canopen::ObjectDictionary& od, std::uint16_t index, std::uint8_t sub, std::uint64_t raw) noexcept;
+
+// A parameter: an entry SDO may write.
+[[nodiscard]] bool is_writable(const canopen::ObjectDictionary& od, std::uint16_t index, std::uint8_t sub);
+
+// The node-ID object's value for `node` and back (F§7.4: ifm holds node-ID - 1,
+// keeping FFh, unconfigured, as FFh; Novotechnik the node-ID itself).
+[[nodiscard]] std::uint8_t node_value(const device::families::Addressing& a, std::uint8_t node) noexcept;
+[[nodiscard]] std::uint8_t node_of_value(const device::families::Addressing& a, std::uint64_t raw) noexcept;
+// The bit-rate object's value for `kbit` (F§7.4 0x3001: an index into the
+// family's table; J§1.3.3, E§4.3 0x2001: kbit/s), and back.
+[[nodiscard]] std::optional<std::uint64_t> bitrate_value(const device::families::Addressing& a,
+                                                         std::uint16_t kbit) noexcept;
+[[nodiscard]] std::uint16_t kbit_of_value(const device::families::Addressing& a, std::uint64_t raw) noexcept;
+// The LSS services the device answers (DeviceSpec::lss over the family's own).
+[[nodiscard]] canopen::LssSlaveFeatures lss_features(const DeviceSpec& spec, FamilyId family);
 
 // LSS bit-timing table index <-> kbit/s (CiA 305; J§1.5.2, E§6.2).
 [[nodiscard]] std::optional<std::uint8_t> lss_index_for_kbit(std::uint16_t kbit) noexcept;

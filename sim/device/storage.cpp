@@ -1,4 +1,5 @@
 #include "device/storage.hpp"
+#include "families/family_traits.hpp"
 
 namespace cobridge::sim {
 
@@ -43,7 +44,11 @@ bool ifm_stored(std::uint16_t index) noexcept {
 
 Coverage store_coverage(FamilyId family, bool legacy, std::uint8_t store_sub, std::uint16_t index,
                         std::uint8_t sub) noexcept {
-  if (family == FamilyId::ifm_rm) return store_sub == 1 && ifm_stored(index) ? Coverage::value : Coverage::none;
+  switch (family) {
+    case FamilyId::ifm_rm: return store_sub == 1 && ifm_stored(index) ? Coverage::value : Coverage::none;
+    case FamilyId::novotechnik_rotary: break;
+    case FamilyId::novotechnik_multiturn: break;
+  }
   const Group g = novotechnik_group(index, sub);
   switch (store_sub) {
     case 1:
@@ -61,6 +66,6 @@ Coverage store_coverage(FamilyId family, bool legacy, std::uint8_t store_sub, st
   }
 }
 
-std::uint8_t store_sub_count(FamilyId family) noexcept { return family == FamilyId::ifm_rm ? 1 : 4; }
+std::uint8_t store_sub_count(FamilyId family) noexcept { return device::families::traits(family).store_subs; }
 
 }  // namespace cobridge::sim

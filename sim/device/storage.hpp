@@ -1,10 +1,10 @@
 // Storage coverage: which objects each 0x1010 'save' / 0x1011 'load' / 'kill'
 // sub-index covers, per family, and the signatures.
 //
-// Novotechnik rotary: J§1.10 table as reconstructed in digest A.8 (RSX-7900 /
+// Novotechnik rotary: the J§1.10 table (RSX-7900 /
 // RFX-6900 differ: node-ID and bit rate under /1, CAM hysteresis and work
 // area under /3 only, /4 = manufacturer data). Multiturn: E§11 table
-// (digest C.8). ifm: the F§6.3.1 list, sub 1 only (digest B.8), plus the
+// ifm: the F§6.3.1 list, sub 1 only (F§7.3 0x1010), plus the
 // work-area limits 0x6401/0x6402 because F links them to the stored
 // 0x2104/0x2105.
 // "D" in the Novotechnik tables (TPDO COB-ID under /1) means the sub-index

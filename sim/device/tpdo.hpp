@@ -12,8 +12,8 @@
 //   * types 1..240: every n-th SYNC (all);
 //   * 252/253: ifm only, RTR (F§7.3); Novotechnik refuses the values;
 //   * 254: event timer (Novotechnik, 0 = silent); ifm: on change + timer;
-//   * 255: Novotechnik every 1 ms measuring cycle (J§1.2.5, E§3.3, digest
-//     S.7); ifm like 254.
+//   * 255: Novotechnik every 1 ms measuring cycle (J§1.2.5, E§3.3); ifm
+//     like 254.
 // Inhibit time (100 µs units) spaces every asynchronous transmission; a
 // synchronous one that falls inside it is skipped (its data would be stale
 // by the end of the inhibit time).

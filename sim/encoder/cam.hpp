@@ -2,8 +2,8 @@
 //
 // Each CAM is active while the output position lies in [low, high] (J§1.4.5,
 // E§5.6); high < low is allowed and means the window wraps (active when
-// pos >= low || pos <= high, digest A.7.5). Hysteresis is "added in the
-// direction of motion" (J§1.4.5, E§5.6), read literally (digest A.7.5):
+// pos >= low || pos <= high, J§1.4.5). Hysteresis is "added in the
+// direction of motion" (J§1.4.5, E§5.6), read literally:
 // moving up the switch points are limit + hyst, moving down limit - hyst, at
 // standstill the state holds. Implemented as one Schmitt trigger per edge,
 // which gives exactly those switch points and holds inside the band; the very
@@ -60,7 +60,7 @@ class CamBank {
 
   [[nodiscard]] std::uint8_t state() const noexcept { return state_; }
   // Enabled CAMs whose window contains the position, before polarity (used by
-  // the multiturn lot-size counter, digest C.7.9).
+  // the multiturn lot-size counter, E§4.3, E§5.8).
   [[nodiscard]] std::uint8_t active_mask() const noexcept;
 
   // Back to power-on: state 0, no memory of the previous position.

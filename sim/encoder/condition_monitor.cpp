@@ -55,7 +55,7 @@ void ConditionMonitor::threshold(ConditionEvents& ev, bool now, std::uint32_t bi
   const bool was = (status_ & bit) != 0;
   if (now == was) return;
   status_ = now ? (status_ | bit) : (status_ & ~bit);
-  if (event.code == 0) return;  // user thresholds: status bits only (digest C.7.9)
+  if (event.code == 0) return;  // user thresholds: status bits only (E§4.3, E§5.8)
   ConditionEvent e = event;
   e.active = now;
   ev.push(e);
@@ -112,7 +112,7 @@ ConditionEvents ConditionMonitor::update(double dt_seconds, double shaft_turns, 
   threshold(ev, voltage_ > t.volt_factory_max, kStatusVoltOverFactory, {0x3100, 1, 1, Level::warning, true});
   threshold(ev, voltage_ < t.volt_factory_min, kStatusVoltUnderFactory, {0x3100, 1, 2, Level::warning, true});
 
-  // Maintenance: time since maintenance (0.1 h) reached 0x230A hours (digest C.7.9 [inference]).
+  // Maintenance: time since maintenance (0.1 h) reached 0x230A hours (E§4.3 0x230A, E§5.8).
   const bool due = maintenance_hours != 0 &&
                    static_cast<std::uint64_t>(history_.time_since_maintenance) >=
                        static_cast<std::uint64_t>(maintenance_hours) * 10U;

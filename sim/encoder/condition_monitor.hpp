@@ -1,5 +1,5 @@
 // ConditionMonitor: the condition-monitoring data of the multiturn series
-// (E§4.3 0x2002/0x2003, 0x2300..0x236B, E§5.8; digest C.7.9).
+// (E§4.3 0x2002/0x2003, 0x2300..0x236B, E§5.8).
 //
 // Live temperature (0.1 degC) and supply voltage (0.1 V) with min/max trackers
 // over four windows (since power-on, since reset, since maintenance,
@@ -27,7 +27,7 @@
 namespace cobridge::sim {
 
 // A min/max pair; reads 0/0 until the first sample after a reset ("reset to
-// zero", E§4.3 0x2300; then re-seeded by the next live sample, digest C.7.9).
+// zero", E§4.3 0x2300; then re-seeded by the next live sample, E§4.3, E§5.8).
 struct MinMax {
   std::int32_t min = 0;
   std::int32_t max = 0;

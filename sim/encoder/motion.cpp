@@ -5,6 +5,9 @@
 #include <cmath>
 #include <fstream>
 #include <numbers>
+#include <optional>
+#include <utility>
+#include <vector>
 
 namespace cobridge::sim {
 namespace {
@@ -76,6 +79,63 @@ double piecewise(const std::vector<std::pair<double, double>>& pts, double t, bo
   return before.second + f * (it->second - before.second);
 }
 
+using Points = std::vector<std::pair<double, double>>;
+
+std::string number_error(std::string_view field, std::string_view what, double& out) {
+  if (to_double(field, out)) return {};
+  return std::string(what) + " '" + std::string(field) + "' is not a number";
+}
+
+// steps:<t0>=<turns0>;<t1>=<turns1>;... into `points`; the failure, if any.
+std::optional<MotionParseResult> parse_steps(std::string_view rest, Points& points) {
+  if (trim(rest).empty()) return fail(MotionError::wrong_field_count, "steps: expected steps:<t0>=<turns0>;...");
+  for (std::string_view item : split(rest, ';')) {
+    item = trim(item);
+    if (item.empty()) continue;  // tolerate a trailing ';'
+    const auto eq = item.find('=');
+    if (eq == std::string_view::npos)
+      return fail(MotionError::bad_step, "steps: '" + std::string(item) + "' is not <seconds>=<turns>");
+    double t = 0.0;
+    double v = 0.0;
+    if (auto msg = number_error(item.substr(0, eq), "steps: time", t); !msg.empty()) return fail(MotionError::bad_number, msg);
+    if (auto msg = number_error(item.substr(eq + 1), "steps: turns", v); !msg.empty()) return fail(MotionError::bad_number, msg);
+    if (!points.empty() && !(t > points.back().first))
+      return fail(MotionError::not_increasing, "steps: time in '" + std::string(item) + "' is not after the previous step");
+    points.emplace_back(t, v);
+  }
+  if (points.empty()) return fail(MotionError::wrong_field_count, "steps: no steps given");
+  return std::nullopt;
+}
+
+// script:<path>: one "<seconds> <turns>" per line, '#' comments; the failure, if any.
+std::optional<MotionParseResult> parse_script(std::string_view rest, Points& points) {
+  const std::string path(trim(rest));
+  if (path.empty()) return fail(MotionError::wrong_field_count, "script: expected script:<path>");
+  std::ifstream in(path);
+  if (!in) return fail(MotionError::cannot_read_script, "script: cannot open '" + path + "'");
+  std::string line;
+  int line_no = 0;
+  while (std::getline(in, line)) {
+    ++line_no;
+    std::string_view l = line;
+    if (const auto hash = l.find('#'); hash != std::string_view::npos) l = l.substr(0, hash);
+    l = trim(l);
+    if (l.empty()) continue;
+    const auto ws = l.find_first_of(" \t");
+    const std::string where = "script: " + path + ":" + std::to_string(line_no) + ": '" + std::string(l) + "'";
+    if (ws == std::string_view::npos) return fail(MotionError::bad_script_line, where + " needs <seconds> <turns>");
+    double t = 0.0;
+    double v = 0.0;
+    if (!to_double(l.substr(0, ws), t) || !to_double(l.substr(ws + 1), v))
+      return fail(MotionError::bad_script_line, where + " is not two numbers");
+    if (!points.empty() && !(t > points.back().first))
+      return fail(MotionError::not_increasing, where + " is not after the previous line");
+    points.emplace_back(t, v);
+  }
+  if (points.empty()) return fail(MotionError::empty_script, "script: '" + path + "' has no points");
+  return std::nullopt;
+}
+
 }  // namespace
 
 const std::error_category& motion_category() noexcept {
@@ -119,22 +179,7 @@ MotionParseResult Motion::parse(std::string_view spec) {
     if (!(m.b_ > 0.0)) return fail(MotionError::bad_period, "sine: period '" + std::string(f[1]) + "' must be > 0");
     m.kind_ = Kind::sine;
   } else if (kind == "steps") {
-    if (trim(rest).empty()) return fail(MotionError::wrong_field_count, "steps: expected steps:<t0>=<turns0>;...");
-    for (std::string_view item : split(rest, ';')) {
-      item = trim(item);
-      if (item.empty()) continue;  // tolerate a trailing ';'
-      const auto eq = item.find('=');
-      if (eq == std::string_view::npos)
-        return fail(MotionError::bad_step, "steps: '" + std::string(item) + "' is not <seconds>=<turns>");
-      double t = 0.0;
-      double v = 0.0;
-      if (auto msg = number(item.substr(0, eq), "steps: time", t); !msg.empty()) return fail(MotionError::bad_number, msg);
-      if (auto msg = number(item.substr(eq + 1), "steps: turns", v); !msg.empty()) return fail(MotionError::bad_number, msg);
-      if (!m.points_.empty() && !(t > m.points_.back().first))
-        return fail(MotionError::not_increasing, "steps: time in '" + std::string(item) + "' is not after the previous step");
-      m.points_.emplace_back(t, v);
-    }
-    if (m.points_.empty()) return fail(MotionError::wrong_field_count, "steps: no steps given");
+    if (auto failure = parse_steps(rest, m.points_)) return std::move(*failure);
     m.kind_ = Kind::steps;
   } else if (kind == "ramp") {
     const auto f = split(rest, ':');
@@ -146,30 +191,7 @@ MotionParseResult Motion::parse(std::string_view spec) {
     if (m.b_ == 0.0) return fail(MotionError::bad_ramp, "ramp: max_turns '" + std::string(f[1]) + "' must not be 0");
     m.kind_ = Kind::ramp;
   } else if (kind == "script") {
-    const std::string path(trim(rest));
-    if (path.empty()) return fail(MotionError::wrong_field_count, "script: expected script:<path>");
-    std::ifstream in(path);
-    if (!in) return fail(MotionError::cannot_read_script, "script: cannot open '" + path + "'");
-    std::string line;
-    int line_no = 0;
-    while (std::getline(in, line)) {
-      ++line_no;
-      std::string_view l = line;
-      if (const auto hash = l.find('#'); hash != std::string_view::npos) l = l.substr(0, hash);
-      l = trim(l);
-      if (l.empty()) continue;
-      const auto ws = l.find_first_of(" \t");
-      const std::string where = "script: " + path + ":" + std::to_string(line_no) + ": '" + std::string(l) + "'";
-      if (ws == std::string_view::npos) return fail(MotionError::bad_script_line, where + " needs <seconds> <turns>");
-      double t = 0.0;
-      double v = 0.0;
-      if (!to_double(l.substr(0, ws), t) || !to_double(l.substr(ws + 1), v))
-        return fail(MotionError::bad_script_line, where + " is not two numbers");
-      if (!m.points_.empty() && !(t > m.points_.back().first))
-        return fail(MotionError::not_increasing, where + " is not after the previous line");
-      m.points_.emplace_back(t, v);
-    }
-    if (m.points_.empty()) return fail(MotionError::empty_script, "script: '" + path + "' has no points");
+    if (auto failure = parse_script(rest, m.points_)) return std::move(*failure);
     m.kind_ = Kind::script;
   } else {
     return fail(MotionError::unknown_kind,

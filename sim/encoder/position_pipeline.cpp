@@ -8,6 +8,7 @@
 
 #include "families/novotechnik_multiturn.hpp"
 #include "families/novotechnik_rotary.hpp"
+#include "families/family_traits.hpp"
 
 namespace cobridge::sim {
 namespace {
@@ -37,7 +38,6 @@ std::int64_t to_count(double counts) noexcept {
   return static_cast<std::int64_t>(std::floor(std::clamp(counts, -kLimit, kLimit)));
 }
 
-bool wraps(FamilyId f) noexcept { return f != FamilyId::novotechnik_multiturn; }
 
 std::uint32_t clamp_u32(std::uint64_t v) noexcept {
   return v > std::numeric_limits<std::uint32_t>::max() ? std::numeric_limits<std::uint32_t>::max()
@@ -212,12 +212,12 @@ std::int64_t PositionPipeline::scale(std::int64_t count) const noexcept {
   const auto frac = static_cast<std::int64_t>(static_cast<std::uint64_t>(r) * static_cast<std::uint64_t>(upr) /
                                               static_cast<std::uint64_t>(pspr));
   std::int64_t scaled = q * upr + frac;
-  if (wraps(settings_.family)) scaled = floor_mod(scaled, static_cast<std::int64_t>(output_total()));
+  if (fam::traits(settings_.family).position_wraps) scaled = floor_mod(scaled, static_cast<std::int64_t>(output_total()));
   return scaled;
 }
 
 std::int64_t PositionPipeline::apply_offset(std::int64_t scaled) const noexcept {
-  if (!wraps(settings_.family)) return scaled + offset_;  // E 0x6004 INTEGER32: no wrap
+  if (!fam::traits(settings_.family).position_wraps) return scaled + offset_;  // E 0x6004 INTEGER32: no wrap
   const auto total = static_cast<std::int64_t>(output_total());
   if (settings_.preset_mode == PresetMode::offset_added) return floor_mod(scaled, total) + offset_;
   return floor_mod(scaled + offset_, total);
@@ -243,7 +243,7 @@ RangeState PositionPipeline::classify(std::int64_t count) noexcept {
   return RangeState::in_range;
 }
 
-PositionSample PositionPipeline::update(double shaft_turns, double seconds) noexcept {
+void PositionPipeline::push_history(double shaft_turns, double seconds) noexcept {
   if (count_ > 0 && seconds <= back(0).seconds) {
     history_[head_].turns = shaft_turns;  // same instant: replace, do not fake a speed
   } else {
@@ -251,23 +251,19 @@ PositionSample PositionPipeline::update(double shaft_turns, double seconds) noex
     history_[head_] = {seconds, shaft_turns};
     count_ = std::min(count_ + 1, kHistory);
   }
+}
 
+void PositionPipeline::set_speed(PositionSample& out) const noexcept {
   const auto& s = settings_;
-  const auto ptotal = static_cast<std::int64_t>(s.physical.total());
-  std::int64_t count = to_count((filtered_turns() + s.mount_offset_turns) * s.physical.steps_per_rev);
-  if (counting_ccw()) count = ptotal - 1 - count;  // digest S.6: mirror within the range
-  if (wraps(s.family)) count = floor_mod(count, ptotal);
-
-  PositionSample out;
-  out.range = s.family == FamilyId::novotechnik_multiturn ? classify(count) : RangeState::in_range;
-  last_count_ = count;
-
   const double turns_per_s = speed_turns_per_s() * (counting_ccw() ? -1.0 : 1.0);
   double speed = 0.0;
-  if (s.family == FamilyId::ifm_rm) {
-    speed = s.speed_enabled ? turns_per_s * static_cast<double>(output_units_per_rev()) : 0.0;  // digits/s
-  } else {
-    speed = turns_per_s * kTenthDegreesPerTurn;  // 0.1 deg/s (E§3.4; J unit assumed, digest A.7.4)
+  switch (fam::traits(s.family).speed_unit) {
+    case fam::SpeedUnit::digits_per_s:  // F§7.4 0x3011
+      speed = s.speed_enabled ? turns_per_s * static_cast<double>(output_units_per_rev()) : 0.0;
+      break;
+    case fam::SpeedUnit::deci_degree_per_s:  // E§3.4; J gives no unit and E's is taken
+      speed = turns_per_s * kTenthDegreesPerTurn;
+      break;
   }
   const double rounded = std::round(speed);
   constexpr double kMax16 = std::numeric_limits<std::int16_t>::max();
@@ -275,28 +271,47 @@ PositionSample PositionPipeline::update(double shaft_turns, double seconds) noex
   out.speed_saturated = std::fabs(rounded) > kMax16;
   out.speed = static_cast<std::int16_t>(std::clamp(rounded, -kMax16, kMax16));
   out.speed32 = static_cast<std::int32_t>(std::clamp(rounded, -kMax32, kMax32));
+}
+
+bool PositionPipeline::error_value(RangeState range, std::uint32_t& sentinel) const noexcept {
+  const fam::FamilyTraits& traits = fam::traits(settings_.family);
+  if (measurement_error_) {
+    if (traits.error_position) sentinel = as_bits(*traits.error_position);  // J§1.8, E§9.1
+    return true;
+  }
+  if (range == RangeState::warning_over || range == RangeState::error_over) {
+    sentinel = as_bits(fam::kMultiturnOverflowPosition);  // E§9.1 0x5051/x/1
+    return true;
+  }
+  if (range == RangeState::warning_under || range == RangeState::error_under) {
+    sentinel = as_bits(fam::kMultiturnUnderflowPosition);  // E§9.1 0x5051/x/2
+    return true;
+  }
+  return false;
+}
+
+PositionSample PositionPipeline::update(double shaft_turns, double seconds) noexcept {
+  push_history(shaft_turns, seconds);
+  const auto& s = settings_;
+  const auto ptotal = static_cast<std::int64_t>(s.physical.total());
+  std::int64_t count = to_count((filtered_turns() + s.mount_offset_turns) * s.physical.steps_per_rev);
+  if (counting_ccw()) count = ptotal - 1 - count;  // J§1.4.1: mirror within the range
+  const fam::FamilyTraits& traits = fam::traits(s.family);
+  if (traits.position_wraps) count = floor_mod(count, ptotal);
+
+  PositionSample out;
+  out.range = traits.range_monitoring ? classify(count) : RangeState::in_range;
+  last_count_ = count;
+  set_speed(out);
 
   std::uint32_t sentinel = 0;
-  bool error = false;
-  if (measurement_error_) {
-    error = true;
-    if (s.family == FamilyId::novotechnik_rotary) sentinel = as_bits(fam::kRotaryErrorPosition);  // J§1.8
-    if (s.family == FamilyId::novotechnik_multiturn) sentinel = as_bits(fam::kMultiturnErrorPosition);  // E§9.1
-  } else if (out.range == RangeState::warning_over || out.range == RangeState::error_over) {
-    error = true;
-    sentinel = as_bits(fam::kMultiturnOverflowPosition);  // E§9.1 0x5051/x/1
-  } else if (out.range == RangeState::warning_under || out.range == RangeState::error_under) {
-    error = true;
-    sentinel = as_bits(fam::kMultiturnUnderflowPosition);  // E§9.1 0x5051/x/2
-  }
-
-  if (error) {
+  if (error_value(out.range, sentinel)) {
     out.error_value = true;
     out.speed = 0;  // J§1.8, E§9: speed value set to 0
     out.speed32 = 0;
     out.speed_saturated = false;
-    if (s.family == FamilyId::ifm_rm) {
-      // F documents no error value: hold the last position (digest B.6).
+    if (!traits.error_position) {
+      // F documents no error value: the last position is held.
       out.position = last_.position;
       out.value = last_.value;
       out.raw = last_.raw;
@@ -319,7 +334,7 @@ PositionSample PositionPipeline::update(double shaft_turns, double seconds) noex
 }
 
 std::uint32_t PositionPipeline::encode(std::int64_t value) const noexcept {
-  if (settings_.family != FamilyId::ifm_rm) return as_int32_bits(value);
+  if (!fam::traits(settings_.family).limit_switch_flags) return as_int32_bits(value);
   // F§7.4 0x2104/0x2105: bits 29..0 carry the value, bit 30 = at/below min, bit 31 = at/above max.
   std::uint32_t bits = static_cast<std::uint32_t>(value) & 0x3FFFFFFFU;
   if (settings_.limit_min_enabled && value <= static_cast<std::int64_t>(settings_.limit_min)) bits |= 1U << 30;
@@ -413,7 +428,7 @@ std::uint16_t integration_ms_for_speed_filter(std::uint8_t f) noexcept {
 }
 
 std::uint8_t speed_filter_for_integration_ms(std::uint16_t ms) noexcept {
-  // E§5.2 lists 0 -> 0/1 and 1 -> 2/3; pick 0 and 3 so the default pair 1/3 survives (digest C.7.5).
+  // E§5.2 lists 0 -> 0/1 and 1 -> 2/3; pick 0 and 3 so the default pair 1/3 survives (E§5.2).
   switch (ms) {
     case 0: return 0;
     case 1: return 3;

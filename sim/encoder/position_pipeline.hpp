@@ -4,7 +4,7 @@
 // Stages, every 1 ms measuring cycle (J§1.2.3/§1.2.4, E§3.3):
 //   shaft turns (+ mount offset) -> moving average / position filter
 //   -> physical count = floor(turns x steps_per_rev)
-//   -> counting direction (0x6000 bit 0; ccw mirrors: total-1-count, digest S.6)
+//   -> counting direction (0x6000 bit 0; ccw mirrors: total-1-count, J§1.4.1)
 //   -> family range: rotary and ifm wrap modulo the physical total; the
 //      multiturn does not wrap and runs the out-of-range model (E§9.1, C.7.4)
 //   -> scaling (0x6001/0x6002): count x units / physical_units, mod total range
@@ -45,13 +45,13 @@ struct Resolution {
 // 4096 x 4096 (12 bit x 12 bit; 0x2102 default 0x1000000 = 4096 x 4096, F§7.4).
 [[nodiscard]] Resolution physical_resolution(FamilyId family) noexcept;
 
-// Preset semantics (digest A.7.3, S.5).
+// Preset semantics (J§1.3.2 0x6010, CiA 406).
 enum class PresetMode : std::uint8_t {
   current_reads_preset,  // CiA 406: offset = P - current position (default, all families)
   offset_added,          // J§1.4.6.1 hint: output range is [P, P + total range)
 };
 
-// Multiturn out-of-range state (E§9.1, E§10.1, digest C.7.4).
+// Multiturn out-of-range state (E§9.1, E§10.1).
 enum class RangeState : std::uint8_t {
   in_range,
   info_over,      // within the last revolution below the upper limit (0x1002 bit 10)
@@ -74,14 +74,14 @@ struct RangeStatusBits {
 struct PositionSettings {
   FamilyId family = FamilyId::novotechnik_rotary;
   Resolution physical{};
-  // 0x6000 bit 2 polarity (digest D, S.3): J 1 = on, E 0 = on (as printed), F 1 = on.
+  // 0x6000 bit 2 polarity (E§5.3): J 1 = on, E 0 = on (as printed), F 1 = on.
   bool scaling_bit_active_high = true;
   PresetMode preset_mode = PresetMode::current_reads_preset;
   // Shaft angle added before counting: where in the physical range turn 0 of
   // the motion lies (a multiturn mounted mid-range uses e.g. 22.0).
   double mount_offset_turns = 0.0;
   // Multiturn: counts beyond a limit still reported as Warning; beyond that
-  // the Error latches (digest C.7.4 [ambiguity]; default one revolution).
+  // the Error latches (E§9.1, E§10.1; default one revolution).
   std::uint32_t warning_margin = 0;
 
   // Object-dictionary values.
@@ -109,11 +109,11 @@ struct PositionSample {
   std::uint32_t position = 0;
   // The position value without sentinels and limit bits, for CAM and work
   // area evaluation; not meaningful when `error_value` is set (the manuals
-  // keep CAM and work-area states unchanged then, J§1.8.1 / E§9.1 0x5000).
+  // keep CAM and work-area states unchanged then, J§1.8.1, E§9.1 0x5000).
   std::int64_t value = 0;
   std::uint32_t raw = 0;   // E 0x600C: count without scaling and preset
   std::int16_t speed = 0;  // 0x6030/1: J, E 0.1 deg/s; F digits/s
-  std::int32_t speed32 = 0;  // F 0x3011 (modelled 32-bit, digest B.7.5)
+  std::int32_t speed32 = 0;  // F 0x3011 (modelled 32-bit, F§7.4 0x3011)
   bool speed_saturated = false;  // E: 0x1002 bit 19, 0x6505 bit 6
   bool error_value = false;      // position is a sentinel, speed forced to 0
   RangeState range = RangeState::in_range;
@@ -166,6 +166,11 @@ class PositionPipeline {
 
   [[nodiscard]] const Point& back(std::size_t age) const noexcept;  // 0 = newest
   [[nodiscard]] double filtered_turns() const noexcept;
+  void push_history(double shaft_turns, double seconds) noexcept;
+  void set_speed(PositionSample& out) const noexcept;  // speed, speed32, speed_saturated
+  // Whether the sample reads an error value, and which (J§1.8, E§9.1); ifm
+  // leaves `sentinel` alone (F documents none).
+  [[nodiscard]] bool error_value(RangeState range, std::uint32_t& sentinel) const noexcept;
   [[nodiscard]] double speed_turns_per_s() const noexcept;
   [[nodiscard]] std::int64_t scale(std::int64_t count) const noexcept;
   [[nodiscard]] std::int64_t apply_offset(std::int64_t scaled) const noexcept;
@@ -189,14 +194,14 @@ class PositionPipeline {
 // ---- Validation helpers for object-dictionary write hooks (0 = ok) ----
 
 // 0x6000 write to 0x6001/0x6002 allowed? 0x08000022 when scaling is off per
-// the family polarity (J§1.4.2, E§5.4, digest S.4).
+// the family polarity (J§1.4.2, E§5.4).
 [[nodiscard]] std::uint32_t check_scaling_write_allowed(const PositionSettings& s,
                                                         std::uint16_t operating_parameter) noexcept;
 // 0x6001: 1..physical steps per revolution (J§1.4.2, E§5.4 "can only be reduced").
 [[nodiscard]] std::uint32_t check_units_per_rev(const PositionSettings& s, std::uint32_t value) noexcept;
 // 0x6002: 1..physical total (J§1.4.3, E§5.5).
 [[nodiscard]] std::uint32_t check_total_range(const PositionSettings& s, std::uint32_t value) noexcept;
-// 0x6001 <-> 0x6002 coupling (digest A.7.2, S.4): total = units x revolutions.
+// 0x6001 <-> 0x6002 coupling (J§1.4.2, E§5.4): total = units x revolutions.
 [[nodiscard]] std::uint32_t coupled_total_range(const PositionSettings& s, std::uint32_t units_per_rev) noexcept;
 [[nodiscard]] std::uint32_t coupled_units_per_rev(const PositionSettings& s, std::uint32_t total_range) noexcept;
 // Preset must be a value of the output range (F§7.4 0x2103: must not exceed
@@ -205,7 +210,7 @@ class PositionPipeline {
 [[nodiscard]] std::uint32_t check_preset(const PositionPipeline& p, std::int64_t value) noexcept;
 // J 0x6000 bits 14..12 = 0..7 always fit; E 0x2010/1: 0..7 (E§5.1).
 [[nodiscard]] std::uint32_t check_position_filter(std::uint8_t n) noexcept;
-// E 0x2010/2: 0..8; E 0x6031/2: 0, 1, 2, 3, 6, 12, 25 ms (E§5.2, digest C.7.5).
+// E 0x2010/2: 0..8; E 0x6031/2: 0, 1, 2, 3, 6, 12, 25 ms (E§5.2).
 [[nodiscard]] std::uint32_t check_speed_filter(std::uint8_t f) noexcept;
 [[nodiscard]] std::uint32_t check_speed_integration_ms(std::uint16_t ms) noexcept;
 // The E§5.2 coupling table: writing one object sets the other.

@@ -6,13 +6,13 @@
 //   rotary (J§1.4.6.1):    pos <= preset or pos >= sensor length (inclusive, as printed)
 //   multiturn (E§5.7.1):   pos <= min or pos >= max of 0x650A/2..3 (inclusive, as printed)
 //   ifm (F§7.5 0x6400):    pos outside 0x650A/2..3 (exclusive)
-// Errata applied: J prints bit 1 as "pos < high" (inverted; digest A.7.6/D),
-// F's table swaps 0x6401/0x6402 and the directions (digest B.7.4); both use
+// Errata applied: J prints bit 1 as "pos < high" (inverted),
+// F's table swaps 0x6401/0x6402 and the directions (F§7.5 0x6400); both use
 // the object descriptions: bit 1 = pos > high, bit 2 = pos < low.
 // The register starts at 0 (OD default), so the first evaluation reports a
 // change when the position starts outside the area.
 // EMCY 0x9090 state byte: J and E (default) the 0x6400 value; E optionally the
-// enumeration 0 valid / 1 underflow / 2 overflow (E§9.1 text, digest C.6).
+// enumeration 0 valid / 1 underflow / 2 overflow (E§9.1 text, E§9.1).
 // Thread: owned by the simulator's bus thread; noexcept, no allocation.
 #pragma once
 

@@ -1,11 +1,11 @@
-// Issue 3 "must show" (f): LSS discovery end to end, the gateway's LSS master
+// LSS discovery end to end, the gateway's LSS master
 // (canopen::LssMaster) against cobridge-sim over a real vcan.
 //
-// * CiA 305 Fastscan (digest Y.2): unconfigured devices of mixed models (CI:
+// * CiA 305 V3 Fastscan: unconfigured devices of mixed models (CI:
 //   four, at the serial extremes, with the daemon's learnt waits;
 //   COBRIDGE_SOAK=1, label "soak": eight, every step the full 100 ms)
 //   (node=unconfigured, lss=v3) are each found exactly once, given their own
-//   node-ID (0x11, J§1.5.1 / E§6.1) and stored (0x17, J§1.5.3 / E§6.3); after
+//   node-ID (0x11, J§1.5.1, E§6.1) and stored (0x17, J§1.5.3, E§6.3); after
 //   a simulator restart on the same state directory they boot up on the
 //   stored node-IDs. The Fastscan time per device is printed.
 // * Slowscan (identify remote slave, CiA 305 0x46..0x4B): four rotary devices
@@ -212,7 +212,7 @@ std::vector<std::pair<std::uint32_t, std::string>> fastscan_devices() {
   return all;
 }
 
-// CiA 305 Fastscan (digest Y.2) with E§6.1/E§6.3 (configure node-ID, store):
+// CiA 305 V3 Fastscan with E§6.1, E§6.3 (configure node-ID, store):
 // unconfigured devices of every family, each found once; stored IDs survive a
 // restart.
 TEST(LssDiscovery, Fastscan_UnconfiguredMixedDevices_E6_J1_5) {
@@ -336,7 +336,7 @@ TEST(LssDiscovery, Slowscan_FourRotaryAtFactoryNode127_J1_5) {
   ASSERT_TRUE(none.has_value());
   EXPECT_EQ(none->error, make_error_code(canopen::LssErrc::kNotFound));
 
-  // V1.1.2 has no Fastscan (J§1 intro, digest Y.2): the rotary v1 devices never answer 0x51.
+  // V1.1.2 has no Fastscan (J§1 intro): the rotary v1 devices never answer 0x51.
   ASSERT_FALSE(master.fastscan(Clock::now()));
   const auto fs = drive(master, ch, 10s);
   ASSERT_TRUE(fs.has_value());

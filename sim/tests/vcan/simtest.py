@@ -3,7 +3,8 @@ tests/vcan/run-in-vcan): a raw CAN socket per interface, the simulator as a
 subprocess driven through its stdin control channel, and checks that fail
 the test (exit code 1) on the first mismatch. Nothing here ever skips.
 
-Frames are written as the digest writes them: the full payload, hex bytes
+Frames are written as whole 8-byte payloads (the manuals print the command byte
+and "Byte0 .. Byte6" in separate columns), hex bytes
 separated by blanks ("23 10 10 01 73 61 76 65").
 """
 

@@ -1,8 +1,8 @@
 #!/usr/bin/python3
-"""Issue 3 "must show" (b): two devices at the factory node-ID 127 (J§1.2.2,
+"""Two devices at the factory node-ID 127 (J§1.2.2,
 E§3.1) on one bus. An SDO read of 0x1018 sub 4 (40 18 10 04 00 00 00 00 to
 0x67F) is answered by both, with two different serial numbers: the collision
-digest G.2 warns about, which only LSS resolves.
+a shared factory node-ID causes, which only LSS resolves (J§1.5, E§6).
 """
 
 import simtest
@@ -26,7 +26,7 @@ def run(args):
         check(a.data[:4] == bytes.fromhex("43181004"), "not an expedited 4-byte upload answer: %s" % hexs(a.data))
     check(serials == [1001, 2002], "serials %s, expected [1001, 2002]" % serials)
     check(answers[0].data != answers[1].data, "the two answers are identical")
-    REPORT.ok("CiA 301 / J§1.2.2: 0x1018/4 read at node 127 gets two different answers",
+    REPORT.ok("CiA 301, J§1.2.2: 0x1018/4 read at node 127 gets two different answers",
               "43 18 10 04 E9 03 00 00 and 43 18 10 04 D2 07 00 00")
     sim.stop()
 

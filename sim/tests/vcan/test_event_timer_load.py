@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Issue 3 "must show" (c): eight devices, each configured through SDO to
+"""Eight devices, each configured through SDO to
 TPDO1 type 254 with a 1 ms event timer (J§1.3.1 0x1800/2, 0x1800/5; J§1.7.2:
 "0x1800/5 = 0" is the only reason the manual gives for no TPDO), then NMT
 start, and 10 s of TPDOs counted per device inside UML.

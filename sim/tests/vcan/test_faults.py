@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Issue 3 "must show" (d): every fault injected through the control channel
+"""Every fault injected through the control channel
 produces the EMCY telegram and the position error value of the manual.
 
 E§9.1 (multiturn): EMCY bytes 0-1 code, byte 2 as tabled, byte 3 sub-code;
@@ -39,7 +39,7 @@ def expect_emcy(bus, sim, node, command, want_hex, label):
 
 def expect_value(bus, node, index, sub, want, label, bits=32):
     # The process value follows the fault within one measuring cycle (1 ms,
-    # J§1.2.4 / E§3.3); the EMCY goes out at once. Read after a few cycles.
+    # J§1.2.4, E§3.3); the EMCY goes out at once. Read after a few cycles.
     time.sleep(MEASURE_SETTLE)
     v = sdo_read(bus, node, index, sub)
     if v != want:
@@ -114,7 +114,7 @@ def rotary(args):
                 "J§1.8.1 sensor error EMCY 0x5000 (reg 1, b3-4 = 1, b5-6 = 1, b7 = 0)")
     expect_value(bus, node, 0x6020, 1, 0x7FF0, "J§1.8 position error value ch1")
     expect_value(bus, node, 0x6030, 1, 0, "J§1.8 speed 0 on a sensor error", bits=16)
-    # The TPDO carries the error value too (J§1.8 [inference], digest A.6.3).
+    # The TPDO carries the error value too (J§1.8, by inference).
     sdo_write(bus, node, 0x1800, 5, 10, 2)
     bus.drain()
     nmt(bus, 0x01, node)

@@ -1,8 +1,8 @@
 #!/usr/bin/python3
-"""Issue 3 "must show" (a): every SDO and LSS example telegram printed in the
+"""Every SDO and LSS example telegram printed in the
 three manuals, sent to a simulated device, gets the answer printed in the
-manual, byte for byte. Where the manual's own telegram is wrong (digest A.9,
-B.9, C.9) the check says which bytes differ and why, and asserts what the
+manual, byte for byte. Where the manual's own telegram is wrong (errata of J,
+F and E) the check says which bytes differ and why, and asserts what the
 device does instead.
 
 Sections: J§1.5, J§1.5.1-1.5.3, J§1.6.1, J§1.6.2, J§1.7.2 (rotary, RFC-4800);
@@ -17,7 +17,7 @@ LSS_TX, LSS_RX = 0x7E5, 0x7E4
 
 
 def mapping_sequence(bus, manual, node):
-    """J§1.7.2 / E§8.2 steps 1-5 around the two printed mapping telegrams."""
+    """J§1.7.2, E§8.2 steps 1-5 around the two printed mapping telegrams."""
     req, resp = 0x600 + node, 0x580 + node
     cob = sdo_read(bus, node, 0x1800, 1)
     simtest.check(cob & 0x40000000, "%s: 0x1800/1 = %#x, expected bit 30 set (no RTR)" % (manual, cob))

@@ -1,12 +1,12 @@
 #!/usr/bin/python3
-"""Issue 3 "must show" (e): non-volatile storage across a power cycle
+"""Non-volatile storage across a power cycle
 (control command `power-cycle`, simulator state directory).
 
 Novotechnik (E§11, E§7.1; same rules J§1.10, J§1.6.1):
   * configured through SDO, 'save' on 0x1010/1, power-cycled: stored values;
   * configured, not stored, power-cycled: defaults;
   * 'load' on 0x1011/1 reverts RAM to the last stored values (E§11 "will
-    upload data from the non-volatile memory"; digest D);
+    upload data from the non-volatile memory"; J§1.10, E§11);
   * 'kill' on 0x1010/1 erases the stored values: defaults, also after a cycle;
   * storing only in pre-operational: abort 0x08000022 otherwise (E§11);
   * node-ID 0x2000 stored with 'save' on 0x1010/4 comes back after a cycle.
@@ -102,7 +102,7 @@ def ifm(args):
     sim = Sim(args.sim, ["--iface", args.iface, "--state-dir", state, "--device", "RM9000:serial=21,node=5"])
     wait_boot_ups(bus, [5])
     default_timer = sdo_read(bus, 5, 0x1800, 5)
-    check(default_timer == 100, "F§7.3 0x1800/5 default %d, expected 0x64 = 100 (digest B.3)" % default_timer)
+    check(default_timer == 100, "F§7.3 0x1800/5 default %d, expected 0x64 = 100 (F§7.3, F§7.5 0x6200)" % default_timer)
     sdo_write(bus, 5, 0x1800, 5, 50, 4)
     sdo_write(bus, 5, 0x1010, 1, SAVE, 4)
     power_cycle(bus, sim, 21, 5)

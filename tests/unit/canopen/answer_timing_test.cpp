@@ -1,4 +1,4 @@
-// AnswerTiming (issue 11, "timeouts from the bus, not a constant"): waits
+// AnswerTiming ("timeouts from the bus, not a constant"): waits
 // learnt from measured LSS answer times, bounded by the configured floor and
 // ceiling (CiA 305 fixes no response time).
 #include "canopen/answer_timing.hpp"

@@ -1,5 +1,5 @@
 // FastscanPlan: which value a CiA 305 Fastscan confirms whole next, and when
-// it may fall back to the bit-by-bit search (issue 11, item 1).
+// it may fall back to the bit-by-bit search.
 #include <gtest/gtest.h>
 
 #include <vector>

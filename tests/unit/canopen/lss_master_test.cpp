@@ -61,7 +61,7 @@ TEST(LssMasterTest, J1_5_SwitchSelectiveByteForByte) {
 }
 
 // J§1.5 switch mode global `04 01`, and `04 00` (the J/E "stopped" frame,
-// digest A.9 item 2); no answer, so no result.
+// J§1.5); no answer, so no result.
 TEST(LssMasterTest, J1_5_SwitchGlobalFrames) {
   RecordingSink sink;
   LssMaster m(sink);
@@ -112,7 +112,7 @@ TEST(LssMasterTest, J1_5_1_ConfigureNodeIdOutOfRangeIsSlaveError1) {
 }
 
 // E§6.2 / CiA 305 configure bit timing: the master sends `13 00 IDX`
-// (digest G: the gateway sends the CiA form); index 7 (20k) -> error 1.
+// (CiA 305: the gateway sends the CiA form); index 7 (20k) -> error 1.
 TEST(LssMasterTest, E6_2_ConfigureBitTimingCiaFormAndNotSupported) {
   LssTestBus bus;
   LssSlave& dev = bus.add_slave(kJAddress, 127);

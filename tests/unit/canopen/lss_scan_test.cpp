@@ -1,7 +1,6 @@
 // Discovery with LSS: Fastscan for unconfigured CiA 305 V3 slaves (the
 // multiturn series, E intro) and Slowscan with identify remote slave for the
-// rotary series, whose DSP-305 V1.1.2 predates Fastscan (J§1 intro, digest
-// A.5, Y.2 and the product note at its top).
+// rotary series, whose DSP-305 V1.1.2 predates Fastscan (J§1 intro).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -18,7 +17,7 @@ namespace {
 using test::LssTestBus;
 using namespace std::chrono_literals;
 
-// Issue 26: a Fastscan's result is verified by a switch state selective to
+// A Fastscan's result is verified by a switch state selective to
 // it (after switch state global waiting): one more exchange, 5 more frames.
 constexpr uint32_t kVerify = 1;
 constexpr uint32_t kVerifyFrames = 5;
@@ -51,7 +50,7 @@ LssSlave* find(LssTestBus& bus, const LssAddress& a) {
   return nullptr;
 }
 
-// CiA 305 Fastscan (digest Y.1/Y.2): five unconfigured slaves with mixed
+// CiA 305 V3 Fastscan: five unconfigured slaves with mixed
 // vendors, products, revisions and serials, plus one configured slave that
 // must never be found. Each scan finds the smallest remaining address, exactly
 // once; once configured (pending node-ID != FFh) a slave stops answering; at
@@ -220,7 +219,7 @@ TEST(LssScanTest, CiA305_FastscanCostPerDevice) {
   }
 }
 
-// Issue 11, "timeouts from the bus": with a floor below the timeout, answer
+// Timeouts from the bus: with a floor below the timeout, answer
 // times are measured (slaves answer after 1 ms here, 250 us apart) and an
 // unanswered Fastscan step waits 4 x the slowest answer + 1 ms instead of the
 // full 100 ms; an answered step ends once the slowest answer time has passed
@@ -262,7 +261,7 @@ TEST(LssScanTest, CiA305_FastscanWaitsWhatTheBusNeeds) {
               std::chrono::duration<double>(took[0]) / std::chrono::duration<double>(took[1]));
 }
 
-// Issue 11, item 1: a Fastscan guided by what the configuration knows. Two
+// A Fastscan guided by what the configuration knows. Two
 // configured multiturn devices (vendor, product and serial configured, the
 // revision not) and an ifm device of a configured model whose serial nobody
 // configured, all at FFh, plus a stranger of another vendor. Each is found
@@ -320,7 +319,7 @@ TEST(LssScanTest, CiA305_FastscanGuidedByKnownIdentities) {
   EXPECT_EQ(r->steps, 1u + 2u + 4u * 33u + kVerify);
 }
 
-// Issue 11, item 1: a device whose whole identity is known (configuration +
+// A device whose whole identity is known (configuration +
 // remembered revision) is confirmed at FFh in 5 exchanges and verified in a
 // 6th, none silent; the
 // same plan with nobody at FFh costs the probe's one timeout.
@@ -395,7 +394,7 @@ TEST(LssScanTest, CiA305_FastscanBeginsAgainWhenAConfirmsAnswerIsLate) {
   EXPECT_EQ(r->steps, (1u + 33u) + (1u + 4u * 33u + kVerify));  // the 1st pass up to the vendor's confirm, then whole
 }
 
-// Issue 26, CiA 305 Fastscan + switch state selective: a late answer is taken
+// CiA 305 Fastscan + switch state selective: a late answer is taken
 // for a later step's. The slave's answer to the serial's bit-1 step (its bit
 // 1 is 0) comes 12 ms late: bit 1 is taken for silence (1), bit 0 is silent
 // (nobody has serial 2), and the late answer lands in the final confirm's
@@ -425,7 +424,7 @@ TEST(LssScanTest, CiA305_LateAnswerFromAnEarlierBitStepGivesNoWrongIdentity) {
   EXPECT_EQ(bus.slave(0).mode(), LssMode::kConfiguration);
 }
 
-// Issue 26, CiA 305 Fastscan: three slaves answer each step one after the
+// CiA 305 Fastscan: three slaves answer each step one after the
 // other (answers do not merge on vcan). At the serial's bit-3 step the third
 // answer comes later than the learnt settle time after the first one, but
 // within it after the second: it belongs to the burst of bit 3, not to bit 2

@@ -1,5 +1,5 @@
 // LssSlave against the frames printed in J§1.5 and E§6, and the CiA 305
-// services the manuals do not print (digest Y.1).
+// services the manuals do not print (CiA 305).
 #include "canopen/lss_slave.hpp"
 
 #include <gtest/gtest.h>
@@ -66,7 +66,7 @@ TEST_F(LssSlaveTest, J1_5_SwitchSelectiveOutOfOrderIsAbandoned) {
 }
 
 // E§6 text gives product 0x0BB8 (the V03 multiturn code) while its frame
-// table repeats J's `41 E0 0B` (digest C.5): a 0x0BB8 device answers the
+// table repeats J's `41 E0 0B` (E§6): a 0x0BB8 device answers the
 // former and not the latter.
 TEST_F(LssSlaveTest, E6_SwitchSelectiveMultiturnProduct0BB8) {
   LssSlave s = make({0x182, 0x0BB8, 0x00010003, 0x12345678});
@@ -83,7 +83,7 @@ TEST_F(LssSlaveTest, E6_SwitchSelectiveMultiturnProduct0BB8) {
   EXPECT_EQ(sink.frames[0], lss_rx({0x44, 0, 0, 0, 0, 0, 0, 0}));
 }
 
-// J§1.5 switch mode global `04 01`; J errata (digest A.9 item 2): the
+// J§1.5 switch mode global `04 01`; J errata (J§1.5): the
 // "stopped" frame `04 00` is switch state global to waiting. No answer.
 TEST_F(LssSlaveTest, J1_5_SwitchGlobalFrames) {
   LssSlave s = make();
@@ -95,7 +95,7 @@ TEST_F(LssSlaveTest, J1_5_SwitchGlobalFrames) {
 }
 
 // J§1.5.1 / E§6.1: configure node-ID, error 0; the new ID is pending until
-// reset communication (digest S.12).
+// reset communication (CiA 305).
 TEST_F(LssSlaveTest, J1_5_1_ConfigureNodeIdSuccess) {
   LssSlave s = make();
   to_configuration(s);
@@ -126,7 +126,7 @@ TEST_F(LssSlaveTest, J1_5_1_ConfigureNodeIdOutOfRange) {
 // CiA 305 V3: node-ID FFh is accepted and makes the device unconfigured.
 // A foreign slave that refuses every node-ID (error 1) or ignores the
 // request (no answer): what cobridge-sim's `assign=refuse|ignore` models
-// (issue 11, devices nobody configured). CiA 305 configure node-ID 0x11.
+// (devices nobody configured). CiA 305 configure node-ID 0x11.
 TEST_F(LssSlaveTest, CiA305_ConfigureNodeIdRefusedOrIgnored) {
   auto f = LssSlave::Features::multiturn_e();
   f.node_id_assignment = LssSlaveFeatures::NodeIdAssignment::refuse;
@@ -147,7 +147,7 @@ TEST_F(LssSlaveTest, CiA305_ConfigureNodeIdRefusedOrIgnored) {
   EXPECT_EQ(silent.pending_node_id(), 0xFF);
 }
 
-// Issue 26's fault (cobridge-sim `lose_configure=N`): the first N configure
+// A lossy slave (cobridge-sim `lose_configure=N`): the first N configure
 // node-ID requests go unanswered, the next is answered. CiA 305 0x11.
 TEST_F(LssSlaveTest, CiA305_ConfigureNodeIdLostOnceThenAnswered) {
   auto f = LssSlave::Features::multiturn_e();
@@ -197,7 +197,7 @@ TEST_F(LssSlaveTest, E6_2_ConfigureBitTimingCiaForm) {
   EXPECT_EQ(lss_bit_rate_kbit(*s.pending_bit_timing()), 125);
 }
 
-// J§1.5.2 prints `13 IDX 00` (digest A.9 item 3). The rotary model accepts
+// J§1.5.2 prints `13 IDX 00`. The rotary model accepts
 // it; a strict CiA slave reads table selector 4 and answers "not supported".
 TEST_F(LssSlaveTest, J1_5_2_ConfigureBitTimingJPrintedForm) {
   LssSlave rotary = make(kJAddress, 127, LssSlave::Features::rotary_j());
@@ -308,7 +308,7 @@ TEST_F(LssSlaveTest, CiA305_NonLssFramesIgnored) {
   EXPECT_EQ(s.mode(), LssMode::kWaiting);
 }
 
-// CiA 305 inquire 0x5A..0x5E (V3 multiturn, digest Y.1); the J rotary model
+// CiA 305 inquire 0x5A..0x5E (V3 multiturn, CiA 305); the J rotary model
 // (DSP-305 V1.1.2, nothing in J§1.5) stays silent.
 TEST_F(LssSlaveTest, CiA305_InquireIdentityAndNodeId) {
   LssSlave s = make(kJAddress, 127);
@@ -371,7 +371,7 @@ TEST_F(LssSlaveTest, CiA305_IdentifyNonConfigured) {
 }
 
 // J§1 intro: the rotary series claims DSP-305 V1.1.2, which has no Fastscan
-// (digest A.5, Y.2): even unconfigured it never answers 0x51.
+// (J§1 intro): even unconfigured it never answers 0x51.
 TEST_F(LssSlaveTest, J1_RotaryNeverAnswersFastscan) {
   LssSlave s = make(kJAddress, 0xFF, LssSlave::Features::rotary_j());
   EXPECT_FALSE(s.on_frame(lss_frame(0x7E5, 0x51, 0, kLssFastscanReset, 0, 0)));
@@ -382,7 +382,7 @@ TEST_F(LssSlaveTest, J1_RotaryNeverAnswersFastscan) {
   EXPECT_TRUE(sink.frames.empty());
 }
 
-// CiA 305 Fastscan (digest Y.2): answered only while active and pending
+// CiA 305 V3 Fastscan: answered only while active and pending
 // node-ID are both FFh and the slave is waiting.
 TEST_F(LssSlaveTest, CiA305_FastscanOnlyWhileUnconfigured) {
   LssSlave configured = make(kJAddress, 127);

@@ -295,7 +295,7 @@ TEST_F(OdTest, LimitsCheckedBeforeHook) {
 
 // J§1.6.1 / J§1.10: 'save' 0x65766173 on 0x1010/1..4. A per-index hook sees
 // every sub-index; a wrong signature is refused with 0x08000020; the object
-// keeps reading 0 (J§1.3.1 default; digest A.9 item 22).
+// keeps reading 0 (J§1.3.1 default; J§1.10).
 TEST_F(OdTest, J_1_6_1_SaveSignatureHandledByPerIndexHook) {
   std::vector<std::pair<uint8_t, uint32_t>> saves;
   ASSERT_FALSE(od_.set_hooks(

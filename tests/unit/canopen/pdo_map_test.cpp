@@ -88,7 +88,7 @@ TEST(PdoLayout, J1_3_1_TwoChannelDefault) {
 // E§4.1 0x1A00 and 0x1A01 defaults: 0x60200120, 0x60300110 (same payload as J).
 TEST(PdoLayout, E4_1_DefaultTpdo1AndTpdo2) {
   // Both defaults are {0x60200120, 0x60300110}; 0x6020/1 is treated as the
-  // INTEGER32 position (digest C.9 item 3: E's OD has no 0x6020).
+  // INTEGER32 position (E§4.2: E's OD has no 0x6020).
   const PdoLayout l = layout_of({0x60200120, 0x60300110}, novotechnik_types);
   EXPECT_EQ(l.frame_length(), 6);
   std::array<int64_t, 2> v{};

@@ -106,7 +106,7 @@ TEST_F(SdoClientTest, E_7_1_SetNodeId) {
   EXPECT_TRUE(finished().ok());
 }
 
-// J§1.6.1 node-ID example is self-contradictory (digest A.9.1): request
+// J§1.6.1 node-ID example is self-contradictory: request
 // `23 00 20 80 00 00 00 00` (sub 0x80) answered by `60 00 20 01 ...` (sub 0x01).
 // The client reproduces the printed request, but the printed answer names
 // another sub-index and therefore is not taken as the confirmation; the
@@ -124,7 +124,7 @@ TEST_F(SdoClientTest, J_1_6_1_NodeIdExampleErratumResponseNotAccepted) {
 }
 
 // F§7.2.1 "régler la valeur présélectionnée", master to node 1. The caption
-// says 1000, the printed data `00 10 00 00` are 4096 (digest B.9.1); the test
+// says 1000, the printed data `00 10 00 00` are 4096 (F§7.2.1); the test
 // writes 4096 so the bytes match the telegram as printed.
 TEST_F(SdoClientTest, F_7_2_1_SetPreset) {
   make(1);
@@ -137,7 +137,7 @@ TEST_F(SdoClientTest, F_7_2_1_SetPreset) {
 }
 
 // F§7.2.1 "mémorisation": the printed answer to 'save' on 0x1010/1 echoes
-// sub-index 00 (digest B.9.1: should be 01). Strictly (CiA 301 §7.2.4.3.3:
+// sub-index 00 (F§7.2.1: should be 01). Strictly (CiA 301 §7.2.4.3.3:
 // the response carries the request's multiplexer) it is not the confirmation,
 // so the transfer runs into the SDO timeout; with the opt-in quirk flag the
 // same telegram completes the store.
@@ -299,7 +299,7 @@ TEST_F(SdoClientTest, CiA301_7_2_4_3_17_AbortDuringSegmentedUpload) {
 // Segmented upload.
 
 // CiA 301 §7.2.4.3.6/§7.2.4.3.7 with the J§1.3.1 0x1008 example string
-// "RFC-4801-214-614-511" (20 characters; too long for expedited, digest A.4):
+// "RFC-4801-214-614-511" (20 characters; too long for expedited, J§1.6):
 // initiate response 0x41 with size 20, segments toggling 0x60/0x70/0x60,
 // last segment with n = 1 and c = 1.
 TEST_F(SdoClientTest, CiA301_7_2_4_3_7_SegmentedUploadDeviceName) {

@@ -134,7 +134,7 @@ TEST_F(SdoServerTest, E_7_1_SetNodeId) {
 }
 
 // J§1.6.1 prints the node-ID request as `23 00 20 80 00 00 00 00` (sub 0x80;
-// digest A.9 item 1). Against a correct dictionary (0x2000 is sub 0 only)
+// J§1.6.1). Against a correct dictionary (0x2000 is sub 0 only)
 // that frame is refused with "sub-index does not exist".
 TEST_F(SdoServerTest, J_1_6_1_MisprintedNodeIdRequestAbortsWithSubIndexMissing) {
   server();
@@ -154,7 +154,7 @@ TEST_F(SdoServerTest, J_1_7_2_MappingWrites) {
 }
 
 // F§7.2.1: set and read back the preset on node 1 (the data bytes are 4096,
-// not the caption's 1000; digest B.4).
+// not the caption's 1000; F§7.2.1).
 TEST_F(SdoServerTest, F_7_2_1_PresetWriteAndReadBackOnNode1) {
   server({}, 1);
   exchange({0x23, 0x03, 0x60, 0x00, 0x00, 0x10, 0x00, 0x00}, {0x60, 0x03, 0x60, 0x00, 0x00, 0x00, 0x00, 0x00}, t0,
@@ -166,7 +166,7 @@ TEST_F(SdoServerTest, F_7_2_1_PresetWriteAndReadBackOnNode1) {
 
 // F§7.2.1 prints the store response as `60 10 10 00 …` (sub 00). CiA 301
 // §7.2.4.3.3 has the response echo the request's multiplexer, so the
-// simulator answers with sub 01; gateways must accept either (digest B.9).
+// simulator answers with sub 01; gateways must accept either (F§7.2.1).
 TEST_F(SdoServerTest, F_7_2_1_StoreResponseEchoesRequestSubIndex) {
   server({}, 1);
   exchange({0x23, 0x10, 0x10, 0x01, 0x73, 0x61, 0x76, 0x65}, {0x60, 0x10, 0x10, 0x01, 0x00, 0x00, 0x00, 0x00}, t0,
@@ -220,7 +220,7 @@ TEST_F(SdoServerTest, J_1_6_3_WriteOfReadOnlyObject) {
   exchange({0x23, 0x20, 0x60, 0x01, 1, 2, 3, 4}, {0x80, 0x20, 0x60, 0x01, 0x02, 0x00, 0x01, 0x06});  // ro
 }
 
-// E§4.3 0x2100 is write-only ("W"); reading it is refused (digest C.4).
+// E§4.3 0x2100 is write-only ("W"); reading it is refused.
 TEST_F(SdoServerTest, E_7_3_ReadOfWriteOnlyObject) {
   server();
   exchange({0x40, 0x00, 0x21, 0x00, 0, 0, 0, 0}, {0x80, 0x00, 0x21, 0x00, 0x01, 0x00, 0x01, 0x06});
@@ -259,8 +259,8 @@ TEST_F(SdoServerTest, CiA301_7_2_4_3_17_LengthMismatch) {
   exchange({0x2F, 0x03, 0x60, 0x00, 1, 0, 0, 0}, {0x80, 0x03, 0x60, 0x00, 0x13, 0x00, 0x07, 0x06});
 }
 
-// The manuals list no length code (J§1.6.3, E§7.3); digest A.4 suggests
-// 0x08000000, available through the override.
+// The manuals list no length code (J§1.6.3, E§7.3); their general code
+// 0x08000000 is available through the override.
 TEST_F(SdoServerTest, J_1_6_3_LengthMismatchOverriddenToGeneralError) {
   server({.length_abort_override = 0x08000000});
   exchange({0x23, 0x00, 0x60, 0x00, 1, 0, 0, 0}, {0x80, 0x00, 0x60, 0x00, 0x00, 0x00, 0x00, 0x08});

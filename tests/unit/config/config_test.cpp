@@ -97,7 +97,7 @@ TEST(ConfigExample, LoadsGatewayAndLogging) {
   EXPECT_EQ(c.logging.modules[1], std::make_pair(std::string("modbus"), LogLevel::warn));
 }
 
-// doc §[gateway] device_dirs (issue 24): one directory named twice, by
+// doc §[gateway] device_dirs: one directory named twice, by
 // another spelling, is loaded once; its files are not duplicates of themselves.
 TEST(ConfigGateway, ADeviceDirectoryNamedTwiceIsListedOnce) {
   const std::string base = kExample.parent_path().string();
@@ -257,7 +257,7 @@ TEST(ConfigExample, KeepsOutputSectionsOpaque) {
   EXPECT_TRUE(again.ok());
 }
 
-// Issue 25, item 8: plugins load from the plugin directory only: `plugin`
+// Plugins load from the plugin directory only: `plugin`
 // names a file there, never a path.
 TEST(ConfigOutputs, PluginIsAFileNameNotAPath) {
   for (const char* bad : {"/tmp/evil.so", "../lib/x.so", "sub/x.so", ".."}) {

@@ -1,4 +1,4 @@
-// Diagnostic as the project's one error shape (issue 13, daemon/base/error.hpp):
+// Diagnostic as the project's one error shape (daemon/base/error.hpp):
 // a configuration problem is bad input (kInvalidArgument) whose where is the
 // compiler-style place "file:line:column" (just "file" for the whole file).
 #include "config/diagnostic.hpp"

@@ -1,4 +1,4 @@
-// Host names in one canonical form (issue 25, item 9): web.hosts and the
+// Host names in one canonical form: web.hosts and the
 // host of a request's Host header field (RFC 9110 §7.2) compare equal when
 // they name the same host.
 #include "config/host_name.hpp"

@@ -1,4 +1,4 @@
-// [control] and [ascii_gateway] (issue 15, items 2-4; docs/configuration.md):
+// [control] and [ascii_gateway] (docs/configuration.md):
 // read-only unless writes_enabled, the gateway bound to 127.0.0.1 by default.
 #include "config/load.hpp"
 
@@ -38,7 +38,7 @@ TEST(RemoteAccessConfig, SectionsAreRead) {
   EXPECT_EQ(r.config().remote.ascii.write_allow, (std::vector<std::string>{"10.0.0.0/8", "127.0.0.1"}));
 }
 
-// Issue 25, item 6: the 309-3 write_allow entries are networks; a name is refused at its place.
+// The 309-3 write_allow entries are networks; a name is refused at its place.
 TEST(RemoteAccessConfig, AsciiWriteAllowEntriesMustBeNetworks) {
   const std::string text = std::string(kBase) + "[ascii_gateway]\nwrite_allow = [\"10.0.0.0/8\", \"scada-host\"]\n";
   const auto r = load_string(text, "t.toml", "/tmp");
@@ -55,7 +55,7 @@ TEST(RemoteAccessConfig, BadValuesAreReported) {
   EXPECT_EQ(r.diagnostics().size(), 3U);
 }
 
-// Issue 25, item 6: a write group that does not exist would refuse every
+// A write group that does not exist would refuse every
 // write but root's without a word: with writes on it is an error at its line.
 TEST(RemoteAccessConfig, AWriteGroupThatDoesNotExistIsAnErrorWhenWritesAreOn) {
   const std::string on = std::string(kBase) + "[control]\nwrites_enabled = true\nwrite_group = \"cbt-no-such-group\"\n";

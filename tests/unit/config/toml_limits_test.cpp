@@ -1,8 +1,8 @@
-// Issue 10, item 13: a configuration nested 50 000 levels deep overflowed the
-// stack of the TOML parser (--check-config crashed, SIGHUP killed the daemon).
-// Size and nesting are checked before parsing, with file:line:col.
-// Issue 25, item 12: so did 100 000 levels of dotted keys and table headers;
-// every form of nesting counts (levels: toml_limits.hpp).
+// A configuration nested 50 000 levels deep, or 100 000 levels of dotted
+// keys and table headers, would overflow the stack of the TOML parser (a
+// crash of --check-config, or of the daemon on SIGHUP). Size and nesting are
+// checked before parsing, with file:line:col; every form of nesting counts
+// (levels: toml_limits.hpp).
 #include "config/toml_limits.hpp"
 
 #include <gtest/gtest.h>

@@ -45,7 +45,7 @@ TEST(WebConfig, EveryKey) {
   EXPECT_EQ(w.hosts_at.line, 19U);
 }
 
-// Issue 25, item 9: web.hosts absent is not web.hosts = [] (docs/web.md, "Host").
+// Web.hosts absent is not web.hosts = [] (docs/web.md, "Host").
 TEST(WebConfig, HostsAbsentIsNotHostsEmpty) {
   const std::string bus = "[[bus]]\nname = \"line1\"\ninterface = \"vcan0\"\n\n";
   const auto absent = cobridge::config::load_string(bus + "[web]\nbind = \"0.0.0.0\"\n", "absent.toml");

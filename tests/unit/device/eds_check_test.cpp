@@ -1,5 +1,5 @@
-// check_eds (daemon/device/eds_check): every shipped EDS passes it (issue 16:
-// what third-party masters import from us is right), and each rule finds the
+// check_eds (daemon/device/eds_check): every shipped EDS passes it (what
+// third-party masters import from us must be right), and each rule finds the
 // defect it names. Rules: CiA 306 §4.4 (PDO counts), §4.5 (object lists),
 // §4.6.3 (SubNumber), CiA 301 §7.4.3 (sub-index 0, ARRAY types), §7.4.8.1
 // (mapping entries), the family's manual (objects it names).
@@ -79,7 +79,7 @@ TEST(EdsCheck, EveryShippedEdsPassesEveryRule) {
   EXPECT_EQ(files, 12U);
 }
 
-// Issue 16: E§4.1 0x1A00/1 = 0x60200120 names 0x6020/1; the shipped file
+// E§4.1 0x1A00/1 = 0x60200120 names 0x6020/1; the shipped file
 // must define it (INTEGER32, readable, mappable) so an importing master
 // decodes the TPDO.
 TEST(EdsCheck, MultiturnDefinesThe0x6020ItsDefaultMappingNames) {
@@ -175,7 +175,7 @@ TEST(EdsCheck, ObjectTheFamilyManualNamesButTheFileLacksIsFound) {
   EXPECT_TRUE(mentions(f, "[1017]", "manual J")) << dump(f);
 }
 
-// Issue 13: the shipped files carry the identity their family module defines
+// The shipped files carry the identity their family module defines
 // (vendor, product codes, family name), so that one place holds each fact.
 TEST(EdsCheck, EveryShippedEdsCarriesItsFamilysIdentity) {
   for (const auto& entry : std::filesystem::directory_iterator(shipped_devices_dir())) {

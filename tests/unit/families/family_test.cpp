@@ -1,6 +1,6 @@
 // The device families' facts (daemon/families), checked against the
 // manuals they cite: J = Novotechnik rotary, E = Novotechnik multiturn,
-// F = ifm RM8/RM9 (digest sections A.1, B.1, C.1).
+// F = ifm RM8/RM9 (J§1.2.1, F§7.3, E§4.1).
 #include "families/family.hpp"
 #include "families/ifm_rm.hpp"
 #include "families/novotechnik.hpp"
@@ -51,7 +51,7 @@ TEST(Families, RotaryIdentityIsJ121) {
   EXPECT_TRUE(is_legacy_rsx_rfx(0x0BCD));
   EXPECT_TRUE(is_legacy_rsx_rfx(0x0BE1));
   EXPECT_FALSE(is_legacy_rsx_rfx(0x0BE0));
-  // digest Y.2: DSP-305 V1.1.2, no Fastscan.
+  // J§1 intro: DSP-305 V1.1.2, no Fastscan.
   EXPECT_FALSE(kNovotechnikRotary.lss_fastscan);
 }
 

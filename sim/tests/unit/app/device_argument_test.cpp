@@ -53,7 +53,7 @@ TEST(DeviceArgument, AllKeys) {
   EXPECT_FALSE(s.segmented_sdo);
 }
 
-// Another vendor's device that refuses LSS node-ID assignment (issue 11):
+// Another vendor's device that refuses LSS node-ID assignment:
 // identity fields override the model's, `assign` sets the LSS behaviour.
 TEST(DeviceArgument, ForeignIdentityAndAssignment) {
   const DeviceSpec s = ok("MC1-2800:serial=9,node=unconfigured,vendor=0x4711,product=0x22,revision=3,assign=refuse");
@@ -63,7 +63,7 @@ TEST(DeviceArgument, ForeignIdentityAndAssignment) {
   EXPECT_EQ(s.assign, canopen::LssSlaveFeatures::NodeIdAssignment::refuse);
   EXPECT_EQ(ok("MC1-2800:assign=ignore").assign, canopen::LssSlaveFeatures::NodeIdAssignment::ignore);
   EXPECT_NE(error("MC1-2800:assign=maybe").find("assign must be accept|refuse|ignore"), std::string::npos);
-  // Issue 26's fault: the first N configure node-ID requests are lost.
+  // A lossy slave: the first N configure node-ID requests are lost.
   EXPECT_EQ(ok("MC1-2800:node=unconfigured,lose_configure=2").lose_configure, 2);
   EXPECT_NE(error("MC1-2800:lose_configure=300").find("lose_configure must be 0..255"), std::string::npos);
   // Late LSS answers: every Nth, T ms late; the two keys go together.

@@ -1,7 +1,7 @@
 // SimDevice and the bus state: Linux CAN error frames (<linux/can/error.h>)
 // as the simulator delivers them for control `bus-error`; the device's CAN
 // controller goes error passive / bus-off and reports it as J§1.8.1 and
-// E§9.1 print it (0x8120, 0x8140) with the 0x1002 bits of J§1.9.1 / E§10.1.
+// E§9.1 print it (0x8120, 0x8140) with the 0x1002 bits of J§1.9.1, E§10.1.
 #include <linux/can/error.h>
 
 #include "sim_bench.hpp"
@@ -98,7 +98,7 @@ TEST(SimDeviceBusError, MultiturnPassiveBusOffRecovery_E9_1_E10_1) {
   EXPECT_EQ(status_1002(b) & 0x70000u, 0u);
 }
 
-// ifm (F documents no EMCY codes, digest B.6): the CiA 301 codes with the
+// ifm (F documents no EMCY codes, F§4): the CiA 301 codes with the
 // error register (generic + communication while passive), marked (ext).
 TEST(SimDeviceBusError, IfmCia301Codes_B6) {
   Bench b("RM9000", "ifm-rm8-rm9.eds");

@@ -53,7 +53,7 @@ TEST(SimDeviceEmcy, MultiturnCamChange_E9_1) {
   EXPECT_EQ(cam[0], Frame::make8(0xFF, {0x80, 0x90, 0x01, 0x00, 0x02, 0x00, 0x00, 0x02}));
 }
 
-// J§1.8 / J§1.8.1 0x5000: sensor error -> EMCY, position 0x7FF0, speed 0,
+// J§1.8, J§1.8.1 0x5000: sensor error -> EMCY, position 0x7FF0, speed 0,
 // alarm bit 12 (J§1.9.2), 0x1001 set; the end -> EMCY 0x0000.
 TEST(SimDeviceEmcy, RotarySensorError_J1_8_1) {
   Bench b("RFC-4800", "novotechnik-rfc4800-1ch.eds");
@@ -160,8 +160,8 @@ TEST(SimDeviceEmcy, MultiturnLevelFilter_E4_3) {
   EXPECT_EQ(v[0], Frame::make8(0xFF, {0x00, 0x31, 0x01, 0x02, 0, 0, 0, 0}));
 }
 
-// F§4 / F§7.3 0x1003: the error history keeps the last errors, cleared by
-// writing 0 to sub 0. Codes are CiA 301 classes (F has none; digest B.6).
+// F§4, F§7.3 0x1003: the error history keeps the last errors, cleared by
+// writing 0 to sub 0. Codes are CiA 301 classes (F has none; F§4).
 TEST(SimDeviceEmcy, IfmErrorHistory_F7_3) {
   Bench b("RM9000", "ifm-rm8-rm9.eds");
   b.power_on();
@@ -187,7 +187,7 @@ TEST(SimDeviceEmcy, NoEmcyWhenStopped_CiA301_7_3_2_2) {
   EXPECT_TRUE(b.frames_with_id(0xFF, from).empty());
 }
 
-// E§4.3 / E§5.8: live values, boot counter (kept across power cycles in the
+// E§4.3, E§5.8: live values, boot counter (kept across power cycles in the
 // history recorder), 0x2300/2 clears the lot size only.
 TEST(SimDeviceCondition, CountersAndHistory_E5_8) {
   const auto dir = temp_state_dir("cm");

@@ -1,4 +1,4 @@
-// SimDevice LSS slave (J§1.5, E§6, digest Y): selective switch with the
+// SimDevice LSS slave (J§1.5, E§6, CiA 305): selective switch with the
 // identity, configure + store + power cycle, state restrictions, versions.
 #include "sim_bench.hpp"
 
@@ -14,7 +14,7 @@ Frame lss(std::initializer_list<std::uint8_t> bytes) {
 
 // J§1.5 switch mode selective (the manual's four frames answer 0x44), then
 // J§1.5.1 configure node-ID, J§1.5.3 store, and after a power cycle the
-// device boots with the new node-ID (digest S.12).
+// device boots with the new node-ID (CiA 305).
 TEST(SimDeviceLss, ConfigureStorePowerCycle_J1_5) {
   const auto dir = temp_state_dir("lss");
   Bench b("RFC-4800", "novotechnik-rfc4800-1ch.eds", {}, dir);
@@ -57,7 +57,7 @@ TEST(SimDeviceLss, PendingActiveOnResetCommunication_CiA305) {
   std::filesystem::remove_all(temp_state_dir("lss2"));
 }
 
-// J§1.5 / E§6: LSS only in stopped or pre-operational (digest S.11).
+// J§1.5, E§6: LSS only in stopped or pre-operational.
 TEST(SimDeviceLss, IgnoredWhenOperational_E6) {
   Bench b("MC1-2800", "novotechnik-multiturn.eds");
   b.power_on();
@@ -72,7 +72,7 @@ TEST(SimDeviceLss, IgnoredWhenOperational_E6) {
   EXPECT_EQ(b.frames_with_id(0x7E4, from).size(), 1u);
 }
 
-// Digest Y.2: an unconfigured V3 slave answers Fastscan; configured by LSS
+// CiA 305 V3 Fastscan: an unconfigured V3 slave answers Fastscan; configured by LSS
 // it leaves configuration and resets communication on its own (CiA 305 V3),
 // booting with the new ID.
 TEST(SimDeviceLss, UnconfiguredGetsNodeIdByLss_Y2) {
@@ -90,7 +90,7 @@ TEST(SimDeviceLss, UnconfiguredGetsNodeIdByLss_Y2) {
   EXPECT_EQ(b.rec.frames.back(), Frame::make(0x712, {0x00}));
 }
 
-// J claims DSP-305 V1.1.2 (digest A.5): no Fastscan, no inquire; E (V3)
+// J claims DSP-305 V1.1.2 (J§1 intro): no Fastscan, no inquire; E (V3)
 // answers inquire node-ID.
 TEST(SimDeviceLss, VersionFeatureSets_A5_C5) {
   DeviceSpec spec;
@@ -111,7 +111,7 @@ TEST(SimDeviceLss, VersionFeatureSets_A5_C5) {
   EXPECT_EQ(a[0], Frame::make8(0x7E4, {0x5E, 0x7F, 0, 0, 0, 0, 0, 0}));
 }
 
-// J§1.5.2 / E§6.2: bit timing (CiA form) stored with 0x17 -> 0x2001 after power-up.
+// J§1.5.2, E§6.2: bit timing (CiA form) stored with 0x17 -> 0x2001 after power-up.
 TEST(SimDeviceLss, BitTimingStored_E6_2) {
   const auto dir = temp_state_dir("lssbt");
   Bench b("MC1-2800", "novotechnik-multiturn.eds", {}, dir);

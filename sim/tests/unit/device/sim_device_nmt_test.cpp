@@ -25,7 +25,7 @@ TEST(SimDeviceNmt, IfmBootsAtNode32_F5_3_1) {
   EXPECT_EQ(b.device->bitrate_kbit(), 125);
 }
 
-// CiA 305 / digest S.12: node-ID FFh = unconfigured: no boot-up, no SDO.
+// CiA 305 / CiA 305: node-ID FFh = unconfigured: no boot-up, no SDO.
 TEST(SimDeviceNmt, UnconfiguredNodeIsSilent_CiA305) {
   DeviceSpec spec;
   spec.node_id = 0xFF;
@@ -78,7 +78,7 @@ TEST(SimDeviceNmt, AutostartBit3_J1_3_1) {
   EXPECT_EQ(b.device->nmt_state(), canopen::NmtState::operational);
 }
 
-// J§1.3.1 0x1017 (heartbeat exists although J§1.2.2 says "no": digest A.3).
+// J§1.3.1 0x1017 (heartbeat exists although J§1.2.2 says "no").
 TEST(SimDeviceNmt, HeartbeatPeriod_J1_3_1) {
   Bench b("RFC-4800", "novotechnik-rfc4800-1ch.eds");
   b.power_on();

@@ -30,7 +30,7 @@ TEST(SimDeviceSdo, SaveLoadTelegrams_J1_6_1) {
             Frame::make8(0x5FF, {0x60, 0x10, 0x10, 0x01, 0x00, 0x00, 0x00, 0x00}));
   EXPECT_EQ(b.sdo({0x23, 0x11, 0x10, 0x01, 0x6C, 0x6F, 0x61, 0x64}),
             Frame::make8(0x5FF, {0x60, 0x11, 0x10, 0x01, 0x00, 0x00, 0x00, 0x00}));
-  // Digest A.9.22: the store object reads the manual's 0.
+  // J§1.10: the store object reads the manual's 0.
   EXPECT_EQ(Bench::value(b.read(0x1010, 1)), 0u);
 }
 
@@ -66,7 +66,7 @@ TEST(SimDeviceSdo, MappingProcedure_J1_7_2) {
   EXPECT_EQ(Bench::abort_code(b.write_u32(0x1A00, 1, 0x60300110)), 0x08000022u);
 }
 
-// J§1.7.2 / E§8.2: at most 5 entries and 8 bytes per PDO.
+// J§1.7.2, E§8.2: at most 5 entries and 8 bytes per PDO.
 TEST(SimDeviceSdo, MappingLimits_J1_7_2) {
   Bench b("RFC-4800", "novotechnik-rfc4800-2ch.eds");
   b.power_on();
@@ -108,7 +108,7 @@ TEST(SimDeviceSdo, ScalingPolarityAndCoupling_J1_4_2_E5_3) {
   EXPECT_EQ(Bench::abort_code(e.write_u32(0x6001, 0, 0x2000)), 0x08000022u);
 }
 
-// Digest C.3: 0x6020/1 is a hidden read-only alias of 0x6004 on E.
+// E§4.1: 0x6020/1 is a hidden read-only alias of 0x6004 on E.
 TEST(SimDeviceSdo, MultiturnPositionAlias_C3) {
   DeviceSpec spec;
   spec.motion = "constant:0";
@@ -120,7 +120,7 @@ TEST(SimDeviceSdo, MultiturnPositionAlias_C3) {
   EXPECT_EQ(Bench::abort_code(b.write_u32(0x6020, 1, 5)), 0x06010002u);
 }
 
-// F§7.4 / digest B.3: 0x6200 <-> 0x1800/5 and the read-only mirror 0x2200;
+// F§7.4, F§7.3, F§7.5 0x6200: 0x6200 <-> 0x1800/5 and the read-only mirror 0x2200;
 // 0x2101..0x2103 twins of 0x6001..0x6003; 0x4000 refuses every value.
 TEST(SimDeviceSdo, IfmAliases_F7_4) {
   Bench b("RM9000", "ifm-rm8-rm9.eds");

@@ -47,7 +47,7 @@ TEST(SimDeviceStorage, NewProcessSeesStoredImage_J1_10) {
   std::filesystem::remove_all(dir);
 }
 
-// Digest D / J§1.10: Novotechnik 'load' reverts RAM to the last saved image.
+// J§1.10, E§11: Novotechnik 'load' reverts RAM to the last saved image.
 TEST(SimDeviceStorage, LoadRevertsToSavedImage_J1_10) {
   Bench b("RFC-4800", "novotechnik-rfc4800-1ch.eds", {}, temp_state_dir("load"));
   b.power_on();
@@ -108,7 +108,7 @@ TEST(SimDeviceStorage, NodeIdSavedSubIndexPerSeries_J1_6_1) {
   std::filesystem::remove_all(dir);
 }
 
-// CiA 406 preset (digest S.5) survives a power cycle when saved (the device
+// CiA 406 preset (CiA 406) survives a power cycle when saved (the device
 // keeps the offset beside it).
 TEST(SimDeviceStorage, PresetSurvivesPowerCycle_E11) {
   const auto dir = temp_state_dir("preset");
@@ -142,7 +142,7 @@ TEST(SimDeviceStorage, IfmSaveWithReset_F6_3_4) {
   std::filesystem::remove_all(dir);
 }
 
-// F§6.3.5 / digest B.8: ifm 'load' = factory settings, active after a reset,
+// F§6.3.5, F§6.3: ifm 'load' = factory settings, active after a reset,
 // EEPROM untouched (a power cycle without 'save' brings the stored values back).
 TEST(SimDeviceStorage, IfmLoadIsFactoryAfterReset_F6_3_5) {
   const auto dir = temp_state_dir("ifmload");
@@ -161,7 +161,7 @@ TEST(SimDeviceStorage, IfmLoadIsFactoryAfterReset_F6_3_5) {
 
 // F§6.3.5, F§7.3 0x1011: after 'load' the NMT reset node activates the
 // factory settings in every area, the communication objects included (the
-// event timer 0x1800/5 and its twins 0x6200 / 0x2200, digest B.3) and the
+// event timer 0x1800/5 and its twins 0x6200 / 0x2200, F§7.3, F§7.5 0x6200) and the
 // preset (offset 0), and TPDO1 runs at the factory 100 ms; the EEPROM still
 // holds the saved image, which a power cycle brings back.
 TEST(SimDeviceStorage, IfmLoadResetNodeRestoresCommunicationArea_F6_3_5) {

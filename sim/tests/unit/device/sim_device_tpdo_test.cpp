@@ -37,14 +37,14 @@ TEST(SimDeviceTpdo, EventTimer1msGives1000FramesPerSecond_J1_3_1) {
       EXPECT_EQ(r.pdo, 1);
     }
   EXPECT_EQ(tpdo_truth, 1000u);
-  // Not in pre-operational (F§6.1.1 / CiA 301: PDOs only when operational).
+  // Not in pre-operational (F§6.1.1, CiA 301: PDOs only when operational).
   b.nmt(0x80, 0x7F);
   const std::size_t from2 = b.rec.frames.size();
   b.run_for(100ms);
   EXPECT_EQ(count_id(b, 0x1FF, from2), 0u);
 }
 
-// Digest A.3 [inference]: default type 254 with event timer 0 is silent.
+// J§1.3.1: default type 254 with event timer 0 is silent.
 TEST(SimDeviceTpdo, DefaultTpdo1IsSilent_A3) {
   Bench b("MC1-2800", "novotechnik-multiturn.eds");
   b.power_on();
@@ -73,7 +73,7 @@ TEST(SimDeviceTpdo, SyncEveryNth_J1_3_1) {
   EXPECT_EQ(count_id(b, 0x2FF, from2), 1u);
 }
 
-// J§1.2.5 / digest S.7: type 255 sends every 1 ms measuring cycle; the
+// J§1.2.5: type 255 sends every 1 ms measuring cycle; the
 // inhibit time (0x1800/3, 100 us units) spaces the frames.
 TEST(SimDeviceTpdo, Type255AndInhibit_J1_2_5) {
   Bench b("RFC-4800", "novotechnik-rfc4800-1ch.eds");
@@ -116,7 +116,7 @@ TEST(SimDeviceTpdo, RtrOnlyOnIfm_F7_3) {
   EXPECT_EQ(count_id(j, 0x1FF, from), 0u);
 }
 
-// F§7.3 / digest B.3: ifm TPDO1 default type 254 with 100 ms timer;
+// F§7.3, F§7.5 0x6200: ifm TPDO1 default type 254 with 100 ms timer;
 // TPDO2 only on C6 variants.
 TEST(SimDeviceTpdo, IfmDefaultsAndC6_F7_3) {
   Bench plain("RM9000", "ifm-rm8-rm9.eds");

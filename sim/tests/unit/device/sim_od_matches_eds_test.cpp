@@ -1,4 +1,4 @@
-// Issue 16: each family's simulated object dictionary against its shipped
+// Each family's simulated object dictionary against its shipped
 // EDS. Every object the EDS describes exists in the simulated device with the
 // same data type, access and PDO-mappability, and the device has no object
 // the EDS does not describe, so what a master reads from the EDS is what the
@@ -28,7 +28,7 @@ constexpr Case kCases[] = {
 };
 
 // F§4 says the ifm mapping is dynamic while F§7.3 prints its count ro
-// (digest B.9.8): the simulated device lets a master write it.
+// (F§7.3 0x1A00): the simulated device lets a master write it.
 bool documented_access_difference(const Case& c, const device::ObjectDesc& e) {
   return std::string(c.model) == "RM9000" && (e.index == 0x1A00 || e.index == 0x1A01) && e.sub == 0;
 }

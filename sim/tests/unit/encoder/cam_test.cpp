@@ -1,4 +1,4 @@
-// CAM evaluation: J§1.4.5, E§5.6, F§7.5 0x6300..0x6337, digest A.7.5 / B.7.6 / C.7.7.
+// CAM evaluation: J§1.4.5, E§5.6, F§7.5 0x6300..0x6337, F§7.5, E§5.6.
 #include "encoder/cam.hpp"
 
 #include <gtest/gtest.h>
@@ -13,7 +13,7 @@ CamBank one_cam(std::int64_t low, std::int64_t high, std::int64_t hyst = 0) {
   return b;
 }
 
-// J§1.4.5 / E§5.6: active while the position is between low and high (inclusive, digest A.7.5).
+// J§1.4.5, E§5.6: active while the position is between low and high (inclusive).
 TEST(CamBank, J_1_4_5_WindowInclusive) {
   auto b = one_cam(100, 200);
   EXPECT_EQ(b.evaluate(99).state, 0);
@@ -28,7 +28,7 @@ TEST(CamBank, J_1_4_5_WindowInclusive) {
   EXPECT_EQ(u.changed, 0x01);
 }
 
-// J§1.3.2 0x6302 / E§4.2: polarity bit 1 signals an active CAM with state bit 0.
+// J§1.3.2 0x6302, E§4.2: polarity bit 1 signals an active CAM with state bit 0.
 TEST(CamBank, J_1_3_2_PolarityInverts) {
   auto b = one_cam(100, 200);
   b.set_polarity_mask(0x01);
@@ -36,7 +36,7 @@ TEST(CamBank, J_1_3_2_PolarityInverts) {
   EXPECT_EQ(b.evaluate(250).state, 0x01);
 }
 
-// J§1.3.2 0x6301: a disabled CAM is permanently 0, whatever the polarity (digest A.7.5).
+// J§1.3.2 0x6301: a disabled CAM is permanently 0, whatever the polarity (J§1.4.5).
 TEST(CamBank, J_1_3_2_DisabledReadsZeroWhateverPolarity) {
   auto b = one_cam(100, 200);
   b.set_enable_mask(0x00);
@@ -61,9 +61,9 @@ TEST(CamBank, J_1_4_5_HighBelowLowWraps) {
   EXPECT_EQ(b.evaluate(299).state, 0x00);
 }
 
-// J§1.4.5 / E§5.6 hysteresis "added in the direction of motion", digest A.7.5 literal
+// J§1.4.5, E§5.6 hysteresis "added in the direction of motion", read literally
 // reading: moving up the switch points are limit + h, moving down limit - h.
-TEST(CamBank, DigestA75_HysteresisInDirectionOfMotion) {
+TEST(CamBank, J1_4_5_HysteresisInDirectionOfMotion) {
   auto b = one_cam(100, 200, 10);
   EXPECT_EQ(b.evaluate(50).state, 0);
   EXPECT_EQ(b.evaluate(105).state, 0);  // up: on at 110
@@ -78,8 +78,8 @@ TEST(CamBank, DigestA75_HysteresisInDirectionOfMotion) {
   EXPECT_EQ(b.evaluate(89).state, 0);
 }
 
-// Digest A.7.5: at standstill the state holds; reversing inside the band does not toggle.
-TEST(CamBank, DigestA75_StandstillAndReversalHold) {
+// J§1.4.5: at standstill the state holds; reversing inside the band does not toggle.
+TEST(CamBank, J1_4_5_StandstillAndReversalHold) {
   auto b = one_cam(100, 200, 10);
   b.evaluate(150);
   EXPECT_EQ(b.evaluate(95).state, 1);  // inside the low band coming down: still on
@@ -91,7 +91,7 @@ TEST(CamBank, DigestA75_StandstillAndReversalHold) {
   EXPECT_EQ(b.evaluate(208).state, 0);
 }
 
-// J§1.8.1 / E§9.1 0x9080: the changed mask names exactly the CAMs that changed.
+// J§1.8.1, E§9.1 0x9080: the changed mask names exactly the CAMs that changed.
 TEST(CamBank, E_9_1_ChangedMaskForEmcy) {
   CamBank b(4);
   b.set_limits(0, {0, 100, 0});

@@ -1,5 +1,5 @@
 // Multiturn condition monitoring: E§4.3 (0x2002, 0x2003, 0x2300..0x236B), E§5.8,
-// E§9.1 / E§10.1 (EMCY and 0x1002 bits), digest C.7.9.
+// E§9.1, E§10.1 (EMCY and 0x1002 bits), E§4.3, E§5.8.
 #include "encoder/condition_monitor.hpp"
 
 #include "encoder/abort_code.hpp"
@@ -64,7 +64,7 @@ TEST(ConditionMonitor, E_5_8_PowerCycleClearsPowerOnOnly) {
 }
 
 // E§4.3 0x2350 / 0x2360: min/max over four windows; 0x2300/3..6 reset the
-// "since reset" min/max to 0, re-seeded by the next sample (digest C.7.9).
+// "since reset" min/max to 0, re-seeded by the next sample (E§4.3, E§5.8).
 TEST(ConditionMonitor, E_4_3_TemperatureVoltageTrackers) {
   ConditionMonitor m;
   m.power_up();
@@ -143,7 +143,7 @@ TEST(ConditionMonitor, E_4_3_OdometerAbsoluteTurns) {
 }
 
 // E§10.1 bits 2..9 and E§9.1 0x4210/0x3100: user thresholds set bits only,
-// factory thresholds set bits and raise the warning EMCY (digest C.7.9).
+// factory thresholds set bits and raise the warning EMCY (E§4.3, E§5.8).
 TEST(ConditionMonitor, E_10_1_ThresholdBitsAndEvents) {
   ConditionMonitor m;
   m.power_up();

@@ -1,4 +1,4 @@
-// Motion grammar of the simulator (issue 3, DeviceSpec::motion in
+// Motion grammar of the simulator (DeviceSpec::motion in
 // sim/device/sim_device.hpp). No manual section applies: the motion is
 // the simulated shaft, the manuals start at the sensor.
 #include "encoder/motion.hpp"

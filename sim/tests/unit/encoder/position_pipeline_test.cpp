@@ -36,7 +36,7 @@ TEST(PositionPipelineRotary, J_1_2_3_FourteenBitSingleTurnWraps) {
   EXPECT_EQ(p.update(0.999999, 0.003).position, 0x3FFFU);
 }
 
-// J§1.4.1 bit 0 counting direction; digest S.6: ccw reads total-1-pos; speed follows.
+// J§1.4.1 bit 0 counting direction; ccw reads total-1-pos; speed follows.
 TEST(PositionPipelineRotary, J_1_4_1_CounterClockwiseMirrorsPositionAndSpeed) {
   auto p = make(FamilyId::novotechnik_rotary);
   p.settings().operating_parameter = 0x0001;
@@ -45,7 +45,7 @@ TEST(PositionPipelineRotary, J_1_4_1_CounterClockwiseMirrorsPositionAndSpeed) {
   EXPECT_EQ(s.speed, -1800);
 }
 
-// J§1.4.1 bit 2 = 1 scaling on (digest D: J polarity); J§1.4.2 0x6001 scaling.
+// J§1.4.1 bit 2 = 1 scaling on (E§5.3 prints the opposite); J§1.4.2 0x6001 scaling.
 TEST(PositionPipelineRotary, J_1_4_1_ScalingBitOneIsOn) {
   auto p = make(FamilyId::novotechnik_rotary);
   p.settings().units_per_rev = 0x1000;
@@ -58,7 +58,7 @@ TEST(PositionPipelineRotary, J_1_4_1_ScalingBitOneIsOn) {
   EXPECT_EQ(p.update(1.75, 0.002).position, 0xC00U);  // modulo total range
 }
 
-// J§1.4.2: 0x6001 writable only with scaling on; only reductions (digest A.7.2, S.4).
+// J§1.4.2: 0x6001 writable only with scaling on; only reductions (J§1.4.2, E§5.4).
 TEST(PositionPipelineRotary, J_1_4_2_ScalingWriteRules) {
   const auto s = PositionSettings::defaults(FamilyId::novotechnik_rotary);
   EXPECT_EQ(check_scaling_write_allowed(s, 0x0000), kWrongState);
@@ -85,8 +85,8 @@ TEST(PositionPipelineRotary, J_1_4_1_MovingAverageDelaysPosition) {
   EXPECT_EQ(b.speed, 3600);
 }
 
-// Digest A.7.4: speed 0.1 deg/s, INTEGER16 saturating at +-32767.
-TEST(PositionPipelineRotary, DigestA74_SpeedTenthDegreePerSecondSaturates) {
+// J§1.3.2 0x6030: speed 0.1 deg/s, INTEGER16 saturating at +-32767.
+TEST(PositionPipelineRotary, J1_3_2_SpeedTenthDegreePerSecondSaturates) {
   auto p = make(FamilyId::novotechnik_rotary);
   EXPECT_EQ(run(p, 0.5, 5).speed, 1800);
   auto q = make(FamilyId::novotechnik_rotary);
@@ -95,8 +95,8 @@ TEST(PositionPipelineRotary, DigestA74_SpeedTenthDegreePerSecondSaturates) {
   EXPECT_TRUE(s.speed_saturated);
 }
 
-// Digest A.7.3 reading 1 (CiA 406): writing P makes the current position read P.
-TEST(PositionPipelineRotary, DigestA73_PresetCurrentReadsP) {
+// J§1.3.2 0x6010 reading 1 (CiA 406): writing P makes the current position read P.
+TEST(PositionPipelineRotary, J1_3_2_PresetCurrentReadsP) {
   auto p = make(FamilyId::novotechnik_rotary);
   p.update(0.25, 0.0);
   EXPECT_EQ(p.preset(100), kOk);
@@ -110,8 +110,8 @@ TEST(PositionPipelineRotary, DigestA73_PresetCurrentReadsP) {
   EXPECT_EQ(p.preset(-1), kValueExceeded);
 }
 
-// Digest A.7.3 reading 2 (J§1.4.6.1 hint): the preset is added, range [P, P+total).
-TEST(PositionPipelineRotary, DigestA73_PresetOffsetAddedSwitch) {
+// J§1.3.2 0x6010 reading 2 (J§1.4.6.1 hint): the preset is added, range [P, P+total).
+TEST(PositionPipelineRotary, J1_3_2_PresetOffsetAddedSwitch) {
   auto s = PositionSettings::defaults(FamilyId::novotechnik_rotary);
   s.preset_mode = PresetMode::offset_added;
   PositionPipeline p(s);
@@ -146,7 +146,7 @@ TEST(PositionPipelineMultiturn, E_4_2_SixteenBitTimesFortyFour) {
   EXPECT_EQ(s.range, RangeState::in_range);
 }
 
-// E§5.3 bit 2 = 0 scaling on (as printed, digest C.7.1/D); E§5.4/§5.5 coupling.
+// E§5.3 bit 2 = 0 scaling on (as printed, E§5.3); E§5.4/§5.5 coupling.
 TEST(PositionPipelineMultiturn, E_5_3_ScalingBitZeroIsOn) {
   auto p = make(FamilyId::novotechnik_multiturn);
   const auto& s = p.settings();
@@ -166,7 +166,7 @@ TEST(PositionPipelineMultiturn, E_5_3_ScalingBitZeroIsOn) {
   EXPECT_EQ(p.update(2.5, 0.001).position, 0x28000U);
 }
 
-// E§5.2: 0x2010/2 <-> 0x6031/2 coupling table (digest C.7.5 for the non-unique reverse).
+// E§5.2: 0x2010/2 <-> 0x6031/2 coupling table (E§5.2 for the non-unique reverse).
 TEST(PositionPipelineMultiturn, E_5_2_SpeedFilterIntegrationCoupling) {
   EXPECT_EQ(integration_ms_for_speed_filter(0), 0);
   EXPECT_EQ(integration_ms_for_speed_filter(1), 0);
@@ -186,7 +186,7 @@ TEST(PositionPipelineMultiturn, E_5_2_SpeedFilterIntegrationCoupling) {
   EXPECT_EQ(check_position_filter(8), kValueExceeded);
 }
 
-// E§3.4 / E§4.2 0x6031/2: speed in 0.1 deg/s averaged over the integration time.
+// E§3.4, E§4.2 0x6031/2: speed in 0.1 deg/s averaged over the integration time.
 TEST(PositionPipelineMultiturn, E_4_2_SpeedAveragedOverIntegrationTime) {
   for (const std::uint16_t ms : {std::uint16_t{1}, std::uint16_t{25}}) {
     auto p = make(FamilyId::novotechnik_multiturn);
@@ -212,7 +212,7 @@ TEST(PositionPipelineMultiturn, E_5_1_PositionFilter) {
   EXPECT_EQ(s.position, 0x10000U + 0x10000U / 8U);
 }
 
-// E§10.1 bits 10/11: Info in the last revolution before a limit (digest C.7.4).
+// E§10.1 bits 10/11: Info in the last revolution before a limit (E§9.1, E§10.1).
 TEST(PositionPipelineMultiturn, E_10_1_InfoInLastRevolution) {
   auto p = make(FamilyId::novotechnik_multiturn);
   EXPECT_EQ(p.update(0.5, 0.0).range, RangeState::info_under);
@@ -273,7 +273,7 @@ TEST(PositionPipelineMultiturn, E_9_1_MeasurementErrorValue) {
   EXPECT_EQ(s.raw, 0x7FFFFFFCU);
 }
 
-// E§4.2 0x6003/0x6509 (digest C.7.3): CiA 406 preset, INTEGER32 output without wrap.
+// E§4.2 0x6003/0x6509 (E§4.2): CiA 406 preset, INTEGER32 output without wrap.
 TEST(PositionPipelineMultiturn, E_4_2_PresetAndOffsetNoWrap) {
   auto p = make(FamilyId::novotechnik_multiturn);
   p.update(10.0, 0.0);

@@ -1,4 +1,4 @@
-// Work-area state 0x6400: J§1.4.6.1, E§5.7.1, F§7.5 0x6400..0x6402, digest A.7.6 / B.7.4 / C.7.8.
+// Work-area state 0x6400: J§1.4.6.1, E§5.7.1, F§7.5 0x6400..0x6402, F§7.5 0x6400, E§5.7.1.
 #include "encoder/work_area.hpp"
 
 #include <gtest/gtest.h>
@@ -19,7 +19,7 @@ TEST(WorkArea, E_5_7_1_StateBits) {
   EXPECT_EQ(work_area_state(r, l, 0x2BFFFE), kWorkAreaOverflow);
 }
 
-// J§1.4.6.1 prints bit 1 = "pos < high"; erratum (digest A.7.6, D): pos > high.
+// J§1.4.6.1 prints bit 1 = "pos < high"; erratum (J§1.4.6.1, E§5.3): pos > high.
 // Bit 0 as printed: pos <= preset or pos >= sensor length.
 TEST(WorkArea, J_1_4_6_1_OverflowErratumAndOutOfRange) {
   const WorkAreaLimits l{0, 0x3FFF, 0 /*preset*/, 0x4000 /*sensor length*/};
@@ -32,7 +32,7 @@ TEST(WorkArea, J_1_4_6_1_OverflowErratumAndOutOfRange) {
   EXPECT_EQ(work_area_state(r, narrow, 999), kWorkAreaUnderflow);
 }
 
-// F§7.5 0x6401/0x6402 descriptions (the 0x6400 table swaps them, digest B.7.4);
+// F§7.5 0x6401/0x6402 descriptions (the 0x6400 table swaps them, F§7.5 0x6400);
 // bit 0: outside 0x650A/2..3, bounds themselves in range.
 TEST(WorkArea, F_7_5_DescriptionsWinOverSwappedTable) {
   const WorkAreaLimits l{100, 1000, 0, 0xFFFFFF};
@@ -46,7 +46,7 @@ TEST(WorkArea, F_7_5_DescriptionsWinOverSwappedTable) {
   EXPECT_EQ(work_area_state(r, wide, -1), kWorkAreaOutOfRange);
 }
 
-// J§1.4.6 / E§5.7: a change of state -> EMCY 0x9090; the register starts at 0.
+// J§1.4.6, E§5.7: a change of state -> EMCY 0x9090; the register starts at 0.
 TEST(WorkArea, E_5_7_ChangeDetection) {
   WorkArea wa(WorkAreaRule::multiturn, {100, 1000, 0, 0x2BFFFF});
   auto u = wa.evaluate(500);
@@ -61,7 +61,7 @@ TEST(WorkArea, E_5_7_ChangeDetection) {
   EXPECT_EQ(wa.state(), 0);
 }
 
-// E§9.1 0x9090 byte 7: 0x6400 value by default, enumeration 0/1/2 as a switch (digest C.6).
+// E§9.1 0x9090 byte 7: 0x6400 value by default, enumeration 0/1/2 as a switch (E§9.1).
 TEST(WorkArea, E_9_1_EmcyStateCoding) {
   EXPECT_EQ(work_area_emcy_state(kWorkAreaUnderflow, WorkAreaEmcyCoding::state_bits), 0x04);
   EXPECT_EQ(work_area_emcy_state(kWorkAreaUnderflow | kWorkAreaOutOfRange, WorkAreaEmcyCoding::state_bits), 0x05);
