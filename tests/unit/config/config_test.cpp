@@ -357,7 +357,7 @@ TEST(ConfigErrors, UnknownKeys) {
                "inhibit_100us); did you mean \"event_timer_ms\"?"},
        {18, 2,
         "unknown key \"colour\" in the top level (allowed: gateway, logging, bus, device, outputs, web, control, "
-        "ascii_gateway)"}});
+        "ascii_gateway, redundancy)"}});
   const LoadResult r = load(kFixtures / "bad_unknown_keys.toml");
   EXPECT_THAT(r.diagnostics()[1].message, HasSubstr("did you mean \"bitrate\"?"));
   EXPECT_THAT(r.diagnostics()[0].message, ::testing::Not(HasSubstr("did you mean")));
