@@ -99,17 +99,34 @@ Error Daemon::load_configuration() {
 // Makes this daemon findable from each interface it serves (the CLI then
 // goes through the control socket instead of opening the bus beside it).
 // Another daemon on the same interface is a second master: said loudly, not
-// refused (a gateway pair on one bus is a deployment choice).
+// refused. In a hot-standby pair ([redundancy]) it is the peer: the beacon
+// stays with the first gateway and retry_beacons() takes it over when that
+// one is gone, so the CLI always finds a daemon and never opens the bus.
 void Daemon::open_beacons() {
   auto log = sys::logger("gateway");
   const std::string control = std::filesystem::absolute(cfg_->gateway.control_socket).string();
-  for (const auto& bus : cfg_->buses) {
-    sys::BusBeacon beacon;
-    if (const Error e = beacon.open(bus.interface, control)) {
-      log->warn("bus {}: {}", bus.name, e.to_string());
-      continue;
+  beacons_.resize(cfg_->buses.size());
+  for (std::size_t i = 0; i < cfg_->buses.size(); ++i) {
+    const auto& bus = cfg_->buses[i];
+    if (const Error e = beacons_[i].open(bus.interface, control)) {
+      if (cfg_->redundancy) {
+        log->info("bus {}: the peer gateway answers the CLI for {} for now", bus.name, bus.interface);
+      } else {
+        log->warn("bus {}: {}", bus.name, e.to_string());
+      }
     }
-    beacons_.push_back(std::move(beacon));
+  }
+}
+
+void Daemon::retry_beacons(Clock::time_point now) {
+  if (!cfg_->redundancy || now < next_beacon_try_) return;
+  next_beacon_try_ = now + std::chrono::seconds(1);
+  const std::string control = std::filesystem::absolute(cfg_->gateway.control_socket).string();
+  for (std::size_t i = 0; i < beacons_.size() && i < cfg_->buses.size(); ++i) {
+    if (beacons_[i].fd() >= 0) continue;
+    const auto& bus = cfg_->buses[i];
+    if (!beacons_[i].open(bus.interface, control))
+      sys::logger("gateway")->info("bus {}: the CLI finds this gateway for {} now", bus.name, bus.interface);
   }
 }
 
@@ -158,6 +175,7 @@ void Daemon::serve() {
     // loop answers clients' SDO commands.
     const auto now = Clock::now();
     service_->tick(now);
+    retry_beacons(now);
     const auto deadline = std::min(service_->next_deadline(), control_->process(now));
     fds.clear();
     fds.push_back({signals_.fd(), POLLIN, 0});

@@ -35,6 +35,7 @@
 #include "web/web_server.hpp"
 
 #include <filesystem>
+#include <chrono>
 #include <memory>
 #include <optional>
 #include <string>
@@ -72,6 +73,7 @@ class Daemon {
   [[nodiscard]] std::vector<Error> start_plugins();  // a helper thread, while the buses start
   [[nodiscard]] Error start_web();
   void open_beacons();
+  void retry_beacons(std::chrono::steady_clock::time_point now);  // [redundancy]: take the peer's over
   void reload();
 
   DaemonOptions options_;
@@ -85,7 +87,8 @@ class Daemon {
   std::optional<gateway::OutputPipeline> outputs_;
   std::optional<ControlFacade> facade_;
   std::optional<gateway::ControlServer> control_;
-  std::vector<sys::BusBeacon> beacons_;  // one per served interface (sys/bus_beacon.hpp)
+  std::vector<sys::BusBeacon> beacons_;  // one per bus, closed when another daemon holds it (sys/bus_beacon.hpp)
+  std::chrono::steady_clock::time_point next_beacon_try_{};
   std::optional<web::WebServer> web_;
   std::optional<ServiceStatus> service_;
 };

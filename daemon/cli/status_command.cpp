@@ -54,6 +54,11 @@ void print_table(const Json& doc) {
                 b["last_bus_event"].str("").empty() ? "" : ", last event: ",
                 b["last_bus_event"].str("").c_str(), c["rx_frames"].integer(), c["tx_frames"].integer(),
                 c["error_frames"].integer(), c["rx_overflow_drops"].integer(), c["reopens"].integer());
+    const auto& r = b["redundancy"];
+    if (!r.is_null()) {
+      std::printf("  hot standby: %s, master node %lld (%s, since %s)\n", r["role"].str().c_str(),
+                  r["master_node"].integer(), r["cause"].str().c_str(), short_time(r["since"]).c_str());
+    }
   }
   // Columns as wide as their widest cell: model names come from the EDS files.
   using Row = std::vector<std::string>;

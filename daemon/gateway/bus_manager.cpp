@@ -119,8 +119,8 @@ void BusManager::Impl::wake() noexcept {
 void BusManager::Impl::run() {
   const TimePoint now0 = Clock::now();
   DiscoveryOptions dopt;
-  discovery = std::make_unique<Discovery>(*channel, config, bus_index, state.on_bus(bus.name), dopt);
-  remote = std::make_unique<RemoteExecutor>(*channel, bus.name, milliseconds(bus.lss_timeout_ms));
+  discovery = std::make_unique<Discovery>(tx, config, bus_index, state.on_bus(bus.name), dopt);
+  remote = std::make_unique<RemoteExecutor>(tx, bus.name, milliseconds(bus.lss_timeout_ms));
   if (bus.sync_period_ms > 0) {
     canopen::SyncProducer::Config sc;
     sc.period = milliseconds(bus.sync_period_ms);

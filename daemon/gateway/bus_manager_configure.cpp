@@ -31,7 +31,7 @@ PlanRunnerOptions BusManager::Impl::runner_options() const {
 }
 
 std::unique_ptr<PlanRunner> BusManager::Impl::make_runner(Managed& m, ConfigPlan plan, const PlanRunnerOptions& ro) {
-  return std::make_unique<PlanRunner>(*channel, sdo_of(m), std::move(plan), ro);
+  return std::make_unique<PlanRunner>(tx, sdo_of(m), std::move(plan), ro);
 }
 
 canopen::SdoClient& BusManager::Impl::sdo_of(Managed& m) {
@@ -39,7 +39,7 @@ canopen::SdoClient& BusManager::Impl::sdo_of(Managed& m) {
     canopen::SdoClientConfig sc;
     sc.timeout = milliseconds(bus.sdo_timeout_ms);
     sc.retries = 0;  // the runner repeats timed-out transfers itself
-    m.sdo = std::make_unique<canopen::SdoClient>(*channel, m.st.node_id, sc);
+    m.sdo = std::make_unique<canopen::SdoClient>(tx, m.st.node_id, sc);
   } else if (!m.sdo->busy()) {
     (void)m.sdo->set_node_id(m.st.node_id);
   }

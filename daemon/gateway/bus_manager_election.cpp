@@ -12,16 +12,13 @@
 
 namespace cobridge::gateway {
 
-namespace {
-
-// The standby's supervision runs its timers, but any frame it would send
-// (a guarding request) is the master's.
-class Silent final : public can::FrameSink {
- public:
-  bool send(const can::Frame&) noexcept override { return false; }
-};
-
-}  // namespace
+bool BusManager::Impl::MasterGate::send(const can::Frame& frame) noexcept {
+  if (impl.standby()) {
+    ++refused;
+    return false;
+  }
+  return impl.channel->send(frame);
+}
 
 void BusManager::Impl::start_election(TimePoint now) {
   if (!config.redundancy || election) return;
@@ -78,8 +75,7 @@ void BusManager::Impl::on_election(const canopen::ElectionEvent& e) {
 }
 
 TimePoint BusManager::Impl::run_standby(TimePoint now, TimePoint next) {
-  static Silent silent;
-  next = std::min(next, supervisor.process(now, silent));
+  next = std::min(next, supervisor.process(now, tx));  // its timers; a guarding request is refused
   if (remote->waiting() != 0) {
     remote->abort_all(fmt::format("this gateway is standby on bus {}; the master is node {}", bus.name,
                                   election->master_node()));

@@ -30,8 +30,8 @@ TimePoint BusManager::Impl::run_components(TimePoint now) {
   if (!remote->lss_session(now)) next = std::min(next, discovery->process(now));
   next = std::min(next, remote->process(now, *this));
   remote_waiting.store(remote->waiting(), std::memory_order_relaxed);
-  next = std::min(next, supervisor.process(now, *channel));
-  next = std::min(next, sync.process(now, *channel));
+  next = std::min(next, supervisor.process(now, tx));
+  next = std::min(next, sync.process(now, tx));
   for (auto& m : devices) {
     if (m.runner) next = std::min(next, m.runner->process(now));
     if (m.want_configure && !m.runner) next = std::min(next, std::max(m.not_before, now));

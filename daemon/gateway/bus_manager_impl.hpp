@@ -289,6 +289,16 @@ struct BusManager::Impl final : RemoteGate {
   TimePoint started_at{};
   // [redundancy]: the bus's master role (bus_manager_election.cpp).
   std::optional<canopen::MasterElection> election;
+  // What every component sends through: the channel while this gateway may
+  // send (no [redundancy], or master); refused (and counted) otherwise, so
+  // no path of a standby reaches the bus, whatever it was asked.
+  struct MasterGate final : can::FrameSink {
+    explicit MasterGate(Impl& owner) : impl(owner) {}
+    bool send(const can::Frame& frame) noexcept override;
+    Impl& impl;
+    std::uint64_t refused = 0;
+  };
+  MasterGate tx{*this};
   WallTime election_at{};
   void start_election(TimePoint now);
   [[nodiscard]] bool standby() const noexcept { return election && !election->is_master(); }

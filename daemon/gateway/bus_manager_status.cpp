@@ -38,8 +38,10 @@ void BusManager::Impl::update_ready(TimePoint now) {
   for (const auto& m : devices) {
     if (m.in_config && m.st.state != DeviceState::operational) all = false;
   }
-  if (all || now - started_at >= options.ready_timeout) {
-    if (!all) log->warn("bus {}: ready after {} ms with devices not operational", bus.name,
+  // A standby is ready once it knows the master: the devices are the master's to bring up.
+  const bool standing_by = election && election->role() == canopen::MasterRole::standby;
+  if (all || standing_by || now - started_at >= options.ready_timeout) {
+    if (!all && !standing_by) log->warn("bus {}: ready after {} ms with devices not operational", bus.name,
                         options.ready_timeout.count());
     ready_latched.store(true);
   }

@@ -116,6 +116,12 @@ void bus_families(Writer& w, const gateway::StatusReport& report) {
   };
   w.family("cobridge_bus_open", "gauge", "1 while the bus's CAN interface is open.");
   for (const auto& b : report.buses) w.sample({{"bus", b.name}, {"interface", b.interface}}, b.open ? 1 : 0);
+  w.family("cobridge_bus_master", "gauge",
+           "[redundancy]: 1 while this gateway is the bus's master, 0 otherwise (standby, electing); "
+           "absent without [redundancy].");
+  for (const auto& b : report.buses) {
+    if (!b.role.empty()) w.sample({{"bus", b.name}, {"role", b.role}}, b.role == "master" ? 1 : 0);
+  }
   per_bus("cobridge_bus_bitrate", "gauge", "The bus's configured bit rate, bit/s.",
           [](const BusStatus& b) { return static_cast<double>(b.bitrate_kbit) * 1000.0; });
   // Each bus has two sockets (docs/architecture.md): the hot path's and the control plane's.

@@ -18,6 +18,7 @@ the bus (kernel receive stamps):
 Runs inside UML:
   tests/vcan/run-in-vcan -- /usr/bin/python3 tests/vcan/daemon/test_hot_standby.py --daemon ... --kills 3
 """
+import json
 import os
 import random
 import signal
@@ -139,6 +140,15 @@ def main():
         report.check(b.wait_socket(), "gateway b: control socket up")
         rb = role_is(b, "standby", NODE["a"], timeout=10)
         report.check(rb is not None, "gateway b: standby, naming a (node 120) as master", str(redundancy(b)))
+        rc, out, _ = e2e.run_cli(args.cli, "status", "--control", pair.ws["b"].control)
+        report.check(rc == 0 and "hot standby: standby, master node 120" in out,
+                     "cobridge status (text) shows b's role and its master", " | ".join(out.splitlines()[:4]))
+        # A request the standby would have to send on the bus (on its own control socket: the CLI
+        # itself goes to the daemon that holds the bus's beacon) is refused, naming the master.
+        answer = b.request("sdo-read vcan0 20 1000 0 500", timeout=15)
+        text = str(answer.get("error", ""))
+        report.check(answer.get("ok") is False and "standby" in text and "120" in text,
+                     "an SDO read sent to the standby is refused, naming the master", str(answer)[:300])
         tx0 = b.status()["buses"][0]["counters"]["tx_frames"]
         t_b = time.time()
         time.sleep(1.0)
@@ -167,6 +177,19 @@ def main():
             report.check(back is not None and n_writes == 0,
                          "kill %d: the new master (%s) has every device operational, 0 configuration writes" % (
                              i, standby), "%s; %d writes in %d lines" % (back, n_writes, n_lines))
+            if i == 1:
+                # The CLI finds the bus's daemon by its beacon: the survivor's, once the dead one's is gone.
+                via = None
+                end = time.time() + 5
+                while time.time() < end and via != "daemon":
+                    rc, out, _ = e2e.run_cli(args.cli, "sdo", "read", "-i", "vcan0", "-n", "20", "1000:0", "--json")
+                    try:
+                        via = json.loads(out).get("via") if rc == 0 else None
+                    except ValueError:
+                        via = None
+                    time.sleep(0.2)
+                report.check(via == "daemon", "kill 1: the CLI reaches the survivor (via the daemon, not the bus)",
+                             out.strip()[:200])
             returned = pair.start(master)
             returned.wait_socket()
             r = role_is(returned, "standby", NODE[standby], timeout=10)
