@@ -22,8 +22,9 @@
 // others, seeing the claim, stand by. A claim is held for a settle time
 // before the role is taken; two claims in that time (or two masters after a
 // healed bus split: the master repeats its claim every tenth heartbeat) are
-// settled by the same order, so the bus never keeps two masters. The role becomes master only after the settle time; until
-// then, and as standby, the owner sends nothing but these frames.
+// settled by the same order, so the bus never keeps two masters. The role
+// becomes master only after the settle time; until then, and as standby,
+// the owner sends nothing but these frames.
 // Where this differs from CiA 302-2: no NMT startup object (0x1F80) or
 // timing object (0x1F90) in an object dictionary (the settings come from the
 // gateway's configuration); the active master does not re-announce itself on
