@@ -23,7 +23,8 @@ TimePoint BusManager::Impl::run_components(TimePoint now) {
   open_flag.store(channel->is_open());
   if (election) {
     // The role is not handed over in the middle of a device's configuration.
-    const bool configuring = std::any_of(devices.begin(), devices.end(), [](const Managed& m) { return m.runner != nullptr; });
+    const bool configuring =
+        std::any_of(devices.begin(), devices.end(), [](const Managed& m) { return m.runner != nullptr; });
     election->set_busy(configuring);
     next = std::min(next, election->process(now, *channel));
     if (standby()) return run_standby(now, next);
