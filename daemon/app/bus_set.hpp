@@ -11,9 +11,9 @@
 #include "base/error.hpp"
 #include "config/config.hpp"
 #include "device/device_catalog.hpp"
-#include "gateway/bus_manager.hpp"
-#include "gateway/output_pipeline.hpp"
-#include "gateway/state_store.hpp"
+#include "bus/bus_manager.hpp"
+#include "outputs/output_pipeline.hpp"
+#include "bus/state_store.hpp"
 
 #include <cstddef>
 #include <memory>

@@ -1,7 +1,7 @@
 #include "app/config_check.hpp"
 
 #include "app/validation.hpp"
-#include "gateway/output_pipeline.hpp"
+#include "outputs/output_pipeline.hpp"
 #include "web/web_server.hpp"
 
 #include <cstdio>

@@ -11,8 +11,8 @@
 
 #include "app/bus_set.hpp"
 #include "config/config.hpp"
-#include "gateway/control_server.hpp"
-#include "gateway/output_pipeline.hpp"
+#include "control/control_server.hpp"
+#include "outputs/output_pipeline.hpp"
 
 #include <chrono>
 #include <mutex>

@@ -1,5 +1,5 @@
 // ControlClient: one request line to cobridged's control socket
-// (gateway/control_server.hpp), one JSON answer line back.
+// (control/control_server.hpp), one JSON answer line back.
 // Thread: the CLI's main thread; blocking I/O with a timeout.
 #pragma once
 

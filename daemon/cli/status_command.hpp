@@ -1,5 +1,5 @@
 // `cobridge status` and `cobridge commission`: the CLI side of cobridged's
-// control socket (gateway/control_server.hpp): one request line, one JSON
+// control socket (control/control_server.hpp): one request line, one JSON
 // answer line. `status` prints a table of buses and devices with the timed
 // commissioning steps (or the daemon's JSON as it is with --json);
 // `commission` asks the daemon to commission one bus or all of them now.

@@ -6,7 +6,7 @@
 // Thread: any; a pure function of the report.
 #pragma once
 
-#include "gateway/status_report.hpp"
+#include "control/status_report.hpp"
 
 #include <string>
 

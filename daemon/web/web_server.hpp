@@ -25,7 +25,7 @@
 
 #include "base/error.hpp"
 #include "config/config.hpp"
-#include "gateway/status_report.hpp"
+#include "control/status_report.hpp"
 #include "web/auth_file.hpp"
 #include "web/host_check.hpp"
 #include "web/http_route.hpp"

@@ -1,11 +1,11 @@
 // Fuzz target: the control socket's request parser
-// (daemon/gateway/control_request.*). Any line gives a request or an error
+// (daemon/control/control_request.*). Any line gives a request or an error
 // text of printable ASCII (it is echoed to the client inside JSON).
 #include <cstdint>
 #include <cstdlib>
 #include <string_view>
 
-#include "gateway/control_request.hpp"
+#include "control/control_request.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string_view line(reinterpret_cast<const char*>(data), size);

@@ -2,7 +2,7 @@
 // EMCYs and awkward names, for the web tests.
 #pragma once
 
-#include "gateway/status_report.hpp"
+#include "control/status_report.hpp"
 
 #include <chrono>
 #include <string>

@@ -1,0 +1,386 @@
+// BusManager: construction, the control thread's loop, the hand-over of
+// commands from other threads, and the public API (see bus_manager.hpp).
+#include "bus/bus_manager_impl.hpp"
+
+#include <poll.h>
+#include <sys/eventfd.h>
+#include <unistd.h>
+
+#include <cerrno>
+
+namespace cobridge::gateway {
+
+BusManager::Impl::Impl(const config::Config& config_in, std::size_t index, const device::DeviceCatalog& catalog_in,
+     StateStore& state_in, BusManagerOptions options_in)
+    : config(config_in), bus_index(index), catalog(catalog_in), state(state_in), options(options_in) {
+  bus = config.buses.at(bus_index);
+  log = sys::logger("gateway");
+  build_devices();
+  wake_fd = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+}
+
+void BusManager::Impl::build_devices() {
+  devices.clear();
+  for (const auto& d : config.devices) {
+    if (d.bus_index == bus_index) devices.push_back(make_managed(d));
+  }
+}
+
+BusManager::Impl::Managed BusManager::Impl::make_managed(const config::Device& d) const {
+  Managed m;
+  m.cfg = d;
+  m.st.name = d.name;
+  m.st.bus = bus.name;
+  m.st.node_id = d.node_id.value_or(0);
+  m.st.identity.serial = d.serial;
+  m.st.identity.vendor = d.vendor.value_or(0);
+  m.st.identity.product = d.product.value_or(0);
+  m.st.model = d.model;
+  m.st.since = wall_now();
+  return m;
+}
+
+BusManager::Impl::Managed* BusManager::Impl::find_device(std::string_view name) {
+  for (auto& m : devices) {
+    if (m.st.name == name) return &m;
+  }
+  return nullptr;
+}
+
+BusManager::Impl::Managed* BusManager::Impl::find_configured_node(std::uint8_t node) {
+  for (auto& m : devices) {
+    if (m.in_config && m.st.node_id == node) return &m;
+  }
+  return nullptr;
+}
+
+BusManager::Impl::Managed* BusManager::Impl::find_node(std::uint8_t node) {
+  if (node == 0) return nullptr;
+  for (auto& m : devices) {
+    if (m.in_config && m.st.node_id == node && m.st.state != DeviceState::expected) return &m;
+  }
+  return nullptr;
+}
+
+BusManager::Impl::~Impl() {
+  if (wake_fd >= 0) ::close(wake_fd);
+}
+
+Error BusManager::Impl::start() {
+  const std::string where = "bus " + bus.name;
+  if (wake_fd < 0)
+    return Error(Errc::kUnavailable, "no eventfd for the control thread", where,
+                 std::make_error_code(std::errc::too_many_files_open));
+  can::SocketCanConfig cc;
+  cc.interface = bus.interface;
+  cc.wait_for_interface = true;  // a missing adapter is reported and waited for
+  cc.reopen_backoff_max = kReopenBackoffMax;
+  channel = std::make_unique<can::SocketCanChannel>(cc);
+  if (Error err = channel->open()) {
+    channel.reset();
+    err.where = err.where.empty() ? where : where + ": " + err.where;
+    return err;
+  }
+  // What the control plane needs; the TPDOs go to the hot path's own socket.
+  static constexpr std::array<can::Filter, 5> kFilters{{
+      {canopen::cob::kSdoTxBase, 0x780, false},            // SDO responses 0x580..0x5FF
+      {canopen::cob::kMasterNodeId & ~0x7U, 0x7F8, false},  // the master election 0x70..0x77 ([redundancy])
+      can::Filter::exact(canopen::cob::kLssSlaveToMaster),  // LSS 0x7E4
+      {canopen::cob::kNmtErrorControlBase, 0x780, false},   // boot-up/heartbeat/guarding 0x700..0x77F
+      {canopen::cob::kEmcyBase, 0x780, false},              // EMCY 0x081..0x0FF
+  }};
+  if (Error ferr = channel->set_filters(kFilters)) {
+    channel.reset();
+    ferr.where = ferr.where.empty() ? where : where + ": " + ferr.where;
+    return ferr;
+  }
+  started_at = Clock::now();
+  publish_all();
+  stop_requested.store(false);
+  running.store(true);
+  thread = std::thread([this] { run(); });
+  return {};
+}
+
+void BusManager::Impl::stop() {
+  if (!thread.joinable()) return;
+  stop_requested.store(true);
+  wake();
+  thread.join();
+  running.store(false);
+}
+
+void BusManager::Impl::wake() noexcept {
+  if (wake_fd < 0) return;
+  const std::uint64_t one = 1;
+  [[maybe_unused]] const auto n = ::write(wake_fd, &one, sizeof one);
+}
+
+void BusManager::Impl::run() {
+  const TimePoint now0 = Clock::now();
+  DiscoveryOptions dopt;
+  discovery = std::make_unique<Discovery>(tx, config, bus_index, state.on_bus(bus.name), dopt);
+  remote = std::make_unique<RemoteExecutor>(tx, bus.name, milliseconds(bus.lss_timeout_ms));
+  if (bus.sync_period_ms > 0) {
+    canopen::SyncProducer::Config sc;
+    sc.period = milliseconds(bus.sync_period_ms);
+    sc.overflow = bus.sync_counter;
+    if (const auto ec = sync.configure(sc)) {
+      log->error("bus {}: SYNC not produced: {}", bus.name, ec.message());
+    } else {
+      sync.start(now0);
+    }
+  }
+  log->info("bus {}: serving {} ({} configured devices)", bus.name, bus.interface, devices.size());
+
+  std::array<can::Frame, can::SocketCanChannel::kBatch> frames{};
+  while (!stop_requested.load(std::memory_order_relaxed)) {
+    TimePoint now = Clock::now();
+    take_commands(now);
+
+    bool lost = false;  // the interface went down in this turn
+    // Only when poll saw the socket readable (or never asked): an empty
+    // recvmmsg is a system call per turn, and a turn per client command.
+    for (std::size_t batch = 0; rx_ready && batch < kMaxReceiveBatches; ++batch) {
+      const std::size_t n = channel->receive(frames);
+      for (std::size_t i = 0; i < n; ++i) dispatch(frames[i], now);
+      lost = handle_bus_events(now) || lost;
+      if (n < frames.size()) break;
+    }
+    if (handle_bus_events(now) || lost) {
+      // A lost bus is news at once: status and the outputs hear of it
+      // before the channel's reopen attempt, whose bind to an interface the
+      // kernel is still deleting waits for the unregistration (2.5-3 s in
+      // UML, vcan_daemon_adapter_hotplug).
+      open_flag.store(channel->is_open());
+      (void)handle_outputs(now);
+      publish_if_dirty();
+    }
+    if (config.redundancy && !election && channel->is_open()) start_election(now);
+    if (!discovery_started && channel->is_open() && !standby()) {
+      // Not before: probes sent to a missing interface would mark every
+      // device absent; nor as standby, whose probes are the master's.
+      discovery->start(now);
+      discovery_started = true;
+      check_configured_nodes(now);
+    }
+    loop_alive.store(now.time_since_epoch().count(), std::memory_order_relaxed);
+
+    TimePoint next = run_components(now);
+    // Handling the components' output may have started new work (a plan,
+    // a reconfiguration): give it a turn at once rather than a poll later.
+    while (handle_outputs(now)) {
+      now = Clock::now();
+      next = run_components(now);
+    }
+    update_ready(now);
+    publish_if_dirty();
+
+    wait(now, next);
+  }
+  sync.stop();
+  runners_abort();
+  remote->abort_all("the bus stopped");
+  channel->close();
+  open_flag.store(false);
+  log->info("bus {}: stopped", bus.name);
+}
+
+// `now` is the turn's clock reading, not a fresh one: a clock read is a
+// system call under UML and this turn is on a client's SDO round trip.
+// A deadline is then met late by at most the turn's own work
+// (microseconds), against the millisecond rounding of poll's timeout.
+void BusManager::Impl::wait(TimePoint now, TimePoint next) {
+  milliseconds timeout = kMaxPollWait;
+  if (next != kNever) {
+    const auto until = std::chrono::ceil<milliseconds>(next - now);
+    timeout = std::clamp(until, milliseconds(0), kMaxPollWait);
+  }
+  // The wake-up, the CAN socket, then the clients' connections the remote
+  // executor holds on loan (their requests come straight here).
+  poll_fds.clear();
+  poll_fds.push_back({wake_fd, POLLIN, 0});
+  const bool can = channel->fd() >= 0;
+  if (can) poll_fds.push_back({channel->fd(), POLLIN, 0});
+  remote->add_poll_fds(poll_fds);
+  const int r = ::poll(poll_fds.data(), poll_fds.size(), static_cast<int>(timeout.count()));
+  rx_ready = r < 0 || !can || poll_fds[1].revents != 0;
+  remote->note_ready(poll_fds);
+  if (r > 0 && (poll_fds[0].revents & POLLIN) != 0) {
+    std::uint64_t v = 0;
+    [[maybe_unused]] const auto n = ::read(wake_fd, &v, sizeof v);
+  }
+}
+
+void BusManager::Impl::take_commands(TimePoint now) {
+  bool commission = false;
+  std::optional<config::Config> reload_config;
+  std::deque<DeviceCommand> commands;
+  std::deque<std::pair<RemoteCommand, std::shared_ptr<RemoteReplies>>> clients;
+  {
+    const std::lock_guard lock(mutex);
+    commission = std::exchange(commission_requested, false);
+    reload_config = std::exchange(pending_reload, std::nullopt);
+    commands.swap(pending_commands);
+    clients.swap(pending_remote);
+  }
+  for (auto& [c, to] : clients) remote->add(std::move(c), std::move(to), now);
+  if (commission) discovery->request_commission();
+  if (reload_config) apply_reload(std::move(*reload_config), now);
+  for (auto& c : commands) start_command(std::move(c), now);
+}
+
+void BusManager::Impl::apply_reload(config::Config next, TimePoint now) {
+  const config::Bus* nb = next.find_bus(bus.name);
+  if (nb == nullptr) {
+    log->warn("bus {}: not in the new configuration; kept as it is until restart", bus.name);
+    return;
+  }
+  std::size_t new_index = 0;
+  for (std::size_t i = 0; i < next.buses.size(); ++i) {
+    if (next.buses[i].name == bus.name) new_index = i;
+  }
+  if (nb->interface != bus.interface) {
+    log->warn("bus {}: a new interface ({}) needs a restart; kept {}", bus.name, nb->interface, bus.interface);
+  }
+  const std::string interface = bus.interface;
+  config = std::move(next);
+  bus_index = new_index;
+  bus = config.buses[bus_index];
+  bus.interface = interface;
+  discovery->reload(config, bus_index, state.on_bus(bus.name));
+
+  std::vector<Managed> old = std::move(devices);
+  devices.clear();
+  for (const auto& d : config.devices) {
+    if (d.bus_index != bus_index) continue;
+    auto it = std::find_if(old.begin(), old.end(), [&](const Managed& o) { return o.in_config && o.cfg.name == d.name; });
+    if (it == old.end()) {
+      devices.push_back(make_managed(d));
+      continue;
+    }
+    Managed m = std::move(*it);
+    old.erase(it);
+    m.cfg = d;
+    if (m.started && m.description != nullptr && m.profile) {
+      // Reconfigure only if the settings as applied would differ.
+      const auto plan = make_config_plan(m.cfg, *m.description, *m.profile, m.st.node_id);
+      if (!plan.ok() || !m.plan || plan.plan->fingerprint != m.plan->fingerprint) {
+        log->info("bus {}: device {}: settings changed; reconfiguring", bus.name, m.st.name);
+        m.plan.reset();
+        m.started = false;  // the plan puts it in pre-operational: not a surprise
+        supervisor.listen(m.st.node_id, m.profile->family);
+        m.want_configure = true;
+        m.attempts = 0;
+        m.not_before = now;
+      }
+    }
+    devices.push_back(std::move(m));
+  }
+  for (auto& o : old) {
+    if (o.in_config && o.st.node_id != 0) {
+      supervisor.unwatch(o.st.node_id);
+      discovery->set_supervised(o.st.node_id, false);
+    }
+    if (!o.in_config) devices.push_back(std::move(o));  // still on the bus
+  }
+  dirty = true;
+  // The moment the bus thread runs with the new settings (SIGHUP only asks).
+  log->info("bus {}: new configuration applied", bus.name);
+}
+
+BusManager::BusManager(const config::Config& config, std::size_t bus_index, const device::DeviceCatalog& catalog,
+                       StateStore& state, BusManagerOptions options)
+    : impl_(std::make_unique<Impl>(config, bus_index, catalog, state, options)) {}
+
+BusManager::~BusManager() { stop(); }
+
+Error BusManager::start() {
+  if (impl_->thread.joinable())
+    return Error(Errc::kFailed, "already started", "bus " + impl_->bus.name,
+                 std::make_error_code(std::errc::device_or_resource_busy));
+  RemoteBus rb{impl_->bus.name, impl_->bus.interface, static_cast<unsigned>(impl_->bus_index + 1)};
+  const config::RemoteAccess access = impl_->config.remote;
+  if (Error e = impl_->start()) return e;
+  if (impl_->options.registry != nullptr) impl_->options.registry->add(*this, std::move(rb), access);
+  return {};
+}
+
+void BusManager::stop() {
+  if (impl_->options.registry != nullptr) impl_->options.registry->remove(*this);
+  impl_->stop();
+}
+
+bool BusManager::ready() const {
+  if (impl_->ready_latched.load()) return true;
+  // Also true when the thread is late to notice the timeout (or never ran).
+  return impl_->started_at != TimePoint{} && Clock::now() - impl_->started_at >= impl_->options.ready_timeout;
+}
+
+bool BusManager::serving() const {
+  // Alive, not "every interface open": a bus waiting for its adapter must not
+  // stop the watchdog, or systemd would restart the daemon and take the other
+  // buses down with it. The loop turns at least every kMaxPollWait.
+  const Clock::time_point last{Clock::duration{impl_->loop_alive.load(std::memory_order_relaxed)}};
+  return impl_->running.load() && Clock::now() - last < 3 * kMaxPollWait;
+}
+
+BusStatus BusManager::status() const {
+  BusStatus s;
+  {
+    const std::lock_guard lock(impl_->mutex);
+    s = impl_->published;
+  }
+  s.open = impl_->open_flag.load();
+  if (impl_->channel) {
+    const auto st = impl_->channel->stats();
+    s.rx_frames = st.rx_frames;
+    s.tx_frames = st.tx_frames;
+    s.rx_overflow_drops = st.rx_overflow_drops;
+    s.tx_dropped = st.tx_dropped;
+    s.error_frames = st.error_frames;
+    s.reopens = static_cast<std::uint32_t>(st.reopens);
+  }
+  return s;
+}
+
+void BusManager::request_commission() {
+  {
+    const std::lock_guard lock(impl_->mutex);
+    impl_->commission_requested = true;
+  }
+  impl_->wake();
+}
+
+CommandStatus BusManager::submit(DeviceCommand command) {
+  {
+    const std::lock_guard lock(impl_->mutex);
+    if (impl_->pending_commands.size() >= kMaxQueuedCommands) return CommandStatus::busy;
+    impl_->pending_commands.push_back(std::move(command));
+  }
+  impl_->wake();
+  return CommandStatus::ok;
+}
+
+Error BusManager::submit_remote(RemoteCommand command, std::shared_ptr<RemoteReplies> reply_to) {
+  {
+    const std::lock_guard lock(impl_->mutex);
+    if (!impl_->running.load()) return Error(Errc::kUnavailable, "the bus does not run");
+    if (impl_->pending_remote.size() + impl_->remote_waiting.load(std::memory_order_relaxed) >= kMaxRemoteCommands)
+      return Error(Errc::kUnavailable, "too many client commands waiting on this bus; try again");
+    impl_->pending_remote.emplace_back(std::move(command), std::move(reply_to));
+  }
+  impl_->wake();
+  return {};
+}
+
+void BusManager::reload(const config::Config& config) {
+  {
+    const std::lock_guard lock(impl_->mutex);
+    impl_->pending_reload = config;
+  }
+  if (impl_->options.registry != nullptr) impl_->options.registry->update_access(config.remote);
+  impl_->wake();
+}
+
+}  // namespace cobridge::gateway

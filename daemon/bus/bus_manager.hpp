@@ -1,0 +1,107 @@
+// BusManager: everything the gateway does on one CAN bus except the hot path.
+//
+// It discovers the devices (boot-up, heartbeat, SDO probe of 0x1018, LSS
+// Fastscan / Slowscan / switch selective), commissions them (node-IDs from
+// the configuration by serial, the swap policy, or the pool; stored in the
+// device and in the state file), configures them (SDO plan with read-back,
+// store on change, NMT start), supervises them (heartbeat consumer or node
+// guarding, boot-up -> reconfigure, EMCY, bus events, interface loss ->
+// reopen with backoff) and produces SYNC when configured.
+//
+// Threads: start() spawns the bus's control thread, which owns the control
+// socket and every protocol component; stop() ends and joins it within 1 s.
+// status(), ready(), request_commission(), reload(), submit() and
+// submit_remote() may be called from any thread (they take a mutex; never on the hot path). Observer callbacks run on
+// the control thread and must not block.
+#pragma once
+
+#include "config/config.hpp"
+#include "device/device_catalog.hpp"
+#include "bus/device_command.hpp"
+#include "bus/device_status.hpp"
+#include "bus/remote/remote_command.hpp"
+#include "bus/remote/remote_replies.hpp"
+#include "bus/state_store.hpp"
+
+#include <memory>
+#include <system_error>
+#include <vector>
+
+namespace cobridge::gateway {
+
+// Told about devices as they are configured and change state, so the hot
+// path can decode their PDOs and the plugins can publish status.
+class BusObserver {
+ public:
+  virtual ~BusObserver() = default;
+  // The device at `node_id` now sends TPDOs with these mapping entries
+  // (0x1A00/0x1A01 as read back, 0xIIIISSLL form); empty = PDO disabled.
+  virtual void on_device_configured(const DeviceStatus& device, const std::vector<std::uint32_t>& tpdo1_mapping,
+                                    const std::vector<std::uint32_t>& tpdo2_mapping) = 0;
+  virtual void on_device_status(const DeviceStatus& device) = 0;
+  // A command given to submit() has finished (or was refused on the control
+  // thread). Called exactly once per accepted command.
+  virtual void on_command_done(const DeviceStatus& /*device*/, const DeviceCommand& /*command*/,
+                               const CommandOutcome& /*outcome*/) {}
+  // A device the gateway forgot (an unknown device that turned out to be a
+  // configured one's replacement, or left the configuration on a reload):
+  // its index and node-ID are free again.
+  virtual void on_device_removed(const DeviceStatus& /*device*/) {}
+};
+
+class BusRegistry;
+
+struct BusManagerOptions {
+  // How long start-up waits for the known devices before ready() is true anyway.
+  std::chrono::milliseconds ready_timeout{10000};
+  BusObserver* observer = nullptr;
+  // Where clients' commands (control socket, CiA 309-3) find this bus while
+  // it runs; the daemon makes one and passes it to every bus and to the
+  // control socket. nullptr: the bus takes no client commands.
+  BusRegistry* registry = nullptr;
+};
+
+class BusManager {
+ public:
+  BusManager(const config::Config& config, std::size_t bus_index, const device::DeviceCatalog& catalog,
+             StateStore& state, BusManagerOptions options = {});
+  ~BusManager();
+  BusManager(const BusManager&) = delete;
+  BusManager& operator=(const BusManager&) = delete;
+
+  // Opens the bus and starts the control thread. A failure is returned, not
+  // logged: its where names the bus and the interface.
+  Error start();
+  void stop();
+
+  // True once every configured device is operational or has timed out
+  // (ready_timeout), so the daemon can tell systemd READY=1.
+  [[nodiscard]] bool ready() const;
+  // True while the control thread runs and the interface is open (watchdog).
+  [[nodiscard]] bool serving() const;
+  [[nodiscard]] BusStatus status() const;
+
+  // `cobridge commission`: resolve clashes / assign now, whatever the policy.
+  void request_commission();
+  // SIGHUP: new device settings without closing the bus.
+  void reload(const config::Config& config);
+
+  // A plugin's command (preset, NMT reset, store) for one configured device.
+  // Queued for the control thread, which runs it when the device is
+  // operational and not being configured, and reports the outcome through
+  // BusObserver::on_command_done. Returns ok when queued, busy when the
+  // queue is full (then no outcome follows). Never blocks.
+  [[nodiscard]] CommandStatus submit(DeviceCommand command);
+
+  // A client's SDO / NMT / LSS command (control socket, CiA 309-3 gateway),
+  // run by the control thread's RemoteExecutor between its own
+  // work; the result goes to `reply_to`. Error kUnavailable when the queue
+  // is full or the bus does not run (then no result follows). Never blocks.
+  [[nodiscard]] Error submit_remote(RemoteCommand command, std::shared_ptr<RemoteReplies> reply_to);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace cobridge::gateway

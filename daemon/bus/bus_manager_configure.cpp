@@ -1,0 +1,335 @@
+// BusManager::Impl: configuration plans (full and quick), NMT start, and
+// the plugins' commands run as plans. Control thread only.
+#include "bus/bus_manager_impl.hpp"
+
+namespace cobridge::gateway {
+
+bool BusManager::Impl::start_configurations(TimePoint now) {
+  if (discovery->commissioning()) return false;  // LSS/NMT resets under way: no SDO now
+  // Attempts made on a closed interface would only count towards `failed`.
+  if (!channel->is_open()) return false;
+  std::size_t active = 0;
+  for (const auto& m : devices) active += m.runner ? 1U : 0U;
+  bool started_any = false;
+  for (auto& m : devices) {
+    if (active >= kMaxConcurrentPlans) break;
+    if (!m.want_configure || m.runner || m.ident || now < m.not_before) continue;
+    if (m.st.node_id == remote->sdo_node()) continue;  // a client's transfer runs on it: next turn
+    m.want_configure = false;
+    if (begin_configuration(m, now)) {
+      ++active;
+      started_any = true;
+    }
+  }
+  return started_any;
+}
+
+PlanRunnerOptions BusManager::Impl::runner_options() const {
+  PlanRunnerOptions ro;
+  ro.sdo_retries = bus.sdo_retries;
+  return ro;
+}
+
+std::unique_ptr<PlanRunner> BusManager::Impl::make_runner(Managed& m, ConfigPlan plan, const PlanRunnerOptions& ro) {
+  return std::make_unique<PlanRunner>(tx, sdo_of(m), std::move(plan), ro);
+}
+
+canopen::SdoClient& BusManager::Impl::sdo_of(Managed& m) {
+  if (!m.sdo) {
+    canopen::SdoClientConfig sc;
+    sc.timeout = milliseconds(bus.sdo_timeout_ms);
+    sc.retries = 0;  // the runner repeats timed-out transfers itself
+    m.sdo = std::make_unique<canopen::SdoClient>(tx, m.st.node_id, sc);
+  } else if (!m.sdo->busy()) {
+    (void)m.sdo->set_node_id(m.st.node_id);
+  }
+  return *m.sdo;
+}
+
+bool BusManager::Impl::begin_configuration(Managed& m, TimePoint now) {
+  if (!m.plan || m.plan->node_id != m.st.node_id || m.force_full) {
+    auto result = make_config_plan(m.cfg, *m.description, *m.profile, m.st.node_id);
+    if (!result.ok()) {
+      std::string text;
+      for (const auto& err : result.errors) {
+        if (!text.empty()) text += "; ";
+        text += err.to_string();
+      }
+      m.st.last_error = text;
+      log->error("bus {}: {}", bus.name, text);
+      add_problem(text, m.st.name);
+      set_state(m, DeviceState::failed);
+      return false;
+    }
+    m.plan = std::move(result.plan);
+  }
+  m.supervision = supervision_for(m);
+  PlanRunnerOptions ro = runner_options();
+
+  // A device that carries the fingerprint of this plan (state file) only
+  // gets a quick read-back of its key objects; the full plan runs when they
+  // disagree (it lost or changed its configuration) or when the family
+  // keeps part of the settings in volatile memory only.
+  const auto previous = state.find(bus.name, m.st.identity.vendor, m.st.identity.product, m.st.identity.serial);
+  const bool volatile_parts = !m.profile->cams_stored && !m.cfg.cams.empty();
+  m.quick = !m.force_full && previous && previous->fingerprint == m.plan->fingerprint && !volatile_parts;
+  ConfigPlan run_plan = m.quick ? quick_plan(*m.plan) : *m.plan;
+  if (m.force_full && m.plan->store_policy == config::StorePolicy::on_change) {
+    // The quick check already put some values back, so "changed" would
+    // miss them: store everything the plan names.
+    run_plan.store_policy = config::StorePolicy::always;
+  }
+  // The start is ours (finish_configuration): the hot path learns the
+  // mapping first, so the first TPDO after the start is decoded.
+  ro.start_node = false;
+  m.force_full = false;
+  m.runner = make_runner(m, std::move(run_plan), ro);
+  m.configure_started = now;
+  ++m.attempts;
+  set_state(m, DeviceState::configuring);
+  if (const auto ec = m.runner->start(now)) {
+    log->error("bus {}: device {}: plan not started: {}", bus.name, m.st.name, ec.message());
+    m.runner.reset();
+    m.want_configure = true;
+    m.not_before = now + kConfigureRetryDelay;
+    return false;
+  }
+  return true;
+}
+
+ConfigPlan BusManager::Impl::quick_plan(const ConfigPlan& full) {
+  ConfigPlan q = full;
+  q.steps.clear();
+  for (const auto& step : full.steps) {
+    const bool key_write = step.kind == StepKind::write &&
+                           (step.write.index == 0x1017 || step.write.index == 0x100C || step.write.index == 0x100D);
+    if (step.kind == StepKind::nmt || step.kind == StepKind::tpdo_mapping || key_write) q.steps.push_back(step);
+  }
+  return q;
+}
+
+Supervision BusManager::Impl::supervision_for(const Managed& m) const {
+  Supervision s;
+  if (m.cfg.guarding && m.cfg.guarding->guard_time_ms > 0 && m.cfg.guarding->life_time_factor > 0) {
+    s.mode = Supervision::Mode::guarding;
+    s.guard_time = milliseconds(m.cfg.guarding->guard_time_ms);
+    s.life_time_factor = m.cfg.guarding->life_time_factor;
+  } else if (m.plan && m.plan->heartbeat && m.plan->heartbeat_ms > 0) {
+    s.mode = Supervision::Mode::heartbeat;
+    s.producer_time = milliseconds(m.plan->heartbeat_ms);
+  } else if (m.cfg.heartbeat_ms && *m.cfg.heartbeat_ms > 0) {
+    s.mode = Supervision::Mode::heartbeat;
+    s.producer_time = milliseconds(*m.cfg.heartbeat_ms);
+  }
+  return s;
+}
+
+void BusManager::Impl::finish_configuration(Managed& m, TimePoint now) {
+  const PlanRunResult outcome = m.runner->result();
+  m.runner.reset();
+  const double ms = std::chrono::duration<double, std::milli>(now - m.configure_started).count();
+  StepTiming t;
+  t.step = (m.quick ? "verify " : "configure ") + m.st.name;
+  t.device = m.st.name;
+  t.milliseconds = ms;
+  add_step(std::move(t));
+  m.failed_unanswered = !outcome.ok() && (outcome.error == make_error_code(PlanRunErrc::sdo_timeout) ||
+                                          outcome.error == make_error_code(PlanRunErrc::send_failed));
+  if (!outcome.ok()) {
+    m.st.last_error = outcome.message;
+    log->warn("bus {}: device {}: configuration failed (attempt {}): {}", bus.name, m.st.name, m.attempts,
+              outcome.message);
+    m.want_configure = true;
+    if (m.attempts >= kConfigureAttempts) {
+      set_state(m, DeviceState::failed);
+      m.not_before = now + kFailedRetryPeriod;
+      m.attempts = 0;
+    } else {
+      set_state(m, DeviceState::identified);
+      m.not_before = now + kConfigureRetryDelay;
+    }
+    return;
+  }
+  if (m.quick && outcome.writes > 0) {
+    // The fingerprint matched but the device did not carry the values.
+    log->info("bus {}: device {}: key objects differed from the stored configuration; full plan", bus.name,
+              m.st.name);
+    m.force_full = true;
+    m.want_configure = true;
+    m.not_before = now;
+    --m.attempts;
+    return;
+  }
+  if (outcome.writes > 0) ++m.st.configurations;
+  if (outcome.guarding_fallback) {
+    // The device refused 0x1017 (J§1.2.2): the plan's fallback guards it.
+    m.supervision = fallback_guarding(*m.plan);
+  }
+  m.st.fingerprint = m.plan->fingerprint;
+  Assignment a;
+  a.bus = bus.name;
+  a.serial = m.st.identity.serial;
+  a.vendor = m.st.identity.vendor;
+  a.product = m.st.identity.product;
+  a.revision = m.st.identity.revision;
+  a.node_id = m.st.node_id;
+  a.fingerprint = m.plan->fingerprint;
+  if (const auto ec = state.put(a)) log->error("bus {}: state file: {}", bus.name, ec.message());
+  if (!announce_and_start(m, now)) return;
+
+  // Started: operational from here, and supervised from now on.
+  m.started = true;
+  m.attempts = 0;
+  m.st.last_error.clear();
+  m.st.nmt = canopen::NmtState::operational;
+  supervisor.watch(m.st.node_id, m.profile->family, m.supervision, now);
+  m.st.online = m.supervision.mode == Supervision::Mode::none;
+  set_state(m, DeviceState::operational);
+  clear_problems([&](const Problem& p) { return p.device == m.st.name; });
+  if (m.boot_up_at != kNever) {
+    const double back = std::chrono::duration<double, std::milli>(now - m.boot_up_at).count();
+    log->info("bus {}: device {} back in operation {:.0f} ms after its boot-up ({} writes, {} saves)", bus.name,
+              m.st.name, back, outcome.writes, outcome.saves);
+    StepTiming bt;
+    bt.step = "back after boot-up";
+    bt.device = m.st.name;
+    bt.milliseconds = back;
+    add_step(std::move(bt));
+    m.boot_up_at = kNever;
+  } else {
+    log->info("bus {}: device {} operational at node {} ({:.0f} ms, {} writes, {} saves)", bus.name, m.st.name,
+              m.st.node_id, ms, outcome.writes, outcome.saves);
+  }
+}
+
+bool BusManager::Impl::announce_and_start(Managed& m, TimePoint now) {
+  if (options.observer != nullptr) {
+    std::vector<std::uint32_t> tpdo1, tpdo2;
+    for (const auto& step : m.plan->steps) {
+      if (step.kind != StepKind::tpdo_mapping) continue;
+      if (step.tpdo == 1) tpdo1 = step.mapping;
+      if (step.tpdo == 2) tpdo2 = step.mapping;
+    }
+    DeviceStatus announced = m.st;
+    announced.state = DeviceState::operational;
+    announced.nmt = canopen::NmtState::operational;
+    options.observer->on_device_configured(announced, tpdo1, tpdo2);
+  }
+  if (channel->send(canopen::make_nmt(canopen::NmtCommand::start, m.st.node_id))) return true;
+  m.st.last_error = "NMT start could not be sent";
+  m.want_configure = true;
+  m.not_before = now + kConfigureRetryDelay;
+  return false;
+}
+
+Supervision BusManager::Impl::fallback_guarding(const ConfigPlan& plan) {
+  Supervision s;
+  s.mode = Supervision::Mode::guarding;
+  for (const auto& step : plan.steps) {
+    for (const auto& w : step.fallback) {
+      if (w.index == 0x100C) s.guard_time = milliseconds(w.value);
+      if (w.index == 0x100D) s.life_time_factor = static_cast<std::uint8_t>(w.value);
+    }
+  }
+  if (s.guard_time.count() == 0 || s.life_time_factor == 0) s.mode = Supervision::Mode::none;
+  return s;
+}
+
+void BusManager::Impl::runners_abort() {
+  for (auto& m : devices) drop_runner(m, "the gateway is stopping");
+}
+
+void BusManager::Impl::drop_runner(Managed& m, const char* why) {
+  if (m.command && m.runner && m.runner->finished()) {
+    // Done before what ends it was seen (an NMT reset's own boot-up can
+    // arrive in the same loop turn): the command's outcome stands.
+    finish_command(m, Clock::now());
+    return;
+  }
+  m.runner.reset();
+  if (!m.command) return;
+  DeviceCommand cmd = std::move(*m.command);
+  m.command.reset();
+  report_command(m, cmd, CommandOutcome{CommandStatus::failed, 0, std::string("aborted: ") + why});
+}
+
+void BusManager::Impl::report_command(const Managed& m, const DeviceCommand& cmd, const CommandOutcome& outcome) {
+  if (outcome.status == CommandStatus::ok) {
+    log->info("bus {}: device {}: {} done", bus.name, m.st.name, to_string(cmd.kind));
+  } else {
+    log->warn("bus {}: device {}: {}: {}{}{}", bus.name, m.st.name, to_string(cmd.kind), to_string(outcome.status),
+              outcome.message.empty() ? "" : ": ", outcome.message);
+  }
+  if (options.observer != nullptr) options.observer->on_command_done(m.st, cmd, outcome);
+}
+
+void BusManager::Impl::start_command(DeviceCommand cmd, TimePoint now) {
+  Managed* m = find_device(cmd.device);
+  if (m == nullptr || !m->in_config) {
+    Managed none;
+    none.st.name = cmd.device;
+    none.st.bus = bus.name;
+    report_command(none, cmd, CommandOutcome{CommandStatus::unknown_device, 0, "not configured on this bus"});
+    return;
+  }
+  if (standby()) {
+    report_command(*m, cmd,
+                   CommandOutcome{CommandStatus::busy, 0,
+                                  "this gateway is standby; the master (node " +
+                                      std::to_string(election->master_node()) + ") runs commands"});
+    return;
+  }
+  if (m->runner || m->st.node_id == remote->sdo_node()) {
+    report_command(*m, cmd,
+                   CommandOutcome{CommandStatus::busy, 0, m->command ? "another command runs" : "being configured"});
+    return;
+  }
+  if (m->st.state != DeviceState::operational || m->description == nullptr || !m->profile || m->st.node_id == 0) {
+    report_command(*m, cmd,
+                   CommandOutcome{CommandStatus::offline, 0, std::string("device is ") + to_string(m->st.state)});
+    return;
+  }
+  auto plan = make_command_plan(m->st.name, *m->description, *m->profile, m->st.node_id, cmd.kind, cmd.value);
+  if (!plan.ok()) {
+    std::string text;
+    bool range = false;
+    for (const auto& err : plan.errors) {
+      if (!text.empty()) text += "; ";
+      text += err.to_string();
+      range = range || err.out_of_range;
+    }
+    report_command(*m, cmd,
+                   CommandOutcome{range ? CommandStatus::invalid_value : CommandStatus::unsupported, 0, text});
+    return;
+  }
+  log->info("bus {}: device {}: {}{} requested by an output", bus.name, m->st.name, to_string(cmd.kind),
+            cmd.kind == CommandKind::preset ? " to " + std::to_string(cmd.value) : std::string());
+  m->command = std::move(cmd);
+  m->runner = make_runner(*m, std::move(*plan.plan), runner_options());
+  if (const auto ec = m->runner->start(now)) drop_runner(*m, ec.message().c_str());
+}
+
+void BusManager::Impl::finish_command(Managed& m, TimePoint now) {
+  const PlanRunResult r = m.runner->result();
+  m.runner.reset();
+  DeviceCommand cmd = std::move(*m.command);
+  m.command.reset();
+  if (cmd.kind == CommandKind::store) m.preop_expected_until = now + kCommandSettle;
+  CommandOutcome out;
+  out.message = r.message;
+  if (r.ok()) {
+    out.status = CommandStatus::ok;
+  } else if (r.error == make_error_code(PlanRunErrc::sdo_abort)) {
+    out.status = CommandStatus::refused;
+    out.abort_code = static_cast<std::uint32_t>(r.sdo_error.value());
+  } else if (r.error == make_error_code(PlanRunErrc::sdo_timeout)) {
+    out.status = CommandStatus::timeout;
+  } else if (r.error == make_error_code(PlanRunErrc::sdo_busy)) {
+    out.status = CommandStatus::busy;
+  } else {
+    out.status = CommandStatus::failed;
+  }
+  report_command(m, cmd, out);
+}
+
+}  // namespace cobridge::gateway

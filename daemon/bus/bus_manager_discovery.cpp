@@ -1,0 +1,265 @@
+// BusManager::Impl: discovery events, and the identity check of buses
+// without discovery. Control thread only.
+#include "bus/bus_manager_impl.hpp"
+
+#include <cstdio>
+
+namespace cobridge::gateway {
+
+namespace {
+
+std::string hex32(std::uint32_t v) {
+  char buf[16];
+  std::snprintf(buf, sizeof buf, "0x%X", v);
+  return buf;
+}
+
+}  // namespace
+
+void BusManager::Impl::check_configured_nodes(TimePoint now) {
+  if (bus.discovery) return;
+  for (auto& m : devices) {
+    if (!m.in_config || m.st.node_id == 0 || m.runner) continue;
+    if (m.description == nullptr) supervisor.listen(m.st.node_id, nullptr);
+    request_identity(m, now, false);
+  }
+}
+
+void BusManager::Impl::request_identity(Managed& m, TimePoint when, bool boot_up) {
+  m.ident_wanted = true;
+  m.ident_boot_up = m.ident_boot_up || boot_up;
+  m.ident_at = when;
+}
+
+void BusManager::Impl::start_identity_reads(TimePoint now) {
+  if (!channel->is_open()) return;
+  for (auto& m : devices) {
+    if (!m.ident_wanted || m.ident || m.runner || now < m.ident_at) continue;
+    if (m.st.node_id == remote->sdo_node()) continue;  // a client's transfer runs on it
+    m.ident_wanted = false;
+    m.ident = std::make_unique<IdentityReader>(sdo_of(m));
+    if (m.ident->start(now)) {
+      m.ident.reset();
+      request_identity(m, now + kConfigureRetryDelay, false);
+    }
+  }
+}
+
+void BusManager::Impl::finish_identity(Managed& m, TimePoint now) {
+  const std::unique_ptr<IdentityReader> reader = std::move(m.ident);
+  const bool boot_up = std::exchange(m.ident_boot_up, false);
+  const auto retry = now + std::chrono::seconds(bus.discovery_period_s);
+  if (!reader->identity()) {
+    m.st.last_error = "no answer at node " + std::to_string(m.st.node_id) + " (0x1018: " +
+                      reader->error().message() + "); discovery is off, asking again in " +
+                      std::to_string(bus.discovery_period_s) + " s";
+    dirty = true;
+    request_identity(m, retry, false);
+    return;
+  }
+  const canopen::LssAddress& id = *reader->identity();
+  if (m.cfg.serial != 0 && id.serial != m.cfg.serial) {
+    m.st.last_error = "node " + std::to_string(m.st.node_id) + " holds serial " + std::to_string(id.serial) +
+                      ", not the configured " + std::to_string(m.cfg.serial) + "; not configured";
+    log->warn("bus {}: device {}: {}", bus.name, m.st.name, m.st.last_error);
+    add_problem("device " + m.st.name + ": " + m.st.last_error, m.st.name);
+    set_state(m, DeviceState::failed);
+    request_identity(m, retry, false);
+    return;
+  }
+  DiscoveryEvent e;
+  e.kind = DiscoveryEventKind::identified;
+  e.node_id = e.target_node_id = m.st.node_id;
+  e.at_target = true;
+  e.boot_up = boot_up;
+  e.identity = id;
+  e.device = m.st.name;
+  on_identified(e, now);
+}
+
+void BusManager::Impl::on_sign_of_life(Managed& m, TimePoint now) {
+  const bool lost = m.st.state == DeviceState::offline ||
+                    (m.st.state == DeviceState::failed && m.failed_unanswered);
+  if (!lost || m.description == nullptr || m.runner || m.want_configure) return;
+  log->info("bus {}: device {} (node {}) sends again while {}; checking its configuration", bus.name, m.st.name,
+            m.st.node_id, to_string(m.st.state));
+  m.started = false;
+  m.want_configure = true;
+  m.attempts = 0;
+  m.not_before = now;
+}
+
+void BusManager::Impl::on_discovery_event(const DiscoveryEvent& e, TimePoint now) {
+  switch (e.kind) {
+    case DiscoveryEventKind::identified:
+      on_identified(e, now);
+      break;
+    case DiscoveryEventKind::commissioned: {
+      log->info("bus {}: {}", bus.name, e.text);
+      if (const auto ec = record_assignment(state, bus.name, e))
+        log->error("bus {}: state file: {}", bus.name, ec.message());
+      break;
+    }
+    case DiscoveryEventKind::clash_detected:
+      log->warn("bus {}: {}", bus.name, e.text);
+      add_problem(e.text, "", e.node_id);
+      break;
+    case DiscoveryEventKind::problem:
+      log->warn("bus {}: {}", bus.name, e.text);
+      add_problem(e.text, e.device);
+      break;
+    case DiscoveryEventKind::retry:
+      on_retry(e);
+      break;
+    case DiscoveryEventKind::clash_resolved:
+      log->info("bus {}: {}", bus.name, e.text);
+      clear_problems([&](const Problem& p) { return p.clash_node == e.node_id; });
+      break;
+  }
+}
+
+void BusManager::Impl::on_identified(const DiscoveryEvent& e, TimePoint now) {
+  const std::string& name = !e.device.empty() ? e.device : e.replaces;
+  Managed* m = name.empty() ? nullptr : find_device(name);
+  if (m == nullptr) {
+    note_unknown(e);
+    return;
+  }
+  if (!e.replaces.empty() && m->st.identity.serial != e.identity.serial) {
+    log->info("bus {}: device serial {} takes the place of {} (serial {})", bus.name, e.identity.serial,
+              e.replaces, e.replaced.serial);
+  }
+  // A device first reported as unknown (before the swap was decided) is
+  // now a configured one: drop its "unknown-" entry.
+  for (const auto& u : devices) {
+    if (!u.in_config && u.st.identity.serial == e.identity.serial && u.st.identity.vendor == e.identity.vendor &&
+        options.observer != nullptr)
+      options.observer->on_device_removed(u.st);
+  }
+  const auto dropped = std::erase_if(devices, [&](const Managed& u) {
+    return !u.in_config && u.st.identity.serial == e.identity.serial && u.st.identity.vendor == e.identity.vendor;
+  });
+  if (dropped != 0) {
+    dirty = true;
+    m = find_device(name);  // the erase moved the elements
+  }
+  if (!e.at_target) {
+    // Discovery is moving it; it reports `identified` again at the target.
+    set_state(*m, DeviceState::commissioning);
+    m->st.identity = e.identity;
+    return;
+  }
+  const bool same_device = m->st.identity.serial == e.identity.serial && m->st.identity.vendor == e.identity.vendor;
+  const bool running_fine = m->started && m->st.online && m->st.node_id == e.node_id && same_device &&
+                            !e.boot_up && m->st.state == DeviceState::operational;
+  if (running_fine) {
+    discovery->set_supervised(e.node_id, true);
+    return;
+  }
+  if (same_device && m->st.node_id == e.node_id && m->description != nullptr && (m->runner || m->want_configure)) {
+    // Already on its way (the reboot fallback below got there first).
+    if (!m->runner) m->not_before = now;
+    return;
+  }
+
+  m->st.identity = e.identity;
+  m->st.node_id = e.node_id;
+  m->st.next_retry = {};  // commissioned (the failures so far stay counted)
+  // Remember where it is even before it is configured (a restart then
+  // needs no scan); a replacement also drops the replaced device's line.
+  if (const auto ec = record_assignment(state, bus.name, e))
+    log->error("bus {}: state file: {}", bus.name, ec.message());
+  if (!resolve_description(*m)) {
+    set_state(*m, DeviceState::failed);
+    return;
+  }
+  supervisor.listen(e.node_id, m->profile->family);
+  discovery->set_supervised(e.node_id, true);
+  set_state(*m, DeviceState::identified);
+  drop_runner(*m, "the device was identified anew");
+  m->started = false;
+  m->want_configure = true;
+  m->attempts = 0;
+  m->not_before = now;
+}
+
+void BusManager::Impl::on_retry(const DiscoveryEvent& e) {
+  log->warn("bus {}: {}", bus.name, e.text);
+  Managed* m = e.device.empty() ? nullptr : find_device(e.device);
+  if (m == nullptr) {
+    add_problem(e.text, "");
+    return;
+  }
+  // One problem line per device, the latest try's; cleared once it is operational.
+  clear_problems([&](const Problem& p) { return p.device == e.device; });
+  add_problem(e.text, e.device);
+  m->st.commission_failures = e.count;
+  m->st.next_retry = wall_now() + std::chrono::duration_cast<std::chrono::system_clock::duration>(e.retry_in);
+  m->st.last_error = e.text;
+  if (m->st.identity.serial == 0) m->st.identity = e.identity;
+  set_state(*m, DeviceState::failed);
+  dirty = true;
+}
+
+void BusManager::Impl::note_unknown(const DiscoveryEvent& e) {
+  for (auto& m : devices) {
+    if (!m.in_config && m.st.identity.serial == e.identity.serial && m.st.identity.vendor == e.identity.vendor) {
+      m.st.node_id = e.node_id;
+      dirty = true;
+      return;
+    }
+  }
+  Managed m;
+  m.in_config = false;
+  m.st.name = "unknown-" + std::to_string(e.identity.serial);
+  m.st.bus = bus.name;
+  m.st.node_id = e.node_id;
+  m.st.identity = e.identity;
+  m.st.state = DeviceState::identified;
+  m.st.since = wall_now();
+  if (const auto* d = catalog.select(e.identity.vendor, e.identity.product, e.identity.revision)) {
+    m.st.model = d->device_info.product_name;
+    m.st.family = d->selection.family;
+  }
+  m.st.last_error = e.text.empty() ? "not in the configuration" : e.text;
+  devices.push_back(std::move(m));
+  dirty = true;
+}
+
+bool BusManager::Impl::resolve_description(Managed& m) {
+  const auto& id = m.st.identity;
+  std::string variant;
+  if (m.cfg.channels) variant = *m.cfg.channels == 2 ? "2ch" : "1ch";
+  const device::DeviceDescription* d = nullptr;
+  if (!m.cfg.eds.empty()) {
+    for (const auto* c : catalog.all()) {
+      if (std::filesystem::path(c->source) == m.cfg.eds) d = c;
+    }
+  }
+  if (d == nullptr) d = catalog.select(id.vendor, id.product, id.revision, variant);
+  if (d == nullptr && variant.empty()) {
+    // Several variants: take the first candidate; its plan decides by what it finds.
+    const auto c = catalog.candidates(id.vendor, id.product, id.revision);
+    if (!c.empty()) d = c.front();
+  }
+  if (d == nullptr) {
+    m.st.last_error = "no device description for vendor " + hex32(id.vendor) + " product " + hex32(id.product) +
+                      " revision " + hex32(id.revision);
+    log->error("bus {}: device {}: {}", bus.name, m.st.name, m.st.last_error);
+    add_problem("device " + m.st.name + ": " + m.st.last_error, m.st.name);
+    return false;
+  }
+  auto profile = device::family_profile_for(*d);
+  if (!profile) {
+    m.st.last_error = "description " + d->source + " names no known family";
+    add_problem("device " + m.st.name + ": " + m.st.last_error, m.st.name);
+    return false;
+  }
+  m.description = d;
+  m.profile = profile;
+  m.st.model = d->device_info.product_name;
+  m.st.family = d->selection.family;
+  return true;
+}
+
+}  // namespace cobridge::gateway

@@ -1,0 +1,247 @@
+// BusManager::Impl: frames to the protocol components, their outputs, bus
+// events, and supervision (heartbeat / guarding, NMT state, EMCY).
+// Control thread only.
+#include "bus/bus_manager_impl.hpp"
+
+namespace cobridge::gateway {
+
+void BusManager::Impl::dispatch(const can::Frame& frame, TimePoint now) {
+  if (election_frame(frame, now)) return;  // a gateway's, not a device's
+  // While a client's LSS command runs, its answers are not discovery's.
+  if (frame.id != canopen::cob::kLssSlaveToMaster || !remote->lss_session(now)) discovery->on_frame(frame, now);
+  remote->on_frame(frame, now);
+  supervisor.on_frame(frame, now);
+  for (auto& m : devices) {
+    if (m.runner) m.runner->on_frame(frame, now);
+    if (m.ident) m.ident->on_frame(frame, now);
+  }
+}
+
+TimePoint BusManager::Impl::run_components(TimePoint now) {
+  TimePoint next = kNever;
+  next = std::min(next, channel->process(now));
+  open_flag.store(channel->is_open());
+  if (election) {
+    // The role is not handed over in the middle of a device's configuration.
+    const bool configuring =
+        std::any_of(devices.begin(), devices.end(), [](const Managed& m) { return m.runner != nullptr; });
+    election->set_busy(configuring);
+    next = std::min(next, election->process(now, *channel));
+    if (standby()) return run_standby(now, next);
+  }
+  if (!remote->lss_session(now)) next = std::min(next, discovery->process(now));
+  next = std::min(next, remote->process(now, *this));
+  remote_waiting.store(remote->waiting(), std::memory_order_relaxed);
+  next = std::min(next, supervisor.process(now, tx));
+  next = std::min(next, sync.process(now, tx));
+  for (auto& m : devices) {
+    if (m.runner) next = std::min(next, m.runner->process(now));
+    if (m.want_configure && !m.runner) next = std::min(next, std::max(m.not_before, now));
+    next = std::min(next, m.emcy_log.report_due());
+    if (m.ident) next = std::min(next, m.ident->process(now));
+    if (m.ident_wanted && !m.ident) next = std::min(next, std::max(m.ident_at, now));
+  }
+  return next;
+}
+
+bool BusManager::Impl::handle_outputs(TimePoint now) {
+  bool more = false;
+  for (auto& e : discovery->take_events()) {
+    on_discovery_event(e, now);
+    more = true;
+  }
+  for (auto& t : discovery->take_timings()) {
+    if (t.exchanges != 0)
+      log->info("bus {}: {}{}{}: {:.0f} ms, {} LSS exchanges, {} timeouts{}", bus.name, t.step,
+                t.device.empty() ? "" : " ", t.device, t.milliseconds, t.exchanges, t.timeouts,
+                t.restarts == 0 ? std::string{} : fmt::format(", begun again {}x after late answers", t.restarts));
+    add_step(std::move(t));
+  }
+  for (const auto& c : supervisor.take_changes()) {
+    on_supervisor_change(c, now);
+    more = true;
+  }
+  for (auto& m : devices) {
+    if (m.runner && m.runner->finished()) {
+      if (m.command) {
+        finish_command(m, now);
+      } else {
+        finish_configuration(m, now);
+      }
+      more = true;
+    }
+  }
+  for (auto& m : devices) {
+    if (m.ident && m.ident->finished()) {
+      finish_identity(m, now);
+      more = true;
+    }
+  }
+  start_identity_reads(now);
+  if (start_configurations(now)) more = true;
+  report_suppressed_emcy(now);
+  return more;
+}
+
+bool BusManager::Impl::handle_bus_events(TimePoint now) {
+  bool lost = false;
+  for (const auto& ev : channel->take_events()) {
+    const std::string text(can::to_string(ev.kind));
+    const bool good_news = ev.kind == can::BusEventKind::InterfaceReopened ||
+                           ev.kind == can::BusEventKind::ErrorActive || ev.kind == can::BusEventKind::Restarted;
+    if (good_news) {
+      log->info("bus {}: {}", bus.name, text);
+    } else {
+      log->warn("bus {}: {}", bus.name, text);
+    }
+    live_bus_event = text;
+    dirty = true;
+    if (ev.kind == can::BusEventKind::InterfaceDown) {
+      // Its devices cannot be heard any more: offline now (status and the
+      // outputs tell the truth at once), not one heartbeat consumer time later.
+      supervisor.bus_lost(now, "the CAN interface went down");
+      lost = true;
+      for (auto& m : devices) {
+        if (m.ident) {
+          m.ident.reset();  // asked again when the interface is back
+          m.ident_wanted = false;
+        }
+        if (m.runner && m.command) {
+          drop_runner(m, "the CAN interface went down");
+        } else if (m.runner) {
+          // The transfers cannot finish; the plan runs again once the bus is back.
+          m.runner.reset();
+          m.want_configure = true;
+          m.not_before = now;
+        }
+      }
+    } else if (ev.kind == can::BusEventKind::InterfaceReopened) {
+      on_interface_back(now);
+    }
+  }
+  return lost;
+}
+
+void BusManager::Impl::on_interface_back(TimePoint now) {
+  ++reopens_seen;
+  for (auto& m : devices) {
+    if (!m.in_config || m.st.node_id == 0) continue;
+    discovery->set_supervised(m.st.node_id, false);
+    if (m.description == nullptr || m.runner || m.command) continue;
+    m.started = false;
+    m.want_configure = true;
+    m.attempts = 0;
+    m.not_before = now;
+    supervisor.listen(m.st.node_id, m.profile->family);
+  }
+  log->info("bus {}: interface back; checking every known device", bus.name);
+  check_configured_nodes(now);
+}
+
+void BusManager::Impl::on_supervisor_change(const Supervisor::Change& c, TimePoint now) {
+  Managed* m = find_node(c.node);
+  if (m == nullptr && !bus.discovery && c.kind == Supervisor::ChangeKind::rebooted) m = find_configured_node(c.node);
+  if (m == nullptr) return;
+  apply(c, m->st, wall_now());
+  dirty = true;
+  notify(*m);
+  switch (c.kind) {
+    case Supervisor::ChangeKind::rebooted:
+      log->info("bus {}: device {} (node {}) rebooted", bus.name, m->st.name, c.node);
+      // Discovery re-identifies it after every boot-up (same serial, or a
+      // replacement part); its `identified` event restarts the plan.
+      m->boot_up_at = now;
+      m->started = false;
+      m->operator_hold = false;  // a restarted device is started again, whoever stopped it before
+      drop_runner(*m, "the device rebooted");
+      m->ident.reset();
+      // Should discovery's re-identification not come, configure it anyway
+      // (same node-ID, the identity it had) after a while.
+      m->want_configure = m->description != nullptr;
+      m->attempts = 0;
+      m->not_before = now + kRebootFallbackDelay;
+      if (!bus.discovery) {
+        // Nobody else re-identifies it: read its identity now.
+        m->want_configure = false;
+        request_identity(*m, now, true);
+      }
+      if (m->st.state != DeviceState::expected) set_state(*m, DeviceState::identified);
+      break;
+    case Supervisor::ChangeKind::offline:
+      log->warn("bus {}: device {} (node {}) offline: {}", bus.name, m->st.name, c.node, c.reason);
+      // Let discovery's periodic probe look at it: if it rebooted without a
+      // boot-up we saw (interface loss), it is re-identified and configured.
+      discovery->set_supervised(c.node, false);
+      break;
+    case Supervisor::ChangeKind::online:
+      log->info("bus {}: device {} (node {}) online", bus.name, m->st.name, c.node);
+      discovery->set_supervised(c.node, true);
+      on_sign_of_life(*m, now);
+      break;
+    case Supervisor::ChangeKind::nmt_state:
+      on_nmt_state(*m, c.nmt, now);
+      break;
+    case Supervisor::ChangeKind::emcy:
+      if (emcy_log_allowed(*m, now)) log->warn("bus {}: device {} (node {}): {}", bus.name, m->st.name, c.node, c.emcy_text);
+      on_sign_of_life(*m, now);
+      break;
+  }
+}
+
+void BusManager::Impl::on_nmt_state(Managed& m, canopen::NmtState nmt, TimePoint now) {
+  if (!m.started || m.runner || now < m.preop_expected_until) return;
+  if (m.operator_hold && nmt != canopen::NmtState::operational) {
+    set_state(m, DeviceState::stopped);  // a client's NMT command: left as asked
+    return;
+  }
+  const bool restart = bus.foreign_nmt == config::ForeignNmt::restart;
+  if (nmt == canopen::NmtState::operational) {
+    if (m.st.state != DeviceState::stopped) return;
+    log->info("bus {}: device {} (node {}) is operational again", bus.name, m.st.name, m.st.node_id);
+    m.st.last_error.clear();
+    set_state(m, m.st.online ? DeviceState::operational : DeviceState::offline);
+    return;
+  }
+  if (nmt == canopen::NmtState::stopped) {
+    if (m.st.state == DeviceState::stopped) return;
+    m.st.last_error = "stopped by another NMT master";
+    set_state(m, DeviceState::stopped);
+    if (!restart) {
+      log->warn("bus {}: device {} (node {}) was stopped by another NMT master; left stopped (foreign_nmt = "
+                "respect)", bus.name, m.st.name, m.st.node_id);
+      return;
+    }
+    log->warn("bus {}: device {} (node {}) was stopped by another NMT master; starting it again", bus.name,
+              m.st.name, m.st.node_id);
+    if (!channel->send(canopen::make_nmt(canopen::NmtCommand::start, m.st.node_id)))
+      log->error("bus {}: device {}: NMT start could not be sent", bus.name, m.st.name);
+    return;
+  }
+  if (nmt != canopen::NmtState::pre_operational) return;
+  if (!restart) {
+    log->warn("bus {}: device {} (node {}) is pre-operational (another NMT master, or a reset whose boot-up was "
+              "missed); left so (foreign_nmt = respect)", bus.name, m.st.name, m.st.node_id);
+    m.st.last_error = "pre-operational: not started by this gateway";
+    set_state(m, DeviceState::stopped);
+    return;
+  }
+  // Someone (or a reset we missed) put it back: check, configure and start again.
+  log->warn("bus {}: device {} (node {}) is pre-operational again; reconfiguring", bus.name, m.st.name,
+            m.st.node_id);
+  m.started = false;
+  m.want_configure = true;
+  m.attempts = 0;
+  m.not_before = now;
+  supervisor.listen(m.st.node_id, m.profile ? m.profile->family : nullptr);
+  set_state(m, DeviceState::identified);
+}
+
+void BusManager::Impl::report_suppressed_emcy(TimePoint now) {
+  for (auto& m : devices) {
+    if (const std::uint32_t n = m.emcy_log.take_suppressed(now))
+      log->warn("bus {}: device {} (node {}): {} more EMCY not logged (last: {}); every one reached the outputs",
+                bus.name, m.st.name, m.st.node_id, n, m.st.last_emcy_text);
+  }
+}
+
+}  // namespace cobridge::gateway

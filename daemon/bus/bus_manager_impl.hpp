@@ -1,0 +1,330 @@
+// BusManager::Impl: the state and the work of one bus's control thread,
+// private to daemon/bus/bus_manager*.cpp. The members are defined by
+// concept: bus_manager.cpp (construction, the thread loop, commands from
+// other threads, the public API), bus_manager_frames.cpp (frames, outputs
+// and bus events of the protocol components; supervision),
+// bus_manager_discovery.cpp (discovery and the identity check of buses
+// without it), bus_manager_configure.cpp (configuration plans and plugins'
+// commands), bus_manager_remote.cpp (the RemoteGate for clients' commands)
+// and bus_manager_status.cpp (the published status).
+//
+// Threads: everything runs on the bus's control thread except the public
+// BusManager calls (any thread), which touch only the atomics and what
+// `mutex` guards (see the thread contract at the members below).
+#pragma once
+
+#include "bus/bus_manager.hpp"
+
+#include "can/bus_event.hpp"
+#include "can/socketcan_channel.hpp"
+#include "canopen/cob_id.hpp"
+#include "canopen/master_election.hpp"
+#include "canopen/nmt.hpp"
+#include "canopen/sdo_client.hpp"
+#include "canopen/sync.hpp"
+#include "device/family_profile.hpp"
+#include "bus/config_plan.hpp"
+#include "bus/discovery.hpp"
+#include "bus/identity_reader.hpp"
+#include "bus/log_budget.hpp"
+#include "bus/plan_runner.hpp"
+#include "bus/remote/remote_executor.hpp"
+#include "bus/remote/remote_target.hpp"
+#include "bus/supervisor.hpp"
+#include "sys/logging.hpp"
+
+#include <poll.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <condition_variable>
+#include <deque>
+#include <optional>
+#include <thread>
+
+namespace cobridge::gateway {
+
+namespace {
+
+using canopen::kNever;
+using canopen::TimePoint;
+using Clock = std::chrono::steady_clock;
+using std::chrono::milliseconds;
+
+constexpr std::size_t kMaxSteps = 64;            // StepTiming entries kept in the status
+constexpr std::size_t kMaxProblems = 32;         // problems kept in the status
+constexpr std::size_t kMaxConcurrentPlans = 2;   // plan runners at once per bus
+constexpr std::size_t kMaxReceiveBatches = 16;   // per loop turn, so timers still run under load
+constexpr unsigned kConfigureAttempts = 3;       // plan runs before the device is `failed`
+constexpr milliseconds kConfigureRetryDelay{500};
+constexpr milliseconds kFailedRetryPeriod{30000};  // a failed device is tried again this often
+constexpr milliseconds kMaxPollWait{1000};
+constexpr milliseconds kRebootFallbackDelay{500};
+constexpr std::size_t kMaxQueuedCommands = 16;    // per bus, waiting for the control thread
+constexpr std::size_t kMaxRemoteCommands = 256;   // client commands per bus, queued or waiting for their node
+// After a command that passed through pre-operational, a heartbeat sent
+// before the device got NMT start may still arrive: not a surprise reset.
+constexpr milliseconds kCommandSettle{500};
+// A re-plugged adapter is opened at most this long after it appears, so
+// its devices are configured again within 2 s of its return.
+constexpr milliseconds kReopenBackoffMax{500};
+
+inline WallTime wall_now() { return std::chrono::system_clock::now(); }
+
+}  // namespace
+
+struct BusManager::Impl final : RemoteGate {
+  // One configured device of this bus (or an unknown one discovery reported).
+  struct Managed {
+    config::Device cfg;
+    bool in_config = true;  // false: an unknown device, shown in the status only
+    DeviceStatus st;
+    const device::DeviceDescription* description = nullptr;
+    std::optional<device::FamilyProfile> profile;
+    Supervision supervision;
+    std::optional<ConfigPlan> plan;
+    std::unique_ptr<canopen::SdoClient> sdo;  // the runner's; re-addressed per run
+    std::unique_ptr<PlanRunner> runner;
+    std::optional<DeviceCommand> command;  // the runner runs this command, not the configuration
+    TimePoint preop_expected_until{};      // see kCommandSettle
+    bool quick = false;       // the running plan is the fingerprint check
+    bool force_full = false;  // the next run is the full plan
+    bool want_configure = false;  // waiting for a runner slot
+    bool started = false;         // NMT start sent after a successful plan
+    bool failed_unanswered = false;  // the last failure was a silence (timeout, nothing sent)
+    bool operator_hold = false;      // stopped / pre-operational by a client's NMT command: left so
+    unsigned attempts = 0;
+    TimePoint not_before{};       // retry back-off
+    TimePoint configure_started{};
+    TimePoint boot_up_at = kNever;  // last boot-up, to report how long the way back took
+    LogBudget emcy_log;             // EMCY log lines (the outputs get every EMCY)
+    // Buses without discovery: the identity check before configuring.
+    std::unique_ptr<IdentityReader> ident;
+    bool ident_wanted = false;
+    bool ident_boot_up = false;
+    TimePoint ident_at{};
+  };
+
+  Impl(const config::Config& config_in, std::size_t index, const device::DeviceCatalog& catalog_in,
+       StateStore& state_in, BusManagerOptions options_in);
+
+  // ---- set-up (constructor / reload) -------------------------------------
+
+  void build_devices();
+  // A configured device as it starts out, before anything is heard of it:
+  // the one way start-up and a reload make one, so both show the same.
+  Managed make_managed(const config::Device& d) const;
+  Managed* find_device(std::string_view name);
+  // Any configured device at `node`, also one not seen yet.
+  Managed* find_configured_node(std::uint8_t node);
+  Managed* find_node(std::uint8_t node);
+
+  // ---- thread ------------------------------------------------------------
+
+  // The wake fd lives as long as the Impl: a submit() or reload() racing
+  // with stop() then writes into a live eventfd, never into a closed (and
+  // possibly reused) descriptor.
+  ~Impl();
+  Error start();
+  void stop();
+  void wake() noexcept;
+  void run();
+  void wait(TimePoint now, TimePoint next);
+
+  // ---- frames and components ----------------------------------------------
+
+  void dispatch(const can::Frame& frame, TimePoint now);
+  TimePoint run_components(TimePoint now);
+
+  // Returns true when something was done that deserves another turn at once.
+  bool handle_outputs(TimePoint now);
+  // True when the interface went down (its devices were taken offline).
+  bool handle_bus_events(TimePoint now);
+
+  // Devices may have rebooted unseen while the interface was away (their
+  // boot-up went nowhere; a factory-fresh one has no heartbeat to tell us):
+  // every device that was identified is checked at once (the quick plan reads
+  // its key objects; a device that lost its settings gets the full plan), and
+  // discovery probes the configured nodes again for those never identified.
+  void on_interface_back(TimePoint now);
+
+  // ---- buses without discovery ---------------------------------------------
+  // With `discovery = false` nothing probes the bus, yet the configured
+  // devices at their configured node-IDs are configured, at start and after
+  // every boot-up. Their identity (0x1018) is read by SDO first, so that a
+  // device of another serial or model there is reported, never configured.
+
+  void check_configured_nodes(TimePoint now);
+  void request_identity(Managed& m, TimePoint when, bool boot_up);
+  void start_identity_reads(TimePoint now);
+  void finish_identity(Managed& m, TimePoint now);
+
+  // A device that is offline (or failed for want of answers) but sends
+  // frames again is checked and configured: it may have restarted unseen.
+  void on_sign_of_life(Managed& m, TimePoint now);
+
+  // ---- discovery -----------------------------------------------------------
+
+  void on_discovery_event(const DiscoveryEvent& e, TimePoint now);
+  void on_identified(const DiscoveryEvent& e, TimePoint now);
+  void note_unknown(const DiscoveryEvent& e);
+  // Commissioning failed and is tried again: status and log say so.
+  void on_retry(const DiscoveryEvent& e);
+  bool resolve_description(Managed& m);
+
+  // ---- configuration ---------------------------------------------------------
+
+  bool start_configurations(TimePoint now);
+  [[nodiscard]] PlanRunnerOptions runner_options() const;
+
+  // A runner for a plan on `m` (configuration or command), with the device's
+  // SDO client, made on first use.
+  std::unique_ptr<PlanRunner> make_runner(Managed& m, ConfigPlan plan, const PlanRunnerOptions& ro);
+
+  // The device's SDO client, made on first use and re-addressed to its node-ID.
+  canopen::SdoClient& sdo_of(Managed& m);
+  bool begin_configuration(Managed& m, TimePoint now);
+
+  // The objects whose agreement says "this device still carries its
+  // configuration": supervision and the PDO mappings, read (and compared)
+  // between pre-operational and nothing else. No store step.
+  static ConfigPlan quick_plan(const ConfigPlan& full);
+  Supervision supervision_for(const Managed& m) const;
+  void finish_configuration(Managed& m, TimePoint now);
+
+  // Plans leave the NMT start to us, so that a device found different by
+  // the quick check is not started half configured, and so that the hot path
+  // has the device's mapping before its first TPDO.
+  bool announce_and_start(Managed& m, TimePoint now);
+  static Supervision fallback_guarding(const ConfigPlan& plan);
+  void runners_abort();
+
+  // Ends whatever the runner does; a command's submitter learns why.
+  void drop_runner(Managed& m, const char* why);
+
+  // ---- commands from plugins ---------------------------------------------------
+
+  void report_command(const Managed& m, const DeviceCommand& cmd, const CommandOutcome& outcome);
+  void start_command(DeviceCommand cmd, TimePoint now);
+  void finish_command(Managed& m, TimePoint now);
+
+  // ---- supervision -------------------------------------------------------------
+
+  void on_supervisor_change(const Supervisor::Change& c, TimePoint now);
+
+  // The heartbeat (or guarding reply) tells the device's NMT state (CiA 301
+  // §7.2.8.3.2): the status follows it, and a device another NMT master
+  // stopped or sent to pre-operational is started again (policy restart) or
+  // left as that master wants it (policy respect); either way it is logged.
+  void on_nmt_state(Managed& m, canopen::NmtState nmt, TimePoint now);
+
+  bool emcy_log_allowed(Managed& m, TimePoint now) { return m.emcy_log.allow(now); }
+
+  void report_suppressed_emcy(TimePoint now);
+
+  // ---- commands from other threads ------------------------------------------
+
+  void take_commands(TimePoint now);
+  void apply_reload(config::Config next, TimePoint now);
+
+  // ---- clients' commands (RemoteGate) ------------------------------------------
+
+  bool node_free(std::uint8_t node) const override;
+  bool node_supervised(std::uint8_t node) const override;
+
+  bool lss_allowed() const override { return !discovery->commissioning() && channel->is_open(); }
+
+  void on_nmt_sent(canopen::NmtCommand command, std::uint8_t node, const std::string& caller) override;
+  void on_lss_node_id(const canopen::LssAddress& device, std::uint8_t node, bool stored) override;
+
+  // ---- status ------------------------------------------------------------------
+
+  void set_state(Managed& m, DeviceState s);
+  void notify(const Managed& m);
+  void add_step(StepTiming t);
+
+  // A problem stays in the status while it is true: a device's own problems
+  // leave when it is operational, a clash's when it is resolved.
+  void add_problem(const std::string& text, const std::string& device = {}, std::uint8_t clash_node = 0);
+
+  template <typename Pred>
+  void clear_problems(Pred pred) {
+    if (std::erase_if(problems, pred) != 0) dirty = true;
+  }
+
+  void update_ready(TimePoint now);
+  void publish_if_dirty();
+  void publish_all();
+
+  // ---- members -------------------------------------------------------------------
+
+  // Thread contract: everything below up to `mutex` belongs to the control
+  // thread once start() has run.
+  config::Config config;
+  std::size_t bus_index;
+  config::Bus bus;
+  const device::DeviceCatalog& catalog;
+  StateStore& state;
+  BusManagerOptions options;
+  std::shared_ptr<spdlog::logger> log;
+
+  std::unique_ptr<can::SocketCanChannel> channel;
+  std::unique_ptr<Discovery> discovery;
+  std::unique_ptr<RemoteExecutor> remote;
+  Supervisor supervisor;
+  canopen::SyncProducer sync;
+  std::vector<Managed> devices;
+  std::vector<StepTiming> steps;
+  struct Problem {
+    std::string text;
+    std::string device;          // the configured device it is about (empty: the bus)
+    std::uint8_t clash_node = 0; // a clash at this node-ID
+  };
+  std::vector<Problem> problems;
+  std::string live_bus_event;
+  std::uint32_t reopens_seen = 0;
+  bool discovery_started = false;
+  bool dirty = true;
+  TimePoint started_at{};
+  // [redundancy]: the bus's master role (bus_manager_election.cpp).
+  std::optional<canopen::MasterElection> election;
+  // What every component sends through: the channel while this gateway may
+  // send (no [redundancy], or master); refused (and counted) otherwise, so
+  // no path of a standby reaches the bus, whatever it was asked.
+  struct MasterGate final : can::FrameSink {
+    explicit MasterGate(Impl& owner) : impl(owner) {}
+    bool send(const can::Frame& frame) noexcept override;
+    Impl& impl;
+    std::uint64_t refused = 0;
+  };
+  MasterGate tx{*this};
+  WallTime election_at{};
+  void start_election(TimePoint now);
+  [[nodiscard]] bool standby() const noexcept { return election && !election->is_master(); }
+  [[nodiscard]] bool election_frame(const can::Frame& frame, TimePoint now);
+  void on_election(const canopen::ElectionEvent& e);
+  [[nodiscard]] TimePoint run_standby(TimePoint now, TimePoint next);
+  void describe_role(BusStatus& s) const;
+
+  std::thread thread;
+  int wake_fd = -1;
+  bool rx_ready = true;  // the last poll saw the CAN socket readable (or failed)
+  std::vector<pollfd> poll_fds;  // wait()'s, kept for its capacity
+  std::atomic<bool> stop_requested{false};
+  std::atomic<bool> running{false};
+  std::atomic<bool> open_flag{false};
+  std::atomic<bool> ready_latched{false};
+  std::atomic<Clock::rep> loop_alive{0};
+  std::atomic<std::size_t> remote_waiting{0};  // client commands in the executor (kMaxRemoteCommands)  // steady_clock ticks of the last loop turn (watchdog)
+
+  // Shared with the callers of status()/reload()/request_commission().
+  mutable std::mutex mutex;
+  BusStatus published;
+  bool commission_requested = false;
+  std::optional<config::Config> pending_reload;
+  std::deque<DeviceCommand> pending_commands;
+  std::deque<std::pair<RemoteCommand, std::shared_ptr<RemoteReplies>>> pending_remote;
+};
+
+}  // namespace cobridge::gateway

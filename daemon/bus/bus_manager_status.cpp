@@ -1,0 +1,70 @@
+// BusManager::Impl: device states, steps, problems, readiness, and the
+// status published to other threads. Control thread only.
+#include "bus/bus_manager_impl.hpp"
+
+namespace cobridge::gateway {
+
+void BusManager::Impl::set_state(Managed& m, DeviceState s) {
+  if (m.st.state == s) return;
+  m.st.state = s;
+  m.st.since = wall_now();
+  dirty = true;
+  notify(m);
+}
+
+void BusManager::Impl::notify(const Managed& m) {
+  if (options.observer != nullptr) options.observer->on_device_status(m.st);
+}
+
+void BusManager::Impl::add_step(StepTiming t) {
+  if (t.at == WallTime{}) t.at = wall_now();
+  steps.push_back(std::move(t));
+  if (steps.size() > kMaxSteps) steps.erase(steps.begin());
+  dirty = true;
+}
+
+void BusManager::Impl::add_problem(const std::string& text, const std::string& device, std::uint8_t clash_node) {
+  for (const auto& p : problems) {
+    if (p.text == text) return;
+  }
+  problems.push_back(Problem{text, device, clash_node});
+  if (problems.size() > kMaxProblems) problems.erase(problems.begin());
+  dirty = true;
+}
+
+void BusManager::Impl::update_ready(TimePoint now) {
+  if (ready_latched.load()) return;
+  bool all = true;
+  for (const auto& m : devices) {
+    if (m.in_config && m.st.state != DeviceState::operational) all = false;
+  }
+  // A standby is ready once it knows the master: the devices are the master's to bring up.
+  const bool standing_by = election && election->role() == canopen::MasterRole::standby;
+  if (all || standing_by || now - started_at >= options.ready_timeout) {
+    if (!all && !standing_by) log->warn("bus {}: ready after {} ms with devices not operational", bus.name,
+                        options.ready_timeout.count());
+    ready_latched.store(true);
+  }
+}
+
+void BusManager::Impl::publish_if_dirty() {
+  if (!dirty) return;
+  dirty = false;
+  publish_all();
+}
+
+void BusManager::Impl::publish_all() {
+  BusStatus s;
+  s.name = bus.name;
+  s.interface = bus.interface;
+  s.last_bus_event = live_bus_event;
+  s.devices.reserve(devices.size());
+  for (const auto& m : devices) s.devices.push_back(m.st);
+  s.steps = steps;
+  for (const auto& p : problems) s.problems.push_back(p.text);
+  describe_role(s);
+  const std::lock_guard lock(mutex);
+  published = std::move(s);
+}
+
+}  // namespace cobridge::gateway

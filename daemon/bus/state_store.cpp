@@ -1,0 +1,357 @@
+#include "bus/state_store.hpp"
+
+#include "base/number_text.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <charconv>
+#include <fstream>
+#include <sstream>
+
+namespace cobridge::gateway {
+
+namespace {
+
+class StateStoreCategory final : public std::error_category {
+ public:
+  const char* name() const noexcept override { return "state_store"; }
+  std::string message(int ev) const override {
+    switch (static_cast<StateStoreErrc>(ev)) {
+      case StateStoreErrc::malformed_lines: return "state file has malformed lines (skipped)";
+      case StateStoreErrc::read_failed: return "state file cannot be read";
+      case StateStoreErrc::invalid_assignment: return "invalid assignment (empty bus or node-ID > 127)";
+    }
+    return "unknown state store error";
+  }
+};
+
+bool needs_escape(char c) noexcept {
+  return c == ' ' || c == '\t' || c == '%' || c == '=' || c == '#' || c == '\n' || c == '\r' ||
+         static_cast<unsigned char>(c) < 0x20 || static_cast<unsigned char>(c) == 0x7F;
+}
+
+std::string escape(std::string_view s) {
+  static constexpr char kHex[] = "0123456789ABCDEF";
+  std::string out;
+  out.reserve(s.size());
+  for (const char c : s) {
+    if (needs_escape(c)) {
+      const auto u = static_cast<unsigned char>(c);
+      out += '%';
+      out += kHex[u >> 4];
+      out += kHex[u & 0x0F];
+    } else {
+      out += c;
+    }
+  }
+  return out;
+}
+
+int hex_digit(char c) noexcept {
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  return -1;
+}
+
+bool unescape(std::string_view s, std::string& out) {
+  out.clear();
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (s[i] != '%') {
+      out += s[i];
+      continue;
+    }
+    if (i + 2 >= s.size()) return false;
+    const int hi = hex_digit(s[i + 1]);
+    const int lo = hex_digit(s[i + 2]);
+    if (hi < 0 || lo < 0) return false;
+    out += static_cast<char>((hi << 4) | lo);
+    i += 2;
+  }
+  return true;
+}
+
+std::string hex(std::uint32_t v) {
+  std::ostringstream s;
+  s << "0x" << std::hex << std::uppercase << v;
+  return s.str();
+}
+
+std::atomic<unsigned> g_temp_counter{0};
+
+std::error_code errno_code() noexcept { return {errno, std::generic_category()}; }
+
+// write() all of `data`, retrying on EINTR and short writes.
+bool write_all(int fd, const std::string& data) noexcept {
+  std::size_t done = 0;
+  while (done < data.size()) {
+    const ssize_t n = ::write(fd, data.data() + done, data.size() - done);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return false;
+    }
+    done += static_cast<std::size_t>(n);
+  }
+  return true;
+}
+
+bool same_key(const Assignment& a, const std::string& bus, std::uint32_t vendor, std::uint32_t product,
+              std::uint32_t serial) noexcept {
+  return a.bus == bus && a.vendor == vendor && a.product == product && a.serial == serial;
+}
+
+}  // namespace
+
+const std::error_category& state_store_category() noexcept {
+  static const StateStoreCategory category;
+  return category;
+}
+
+std::error_code make_error_code(StateStoreErrc e) noexcept { return {static_cast<int>(e), state_store_category()}; }
+
+StateStore::StateStore(std::filesystem::path dir) : dir_(std::move(dir)), path_(dir_ / kFileName) {}
+
+std::string StateStore::format_line(const Assignment& a) {
+  std::string line = "bus=" + escape(a.bus);
+  line += " serial=" + hex(a.serial);
+  line += " vendor=" + hex(a.vendor);
+  line += " product=" + hex(a.product);
+  line += " revision=" + hex(a.revision);
+  line += " node=" + std::to_string(unsigned{a.node_id});
+  line += " fingerprint=" + escape(a.fingerprint);
+  return line;
+}
+
+bool StateStore::parse_line(std::string_view line, Assignment& out, std::string& why) {
+  out = Assignment{};
+  enum Field : unsigned { kBus = 1, kSerial = 2, kVendor = 4, kProduct = 8, kRevision = 16, kNode = 32, kPrint = 64 };
+  unsigned seen = 0;
+  std::size_t pos = 0;
+  std::string value;
+  while (pos < line.size()) {
+    while (pos < line.size() && (line[pos] == ' ' || line[pos] == '\t')) ++pos;
+    if (pos >= line.size()) break;
+    std::size_t end = pos;
+    while (end < line.size() && line[end] != ' ' && line[end] != '\t') ++end;
+    const std::string_view token = line.substr(pos, end - pos);
+    pos = end;
+    const auto eq = token.find('=');
+    if (eq == std::string_view::npos || eq == 0) {
+      why = "expected key=value, got '" + std::string(token) + "'";
+      return false;
+    }
+    const std::string_view key = token.substr(0, eq);
+    const std::string_view raw = token.substr(eq + 1);
+    if (!unescape(raw, value)) {
+      why = "bad %-escape in '" + std::string(token) + "'";
+      return false;
+    }
+    unsigned field = 0;
+    std::uint64_t wide = 0;
+    const bool numeric = key == "serial" || key == "vendor" || key == "product" || key == "revision" || key == "node";
+    if (numeric && !parse_unsigned(value, 0xFFFFFFFFU, wide)) {
+      why = "'" + std::string(key) + "' wants a number (decimal or 0x hex), got '" + value + "'";
+      return false;
+    }
+    const auto number = static_cast<std::uint32_t>(wide);
+    if (key == "bus") {
+      field = kBus;
+      out.bus = value;
+    } else if (key == "serial") {
+      field = kSerial;
+      out.serial = number;
+    } else if (key == "vendor") {
+      field = kVendor;
+      out.vendor = number;
+    } else if (key == "product") {
+      field = kProduct;
+      out.product = number;
+    } else if (key == "revision") {
+      field = kRevision;
+      out.revision = number;
+    } else if (key == "node") {
+      field = kNode;
+      if (number > 127) {
+        why = "node-ID " + std::to_string(number) + " outside 0..127";
+        return false;
+      }
+      out.node_id = static_cast<std::uint8_t>(number);
+    } else if (key == "fingerprint") {
+      field = kPrint;
+      out.fingerprint = value;
+    } else {
+      // A newer gateway may add fields; an older one keeps the line.
+      continue;
+    }
+    if ((seen & field) != 0) {
+      why = "'" + std::string(key) + "' given twice";
+      return false;
+    }
+    seen |= field;
+  }
+  const unsigned required = kBus | kSerial | kVendor | kProduct | kRevision | kNode;
+  if ((seen & required) != required) {
+    why = "missing field(s):";
+    if ((seen & kBus) == 0) why += " bus";
+    if ((seen & kSerial) == 0) why += " serial";
+    if ((seen & kVendor) == 0) why += " vendor";
+    if ((seen & kProduct) == 0) why += " product";
+    if ((seen & kRevision) == 0) why += " revision";
+    if ((seen & kNode) == 0) why += " node";
+    return false;
+  }
+  if (out.bus.empty()) {
+    why = "empty bus name";
+    return false;
+  }
+  return true;
+}
+
+Error StateStore::load() {
+  std::vector<Assignment> loaded;
+  std::string problems;
+  {
+    std::error_code ec;
+    if (!std::filesystem::exists(path_, ec)) {
+      const std::lock_guard lock(mutex_);
+      items_.clear();
+      return {};
+    }
+    std::ifstream in(path_, std::ios::binary);
+    if (!in) return Error(Errc::kFailed, "cannot be read", path_.string(), make_error_code(StateStoreErrc::read_failed));
+    std::string line;
+    std::uint32_t number = 0;
+    std::string why;
+    while (std::getline(in, line)) {
+      ++number;
+      if (!line.empty() && line.back() == '\r') line.pop_back();
+      const auto first = line.find_first_not_of(" \t");
+      if (first == std::string::npos || line[first] == '#') continue;
+      Assignment a;
+      if (!parse_line(line, a, why)) {
+        problems += path_.string() + ":" + std::to_string(number) + ": " + why + " (line skipped)\n";
+        continue;
+      }
+      // A later line for the same device wins, as put() would have done.
+      bool replaced = false;
+      for (auto& existing : loaded) {
+        if (same_key(existing, a.bus, a.vendor, a.product, a.serial)) {
+          existing = a;
+          replaced = true;
+        }
+      }
+      if (!replaced) loaded.push_back(std::move(a));
+    }
+    if (in.bad()) return Error(Errc::kFailed, "read error", path_.string(), make_error_code(StateStoreErrc::read_failed));
+  }
+  {
+    const std::lock_guard lock(mutex_);
+    items_ = std::move(loaded);
+  }
+  if (!problems.empty()) {
+    problems.pop_back();
+    return Error(Errc::kInvalidArgument, "lines skipped:\n" + problems, path_.string(),
+                 make_error_code(StateStoreErrc::malformed_lines));
+  }
+  return {};
+}
+
+std::optional<Assignment> StateStore::find(const std::string& bus, std::uint32_t vendor, std::uint32_t product,
+                                           std::uint32_t serial) const {
+  const std::lock_guard lock(mutex_);
+  for (const auto& a : items_) {
+    if (same_key(a, bus, vendor, product, serial)) return a;
+  }
+  return std::nullopt;
+}
+
+std::vector<Assignment> StateStore::on_bus(const std::string& bus) const {
+  const std::lock_guard lock(mutex_);
+  std::vector<Assignment> out;
+  for (const auto& a : items_) {
+    if (a.bus == bus) out.push_back(a);
+  }
+  return out;
+}
+
+std::error_code StateStore::put(const Assignment& a) {
+  if (a.bus.empty() || a.node_id > 127) return make_error_code(StateStoreErrc::invalid_assignment);
+  const std::lock_guard lock(mutex_);
+  for (auto& existing : items_) {
+    if (same_key(existing, a.bus, a.vendor, a.product, a.serial)) {
+      if (existing == a) return {};
+      const Assignment before = existing;
+      existing = a;
+      const auto ec = save_locked();
+      if (ec) existing = before;
+      return ec;
+    }
+  }
+  items_.push_back(a);
+  const auto ec = save_locked();
+  if (ec) items_.pop_back();
+  return ec;
+}
+
+std::error_code StateStore::erase(const std::string& bus, std::uint32_t vendor, std::uint32_t product,
+                                  std::uint32_t serial) {
+  const std::lock_guard lock(mutex_);
+  for (auto it = items_.begin(); it != items_.end(); ++it) {
+    if (same_key(*it, bus, vendor, product, serial)) {
+      const Assignment before = *it;
+      const auto pos = it - items_.begin();
+      items_.erase(it);
+      const auto ec = save_locked();
+      if (ec) items_.insert(items_.begin() + pos, before);
+      return ec;
+    }
+  }
+  return {};
+}
+
+std::error_code StateStore::save_locked() {
+  std::error_code ec;
+  std::filesystem::create_directories(dir_, ec);
+  if (ec) return ec;
+
+  std::string text = "# cobridge node-ID assignments and configuration fingerprints; written by cobridged\n";
+  for (const auto& a : items_) {
+    text += format_line(a);
+    text += '\n';
+  }
+
+  // Unique per process and call, so two stores on one directory never share
+  // a temp file.
+  const auto temp = dir_ / (std::string(kFileName) + ".tmp." + std::to_string(::getpid()) + "." +
+                            std::to_string(g_temp_counter.fetch_add(1)));
+  const int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) return errno_code();
+  if (!write_all(fd, text) || ::fsync(fd) != 0) {
+    const auto err = errno_code();
+    ::close(fd);
+    ::unlink(temp.c_str());
+    return err;
+  }
+  if (::close(fd) != 0) {
+    const auto err = errno_code();
+    ::unlink(temp.c_str());
+    return err;
+  }
+  if (::rename(temp.c_str(), path_.c_str()) != 0) {
+    const auto err = errno_code();
+    ::unlink(temp.c_str());
+    return err;
+  }
+  // The rename itself is only durable once the directory is synced.
+  const int dfd = ::open(dir_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dfd >= 0) {
+    (void)::fsync(dfd);
+    ::close(dfd);
+  }
+  return {};
+}
+
+}  // namespace cobridge::gateway

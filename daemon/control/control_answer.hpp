@@ -1,0 +1,29 @@
+// ControlAnswer: the JSON lines the control socket answers with, for the
+// answers that are not the status report: a failure (the one Error shape,
+// daemon/base/error.hpp: {"ok":false,"error":{"code":...,"where":...,
+// "message":...,"detail":...}}, plus "abort_code" for an SDO abort) and the
+// outcome of a client's SDO / NMT / LSS command. `cobridge` reads the
+// error's "code" back into its exit code (Errc), so the CLI and the socket
+// map a failure the same way.
+//
+// Thread: any; pure functions.
+#pragma once
+
+#include "base/error.hpp"
+#include "control/control_request.hpp"
+#include "bus/remote/remote_command.hpp"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace cobridge::gateway {
+
+[[nodiscard]] std::string error_answer(const Error& error, std::uint32_t abort_code = 0);
+// {"ok":true,"buses":[...]} (+ "message")
+[[nodiscard]] std::string commission_answer(const std::vector<std::string>& buses, const std::string& message);
+// The outcome of `request` (a remote kind): an error_answer, or e.g.
+// {"ok":true,"bus":"line1","node":10,"index":4120,"sub":4,"size":4,"hex":"E9030000","value":1001}
+[[nodiscard]] std::string remote_answer(const ControlRequest& request, const RemoteResult& result);
+
+}  // namespace cobridge::gateway

@@ -1,0 +1,190 @@
+// ControlServer: the daemon's side of the local control socket, the way
+// `cobridge status` and `cobridge commission` talk to a running cobridged.
+//
+// A Unix stream socket (mode 0660, its directory created if missing, a stale
+// socket file of a dead daemon replaced, a live one left alone) speaking a
+// line protocol: each request is one line, each answer is one line holding
+// one JSON document.
+//
+//   status             -> {"gateway": ..., "buses": [...], ...}  (StatusReport)
+//   commission [BUS]   -> {"ok": true, "buses": [...]}   (every bus when BUS is left out)
+//   sdo-read, sdo-write, nmt, lss-set-node-id (control_request.hpp)
+//                      -> {"ok": true, ...}  (control_answer.hpp), answered when
+//                         the bus's control thread has run the command
+//   a failure          -> {"ok": false, "error": {"code": ..., "where": ..., "message": ...}}
+//
+// Clients' commands go to a RemoteTarget (the daemon's BusRegistry, which
+// app/ makes and hands to the buses and to this server): the daemon stays the one master of its buses.
+// Writes (sdo-write, nmt, lss-set-node-id) are refused unless [control]
+// writes_enabled is set and the caller (SO_PEERCRED) is root, the daemon's
+// own user or a member of [control] write_group (a caller the kernel cannot
+// name is none of them: remote/peer_credentials.hpp); each write is logged
+// with the caller's uid and pid. While a client's command runs, that client's
+// next request waits; other clients are served meanwhile.
+//
+// A client may send several requests on one connection. No client can hold
+// the daemon up: every socket is non-blocking, a request line must be
+// complete within `client_timeout` of the connection or the previous answer
+// (so a client trickling one byte a second is cut off), a line longer than
+// `max_line` is answered with an error and the connection closed, an answer
+// the client does not read within `client_timeout` is dropped with the
+// connection, and there are at most `max_clients` connections.
+//
+// The CiA 309-3 ASCII gateway (remote/ascii_server.hpp) is driven from here
+// too, so the daemon's main loop serves it without a line of its own: it is
+// opened once the first bus runs and the registry holds [ascii_gateway]
+// enabled (socket: ascii_gateway.socket, default "ascii.sock" beside the
+// control socket), and closed with the control socket.
+//
+// Thread: the daemon's main loop owns it: add_poll_fds() before poll(),
+// process(now) after, like every component that waits on file descriptors.
+// The handler is called from process(), on that thread. One exception: the
+// answer to an SDO / NMT / LSS command is written to the client by the bus's
+// control thread that ran it (remote/direct_answer.hpp), when nothing else
+// is owed to the client; the main thread then only learns that the command
+// is done, and sends what the socket did not take. And after a read whose
+// client took its whole answer, the connection stays on loan with that bus
+// thread, which reads the client's next request itself and gives the
+// connection back for anything but another read on the same bus
+// (remote/connection_loan.hpp).
+#pragma once
+
+#include "canopen/clock.hpp"
+#include "control/control_request.hpp"
+#include "bus/device_status.hpp"
+#include "bus/remote/line_connection.hpp"
+#include "bus/remote/direct_answer.hpp"
+#include "control/remote/ascii_server.hpp"
+#include "control/remote/peer_credentials.hpp"
+#include "bus/remote/remote_replies.hpp"
+#include "bus/remote/remote_target.hpp"
+#include "control/status_report.hpp"
+
+#include <poll.h>
+#include <sys/types.h>
+
+#include <chrono>
+#include <cstddef>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <system_error>
+#include <vector>
+
+namespace cobridge::gateway {
+
+// What a control command did: ok, or the reason it was refused.
+struct ControlResult {
+  bool ok = true;
+  std::string message;  // the refusal, or a note for the client
+  std::vector<std::string> buses;  // the buses it acted on
+};
+
+// What the control socket asks of the daemon. Implemented by main over the
+// bus managers, by a fake in the tests.
+class ControlHandler {
+ public:
+  virtual ~ControlHandler() = default;
+  [[nodiscard]] virtual StatusReport status() = 0;
+  // `bus` empty = every bus.
+  virtual ControlResult commission(std::string_view bus) = 0;
+};
+
+struct ControlServerOptions {
+  std::chrono::milliseconds client_timeout{2000};
+  std::size_t max_line = 256;
+  std::size_t max_clients = 16;
+  RemoteTarget* remote = nullptr;  // nullptr: no bus takes client commands
+};
+
+class ControlServer {
+ public:
+  explicit ControlServer(ControlHandler& handler, ControlServerOptions options = {});
+  ~ControlServer();
+  ControlServer(const ControlServer&) = delete;
+  ControlServer& operator=(const ControlServer&) = delete;
+
+  // Creates the socket directory, replaces a stale socket file, binds,
+  // sets mode 0660 and listens. Fails with where = the path, the errno as
+  // code; kind kUnavailable when another daemon listens there,
+  // kInvalidArgument for a path too long or a file that is not a socket.
+  [[nodiscard]] Error open(const std::filesystem::path& path);
+  // Closes every connection and removes the socket file.
+  void close();
+  [[nodiscard]] bool is_open() const noexcept { return listen_fd_ >= 0; }
+  [[nodiscard]] std::size_t clients() const noexcept { return clients_.size(); }
+
+  // Appends the descriptors to wait on (the listening socket, each client
+  // for reading or, while an answer is pending, writing).
+  void add_poll_fds(std::vector<pollfd>& fds);
+  // After poll() on those descriptors: which are ready (poll_slot.hpp).
+  // Optional: without it process() tries every descriptor.
+  void note_ready(const std::vector<pollfd>& fds);
+  // Accepts, reads, answers and times out whatever is due; never blocks.
+  // Returns the next client deadline (kNever when no client is connected).
+  canopen::TimePoint process(canopen::TimePoint now);
+
+ private:
+  struct Client : LineConnection {
+    canopen::TimePoint deadline{};
+    bool close_after_write = false;
+    PeerCredentials peer;
+    std::uint64_t waiting_tag = 0;  // a command of this client runs (0: none)
+    ControlRequest pending;         // that command, for its answer
+    std::shared_ptr<DirectAnswer> direct;  // the bus threads' way to answer it
+    bool wake_asked = false;        // waiting for its result's wake-up, socket not polled
+    bool lent = false;              // the bus thread reads it (waiting_tag kept), socket not polled
+  };
+
+  void accept_clients(canopen::TimePoint now);
+  // Returns false when the client is to be closed now.
+  bool serve(Client& c, canopen::TimePoint now);
+  void answer(Client& c, std::string_view line, canopen::TimePoint now);
+  // Why `c` may not write to a bus ([control] writes_enabled, write_group);
+  // empty when it may.
+  [[nodiscard]] std::string write_refusal(const Client& c) const;
+  // `commission [bus]`: a write (node-IDs change), checked and logged with the caller.
+  std::string commission(const Client& c, const std::string& bus);
+  // A client's SDO/NMT/LSS command: checked, logged if a write, queued.
+  void submit(Client& c, ControlRequest request, canopen::TimePoint now);
+  // The command of `request` to queue, armed to answer `c` from the bus
+  // thread when that keeps the order of its answers, and lending it the
+  // connection when it may read the next request itself (lend_with).
+  RemoteCommand with_direct_answer(Client& c, const ControlRequest& request) const;
+  void lend_with(Client& c, RemoteCommand& cmd, const std::string& bus) const;
+  // The answer line of a request's result (run on the bus thread).
+  static DirectAnswer::Format answer_line(ControlRequest request);
+  // Takes the results that came back from the buses: the client is free
+  // again, and what of its answer the bus thread did not send goes out.
+  // `drain`: fd() was readable (take() reads the eventfd); otherwise only
+  // the results pushed quietly are collected, without a system call.
+  void deliver(canopen::TimePoint now, bool drain);
+  // A waiting client's socket became readable (its next request or its
+  // end) before its result was collected: collects it, or asks the bus
+  // thread for a wake-up with it and stops polling the socket until then.
+  void await_result(Client& c, canopen::TimePoint now);
+  // deliver(), then keeps a wake-up asked for while a client waits for one.
+  void collect(canopen::TimePoint now, bool drain);
+  // Opens the ASCII gateway once its settings are known (see above).
+  void open_ascii_gateway();
+  void drop(Client& c);
+
+  ControlHandler& handler_;
+  BusRegistry no_buses_;  // the target when the options name none
+  ControlServerOptions options_;
+  RemoteTarget& remote_;
+  std::shared_ptr<RemoteReplies> replies_ = std::make_shared<RemoteReplies>();
+  std::uint64_t next_tag_ = 1;
+  bool ascii_tried_ = false;
+  std::unique_ptr<AsciiServer> ascii_;
+  std::filesystem::path path_;
+  int listen_fd_ = -1;
+  dev_t socket_dev_ = 0;
+  ino_t socket_ino_ = 0;
+  std::vector<Client> clients_;
+  PollSlot listen_slot_;
+  PollSlot replies_slot_;
+};
+
+}  // namespace cobridge::gateway

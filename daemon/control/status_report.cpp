@@ -1,0 +1,287 @@
+#include "control/status_report.hpp"
+
+#include "base/error.hpp"
+#include "canopen/nmt.hpp"
+
+#include <array>
+#include <cstdio>
+#include <ctime>
+
+namespace cobridge::gateway {
+namespace {
+
+// A JSON text built by appending; the status document is flat enough that a
+// tiny writer with explicit commas is clearer than a value tree.
+class JsonWriter {
+ public:
+  void begin_object() { value_prefix(); out_ += '{'; first_ = true; }
+  void end_object() { out_ += '}'; first_ = false; }
+  void begin_array() { value_prefix(); out_ += '['; first_ = true; }
+  void end_array() { out_ += ']'; first_ = false; }
+  void key(std::string_view k) {
+    if (!first_) out_ += ',';
+    first_ = true;  // the value that follows takes no comma
+    string_literal(k);
+    out_ += ':';
+  }
+  void value(std::string_view s) { value_prefix(); string_literal(s); first_ = false; }
+  void value(const char* s) { value(std::string_view(s)); }
+  void value(bool b) { value_prefix(); out_ += b ? "true" : "false"; first_ = false; }
+  void value(std::uint64_t n) { value_prefix(); out_ += std::to_string(n); first_ = false; }
+  void value(std::int64_t n) { value_prefix(); out_ += std::to_string(n); first_ = false; }
+  void value(double d) {
+    value_prefix();
+    std::array<char, 32> buf{};
+    std::snprintf(buf.data(), buf.size(), "%.3f", d);
+    out_ += buf.data();
+    first_ = false;
+  }
+  void null() { value_prefix(); out_ += "null"; first_ = false; }
+  void time(WallTime t) {
+    if (t == WallTime{}) {
+      null();
+      return;
+    }
+    value(iso8601(t));
+  }
+  template <typename T>
+  void field(std::string_view k, T v) {
+    key(k);
+    value(v);
+  }
+  std::string take() { return std::move(out_); }
+
+  static std::string iso8601(WallTime t) {
+    const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(t.time_since_epoch()).count();
+    const std::time_t secs = static_cast<std::time_t>(ms / 1000);
+    std::tm tm{};
+    gmtime_r(&secs, &tm);
+    std::array<char, 96> buf{};  // room for any int, so -O2's truncation check is satisfied
+    std::snprintf(buf.data(), buf.size(), "%04d-%02d-%02dT%02d:%02d:%02d.%03dZ", tm.tm_year + 1900, tm.tm_mon + 1,
+                  tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec, static_cast<int>(ms % 1000));
+    return buf.data();
+  }
+
+ private:
+  void value_prefix() {
+    if (!first_) out_ += ',';
+  }
+  // Control characters are escaped; bytes >= 0x80 pass unchanged (names and
+  // EMCY texts are UTF-8, and the answer to garbage echoes no raw input).
+  void string_literal(std::string_view s) { out_ += json_quote(s); }
+
+  std::string out_;
+  bool first_ = true;
+};
+
+
+void write_device(JsonWriter& w, const DeviceStatus& d) {
+  w.begin_object();
+  w.field("name", d.name);
+  w.field("bus", d.bus);
+  w.key("node_id");
+  if (d.node_id == 0)
+    w.null();
+  else
+    w.value(std::uint64_t{d.node_id});
+  w.key("identity");
+  w.begin_object();
+  w.field("vendor", std::uint64_t{d.identity.vendor});
+  w.field("product", std::uint64_t{d.identity.product});
+  w.field("revision", std::uint64_t{d.identity.revision});
+  w.field("serial", std::uint64_t{d.identity.serial});
+  w.end_object();
+  w.field("model", d.model);
+  w.field("family", d.family);
+  w.field("state", to_string(d.state));
+  w.field("nmt", canopen::to_string(d.nmt));
+  w.field("online", d.online);
+  w.key("since");
+  w.time(d.since);
+  w.field("last_error", d.last_error);
+  w.key("last_emcy");
+  if (d.emcy_count == 0 && d.last_emcy_code == 0 && d.last_emcy_text.empty()) {
+    w.null();
+  } else {
+    w.begin_object();
+    w.field("code", std::uint64_t{d.last_emcy_code});
+    w.field("text", d.last_emcy_text);
+    w.end_object();
+  }
+  w.field("boot_ups", std::uint64_t{d.boot_ups});
+  w.field("configurations", std::uint64_t{d.configurations});
+  w.field("emcy_count", std::uint64_t{d.emcy_count});
+  w.field("fingerprint", d.fingerprint);
+  w.field("commission_failures", std::uint64_t{d.commission_failures});
+  w.key("next_retry");
+  w.time(d.next_retry);
+  w.key("emcy_history");
+  w.begin_array();
+  for (const auto& e : d.emcy_history) {
+    w.begin_object();
+    w.field("code", std::uint64_t{e.code});
+    w.field("text", e.text);
+    w.key("at");
+    w.time(e.at);
+    w.end_object();
+  }
+  w.end_array();
+  const LiveValues& v = d.values;
+  w.key("values");
+  if (!v.present) {
+    w.null();
+  } else {
+    w.begin_object();
+    if (v.has_position) {
+      w.field("position", static_cast<std::int64_t>(v.position));
+      w.field("position_eng", v.position_eng);
+      w.field("unit", v.unit);
+    }
+    if (v.has_speed) w.field("speed", static_cast<std::int64_t>(v.speed));
+    w.field("age_s", v.age_s);
+    w.key("at");
+    w.time(v.at);
+    w.field("stale", v.stale);
+    w.end_object();
+  }
+  w.key("heartbeat_age_s");
+  if (v.heartbeat_age_s < 0)
+    w.null();
+  else
+    w.value(v.heartbeat_age_s);
+  w.end_object();
+}
+
+// [redundancy]: the role of this gateway on the bus and why.
+void write_redundancy(JsonWriter& w, const BusStatus& b) {
+  w.key("redundancy");
+  w.begin_object();
+  w.field("role", b.role);
+  w.field("master_node", std::uint64_t{b.master_node});
+  w.field("cause", b.election_cause);
+  w.key("since");
+  w.time(b.election_at);
+  w.end_object();
+}
+
+void write_bus(JsonWriter& w, const BusStatus& b) {
+  w.begin_object();
+  w.field("name", b.name);
+  w.field("interface", b.interface);
+  w.field("open", b.open);
+  w.field("bitrate_kbit", std::uint64_t{b.bitrate_kbit});
+  w.field("last_bus_event", b.last_bus_event);
+  if (!b.role.empty()) write_redundancy(w, b);
+  w.key("counters");
+  w.begin_object();
+  w.field("rx_frames", b.rx_frames);
+  w.field("tx_frames", b.tx_frames);
+  w.field("rx_overflow_drops", b.rx_overflow_drops);
+  w.field("error_frames", b.error_frames);
+  w.field("reopens", std::uint64_t{b.reopens});
+  w.field("unknown_node_frames", b.unknown_node_frames);
+  w.field("ring_drops", b.ring_drops);
+  w.field("hot_rx_frames", b.hot_rx_frames);
+  w.field("hot_kernel_drops", b.hot_kernel_drops);
+  w.field("status_drops", b.status_drops);
+  w.field("bad_length_frames", b.bad_length_frames);
+  w.field("tx_dropped", b.tx_dropped);
+  w.end_object();
+  w.key("devices");
+  w.begin_array();
+  for (const auto& d : b.devices) write_device(w, d);
+  w.end_array();
+  w.key("steps");
+  w.begin_array();
+  for (const auto& s : b.steps) {
+    w.begin_object();
+    w.field("step", s.step);
+    w.field("device", s.device);
+    w.field("ms", s.milliseconds);
+    if (s.exchanges != 0) {
+      w.field("exchanges", std::uint64_t{s.exchanges});
+      w.field("timeouts", std::uint64_t{s.timeouts});
+      w.field("restarts", std::uint64_t{s.restarts});
+    }
+    w.key("at");
+    w.time(s.at);
+    w.end_object();
+  }
+  w.end_array();
+  w.key("problems");
+  w.begin_array();
+  for (const auto& p : b.problems) w.value(p);
+  w.end_array();
+  w.end_object();
+}
+
+// What each output plugin reports of itself (ABI 3 stats): Modbus clients
+// connected, DDS writers, ...
+void write_outputs(JsonWriter& w, const std::vector<pipeline::OutputStats>& outputs) {
+  w.begin_array();
+  for (const auto& o : outputs) {
+    w.begin_object();
+    w.field("instance", o.instance);
+    w.field("type", o.type);
+    w.field("running", o.running);
+    w.key("figures");
+    w.begin_object();
+    for (const auto& f : o.figures) w.field(f.name, f.value);
+    w.end_object();
+    w.end_object();
+  }
+  w.end_array();
+}
+
+}  // namespace
+
+std::string to_json(const StatusReport& report) {
+  JsonWriter w;
+  w.begin_object();
+  w.field("gateway", report.gateway_id);
+  w.field("version", report.version);
+  w.field("pid", static_cast<std::int64_t>(report.pid));
+  w.field("ready", report.ready);
+  w.key("started");
+  w.time(report.started);
+  w.field("config", report.config_file);
+  std::uint64_t total = 0;
+  std::uint64_t operational = 0;
+  for (const auto& b : report.buses) {
+    for (const auto& d : b.devices) {
+      ++total;
+      if (d.state == DeviceState::operational) ++operational;
+    }
+  }
+  w.field("devices_total", total);
+  w.field("devices_operational", operational);
+  w.key("buses");
+  w.begin_array();
+  for (const auto& b : report.buses) write_bus(w, b);
+  w.end_array();
+  w.key("outputs");
+  write_outputs(w, report.outputs);
+  w.end_object();
+  return w.take();
+}
+
+std::string summary(const std::vector<BusStatus>& buses) {
+  std::size_t total = 0;
+  std::size_t operational = 0;
+  std::size_t open = 0;
+  std::string closed;
+  for (const auto& b : buses) {
+    if (b.open) ++open;
+    if (!b.open) closed += (closed.empty() ? "" : ", ") + b.name + " (" + b.interface + ")";
+    for (const auto& d : b.devices) {
+      ++total;
+      if (d.state == DeviceState::operational) ++operational;
+    }
+  }
+  std::string s = std::to_string(buses.size()) + (buses.size() == 1 ? " bus" : " buses");
+  if (open != buses.size()) s += " (" + std::to_string(open) + " open; waiting for " + closed + ")";
+  s += ", " + std::to_string(operational) + "/" + std::to_string(total) + " devices operational";
+  return s;
+}
+
+}  // namespace cobridge::gateway

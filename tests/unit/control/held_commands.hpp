@@ -1,0 +1,71 @@
+// HeldCommands: a RemoteTarget with one bus (net 1, "line1" on vcan0) whose
+// control thread is the test: submitted commands wait until finish() ends
+// the oldest one the way RemoteExecutor::reply() does (hand_back: the
+// client's DirectAnswer first, then the reply queue). For the control socket and
+// CiA 309-3 gateway tests.
+//
+// Threads: submit() from the server under test, finish()/held() from the
+// test; both under the mutex.
+#pragma once
+
+#include "bus/remote/direct_answer.hpp"
+#include "bus/remote/remote_replies.hpp"
+#include "bus/remote/remote_target.hpp"
+
+#include <cstddef>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+namespace cobridge::gateway::testing {
+
+class HeldCommands final : public RemoteTarget {
+ public:
+  [[nodiscard]] std::vector<RemoteBus> buses() const override { return {{"line1", "vcan0", 1}}; }
+  [[nodiscard]] Error submit(std::string_view, RemoteCommand command, std::shared_ptr<RemoteReplies> to) override {
+    const std::lock_guard lock(mutex_);
+    held_.emplace_back(std::move(command), std::move(to));
+    return {};
+  }
+  [[nodiscard]] std::optional<config::RemoteAccess> access() const override {
+    const std::lock_guard lock(mutex_);
+    return access_;
+  }
+  // What access() answers from now on (nothing = no configuration: writes refused).
+  void set_access(std::optional<config::RemoteAccess> access) {
+    const std::lock_guard lock(mutex_);
+    access_ = std::move(access);
+  }
+
+  [[nodiscard]] std::size_t held() {
+    const std::lock_guard lock(mutex_);
+    return held_.size();
+  }
+  // False when no command waits.
+  bool finish(RemoteResult result) {
+    auto held = take();
+    if (!held) return false;
+    hand_back(held->first, std::move(result), held->second.get());
+    return true;
+  }
+  // The oldest command and where its result goes, for a test that ends it
+  // itself (a connection kept on loan, connection_loan.hpp).
+  std::optional<std::pair<RemoteCommand, std::shared_ptr<RemoteReplies>>> take() {
+    const std::lock_guard lock(mutex_);
+    if (held_.empty()) return std::nullopt;
+    auto oldest = std::move(held_.front());
+    held_.pop_front();
+    return oldest;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::optional<config::RemoteAccess> access_;
+  std::deque<std::pair<RemoteCommand, std::shared_ptr<RemoteReplies>>> held_;
+};
+
+}  // namespace cobridge::gateway::testing
