@@ -5,7 +5,6 @@
 // involved; the tests name the protocol rule they check.
 #include "gateway/control_server.hpp"
 
-#include "gateway/remote/connection_loan.hpp"
 #include "held_commands.hpp"
 #include "unit/support/eventually.hpp"
 
@@ -250,7 +249,7 @@ config::RemoteAccess writes_open() {
 }
 
 // How long a test watches for something that must NOT happen (a wake-up of
-// the loop, a read of a lent connection): an absence holds only over a
+// the loop, an answer written by the wrong thread): an absence holds only over a
 // window. Each such test first waits for what makes the absence meaningful.
 constexpr auto kAbsenceWindow = 100ms;
 
@@ -508,16 +507,16 @@ TEST(ControlServer, SummaryCountsOperationalDevices) {
             "2 buses (1 open; waiting for line2 (can1)), 1/2 devices operational");
 }
 
-// Issue 15 (an SDO read through the daemon adds <= 1 ms): the answer to a
-// client's command reaches the client from the thread that finished the
-// command, while the main loop does not run; the main loop then only frees
-// the connection for its next request.
-TEST(ControlServer, CommandAnswerReachesTheClientWithoutTheMainLoop) {
+// One owning thread per connection: a finished command's result alone
+// writes nothing to the client (the bus thread never touches its socket);
+// the main loop's next turn writes the answer and frees the connection for
+// the client's next request.
+TEST(ControlServer, OnlyTheMainLoopWritesACommandsAnswer) {
   FakeHandler h;
   HeldCommands bus;
   ControlServerOptions o = fast_options();
   o.remote = &bus;
-  const auto dir = std::filesystem::path("/tmp") / ("cobridge-ctl-direct-" + std::to_string(::getpid()));
+  const auto dir = std::filesystem::path("/tmp") / ("cobridge-ctl-owner-" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   ControlServer server(h, o);
   ASSERT_FALSE(server.open(dir / "control.sock"));
@@ -533,19 +532,32 @@ TEST(ControlServer, CommandAnswerReachesTheClientWithoutTheMainLoop) {
         2s);
     return bus.held() == n;
   };
+  // Turns the main loop until the client has an answer line (2 s at most).
+  auto run_until_answered = [&] {
+    std::string got = "<timeout>";
+    (void)eventually(
+        [&] {
+          (void)server.process(Clock::now());
+          got = c.line(10ms);
+          return got != "<timeout>";
+        },
+        2s);
+    return got;
+  };
   c.send("sdo-read line1 20 1018 4\n");
   ASSERT_TRUE(run_until_held(1));
   RemoteResult r;
   r.data = {0xD1, 0x07, 0x00, 0x00};
   ASSERT_TRUE(bus.finish(r));
-  EXPECT_EQ(c.line(500ms), "{\"ok\":true,\"via\":\"daemon\",\"bus\":\"line1\",\"node\":20,\"index\":4120,"
-                           "\"sub\":4,\"size\":4,\"hex\":\"D1070000\",\"value\":2001}");
-  // The main loop learns the command is done: the next request is taken.
+  EXPECT_EQ(c.line(kAbsenceWindow), "<timeout>") << "the answer was written by a thread other than the owner";
+  EXPECT_EQ(run_until_answered(), "{\"ok\":true,\"via\":\"daemon\",\"bus\":\"line1\",\"node\":20,\"index\":4120,"
+                                  "\"sub\":4,\"size\":4,\"hex\":\"D1070000\",\"value\":2001}");
+  // The connection is free again: the next request is taken.
   c.send("sdo-read line1 20 1018 1\n");
   ASSERT_TRUE(run_until_held(1));
   r.data = {0x2A, 0x00, 0x00, 0x00};
   ASSERT_TRUE(bus.finish(r));
-  EXPECT_NE(c.line(500ms).find("\"sub\":1,\"size\":4,\"hex\":\"2A000000\",\"value\":42}"), std::string::npos);
+  EXPECT_NE(run_until_answered().find("\"sub\":1,\"size\":4,\"hex\":\"2A000000\",\"value\":42}"), std::string::npos);
   server.close();
   std::filesystem::remove_all(dir);
 }
@@ -580,9 +592,9 @@ TEST(ControlServer, AnswerTheSocketCannotTakeIsFinishedByTheMainLoop) {
   EXPECT_NE(c.line(2000ms).find("\"value\":2001}"), std::string::npos);
 }
 
-// The quiet hand-back tests' server: commands held by the test, a loop
-// that polls for up to 10 s, so that a request left for the loop's own tick
-// fails a test (bounded at 2 s) rather than passing late.
+// The result hand-back tests' server: commands held by the test, a loop
+// that polls for up to 10 s, so that a request or result left for the
+// loop's own tick fails a test (bounded at 2 s) rather than passing late.
 struct SlowTick {
   static ControlServerOptions options(HeldCommands& remote) {
     ControlServerOptions o = fast_options();
@@ -630,33 +642,28 @@ void answer_then_take_next(SlowTick& t, Client& c, const char* not_taken) {
   EXPECT_NE(c.line(2000ms).find("\"value\":42}"), std::string::npos);
 }
 
-// Issue 15: a command whose answer the bus thread sent whole does not wake
-// the main loop (its turn would sit between the client and the client's
-// next request on UML's one CPU); the client's next request wakes it, and
-// the result collected in that turn frees the connection, so the request is
-// taken at once.
-TEST(ControlServer, AWholeDirectAnswerDoesNotWakeTheLoopAndTheNextRequestIsTakenAtOnce) {
+// A command's result wakes the main loop at once (its reply eventfd; the
+// tick here is 10 s): the answer goes out and the client's next request is
+// taken without waiting for a tick.
+TEST(ControlServer, AResultWakesTheLoopAndTheNextRequestIsTakenAtOnce) {
   SlowTick t;
   Client c(t.loop.path());
   ASSERT_TRUE(c.connected());
   c.send("sdo-read line1 20 1018 4\n");
   ASSERT_TRUE(t.held(1));
   ASSERT_NE(t.settled(), 0u) << "the loop did not go back to poll";
-  const std::size_t before = t.loop.turns();
   ASSERT_TRUE(t.finish(2001));
   EXPECT_NE(c.line(2000ms).find("\"value\":2001}"), std::string::npos);
-  // The client has its answer: no wake-up of the loop over the window.
-  std::this_thread::sleep_for(kAbsenceWindow);
-  EXPECT_EQ(t.loop.turns(), before) << "the main loop was woken for an answer the client already had";
   c.send("sdo-read line1 20 1018 1\n");
   ASSERT_TRUE(t.held(1)) << "the next request was not taken within 2 s";
   ASSERT_TRUE(t.finish(42));
   EXPECT_NE(c.line(2000ms).find("\"value\":42}"), std::string::npos);
 }
 
-// A client that sends its next request before its result came back (the
-// loop sees it first): the loop asks for a wake-up, the quiet hand-back
-// gives it, and both answers arrive in order.
+// A client that sends its next request before its result came back: the
+// loop leaves the waiting client's socket alone (no wake-up for it, no
+// read), takes the request when the result comes, and both answers arrive
+// in order.
 TEST(ControlServer, ARequestBeforeTheResultIsTakenWhenTheResultComes) {
   SlowTick t;
   Client c(t.loop.path());
@@ -666,14 +673,15 @@ TEST(ControlServer, ARequestBeforeTheResultIsTakenWhenTheResultComes) {
   const std::size_t polls = t.settled();
   ASSERT_NE(polls, 0u) << "the loop did not go back to poll";
   c.send("sdo-read line1 20 1018 1\n");
-  ASSERT_TRUE(t.turned(polls)) << "the loop did not wake for the next request";  // seen, the result not there
+  std::this_thread::sleep_for(kAbsenceWindow);
+  EXPECT_EQ(t.loop.polls(), polls) << "the loop woke for a client whose command runs";
   answer_then_take_next(t, c, "the pipelined request was not taken within 2 s");
 }
 
-// Two clients: A's next request came before its result and A waits for the
-// wake-up; B's result, handed back quietly first, must not use it up, or
-// A's request would wait for the loop's tick (10 s here).
-TEST(ControlServer, AnotherClientsQuietResultDoesNotUseUpTheWakeUpAsked) {
+// Two clients, A with its next request sent before its result: B's result
+// is answered to B alone, and A's, coming after, still takes A's next
+// request at once (each result wakes the loop; the tick is 10 s).
+TEST(ControlServer, TwoClientsResultsEachReachTheirClientAtOnce) {
   SlowTick t;
   Client a(t.loop.path());
   Client b(t.loop.path());
@@ -682,81 +690,48 @@ TEST(ControlServer, AnotherClientsQuietResultDoesNotUseUpTheWakeUpAsked) {
   ASSERT_TRUE(t.held(1));
   a.send("sdo-read line1 20 1018 4\n");
   ASSERT_TRUE(t.held(2));
-  std::size_t polls = t.settled();
-  ASSERT_NE(polls, 0u) << "the loop did not go back to poll";
   a.send("sdo-read line1 20 1018 1\n");
-  ASSERT_TRUE(t.turned(polls)) << "the loop did not wake for A's next request";  // seen, A's result not there
-  polls = t.settled();
   ASSERT_TRUE(t.finish(1));  // B's
   EXPECT_NE(b.line(2000ms).find("\"value\":1}"), std::string::npos);
-  // B's result takes the wake-up A asked for; the loop collects it and must
-  // ask again before A's result comes.
-  ASSERT_TRUE(t.turned(polls)) << "B's result did not wake the loop";
+  EXPECT_EQ(a.line(kAbsenceWindow), "<timeout>") << "A was answered with B's result";
   answer_then_take_next(t, a, "A's next request was not taken within 2 s");  // A's first
 }
 
-// Issue 15: a read lends the connection to the bus thread
-// (remote/connection_loan.hpp), which takes the next read on the same bus
-// itself and nothing else; while lent the main loop leaves the socket
-// alone, and what the bus thread gives back is served as if read here.
-TEST(ControlServer, AReadLendsTheConnectionAndWhatComesBackIsServedHere) {
+// A client that leaves while its command runs: the command ends on the bus
+// as any other (the bus thread holds nothing of the client), its result is
+// dropped with the connection, and the other clients are served.
+TEST(ControlServer, AClientThatLeavesMidRequestIsClosedAndOthersAreServed) {
   SlowTick t;
-  Client c(t.loop.path());
-  ASSERT_TRUE(c.connected());
-  c.send("sdo-read line1 20 1018 4\n");
+  auto gone = std::make_unique<Client>(t.loop.path());
+  Client stays(t.loop.path());
+  ASSERT_TRUE(gone->connected() && stays.connected());
+  gone->send("sdo-read line1 20 1018 4\n");
   ASSERT_TRUE(t.held(1));
-  auto held = t.bus.take();
-  ASSERT_TRUE(held);
-  auto& [cmd, to] = *held;
-  ASSERT_TRUE(cmd.loan);
-  const auto loan = cmd.loan;
-  // The bus thread's part: the whole answer sent, the connection kept.
-  RemoteResult r;
-  r.data = {0xD1, 0x07, 0x00, 0x00};
-  r.kept = cobridge::gateway::answer_client(cmd, r);
-  ASSERT_TRUE(r.kept);
-  cobridge::gateway::push_result(*to, r, true);
-  EXPECT_NE(c.line(2000ms).find("\"value\":2001}"), std::string::npos);
-
-  // What the loan takes: a read on this bus; not a write, another bus, status.
-  EXPECT_FALSE(loan->take("sdo-write line1 20 2000 0 01", *loan->connection));
-  EXPECT_FALSE(loan->take("sdo-read line2 20 1018 1", *loan->connection));
-  EXPECT_FALSE(loan->take("status", *loan->connection));
-  const auto next = loan->take("sdo-read line1 20 1018 1", *loan->connection);
-  ASSERT_TRUE(next);
-  EXPECT_EQ(next->node, 20);
-  EXPECT_EQ(next->sub, 1);
-
-  const std::size_t polls = t.settled();
-  ASSERT_NE(polls, 0u) << "the loop did not go back to poll";
-  c.send("status\n");
-  // The result came back quietly: the loop learns of the loan only in the
-  // turn this request wakes it for, and must leave the request to the bus
-  // thread in that turn and over the window after.
-  ASSERT_TRUE(t.turned(polls)) << "the loop did not wake for the request";
-  std::this_thread::sleep_for(kAbsenceWindow);
-  {
-    const std::lock_guard lock(t.h.mutex);
-    EXPECT_EQ(t.h.status_calls, 0) << "the main loop read a connection it had lent";
-  }
-  RemoteResult back;
-  back.input = "status\n";
-  cobridge::gateway::give_back(cmd.tag, *to, back);
-  EXPECT_NE(c.line(2000ms).find("\"gateway\":"), std::string::npos);
+  ASSERT_TRUE(eventually([&] { return t.loop.clients() == 2; }, 2s));
+  gone.reset();
+  stays.send("sdo-read line1 21 1018 4\n");
+  ASSERT_TRUE(t.held(2));
+  ASSERT_TRUE(t.finish(2001));  // the departed client's
+  EXPECT_TRUE(eventually([&] { return t.loop.clients() == 1; }, 2s)) << "the departed client was kept";
+  ASSERT_TRUE(t.finish(42));
+  EXPECT_NE(stays.line(2000ms).find("\"value\":42}"), std::string::npos);
 }
 
-// Pipelined requests: the second is already read here, so the first is not
-// lent (one thread reads a connection at a time, in order).
-TEST(ControlServer, ARequestWithAnotherBehindItIsNotLent) {
+// Pipelined requests: one command of a client runs at a time, in the order
+// sent, and the answers come in that order.
+TEST(ControlServer, PipelinedRequestsRunOneAtATimeInOrder) {
   SlowTick t;
   Client c(t.loop.path());
   ASSERT_TRUE(c.connected());
   c.send("sdo-read line1 20 1018 4\nsdo-read line1 20 1018 1\n");
   ASSERT_TRUE(t.held(1));
-  auto held = t.bus.take();
-  ASSERT_TRUE(held);
-  EXPECT_FALSE(held->first.loan);
-  cobridge::gateway::hand_back(held->first, RemoteResult{}, held->second.get());
-  EXPECT_NE(c.line(2000ms).find("\"ok\":true"), std::string::npos);
+  std::this_thread::sleep_for(kAbsenceWindow);
+  ASSERT_EQ(t.bus.held(), 1U) << "the second request ran beside the first";
+  ASSERT_EQ(t.bus.oldest()->sub, 4);
+  ASSERT_TRUE(t.finish(2001));
+  EXPECT_NE(c.line(2000ms).find("\"sub\":4,"), std::string::npos);
   ASSERT_TRUE(t.held(1));
+  ASSERT_EQ(t.bus.oldest()->sub, 1);
+  ASSERT_TRUE(t.finish(42));
+  EXPECT_NE(c.line(2000ms).find("\"sub\":1,"), std::string::npos);
 }
