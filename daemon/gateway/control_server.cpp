@@ -186,9 +186,13 @@ void ControlServer::accept_clients(TimePoint now) {
 
 bool ControlServer::serve(Client& c, TimePoint now) {
   if (c.waiting_tag != 0) return now < c.deadline;  // its command runs; deliver() answers
-  // An answer is read before the next request is looked at.
+  // An answer is read before the next request is looked at; the window
+  // for that request starts once the whole answer is out (a long answer
+  // to a reading client does not eat its next request's time).
+  const bool was_writing = c.writing();
   if (!c.flush()) return false;
   if (!c.out.empty()) return now < c.deadline;
+  if (was_writing) c.deadline = now + options_.client_timeout;
   if (c.close_after_write || c.peer_closed) return false;
 
   c.read(options_.max_line);
