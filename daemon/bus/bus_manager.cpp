@@ -196,16 +196,13 @@ void BusManager::Impl::wait(TimePoint now, TimePoint next) {
     const auto until = std::chrono::ceil<milliseconds>(next - now);
     timeout = std::clamp(until, milliseconds(0), kMaxPollWait);
   }
-  // The wake-up, the CAN socket, then the clients' connections the remote
-  // executor holds on loan (their requests come straight here).
+  // The wake-up, then the CAN socket.
   poll_fds.clear();
   poll_fds.push_back({wake_fd, POLLIN, 0});
   const bool can = channel->fd() >= 0;
   if (can) poll_fds.push_back({channel->fd(), POLLIN, 0});
-  remote->add_poll_fds(poll_fds);
   const int r = ::poll(poll_fds.data(), poll_fds.size(), static_cast<int>(timeout.count()));
   rx_ready = r < 0 || !can || poll_fds[1].revents != 0;
-  remote->note_ready(poll_fds);
   if (r > 0 && (poll_fds[0].revents & POLLIN) != 0) {
     std::uint64_t v = 0;
     [[maybe_unused]] const auto n = ::read(wake_fd, &v, sizeof v);

@@ -4,9 +4,6 @@
 
 #include "control/control_answer.hpp"
 #include "control/control_request.hpp"
-#include "control/remote/awaited_results.hpp"
-#include "bus/remote/connection_loan.hpp"
-#include "bus/remote/direct_answer.hpp"
 
 #include "canopen/nmt.hpp"
 #include "sys/logging.hpp"
@@ -134,15 +131,10 @@ void ControlServer::add_poll_fds(std::vector<pollfd>& fds) {
   replies_slot_.add(fds, replies_->fd(), POLLIN);
   if (ascii_) ascii_->add_poll_fds(fds);
   for (auto& c : clients_) {
-    if (c.waiting_tag != 0) {
-      // Nothing to write until its result is back; its next request tells
-      // us to collect a result the bus thread pushed quietly.
-      if (c.wake_asked || c.lent) c.slot.skip();
-      else c.slot.add(fds, c.fd, POLLIN);
-      continue;
-    }
-    const bool writing = c.writing();
-    c.slot.add(fds, c.fd, writing ? POLLOUT : POLLIN);
+    // A client whose command runs has nothing owed yet, and its next
+    // request waits in the socket until the result is here.
+    if (c.waiting_tag != 0) c.slot.skip();
+    else c.slot.add(fds, c.fd, c.writing() ? POLLOUT : POLLIN);
   }
 }
 
@@ -155,14 +147,13 @@ void ControlServer::note_ready(const std::vector<pollfd>& fds) {
 
 TimePoint ControlServer::process(TimePoint now) {
   if (listen_fd_ >= 0 && listen_slot_.take()) accept_clients(now);
-  collect(now, replies_slot_.take());
+  if (replies_slot_.take()) deliver(now);
   if (!ascii_tried_ && listen_fd_ >= 0) open_ascii_gateway();
   TimePoint next = ascii_ ? ascii_->process(now) : kNever;
   for (auto it = clients_.begin(); it != clients_.end();) {
     // A request already buffered (pipelined) is due now: poll will not wake for it.
     const bool buffered = it->waiting_tag == 0 && it->in.find('\n') != std::string::npos;
     const bool try_io = it->slot.take();
-    if (try_io && it->waiting_tag != 0) await_result(*it, now);
     if ((try_io || buffered || now >= it->deadline) && !serve(*it, now)) {
       drop(*it);
       it = clients_.erase(it);
@@ -189,24 +180,25 @@ void ControlServer::accept_clients(TimePoint now) {
     c.fd = fd;
     c.deadline = now + options_.client_timeout;
     c.peer = peer_credentials(fd);
-    c.direct = std::make_shared<DirectAnswer>(fd);
     clients_.push_back(std::move(c));
   }
 }
 
 bool ControlServer::serve(Client& c, TimePoint now) {
   if (c.waiting_tag != 0) return now < c.deadline;  // its command runs; deliver() answers
-  // An answer is read before the next request is looked at.
+  // An answer is read before the next request is looked at; the window
+  // for that request starts once the whole answer is out (a long answer
+  // to a reading client does not eat its next request's time).
+  const bool was_writing = c.writing();
   if (!c.flush()) return false;
   if (!c.out.empty()) return now < c.deadline;
+  if (was_writing) c.deadline = now + options_.client_timeout;
   if (c.close_after_write || c.peer_closed) return false;
 
   c.read(options_.max_line);
 
   const std::size_t nl = c.in.find('\n');
   if (nl != std::string::npos && nl <= options_.max_line) {
-    // Taken out first: what stays buffered decides whether the connection
-    // may be lent with the command (lend_with).
     const std::string line = c.in.substr(0, nl);
     c.in.erase(0, nl + 1);
     answer(c, line, now);
@@ -294,97 +286,31 @@ void ControlServer::submit(Client& c, ControlRequest request, TimePoint now) {
     log->info("control socket: {} on bus {} node {} by {}", to_string(cmd.op), request.bus, cmd.node, cmd.caller);
   }
   cmd.tag = next_tag_++;
-  const auto tag = cmd.tag;
   const auto wait = cmd.deadline + std::chrono::seconds(2);
-  if (Error e = remote_.submit(request.bus, with_direct_answer(c, request), replies_)) {
-    if (c.direct) c.direct->arm({});
+  if (Error e = remote_.submit(request.bus, cmd, replies_)) {
     c.out = error_answer(e);
     return;
   }
-  c.waiting_tag = tag;
+  c.waiting_tag = cmd.tag;
   c.pending = std::move(request);
   c.deadline = now + wait;
 }
 
-DirectAnswer::Format ControlServer::answer_line(ControlRequest request) {
-  return [request = std::move(request)](const RemoteResult& r) { return remote_answer(request, r) + '\n'; };
-}
-
-RemoteCommand ControlServer::with_direct_answer(Client& c, const ControlRequest& request) const {
-  RemoteCommand cmd = request.command;
-  // Only while nothing else is owed to the client: its answers stay in order.
-  if (!c.direct || !c.out.empty()) return cmd;
-  // Its next request already here waits for this result: a wake-up, not a
-  // quiet hand-back that would leave it for the loop's tick.
-  cmd.wake_owner = !c.in.empty();
-  c.direct->arm(answer_line(request));
-  cmd.direct = c.direct;
-  lend_with(c, cmd, request.bus);
-  return cmd;
-}
-
-void ControlServer::lend_with(Client& c, RemoteCommand& cmd, const std::string& bus) const {
-  // Reads only (writes are checked and logged here), and only while nothing
-  // of the client is buffered here: then one thread reads it at a time.
-  if (cmd.op != RemoteOp::sdo_upload || !c.in.empty() || c.peer_closed || c.skipping || c.close_after_write) return;
-  auto loan = std::make_shared<ConnectionLoan>();
-  loan->connection = c.direct;
-  loan->max_line = options_.max_line;
-  loan->idle_timeout = options_.client_timeout;
-  loan->take = [bus, caller = cmd.caller](std::string_view line, DirectAnswer& connection) {
-    ControlRequest next = parse_control_request(line);
-    std::optional<RemoteCommand> taken;
-    if (next.kind != ControlRequest::Kind::remote || next.command.op != RemoteOp::sdo_upload || next.bus != bus)
-      return taken;
-    next.command.caller = caller;
-    taken = next.command;
-    connection.arm(answer_line(std::move(next)));
-    return taken;
-  };
-  cmd.loan = std::move(loan);
-}
-
-void ControlServer::await_result(Client& c, TimePoint now) {
-  c.wake_asked = true;
-  collect(now, false);
-}
-
-void ControlServer::collect(TimePoint now, bool drain) {
-  collect_results(clients_, *replies_, drain, [&](bool d) { deliver(now, d); });
-}
-
-void ControlServer::deliver(TimePoint now, bool drain) {
-  for (auto& r : drain ? replies_->take() : replies_->take_quiet()) {
-    for (auto& c : clients_) {
-      if (c.waiting_tag != r.tag) continue;
-      if (take_loan_news(c, r)) {
-        c.deadline = kNever;  // the bus thread times an idle client out
-        break;
-      }
-      // A connection given back (r.returned) has its input and no answer.
-      if (!r.returned && r.answer.empty()) {
-        c.out += remote_answer(c.pending, r);
-        c.out += '\n';
-      } else if (!r.returned) {
-        // The bus thread sent the answer, or its start: the rest goes from
-        // here (the buffer was empty when the command was queued).
-        c.out = std::move(r.answer);
-        c.out_done = r.answer_sent;
-      }
-      c.waiting_tag = 0;
-      c.wake_asked = false;
-      c.pending = {};
-      // An idle client given back is past its time: told so, then closed.
-      c.deadline = r.idle ? now : now + options_.client_timeout;
-      c.slot.mark();  // its answer goes out in this turn
-      break;
-    }
+void ControlServer::deliver(TimePoint now) {
+  for (auto& r : replies_->take()) {
+    const auto it = std::find_if(clients_.begin(), clients_.end(),
+                                 [&](const Client& c) { return c.waiting_tag == r.tag; });
+    if (it == clients_.end()) continue;  // its client left
+    it->out += remote_answer(it->pending, r);
+    it->out += '\n';
+    it->waiting_tag = 0;
+    it->pending = {};
+    it->deadline = now + options_.client_timeout;
+    it->slot.mark();  // its answer goes out in this turn
   }
 }
 
 void ControlServer::drop(Client& c) {
-  if (c.waiting_tag != 0 && c.direct) c.direct->shut();
-  c.direct.reset();
   if (c.fd >= 0) ::close(c.fd);
   c.fd = -1;
 }

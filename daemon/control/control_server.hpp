@@ -36,24 +36,21 @@
 // enabled (socket: ascii_gateway.socket, default "ascii.sock" beside the
 // control socket), and closed with the control socket.
 //
-// Thread: the daemon's main loop owns it: add_poll_fds() before poll(),
-// process(now) after, like every component that waits on file descriptors.
-// The handler is called from process(), on that thread. One exception: the
-// answer to an SDO / NMT / LSS command is written to the client by the bus's
-// control thread that ran it (remote/direct_answer.hpp), when nothing else
-// is owed to the client; the main thread then only learns that the command
-// is done, and sends what the socket did not take. And after a read whose
-// client took its whole answer, the connection stays on loan with that bus
-// thread, which reads the client's next request itself and gives the
-// connection back for anything but another read on the same bus
-// (remote/connection_loan.hpp).
+// Thread: the daemon's main loop owns it, and every client connection for
+// the connection's whole life: add_poll_fds() before poll(), process(now)
+// after, like every component that waits on file descriptors. The handler
+// is called from process(), on that thread. A client's SDO / NMT / LSS
+// command runs on its bus's control thread, which only pushes the result to
+// this server's RemoteReplies (its eventfd wakes the loop); the answer is
+// formatted and written here, so one thread reads and writes a client's
+// socket. While its command runs a client's socket is not polled: its next
+// request waits there, in order, and the command's deadline bounds the wait.
 #pragma once
 
 #include "canopen/clock.hpp"
 #include "control/control_request.hpp"
 #include "bus/device_status.hpp"
-#include "bus/remote/line_connection.hpp"
-#include "bus/remote/direct_answer.hpp"
+#include "control/line_connection.hpp"
 #include "control/remote/ascii_server.hpp"
 #include "control/remote/peer_credentials.hpp"
 #include "bus/remote/remote_replies.hpp"
@@ -132,9 +129,6 @@ class ControlServer {
     PeerCredentials peer;
     std::uint64_t waiting_tag = 0;  // a command of this client runs (0: none)
     ControlRequest pending;         // that command, for its answer
-    std::shared_ptr<DirectAnswer> direct;  // the bus threads' way to answer it
-    bool wake_asked = false;        // waiting for its result's wake-up, socket not polled
-    bool lent = false;              // the bus thread reads it (waiting_tag kept), socket not polled
   };
 
   void accept_clients(canopen::TimePoint now);
@@ -148,24 +142,10 @@ class ControlServer {
   std::string commission(const Client& c, const std::string& bus);
   // A client's SDO/NMT/LSS command: checked, logged if a write, queued.
   void submit(Client& c, ControlRequest request, canopen::TimePoint now);
-  // The command of `request` to queue, armed to answer `c` from the bus
-  // thread when that keeps the order of its answers, and lending it the
-  // connection when it may read the next request itself (lend_with).
-  RemoteCommand with_direct_answer(Client& c, const ControlRequest& request) const;
-  void lend_with(Client& c, RemoteCommand& cmd, const std::string& bus) const;
-  // The answer line of a request's result (run on the bus thread).
-  static DirectAnswer::Format answer_line(ControlRequest request);
-  // Takes the results that came back from the buses: the client is free
-  // again, and what of its answer the bus thread did not send goes out.
-  // `drain`: fd() was readable (take() reads the eventfd); otherwise only
-  // the results pushed quietly are collected, without a system call.
-  void deliver(canopen::TimePoint now, bool drain);
-  // A waiting client's socket became readable (its next request or its
-  // end) before its result was collected: collects it, or asks the bus
-  // thread for a wake-up with it and stops polling the socket until then.
-  void await_result(Client& c, canopen::TimePoint now);
-  // deliver(), then keeps a wake-up asked for while a client waits for one.
-  void collect(canopen::TimePoint now, bool drain);
+  // Takes the results that came back from the buses: each client is free
+  // again and its answer goes out in this turn (a client that left is gone
+  // with its result).
+  void deliver(canopen::TimePoint now);
   // Opens the ASCII gateway once its settings are known (see above).
   void open_ascii_gateway();
   void drop(Client& c);

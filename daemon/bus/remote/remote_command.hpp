@@ -5,13 +5,12 @@
 // master of the bus: the bus manager's control thread runs these commands
 // between its own work, never on a node it is configuring.
 //
-// RemoteResult is the outcome, delivered through RemoteReplies; when the
-// command carries its client's DirectAnswer, the bus thread has already
-// written the answer line (or what of it the socket took).
+// RemoteResult is the outcome, delivered through RemoteReplies to the
+// thread that owns the client's connection, which writes the answer.
 //
-// Thread contract: plain values (and a handle on the client's connection);
-// built on the main thread (control socket, ASCII gateway), executed on the
-// bus's control thread.
+// Thread contract: plain values, nothing of the client's connection; built
+// on the main thread (control socket, ASCII gateway), executed on the bus's
+// control thread.
 #pragma once
 
 #include "base/error.hpp"
@@ -26,9 +25,6 @@
 #include <vector>
 
 namespace cobridge::gateway {
-
-class DirectAnswer;
-struct ConnectionLoan;
 
 enum class RemoteOp : std::uint8_t {
   sdo_upload,    // read index:sub of `node`
@@ -69,16 +65,6 @@ struct RemoteCommand {
   std::chrono::milliseconds deadline{10000};
   std::uint64_t tag = 0;  // the submitter's, echoed in the result
   std::string caller;     // "uid 1000 pid 42 (control socket)", for the log of writes
-  // Set when the bus thread may write the answer to the client itself
-  // (direct_answer.hpp); null: the answer takes the main thread's path.
-  std::shared_ptr<DirectAnswer> direct;
-  // Set when the connection may stay with the bus thread after this
-  // command, which then reads the client's next request itself
-  // (connection_loan.hpp); null: the main thread reads it.
-  std::shared_ptr<ConnectionLoan> loan;
-  // The submitter holds the client's next request: wake it with the result
-  // even when the bus thread sent the whole answer (no quiet hand-back).
-  bool wake_owner = false;
 
   [[nodiscard]] bool is_write() const noexcept { return op != RemoteOp::sdo_upload; }
 };
@@ -90,20 +76,6 @@ struct RemoteResult {
   std::vector<std::uint8_t> data;  // sdo_upload: the value as read
   std::uint32_t value = 0;         // lss: the last inquired value
   std::vector<std::uint32_t> values;  // lss: every inquired value, in order
-  // With a DirectAnswer: the answer line and how many of its bytes the bus
-  // thread sent; the main thread sends the rest. Empty without one.
-  std::string answer;
-  std::size_t answer_sent = 0;
-  // The connection's loan (connection_loan.hpp). kept: the client has its
-  // whole answer and the bus thread now reads its requests (the main thread
-  // leaves the socket alone). returned: the bus thread gives the connection
-  // back, with what it read that it does not run itself (`input`), the
-  // client's end (`peer_closed`), or an idle client (`idle`).
-  bool kept = false;
-  bool returned = false;
-  std::string input;
-  bool peer_closed = false;
-  bool idle = false;
 };
 
 [[nodiscard]] const char* to_string(RemoteOp op) noexcept;

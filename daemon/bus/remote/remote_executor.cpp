@@ -1,7 +1,5 @@
 #include "bus/remote/remote_executor.hpp"
 
-#include "bus/remote/direct_answer.hpp"
-
 #include "canopen/cob_id.hpp"
 #include "canopen/sdo_abort.hpp"
 #include "sys/logging.hpp"
@@ -47,13 +45,7 @@ RemoteExecutor::RemoteExecutor(can::FrameSink& sink, std::string bus_name, canop
 RemoteExecutor::~RemoteExecutor() { abort_all("the bus stopped"); }
 
 void RemoteExecutor::add(RemoteCommand command, std::shared_ptr<RemoteReplies> reply_to, TimePoint now) {
-  queue(std::move(command), std::move(reply_to), now, false);
-}
-
-void RemoteExecutor::queue(RemoteCommand command, std::shared_ptr<RemoteReplies> reply_to, TimePoint now,
-                           bool read_here) {
   Entry e;
-  e.read_here = read_here;
   e.deadline = now + command.deadline;
   e.not_before = now;
   e.cmd = std::move(command);
@@ -90,9 +82,7 @@ void RemoteExecutor::on_frame(const can::Frame& frame, TimePoint now) {
 }
 
 TimePoint RemoteExecutor::process(TimePoint now, RemoteGate& gate) {
-  TimePoint next = loans_.process(now, [&](RemoteCommand c, std::shared_ptr<RemoteReplies> to) {
-    queue(std::move(c), std::move(to), now, true);
-  });
+  TimePoint next = kNever;
   if (active_) next = std::min(next, drive(now, gate));
   expire(now);
   for (auto it = queue_.begin(); !active_ && it != queue_.end(); ++it) {
@@ -237,19 +227,8 @@ void RemoteExecutor::retry_later(TimePoint now, const char* why) {
 }
 
 void RemoteExecutor::reply(Entry& e, RemoteResult result) {
-  // The client reads its answer before the main thread hears of it.
-  auto loan = std::move(e.cmd.loan);
-  const bool whole = answer_client(e.cmd, result);
-  if (loan && whole && e.to) {
-    result.kept = true;
-    loans_.keep(std::move(loan), result.tag, e.to);
-    // Its server learnt of the loan with the first command it lent it with.
-    if (e.read_here) {
-      e.to.reset();
-      return;
-    }
-  }
-  if (e.to) push_result(*e.to, std::move(result), hand_back_quietly(e.cmd, whole));
+  result.tag = e.cmd.tag;
+  if (e.to) e.to->push(std::move(result));
   e.to.reset();
 }
 
@@ -268,7 +247,6 @@ void RemoteExecutor::abort_all(const std::string& why) {
     reply(e, std::move(r));
   }
   queue_.clear();
-  loans_.return_all();
 }
 
 }  // namespace cobridge::gateway

@@ -24,11 +24,9 @@
 //
 // Thread: the bus's control thread owns it, like every protocol component:
 // frames and `now` are passed in, process(now, gate) returns the next
-// deadline; add_poll_fds()/note_ready() around its poll for the connections
-// it holds. Results are pushed to each command's RemoteReplies, after the
-// answer line was sent to the client from this thread when the command
-// carries a DirectAnswer (the main thread then only does its bookkeeping,
-// and is not woken for it: RemoteReplies::push_quiet).
+// deadline. Results are pushed to each command's RemoteReplies, tagged;
+// the thread that owns the client's connection writes the answer (nothing
+// here touches a client's socket).
 #pragma once
 
 #include "can/frame.hpp"
@@ -36,11 +34,8 @@
 #include "canopen/clock.hpp"
 #include "canopen/lss_master.hpp"
 #include "canopen/sdo_client.hpp"
-#include "bus/remote/connection_loan.hpp"
 #include "bus/remote/remote_command.hpp"
 #include "bus/remote/remote_replies.hpp"
-
-#include <poll.h>
 
 #include <deque>
 #include <memory>
@@ -74,9 +69,6 @@ class RemoteExecutor {
   RemoteExecutor& operator=(const RemoteExecutor&) = delete;
 
   void add(RemoteCommand command, std::shared_ptr<RemoteReplies> reply_to, canopen::TimePoint now);
-  // The connections held on loan, for the control thread's poll.
-  void add_poll_fds(std::vector<pollfd>& fds) { loans_.add_poll_fds(fds); }
-  void note_ready(const std::vector<pollfd>& fds) { loans_.note_ready(fds); }
   void on_frame(const can::Frame& frame, canopen::TimePoint now);
   canopen::TimePoint process(canopen::TimePoint now, RemoteGate& gate);
 
@@ -86,8 +78,7 @@ class RemoteExecutor {
   // state: discovery must not send (or be fed) LSS frames.
   [[nodiscard]] bool lss_session(canopen::TimePoint now) const noexcept;
   [[nodiscard]] std::size_t waiting() const noexcept { return queue_.size() + (active_ ? 1U : 0U); }
-  [[nodiscard]] std::size_t connections_held() const noexcept { return loans_.size(); }
-  // Every command ends with `why` and every connection held goes back (the bus stops).
+  // Every command ends with `why` (the bus stops).
   void abort_all(const std::string& why);
 
  private:
@@ -97,7 +88,6 @@ class RemoteExecutor {
     canopen::TimePoint deadline{};
     canopen::TimePoint not_before{};
     unsigned restarts = 0;  // transfers started again after a reboot / silence
-    bool read_here = false;  // taken from a connection on loan: its server knows it is lent
   };
 
   bool startable(const Entry& e, canopen::TimePoint now, RemoteGate& gate) const;
@@ -108,7 +98,6 @@ class RemoteExecutor {
   void finish_sdo(const canopen::SdoClient::Result& r, canopen::TimePoint now, const RemoteGate& gate);
   void lss_step_done(std::error_code ec, std::uint32_t value, canopen::TimePoint now, RemoteGate& gate);
   void retry_later(canopen::TimePoint now, const char* why);
-  void queue(RemoteCommand command, std::shared_ptr<RemoteReplies> reply_to, canopen::TimePoint now, bool read_here);
   void reply(Entry& e, RemoteResult result);
   void expire(canopen::TimePoint now);
 
@@ -123,7 +112,6 @@ class RemoteExecutor {
   std::vector<std::uint32_t> lss_values_;
   std::optional<canopen::LssAddress> selected_;  // the device switched selectively
   canopen::TimePoint lss_session_until_{};
-  LoanedConnections loans_;
 };
 
 }  // namespace cobridge::gateway

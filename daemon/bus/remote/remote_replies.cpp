@@ -3,6 +3,7 @@
 #include <sys/eventfd.h>
 #include <unistd.h>
 
+#include <cstdint>
 #include <utility>
 
 namespace cobridge::gateway {
@@ -17,41 +18,18 @@ void RemoteReplies::push(RemoteResult result) {
   {
     const std::lock_guard lock(mutex_);
     results_.push_back(std::move(result));
-    wake_wanted_ = false;
   }
-  const std::uint64_t one = 1;
-  [[maybe_unused]] const auto n = ::write(fd_, &one, sizeof one);
-}
-
-void RemoteReplies::push_quiet(RemoteResult result) {
-  bool wake = false;
-  {
-    const std::lock_guard lock(mutex_);
-    results_.push_back(std::move(result));
-    wake = std::exchange(wake_wanted_, false);
-  }
-  if (!wake) return;
   const std::uint64_t one = 1;
   [[maybe_unused]] const auto n = ::write(fd_, &one, sizeof one);
 }
 
 std::vector<RemoteResult> RemoteReplies::take() {
+  // The counter first: a push after it makes fd() readable again, so no
+  // result waits unseen.
   std::uint64_t v = 0;
   [[maybe_unused]] const auto n = ::read(fd_, &v, sizeof v);
   const std::lock_guard lock(mutex_);
   return std::exchange(results_, {});
-}
-
-std::vector<RemoteResult> RemoteReplies::take_quiet() {
-  const std::lock_guard lock(mutex_);
-  return std::exchange(results_, {});
-}
-
-bool RemoteReplies::want_wake() {
-  const std::lock_guard lock(mutex_);
-  if (!results_.empty()) return false;
-  wake_wanted_ = true;
-  return true;
 }
 
 }  // namespace cobridge::gateway

@@ -1,9 +1,5 @@
 #include "control/remote/ascii_server.hpp"
 
-#include "control/remote/awaited_results.hpp"
-#include "bus/remote/connection_loan.hpp"
-#include "bus/remote/direct_answer.hpp"
-
 #include "sys/logging.hpp"
 
 #include <arpa/inet.h>
@@ -104,8 +100,9 @@ void AsciiServer::add_poll_fds(std::vector<pollfd>& fds) {
   if (tcp_fd_ >= 0) tcp_slot_.add(fds, tcp_fd_, POLLIN);
   replies_slot_.add(fds, replies_->fd(), POLLIN);
   for (auto& c : clients_) {
+    // While its command runs, a client's next lines wait in the socket.
     if (c.writing()) c.slot.add(fds, c.fd, POLLOUT);
-    else if (c.waiting_tag == 0 || !(c.wake_asked || c.lent)) c.slot.add(fds, c.fd, POLLIN);
+    else if (c.waiting_tag == 0) c.slot.add(fds, c.fd, POLLIN);
     else c.slot.skip();
   }
 }
@@ -120,12 +117,11 @@ void AsciiServer::note_ready(const std::vector<pollfd>& fds) {
 TimePoint AsciiServer::process(TimePoint now) {
   if (unix_fd_ >= 0 && unix_slot_.take()) accept_from(unix_fd_, false, now);
   if (tcp_fd_ >= 0 && tcp_slot_.take()) accept_from(tcp_fd_, true, now);
-  collect(now, replies_slot_.take());
+  if (replies_slot_.take()) deliver(now);
   TimePoint next = kNever;
   for (auto it = clients_.begin(); it != clients_.end();) {
     const bool buffered = it->waiting_tag == 0 && it->in.find('\n') != std::string::npos;
     const bool try_io = it->slot.take();
-    if (try_io && it->waiting_tag != 0) await_result(*it, now);
     if ((try_io || buffered || now >= it->idle_until) && !serve(*it, now)) {
       drop(*it);
       it = clients_.erase(it);
@@ -158,7 +154,6 @@ void AsciiServer::accept_from(int listen_fd, bool tcp, TimePoint now) {
     c.fd = fd;
     c.sdo_timeout = options_.sdo_timeout;
     c.idle_until = now + options_.idle_timeout;
-    c.direct = std::make_shared<DirectAnswer>(fd);
     if (tcp) {
       char a[INET_ADDRSTRLEN] = "?";
       ::inet_ntop(AF_INET, &peer.sin_addr, a, sizeof a);
@@ -242,13 +237,10 @@ std::string AsciiServer::run(Client& c, AsciiRequest r) {
     sys::logger("gateway")->info("ascii gateway: {} on net {} node {} by {}", to_string(cmd.op), net, cmd.node, cmd.caller);
   }
   cmd.tag = next_tag_++;
-  const auto tag = cmd.tag;
   r.seq = seq;
-  if (Error e = remote_.submit("#" + std::to_string(net), with_direct_answer(c, r, net), replies_)) {
-    if (c.direct) c.direct->arm({});
+  if (Error e = remote_.submit("#" + std::to_string(net), cmd, replies_))
     return ascii_error(seq, e.kind == Errc::kNotFound ? AsciiError::unsupported_net : AsciiError::internal_state);
-  }
-  c.waiting_tag = tag;
+  c.waiting_tag = cmd.tag;
   c.pending = std::move(r);
   return {};
 }
@@ -262,83 +254,16 @@ void AsciiServer::fill_command(AsciiRequest& r, std::uint8_t node, std::chrono::
   cmd.caller = who + " (CiA 309-3 gateway)";
 }
 
-DirectAnswer::Format AsciiServer::answer_line(AsciiRequest r) {
-  return [r = std::move(r)](const RemoteResult& res) { return ascii_line(ascii_answer(r, res)); };
-}
-
-RemoteCommand AsciiServer::with_direct_answer(Client& c, const AsciiRequest& r, unsigned net) const {
-  RemoteCommand cmd = r.command;
-  // Only while nothing else is owed to the client: its answers stay in order.
-  if (!c.direct || !c.out.empty()) return cmd;
-  // Its next request already here waits for this result: a wake-up, not a
-  // quiet hand-back that would leave it for the loop's tick.
-  cmd.wake_owner = !c.in.empty();
-  c.direct->arm(answer_line(r));
-  cmd.direct = c.direct;
-  lend_with(c, cmd, r.kind, net);
-  return cmd;
-}
-
-void AsciiServer::lend_with(Client& c, RemoteCommand& cmd, AsciiRequest::Kind kind, unsigned net) const {
-  // Reads only, and only while nothing of the client is buffered here (as
-  // the control socket: connection_loan.hpp).
-  if (kind != AsciiRequest::Kind::read || !c.in.empty() || c.peer_closed || c.skipping) return;
-  auto loan = std::make_shared<ConnectionLoan>();
-  loan->connection = c.direct;
-  loan->max_line = options_.max_line;
-  loan->idle_timeout = options_.idle_timeout;
-  // The connection's defaults cannot change while lent ("set" goes back).
-  loan->take = [net, default_net = c.net, default_node = c.node, timeout = c.sdo_timeout, who = c.who](
-                   std::string_view line, DirectAnswer& connection) {
-    AsciiRequest next = parse_ascii_request(line);
-    std::optional<RemoteCommand> taken;
-    const int node = next.node >= 0 ? next.node : default_node;
-    if (next.kind != AsciiRequest::Kind::read || (next.net != 0 ? next.net : default_net) != net || node < 1 ||
-        node > 127)
-      return taken;  // the main thread answers it (or its error)
-    if (next.seq.empty()) next.seq = "0";
-    fill_command(next, static_cast<std::uint8_t>(node), timeout, who);
-    taken = next.command;
-    connection.arm(answer_line(std::move(next)));
-    return taken;
-  };
-  cmd.loan = std::move(loan);
-}
-
-void AsciiServer::await_result(Client& c, TimePoint now) {
-  c.wake_asked = true;
-  collect(now, false);
-}
-
-void AsciiServer::collect(TimePoint now, bool drain) {
-  collect_results(clients_, *replies_, drain, [&](bool d) { deliver(now, d); });
-}
-
-void AsciiServer::deliver(TimePoint now, bool drain) {
-  for (auto& res : drain ? replies_->take() : replies_->take_quiet()) {
-    for (auto& c : clients_) {
-      if (c.waiting_tag != res.tag) continue;
-      if (take_loan_news(c, res)) {
-        c.idle_until = kNever;  // the bus thread times an idle client out
-        break;
-      }
-      // A connection given back (res.returned) has its input and no answer.
-      if (!res.returned && res.answer.empty()) {
-        c.out += ascii_line(ascii_answer(c.pending, res));
-      } else if (!res.returned) {
-        // The bus thread sent the answer, or its start: the rest goes from
-        // here (the buffer was empty when the command was queued).
-        c.out = std::move(res.answer);
-        c.out_done = res.answer_sent;
-      }
-      c.waiting_tag = 0;
-      c.wake_asked = false;
-      c.pending = {};
-      // An idle client given back is past its time: closed.
-      c.idle_until = res.idle ? now : now + options_.idle_timeout;
-      c.slot.mark();  // its answer goes out in this turn
-      break;
-    }
+void AsciiServer::deliver(TimePoint now) {
+  for (auto& res : replies_->take()) {
+    const auto it = std::find_if(clients_.begin(), clients_.end(),
+                                 [&](const Client& c) { return c.waiting_tag == res.tag; });
+    if (it == clients_.end()) continue;  // its client left
+    it->out += ascii_line(ascii_answer(it->pending, res));
+    it->waiting_tag = 0;
+    it->pending = {};
+    it->idle_until = now + options_.idle_timeout;
+    it->slot.mark();  // its answer goes out in this turn
   }
 }
 
@@ -374,8 +299,6 @@ std::string ascii_answer(const AsciiRequest& r, const RemoteResult& result) {
 }
 
 void AsciiServer::drop(Client& c) {
-  if (c.waiting_tag != 0 && c.direct) c.direct->shut();
-  c.direct.reset();
   if (c.fd >= 0) ::close(c.fd);
   c.fd = -1;
 }

@@ -16,19 +16,18 @@
 // is closed after `idle_timeout`.
 //
 // Thread: the daemon's main thread, like ControlServer (which drives it):
-// add_poll_fds() before poll(), process(now) after. The answer to an SDO /
-// NMT / LSS request is written by the bus's control thread that ran it
-// (direct_answer.hpp) when nothing else is owed to the client; the main
-// thread learns it is done and sends what the socket did not take. After a
-// read whose answer went out whole, the bus thread keeps the connection and
-// reads the client's next request itself (remote/connection_loan.hpp).
+// add_poll_fds() before poll(), process(now) after. That thread owns every
+// connection for its whole life: a request's SDO / NMT / LSS command runs
+// on its bus's control thread, which only pushes the result to this
+// server's RemoteReplies; the answer is formatted and written here. While
+// a command runs its client's socket is not read (later lines wait there,
+// in order).
 #pragma once
 
 #include "base/error.hpp"
 #include "canopen/clock.hpp"
 #include "config/remote_access.hpp"
-#include "bus/remote/line_connection.hpp"
-#include "bus/remote/direct_answer.hpp"
+#include "control/line_connection.hpp"
 #include "control/remote/ascii_request.hpp"
 #include "control/remote/peer_credentials.hpp"
 #include "bus/remote/remote_replies.hpp"
@@ -86,9 +85,6 @@ class AsciiServer {
     std::uint64_t waiting_tag = 0;
     AsciiRequest pending;
     canopen::TimePoint idle_until{};
-    std::shared_ptr<DirectAnswer> direct;  // the bus threads' way to answer it
-    bool wake_asked = false;  // waiting for its result's wake-up, socket not polled
-    bool lent = false;        // the bus thread reads it (waiting_tag kept), socket not polled
   };
 
   void accept_from(int listen_fd, bool tcp, canopen::TimePoint now);
@@ -97,25 +93,12 @@ class AsciiServer {
   void answer(Client& c, std::string_view line, canopen::TimePoint now);
   // The answer to a local request (set, info, help), or empty when queued.
   std::string run(Client& c, AsciiRequest r);
-  // The command of `r` (for `net`) to queue, armed to answer `c` from the
-  // bus thread when that keeps the order of its answers, and lending it the
-  // connection for a read when it may read the next request itself
-  // (connection_loan.hpp: another read on the same net is run there).
-  RemoteCommand with_direct_answer(Client& c, const AsciiRequest& r, unsigned net) const;
-  void lend_with(Client& c, RemoteCommand& cmd, AsciiRequest::Kind kind, unsigned net) const;
   // A request's node, SDO timeout, deadline and caller from the connection.
   static void fill_command(AsciiRequest& r, std::uint8_t node, std::chrono::milliseconds sdo_timeout,
                            const std::string& who);
-  // The answer line of a request's result (run on the bus thread).
-  static DirectAnswer::Format answer_line(AsciiRequest r);
-  // Takes the results that came back: the client is free again, and what
-  // of its answer the bus thread did not send goes out.
-  // `drain`: fd() was readable; otherwise only what was pushed quietly is
-  // collected, without a system call.
-  void deliver(canopen::TimePoint now, bool drain);
-  // As in ControlServer: a waiting client's socket is readable first.
-  void await_result(Client& c, canopen::TimePoint now);
-  void collect(canopen::TimePoint now, bool drain);
+  // Takes the results that came back: each client is free again and its
+  // answer goes out in this turn (a client that left is gone with its result).
+  void deliver(canopen::TimePoint now);
   void drop(Client& c);
 
   RemoteTarget& remote_;

@@ -7,6 +7,7 @@
 #include "scripted_gate.hpp"
 
 #include <gtest/gtest.h>
+#include <poll.h>
 
 #include <set>
 #include <vector>
@@ -199,4 +200,25 @@ TEST_F(RemoteExecutorTest, AnsweredInquiryHoldsTheSession) {
   EXPECT_EQ(r[0].value & 0xFF, 20U);
   EXPECT_TRUE(ex.lss_session(t0 + 9s));
   EXPECT_FALSE(ex.lss_session(t0 + 11s));
+}
+
+// The bus stopping: the running command and every queued one end with an
+// error, each result tagged for its client's server, so no client waits on
+// a bus that is gone.
+TEST_F(RemoteExecutorTest, TheBusStoppingEndsEveryCommandWithAnError) {
+  gw::RemoteCommand queued = upload(11);
+  queued.tag = 8;
+  ex.add(upload(10), replies, t0);
+  ex.add(std::move(queued), replies, t0);
+  ex.process(t0, gate);
+  ASSERT_EQ(ex.sdo_node(), 10);
+  ex.abort_all("the bus stopped");
+  pollfd p{replies->fd(), POLLIN, 0};
+  EXPECT_EQ(::poll(&p, 1, 0), 1) << "the clients' server was not woken";
+  const auto r = replies->take();
+  ASSERT_EQ(r.size(), 2U);
+  EXPECT_EQ(r[0].tag, 7U);
+  EXPECT_EQ(r[1].tag, 8U);
+  for (const auto& res : r) EXPECT_EQ(res.error.kind, Errc::kUnavailable);
+  EXPECT_EQ(ex.waiting(), 0U);
 }

@@ -1,10 +1,10 @@
-// AsciiServer (control/remote/ascii_server.hpp): a gateway that cannot open
+// AsciiServer (gateway/remote/ascii_server.hpp): a gateway that cannot open
 // says what failed where, in the one error shape (base/error.hpp), and the
-// daemon keeps running without it; the answer to a CiA 309-3 read reaches
-// the client from the thread that finished it (issue 15).
+// daemon keeps running without it; a CiA 309-3 request's answer is written
+// by the thread that owns the connection (the server's), in the order of the
+// requests, with the request's sequence number.
 #include "control/remote/ascii_server.hpp"
 
-#include "bus/remote/connection_loan.hpp"
 #include "held_commands.hpp"
 
 #include <gtest/gtest.h>
@@ -135,28 +135,31 @@ struct HeldGateway {
   int fd = -1;
 };
 
-// CiA 309-3 "[seq] net node r index sub type" -> "[seq] value", sent by the
-// bus's thread (here the test's) while the main loop does not run.
-TEST(AsciiServer, ReadAnswerReachesTheClientWithoutTheMainLoop) {
+// CiA 309-3 "[seq] net node r index sub type" -> "[seq] value". A finished
+// command's result alone writes nothing (the bus thread never touches the
+// client's socket); the server's turn writes it, then takes the next
+// pipelined line, in order.
+TEST(AsciiServer, ReadAnswerIsWrittenByTheServersTurnInOrder) {
   HeldGateway g;
   g.send("[1] 1 20 r 0x1018 4 u32\n[2] 1 20 r 0x1018 1 u32\n");  // pipelined
   ASSERT_TRUE(g.run_until_held(1));
   RemoteResult r;
   r.data = {0xD1, 0x07, 0x00, 0x00};
-  g.bus.finish(r);
+  ASSERT_TRUE(g.bus.finish(r));
+  EXPECT_EQ(read_line(g.fd, 100), "<timeout>") << "the answer was written by a thread other than the owner";
+  g.turn();
   EXPECT_EQ(read_line(g.fd, 500), "[1] 2001");
-  // The main loop learns it is done and takes the next line, in order.
   ASSERT_TRUE(g.run_until_held(1));
   r.data = {0x82, 0x01, 0x00, 0x00};
-  g.bus.finish(r);
+  ASSERT_TRUE(g.bus.finish(r));
+  g.turn();
   EXPECT_EQ(read_line(g.fd, 500), "[2] 386");
 }
 
-// Issue 15: a read lends the connection to the bus thread
-// (connection_loan.hpp), which takes another read on the same net itself,
-// with the connection's default node, and nothing else; what it gives back
-// is served by the main loop as if read there.
-TEST(AsciiServer, AReadLendsTheConnectionForTheNextReadOnItsNet) {
+// A read takes the connection's defaults ("set node"), its answer carries
+// its own sequence number, and a request sent while it runs waits its turn
+// (one request of a connection at a time), then is served with its own.
+TEST(AsciiServer, AReadUsesTheConnectionsDefaultsAndLaterLinesWaitTheirTurn) {
   HeldGateway g;
   g.send("[1] set node 20\n");
   g.turn();
@@ -164,46 +167,23 @@ TEST(AsciiServer, AReadLendsTheConnectionForTheNextReadOnItsNet) {
 
   g.send("[3] r 0x1018 4 u32\n");
   ASSERT_TRUE(g.run_until_held(1));
-  auto held = g.bus.take();
-  ASSERT_TRUE(held && held->first.loan);
-  const auto loan = held->first.loan;
-  RemoteResult r;
-  r.data = {0xD1, 0x07, 0x00, 0x00};
-  r.kept = answer_client(held->first, r);
-  ASSERT_TRUE(r.kept);
-  push_result(*held->second, r, true);
-  EXPECT_EQ(read_line(g.fd, 500), "[3] 2001");
-
-  EXPECT_FALSE(loan->take("[4] 2 20 r 0x1018 1", *loan->connection));  // another net
-  EXPECT_FALSE(loan->take("[4] 1 20 w 0x2000 0 u8 1", *loan->connection));
-  EXPECT_FALSE(loan->take("[4] set node 5", *loan->connection));
-  EXPECT_FALSE(loan->take("[4] 1 0 r 0x1018 1", *loan->connection));  // node 0: the main thread's error
-  auto next = loan->take("[5] r 0x1018 1 u32", *loan->connection);
-  ASSERT_TRUE(next);
-  EXPECT_EQ(next->node, 20);  // the default node
-  EXPECT_EQ(next->sub, 1);
-  next->direct = loan->connection;
-  RemoteResult one;
-  one.data = {0x2A, 0, 0, 0};
-  (void)answer_client(*next, one);
-  EXPECT_EQ(read_line(g.fd, 500), "[5] 42");
-
-  // While lent, the main loop does not read the client: the bus thread does.
+  const auto cmd = g.bus.oldest();
+  ASSERT_TRUE(cmd);
+  EXPECT_EQ(cmd->node, 20);  // the default node
+  EXPECT_EQ(cmd->sub, 4);
   g.send("[6] info version\n");
   g.turn();
-  EXPECT_EQ(read_line(g.fd, 100), "<timeout>");
-  char buf[64];
-  RemoteResult back;
-  const ssize_t n = ::recv(loan->connection->fd(), buf, sizeof buf, MSG_DONTWAIT);
-  ASSERT_EQ(n, 17);
-  back.input.assign(buf, static_cast<std::size_t>(n));
-  give_back(held->first.tag, *held->second, back);
+  EXPECT_EQ(read_line(g.fd, 100), "<timeout>") << "a line was answered before the read it follows";
+  RemoteResult r;
+  r.data = {0xD1, 0x07, 0x00, 0x00};
+  ASSERT_TRUE(g.bus.finish(r));
   g.turn();
+  EXPECT_EQ(read_line(g.fd, 500), "[3] 2001");
   EXPECT_EQ(read_line(g.fd, 500).rfind("[6] cobridge", 0), 0U);
 }
 
 // CiA 309-3 (answer syntax): every answer ends with CR LF, whoever sends it
-// (the main loop, the bus thread, the main loop after the bus thread), the
+// (a local answer, a bus command's result, a device's abort), the
 // error answers of lines that are no request included; a request ended by
 // CR LF is served as one ended by LF (issue 25, item 1: `cocomm` hung on
 // every answer ended by a bare LF).
@@ -222,26 +202,22 @@ TEST(AsciiServer, EveryAnswerEndsWithCrLfAndCrLfRequestsAreServed) {
   EXPECT_EQ(read_line(g.fd, 500), "[0] ERROR: 101");  // longer than max_line
   EXPECT_EQ(read_line(g.fd, 500).rfind("[5] commands:", 0), 0U);
 
-  // Answered by the bus thread (direct_answer.hpp).
+  // A bus command's result.
   g.send("[6] r 0x1018 4 u32\r\n");
   ASSERT_TRUE(g.run_until_held(1));
   RemoteResult r;
   r.data = {0xD1, 0x07, 0x00, 0x00};
-  g.bus.finish(r);
-  EXPECT_EQ(read_line(g.fd, 500), "[6] 2001");
+  ASSERT_TRUE(g.bus.finish(r));
   g.turn();
+  EXPECT_EQ(read_line(g.fd, 500), "[6] 2001");
 
-  // Answered by the main loop (no connection for the bus thread to write to).
+  // A device's abort.
   g.send("[7] 1 20 r 0x1018 1 u32\r\n");
   ASSERT_TRUE(g.run_until_held(1));
-  auto held = g.bus.take();
-  ASSERT_TRUE(held);
-  held->first.direct.reset();
-  held->first.loan.reset();
   RemoteResult abort;
   abort.error = cobridge::Error(Errc::kFailed, "aborted");
   abort.abort_code = 0x06020000;
-  hand_back(held->first, abort, held->second.get());
+  ASSERT_TRUE(g.bus.finish(abort));
   g.turn();
   EXPECT_EQ(read_line(g.fd, 500), "[7] ERROR: 0x06020000");
 }

@@ -1,14 +1,13 @@
 // HeldCommands: a RemoteTarget with one bus (net 1, "line1" on vcan0) whose
 // control thread is the test: submitted commands wait until finish() ends
-// the oldest one the way RemoteExecutor::reply() does (hand_back: the
-// client's DirectAnswer first, then the reply queue). For the control socket and
+// the oldest one the way RemoteExecutor::reply() does (the result, with the
+// command's tag, pushed to its reply queue). For the control socket and
 // CiA 309-3 gateway tests.
 //
 // Threads: submit() from the server under test, finish()/held() from the
 // test; both under the mutex.
 #pragma once
 
-#include "bus/remote/direct_answer.hpp"
 #include "bus/remote/remote_replies.hpp"
 #include "bus/remote/remote_target.hpp"
 
@@ -47,19 +46,22 @@ class HeldCommands final : public RemoteTarget {
   }
   // False when no command waits.
   bool finish(RemoteResult result) {
-    auto held = take();
-    if (!held) return false;
-    hand_back(held->first, std::move(result), held->second.get());
+    std::pair<RemoteCommand, std::shared_ptr<RemoteReplies>> oldest;
+    {
+      const std::lock_guard lock(mutex_);
+      if (held_.empty()) return false;
+      oldest = std::move(held_.front());
+      held_.pop_front();
+    }
+    result.tag = oldest.first.tag;
+    if (oldest.second) oldest.second->push(std::move(result));
     return true;
   }
-  // The oldest command and where its result goes, for a test that ends it
-  // itself (a connection kept on loan, connection_loan.hpp).
-  std::optional<std::pair<RemoteCommand, std::shared_ptr<RemoteReplies>>> take() {
+  // The oldest command still waiting, as the bus would run it (a copy).
+  [[nodiscard]] std::optional<RemoteCommand> oldest() const {
     const std::lock_guard lock(mutex_);
     if (held_.empty()) return std::nullopt;
-    auto oldest = std::move(held_.front());
-    held_.pop_front();
-    return oldest;
+    return held_.front().first;
   }
 
  private:

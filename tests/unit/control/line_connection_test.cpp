@@ -1,7 +1,7 @@
 // LineConnection (bus/remote/line_connection.hpp): how the control socket and
 // the CiA 309-3 gateway receive request lines and send answers, over a real
 // socket pair.
-#include "bus/remote/line_connection.hpp"
+#include "control/line_connection.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // PollSlot (bus/remote/poll_slot.hpp): a component touches only what poll()
 // reported ready; without a poll result it tries everything.
-#include "bus/remote/poll_slot.hpp"
+#include "control/poll_slot.hpp"
 
 #include <gtest/gtest.h>
 

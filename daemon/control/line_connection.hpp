@@ -10,7 +10,7 @@
 // Thread: the main loop, through the server that owns the connection.
 #pragma once
 
-#include "bus/remote/poll_slot.hpp"
+#include "control/poll_slot.hpp"
 
 #include <poll.h>
 

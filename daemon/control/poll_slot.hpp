@@ -2,7 +2,7 @@
 // whether poll() saw it ready. The control socket and the CiA 309-3 gateway
 // touch (accept, recv, read the reply eventfd) only what is ready: on a
 // single-CPU host every needless system call sits in the path of a client's
-// answer (an SDO read through the daemon adds <= 1 ms).
+// answer (an SDO read through the daemon adds <= 2 ms).
 //
 // "Unknown" counts as ready: a component whose owner did not report the
 // poll result (tests driving process() directly, the first turn, a

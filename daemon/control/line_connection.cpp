@@ -1,4 +1,4 @@
-#include "bus/remote/line_connection.hpp"
+#include "control/line_connection.hpp"
 
 #include "sys/logging.hpp"
 
