@@ -28,30 +28,9 @@
 #include <thread>
 #include <vector>
 
-using namespace std::chrono_literals;
-using cobridge::Errc;
-using cobridge::Error;
-using cobridge::gateway::BusStatus;
-using cobridge::gateway::ControlHandler;
-using cobridge::gateway::ControlResult;
-using cobridge::gateway::ControlServer;
-using cobridge::gateway::ControlServerOptions;
-using cobridge::gateway::DeviceState;
-using cobridge::gateway::DeviceStatus;
-using cobridge::gateway::RemoteBus;
-using cobridge::gateway::RemoteCommand;
-using cobridge::gateway::RemoteReplies;
-using cobridge::gateway::RemoteResult;
-using cobridge::gateway::RemoteTarget;
-using cobridge::gateway::StatusReport;
-using cobridge::test::eventually;
-using Clock = std::chrono::steady_clock;
-using cobridge::gateway::testing::Client;
-using cobridge::gateway::testing::FakeHandler;
+// The names every control-server test uses: tests/unit/control/control_server_fixture.hpp.
 using cobridge::gateway::testing::HeldCommands;
-using cobridge::gateway::testing::ServerLoop;
-using cobridge::gateway::testing::fast_options;
-using cobridge::gateway::testing::kAbsenceWindow;
+using cobridge::test::eventually;
 
 // One owning thread per connection: a finished command's result alone
 // writes nothing to the client (the bus thread never touches its socket);

@@ -194,3 +194,27 @@ constexpr auto kAbsenceWindow = 100ms;
 
 
 }  // namespace cobridge::gateway::testing
+
+// The names the control-server tests use, for both of their files.
+using namespace std::chrono_literals;
+using cobridge::Errc;
+using cobridge::Error;
+using cobridge::gateway::BusStatus;
+using cobridge::gateway::ControlHandler;
+using cobridge::gateway::ControlResult;
+using cobridge::gateway::ControlServer;
+using cobridge::gateway::ControlServerOptions;
+using cobridge::gateway::DeviceState;
+using cobridge::gateway::DeviceStatus;
+using cobridge::gateway::RemoteBus;
+using cobridge::gateway::RemoteCommand;
+using cobridge::gateway::RemoteReplies;
+using cobridge::gateway::RemoteResult;
+using cobridge::gateway::RemoteTarget;
+using cobridge::gateway::StatusReport;
+using Clock = std::chrono::steady_clock;
+using cobridge::gateway::testing::Client;
+using cobridge::gateway::testing::FakeHandler;
+using cobridge::gateway::testing::ServerLoop;
+using cobridge::gateway::testing::fast_options;
+using cobridge::gateway::testing::kAbsenceWindow;
