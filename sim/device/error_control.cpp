@@ -20,7 +20,7 @@ void SimDevice::Impl::on_nmt_change(NmtState from, TimePoint now) {
   (void)from;
   const bool operational = nmt.state() == NmtState::operational;
   for (std::size_t i = 0; i < 2; ++i) tpdo[i].set_running(operational && tpdo_present[i] && layout_ok[i], now);
-  // J§1.5, E§6: LSS only in stopped or pre-operational (digest S.11).
+  // J§1.5, E§6: LSS only in stopped or pre-operational.
   if (lss) lss->set_ignore(operational);
   refresh_status();
 }

@@ -141,7 +141,7 @@ void SimDevice::Impl::reset_communication(TimePoint now, const NvImage* image) {
 void SimDevice::Impl::reset_node(TimePoint now) {
   now_cache = now;
   // A pending node-ID / bit rate (SDO or LSS) survives into the restart and
-  // becomes active (digest A.1, S.18).
+  // becomes active (J§1.6.1, E§7.1).
   const std::uint8_t node = pending_node;
   const std::uint16_t kbit = pending_kbit;
   // ifm 'load' (F§6.3.5, F§7.3 0x1011): this reset activates the factory

@@ -53,7 +53,7 @@ std::uint32_t SimDevice::Impl::on_write(const canopen::WriteRequest& req) {
 void SimDevice::Impl::after_write(std::uint16_t index, std::uint8_t sub) {
   const TimePoint now = now_cache;
   if ((index == kStore || index == kRestore) && sub >= 1) {
-    // The signature objects read back as the manual prints them (0; digest A.9.22).
+    // The signature objects read back as the manual prints them (0; J§1.3.1).
     (void)od->set_u32(index, sub, 0);
     if (index == kRestore || index == kStore) {
       configure_encoder();

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # scripts/bench --check-doc can fail: a figure typed into the generated table
-# by hand, or a record newer than the page, is found (issue 24).
+# by hand, or a record newer than the page, is found.
 set -euo pipefail
 repo=$(cd "$(dirname "$0")/../.." && pwd)
 work=$(mktemp -d)

@@ -2,7 +2,7 @@
 # Resident memory of the real cobridged serving 32 simulated encoders with
 # DDS + Modbus + JSON tap on, each encoder sending TPDO1 every 10 ms.
 # With `web` as second argument the [web] service is on too, and the figure
-# is taken while 50 clients poll /metrics and the page's JSON (issue 14:
+# is taken while 50 clients poll /metrics and the page's JSON (target:
 # RSS added by the web service <= 4 MiB = the difference of the two runs).
 # Runs inside UML (real SocketCAN):
 #   tests/vcan/run-in-vcan --ifaces 1 --timeout 400 -- tests/bench/daemon_rss_in_uml.sh BUILD_DIR [web]

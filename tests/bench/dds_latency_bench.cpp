@@ -1,4 +1,4 @@
-// DDS latency bench (prints figures; not a test). Issue 5 targets: latency
+// DDS latency bench (prints figures; not a test). Targets: latency
 // from a sample's receive timestamp to a DDS subscriber on the same host,
 // p99 <= 200 us, at 36 000 samples/s (four saturated 1 Mbit/s buses, 32
 // devices); 0 heap allocations per sample on the hot path.
@@ -30,7 +30,7 @@
 //     thread with one dds_write per sample (no plugin, queue or hop), once
 //     best-effort and once reliable (keep-last 1, the plugin's QoS), in the
 //     same process layout as the plugin runs.
-//  2c. Issue 16: a summary that sets each spread run of the plugin against
+//  2c. A summary that sets each spread run of the plugin against
 //     the bare stream of the same reliability from the same run of the
 //     bench: p50/p99/p99.9 and the ratio plugin / bare (target p99 <= 1.2x).
 //     Runs with EncoderSample written on the dispatcher (the feeding thread

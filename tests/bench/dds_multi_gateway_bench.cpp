@@ -1,5 +1,5 @@
-// Multi-gateway sequence bench (prints figures; not a test). Issue 16,
-// item 4 at the full rate, on the host: two gateways ("bench-a",
+// Multi-gateway sequence bench (prints figures; not a test). A subscriber
+// telling loss from silence at the full rate, on the host: two gateways ("bench-a",
 // "bench-b"), each the real libcobridge_dds.so loaded through
 // pipeline::PluginHost, 4 devices each, a TPDO every 1 ms per device and a
 // heartbeat every 100 ms per device, numbered as the RX thread numbers them

@@ -1,4 +1,4 @@
-"""Issue 24, item 4: a second start as fast as the bus allows.
+"""A second start as fast as the bus allows.
 
 Four encoders (the three families), DDS and Modbus outputs on, are commissioned and configured once; then
 cobridged is stopped and started again RESTARTS times on the same state

@@ -1,4 +1,4 @@
-// Web service bench (issue 14 targets), one run, figures printed:
+// Web service bench (against its targets), one run, figures printed:
 //  1. the CAN hot path (frames -> decoder -> ring -> dispatcher -> LastValues,
 //     the record the web page reads) alone, then while the real WebServer is
 //     serving 4 buses x 32 devices to N clients hammering /metrics: ns/frame

@@ -2,7 +2,7 @@
 // (daemon/control/remote/ascii_request.*). Any line gives a request or one
 // of the standard's error numbers; a read answer is formatted for every type.
 //
-// Issue 25: accepted implies representable. Whenever the parser accepts a
+// Accepted implies representable. Whenever the parser accepts a
 // write of an integer type, the bytes it will write, read back as that
 // type, are the number the value's text denotes, and that number is in the
 // type's range (nothing cut to the type's width). The number is worked out

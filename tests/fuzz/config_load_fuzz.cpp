@@ -1,6 +1,6 @@
 // Fuzz target: the configuration loader (daemon/config/load.*), TOML text to
 // a Config or a list of file:line:col diagnostics. Any text must give one of
-// the two, never a crash, hang or UB (issue 10, "Fuzzing"; item 13's
+// the two, never a crash, hang or UB (the
 // nesting limit included).
 #include <cstdint>
 #include <cstdlib>

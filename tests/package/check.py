@@ -172,7 +172,7 @@ def main():
         admin = grp.getgrnam("cobridge-admin").gr_gid
     except KeyError:
         admin = None
-    check(admin is not None, "issue 25 item 6: the package made group cobridge-admin ([control] write_group's default)",
+    check(admin is not None, "the package made group cobridge-admin ([control] write_group's default)",
           "gid %s" % admin)
     stf = "/var/lib/cobridge/assignments.state"
     ok = os.path.isdir("/var/lib/cobridge") and pw is not None and os.stat("/var/lib/cobridge").st_uid == pw.pw_uid \
@@ -342,7 +342,7 @@ def main():
     with_node = [e for e in native if e.get("BUS") == "line1" and e.get("NODE") in ("10", "30")]
     check(bool(with_node), "journal: BUS= and NODE= fields", "%d entries, e.g. %r" % (
         len(with_node), with_node[0]["MESSAGE"] if with_node else None))
-    # Issue 24: the descriptions the package ships load silently (a duplicate a
+    # The descriptions the package ships load silently (a duplicate a
     # user adds still warns: DeviceCatalog.DuplicateIdentityIsAnErrorNamingBothFiles).
     dups = [line for line in journal("-o", "cat").splitlines() if "duplicate identity" in line]
     check(not dups, "journal: the shipped device descriptions load without a 'duplicate identity' warning",

@@ -1,4 +1,4 @@
-// app/exposure (issue 25, item 7): every door a configuration opens to the
+// app/exposure: every door a configuration opens to the
 // network is a warning at the line that opens it, in --check-config, at
 // start and on reload; loopback listeners and allow-listed writes are quiet.
 #include "app/exposure.hpp"

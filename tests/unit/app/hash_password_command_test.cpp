@@ -1,4 +1,4 @@
-// `cobridged --hash-password` (issue 25, item 9): the hash an operator puts
+// `cobridged --hash-password`: the hash an operator puts
 // in web.auth_file, made from a password read from standard input.
 #include "app/hash_password_command.hpp"
 

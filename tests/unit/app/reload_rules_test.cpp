@@ -60,7 +60,7 @@ TEST(ReloadRules, WebAndOutputsRunWithTheirStartSettings) {
   EXPECT_EQ(reload_refusal(running(), next), "[web] changed");
   next = running();
   next.web->hosts = std::vector<std::string>{"gw1.plant.local"};
-  EXPECT_EQ(reload_refusal(running(), next), "[web] changed") << "web.hosts (issue 25, item 9)";
+  EXPECT_EQ(reload_refusal(running(), next), "[web] changed") << "web.hosts";
   next = running();
   next.outputs[0].settings_toml = "path = \"/tmp/y\"\n";
   EXPECT_EQ(reload_refusal(running(), next), "[outputs.tap] changed");

@@ -1,8 +1,8 @@
 // app/validation: the check that --check-config, the start and every SIGHUP
-// reload run on the configuration file. Issue 25, item 12: a file with a
-// dotted key or table header 100 000 levels deep crashed it (SIGSEGV in the
-// TOML parser), so a reload killed the running daemon; now it is an error
-// with file:line:col and the limit, and no configuration.
+// reload run on the configuration file. A file with a dotted key or table
+// header 100 000 levels deep is an error with file:line:col and the limit,
+// and no configuration, never a crash in the TOML parser (a reload must not
+// kill the running daemon).
 #include "app/validation.hpp"
 
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// base/error: the one failure shape (issue 13 item 4).
+// base/error: the one failure shape.
 #include "base/error.hpp"
 
 #include <gtest/gtest.h>

@@ -31,7 +31,7 @@ TEST(NumberText, AnythingElseIsRefusedAndLeavesTheOutputAlone) {
   EXPECT_FALSE(parse_unsigned("0x10000", 0xFFFF, v));
 }
 
-// Issue 25: a signed number's hex digits are its magnitude, range-checked
+// A signed number's hex digits are its magnitude, range-checked
 // like its decimal form (0x12345 for a 16-bit value was truncated to 0x2345).
 TEST(NumberText, SignedDecimalAndHexWithinTheRange) {
   std::int64_t v = 0;

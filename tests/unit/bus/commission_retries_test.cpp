@@ -1,4 +1,4 @@
-// CommissionRetries (issue 26, "nobody left behind"): a failed device is
+// CommissionRetries ("nobody left behind"): a failed device is
 // tried again after 1 s, 2 s, 4 s ... at most 30 s, never dropped, until it
 // is commissioned.
 #include "bus/discovery/commission_retries.hpp"

@@ -74,7 +74,7 @@ TEST(ConfigPlan, EmptySettingsOnlyNmt) {
   EXPECT_EQ(p.fingerprint.size(), 16u);
 }
 
-// Order (digest G.5, E§8.2, E§11): pre-operational, remap before the
+// Order (E§8.2, E§11): pre-operational, remap before the
 // transmission type, application values, store in pre-operational, start.
 TEST(ConfigPlan, E8_2_E11_StepOrderForMultiturn) {
   const Fixture f = load("novotechnik-multiturn.eds");

@@ -455,7 +455,7 @@ TEST(DiscoveryTest, ClashWithoutIdentityUsesFastscanAndKnownKeepTheirIds_CiA305_
   rig.print_timings("multiturn clash by Fastscan");
 }
 
-// Issue 4 swap policy same-model: a new serial of a configured model at the
+// Swap policy same-model: a new serial of a configured model at the
 // factory node-ID (J§1.2.2) takes the missing device's node-ID.
 TEST(DiscoveryTest, UnknownSerialReplacesMissingDeviceUnderSwapPolicy_J1_2_2) {
   Rig rig;
@@ -505,7 +505,7 @@ TEST(DiscoveryTest, NonConfiguredDeviceFoundByFastscan_CiA305_E6) {
   rig.print_timings("non-configured device");
 }
 
-// Issue 26, nobody left behind (CiA 305 §8.3.1 configure node-ID): the first
+// Nobody left behind (CiA 305 §8.3.1 configure node-ID): the first
 // configure node-ID of a non-configured device gets no answer; the device is
 // searched again after 1 s (not at the next discovery period, 10 s here) and
 // configured, and the failed try is reported as a `retry` event (the bus
@@ -539,7 +539,7 @@ TEST(DiscoveryTest, UnansweredConfigureNodeIdIsTriedAgainAfterOneSecond_CiA305_8
   EXPECT_EQ(rig.of(DiscoveryEventKind::retry).size(), 1u) << "commissioned: no more tries";
 }
 
-// Issue 26: a device that never answers configure node-ID is never dropped:
+// A device that never answers configure node-ID is never dropped:
 // tried again and again, each wait double the last, at most 30 s.
 TEST(DiscoveryTest, DeviceThatKeepsRefusingIsTriedWithBoundedBackoff_CiA305_8_3_1) {
   Rig rig;
@@ -735,7 +735,7 @@ TEST(DiscoveryTest, SingleRebootIsNoClash_CiA301_7_2_8_3_3) {
   EXPECT_EQ(rig.of(DiscoveryEventKind::identified).size(), 2u);
 }
 
-// ---- swap policy same-model (issue 4; docs/configuration.md `swap_policy`) ----
+// ---- swap policy same-model (docs/configuration.md `swap_policy`) ----
 
 // A state store in a fresh temporary directory, as the bus manager keeps it.
 class TempStore {
@@ -783,7 +783,7 @@ bool any_problem_with(const Rig& rig, const std::string& words) {
   return false;
 }
 
-// Issue 4 "must show" 2, the order seen on a real bus: mt-b (serial 2002) was
+// The order seen on a real bus: mt-b (serial 2002) was
 // at node 21 (state file), is taken off, and a new MC1-2800 (serial 2099)
 // boots at the factory node-ID 127 (E§3.1) before the bus manager has noticed
 // the loss (its heartbeat consumer has not timed out yet): mt-b keeps its

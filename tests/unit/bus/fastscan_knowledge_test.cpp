@@ -1,5 +1,5 @@
 // make_fastscan_plan: what the configuration and the remembered table tell a
-// CiA 305 Fastscan before it starts (issue 11, item 1).
+// CiA 305 Fastscan before it starts.
 #include <gtest/gtest.h>
 
 #include <vector>

@@ -28,7 +28,7 @@ config::Device device(std::string name, std::uint32_t serial, std::string model)
   return d;
 }
 
-// Issue 11, item 1: the general Fastscan runs when it may; its plan holds
+// The general Fastscan runs when it may; its plan holds
 // the configured device not present (vendor of its model, one target per
 // product code, serial configured; revision unknown, searched), the model
 // for a new device of it, and searches the rest. Rotary devices (no

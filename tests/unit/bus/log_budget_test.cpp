@@ -1,4 +1,4 @@
-// LogBudget: issue 10, item 15 (an EMCY storm wrote 4 600 log lines in 3 s):
+// LogBudget (an EMCY storm can write thousands of log lines in seconds):
 // at most N lines per window, the rest counted and reported once the window
 // has passed, so that logged + suppressed always equals what happened.
 #include "bus/log_budget.hpp"

@@ -492,7 +492,7 @@ TEST(PlanRunner, BusyClientRefused) {
 // CiA 301 §7.2.8.3.3: a device that boots up mid-transfer has forgotten it.
 // The runner dropped then (the bus manager does so on the boot-up) must free
 // the SDO client, so that the next plan on the same client starts at once
-// rather than being refused as busy for ever (issue 10, item 1).
+// rather than being refused as busy for ever.
 TEST(PlanRunner, DroppedMidTransferFreesTheSdoClient) {
   Fixture fx("novotechnik-multiturn.eds", 5);
   {

@@ -1,5 +1,5 @@
-// RemoteExecutor: a client's SDO / NMT command run by the daemon (issue 15,
-// item 1) against a recording sink and a scripted gate; the frames are the
+// RemoteExecutor: a client's SDO / NMT command run by the daemon
+// against a recording sink and a scripted gate; the frames are the
 // CiA 301 §7.2.4.3 expedited upload (0x40 -> 0x43..0x4F) and abort (0x80),
 // §7.2.8.3.3 boot-up (0x700 + node, one byte 0x00).
 #include "bus/remote/remote_executor.hpp"
@@ -165,8 +165,8 @@ gw::LssStep step(gw::LssStep::Kind kind, std::uint32_t value = 0) {
 // After "switch state global: waiting" nobody is; an inquiry nobody answers
 // then proves no session, so discovery (which waits out a session) is not
 // held for 10 s: the case where a power-cycled device came back through the
-// 500 ms fallback instead of discovery's re-identification (issue 15
-// gateway test, no_stall, ran within 10 s of such an inquiry).
+// 500 ms fallback instead of discovery's re-identification (the
+// gateway test no_stall runs within 10 s of such an inquiry).
 TEST_F(RemoteExecutorTest, InquiryNobodyAnswersOutsideASessionHoldsNothing) {
   ex.add(lss({step(gw::LssStep::Kind::switch_global, 1)}), replies, t0);
   ex.process(t0, gate);

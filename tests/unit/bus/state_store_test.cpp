@@ -1,5 +1,5 @@
 // StateStore: the assignments file that lets a restart skip the scan
-// (issue 4 "Assignments are kept in a state file, so a restart needs no new
+// ("Assignments are kept in a state file, so a restart needs no new
 // scan"; "A configuration fingerprint lets an unchanged device come up
 // without being rewritten").
 #include "bus/state_store.hpp"

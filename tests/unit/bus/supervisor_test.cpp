@@ -67,7 +67,7 @@ TEST(ConsumerTime, IsOneAndAHalfProducerTimesPlusMargin) {
   EXPECT_EQ(consumer_time_for(0ms), 0ms);  // 0x1017 = 0: no heartbeat
 }
 
-// Issue 16 ("a gateway that loses its bus is visible within 1 s"): when the
+// ("A gateway that loses its bus is visible within 1 s"): when the
 // CAN interface goes down, every watched device is offline at once with the
 // reason, not one consumer time later (CiA 301 §7.2.8.3.2.2 would report it
 // only then); the consumer's own timeout afterwards is not reported again,
@@ -155,7 +155,7 @@ TEST_F(SupervisorTest, Cia301_7_2_8_3_2_2_HeartbeatLostThenBackOnline) {
 
 // The NMT state the last heartbeat reported (CiA 301 §7.2.8.3.2.2: the
 // heartbeat carries it); a client's NMT start relies on it when the stop it
-// follows never showed in a heartbeat (issue 24: test_ascii_gateway).
+// follows never showed in a heartbeat (test_ascii_gateway).
 TEST_F(SupervisorTest, Cia301_7_2_8_3_2_2_LastReportedNmtState) {
   EXPECT_EQ(sup.nmt(5), NmtState::boot_up);  // nothing heard yet
   sup.watch(5, &fam::kNovotechnikRotary, heartbeat(100ms), t0);

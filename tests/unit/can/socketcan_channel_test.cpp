@@ -91,7 +91,7 @@ TEST(SocketCanChannelClosed, SendFailsAndCountsReceiveIsEmpty) {
 }
 
 // Opening an interface that does not exist (or on a kernel without CAN, as on the build host)
-// fails with the project's Error (issue 13): kind unavailable, the errno as precise code, the
+// fails with the project's Error: kind unavailable, the errno as precise code, the
 // failing step as message, the interface as where.
 TEST(SocketCanChannelClosed, OpenFailureCarriesCodeMessageAndWhere) {
   SocketCanChannel ch(SocketCanConfig{.interface = "cbx-none0"});

@@ -1,5 +1,5 @@
 // DaemonRoute: the CLI maps the daemon's error answers to the same exit
-// codes as its own failures (issue 13 item 4, issue 15; docs/operations.md
+// codes as its own failures (docs/operations.md
 // "Exit codes"), and works on the bus itself only when no daemon listens.
 #include "cli/daemon_route.hpp"
 #include "sys/bus_beacon.hpp"
@@ -53,7 +53,7 @@ TEST(DaemonRoute, NoDaemonListeningMeansWorkDirectly) {
   EXPECT_FALSE(via_daemon("/nonexistent/cobridge/control.sock", "cbt-nobus0", "status", 500).has_value());
 }
 
-// Issue 25, item 2: a daemon serving the interface is used whatever the
+// A daemon serving the interface is used whatever the
 // control path given; one that cannot be reached is an error, never "work
 // directly" beside it.
 TEST(DaemonRoute, ADaemonServingTheInterfaceIsFoundWhateverTheControlPath) {

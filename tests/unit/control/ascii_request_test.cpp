@@ -1,5 +1,5 @@
-// AsciiRequest: CiA 309-3 (ASCII gateway) command lines and value encodings
-// (issue 15, item 3): request syntax "[seq] [[net] node] command", the
+// AsciiRequest: CiA 309-3 (ASCII gateway) command lines and value encodings:
+// request syntax "[seq] [[net] node] command", the
 // error numbers 100..107 and 50x, the data types of the standard's table.
 #include "control/remote/ascii_request.hpp"
 
@@ -86,7 +86,7 @@ TEST(AsciiRequest, FormatsByType) {
 }
 
 // CiA 309-3 (answer syntax): every answer ends with CR LF; `cocomm` reads up
-// to "\r\n" and waits for ever on a bare LF (issue 25, item 1).
+// to "\r\n" and waits for ever on a bare LF.
 TEST(AsciiRequest, AnswerLinesEndWithCrLf) {
   using cobridge::gateway::ascii_abort;
   using cobridge::gateway::ascii_error;
@@ -167,7 +167,7 @@ std::size_t width_of(std::string_view type) {
 
 }  // namespace
 
-// Issue 25, item 2: "[1] 10 w 0x6003 0 i16 0x12345" wrote 0x2345.
+// "[1] 10 w 0x6003 0 i16 0x12345" must not write 0x2345.
 TEST(AsciiRequest, AValueItsTypeCannotHoldIsASyntaxError) {
   const auto r = parse_ascii_request("[1] 10 w 0x6003 0 i16 0x12345");
   EXPECT_EQ(r.kind, AsciiRequest::Kind::invalid);

@@ -185,7 +185,7 @@ TEST(AsciiServer, AReadUsesTheConnectionsDefaultsAndLaterLinesWaitTheirTurn) {
 // CiA 309-3 (answer syntax): every answer ends with CR LF, whoever sends it
 // (a local answer, a bus command's result, a device's abort), the
 // error answers of lines that are no request included; a request ended by
-// CR LF is served as one ended by LF (issue 25, item 1: `cocomm` hung on
+// CR LF is served as one ended by LF (`cocomm` hangs on
 // every answer ended by a bare LF).
 TEST(AsciiServer, EveryAnswerEndsWithCrLfAndCrLfRequestsAreServed) {
   HeldGateway g;

@@ -1,5 +1,5 @@
 // ControlRequest: the control socket's request lines for clients' SDO / NMT /
-// LSS commands (issue 15, item 1; docs/operations.md "Control socket").
+// LSS commands (docs/operations.md "Control socket").
 #include "control/control_request.hpp"
 
 #include <gtest/gtest.h>

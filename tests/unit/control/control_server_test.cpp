@@ -1,5 +1,5 @@
 // ControlServer: the line protocol of cobridged's control socket
-// (docs/operations.md "Control socket"; issue 4: `cobridge status` of a
+// (docs/operations.md "Control socket": `cobridge status` of a
 // running daemon through a local control socket) against real Unix sockets,
 // with a fake handler standing in for the bus managers. No CANopen clause is
 // involved; the tests name the protocol rule they check.
@@ -108,8 +108,8 @@ TEST(ControlServer, StatusAnswersOneLineOfJsonWithEveryField) {
 }
 
 // Protocol rule: `commission [BUS]` triggers the handler (request_commission
-// of that bus, or of every bus); a refusal comes back as the one Error shape
-// (issue 13 item 4): {"ok":false,"error":{"code":...,"where":...,"message":...}}.
+// of that bus, or of every bus); a refusal comes back as the one Error shape:
+// {"ok":false,"error":{"code":...,"where":...,"message":...}}.
 TEST(ControlServer, CommissionReachesTheHandlerAndErrorsAreJson) {
   FakeHandler h;
   HeldCommands bus;
@@ -133,7 +133,7 @@ TEST(ControlServer, CommissionReachesTheHandlerAndErrorsAreJson) {
   EXPECT_EQ(h.commissioned, (std::vector<std::string>{"", "line1", "nosuch"}));
 }
 
-// Issue 25, item 3: `commission` reassigns node-IDs, a bus write: with
+// `commission` reassigns node-IDs, a bus write: with
 // [control] writes_enabled off, or a caller outside write_group, it is
 // refused (permission_denied) and the handler never called.
 TEST(ControlServer, CommissionIsUnderTheWritePolicy) {
@@ -324,7 +324,7 @@ TEST(ControlServer, SummaryCountsOperationalDevices) {
   missing.name = "line2";
   missing.interface = "can1";
   r.buses.push_back(missing);
-  // Issue 10, item 8: the bus whose adapter is missing is named.
+  // The bus whose adapter is missing is named.
   EXPECT_EQ(cobridge::gateway::summary(r.buses),
             "2 buses (1 open; waiting for line2 (can1)), 1/2 devices operational");
 }

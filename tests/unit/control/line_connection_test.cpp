@@ -40,7 +40,7 @@ TEST_F(LineConnectionTest, StopsAtTheFirstWholeLineAndKeepsThePipelinedRest) {
 }
 
 // CiA 309-3 clients end a request with CR LF, others with LF: the line taken
-// is the same (issue 25); a CR elsewhere is the line's own.
+// is the same; a CR elsewhere is the line's own.
 TEST_F(LineConnectionTest, ALineIsTakenWithoutItsLfOrCrLf) {
   send("[1] info version\r\n[2] help\n\r\n");
   conn_.read(256);

@@ -1,10 +1,10 @@
-// PeerCredentials: the control socket's write rule (issue 15, item 2;
-// docs/operations.md "Access") asks whether the caller is in
+// PeerCredentials: the control socket's write rule
+// (docs/operations.md "Access") asks whether the caller is in
 // [control] write_group. The answer must be the process's groups as the
 // kernel recorded them at connect() (SO_PEERCRED gid, SO_PEERGROUPS), the
 // same credentials the kernel checked against the socket file's mode, not
 // the user's entry in the group database. A caller the kernel cannot name
-// has no identity and may not write (issue 25, item 10). Real Unix sockets
+// has no identity and may not write. Real Unix sockets
 // (and one TCP connection, which carries no credentials); callers with
 // other credentials are forked children that change their groups and user
 // (needs root, as the machines and CI run).
@@ -110,7 +110,7 @@ TEST(PeerCredentials, NotASocketIsAnUnknownPeerInNoGroup) {
   EXPECT_FALSE(p.known);
   EXPECT_EQ(p.to_string(), "unknown peer");
   EXPECT_FALSE(peer_in_group(p, "root"));
-  // Issue 25, item 10: an unknown peer counted as uid 0 in the write check.
+  // An unknown peer never counts as uid 0 in the write check.
   EXPECT_NE(p.uid, 0u) << "an unknown peer is never taken for root";
   EXPECT_NE(p.gid, 0u) << "nor for group root";
 }
@@ -196,8 +196,8 @@ TEST(PeerCredentials, ManySupplementaryGroupsAreAllSeen) {
   EXPECT_TRUE(peer_in_group(p, "users"));
 }
 
-// Issue 25, item 10: the write rule took an unknown peer for uid 0 (root)
-// and let it write. A peer without identity is refused whenever the rule
+// The write rule never takes an unknown peer for uid 0 (root)
+// and lets it write. A peer without identity is refused whenever the rule
 // asks for a user or group, whoever the daemon runs as, with the reason.
 TEST(PeerCredentials, AnUnknownPeerIsRefusedAWriteThatNeedsAGroup) {
   const PeerCredentials unknown = peer_credentials(-1);

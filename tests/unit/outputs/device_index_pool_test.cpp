@@ -1,6 +1,6 @@
-// Issue 10, item 5: indices of devices the configuration does not name were
-// never freed, could collide across buses (1000 + 128 * bus + k) and could
-// pass the DDS plugin's slot count. One bounded pool for every bus, stable
+// Indices of devices the configuration does not name must be freed, must not
+// collide across buses (1000 + 128 * bus + k) and must not pass the DDS
+// plugin's slot count. One bounded pool for every bus, stable
 // while a device is known, released and reused.
 #include "outputs/device_index_pool.hpp"
 

@@ -85,7 +85,7 @@ TEST(OutputBridge, F_7_5_IfmPositionUnsignedWithLimitSwitchMask) {
   EXPECT_EQ(pooled.device_index(f.status("ifm-x", 0x0069666D, 0x4341, 32)), DeviceIndexPool::kFirst);
 }
 
-// E§4.1: the multiturn default mapping names 0x6020/1 (an alias of INTEGER32 0x6004, digest C.3).
+// E§4.1: the multiturn default mapping names 0x6020/1 (an alias of INTEGER32 0x6004).
 TEST(OutputBridge, E_4_1_MultiturnAliasDecodesSigned) {
   Fixture f;
   SharedConfig shared(f.cfg);
@@ -124,7 +124,7 @@ TEST(OutputBridge, ConfiguredDeviceIsPublishedToTheHotPath) {
 namespace cobridge::gateway {
 namespace {
 
-// Issue 10, item 6: a SIGHUP reload reaches the output side too. A new event
+// A SIGHUP reload reaches the output side too. A new event
 // timer changes the staleness limit of the plan made after the reload.
 TEST(OutputBridge, ReloadedSettingsReachTheNextPlan) {
   Fixture f;

@@ -1,5 +1,5 @@
 // check_outputs (--check-config) reports an output the plugin host cannot
-// load as the project's one error shape (issue 13): where = the
+// load as the project's one error shape: where = the
 // [outputs.<name>] header's place, message = the plugin file and the reason,
 // code = the PluginErrc.
 #include "outputs/output_pipeline.hpp"
@@ -28,5 +28,5 @@ TEST(CheckOutputs, MissingPluginIsAnErrorAtItsSection) {
   EXPECT_EQ(e.message, "/nonexistent-plugin-dir/libcobridge_nosuch.so: file not found");
   EXPECT_EQ(e.to_string(), "/etc/cobridge/cobridge.toml:30:1: [outputs.nosuch]: "
                            "/nonexistent-plugin-dir/libcobridge_nosuch.so: file not found")
-      << "the text --check-config printed before issue 13";
+      << "the text --check-config prints";
 }

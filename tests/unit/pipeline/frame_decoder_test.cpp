@@ -102,7 +102,7 @@ TEST(FrameDecoder, J_1_8_1_EmcyBecomesEmcySample) {
   DeviceTable table;
   FrameDecoder d(0, table);
   Sample s;
-  // Issue 10, item 4: a node no device index belongs to is never published
+  // A node no device index belongs to is never published
   // (it used to land on device index 0, another device's slot); it is counted.
   ASSERT_FALSE(d.decode(frame(0x085, {0x80, 0x90, 0x01, 0x01, 0x00, 0x02, 0x00, 0x02}), s));
   EXPECT_EQ(d.stats().unknown_node, 1u);
@@ -140,7 +140,7 @@ TEST(FrameDecoder, CiA301_HeartbeatCarriesNmtState) {
   EXPECT_EQ(s.nmt_state, COBRIDGE_NMT_BOOT_UP);
 }
 
-// Issue 10, item 16: while no plan changes, refresh() is one atomic load: no
+// While no plan changes, refresh() is one atomic load: no
 // lock, no copy of the table, also before the first plan exists.
 TEST(FrameDecoder, RefreshCopiesOnlyAfterAChange) {
   DeviceTable table;
@@ -185,7 +185,7 @@ TEST(FrameDecoder, SequencePerDeviceAcrossKinds) {
   EXPECT_EQ(s.stale, 1) << "an offline device's values are stale";
 }
 
-// Issue 16: kind_sequence counts each kind of each device on its own, so a
+// kind_sequence counts each kind of each device on its own, so a
 // gap in the TPDOs of a device (what DDS EncoderSample numbers by) is a lost
 // TPDO, never a heartbeat or EMCY in between.
 TEST(FrameDecoder, KindSequencePerDeviceAndKind) {
@@ -284,7 +284,7 @@ TEST(FrameDecoder, StaleReportedOnceThenClearedByNewData) {
   EXPECT_EQ(reported, 2);
 }
 
-// Issue 10, item 7: ages are judged on CLOCK_MONOTONIC. The wall clock steps
+// Ages are judged on CLOCK_MONOTONIC. The wall clock steps
 // an hour forward between two frames (NTP, an operator): fresh data stays
 // fresh, and samples keep the wall-clock time for the outputs.
 TEST(FrameDecoder, WallClockStepDoesNotMakeFreshDataStale) {

@@ -1,4 +1,4 @@
-// The hot path allocates nothing per frame (issue 24: a promise asserted in
+// The hot path allocates nothing per frame (a promise asserted in
 // CI, not only printed by a bench). The path as the daemon runs it: TPDO
 // frames -> BusReceiver (FrameDecoder, DecodePlan) -> SPSC ring -> Dispatcher
 // -> PluginHost -> the real Modbus and JSON tap plugins (their on_samples run

@@ -328,7 +328,7 @@ TEST(PluginHostLoadErrors, RandomBytesNamedSoAreNotLoadable) {
       << error.message;
 }
 
-// Issue 25, item 8: a plugin runs with the service's rights, so a file or
+// A plugin runs with the service's rights, so a file or
 // directory someone else could have written is refused before dlopen (the
 // reason is the trust check's, not "not a loadable shared object").
 TEST(PluginHostLoadErrors, AFileOthersCouldWriteIsRefusedBeforeItIsOpened) {
@@ -385,7 +385,7 @@ TEST(PluginHostLoadErrors, NullOpsTableIsRefused) {
   EXPECT_NE(error.message.find("returned no ops table"), std::string::npos) << error.message;
 }
 
-// Concept: one error shape (issue 13) — a plugin failure is an Error whose
+// Concept: one error shape — a plugin failure is an Error whose
 // where is the place the caller's configuration names the instance, whose
 // message names the file and the reason, and whose code is the PluginErrc.
 TEST(PluginHostLoadErrors, ErrorCarriesTheCallersWhere) {
@@ -532,7 +532,7 @@ TEST(PluginHostLifecycle, ResolvesPluginFiles) {
   PluginHost host({"/opt/plugins", "gw", quiet()});
   EXPECT_EQ(host.resolve(spec("a", "dds")), fs::path("/opt/plugins/libcobridge_dds.so"));
   EXPECT_EQ(host.resolve(PluginSpec{"b", "dds", "custom.so", {}}), fs::path("/opt/plugins/custom.so"));
-  // Issue 25, item 8: never outside the plugin directory (the loader refuses paths too).
+  // Never outside the plugin directory (the loader refuses paths too).
   EXPECT_EQ(host.resolve(PluginSpec{"c", "dds", "/usr/lib/x.so", {}}), fs::path("/opt/plugins/x.so"));
 }
 

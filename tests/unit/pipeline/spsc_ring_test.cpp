@@ -107,9 +107,9 @@ long resident_kib() {
 }
 }  // namespace
 
-// Issue 24 (restart, RSS): a deep ring costs memory only as deep as it is
-// used. Zeroing 8 MiB of slots at construction took ~0.5 s of a start under
-// UML and made every bus and the DDS plugin resident by their full depth.
+// Restart time and RSS: a deep ring costs memory only as deep as it is
+// used. Zeroing 8 MiB of slots at construction would cost ~0.5 s of a start
+// under UML and make every bus and the DDS plugin resident by their full depth.
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
 constexpr bool kSanitized = true;
 #else

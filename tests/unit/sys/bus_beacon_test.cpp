@@ -1,4 +1,4 @@
-// BusBeacon (issue 25, item 2): a running daemon is found from the name of
+// BusBeacon: a running daemon is found from the name of
 // the interface it serves, whatever its control socket's path.
 #include "sys/bus_beacon.hpp"
 

@@ -1,4 +1,4 @@
-// Install paths (issue 12): data directories found from the executable, so
+// Install paths: data directories found from the executable, so
 // `cmake --install --prefix X` anywhere (and the Debian package) work.
 #include "sys/install_paths.hpp"
 

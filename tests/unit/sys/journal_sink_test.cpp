@@ -1,4 +1,4 @@
-// Journal-native logging (issue 12): under systemd every module logs journal
+// Journal-native logging: under systemd every module logs journal
 // entries with a priority, the module and the bus/node of the line, and no
 // console pattern (time stamp, [module], [level]) inside MESSAGE=.
 #include "sys/journal_sink.hpp"

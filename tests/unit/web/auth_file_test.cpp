@@ -1,4 +1,4 @@
-// The auth file (issue 25, item 9): "user:hash" lines with crypt(3) hashes;
+// The auth file: "user:hash" lines with crypt(3) hashes;
 // a plain-text password is refused at its file:line with how to make a hash.
 #include "web/auth_file.hpp"
 

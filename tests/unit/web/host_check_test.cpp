@@ -1,4 +1,4 @@
-// The Host check (issue 25, item 9.3; DNS rebinding): RFC 9110 §7.2 (Host
+// The Host check (DNS rebinding): RFC 9110 §7.2 (Host
 // names the origin server), §15.5.20 (421 Misdirected Request for a request
 // this server does not answer for), RFC 9112 §3.2 (400 for a Host that is
 // not uri-host[:port], or more than one).

@@ -1,4 +1,4 @@
-// HttpRoute (issue 25, item 9): a request target is judged as the client sent
+// HttpRoute: a request target is judged as the client sent
 // it, before decoding; one with a control byte or a space is a 400 whatever
 // its method and path.
 #include "web/http_route.hpp"

@@ -1,4 +1,4 @@
-// The failed-login log lines (issue 25, item 9.2): the client and the user
+// The failed-login log lines: the client and the user
 // name tried, never the password; a user name cannot forge a log line.
 #include "web/login_log.hpp"
 

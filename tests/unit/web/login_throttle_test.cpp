@@ -1,4 +1,4 @@
-// Failed logins slowed per client (issue 25, item 9.2): an exponential
+// Failed logins slowed per client: an exponential
 // window in which the client is answered 429 Too Many Requests with
 // Retry-After (RFC 6585 §4), log lines rate-limited per client, a bounded
 // table. Time is passed in: no test sleeps.

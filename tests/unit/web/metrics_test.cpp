@@ -1,6 +1,6 @@
 // /metrics: the Prometheus text format (exposition format 0.0.4), checked
 // by the format's own linter, `promtool check metrics` (Debian's prometheus
-// package), and the conventional names and labels asked for in issue 14.
+// package), and the conventional names and labels Prometheus asks for.
 #include "web/metrics.hpp"
 
 #include "web_fixture.hpp"
@@ -42,7 +42,7 @@ TEST(Metrics, ConventionalNamesAndLabels) {
     EXPECT_THAT(m, HasSubstr(std::string("# TYPE ") + lost + " counter\n")) << lost;
 }
 
-// Issue 14 item 2: what each output reports of itself (ABI 3 stats), one
+// What each output reports of itself (ABI 3 stats), one
 // family per figure with an `output` label per instance.
 TEST(Metrics, OutputFiguresAreOneFamilyPerName) {
   const std::string m = render_metrics(cobridge::web::test::sample_report(1, 1));
@@ -84,7 +84,7 @@ TEST(Metrics, PromtoolAcceptsThem) {
 
 namespace {
 
-// Issue 14's target, p99 <= 20 ms with 4 buses x 32 devices: the CPU part of
+// The target, p99 <= 20 ms with 4 buses x 32 devices: the CPU part of
 // an answer (the status JSON and the metrics text of a fresh snapshot), on
 // the host. Prints the figures (docs/performance.md "Web service").
 TEST(Metrics, FourBusesOf32DevicesRenderEveryDevice) {

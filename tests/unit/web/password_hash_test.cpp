@@ -1,4 +1,4 @@
-// Password hashes (issue 25, item 9): the auth file holds crypt(3) hashes,
+// Password hashes: the auth file holds crypt(3) hashes,
 // checked with libxcrypt; a plain-text password or a legacy method is refused.
 #include "web/password_hash.hpp"
 

@@ -1,4 +1,4 @@
-// Issue 25, item 9 over a real socket: a WebServer on the loopback, raw
+// Web access control over a real socket: a WebServer on the loopback, raw
 // HTTP requests. The Host check (RFC 9110 §7.2; 421 Misdirected Request,
 // RFC 9110 §15.5.20; 400 for a bad Host, RFC 9112 §3.2) and failed logins:
 // 401, then 429 Too Many Requests with Retry-After (RFC 6585 §4) for that

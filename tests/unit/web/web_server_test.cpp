@@ -59,7 +59,7 @@ TEST(WebServer, StatusIsTheControlSocketsJson) {
   EXPECT_EQ(a.body, cobridge::gateway::to_json(report) + "\n");  // one schema, one writer
   EXPECT_THAT(a.body, HasSubstr("\"emcy_history\":[{\"code\":20480,\"text\":\"hardware fault\""));
   EXPECT_THAT(a.body, HasSubstr("\"values\":{\"position\":1234,\"position_eng\":12.500,\"unit\":\"deg\",\"speed\":-3"));
-  // Each output's own figures (issue 14 item 2: Modbus clients connected).
+  // Each output's own figures (Modbus clients connected).
   EXPECT_THAT(a.body, HasSubstr("\"outputs\":[{\"instance\":\"modbus\",\"type\":\"modbus\",\"running\":true,"
                                 "\"figures\":{\"modbus_clients_connected\":3,\"modbus_requests\":1200}}"));
 }
@@ -140,7 +140,7 @@ TEST_F(AuthTest, BasicAuthenticationFromAFileOnlyItsOwnerReads) {
   EXPECT_EQ(server.handle("GET", "/metrics", &right).status, 200U) << "no credentials sent is no failed login";
   const Credentials wrong{"alice", "nope"};
   EXPECT_EQ(server.handle("GET", "/metrics", &wrong).status, 401U);
-  // Issue 25, item 9.2: then the right password too waits out the window (RFC 6585 §4).
+  // Then the right password too waits out the window (RFC 6585 §4).
   const auto backoff = server.handle("GET", "/metrics", &right);
   EXPECT_EQ(backoff.status, 429U);
   EXPECT_EQ(backoff.retry_after_s, 1);
@@ -156,7 +156,7 @@ TEST_F(AuthTest, BasicAuthenticationFromAFileOnlyItsOwnerReads) {
   EXPECT_THAT(refused.message, HasSubstr("chmod 600"));
 }
 
-// Issue 13: the [web] files' problems are the project's Error, placed at the
+// The [web] files' problems are the project's Error, placed at the
 // key that names the file (where "file:line:col: web.<key>", then the file),
 // so --check-config and the daemon print them like every other error.
 TEST_F(AuthTest, WebSettingsProblemsAreErrorsAtTheirKey) {
@@ -245,9 +245,9 @@ std::string printable(const std::string& bytes) {
   return out;
 }
 
-// Issue 25, item 9: libmicrohttpd hands the request target on as a C string,
-// so "GET /metrics\0x" was answered 200 with the metrics (the path cut at the
-// NUL), and so was "/metrics%00x" (cut at the decoded NUL). A target holding
+// libmicrohttpd hands the request target on as a C string,
+// so "GET /metrics\0x" would be answered 200 with the metrics (the path cut at
+// the NUL), and so would "/metrics%00x" (cut at the decoded NUL). A target holding
 // a NUL, another control byte or a space, sent or percent-encoded, gets 400,
 // and the daemon is not asked for anything.
 TEST(WebServerSocket, ATargetWithAControlByteOrASpaceGets400) {

@@ -1,7 +1,7 @@
 // BusManager against cobridge-sim on vcan0 (inside UML): devices found,
 // commissioned, configured and started; a power-cycled device back within
 // 1 s of its boot-up; a silenced device offline within its heartbeat consumer
-// time and online again when it speaks (issue 4, "Must show").
+// time and online again when it speaks.
 //
 // The simulator is the build tree's: this binary lives in <build>/tests/, the
 // simulator the build made (COBRIDGE_SIM_PATH, the cobridge-sim target).
@@ -280,7 +280,7 @@ bool all_operational(const BusStatus& s) {
   return true;
 }
 
-// Issue 4: found (boot-up / SDO probe of 0x1018), commissioned (the rotary
+// Found (boot-up / SDO probe of 0x1018), commissioned (the rotary
 // moves from its factory node-ID 127, J§1.2.2, by LSS switch selective,
 // CiA 305), configured and started (CiA 301 §7.2.8.3.1 NMT start), then
 // supervised by heartbeat (CiA 301 §7.2.8.3.2.2).
@@ -301,7 +301,7 @@ TEST_F(BusManagerVcan, Issue4_DevicesBecomeOperationalWithConfiguredNodeIds) {
   EXPECT_EQ(a.size(), 3U);
 }
 
-// Issue 4 "A device power-cycled by the simulator is back online and
+// "A device power-cycled by the simulator is back online and
 // configured within 1 s of its boot-up message" (CiA 301 §7.2.8.3.3 boot-up).
 TEST_F(BusManagerVcan, Issue4_PowerCycledDeviceBackWithinOneSecondOfBootUp) {
   ASSERT_TRUE(wait_for(*manager_, 20s, all_operational).has_value()) << describe(manager_->status());
@@ -340,7 +340,7 @@ TEST_F(BusManagerVcan, Issue4_PowerCycledDeviceBackWithinOneSecondOfBootUp) {
   const auto took = std::chrono::duration_cast<std::chrono::milliseconds>(*back - *boot_up);
   EXPECT_LE(took, 1000ms) << describe(s);
   EXPECT_EQ(find(s, "multiturn")->node_id, 20);
-  // Issue 4 "A configuration fingerprint lets an unchanged device come up
+  // "A configuration fingerprint lets an unchanged device come up
   // without being rewritten": it kept its stored settings (E§11), so the
   // quick read-back found nothing to write.
   EXPECT_EQ(find(s, "multiturn")->configurations, before.configurations) << describe(s);
@@ -356,7 +356,7 @@ TEST_F(BusManagerVcan, Issue4_PowerCycledDeviceBackWithinOneSecondOfBootUp) {
   EXPECT_TRUE(wait_for(*manager_, 1s, [](const BusStatus& st) { return find(st, "multiturn")->online; }));
 }
 
-// Issue 4 "A silenced device is reported offline within its heartbeat
+// "A silenced device is reported offline within its heartbeat
 // consumer time, and online again when it speaks" (CiA 301 §7.2.8.3.2.2).
 TEST_F(BusManagerVcan, Issue4_SilencedDeviceOfflineWithinConsumerTimeThenOnline) {
   ASSERT_TRUE(wait_for(*manager_, 20s, all_operational).has_value()) << describe(manager_->status());
@@ -389,7 +389,7 @@ TEST_F(BusManagerVcan, Issue4_SilencedDeviceOfflineWithinConsumerTimeThenOnline)
   EXPECT_EQ(find(s, "rotary")->boot_ups, 0U);  // it never rebooted
 }
 
-// Issue 4 "SIGHUP reloads the config without closing the buses": only the
+// "SIGHUP reloads the config without closing the buses": only the
 // device whose settings changed is configured again (new fingerprint).
 TEST_F(BusManagerVcan, Issue4_ReloadReconfiguresOnlyTheChangedDevice) {
   ASSERT_TRUE(wait_for(*manager_, 20s, all_operational).has_value()) << describe(manager_->status());
@@ -445,7 +445,7 @@ TEST_F(BusManagerVcan, ReloadAddedDeviceShowsItsConfiguredIdentityAtOnce) {
   ASSERT_TRUE(wait_for(*manager_, 5s, [](const BusStatus& s) { return find(s, "spare") == nullptr; }).has_value());
 }
 
-// Issue 4 supervision "bus-off and interface loss": a controller state change
+// Supervision, "bus-off and interface loss": a controller state change
 // reported by an error frame (kernel SocketCAN "Network Problem
 // Notifications", CAN_ERR_CRTL) shows as the bus's last event.
 TEST_F(BusManagerVcan, Issue4_BusErrorShowsAsLastBusEvent) {
@@ -456,7 +456,7 @@ TEST_F(BusManagerVcan, Issue4_BusErrorShowsAsLastBusEvent) {
   EXPECT_TRUE(seen.has_value()) << describe(manager_->status());
 }
 
-// Issue 4 "interface loss -> reopen with backoff and bring the devices back,
+// "Interface loss -> reopen with backoff and bring the devices back,
 // all without restarting the process".
 TEST_F(BusManagerVcan, Issue4_InterfaceDownAndUpBringsDevicesBack) {
   ASSERT_TRUE(wait_for(*manager_, 20s, all_operational).has_value()) << describe(manager_->status());
@@ -464,7 +464,7 @@ TEST_F(BusManagerVcan, Issue4_InterfaceDownAndUpBringsDevicesBack) {
   const auto down = wait_for(*manager_, 3s, [](const BusStatus& s) { return s.last_bus_event == "interface-down"; });
   EXPECT_TRUE(down.has_value()) << describe(manager_->status());
   EXPECT_TRUE(wait_for(*manager_, 2s, [&](const BusStatus& st) { return !st.open; }).has_value());
-  // Issue 10, item 8: a bus waiting for its interface is still served (its
+  // A bus waiting for its interface is still served (its
   // thread runs): the watchdog must not restart the daemon for it.
   EXPECT_TRUE(manager_->serving());
   std::this_thread::sleep_for(500ms);  // long enough for the heartbeats to be missed
@@ -478,7 +478,7 @@ TEST_F(BusManagerVcan, Issue4_InterfaceDownAndUpBringsDevicesBack) {
   EXPECT_TRUE(manager_->serving());
 }
 
-// The bus thread ends and is joined within 1 s (issue 4, SIGTERM "stops
+// The bus thread ends and is joined within 1 s (SIGTERM "stops
 // cleanly within 1 s"); run last.
 TEST_F(BusManagerVcan, Issue4_StopJoinsWithinOneSecond) {
   const auto t = Clock::now();

@@ -362,7 +362,7 @@ TEST_F(SocketCanVcan, CanRst_OpenWhileDownWaitsForUp) {
   EXPECT_EQ(event_kinds(ch), std::vector{BusEventKind::InterfaceReopened});
 }
 
-// A USB adapter plugged after boot, unplugged and plugged back (issue 10, item 8): with
+// A USB adapter plugged after boot, unplugged and plugged back: with
 // wait_for_interface an absent interface is waited for instead of failing open(), and a
 // deleted-and-recreated interface (a new ifindex) is opened again by name.
 TEST_F(SocketCanVcan, CanRst_MissingInterfaceIsWaitedForAndReplugged) {

@@ -1,4 +1,4 @@
-"""Issue 15, item 1: one owner of the bus. While cobridged runs, `cobridge
+"""One owner of the bus. While cobridged runs, `cobridge
 sdo|nmt` go through its control socket and the daemon runs them with its own
 SDO client / NMT, queued with its own work (CiA 301 §7.2.4: one SDO client
 per server channel; §7.2.8.3.3: a boot-up ends every transfer).
@@ -172,7 +172,7 @@ def scan_phase(report, args, ws):
 
 
 def beacon_phase(report, args, ws, listener, expected):
-    """Issue 25, item 2: the daemon is found from the interface alone (its
+    """The daemon is found from the interface alone (its
     abstract socket @cobridge/bus/vcan0), whatever --control says: the CLI
     without --control (the default path does not exist here), or with a wrong
     one, goes through the daemon, prints no library log line without -v, and

@@ -1,4 +1,4 @@
-"""Issue 15, item 2: who may use the control socket, with callers that are
+"""Who may use the control socket, with callers that are
 not root (docs/operations.md "Control socket" > "Access").
 
 The rule: the socket has mode 0660 (the service's user and group), so only
@@ -158,7 +158,7 @@ def writes_off_phase(report, args, ws):
                  "writes_enabled = false: reads still answered (cbt-reader, serial 2002)", out)
     rc, doc, out = cli(args, ws, [], "commission", "--json")
     report.check(refused(rc, doc) and "writes_enabled = false" in doc["error"].get("message", ""),
-                 "issue 25 item 3: writes_enabled = false: root's `commission` (node-IDs reassigned) refused, exit 4",
+                 "writes_enabled = false: root's `commission` (node-IDs reassigned) refused, exit 4",
                  out)
 
 
@@ -186,7 +186,7 @@ def reader_phase(report, args, ws, daemon):
     rc, doc, out = cli(args, ws, reader, "commission", "--bus", "line1", "--json")
     report.check(refused(rc, doc) and 'uid 64102 is not in the write group "cbt-admin"' in
                  doc.get("error", {}).get("message", ""),
-                 "issue 25 item 3: the reader's `commission` refused like its other writes, exit 4", out)
+                 "the reader's `commission` refused like its other writes, exit 4", out)
     text = log_text(daemon)
     report.check("refused to uid 64102 pid" in text, "every refused write logged with the caller's uid")
     report.check("commission of bus 'line1' refused to uid 64102 pid" in text,
@@ -211,7 +211,7 @@ def writer_phase(report, args, ws, daemon):
                  "a write group member's NMT start done and logged with its uid", out)
     rc, doc, out = cli(args, ws, as_user("cbt-member"), "commission", "--bus", "line1", "--json")
     report.check(rc == 0 and "control socket: commission of bus 'line1' by uid 64104 pid" in log_text(daemon),
-                 "issue 25 item 3: a write group member's `commission` done and logged with its uid", out)
+                 "a write group member's `commission` done and logged with its uid", out)
     rc, doc, out = cli(args, ws, as_user("cbt-member", ["cbt-svc"]), *WRITE)
     report.check(refused(rc, doc),
                  "cbt-member with the write group dropped from its process (the database still lists it): refused",
@@ -281,7 +281,7 @@ def ascii_request(ws, prefix, kind, line):
 
 
 def ascii_phase(report, args, ws, bus, devices):
-    """Issue 25, item 6: the 309-3 gateway's writes have their own allow list
+    """The 309-3 gateway's writes have their own allow list
     (write_allow, TCP) and group (write_group, Unix socket), as the control
     socket has; a refusal answers ERROR: 100 and is logged with the caller."""
     extra = ('[ascii_gateway]\nsocket = %s\ntcp_port = %d\nwrites_enabled = true\nwrite_group = "cbt-admin"\n'

@@ -1,9 +1,9 @@
-"""Issue 15, item 3: the CiA 309-3 ASCII gateway of the real daemon on real
+"""The CiA 309-3 ASCII gateway of the real daemon on real
 SocketCAN (UML) with cobridge-sim, driven by a client written here from the
 standard (CiA 309-3 request "[<seq>] [[<net>] <node>] <command>", answers
 "[<seq>] OK | <value> | ERROR: <code>"), not by cobridge's own code.
 
-Every answer must end with CR LF (CiA 309-3; issue 25): the client below
+Every answer must end with CR LF (CiA 309-3): the client below
 takes a line ended by a bare LF as a wrong answer, and cocomm_session()
 talks as CANopenNode's `cocomm` does (blocking socket, "[n] " prefixed,
 each answer read byte by byte up to CR LF before the next command), which
@@ -112,7 +112,7 @@ class Cocomm:
 
 
 def cocomm_session(report, path):
-    """Issue 25, item 1: several commands on one connection as cocomm sends
+    """Several commands on one connection as cocomm sends
     them (LF-ended, as cocomm does, and CR LF-ended), on the Unix socket and
     on TCP: a read, a write, an NMT command, an absent node, a value its
     type cannot hold, a line that is no request."""
@@ -199,7 +199,7 @@ def commands(report, path, daemon):
     expect(report, c, "[35] help", lambda a: a.startswith("[35] commands:"), "help")
     # LSS (CiA 305) through the daemon's LSS master.
     # mt-a (multiturn: CiA 305 V3 LSS with inquire services; the rotary family has V1 only).
-    # Its LSS slave listens in pre-operational / stopped only (E§6, digest S.11).
+    # Its LSS slave listens in pre-operational / stopped only (E§6).
     ident = [c.ask("[%d] 1 20 r 0x1018 %d u32" % (40 + i, i + 1)).split()[1] for i in range(3)]
     expect(report, c, "[43] 1 20 preop", "[43] OK", "NMT preop before LSS")
     expect(report, c, "[44] 1 lss_switch_sel %s %s %s 2001" % tuple(ident), "[44] OK", "lss_switch_sel")

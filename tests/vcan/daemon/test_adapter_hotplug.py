@@ -1,4 +1,4 @@
-"""Issue 10, item 8: CAN adapters come and go (USB adapters are plugged after
+"""CAN adapters come and go (USB adapters are plugged after
 boot, and unplugged). Two buses; vcan1 (line2) does not exist when the
 daemon starts:
  * the daemon serves line1 anyway (its device operational), reports line2 as

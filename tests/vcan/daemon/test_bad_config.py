@@ -1,4 +1,4 @@
-"""Issue 4, "must show" 5: bad configurations (the config layer's bad_*
+"""Bad configurations (the config layer's bad_*
 fixtures: wrong types, unknown keys, node-ID out of range (CiA 301 §7.5.2:
 1..127), duplicate names, ...; and here a missing EDS and a malformed
 CiA 306 EDS) each give a clear error (file:line:column: message) and a
@@ -37,13 +37,13 @@ def staged_fixtures(ws):
         out.append((origin + "/" + os.path.basename(path), target))
     shutil.copy(os.path.join(OWN_FIXTURES, "malformed.eds"), ws.path("malformed.eds"))
     shutil.copy(os.path.join(OWN_FIXTURES, "unknown_family.eds"), ws.path("unknown_family.eds"))
-    # Issue 10, item 13: 50 000 levels of nesting (toml++ recursed per level).
+    # 50 000 levels of nesting (toml++ recurses per level).
     deep = ws.path("daemon-bad_deep_nesting.toml")
     with open(deep, "w") as f:
         f.write('[[bus]]\nname = "line1"\ninterface = "vcan0"\nx = ' + "[" * 50000 + "]" * 50000 + "\n")
     out.append(("daemon/bad_deep_nesting.toml", deep))
-    # Issue 25, item 12: 100 000 levels of dotted keys and table headers
-    # (toml++ recursed per segment: SIGSEGV), each form in its own file.
+    # 100 000 levels of dotted keys and table headers
+    # (toml++ recurses per segment: SIGSEGV), each form in its own file.
     keys = ".".join(["a"] * 100000)
     for form, text in (("dotted_key", keys + " = 1"), ("table_header", "[" + keys + "]"),
                        ("array_header", "[[" + keys + "]]"), ("inline_key", "x = { " + keys + " = 1 }")):
@@ -77,7 +77,7 @@ def bad_state_file(report, args, ws, config):
 
 
 def exposure(report, args, ws):
-    """Issue 25, item 7: a valid file that opens doors to the network passes,
+    """A valid file that opens doors to the network passes,
     with a warning at each line that opens one."""
     open_ = e2e.write_config(ws, [{"name": "line1", "interface": "vcan0"}],
                              [{"name": "enc", "bus": "line1", "serial": 1, "model": "RM9", "node_id": 5}],

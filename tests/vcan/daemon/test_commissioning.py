@@ -1,4 +1,4 @@
-"""Issue 4, "must show" 1: three models, two devices each, all at their
+"""Three models, two devices each, all at their
 factory node-IDs (the two Novotechnik devices of a series clash at 127, both
 series share 127, the ifm pair clashes at 32): cobridged detects the clashes,
 commissions the bus (J§1.9 / CiA 305 switch selective and Slowscan for the
@@ -126,7 +126,7 @@ def main():
         downloads = [f for f in frames if 0x601 <= f[1] <= 0x67F and f[2] and (f[2][0] >> 5) == 1]
         stores = [f for f in downloads if len(f[2]) >= 4 and f[2][1] == 0x10 and f[2][2] == 0x10]
         report.check(not stores, "second start: no 'save' to 0x1010 (no flash write)", "%d store writes" % len(stores))
-        # Issue 24: every device remembered and configured as asked, so a
+        # Every device remembered and configured as asked, so a
         # second start writes nothing at all (reads only, to verify).
         report.check(not downloads, "second start: 0 SDO download requests (nothing written)",
                      "%d downloads, first: %s" % (len(downloads), [(hex(f[1]), f[2].hex()) for f in downloads[:3]]))

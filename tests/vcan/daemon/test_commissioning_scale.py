@@ -1,4 +1,4 @@
-"""Issue 26, "commissioning at scale": N factory-fresh multiturn encoders
+"""Commissioning at scale: N factory-fresh multiturn encoders
 (cobridge-sim MC1-2800 at node-ID FFh, `node=unconfigured`) on one vcan at
 250 kbit/s, each named in the configuration by serial and node-ID (revision
 unknown), default bus settings otherwise. CiA 305 Fastscan + switch state
@@ -17,7 +17,7 @@ tries; then a second start with every device remembered.
 
 --count N: how many devices (8, and the issue's 32).
 --lose-configure: every 4th device loses its first LSS configure node-ID
-request (cobridge-sim `lose_configure=1`, issue 26's fault): each still ends
+request (cobridge-sim `lose_configure=1`): each still ends
 operational, its status counts the failed try (commission_failures >= 1) and
 the log names it ("commissioning failed (try 1)").
 --late-lss: every 4th device from the third on sends every 16th LSS answer
@@ -224,7 +224,7 @@ def check_once(report, daemon, devs):
 
 
 def check_retried(report, st, daemon, lossy):
-    """Issue 26, nobody left behind: the lost configure node-ID was tried again."""
+    """Nobody left behind: the lost configure node-ID was tried again."""
     by_name = {d["name"]: d for b in st["buses"] for d in b["devices"]}
     log = open(daemon.log_path).read()
     missing = [n for (n, _, _) in lossy
@@ -267,11 +267,10 @@ def figures(report, st, seen_steps, devs, took):
     print("FIGURE failed commissioning tries (retried): %d" % failures)
     report.check(len(per) == len(devs), "every device found by a Fastscan of its own (status steps)",
                  "%d of %d" % (len(per), len(devs)))
-    # Before issue 26: 16-22 of 32 Fastscans began again (a burst of answers
-    # spilling into the next step); now none on a quiet machine, but a loaded
-    # one (other builds beside UML) still makes answers late: 3-5 of 8 seen
-    # on 2026-11-27. A figure, not a check: the checks above are what late
-    # answers must never break.
+    # A Fastscan begins again when a burst of answers spills into the next
+    # step: none on a quiet machine, but a loaded one (other builds beside
+    # UML) makes answers late. A figure, not a check: the checks above are
+    # what late answers must never break.
     restarts = sum(v[2] for v in per.values())
     for x in sorted(steps, key=lambda x: x.get("at") or ""):
         if x.get("restarts", 0) or x.get("exchanges", 0) > 40:

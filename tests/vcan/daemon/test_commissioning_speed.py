@@ -1,5 +1,5 @@
-"""Issue 11, "commissioning at wire speed": the real daemon and cobridge-sim on
-vcan (UML). Prints the figures of the issue's targets and asserts the LSS
+"""Commissioning at wire speed: the real daemon and cobridge-sim on
+vcan (UML). Prints the figures of its targets and asserts the LSS
 exchange and silent-step counts (CiA 305 Fastscan), not the times.
 
  1. Six factory-fresh devices of the three families: two rotary encoders
@@ -73,7 +73,7 @@ def six_fresh(args, ws, report, listener):
     popcount = bin(MT_REVISION).count("1")
     # Guided: probe + vendor + product (<= 2 product codes of the model)
     # + revision searched (32 bits + confirm) + serial (<= 2 guesses)
-    # + the switch selective that verifies the identity found (issue 26) = 40;
+    # + the switch selective that verifies the identity found = 40;
     # a revision bit decided on a late answer (a loaded host) begins the
     # scan again (restarts): one more guided pass each. Unguided: 133.
     # Timeouts: the pass that finds the device waits only on the revision's
@@ -112,7 +112,7 @@ def whole_identity_known(args, ws, report, listener):
         report.check(took is not None, "factory-fresh multiturns with remembered identities operational",
                      "%.2f s after start" % took if took else "never")
         steps = [x for x in fastscans(st) if x["device"] in names] if st else []
-        # 5 exchanges confirm it, a 6th (switch selective, issue 26) verifies it.
+        # 5 exchanges confirm it, a 6th (switch selective) verifies it.
         report.check(len(steps) >= 2 and all(x["exchanges"] == 6 and x["timeouts"] == 0 for x in steps),
                      "whole identity known: confirmed and verified in 6 exchanges, no timeout",
                      "FIGURE whole identity at FFh: " + describe(steps) + " (target 50 ms)")

@@ -1,4 +1,4 @@
-"""Issue 10, "Devices must always come back": faults an operator's plant
+"""Devices must always come back: faults an operator's plant
 produces, injected on real SocketCAN (UML) against the real daemon and
 cobridge-sim; each check asserts the device is back, its values flow, and
 what the status said in between.

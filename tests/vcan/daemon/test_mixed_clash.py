@@ -1,4 +1,4 @@
-"""Issue 4 commissioning, the bus of the main job (scripts/main-job-in-uml): a
+"""Commissioning, the bus of the main job (scripts/main-job-in-uml): a
 mixed three-way clash at node-ID 127 (J§1.2.2 / E§3.1: every Novotechnik
 ships at 127) of two rotary RFC-4800 (J, DSP-305 V1.1.2: switch selective and
 identify remote slave, no Fastscan) and one multiturn MC1-2800 (E§6, CiA 305
@@ -96,7 +96,7 @@ def main():
             print("problems reported: %s" % problems)
             report.check(not any("could not be resolved" in str(p) for p in problems),
                          "no 'clash could not be resolved' problem")
-            # Issue 11, "status tells the truth": a resolved clash leaves the problem list.
+            # "Status tells the truth": a resolved clash leaves the problem list.
             report.check(not any("answer at node" in str(p) for p in problems),
                          "resolved clashes are no longer listed as problems", "%s" % problems)
         left = answers_at(127)

@@ -1,4 +1,4 @@
-"""Issue 11, item 4: a bus with `discovery = false` still configures every
+"""A bus with `discovery = false` still configures every
 configured device at its configured node-ID, at start and after each
 boot-up; the gateway reads the device's identity (0x1018, CiA 301
 §7.5.2.24) first, so a device of another serial at that node-ID is reported

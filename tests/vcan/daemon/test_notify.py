@@ -1,4 +1,4 @@
-"""Issue 4, "must show" 6: the sd_notify exchange (sd_notify(3)) against a
+"""The sd_notify exchange (sd_notify(3)) against a
 notify socket the test holds, as systemd would with Type=notify,
 NotifyAccess=main and WatchdogSec=: READY=1 once the known devices are
 configured, STATUS= with device counts (and the buses waiting for their
@@ -86,7 +86,7 @@ def main():
                      "%d pings, last gaps %s s" % (len(pings), ["%.2f" % g for g in gaps[-4:]]))
 
         # A bus whose interface is down is reported, not a reason to be restarted: the
-        # pings go on (the other bus is served; issue 10, item 8) and STATUS= names it.
+        # pings go on (the other bus is served) and STATUS= names it.
         subprocess.run(["ip", "link", "set", "vcan1", "down"], check=True)
         time.sleep(0.6)  # the daemon notices the interface going down
         t_down = time.time()
@@ -137,8 +137,8 @@ def main():
             log = f.read()
         report.check("node_id 200 is out of range" in log, "bad file on SIGHUP: the error is logged with its place")
 
-        # Issue 25, item 12: a file with a dotted key 100 000 levels deep swapped
-        # in; SIGHUP crashed the daemon (toml++ recursed per segment). Rejected
+        # A file with a dotted key 100 000 levels deep swapped in must not
+        # crash the daemon on SIGHUP (toml++ recurses per segment). Rejected
         # like any bad file: the old configuration kept, the error logged.
         deep_sighup(report, daemon, notify, ws)
         write(ws)

@@ -1,4 +1,4 @@
-"""Issue 4, "must show" 3 and 4, one device of each family at its configured
+"""One device of each family at its configured
 node-ID with heartbeat 100 ms:
  * power-cycled by the simulator, each is back online and configured within
    1 s of its boot-up message (CiA 301 §7.2.8.3.3 boot-up 0x700+id 00 ->

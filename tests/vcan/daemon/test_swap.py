@@ -1,4 +1,4 @@
-"""Issue 4, "must show" 2: one device replaced by a new one of the same model
+"""One device replaced by a new one of the same model
 (new serial, factory node-ID 127, E§4.1) takes the old one's place under the
 bus's swap policy "same-model": the new serial is identified by SDO
 (CiA 301 0x1018), moved to the old device's node-ID by LSS (CiA 305 switch

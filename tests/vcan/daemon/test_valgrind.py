@@ -75,7 +75,7 @@ def control_reads(report, daemon):
 
 
 def gateway_reads(report, path):
-    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "gateway"))
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "control"))
     from test_ascii_gateway import Client  # noqa: E402  the test's own CiA 309-3 client
     c = Client(path, timeout=30)
     try:

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Issue 16: many gateways in one DDS domain, end to end inside UML.
+"""Many gateways in one DDS domain, end to end inside UML.
 
 Two cobridged processes, "gw-a" on vcan0 and "gw-b" on vcan1, each with four
 simulated encoders sending TPDO1 every 1 ms (cobridge-sim, one per bus),
@@ -286,7 +286,7 @@ def main():
     seen = {e["gateway_id"] for e in gws if e["valid"] and e["state"] == "alive"}
     check(seen == {"gw-a", "gw-b"}, f"GatewayStatus of both gateways seen ({sorted(seen)})")
     bus_ms = first_after(gws, t_bus, lambda e: e["gateway_id"] == "gw-b" and e["valid"] and e["devices_online"] == 0)
-    # Issue 16: within 1 s. The daemon decides after the heartbeat consumer
+    # Within 1 s. The daemon decides after the heartbeat consumer
     # time (100 ms heartbeats: 200 ms after the last one); the DDS plugin's
     # status lane publishes it at once even with seconds of EncoderSamples
     # queued (before it: 4.2-4.8 s in loaded runs). Measured 99-293 ms in

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Issue 25, item 13: DDS Security on the DDS output, end to end inside UML.
+"""DDS Security on the DDS output, end to end inside UML.
 
 cobridge-sim (two encoders, TPDO1 every 10 ms) -> cobridged with
 [outputs.dds.security] (credentials from scripts/dds-test-ca: governance with

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Issue 5, Modbus writes end to end, inside UML on vcan0 (run by
+"""Modbus writes end to end, inside UML on vcan0 (run by
 tests/vcan/run-in-vcan): an independent Modbus client (pymodbus) writes the
 command registers (docs/modbus.md "Writes") of the real cobridged, which
 runs the commands on simulated encoders (cobridge-sim) of the three
@@ -83,7 +83,7 @@ def main():
     devices = [{"name": name, "bus": "line1", "serial": s, "model": m, "node_id": n, "heartbeat_ms": 100,
                 "tpdo1": {"mapping": ["position"], "transmission": "event", "event_timer_ms": 10}}
                for (name, m, _, s, n) in DEVICES]
-    # Issue 25, items 5-6: writes from 127.0.0.1 only (a second client from 127.0.0.2 reads, may not write).
+    # Writes from 127.0.0.1 only (a second client from 127.0.0.2 reads, may not write).
     extra = "[outputs.modbus]\nbind = \"127.0.0.1\"\nport = %d\nwrites_enabled = true\nwrite_allow = [\"127.0.0.1/32\"]\n" % PORT
     daemon = e2e.Daemon(args.daemon, e2e.write_config(ws, [bus], devices, extra=extra), ws,
                         extra_args=("--plugin-dir", args.plugins))
@@ -181,7 +181,7 @@ def main():
             report.check(regs is not None, "a client outside write_allow (127.0.0.2) reads the map")
             r = other.command("mt", 1, 4242)
             report.check(r.isError() and getattr(r, "exception_code", None) == 0x01,
-                         "its preset is refused with exception 0x01 (issue 25 item 6)", str(r))
+                         "its preset is refused with exception 0x01", str(r))
         finally:
             other.close()
         # The daemon logged each command and its outcome, and every write with its client

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Issue 5 end to end, inside UML on vcan0 (run by tests/vcan/run-in-vcan).
+"""The outputs end to end, inside UML on vcan0 (run by tests/vcan/run-in-vcan).
 
 cobridge-sim (four encoders of three families, TPDO1 every 1 ms, --truth)
 -> cobridged (hot path, DDS reliable, Modbus TCP, JSON tap)
@@ -8,7 +8,7 @@ cobridge-sim (four encoders of three families, TPDO1 every 1 ms, --truth)
 
 Asserts:
 * the JSON tap has every TPDO from the first one after the NMT start (the
-  soak's loss criterion, issue 10);
+  soak's loss criterion);
 * every TPDO value the simulator put on the bus in the measured window
   reaches the DDS subscriber and the JSON tap, with the same value, in
   order, none lost (CiA 301 PDO payloads compared byte for byte for the tap,
@@ -241,7 +241,7 @@ def main():
                 reads.append((name, pos, v[11], v[9], now_ns()))
             time.sleep(0.1)
         mb.close()
-        # Issue 10, item 9: a shutdown under full load (four devices at 1 ms,
+        # A shutdown under full load (four devices at 1 ms,
         # every plugin running) ends in the reverse order of the start, exit 0.
         t_stop = time.time()
         daemon.send_signal(signal.SIGTERM)
@@ -302,7 +302,7 @@ def main():
         missing, gaps, first = match_in_order([x[1] for x in sent], [t[1] for t in tap.get(node, [])])
         check(missing == 0, f"{name}: JSON tap has every sent payload, in order ({len(sent) - missing}/{len(sent)})")
         check(gaps == 0, f"{name}: JSON tap contiguous over the window")
-        # Issue 10, item 4: nothing lost from the very first TPDO after the
+        # Nothing lost from the very first TPDO after the
         # gateway's NMT start (the device sends none before it), i.e. the hot
         # path has the device's mapping before it is started.
         since_start = [t for t in truth.get(node, []) if t[0] <= t1 - margin]
@@ -315,7 +315,7 @@ def main():
         # between. Stale re-publications (the plugin repeats the last value
         # with stale=true when a device goes quiet, e.g. during a UML stall)
         # are not new values and are left out. EncoderSample is numbered per
-        # device by TPDOs alone (issue 16), so the numbers are contiguous.
+        # device by TPDOs alone, so the numbers are contiguous.
         d = [x for x in dds.get(node, []) if not x[3]]
         missing_d, gaps_d, first_d = match_in_order([x[2] for x in sent], [x[1] for x in d])
         check(missing_d == 0, f"{name}: DDS subscriber got every sent position, in order ({len(sent) - missing_d}/{len(sent)})")

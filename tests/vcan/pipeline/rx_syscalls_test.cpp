@@ -1,5 +1,5 @@
 // The RX thread's cost per batch on real SocketCAN, counted, not timed
-// (issue 24: a promise asserted exactly). The hot path makes no system call
+// (a promise asserted exactly). The hot path makes no system call
 // beyond the wait and the read: per batch of TPDOs, one poll that returns
 // them, one recvmmsg that reads them, and at most one eventfd write that
 // wakes a sleeping dispatcher. No mutex, no heap allocation on that thread.

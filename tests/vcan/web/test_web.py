@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Issue 14 end to end, inside UML (tests/vcan/run-in-vcan): cobridge-sim with
+"""The web service end to end, inside UML (tests/vcan/run-in-vcan): cobridge-sim with
 three encoders (one per family, TPDO1 every 10 ms, --truth) -> cobridged with
 [web] on UML's loopback -> HTTP clients.
 

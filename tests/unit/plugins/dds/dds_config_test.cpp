@@ -25,7 +25,7 @@ TEST(DdsConfig, DocsDds_EmptyGivesDefaults) {
   EXPECT_FALSE(r.config.security.has_value()) << "DDS Security is off without [outputs.dds.security]";
 }
 
-// Issue 16, item 1: sample_path; "auto" writes on the dispatcher and spills,
+// sample_path: "auto" writes on the dispatcher and spills,
 // whatever the reliability; "dispatcher" never spills; "writer-thread" never
 // writes on the dispatcher.
 TEST(DdsConfig, Issue16_SamplePath) {

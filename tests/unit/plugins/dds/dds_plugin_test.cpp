@@ -682,7 +682,7 @@ bool take_until(dds_entity_t reader, const std::function<bool(const T&, const dd
 
 }  // namespace
 
-// Issue 16, item 4: a subscriber can tell loss from silence. EncoderSample
+// A subscriber can tell loss from silence. EncoderSample
 // is numbered by the TPDOs of its device alone (kind_sequence): heartbeats,
 // EMCYs and status samples in between, which the topic does not carry, leave
 // no gap; EncoderEvent is numbered by the EMCYs alone.
@@ -731,7 +731,7 @@ TEST(DdsPlugin, Issue16_EachTopicNumbersItsOwnSamplesWithoutGaps) {
   EXPECT_GT(seq, kTpdos) << "the per-device sequence counted the other kinds too";
 }
 
-// Issue 16, item 3: GatewayStatus names the gateway's process and counts its
+// GatewayStatus names the gateway's process and counts its
 // devices and buses; a clean stop disposes it, so subscribers see the
 // gateway leave at once.
 TEST(DdsPlugin, Issue16_GatewayStatusCountsDevicesAndIsDisposedOnStop) {
@@ -829,7 +829,7 @@ TEST(DdsPlugin, OmgDdsSec11_9_4_1_3_PermissionsWithoutPublishStopTheStart) {
   EXPECT_NE(log.all().find("does not grant it to 'CN=reader-all,O=cobridge test'"), std::string::npos) << log.all();
 }
 
-// Issue 16, item 3: every writer offers liveliness AUTOMATIC with the
+// Every writer offers liveliness AUTOMATIC with the
 // configured lease, so a subscriber sees a dead gateway within the lease.
 TEST(DdsPlugin, Issue16_WritersOfferAutomaticLivelinessWithTheConfiguredLease) {
   Reader samples(&cobridge_EncoderSample_desc, "EncoderSample", DDS_RELIABILITY_BEST_EFFORT, DDS_DURABILITY_VOLATILE,
@@ -860,7 +860,7 @@ TEST(DdsPlugin, Issue16_WritersOfferAutomaticLivelinessWithTheConfiguredLease) {
   }
 }
 
-// Issue 16, item 3: a second gateway with the same id in the domain is
+// A second gateway with the same id in the domain is
 // detected by both (logged as an error naming the other's host and pid, and
 // duplicate_id in their GatewayStatus); when it stops, the first one logs
 // that it left.
@@ -891,7 +891,7 @@ TEST(DdsPlugin, Issue16_DuplicateGatewayIdIsDetectedAndReported) {
   EXPECT_NE(first->log.all().find("has left the DDS domain"), std::string::npos) << first->log.all();
 }
 
-// Issue 16, item 1: best-effort EncoderSample is written on the dispatcher
+// Best-effort EncoderSample is written on the dispatcher
 // thread with sample_path "auto": every sample arrives in order with its values
 // (in-process delivery loses nothing), DeviceStatus still follows from the
 // writer thread, and the stale re-publication comes from the dispatcher side.
@@ -932,7 +932,7 @@ TEST(DdsPlugin, Issue16_DispatcherPathDeliversInOrderAndRepublishesStale) {
   EXPECT_TRUE(fresh_status);
 }
 
-// Issue 16, item 1: sample_path "writer-thread" keeps best-effort samples on
+// sample_path "writer-thread" keeps best-effort samples on
 // the writer thread; "dispatcher" with reliable samples writes them on the
 // dispatcher (max_blocking_time 0), every one arriving in order.
 TEST(DdsPlugin, Issue16_SamplePathWriterThreadAndReliableDispatcher) {
@@ -982,7 +982,7 @@ TEST(DdsPlugin, AFirstSampleRightAfterItsAnnouncementCarriesTheName) {
   }
 }
 
-// Issue 16, docs/dds.md "Many gateways in one domain": `partition` puts every
+// docs/dds.md "Many gateways in one domain": `partition` puts every
 // writer in that DDS partition; a reader of the partition gets the samples,
 // a reader of the default partition does not.
 TEST(DdsPlugin, Issue16_PartitionSeparatesReaders) {
@@ -1019,7 +1019,7 @@ TEST(DdsPlugin, Issue16_PartitionSeparatesReaders) {
 
 // A reliable EncoderSample reader in a participant of its own that takes
 // only when the test does and has room for 10 samples: every reliable write
-// to it waits its max_blocking_time once the room is used up (issue 16: a
+// to it waits its max_blocking_time once the room is used up (a
 // stalled reader). The participant goes with the object.
 struct StalledReader {
   dds_entity_t pp = dds_create_participant(static_cast<dds_domainid_t>(test_domain()), nullptr, nullptr);
@@ -1042,7 +1042,7 @@ struct StalledReader {
   }
 };
 
-// Issue 16, item 1: a reliable subscriber that stops reading must not stall
+// A reliable subscriber that stops reading must not stall
 // the dispatcher (which Modbus and the tap share). The reader keeps at most
 // 10 samples and never takes, so the reliable writer's history fills and
 // each write waits (max_blocking_time); the dispatcher side (on_samples)
@@ -1088,7 +1088,7 @@ static std::uint64_t figure(const Plugin& p, const std::string& name) {
   return 0;
 }
 
-// Issue 16, item 1, sample_path "auto" (the default): the dispatcher writes
+// sample_path "auto" (the default): the dispatcher writes
 // EncoderSample itself; a write that finds the reliable history full goes
 // to the writer thread, and so does every sample after it until the writer
 // thread has written them (order kept), then the dispatcher writes directly
@@ -1169,7 +1169,7 @@ TEST(DdsPlugin, Issue16_AutoSpillsAFullReliableHistoryToTheWriterThreadInOrder) 
   EXPECT_GE(got.size(), 15u) << "the first 10 and batch C at least";
 }
 
-// Issue 16, item 1, sample_path "auto": a TPDO the dispatcher hands out more
+// sample_path "auto": a TPDO the dispatcher hands out more
 // than DispatcherSamples::kBehindNs after its frame arrived (the dispatcher
 // is behind) goes to the writer thread, and so does what follows until that
 // has been written; then the dispatcher writes directly again. Every sample
@@ -1203,7 +1203,7 @@ TEST(DdsPlugin, Issue16_AutoHandsABacklogToTheWriterThread) {
   }
 }
 
-// Issue 16, "a gateway that loses its bus is visible to subscribers within
+// "A gateway that loses its bus is visible to subscribers within
 // 1 s": a device going offline reaches DeviceStatus and GatewayStatus at
 // once even with seconds of EncoderSamples queued before it. A reliable
 // reader that never takes (room for 10 samples) makes every EncoderSample

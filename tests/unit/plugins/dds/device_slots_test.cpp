@@ -42,7 +42,7 @@ TEST(DeviceSlots, Cia301_7_2_8_3_2_HeartbeatSetsOnlineAndStateOnce) {
   EXPECT_EQ(slot->state.updated_ns, 1000u);
 }
 
-// Issue 5 staleness: STATUS stale=1 is reported as "became stale" once; the
+// Staleness: STATUS stale=1 is reported as "became stale" once; the
 // next TPDO clears it (a fresh value is current).
 TEST(DeviceSlots, Cia301_7_2_2_StaleUntilTheNextTpdo) {
   DeviceSlots slots(8);
@@ -61,7 +61,7 @@ TEST(DeviceSlots, Cia301_7_2_2_StaleUntilTheNextTpdo) {
   EXPECT_FALSE(slots.find(2)->state.stale);
 }
 
-// Issue 16 ("a gateway that loses its bus is visible within 1 s"): a status
+// ("A gateway that loses its bus is visible within 1 s"): a status
 // sample applied ahead of the queue (the status lane) changes DeviceStatus
 // at once; when the queue reaches it, it is skipped, and the samples queued
 // before it (older than the state shown: a TPDO, a heartbeat) neither end

@@ -348,7 +348,7 @@ class Writes(HostCase):
         self.fail(f"slot {slot}: command_status {regs} never became {want}")
 
     def test_every_write_is_logged_with_the_client(self):
-        """Issue 25, item 5: a write, applied or refused, is logged at info
+        """A write, applied or refused, is logged at info
         with the client's address and port, the registers and the values."""
         base = DEVICE_BASE + 1 * STRIDE
         with connect(self.host.port) as s:
@@ -638,7 +638,7 @@ class ConcurrentClients(HostCase):
         self.assertEqual(counts, [50] * n)
         self.assert_serving()
 
-    # Issue 10, item 11: when full, the connection idle longest makes room.
+    # When full, the connection idle longest makes room.
     def test_client_beyond_max_clients_evicts_the_idlest(self):
         socks = [connect(self.host.port) for _ in range(32)]
         try:
@@ -662,7 +662,7 @@ class ConcurrentClients(HostCase):
 
 
 class WriteAllow(HostCase):
-    """Issue 25, item 6: with writes_enabled, only clients inside write_allow
+    """With writes_enabled, only clients inside write_allow
     write; the others still read, and their writes answer exception 0x01
     (MBAP §7, as when writes are disabled) and are logged as refused."""
     CONFIG = 'writes_enabled = true\nwrite_allow = ["10.0.0.0/8"]\n'
@@ -686,7 +686,7 @@ class WriteAllow(HostCase):
 
 
 class WriteAllowLoopback(HostCase):
-    """Issue 25, item 6: a client inside write_allow writes."""
+    """A client inside write_allow writes."""
     CONFIG = 'writes_enabled = true\nwrite_allow = ["127.0.0.1/32"]\n'
 
     def test_a_client_inside_write_allow_writes(self):
@@ -699,7 +699,7 @@ class WriteAllowLoopback(HostCase):
 
 
 class Hostile(unittest.TestCase):
-    """Issue 10, items 10-12: clients a plant's network produces."""
+    """Clients a plant's network produces."""
 
     # TCP §3.1.3: after an invalid MBAP header the stream cannot be framed any
     # more, but the complete requests before it were valid: answered first.

@@ -77,7 +77,7 @@ TEST(RegisterImage, DataAgeIsComputedAtReadTime) {
   EXPECT_EQ(data_age_ms(0, kNow), 0xFFFF);                         // never received
 }
 
-// Issue 10, item 7: with the monotonic receive time given (ABI 2,
+// With the monotonic receive time given (ABI 2,
 // COBRIDGE_VALID_RX_MONOTONIC) the age ignores a step of the wall clock.
 TEST(RegisterImage, DataAgeUsesTheMonotonicClockWhenGiven) {
   RegisterImage img(ImageOptions{});

@@ -13,7 +13,7 @@ namespace {
 TEST(ModbusConfig, DefaultsWhenEmpty) {
   ServerConfig c;
   ASSERT_TRUE(parse_config("", c));
-  EXPECT_EQ(c.bind, "127.0.0.1");  // issue 25 item 5: loopback, as web and 309-3
+  EXPECT_EQ(c.bind, "127.0.0.1");  // loopback, as web and 309-3
   EXPECT_EQ(c.port, 1502);
   EXPECT_EQ(c.max_clients, 32u);
   EXPECT_EQ(c.idle_timeout_s, 60u);
@@ -79,7 +79,7 @@ TEST(ModbusConfig, BadValuesAreRejected) {
   EXPECT_EQ(parse_config("port = ", c).code, ConfigErrc::kSyntax);
 }
 
-// Issue 25, item 6: write_allow is its own list; empty allows every client's writes.
+// write_allow is its own list; empty allows every client's writes.
 TEST(ModbusConfig, WriteAllowIsParsedApartFromAllow) {
   ServerConfig c;
   ASSERT_TRUE(parse_config("allow = [\"10.0.0.0/8\"]\nwrite_allow = [\"10.1.2.3\"]", c));

@@ -1,4 +1,4 @@
-// WriteRecord (issue 25, item 5): the log line of a Modbus write names the
+// WriteRecord: the log line of a Modbus write names the
 // client, the unit, the registers, the values and the outcome
 // (MBAP §6.6 Write Single Register, §6.12 Write Multiple Registers, §7).
 #include "write_record.hpp"
