@@ -31,6 +31,17 @@ namespace cobridge::gateway {
 
 // Told about devices as they are configured and change state, so the hot
 // path can decode their PDOs and the plugins can publish status.
+// A gateway's role on one bus of a hot-standby pair, as the outputs see it.
+struct BusRole {
+  enum class Kind : std::uint8_t { undecided, master, standby };
+  Kind kind = Kind::undecided;
+  std::uint8_t own_node = 0;
+  std::uint8_t master_node = 0;  // 0 = none known
+  std::uint8_t peer_node = 0;    // the other gateway heard on the bus, 0 = none yet
+  std::string cause;
+  std::uint64_t since_ns = 0;  // realtime
+};
+
 class BusObserver {
  public:
   virtual ~BusObserver() = default;
@@ -47,6 +58,8 @@ class BusObserver {
   // configured one's replacement, or left the configuration on a reload):
   // its index and node-ID are free again.
   virtual void on_device_removed(const DeviceStatus& /*device*/) {}
+  // Hot standby ([redundancy]): the gateway's role on this bus changed.
+  virtual void on_role_changed(const BusRole& /*role*/) {}
 };
 
 class BusRegistry;

@@ -49,6 +49,7 @@ void BusManager::Impl::on_election(const canopen::ElectionEvent& e) {
   election_at = wall_now();
   dirty = true;
   const std::string_view cause = canopen::to_string(e.cause);
+  tell_outputs(e);
   switch (e.role) {
     case MasterRole::master:
       log->warn("bus {}: this gateway is the bus's master now ({})", bus.name, cause);
@@ -74,6 +75,21 @@ void BusManager::Impl::on_election(const canopen::ElectionEvent& e) {
   }
 }
 
+void BusManager::Impl::tell_outputs(const canopen::ElectionEvent& e) {
+  if (options.observer == nullptr) return;
+  BusRole r;
+  r.kind = e.role == canopen::MasterRole::master    ? BusRole::Kind::master
+           : e.role == canopen::MasterRole::standby ? BusRole::Kind::standby
+                                                    : BusRole::Kind::undecided;
+  r.own_node = config.redundancy ? config.redundancy->node_id : 0;
+  r.master_node = e.master_node;
+  r.peer_node = election->peer_node();
+  r.cause = std::string(canopen::to_string(e.cause));
+  r.since_ns = static_cast<std::uint64_t>(
+      std::chrono::duration_cast<std::chrono::nanoseconds>(election_at.time_since_epoch()).count());
+  options.observer->on_role_changed(r);
+}
+
 TimePoint BusManager::Impl::run_standby(TimePoint now, TimePoint next) {
   next = std::min(next, supervisor.process(now, tx));  // its timers; a guarding request is refused
   if (remote->waiting() != 0) {
@@ -88,6 +104,7 @@ void BusManager::Impl::describe_role(BusStatus& s) const {
   if (!election) return;
   s.role = std::string(canopen::to_string(election->role()));
   s.master_node = election->master_node();
+  s.peer_node = election->peer_node();
   s.election_cause = std::string(canopen::to_string(election->last_event().cause));
   s.election_at = election_at;
 }

@@ -304,6 +304,7 @@ struct BusManager::Impl final : RemoteGate {
   [[nodiscard]] bool standby() const noexcept { return election && !election->is_master(); }
   [[nodiscard]] bool election_frame(const can::Frame& frame, TimePoint now);
   void on_election(const canopen::ElectionEvent& e);
+  void tell_outputs(const canopen::ElectionEvent& e);
   [[nodiscard]] TimePoint run_standby(TimePoint now, TimePoint next);
   void describe_role(BusStatus& s) const;
 

@@ -114,6 +114,7 @@ struct BusStatus {
   // [redundancy] only (role empty without it: this gateway is the only master).
   std::string role;                   // master, standby, starting, negotiating, claiming
   std::uint8_t master_node = 0;       // the bus's master gateway, 0 = none known
+  std::uint8_t peer_node = 0;         // the other gateway heard on the bus, 0 = none yet
   std::string election_cause;         // why the role is what it is
   WallTime election_at{};             // when the role last changed
   std::vector<DeviceStatus> devices;

@@ -139,6 +139,13 @@ bool MasterElection::owns(const can::Frame& frame) const noexcept {
          gateways_[frame.id - cob::kNmtErrorControlBase];
 }
 
+uint8_t MasterElection::peer_node() const noexcept {
+  for (uint8_t n = 1; n < 128; ++n) {
+    if (gateways_[n] && n != config_.node_id) return n;
+  }
+  return 0;
+}
+
 bool MasterElection::on_frame(const can::Frame& frame, TimePoint now, can::FrameSink& out) noexcept {
   if (frame.is_extended() || frame.is_rtr()) return false;
   switch (frame.id) {

@@ -122,6 +122,9 @@ class MasterElection {
   // A node-ID a gateway of this bus uses (ours, or one heard claiming or
   // announcing itself): its heartbeat is the election's, not a device's.
   [[nodiscard]] bool is_gateway(uint8_t node) const noexcept { return node < 128 && gateways_[node]; }
+  // The other gateway of the pair: the lowest node-ID heard in a claim or
+  // response that is not ours, 0 = none heard yet.
+  [[nodiscard]] uint8_t peer_node() const noexcept;
   // Frames that belong to the election only: 0x71..0x76, and the heartbeat
   // of a gateway.
   [[nodiscard]] bool owns(const can::Frame& frame) const noexcept;

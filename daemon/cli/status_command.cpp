@@ -56,8 +56,9 @@ void print_table(const Json& doc) {
                 c["error_frames"].integer(), c["rx_overflow_drops"].integer(), c["reopens"].integer());
     const auto& r = b["redundancy"];
     if (!r.is_null()) {
-      std::printf("  hot standby: %s, master node %lld (%s, since %s)\n", r["role"].str().c_str(),
-                  r["master_node"].integer(), r["cause"].str().c_str(), short_time(r["since"]).c_str());
+      std::printf("  hot standby: %s, master node %lld, peer node %lld (%s, since %s)\n", r["role"].str().c_str(),
+                  r["master_node"].integer(), r["peer_node"].integer(), r["cause"].str().c_str(),
+                  short_time(r["since"]).c_str());
     }
   }
   // Columns as wide as their widest cell: model names come from the EDS files.

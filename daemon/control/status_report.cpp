@@ -158,6 +158,7 @@ void write_redundancy(JsonWriter& w, const BusStatus& b) {
   w.begin_object();
   w.field("role", b.role);
   w.field("master_node", std::uint64_t{b.master_node});
+  w.field("peer_node", std::uint64_t{b.peer_node});
   w.field("cause", b.election_cause);
   w.key("since");
   w.time(b.election_at);

@@ -227,4 +227,29 @@ void OutputBridge::announce(const DeviceStatus& device, std::uint8_t change) {
   });
 }
 
+void OutputBridge::on_role_changed(const BusRole& role) {
+  if (!host_ || !dispatcher_) return;
+  const auto cfg = config_.get();
+  cobridge_role_info info{};
+  info.struct_size = sizeof info;
+  info.bus_index = static_cast<std::uint8_t>(bus_index_);
+  info.role = role.kind == BusRole::Kind::master    ? COBRIDGE_ROLE_MASTER
+              : role.kind == BusRole::Kind::standby ? COBRIDGE_ROLE_STANDBY
+                                                    : COBRIDGE_ROLE_UNDECIDED;
+  info.own_node = role.own_node;
+  info.master_node = role.master_node;
+  info.peer_node = role.peer_node;
+  info.since_ns = role.since_ns;
+  // In order with the samples (plugin.h): a plugin switches its DDS
+  // ownership strength between two batches, never inside one.
+  auto strings = std::make_shared<std::array<std::string, 2>>(std::array<std::string, 2>{
+      bus_index_ < cfg->buses.size() ? cfg->buses[bus_index_].name : std::string(), role.cause});
+  pipeline::PluginHost* host = host_;
+  dispatcher_->post([host, info, strings]() mutable {
+    info.bus_name = (*strings)[0].c_str();
+    info.cause = (*strings)[1].c_str();
+    host->announce_role(info);
+  });
+}
+
 }  // namespace cobridge::gateway

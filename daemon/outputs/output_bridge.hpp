@@ -42,6 +42,7 @@ class OutputBridge final : public BusObserver {
   void on_command_done(const DeviceStatus& device, const DeviceCommand& command,
                        const CommandOutcome& outcome) override;
   void on_device_removed(const DeviceStatus& device) override;
+  void on_role_changed(const BusRole& role) override;
 
   // The plan that would be published (exposed for tests).
   [[nodiscard]] pipeline::DecodePlan make_plan(const DeviceStatus& device, const std::vector<std::uint32_t>& tpdo1,

@@ -11,6 +11,7 @@ pipeline::PluginHost::Options host_options(const config::Config& config, std::fi
   o.commands = std::move(commands);
   o.plugin_dir = std::move(dir);
   o.gateway_id = config.gateway.id;
+  if (config.redundancy) o.redundancy_node = config.redundancy->node_id;
   // A plugin's log lines go to the logger named after its instance ("dds", ...).
   o.log = [](pipeline::LogLevel level, std::string_view instance, std::string_view message) {
     sys::logger(instance)->log(static_cast<spdlog::level::level_enum>(level), "{}", message);

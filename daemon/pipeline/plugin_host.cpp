@@ -147,6 +147,7 @@ struct PluginHost::Instance {
   void (*on_samples)(void*, const cobridge_sample*, std::size_t) = nullptr;
   void (*on_device)(void*, const cobridge_device_info*) = nullptr;
   std::size_t (*stats)(void*, cobridge_stat*, std::size_t) = nullptr;
+  void (*on_role)(void*, const cobridge_role_info*) = nullptr;
   std::string type;
   bool started = false;
 };
@@ -232,6 +233,7 @@ Error PluginHost::load(const PluginSpec& spec) {
   p->api.log = &PluginHost::log_trampoline;
   p->api.gateway_id = options_.gateway_id.c_str();
   p->api.submit_command = &PluginHost::submit_trampoline;
+  p->api.redundancy_node = options_.redundancy_node;
 
   std::array<char, 512> err{};
   const cobridge_plugin_ops* ops = nullptr;
@@ -280,6 +282,7 @@ Error PluginHost::load(const PluginSpec& spec) {
   p->on_samples = ops->on_samples;
   if (covers(size, offsetof(cobridge_plugin_ops, on_device))) p->on_device = ops->on_device;
   if (covers(size, offsetof(cobridge_plugin_ops, stats))) p->stats = ops->stats;
+  if (covers(size, offsetof(cobridge_plugin_ops, on_role))) p->on_role = ops->on_role;
 
   const char* type = ops->name != nullptr ? ops->name : "?";
   p->type = type;
@@ -334,6 +337,12 @@ void PluginHost::deliver(std::span<const Sample> samples) noexcept {
 void PluginHost::announce(const cobridge_device_info& info) noexcept {
   for (const auto& p : plugins_) {
     if (p->started && p->on_device != nullptr) p->on_device(p->self, &info);
+  }
+}
+
+void PluginHost::announce_role(const cobridge_role_info& info) noexcept {
+  for (const auto& p : plugins_) {
+    if (p->started && p->on_role != nullptr) p->on_role(p->self, &info);
   }
 }
 

@@ -136,6 +136,7 @@ class PluginHost {
     std::string gateway_id;
     LogSink log;
     CommandSink commands{};
+    std::uint8_t redundancy_node = 0;  // [redundancy] node_id; 0 = the gateway runs alone
   };
 
   explicit PluginHost(Options options);
@@ -159,6 +160,9 @@ class PluginHost {
   // Dispatcher thread. Announces a device to every started plugin whose ABI
   // has on_device.
   void announce(const cobridge_device_info& info) noexcept;
+  // Dispatcher thread. Tells every started plugin whose ABI has on_role that
+  // the gateway's role on a bus changed (hot standby).
+  void announce_role(const cobridge_role_info& info) noexcept;
 
   // Stops the started instances in reverse load order; they stay loaded and
   // may be started again.

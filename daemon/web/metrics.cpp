@@ -122,6 +122,11 @@ void bus_families(Writer& w, const gateway::StatusReport& report) {
   for (const auto& b : report.buses) {
     if (!b.role.empty()) w.sample({{"bus", b.name}, {"role", b.role}}, b.role == "master" ? 1 : 0);
   }
+  w.family("cobridge_bus_peer_node", "gauge",
+           "[redundancy]: node-ID of the other gateway heard on the bus, 0 = none yet; absent without [redundancy].");
+  for (const auto& b : report.buses) {
+    if (!b.role.empty()) w.sample({{"bus", b.name}}, b.peer_node);
+  }
   per_bus("cobridge_bus_bitrate", "gauge", "The bus's configured bit rate, bit/s.",
           [](const BusStatus& b) { return static_cast<double>(b.bitrate_kbit) * 1000.0; });
   // Each bus has two sockets (docs/architecture.md): the hot path's and the control plane's.

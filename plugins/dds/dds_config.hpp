@@ -56,6 +56,9 @@ struct DdsConfig {
   // [outputs.dds.security]: DDS Security with these files (checked at load,
   // dds_security.hpp); none = off, anyone on the network may read and write.
   std::optional<DdsSecurity> security;
+  // Not a TOML key: the host's [redundancy] node_id (ABI 4), 0 = alone. In a
+  // pair the data writers have EXCLUSIVE ownership (pair_role.hpp).
+  std::uint8_t redundancy_node = 0;
 
   // True when on_samples writes EncoderSample on the dispatcher thread (the
   // sample writer then has max_blocking_time 0).

@@ -100,6 +100,7 @@ struct Instance {
   std::unique_ptr<DdsPublisher> publisher;
   std::unique_ptr<DispatcherSamples> direct;  // set when samples are written on the dispatcher
   std::unique_ptr<GatewayPresence> presence;
+  std::unique_ptr<PairRole> pair;  // hot standby only (host->redundancy_node)
   std::thread presence_thread;
   std::mutex presence_mutex;
   std::condition_variable presence_cv;
@@ -185,6 +186,15 @@ struct Instance {
     return true;
   }
 
+  // GatewayStatus follows a role change now (dispatcher thread).
+  void wake_presence() {
+    {
+      std::lock_guard lock(presence_mutex);
+      presence_kick = true;
+    }
+    presence_cv.notify_one();
+  }
+
   // GatewayStatus follows a change of the counts now, not at the next tick.
   void kick_presence() {
     const GatewayCounts c = publisher->counts();
@@ -268,7 +278,8 @@ struct Instance {
       const bool refresh = now >= refresh_at;
       // Forced when the other one disposed our key (kGone), and every kPresenceRefresh.
       const std::uint64_t writes = presence->writes();
-      presence->publish(publisher->counts(), d == DuplicateChange::kGone || refresh);
+      presence->publish(publisher->counts(), pair ? pair->snapshot() : PairStatus{},
+                        d == DuplicateChange::kGone || refresh);
       if (refresh || presence->writes() != writes) refresh_at = now + kPresenceRefresh;
       try {
         report(d);
@@ -329,6 +340,7 @@ int dds_start(void* self) {
     const DdsConfig& cfg = inst->publisher->config();
     inst->presence = std::make_unique<GatewayPresence>(inst->publisher->gateway(), cfg.topic_prefix, cfg.partition,
                                                        DDS_MSECS(cfg.liveliness_lease_ms));
+    if (inst->pair) inst->presence->set_pair_node(inst->pair->node());
     if (const std::error_code pec = inst->presence->start(inst->publisher->participant(), message)) {
       if (cfg.security && pec.category() == dds_category())
         message += security_failure_hint(-pec.value(), *cfg.security);
@@ -455,6 +467,31 @@ void dds_on_device(void* self, const cobridge_device_info* info) {
   inst->wake();
 }
 
+// ABI 4: the gateway's role on a bus changed (hot standby). Dispatcher
+// thread, between two batches: the writers' strength changes before the
+// next sample is written.
+void dds_on_role(void* self, const cobridge_role_info* info) {
+  if (info == nullptr || info->struct_size < offsetof(cobridge_role_info, cause) + sizeof(const char*)) return;
+  auto* inst = static_cast<Instance*>(self);
+  if (!inst->pair || !inst->publisher || !inst->publisher->started()) return;
+  try {
+    if (inst->pair->update(*info)) {
+      const std::int32_t strength = inst->pair->strength();
+      if (const std::error_code ec = inst->publisher->set_ownership_strength(strength)) {
+        inst->log(COBRIDGE_LOG_ERROR, "cannot set the writers' ownership strength to " + std::to_string(strength) +
+                                          ": " + ec.message() + "; subscribers may keep the other gateway's stream");
+      } else {
+        inst->log(COBRIDGE_LOG_INFO, std::string("hot standby: writing at ownership strength ") +
+                                         std::to_string(strength) +
+                                         (strength == kMasterStrength ? " (master)" : " (standby)"));
+      }
+    }
+    inst->wake_presence();
+  } catch (...) {
+    // Out of memory: the role shows at the next change.
+  }
+}
+
 // ABI 3: what the status page and /metrics show of this output. Control-plane
 // thread, between start and stop: atomics and one Cyclone status query per writer.
 std::size_t dds_stats(void* self, cobridge_stat* out, std::size_t max) {
@@ -495,6 +532,7 @@ constexpr cobridge_plugin_ops kOps = {
     &dds_on_samples,
     &dds_on_device,
     &dds_stats,
+    &dds_on_role,
 };
 
 }  // namespace
@@ -521,6 +559,11 @@ extern "C" COBRIDGE_PLUGIN_EXPORT int cobridge_plugin_create(const cobridge_host
     const bool direct = parsed.config.samples_on_dispatcher();
     const bool spill = parsed.config.spill_to_writer_thread();
     const bool batch = parsed.config.write_batch;
+    if (host->struct_size >= offsetof(cobridge_host_api, redundancy_node) + sizeof(host->redundancy_node) &&
+        host->redundancy_node != 0 && host->redundancy_node < 128) {
+      parsed.config.redundancy_node = static_cast<std::uint8_t>(host->redundancy_node);
+      inst->pair = std::make_unique<PairRole>(parsed.config.redundancy_node);
+    }
     inst->publisher = std::make_unique<DdsPublisher>(std::move(parsed.config), gateway_id);
     if (direct) inst->direct = std::make_unique<DispatcherSamples>(inst->publisher->gateway(), batch, spill);
     if (*gateway_id == '\0') {

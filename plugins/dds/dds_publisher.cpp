@@ -1,5 +1,6 @@
 #include "dds/dds_publisher.hpp"
 
+#include "dds/pair_role.hpp"
 #include "dds/dds_security.hpp"
 #include "dds/sample_mapping.hpp"
 #include "dds/topics.hpp"
@@ -96,6 +97,7 @@ std::error_code DdsPublisher::start(std::string& message, std::string& note) {
       {kDeviceStatusTopic, &cobridge_DeviceStatus_desc, device_status_writer_qos(lease), &status_writer_},
   };
   for (Spec& spec : specs) {
+    if (config_.redundancy_node != 0) set_exclusive(spec.qos.get(), kStandbyStrength);
     const std::string name = topic_name(config_.topic_prefix, spec.topic);
     const dds_entity_t topic = dds_create_topic(participant_, spec.type, name.c_str(), nullptr, nullptr);
     if (topic < 0) {
@@ -116,6 +118,18 @@ std::error_code DdsPublisher::start(std::string& message, std::string& note) {
     if (const DeviceSlot* slot = slots_.find(i); slot != nullptr && slot->in_use) write_status(*slot);
   }
   flush();
+  return {};
+}
+
+std::error_code DdsPublisher::set_ownership_strength(std::int32_t strength) noexcept {
+  if (config_.redundancy_node == 0) return {};
+  const Qos q(dds_create_qos());
+  if (!q) return make_dds_error(DDS_RETCODE_OUT_OF_RESOURCES);
+  dds_qset_ownership_strength(q.get(), strength);
+  for (const dds_entity_t w : {sample_writer_, event_writer_, status_writer_}) {
+    if (w <= 0) continue;
+    if (const dds_return_t rc = dds_set_qos(w, q.get()); rc != DDS_RETCODE_OK) return make_dds_error(rc);
+  }
   return {};
 }
 

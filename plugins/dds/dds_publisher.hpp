@@ -107,6 +107,10 @@ class DdsPublisher {
   // The EncoderSample writer, for DispatcherSamples (0 before start).
   [[nodiscard]] dds_entity_t sample_writer() const noexcept { return sample_writer_; }
   [[nodiscard]] const GatewayName& gateway() const noexcept { return gateway_; }
+  // Hot standby: the ownership strength of the three data writers (their
+  // ownership is EXCLUSIVE when config().redundancy_node is set). Any thread
+  // while started; Cyclone announces the change to the readers.
+  [[nodiscard]] std::error_code set_ownership_strength(std::int32_t strength) noexcept;
   // Device and bus counts as of the last status change (any thread).
   [[nodiscard]] GatewayCounts counts() const noexcept;
 

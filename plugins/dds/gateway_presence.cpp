@@ -77,7 +77,7 @@ std::error_code GatewayPresence::start(dds_entity_t participant, std::string& me
     stop();
     return make_dds_error(rc);
   }
-  publish(counts_, true);
+  publish(counts_, pair_, true);
   return {};
 }
 
@@ -86,7 +86,7 @@ void GatewayPresence::stop() noexcept {
     cobridge_GatewayStatus key{};
     key.gateway_key = gateway_.key;
     key.gateway_id = const_cast<char*>(gateway_.id);
-    key.host = key.duplicate_of = const_cast<char*>("");
+    key.host = key.duplicate_of = key.role = key.election_cause = const_cast<char*>("");
     (void)dds_dispose(writer_, &key);
     (void)dds_write_flush(writer_);  // the domain may batch writes (write_batch)
   }
@@ -127,10 +127,21 @@ DuplicateChange GatewayPresence::poll() noexcept {
   return duplicate() ? DuplicateChange::kDetected : DuplicateChange::kGone;
 }
 
-void GatewayPresence::publish(const GatewayCounts& counts, bool force) noexcept {
+void GatewayPresence::set_pair_node(std::uint8_t node) {
+  if (node == 0) return;
+  gateway_.key = gateway_key(std::string(gateway_.id) + "#" + std::to_string(node));
+  pair_.node = node;
+}
+
+void GatewayPresence::publish(const GatewayCounts& counts, const PairStatus& pair, bool force) noexcept {
   if (writer_ <= 0) return;
-  if (!force && ever_written_ && counts == counts_ && duplicate() == written_duplicate_) return;
+  if (!force && ever_written_ && counts == counts_ && pair == pair_ && duplicate() == written_duplicate_) return;
   counts_ = counts;
+  try {
+    pair_ = pair;
+  } catch (...) {
+    // std::string out of memory: the last role is written again.
+  }
   write(realtime_ns());
 }
 
@@ -149,6 +160,12 @@ void GatewayPresence::write(std::uint64_t now_ns) noexcept {
   st.duplicate_id = duplicate();
   st.duplicate_of = const_cast<char*>(duplicate_of_.c_str());
   st.updated_ns = now_ns;
+  st.redundancy_node = pair_.node;
+  st.role = const_cast<char*>(pair_.role.c_str());
+  st.master_node = pair_.master_node;
+  st.peer_node = pair_.peer_node;
+  st.election_cause = const_cast<char*>(pair_.cause.c_str());
+  st.election_ns = pair_.since_ns;
   if (dds_write(writer_, &st) == DDS_RETCODE_OK) ++writes_;
   (void)dds_write_flush(writer_);  // the domain may batch writes (write_batch)
   written_duplicate_ = duplicate();

@@ -17,6 +17,7 @@
 #pragma once
 
 #include "dds/dds_config.hpp"
+#include "dds/pair_role.hpp"
 #include "dds/sample_mapping.hpp"
 
 #include <dds/dds.h>
@@ -60,9 +61,13 @@ class GatewayPresence {
 
   // Takes what the reader received; reports a duplicate appearing or going.
   [[nodiscard]] DuplicateChange poll() noexcept;
-  // Writes GatewayStatus when the counts or the duplicate state changed
-  // since the last write (or always, with force).
-  void publish(const GatewayCounts& counts, bool force = false) noexcept;
+  // Writes GatewayStatus when the counts, the pair's role or the duplicate
+  // state changed since the last write (or always, with force).
+  void publish(const GatewayCounts& counts, const PairStatus& pair, bool force = false) noexcept;
+  // Hot standby: before start, this gateway's node-ID in the pair. Its
+  // GatewayStatus is then keyed by "<gateway_id>#<node>", so the two
+  // gateways of a pair (one gateway_id) are two instances, not duplicates.
+  void set_pair_node(std::uint8_t node);
 
   [[nodiscard]] bool duplicate() const noexcept { return !duplicate_of_.empty(); }
   [[nodiscard]] const std::string& duplicate_of() const noexcept { return duplicate_of_; }
@@ -85,6 +90,7 @@ class GatewayPresence {
   dds_entity_t reader_ = 0;
   dds_entity_t topic_ = 0;
   GatewayCounts counts_{};
+  PairStatus pair_{};
   bool written_duplicate_ = false;
   bool ever_written_ = false;
   std::string duplicate_of_;  // "host pid" of the other gateway, "" = none

@@ -55,4 +55,9 @@ Qos gateway_status_reader_qos() {
   return q;
 }
 
+void set_exclusive(dds_qos_t* qos, std::int32_t strength) {
+  dds_qset_ownership(qos, DDS_OWNERSHIP_EXCLUSIVE);
+  dds_qset_ownership_strength(qos, strength);
+}
+
 }  // namespace cobridge::dds

@@ -60,6 +60,9 @@ using Qos = std::unique_ptr<dds_qos_t, QosDelete>;
 // The plugin's own GatewayStatus reader (duplicate detection): matches the
 // writers of every gateway, ignores the plugin's own participant.
 [[nodiscard]] Qos gateway_status_reader_qos();
+// A hot-standby pair's data writer: EXCLUSIVE ownership at `strength`
+// (pair_role.hpp).
+void set_exclusive(dds_qos_t* qos, std::int32_t strength);
 // The publisher / subscriber QoS of a partition ("" = the default one).
 [[nodiscard]] Qos partition_qos(const std::string& partition);
 

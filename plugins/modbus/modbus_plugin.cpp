@@ -158,6 +158,7 @@ std::size_t modbus_stats(void* self, cobridge_stat* out, std::size_t max) {
 constexpr cobridge_plugin_ops kOps = {
     COBRIDGE_PLUGIN_ABI_VERSION, sizeof(cobridge_plugin_ops), "modbus", &modbus_start, &modbus_stop,
     &modbus_destroy,             &modbus_on_samples,          &modbus_on_device, &modbus_stats,
+    nullptr,  // on_role: both gateways of a pair serve live registers; SCADA may poll either
 };
 
 }  // namespace

@@ -42,8 +42,10 @@ extern "C" {
 
 /* History: 1 = first release; 2 = commands (cobridge_host_api.submit_command,
  * COBRIDGE_SAMPLE_COMMAND and the command_* sample fields); 3 = the optional
- * stats operation (what the status page and /metrics show of an output). */
-#define COBRIDGE_PLUGIN_ABI_VERSION 3u
+ * stats operation (what the status page and /metrics show of an output);
+ * 4 = hot standby (cobridge_host_api.redundancy_node, the optional on_role
+ * operation and cobridge_role_info). */
+#define COBRIDGE_PLUGIN_ABI_VERSION 4u
 
 /* Name of the exported entry point, for dlsym(). */
 #define COBRIDGE_PLUGIN_ENTRY "cobridge_plugin_create"
@@ -290,7 +292,36 @@ typedef struct cobridge_host_api {
    * device carrying the same tag (to every plugin). Any other value of enum
    * cobridge_command_status: refused now, nothing queued, no sample follows. */
   int (*submit_command)(void* host, const cobridge_command* command);
+
+  /* ABI 4: the gateway's node-ID in a hot-standby pair ([redundancy]
+   * node_id), 0 = the gateway runs alone. In a pair both gateways decode
+   * every frame and hand the same samples to their plugins; an output that
+   * must present one stream (DDS: EXCLUSIVE ownership) follows on_role. */
+  uint32_t redundancy_node;
 } cobridge_host_api;
+
+/* ------------------------------------------------------------------------ */
+/* Roles (ABI 4): which gateway of a hot-standby pair is a bus's master      */
+
+/* Values are frozen; new roles are only added. */
+enum cobridge_role {
+  COBRIDGE_ROLE_UNDECIDED = 0, /* starting, negotiating or claiming */
+  COBRIDGE_ROLE_MASTER = 1,    /* this gateway configures and commands the bus */
+  COBRIDGE_ROLE_STANDBY = 2    /* another gateway (master_node) does; this one listens */
+};
+
+typedef struct cobridge_role_info {
+  uint32_t struct_size;
+  uint8_t bus_index;   /* index of the CAN bus in the gateway's configuration */
+  uint8_t role;        /* enum cobridge_role */
+  uint8_t own_node;    /* this gateway's node-ID on the bus */
+  uint8_t master_node; /* the bus's master gateway, 0 = none known */
+  uint8_t peer_node;   /* the other gateway heard on the bus, 0 = none yet */
+  uint8_t reserved_[7];
+  uint64_t since_ns;   /* when the role changed, ns since the Unix epoch */
+  const char* bus_name; /* e.g. "can0" */
+  const char* cause;    /* why, in words, e.g. "the active master is silent" */
+} cobridge_role_info;
 
 /* ------------------------------------------------------------------------ */
 /* Plugin operations: what a plugin gives the daemon                        */
@@ -345,6 +376,10 @@ typedef struct cobridge_plugin_ops {
    * a few times a second: it must be thread-safe against the plugin's own
    * threads, must not block, and should read counters, not compute. */
   size_t (*stats)(void* self, cobridge_stat* out, size_t max);
+
+  /* ABI 4. The gateway's role on one bus changed (only with [redundancy]).
+   * Dispatcher thread, in order with on_samples; must not block. */
+  void (*on_role)(void* self, const cobridge_role_info* info);
 
   /* Later versions append here, never in between, e.g. for ABI 2:
    *   void (*on_bus)(void* self, const cobridge_bus_info* info);

@@ -193,6 +193,20 @@ TEST(PluginHostAbi, V1PluginLoadsAndReceivesSamples) {
   EXPECT_EQ(rec->on_device_calls, 1);
   EXPECT_STREQ(rec->last_device_name, "spindle");
 
+  // ABI 4: a role change reaches the plugin with its cause.
+  cobridge_role_info role{};
+  role.struct_size = sizeof role;
+  role.role = COBRIDGE_ROLE_STANDBY;
+  role.master_node = 120;
+  role.bus_name = "line1";
+  role.cause = "an active master answered";
+  host.announce_role(role);
+  EXPECT_EQ(rec->on_role_calls, 1);
+  EXPECT_EQ(rec->last_role, COBRIDGE_ROLE_STANDBY);
+  EXPECT_EQ(rec->last_role_master, 120);
+  EXPECT_STREQ(rec->last_role_cause, "an active master answered");
+  EXPECT_EQ(rec->host_redundancy_node, 0u) << "no [redundancy]: the plugin is told it runs alone";
+
   host.stop_all();
   EXPECT_EQ(rec->stopped, 1);
   host.deliver(batch);

@@ -25,6 +25,12 @@ typedef struct test_plugin_record {
   char gateway_id[64];
   char config[128];
   char last_device_name[64];
+  /* ABI 4 */
+  unsigned host_redundancy_node;
+  int on_role_calls;
+  int last_role;
+  int last_role_master;
+  char last_role_cause[64];
 } test_record;
 
 #endif

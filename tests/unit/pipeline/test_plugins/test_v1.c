@@ -69,9 +69,19 @@ static size_t v1_stats(void* self, cobridge_stat* out, size_t max) {
   return i;
 }
 
+/* ABI 4: the gateway's role on a bus. */
+static void v1_on_role(void* self, const cobridge_role_info* info) {
+  (void)self;
+  ++test_plugin_record.on_role_calls;
+  test_plugin_record.last_role = info->role;
+  test_plugin_record.last_role_master = info->master_node;
+  copy_str(test_plugin_record.last_role_cause, sizeof test_plugin_record.last_role_cause, info->cause,
+           strlen(info->cause));
+}
+
 static const cobridge_plugin_ops ops = {
     COBRIDGE_PLUGIN_ABI_VERSION, sizeof(cobridge_plugin_ops), "test_v1", v1_start, v1_stop, v1_destroy,
-    v1_on_samples, v1_on_device, v1_stats,
+    v1_on_samples, v1_on_device, v1_stats, v1_on_role,
 };
 
 int cobridge_plugin_create(const cobridge_host_api* host, const char* config_toml, size_t config_len,
@@ -83,6 +93,7 @@ int cobridge_plugin_create(const cobridge_host_api* host, const char* config_tom
   in->host = host;
   ++test_plugin_record.created;
   test_plugin_record.host_abi_version = host->abi_version;
+  test_plugin_record.host_redundancy_node = host->redundancy_node;
   copy_str(test_plugin_record.gateway_id, sizeof test_plugin_record.gateway_id, host->gateway_id,
            strlen(host->gateway_id));
   copy_str(test_plugin_record.config, sizeof test_plugin_record.config, config_toml, config_len);

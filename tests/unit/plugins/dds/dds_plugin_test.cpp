@@ -31,6 +31,7 @@
 #include <functional>
 #include <map>
 #include <mutex>
+#include <span>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -83,8 +84,8 @@ class LogCapture {
 struct Plugin {
   LogCapture log;
   pipeline::PluginHost host;
-  explicit Plugin(const std::string& config)
-      : host({kPlugin.parent_path(), test_gateway(), log.sink()}) {
+  explicit Plugin(const std::string& config, std::uint8_t redundancy_node = 0)
+      : host({kPlugin.parent_path(), test_gateway(), log.sink(), {}, redundancy_node}) {
     const Error err = host.load({"dds", "dds", kPlugin, config});
     EXPECT_FALSE(err) << err.to_string();
     const auto failed = host.start_all();
@@ -156,7 +157,8 @@ class Reader {
   // Every take on a reader uses this many slots (see the disposal test).
   static constexpr std::size_t kMax = 256;
   Reader(const dds_topic_descriptor_t* type, const std::string& topic, dds_reliability_kind_t rel,
-         dds_durability_kind_t dur, bool keep_all, std::int32_t depth = 1) {
+         dds_durability_kind_t dur, bool keep_all, std::int32_t depth = 1,
+         dds_ownership_kind_t ownership = DDS_OWNERSHIP_SHARED) {
     participant_ = dds_create_participant(static_cast<dds_domainid_t>(test_domain()), nullptr, nullptr);
     EXPECT_GT(participant_, 0) << dds_strretcode(participant_);
     const dds_entity_t t = dds_create_topic(participant_, type, topic.c_str(), nullptr, nullptr);
@@ -165,6 +167,7 @@ class Reader {
     dds_qset_reliability(q, rel, DDS_SECS(1));
     dds_qset_durability(q, dur);
     dds_qset_history(q, keep_all ? DDS_HISTORY_KEEP_ALL : DDS_HISTORY_KEEP_LAST, depth);
+    dds_qset_ownership(q, ownership);
     reader_ = dds_create_reader(participant_, t, q, nullptr);
     dds_delete_qos(q);
     EXPECT_GT(reader_, 0) << dds_strretcode(reader_);
@@ -1259,3 +1262,92 @@ TEST(DdsPlugin, Issue16_OfflineIsNotQueuedBehindASampleBacklog) {
   EXPECT_GE(gateway_ms, 0) << "GatewayStatus never showed devices_online = 0";
   EXPECT_LE(gateway_ms, 1000);
 }
+
+namespace {
+
+void tell_role(Plugin& p, std::uint8_t role, std::uint8_t own, std::uint8_t master) {
+  cobridge_role_info r{};
+  r.struct_size = sizeof r;
+  r.role = role;
+  r.own_node = own;
+  r.master_node = master;
+  r.peer_node = own == 120 ? 121 : 120;
+  r.bus_name = "can0";
+  r.cause = role == COBRIDGE_ROLE_MASTER ? "no active master answered" : "an active master answered";
+  p.host.announce_role(r);
+}
+
+// One TPDO from each gateway of the pair, told apart by their sequence
+// numbers (a from 1, b from 100001: each gateway numbers its own samples).
+void deliver_pair(Plugin* a, Plugin* b, std::uint32_t& k, int n) {
+  for (int i = 0; i < n; ++i, ++k) {
+    const cobridge_sample sa = tpdo(0, 0, 5, k), sb = tpdo(0, 0, 5, 100000 + k);
+    if (a) a->host.deliver(std::span(&sa, 1));
+    if (b) b->host.deliver(std::span(&sb, 1));
+    std::this_thread::sleep_for(1ms);
+  }
+}
+
+std::vector<std::uint32_t> drain(Reader& r, std::chrono::milliseconds quiet = 300ms) {
+  std::vector<std::uint32_t> got;
+  r.take<cobridge_EncoderSample>(
+      1u << 20, [&](const cobridge_EncoderSample& s) { got.push_back(s.sequence_number); }, quiet);
+  return got;
+}
+
+}  // namespace
+
+// docs/dds.md, "A hot-standby pair" (DDS 1.4 2.2.3.9-10, OWNERSHIP and
+// OWNERSHIP_STRENGTH): both gateways write the same instances with
+// EXCLUSIVE ownership, the master stronger, so an EXCLUSIVE reader sees one
+// stream: the master's; after a role change the new master's; when the
+// master's writer is gone, the survivor's at once. Each gateway's
+// GatewayStatus is its own instance and says its role.
+TEST(DdsPlugin, HotStandbyPairReaderSeesTheMastersStreamOnly) {
+  Reader samples(&cobridge_EncoderSample_desc, "EncoderSample", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_VOLATILE,
+                 true, 1, DDS_OWNERSHIP_EXCLUSIVE);
+  Reader gw(&cobridge_GatewayStatus_desc, "GatewayStatus", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_TRANSIENT_LOCAL,
+            false, 1);
+  auto a = std::make_unique<Plugin>(base_config("sample_reliability = \"reliable\"\n"), 120);
+  auto b = std::make_unique<Plugin>(base_config("sample_reliability = \"reliable\"\n"), 121);
+  a->host.announce(device(0, 0, 5, "axis 1"));
+  b->host.announce(device(0, 0, 5, "axis 1"));
+  tell_role(*a, COBRIDGE_ROLE_MASTER, 120, 120);
+  tell_role(*b, COBRIDGE_ROLE_STANDBY, 121, 120);
+  std::uint32_t k = 1;
+  deliver_pair(a.get(), b.get(), k, 20);
+  (void)drain(samples);  // discovery settles
+  deliver_pair(a.get(), b.get(), k, 50);
+  auto got = drain(samples);
+  ASSERT_GE(got.size(), 45u);
+  for (auto s : got) EXPECT_LT(s, 100000u) << "a sample of the standby reached an exclusive reader";
+
+  EXPECT_NE(a->log.all().find("ownership strength 2 (master)"), std::string::npos) << a->log.all();
+  std::map<int, std::string> roles;  // redundancy_node -> role
+  (void)take_until<cobridge_GatewayStatus>(gw.id(), [&](const auto& s, const auto& info) {
+    if (info.valid_data && test_gateway() == s.gateway_id) {
+      roles[s.redundancy_node] = s.role;
+      EXPECT_FALSE(s.duplicate_id) << "the two gateways of a pair are not duplicates";
+    }
+    return roles[120] == "master" && roles[121] == "standby";
+  });
+  EXPECT_EQ(roles[120], "master");
+  EXPECT_EQ(roles[121], "standby");
+
+  // The roles change over: within a few samples the stream is b's.
+  tell_role(*a, COBRIDGE_ROLE_STANDBY, 120, 121);
+  tell_role(*b, COBRIDGE_ROLE_MASTER, 121, 121);
+  deliver_pair(a.get(), b.get(), k, 60);
+  got = drain(samples);
+  ASSERT_GE(got.size(), 40u);
+  for (std::size_t i = got.size() - 40; i < got.size(); ++i) EXPECT_GT(got[i], 100000u) << "at " << i;
+
+  // The master dies (its writers go): the standby's stream follows at once,
+  // in order, without a gap.
+  b.reset();
+  deliver_pair(a.get(), nullptr, k, 30);
+  got = drain(samples);
+  ASSERT_EQ(got.size(), 30u);
+  for (std::size_t i = 1; i < got.size(); ++i) EXPECT_EQ(got[i], got[i - 1] + 1) << "gap at " << i;
+}
+
