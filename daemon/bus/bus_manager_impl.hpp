@@ -92,6 +92,8 @@ struct BusManager::Impl final : RemoteGate {
     bool force_full = false;  // the next run is the full plan
     bool want_configure = false;  // waiting for a runner slot
     bool started = false;         // NMT start sent after a successful plan
+    bool followed = false;        // standby: its decode plan is announced to the outputs
+    bool heard_operational = false;  // standby: its last heartbeat said operational
     bool failed_unanswered = false;  // the last failure was a silence (timeout, nothing sent)
     bool operator_hold = false;      // stopped / pre-operational by a client's NMT command: left so
     unsigned attempts = 0;
@@ -306,6 +308,9 @@ struct BusManager::Impl final : RemoteGate {
   void on_election(const canopen::ElectionEvent& e);
   void tell_outputs(const canopen::ElectionEvent& e);
   [[nodiscard]] TimePoint run_standby(TimePoint now, TimePoint next);
+  void follow_heard_devices();
+  void note_heartbeat(const can::Frame& frame);
+  [[nodiscard]] bool describe_from_config(Managed& m);
   void describe_role(BusStatus& s) const;
 
   std::thread thread;

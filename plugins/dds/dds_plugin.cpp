@@ -483,7 +483,7 @@ void dds_on_role(void* self, const cobridge_role_info* info) {
       } else {
         inst->log(COBRIDGE_LOG_INFO, std::string("hot standby: writing at ownership strength ") +
                                          std::to_string(strength) +
-                                         (strength == kMasterStrength ? " (master)" : " (standby)"));
+                                         (strength >= kMasterStrength ? " (master)" : " (standby)"));
       }
     }
     inst->wake_presence();

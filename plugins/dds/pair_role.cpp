@@ -1,5 +1,8 @@
 #include "dds/pair_role.hpp"
 
+#include <algorithm>
+#include <cstdint>
+
 namespace cobridge::dds {
 namespace {
 
@@ -36,12 +39,17 @@ bool PairRole::update(const cobridge_role_info& info) {
   last_.peer_node = info.peer_node;
   last_.cause = info.cause != nullptr ? info.cause : "";
   last_.since_ns = info.since_ns;
+  if (after && !before) {
+    const std::uint64_t s = info.since_ns / 1000000000u;
+    const std::uint64_t age = s > kStrengthEpochS ? s - kStrengthEpochS : 0;
+    master_strength_ = static_cast<std::int32_t>(std::clamp<std::uint64_t>(age, kMasterStrength, INT32_MAX));
+  }
   return before != after;
 }
 
 std::int32_t PairRole::strength() const {
   const std::lock_guard lock(mutex_);
-  return master_locked() ? kMasterStrength : kStandbyStrength;
+  return master_locked() ? master_strength_ : kStandbyStrength;
 }
 
 PairStatus PairRole::snapshot() const {

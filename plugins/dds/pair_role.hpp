@@ -7,6 +7,11 @@
 // once the stronger one's liveliness lease runs out. The gateway that is
 // master of at least one of its buses writes at kMasterStrength, every
 // other at kStandbyStrength, so the stream a subscriber sees is the master's.
+// A master's strength is the time it took the role (seconds since
+// 2020-01-01, at least kMasterStrength): a newer master is always stronger
+// than the one it replaces, so a reader switches at the new master's first
+// sample instead of waiting for the old writer's lease to run out (the two
+// machines' clocks need only agree to within the time between takeovers).
 //
 // Thread contract: update() on the dispatcher thread (on_role); snapshot()
 // on the presence thread. Off the hot path: one mutex, rare calls.
@@ -22,7 +27,8 @@
 namespace cobridge::dds {
 
 inline constexpr std::int32_t kStandbyStrength = 1;
-inline constexpr std::int32_t kMasterStrength = 2;
+inline constexpr std::int32_t kMasterStrength = 2;  // the least a master writes with
+inline constexpr std::uint64_t kStrengthEpochS = 1577836800;  // 2020-01-01T00:00:00Z
 
 // What GatewayStatus says of the pair.
 struct PairStatus {
@@ -52,6 +58,7 @@ class PairRole {
   const std::uint8_t node_;
   mutable std::mutex mutex_;
   std::array<std::uint8_t, 256> roles_{};  // per bus index: enum cobridge_role
+  std::int32_t master_strength_ = kMasterStrength;
   PairStatus last_;                        // of the latest change, any bus
 };
 

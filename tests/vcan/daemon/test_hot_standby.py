@@ -14,7 +14,14 @@ the bus (kernel receive stamps):
     its state directory, joins as standby without an election of its own;
   * at no time do both gateways' heartbeats say master within one period,
     and the standby's frames are only its heartbeat and election frames;
-  * a device rebooted right after a takeover is configured by the new master.
+  * a device rebooted right after a takeover is configured by the new master;
+  * with the outputs (--plugins, --probe): a DDS subscriber with EXCLUSIVE
+    readers (cobridge_dds_probe, as a cell controller of a pair subscribes)
+    sees one stream per device that fails over by itself at each takeover
+    (the gap printed, at most 1 s) with no sequence gap in any gateway's
+    stream, and each gateway's GatewayStatus says its role; a Modbus client
+    polling both gateways all the time never reads a data age above 1 s
+    from the one that stays up.
 Runs inside UML:
   tests/vcan/run-in-vcan -- /usr/bin/python3 tests/vcan/daemon/test_hot_standby.py --daemon ... --kills 3
 """
@@ -22,6 +29,8 @@ import json
 import os
 import random
 import signal
+import subprocess
+import threading
 import time
 
 import e2e
@@ -31,16 +40,24 @@ DEVICES = [("rot-a", "RFC-4800", "RFC-4800", 1001, 10),
            ("ifm-a", "RM9", "RM9000", 3001, 30)]
 NAMES = [d[0] for d in DEVICES]
 NODE = {"a": 120, "b": 121}
+MODBUS_PORT = {"a": 1502, "b": 1503}
 HB = 0x700
 ELECTION_IDS = range(0x71, 0x77)
 
 
-def config(ws, node):
+def outputs(k):
+    return ('[outputs.dds]\nsample_reliability = "reliable"\nsample_depth = 1000\n'
+            '[outputs.modbus]\nbind = "127.0.0.1"\nport = %d\noffline_exception = false\n' % MODBUS_PORT[k])
+
+
+def config(ws, node, k, with_outputs):
     bus = {"name": "line1", "interface": "vcan0", "bitrate": 250, "discovery_period_s": 3600}
     devices = [{"name": n, "bus": "line1", "serial": s, "model": m, "node_id": nid, "heartbeat_ms": 100,
                 "tpdo1": {"mapping": ["position"], "transmission": "event", "event_timer_ms": 20}}
                for (n, m, _, s, nid) in DEVICES]
     extra = '[redundancy]\nmode = "hot-standby"\nnode_id = %d\n' % node
+    if with_outputs:
+        extra += outputs(k)
     return e2e.write_config(ws, [bus], devices, extra=extra)
 
 
@@ -74,13 +91,16 @@ class Pair:
     def __init__(self, args, report):
         self.args, self.report = args, report
         self.ws = {k: e2e.Workspace("standby-" + k, args.keep, base="/run") for k in NODE}
-        self.cfg = {k: config(self.ws[k], NODE[k]) for k in NODE}
+        self.outputs = bool(args.plugins and args.probe)
+        self.cfg = {k: config(self.ws[k], NODE[k], k, self.outputs) for k in NODE}
         self.daemon = {}
         self.starts = {k: 0 for k in NODE}
 
     def start(self, k):
         self.starts[k] += 1
-        self.daemon[k] = e2e.Daemon(self.args.daemon, self.cfg[k], self.ws[k], log_name="daemon-%d.log" % self.starts[k])
+        extra = ["--plugin-dir", self.args.plugins] if self.outputs else []
+        self.daemon[k] = e2e.Daemon(self.args.daemon, self.cfg[k], self.ws[k], log_name="daemon-%d.log" % self.starts[k],
+                                    extra_args=extra)
         return self.daemon[k]
 
     def kill(self, k):
@@ -104,6 +124,88 @@ def master_overlap(frames):
     return overlaps
 
 
+class ModbusPoller:
+    """Reads the first device's data age (input register 256 + 11, docs/modbus.md)
+    from both gateways every 20 ms; a gateway that is down simply fails."""
+
+    def __init__(self):
+        from pymodbus.client import ModbusTcpClient
+        self.clients = {k: ModbusTcpClient("127.0.0.1", port=p, timeout=2) for k, p in MODBUS_PORT.items()}
+        self.reads = []  # (time, gateway, data age ms)
+        self.stop_flag = False
+        self.thread = threading.Thread(target=self.run, daemon=True)
+        self.thread.start()
+
+    def run(self):
+        from pymodbus.client import ModbusTcpClient
+        while not self.stop_flag:
+            for k, c in list(self.clients.items()):
+                ok = False
+                try:
+                    if c.connected or c.connect():
+                        r = c.read_input_registers(256 + 11, 1, slave=1)
+                        ok = not r.isError()
+                        if ok:
+                            self.reads.append((time.time(), k, r.registers[0]))
+                except Exception:  # the gateway is down or restarting
+                    pass
+                if not ok:  # a fresh client: a dead server's connection is not reused
+                    c.close()
+                    self.clients[k] = ModbusTcpClient("127.0.0.1", port=MODBUS_PORT[k], timeout=2)
+            time.sleep(0.02)
+
+    def live_after(self, k, t0, limit):
+        """Seconds from t0 until k's reads show a data age of at most 200 ms, or None."""
+        while time.time() < t0 + limit:
+            fresh = [t for t, g, a in self.reads if g == k and t >= t0 and a <= 200]
+            if fresh:
+                return fresh[0] - t0
+            time.sleep(0.05)
+        return None
+
+    def worst(self, k, t0, t1):
+        ages = [a for t, g, a in self.reads if g == k and t0 <= t <= t1]
+        return (max(ages), len(ages)) if ages else (None, 0)
+
+    def close(self):
+        self.stop_flag = True
+        self.thread.join(5)
+        for c in self.clients.values():
+            c.close()
+
+
+def start_probe(args, ws):
+    stop = ws.path("probe.stop")
+    out = open(ws.path("probe.jsonl"), "w")
+    p = subprocess.Popen([args.probe, "--domain", "0", "--seconds", "600", "--stop-file", stop, "--exclusive", "1"],
+                         stdout=out, stderr=subprocess.STDOUT)
+    return p, stop, out
+
+
+def check_dds(report, ws, kills):
+    with open(ws.path("probe.jsonl")) as f:
+        ev = [json.loads(l) for l in f if l.startswith("{")]
+    switches = [e for e in ev if e["ev"] == "switch"]
+    per_device = {}
+    for s in switches:
+        per_device.setdefault(s["node"], []).append(s["gap_ms"])
+    gaps = sorted(g for v in per_device.values() for g in v)
+    if gaps:
+        print("FIGURE DDS failover at the subscriber: p50 %.0f ms, p100 %.0f ms (%d switches)" % (
+            gaps[len(gaps) // 2], gaps[-1], len(gaps)))
+    report.check(all(len(per_device.get(n, [])) >= kills for (_, _, _, _, n) in DEVICES),
+                 "DDS: every device's stream fell over to the survivor at every takeover (EXCLUSIVE reader)",
+                 str({n: len(v) for n, v in per_device.items()}))
+    report.check(gaps and gaps[-1] <= 1000, "DDS: each failover within 1 s at the subscriber", str(gaps[-5:]))
+    writers = [e for e in ev if e["ev"] == "device"]
+    bad = [w for w in writers if w["gaps"] != 0]
+    report.check(writers and not bad, "DDS: no sequence gap in any gateway's stream (%d streams)" % len(writers),
+                 str(bad[:3]))
+    roles = {e["node"]: e["role"] for e in ev if e["ev"] == "gateway" and e.get("valid")}
+    report.check(set(roles) == set(NODE.values()) and "master" in roles.values(),
+                 "DDS GatewayStatus: one instance per gateway of the pair, with its role", str(roles))
+
+
 def one_takeover(pair, report, listener, master, standby, i):
     """Kills the master; returns the takeover time in seconds or None."""
     time.sleep(random.uniform(0.0, 1.0))
@@ -122,13 +224,19 @@ def one_takeover(pair, report, listener, master, standby, i):
 
 
 def main():
-    args = e2e.parse_args(lambda p: p.add_argument("--kills", type=int, default=3))
+    def extra(p):
+        p.add_argument("--kills", type=int, default=3)
+        p.add_argument("--probe", help="cobridge_dds_probe: with --plugins, check DDS and Modbus through takeovers")
+    args = e2e.parse_args(extra)
     report = e2e.Report("test_hot_standby")
     listener = e2e.CanListener("vcan0")
     pair = Pair(args, report)
     keep_logs = os.environ.get("STANDBY_LOGS")
     sim = e2e.Simulator(args.sim, pair.ws["a"], {"vcan0": ["%s:serial=%d,node=%d%s" % (
         sm, s, n, ",bitrate=250" if sm.startswith("RM") else "") for (_, _, sm, s, n) in DEVICES]})
+    probe = poller = None
+    if pair.outputs:
+        probe = start_probe(args, pair.ws["a"])
     try:
         a = pair.start("a")
         report.check(a.wait_socket(), "gateway a: control socket up")
@@ -165,12 +273,29 @@ def main():
                      "the standby sends nothing but its heartbeat",
                      "%d frames sent, %d of them heartbeats on the bus" % (tx1 - tx0, b_heartbeats))
 
+        if pair.outputs:
+            poller = ModbusPoller()
+            time.sleep(1.0)  # DDS discovery: the subscriber matches both gateways
         master, standby = "a", "b"
         takeovers = []
         for i in range(1, args.kills + 1):
             log_offset = os.path.getsize(pair.daemon[standby].log_path)
+            t_before = time.time()
+            if poller:
+                # Live before any takeover: the standby decodes every TPDO (20 ms event timer) from
+                # the devices' first heartbeats after it joined.
+                live = poller.live_after(standby, t_before, 5.0)
+                report.check(live is not None,
+                             "kill %d: before it, the standby's Modbus data is live (%s s after the check began)"
+                             % (i, "%.2f" % live if live is not None else "never"))
+                t_before = time.time()
             took = one_takeover(pair, report, listener, master, standby, i)
             takeovers.append(took)
+            if poller:
+                worst, n = poller.worst(standby, t_before, time.time() + 1.0)
+                report.check(n > 0 and worst is not None and worst <= 1000,
+                             "kill %d: Modbus on the survivor stays live (data age at most %s ms over %d reads)" % (
+                                 i, worst, n))
             survivor = pair.daemon[standby]
             _, back = survivor.wait_until(e2e.all_operational(NAMES), 20, interval=0.05)
             n_lines, n_writes = writes_since(survivor, log_offset)
@@ -223,7 +348,16 @@ def main():
                           for d in bb["devices"]), 20, interval=0.05)
         report.check(back is not None and configured,
                      "a device rebooted right after the takeover: configured by the new master", "%s" % back)
+        if probe:
+            time.sleep(1.0)
+            open(probe[1], "w").close()
+            probe[0].wait(10)
+            check_dds(report, pair.ws["a"], args.kills + 1)
     finally:
+        if poller:
+            poller.close()
+        if probe and probe[0].poll() is None:
+            probe[0].kill()
         if keep_logs:
             import shutil
             for k, ws in pair.ws.items():

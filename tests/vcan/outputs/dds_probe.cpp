@@ -21,6 +21,14 @@
 //                       probe goes on without it)
 //   {"ev":"totals","samples":N,"statuses":N,"events":N,"gateways":N}
 //                       valid samples taken per topic, when the probe exits
+//   {"ev":"switch","t":ns,"gateway_id":..,"bus":b,"node":n,"gap_ms":x,"first":s}
+//                       an EncoderSample instance's samples now come from
+//                       another writer (a hot-standby pair's failover):
+//                       gap_ms since the previous writer's last sample,
+//                       first = the new writer's first sequence number
+// With --exclusive 1 the data readers ask for EXCLUSIVE ownership, as a
+// subscriber of a hot-standby pair does (docs/dds.md); "device" lines are
+// then per writer, so a failover is not counted as a gap.
 // Exits after --seconds or when the file --stop-file exists. Timestamps are
 // CLOCK_REALTIME ns when the probe took the sample.
 //
@@ -70,15 +78,22 @@ const char* state_name(dds_instance_state_t s) {
 struct Device {
   std::uint64_t samples = 0, gaps = 0, lost = 0, repeats = 0;
   std::uint32_t first = 0, last = 0;
-  dds_instance_state_t state = DDS_IST_ALIVE;
 };
 using Key = std::tuple<std::string, int, int>;
+// Per writer: a hot-standby pair's two gateways write one instance.
+using WriterKey = std::tuple<std::string, int, int, dds_instance_handle_t>;
+struct Writer {
+  dds_instance_handle_t handle = 0;
+  std::uint64_t last_t = 0;
+  dds_instance_state_t state = DDS_IST_ALIVE;
+};
 
 struct Options {
   std::uint32_t domain = 0;
   double seconds = 60;
   std::string stop_file;
   std::string security_dir, identity;
+  bool exclusive = false;
 };
 
 Options parse(int argc, char** argv) {
@@ -90,6 +105,7 @@ Options parse(int argc, char** argv) {
     if (k == "--stop-file") o.stop_file = argv[i + 1];
     if (k == "--security-dir") o.security_dir = argv[i + 1];
     if (k == "--identity") o.identity = argv[i + 1];
+    if (k == "--exclusive") o.exclusive = std::atoi(argv[i + 1]) != 0;
   }
   return o;
 }
@@ -122,7 +138,7 @@ dds_qos_t* security_qos(const Options& o) {
 // A reader, or 0 when DDS Security refused its topic or the reader itself
 // (reported as a "refused" line); any other failure ends the probe.
 dds_entity_t make_reader(dds_entity_t pp, const dds_topic_descriptor_t* type, const char* name, bool keep_all,
-                         bool transient) {
+                         bool transient, bool exclusive = false) {
   const dds_entity_t topic = dds_create_topic(pp, type, name, nullptr, nullptr);
   dds_entity_t r = topic;
   if (topic > 0) {
@@ -130,6 +146,7 @@ dds_entity_t make_reader(dds_entity_t pp, const dds_topic_descriptor_t* type, co
     dds_qset_reliability(q, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
     dds_qset_history(q, keep_all ? DDS_HISTORY_KEEP_ALL : DDS_HISTORY_KEEP_LAST, 16);
     dds_qset_durability(q, transient ? DDS_DURABILITY_TRANSIENT_LOCAL : DDS_DURABILITY_VOLATILE);
+    if (exclusive) dds_qset_ownership(q, DDS_OWNERSHIP_EXCLUSIVE);
     r = dds_create_reader(pp, topic, q, nullptr);
     dds_delete_qos(q);
   }
@@ -200,19 +217,34 @@ void take_all(dds_entity_t reader, F&& each) {
   }
 }
 
-void take_samples(dds_entity_t reader, std::map<Key, Device>& devices) {
+// Prints a "switch" line when the instance's samples come from another writer.
+void note_writer(Writer& w, const Key& k, dds_instance_handle_t h, std::uint64_t t, std::uint32_t seq) {
+  if (w.handle != 0 && w.handle != h) {
+    std::printf("{\"ev\":\"switch\",\"t\":%llu,\"gateway_id\":\"%s\",\"bus\":%d,\"node\":%d,\"gap_ms\":%.1f,"
+                "\"first\":%u}\n",
+                static_cast<unsigned long long>(t), std::get<0>(k).c_str(), std::get<1>(k), std::get<2>(k),
+                static_cast<double>(t - w.last_t) / 1e6, seq);
+  }
+  w.handle = h;
+  w.last_t = t;
+}
+
+void take_samples(dds_entity_t reader, std::map<WriterKey, Device>& devices, std::map<Key, Writer>& writers) {
   take_all<cobridge_EncoderSample>(reader, [&](const auto& s, const dds_sample_info_t& info, std::uint64_t t) {
     const char* gw = gateway_id(s.gateway_key, s.gateway_id, info.valid_data);
-    Device& d = devices[Key{gw, s.bus, s.node_id}];
-    if (info.instance_state != d.state) {
-      d.state = info.instance_state;
+    const Key k{gw, s.bus, s.node_id};
+    Writer& w = writers[k];
+    if (info.instance_state != w.state) {
+      w.state = info.instance_state;
       std::printf("{\"ev\":\"sample_instance\",\"t\":%llu,\"gateway_id\":\"%s\",\"bus\":%d,\"node\":%d,"
                   "\"state\":\"%s\"}\n",
-                  static_cast<unsigned long long>(t), gw, s.bus, s.node_id, state_name(d.state));
+                  static_cast<unsigned long long>(t), gw, s.bus, s.node_id, state_name(w.state));
     }
     if (!info.valid_data) return;
+    note_writer(w, k, info.publication_handle, t, s.sequence_number);
     ++g_totals.samples;
     note_lag(gw, t, s);
+    Device& d = devices[WriterKey{gw, s.bus, s.node_id, info.publication_handle}];
     if (d.samples == 0) {
       d.first = s.sequence_number;
     } else if (s.sequence_number == d.last) {
@@ -232,12 +264,13 @@ void take_gateways(dds_entity_t reader) {
     if (v) ++g_totals.gateways;
     std::printf("{\"ev\":\"gateway\",\"t\":%llu,\"gateway_id\":\"%s\",\"state\":\"%s\",\"valid\":%s,"
                 "\"devices\":%d,\"devices_online\":%d,\"buses\":%d,\"buses_online\":%d,\"duplicate\":%s,"
-                "\"incarnation\":%llu,\"pid\":%u,\"upd\":%llu}\n",
+                "\"incarnation\":%llu,\"pid\":%u,\"upd\":%llu,\"node\":%d,\"role\":\"%s\",\"master\":%d}\n",
                 static_cast<unsigned long long>(t), gateway_id(s.gateway_key, s.gateway_id, v),
                 state_name(info.instance_state), v ? "true" : "false", v ? s.devices : -1,
                 v ? s.devices_online : -1, v ? s.buses : -1, v ? s.buses_online : -1,
                 v && s.duplicate_id ? "true" : "false", static_cast<unsigned long long>(v ? s.incarnation : 0),
-                v ? s.pid : 0u, static_cast<unsigned long long>(v ? s.updated_ns : 0));
+                v ? s.pid : 0u, static_cast<unsigned long long>(v ? s.updated_ns : 0), v ? s.redundancy_node : 0,
+                v && s.role != nullptr ? s.role : "", v ? s.master_node : 0);
   });
 }
 
@@ -277,10 +310,11 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "probe: participant: %s\n", dds_strretcode(pp));
     return 2;
   }
-  const dds_entity_t samples = make_reader(pp, &cobridge_EncoderSample_desc, "EncoderSample", true, false);
-  const dds_entity_t status = make_reader(pp, &cobridge_DeviceStatus_desc, "DeviceStatus", false, true);
+  const bool x = o.exclusive;
+  const dds_entity_t samples = make_reader(pp, &cobridge_EncoderSample_desc, "EncoderSample", true, false, x);
+  const dds_entity_t status = make_reader(pp, &cobridge_DeviceStatus_desc, "DeviceStatus", false, true, x);
   const dds_entity_t gateways = make_reader(pp, &cobridge_GatewayStatus_desc, "GatewayStatus", false, true);
-  const dds_entity_t events = make_reader(pp, &cobridge_EncoderEvent_desc, "EncoderEvent", true, false);
+  const dds_entity_t events = make_reader(pp, &cobridge_EncoderEvent_desc, "EncoderEvent", true, false, x);
   // One wait set over the readers: the probe wakes on data or on an
   // instance-state change (liveliness lost), not on a poll interval.
   const dds_entity_t ws = dds_create_waitset(pp);
@@ -291,19 +325,20 @@ int main(int argc, char** argv) {
   }
   std::printf("{\"ev\":\"ready\",\"t\":%llu}\n", static_cast<unsigned long long>(now_ns()));
   std::fflush(stdout);
-  std::map<Key, Device> devices;
+  std::map<WriterKey, Device> devices;
+  std::map<Key, Writer> writers;
   std::map<Key, int> online;
   const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(o.seconds);
   while (std::chrono::steady_clock::now() < end) {
     if (!o.stop_file.empty() && ::access(o.stop_file.c_str(), F_OK) == 0) break;
     (void)dds_waitset_wait(ws, nullptr, 0, DDS_MSECS(50));
-    if (samples != 0) take_samples(samples, devices);
+    if (samples != 0) take_samples(samples, devices, writers);
     if (status != 0) take_status(status, online);
     if (gateways != 0) take_gateways(gateways);
     if (events != 0) take_events(events);
     std::fflush(stdout);
   }
-  if (samples != 0) take_samples(samples, devices);
+  if (samples != 0) take_samples(samples, devices, writers);
   for (const auto& [k, d] : devices) {
     std::printf("{\"ev\":\"device\",\"gateway_id\":\"%s\",\"bus\":%d,\"node\":%d,\"samples\":%llu,"
                 "\"gaps\":%llu,\"lost\":%llu,\"repeats\":%llu,\"first\":%u,\"last\":%u}\n",
