@@ -47,7 +47,8 @@ ELECTION_IDS = range(0x71, 0x77)
 
 def outputs(k):
     return ('[outputs.dds]\nsample_reliability = "reliable"\nsample_depth = 1000\n'
-            '[outputs.modbus]\nbind = "127.0.0.1"\nport = %d\noffline_exception = false\n' % MODBUS_PORT[k])
+            '[outputs.modbus]\nbind = "127.0.0.1"\nport = %d\noffline_exception = false\n'
+            'writes_enabled = true\nwrite_allow = ["127.0.0.1/32"]\n' % MODBUS_PORT[k])
 
 
 def config(ws, node, k, with_outputs):
@@ -80,11 +81,16 @@ def role_is(daemon, role, master=None, timeout=10):
 
 
 def writes_since(daemon, offset):
+    """Configuration writes per device logged since `offset` ("operational at node ... N writes")."""
     with open(daemon.log_path) as f:
         f.seek(offset)
         text = f.read()
-    return text.count(" writes"), sum(int(w.split(" writes")[0].split()[-1])
-                                      for w in text.split("\n") if "operational at node" in w and " writes" in w)
+    writes = {}
+    for line in text.split("\n"):
+        if "operational at node" in line and " writes" in line:
+            name = line.split(" device ")[1].split()[0]
+            writes[name] = writes.get(name, 0) + int(line.split(" writes")[0].split()[-1])
+    return writes
 
 
 class Pair:
@@ -206,9 +212,10 @@ def check_dds(report, ws, kills):
                  "DDS GatewayStatus: one instance per gateway of the pair, with its role", str(roles))
 
 
-def one_takeover(pair, report, listener, master, standby, i):
-    """Kills the master; returns the takeover time in seconds or None."""
-    time.sleep(random.uniform(0.0, 1.0))
+def one_takeover(pair, report, listener, master, standby, i, no_wait=False):
+    """Kills the master (at a random moment within 1 s, or at once); returns the takeover time in seconds."""
+    if not no_wait:
+        time.sleep(random.uniform(0.0, 1.0))
     pair.kill(master)
     dead = NODE[master]
     t_kill = time.time()
@@ -257,6 +264,24 @@ def main():
         text = str(answer.get("error", ""))
         report.check(answer.get("ok") is False and "standby" in text and "120" in text,
                      "an SDO read sent to the standby is refused, naming the master", str(answer)[:300])
+        if pair.outputs:
+            # A Modbus command written to the standby is refused (busy), naming the master in its log;
+            # the standby sends nothing for it (the tx count below covers this window too).
+            from pymodbus.client import ModbusTcpClient
+            mb = ModbusTcpClient("127.0.0.1", port=MODBUS_PORT["b"], timeout=3)
+            off = os.path.getsize(b.log_path)
+            mb.connect()
+            w = mb.write_registers(256 + 28, [0, 1234, 1], slave=1)
+            status = None
+            end = time.time() + 5
+            while time.time() < end and status in (None, 0, 1):
+                r = mb.read_holding_registers(256 + 31, 1, slave=1)
+                status = None if r.isError() else r.registers[0]
+                time.sleep(0.05)
+            mb.close()
+            report.check(not w.isError() and status == 5 and b.wait_log("standby", since=off, timeout=2),
+                         "a Modbus preset written to the standby is refused (command_status 5, busy), "
+                         "the log naming the master", "status %s" % status)
         tx0 = b.status()["buses"][0]["counters"]["tx_frames"]
         t_b = time.time()
         time.sleep(1.0)
@@ -289,19 +314,40 @@ def main():
                              "kill %d: before it, the standby's Modbus data is live (%s s after the check began)"
                              % (i, "%.2f" % live if live is not None else "never"))
                 t_before = time.time()
-            took = one_takeover(pair, report, listener, master, standby, i)
+            mid_config = None
+            if i == 2:
+                # A kill in the middle of a device's configuration: the device reboots (power cycle) and the
+                # master is killed as soon as it starts configuring it again.
+                mid_config = "mt-a"
+                off = os.path.getsize(pair.daemon[master].log_path)
+                sim.command("power-off 2001")
+                time.sleep(0.2)
+                sim.command("power-on 2001")
+                report.check(pair.daemon[master].wait_log("mt-a (node 20) rebooted", since=off, timeout=5),
+                             "kill 2: the master sees mt-a's boot-up and starts configuring it")
+            took = one_takeover(pair, report, listener, master, standby, i, no_wait=mid_config is not None)
             takeovers.append(took)
             if poller:
                 worst, n = poller.worst(standby, t_before, time.time() + 1.0)
+                old = ["%.3f:%d" % (t - t_before, a) for t, g, a in poller.reads if g == standby and t >= t_before
+                       and a > 1000]
                 report.check(n > 0 and worst is not None and worst <= 1000,
                              "kill %d: Modbus on the survivor stays live (data age at most %s ms over %d reads)" % (
-                                 i, worst, n))
+                                 i, worst, n), " ".join(old[:10]))
             survivor = pair.daemon[standby]
             _, back = survivor.wait_until(e2e.all_operational(NAMES), 20, interval=0.05)
-            n_lines, n_writes = writes_since(survivor, log_offset)
-            report.check(back is not None and n_writes == 0,
-                         "kill %d: the new master (%s) has every device operational, 0 configuration writes" % (
-                             i, standby), "%s; %d writes in %d lines" % (back, n_writes, n_lines))
+            writes = writes_since(survivor, log_offset)
+            healthy = {n: w for n, w in writes.items() if n != mid_config}
+            report.check(back is not None and not any(healthy.values()),
+                         "kill %d%s: the new master (%s) has every device operational, 0 configuration writes%s" % (
+                             i, " (during %s's configuration)" % mid_config if mid_config else "", standby,
+                             " on the healthy ones" if mid_config else ""), "%s; writes %s" % (back, writes))
+            if mid_config:
+                # Its settings are stored in the device, so a reboot needs an NMT start and no writes: the
+                # new master verifies them (reads) and starts it.
+                report.check(mid_config in writes,
+                             "kill %d: %s, rebooted while the dead master configured it, is verified and started by "
+                             "the new master" % (i, mid_config), str(writes))
             if i == 1:
                 # The CLI finds the bus's daemon by its beacon: the survivor's, once the dead one's is gone.
                 via = None
