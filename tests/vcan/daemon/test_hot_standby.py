@@ -135,7 +135,9 @@ class ModbusPoller:
     from both gateways every 20 ms; a gateway that is down simply fails."""
 
     def __init__(self):
+        import logging
         from pymodbus.client import ModbusTcpClient
+        logging.getLogger("pymodbus").setLevel(logging.CRITICAL)  # a gateway down is expected here
         self.clients = {k: ModbusTcpClient("127.0.0.1", port=p, timeout=2) for k, p in MODBUS_PORT.items()}
         self.reads = []  # (time, gateway, data age ms)
         self.stop_flag = False

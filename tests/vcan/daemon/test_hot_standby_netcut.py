@@ -1,0 +1,185 @@
+"""Hot standby with the Ethernet between the two gateways cut
+(docs/operations.md "Hot standby"; CiA 302-2 flying master decided on the
+bus): the two gateways run in their own network namespaces, as on two PCs.
+Their "Ethernet" is a veth pair (DDS and Modbus run over it); their CAN is
+one bus: each has a vxcan end, joined with the simulator's by can-gw rules
+(a full mesh, one hop per frame).
+
+Checks, from every frame on the bus and the daemons' status:
+  * before the cut: a is master, b standby, and b reaches a over the veth;
+  * the veth cut (one end down): b no longer reaches a, and for 3 s the bus
+    still has exactly one master (only a's heartbeat says 05h) and both
+    daemons keep their roles;
+  * a killed while the link is cut: b is master within 1 s of a's last
+    frame, and a started again (still cut) joins as standby: one master;
+  * the link back: still one master, no election.
+Runs inside UML:
+  tests/vcan/run-in-vcan -- /usr/bin/python3 tests/vcan/daemon/test_hot_standby_netcut.py --daemon ...
+"""
+import glob
+import os
+import signal
+import socket
+import subprocess
+import time
+
+import e2e
+
+DEVICES = [("rot-a", "RFC-4800", "RFC-4800", 1001, 10), ("mt-a", "MC1-2800", "MC1-2800", 2001, 20)]
+NAMES = [d[0] for d in DEVICES]
+NODE = {"a": 120, "b": 121}
+NS = {"a": "gwa", "b": "gwb"}
+CAN = {"a": "vxa1", "b": "vxb1"}  # each gateway's end, inside its namespace
+IP = {"a": "10.9.0.1", "b": "10.9.0.2"}
+VETH = {"a": "vea", "b": "veb"}
+SIM_CAN = "vxs1"
+HB = 0x700
+
+
+def sh(*cmd):
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    if r.returncode != 0:
+        raise RuntimeError("%s: %s" % (" ".join(cmd), r.stderr.strip()))
+    return r.stdout
+
+
+def setup_network():
+    """Namespaces gwa and gwb, a vxcan end each and one for the simulator, can-gw
+    joining the root ends into one bus, and a veth pair between the namespaces."""
+    mods = glob.glob("/usr/lib/uml/modules/*/kernel/")[0]
+    for m in ("drivers/net/can/vxcan.ko", "net/can/can-gw.ko", "drivers/net/veth.ko"):
+        subprocess.run(["/sbin/insmod", mods + m], capture_output=True)  # already loaded is fine
+    ends = {"a": "vxa0", "b": "vxb0", "s": "vxs0"}
+    for k in NS:
+        sh("ip", "netns", "add", NS[k])
+        sh("ip", "-n", NS[k], "link", "set", "lo", "up")
+        sh("ip", "link", "add", ends[k], "type", "vxcan", "peer", "name", CAN[k], "netns", NS[k])
+        sh("ip", "-n", NS[k], "link", "set", CAN[k], "up")
+    sh("ip", "link", "add", ends["s"], "type", "vxcan", "peer", "name", SIM_CAN)
+    sh("ip", "link", "set", SIM_CAN, "up")
+    for e in ends.values():
+        sh("ip", "link", "set", e, "up")
+    for src in ends.values():
+        for dst in ends.values():
+            if src != dst:
+                sh("cangw", "-A", "-s", src, "-d", dst, "-e")
+    sh("ip", "link", "add", VETH["a"], "netns", NS["a"], "type", "veth", "peer", "name", VETH["b"], "netns", NS["b"])
+    for k in NS:
+        sh("ip", "-n", NS[k], "addr", "add", IP[k] + "/24", "dev", VETH[k])
+        sh("ip", "-n", NS[k], "link", "set", VETH[k], "up")
+
+
+def reaches(src, dst_ip, port):
+    """True when a TCP connection from namespace NS[src] to dst_ip:port opens."""
+    code = ("import socket,sys\ns=socket.socket();s.settimeout(1)\n"
+            "try:\n s.connect((%r,%d));print('up')\nexcept OSError:\n print('down')\n" % (dst_ip, port))
+    r = subprocess.run(["ip", "netns", "exec", NS[src], "/usr/bin/python3", "-c", code], capture_output=True, text=True)
+    return r.stdout.strip() == "up"
+
+
+def config(ws, k):
+    bus = {"name": "line1", "interface": CAN[k], "bitrate": 250, "discovery_period_s": 3600}
+    devices = [{"name": n, "bus": "line1", "serial": s, "model": m, "node_id": nid, "heartbeat_ms": 100}
+               for (n, m, _, s, nid) in DEVICES]
+    extra = ('[redundancy]\nmode = "hot-standby"\nnode_id = %d\n'
+             '[outputs.modbus]\nbind = "%s"\nport = 1502\n' % (NODE[k], IP[k]))
+    return e2e.write_config(ws, [bus], devices, extra=extra)
+
+
+def role(daemon):
+    try:
+        r = daemon.status()["buses"][0].get("redundancy")
+        return (r["role"], r["master_node"]) if r else None
+    except (OSError, ValueError, KeyError):
+        return None
+
+
+def wait_role(daemon, want, timeout=10):
+    end = time.time() + timeout
+    while time.time() < end:
+        if role(daemon) == want:
+            return True
+        time.sleep(0.02)
+    return False
+
+
+def masters(frames, t0, t1):
+    """Gateways whose heartbeat said master (05h) between t0 and t1."""
+    return {k for t, cid, d in frames for k in NODE if t0 <= t <= t1 and cid == HB + NODE[k] and d[:1] == b"\x05"}
+
+
+def main():
+    args = e2e.parse_args()
+    report = e2e.Report("test_hot_standby_netcut")
+    setup_network()
+    ws = {k: e2e.Workspace("netcut-" + k, args.keep, base="/run") for k in NS}
+    cfg = {k: config(ws[k], k) for k in NS}
+    listener = e2e.CanListener(SIM_CAN)
+    sim = e2e.Simulator(args.sim, ws["a"], {SIM_CAN: ["%s:serial=%d,node=%d" % (sm, s, n)
+                                                     for (_, _, sm, s, n) in DEVICES]})
+    daemons = {}
+
+    def start(k, n):
+        extra = ["--plugin-dir", args.plugins] if args.plugins else []
+        daemons[k] = e2e.Daemon(args.daemon, cfg[k], ws[k], log_name="daemon-%d.log" % n, extra_args=extra,
+                                run_as=("ip", "netns", "exec", NS[k]))
+        return daemons[k]
+
+    try:
+        a = start("a", 1)
+        report.check(a.wait_socket() and wait_role(a, ("master", NODE["a"])), "gateway a (namespace gwa): master")
+        _, ok = a.wait_until(e2e.all_operational(NAMES), 30, interval=0.05)
+        report.check(ok is not None, "gateway a: every device operational over the vxcan/can-gw bus")
+        b = start("b", 1)
+        report.check(b.wait_socket() and wait_role(b, ("standby", NODE["a"])), "gateway b (namespace gwb): standby")
+        report.check(reaches("b", IP["a"], 1502), "before the cut: b reaches a over their Ethernet (veth)")
+
+        sh("ip", "-n", NS["a"], "link", "set", VETH["a"], "down")
+        t_cut = time.time()
+        report.check(not reaches("b", IP["a"], 1502), "the Ethernet is cut: b no longer reaches a")
+        time.sleep(3.0)
+        t_end = time.time()
+        seen = masters(listener.snapshot(t_cut), t_cut, t_end)
+        report.check(seen == {"a"}, "cut for 3 s: exactly one master on the bus (only a's heartbeat says 05h)",
+                     str(seen))
+        report.check(role(a) == ("master", NODE["a"]) and role(b) == ("standby", NODE["a"]),
+                     "cut: both keep their roles", "%s %s" % (role(a), role(b)))
+
+        os.kill(a.pid, signal.SIGKILL)
+        a.proc.wait(5)
+        a.log.close()
+        t_kill = time.time()
+        report.check(wait_role(b, ("master", NODE["b"]), 5), "cut, a killed: b is master")
+        frames = listener.snapshot(t_kill - 1.0)
+        last_a = max([t for t, cid, _ in frames if cid == HB + NODE["a"] and t <= t_kill], default=t_kill)
+        r = b.status()["buses"][0]["redundancy"]
+        took = e2e.iso_to_epoch(r["since"]) - last_a
+        print("FIGURE takeover with the Ethernet cut: %.3f s after a's last frame" % took)
+        report.check(took <= 1.0, "cut: b took over within 1 s of a's last frame", "%.3f s" % took)
+        a = start("a", 2)
+        report.check(a.wait_socket() and wait_role(a, ("standby", NODE["b"])),
+                     "cut: a started again asks on the bus and joins as standby", str(role(a)))
+        _, ok = b.wait_until(e2e.all_operational(NAMES), 20, interval=0.05)
+        report.check(ok is not None, "cut: every device operational under b")
+
+        sh("ip", "-n", NS["a"], "link", "set", VETH["a"], "up")
+        t_up = time.time()
+        time.sleep(2.0)
+        seen = masters(listener.snapshot(t_up), t_up, time.time())
+        report.check(seen == {"b"} and role(a) == ("standby", NODE["b"]),
+                     "the Ethernet back: still one master (b), no election", "%s %s" % (seen, role(a)))
+        whole = masters(listener.snapshot(t_cut), t_cut, t_kill)
+        report.check(whole == {"a"}, "from the cut to the kill, never a second master", str(whole))
+    finally:
+        for d in daemons.values():
+            if d.proc.poll() is None:
+                d.stop()
+        sim.stop()
+        listener.close()
+        for w in ws.values():
+            w.cleanup()
+    return report.finish()
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
