@@ -9,8 +9,6 @@
 // first and writes only what differs, so a device the other gateway
 // configured is not written again, and no device is reset.
 #include "bus/bus_manager_impl.hpp"
-#include "config/known_models.hpp"
-#include "families/family.hpp"
 
 namespace cobridge::gateway {
 
@@ -90,71 +88,6 @@ void BusManager::Impl::tell_outputs(const canopen::ElectionEvent& e) {
   r.since_ns = static_cast<std::uint64_t>(
       std::chrono::duration_cast<std::chrono::nanoseconds>(election_at.time_since_epoch()).count());
   options.observer->on_role_changed(r);
-}
-
-// The standby's outputs are live before any takeover: each configured
-// device heard in operation is announced with the TPDO mapping its plan
-// sets, which the master has configured and verified. The description
-// comes from the identity the configuration names (vendor and product, or
-// the model), or the one remembered from this gateway's own tenure.
-void BusManager::Impl::follow_heard_devices() {
-  if (options.observer == nullptr) return;
-  for (auto& m : devices) {
-    if (m.followed || !m.in_config || m.st.node_id == 0 || !m.heard_operational) continue;
-    if (m.description == nullptr && !describe_from_config(m)) continue;
-    const auto plan = make_config_plan(m.cfg, *m.description, *m.profile, m.st.node_id);
-    if (!plan.ok()) continue;
-    std::vector<std::uint32_t> tpdo1, tpdo2;
-    for (const auto& step : plan.plan->steps) {
-      if (step.kind != StepKind::tpdo_mapping) continue;
-      (step.tpdo == 1 ? tpdo1 : tpdo2) = step.mapping;
-    }
-    options.observer->on_device_configured(m.st, tpdo1, tpdo2);
-    m.followed = true;
-    log->info("bus {}: standby: decoding device {} at node {} as the configuration maps it", bus.name, m.st.name,
-              m.st.node_id);
-  }
-}
-
-void BusManager::Impl::note_heartbeat(const can::Frame& frame) {
-  if (frame.is_extended() || frame.is_rtr() || frame.len != 1) return;
-  if (frame.id <= canopen::cob::kNmtErrorControlBase || frame.id > canopen::cob::kNmtErrorControlBase + 127) return;
-  const auto node = static_cast<std::uint8_t>(frame.id - canopen::cob::kNmtErrorControlBase);
-  if (Managed* m = find_configured_node(node)) {
-    m->heard_operational = (frame.data[0] & 0x7F) == static_cast<std::uint8_t>(canopen::NmtState::operational);
-  }
-}
-
-// The first loaded description of the model's vendor and family: for a
-// model whose product code is not checkable (ifm, F§7.3).
-static const device::DeviceDescription* description_of_family(const device::DeviceCatalog& catalog,
-                                                              const config::KnownModel& known) {
-  for (const auto* d : catalog.all()) {
-    if (d->device_info.vendor_number != known.vendor) continue;
-    const auto profile = device::family_profile_for(*d);
-    if (profile && profile->family == &device::families::family(known.family)) return d;
-  }
-  return nullptr;
-}
-
-bool BusManager::Impl::describe_from_config(Managed& m) {
-  const auto& id = m.st.identity;
-  const config::KnownModel* known = m.cfg.model.empty() ? nullptr : config::find_model(m.cfg.model);
-  const device::DeviceDescription* d = nullptr;
-  if (id.vendor != 0 && id.product != 0) {
-    const auto candidates = catalog.candidates(id.vendor, id.product, std::nullopt);
-    if (!candidates.empty()) d = candidates.front();
-  } else if (known != nullptr && !known->products.empty()) {
-    const auto candidates = catalog.candidates(known->vendor, known->products.front(), std::nullopt);
-    if (!candidates.empty()) d = candidates.front();
-  }
-  if (d == nullptr && known != nullptr) d = description_of_family(catalog, *known);
-  if (d == nullptr) return false;
-  auto profile = device::family_profile_for(*d);
-  if (!profile) return false;
-  m.description = d;
-  m.profile = profile;
-  return true;
 }
 
 TimePoint BusManager::Impl::run_standby(TimePoint now, TimePoint next) {

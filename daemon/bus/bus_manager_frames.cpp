@@ -7,7 +7,7 @@ namespace cobridge::gateway {
 
 void BusManager::Impl::dispatch(const can::Frame& frame, TimePoint now) {
   if (election_frame(frame, now)) return;  // a gateway's, not a device's
-  if (standby()) note_heartbeat(frame);
+  if (standby()) listen_as_standby(frame);
   // While a client's LSS command runs, its answers are not discovery's.
   if (frame.id != canopen::cob::kLssSlaveToMaster || !remote->lss_session(now)) discovery->on_frame(frame, now);
   remote->on_frame(frame, now);

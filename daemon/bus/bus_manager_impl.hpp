@@ -308,8 +308,13 @@ struct BusManager::Impl final : RemoteGate {
   void on_election(const canopen::ElectionEvent& e);
   void tell_outputs(const canopen::ElectionEvent& e);
   [[nodiscard]] TimePoint run_standby(TimePoint now, TimePoint next);
-  void follow_heard_devices();
+  // Standby (bus_manager_standby.cpp).
+  std::array<canopen::LssAddress, 128> heard_identity{};  // per node, from the master's 0x1018 reads
+  void listen_as_standby(const can::Frame& frame);
   void note_heartbeat(const can::Frame& frame);
+  void note_identity(const can::Frame& frame);
+  void follow_heard_devices();
+  void remember_followed(const Managed& m, const std::string& fingerprint);
   [[nodiscard]] bool describe_from_config(Managed& m);
   void describe_role(BusStatus& s) const;
 

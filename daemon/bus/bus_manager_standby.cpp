@@ -1,0 +1,151 @@
+// The bus manager as standby of a hot-standby pair: what it learns by
+// listening, so that its outputs are live and a takeover finds what the
+// master knew.
+//
+// It sends nothing (bus_manager_election.cpp gates every send). From the
+// bus it learns:
+//   - the node-ID of each configured device the master identified: the
+//     master's expedited SDO uploads of the identity object 0x1018 (CiA 301
+//     7.5.2.36; sub 1 vendor, 2 product, 3 revision, 4 serial) name the node
+//     in their COB-ID, so a device the master commissioned with LSS is
+//     known here by its serial without any request;
+//   - which devices are in operation (their heartbeat, CiA 301 7.2.8.3.2).
+// A device heard in operation is announced to the outputs with the mapping
+// its plan sets, and remembered in this gateway's state store with the
+// plan's fingerprint, as the master remembered it: a takeover starts from
+// that table as a second start does, with no commissioning and no writes.
+// Control thread only.
+#include "bus/bus_manager_impl.hpp"
+#include "config/known_models.hpp"
+#include "families/family.hpp"
+
+namespace cobridge::gateway {
+namespace {
+
+constexpr std::uint32_t kSdoResponseBase = 0x580;
+constexpr std::uint16_t kIdentityObject = 0x1018;
+
+// An expedited upload response (CiA 301 7.2.4.3.3: scs 2, e = 1) carries
+// the value in bytes 4..7.
+bool expedited_upload_response(const can::Frame& f) noexcept {
+  return f.len == 8 && (f.data[0] & 0xE2) == 0x42;
+}
+
+std::uint32_t le32(const std::uint8_t* p) noexcept {
+  return static_cast<std::uint32_t>(p[0]) | static_cast<std::uint32_t>(p[1]) << 8 |
+         static_cast<std::uint32_t>(p[2]) << 16 | static_cast<std::uint32_t>(p[3]) << 24;
+}
+
+// The first loaded description of the model's vendor and family: for a
+// model whose product code is not checkable (ifm, F§7.3).
+const device::DeviceDescription* description_of_family(const device::DeviceCatalog& catalog,
+                                                       const config::KnownModel& known) {
+  for (const auto* d : catalog.all()) {
+    if (d->device_info.vendor_number != known.vendor) continue;
+    const auto profile = device::family_profile_for(*d);
+    if (profile && profile->family == &device::families::family(known.family)) return d;
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+void BusManager::Impl::listen_as_standby(const can::Frame& frame) {
+  if (frame.is_extended() || frame.is_rtr()) return;
+  if (frame.id > canopen::cob::kNmtErrorControlBase && frame.id <= canopen::cob::kNmtErrorControlBase + 127) {
+    note_heartbeat(frame);
+  } else if (frame.id > kSdoResponseBase && frame.id <= kSdoResponseBase + 127) {
+    note_identity(frame);
+  }
+}
+
+void BusManager::Impl::note_heartbeat(const can::Frame& frame) {
+  if (frame.len != 1) return;
+  const auto node = static_cast<std::uint8_t>(frame.id - canopen::cob::kNmtErrorControlBase);
+  if (Managed* m = find_configured_node(node)) {
+    m->heard_operational = (frame.data[0] & 0x7F) == static_cast<std::uint8_t>(canopen::NmtState::operational);
+  }
+}
+
+void BusManager::Impl::note_identity(const can::Frame& frame) {
+  if (!expedited_upload_response(frame)) return;
+  const auto index = static_cast<std::uint16_t>(frame.data[1] | frame.data[2] << 8);
+  const std::uint8_t sub = frame.data[3];
+  if (index != kIdentityObject || sub < 1 || sub > 4) return;
+  const auto node = static_cast<std::uint8_t>(frame.id - kSdoResponseBase);
+  canopen::LssAddress& id = heard_identity[node];
+  const std::uint32_t v = le32(&frame.data[4]);
+  (sub == 1 ? id.vendor : sub == 2 ? id.product : sub == 3 ? id.revision : id.serial) = v;
+  if (sub != 4) return;
+  for (auto& m : devices) {
+    if (!m.in_config || m.cfg.serial != id.serial || m.st.node_id == node) continue;
+    if (m.cfg.vendor && *m.cfg.vendor != id.vendor) continue;
+    m.st.node_id = node;
+    m.st.identity = id;
+    m.followed = false;
+    dirty = true;
+    log->info("bus {}: standby: device {} is at node {} (the master read its identity)", bus.name, m.st.name, node);
+  }
+}
+
+// The standby's outputs are live before any takeover: each configured
+// device heard in operation is announced with the TPDO mapping its plan
+// sets, which the master has configured and verified.
+void BusManager::Impl::follow_heard_devices() {
+  for (auto& m : devices) {
+    if (m.followed || !m.in_config || m.st.node_id == 0 || !m.heard_operational) continue;
+    if (m.description == nullptr && !describe_from_config(m)) continue;
+    const auto plan = make_config_plan(m.cfg, *m.description, *m.profile, m.st.node_id);
+    if (!plan.ok()) continue;
+    m.followed = true;
+    remember_followed(m, plan.plan->fingerprint);
+    if (options.observer == nullptr) continue;
+    std::vector<std::uint32_t> tpdo1, tpdo2;
+    for (const auto& step : plan.plan->steps) {
+      if (step.kind != StepKind::tpdo_mapping) continue;
+      (step.tpdo == 1 ? tpdo1 : tpdo2) = step.mapping;
+    }
+    options.observer->on_device_configured(m.st, tpdo1, tpdo2);
+    log->info("bus {}: standby: decoding device {} at node {} as the configuration maps it", bus.name, m.st.name,
+              m.st.node_id);
+  }
+}
+
+// The device runs with the plan's settings (the master started it after
+// applying them): the same record the master keeps.
+void BusManager::Impl::remember_followed(const Managed& m, const std::string& fingerprint) {
+  if (m.st.identity.serial == 0) return;
+  Assignment a;
+  a.bus = bus.name;
+  a.serial = m.st.identity.serial;
+  a.vendor = m.st.identity.vendor;
+  a.product = m.st.identity.product;
+  a.revision = m.st.identity.revision;
+  a.node_id = m.st.node_id;
+  a.fingerprint = fingerprint;
+  if (const auto ec = state.put(a)) log->error("bus {}: state file: {}", bus.name, ec.message());
+}
+
+// The description from the identity heard or configured (vendor and
+// product), else from the configured model.
+bool BusManager::Impl::describe_from_config(Managed& m) {
+  const auto& id = m.st.identity;
+  const config::KnownModel* known = m.cfg.model.empty() ? nullptr : config::find_model(m.cfg.model);
+  const device::DeviceDescription* d = nullptr;
+  if (id.vendor != 0 && id.product != 0) {
+    const auto candidates = catalog.candidates(id.vendor, id.product, std::nullopt);
+    if (!candidates.empty()) d = candidates.front();
+  } else if (known != nullptr && !known->products.empty()) {
+    const auto candidates = catalog.candidates(known->vendor, known->products.front(), std::nullopt);
+    if (!candidates.empty()) d = candidates.front();
+  }
+  if (d == nullptr && known != nullptr) d = description_of_family(catalog, *known);
+  if (d == nullptr) return false;
+  auto profile = device::family_profile_for(*d);
+  if (!profile) return false;
+  m.description = d;
+  m.profile = profile;
+  return true;
+}
+
+}  // namespace cobridge::gateway

@@ -1,0 +1,99 @@
+"""Hot standby with factory-fresh devices (docs/operations.md "Hot standby",
+"The standby's memory"): the master commissions them with LSS Fastscan (CiA
+305) and gives them node-IDs from the pool; the standby, which sends
+nothing, learns each device's node-ID from the master's reads of the
+identity object 0x1018 (CiA 301 7.5.2.36) on the bus, decodes its values,
+and remembers it in its own state file. Then the master is killed.
+
+Checks:
+  * the standby's status names the node-ID the master gave each device,
+    and its state file holds them, before any takeover;
+  * after the kill the new master commissions nothing (no LSS configure
+    node-ID, 0x11, and no switch-selective, 0x40..0x43, from it), and every
+    device is operational at the same node-ID with 0 configuration writes.
+Runs inside UML:
+  tests/vcan/run-in-vcan -- /usr/bin/python3 tests/vcan/daemon/test_hot_standby_fresh.py --daemon ...
+"""
+import os
+import signal
+import time
+
+import e2e
+
+DEVICES = [("rot-a", "RFC-4800", "RFC-4800", 1001), ("mt-a", "MC1-2800", "MC1-2800", 2001),
+           ("rot-b", "RFC-4800", "RFC-4800", 1002)]
+NAMES = [d[0] for d in DEVICES]
+LSS_MASTER = 0x7E5
+COMMISSIONING_CS = {0x11, 0x40, 0x41, 0x42, 0x43}  # configure node-ID, switch state selective
+
+
+def config(ws, node):
+    bus = {"name": "line1", "interface": "vcan0", "bitrate": 250, "discovery": True, "discovery_period_s": 30,
+           "node_pool": "40-60", "commissioning": "automatic"}
+    devices = [{"name": n, "bus": "line1", "serial": s, "model": m, "heartbeat_ms": 100,
+                "tpdo1": {"mapping": ["position"], "transmission": "event", "event_timer_ms": 20}}
+               for (n, m, _, s) in DEVICES]
+    return e2e.write_config(ws, [bus], devices, extra='[redundancy]\nmode = "hot-standby"\nnode_id = %d\n' % node)
+
+
+def nodes(daemon):
+    return {d["name"]: d["node_id"] for d in daemon.status()["buses"][0]["devices"]}
+
+
+def main():
+    args = e2e.parse_args()
+    report = e2e.Report("test_hot_standby_fresh")
+    ws = {k: e2e.Workspace("fresh-" + k, args.keep, base="/run") for k in "ab"}
+    cfg = {"a": config(ws["a"], 120), "b": config(ws["b"], 121)}
+    listener = e2e.CanListener("vcan0")
+    sim = e2e.Simulator(args.sim, ws["a"], {"vcan0": ["%s:serial=%d" % (sm, s) for (_, _, sm, s) in DEVICES]})
+    daemons = []
+    try:
+        a = e2e.Daemon(args.daemon, cfg["a"], ws["a"])
+        daemons.append(a)
+        report.check(a.wait_socket(), "gateway a up")
+        # b joins while a commissions: it hears the master's identity reads.
+        b = e2e.Daemon(args.daemon, cfg["b"], ws["b"])
+        daemons.append(b)
+        report.check(b.wait_socket(), "gateway b up")
+        _, took = a.wait_until(e2e.all_operational(NAMES), 60, interval=0.05)
+        report.check(took is not None, "a commissioned every fresh device (LSS Fastscan)", str(nodes(a)))
+        given = nodes(a)
+        end = time.time() + 5
+        while time.time() < end and nodes(b) != given:
+            time.sleep(0.05)
+        report.check(nodes(b) == given and all(given.values()),
+                     "the standby knows the node-ID the master gave each device, from the bus", str(nodes(b)))
+        path = os.path.join(ws["b"].state, "assignments.state")
+        state = open(path).read() if os.path.exists(path) else ""
+        remembered = all(("node=%d " % n) in state + " " or ("node=%d\n" % n) in state for n in given.values())
+        report.check(remembered, "the standby's state file holds them", state[:300])
+
+        os.kill(a.pid, signal.SIGKILL)
+        a.proc.wait(5)
+        t_kill = time.time()
+        log_offset = os.path.getsize(b.log_path)
+        _, back = b.wait_until(e2e.all_operational(NAMES), 30, interval=0.05)
+        report.check(back is not None and nodes(b) == given,
+                     "after the kill: every device operational under b at the same node-ID", str(nodes(b)))
+        frames = listener.snapshot(t_kill)
+        lss = [d.hex() for t, cid, d in frames if cid == LSS_MASTER and d[0] in COMMISSIONING_CS]
+        report.check(not lss, "the new master commissions nothing (no LSS configure/switch-selective)", str(lss[:5]))
+        with open(b.log_path) as f:
+            f.seek(log_offset)
+            lines = [l for l in f if "operational at node" in l]
+        writes = sum(int(l.split(" writes")[0].split()[-1]) for l in lines if " writes" in l)
+        report.check(lines and writes == 0, "and writes no configuration (0 writes)", "%d lines" % len(lines))
+    finally:
+        for d in daemons:
+            if d.proc.poll() is None:
+                d.stop()
+        sim.stop()
+        listener.close()
+        for w in ws.values():
+            w.cleanup()
+    return report.finish()
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
