@@ -190,14 +190,19 @@ def start_probe(args, ws):
     return p, stop, out
 
 
-def check_dds(report, ws, kills):
+def check_dds(report, ws, kills, rebooting):
+    """rebooting: (time, node) of a device that was rebooting at a kill: it sends no values until the new
+    master starts it, so its failover is not bounded by the takeover."""
     with open(ws.path("probe.jsonl")) as f:
         ev = [json.loads(l) for l in f if l.startswith("{")]
     switches = [e for e in ev if e["ev"] == "switch"]
+    excused = [e for e in switches if any(e["node"] == n and 0 <= e["t"] / 1e9 - t <= 1.5 for t, n in rebooting)]
+    for e in excused:
+        print("FIGURE DDS failover of node %d, rebooting at the kill: %.0f ms" % (e["node"], e["gap_ms"]))
     per_device = {}
     for s in switches:
         per_device.setdefault(s["node"], []).append(s["gap_ms"])
-    gaps = sorted(g for v in per_device.values() for g in v)
+    gaps = sorted(e["gap_ms"] for e in switches if e not in excused)
     if gaps:
         print("FIGURE DDS failover at the subscriber: p50 %.0f ms, p100 %.0f ms (%d switches)" % (
             gaps[len(gaps) // 2], gaps[-1], len(gaps)))
@@ -305,6 +310,7 @@ def main():
             time.sleep(1.0)  # DDS discovery: the subscriber matches both gateways
         master, standby = "a", "b"
         takeovers = []
+        rebooting = []  # (kill time, node) of a device rebooting at a kill
         for i in range(1, args.kills + 1):
             log_offset = os.path.getsize(pair.daemon[standby].log_path)
             t_before = time.time()
@@ -327,6 +333,7 @@ def main():
                 sim.command("power-on 2001")
                 report.check(pair.daemon[master].wait_log("mt-a (node 20) rebooted", since=off, timeout=5),
                              "kill 2: the master sees mt-a's boot-up and starts configuring it")
+                rebooting.append((time.time(), 20))
             took = one_takeover(pair, report, listener, master, standby, i, no_wait=mid_config is not None)
             takeovers.append(took)
             if poller:
@@ -400,7 +407,7 @@ def main():
             time.sleep(1.0)
             open(probe[1], "w").close()
             probe[0].wait(10)
-            check_dds(report, pair.ws["a"], args.kills + 1)
+            check_dds(report, pair.ws["a"], args.kills + 1, rebooting)
     finally:
         if poller:
             poller.close()
