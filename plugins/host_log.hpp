@@ -1,7 +1,7 @@
 // Reporting to the daemon from a plugin: log lines through the host API's
-// log callback, and the error text create() hands back in the caller's
-// buffer (cobridge/plugin.h). Shared by the output plugins so that each
-// reports the same way.
+// log callback, the error text create() hands back in the caller's buffer
+// (cobridge/plugin.h), and the frame of create() itself. Shared by the output
+// plugins so that each reports the same way.
 //
 // Thread: the control thread (create/start/stop/destroy) and the plugin's own
 // threads; the host's log callback is thread-safe. Not for the hot path: the
@@ -12,7 +12,9 @@
 
 #include <cstddef>
 #include <cstring>
+#include <exception>
 #include <string>
+#include <string_view>
 
 namespace cobridge::plugin {
 
@@ -28,6 +30,38 @@ inline void copy_error(char* err, std::size_t err_len, const std::string& msg) n
   const std::size_t n = msg.size() < err_len - 1 ? msg.size() : err_len - 1;
   std::memcpy(err, msg.data(), n);
   err[n] = '\0';
+}
+
+// The frame of a plugin's cobridge_plugin_create: checks the arguments,
+// hands `make(config, error)` the configuration text and keeps exceptions
+// from unwinding into the host. `make` returns the new instance, or nullptr
+// with `error` set. Returns 0 with *ops_out and *self_out set, else -1 with
+// the message in `err`.
+template <typename Make>
+int create_plugin(const char* name, const cobridge_plugin_ops* ops, const cobridge_host_api* host,
+                  const char* config_toml, std::size_t config_len, const cobridge_plugin_ops** ops_out,
+                  void** self_out, char* err, std::size_t err_len, Make&& make) noexcept {
+  if (host == nullptr || ops_out == nullptr || self_out == nullptr) {
+    copy_error(err, err_len, std::string(name) + ": null argument");
+    return -1;
+  }
+  try {
+    const std::string_view config(config_toml != nullptr ? config_toml : "", config_toml != nullptr ? config_len : 0);
+    std::string error;
+    void* self = make(config, error);
+    if (self == nullptr) {
+      copy_error(err, err_len, error);
+      return -1;
+    }
+    *ops_out = ops;
+    *self_out = self;
+    return 0;
+  } catch (const std::exception& e) {
+    copy_error(err, err_len, std::string(name) + ": " + e.what());
+  } catch (...) {
+    copy_error(err, err_len, std::string(name) + ": unknown exception");
+  }
+  return -1;
 }
 
 }  // namespace cobridge::plugin

@@ -117,36 +117,12 @@ void BusManager::Impl::wake() noexcept {
 }
 
 void BusManager::Impl::run() {
-  const TimePoint now0 = Clock::now();
-  DiscoveryOptions dopt;
-  discovery = std::make_unique<Discovery>(tx, config, bus_index, state.on_bus(bus.name), dopt);
-  remote = std::make_unique<RemoteExecutor>(tx, bus.name, milliseconds(bus.lss_timeout_ms));
-  if (bus.sync_period_ms > 0) {
-    canopen::SyncProducer::Config sc;
-    sc.period = milliseconds(bus.sync_period_ms);
-    sc.overflow = bus.sync_counter;
-    if (const auto ec = sync.configure(sc)) {
-      log->error("bus {}: SYNC not produced: {}", bus.name, ec.message());
-    } else {
-      sync.start(now0);
-    }
-  }
-  log->info("bus {}: serving {} ({} configured devices)", bus.name, bus.interface, devices.size());
-
+  start_components(Clock::now());
   std::array<can::Frame, can::SocketCanChannel::kBatch> frames{};
   while (!stop_requested.load(std::memory_order_relaxed)) {
     TimePoint now = Clock::now();
     take_commands(now);
-
-    bool lost = false;  // the interface went down in this turn
-    // Only when poll saw the socket readable (or never asked): an empty
-    // recvmmsg is a system call per turn, and a turn per client command.
-    for (std::size_t batch = 0; rx_ready && batch < kMaxReceiveBatches; ++batch) {
-      const std::size_t n = channel->receive(frames);
-      for (std::size_t i = 0; i < n; ++i) dispatch(frames[i], now);
-      lost = handle_bus_events(now) || lost;
-      if (n < frames.size()) break;
-    }
+    const bool lost = receive(frames, now);  // the interface went down in this turn
     if (handle_bus_events(now) || lost) {
       // A lost bus is news at once: status and the outputs hear of it
       // before the channel's reopen attempt, whose bind to an interface the
@@ -184,6 +160,39 @@ void BusManager::Impl::run() {
   channel->close();
   open_flag.store(false);
   log->info("bus {}: stopped", bus.name);
+}
+
+// Discovery, the remote executor and the SYNC producer, on the bus thread.
+void BusManager::Impl::start_components(TimePoint now) {
+  DiscoveryOptions dopt;
+  discovery = std::make_unique<Discovery>(tx, config, bus_index, state.on_bus(bus.name), dopt);
+  remote = std::make_unique<RemoteExecutor>(tx, bus.name, milliseconds(bus.lss_timeout_ms));
+  if (bus.sync_period_ms > 0) {
+    canopen::SyncProducer::Config sc;
+    sc.period = milliseconds(bus.sync_period_ms);
+    sc.overflow = bus.sync_counter;
+    if (const auto ec = sync.configure(sc)) {
+      log->error("bus {}: SYNC not produced: {}", bus.name, ec.message());
+    } else {
+      sync.start(now);
+    }
+  }
+  log->info("bus {}: serving {} ({} configured devices)", bus.name, bus.interface, devices.size());
+}
+
+// Receives and dispatches what the socket holds; true when the interface
+// went down meanwhile. Only when poll saw the socket readable (or never
+// asked): an empty recvmmsg is a system call per turn, and a turn per client
+// command.
+bool BusManager::Impl::receive(std::span<can::Frame> frames, TimePoint now) {
+  bool lost = false;
+  for (std::size_t batch = 0; rx_ready && batch < kMaxReceiveBatches; ++batch) {
+    const std::size_t n = channel->receive(frames);
+    for (std::size_t i = 0; i < n; ++i) dispatch(frames[i], now);
+    lost = handle_bus_events(now) || lost;
+    if (n < frames.size()) break;
+  }
+  return lost;
 }
 
 // `now` is the turn's clock reading, not a fresh one: a clock read is a

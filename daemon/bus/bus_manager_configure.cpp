@@ -136,18 +136,7 @@ void BusManager::Impl::finish_configuration(Managed& m, TimePoint now) {
   m.failed_unanswered = !outcome.ok() && (outcome.error == make_error_code(PlanRunErrc::sdo_timeout) ||
                                           outcome.error == make_error_code(PlanRunErrc::send_failed));
   if (!outcome.ok()) {
-    m.st.last_error = outcome.message;
-    log->warn("bus {}: device {}: configuration failed (attempt {}): {}", bus.name, m.st.name, m.attempts,
-              outcome.message);
-    m.want_configure = true;
-    if (m.attempts >= kConfigureAttempts) {
-      set_state(m, DeviceState::failed);
-      m.not_before = now + kFailedRetryPeriod;
-      m.attempts = 0;
-    } else {
-      set_state(m, DeviceState::identified);
-      m.not_before = now + kConfigureRetryDelay;
-    }
+    configuration_failed(m, outcome, now);
     return;
   }
   if (m.quick && outcome.writes > 0) {
@@ -166,6 +155,31 @@ void BusManager::Impl::finish_configuration(Managed& m, TimePoint now) {
     m.supervision = fallback_guarding(*m.plan);
   }
   m.st.fingerprint = m.plan->fingerprint;
+  remember_assignment(m);
+  if (!announce_and_start(m, now)) return;
+  mark_operational(m, outcome, now, ms);
+}
+
+// Retries after a short delay, or after a long one once the attempts are
+// used up.
+void BusManager::Impl::configuration_failed(Managed& m, const PlanRunResult& outcome, TimePoint now) {
+  m.st.last_error = outcome.message;
+  log->warn("bus {}: device {}: configuration failed (attempt {}): {}", bus.name, m.st.name, m.attempts,
+            outcome.message);
+  m.want_configure = true;
+  if (m.attempts >= kConfigureAttempts) {
+    set_state(m, DeviceState::failed);
+    m.not_before = now + kFailedRetryPeriod;
+    m.attempts = 0;
+  } else {
+    set_state(m, DeviceState::identified);
+    m.not_before = now + kConfigureRetryDelay;
+  }
+}
+
+// Stores the device's node-ID and plan fingerprint, so that its next start
+// only verifies.
+void BusManager::Impl::remember_assignment(const Managed& m) {
   Assignment a;
   a.bus = bus.name;
   a.serial = m.st.identity.serial;
@@ -175,9 +189,10 @@ void BusManager::Impl::finish_configuration(Managed& m, TimePoint now) {
   a.node_id = m.st.node_id;
   a.fingerprint = m.plan->fingerprint;
   if (const auto ec = state.put(a)) log->error("bus {}: state file: {}", bus.name, ec.message());
-  if (!announce_and_start(m, now)) return;
+}
 
-  // Started: operational from here, and supervised from now on.
+// Started: operational from here, and supervised from now on.
+void BusManager::Impl::mark_operational(Managed& m, const PlanRunResult& outcome, TimePoint now, double ms) {
   m.started = true;
   m.attempts = 0;
   m.st.last_error.clear();

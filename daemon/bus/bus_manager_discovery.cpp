@@ -129,20 +129,7 @@ void BusManager::Impl::on_identified(const DiscoveryEvent& e, TimePoint now) {
     log->info("bus {}: device serial {} takes the place of {} (serial {})", bus.name, e.identity.serial,
               e.replaces, e.replaced.serial);
   }
-  // A device first reported as unknown (before the swap was decided) is
-  // now a configured one: drop its "unknown-" entry.
-  for (const auto& u : devices) {
-    if (!u.in_config && u.st.identity.serial == e.identity.serial && u.st.identity.vendor == e.identity.vendor &&
-        options.observer != nullptr)
-      options.observer->on_device_removed(u.st);
-  }
-  const auto dropped = std::erase_if(devices, [&](const Managed& u) {
-    return !u.in_config && u.st.identity.serial == e.identity.serial && u.st.identity.vendor == e.identity.vendor;
-  });
-  if (dropped != 0) {
-    dirty = true;
-    m = find_device(name);  // the erase moved the elements
-  }
+  if (drop_unknown_entry(e)) m = find_device(name);  // the erase moved the elements
   if (!e.at_target) {
     // Discovery is moving it; it reports `identified` again at the target.
     set_state(*m, DeviceState::commissioning);
@@ -162,25 +149,46 @@ void BusManager::Impl::on_identified(const DiscoveryEvent& e, TimePoint now) {
     return;
   }
 
-  m->st.identity = e.identity;
-  m->st.node_id = e.node_id;
-  m->st.next_retry = {};  // commissioned (the failures so far stay counted)
+  reconfigure_identified(*m, e, now);
+}
+
+// A device first reported as unknown (before the swap was decided) is now a
+// configured one: drops its "unknown-" entry. True when there was one.
+bool BusManager::Impl::drop_unknown_entry(const DiscoveryEvent& e) {
+  for (const auto& u : devices) {
+    if (!u.in_config && u.st.identity.serial == e.identity.serial && u.st.identity.vendor == e.identity.vendor &&
+        options.observer != nullptr)
+      options.observer->on_device_removed(u.st);
+  }
+  const auto dropped = std::erase_if(devices, [&](const Managed& u) {
+    return !u.in_config && u.st.identity.serial == e.identity.serial && u.st.identity.vendor == e.identity.vendor;
+  });
+  if (dropped != 0) dirty = true;
+  return dropped != 0;
+}
+
+// The device is at its node-ID: remember it there, supervise it and
+// configure it from the start.
+void BusManager::Impl::reconfigure_identified(Managed& m, const DiscoveryEvent& e, TimePoint now) {
+  m.st.identity = e.identity;
+  m.st.node_id = e.node_id;
+  m.st.next_retry = {};  // commissioned (the failures so far stay counted)
   // Remember where it is even before it is configured (a restart then
   // needs no scan); a replacement also drops the replaced device's line.
   if (const auto ec = record_assignment(state, bus.name, e))
     log->error("bus {}: state file: {}", bus.name, ec.message());
-  if (!resolve_description(*m)) {
-    set_state(*m, DeviceState::failed);
+  if (!resolve_description(m)) {
+    set_state(m, DeviceState::failed);
     return;
   }
-  supervisor.listen(e.node_id, m->profile->family);
+  supervisor.listen(e.node_id, m.profile->family);
   discovery->set_supervised(e.node_id, true);
-  set_state(*m, DeviceState::identified);
-  drop_runner(*m, "the device was identified anew");
-  m->started = false;
-  m->want_configure = true;
-  m->attempts = 0;
-  m->not_before = now;
+  set_state(m, DeviceState::identified);
+  drop_runner(m, "the device was identified anew");
+  m.started = false;
+  m.want_configure = true;
+  m.attempts = 0;
+  m.not_before = now;
 }
 
 void BusManager::Impl::on_retry(const DiscoveryEvent& e) {

@@ -132,6 +132,8 @@ struct BusManager::Impl final : RemoteGate {
   void stop();
   void wake() noexcept;
   void run();
+  void start_components(TimePoint now);
+  bool receive(std::span<can::Frame> frames, TimePoint now);
   void wait(TimePoint now, TimePoint next);
 
   // ---- frames and components ----------------------------------------------
@@ -170,6 +172,8 @@ struct BusManager::Impl final : RemoteGate {
 
   void on_discovery_event(const DiscoveryEvent& e, TimePoint now);
   void on_identified(const DiscoveryEvent& e, TimePoint now);
+  bool drop_unknown_entry(const DiscoveryEvent& e);
+  void reconfigure_identified(Managed& m, const DiscoveryEvent& e, TimePoint now);
   void note_unknown(const DiscoveryEvent& e);
   // Commissioning failed and is tried again: status and log say so.
   void on_retry(const DiscoveryEvent& e);
@@ -194,6 +198,9 @@ struct BusManager::Impl final : RemoteGate {
   static ConfigPlan quick_plan(const ConfigPlan& full);
   Supervision supervision_for(const Managed& m) const;
   void finish_configuration(Managed& m, TimePoint now);
+  void configuration_failed(Managed& m, const PlanRunResult& outcome, TimePoint now);
+  void remember_assignment(const Managed& m);
+  void mark_operational(Managed& m, const PlanRunResult& outcome, TimePoint now, double ms);
 
   // Plans leave the NMT start to us, so that a device found different by
   // the quick check is not started half configured, and so that the hot path

@@ -65,6 +65,12 @@ class Builder {
   void add_bits(std::string label, ObjectRef o, std::uint32_t value, std::uint32_t mask, std::uint8_t groups);
   void tpdo(std::uint8_t n, const std::optional<config::TpdoSettings>& settings);
   void mapping(std::uint8_t n, const std::string& name, std::uint16_t comm, std::uint16_t map, const std::vector<config::MappingEntry>& entries);
+  // Whether the TPDO's parameter and mapping objects exist and hold `count` entries.
+  bool mapping_objects_fit(std::uint8_t n, const std::string& label, std::uint16_t comm, std::uint16_t map,
+                           std::size_t count);
+  // One entry as the device takes it (0xIIIISSLL); none when it cannot be mapped.
+  std::optional<std::uint32_t> mapping_entry(const std::string& what, const config::MappingEntry& e,
+                                             bool& speed_mapped);
   void supervision();
   [[nodiscard]] bool scaling_requested() const;
   void operating_parameters();

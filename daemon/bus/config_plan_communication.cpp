@@ -50,19 +50,7 @@ void Builder::tpdo(std::uint8_t n, const std::optional<config::TpdoSettings>& se
 
 void Builder::mapping(std::uint8_t n, const std::string& name, std::uint16_t comm, std::uint16_t map, const std::vector<config::MappingEntry>& entries) {
   const std::string label = name + " mapping";
-  bool ok = require(label, {comm, 1}) != nullptr;
-  // The manuals' procedure writes sub 0 although F§7.3 prints 0x1A0x/0 as ro
-  // (F§4 says the mapping is dynamic), so only its existence is required.
-  ok = require(label, {map, 0}, false) != nullptr && ok;
-  std::size_t slots = 0;
-  while (slots < 64 && eds_.find(map, static_cast<std::uint8_t>(slots + 1)) != nullptr) ++slots;
-  const std::size_t max_entries = std::min<std::size_t>(profile_.max_pdo_entries, slots);
-  if (entries.size() > max_entries) {
-    error(label, std::to_string(entries.size()) + " entries, but TPDO" + std::to_string(n) + " of the " +
-                     std::string(profile_.series) + " maps at most " + std::to_string(max_entries) +
-                     (profile_.max_pdo_entries == 5 ? " (J§1.7.2, E§8.2)" : " (device description)"));
-    ok = false;
-  }
+  bool ok = mapping_objects_fit(n, label, comm, map, entries.size());
   std::vector<std::uint32_t> raw;
   unsigned total_bits = 0;
   bool speed_mapped = false;
@@ -70,41 +58,13 @@ void Builder::mapping(std::uint8_t n, const std::string& name, std::uint16_t com
     const config::MappingEntry& e = entries[i];
     const std::string what = label + " entry " + std::to_string(i + 1) + " (" +
                              (e.signal == config::Signal::raw ? hex(e.raw, 8) : signal_name(e.signal)) + ")";
-    std::uint32_t entry = e.raw;
-    if (e.signal != config::Signal::raw) {
-      const device::SignalMapping m = profile_.mapping_entry(e.signal);
-      if (!m.ok()) {
-        error(what, std::string(m.error));
-        ok = false;
-        continue;
-      }
-      entry = m.entry;
-    }
-    const auto bits = static_cast<std::uint8_t>(entry & 0xFFu);
-    ObjectRef object{static_cast<std::uint16_t>(entry >> 16), static_cast<std::uint8_t>((entry >> 8) & 0xFFu)};
-    // E§4.1: the multiturn default mapping names 0x6020/1; the object is 0x6004.
-    ObjectRef described = object;
-    if (profile_.position_alias && object == *profile_.position_alias) described = profile_.position();
-    const device::ObjectDesc* d = eds_.find(described.index, described.sub);
-    if (d == nullptr) {
-      error(what, "object " + object_text(object) + " is not in the device description (" + eds_.source + ")");
+    const std::optional<std::uint32_t> entry = mapping_entry(what, e, speed_mapped);
+    if (!entry) {
       ok = false;
       continue;
     }
-    if (!d->pdo_mapping) {
-      error(what, "object " + object_text(object) + " cannot be mapped to a PDO (device description)");
-      ok = false;
-      continue;
-    }
-    if (bits != d->bits()) {
-      error(what, "the entry maps " + std::to_string(bits) + " bits, object " + object_text(object) + " has " +
-                      std::to_string(d->bits()));
-      ok = false;
-      continue;
-    }
-    if (described.index == 0x6030) speed_mapped = true;
-    total_bits += bits;
-    raw.push_back(entry);
+    total_bits += *entry & 0xFFu;
+    raw.push_back(*entry);
   }
   if (total_bits > profile_.max_pdo_bytes * 8u) {
     error(label, std::to_string(total_bits) + " bits mapped, a PDO carries at most " +
@@ -123,6 +83,58 @@ void Builder::mapping(std::uint8_t n, const std::string& name, std::uint16_t com
   s.map_index = map;
   s.mapping = std::move(raw);
   plan_.steps.push_back(std::move(s));
+}
+
+bool Builder::mapping_objects_fit(std::uint8_t n, const std::string& label, std::uint16_t comm, std::uint16_t map,
+                                  std::size_t count) {
+  bool ok = require(label, {comm, 1}) != nullptr;
+  // The manuals' procedure writes sub 0 although F§7.3 prints 0x1A0x/0 as ro
+  // (F§4 says the mapping is dynamic), so only its existence is required.
+  ok = require(label, {map, 0}, false) != nullptr && ok;
+  std::size_t slots = 0;
+  while (slots < 64 && eds_.find(map, static_cast<std::uint8_t>(slots + 1)) != nullptr) ++slots;
+  const std::size_t max_entries = std::min<std::size_t>(profile_.max_pdo_entries, slots);
+  if (count > max_entries) {
+    error(label, std::to_string(count) + " entries, but TPDO" + std::to_string(n) + " of the " +
+                     std::string(profile_.series) + " maps at most " + std::to_string(max_entries) +
+                     (profile_.max_pdo_entries == 5 ? " (J§1.7.2, E§8.2)" : " (device description)"));
+    ok = false;
+  }
+  return ok;
+}
+
+std::optional<std::uint32_t> Builder::mapping_entry(const std::string& what, const config::MappingEntry& e,
+                                                    bool& speed_mapped) {
+  std::uint32_t entry = e.raw;
+  if (e.signal != config::Signal::raw) {
+    const device::SignalMapping m = profile_.mapping_entry(e.signal);
+    if (!m.ok()) {
+      error(what, std::string(m.error));
+      return std::nullopt;
+    }
+    entry = m.entry;
+  }
+  const auto bits = static_cast<std::uint8_t>(entry & 0xFFu);
+  ObjectRef object{static_cast<std::uint16_t>(entry >> 16), static_cast<std::uint8_t>((entry >> 8) & 0xFFu)};
+  // E§4.1: the multiturn default mapping names 0x6020/1; the object is 0x6004.
+  ObjectRef described = object;
+  if (profile_.position_alias && object == *profile_.position_alias) described = profile_.position();
+  const device::ObjectDesc* d = eds_.find(described.index, described.sub);
+  if (d == nullptr) {
+    error(what, "object " + object_text(object) + " is not in the device description (" + eds_.source + ")");
+    return std::nullopt;
+  }
+  if (!d->pdo_mapping) {
+    error(what, "object " + object_text(object) + " cannot be mapped to a PDO (device description)");
+    return std::nullopt;
+  }
+  if (bits != d->bits()) {
+    error(what, "the entry maps " + std::to_string(bits) + " bits, object " + object_text(object) + " has " +
+                    std::to_string(d->bits()));
+    return std::nullopt;
+  }
+  if (described.index == 0x6030) speed_mapped = true;
+  return entry;
 }
 
 void Builder::supervision() {

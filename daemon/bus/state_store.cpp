@@ -98,6 +98,74 @@ bool write_all(int fd, const std::string& data) noexcept {
   return true;
 }
 
+// The fields of a line, one bit each in the set of those seen.
+enum StateField : unsigned {
+  kFieldBus = 1,
+  kFieldSerial = 2,
+  kFieldVendor = 4,
+  kFieldProduct = 8,
+  kFieldRevision = 16,
+  kFieldNode = 32,
+  kFieldPrint = 64
+};
+constexpr unsigned kRequiredFields = kFieldBus | kFieldSerial | kFieldVendor | kFieldProduct | kFieldRevision | kFieldNode;
+constexpr unsigned kNumericFields = kFieldSerial | kFieldVendor | kFieldProduct | kFieldRevision | kFieldNode;
+constexpr std::pair<std::string_view, unsigned> kFieldNames[] = {
+    {"bus", kFieldBus},           {"serial", kFieldSerial}, {"vendor", kFieldVendor},      {"product", kFieldProduct},
+    {"revision", kFieldRevision}, {"node", kFieldNode},     {"fingerprint", kFieldPrint},
+};
+
+// The field named `key`; 0 for one this gateway does not know.
+unsigned field_of(std::string_view key) noexcept {
+  for (const auto& [name, field] : kFieldNames)
+    if (name == key) return field;
+  return 0;
+}
+
+std::string missing_fields(unsigned seen) {
+  std::string names;
+  for (const auto& [name, field] : kFieldNames)
+    if ((kRequiredFields & field) != 0 && (seen & field) == 0) names += " " + std::string(name);
+  return names;
+}
+
+// The next blank-separated token from `pos` on; empty at the end.
+std::string_view next_token(std::string_view line, std::size_t& pos) noexcept {
+  while (pos < line.size() && (line[pos] == ' ' || line[pos] == '\t')) ++pos;
+  std::size_t end = pos;
+  while (end < line.size() && line[end] != ' ' && line[end] != '\t') ++end;
+  const std::string_view token = line.substr(pos, end - pos);
+  pos = end;
+  return token;
+}
+
+// Stores the unescaped value of a known field in `out`.
+bool store_field(unsigned field, std::string_view key, const std::string& value, Assignment& out, std::string& why) {
+  std::uint64_t wide = 0;
+  if ((field & kNumericFields) != 0 && !parse_unsigned(value, 0xFFFFFFFFU, wide)) {
+    why = "'" + std::string(key) + "' wants a number (decimal or 0x hex), got '" + value + "'";
+    return false;
+  }
+  const auto number = static_cast<std::uint32_t>(wide);
+  switch (field) {
+    case kFieldBus: out.bus = value; break;
+    case kFieldSerial: out.serial = number; break;
+    case kFieldVendor: out.vendor = number; break;
+    case kFieldProduct: out.product = number; break;
+    case kFieldRevision: out.revision = number; break;
+    case kFieldPrint: out.fingerprint = value; break;
+    case kFieldNode:
+      if (number > 127) {
+        why = "node-ID " + std::to_string(number) + " outside 0..127";
+        return false;
+      }
+      out.node_id = static_cast<std::uint8_t>(number);
+      break;
+    default: break;
+  }
+  return true;
+}
+
 bool same_key(const Assignment& a, const std::string& bus, std::uint32_t vendor, std::uint32_t product,
               std::uint32_t serial) noexcept {
   return a.bus == bus && a.vendor == vendor && a.product == product && a.serial == serial;
@@ -127,80 +195,31 @@ std::string StateStore::format_line(const Assignment& a) {
 
 bool StateStore::parse_line(std::string_view line, Assignment& out, std::string& why) {
   out = Assignment{};
-  enum Field : unsigned { kBus = 1, kSerial = 2, kVendor = 4, kProduct = 8, kRevision = 16, kNode = 32, kPrint = 64 };
   unsigned seen = 0;
   std::size_t pos = 0;
   std::string value;
-  while (pos < line.size()) {
-    while (pos < line.size() && (line[pos] == ' ' || line[pos] == '\t')) ++pos;
-    if (pos >= line.size()) break;
-    std::size_t end = pos;
-    while (end < line.size() && line[end] != ' ' && line[end] != '\t') ++end;
-    const std::string_view token = line.substr(pos, end - pos);
-    pos = end;
+  for (std::string_view token = next_token(line, pos); !token.empty(); token = next_token(line, pos)) {
     const auto eq = token.find('=');
     if (eq == std::string_view::npos || eq == 0) {
       why = "expected key=value, got '" + std::string(token) + "'";
       return false;
     }
     const std::string_view key = token.substr(0, eq);
-    const std::string_view raw = token.substr(eq + 1);
-    if (!unescape(raw, value)) {
+    if (!unescape(token.substr(eq + 1), value)) {
       why = "bad %-escape in '" + std::string(token) + "'";
       return false;
     }
-    unsigned field = 0;
-    std::uint64_t wide = 0;
-    const bool numeric = key == "serial" || key == "vendor" || key == "product" || key == "revision" || key == "node";
-    if (numeric && !parse_unsigned(value, 0xFFFFFFFFU, wide)) {
-      why = "'" + std::string(key) + "' wants a number (decimal or 0x hex), got '" + value + "'";
-      return false;
-    }
-    const auto number = static_cast<std::uint32_t>(wide);
-    if (key == "bus") {
-      field = kBus;
-      out.bus = value;
-    } else if (key == "serial") {
-      field = kSerial;
-      out.serial = number;
-    } else if (key == "vendor") {
-      field = kVendor;
-      out.vendor = number;
-    } else if (key == "product") {
-      field = kProduct;
-      out.product = number;
-    } else if (key == "revision") {
-      field = kRevision;
-      out.revision = number;
-    } else if (key == "node") {
-      field = kNode;
-      if (number > 127) {
-        why = "node-ID " + std::to_string(number) + " outside 0..127";
-        return false;
-      }
-      out.node_id = static_cast<std::uint8_t>(number);
-    } else if (key == "fingerprint") {
-      field = kPrint;
-      out.fingerprint = value;
-    } else {
-      // A newer gateway may add fields; an older one keeps the line.
-      continue;
-    }
+    const unsigned field = field_of(key);
+    if (field == 0) continue;  // a newer gateway may add fields; an older one keeps the line
+    if (!store_field(field, key, value, out, why)) return false;
     if ((seen & field) != 0) {
       why = "'" + std::string(key) + "' given twice";
       return false;
     }
     seen |= field;
   }
-  const unsigned required = kBus | kSerial | kVendor | kProduct | kRevision | kNode;
-  if ((seen & required) != required) {
-    why = "missing field(s):";
-    if ((seen & kBus) == 0) why += " bus";
-    if ((seen & kSerial) == 0) why += " serial";
-    if ((seen & kVendor) == 0) why += " vendor";
-    if ((seen & kProduct) == 0) why += " product";
-    if ((seen & kRevision) == 0) why += " revision";
-    if ((seen & kNode) == 0) why += " node";
+  if ((seen & kRequiredFields) != kRequiredFields) {
+    why = "missing field(s):" + missing_fields(seen);
     return false;
   }
   if (out.bus.empty()) {

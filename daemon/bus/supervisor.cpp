@@ -171,63 +171,74 @@ bool Supervisor::on_frame(const can::Frame& frame, TimePoint now) {
   if (frame.is_error() || frame.is_extended()) return false;
   const std::uint32_t id = frame.id;
   if (id > canopen::cob::kEmcyBase && id <= canopen::cob::kEmcyBase + canopen::cob::kNodeIdMax) {
-    const auto node = static_cast<std::uint8_t>(id - canopen::cob::kEmcyBase);
-    Node& n = nodes_[node];
-    if (!n.known) return false;
-    const canopen::EmcyParse p = canopen::parse_emcy(frame);
-    if (!p.ok()) return true;
-    const device::EmcyInfo info = device::classify_emcy(n.family, p.emcy);
-    Change c;
-    c.kind = ChangeKind::emcy;
-    c.node = node;
-    c.at = now;
-    c.nmt = n.nmt;
-    c.emcy_code = p.emcy.error_code;
-    c.emcy_text = device::describe_emcy(n.family, p.emcy);
-    c.emcy_reset = info.error_reset;
-    push(std::move(c));
-    return true;
+    return on_emcy(frame, static_cast<std::uint8_t>(id - canopen::cob::kEmcyBase), now);
   }
   if (id > canopen::cob::kNmtErrorControlBase &&
       id <= canopen::cob::kNmtErrorControlBase + canopen::cob::kNodeIdMax) {
-    const auto node = static_cast<std::uint8_t>(id - canopen::cob::kNmtErrorControlBase);
-    Node& n = nodes_[node];
-    if (!n.known) return false;
-    const canopen::ErrorControlParse p = canopen::parse_error_control(frame);
-    if (p.ok() && p.message.is_boot_up) {
-      // The device reset: its volatile settings (and a heartbeat producer
-      // time not stored) are gone until the manager reconfigures it, so it
-      // drops back to "listen" and is no longer supervised.
-      heartbeat_.on_frame(frame, now);
-      guard_.on_frame(frame, now);
-      heartbeat_.remove(node);
-      guard_.remove(node);
-      n.watched = false;
-      n.online = false;
-      n.heard = false;
-      n.first_deadline = canopen::kNever;
-      n.nmt = canopen::NmtState::boot_up;
-      Change c;
-      c.kind = ChangeKind::rebooted;
-      c.node = node;
-      c.at = now;
-      c.nmt = canopen::NmtState::boot_up;
-      c.reason = "rebooted";
-      push(std::move(c));
-      return true;
-    }
-    if (!n.watched) return true;
-    if (n.supervision.mode == Supervision::Mode::guarding) {
-      guard_.on_frame(frame, now);
-    } else if (n.supervision.mode == Supervision::Mode::heartbeat) {
-      heartbeat_.on_frame(frame, now);
-    } else if (p.ok()) {
-      // Not supervised, but a heartbeat still proves the device is there.
-      on_alive(node, p.message.state, now);
-    }
-    return true;
+    return on_error_control(frame, static_cast<std::uint8_t>(id - canopen::cob::kNmtErrorControlBase), now);
   }
   return false;
+}
+
+bool Supervisor::on_emcy(const can::Frame& frame, std::uint8_t node, TimePoint now) {
+  Node& n = nodes_[node];
+  if (!n.known) return false;
+  const canopen::EmcyParse p = canopen::parse_emcy(frame);
+  if (!p.ok()) return true;
+  const device::EmcyInfo info = device::classify_emcy(n.family, p.emcy);
+  Change c;
+  c.kind = ChangeKind::emcy;
+  c.node = node;
+  c.at = now;
+  c.nmt = n.nmt;
+  c.emcy_code = p.emcy.error_code;
+  c.emcy_text = device::describe_emcy(n.family, p.emcy);
+  c.emcy_reset = info.error_reset;
+  push(std::move(c));
+  return true;
+}
+
+bool Supervisor::on_error_control(const can::Frame& frame, std::uint8_t node, TimePoint now) {
+  Node& n = nodes_[node];
+  if (!n.known) return false;
+  const canopen::ErrorControlParse p = canopen::parse_error_control(frame);
+  if (p.ok() && p.message.is_boot_up) {
+    on_boot_up(frame, node, now);
+    return true;
+  }
+  if (!n.watched) return true;
+  if (n.supervision.mode == Supervision::Mode::guarding) {
+    guard_.on_frame(frame, now);
+  } else if (n.supervision.mode == Supervision::Mode::heartbeat) {
+    heartbeat_.on_frame(frame, now);
+  } else if (p.ok()) {
+    // Not supervised, but a heartbeat still proves the device is there.
+    on_alive(node, p.message.state, now);
+  }
+  return true;
+}
+
+// The device reset: its volatile settings (and a heartbeat producer time
+// not stored) are gone until the manager reconfigures it, so it drops back
+// to "listen" and is no longer supervised.
+void Supervisor::on_boot_up(const can::Frame& frame, std::uint8_t node, TimePoint now) {
+  Node& n = nodes_[node];
+  heartbeat_.on_frame(frame, now);
+  guard_.on_frame(frame, now);
+  heartbeat_.remove(node);
+  guard_.remove(node);
+  n.watched = false;
+  n.online = false;
+  n.heard = false;
+  n.first_deadline = canopen::kNever;
+  n.nmt = canopen::NmtState::boot_up;
+  Change c;
+  c.kind = ChangeKind::rebooted;
+  c.node = node;
+  c.at = now;
+  c.nmt = canopen::NmtState::boot_up;
+  c.reason = "rebooted";
+  push(std::move(c));
 }
 
 void Supervisor::bus_lost(TimePoint now, const std::string& reason) {

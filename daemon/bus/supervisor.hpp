@@ -99,6 +99,10 @@ class Supervisor {
   [[nodiscard]] std::vector<Change> take_changes();
 
  private:
+  // The frames of one node, by kind; true when the frame was the supervisor's.
+  bool on_emcy(const can::Frame& frame, std::uint8_t node, canopen::TimePoint now);
+  bool on_error_control(const can::Frame& frame, std::uint8_t node, canopen::TimePoint now);
+  void on_boot_up(const can::Frame& frame, std::uint8_t node, canopen::TimePoint now);
   struct Node {
     bool known = false;       // listen() or watch()
     bool watched = false;     // supervision running

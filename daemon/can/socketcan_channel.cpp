@@ -36,6 +36,15 @@ std::shared_ptr<spdlog::logger> logger() noexcept {
 // capped by net.core.rmem_max; SO_RCVBUFFORCE is not, but needs
 // CAP_NET_ADMIN. The size the kernel granted is checked and a shortfall
 // logged once per socket, with the setting that lifts it.
+// Binding to an interface that went down in between leaves ENETDOWN pending
+// on the socket (net/can/raw.c); reading SO_ERROR also clears it.
+int take_socket_error(int fd) noexcept {
+  int so_error = 0;
+  socklen_t so_len = sizeof so_error;
+  if (::getsockopt(fd, SOL_SOCKET, SO_ERROR, &so_error, &so_len) != 0) return 0;
+  return so_error;
+}
+
 int set_receive_buffer(int fd, int bytes, const std::string& name) {
   if (::setsockopt(fd, SOL_SOCKET, SO_RCVBUFFORCE, &bytes, sizeof bytes) == 0) return 0;
   if (::setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &bytes, sizeof bytes) < 0) return errno;
@@ -191,6 +200,28 @@ Error SocketCanChannel::open() {
   return {};
 }
 
+// The error filter, the frame filters, timestamps, drop counts and the
+// receive buffer. Returns 0, or the errno and in `what` the step that failed.
+int SocketCanChannel::set_socket_options(int fd, const char*& what) const {
+  const can_err_mask_t err_mask = config_.error_mask & CAN_ERR_MASK;
+  what = "CAN_RAW_ERR_FILTER failed";
+  if (::setsockopt(fd, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &err_mask, sizeof err_mask) < 0) return errno;
+  if (filters_set_) {
+    const void* data = filters_.empty() ? nullptr : filters_.data();
+    const auto len = static_cast<socklen_t>(filters_.size() * sizeof(can_filter));
+    what = "CAN_RAW_FILTER failed";
+    if (::setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, data, len) < 0) return errno;
+  }
+  const int on = 1;
+  what = "SO_TIMESTAMPNS failed";
+  if (::setsockopt(fd, SOL_SOCKET, SO_TIMESTAMPNS, &on, sizeof on) < 0) return errno;
+  what = "SO_RXQ_OVFL failed";
+  if (::setsockopt(fd, SOL_SOCKET, SO_RXQ_OVFL, &on, sizeof on) < 0) return errno;
+  what = "SO_RCVBUF failed";
+  if (config_.receive_buffer_bytes > 0) return set_receive_buffer(fd, config_.receive_buffer_bytes, config_.interface);
+  return 0;
+}
+
 SocketCanChannel::OpenOutcome SocketCanChannel::open_socket() {
   const std::string& name = config_.interface;
   ifreq ifr{};
@@ -228,21 +259,8 @@ SocketCanChannel::OpenOutcome SocketCanChannel::open_socket() {
   bool up = false;
   if (const int err = query_interface_up(fd, name, up); err != 0) return fail(err, "SIOCGIFFLAGS failed");
 
-  const can_err_mask_t err_mask = config_.error_mask & CAN_ERR_MASK;
-  if (::setsockopt(fd, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &err_mask, sizeof err_mask) < 0)
-    return fail(errno, "CAN_RAW_ERR_FILTER failed");
-  if (filters_set_) {
-    const void* data = filters_.empty() ? nullptr : filters_.data();
-    const auto len = static_cast<socklen_t>(filters_.size() * sizeof(can_filter));
-    if (::setsockopt(fd, SOL_CAN_RAW, CAN_RAW_FILTER, data, len) < 0) return fail(errno, "CAN_RAW_FILTER failed");
-  }
-  const int on = 1;
-  if (::setsockopt(fd, SOL_SOCKET, SO_TIMESTAMPNS, &on, sizeof on) < 0) return fail(errno, "SO_TIMESTAMPNS failed");
-  if (::setsockopt(fd, SOL_SOCKET, SO_RXQ_OVFL, &on, sizeof on) < 0) return fail(errno, "SO_RXQ_OVFL failed");
-  if (config_.receive_buffer_bytes > 0) {
-    if (const int err = set_receive_buffer(fd, config_.receive_buffer_bytes, name); err != 0)
-      return fail(err, "SO_RCVBUF failed");
-  }
+  const char* what = nullptr;
+  if (const int err = set_socket_options(fd, what); err != 0) return fail(err, what);
 
   sockaddr_can addr{};
   addr.can_family = AF_CAN;
@@ -253,11 +271,7 @@ SocketCanChannel::OpenOutcome SocketCanChannel::open_socket() {
     return fail(err, "bind failed");
   }
   if (!up) return down();
-  // Binding to an interface that went down in between leaves ENETDOWN pending
-  // on the socket (net/can/raw.c); reading SO_ERROR also clears it.
-  int so_error = 0;
-  socklen_t so_len = sizeof so_error;
-  if (::getsockopt(fd, SOL_SOCKET, SO_ERROR, &so_error, &so_len) == 0 && so_error != 0) {
+  if (const int so_error = take_socket_error(fd); so_error != 0) {
     if (is_link_errno(so_error)) return down();
     return fail(so_error, "socket error after bind");
   }
@@ -270,6 +284,11 @@ SocketCanChannel::OpenOutcome SocketCanChannel::open_socket() {
 void SocketCanChannel::close() noexcept {
   want_open_ = false;
   if (fd_ < 0) return;
+  close_socket();
+}
+
+// The socket's drop count joins the closed sockets' before it goes.
+void SocketCanChannel::close_socket() noexcept {
   refresh_overflow_from_meminfo();
   drops_closed_sockets_ += drops_this_socket_;
   drops_this_socket_ = 0;
@@ -399,11 +418,7 @@ bool SocketCanChannel::wait_writable(int err, Clock::time_point deadline) noexce
 
 void SocketCanChannel::went_down(int err) noexcept {
   if (fd_ < 0) return;
-  refresh_overflow_from_meminfo();
-  drops_closed_sockets_ += drops_this_socket_;
-  drops_this_socket_ = 0;
-  ::close(fd_);
-  fd_ = -1;
+  close_socket();
   down_errno_to_log_ = err;
   push_interface_event(BusEventKind::InterfaceDown);
   retry_at_ = TimePoint::min();

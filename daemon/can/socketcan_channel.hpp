@@ -170,9 +170,11 @@ class SocketCanChannel final : public FrameSink {
     bool missing = false;         // with interface_down: does not exist (wait_for_interface)
   };
   OpenOutcome open_socket();
+  int set_socket_options(int fd, const char*& what) const;
   void log_pending() noexcept;
   [[nodiscard]] bool apply_filters() noexcept;
   void went_down(int err) noexcept;
+  void close_socket() noexcept;
   void push_event(const BusEvent& event) noexcept;
   void push_interface_event(BusEventKind kind) noexcept;
   void note_overflow_total(uint32_t total) noexcept;

@@ -61,32 +61,12 @@ bool LssSlave::on_frame(const can::Frame& f) noexcept {
     case LssCs::kSwitchSelectiveRevision:
     case LssCs::kSwitchSelectiveSerial:
       return on_switch_selective(cs, lss_value(f));
-    case LssCs::kConfigureNodeId: {
-      if (!configuring) return false;
-      const uint8_t id = f.data[1];
-      if (node_id_requests_lost_ < features_.lose_node_id_requests) {
-        ++node_id_requests_lost_;
-        return true;
-      }
-      if (features_.node_id_assignment == LssSlaveFeatures::NodeIdAssignment::ignore) return true;
-      if (!lss_node_id_acceptable(id) ||
-          features_.node_id_assignment == LssSlaveFeatures::NodeIdAssignment::refuse) {
-        reply_error(cs, static_cast<uint8_t>(LssNodeIdError::kOutOfRange));
-        return true;
-      }
-      pending_node_id_ = id;
-      reply_error(cs, static_cast<uint8_t>(LssNodeIdError::kOk));
-      return true;
-    }
+    case LssCs::kConfigureNodeId:
+      return configuring && on_configure_node_id(f);
     case LssCs::kConfigureBitTiming:
       return configuring && on_bit_timing(f);
     case LssCs::kActivateBitTiming:
-      if (!configuring || !features_.bit_timing) return false;
-      // CiA 305 makes this a broadcast every configured slave obeys at once;
-      // the delay lets the owner switch after the bus has gone quiet.
-      active_bit_timing_ = pending_bit_timing_;
-      activation_delay_ms_ = static_cast<uint16_t>(f.data[1] | (f.data[2] << 8));
-      return true;
+      return configuring && on_activate_bit_timing(f);
     case LssCs::kStoreConfiguration:
       return configuring && on_store();
     case LssCs::kIdentifyVendor:
@@ -114,6 +94,32 @@ bool LssSlave::on_frame(const can::Frame& f) noexcept {
       break;  // answers, never requests
   }
   return false;
+}
+
+bool LssSlave::on_configure_node_id(const can::Frame& f) noexcept {
+  const auto cs = LssCs::kConfigureNodeId;
+  const uint8_t id = f.data[1];
+  if (node_id_requests_lost_ < features_.lose_node_id_requests) {
+    ++node_id_requests_lost_;
+    return true;
+  }
+  if (features_.node_id_assignment == LssSlaveFeatures::NodeIdAssignment::ignore) return true;
+  if (!lss_node_id_acceptable(id) || features_.node_id_assignment == LssSlaveFeatures::NodeIdAssignment::refuse) {
+    reply_error(cs, static_cast<uint8_t>(LssNodeIdError::kOutOfRange));
+    return true;
+  }
+  pending_node_id_ = id;
+  reply_error(cs, static_cast<uint8_t>(LssNodeIdError::kOk));
+  return true;
+}
+
+// CiA 305 makes this a broadcast every configured slave obeys at once; the
+// delay lets the owner switch after the bus has gone quiet.
+bool LssSlave::on_activate_bit_timing(const can::Frame& f) noexcept {
+  if (!features_.bit_timing) return false;
+  active_bit_timing_ = pending_bit_timing_;
+  activation_delay_ms_ = static_cast<uint16_t>(f.data[1] | (f.data[2] << 8));
+  return true;
 }
 
 void LssSlave::on_switch_global(const can::Frame& f) noexcept {

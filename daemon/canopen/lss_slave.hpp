@@ -112,6 +112,8 @@ class LssSlave {
   [[nodiscard]] uint32_t tx_failures() const noexcept { return tx_failures_; }
 
  private:
+  bool on_configure_node_id(const can::Frame& f) noexcept;
+  bool on_activate_bit_timing(const can::Frame& f) noexcept;
   void reply(LssCs cs, uint32_t value = 0) noexcept;
   void reply_error(LssCs cs, uint8_t error) noexcept;
   void on_switch_global(const can::Frame& f) noexcept;

@@ -148,6 +148,23 @@ int compare_raw(uint64_t a, uint64_t b, DataType t, unsigned width, bool is_sign
   return a < b ? -1 : (a > b ? 1 : 0);
 }
 
+// Whether `t` is one of the enum's values (a cast may produce others).
+constexpr bool listed_type(DataType t) noexcept {
+  switch (t) {
+    case DataType::kBoolean: case DataType::kInteger8: case DataType::kInteger16:
+    case DataType::kInteger32: case DataType::kUnsigned8: case DataType::kUnsigned16:
+    case DataType::kUnsigned32: case DataType::kReal32: case DataType::kVisibleString:
+    case DataType::kOctetString: case DataType::kDomain: case DataType::kInteger24:
+    case DataType::kReal64: case DataType::kInteger40: case DataType::kInteger48:
+    case DataType::kInteger56: case DataType::kInteger64: case DataType::kUnsigned24:
+    case DataType::kUnsigned40: case DataType::kUnsigned48: case DataType::kUnsigned56:
+    case DataType::kUnsigned64:
+      return true;
+    default:
+      return false;
+  }
+}
+
 constexpr uint32_t make_key(uint16_t index, uint8_t sub) noexcept {
   return (static_cast<uint32_t>(index) << 8U) | sub;
 }
@@ -158,19 +175,7 @@ std::error_code ObjectDictionary::insert(const EntryDef& def) {
   const Kind kind = kind_of(def.type);
   const unsigned width = width_of(def.type);
   if (kind != Kind::kString && width == 0) return OdError::kUnsupportedType;
-  switch (def.type) {  // reject values outside the enum
-    case DataType::kBoolean: case DataType::kInteger8: case DataType::kInteger16:
-    case DataType::kInteger32: case DataType::kUnsigned8: case DataType::kUnsigned16:
-    case DataType::kUnsigned32: case DataType::kReal32: case DataType::kVisibleString:
-    case DataType::kOctetString: case DataType::kDomain: case DataType::kInteger24:
-    case DataType::kReal64: case DataType::kInteger40: case DataType::kInteger48:
-    case DataType::kInteger56: case DataType::kInteger64: case DataType::kUnsigned24:
-    case DataType::kUnsigned40: case DataType::kUnsigned48: case DataType::kUnsigned56:
-    case DataType::kUnsigned64:
-      break;
-    default:
-      return OdError::kUnsupportedType;
-  }
+  if (!listed_type(def.type)) return OdError::kUnsupportedType;
 
   const uint32_t key = make_key(def.index, def.sub);
   auto pos = std::lower_bound(entries_.begin(), entries_.end(), key,
@@ -183,42 +188,52 @@ std::error_code ObjectDictionary::insert(const EntryDef& def) {
   e.access = def.access;
   e.pdo_mappable = def.pdo_mappable;
   e.name = std::string(def.name);
-
-  if (kind == Kind::kString) {
-    if (def.capacity != 0 && def.text.size() > def.capacity) return OdError::kStringTooLong;
-    const size_t capacity = def.capacity != 0 ? def.capacity : def.text.size();
-    if (capacity > std::numeric_limits<uint32_t>::max() - pool_.size()) return OdError::kStringTooLong;
-    e.offset = static_cast<uint32_t>(pool_.size());
-    e.capacity = static_cast<uint32_t>(capacity);
-    e.length = static_cast<uint32_t>(def.text.size());
-    pool_.resize(pool_.size() + capacity, 0);
-    if (!def.text.empty()) std::memcpy(pool_.data() + e.offset, def.text.data(), def.text.size());
-    max_value_size_ = std::max(max_value_size_, capacity);
-  } else {
-    const bool is_signed = kind == Kind::kSigned;
-    const bool is_real = kind == Kind::kReal;
-    e.width = static_cast<uint8_t>(width);
-    const auto value = to_raw(def.value, def.type, width, is_signed, is_real);
-    if (!value) return OdError::kValueDoesNotFit;
-    e.value = *value;
-    if (def.low) {
-      const auto low = to_raw(*def.low, def.type, width, is_signed, is_real);
-      if (!low) return OdError::kValueDoesNotFit;
-      e.low = *low;
-      e.has_low = true;
-    }
-    if (def.high) {
-      const auto high = to_raw(*def.high, def.type, width, is_signed, is_real);
-      if (!high) return OdError::kValueDoesNotFit;
-      e.high = *high;
-      e.has_high = true;
-    }
-    if (e.has_low && e.has_high && compare_raw(e.low, e.high, e.type, width, is_signed, is_real) > 0)
-      return OdError::kBadLimits;
-    if (check_range(e, e.value) != od_abort::kNone) return OdError::kBadLimits;
-    max_value_size_ = std::max<size_t>(max_value_size_, width);
-  }
+  const std::error_code ec = kind == Kind::kString ? store_text(e, def) : store_number(e, def, width, kind);
+  if (ec) return ec;
   entries_.insert(pos, std::move(e));
+  return {};
+}
+
+// A string entry gets its capacity in pool_ now, so that writes never
+// allocate.
+std::error_code ObjectDictionary::store_text(Entry& e, const EntryDef& def) {
+  if (def.capacity != 0 && def.text.size() > def.capacity) return OdError::kStringTooLong;
+  const size_t capacity = def.capacity != 0 ? def.capacity : def.text.size();
+  if (capacity > std::numeric_limits<uint32_t>::max() - pool_.size()) return OdError::kStringTooLong;
+  e.offset = static_cast<uint32_t>(pool_.size());
+  e.capacity = static_cast<uint32_t>(capacity);
+  e.length = static_cast<uint32_t>(def.text.size());
+  pool_.resize(pool_.size() + capacity, 0);
+  if (!def.text.empty()) std::memcpy(pool_.data() + e.offset, def.text.data(), def.text.size());
+  max_value_size_ = std::max(max_value_size_, capacity);
+  return {};
+}
+
+// A number entry: its value and limits as raw bytes of its type, the value
+// within the limits.
+std::error_code ObjectDictionary::store_number(Entry& e, const EntryDef& def, unsigned width, Kind kind) {
+  const bool is_signed = kind == Kind::kSigned;
+  const bool is_real = kind == Kind::kReal;
+  e.width = static_cast<uint8_t>(width);
+  const auto value = to_raw(def.value, def.type, width, is_signed, is_real);
+  if (!value) return OdError::kValueDoesNotFit;
+  e.value = *value;
+  if (def.low) {
+    const auto low = to_raw(*def.low, def.type, width, is_signed, is_real);
+    if (!low) return OdError::kValueDoesNotFit;
+    e.low = *low;
+    e.has_low = true;
+  }
+  if (def.high) {
+    const auto high = to_raw(*def.high, def.type, width, is_signed, is_real);
+    if (!high) return OdError::kValueDoesNotFit;
+    e.high = *high;
+    e.has_high = true;
+  }
+  if (e.has_low && e.has_high && compare_raw(e.low, e.high, e.type, width, is_signed, is_real) > 0)
+    return OdError::kBadLimits;
+  if (check_range(e, e.value) != od_abort::kNone) return OdError::kBadLimits;
+  max_value_size_ = std::max<size_t>(max_value_size_, width);
   return {};
 }
 

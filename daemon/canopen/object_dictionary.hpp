@@ -271,6 +271,8 @@ class ObjectDictionary {
   [[nodiscard]] uint32_t set_unsigned(uint16_t index, uint8_t sub, uint64_t v) noexcept;
   [[nodiscard]] uint32_t set_signed(uint16_t index, uint8_t sub, int64_t v) noexcept;
   [[nodiscard]] static Kind kind_of(DataType t) noexcept;
+  std::error_code store_text(Entry& e, const EntryDef& def);
+  std::error_code store_number(Entry& e, const EntryDef& def, unsigned width, Kind kind);
 
   Options options_;
   std::vector<Entry> entries_;  // sorted by key

@@ -27,6 +27,12 @@ bool parse_u32(const std::string& s, uint32_t& out) {
 }
 
 // Runs one started transfer to completion on the interface itself.
+// The SDO client of node o.node on a bus session of our own (no daemon).
+canopen::SdoClient own_client(BusSession& bus, const SdoOptions& o) {
+  return canopen::SdoClient(bus.channel(), static_cast<uint8_t>(o.node),
+                            canopen::SdoClient::Config{.timeout = std::chrono::milliseconds(o.timeout_ms)});
+}
+
 std::optional<canopen::SdoClient::Result> finish(BusSession& bus, canopen::SdoClient& client, const SdoOptions& o,
                                                  Error& error) {
   bus.run([&](const can::Frame& f, TimePoint now) { client.on_frame(f, now); },
@@ -165,8 +171,7 @@ int sdo_read(const SdoOptions& o) {
   Error err;
   auto bus = BusSession::open(o.iface, err);
   if (!bus) return report_failure("sdo", err, o.json);
-  canopen::SdoClient client(bus->channel(), static_cast<uint8_t>(o.node),
-                            canopen::SdoClient::Config{.timeout = std::chrono::milliseconds(o.timeout_ms)});
+  auto client = own_client(*bus, o);
   if (auto ec = client.start_upload(index, sub, canopen::Clock::now()))
     return report_failure("sdo", Error(Errc::kUnavailable, ec.message(), o.iface, ec), o.json);
   auto r = finish(*bus, client, o, err);
@@ -197,8 +202,7 @@ int sdo_write(const SdoOptions& o) {
   Error err;
   auto bus = BusSession::open(o.iface, err);
   if (!bus) return report_failure("sdo", err, o.json);
-  canopen::SdoClient client(bus->channel(), static_cast<uint8_t>(o.node),
-                            canopen::SdoClient::Config{.timeout = std::chrono::milliseconds(o.timeout_ms)});
+  auto client = own_client(*bus, o);
   if (auto ec = client.start_download(index, sub, data, canopen::Clock::now()))
     return report_failure("sdo", Error(Errc::kUnavailable, ec.message(), o.iface, ec), o.json);
   if (!finish(*bus, client, o, err)) return report_failure("sdo", err, o.json);

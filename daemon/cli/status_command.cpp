@@ -40,8 +40,8 @@ std::string hex(long long v, int width) {
   return buf;
 }
 
-void print_table(const Json& doc) {
-  const auto& buses = doc["buses"].items;
+// The gateway's line, then one per bus.
+void print_summary(const Json& doc, const std::vector<Json>& buses) {
   std::printf("cobridged %s on %s, pid %lld, %s, started %s, config %s\n", doc["version"].str().c_str(),
               doc["gateway"].str().c_str(), doc["pid"].integer(), doc["ready"].boolean ? "ready" : "starting",
               short_time(doc["started"]).c_str(), doc["config"].str().c_str());
@@ -61,7 +61,11 @@ void print_table(const Json& doc) {
                   short_time(r["since"]).c_str());
     }
   }
-  // Columns as wide as their widest cell: model names come from the EDS files.
+}
+
+// One row per device, columns as wide as their widest cell (model names
+// come from the EDS files), each followed by its last error.
+void print_devices(const std::vector<Json>& buses) {
   using Row = std::vector<std::string>;
   std::vector<Row> table{{"BUS", "NODE", "NAME", "MODEL", "SERIAL", "STATE", "ONLINE", "SINCE", "LAST EMCY"}};
   std::vector<std::string> errors{""};
@@ -89,8 +93,11 @@ void print_table(const Json& doc) {
     std::printf("%s\n", line.c_str());
     if (!errors[r].empty()) std::printf("    last error: %s\n", errors[r].c_str());
   }
-  const std::size_t rows = table.size() - 1;
-  if (rows == 0) std::printf("(no devices)\n");
+  if (table.size() == 1) std::printf("(no devices)\n");
+}
+
+// Each bus's problems, then each bus's recent steps.
+void print_problems_and_steps(const std::vector<Json>& buses) {
   for (const auto& b : buses) {
     if (!b["problems"].items.empty()) {
       std::printf("\nproblems on %s:\n", b["name"].str().c_str());
@@ -105,6 +112,13 @@ void print_table(const Json& doc) {
       std::printf("  %-28s %-16s %10.1f  %s\n", s["step"].str().c_str(), s["device"].str().c_str(),
                   s["ms"].number, short_time(s["at"]).c_str());
   }
+}
+
+void print_table(const Json& doc) {
+  const auto& buses = doc["buses"].items;
+  print_summary(doc, buses);
+  print_devices(buses);
+  print_problems_and_steps(buses);
 }
 
 }  // namespace

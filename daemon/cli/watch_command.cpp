@@ -11,6 +11,8 @@
 #include <csignal>
 #include <cstdio>
 #include <ctime>
+#include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 
@@ -223,35 +225,22 @@ dds_qos_t* reader_qos(dds_reliability_kind_t reliability, dds_durability_kind_t 
   return q;
 }
 
-}  // namespace
+struct WatchReader {
+  const char* topic;
+  const dds_topic_descriptor_t* type;
+  dds_qos_t* qos;
+  dds_entity_t reader = 0;
+};
 
-int watch(const WatchOptions& o) {
-  Participant pp;
-  pp.id = dds_create_participant(static_cast<dds_domainid_t>(o.domain), nullptr, nullptr);
-  if (pp.id < 0) {
-    std::fprintf(stderr, "watch: cannot join DDS domain %u: %s\n", o.domain, dds_strretcode(pp.id));
-    return 1;
-  }
-  struct Reader {
-    const char* topic;
-    const dds_topic_descriptor_t* type;
-    dds_qos_t* qos;
-    dds_entity_t reader = 0;
-  };
-  Reader readers[] = {
-      {"DeviceStatus", &cobridge_DeviceStatus_desc,
-       reader_qos(DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_TRANSIENT_LOCAL, 1)},
-      {"EncoderEvent", &cobridge_EncoderEvent_desc, reader_qos(DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_VOLATILE, 32)},
-      {"EncoderSample", &cobridge_EncoderSample_desc,
-       o.reliable ? reader_qos(DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_VOLATILE, 0)
-                  : reader_qos(DDS_RELIABILITY_BEST_EFFORT, DDS_DURABILITY_VOLATILE, 16)},
-  };
-  const dds_entity_t ws = dds_create_waitset(pp.id);
+// Creates each reader with its topic and attaches it to the wait set; the
+// QoS objects are deleted either way. Returns 0, or 1 when one failed.
+int subscribe(dds_entity_t participant, dds_entity_t ws, const std::string& topic_prefix,
+              std::span<WatchReader> readers) {
   int rc = 0;
-  for (Reader& r : readers) {
-    const std::string name = o.topic_prefix + r.topic;
-    const dds_entity_t topic = dds_create_topic(pp.id, r.type, name.c_str(), nullptr, nullptr);
-    if (topic >= 0) r.reader = dds_create_reader(pp.id, topic, r.qos, nullptr);
+  for (WatchReader& r : readers) {
+    const std::string name = topic_prefix + r.topic;
+    const dds_entity_t topic = dds_create_topic(participant, r.type, name.c_str(), nullptr, nullptr);
+    if (topic >= 0) r.reader = dds_create_reader(participant, topic, r.qos, nullptr);
     dds_delete_qos(r.qos);
     if (topic < 0 || r.reader < 0) {
       std::fprintf(stderr, "watch: cannot subscribe to %s: %s\n", name.c_str(),
@@ -262,66 +251,112 @@ int watch(const WatchOptions& o) {
     const dds_entity_t cond = dds_create_readcondition(r.reader, DDS_ANY_STATE);
     (void)dds_waitset_attach(ws, cond, r.reader);
   }
-  if (rc != 0) return rc;
+  return rc;
+}
+
+// Prints the lines of the wanted gateway until --count is reached.
+struct LinePrinter {
+  const WatchOptions& o;
+  std::uint64_t printed = 0;
+
+  [[nodiscard]] bool done() const { return o.count != 0 && printed >= o.count; }
+  [[nodiscard]] bool wanted(const char* gw) const {
+    return o.gateway.empty() || o.gateway == (gw != nullptr ? gw : "");
+  }
+  void print(const std::string& line) {
+    if (done()) return;
+    std::fputs(line.c_str(), stdout);
+    std::fputc('\n', stdout);
+    ++printed;
+  }
+};
+
+// Prints one taken sample of reader r.
+void print_sample(const WatchReader& r, const void* sample, const dds_sample_info_t& info, LinePrinter& out) {
+  const bool json = out.o.json;
+  if (r.type == &cobridge_EncoderSample_desc) {
+    const auto* s = static_cast<const cobridge_EncoderSample*>(sample);
+    if (info.valid_data && out.wanted(s->gateway_id)) out.print(format_sample(*s, json));
+  } else if (r.type == &cobridge_EncoderEvent_desc) {
+    const auto* e = static_cast<const cobridge_EncoderEvent*>(sample);
+    if (info.valid_data && out.wanted(e->gateway_id)) out.print(format_event(*e, json));
+  } else {
+    // An invalid sample of a disposed instance still carries its key.
+    const auto* s = static_cast<const cobridge_DeviceStatus*>(sample);
+    if (out.wanted(s->gateway_id)) out.print(format_status(*s, !info.valid_data, json));
+  }
+}
+
+// Takes and prints everything reader r holds.
+void drain(const WatchReader& r, LinePrinter& out) {
+  constexpr std::size_t kMax = 64;
+  void* buf[kMax];
+  dds_sample_info_t info[kMax];
+  for (;;) {
+    buf[0] = nullptr;
+    const int n = dds_take(r.reader, buf, info, kMax, kMax);
+    if (n <= 0) break;
+    for (int i = 0; i < n; ++i) {
+      const auto idx = static_cast<std::size_t>(i);
+      const bool disposed = info[idx].instance_state == DDS_IST_NOT_ALIVE_DISPOSED;
+      if (!info[idx].valid_data && !disposed) continue;
+      print_sample(r, buf[idx], info[idx], out);
+    }
+    (void)dds_return_loan(r.reader, buf, n);
+  }
+}
+
+// How long the next wait may take: 200 ms, less near --timeout; none when
+// the timeout has passed.
+std::optional<dds_duration_t> next_slice(const WatchOptions& o, std::chrono::steady_clock::time_point start) {
+  dds_duration_t slice = DDS_MSECS(200);
+  if (o.timeout_s > 0) {
+    const double left = o.timeout_s - std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (left <= 0) return std::nullopt;
+    if (left < 0.2) slice = static_cast<dds_duration_t>(left * 1e9);
+  }
+  return slice;
+}
+
+}  // namespace
+
+int watch(const WatchOptions& o) {
+  Participant pp;
+  pp.id = dds_create_participant(static_cast<dds_domainid_t>(o.domain), nullptr, nullptr);
+  if (pp.id < 0) {
+    std::fprintf(stderr, "watch: cannot join DDS domain %u: %s\n", o.domain, dds_strretcode(pp.id));
+    return 1;
+  }
+  WatchReader readers[] = {
+      {"DeviceStatus", &cobridge_DeviceStatus_desc,
+       reader_qos(DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_TRANSIENT_LOCAL, 1)},
+      {"EncoderEvent", &cobridge_EncoderEvent_desc, reader_qos(DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_VOLATILE, 32)},
+      {"EncoderSample", &cobridge_EncoderSample_desc,
+       o.reliable ? reader_qos(DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_VOLATILE, 0)
+                  : reader_qos(DDS_RELIABILITY_BEST_EFFORT, DDS_DURABILITY_VOLATILE, 16)},
+  };
+  const dds_entity_t ws = dds_create_waitset(pp.id);
+  if (const int rc = subscribe(pp.id, ws, o.topic_prefix, readers); rc != 0) return rc;
 
   g_interrupted.store(false);
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
 
   const auto start = std::chrono::steady_clock::now();
-  std::uint64_t printed = 0;
-  auto done = [&] { return o.count != 0 && printed >= o.count; };
-  auto print = [&](const std::string& line) {
-    if (done()) return;
-    std::fputs(line.c_str(), stdout);
-    std::fputc('\n', stdout);
-    ++printed;
-  };
-  auto wanted = [&](const char* gw) { return o.gateway.empty() || o.gateway == (gw != nullptr ? gw : ""); };
-
-  constexpr std::size_t kMax = 64;
-  void* buf[kMax];
-  dds_sample_info_t info[kMax];
-  while (!done() && !g_interrupted.load()) {
-    dds_duration_t slice = DDS_MSECS(200);
-    if (o.timeout_s > 0) {
-      const double left = o.timeout_s - std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      if (left <= 0) break;
-      if (left < 0.2) slice = static_cast<dds_duration_t>(left * 1e9);
-    }
+  LinePrinter out{o};
+  while (!out.done() && !g_interrupted.load()) {
+    const std::optional<dds_duration_t> slice = next_slice(o, start);
+    if (!slice) break;
     dds_attach_t triggered[3];
-    if (dds_waitset_wait(ws, triggered, 3, slice) < 0) break;
+    if (dds_waitset_wait(ws, triggered, 3, *slice) < 0) break;
     // Status first, so a device's name and state precede its values.
-    for (const Reader& r : readers) {
-      for (;;) {
-        buf[0] = nullptr;
-        const int n = dds_take(r.reader, buf, info, kMax, kMax);
-        if (n <= 0) break;
-        for (int i = 0; i < n; ++i) {
-          const auto idx = static_cast<std::size_t>(i);
-          const bool disposed = info[idx].instance_state == DDS_IST_NOT_ALIVE_DISPOSED;
-          if (!info[idx].valid_data && !disposed) continue;
-          if (r.type == &cobridge_EncoderSample_desc) {
-            const auto* s = static_cast<const cobridge_EncoderSample*>(buf[idx]);
-            if (info[idx].valid_data && wanted(s->gateway_id)) print(format_sample(*s, o.json));
-          } else if (r.type == &cobridge_EncoderEvent_desc) {
-            const auto* e = static_cast<const cobridge_EncoderEvent*>(buf[idx]);
-            if (info[idx].valid_data && wanted(e->gateway_id)) print(format_event(*e, o.json));
-          } else {
-            // An invalid sample of a disposed instance still carries its key.
-            const auto* s = static_cast<const cobridge_DeviceStatus*>(buf[idx]);
-            if (wanted(s->gateway_id)) print(format_status(*s, !info[idx].valid_data, o.json));
-          }
-        }
-        (void)dds_return_loan(r.reader, buf, n);
-      }
-    }
+    for (const WatchReader& r : readers) drain(r, out);
     std::fflush(stdout);
   }
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
-  if (o.count != 0 && printed < o.count && !g_interrupted.load()) {
-    std::fprintf(stderr, "watch: timeout after %llu of %llu samples\n", static_cast<unsigned long long>(printed),
+  if (o.count != 0 && out.printed < o.count && !g_interrupted.load()) {
+    std::fprintf(stderr, "watch: timeout after %llu of %llu samples\n", static_cast<unsigned long long>(out.printed),
                  static_cast<unsigned long long>(o.count));
     return 3;
   }

@@ -76,6 +76,32 @@ void Loader::read_bus(const toml::table& t) {
                 "node_pool", "commissioning", "swap_policy", "lss_timeout_ms", "lss_timeout_min_ms", "sdo_timeout_ms",
                 "sdo_retries", "foreign_nmt", "unknown_devices"});
   read_name(r, name_node, bus.name, spots.name, spots.has_name);
+  read_bus_interface(r, bus, spots);
+  read_bus_sync(r, bus);
+  if (auto v = r.boolean("discovery")) bus.discovery = *v;
+  if (auto v = r.integer("discovery_period_s", 1, 86400)) bus.discovery_period_s = static_cast<std::uint32_t>(*v);
+  if (auto v = r.choice<Commissioning>("commissioning", {{"automatic", Commissioning::automatic},
+                                                         {"manual", Commissioning::manual},
+                                                         {"off", Commissioning::off}})) {
+    bus.commissioning = *v;
+  }
+  read_node_pool(r, bus);
+  if (auto v = r.choice<SwapPolicy>("swap_policy", {{"same-model", SwapPolicy::same_model}, {"off", SwapPolicy::off}})) {
+    bus.swap_policy = *v;
+  }
+  read_bus_timeouts(r, bus);
+  if (auto v = r.choice<ForeignNmt>("foreign_nmt", {{"restart", ForeignNmt::restart}, {"respect", ForeignNmt::respect}})) {
+    bus.foreign_nmt = *v;
+  }
+  if (auto v = r.choice<UnknownDevices>("unknown_devices",
+                                        {{"ignore", UnknownDevices::ignore}, {"assign", UnknownDevices::assign}})) {
+    bus.unknown_devices = *v;
+  }
+  config_.buses.push_back(std::move(bus));
+  bus_spots_.push_back(spots);
+}
+
+void Loader::read_bus_interface(TableReader& r, Bus& bus, BusSpots& spots) {
   if (auto v = r.string("interface")) {
     if (is_interface_name(*v)) {
       bus.interface = *v;
@@ -89,6 +115,10 @@ void Loader::read_bus(const toml::table& t) {
   } else if (r.find("interface") == nullptr) {
     r.missing("interface");
   }
+}
+
+// The bit rate and the SYNC producer's period and counter.
+void Loader::read_bus_sync(TableReader& r, Bus& bus) {
   if (auto v = r.integer_in("bitrate", {10, 20, 50, 100, 125, 250, 500, 800, 1000})) {
     bus.bitrate_kbit = static_cast<std::uint16_t>(*v);
   }
@@ -101,17 +131,10 @@ void Loader::read_bus(const toml::table& t) {
       bus.sync_counter = static_cast<std::uint8_t>(*v);
     }
   }
-  if (auto v = r.boolean("discovery")) bus.discovery = *v;
-  if (auto v = r.integer("discovery_period_s", 1, 86400)) bus.discovery_period_s = static_cast<std::uint32_t>(*v);
-  if (auto v = r.choice<Commissioning>("commissioning", {{"automatic", Commissioning::automatic},
-                                                         {"manual", Commissioning::manual},
-                                                         {"off", Commissioning::off}})) {
-    bus.commissioning = *v;
-  }
-  read_node_pool(r, bus);
-  if (auto v = r.choice<SwapPolicy>("swap_policy", {{"same-model", SwapPolicy::same_model}, {"off", SwapPolicy::off}})) {
-    bus.swap_policy = *v;
-  }
+}
+
+// The LSS and SDO timeouts and SDO retries.
+void Loader::read_bus_timeouts(TableReader& r, Bus& bus) {
   if (auto v = r.integer("lss_timeout_ms", 1, 60000)) bus.lss_timeout_ms = static_cast<std::uint32_t>(*v);
   if (auto v = r.integer("lss_timeout_min_ms", 1, 60000)) {
     if (static_cast<std::uint32_t>(*v) > bus.lss_timeout_ms) {
@@ -123,15 +146,6 @@ void Loader::read_bus(const toml::table& t) {
   }
   if (auto v = r.integer("sdo_timeout_ms", 1, 60000)) bus.sdo_timeout_ms = static_cast<std::uint32_t>(*v);
   if (auto v = r.integer("sdo_retries", 0, 10)) bus.sdo_retries = static_cast<std::uint8_t>(*v);
-  if (auto v = r.choice<ForeignNmt>("foreign_nmt", {{"restart", ForeignNmt::restart}, {"respect", ForeignNmt::respect}})) {
-    bus.foreign_nmt = *v;
-  }
-  if (auto v = r.choice<UnknownDevices>("unknown_devices",
-                                        {{"ignore", UnknownDevices::ignore}, {"assign", UnknownDevices::assign}})) {
-    bus.unknown_devices = *v;
-  }
-  config_.buses.push_back(std::move(bus));
-  bus_spots_.push_back(spots);
 }
 
 }  // namespace cobridge::config::detail

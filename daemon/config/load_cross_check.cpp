@@ -13,6 +13,13 @@ namespace cobridge::config::detail {
 // ---- checks across sections ---------------------------------------------
 
 void Loader::cross_check() {
+  const std::map<std::string, std::size_t> bus_by_name = check_buses();
+  check_devices(bus_by_name);
+  check_serials();
+}
+
+// Bus names and interfaces are unique; returns the buses by name.
+std::map<std::string, std::size_t> Loader::check_buses() {
   std::map<std::string, std::size_t> bus_by_name;
   std::map<std::string, std::size_t> bus_by_interface;
   for (std::size_t i = 0; i < config_.buses.size(); ++i) {
@@ -32,7 +39,12 @@ void Loader::cross_check() {
       }
     }
   }
+  return bus_by_name;
+}
 
+// Device names are unique, each names a defined bus (its bus_index is set
+// here), and node-IDs are unique per bus.
+void Loader::check_devices(const std::map<std::string, std::size_t>& bus_by_name) {
   std::map<std::string, std::size_t> device_by_name;
   std::map<std::pair<std::size_t, std::uint8_t>, std::size_t> device_by_node;
   for (std::size_t i = 0; i < config_.devices.size(); ++i) {
@@ -64,9 +76,11 @@ void Loader::cross_check() {
       }
     }
   }
+}
 
-  // Serial numbers are unique per vendor (CiA 301 0x1018): the same serial
-  // is a conflict unless both vendors are known and differ.
+// Serial numbers are unique per vendor (CiA 301 0x1018): the same serial is
+// a conflict unless both vendors are known and differ.
+void Loader::check_serials() {
   for (std::size_t i = 0; i < config_.devices.size(); ++i) {
     const Device& d = config_.devices[i];
     if (!device_spots_[i].has_serial) continue;

@@ -23,6 +23,7 @@
 #include <filesystem>
 #include <initializer_list>
 #include <limits>
+#include <map>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -96,6 +97,9 @@ class Loader {
   void read_name(TableReader& r, const toml::node* name_node, std::string& name, SourceLocation& spot,
                  bool& has_spot);
   void read_bus(const toml::table& t);
+  void read_bus_interface(TableReader& r, Bus& bus, BusSpots& spots);
+  void read_bus_sync(TableReader& r, Bus& bus);
+  void read_bus_timeouts(TableReader& r, Bus& bus);
   // ---- [[device]] --------------------------------------------------------
   std::optional<MappingEntry> read_mapping_entry(TableReader& r, const toml::node& item);
   std::optional<TpdoSettings> read_tpdo(TableReader& device, std::string_view key);
@@ -121,6 +125,9 @@ class Loader {
   SourceLocation redundancy_node_spot_;
   // ---- checks across sections ---------------------------------------------
   void cross_check();
+  std::map<std::string, std::size_t> check_buses();
+  void check_devices(const std::map<std::string, std::size_t>& bus_by_name);
+  void check_serials();
   static std::optional<std::uint32_t> vendor_of(const Device& d);
 
   void add(const SourceLocation& where, std::string message) { sink_.add(where.line, where.column, std::move(message)); }

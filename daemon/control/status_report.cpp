@@ -75,15 +75,7 @@ class JsonWriter {
 };
 
 
-void write_device(JsonWriter& w, const DeviceStatus& d) {
-  w.begin_object();
-  w.field("name", d.name);
-  w.field("bus", d.bus);
-  w.key("node_id");
-  if (d.node_id == 0)
-    w.null();
-  else
-    w.value(std::uint64_t{d.node_id});
+void write_identity(JsonWriter& w, const DeviceStatus& d) {
   w.key("identity");
   w.begin_object();
   w.field("vendor", std::uint64_t{d.identity.vendor});
@@ -91,14 +83,10 @@ void write_device(JsonWriter& w, const DeviceStatus& d) {
   w.field("revision", std::uint64_t{d.identity.revision});
   w.field("serial", std::uint64_t{d.identity.serial});
   w.end_object();
-  w.field("model", d.model);
-  w.field("family", d.family);
-  w.field("state", to_string(d.state));
-  w.field("nmt", canopen::to_string(d.nmt));
-  w.field("online", d.online);
-  w.key("since");
-  w.time(d.since);
-  w.field("last_error", d.last_error);
+}
+
+// The last EMCY (null when there has been none) and the recent ones.
+void write_emcy(JsonWriter& w, const DeviceStatus& d) {
   w.key("last_emcy");
   if (d.emcy_count == 0 && d.last_emcy_code == 0 && d.last_emcy_text.empty()) {
     w.null();
@@ -108,13 +96,9 @@ void write_device(JsonWriter& w, const DeviceStatus& d) {
     w.field("text", d.last_emcy_text);
     w.end_object();
   }
-  w.field("boot_ups", std::uint64_t{d.boot_ups});
-  w.field("configurations", std::uint64_t{d.configurations});
-  w.field("emcy_count", std::uint64_t{d.emcy_count});
-  w.field("fingerprint", d.fingerprint);
-  w.field("commission_failures", std::uint64_t{d.commission_failures});
-  w.key("next_retry");
-  w.time(d.next_retry);
+}
+
+void write_emcy_history(JsonWriter& w, const DeviceStatus& d) {
   w.key("emcy_history");
   w.begin_array();
   for (const auto& e : d.emcy_history) {
@@ -126,7 +110,10 @@ void write_device(JsonWriter& w, const DeviceStatus& d) {
     w.end_object();
   }
   w.end_array();
-  const LiveValues& v = d.values;
+}
+
+// The latest values (null before the first) and the heartbeat's age.
+void write_values(JsonWriter& w, const LiveValues& v) {
   w.key("values");
   if (!v.present) {
     w.null();
@@ -149,6 +136,36 @@ void write_device(JsonWriter& w, const DeviceStatus& d) {
     w.null();
   else
     w.value(v.heartbeat_age_s);
+}
+
+void write_device(JsonWriter& w, const DeviceStatus& d) {
+  w.begin_object();
+  w.field("name", d.name);
+  w.field("bus", d.bus);
+  w.key("node_id");
+  if (d.node_id == 0)
+    w.null();
+  else
+    w.value(std::uint64_t{d.node_id});
+  write_identity(w, d);
+  w.field("model", d.model);
+  w.field("family", d.family);
+  w.field("state", to_string(d.state));
+  w.field("nmt", canopen::to_string(d.nmt));
+  w.field("online", d.online);
+  w.key("since");
+  w.time(d.since);
+  w.field("last_error", d.last_error);
+  write_emcy(w, d);
+  w.field("boot_ups", std::uint64_t{d.boot_ups});
+  w.field("configurations", std::uint64_t{d.configurations});
+  w.field("emcy_count", std::uint64_t{d.emcy_count});
+  w.field("fingerprint", d.fingerprint);
+  w.field("commission_failures", std::uint64_t{d.commission_failures});
+  w.key("next_retry");
+  w.time(d.next_retry);
+  write_emcy_history(w, d);
+  write_values(w, d.values);
   w.end_object();
 }
 

@@ -239,97 +239,109 @@ bool Parser::read_values(const Section& s, ObjectDesc& d) {
   return true;
 }
 
+namespace {
+bool is_aggregate(ObjectType t) {
+  return t == ObjectType::kArray || t == ObjectType::kRecord || t == ObjectType::kDefStruct;
+}
+}  // namespace
+
 void Parser::read_objects() {
   // Objects first, so that sub sections can find their parent wherever
   // they appear in the file.
-  std::map<std::uint16_t, std::pair<const Section*, ObjectEntry>> objects;
+  ObjectSections objects;
   for (const Section& s : sections_) {
     const Address a = classify(s.name_lower);
     if (!a.is_object) continue;
-    ObjectEntry e;
-    e.index = a.index;
-    e.line = s.line;
-    if (const Line* l = s.get("parametername")) e.name = std::string(l->value);
-    const auto type = object_type(s);
-    if (!type) continue;
-    e.type = *type;
-    const auto listed = listed_.find(a.index);
-    if (listed == listed_.end()) {
-      error(s.line, 0, EdsErrc::kUnlistedObject,
-            "[" + s.name + "] is not named in [MandatoryObjects], [OptionalObjects] or [ManufacturerObjects]");
-    } else {
-      e.list = listed->second.list;
-    }
-    if (e.type == ObjectType::kArray || e.type == ObjectType::kRecord || e.type == ObjectType::kDefStruct) {
-      if (s.get("parametername") == nullptr) {
-        error(s.line, 0, EdsErrc::kMissingKey, "[" + s.name + "] ParameterName is missing (required by CiA 306)");
-      }
-      if (const Line* l = s.get("subnumber")) {
-        if (const auto n = number(s, *l, 0xFF)) e.sub_number = static_cast<std::uint8_t>(*n);
-      } else {
-        error(s.line, 0, EdsErrc::kMissingKey, "[" + s.name + "] SubNumber is missing (required for ARRAY/RECORD)");
-      }
-      if (const Line* l = s.get("compactsubobj"); l != nullptr && parse_unsigned(l->value).value_or(1) != 0) {
-        error(l->line, 0, EdsErrc::kUnsupported,
-              where(s, *l) + ": CompactSubObj is not supported (write one [IIIIsubS] section per sub-index)");
-      }
-    } else if (e.type != ObjectType::kNull) {
-      read_entry(s, a.index, 0, e.type);
-    }
-    objects.emplace(a.index, std::pair{&s, e});
+    if (auto e = read_object(s, a.index)) objects.emplace(a.index, std::pair{&s, *e});
   }
-
   std::map<std::uint16_t, std::size_t> sub_counts;
   for (const Section& s : sections_) {
     const Address a = classify(s.name_lower);
     if (!a.is_sub) continue;
-    if (a.malformed) {
-      error(s.line, 0, EdsErrc::kSyntax,
-            "[" + s.name + "] is not a sub-object section name (allowed: [IIIIsubS], S = 0..FF hexadecimal)");
-      continue;
-    }
-    const auto parent = objects.find(a.index);
-    const Section* parent_section = section(lower(hex(a.index, 4).substr(2)));
-    if (parent == objects.end()) {
-      if (parent_section == nullptr) {
-        error(s.line, 0, EdsErrc::kSubWithoutParent,
-              "[" + s.name + "] has no parent object section [" + hex(a.index, 4).substr(2) + "]");
-      }
-      continue;  // the parent exists but was rejected: already reported
-    }
-    const ObjectType pt = parent->second.second.type;
-    if (pt != ObjectType::kArray && pt != ObjectType::kRecord && pt != ObjectType::kDefStruct) {
-      error(s.line, 0, EdsErrc::kSubWithoutParent,
-            "[" + s.name + "] belongs to [" + parent->second.first->name +
-                "], which is not an ARRAY or RECORD (ObjectType 0x8 or 0x9)");
-      continue;
-    }
-    const auto type = object_type(s);
-    if (!type) continue;
-    if (*type != ObjectType::kVar) {
-      error(s.get("objecttype")->line, 0, EdsErrc::kBadObjectType,
-            "[" + s.name + "] ObjectType of a sub-object must be 0x7 (VAR)");
-      continue;
-    }
-    ++sub_counts[a.index];
-    read_entry(s, a.index, a.sub, ObjectType::kVar);
+    if (read_sub_object(s, a, objects)) ++sub_counts[a.index];
   }
-
   for (auto& [index, pair] : objects) {
     const auto& [s, e] = pair;
-    if (e.type == ObjectType::kArray || e.type == ObjectType::kRecord || e.type == ObjectType::kDefStruct) {
-      const std::size_t count = sub_counts[index];
-      if (s->get("subnumber") != nullptr && count != e.sub_number) {
-        error(s->get("subnumber")->line, 0, EdsErrc::kInconsistent,
-              "[" + s->name + "] SubNumber=" + std::to_string(e.sub_number) + " but " + std::to_string(count) +
-                  " sub-object sections [" + s->name + "subS] exist");
-      }
-      if (seen_.count({index, 0}) == 0 && count != 0) {
-        error(s->line, 0, EdsErrc::kMissingSection,
-              "[" + s->name + "] has no sub-index 0 section [" + s->name + "sub0] (CiA 301: highest sub-index)");
-      }
-    }
+    if (is_aggregate(e.type)) check_sub_count(*s, e, sub_counts[index]);
     desc_.objects.push_back(e);
+  }
+}
+
+std::optional<ObjectEntry> Parser::read_object(const Section& s, std::uint16_t index) {
+  ObjectEntry e;
+  e.index = index;
+  e.line = s.line;
+  if (const Line* l = s.get("parametername")) e.name = std::string(l->value);
+  const auto type = object_type(s);
+  if (!type) return std::nullopt;
+  e.type = *type;
+  const auto listed = listed_.find(index);
+  if (listed == listed_.end()) {
+    error(s.line, 0, EdsErrc::kUnlistedObject,
+          "[" + s.name + "] is not named in [MandatoryObjects], [OptionalObjects] or [ManufacturerObjects]");
+  } else {
+    e.list = listed->second.list;
+  }
+  if (is_aggregate(e.type)) {
+    if (s.get("parametername") == nullptr) {
+      error(s.line, 0, EdsErrc::kMissingKey, "[" + s.name + "] ParameterName is missing (required by CiA 306)");
+    }
+    if (const Line* l = s.get("subnumber")) {
+      if (const auto n = number(s, *l, 0xFF)) e.sub_number = static_cast<std::uint8_t>(*n);
+    } else {
+      error(s.line, 0, EdsErrc::kMissingKey, "[" + s.name + "] SubNumber is missing (required for ARRAY/RECORD)");
+    }
+    if (const Line* l = s.get("compactsubobj"); l != nullptr && parse_unsigned(l->value).value_or(1) != 0) {
+      error(l->line, 0, EdsErrc::kUnsupported,
+            where(s, *l) + ": CompactSubObj is not supported (write one [IIIIsubS] section per sub-index)");
+    }
+  } else if (e.type != ObjectType::kNull) {
+    read_entry(s, index, 0, e.type);
+  }
+  return e;
+}
+
+bool Parser::read_sub_object(const Section& s, const Address& a, const ObjectSections& objects) {
+  if (a.malformed) {
+    error(s.line, 0, EdsErrc::kSyntax,
+          "[" + s.name + "] is not a sub-object section name (allowed: [IIIIsubS], S = 0..FF hexadecimal)");
+    return false;
+  }
+  const auto parent = objects.find(a.index);
+  const Section* parent_section = section(lower(hex(a.index, 4).substr(2)));
+  if (parent == objects.end()) {
+    if (parent_section == nullptr) {
+      error(s.line, 0, EdsErrc::kSubWithoutParent,
+            "[" + s.name + "] has no parent object section [" + hex(a.index, 4).substr(2) + "]");
+    }
+    return false;  // the parent exists but was rejected: already reported
+  }
+  if (!is_aggregate(parent->second.second.type)) {
+    error(s.line, 0, EdsErrc::kSubWithoutParent,
+          "[" + s.name + "] belongs to [" + parent->second.first->name +
+              "], which is not an ARRAY or RECORD (ObjectType 0x8 or 0x9)");
+    return false;
+  }
+  const auto type = object_type(s);
+  if (!type) return false;
+  if (*type != ObjectType::kVar) {
+    error(s.get("objecttype")->line, 0, EdsErrc::kBadObjectType,
+          "[" + s.name + "] ObjectType of a sub-object must be 0x7 (VAR)");
+    return false;
+  }
+  read_entry(s, a.index, a.sub, ObjectType::kVar);
+  return true;
+}
+
+void Parser::check_sub_count(const Section& s, const ObjectEntry& e, std::size_t count) {
+  if (s.get("subnumber") != nullptr && count != e.sub_number) {
+    error(s.get("subnumber")->line, 0, EdsErrc::kInconsistent,
+          "[" + s.name + "] SubNumber=" + std::to_string(e.sub_number) + " but " + std::to_string(count) +
+              " sub-object sections [" + s.name + "subS] exist");
+  }
+  if (seen_.count({e.index, 0}) == 0 && count != 0) {
+    error(s.line, 0, EdsErrc::kMissingSection,
+          "[" + s.name + "] has no sub-index 0 section [" + s.name + "sub0] (CiA 301: highest sub-index)");
   }
 }
 

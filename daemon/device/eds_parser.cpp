@@ -93,73 +93,76 @@ EdsValue Parser::value(const Section& s, const Line& l, DataType type, bool allo
     v.kind = EdsValue::Kind::kText;
     return v;
   }
+  const auto terms = integer_terms(s, l, allow_node_id);
+  if (!terms || !integer_fits(s, l, type, *terms)) return v;
+  v.kind = EdsValue::Kind::kInteger;
+  v.plus_node_id = terms->node;
+  v.integer = (terms->negative ? (~terms->sum + 1) : terms->sum) & mask_bits(bit_size(type));
+  return v;
+}
 
+// Sum of terms: numbers and at most one $NODEID (CiA 306 §4.6.3 allows
+// "$NODEID+0x180"; "0x180+$NODEID" is common in the field).
+std::optional<Parser::IntegerTerms> Parser::integer_terms(const Section& s, const Line& l, bool allow_node_id) {
   static constexpr std::string_view kAllowed =
       " is not a number (allowed: decimal, 0x hexadecimal, 0 octal, $NODEID+number)";
+  IntegerTerms t;
   std::string_view rest = l.value;
-  bool negative = false;
   if (rest.front() == '-' || rest.front() == '+') {
-    negative = rest.front() == '-';
+    t.negative = rest.front() == '-';
     rest.remove_prefix(1);
   }
-  // Sum of terms: numbers and at most one $NODEID (CiA 306 §4.6.3 allows
-  // "$NODEID+0x180"; "0x180+$NODEID" is common in the field).
-  std::uint64_t sum = 0;
-  bool all_decimal = true;
-  bool node = false;
   while (true) {
     const std::size_t plus = rest.find('+');
     const std::string_view term = trim(rest.substr(0, plus));
     if (lower(term) == "$nodeid") {
-      if (node || negative) {
+      if (t.node || t.negative) {
         error(l.line, l.value_column, EdsErrc::kBadNumber, where(s, l) + std::string(kAllowed));
-        return v;
+        return std::nullopt;
       }
-      node = true;
+      t.node = true;
     } else {
       bool dec = true;
       const auto n = parse_unsigned(term, &dec);
-      if (!n || sum > std::numeric_limits<std::uint64_t>::max() - *n) {
+      if (!n || t.sum > std::numeric_limits<std::uint64_t>::max() - *n) {
         error(l.line, l.value_column, EdsErrc::kBadNumber, where(s, l) + std::string(kAllowed));
-        return v;
+        return std::nullopt;
       }
-      all_decimal = all_decimal && dec;
-      sum += *n;
+      t.all_decimal = t.all_decimal && dec;
+      t.sum += *n;
     }
     if (plus == std::string_view::npos) break;
     rest = rest.substr(plus + 1);
   }
-  if (node && !allow_node_id) {
+  if (t.node && !allow_node_id) {
     error(l.line, l.value_column, EdsErrc::kBadNumber, where(s, l) + ": $NODEID is only allowed in DefaultValue");
-    return v;
+    return std::nullopt;
   }
+  return t;
+}
 
-  // Range of the type. Hex and octal are bit patterns, so a signed type
-  // accepts them up to 2^bits - 1; decimal must be in the signed range.
-  const std::uint32_t bits = bit_size(type);
-  const std::uint64_t umax = mask_bits(bits);
+// Range of the type. Hex and octal are bit patterns, so a signed type
+// accepts them up to 2^bits - 1; decimal must be in the signed range.
+bool Parser::integer_fits(const Section& s, const Line& l, DataType type, const IntegerTerms& t) {
+  const std::uint64_t umax = mask_bits(bit_size(type));
   bool fits = true;
   std::string allowed;
   if (is_signed_integer(type)) {
     const std::uint64_t pos_max = umax >> 1;
     const std::uint64_t neg_max = pos_max + 1;
-    fits = negative ? sum <= neg_max : sum <= (all_decimal ? pos_max : umax);
+    fits = t.negative ? t.sum <= neg_max : t.sum <= (t.all_decimal ? pos_max : umax);
     allowed = "-" + std::to_string(neg_max) + ".." + std::to_string(pos_max);
   } else {
-    fits = !negative && sum <= umax;
+    fits = !t.negative && t.sum <= umax;
     allowed = "0.." + std::to_string(umax);
   }
   // $NODEID adds up to 127, which must still fit.
-  if (node && fits) fits = sum <= (is_signed_integer(type) ? umax >> 1 : umax) - 127;
+  if (t.node && fits) fits = t.sum <= (is_signed_integer(type) ? umax >> 1 : umax) - 127;
   if (!fits) {
     error(l.line, l.value_column, EdsErrc::kOutOfRange,
           where(s, l) + " does not fit " + std::string(to_string(type)) + " (allowed: " + allowed + ")");
-    return v;
   }
-  v.kind = EdsValue::Kind::kInteger;
-  v.plus_node_id = node;
-  v.integer = (negative ? (~sum + 1) : sum) & umax;
-  return v;
+  return fits;
 }
 
 void Parser::interpret() {

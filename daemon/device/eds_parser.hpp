@@ -83,6 +83,12 @@ class Parser {
   void error(std::size_t line, std::size_t column, EdsErrc code, std::string message);
   // -- pass 1: lines into sections ---------------------------------------------
   void split();
+  // Reports a control character; false when the line has one.
+  bool check_printable(std::size_t line_no, std::string_view raw);
+  // Starts the section of header `t`; a bad or duplicate one gets `discard`.
+  Section* open_section(std::size_t line_no, std::size_t indent, std::string_view t, Section& discard);
+  // Adds the Key=Value line `t` to `current`.
+  void add_key(std::size_t line_no, std::size_t indent, std::string_view t, Section* current, const Section& discard);
   const Section* section(std::string_view name_lower) const;
   // -- value helpers -------------------------------------------------------------
   std::string where(const Section& s, const Line& l) const { return "[" + s.name + "] " + std::string(l.key) + "=" + std::string(l.value); }
@@ -98,6 +104,15 @@ class Parser {
   void read_text(const Section& s, std::string_view key, std::string& out);
   // Parses DefaultValue / LowLimit / HighLimit for `type`.
   EdsValue value(const Section& s, const Line& l, DataType type, bool allow_node_id);
+  // An integer value as written: sign, sum of its numbers, $NODEID.
+  struct IntegerTerms {
+    std::uint64_t sum = 0;
+    bool negative = false;
+    bool all_decimal = true;
+    bool node = false;
+  };
+  std::optional<IntegerTerms> integer_terms(const Section& s, const Line& l, bool allow_node_id);
+  bool integer_fits(const Section& s, const Line& l, DataType type, const IntegerTerms& t);
   // -- pass 2 --------------------------------------------------------------------
   struct ListedObject {
     ObjectList list;
@@ -130,6 +145,13 @@ class Parser {
   bool read_flags(const Section& s, ObjectDesc& d);
   bool read_values(const Section& s, ObjectDesc& d);
   void read_objects();
+  using ObjectSections = std::map<std::uint16_t, std::pair<const Section*, ObjectEntry>>;
+  // Reads an object section; none when its ObjectType is unusable.
+  std::optional<ObjectEntry> read_object(const Section& s, std::uint16_t index);
+  // Reads a sub-object section; false when it is not one of a usable parent.
+  bool read_sub_object(const Section& s, const Address& a, const ObjectSections& objects);
+  // Checks an ARRAY's or RECORD's SubNumber against its `count` sub-objects.
+  void check_sub_count(const Section& s, const ObjectEntry& e, std::size_t count);
   void check_listed_sections();
   void check_identity();
   void check_selection();

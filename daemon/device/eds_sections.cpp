@@ -24,91 +24,93 @@ void Parser::split() {
     pos = end + 1;
     if (!raw.empty() && raw.back() == '\r') raw.remove_suffix(1);
     if (line_no == 1 && raw.substr(0, 3) == "\xEF\xBB\xBF") raw.remove_prefix(3);  // UTF-8 BOM
-
-    bool binary = false;
-    for (std::size_t i = 0; i < raw.size(); ++i) {
-      const auto c = static_cast<unsigned char>(raw[i]);
-      if ((c < 0x20 && c != '\t') || c == 0x7F) {
-        error(line_no, i + 1, EdsErrc::kBinaryData,
-              "control character " + hex(c, 2) + " in a text file (allowed: printable text, tab, CR LF)");
-        binary = true;
-        break;
-      }
-    }
-    if (binary) continue;
+    if (!check_printable(line_no, raw)) continue;
 
     const std::string_view t = trim(raw);
     if (t.empty() || t.front() == ';') continue;
     const std::size_t indent = static_cast<std::size_t>(t.data() - raw.data());
-
-    if (t.front() == '[') {
-      if (t.back() != ']') {
-        error(line_no, indent + 1, EdsErrc::kSyntax,
-              "section header '" + std::string(t) + "' is not closed with ']'");
-        current = &discard;
-        discard.lines.clear();
-        continue;
-      }
-      const std::string_view name = trim(t.substr(1, t.size() - 2));
-      if (name.empty()) {
-        error(line_no, indent + 1, EdsErrc::kSyntax, "empty section name '[]'");
-        current = &discard;
-        continue;
-      }
-      std::string nl = lower(name);
-      const auto it = section_index_.find(nl);
-      if (it != section_index_.end()) {
-        error(line_no, 0, EdsErrc::kDuplicateSection,
-              "duplicate section [" + std::string(name) + "] (first defined at line " +
-                  std::to_string(sections_[it->second].line) + ")");
-        current = &discard;
-        discard.lines.clear();
-        continue;
-      }
-      section_index_.emplace(nl, sections_.size());
-      sections_.push_back(Section{std::string(name), std::move(nl), line_no, {}});
-      current = &sections_.back();
-      continue;
-    }
-
-    const std::size_t eq = t.find('=');
-    if (eq == std::string_view::npos) {
-      error(line_no, indent + 1, EdsErrc::kSyntax,
-            "expected '[Section]', 'Key=Value' or '; comment', got '" + std::string(t.substr(0, 40)) + "'");
-      continue;
-    }
-    const std::string_view key = trim(t.substr(0, eq));
-    std::string_view value = t.substr(eq + 1);
-    // Inline comments need whitespace before ';' so that values such as
-    // "a;b" in names survive.
-    for (std::size_t i = 1; i < value.size(); ++i) {
-      if (value[i] == ';' && is_space(value[i - 1])) {
-        value = value.substr(0, i);
-        break;
-      }
-    }
-    std::size_t lead = 0;
-    while (lead < value.size() && is_space(value[lead])) ++lead;
-    value = trim(value);
-    if (key.empty()) {
-      error(line_no, indent + 1, EdsErrc::kSyntax, "key is empty in '" + std::string(t.substr(0, 40)) + "'");
-      continue;
-    }
-    if (current == nullptr) {
-      error(line_no, indent + 1, EdsErrc::kSyntax,
-            "'" + std::string(key) + "' appears before the first section header");
-      continue;
-    }
-    std::string kl = lower(key);
-    if (current != &discard && current->get(kl) != nullptr) {
-      error(line_no, indent + 1, EdsErrc::kDuplicateKey,
-            "[" + current->name + "] duplicate key '" + std::string(key) + "' (first at line " +
-                std::to_string(current->get(kl)->line) + ")");
-      continue;
-    }
-    const std::size_t value_col = indent + eq + 2 + lead;
-    current->lines.push_back(Line{key, std::move(kl), value, line_no, value_col});
+    if (t.front() == '[')
+      current = open_section(line_no, indent, t, discard);
+    else
+      add_key(line_no, indent, t, current, discard);
   }
+}
+
+bool Parser::check_printable(std::size_t line_no, std::string_view raw) {
+  for (std::size_t i = 0; i < raw.size(); ++i) {
+    const auto c = static_cast<unsigned char>(raw[i]);
+    if ((c < 0x20 && c != '\t') || c == 0x7F) {
+      error(line_no, i + 1, EdsErrc::kBinaryData,
+            "control character " + hex(c, 2) + " in a text file (allowed: printable text, tab, CR LF)");
+      return false;
+    }
+  }
+  return true;
+}
+
+Section* Parser::open_section(std::size_t line_no, std::size_t indent, std::string_view t, Section& discard) {
+  if (t.back() != ']') {
+    error(line_no, indent + 1, EdsErrc::kSyntax, "section header '" + std::string(t) + "' is not closed with ']'");
+    discard.lines.clear();
+    return &discard;
+  }
+  const std::string_view name = trim(t.substr(1, t.size() - 2));
+  if (name.empty()) {
+    error(line_no, indent + 1, EdsErrc::kSyntax, "empty section name '[]'");
+    return &discard;
+  }
+  std::string nl = lower(name);
+  const auto it = section_index_.find(nl);
+  if (it != section_index_.end()) {
+    error(line_no, 0, EdsErrc::kDuplicateSection,
+          "duplicate section [" + std::string(name) + "] (first defined at line " +
+              std::to_string(sections_[it->second].line) + ")");
+    discard.lines.clear();
+    return &discard;
+  }
+  section_index_.emplace(nl, sections_.size());
+  sections_.push_back(Section{std::string(name), std::move(nl), line_no, {}});
+  return &sections_.back();
+}
+
+void Parser::add_key(std::size_t line_no, std::size_t indent, std::string_view t, Section* current,
+                     const Section& discard) {
+  const std::size_t eq = t.find('=');
+  if (eq == std::string_view::npos) {
+    error(line_no, indent + 1, EdsErrc::kSyntax,
+          "expected '[Section]', 'Key=Value' or '; comment', got '" + std::string(t.substr(0, 40)) + "'");
+    return;
+  }
+  const std::string_view key = trim(t.substr(0, eq));
+  std::string_view value = t.substr(eq + 1);
+  // Inline comments need whitespace before ';' so that values such as
+  // "a;b" in names survive.
+  for (std::size_t i = 1; i < value.size(); ++i) {
+    if (value[i] == ';' && is_space(value[i - 1])) {
+      value = value.substr(0, i);
+      break;
+    }
+  }
+  std::size_t lead = 0;
+  while (lead < value.size() && is_space(value[lead])) ++lead;
+  value = trim(value);
+  if (key.empty()) {
+    error(line_no, indent + 1, EdsErrc::kSyntax, "key is empty in '" + std::string(t.substr(0, 40)) + "'");
+    return;
+  }
+  if (current == nullptr) {
+    error(line_no, indent + 1, EdsErrc::kSyntax, "'" + std::string(key) + "' appears before the first section header");
+    return;
+  }
+  std::string kl = lower(key);
+  if (current != &discard && current->get(kl) != nullptr) {
+    error(line_no, indent + 1, EdsErrc::kDuplicateKey,
+          "[" + current->name + "] duplicate key '" + std::string(key) + "' (first at line " +
+              std::to_string(current->get(kl)->line) + ")");
+    return;
+  }
+  const std::size_t value_col = indent + eq + 2 + lead;
+  current->lines.push_back(Line{key, std::move(kl), value, line_no, value_col});
 }
 
 void Parser::read_file_info(const Section& s) {

@@ -20,6 +20,49 @@ inline std::int64_t sign_extend(std::uint64_t v, unsigned length) noexcept {
   return static_cast<std::int64_t>((v ^ sign) - sign);
 }
 
+// Stores one mapped field's value in the sample, marking it valid.
+inline void store_signal(const FieldDecode& fd, std::int64_t v, const DecodePlan& plan, Sample& out) noexcept {
+  switch (fd.signal) {
+    case Signal::position: {
+      const std::int64_t pos = fd.is_signed ? v : static_cast<std::int64_t>(static_cast<std::uint64_t>(v) & plan.position_mask);
+      out.position = pos;
+      out.position_eng = static_cast<double>(pos) * plan.eng_scale + plan.eng_offset;
+      out.valid |= COBRIDGE_VALID_POSITION | COBRIDGE_VALID_POSITION_ENG;
+      break;
+    }
+    case Signal::speed:
+      out.speed = static_cast<std::int32_t>(v);
+      out.valid |= COBRIDGE_VALID_SPEED;
+      break;
+    case Signal::cam:
+      out.cam_state = static_cast<std::uint8_t>(v);
+      out.valid |= COBRIDGE_VALID_CAM_STATE;
+      break;
+    case Signal::work_area:
+      out.work_area_state = static_cast<std::uint8_t>(v);
+      out.valid |= COBRIDGE_VALID_WORK_AREA_STATE;
+      break;
+    case Signal::alarms:
+      out.alarms = static_cast<std::uint16_t>(v);
+      out.valid |= COBRIDGE_VALID_ALARMS;
+      break;
+    case Signal::warnings:
+      out.warnings = static_cast<std::uint16_t>(v);
+      out.valid |= COBRIDGE_VALID_WARNINGS;
+      break;
+    case Signal::temperature:
+      out.temperature_dC = static_cast<std::int16_t>(v);
+      out.valid |= COBRIDGE_VALID_TEMPERATURE;
+      break;
+    case Signal::voltage:
+      out.voltage_dV = static_cast<std::uint16_t>(v);
+      out.valid |= COBRIDGE_VALID_VOLTAGE;
+      break;
+    case Signal::none:
+      break;
+  }
+}
+
 }  // namespace
 
 FrameDecoder::FrameDecoder(std::uint8_t bus_index, const DeviceTable& table) : bus_index_(bus_index), table_(table) {
@@ -133,45 +176,7 @@ bool FrameDecoder::decode_tpdo(const can::Frame& f, std::uint8_t node, std::size
     const FieldDecode& fd = d.fields[i];
     const std::uint64_t raw = bits_at(f.data, fd.bit_offset, fd.bit_length);
     const std::int64_t v = fd.is_signed ? sign_extend(raw, fd.bit_length) : static_cast<std::int64_t>(raw);
-    switch (fd.signal) {
-      case Signal::position: {
-        const std::int64_t pos = fd.is_signed ? v : static_cast<std::int64_t>(static_cast<std::uint64_t>(v) & plan.position_mask);
-        out.position = pos;
-        out.position_eng = static_cast<double>(pos) * plan.eng_scale + plan.eng_offset;
-        out.valid |= COBRIDGE_VALID_POSITION | COBRIDGE_VALID_POSITION_ENG;
-        break;
-      }
-      case Signal::speed:
-        out.speed = static_cast<std::int32_t>(v);
-        out.valid |= COBRIDGE_VALID_SPEED;
-        break;
-      case Signal::cam:
-        out.cam_state = static_cast<std::uint8_t>(v);
-        out.valid |= COBRIDGE_VALID_CAM_STATE;
-        break;
-      case Signal::work_area:
-        out.work_area_state = static_cast<std::uint8_t>(v);
-        out.valid |= COBRIDGE_VALID_WORK_AREA_STATE;
-        break;
-      case Signal::alarms:
-        out.alarms = static_cast<std::uint16_t>(v);
-        out.valid |= COBRIDGE_VALID_ALARMS;
-        break;
-      case Signal::warnings:
-        out.warnings = static_cast<std::uint16_t>(v);
-        out.valid |= COBRIDGE_VALID_WARNINGS;
-        break;
-      case Signal::temperature:
-        out.temperature_dC = static_cast<std::int16_t>(v);
-        out.valid |= COBRIDGE_VALID_TEMPERATURE;
-        break;
-      case Signal::voltage:
-        out.voltage_dV = static_cast<std::uint16_t>(v);
-        out.valid |= COBRIDGE_VALID_VOLTAGE;
-        break;
-      case Signal::none:
-        break;
-    }
+    store_signal(fd, v, plan, out);
   }
   last_pdo_ns_[node] = f.timestamp_ns + mono_minus_real_;
   if (stale_[node]) stale_[node] = false;

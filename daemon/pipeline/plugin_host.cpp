@@ -198,6 +198,86 @@ void PluginHost::report(const std::string& instance, const Error& e) const {
   options_.log(LogLevel::kError, instance, e.message);
 }
 
+Error PluginHost::fail(const Instance& p, PluginErrc code, const std::string& reason) const {
+  Error e(plugin_error_kind(code), p.file.string() + ": " + reason, p.where, make_error_code(code));
+  report(p.name, e);
+  return e;
+}
+
+// Checks the file, opens it and finds its entry point.
+Error PluginHost::open_library(Instance& p, cobridge_plugin_create_fn& create) const {
+  std::error_code fs_ec;
+  if (!std::filesystem::exists(p.file, fs_ec)) {
+    return fail(p, PluginErrc::kFileNotFound, "file not found");
+  }
+  std::string why = plugin_distrust(p.file, ::geteuid());
+  if (!why.empty()) return fail(p, PluginErrc::kNotTrusted, "refused: " + why);
+  p.library = SharedLibrary::open(p.file, why);
+  if (!p.library) return fail(p, PluginErrc::kNotLoadable, "not a loadable shared object (" + why + ")");
+
+  void* entry = p.library.symbol(COBRIDGE_PLUGIN_ENTRY, &why);
+  if (entry == nullptr) {
+    return fail(p, PluginErrc::kNoEntryPoint, "no entry point " COBRIDGE_PLUGIN_ENTRY " (" + why + ")");
+  }
+  // dlsym hands out functions as void*; POSIX guarantees the round trip.
+  create = reinterpret_cast<cobridge_plugin_create_fn>(entry);
+  return {};
+}
+
+// Fills in the instance's host API and calls the plugin's create.
+Error PluginHost::create_instance(Instance& p, const PluginSpec& spec, cobridge_plugin_create_fn create,
+                                  const cobridge_plugin_ops*& ops, void*& self) const {
+  p.api.abi_version = COBRIDGE_PLUGIN_ABI_VERSION;
+  p.api.struct_size = sizeof(cobridge_host_api);
+  p.api.host = &p;
+  p.api.log = &PluginHost::log_trampoline;
+  p.api.gateway_id = options_.gateway_id.c_str();
+  p.api.submit_command = &PluginHost::submit_trampoline;
+  p.api.redundancy_node = options_.redundancy_node;
+
+  std::array<char, 512> err{};
+  const int rc = create(&p.api, spec.config_toml.data(), spec.config_toml.size(), &ops, &self, err.data(),
+                        err.size());
+  err.back() = '\0';  // a plugin that fills the buffer without terminating it
+  if (rc != 0) {
+    std::string reason = "create failed: ";
+    reason += err[0] != '\0' ? std::string(err.data()) : "code " + std::to_string(rc);
+    return fail(p, PluginErrc::kCreateFailed, reason);
+  }
+  if (ops == nullptr) {
+    // Without a table there is no destroy to call; the instance (if any) leaks
+    // rather than being freed with the wrong allocator.
+    return fail(p, PluginErrc::kNullOps, "create succeeded but returned no ops table");
+  }
+  return {};
+}
+
+// abi_version and struct_size open the table in every version, and destroy
+// sits at the same offset in all of them: that is what lets the host refuse
+// a table and still free the instance.
+Error PluginHost::check_ops(const Instance& p, const cobridge_plugin_ops& ops, void* self) const {
+  const std::uint32_t size = ops.struct_size;
+  const auto unwind = [&] {
+    if (covers(size, offsetof(cobridge_plugin_ops, destroy)) && ops.destroy != nullptr) ops.destroy(self);
+  };
+  if (ops.abi_version > COBRIDGE_PLUGIN_ABI_VERSION) {
+    unwind();
+    return fail(p, PluginErrc::kAbiTooNew, "plugin ABI version " + std::to_string(ops.abi_version) +
+                                               " is newer than the host's " +
+                                               std::to_string(COBRIDGE_PLUGIN_ABI_VERSION));
+  }
+  if (size < COBRIDGE_PLUGIN_OPS_MIN_SIZE) {
+    unwind();
+    return fail(p, PluginErrc::kBadOps, "ops table struct_size " + std::to_string(size) + " is below the minimum " +
+                                            std::to_string(COBRIDGE_PLUGIN_OPS_MIN_SIZE));
+  }
+  if (ops.start == nullptr || ops.stop == nullptr || ops.destroy == nullptr || ops.on_samples == nullptr) {
+    unwind();
+    return fail(p, PluginErrc::kBadOps, "ops table lacks a mandatory op (start, stop, destroy, on_samples)");
+  }
+  return {};
+}
+
 Error PluginHost::load(const PluginSpec& spec) {
   auto p = std::make_unique<Instance>();
   p->owner = this;
@@ -205,76 +285,14 @@ Error PluginHost::load(const PluginSpec& spec) {
   p->file = resolve(spec);
   p->where = spec.where.empty() ? "plugin '" + p->name + "'" : spec.where;
 
-  auto fail = [&](PluginErrc code, const std::string& reason) {
-    Error e(plugin_error_kind(code), p->file.string() + ": " + reason, p->where, make_error_code(code));
-    report(p->name, e);
-    return e;
-  };
-
-  std::error_code fs_ec;
-  if (!std::filesystem::exists(p->file, fs_ec)) {
-    return fail(PluginErrc::kFileNotFound, "file not found");
-  }
-  std::string why = plugin_distrust(p->file, ::geteuid());
-  if (!why.empty()) return fail(PluginErrc::kNotTrusted, "refused: " + why);
-  p->library = SharedLibrary::open(p->file, why);
-  if (!p->library) return fail(PluginErrc::kNotLoadable, "not a loadable shared object (" + why + ")");
-
-  void* entry = p->library.symbol(COBRIDGE_PLUGIN_ENTRY, &why);
-  if (entry == nullptr) {
-    return fail(PluginErrc::kNoEntryPoint, "no entry point " COBRIDGE_PLUGIN_ENTRY " (" + why + ")");
-  }
-  // dlsym hands out functions as void*; POSIX guarantees the round trip.
-  const auto create = reinterpret_cast<cobridge_plugin_create_fn>(entry);
-
-  p->api.abi_version = COBRIDGE_PLUGIN_ABI_VERSION;
-  p->api.struct_size = sizeof(cobridge_host_api);
-  p->api.host = p.get();
-  p->api.log = &PluginHost::log_trampoline;
-  p->api.gateway_id = options_.gateway_id.c_str();
-  p->api.submit_command = &PluginHost::submit_trampoline;
-  p->api.redundancy_node = options_.redundancy_node;
-
-  std::array<char, 512> err{};
+  cobridge_plugin_create_fn create = nullptr;
+  if (Error e = open_library(*p, create)) return e;
   const cobridge_plugin_ops* ops = nullptr;
   void* self = nullptr;
-  const int rc = create(&p->api, spec.config_toml.data(), spec.config_toml.size(), &ops, &self, err.data(),
-                        err.size());
-  err.back() = '\0';  // a plugin that fills the buffer without terminating it
-  if (rc != 0) {
-    std::string reason = "create failed: ";
-    reason += err[0] != '\0' ? std::string(err.data()) : "code " + std::to_string(rc);
-    return fail(PluginErrc::kCreateFailed, reason);
-  }
-  if (ops == nullptr) {
-    // Without a table there is no destroy to call; the instance (if any) leaks
-    // rather than being freed with the wrong allocator.
-    return fail(PluginErrc::kNullOps, "create succeeded but returned no ops table");
-  }
+  if (Error e = create_instance(*p, spec, create, ops, self)) return e;
+  if (Error e = check_ops(*p, *ops, self)) return e;
 
-  // abi_version and struct_size open the table in every version, and
-  // destroy sits at the same offset in all of them: that is what lets the
-  // host refuse a table and still free the instance.
   const std::uint32_t size = ops->struct_size;
-  const auto unwind = [&] {
-    if (covers(size, offsetof(cobridge_plugin_ops, destroy)) && ops->destroy != nullptr) ops->destroy(self);
-  };
-  if (ops->abi_version > COBRIDGE_PLUGIN_ABI_VERSION) {
-    unwind();
-    return fail(PluginErrc::kAbiTooNew, "plugin ABI version " + std::to_string(ops->abi_version) +
-                                            " is newer than the host's " +
-                                            std::to_string(COBRIDGE_PLUGIN_ABI_VERSION));
-  }
-  if (size < COBRIDGE_PLUGIN_OPS_MIN_SIZE) {
-    unwind();
-    return fail(PluginErrc::kBadOps, "ops table struct_size " + std::to_string(size) + " is below the minimum " +
-                                         std::to_string(COBRIDGE_PLUGIN_OPS_MIN_SIZE));
-  }
-  if (ops->start == nullptr || ops->stop == nullptr || ops->destroy == nullptr || ops->on_samples == nullptr) {
-    unwind();
-    return fail(PluginErrc::kBadOps, "ops table lacks a mandatory op (start, stop, destroy, on_samples)");
-  }
-
   p->self = self;
   p->start = ops->start;
   p->stop = ops->stop;

@@ -187,6 +187,12 @@ class PluginHost {
   static int submit_trampoline(void* host, const cobridge_command* command) noexcept;
   void unload(Instance& p) noexcept;
   void report(const std::string& instance, const Error& e) const;
+  // The phases of load(); each reports its failure and returns it.
+  Error fail(const Instance& p, PluginErrc code, const std::string& reason) const;
+  Error open_library(Instance& p, cobridge_plugin_create_fn& create) const;
+  Error create_instance(Instance& p, const PluginSpec& spec, cobridge_plugin_create_fn create,
+                        const cobridge_plugin_ops*& ops, void*& self) const;
+  Error check_ops(const Instance& p, const cobridge_plugin_ops& ops, void* self) const;
 
   Options options_;
   // unique_ptr: each instance's cobridge_host_api must keep its address, the

@@ -3,6 +3,7 @@
 #include <toml++/toml.h>
 
 #include <limits>
+#include <utility>
 
 namespace cobridge::dds {
 namespace {
@@ -96,6 +97,87 @@ DdsConfigResult parse_security(const toml::node& node, DdsConfigResult r) {
   return r;
 }
 
+// An integer key within min..max.
+std::error_code read_integer(std::string_view key, const toml::node& node, std::int64_t min, std::int64_t max,
+                             std::int64_t& out, std::string& message) {
+  const auto* v = node.as_integer();
+  if (v == nullptr) {
+    message = "'" + std::string(key) + "' must be an integer";
+    return make_error_code(DdsConfigErrc::kWrongType);
+  }
+  if (v->get() < min || v->get() > max) {
+    message = "'" + std::string(key) + "' must be " + std::to_string(min) + ".." + std::to_string(max);
+    return make_error_code(DdsConfigErrc::kOutOfRange);
+  }
+  out = v->get();
+  return {};
+}
+
+std::error_code read_string(std::string_view key, const toml::node& node, std::string& out, std::string& message) {
+  const auto* v = node.as_string();
+  if (v == nullptr) {
+    message = "'" + std::string(key) + "' must be a string";
+    return make_error_code(DdsConfigErrc::kWrongType);
+  }
+  out = v->get();
+  return {};
+}
+
+// A string key that names one of `choices`; `allowed` lists them for the
+// message.
+template <typename Enum, std::size_t N>
+std::error_code read_choice(std::string_view key, const toml::node& node,
+                            const std::pair<std::string_view, Enum> (&choices)[N], std::string_view allowed,
+                            Enum& out, std::string& message) {
+  std::string text;
+  if (const std::error_code ec = read_string(key, node, text, message)) return ec;
+  for (const auto& [name, value] : choices) {
+    if (name == text) {
+      out = value;
+      return {};
+    }
+  }
+  message = "'" + std::string(key) + "' must be " + std::string(allowed) + ", not \"" + text + "\"";
+  return make_error_code(DdsConfigErrc::kOutOfRange);
+}
+
+constexpr std::pair<std::string_view, Reliability> kReliabilities[] = {
+    {"best-effort", Reliability::kBestEffort}, {"reliable", Reliability::kReliable}};
+constexpr std::pair<std::string_view, SamplePath> kSamplePaths[] = {
+    {"auto", SamplePath::kAuto}, {"dispatcher", SamplePath::kDispatcher}, {"writer-thread", SamplePath::kWriterThread}};
+
+// One top-level key other than [security].
+std::error_code read_key(std::string_view k, const toml::node& node, DdsConfig& c, std::string& message) {
+  std::int64_t n = 0;
+  std::error_code ec;
+  if (k == "domain") {
+    if (!(ec = read_integer(k, node, 0, kMaxDomain, n, message))) c.domain = static_cast<std::uint32_t>(n);
+  } else if (k == "sample_reliability") {
+    ec = read_choice(k, node, kReliabilities, R"("best-effort" or "reliable")", c.sample_reliability, message);
+  } else if (k == "sample_depth") {
+    if (!(ec = read_integer(k, node, 1, kMaxDepth, n, message))) c.sample_depth = static_cast<std::int32_t>(n);
+  } else if (k == "topic_prefix") {
+    ec = read_string(k, node, c.topic_prefix, message);
+  } else if (k == "partition") {
+    ec = read_string(k, node, c.partition, message);
+  } else if (k == "write_batch") {
+    const auto* v = node.as_boolean();
+    if (v == nullptr) {
+      message = "'write_batch' must be true or false";
+      return make_error_code(DdsConfigErrc::kWrongType);
+    }
+    c.write_batch = v->get();
+  } else if (k == "liveliness_lease_ms") {
+    if (!(ec = read_integer(k, node, kMinLeaseMs, kMaxLeaseMs, n, message))) c.liveliness_lease_ms = n;
+  } else if (k == "sample_path") {
+    ec = read_choice(k, node, kSamplePaths, R"("auto", "dispatcher" or "writer-thread")", c.sample_path, message);
+  } else {
+    message = "unknown key '" + std::string(k) + "' (expected " + std::string(kKnownKeys) + ")";
+    return make_error_code(DdsConfigErrc::kUnknownKey);
+  }
+  return ec;
+}
+
 }  // namespace
 
 const std::error_category& dds_config_category() noexcept {
@@ -118,72 +200,14 @@ DdsConfigResult parse_dds_config(std::string_view toml_text) {
                 std::string(e.description()) + " at line " + std::to_string(e.source().begin.line));
   }
   DdsConfigResult r;
+  std::string message;
   for (const auto& [key, node] : table) {
     const std::string_view k = key.str();
-    if (k == "domain") {
-      const auto* v = node.as_integer();
-      if (v == nullptr) return fail(DdsConfigErrc::kWrongType, "'domain' must be an integer");
-      if (v->get() < 0 || v->get() > kMaxDomain) {
-        return fail(DdsConfigErrc::kOutOfRange, "'domain' must be 0.." + std::to_string(kMaxDomain));
-      }
-      r.config.domain = static_cast<std::uint32_t>(v->get());
-    } else if (k == "sample_reliability") {
-      const auto* v = node.as_string();
-      if (v == nullptr) return fail(DdsConfigErrc::kWrongType, "'sample_reliability' must be a string");
-      if (v->get() == "best-effort") {
-        r.config.sample_reliability = Reliability::kBestEffort;
-      } else if (v->get() == "reliable") {
-        r.config.sample_reliability = Reliability::kReliable;
-      } else {
-        return fail(DdsConfigErrc::kOutOfRange,
-                    "'sample_reliability' must be \"best-effort\" or \"reliable\", not \"" + v->get() + "\"");
-      }
-    } else if (k == "sample_depth") {
-      const auto* v = node.as_integer();
-      if (v == nullptr) return fail(DdsConfigErrc::kWrongType, "'sample_depth' must be an integer");
-      if (v->get() < 1 || v->get() > kMaxDepth) {
-        return fail(DdsConfigErrc::kOutOfRange, "'sample_depth' must be 1.." + std::to_string(kMaxDepth));
-      }
-      r.config.sample_depth = static_cast<std::int32_t>(v->get());
-    } else if (k == "topic_prefix") {
-      const auto* v = node.as_string();
-      if (v == nullptr) return fail(DdsConfigErrc::kWrongType, "'topic_prefix' must be a string");
-      r.config.topic_prefix = v->get();
-    } else if (k == "partition") {
-      const auto* v = node.as_string();
-      if (v == nullptr) return fail(DdsConfigErrc::kWrongType, "'partition' must be a string");
-      r.config.partition = v->get();
-    } else if (k == "write_batch") {
-      const auto* v = node.as_boolean();
-      if (v == nullptr) return fail(DdsConfigErrc::kWrongType, "'write_batch' must be true or false");
-      r.config.write_batch = v->get();
-    } else if (k == "liveliness_lease_ms") {
-      const auto* v = node.as_integer();
-      if (v == nullptr) return fail(DdsConfigErrc::kWrongType, "'liveliness_lease_ms' must be an integer");
-      if (v->get() < kMinLeaseMs || v->get() > kMaxLeaseMs) {
-        return fail(DdsConfigErrc::kOutOfRange, "'liveliness_lease_ms' must be " + std::to_string(kMinLeaseMs) +
-                                                    ".." + std::to_string(kMaxLeaseMs));
-      }
-      r.config.liveliness_lease_ms = v->get();
-    } else if (k == "sample_path") {
-      const auto* v = node.as_string();
-      if (v == nullptr) return fail(DdsConfigErrc::kWrongType, "'sample_path' must be a string");
-      if (v->get() == "auto") {
-        r.config.sample_path = SamplePath::kAuto;
-      } else if (v->get() == "dispatcher") {
-        r.config.sample_path = SamplePath::kDispatcher;
-      } else if (v->get() == "writer-thread") {
-        r.config.sample_path = SamplePath::kWriterThread;
-      } else {
-        return fail(DdsConfigErrc::kOutOfRange,
-                    "'sample_path' must be \"auto\", \"dispatcher\" or \"writer-thread\", not \"" + v->get() + "\"");
-      }
-    } else if (k == "security") {
+    if (k == "security") {
       r = parse_security(node, std::move(r));
       if (!r.ok()) return r;
-    } else {
-      return fail(DdsConfigErrc::kUnknownKey,
-                  "unknown key '" + std::string(k) + "' (expected " + std::string(kKnownKeys) + ")");
+    } else if (const std::error_code ec = read_key(k, node, r.config, message)) {
+      return fail(ec, message);
     }
   }
   return r;

@@ -522,6 +522,14 @@ std::size_t dds_stats(void* self, cobridge_stat* out, std::size_t max) {
   return n;
 }
 
+// ABI 4: a gateway of a hot-standby pair writes with EXCLUSIVE ownership.
+void join_pair(Instance& inst, const cobridge_host_api& host, DdsConfig& config) {
+  if (host.struct_size < offsetof(cobridge_host_api, redundancy_node) + sizeof(host.redundancy_node)) return;
+  if (host.redundancy_node == 0 || host.redundancy_node >= 128) return;
+  config.redundancy_node = static_cast<std::uint8_t>(host.redundancy_node);
+  inst.pair = std::make_unique<PairRole>(config.redundancy_node);
+}
+
 constexpr cobridge_plugin_ops kOps = {
     COBRIDGE_PLUGIN_ABI_VERSION,
     sizeof(cobridge_plugin_ops),
@@ -542,40 +550,26 @@ extern "C" COBRIDGE_PLUGIN_EXPORT int cobridge_plugin_create(const cobridge_host
                                                              size_t config_len, const cobridge_plugin_ops** ops_out,
                                                              void** self_out, char* err, size_t err_len) {
   using namespace cobridge::dds;
-  if (host == nullptr || ops_out == nullptr || self_out == nullptr) {
-    copy_error(err, err_len, "dds: null argument");
-    return -1;
-  }
-  try {
-    DdsConfigResult parsed =
-        parse_dds_config(std::string_view(config_toml != nullptr ? config_toml : "", config_toml ? config_len : 0));
-    if (!parsed.ok()) {
-      copy_error(err, err_len, parsed.message);
-      return -1;
-    }
-    const char* gateway_id = host->gateway_id != nullptr ? host->gateway_id : "";
-    auto inst = std::make_unique<Instance>();
-    inst->host = host;
-    const bool direct = parsed.config.samples_on_dispatcher();
-    const bool spill = parsed.config.spill_to_writer_thread();
-    const bool batch = parsed.config.write_batch;
-    if (host->struct_size >= offsetof(cobridge_host_api, redundancy_node) + sizeof(host->redundancy_node) &&
-        host->redundancy_node != 0 && host->redundancy_node < 128) {
-      parsed.config.redundancy_node = static_cast<std::uint8_t>(host->redundancy_node);
-      inst->pair = std::make_unique<PairRole>(parsed.config.redundancy_node);
-    }
-    inst->publisher = std::make_unique<DdsPublisher>(std::move(parsed.config), gateway_id);
-    if (direct) inst->direct = std::make_unique<DispatcherSamples>(inst->publisher->gateway(), batch, spill);
-    if (*gateway_id == '\0') {
-      inst->log(COBRIDGE_LOG_WARN, "the gateway id is empty: keys of several gateways in one domain will collide");
-    }
-    *ops_out = &kOps;
-    *self_out = inst.release();
-    return 0;
-  } catch (const std::exception& e) {
-    copy_error(err, err_len, std::string("dds: ") + e.what());
-  } catch (...) {
-    copy_error(err, err_len, "dds: unknown exception");
-  }
-  return -1;
+  return cobridge::plugin::create_plugin(
+      "dds", &kOps, host, config_toml, config_len, ops_out, self_out, err, err_len,
+      [host](std::string_view config, std::string& error) -> void* {
+        DdsConfigResult parsed = parse_dds_config(config);
+        if (!parsed.ok()) {
+          error = parsed.message;
+          return nullptr;
+        }
+        const char* gateway_id = host->gateway_id != nullptr ? host->gateway_id : "";
+        auto inst = std::make_unique<Instance>();
+        inst->host = host;
+        const bool direct = parsed.config.samples_on_dispatcher();
+        const bool spill = parsed.config.spill_to_writer_thread();
+        const bool batch = parsed.config.write_batch;
+        join_pair(*inst, *host, parsed.config);
+        inst->publisher = std::make_unique<DdsPublisher>(std::move(parsed.config), gateway_id);
+        if (direct) inst->direct = std::make_unique<DispatcherSamples>(inst->publisher->gateway(), batch, spill);
+        if (*gateway_id == '\0') {
+          inst->log(COBRIDGE_LOG_WARN, "the gateway id is empty: keys of several gateways in one domain will collide");
+        }
+        return inst.release();
+      });
 }

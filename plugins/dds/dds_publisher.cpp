@@ -49,24 +49,7 @@ std::error_code DdsPublisher::start(std::string& message, std::string& note) {
   if (started()) return {};
   const auto domain = static_cast<dds_domainid_t>(config_.domain);
   if (config_.write_batch) {
-    // WriteBatch is a domain setting, and an explicitly created domain does
-    // not read CYCLONEDDS_URI by itself: pass it on after ours.
-    std::string xml = kWriteBatchXml;
-    if (const char* uri = std::getenv("CYCLONEDDS_URI"); uri != nullptr && *uri != '\0') {
-      xml += ',';
-      xml += uri;
-    }
-    const dds_entity_t d = dds_create_domain(domain, xml.c_str());
-    if (d > 0) {
-      domain_ = d;
-    } else if (d == DDS_RETCODE_PRECONDITION_NOT_MET) {
-      note = "domain " + std::to_string(config_.domain) +
-             " already exists in this process: write_batch follows that domain's configuration";
-    } else {
-      message = "cannot create DDS domain " + std::to_string(config_.domain) + ": " + dds_strretcode(d) +
-                " (check CYCLONEDDS_URI)";
-      return make_dds_error(d);
-    }
+    if (const std::error_code ec = create_domain(domain, message, note)) return ec;
   }
   if (const std::error_code ec = create_participant(domain, message)) {
     stop();
@@ -81,6 +64,42 @@ std::error_code DdsPublisher::start(std::string& message, std::string& note) {
     stop();
     return make_dds_error(rc);
   }
+  if (const std::error_code ec = create_writers(message)) {
+    stop();
+    return ec;
+  }
+  // A restart re-announces what the plugin already knows.
+  for (std::uint16_t i = 0; i < slots_.capacity(); ++i) {
+    if (const DeviceSlot* slot = slots_.find(i); slot != nullptr && slot->in_use) write_status(*slot);
+  }
+  flush();
+  return {};
+}
+
+// WriteBatch is a domain setting, and an explicitly created domain does not
+// read CYCLONEDDS_URI by itself: pass it on after ours.
+std::error_code DdsPublisher::create_domain(dds_domainid_t domain, std::string& message, std::string& note) {
+  std::string xml = kWriteBatchXml;
+  if (const char* uri = std::getenv("CYCLONEDDS_URI"); uri != nullptr && *uri != '\0') {
+    xml += ',';
+    xml += uri;
+  }
+  const dds_entity_t d = dds_create_domain(domain, xml.c_str());
+  if (d > 0) {
+    domain_ = d;
+  } else if (d == DDS_RETCODE_PRECONDITION_NOT_MET) {
+    note = "domain " + std::to_string(config_.domain) +
+           " already exists in this process: write_batch follows that domain's configuration";
+  } else {
+    message = "cannot create DDS domain " + std::to_string(config_.domain) + ": " + dds_strretcode(d) +
+              " (check CYCLONEDDS_URI)";
+    return make_dds_error(d);
+  }
+  return {};
+}
+
+// The three topics and their writers; the caller stops on failure.
+std::error_code DdsPublisher::create_writers(std::string& message) {
   struct Spec {
     std::string_view topic;
     const dds_topic_descriptor_t* type;
@@ -102,22 +121,15 @@ std::error_code DdsPublisher::start(std::string& message, std::string& note) {
     const dds_entity_t topic = dds_create_topic(participant_, spec.type, name.c_str(), nullptr, nullptr);
     if (topic < 0) {
       message = "cannot create topic '" + name + "': " + dds_strretcode(topic) + security_hint(topic);
-      stop();
       return make_dds_error(topic);
     }
     const dds_entity_t writer = dds_create_writer(publisher_, topic, spec.qos.get(), nullptr);
     if (writer < 0) {
       message = "cannot create a writer for '" + name + "': " + dds_strretcode(writer) + security_hint(writer);
-      stop();
       return make_dds_error(writer);
     }
     *spec.writer = writer;
   }
-  // A restart re-announces what the plugin already knows.
-  for (std::uint16_t i = 0; i < slots_.capacity(); ++i) {
-    if (const DeviceSlot* slot = slots_.find(i); slot != nullptr && slot->in_use) write_status(*slot);
-  }
-  flush();
   return {};
 }
 

@@ -121,6 +121,10 @@ class DdsPublisher {
   // Counts a write's outcome: `counter` on success, a failure otherwise.
   void tally(dds_return_t rc, std::atomic<std::uint64_t>& counter) noexcept;
   void forget_instance(const DeviceSlot& slot) noexcept;
+  // The domain with WriteBatch (start, when config_.write_batch).
+  std::error_code create_domain(dds_domainid_t domain, std::string& message, std::string& note);
+  // The topics and their writers under publisher_ (start).
+  std::error_code create_writers(std::string& message);
   // The participant of config_.domain, secured with config_.security (start).
   [[nodiscard]] std::error_code create_participant(dds_domainid_t domain, std::string& message);
   // With DDS Security on: what to add to a failed creation's message.

@@ -374,26 +374,12 @@ extern "C" COBRIDGE_PLUGIN_EXPORT int cobridge_plugin_create(const cobridge_host
                                                              size_t config_len, const cobridge_plugin_ops** ops_out,
                                                              void** self_out, char* err, size_t err_len) {
   using namespace cobridge::jsontap;
-  if (host == nullptr || ops_out == nullptr || self_out == nullptr) {
-    copy_error(err, err_len, "jsontap: null argument");
-    return -1;
-  }
-  try {
-    auto tap = std::make_unique<Tap>();
-    tap->host = host;
-    const std::string message =
-        configure(*tap, std::string_view(config_toml != nullptr ? config_toml : "", config_toml ? config_len : 0));
-    if (!message.empty()) {
-      copy_error(err, err_len, message);
-      return -1;
-    }
-    *ops_out = &kOps;
-    *self_out = tap.release();
-    return 0;
-  } catch (const std::exception& e) {
-    copy_error(err, err_len, std::string("jsontap: ") + e.what());
-  } catch (...) {
-    copy_error(err, err_len, "jsontap: unknown exception");
-  }
-  return -1;
+  return cobridge::plugin::create_plugin(
+      "jsontap", &kOps, host, config_toml, config_len, ops_out, self_out, err, err_len,
+      [host](std::string_view config, std::string& error) -> void* {
+        auto tap = std::make_unique<Tap>();
+        tap->host = host;
+        error = configure(*tap, config);
+        return error.empty() ? tap.release() : nullptr;
+      });
 }

@@ -67,6 +67,12 @@ ExceptionCode CommandRegisters::write(std::uint16_t address, std::span<const std
   }
   if (!has_command) return ExceptionCode::kNone;
 
+  return submit_command(s, slot, code, now);
+}
+
+// Marks the slot pending and hands the command to the daemon; a refusal is
+// the slot's outcome at once.
+ExceptionCode CommandRegisters::submit_command(Slot& s, std::uint16_t slot, std::uint16_t code, ReadTime now) noexcept {
   // The argument as the client wrote it, in the configured word order.
   const std::uint16_t a = s.value_regs[0].load(std::memory_order_relaxed);
   const std::uint16_t b = s.value_regs[1].load(std::memory_order_relaxed);

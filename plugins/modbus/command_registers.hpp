@@ -81,6 +81,7 @@ class CommandRegisters final : public WriteTarget {
     std::atomic<std::uint64_t> state{0};  // tag << 32 | code << 16 | status
     std::uint64_t submitted_ns = 0;       // server thread only
   };
+  ExceptionCode submit_command(Slot& s, std::uint16_t slot, std::uint16_t code, ReadTime now) noexcept;
 
   const RegisterImage& image_;
   Submit submit_;

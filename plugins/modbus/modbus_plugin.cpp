@@ -168,43 +168,33 @@ extern "C" COBRIDGE_PLUGIN_EXPORT int cobridge_plugin_create(const cobridge_host
                                                              size_t config_len, const cobridge_plugin_ops** ops_out,
                                                              void** self_out, char* err, size_t err_len) {
   using namespace cobridge::modbus;
-  if (host == nullptr || ops_out == nullptr || self_out == nullptr) {
-    copy_error(err, err_len, "modbus: null argument");
-    return -1;
-  }
-  try {
-    auto p = std::make_unique<Plugin>();
-    p->host = host;
-    const ConfigResult r = parse_config(
-        std::string_view(config_toml != nullptr ? config_toml : "", config_toml != nullptr ? config_len : 0), p->config);
-    if (!r) {
-      copy_error(err, err_len, r.message);
-      return -1;
-    }
-    ImageOptions io;
-    io.device_slots = p->config.max_devices;
-    io.word_order = p->config.word_order;
-    io.writes_enabled = p->config.writes_enabled;
-    io.offline_exception = p->config.offline_exception;
-    io.version_major = COBRIDGE_VERSION_MAJOR;
-    io.version_minor = COBRIDGE_VERSION_MINOR;
-    io.version_patch = COBRIDGE_VERSION_PATCH;
-    p->image = std::make_unique<RegisterImage>(io);
-    if (p->config.writes_enabled) {
-      Plugin* raw = p.get();
-      p->commands = std::make_unique<CommandRegisters>(*p->image, [raw](const cobridge_command& c) {
-        return raw->host_takes_commands() ? raw->host->submit_command(raw->host->host, &c)
-                                          : static_cast<int>(COBRIDGE_COMMAND_UNSUPPORTED);
+  return cobridge::plugin::create_plugin(
+      "modbus", &kOps, host, config_toml, config_len, ops_out, self_out, err, err_len,
+      [host](std::string_view config, std::string& error) -> void* {
+        auto p = std::make_unique<Plugin>();
+        p->host = host;
+        const ConfigResult r = parse_config(config, p->config);
+        if (!r) {
+          error = r.message;
+          return nullptr;
+        }
+        ImageOptions io;
+        io.device_slots = p->config.max_devices;
+        io.word_order = p->config.word_order;
+        io.writes_enabled = p->config.writes_enabled;
+        io.offline_exception = p->config.offline_exception;
+        io.version_major = COBRIDGE_VERSION_MAJOR;
+        io.version_minor = COBRIDGE_VERSION_MINOR;
+        io.version_patch = COBRIDGE_VERSION_PATCH;
+        p->image = std::make_unique<RegisterImage>(io);
+        if (p->config.writes_enabled) {
+          Plugin* raw = p.get();
+          p->commands = std::make_unique<CommandRegisters>(*p->image, [raw](const cobridge_command& c) {
+            return raw->host_takes_commands() ? raw->host->submit_command(raw->host->host, &c)
+                                              : static_cast<int>(COBRIDGE_COMMAND_UNSUPPORTED);
+          });
+          p->image->attach(p->commands.get());
+        }
+        return p.release();
       });
-      p->image->attach(p->commands.get());
-    }
-    *ops_out = &kOps;
-    *self_out = p.release();
-    return 0;
-  } catch (const std::exception& e) {
-    copy_error(err, err_len, std::string("modbus: ") + e.what());
-  } catch (...) {
-    copy_error(err, err_len, "modbus: unknown exception");
-  }
-  return -1;
 }

@@ -105,13 +105,7 @@ void RegisterImage::account(const DeviceState& st, int sign) noexcept {
 }
 
 void RegisterImage::apply(const cobridge_sample& s) noexcept {
-  if (s.bus_index < kMaxBuses) {
-    BusCounters& bus = buses_[s.bus_index];
-    bus.frames.store(bus.frames.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
-    if (s.bus_index >= bus_count_.load(std::memory_order_relaxed)) {
-      bus_count_.store(static_cast<std::uint16_t>(s.bus_index + 1), std::memory_order_relaxed);
-    }
-  }
+  count_frame(s);
   if (s.device_index >= options_.device_slots) {
     unmapped_.store(unmapped_.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
     return;
@@ -119,22 +113,42 @@ void RegisterImage::apply(const cobridge_sample& s) noexcept {
   Shadow& sh = shadow_[s.device_index];
   const DeviceState before = sh.state;
   DeviceState& st = sh.state;
-
-  if (sh.have_sequence) {
-    // Unsigned arithmetic handles the wrap; a huge "gap" is a restart or
-    // reordering, not a loss.
-    const std::uint32_t gap = s.sequence - (before.sequence + 1u);
-    if (gap != 0 && gap < 0x8000'0000u && s.bus_index < kMaxBuses) {
-      BusCounters& bus = buses_[s.bus_index];
-      bus.drops.store(bus.drops.load(std::memory_order_relaxed) + gap, std::memory_order_relaxed);
-    }
-  }
+  if (sh.have_sequence) count_drops(s, before.sequence);
   sh.have_sequence = true;
   st.sequence = s.sequence;
   st.present = 1;
   st.node_id = s.node_id;
   st.bus_index = s.bus_index;
+  copy_values(s, st);
+  if (before.present != st.present || before.online != st.online || before.bus_index != st.bus_index) {
+    account(before, -1);
+    account(st, +1);
+  }
+  publish(s.device_index, st);
+}
 
+void RegisterImage::count_frame(const cobridge_sample& s) noexcept {
+  if (s.bus_index >= kMaxBuses) return;
+  BusCounters& bus = buses_[s.bus_index];
+  bus.frames.store(bus.frames.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
+  if (s.bus_index >= bus_count_.load(std::memory_order_relaxed)) {
+    bus_count_.store(static_cast<std::uint16_t>(s.bus_index + 1), std::memory_order_relaxed);
+  }
+}
+
+// Unsigned arithmetic handles the wrap; a huge "gap" is a restart or
+// reordering, not a loss.
+void RegisterImage::count_drops(const cobridge_sample& s, std::uint32_t last_sequence) noexcept {
+  const std::uint32_t gap = s.sequence - (last_sequence + 1u);
+  if (gap != 0 && gap < 0x8000'0000u && s.bus_index < kMaxBuses) {
+    BusCounters& bus = buses_[s.bus_index];
+    bus.drops.store(bus.drops.load(std::memory_order_relaxed) + gap, std::memory_order_relaxed);
+  }
+}
+
+// The values the sample carries (its valid bits), and what they say about
+// the device being online and fresh.
+void RegisterImage::copy_values(const cobridge_sample& s, DeviceState& st) noexcept {
   const unsigned v = s.valid;
   if ((v & COBRIDGE_VALID_POSITION) != 0) st.position = s.position;
   if ((v & COBRIDGE_VALID_SPEED) != 0) st.speed = s.speed;
@@ -162,12 +176,6 @@ void RegisterImage::apply(const cobridge_sample& s) noexcept {
     st.stale = s.stale != 0 ? 1 : 0;
   }
   st.valid_mask = static_cast<std::uint16_t>(st.valid_mask | v);
-
-  if (before.present != st.present || before.online != st.online || before.bus_index != st.bus_index) {
-    account(before, -1);
-    account(st, +1);
-  }
-  publish(s.device_index, st);
 }
 
 void RegisterImage::apply(const cobridge_device_info& info) noexcept {

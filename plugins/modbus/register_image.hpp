@@ -141,6 +141,9 @@ class RegisterImage {
 
   void publish(std::uint16_t slot, const DeviceState& st) noexcept;
   void account(const DeviceState& st, int sign) noexcept;
+  void count_frame(const cobridge_sample& s) noexcept;
+  void count_drops(const cobridge_sample& s, std::uint32_t last_sequence) noexcept;
+  static void copy_values(const cobridge_sample& s, DeviceState& st) noexcept;
   void render_gateway(std::uint16_t* block, ReadTime now) const noexcept;
   void render_bus(std::uint16_t bus, std::uint16_t* block) const noexcept;
   void render_device(std::uint16_t slot, const DeviceState& st, std::uint16_t* block, ReadTime now) const noexcept;

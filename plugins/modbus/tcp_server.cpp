@@ -57,6 +57,28 @@ std::string address_text(const sockaddr_storage& ss) {
   return "[" + std::string(buf.data()) + "]:" + std::to_string(port);
 }
 
+// An IPv4 or IPv6 address and port as a socket address; false when `bind`
+// is neither.
+bool parse_bind_address(const std::string& bind, std::uint16_t port, sockaddr_storage& ss, socklen_t& len) {
+  sockaddr_in in{};
+  sockaddr_in6 in6{};
+  if (inet_pton(AF_INET, bind.c_str(), &in.sin_addr) == 1) {
+    in.sin_family = AF_INET;
+    in.sin_port = htons(port);
+    std::memcpy(&ss, &in, sizeof in);
+    len = sizeof in;
+    return true;
+  }
+  if (inet_pton(AF_INET6, bind.c_str(), &in6.sin6_addr) == 1) {
+    in6.sin6_family = AF_INET6;
+    in6.sin6_port = htons(port);
+    std::memcpy(&ss, &in6, sizeof in6);
+    len = sizeof in6;
+    return true;
+  }
+  return false;
+}
+
 }  // namespace
 
 TcpServer::TcpServer(const ServerConfig& config, const RegisterImage& image, LogFn log, WriteTarget* writes)
@@ -75,55 +97,16 @@ std::string TcpServer::endpoint() const {
 std::error_code TcpServer::start(std::string& message) {
   sockaddr_storage ss{};
   socklen_t len = 0;
-  int family = AF_INET;
-  {
-    sockaddr_in in{};
-    sockaddr_in6 in6{};
-    if (inet_pton(AF_INET, config_.bind.c_str(), &in.sin_addr) == 1) {
-      in.sin_family = AF_INET;
-      in.sin_port = htons(config_.port);
-      std::memcpy(&ss, &in, sizeof in);
-      len = sizeof in;
-    } else if (inet_pton(AF_INET6, config_.bind.c_str(), &in6.sin6_addr) == 1) {
-      family = AF_INET6;
-      in6.sin6_family = AF_INET6;
-      in6.sin6_port = htons(config_.port);
-      std::memcpy(&ss, &in6, sizeof in6);
-      len = sizeof in6;
-    } else {
-      message = "bind address '" + config_.bind + "' is not an IP address";
-      return std::make_error_code(std::errc::invalid_argument);
-    }
+  if (!parse_bind_address(config_.bind, config_.port, ss, len)) {
+    message = "bind address '" + config_.bind + "' is not an IP address";
+    return std::make_error_code(std::errc::invalid_argument);
   }
-  const auto fail = [&](const char* what) {
+  if (const char* what = open_sockets(ss, len); what != nullptr) {
     const int e = errno;
     message = std::string(what) + " " + config_.bind + ":" + std::to_string(config_.port) + ": " + std::strerror(e);
     stop();
     return std::error_code(e, std::system_category());
-  };
-  listen_fd_ = ::socket(family, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-  if (listen_fd_ < 0) return fail("socket");
-  const int one = 1;
-  ::setsockopt(listen_fd_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
-  if (::bind(listen_fd_, reinterpret_cast<const sockaddr*>(&ss), len) != 0) return fail("bind");
-  if (::listen(listen_fd_, 128) != 0) return fail("listen");
-  sockaddr_storage bound{};
-  socklen_t bound_len = sizeof bound;
-  if (::getsockname(listen_fd_, reinterpret_cast<sockaddr*>(&bound), &bound_len) == 0) {
-    bound_port_ = bound.ss_family == AF_INET ? ntohs(reinterpret_cast<const sockaddr_in*>(&bound)->sin_port)
-                                             : ntohs(reinterpret_cast<const sockaddr_in6*>(&bound)->sin6_port);
   }
-  epoll_fd_ = ::epoll_create1(EPOLL_CLOEXEC);
-  if (epoll_fd_ < 0) return fail("epoll_create1 for");
-  wake_fd_ = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
-  if (wake_fd_ < 0) return fail("eventfd for");
-  epoll_event ev{};
-  ev.events = EPOLLIN;
-  ev.data.u64 = kListenTag;
-  if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, listen_fd_, &ev) != 0) return fail("epoll_ctl for");
-  ev.data.u64 = kWakeTag;
-  if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, wake_fd_, &ev) != 0) return fail("epoll_ctl for");
-
   // Every connection's buffers are allocated here, once.
   conns_ = std::vector<Connection>(config_.max_clients);
   free_.clear();
@@ -140,6 +123,34 @@ std::error_code TcpServer::start(std::string& message) {
     return code;
   }
   return {};
+}
+
+// The listening socket, bound to `ss`, and the epoll set with the wake-up
+// eventfd. Returns nullptr, or the step that failed with errno set.
+const char* TcpServer::open_sockets(const sockaddr_storage& ss, socklen_t len) {
+  listen_fd_ = ::socket(ss.ss_family, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+  if (listen_fd_ < 0) return "socket";
+  const int one = 1;
+  ::setsockopt(listen_fd_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
+  if (::bind(listen_fd_, reinterpret_cast<const sockaddr*>(&ss), len) != 0) return "bind";
+  if (::listen(listen_fd_, 128) != 0) return "listen";
+  sockaddr_storage bound{};
+  socklen_t bound_len = sizeof bound;
+  if (::getsockname(listen_fd_, reinterpret_cast<sockaddr*>(&bound), &bound_len) == 0) {
+    bound_port_ = bound.ss_family == AF_INET ? ntohs(reinterpret_cast<const sockaddr_in*>(&bound)->sin_port)
+                                             : ntohs(reinterpret_cast<const sockaddr_in6*>(&bound)->sin6_port);
+  }
+  epoll_fd_ = ::epoll_create1(EPOLL_CLOEXEC);
+  if (epoll_fd_ < 0) return "epoll_create1 for";
+  wake_fd_ = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+  if (wake_fd_ < 0) return "eventfd for";
+  epoll_event ev{};
+  ev.events = EPOLLIN;
+  ev.data.u64 = kListenTag;
+  if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, listen_fd_, &ev) != 0) return "epoll_ctl for";
+  ev.data.u64 = kWakeTag;
+  if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, wake_fd_, &ev) != 0) return "epoll_ctl for";
+  return nullptr;
 }
 
 void TcpServer::stop() noexcept {

@@ -23,6 +23,8 @@
 #include "request.hpp"
 #include "server_config.hpp"
 
+#include <sys/socket.h>
+
 #include <atomic>
 #include <cstdint>
 #include <functional>
@@ -68,6 +70,7 @@ class TcpServer {
   [[nodiscard]] ServerStats stats() const noexcept;
 
  private:
+  const char* open_sockets(const sockaddr_storage& ss, socklen_t len);
   static constexpr std::size_t kOutBuffer = 4096;
   struct Connection {
     int fd = -1;

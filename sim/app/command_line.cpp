@@ -54,6 +54,145 @@ bool valid_interface_name(const std::string& s) {
   return true;
 }
 
+// What CLI11 fills in, before it is checked and resolved.
+struct RawArguments {
+  std::vector<std::string> ifaces;
+  std::vector<std::string> devices;
+  std::string state_dir, truth, control, devices_dir;
+  int rt_priority = 0;
+  const CLI::Option* iface_opt = nullptr;
+  const CLI::Option* device_opt = nullptr;
+};
+
+void define_options(CLI::App& app, RawArguments& raw, ModelLookup lookup, std::span<const ModelInfo> models,
+                    const std::filesystem::path& installed_devices_dir,
+                    const std::filesystem::path& source_devices_dir) {
+  raw.iface_opt = app.add_option("--iface", raw.ifaces, "CAN interface (repeatable); the --device options after it are on it")
+                      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
+                      ->type_size(1)
+                      ->required();
+  raw.device_opt = app.add_option("--device", raw.devices, kDeviceHelp)
+                       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
+                       ->type_size(1)
+                       ->required();
+  app.add_option("--state-dir", raw.state_dir,
+                 "directory of the devices' non-volatile memory (<family>-<serial>.nv); default: none "
+                 "(nothing survives the process)");
+  app.add_option("--truth", raw.truth, "write the truth file (one line per frame a device sent) to FILE");
+  app.add_option("--control", raw.control, "also accept control commands on a Unix stream socket at PATH");
+  app.add_option("--rt-priority", raw.rt_priority,
+                 "run under SCHED_FIFO at priority N (1..99; needs CAP_SYS_NICE): the devices answer within\n"
+                 "microseconds on a real bus, so beside the master on one CPU (UML) the simulator is not\n"
+                 "made to wait behind it (default: the normal scheduler)")
+      ->check(CLI::Range(1, 99));
+  app.add_option("--devices-dir", raw.devices_dir,
+                 "EDS directory (default: " + installed_devices_dir.string() + ", else " +
+                     source_devices_dir.string() + ")");
+  app.footer(std::string("Models: ") + models_line(lookup, models) + "\n\n" + std::string(control_help()) +
+             "\nOn start-up every device is powered on (boot-up unless unconfigured) and 'ready' is\n"
+             "printed on stdout. SIGTERM/SIGINT/quit end the program; the truth file is flushed.\n"
+             "Exit codes: 0 normal end, 1 run-time failure (bus could not be opened), 2 bad arguments.");
+}
+
+// The devices in command-line order and the bus each belongs to.
+struct PlacedDevices {
+  std::vector<DeviceArgument> parsed;
+  std::vector<std::size_t> bus_of;
+};
+
+// Walks the options in command-line order so each --device lands on the
+// --iface before it. Returns an error message, empty when all is well.
+std::string place_devices(const CLI::App& app, const RawArguments& raw, ModelLookup lookup,
+                          std::vector<BusOptions>& buses, PlacedDevices& placed) {
+  std::size_t next_iface = 0, next_device = 0;
+  std::map<std::string, std::size_t> bus_index;
+  for (const CLI::Option* opt : app.parse_order()) {
+    if (opt == raw.iface_opt) {
+      const std::string& name = raw.ifaces.at(next_iface++);
+      if (!valid_interface_name(name))
+        return "--iface '" + name + "': not an interface name (1.." + std::to_string(IFNAMSIZ - 1) +
+               " characters, no '/', ':' or blanks)";
+      if (bus_index.count(name) != 0) return "--iface '" + name + "' given twice";
+      bus_index[name] = buses.size();
+      buses.push_back(BusOptions{name, {}});
+    } else if (opt == raw.device_opt) {
+      const std::string& text = raw.devices.at(next_device++);
+      if (buses.empty())
+        return "--device '" + text + "' comes before any --iface (a device belongs to the --iface before it)";
+      auto r = parse_device_argument(text, lookup);
+      if (!r.device) return r.error;
+      placed.parsed.push_back(*r.device);
+      placed.bus_of.push_back(buses.size() - 1);
+    }
+  }
+  for (const BusOptions& b : buses) {
+    bool has_device = false;
+    for (const std::size_t i : placed.bus_of) has_device = has_device || buses[i].iface == b.iface;
+    if (!has_device) return "--iface '" + b.iface + "' has no --device after it";
+  }
+  return {};
+}
+
+// Explicit serials must be unique; the others count up from 1. Returns an
+// error message, empty when all is well.
+std::string assign_serials(const PlacedDevices& placed, std::vector<BusOptions>& buses) {
+  std::set<std::uint32_t> used;
+  for (const DeviceArgument& d : placed.parsed) {
+    if (!d.serial_given) continue;
+    if (!used.insert(d.spec.serial).second)
+      return "serial " + std::to_string(d.spec.serial) +
+             " is used by two devices (control commands and the state files need unique serials)";
+  }
+  std::uint32_t next_serial = 1;
+  for (std::size_t i = 0; i < placed.parsed.size(); ++i) {
+    DeviceSpec spec = placed.parsed[i].spec;
+    if (!placed.parsed[i].serial_given) {
+      while (used.count(next_serial) != 0) ++next_serial;
+      spec.serial = next_serial;
+      used.insert(next_serial);
+    }
+    buses[placed.bus_of[i]].devices.push_back(std::move(spec));
+  }
+  return {};
+}
+
+// The directories: --devices-dir, else the first default that exists.
+// Returns an error message, empty when all is well.
+std::string resolve_directories(const RawArguments& raw, const std::filesystem::path& installed_devices_dir,
+                                const std::filesystem::path& source_devices_dir, SimOptions& options) {
+  if (!raw.devices_dir.empty()) {
+    if (!std::filesystem::is_directory(raw.devices_dir))
+      return "--devices-dir '" + raw.devices_dir + "': not a directory";
+    options.devices_dir = raw.devices_dir;
+  } else if (std::filesystem::is_directory(installed_devices_dir)) {
+    options.devices_dir = installed_devices_dir;
+  } else if (std::filesystem::is_directory(source_devices_dir)) {
+    options.devices_dir = source_devices_dir;
+  } else {
+    return "no device descriptions: neither " + installed_devices_dir.string() + " nor " +
+           source_devices_dir.string() + " exists (use --devices-dir)";
+  }
+  if (!raw.state_dir.empty() && std::filesystem::exists(raw.state_dir) &&
+      !std::filesystem::is_directory(raw.state_dir))
+    return "--state-dir '" + raw.state_dir + "': exists and is not a directory";
+  return {};
+}
+
+// Checks and resolves what CLI11 parsed. Returns an error message, empty
+// when all is well.
+std::string resolve(const CLI::App& app, const RawArguments& raw, ModelLookup lookup,
+                    const std::filesystem::path& installed_devices_dir,
+                    const std::filesystem::path& source_devices_dir, SimOptions& options) {
+  PlacedDevices placed;
+  if (std::string e = place_devices(app, raw, lookup, options.buses, placed); !e.empty()) return e;
+  if (std::string e = assign_serials(placed, options.buses); !e.empty()) return e;
+  options.state_dir = raw.state_dir;
+  options.truth_file = raw.truth;
+  options.control_path = raw.control;
+  options.rt_priority = raw.rt_priority;
+  return resolve_directories(raw, installed_devices_dir, source_devices_dir, options);
+}
+
 }  // namespace
 
 CommandLineResult parse_command_line(int argc, const char* const* argv, ModelLookup lookup,
@@ -64,36 +203,8 @@ CommandLineResult parse_command_line(int argc, const char* const* argv, ModelLoo
   CLI::App app{"cobridge-sim: simulated CANopen absolute encoders (Novotechnik rotary J, Novotechnik\n"
                "multiturn E, ifm RM8/RM9 F) on SocketCAN interfaces.",
                "cobridge-sim"};
-  std::vector<std::string> ifaces;
-  std::vector<std::string> devices;
-  std::string state_dir, truth, control, devices_dir;
-  int rt_priority = 0;
-  auto* iface_opt = app.add_option("--iface", ifaces, "CAN interface (repeatable); the --device options after it are on it")
-                        ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
-                        ->type_size(1)
-                        ->required();
-  auto* device_opt = app.add_option("--device", devices, kDeviceHelp)
-                         ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
-                         ->type_size(1)
-                         ->required();
-  app.add_option("--state-dir", state_dir,
-                 "directory of the devices' non-volatile memory (<family>-<serial>.nv); default: none "
-                 "(nothing survives the process)");
-  app.add_option("--truth", truth, "write the truth file (one line per frame a device sent) to FILE");
-  app.add_option("--control", control, "also accept control commands on a Unix stream socket at PATH");
-  app.add_option("--rt-priority", rt_priority,
-                 "run under SCHED_FIFO at priority N (1..99; needs CAP_SYS_NICE): the devices answer within\n"
-                 "microseconds on a real bus, so beside the master on one CPU (UML) the simulator is not\n"
-                 "made to wait behind it (default: the normal scheduler)")
-      ->check(CLI::Range(1, 99));
-  app.add_option("--devices-dir", devices_dir,
-                 "EDS directory (default: " + installed_devices_dir.string() + ", else " +
-                     source_devices_dir.string() + ")");
-  app.footer(std::string("Models: ") + models_line(lookup, models) + "\n\n" + std::string(control_help()) +
-             "\nOn start-up every device is powered on (boot-up unless unconfigured) and 'ready' is\n"
-             "printed on stdout. SIGTERM/SIGINT/quit end the program; the truth file is flushed.\n"
-             "Exit codes: 0 normal end, 1 run-time failure (bus could not be opened), 2 bad arguments.");
-
+  RawArguments raw;
+  define_options(app, raw, lookup, models, installed_devices_dir, source_devices_dir);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp&) {
@@ -105,81 +216,11 @@ CommandLineResult parse_command_line(int argc, const char* const* argv, ModelLoo
     result.output = std::string("cobridge-sim: ") + e.what() + "\nRun with --help for more information.";
     return result;
   }
-
-  auto error = [&](std::string message) {
+  if (std::string e = resolve(app, raw, lookup, installed_devices_dir, source_devices_dir, result.options);
+      !e.empty()) {
     result.exit_code = 2;
-    result.output = "cobridge-sim: " + std::move(message);
-    return result;
-  };
-
-  // Walk the options in command-line order so each --device lands on the
-  // --iface before it.
-  std::size_t next_iface = 0, next_device = 0;
-  std::vector<DeviceArgument> parsed;
-  std::vector<std::size_t> bus_of;
-  std::map<std::string, std::size_t> bus_index;
-  for (const CLI::Option* opt : app.parse_order()) {
-    if (opt == iface_opt) {
-      const std::string& name = ifaces.at(next_iface++);
-      if (!valid_interface_name(name))
-        return error("--iface '" + name + "': not an interface name (1.." + std::to_string(IFNAMSIZ - 1) +
-                     " characters, no '/', ':' or blanks)");
-      if (bus_index.count(name) != 0) return error("--iface '" + name + "' given twice");
-      bus_index[name] = result.options.buses.size();
-      result.options.buses.push_back(BusOptions{name, {}});
-    } else if (opt == device_opt) {
-      const std::string& text = devices.at(next_device++);
-      if (result.options.buses.empty())
-        return error("--device '" + text + "' comes before any --iface (a device belongs to the --iface before it)");
-      auto r = parse_device_argument(text, lookup);
-      if (!r.device) return error(r.error);
-      parsed.push_back(*r.device);
-      bus_of.push_back(result.options.buses.size() - 1);
-    }
+    result.output = "cobridge-sim: " + std::move(e);
   }
-  for (const BusOptions& b : result.options.buses) {
-    bool has_device = false;
-    for (const std::size_t i : bus_of) has_device = has_device || result.options.buses[i].iface == b.iface;
-    if (!has_device) return error("--iface '" + b.iface + "' has no --device after it");
-  }
-
-  // Serials: explicit ones must be unique; the others count up from 1.
-  std::set<std::uint32_t> used;
-  for (const DeviceArgument& d : parsed) {
-    if (!d.serial_given) continue;
-    if (!used.insert(d.spec.serial).second)
-      return error("serial " + std::to_string(d.spec.serial) +
-                   " is used by two devices (control commands and the state files need unique serials)");
-  }
-  std::uint32_t next_serial = 1;
-  for (std::size_t i = 0; i < parsed.size(); ++i) {
-    DeviceSpec spec = parsed[i].spec;
-    if (!parsed[i].serial_given) {
-      while (used.count(next_serial) != 0) ++next_serial;
-      spec.serial = next_serial;
-      used.insert(next_serial);
-    }
-    result.options.buses[bus_of[i]].devices.push_back(std::move(spec));
-  }
-
-  result.options.state_dir = state_dir;
-  result.options.truth_file = truth;
-  result.options.control_path = control;
-  result.options.rt_priority = rt_priority;
-  if (!devices_dir.empty()) {
-    if (!std::filesystem::is_directory(devices_dir))
-      return error("--devices-dir '" + devices_dir + "': not a directory");
-    result.options.devices_dir = devices_dir;
-  } else if (std::filesystem::is_directory(installed_devices_dir)) {
-    result.options.devices_dir = installed_devices_dir;
-  } else if (std::filesystem::is_directory(source_devices_dir)) {
-    result.options.devices_dir = source_devices_dir;
-  } else {
-    return error("no device descriptions: neither " + installed_devices_dir.string() + " nor " +
-                 source_devices_dir.string() + " exists (use --devices-dir)");
-  }
-  if (!state_dir.empty() && std::filesystem::exists(state_dir) && !std::filesystem::is_directory(state_dir))
-    return error("--state-dir '" + state_dir + "': exists and is not a directory");
   return result;
 }
 

@@ -212,6 +212,20 @@ std::vector<std::pair<std::uint32_t, std::string>> fastscan_devices() {
   return all;
 }
 
+// Gives the device the last scan selected node-ID `node` (E§6.1, J§1.5.1),
+// has it store it (E§6.3, J§1.5.3) and sends every device back to waiting.
+void configure_and_store(LssMaster& confirmed, LssMaster& master, can::SocketCanChannel& ch, int node) {
+  ASSERT_FALSE(confirmed.configure_node_id(static_cast<std::uint8_t>(node), Clock::now()));
+  auto c = drive(confirmed, ch, 5s);
+  ASSERT_TRUE(c && !c->error) << "configure node-ID " << node;
+  EXPECT_EQ(c->slave_error, 0) << "J§1.5.1 error code";
+  ASSERT_FALSE(confirmed.store_configuration(Clock::now()));
+  c = drive(confirmed, ch, 5s);
+  ASSERT_TRUE(c && !c->error) << "store configuration";
+  EXPECT_EQ(c->slave_error, 0) << "J§1.5.3 error code";
+  ASSERT_FALSE(master.switch_state_global(canopen::LssMode::kWaiting));
+}
+
 // CiA 305 V3 Fastscan with E§6.1, E§6.3 (configure node-ID, store):
 // unconfigured devices of every family, each found once; stored IDs survive a
 // restart.
@@ -250,15 +264,7 @@ TEST(LssDiscovery, Fastscan_UnconfiguredMixedDevices_E6_J1_5) {
                   std::chrono::duration<double>(r->elapsed).count(), r->frames_sent);
       std::fflush(stdout);
       const int node = 10 + i;
-      ASSERT_FALSE(confirmed.configure_node_id(static_cast<std::uint8_t>(node), Clock::now()));
-      auto c = drive(confirmed, ch, 5s);
-      ASSERT_TRUE(c && !c->error) << "configure node-ID " << node;
-      EXPECT_EQ(c->slave_error, 0) << "J§1.5.1 error code";
-      ASSERT_FALSE(confirmed.store_configuration(Clock::now()));
-      c = drive(confirmed, ch, 5s);
-      ASSERT_TRUE(c && !c->error) << "store configuration";
-      EXPECT_EQ(c->slave_error, 0) << "J§1.5.3 error code";
-      ASSERT_FALSE(master.switch_state_global(canopen::LssMode::kWaiting));
+      ASSERT_NO_FATAL_FAILURE(configure_and_store(confirmed, master, ch, node));
       assigned[a.serial] = node;
     }
     // Each device exactly once: nobody is left unconfigured.
@@ -315,15 +321,7 @@ TEST(LssDiscovery, Slowscan_FourRotaryAtFactoryNode127_J1_5) {
                 hex(r->address.revision).c_str(), std::chrono::duration<double>(r->elapsed).count(), r->frames_sent);
     std::fflush(stdout);
     order.push_back(r->address.serial);
-    ASSERT_FALSE(confirmed.configure_node_id(static_cast<std::uint8_t>(20 + i), Clock::now()));
-    auto c = drive(confirmed, ch, 5s);
-    ASSERT_TRUE(c && !c->error);
-    EXPECT_EQ(c->slave_error, 0);
-    ASSERT_FALSE(confirmed.store_configuration(Clock::now()));
-    c = drive(confirmed, ch, 5s);
-    ASSERT_TRUE(c && !c->error);
-    EXPECT_EQ(c->slave_error, 0);
-    ASSERT_FALSE(master.switch_state_global(canopen::LssMode::kWaiting));
+    ASSERT_NO_FATAL_FAILURE(configure_and_store(confirmed, master, ch, 20 + i));
     // Search above the one found (same revision for all four).
     bounds.rev_lo = r->address.revision;
     bounds.serial_lo = r->address.serial + 1;

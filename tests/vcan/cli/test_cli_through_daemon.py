@@ -263,7 +263,7 @@ def main():
     extra = '[outputs.modbus]\nbind = "127.0.0.1"\nport = 1502\n'
     config = e2e.write_config(ws, [bus], devices, extra=extra)
     daemon = e2e.Daemon(args.daemon, config, ws, extra_args=["--plugin-dir", args.plugins])
-    try:
+    with e2e.shut_down_after(ws, lambda: (daemon, sim, listener)):
         report.check(daemon.wait_socket(), "control socket up")
         _, took = daemon.wait_until(e2e.all_operational(NAMES), 60, interval=0.1)
         if not report.check(took is not None, "four devices operational", "%.2f s" % took if took else ""):
@@ -279,12 +279,8 @@ def main():
         beacon_phase(report, args, ws, listener, expected)
         load_phase(report, args, ws, daemon, sim, listener, expected)
         access_phase(report, args, ws, daemon, config, devices, bus)
-        if report.failed:
-            print(daemon.tail(80))
-        e2e.check_clean_exit(report, daemon)
+        e2e.check_clean_exit(report, daemon, tail=80)
         daemon = None
-    finally:
-        e2e.shut_down(ws, daemon, sim, listener)
     return report.finish()
 
 

@@ -301,7 +301,7 @@ def main():
         e2e.toml_value(path), TCP_PORT)
     config = e2e.write_config(ws, buses, devices, extra=extra)
     daemon = e2e.Daemon(args.daemon, config, ws, extra_args=["--plugin-dir", args.plugins])
-    try:
+    with e2e.shut_down_after(ws, lambda: (daemon, sim, listener)):
         report.check(daemon.wait_socket(), "control socket up")
         _, took = daemon.wait_until(e2e.all_operational(NAMES), 60, interval=0.1)
         report.check(took is not None, "three devices operational", "%.2f s" % took if took else "")
@@ -316,12 +316,8 @@ def main():
         with open(daemon.log_path) as f:
             text = f.read()
         report.check("ascii gateway: SDO download on net 1 node 20 by uid 0" in text, "writes logged with the caller")
-        if report.failed:
-            print(daemon.tail(60))
-        e2e.check_clean_exit(report, daemon)
+        e2e.check_clean_exit(report, daemon, tail=60)
         daemon = None
-    finally:
-        e2e.shut_down(ws, daemon, sim, listener)
     return report.finish()
 
 

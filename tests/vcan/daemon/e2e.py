@@ -7,6 +7,7 @@ and reports each check as PASS/FAIL with its measured times; the exit status
 is 1 when any check failed.
 """
 import argparse
+import contextlib
 import errno
 import json
 import os
@@ -448,8 +449,12 @@ class Daemon:
             return ""
 
 
-def check_clean_exit(report, daemon, what="SIGTERM -> exit 0 within 1 s"):
-    """Stops the daemon with SIGTERM and checks that it exited 0 within 1 s."""
+def check_clean_exit(report, daemon, what="SIGTERM -> exit 0 within 1 s", tail=0):
+    """Stops the daemon with SIGTERM and checks that it exited 0 within 1 s.
+    With `tail`, prints the last `tail` lines of its log first when a check
+    of the report failed: what the daemon said is the first clue."""
+    if tail and report.failed:
+        print(daemon.tail(tail))
     rc, took = daemon.stop()
     return report.check(rc == 0 and took < 1.0, what, "exit %s after %.3f s" % (rc, took))
 
@@ -463,6 +468,18 @@ def shut_down(ws, daemon, *others):
     for o in others:
         (o.stop if hasattr(o, "stop") else o.close)()
     ws.cleanup()
+
+
+@contextlib.contextmanager
+def shut_down_after(ws, parts):
+    """Around a scenario's body: however the body ends, shut_down(ws,
+    *parts()). `parts` is called then, not now, so that the body may replace
+    the daemon or the listener, or set the daemon to None once it stopped it
+    itself (check_clean_exit)."""
+    try:
+        yield
+    finally:
+        shut_down(ws, *parts())
 
 
 def all_operational(expected_names):

@@ -63,7 +63,7 @@ def main():
     listener = e2e.CanListener("vcan0")
     sim = e2e.Simulator(args.sim, ws, {"vcan0": sim_devices()})
     daemon = None
-    try:
+    with e2e.shut_down_after(ws, lambda: (daemon, sim, listener)):
         t0 = time.time()
         daemon, status, took = commission_all(args, ws, report, listener)
         if not report.check(took is not None, "all six commissioned, configured and operational",
@@ -143,8 +143,6 @@ def main():
                 print("  %-28s %-10s %9.1f ms" % s)
         e2e.check_clean_exit(report, daemon, "second daemon: SIGTERM -> exit 0 within 1 s")
         daemon = None
-    finally:
-        e2e.shut_down(ws, daemon, sim, listener)
     return report.finish()
 
 

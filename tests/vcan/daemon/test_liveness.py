@@ -332,7 +332,7 @@ def main():
     extra = '[outputs.jsontap]\npath = "%s"\n' % tap
     config = e2e.write_config(ws, [bus], devices, extra=extra)
     daemon = e2e.Daemon(args.daemon, config, ws, extra_args=["--plugin-dir", args.plugins])
-    try:
+    with e2e.shut_down_after(ws, lambda: (daemon, sim, listener)):
         report.check(daemon.wait_socket(), "control socket up")
         _, took = daemon.wait_until(e2e.all_operational(NAMES), 60, interval=0.1)
         if not report.check(took is not None, "four devices operational", "%.2f s" % took if took else ""):
@@ -348,12 +348,8 @@ def main():
         scenario_foreign_stop(report, daemon, listener, ws, config)
         scenario_unknown_node(report, daemon, tap)
         scenario_reload_reorder(report, daemon, ws, devices, bus, extra)
-        if report.failed:
-            print(daemon.tail(80))
-        e2e.check_clean_exit(report, daemon)
+        e2e.check_clean_exit(report, daemon, tail=80)
         daemon = None
-    finally:
-        e2e.shut_down(ws, daemon, sim, listener)
     return report.finish()
 
 

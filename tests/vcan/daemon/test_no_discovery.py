@@ -32,7 +32,7 @@ def main():
     names = [d[0] for d in DEVICES]
     t_start = time.time()
     daemon = e2e.Daemon(args.daemon, e2e.write_config(ws, [bus], devices), ws)
-    try:
+    with e2e.shut_down_after(ws, lambda: (daemon, sim, listener)):
         report.check(daemon.wait_socket(), "control socket up")
         st, took = daemon.wait_until(e2e.all_operational(names), 20, interval=0.05)
         report.check(took is not None, "discovery off: the three configured devices operational",
@@ -62,8 +62,6 @@ def main():
                          "%.3f s" % took if took is not None else "")
         e2e.check_clean_exit(report, daemon)
         daemon = None
-    finally:
-        e2e.shut_down(ws, daemon, sim, listener)
     return report.finish()
 
 

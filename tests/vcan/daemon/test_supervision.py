@@ -35,7 +35,7 @@ def main():
                for (name, m, _, s, n) in DEVICES]
     daemon = e2e.Daemon(args.daemon, e2e.write_config(ws, [bus], devices), ws)
     names = [d[0] for d in DEVICES]
-    try:
+    with e2e.shut_down_after(ws, lambda: (daemon, sim, listener)):
         report.check(daemon.wait_socket(), "control socket up")
         _, took = daemon.wait_until(e2e.all_operational(names), 60, interval=0.1)
         if not report.check(took is not None, "three devices operational at their node-IDs",
@@ -103,8 +103,6 @@ def main():
             time.sleep(0.3)
         e2e.check_clean_exit(report, daemon)
         daemon = None
-    finally:
-        e2e.shut_down(ws, daemon, sim, listener)
     return report.finish()
 
 

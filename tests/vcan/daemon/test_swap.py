@@ -33,7 +33,7 @@ def main():
                {"name": "mt-b", "bus": "line1", "serial": 2002, "model": "MC1-2800", "node_id": 21, "heartbeat_ms": 100},
                {"name": "ifm-a", "bus": "line1", "serial": 3001, "model": "RM9", "node_id": 30, "heartbeat_ms": 100}]
     daemon = e2e.Daemon(args.daemon, e2e.write_config(ws, [bus], devices), ws)
-    try:
+    with e2e.shut_down_after(ws, lambda: (daemon, sim, listener)):
         report.check(daemon.wait_socket(), "control socket up")
         _, took = daemon.wait_until(e2e.all_operational(NAMES), 60, interval=0.1)
         if not report.check(took is not None, "three devices operational before the swap",
@@ -64,8 +64,6 @@ def main():
                 print("  step %-28s %-8s %9.1f ms" % (s["step"], s["device"], s["ms"]))
         e2e.check_clean_exit(report, daemon)
         daemon = None
-    finally:
-        e2e.shut_down(ws, daemon, sim, listener)
     return report.finish()
 
 
