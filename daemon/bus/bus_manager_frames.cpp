@@ -23,9 +23,12 @@ TimePoint BusManager::Impl::run_components(TimePoint now) {
   next = std::min(next, channel->process(now));
   open_flag.store(channel->is_open());
   if (election) {
-    // The role is not handed over in the middle of a device's configuration.
-    const bool configuring =
-        std::any_of(devices.begin(), devices.end(), [](const Managed& m) { return m.runner != nullptr; });
+    // The role is not handed over in the middle of a device's configuration,
+    // which starts at its boot-up: a rebooted device waiting for its plan
+    // counts as being configured.
+    const bool configuring = std::any_of(devices.begin(), devices.end(), [](const Managed& m) {
+      return m.runner != nullptr || (m.want_configure && m.boot_up_at != kNever);
+    });
     election->set_busy(configuring);
     next = std::min(next, election->process(now, *channel));
     if (standby()) return run_standby(now, next);
