@@ -12,7 +12,10 @@ Checks, from every frame on the bus and the daemons' status:
     daemons keep their roles;
   * a killed while the link is cut: b is master within 1 s of a's last
     frame, and a started again (still cut) joins as standby: one master;
-  * the link back: still one master, no election.
+  * the link back: still one master, no election;
+  * every frame attributed to its sender (candump -x inside each namespace
+    marks that namespace's own frames TX): while standby, each gateway sent
+    nothing but its heartbeat and the election's frames.
 Runs inside UML:
   tests/vcan/run-in-vcan -- /usr/bin/python3 tests/vcan/daemon/test_hot_standby_netcut.py --daemon ...
 """
@@ -77,6 +80,40 @@ def reaches(src, dst_ip, port):
     return r.stdout.strip() == "up"
 
 
+class SentBy:
+    """candump -x inside a gateway's namespace: the frames that namespace sent are marked TX, so
+    every frame on the bus is attributed to its sender."""
+
+    def __init__(self, k, path):
+        self.path = path
+        self.out = open(path, "w")
+        self.proc = subprocess.Popen(["ip", "netns", "exec", NS[k], "candump", "-x", "-t", "a", CAN[k]],
+                                     stdout=self.out, stderr=subprocess.DEVNULL)
+
+    def sent(self, t0, t1):
+        """(time, id) of every frame the namespace sent between t0 and t1."""
+        self.out.flush()
+        out = []
+        with open(self.path) as f:
+            for line in f:
+                p = line.split()
+                if len(p) >= 5 and p[2] == "TX":
+                    t = float(p[0].strip("()"))
+                    if t0 <= t <= t1:
+                        out.append((t, int(p[5], 16)))
+        return out
+
+    def close(self):
+        self.proc.terminate()
+        self.proc.wait(5)
+        self.out.close()
+
+
+def only_standby_frames(sent, k):
+    """The frames of `sent` a standby may send: its heartbeat and the election's (0x71..0x76)."""
+    return [hex(i) for _, i in sent if i != HB + NODE[k] and not 0x71 <= i <= 0x76]
+
+
 def config(ws, k):
     bus = {"name": "line1", "interface": CAN[k], "bitrate": 250, "discovery_period_s": 3600}
     devices = [{"name": n, "bus": "line1", "serial": s, "model": m, "node_id": nid, "heartbeat_ms": 100}
@@ -118,6 +155,7 @@ def main():
     sim = e2e.Simulator(args.sim, ws["a"], {SIM_CAN: ["%s:serial=%d,node=%d" % (sm, s, n)
                                                      for (_, _, sm, s, n) in DEVICES]})
     daemons = {}
+    sent_by = {k: SentBy(k, ws[k].path("sent.log")) for k in NS}
 
     def start(k, n):
         extra = ["--plugin-dir", args.plugins] if args.plugins else []
@@ -156,6 +194,7 @@ def main():
         took = e2e.iso_to_epoch(r["since"]) - last_a
         print("FIGURE takeover with the Ethernet cut: %.3f s after a's last frame" % took)
         report.check(took <= 1.0, "cut: b took over within 1 s of a's last frame", "%.3f s" % took)
+        t_a_back = time.time()
         a = start("a", 2)
         report.check(a.wait_socket() and wait_role(a, ("standby", NODE["b"])),
                      "cut: a started again asks on the bus and joins as standby", str(role(a)))
@@ -170,12 +209,28 @@ def main():
                      "the Ethernet back: still one master (b), no election", "%s %s" % (seen, role(a)))
         whole = masters(listener.snapshot(t_cut), t_cut, t_kill)
         report.check(whole == {"a"}, "from the cut to the kill, never a second master", str(whole))
+        # Every frame attributed to its sender (candump -x in each namespace): while standby, a gateway
+        # sent only its heartbeat and election frames: no NMT, SDO, LSS, SYNC or guarding.
+        t_b_master = e2e.iso_to_epoch(b.status()["buses"][0]["redundancy"]["since"])
+        b_sent = sent_by["b"].sent(0, t_b_master - 0.06)
+        a_sent = sent_by["a"].sent(t_a_back, time.time())
+        report.check(b_sent and not only_standby_frames(b_sent, "b"),
+                     "b, standby until the kill, sent only its heartbeat and election frames (%d frames)" % len(
+                         b_sent), str(only_standby_frames(b_sent, "b")[:8]))
+        report.check(a_sent and not only_standby_frames(a_sent, "a"),
+                     "a, standby after its return, sent only its heartbeat and election frames (%d frames)" % len(
+                         a_sent), str(only_standby_frames(a_sent, "a")[:8]))
+        a_master_sent = [i for _, i in sent_by["a"].sent(0, t_kill) if 0x600 < i < 0x680 or i == 0x000]
+        report.check(a_master_sent, "the attribution sees the master's own commands (a's SDO/NMT before the kill)",
+                     "%d" % len(a_master_sent))
     finally:
         for d in daemons.values():
             if d.proc.poll() is None:
                 d.stop()
         sim.stop()
         listener.close()
+        for s in sent_by.values():
+            s.close()
         for w in ws.values():
             w.cleanup()
     return report.finish()
