@@ -5,6 +5,10 @@ nothing, learns each device's node-ID from the master's reads of the
 identity object 0x1018 (CiA 301 7.5.2.36) on the bus, decodes its values,
 and remembers it in its own state file. Then the master is killed.
 
+Then again with the master killed in the middle of its commissioning: the
+standby, master now, finishes it (every device operational at its own
+node-ID from the pool).
+
 Checks:
   * the standby's status names the node-ID the master gave each device,
     and its state file holds them, before any takeover;
@@ -38,6 +42,45 @@ def config(ws, node):
 
 def nodes(daemon):
     return {d["name"]: d["node_id"] for d in daemon.status()["buses"][0]["devices"]}
+
+
+def during_commissioning(args, report):
+    """The master killed in the middle of its LSS commissioning: the standby, master now, finishes it."""
+    ws = {k: e2e.Workspace("fresh-mid-" + k, args.keep, base="/run") for k in "ab"}
+    cfg = {"a": config(ws["a"], 120), "b": config(ws["b"], 121)}
+    listener = e2e.CanListener("vcan0")
+    sim = e2e.Simulator(args.sim, ws["a"], {"vcan0": ["%s:serial=%d" % (sm, s) for (_, _, sm, s) in DEVICES]})
+    daemons = []
+    try:
+        a = e2e.Daemon(args.daemon, cfg["a"], ws["a"])
+        daemons.append(a)
+        report.check(a.wait_socket(), "mid-commissioning: gateway a up")
+        b = e2e.Daemon(args.daemon, cfg["b"], ws["b"])
+        daemons.append(b)
+        report.check(b.wait_socket(), "mid-commissioning: gateway b up")
+        # Kill a once its LSS commissioning has begun (the first Fastscan frames on the bus).
+        end = time.time() + 10
+        while time.time() < end and not [1 for t, cid, d in listener.snapshot(0) if cid == LSS_MASTER]:
+            time.sleep(0.01)
+        time.sleep(0.05)
+        lss_before = len([1 for t, cid, d in listener.snapshot(0) if cid == LSS_MASTER])
+        os.kill(a.pid, signal.SIGKILL)
+        a.proc.wait(5)
+        report.check(lss_before > 0, "a killed during its LSS commissioning (%d LSS frames sent)" % lss_before)
+        _, back = b.wait_until(e2e.all_operational(NAMES), 60, interval=0.05)
+        got = nodes(b)
+        report.check(back is not None and len(set(got.values())) == len(NAMES) and
+                     all(40 <= n <= 60 for n in got.values()),
+                     "b, master now, finished the commissioning: every device operational at its own pool node-ID",
+                     str(got))
+    finally:
+        for d in daemons:
+            if d.proc.poll() is None:
+                d.stop()
+        sim.stop()
+        listener.close()
+        for w in ws.values():
+            w.cleanup()
 
 
 def main():
@@ -92,6 +135,7 @@ def main():
         listener.close()
         for w in ws.values():
             w.cleanup()
+    during_commissioning(args, report)
     return report.finish()
 
 
