@@ -276,5 +276,20 @@ TEST(MasterElection, EachKnowsTheOthersNodeIdAndOwnsOnlyElectionFrames) {
   EXPECT_FALSE(a.election.owns(Frame::make(0x000, {0x01, 0x00})));  // NMT start: not the election's
 }
 
+// The peer each names in its status (docs/operations.md "Hot standby",
+// "Status"): the other gateway's node-ID, never its own.
+TEST(MasterElection, EachNamesTheOtherAsItsPeer) {
+  Bus bus;
+  auto& a = bus.add(20);
+  bus.start(a);
+  bus.run(1s);
+  EXPECT_EQ(a.election.peer_node(), 0) << "alone: no peer heard";
+  auto& b = bus.add(21);
+  bus.start(b);
+  bus.run(500ms);
+  EXPECT_EQ(a.election.peer_node(), 21);
+  EXPECT_EQ(b.election.peer_node(), 20);
+}
+
 }  // namespace
 }  // namespace cobridge::canopen
