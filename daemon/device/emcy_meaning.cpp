@@ -80,7 +80,8 @@ std::string describe_emcy(const families::Family* family, const canopen::Emcy& e
     s += ", error register " + hex(e.error_register, 2) + " [" + canopen::error_register_text(e.error_register) + "]";
   }
   if (info.position_value) s += ", position reads " + hex(static_cast<std::uint32_t>(*info.position_value), 8);
-  return s;
+  // People read this text (log, status, web page): the manual by its title.
+  return families::cite_manuals(s);
 }
 
 std::optional<std::string_view> error_position_meaning(const families::Family* family, std::int32_t position) noexcept {

@@ -64,4 +64,33 @@ ModelRef find_model(std::string_view name) noexcept {
   return {};
 }
 
+std::string cite_manuals(std::string_view text) {
+  static constexpr std::string_view kSection = "\u00a7";  // the section sign, UTF-8
+  std::string out;
+  out.reserve(text.size() + 64);
+  std::size_t i = 0;
+  while (i < text.size()) {
+    const std::size_t at = text.find(kSection, i);
+    if (at == std::string_view::npos || at == 0) break;
+    const char key = text[at - 1];
+    const bool starts_word = at == 1 || text[at - 2] == '(' || text[at - 2] == ' ' || text[at - 2] == '/';
+    const Family* f = nullptr;
+    for (const Family* c : all()) {
+      if (c->manual.size() == 1 && c->manual[0] == key) f = c;
+    }
+    if (f == nullptr || !starts_word) {
+      out.append(text.substr(i, at + kSection.size() - i));
+      i = at + kSection.size();
+      continue;
+    }
+    out.append(text.substr(i, at - 1 - i));
+    out.append(f->manual_title);
+    out.append(" ");
+    out.append(kSection);
+    i = at + kSection.size();
+  }
+  out.append(text.substr(i));
+  return out;
+}
+
 }  // namespace cobridge::device::families

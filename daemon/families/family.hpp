@@ -8,11 +8,13 @@
 //
 // Adding a family: docs/adding-a-device.md.
 //
-// Thread contract: constant tables; any thread, no allocation.
+// Thread contract: constant tables; any thread, no allocation (but
+// cite_manuals, which builds a string for people).
 #pragma once
 
 #include <cstdint>
 #include <span>
+#include <string>
 #include <string_view>
 
 #include "families/emcy_table.hpp"
@@ -71,6 +73,7 @@ struct Family {
   std::string_view name;    // EDS [Cobridge] Family value, e.g. "novotechnik-rotary"
   std::string_view series;  // for messages: "rotary series"
   std::string_view manual;  // citation key: "J", "E", "F"
+  std::string_view manual_title;  // how people name that manual, e.g. "Novotechnik rotary CANopen manual"
   std::uint32_t vendor = 0;  // 0x1018/1
   std::span<const Model> models;
   // Selected by vendor alone when no model lists the product (its product
@@ -95,6 +98,10 @@ struct Family {
   // The model that lists `product`; nullptr if none does.
   [[nodiscard]] const Model* model_of(std::uint32_t product) const noexcept;
 };
+
+// `text` with each citation key ("J§1.8.1") spelled out for people as the
+// manual's title and section ("Novotechnik rotary CANopen manual §1.8.1").
+[[nodiscard]] std::string cite_manuals(std::string_view text);
 
 // Every family, in a fixed order (rotary, multiturn, ifm).
 [[nodiscard]] std::span<const Family* const> all() noexcept;

@@ -41,6 +41,7 @@ const Family kIfmRm{
     .name = "ifm-rm",
     .series = "ifm RM series",
     .manual = "F",
+    .manual_title = "ifm RM8xxx/RM9xxx operating instructions",
     .vendor = kIfmVendor,
     .models = kModels,
     .match_any_product = true,

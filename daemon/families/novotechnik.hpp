@@ -43,6 +43,7 @@ struct NovotechnikFamily {
   std::string_view name;
   std::string_view series;
   std::string_view manual;
+  std::string_view manual_title;
   std::span<const Model> models;
   bool lss_fastscan;
   std::span<const std::uint16_t> manual_objects;
@@ -56,6 +57,7 @@ struct NovotechnikFamily {
   out.name = f.name;
   out.series = f.series;
   out.manual = f.manual;
+  out.manual_title = f.manual_title;
   out.vendor = kNovotechnikVendor;
   out.models = f.models;
   out.factory_node_id = kNovotechnikFactoryNodeId;

@@ -120,6 +120,7 @@ const Family kNovotechnikMultiturn = novotechnik_family({
     .name = "novotechnik-multiturn",
     .series = "multiturn series",
     .manual = "E",
+    .manual_title = "Novotechnik multiturn MZ1/MC1/MB1 CANopen manual",
     .models = kModels,
     .lss_fastscan = true,  // CiA 305 V3.0.0 (E§6)
     .manual_objects = kManualObjects,

@@ -83,6 +83,7 @@ const Family kNovotechnikRotary = novotechnik_family({
     .name = "novotechnik-rotary",
     .series = "rotary series",
     .manual = "J",
+    .manual_title = "Novotechnik rotary CANopen manual",
     .models = kModels,
     .lss_fastscan = false,  // DSP-305 V1.1.2 (J§1 intro), older than Fastscan
     .manual_objects = kManualObjects,

@@ -48,7 +48,7 @@ TEST(EmcyMeaning, J1_8_1_UnlistedBytesFallBackToCiA301) {
 TEST(EmcyMeaning, J1_8_1_DescribeCamAndWorkArea) {
   const canopen::Emcy cam = emcy(fam::kNovotechnikCamEmcy, 1, fam::rotary_cam_emcy_bytes(2, 0x0005, 0x04));
   EXPECT_EQ(describe_emcy(kRotary, cam),
-            "EMCY 0x9080 encoder CAM state changed (coded as 0x6300) (J§1.8.1), channel 2, CAMs 0x05, "
+            "EMCY 0x9080 encoder CAM state changed (coded as 0x6300) (Novotechnik rotary CANopen manual §1.8.1), channel 2, CAMs 0x05, "
             "state 0x04, error register 0x01 [generic]");
   const canopen::Emcy area = emcy(fam::kNovotechnikWorkAreaEmcy, 1, fam::rotary_work_area_emcy_bytes(1, 0x03));
   EXPECT_THAT(describe_emcy(kRotary, area), HasSubstr("channel 1, state 0x03 (out of range|overflow)"));
@@ -82,10 +82,10 @@ TEST(EmcyMeaning, E9_1_UnknownSubCodeFallsBack) {
 TEST(EmcyMeaning, E9_1_DescribeCamAndBothWorkAreaReadings) {
   const std::string cam =
       describe_emcy(kMultiturn, emcy(fam::kNovotechnikCamEmcy, 1, fam::multiturn_cam_emcy_bytes(3, 9)));
-  EXPECT_THAT(cam, HasSubstr("(E§9.1), level Warn, changed CAMs 0x03, state 0x09, sub-code 1/0"));
+  EXPECT_THAT(cam, HasSubstr("(Novotechnik multiturn MZ1/MC1/MB1 CANopen manual §9.1), level Warn, changed CAMs 0x03, state 0x09, sub-code 1/0"));
   const std::string area =
       describe_emcy(kMultiturn, emcy(fam::kNovotechnikWorkAreaEmcy, 1, fam::multiturn_work_area_emcy_bytes(1)));
-  EXPECT_THAT(area, HasSubstr("state 0x01 (as 0x6400 bits: out of range; as E§9.1 list: underflow)"));
+  EXPECT_THAT(area, HasSubstr("state 0x01 (as 0x6400 bits: out of range; as Novotechnik multiturn MZ1/MC1/MB1 CANopen manual §9.1 list: underflow)"));
 }
 
 // F§4: ifm has no table; CiA 301 §7.2.7.1 texts with the error register bits.
@@ -121,4 +121,16 @@ TEST(EmcyMeaning, E9_1_LevelNames) {
 }
 
 }  // namespace
+// People read the EMCY text (log, status, web page): each citation names
+// the manual, not its key.
+TEST(EmcyMeaning, CitationsNameTheManual) {
+  EXPECT_EQ(families::cite_manuals("position or sensor error (J\u00a71.8)"),
+            "position or sensor error (Novotechnik rotary CANopen manual \u00a71.8)");
+  EXPECT_EQ(families::cite_manuals("synchronous only (J\u00a71.3.1 / E\u00a74.1 0x1801/2), F\u00a77.5"),
+            "synchronous only (Novotechnik rotary CANopen manual \u00a71.3.1 / Novotechnik multiturn MZ1/MC1/MB1 "
+            "CANopen manual \u00a74.1 0x1801/2), ifm RM8xxx/RM9xxx operating instructions \u00a77.5");
+  EXPECT_EQ(families::cite_manuals("CiA 301 \u00a77.2.7"), "CiA 301 \u00a77.2.7") << "not a manual key";
+  EXPECT_EQ(families::cite_manuals("X\u00a71"), "X\u00a71");
+}
+
 }  // namespace cobridge::device
