@@ -463,9 +463,13 @@ def take_views(work, url, names, stale_name, screenshot):
             doms[-1] = page.dom()
         print("FIGURE the page showed new values %.1f s after the first view" % (time.time() - t0 - drawn_at),
               flush=True)
-        png = page.screenshot_png(width=1600, height=1000) if screenshot else None  # the table's whole width
+        # The device table fits a 1,280 px screen (its details fold): no bus section scrolls sideways.
+        page.screenshot_png(width=1280, height=900)
+        overflow = page.evaluate("Math.max(0, ...[...document.querySelectorAll('section.bus')]"
+                                 ".map(s => s.scrollWidth - s.clientWidth))")
+        pngs = {w: page.screenshot_png(width=w, height=900) for w in (1280, 1920)} if screenshot else None
         print("FIGURE the browser part took %.1f s" % (time.time() - t0), flush=True)
-        return doms, png
+        return doms, (pngs, overflow)
     finally:
         page.close()
 
@@ -492,7 +496,8 @@ def browser(report, ws, args, names, stale_name):
     url = "http://127.0.0.1:%d/" % PORT
     work = tempfile.mkdtemp(prefix="cobridge-chrome-", dir="/tmp")
     try:
-        doms, png = views_with_one_fresh_chromium(work, url, names, stale_name, bool(args.screenshot_dir))
+        doms, (pngs, overflow) = views_with_one_fresh_chromium(work, url, names, stale_name,
+                                                                bool(args.screenshot_dir))
     except BrowserError as e:
         logs = sorted(glob.glob(os.path.join(work, "*", "chromium.log")))
         report.check(False, "browser: Chromium drove the page", "%s; its stderr ends:\n%s" % (
@@ -514,17 +519,26 @@ def browser(report, ws, args, names, stale_name):
     report.check(m is not None and "stale" in m.group(1), "browser: %s marked stale" % stale_name)
     report.check('class="flag stale"' in doms[-1], "browser: the STALE flag is shown")
     report.check('class="emcy"' in doms[-1], "browser: the EMCY history is shown")
+    report.check(overflow == 0, "browser: the device table fits a 1,280 px screen (nothing scrolls sideways)",
+                 "%s px too wide" % overflow)
+    row = re.search(r'<tr class="device[^"]*" data-name="%s".*?</tr>' % re.escape(stale_name), doms[-1], re.S)
+    report.check(row is not None and 'class="nmt-unknown"' in row.group(0) and ">unknown<" in row.group(0),
+                 "browser: the silenced device's NMT state reads unknown, not its last heartbeat's")
+    report.check('stroke-width="2"' in doms[-1] and "<circle" in doms[-1],
+                 "browser: the sparkline is drawn legibly (2 px stroke, the newest point marked)")
+    report.check("\u00a7" in doms[-1] and not re.search(r"\([JEF]\u00a7", doms[-1]),
+                 "browser: EMCY text cites the manual by name and section, no internal key like (J\u00a71.8.1)")
     load = re.search(r'data-load="([0-9.]+)"', doms[-1])
     report.check(load is not None and float(load.group(1)) > 0, "browser: the bus load is shown",
                  load.group(1) + " %" if load else "none")
     report.check('data-output="modbus"' in doms[-1] and 'data-figure="modbus_clients_connected"' in doms[-1],
                  "browser: the Modbus output and its clients connected are shown")
-    if png is not None:
+    for width, png in (pngs or {}).items():
         ok = png.startswith(b"\x89PNG") and len(png) > 10000
-        report.check(ok, "browser: screenshot taken", "%d bytes" % len(png))
+        report.check(ok, "browser: screenshot at %d px taken" % width, "%d bytes" % len(png))
         if ok:
             os.makedirs(args.screenshot_dir, exist_ok=True)
-            with open(os.path.join(args.screenshot_dir, "web-status.png"), "wb") as f:
+            with open(os.path.join(args.screenshot_dir, "web-status-%d.png" % width), "wb") as f:
                 f.write(png)
 
 
