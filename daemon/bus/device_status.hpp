@@ -5,6 +5,7 @@
 // and the output plugins read those copies. Nothing here is on the hot path.
 #pragma once
 
+#include "base/arrival_histogram.hpp"
 #include "canopen/lss.hpp"
 #include "canopen/nmt.hpp"
 
@@ -53,6 +54,8 @@ struct LiveValues {
   WallTime at{};                 // when it was received
   bool stale = false;            // as SCADA and DDS see it (the outputs' stale flag)
   double heartbeat_age_s = -1;   // since the last heartbeat; < 0 = none seen
+  ArrivalHistogram heartbeat_intervals;  // between two heartbeats, as the outputs received them
+  ArrivalHistogram tpdo_intervals;       // between two TPDOs
 };
 
 struct DeviceStatus {

@@ -47,7 +47,8 @@ OutputPipeline::OutputPipeline(const config::Config& config, const device::Devic
       command_targets_(config.buses.size()),
       host_(host_options(config, std::move(plugin_dir), [this](const cobridge_command& c) { return submit(c); })),
       last_values_(config.buses.size()),
-      sink_(host_, last_values_),
+      arrivals_(config.buses.size()),
+      sink_(host_, last_values_, arrivals_),
       dispatcher_(sink_) {
   for (std::size_t i = 0; i < config.buses.size(); ++i) {
     auto bus = std::make_unique<Bus>();
@@ -173,6 +174,8 @@ void OutputPipeline::add_live_status(std::size_t bus_index, BusStatus& status, s
     const pipeline::LastValue v = last_values_.read(bus_index, d.node_id);
     LiveValues& out = d.values;
     if (v.heartbeat_wall_ns != 0) out.heartbeat_age_s = age(v.heartbeat_monotonic_ns, v.heartbeat_wall_ns);
+    out.heartbeat_intervals = arrivals_.read(bus_index, d.node_id, pipeline::ArrivalKind::heartbeat);
+    out.tpdo_intervals = arrivals_.read(bus_index, d.node_id, pipeline::ArrivalKind::tpdo);
     if (v.value_wall_ns == 0) continue;
     out.present = true;
     out.has_position = (v.valid & (COBRIDGE_VALID_POSITION | COBRIDGE_VALID_POSITION_ENG)) != 0;

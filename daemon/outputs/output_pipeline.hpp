@@ -23,6 +23,7 @@
 #include "outputs/output_bridge.hpp"
 #include "pipeline/bus_receiver.hpp"
 #include "pipeline/device_table.hpp"
+#include "pipeline/arrival_histograms.hpp"
 #include "pipeline/last_values.hpp"
 #include "pipeline/dispatcher.hpp"
 #include "pipeline/plugin_host.hpp"
@@ -100,15 +101,18 @@ class OutputPipeline {
   // The plugins first, then the last-value table the status reads.
   class HostSink final : public pipeline::SampleSink {
    public:
-    HostSink(pipeline::PluginHost& host, pipeline::LastValues& last) : host_(host), last_(last) {}
+    HostSink(pipeline::PluginHost& host, pipeline::LastValues& last, pipeline::ArrivalHistograms& arrivals)
+        : host_(host), last_(last), arrivals_(arrivals) {}
     void deliver(std::span<const pipeline::Sample> batch) noexcept override {
       host_.deliver(batch);
       last_.record(batch);
+      arrivals_.record(batch);
     }
 
    private:
     pipeline::PluginHost& host_;
     pipeline::LastValues& last_;
+    pipeline::ArrivalHistograms& arrivals_;
   };
   struct Bus {
     pipeline::DeviceTable table;
@@ -124,6 +128,7 @@ class OutputPipeline {
   std::vector<std::atomic<BusManager*>> command_targets_;
   pipeline::PluginHost host_;
   pipeline::LastValues last_values_;
+  pipeline::ArrivalHistograms arrivals_;
   HostSink sink_;
   pipeline::Dispatcher dispatcher_;
   std::vector<std::unique_ptr<Bus>> buses_;

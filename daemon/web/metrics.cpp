@@ -51,8 +51,28 @@ class Writer {
     out_ += type;
     out_ += '\n';
   }
+  using Labels = std::initializer_list<std::pair<std::string_view, std::string_view>>;
+  // A histogram of the current family (type "histogram"): cumulative
+  // buckets with their `le` bound, then _sum and _count.
+  void histogram(Labels labels, const ArrivalHistogram& h) {
+    const std::string family(name_);
+    std::uint64_t cumulative = 0;
+    std::array<char, 32> le{};
+    for (std::size_t i = 0; i < h.buckets.size(); ++i) {
+      cumulative += h.buckets[i];
+      if (i < kArrivalBounds.size()) {
+        std::snprintf(le.data(), le.size(), "%g", kArrivalBounds[i]);
+      } else {
+        std::snprintf(le.data(), le.size(), "+Inf");
+      }
+      labelled(family + "_bucket", labels, {"le", le.data()}, static_cast<double>(cumulative));
+    }
+    labelled(family + "_sum", labels, {}, h.sum_s);
+    labelled(family + "_count", labels, {}, static_cast<double>(cumulative));
+    name_ = family;
+  }
   // One sample of the current family; labels as name/value pairs.
-  void sample(std::initializer_list<std::pair<std::string_view, std::string_view>> labels, double value) {
+  void sample(Labels labels, double value) {
     out_ += name_;
     if (labels.size() != 0) {
       out_ += '{';
@@ -71,6 +91,28 @@ class Writer {
     out_ += '\n';
   }
   std::string take() { return std::move(out_); }
+
+ private:
+  // A sample named `name`, with `labels` and one more label when `extra` has a name.
+  void labelled(const std::string& name, Labels labels, std::pair<std::string_view, std::string_view> extra,
+                double value) {
+    name_ = name;
+    if (extra.first.empty()) {
+      sample(labels, value);
+      return;
+    }
+    sample(labels, value);
+    // Insert the extra label before the closing brace of what sample() wrote.
+    const std::size_t close = out_.rfind('}');
+    std::string add = std::string(labels.size() != 0 ? "," : "") + std::string(extra.first) + "=";
+    label_value(add, extra.second);
+    if (labels.size() != 0 && close != std::string::npos) {
+      out_.insert(close, add);
+    } else {
+      const std::size_t space = out_.rfind(' ');
+      out_.insert(space, "{" + add + "}");
+    }
+  }
 
  private:
   std::string out_;
@@ -166,6 +208,26 @@ void bus_families(Writer& w, const gateway::StatusReport& report) {
           [](const BusStatus& b) { return static_cast<double>(b.reopens); });
 }
 
+// Per device: how regularly its heartbeats and TPDOs arrive (a device
+// drifting towards its heartbeat consumer time shows before it is lost).
+void arrival_families(Writer& w, const gateway::StatusReport& report) {
+  w.family("cobridge_heartbeat_interval_seconds", "histogram",
+           "Time between two heartbeats of the device, as the outputs received them.");
+  for (const auto& b : report.buses) {
+    for (const auto& d : b.devices) {
+      if (d.values.heartbeat_intervals.count() != 0)
+        w.histogram({{"bus", b.name}, {"node", node_label(d)}, {"name", d.name}}, d.values.heartbeat_intervals);
+    }
+  }
+  w.family("cobridge_tpdo_interval_seconds", "histogram", "Time between two TPDOs of the device.");
+  for (const auto& b : report.buses) {
+    for (const auto& d : b.devices) {
+      if (d.values.tpdo_intervals.count() != 0)
+        w.histogram({{"bus", b.name}, {"node", node_label(d)}, {"name", d.name}}, d.values.tpdo_intervals);
+    }
+  }
+}
+
 // Per device: liveness, state, counters and the last values.
 void device_families(Writer& w, const gateway::StatusReport& report) {
   auto per_device = [&](std::string_view name, std::string_view type, std::string_view help,
@@ -223,6 +285,7 @@ void device_families(Writer& w, const gateway::StatusReport& report) {
                v = d.values.speed;
                return d.values.present && d.values.has_speed;
              });
+  arrival_families(w, report);
 }
 
 }  // namespace

@@ -33,6 +33,20 @@ TEST(Metrics, ConventionalNamesAndLabels) {
   EXPECT_THAT(m, HasSubstr("cobridge_value_stale{bus=\"line2\",node=\"2\",name=\"enc-1-1\"} 1\n"));
   EXPECT_THAT(m, HasSubstr("cobridge_position{bus=\"line2\",node=\"1\",name=\"enc-1-0\",unit=\"deg\"} 12.5\n"));
   EXPECT_THAT(m, HasSubstr("cobridge_device_state{bus=\"line2\",node=\"2\",name=\"enc-1-1\",state=\"offline\"} 1\n"));
+  // Arrival histograms (Prometheus exposition format: cumulative buckets,
+  // le labels, _sum and _count).
+  EXPECT_THAT(m, HasSubstr("# TYPE cobridge_heartbeat_interval_seconds histogram\n"));
+  EXPECT_THAT(m, HasSubstr("cobridge_heartbeat_interval_seconds_bucket{bus=\"line2\",node=\"1\",name=\"enc-1-0\","
+                           "le=\"0.05\"} 0\n"));
+  EXPECT_THAT(m, HasSubstr("cobridge_heartbeat_interval_seconds_bucket{bus=\"line2\",node=\"1\",name=\"enc-1-0\","
+                           "le=\"0.1\"} 20\n"));
+  EXPECT_THAT(m, HasSubstr("cobridge_heartbeat_interval_seconds_bucket{bus=\"line2\",node=\"1\",name=\"enc-1-0\","
+                           "le=\"0.5\"} 21\n"));
+  EXPECT_THAT(m, HasSubstr("cobridge_heartbeat_interval_seconds_bucket{bus=\"line2\",node=\"1\",name=\"enc-1-0\","
+                           "le=\"+Inf\"} 21\n"));
+  EXPECT_THAT(m, HasSubstr("cobridge_heartbeat_interval_seconds_sum{bus=\"line2\",node=\"1\",name=\"enc-1-0\"} 2.3\n"));
+  EXPECT_THAT(m, HasSubstr("cobridge_heartbeat_interval_seconds_count{bus=\"line2\",node=\"1\",name=\"enc-1-0\"} 21\n"));
+  EXPECT_THAT(m, HasSubstr("cobridge_tpdo_interval_seconds_count{bus=\"line2\",node=\"1\",name=\"enc-1-0\"} 200\n"));
   // Label values escaped as the format says.
   EXPECT_THAT(m, HasSubstr("name=\"odd \\\"name\\\\\""));
   // Every place a frame or sample can be lost has a counter.

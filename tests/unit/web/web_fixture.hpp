@@ -58,6 +58,12 @@ inline gateway::StatusReport sample_report(int buses, int devices) {
       dev.values.speed = -3;
       dev.values.age_s = 0.05;
       dev.values.stale = d == 1;
+      // Heartbeats every 100 ms and one late at 300 ms; TPDOs every 10 ms.
+      dev.values.heartbeat_intervals.buckets[6] = 20;  // <= 0.1 s
+      dev.values.heartbeat_intervals.buckets[8] = 1;   // <= 0.5 s
+      dev.values.heartbeat_intervals.sum_s = 2.3;
+      dev.values.tpdo_intervals.buckets[3] = 200;      // <= 0.01 s
+      dev.values.tpdo_intervals.sum_s = 2.0;
       dev.values.heartbeat_age_s = 0.1;
       bus.devices.push_back(dev);
     }

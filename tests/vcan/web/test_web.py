@@ -261,6 +261,21 @@ def main():
         report.check(metric(metrics(), "cobridge_value_stale", name=name) == 0,
                      "%s: cobridge_value_stale 0 after the power cycle" % name)
 
+        # ---- heartbeat / TPDO arrival histograms; the whole text passes promtool
+        _, _, text = get("/metrics")
+        r = subprocess.run(["promtool", "check", "metrics"], input=text, capture_output=True)
+        report.check(r.returncode == 0 and not r.stdout.strip() and not r.stderr.strip(),
+                     "/metrics passes promtool check metrics (histograms included)",
+                     (r.stdout + r.stderr).decode()[:300])
+        m = metrics()
+        count = metric(m, "cobridge_heartbeat_interval_seconds_count", name=name) or 0
+        within = metric(m, "cobridge_heartbeat_interval_seconds_bucket", name=name, le="0.2") or 0
+        report.check(count >= 5 and within >= 0.9 * count,
+                     "%s: heartbeat intervals in cobridge_heartbeat_interval_seconds (100 ms producer: %d of %d "
+                     "within 0.2 s)" % (name, within, count))
+        report.check((metric(m, "cobridge_tpdo_interval_seconds_count", name=name) or 0) >= 5,
+                     "%s: TPDO intervals in cobridge_tpdo_interval_seconds" % name)
+
         # ---- bad requests: 4xx, no effect
         before = status()
         bad = [get("/api/v1/status", "POST", body=b"commission"), get("/metrics", "DELETE"),
