@@ -91,6 +91,13 @@ bool BusManager::Impl::handle_bus_events(TimePoint now) {
   bool lost = false;
   for (const auto& ev : channel->take_events()) {
     const std::string text(can::to_string(ev.kind));
+    const can::ControllerState before = controller.state;
+    if (controller.apply(ev)) {
+      log->warn("bus {}: CAN controller {} -> {}{}", bus.name, can::to_string(before), can::to_string(controller.state),
+                controller.counters_known ? fmt::format(" (tx errors {}, rx errors {})", controller.tx_errors,
+                                                        controller.rx_errors)
+                                          : std::string());
+    }
     const bool good_news = ev.kind == can::BusEventKind::InterfaceReopened ||
                            ev.kind == can::BusEventKind::ErrorActive || ev.kind == can::BusEventKind::Restarted;
     if (good_news) {

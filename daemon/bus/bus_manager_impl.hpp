@@ -292,6 +292,7 @@ struct BusManager::Impl final : RemoteGate {
   };
   std::vector<Problem> problems;
   std::string live_bus_event;
+  can::ControllerHealth controller;  // from the channel's error frames
   std::uint32_t reopens_seen = 0;
   bool discovery_started = false;
   bool dirty = true;

@@ -58,6 +58,7 @@ void BusManager::Impl::publish_all() {
   s.name = bus.name;
   s.interface = bus.interface;
   s.last_bus_event = live_bus_event;
+  s.controller = controller;
   s.devices.reserve(devices.size());
   for (const auto& m : devices) s.devices.push_back(m.st);
   s.steps = steps;

@@ -5,6 +5,7 @@
 // and the output plugins read those copies. Nothing here is on the hot path.
 #pragma once
 
+#include "can/controller_health.hpp"
 #include "base/arrival_histogram.hpp"
 #include "canopen/lss.hpp"
 #include "canopen/nmt.hpp"
@@ -101,6 +102,7 @@ struct BusStatus {
   bool open = false;
   std::uint16_t bitrate_kbit = 0;     // the configured bit rate (the page's bus load)
   std::string last_bus_event;         // e.g. "bus-off", "interface down"
+  can::ControllerHealth controller;   // fault confinement state and counters, from error frames
   std::uint64_t rx_frames = 0;
   std::uint64_t tx_frames = 0;
   std::uint64_t rx_overflow_drops = 0;

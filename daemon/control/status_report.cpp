@@ -182,6 +182,20 @@ void write_redundancy(JsonWriter& w, const BusStatus& b) {
   w.end_object();
 }
 
+// The CAN controller's fault confinement state and counters (error frames).
+void write_controller(JsonWriter& w, const can::ControllerHealth& c) {
+  w.key("controller");
+  w.begin_object();
+  w.field("state", std::string(can::to_string(c.state)));
+  w.key("tx_errors");
+  if (c.counters_known) w.value(std::uint64_t{c.tx_errors}); else w.null();
+  w.key("rx_errors");
+  if (c.counters_known) w.value(std::uint64_t{c.rx_errors}); else w.null();
+  w.field("restarts", c.restarts);
+  w.field("bus_errors", c.bus_errors);
+  w.end_object();
+}
+
 void write_bus(JsonWriter& w, const BusStatus& b) {
   w.begin_object();
   w.field("name", b.name);
@@ -190,6 +204,7 @@ void write_bus(JsonWriter& w, const BusStatus& b) {
   w.field("bitrate_kbit", std::uint64_t{b.bitrate_kbit});
   w.field("last_bus_event", b.last_bus_event);
   if (!b.role.empty()) write_redundancy(w, b);
+  write_controller(w, b.controller);
   w.key("counters");
   w.begin_object();
   w.field("rx_frames", b.rx_frames);

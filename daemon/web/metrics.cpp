@@ -148,6 +148,28 @@ void gateway_families(Writer& w, const gateway::StatusReport& report) {
   w.sample({}, std::chrono::duration<double>(report.started.time_since_epoch()).count());
 }
 
+// The CAN controller's fault confinement state (1 for the present one),
+// its error counters and restarts, from the bus's error frames.
+void controller_families(Writer& w, const gateway::StatusReport& report) {
+  using can::ControllerState;
+  w.family("cobridge_bus_controller_state", "gauge",
+           "1 for the CAN controller's present state (error-active, error-warning, error-passive, bus-off).");
+  for (const auto& b : report.buses) {
+    for (const ControllerState s : {ControllerState::error_active, ControllerState::error_warning,
+                                    ControllerState::error_passive, ControllerState::bus_off})
+      w.sample({{"bus", b.name}, {"state", can::to_string(s)}}, b.controller.state == s ? 1 : 0);
+  }
+  w.family("cobridge_bus_controller_errors", "gauge",
+           "The controller's transmit / receive error counter as its last error frame reported it.");
+  for (const auto& b : report.buses) {
+    if (!b.controller.counters_known) continue;
+    w.sample({{"bus", b.name}, {"direction", "tx"}}, b.controller.tx_errors);
+    w.sample({{"bus", b.name}, {"direction", "rx"}}, b.controller.rx_errors);
+  }
+  w.family("cobridge_bus_controller_restarts_total", "counter", "Controller restarts after bus-off.");
+  for (const auto& b : report.buses) w.sample({{"bus", b.name}}, static_cast<double>(b.controller.restarts));
+}
+
 // Per bus: the interface, the two sockets' counters (docs/architecture.md)
 // and what the hot path counted instead of publishing.
 void bus_families(Writer& w, const gateway::StatusReport& report) {
@@ -206,6 +228,7 @@ void bus_families(Writer& w, const gateway::StatusReport& report) {
           [](const BusStatus& b) { return static_cast<double>(b.error_frames); });
   per_bus("cobridge_bus_reopens_total", "counter", "Times the interface was reopened after it went down.",
           [](const BusStatus& b) { return static_cast<double>(b.reopens); });
+  controller_families(w, report);
 }
 
 // Per device: how regularly its heartbeats and TPDOs arrive (a device

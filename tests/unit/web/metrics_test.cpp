@@ -47,6 +47,8 @@ TEST(Metrics, ConventionalNamesAndLabels) {
   EXPECT_THAT(m, HasSubstr("cobridge_heartbeat_interval_seconds_sum{bus=\"line2\",node=\"1\",name=\"enc-1-0\"} 2.3\n"));
   EXPECT_THAT(m, HasSubstr("cobridge_heartbeat_interval_seconds_count{bus=\"line2\",node=\"1\",name=\"enc-1-0\"} 21\n"));
   EXPECT_THAT(m, HasSubstr("cobridge_tpdo_interval_seconds_count{bus=\"line2\",node=\"1\",name=\"enc-1-0\"} 200\n"));
+  EXPECT_THAT(m, HasSubstr("cobridge_bus_controller_state{bus=\"line1\",state=\"error-active\"} 1\n"));
+  EXPECT_THAT(m, HasSubstr("cobridge_bus_controller_errors{bus=\"line1\",direction=\"tx\"} 12\n"));
   // Label values escaped as the format says.
   EXPECT_THAT(m, HasSubstr("name=\"odd \\\"name\\\\\""));
   // Every place a frame or sample can be lost has a counter.

@@ -28,6 +28,8 @@ inline gateway::StatusReport sample_report(int buses, int devices) {
   for (int b = 0; b < buses; ++b) {
     gateway::BusStatus bus;
     bus.name = "line" + std::to_string(b + 1);
+    bus.controller.counters_known = b == 0;  // the first bus's adapter reports its error counters
+    bus.controller.tx_errors = 12;
     bus.interface = "can" + std::to_string(b);
     bus.open = true;
     bus.bitrate_kbit = 250;
