@@ -155,7 +155,7 @@ void BusManager::Impl::finish_configuration(Managed& m, TimePoint now) {
     m.supervision = fallback_guarding(*m.plan);
   }
   m.st.fingerprint = m.plan->fingerprint;
-  remember_assignment(m);
+  remember_assignment(m, m.plan->fingerprint);
   if (!announce_and_start(m, now)) return;
   mark_operational(m, outcome, now, ms);
 }
@@ -179,7 +179,7 @@ void BusManager::Impl::configuration_failed(Managed& m, const PlanRunResult& out
 
 // Stores the device's node-ID and plan fingerprint, so that its next start
 // only verifies.
-void BusManager::Impl::remember_assignment(const Managed& m) {
+void BusManager::Impl::remember_assignment(const Managed& m, const std::string& fingerprint) {
   Assignment a;
   a.bus = bus.name;
   a.serial = m.st.identity.serial;
@@ -187,7 +187,7 @@ void BusManager::Impl::remember_assignment(const Managed& m) {
   a.product = m.st.identity.product;
   a.revision = m.st.identity.revision;
   a.node_id = m.st.node_id;
-  a.fingerprint = m.plan->fingerprint;
+  a.fingerprint = fingerprint;
   if (const auto ec = state.put(a)) log->error("bus {}: state file: {}", bus.name, ec.message());
 }
 

@@ -199,7 +199,7 @@ struct BusManager::Impl final : RemoteGate {
   Supervision supervision_for(const Managed& m) const;
   void finish_configuration(Managed& m, TimePoint now);
   void configuration_failed(Managed& m, const PlanRunResult& outcome, TimePoint now);
-  void remember_assignment(const Managed& m);
+  void remember_assignment(const Managed& m, const std::string& fingerprint);
   void mark_operational(Managed& m, const PlanRunResult& outcome, TimePoint now, double ms);
 
   // Plans leave the NMT start to us, so that a device found different by

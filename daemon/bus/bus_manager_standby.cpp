@@ -114,16 +114,7 @@ void BusManager::Impl::follow_heard_devices() {
 // The device runs with the plan's settings (the master started it after
 // applying them): the same record the master keeps.
 void BusManager::Impl::remember_followed(const Managed& m, const std::string& fingerprint) {
-  if (m.st.identity.serial == 0) return;
-  Assignment a;
-  a.bus = bus.name;
-  a.serial = m.st.identity.serial;
-  a.vendor = m.st.identity.vendor;
-  a.product = m.st.identity.product;
-  a.revision = m.st.identity.revision;
-  a.node_id = m.st.node_id;
-  a.fingerprint = fingerprint;
-  if (const auto ec = state.put(a)) log->error("bus {}: state file: {}", bus.name, ec.message());
+  if (m.st.identity.serial != 0) remember_assignment(m, fingerprint);
 }
 
 // The description from the identity heard or configured (vendor and

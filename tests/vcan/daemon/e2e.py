@@ -470,6 +470,32 @@ def shut_down(ws, daemon, *others):
     ws.cleanup()
 
 
+def shut_down_pair(daemons, others, workspaces):
+    """A hot-standby scenario's `finally`: stops each daemon still running,
+    then each of `others` (anything with stop() or close()), then removes the
+    work directories."""
+    for d in daemons:
+        if d.proc.poll() is None:
+            d.stop()
+    for o in others:
+        (o.stop if hasattr(o, "stop") else o.close)()
+    for w in workspaces:
+        w.cleanup()
+
+
+def master_heartbeat_overlaps(frames, nodes, period=0.15):
+    """Times at which two gateways' heartbeats (0x700 + node-ID) both said master
+    (05h) within one period: `nodes` maps a gateway's name to its node-ID."""
+    last, out = {}, []
+    for t, cid, data in frames:
+        for k, node in nodes.items():
+            if cid == 0x700 + node and data[:1] == b"\x05":
+                last[k] = t
+                if any(o != k and t - tl < period for o, tl in last.items()):
+                    out.append(t)
+    return out
+
+
 @contextlib.contextmanager
 def shut_down_after(ws, parts):
     """Around a scenario's body: however the body ends, shut_down(ws,

@@ -116,20 +116,6 @@ class Pair:
         d.log.close()
 
 
-def master_overlap(frames):
-    """Times at which both gateways' heartbeats said master (05h) within 150 ms."""
-    last = {}
-    overlaps = []
-    for t, cid, data in frames:
-        for k, node in NODE.items():
-            if cid == HB + node and data[:1] == b"\x05":
-                last[k] = t
-                other = "b" if k == "a" else "a"
-                if other in last and t - last[other] < 0.15:
-                    overlaps.append(t)
-    return overlaps
-
-
 class ModbusPoller:
     """Reads the first device's data age (input register 256 + 11, docs/modbus.md)
     from both gateways every 20 ms; a gateway that is down simply fails."""
@@ -397,7 +383,6 @@ def main():
             master, standby = standby, master
 
         if poller:
-            ages = [a for t, g, a in poller.reads if a != 0xFFFF]
             survivors = [w for w in survivor_worst if w is not None]
             if survivors:
                 print("FIGURE Modbus data age on the survivor around each takeover: worst %d ms (%d kills)" % (
@@ -408,7 +393,7 @@ def main():
             print("FIGURE takeover p50 %.3f s, p100 %.3f s (%d kills)" % (ok[len(ok) // 2], ok[-1], len(ok)))
         report.check(len(ok) == len(takeovers) and max(ok) <= 1.0,
                      "every takeover within 1 s of the master's last frame", str(takeovers))
-        overlaps = master_overlap(listener.snapshot(0))
+        overlaps = e2e.master_heartbeat_overlaps(listener.snapshot(0), NODE)
         report.check(not overlaps, "never two masters: no two master heartbeats within one period",
                      "%d overlaps" % len(overlaps))
 

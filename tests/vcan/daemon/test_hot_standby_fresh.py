@@ -74,13 +74,7 @@ def during_commissioning(args, report):
                      "b, master now, finished the commissioning: every device operational at its own pool node-ID",
                      str(got))
     finally:
-        for d in daemons:
-            if d.proc.poll() is None:
-                d.stop()
-        sim.stop()
-        listener.close()
-        for w in ws.values():
-            w.cleanup()
+        e2e.shut_down_pair(daemons, [sim, listener], ws.values())
 
 
 def main():
@@ -128,13 +122,7 @@ def main():
         writes = sum(int(l.split(" writes")[0].split()[-1]) for l in lines if " writes" in l)
         report.check(lines and writes == 0, "and writes no configuration (0 writes)", "%d lines" % len(lines))
     finally:
-        for d in daemons:
-            if d.proc.poll() is None:
-                d.stop()
-        sim.stop()
-        listener.close()
-        for w in ws.values():
-            w.cleanup()
+        e2e.shut_down_pair(daemons, [sim, listener], ws.values())
     during_commissioning(args, report)
     return report.finish()
 

@@ -22,7 +22,6 @@ Runs inside UML:
 import glob
 import os
 import signal
-import socket
 import subprocess
 import time
 
@@ -224,15 +223,7 @@ def main():
         report.check(a_master_sent, "the attribution sees the master's own commands (a's SDO/NMT before the kill)",
                      "%d" % len(a_master_sent))
     finally:
-        for d in daemons.values():
-            if d.proc.poll() is None:
-                d.stop()
-        sim.stop()
-        listener.close()
-        for s in sent_by.values():
-            s.close()
-        for w in ws.values():
-            w.cleanup()
+        e2e.shut_down_pair(daemons.values(), [sim, listener] + list(sent_by.values()), ws.values())
     return report.finish()
 
 

@@ -22,7 +22,6 @@ import e2e
 DEVICES = [("rot-a", "RFC-4800", "RFC-4800", 1001, 10), ("mt-a", "MC1-2800", "MC1-2800", 2001, 20)]
 NAMES = [d[0] for d in DEVICES]
 NODE = {"a": 120, "b": 121}
-HB = 0x700
 HOLD_S = 2
 
 
@@ -39,18 +38,6 @@ def redundancy(daemon):
         return daemon.status()["buses"][0].get("redundancy")
     except (OSError, ValueError, KeyError):
         return None
-
-
-def overlaps(frames):
-    last, out = {}, []
-    for t, cid, data in frames:
-        for k, node in NODE.items():
-            if cid == HB + node and data[:1] == b"\x05":
-                last[k] = t
-                other = "b" if k == "a" else "a"
-                if other in last and t - last[other] < 0.15:
-                    out.append(t)
-    return out
 
 
 def main():
@@ -120,16 +107,10 @@ def main():
         writes = [l for l in text.splitlines() if "rot-a operational at node" in l and " 0 writes" not in l]
         report.check(ok is not None and not writes, "every device operational under b; 0 writes on rot-a", str(writes))
         time.sleep(1.0)
-        bad = overlaps(listener.snapshot(0))
+        bad = e2e.master_heartbeat_overlaps(listener.snapshot(0), NODE)
         report.check(not bad, "never two masters: no two master heartbeats within one period", "%d" % len(bad))
     finally:
-        for d in daemons:
-            if d.proc.poll() is None:
-                d.stop()
-        sim.stop()
-        listener.close()
-        for w in ws.values():
-            w.cleanup()
+        e2e.shut_down_pair(daemons, [sim, listener], ws.values())
     return report.finish()
 
 
