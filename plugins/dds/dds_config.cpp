@@ -7,22 +7,6 @@
 namespace cobridge::dds {
 namespace {
 
-class ConfigCategory final : public std::error_category {
- public:
-  const char* name() const noexcept override { return "cobridge.dds.config"; }
-  std::string message(int c) const override {
-    switch (static_cast<DdsConfigErrc>(c)) {
-      case DdsConfigErrc::kSyntax: return "not valid TOML";
-      case DdsConfigErrc::kUnknownKey: return "unknown key";
-      case DdsConfigErrc::kWrongType: return "wrong value type";
-      case DdsConfigErrc::kOutOfRange: return "value out of range";
-      case DdsConfigErrc::kMissingKey: return "required key missing";
-      case DdsConfigErrc::kBadFile: return "file cannot be used";
-    }
-    return "unknown error";
-  }
-};
-
 // The default DDSI port mapping (PB 7400, DG 250) fits domains 0..232 into
 // the 16-bit UDP port range.
 constexpr std::int64_t kMaxDomain = 232;
@@ -35,31 +19,23 @@ constexpr std::string_view kKnownKeys =
     "domain, sample_reliability, sample_depth, topic_prefix, partition, write_batch, liveliness_lease_ms, "
     "sample_path, security";
 
-DdsConfigResult fail(DdsConfigErrc code, std::string message) {
+DdsConfigResult fail(plugin::Error e) {
   DdsConfigResult r;
-  r.error = make_error_code(code);
-  r.message = "config: " + std::move(message);
+  r.error = plugin::Error(e.code, "config: " + e.to_string());
   return r;
 }
 
-DdsConfigResult fail(std::error_code ec, std::string message) {
-  DdsConfigResult r;
-  r.error = ec;
-  r.message = "config: " + std::move(message);
-  return r;
-}
+DdsConfigResult fail(DdsConfigErrc code, std::string message) { return fail(plugin::Error(code, std::move(message))); }
 
 // One key of [security]: a non-empty absolute path. Absolute because the
 // plugin is given its table, not the configuration file's folder.
-std::error_code read_path(std::string_view key, const toml::node& node, std::string& out, std::string& message) {
+plugin::Error read_path(std::string_view key, const toml::node& node, std::string& out) {
   const auto* v = node.as_string();
-  if (v == nullptr) {
-    message = "'security." + std::string(key) + "' must be a string (a file path)";
-    return make_error_code(DdsConfigErrc::kWrongType);
-  }
+  if (v == nullptr)
+    return {DdsConfigErrc::kWrongType, "'security." + std::string(key) + "' must be a string (a file path)"};
   if (v->get().empty() || v->get().front() != '/') {
-    message = "'security." + std::string(key) + "' must be an absolute path, not \"" + v->get() + "\"";
-    return make_error_code(DdsConfigErrc::kOutOfRange);
+    return {DdsConfigErrc::kOutOfRange,
+            "'security." + std::string(key) + "' must be an absolute path, not \"" + v->get() + "\""};
   }
   out = v->get();
   return {};
@@ -71,7 +47,6 @@ DdsConfigResult parse_security(const toml::node& node, DdsConfigResult r) {
   const auto* table = node.as_table();
   if (table == nullptr) return fail(DdsConfigErrc::kWrongType, "'security' must be a table ([outputs.dds.security])");
   DdsSecurity s;
-  std::string message;
   for (const auto& [key, value] : *table) {
     const std::string_view k = key.str();
     std::string* target = k == "plugin_dir" ? &s.plugin_dir : nullptr;
@@ -82,7 +57,7 @@ DdsConfigResult parse_security(const toml::node& node, DdsConfigResult r) {
                                                   "' (expected identity_ca, identity_certificate, private_key, "
                                                   "permissions_ca, governance, permissions, plugin_dir)");
     }
-    if (const std::error_code ec = read_path(k, value, *target, message)) return fail(ec, message);
+    if (plugin::Error e = read_path(k, value, *target)) return fail(std::move(e));
   }
   std::string missing;
   for (const SecurityFileKey& f : kSecurityFileKeys)
@@ -91,19 +66,12 @@ DdsConfigResult parse_security(const toml::node& node, DdsConfigResult r) {
     return fail(DdsConfigErrc::kMissingKey, "DDS Security needs all six files, missing " + missing +
                                                 " (leave out [outputs.dds.security] for an open DDS)");
   }
-  if (const std::error_code ec = check_security(s, message)) return fail(ec, message);
+  if (plugin::Error e = check_security(s)) return fail(std::move(e));
   r.config.security = std::move(s);
   return r;
 }
 
 }  // namespace
-
-const std::error_category& dds_config_category() noexcept {
-  static const ConfigCategory category;
-  return category;
-}
-
-std::error_code make_error_code(DdsConfigErrc e) noexcept { return {static_cast<int>(e), dds_config_category()}; }
 
 std::string_view to_string(Reliability r) noexcept {
   return r == Reliability::kReliable ? "reliable" : "best-effort";

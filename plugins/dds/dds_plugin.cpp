@@ -320,19 +320,19 @@ using plugin::copy_error;
 int dds_start(void* self) {
   auto* inst = static_cast<Instance*>(self);
   try {
-    std::string message, note;
-    if (const std::error_code ec = inst->publisher->start(message, note)) {
-      inst->log(COBRIDGE_LOG_ERROR, message);
+    std::string note;
+    if (const plugin::Error e = inst->publisher->start(note)) {
+      inst->log(COBRIDGE_LOG_ERROR, e.to_string());
       return -1;
     }
     if (!note.empty()) inst->log(COBRIDGE_LOG_WARN, note);
     const DdsConfig& cfg = inst->publisher->config();
     inst->presence = std::make_unique<GatewayPresence>(inst->publisher->gateway(), cfg.topic_prefix, cfg.partition,
                                                        DDS_MSECS(cfg.liveliness_lease_ms));
-    if (const std::error_code pec = inst->presence->start(inst->publisher->participant(), message)) {
-      if (cfg.security && pec.category() == dds_category())
-        message += security_failure_hint(-pec.value(), *cfg.security);
-      inst->log(COBRIDGE_LOG_ERROR, message);
+    if (plugin::Error e = inst->presence->start(inst->publisher->participant())) {
+      if (cfg.security && e.code.category() == dds_category())
+        e.message += security_failure_hint(-e.code.value(), *cfg.security);
+      inst->log(COBRIDGE_LOG_ERROR, e.to_string());
       inst->presence.reset();
       inst->publisher->stop();
       return -1;
@@ -512,7 +512,7 @@ extern "C" COBRIDGE_PLUGIN_EXPORT int cobridge_plugin_create(const cobridge_host
     DdsConfigResult parsed =
         parse_dds_config(std::string_view(config_toml != nullptr ? config_toml : "", config_toml ? config_len : 0));
     if (!parsed.ok()) {
-      copy_error(err, err_len, parsed.message);
+      copy_error(err, err_len, parsed.error.message);
       return -1;
     }
     const char* gateway_id = host->gateway_id != nullptr ? host->gateway_id : "";

@@ -44,7 +44,7 @@ DdsPublisher::DdsPublisher(DdsConfig config, std::string gateway_id)
 
 DdsPublisher::~DdsPublisher() { stop(); }
 
-std::error_code DdsPublisher::start(std::string& message, std::string& note) {
+plugin::Error DdsPublisher::start(std::string& note) {
   if (started()) return {};
   const auto domain = static_cast<dds_domainid_t>(config_.domain);
   if (config_.write_batch) {
@@ -62,23 +62,22 @@ std::error_code DdsPublisher::start(std::string& message, std::string& note) {
       note = "domain " + std::to_string(config_.domain) +
              " already exists in this process: write_batch follows that domain's configuration";
     } else {
-      message = "cannot create DDS domain " + std::to_string(config_.domain) + ": " + dds_strretcode(d) +
-                " (check CYCLONEDDS_URI)";
-      return make_dds_error(d);
+      return {make_dds_error(d), "cannot create DDS domain " + std::to_string(config_.domain) + ": " +
+                                     dds_strretcode(d) + " (check CYCLONEDDS_URI)"};
     }
   }
-  if (const std::error_code ec = create_participant(domain, message)) {
+  if (plugin::Error e = create_participant(domain)) {
     stop();
-    return ec;
+    return e;
   }
   // Writers under a publisher of the configured partition.
   publisher_ = dds_create_publisher(participant_, partition_qos(config_.partition).get(), nullptr);
   if (publisher_ < 0) {
     const dds_return_t rc = publisher_;
     publisher_ = 0;
-    message = "cannot create a DDS publisher for partition '" + config_.partition + "': " + dds_strretcode(rc);
     stop();
-    return make_dds_error(rc);
+    return {make_dds_error(rc),
+            "cannot create a DDS publisher for partition '" + config_.partition + "': " + dds_strretcode(rc)};
   }
   struct Spec {
     std::string_view topic;
@@ -99,15 +98,15 @@ std::error_code DdsPublisher::start(std::string& message, std::string& note) {
     const std::string name = topic_name(config_.topic_prefix, spec.topic);
     const dds_entity_t topic = dds_create_topic(participant_, spec.type, name.c_str(), nullptr, nullptr);
     if (topic < 0) {
-      message = "cannot create topic '" + name + "': " + dds_strretcode(topic) + security_hint(topic);
       stop();
-      return make_dds_error(topic);
+      return {make_dds_error(topic),
+              "cannot create topic '" + name + "': " + dds_strretcode(topic) + security_hint(topic)};
     }
     const dds_entity_t writer = dds_create_writer(publisher_, topic, spec.qos.get(), nullptr);
     if (writer < 0) {
-      message = "cannot create a writer for '" + name + "': " + dds_strretcode(writer) + security_hint(writer);
       stop();
-      return make_dds_error(writer);
+      return {make_dds_error(writer),
+              "cannot create a writer for '" + name + "': " + dds_strretcode(writer) + security_hint(writer)};
     }
     *spec.writer = writer;
   }
@@ -119,16 +118,16 @@ std::error_code DdsPublisher::start(std::string& message, std::string& note) {
   return {};
 }
 
-std::error_code DdsPublisher::create_participant(dds_domainid_t domain, std::string& message) {
+plugin::Error DdsPublisher::create_participant(dds_domainid_t domain) {
   // A secured participant joining a domain that another participant of this
   // process made without security crashed Cyclone 0.10.2 (SIGSEGV in its
   // "gc" thread, seen in the unit tests); the other order it refuses. So a
   // secured output wants its domain to itself in this process.
   if (config_.security && dds_lookup_participant(domain, nullptr, 0) > 0) {
-    message = "DDS Security: domain " + std::to_string(config_.domain) +
-              " already has a participant in this process (another DDS output?); a secured output needs a domain "
-              "of its own here";
-    return make_dds_error(DDS_RETCODE_PRECONDITION_NOT_MET);
+    return {make_dds_error(DDS_RETCODE_PRECONDITION_NOT_MET),
+            "DDS Security: domain " + std::to_string(config_.domain) +
+                " already has a participant in this process (another DDS output?); a secured output needs a domain "
+                "of its own here"};
   }
   // DDS Security is a property of the participant: every entity below
   // inherits its identity and permissions (OMG DDS Security 1.1, 8.8.1).
@@ -136,10 +135,9 @@ std::error_code DdsPublisher::create_participant(dds_domainid_t domain, std::str
   if (config_.security) set_security_properties(qos.get(), *config_.security);
   const dds_entity_t pp = dds_create_participant(domain, qos.get(), nullptr);
   if (pp < 0) {
-    message = "cannot create a DDS participant in domain " + std::to_string(config_.domain) + ": " +
-              dds_strretcode(pp) +
-              (config_.security ? security_failure_hint(pp, *config_.security) : " (check CYCLONEDDS_URI)");
-    return make_dds_error(pp);
+    return {make_dds_error(pp),
+            "cannot create a DDS participant in domain " + std::to_string(config_.domain) + ": " + dds_strretcode(pp) +
+                (config_.security ? security_failure_hint(pp, *config_.security) : " (check CYCLONEDDS_URI)")};
   }
   participant_ = pp;
   return {};

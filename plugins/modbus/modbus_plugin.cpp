@@ -69,9 +69,8 @@ int modbus_start(void* self) {
     p->image->set_start(monotonic_ns());
     p->server = std::make_unique<TcpServer>(
         p->config, *p->image, [p](int level, const std::string& m) { p->log(level, m); }, p->commands.get());
-    std::string message;
-    if (const std::error_code ec = p->server->start(message)) {
-      p->log(COBRIDGE_LOG_ERROR, "cannot start the Modbus server: " + message);
+    if (const plugin::Error e = p->server->start()) {
+      p->log(COBRIDGE_LOG_ERROR, "cannot start the Modbus server: " + e.to_string());
       p->server.reset();
       return -1;
     }
@@ -174,9 +173,9 @@ extern "C" COBRIDGE_PLUGIN_EXPORT int cobridge_plugin_create(const cobridge_host
   try {
     auto p = std::make_unique<Plugin>();
     p->host = host;
-    const ConfigResult r = parse_config(
+    const cobridge::plugin::Error r = parse_config(
         std::string_view(config_toml != nullptr ? config_toml : "", config_toml != nullptr ? config_len : 0), p->config);
-    if (!r) {
+    if (r) {
       copy_error(err, err_len, r.message);
       return -1;
     }

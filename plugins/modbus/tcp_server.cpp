@@ -72,7 +72,7 @@ std::string TcpServer::endpoint() const {
   return (v6 ? "[" + config_.bind + "]" : config_.bind) + ":" + std::to_string(bound_port_);
 }
 
-std::error_code TcpServer::start(std::string& message) {
+plugin::Error TcpServer::start() {
   sockaddr_storage ss{};
   socklen_t len = 0;
   int family = AF_INET;
@@ -91,15 +91,16 @@ std::error_code TcpServer::start(std::string& message) {
       std::memcpy(&ss, &in6, sizeof in6);
       len = sizeof in6;
     } else {
-      message = "bind address '" + config_.bind + "' is not an IP address";
-      return std::make_error_code(std::errc::invalid_argument);
+      return {std::make_error_code(std::errc::invalid_argument),
+              "bind address '" + config_.bind + "' is not an IP address"};
     }
   }
   const auto fail = [&](const char* what) {
     const int e = errno;
-    message = std::string(what) + " " + config_.bind + ":" + std::to_string(config_.port) + ": " + std::strerror(e);
     stop();
-    return std::error_code(e, std::system_category());
+    return plugin::Error(std::error_code(e, std::system_category()),
+                         std::string(what) + " " + config_.bind + ":" + std::to_string(config_.port) + ": " +
+                             std::strerror(e));
   };
   listen_fd_ = ::socket(family, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
   if (listen_fd_ < 0) return fail("socket");
@@ -134,10 +135,8 @@ std::error_code TcpServer::start(std::string& message) {
   try {
     thread_ = std::thread([this] { run(); });
   } catch (const std::system_error& e) {
-    message = std::string("cannot start the server thread: ") + e.what();
-    const std::error_code code = e.code();
     stop();
-    return code;
+    return {e.code(), std::string("cannot start the server thread: ") + e.what()};
   }
   return {};
 }
