@@ -29,9 +29,9 @@ Daemon::Daemon(DaemonOptions options) : options_(std::move(options)) {}
 Daemon::~Daemon() = default;
 
 Error Daemon::start() {
-  if (signals_.error()) {
-    std::fprintf(stderr, "cobridged: signals: %s\n", signals_.error().message().c_str());
-    return Error(Errc::kFailed, "signals: " + signals_.error().message(), {}, signals_.error());
+  if (const Error& e = signals_.error()) {
+    std::fprintf(stderr, "cobridged: %s\n", e.to_string().c_str());
+    return e;
   }
   if (Error e = load_configuration()) return e;
   auto log = sys::logger("gateway");

@@ -49,11 +49,11 @@ std::optional<std::pair<Error, DaemonAnswer>> via_daemon(const std::string& cont
   }
   DaemonAnswer a;
   a.line = *answer;
-  std::string perr;
-  auto doc = JsonParser(*answer).parse(perr);
-  if (!doc || doc->type != Json::Type::object)
-    return std::pair{Error(Errc::kInternal, "the daemon's answer is not a JSON object: " + perr, path), a};
-  a.doc = std::move(*doc);
+  auto doc = JsonParser(*answer).parse();
+  if (!doc.ok() || doc->type != Json::Type::object)
+    return std::pair{
+        Error(Errc::kInternal, "the daemon's answer is not a JSON object: " + doc.error().message, path), a};
+  a.doc = std::move(doc).value();
   if (a.doc["ok"].type == Json::Type::boolean && a.doc["ok"].boolean) return std::pair{Error{}, std::move(a)};
   Error e = error_of_answer(a.doc);
   // A daemon that serves other buses does not own this one.

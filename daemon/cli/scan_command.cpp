@@ -94,9 +94,8 @@ std::optional<int> scan_via_daemon(const ScanOptions& o) {
   // A daemon this user may not ask could own the bus: no second master's probe.
   if (!answer && failure.kind == Errc::kPermissionDenied) return report_failure("scan", failure, o.json);
   if (!answer) return std::nullopt;
-  std::string error;
-  const auto doc = JsonParser(*answer).parse(error);
-  if (!doc) return std::nullopt;
+  const auto doc = JsonParser(*answer).parse();
+  if (!doc.ok()) return std::nullopt;
   for (const auto& b : (*doc)["buses"].items) {
     if (b["interface"].str("") != o.iface) continue;
     if (o.assign_from)

@@ -56,6 +56,13 @@ bool valid_interface_name(const std::string& s) {
 
 }  // namespace
 
+int CommandLineResult::exit_code() const noexcept {
+  if (error) return cobridge::exit_code(error.kind);
+  return help.empty() ? -1 : 0;
+}
+
+std::string CommandLineResult::output() const { return error ? "cobridge-sim: " + error.to_string() : help; }
+
 CommandLineResult parse_command_line(int argc, const char* const* argv, ModelLookup lookup,
                                      std::span<const ModelInfo> models,
                                      const std::filesystem::path& installed_devices_dir,
@@ -97,18 +104,15 @@ CommandLineResult parse_command_line(int argc, const char* const* argv, ModelLoo
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp&) {
-    result.exit_code = 0;
-    result.output = app.help();
+    result.help = app.help();
     return result;
   } catch (const CLI::ParseError& e) {
-    result.exit_code = 2;
-    result.output = std::string("cobridge-sim: ") + e.what() + "\nRun with --help for more information.";
+    result.error = Error(Errc::kInvalidArgument, std::string(e.what()) + "\nRun with --help for more information.");
     return result;
   }
 
   auto error = [&](std::string message) {
-    result.exit_code = 2;
-    result.output = "cobridge-sim: " + std::move(message);
+    result.error = Error(Errc::kInvalidArgument, std::move(message));
     return result;
   };
 
@@ -132,8 +136,11 @@ CommandLineResult parse_command_line(int argc, const char* const* argv, ModelLoo
       if (result.options.buses.empty())
         return error("--device '" + text + "' comes before any --iface (a device belongs to the --iface before it)");
       auto r = parse_device_argument(text, lookup);
-      if (!r.device) return error(r.error);
-      parsed.push_back(*r.device);
+      if (!r.ok()) {
+        result.error = r.error();
+        return result;
+      }
+      parsed.push_back(r.value());
       bus_of.push_back(result.options.buses.size() - 1);
     }
   }
