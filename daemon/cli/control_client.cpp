@@ -10,15 +10,10 @@
 
 namespace cobridge::cli {
 
-std::optional<std::string> request(const std::string& path, const std::string& line, int timeout_ms,
-                                   Error& failure, bool* no_daemon) {
-  failure = {};
+Result<std::string> request(const std::string& path, const std::string& line, int timeout_ms, bool* no_daemon) {
   std::string error;
   Errc kind = Errc::kUnavailable;
-  const auto failed = [&]() -> std::optional<std::string> {
-    failure = Error(kind, error);
-    return std::nullopt;
-  };
+  const auto failed = [&]() -> Result<std::string> { return Error(kind, error); };
   if (no_daemon != nullptr) *no_daemon = false;
   sockaddr_un addr{};
   addr.sun_family = AF_UNIX;

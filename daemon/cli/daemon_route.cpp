@@ -40,9 +40,10 @@ std::optional<std::pair<Error, DaemonAnswer>> via_daemon(const std::string& cont
   const std::string path = control_for(control, iface, owned, error);
   if (error) return std::pair{std::move(error), DaemonAnswer{}};
   bool no_daemon = false;
-  const auto answer = request(path, line, timeout_ms, error, &no_daemon);
-  if (!answer) {
+  const Result<std::string> answer = request(path, line, timeout_ms, &no_daemon);
+  if (!answer.ok()) {
     if (no_daemon && !owned) return std::nullopt;
+    error = answer.error();
     if (owned) error.message = "cobridged serves " + iface + " (its control socket " + path + "): " + error.message;
     error.where = path;
     return std::pair{std::move(error), DaemonAnswer{}};

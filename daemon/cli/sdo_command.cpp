@@ -156,9 +156,10 @@ int sdo_read(const SdoOptions& o) {
     print_read(o, index, sub, data, routed->second.line.c_str());
     return 0;
   }
+  auto opened = BusSession::open(o.iface);
+  if (!opened.ok()) return report_failure("sdo", opened.error(), o.json);
+  const std::unique_ptr<BusSession> bus = std::move(opened).value();
   Error err;
-  auto bus = BusSession::open(o.iface, err);
-  if (!bus) return report_failure("sdo", err, o.json);
   canopen::SdoClient client(bus->channel(), static_cast<uint8_t>(o.node),
                             canopen::SdoClient::Config{.timeout = std::chrono::milliseconds(o.timeout_ms)});
   if (auto ec = client.start_upload(index, sub, canopen::Clock::now()))
@@ -188,9 +189,10 @@ int sdo_write(const SdoOptions& o) {
     if (o.json) std::printf("%s\n", routed->second.line.c_str());
     return 0;
   }
+  auto opened = BusSession::open(o.iface);
+  if (!opened.ok()) return report_failure("sdo", opened.error(), o.json);
+  const std::unique_ptr<BusSession> bus = std::move(opened).value();
   Error err;
-  auto bus = BusSession::open(o.iface, err);
-  if (!bus) return report_failure("sdo", err, o.json);
   canopen::SdoClient client(bus->channel(), static_cast<uint8_t>(o.node),
                             canopen::SdoClient::Config{.timeout = std::chrono::milliseconds(o.timeout_ms)});
   if (auto ec = client.start_download(index, sub, data, canopen::Clock::now()))

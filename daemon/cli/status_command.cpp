@@ -109,9 +109,8 @@ void print_table(const Json& doc) {
 }  // namespace
 
 int status(const StatusOptions& o) {
-  Error failure;
-  const auto answer = request(o.control, "status", o.timeout_ms, failure);
-  if (!answer) return report_failure("status", failure, o.json);
+  const Result<std::string> answer = request(o.control, "status", o.timeout_ms);
+  if (!answer.ok()) return report_failure("status", answer.error(), o.json);
   const auto doc = JsonParser(*answer).parse();
   if (!doc.ok() || doc->type != Json::Type::object) {
     return report_failure("status", Error(Errc::kInternal, std::string("the daemon's answer is not a JSON object: ") +
@@ -128,9 +127,8 @@ int status(const StatusOptions& o) {
 
 int commission(const CommissionOptions& o) {
   const std::string line = o.bus.empty() ? "commission" : "commission " + o.bus;
-  Error failure;
-  const auto answer = request(o.control, line, o.timeout_ms, failure);
-  if (!answer) return report_failure("commission", failure, o.json);
+  const Result<std::string> answer = request(o.control, line, o.timeout_ms);
+  if (!answer.ok()) return report_failure("commission", answer.error(), o.json);
   const auto doc = JsonParser(*answer).parse();
   if (!doc.ok() || doc->type != Json::Type::object) {
     return report_failure("commission", Error(Errc::kInternal, std::string("the daemon's answer is not a JSON object: ") +
