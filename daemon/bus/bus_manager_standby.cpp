@@ -123,7 +123,7 @@ void BusManager::Impl::remember_followed(const Managed& m, const std::string& fi
   a.revision = m.st.identity.revision;
   a.node_id = m.st.node_id;
   a.fingerprint = fingerprint;
-  if (const auto ec = state.put(a)) log->error("bus {}: state file: {}", bus.name, ec.message());
+  if (const Error err = state.put(a)) log->error("bus {}: state file {}", bus.name, err.to_string());
 }
 
 // The description from the identity heard or configured (vendor and
