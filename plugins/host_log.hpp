@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cobridge/plugin.h>
+#include <cobridge/plugin_error.hpp>
 
 #include <cstddef>
 #include <cstring>
@@ -35,8 +36,8 @@ inline void copy_error(char* err, std::size_t err_len, const std::string& msg) n
 // The frame of a plugin's cobridge_plugin_create: checks the arguments,
 // hands `make(config, error)` the configuration text and keeps exceptions
 // from unwinding into the host. `make` returns the new instance, or nullptr
-// with `error` set. Returns 0 with *ops_out and *self_out set, else -1 with
-// the message in `err`.
+// with `error` (a plugin::Error) set. Returns 0 with *ops_out and *self_out
+// set, else -1 with the error's message in `err`.
 template <typename Make>
 int create_plugin(const char* name, const cobridge_plugin_ops* ops, const cobridge_host_api* host,
                   const char* config_toml, std::size_t config_len, const cobridge_plugin_ops** ops_out,
@@ -47,10 +48,10 @@ int create_plugin(const char* name, const cobridge_plugin_ops* ops, const cobrid
   }
   try {
     const std::string_view config(config_toml != nullptr ? config_toml : "", config_toml != nullptr ? config_len : 0);
-    std::string error;
+    Error error;
     void* self = make(config, error);
     if (self == nullptr) {
-      copy_error(err, err_len, error);
+      copy_error(err, err_len, error ? error.message : std::string(name) + ": create failed");
       return -1;
     }
     *ops_out = ops;

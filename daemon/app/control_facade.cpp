@@ -43,22 +43,22 @@ gateway::StatusReport ControlFacade::status() {
   return r;
 }
 
-gateway::ControlResult ControlFacade::commission(std::string_view bus) {
+Result<std::vector<std::string>> ControlFacade::commission(std::string_view bus) {
   const std::lock_guard lock(mutex_);
-  gateway::ControlResult r;
+  std::vector<std::string> acted_on;
   for (std::size_t i = 0; i < buses_.size(); ++i) {
     const auto& name = config_->buses[i].name;
     if (!bus.empty() && name != bus) continue;
     buses_[i].request_commission();
-    r.buses.push_back(name);
+    acted_on.push_back(name);
   }
-  if (r.buses.empty()) {
+  if (acted_on.empty()) {
     std::string names;
     for (const auto& b : config_->buses) names += (names.empty() ? "" : ", ") + b.name;
-    return {false, "unknown bus \"" + std::string(bus) + "\" (buses: " + names + ")", {}};
+    return Error(Errc::kNotFound, "unknown bus \"" + std::string(bus) + "\" (buses: " + names + ")");
   }
   sys::logger("gateway")->info("control socket: commissioning requested on {}", bus.empty() ? "every bus" : bus);
-  return r;
+  return acted_on;
 }
 
 }  // namespace cobridge::app

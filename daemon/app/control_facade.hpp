@@ -31,7 +31,7 @@ class ControlFacade final : public gateway::ControlHandler {
   void set_ready();
 
   gateway::StatusReport status() override;
-  gateway::ControlResult commission(std::string_view bus) override;
+  Result<std::vector<std::string>> commission(std::string_view bus) override;
 
  private:
   const config::Config* config_;

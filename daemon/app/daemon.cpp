@@ -3,6 +3,7 @@
 #include "app/log_settings.hpp"
 #include "app/reload_rules.hpp"
 #include "app/validation.hpp"
+#include "sys/journal_sink.hpp"
 #include "sys/logging.hpp"
 
 #include <poll.h>
@@ -22,6 +23,25 @@ using std::chrono::milliseconds;
 
 const char* plural(std::size_t n, const char* many = "s") { return n == 1 ? "" : many; }
 
+// A failure that stops the start, reported once wherever it is read: on
+// stderr for an operator in a terminal (in the form --check-config prints),
+// in the log (journal priority "err") under systemd, where stderr is the
+// journal too; in both only when the log goes elsewhere than stderr (a
+// journal target chosen in a terminal).
+class FatalReport {
+ public:
+  FatalReport()
+      : print_(!sys::stderr_is_journal()), log_(!print_ || !sys::log_reaches_stderr()) {}
+  void line(const std::string& logged, const std::string& printed) const {
+    if (log_) sys::logger("gateway")->error("{}", logged);
+    if (print_) std::fprintf(stderr, "%s\n", printed.c_str());
+  }
+
+ private:
+  bool print_;
+  bool log_;
+};
+
 }  // namespace
 
 Daemon::Daemon(DaemonOptions options) : options_(std::move(options)) {}
@@ -29,9 +49,9 @@ Daemon::Daemon(DaemonOptions options) : options_(std::move(options)) {}
 Daemon::~Daemon() = default;
 
 Error Daemon::start() {
-  if (signals_.error()) {
-    std::fprintf(stderr, "cobridged: signals: %s\n", signals_.error().message().c_str());
-    return Error(Errc::kFailed, "signals: " + signals_.error().message(), {}, signals_.error());
+  if (const Error& e = signals_.error()) {
+    std::fprintf(stderr, "cobridged: %s\n", e.to_string().c_str());
+    return e;
   }
   if (Error e = load_configuration()) return e;
   auto log = sys::logger("gateway");
@@ -49,7 +69,7 @@ Error Daemon::start() {
   control_options.remote = &registry_;
   control_.emplace(*facade_, control_options);
   if (const Error e = control_->open(cfg_->gateway.control_socket)) {
-    log->error("control socket: {}", e.to_string());
+    FatalReport().line("control socket: " + e.to_string(), "cobridged: control socket: " + e.to_string());
     return Error(Errc::kFailed, "control socket: " + e.message, e.where, e.code);
   }
   open_beacons();
@@ -62,7 +82,7 @@ Error Daemon::start() {
   const Error bus_error = buses_.start();
   std::vector<Error> plugin_problems = plugins.get();
   if (bus_error) {
-    log->error("{}", bus_error.to_string());
+    FatalReport().line(bus_error.to_string(), "cobridged: " + bus_error.to_string());
     return Error(Errc::kFailed, bus_error.message, bus_error.where, bus_error.code);
   }
   if (Error e = output_problems(std::move(plugin_problems), "the buses were stopped again")) {
@@ -130,15 +150,15 @@ void Daemon::retry_beacons(Clock::time_point now) {
   }
 }
 
-// A problem of the outputs is fatal: logged, and printed for an operator
-// starting the daemon by hand, with what became of the buses (`aftermath`).
+// A problem of the outputs is fatal: reported once, with what became of the
+// buses (`aftermath`).
 Error Daemon::output_problems(std::vector<Error> problems, const char* aftermath) {
   if (problems.empty()) return {};
-  auto log = sys::logger("gateway");
-  for (const auto& p : problems) log->error("outputs: {}", p.to_string());
-  for (const auto& p : problems) std::fprintf(stderr, "%s\n", p.to_string().c_str());
-  std::fprintf(stderr, "cobridged: %s: %zu output problem%s; %s\n", options_.config_file.c_str(), problems.size(),
-               plural(problems.size()), aftermath);
+  const FatalReport report;
+  for (const auto& p : problems) report.line("outputs: " + p.to_string(), p.to_string());
+  const std::string summary = options_.config_file.string() + ": " + std::to_string(problems.size()) +
+                              " output problem" + plural(problems.size()) + "; " + aftermath;
+  report.line(summary, "cobridged: " + summary);
   return Error(Errc::kFailed, std::to_string(problems.size()) + " output problem" + plural(problems.size()),
                options_.config_file.string());
 }
@@ -159,8 +179,7 @@ Error Daemon::start_web() {
   web_.emplace([this] { return facade_->status(); });
   if (!cfg_->web || !cfg_->web->enabled) return {};
   if (const Error e = web_->start(*cfg_->web)) {
-    sys::logger("gateway")->error("web: {}", e.to_string());
-    std::fprintf(stderr, "cobridged: web: %s\n", e.to_string().c_str());
+    FatalReport().line("web: " + e.to_string(), "cobridged: web: " + e.to_string());
     buses_.stop();
     outputs_->stop();
     return Error(Errc::kFailed, "web: " + e.message, e.where, e.code);

@@ -87,8 +87,8 @@ bool BusManager::Impl::begin_configuration(Managed& m, TimePoint now) {
   m.configure_started = now;
   ++m.attempts;
   set_state(m, DeviceState::configuring);
-  if (const auto ec = m.runner->start(now)) {
-    log->error("bus {}: device {}: plan not started: {}", bus.name, m.st.name, ec.message());
+  if (const Error e = m.runner->start(now)) {
+    log->error("bus {}: device {}: plan not started: {}", bus.name, m.st.name, e.message);
     m.runner.reset();
     m.want_configure = true;
     m.not_before = now + kConfigureRetryDelay;
@@ -133,8 +133,8 @@ void BusManager::Impl::finish_configuration(Managed& m, TimePoint now) {
   t.device = m.st.name;
   t.milliseconds = ms;
   add_step(std::move(t));
-  m.failed_unanswered = !outcome.ok() && (outcome.error == make_error_code(PlanRunErrc::sdo_timeout) ||
-                                          outcome.error == make_error_code(PlanRunErrc::send_failed));
+  m.failed_unanswered = !outcome.ok() && (outcome.error.code == make_error_code(PlanRunErrc::sdo_timeout) ||
+                                          outcome.error.code == make_error_code(PlanRunErrc::send_failed));
   if (!outcome.ok()) {
     configuration_failed(m, outcome, now);
     return;
@@ -163,9 +163,9 @@ void BusManager::Impl::finish_configuration(Managed& m, TimePoint now) {
 // Retries after a short delay, or after a long one once the attempts are
 // used up.
 void BusManager::Impl::configuration_failed(Managed& m, const PlanRunResult& outcome, TimePoint now) {
-  m.st.last_error = outcome.message;
+  m.st.last_error = outcome.error.message;
   log->warn("bus {}: device {}: configuration failed (attempt {}): {}", bus.name, m.st.name, m.attempts,
-            outcome.message);
+            outcome.error.message);
   m.want_configure = true;
   if (m.attempts >= kConfigureAttempts) {
     set_state(m, DeviceState::failed);
@@ -188,7 +188,7 @@ void BusManager::Impl::remember_assignment(const Managed& m, const std::string& 
   a.revision = m.st.identity.revision;
   a.node_id = m.st.node_id;
   a.fingerprint = fingerprint;
-  if (const auto ec = state.put(a)) log->error("bus {}: state file: {}", bus.name, ec.message());
+  if (const Error err = state.put(a)) log->error("bus {}: state file {}", bus.name, err.to_string());
 }
 
 // Started: operational from here, and supervised from now on.
@@ -321,7 +321,7 @@ void BusManager::Impl::start_command(DeviceCommand cmd, TimePoint now) {
             cmd.kind == CommandKind::preset ? " to " + std::to_string(cmd.value) : std::string());
   m->command = std::move(cmd);
   m->runner = make_runner(*m, std::move(*plan.plan), runner_options());
-  if (const auto ec = m->runner->start(now)) drop_runner(*m, ec.message().c_str());
+  if (const Error e = m->runner->start(now)) drop_runner(*m, e.message.c_str());
 }
 
 void BusManager::Impl::finish_command(Managed& m, TimePoint now) {
@@ -331,15 +331,15 @@ void BusManager::Impl::finish_command(Managed& m, TimePoint now) {
   m.command.reset();
   if (cmd.kind == CommandKind::store) m.preop_expected_until = now + kCommandSettle;
   CommandOutcome out;
-  out.message = r.message;
+  out.message = r.error.message;
   if (r.ok()) {
     out.status = CommandStatus::ok;
-  } else if (r.error == make_error_code(PlanRunErrc::sdo_abort)) {
+  } else if (r.error.code == make_error_code(PlanRunErrc::sdo_abort)) {
     out.status = CommandStatus::refused;
     out.abort_code = static_cast<std::uint32_t>(r.sdo_error.value());
-  } else if (r.error == make_error_code(PlanRunErrc::sdo_timeout)) {
+  } else if (r.error.code == make_error_code(PlanRunErrc::sdo_timeout)) {
     out.status = CommandStatus::timeout;
-  } else if (r.error == make_error_code(PlanRunErrc::sdo_busy)) {
+  } else if (r.error.code == make_error_code(PlanRunErrc::sdo_busy)) {
     out.status = CommandStatus::busy;
   } else {
     out.status = CommandStatus::failed;

@@ -96,8 +96,8 @@ void BusManager::Impl::on_discovery_event(const DiscoveryEvent& e, TimePoint now
       break;
     case DiscoveryEventKind::commissioned: {
       log->info("bus {}: {}", bus.name, e.text);
-      if (const auto ec = record_assignment(state, bus.name, e))
-        log->error("bus {}: state file: {}", bus.name, ec.message());
+      if (const Error err = record_assignment(state, bus.name, e))
+        log->error("bus {}: state file {}", bus.name, err.to_string());
       break;
     }
     case DiscoveryEventKind::clash_detected:
@@ -175,8 +175,8 @@ void BusManager::Impl::reconfigure_identified(Managed& m, const DiscoveryEvent& 
   m.st.next_retry = {};  // commissioned (the failures so far stay counted)
   // Remember where it is even before it is configured (a restart then
   // needs no scan); a replacement also drops the replaced device's line.
-  if (const auto ec = record_assignment(state, bus.name, e))
-    log->error("bus {}: state file: {}", bus.name, ec.message());
+  if (const Error err = record_assignment(state, bus.name, e))
+    log->error("bus {}: state file {}", bus.name, err.to_string());
   if (!resolve_description(m)) {
     set_state(m, DeviceState::failed);
     return;

@@ -53,7 +53,8 @@ void BusManager::Impl::on_lss_node_id(const canopen::LssAddress& device, std::ui
   e.node_id = node;
   e.previous_node_id = canopen::cob::kNodeIdUnconfigured;
   e.identity = device;
-  if (const auto ec = record_assignment(state, bus.name, e)) log->error("bus {}: state file: {}", bus.name, ec.message());
+  if (const Error err = record_assignment(state, bus.name, e))
+    log->error("bus {}: state file {}", bus.name, err.to_string());
 }
 
 }  // namespace cobridge::gateway

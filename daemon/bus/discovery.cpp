@@ -417,11 +417,11 @@ void Discovery::set_supervised(std::uint8_t node_id, bool supervised) noexcept {
   }
 }
 
-std::error_code record_assignment(StateStore& store, const std::string& bus, const DiscoveryEvent& e) {
+Error record_assignment(StateStore& store, const std::string& bus, const DiscoveryEvent& e) {
   const bool stores = e.kind == DiscoveryEventKind::commissioned ||
                       (e.kind == DiscoveryEventKind::identified && e.at_target && !e.device.empty());
   if (!stores || !canopen::cob::valid_node_id(e.node_id)) return {};
-  std::error_code first;
+  Error first;
   if (!e.replaces.empty() && e.replaced.serial != 0 && !same_device(e.replaced, e.identity)) {
     // The replaced device's vendor/product may be unknown (0): any line of
     // that serial on this bus that fits what is known.
@@ -429,7 +429,7 @@ std::error_code record_assignment(StateStore& store, const std::string& bus, con
       if (old.serial != e.replaced.serial) continue;
       if (e.replaced.vendor != 0 && old.vendor != e.replaced.vendor) continue;
       if (e.replaced.product != 0 && old.product != e.replaced.product) continue;
-      if (auto ec = store.erase(bus, old.vendor, old.product, old.serial); ec && !first) first = ec;
+      if (Error err = store.erase(bus, old.vendor, old.product, old.serial); err && !first) first = std::move(err);
     }
   }
   Assignment a;
@@ -440,7 +440,7 @@ std::error_code record_assignment(StateStore& store, const std::string& bus, con
   a.revision = e.identity.revision;
   a.node_id = e.node_id;
   if (const auto old = store.find(bus, a.vendor, a.product, a.serial)) a.fingerprint = old->fingerprint;
-  if (auto ec = store.put(a); ec && !first) first = ec;
+  if (Error err = store.put(a); err && !first) first = std::move(err);
   return first;
 }
 

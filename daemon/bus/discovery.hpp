@@ -87,7 +87,7 @@ struct DiscoveryEvent {
 // that neither a restart nor the pool gives the old device's place back to
 // it. Other events change nothing. Returns the first StateStore error.
 // Called by the bus manager on its control thread (file I/O).
-std::error_code record_assignment(StateStore& store, const std::string& bus, const DiscoveryEvent& e);
+Error record_assignment(StateStore& store, const std::string& bus, const DiscoveryEvent& e);
 
 struct DiscoveryOptions {
   // Overrides of the bus's lss_timeout_ms / sdo_timeout_ms (0 = take the config's).

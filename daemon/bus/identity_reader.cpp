@@ -12,8 +12,10 @@ IdentityReader::~IdentityReader() {
   if (running_) sdo_.forget();
 }
 
-std::error_code IdentityReader::start(canopen::TimePoint now) {
-  if (sdo_.busy()) return std::make_error_code(std::errc::device_or_resource_busy);
+Error IdentityReader::start(canopen::TimePoint now) {
+  if (sdo_.busy())
+    return Error(Errc::kUnavailable, "the SDO client is busy", {},
+                 std::make_error_code(std::errc::device_or_resource_busy));
   (void)sdo_.take_result();
   sub_ = 0;
   read_ = {};

@@ -14,6 +14,7 @@
 #include <optional>
 #include <system_error>
 
+#include "base/error.hpp"
 #include "can/frame.hpp"
 #include "canopen/clock.hpp"
 #include "canopen/lss.hpp"
@@ -30,8 +31,9 @@ class IdentityReader {
   IdentityReader(const IdentityReader&) = delete;
   IdentityReader& operator=(const IdentityReader&) = delete;
 
-  // Starts with 0x1018/1; an error (the SDO client is busy) means nothing was sent.
-  std::error_code start(canopen::TimePoint now);
+  // Starts with 0x1018/1; an error (kUnavailable: the SDO client is busy)
+  // means nothing was sent.
+  [[nodiscard]] Error start(canopen::TimePoint now);
   // Feeds a received frame; true when it was the SDO client's.
   bool on_frame(const can::Frame& frame, canopen::TimePoint now) noexcept;
   // Timeouts; returns the next deadline (kNever when finished).

@@ -30,6 +30,18 @@ class PlanRunCategory final : public std::error_category {
   }
 };
 
+// The coarse class of a run's failure, for whoever reports it.
+Errc kind_of(PlanRunErrc code) noexcept {
+  switch (code) {
+    case PlanRunErrc::sdo_timeout: return Errc::kTimeout;
+    case PlanRunErrc::send_failed:
+    case PlanRunErrc::sdo_busy: return Errc::kUnavailable;
+    case PlanRunErrc::sdo_abort:
+    case PlanRunErrc::verify_mismatch: break;
+  }
+  return Errc::kFailed;
+}
+
 std::string hex(std::uint32_t v, int digits = 8) {
   std::array<char, 16> buf{};
   std::snprintf(buf.data(), buf.size(), "0x%0*X", digits, v);
@@ -67,9 +79,12 @@ PlanRunner::~PlanRunner() {
   if (running()) sdo_.forget();
 }
 
-std::error_code PlanRunner::start(canopen::TimePoint now) {
-  if (sdo_.busy()) return PlanRunErrc::sdo_busy;
-  if (std::error_code ec = sdo_.set_node_id(plan_.node_id)) return ec;
+Error PlanRunner::start(canopen::TimePoint now) {
+  if (sdo_.busy())
+    return Error(kind_of(PlanRunErrc::sdo_busy), "the SDO client is busy", "device '" + plan_.device + "'",
+                 make_error_code(PlanRunErrc::sdo_busy));
+  if (std::error_code ec = sdo_.set_node_id(plan_.node_id))
+    return Error(Errc::kInvalidArgument, ec.message(), "device '" + plan_.device + "'", ec);
   (void)sdo_.take_result();  // an old transfer's outcome is not ours
   result_ = PlanRunResult{};
   result_.steps.reserve(plan_.steps.size() + 1);
@@ -463,9 +478,8 @@ void PlanRunner::on_failure(const canopen::SdoClient::Result& r, canopen::TimePo
 }
 
 void PlanRunner::fail(PlanRunErrc code, std::string message, canopen::TimePoint now, std::error_code sdo) {
-  result_.error = code;
+  result_.error = Error(kind_of(code), std::move(message), {}, make_error_code(code));
   result_.sdo_error = sdo;
-  result_.message = std::move(message);
   if (step_ < plan_.steps.size())
     result_.steps.push_back(PlanStepTiming{plan_.steps[step_].label, now - step_started_at_, step_writes_});
   finish(now);

@@ -30,6 +30,7 @@
 #include <system_error>
 #include <vector>
 
+#include "base/error.hpp"
 #include "can/frame.hpp"
 #include "can/frame_sink.hpp"
 #include "canopen/clock.hpp"
@@ -54,10 +55,11 @@ struct PlanStepTiming {
   std::uint32_t writes = 0;
 };
 
+// What a run did, and (error set) why it stopped: error.code is a
+// PlanRunErrc, error.message "device 'lift': cam 1 low: ...".
 struct PlanRunResult {
-  std::error_code error;      // PlanRunErrc; empty on success
+  Error error;                // kOk on success
   std::error_code sdo_error;  // the SDO abort behind sdo_abort / sdo_timeout
-  std::string message;        // "device 'lift': cam 1 low: ..." (empty on success)
   std::uint32_t writes = 0;   // values changed on the device (remap sub-steps included, 'save' not)
   std::uint32_t reads = 0;
   std::uint32_t saves = 0;    // 'save' signatures written
@@ -69,7 +71,7 @@ struct PlanRunResult {
   canopen::Duration duration{};
   std::vector<PlanStepTiming> steps;
 
-  [[nodiscard]] bool ok() const noexcept { return !error; }
+  [[nodiscard]] bool ok() const noexcept { return error.ok(); }
 };
 
 struct PlanRunnerOptions {
@@ -92,8 +94,9 @@ class PlanRunner {
   PlanRunner(const PlanRunner&) = delete;
   PlanRunner& operator=(const PlanRunner&) = delete;
 
-  // Begins the run; an error (sdo_busy) means nothing was sent.
-  std::error_code start(canopen::TimePoint now);
+  // Begins the run; an error (code sdo_busy, or the SDO client's refusal of
+  // the node-ID) means nothing was sent.
+  [[nodiscard]] Error start(canopen::TimePoint now);
   // Feeds a received frame; true when it was the SDO client's.
   bool on_frame(const can::Frame& frame, canopen::TimePoint now) noexcept;
   // Timeouts, retries; returns the next deadline (kNever when finished).

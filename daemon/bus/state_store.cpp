@@ -84,6 +84,9 @@ std::atomic<unsigned> g_temp_counter{0};
 
 std::error_code errno_code() noexcept { return {errno, std::generic_category()}; }
 
+// A line parse_line refuses; load() adds the file and line.
+Error refused(std::string why) { return Error(Errc::kInvalidArgument, std::move(why)); }
+
 // write() all of `data`, retrying on EINTR and short writes.
 bool write_all(int fd, const std::string& data) noexcept {
   std::size_t done = 0;
@@ -139,12 +142,12 @@ std::string_view next_token(std::string_view line, std::size_t& pos) noexcept {
   return token;
 }
 
-// Stores the unescaped value of a known field in `out`.
-bool store_field(unsigned field, std::string_view key, const std::string& value, Assignment& out, std::string& why) {
+// Stores the unescaped value of a known field in `out`, or says why it is
+// refused.
+Error store_field(unsigned field, std::string_view key, const std::string& value, Assignment& out) {
   std::uint64_t wide = 0;
   if ((field & kNumericFields) != 0 && !parse_unsigned(value, 0xFFFFFFFFU, wide)) {
-    why = "'" + std::string(key) + "' wants a number (decimal or 0x hex), got '" + value + "'";
-    return false;
+    return refused("'" + std::string(key) + "' wants a number (decimal or 0x hex), got '" + value + "'");
   }
   const auto number = static_cast<std::uint32_t>(wide);
   switch (field) {
@@ -156,14 +159,13 @@ bool store_field(unsigned field, std::string_view key, const std::string& value,
     case kFieldPrint: out.fingerprint = value; break;
     case kFieldNode:
       if (number > 127) {
-        why = "node-ID " + std::to_string(number) + " outside 0..127";
-        return false;
+        return refused("node-ID " + std::to_string(number) + " outside 0..127");
       }
       out.node_id = static_cast<std::uint8_t>(number);
       break;
     default: break;
   }
-  return true;
+  return {};
 }
 
 bool same_key(const Assignment& a, const std::string& bus, std::uint32_t vendor, std::uint32_t product,
@@ -193,40 +195,35 @@ std::string StateStore::format_line(const Assignment& a) {
   return line;
 }
 
-bool StateStore::parse_line(std::string_view line, Assignment& out, std::string& why) {
-  out = Assignment{};
+Result<Assignment> StateStore::parse_line(std::string_view line) {
+  Assignment out;
   unsigned seen = 0;
   std::size_t pos = 0;
   std::string value;
   for (std::string_view token = next_token(line, pos); !token.empty(); token = next_token(line, pos)) {
     const auto eq = token.find('=');
     if (eq == std::string_view::npos || eq == 0) {
-      why = "expected key=value, got '" + std::string(token) + "'";
-      return false;
+      return refused("expected key=value, got '" + std::string(token) + "'");
     }
     const std::string_view key = token.substr(0, eq);
     if (!unescape(token.substr(eq + 1), value)) {
-      why = "bad %-escape in '" + std::string(token) + "'";
-      return false;
+      return refused("bad %-escape in '" + std::string(token) + "'");
     }
     const unsigned field = field_of(key);
     if (field == 0) continue;  // a newer gateway may add fields; an older one keeps the line
-    if (!store_field(field, key, value, out, why)) return false;
+    if (Error e = store_field(field, key, value, out)) return e;
     if ((seen & field) != 0) {
-      why = "'" + std::string(key) + "' given twice";
-      return false;
+      return refused("'" + std::string(key) + "' given twice");
     }
     seen |= field;
   }
   if ((seen & kRequiredFields) != kRequiredFields) {
-    why = "missing field(s):" + missing_fields(seen);
-    return false;
+    return refused("missing field(s):" + missing_fields(seen));
   }
   if (out.bus.empty()) {
-    why = "empty bus name";
-    return false;
+    return refused("empty bus name");
   }
-  return true;
+  return out;
 }
 
 Error StateStore::load() {
@@ -243,17 +240,17 @@ Error StateStore::load() {
     if (!in) return Error(Errc::kFailed, "cannot be read", path_.string(), make_error_code(StateStoreErrc::read_failed));
     std::string line;
     std::uint32_t number = 0;
-    std::string why;
     while (std::getline(in, line)) {
       ++number;
       if (!line.empty() && line.back() == '\r') line.pop_back();
       const auto first = line.find_first_not_of(" \t");
       if (first == std::string::npos || line[first] == '#') continue;
-      Assignment a;
-      if (!parse_line(line, a, why)) {
-        problems += path_.string() + ":" + std::to_string(number) + ": " + why + " (line skipped)\n";
+      Result<Assignment> parsed = parse_line(line);
+      if (!parsed.ok()) {
+        problems += path_.string() + ":" + std::to_string(number) + ": " + parsed.error().message + " (line skipped)\n";
         continue;
       }
+      Assignment a = std::move(parsed).value();
       // A later line for the same device wins, as put() would have done.
       bool replaced = false;
       for (auto& existing : loaded) {
@@ -296,45 +293,51 @@ std::vector<Assignment> StateStore::on_bus(const std::string& bus) const {
   return out;
 }
 
-std::error_code StateStore::put(const Assignment& a) {
-  if (a.bus.empty() || a.node_id > 127) return make_error_code(StateStoreErrc::invalid_assignment);
+Error StateStore::put(const Assignment& a) {
+  if (a.bus.empty() || a.node_id > 127)
+    return Error(Errc::kInvalidArgument,
+                 "bus '" + a.bus + "' node-ID " + std::to_string(a.node_id) + " is not an assignment", path_.string(),
+                 make_error_code(StateStoreErrc::invalid_assignment));
   const std::lock_guard lock(mutex_);
   for (auto& existing : items_) {
     if (same_key(existing, a.bus, a.vendor, a.product, a.serial)) {
       if (existing == a) return {};
       const Assignment before = existing;
       existing = a;
-      const auto ec = save_locked();
-      if (ec) existing = before;
-      return ec;
+      Error e = save_locked();
+      if (e) existing = before;
+      return e;
     }
   }
   items_.push_back(a);
-  const auto ec = save_locked();
-  if (ec) items_.pop_back();
-  return ec;
+  Error e = save_locked();
+  if (e) items_.pop_back();
+  return e;
 }
 
-std::error_code StateStore::erase(const std::string& bus, std::uint32_t vendor, std::uint32_t product,
-                                  std::uint32_t serial) {
+Error StateStore::erase(const std::string& bus, std::uint32_t vendor, std::uint32_t product, std::uint32_t serial) {
   const std::lock_guard lock(mutex_);
   for (auto it = items_.begin(); it != items_.end(); ++it) {
     if (same_key(*it, bus, vendor, product, serial)) {
       const Assignment before = *it;
       const auto pos = it - items_.begin();
       items_.erase(it);
-      const auto ec = save_locked();
-      if (ec) items_.insert(items_.begin() + pos, before);
-      return ec;
+      Error e = save_locked();
+      if (e) items_.insert(items_.begin() + pos, before);
+      return e;
     }
   }
   return {};
 }
 
-std::error_code StateStore::save_locked() {
+Error StateStore::save_locked() {
+  // What failed, with the errno; where = the file the store writes.
+  const auto failed = [this](const char* what, std::error_code ec) {
+    return Error(Errc::kFailed, std::string(what) + ": " + ec.message(), path_.string(), ec);
+  };
   std::error_code ec;
   std::filesystem::create_directories(dir_, ec);
-  if (ec) return ec;
+  if (ec) return failed("cannot create the directory", ec);
 
   std::string text = "# cobridge node-ID assignments and configuration fingerprints; written by cobridged\n";
   for (const auto& a : items_) {
@@ -347,22 +350,22 @@ std::error_code StateStore::save_locked() {
   const auto temp = dir_ / (std::string(kFileName) + ".tmp." + std::to_string(::getpid()) + "." +
                             std::to_string(g_temp_counter.fetch_add(1)));
   const int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return errno_code();
+  if (fd < 0) return failed("cannot create the temporary file", errno_code());
   if (!write_all(fd, text) || ::fsync(fd) != 0) {
     const auto err = errno_code();
     ::close(fd);
     ::unlink(temp.c_str());
-    return err;
+    return failed("cannot write the temporary file", err);
   }
   if (::close(fd) != 0) {
     const auto err = errno_code();
     ::unlink(temp.c_str());
-    return err;
+    return failed("cannot close the temporary file", err);
   }
   if (::rename(temp.c_str(), path_.c_str()) != 0) {
     const auto err = errno_code();
     ::unlink(temp.c_str());
-    return err;
+    return failed("cannot rename the temporary file", err);
   }
   // The rename itself is only durable once the directory is synced.
   const int dfd = ::open(dir_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);

@@ -15,7 +15,7 @@
 // path.
 #pragma once
 
-#include "base/error.hpp"
+#include "base/result.hpp"
 
 #include <cstdint>
 #include <filesystem>
@@ -65,17 +65,20 @@ class StateStore {
   // Inserts or replaces (same bus + identity) and writes the file. The
   // directory is created if missing. Writing nothing when the entry is
   // unchanged spares the disk on every reconfiguration.
-  std::error_code put(const Assignment& a);
-  std::error_code erase(const std::string& bus, std::uint32_t vendor, std::uint32_t product, std::uint32_t serial);
+  // A failure: kInvalidArgument (code invalid_assignment) for an empty bus
+  // name or a node-ID above 127, else kFailed with the errno; where = the
+  // file. The store is unchanged then.
+  Error put(const Assignment& a);
+  Error erase(const std::string& bus, std::uint32_t vendor, std::uint32_t product, std::uint32_t serial);
   [[nodiscard]] const std::filesystem::path& path() const noexcept { return path_; }
 
   // The text form of one line and its parser, exposed for tests.
   [[nodiscard]] static std::string format_line(const Assignment& a);
-  // Fills `out`; on failure returns false and says why in `why`.
-  [[nodiscard]] static bool parse_line(std::string_view line, Assignment& out, std::string& why);
+  // The assignment of one line, or why it is refused (kInvalidArgument).
+  [[nodiscard]] static Result<Assignment> parse_line(std::string_view line);
 
  private:
-  std::error_code save_locked();
+  Error save_locked();
   std::filesystem::path dir_;
   std::filesystem::path path_;
   mutable std::mutex mutex_;

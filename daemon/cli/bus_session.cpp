@@ -9,16 +9,10 @@ namespace cobridge::cli {
 
 BusSession::BusSession(const std::string& iface) : channel_(can::SocketCanConfig{.interface = iface}) {}
 
-std::unique_ptr<BusSession> BusSession::open(const std::string& iface, Error& error) {
+Result<std::unique_ptr<BusSession>> BusSession::open(const std::string& iface) {
   std::unique_ptr<BusSession> s(new BusSession(iface));
-  if (Error e = s->channel_.open()) {
-    error = std::move(e);
-    return nullptr;
-  }
-  if (!s->channel_.is_open()) {
-    error = Error(Errc::kUnavailable, "interface is down", iface);
-    return nullptr;
-  }
+  if (Error e = s->channel_.open()) return e;
+  if (!s->channel_.is_open()) return Error(Errc::kUnavailable, "interface is down", iface);
   return s;
 }
 

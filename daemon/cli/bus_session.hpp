@@ -8,7 +8,7 @@
 // Thread: one thread (the CLI's main thread).
 #pragma once
 
-#include "base/error.hpp"
+#include "base/result.hpp"
 #include "can/socketcan_channel.hpp"
 #include "canopen/clock.hpp"
 
@@ -23,9 +23,9 @@ using canopen::TimePoint;
 
 class BusSession {
  public:
-  // Opens the interface; on failure returns nullptr and sets `error` (kind
-  // kUnavailable, or kInvalidArgument for an impossible name; where = iface).
-  static std::unique_ptr<BusSession> open(const std::string& iface, Error& error);
+  // Opens the interface, or says why not (kUnavailable, or kInvalidArgument
+  // for an impossible name; where = iface).
+  [[nodiscard]] static Result<std::unique_ptr<BusSession>> open(const std::string& iface);
 
   [[nodiscard]] can::SocketCanChannel& channel() noexcept { return channel_; }
 

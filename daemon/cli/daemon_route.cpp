@@ -40,20 +40,21 @@ std::optional<std::pair<Error, DaemonAnswer>> via_daemon(const std::string& cont
   const std::string path = control_for(control, iface, owned, error);
   if (error) return std::pair{std::move(error), DaemonAnswer{}};
   bool no_daemon = false;
-  const auto answer = request(path, line, timeout_ms, error, &no_daemon);
-  if (!answer) {
+  const Result<std::string> answer = request(path, line, timeout_ms, &no_daemon);
+  if (!answer.ok()) {
     if (no_daemon && !owned) return std::nullopt;
+    error = answer.error();
     if (owned) error.message = "cobridged serves " + iface + " (its control socket " + path + "): " + error.message;
     error.where = path;
     return std::pair{std::move(error), DaemonAnswer{}};
   }
   DaemonAnswer a;
   a.line = *answer;
-  std::string perr;
-  auto doc = JsonParser(*answer).parse(perr);
-  if (!doc || doc->type != Json::Type::object)
-    return std::pair{Error(Errc::kInternal, "the daemon's answer is not a JSON object: " + perr, path), a};
-  a.doc = std::move(*doc);
+  auto doc = JsonParser(*answer).parse();
+  if (!doc.ok() || doc->type != Json::Type::object)
+    return std::pair{
+        Error(Errc::kInternal, "the daemon's answer is not a JSON object: " + doc.error().message, path), a};
+  a.doc = std::move(doc).value();
   if (a.doc["ok"].type == Json::Type::boolean && a.doc["ok"].boolean) return std::pair{Error{}, std::move(a)};
   Error e = error_of_answer(a.doc);
   // A daemon that serves other buses does not own this one.

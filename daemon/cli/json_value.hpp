@@ -4,6 +4,8 @@
 // Thread: the CLI's main thread; plain values.
 #pragma once
 
+#include "base/result.hpp"
+
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -44,17 +46,12 @@ class JsonParser {
  public:
   explicit JsonParser(std::string_view text) : s_(text) {}
 
-  std::optional<Json> parse(std::string& error) {
+  // The document, or (kInvalidArgument) what is wrong and at which byte.
+  Result<Json> parse() {
     Json v;
-    if (!value(v, 0)) {
-      error = error_ + " at byte " + std::to_string(pos_);
-      return std::nullopt;
-    }
+    if (!value(v, 0)) return Error(Errc::kInvalidArgument, error_ + " at byte " + std::to_string(pos_));
     skip_ws();
-    if (pos_ != s_.size()) {
-      error = "trailing characters at byte " + std::to_string(pos_);
-      return std::nullopt;
-    }
+    if (pos_ != s_.size()) return Error(Errc::kInvalidArgument, "trailing characters at byte " + std::to_string(pos_));
     return v;
   }
 

@@ -50,9 +50,9 @@ int lss_set_node_id(const LssSetNodeOptions& o) {
   if (auto routed = via_daemon(o.control, o.iface, line, 10000 + static_cast<int>(o.timeout_ms) * 8 + 5000)) {
     if (routed->first) return report_daemon_failure("lss", *routed, o.json);
   } else {
-    Error error;
-    auto bus = BusSession::open(o.iface, error);
-    if (!bus) return report_failure("lss", error, o.json);
+    auto opened = BusSession::open(o.iface);
+    if (!opened.ok()) return report_failure("lss", opened.error(), o.json);
+    const std::unique_ptr<BusSession> bus = std::move(opened).value();
     canopen::LssMaster m(bus->channel(), canopen::LssMaster::Config{.timeout = std::chrono::milliseconds(o.timeout_ms)});
     const canopen::LssAddress a{o.vendor, o.product, o.revision, o.serial};
     const auto now = [] { return canopen::Clock::now(); };

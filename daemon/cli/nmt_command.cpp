@@ -35,9 +35,9 @@ int nmt_send(const NmtOptions& o) {
     if (o.json) std::printf("%s\n", routed->second.line.c_str());
     return 0;
   }
-  Error error;
-  auto bus = BusSession::open(o.iface, error);
-  if (!bus) return report_failure("nmt", error, o.json);
+  auto opened = BusSession::open(o.iface);
+  if (!opened.ok()) return report_failure("nmt", opened.error(), o.json);
+  const std::unique_ptr<BusSession> bus = std::move(opened).value();
   if (!bus->channel().send(canopen::make_nmt(cmd, static_cast<uint8_t>(node))))
     return report_failure("nmt", Error(Errc::kUnavailable, "could not send the frame", o.iface), o.json);
   if (o.json)

@@ -88,15 +88,15 @@ std::optional<int> scan_via_daemon(const ScanOptions& o) {
   const std::string control = control_for(o.control, o.iface, owned, failure);
   if (failure) return report_failure("scan", failure, o.json);
   bool no_daemon = false;
-  const auto answer = request(control, "status", 3000, failure, &no_daemon);
+  const Result<std::string> answer = request(control, "status", 3000, &no_daemon);
   // The daemon serving this interface could not be asked: no second master's probe.
-  if (!answer && owned) return report_failure("scan", failure, o.json);
+  if (!answer.ok() && owned) return report_failure("scan", answer.error(), o.json);
   // A daemon this user may not ask could own the bus: no second master's probe.
-  if (!answer && failure.kind == Errc::kPermissionDenied) return report_failure("scan", failure, o.json);
-  if (!answer) return std::nullopt;
-  std::string error;
-  const auto doc = JsonParser(*answer).parse(error);
-  if (!doc) return std::nullopt;
+  if (!answer.ok() && answer.error().kind == Errc::kPermissionDenied)
+    return report_failure("scan", answer.error(), o.json);
+  if (!answer.ok()) return std::nullopt;
+  const auto doc = JsonParser(*answer).parse();
+  if (!doc.ok()) return std::nullopt;
   for (const auto& b : (*doc)["buses"].items) {
     if (b["interface"].str("") != o.iface) continue;
     if (o.assign_from)
@@ -296,9 +296,9 @@ void print_table(const std::vector<NodeReport>& rows, const std::string& iface) 
 
 int scan(const ScanOptions& o) {
   if (const auto rc = scan_via_daemon(o)) return *rc;
-  Error error;
-  auto bus = BusSession::open(o.iface, error);
-  if (!bus) return report_failure("scan", error, o.json);
+  auto opened = BusSession::open(o.iface);
+  if (!opened.ok()) return report_failure("scan", opened.error(), o.json);
+  const std::unique_ptr<BusSession> bus = std::move(opened).value();
   device::DeviceCatalog catalog;
   {
     std::string dir = o.devices_dir;

@@ -59,11 +59,9 @@ std::optional<canopen::SdoClient::Result> finish(BusSession& bus, canopen::SdoCl
 }
 
 Error check(const SdoOptions& o, uint16_t& index, uint8_t& sub) {
-  std::string error;
   if (!canopen::cob::valid_node_id(o.node))
     return Error(Errc::kInvalidArgument, "--node " + std::to_string(o.node) + " is not a node-ID (allowed: 1..127)");
-  if (!parse_object(o.object, index, sub, error)) return Error(Errc::kInvalidArgument, error, "object '" + o.object + "'");
-  return {};
+  return parse_object(o.object, index, sub);
 }
 
 std::string object_words(const SdoOptions& o, uint16_t index, uint8_t sub) {
@@ -134,27 +132,23 @@ Error encode_value(const SdoOptions& o, std::vector<uint8_t>& data) {
 
 }  // namespace
 
-bool parse_object(const std::string& text, uint16_t& index, uint8_t& sub, std::string& error) {
+Error parse_object(const std::string& text, uint16_t& index, uint8_t& sub) {
+  const std::string where = "object '" + text + "'";
   const auto colon = text.find(':');
   const std::string idx = text.substr(0, colon);
   char* end = nullptr;
   const unsigned long i = std::strtoul(idx.c_str(), &end, 16);
-  if (idx.empty() || *end != '\0' || i > 0xFFFF) {
-    error = "index must be a hex number 0x0000..0xFFFF";
-    return false;
-  }
+  if (idx.empty() || *end != '\0' || i > 0xFFFF)
+    return Error(Errc::kInvalidArgument, "index must be a hex number 0x0000..0xFFFF", where);
   unsigned long s = 0;
   if (colon != std::string::npos) {
     const std::string sb = text.substr(colon + 1);
     s = std::strtoul(sb.c_str(), &end, 0);
-    if (sb.empty() || *end != '\0' || s > 0xFF) {
-      error = "sub-index must be 0..255";
-      return false;
-    }
+    if (sb.empty() || *end != '\0' || s > 0xFF) return Error(Errc::kInvalidArgument, "sub-index must be 0..255", where);
   }
   index = static_cast<uint16_t>(i);
   sub = static_cast<uint8_t>(s);
-  return true;
+  return {};
 }
 
 int sdo_read(const SdoOptions& o) {
@@ -168,9 +162,10 @@ int sdo_read(const SdoOptions& o) {
     print_read(o, index, sub, data, routed->second.line.c_str());
     return 0;
   }
+  auto opened = BusSession::open(o.iface);
+  if (!opened.ok()) return report_failure("sdo", opened.error(), o.json);
+  const std::unique_ptr<BusSession> bus = std::move(opened).value();
   Error err;
-  auto bus = BusSession::open(o.iface, err);
-  if (!bus) return report_failure("sdo", err, o.json);
   auto client = own_client(*bus, o);
   if (auto ec = client.start_upload(index, sub, canopen::Clock::now()))
     return report_failure("sdo", Error(Errc::kUnavailable, ec.message(), o.iface, ec), o.json);
@@ -199,9 +194,10 @@ int sdo_write(const SdoOptions& o) {
     if (o.json) std::printf("%s\n", routed->second.line.c_str());
     return 0;
   }
+  auto opened = BusSession::open(o.iface);
+  if (!opened.ok()) return report_failure("sdo", opened.error(), o.json);
+  const std::unique_ptr<BusSession> bus = std::move(opened).value();
   Error err;
-  auto bus = BusSession::open(o.iface, err);
-  if (!bus) return report_failure("sdo", err, o.json);
   auto client = own_client(*bus, o);
   if (auto ec = client.start_download(index, sub, data, canopen::Clock::now()))
     return report_failure("sdo", Error(Errc::kUnavailable, ec.message(), o.iface, ec), o.json);

@@ -1,6 +1,8 @@
 // `cobridge sdo read|write`: one SDO transfer to one node on a bus.
 #pragma once
 
+#include "base/error.hpp"
+
 #include <cstdint>
 #include <string>
 
@@ -18,8 +20,9 @@ struct SdoOptions {
   std::string control = "/run/cobridge/control.sock";  // the daemon that may own the bus
 };
 
-// Parses "0xIIII[:SS]" / "IIII:SS" (hex index, sub decimal or 0x-hex).
-bool parse_object(const std::string& text, uint16_t& index, uint8_t& sub, std::string& error);
+// Parses "0xIIII[:SS]" / "IIII:SS" (hex index, sub decimal or 0x-hex); a
+// failure is kInvalidArgument with where "object '<text>'".
+[[nodiscard]] Error parse_object(const std::string& text, uint16_t& index, uint8_t& sub);
 
 // Through the daemon when it owns the bus (daemon_route.hpp), else on the
 // interface directly. Exit codes: exit_code(Errc) (docs/operations.md).

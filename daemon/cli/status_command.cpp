@@ -129,14 +129,12 @@ void print_table(const Json& doc) {
 }  // namespace
 
 int status(const StatusOptions& o) {
-  std::string error;
-  Error failure;
-  const auto answer = request(o.control, "status", o.timeout_ms, failure);
-  if (!answer) return report_failure("status", failure, o.json);
-  const auto doc = JsonParser(*answer).parse(error);
-  if (!doc || doc->type != Json::Type::object) {
+  const Result<std::string> answer = request(o.control, "status", o.timeout_ms);
+  if (!answer.ok()) return report_failure("status", answer.error(), o.json);
+  const auto doc = JsonParser(*answer).parse();
+  if (!doc.ok() || doc->type != Json::Type::object) {
     return report_failure("status", Error(Errc::kInternal, std::string("the daemon's answer is not a JSON object: ") +
-                                                         (doc ? "wrong type" : error)), o.json);
+                                                         (doc.ok() ? "wrong type" : doc.error().message)), o.json);
   }
   if (!(*doc)["error"].is_null()) return report_failure("status", error_of_answer(*doc), o.json);
   if (o.json) {
@@ -148,15 +146,13 @@ int status(const StatusOptions& o) {
 }
 
 int commission(const CommissionOptions& o) {
-  std::string error;
   const std::string line = o.bus.empty() ? "commission" : "commission " + o.bus;
-  Error failure;
-  const auto answer = request(o.control, line, o.timeout_ms, failure);
-  if (!answer) return report_failure("commission", failure, o.json);
-  const auto doc = JsonParser(*answer).parse(error);
-  if (!doc || doc->type != Json::Type::object) {
+  const Result<std::string> answer = request(o.control, line, o.timeout_ms);
+  if (!answer.ok()) return report_failure("commission", answer.error(), o.json);
+  const auto doc = JsonParser(*answer).parse();
+  if (!doc.ok() || doc->type != Json::Type::object) {
     return report_failure("commission", Error(Errc::kInternal, std::string("the daemon's answer is not a JSON object: ") +
-                                                             (doc ? "wrong type" : error)), o.json);
+                                                             (doc.ok() ? "wrong type" : doc.error().message)), o.json);
   }
   const bool ok = (*doc)["error"].is_null();
   if (o.json) {

@@ -267,10 +267,10 @@ std::string ControlServer::commission(const Client& c, const std::string& bus) {
     log->warn("control socket: commission of {} refused to {}: {}", where, caller, refusal);
     return error_answer(Error(Errc::kPermissionDenied, refusal, where));
   }
-  const ControlResult r = handler_.commission(bus);
-  if (!r.ok) return error_answer(Error(Errc::kNotFound, r.message));
+  const Result<std::vector<std::string>> buses = handler_.commission(bus);
+  if (!buses.ok()) return error_answer(buses.error());
   log->info("control socket: commission of {} by {}", where, caller);
-  return commission_answer(r.buses, r.message);
+  return commission_answer(buses.value());
 }
 
 void ControlServer::submit(Client& c, ControlRequest request, TimePoint now) {

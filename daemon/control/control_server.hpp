@@ -47,6 +47,7 @@
 // request waits there, in order, and the command's deadline bounds the wait.
 #pragma once
 
+#include "base/result.hpp"
 #include "canopen/clock.hpp"
 #include "control/control_request.hpp"
 #include "bus/device_status.hpp"
@@ -71,21 +72,15 @@
 
 namespace cobridge::gateway {
 
-// What a control command did: ok, or the reason it was refused.
-struct ControlResult {
-  bool ok = true;
-  std::string message;  // the refusal, or a note for the client
-  std::vector<std::string> buses;  // the buses it acted on
-};
-
 // What the control socket asks of the daemon. Implemented by main over the
 // bus managers, by a fake in the tests.
 class ControlHandler {
  public:
   virtual ~ControlHandler() = default;
   [[nodiscard]] virtual StatusReport status() = 0;
-  // `bus` empty = every bus.
-  virtual ControlResult commission(std::string_view bus) = 0;
+  // `bus` empty = every bus. The buses it acted on, or why it did not act
+  // (kNotFound: no such bus).
+  virtual Result<std::vector<std::string>> commission(std::string_view bus) = 0;
 };
 
 struct ControlServerOptions {

@@ -51,7 +51,7 @@ void OutputBridge::on_device_removed(const DeviceStatus& device) {
 }
 
 pipeline::DecodePlan OutputBridge::make_plan(const DeviceStatus& device, const std::vector<std::uint32_t>& tpdo1,
-                                             const std::vector<std::uint32_t>& tpdo2, std::string* error) const {
+                                             const std::vector<std::uint32_t>& tpdo2, Error* error) const {
   pipeline::DecodePlan plan;
   plan.node_id = device.node_id;
   const auto candidates = catalog_.candidates(device.identity.vendor, device.identity.product);
@@ -72,10 +72,11 @@ pipeline::DecodePlan OutputBridge::make_plan(const DeviceStatus& device, const s
     }
     return out;
   };
-  std::string err;
-  if (!pipeline::build_pdo_decode(mapped(tpdo1), plan.tpdo[0], err) ||
-      !pipeline::build_pdo_decode(mapped(tpdo2), plan.tpdo[1], err)) {
-    if (error) *error = "device '" + device.name + "': " + err;
+  Error err = pipeline::build_pdo_decode(mapped(tpdo1), plan.tpdo[0]);
+  if (!err) err = pipeline::build_pdo_decode(mapped(tpdo2), plan.tpdo[1]);
+  if (err) {
+    err.where = "device '" + device.name + "'";
+    if (error != nullptr) *error = std::move(err);
     return pipeline::DecodePlan{};
   }
   // Engineering units: degrees of the shaft when the measuring units per
@@ -116,10 +117,10 @@ double OutputBridge::units_per_rev(const config::Config& config, const DeviceSta
 
 void OutputBridge::on_device_configured(const DeviceStatus& device, const std::vector<std::uint32_t>& tpdo1_mapping,
                                         const std::vector<std::uint32_t>& tpdo2_mapping) {
-  std::string error;
+  Error error;
   pipeline::DecodePlan plan = make_plan(device, tpdo1_mapping, tpdo2_mapping, &error);
   if (!plan.active) {
-    sys::logger("gateway")->error("{}", error);
+    sys::logger("gateway")->error("{}", error.to_string());
     return;
   }
   const auto index = device_index(device);

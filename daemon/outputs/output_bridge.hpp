@@ -44,9 +44,11 @@ class OutputBridge final : public BusObserver {
   void on_device_removed(const DeviceStatus& device) override;
   void on_role_changed(const BusRole& role) override;
 
-  // The plan that would be published (exposed for tests).
+  // The plan that would be published (exposed for tests); an inactive plan
+  // when the mapping cannot be decoded, `error` (if given) then says why
+  // (where = the device).
   [[nodiscard]] pipeline::DecodePlan make_plan(const DeviceStatus& device, const std::vector<std::uint32_t>& tpdo1,
-                                               const std::vector<std::uint32_t>& tpdo2, std::string* error) const;
+                                               const std::vector<std::uint32_t>& tpdo2, Error* error) const;
   // The gateway-wide device index: the position in the configuration, or
   // one of DeviceIndexPool's for a device the configuration does not name;
   // none when that pool is used up (the device is then not published).

@@ -16,6 +16,9 @@ pipeline::PluginHost::Options host_options(const config::Config& config, std::fi
   o.log = [](pipeline::LogLevel level, std::string_view instance, std::string_view message) {
     sys::logger(instance)->log(static_cast<spdlog::level::level_enum>(level), "{}", message);
   };
+  // Every load or start failure is returned to the caller, which reports it
+  // with the configuration's file:line (the daemon's log, --check-config).
+  o.log_failures = false;
   return o;
 }
 

@@ -67,7 +67,8 @@ class OutputPipeline {
   // Each returns every problem (a plugin that cannot be loaded, created or
   // started, a receiver that cannot open its bus); any problem is fatal:
   // the daemon must not run without an output it was told to feed. After a
-  // failed load() nothing is left loaded.
+  // failed load() nothing is left loaded. Nothing here logs a problem: the
+  // caller reports each one, once.
   [[nodiscard]] std::vector<Error> load();
   [[nodiscard]] std::vector<Error> start_receivers();
   [[nodiscard]] std::vector<Error> start_plugins();

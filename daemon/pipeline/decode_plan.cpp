@@ -18,32 +18,26 @@ Signal signal_of(std::uint16_t index, std::uint8_t sub) noexcept {
   }
 }
 
-bool build_pdo_decode(std::span<const MappedObject> mapping, PdoDecode& out, std::string& error) {
+Error build_pdo_decode(std::span<const MappedObject> mapping, PdoDecode& out) {
   out = PdoDecode{};
   unsigned offset = 0;
-  if (mapping.size() > PdoDecode::kMaxFields) {
-    error = "more than 8 mapped objects";
-    return false;
-  }
+  if (mapping.size() > PdoDecode::kMaxFields) return Error(Errc::kUnsupported, "more than 8 mapped objects");
   for (std::size_t i = 0; i < mapping.size(); ++i) {
     const std::uint32_t e = mapping[i].entry;
     const auto index = static_cast<std::uint16_t>(e >> 16);
     const auto sub = static_cast<std::uint8_t>(e >> 8);
     const auto bits = static_cast<std::uint8_t>(e);
     if (bits == 0 || bits > 32) {
-      error = "entry " + std::to_string(i + 1) + ": length " + std::to_string(bits) + " bits (allowed 1..32)";
-      return false;
+      return Error(Errc::kUnsupported,
+                   "entry " + std::to_string(i + 1) + ": length " + std::to_string(bits) + " bits (allowed 1..32)");
     }
-    if (offset + bits > 64) {
-      error = "mapping longer than 64 bits";
-      return false;
-    }
+    if (offset + bits > 64) return Error(Errc::kUnsupported, "mapping longer than 64 bits");
     out.fields[i] = FieldDecode{static_cast<std::uint8_t>(offset), bits, mapping[i].is_signed, signal_of(index, sub)};
     offset += bits;
   }
   out.count = static_cast<std::uint8_t>(mapping.size());
   out.frame_length = static_cast<std::uint8_t>((offset + 7) / 8);
-  return true;
+  return {};
 }
 
 }  // namespace cobridge::pipeline

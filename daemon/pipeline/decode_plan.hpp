@@ -7,6 +7,8 @@
 // decode without touching shared memory per frame.
 #pragma once
 
+#include "base/error.hpp"
+
 #include <array>
 #include <cstdint>
 #include <span>
@@ -76,9 +78,9 @@ struct MappedObject {
   bool is_signed = false;
 };
 
-// Builds the TPDO part of a plan; returns false and a message when the
+// Builds the TPDO part of a plan (control thread); kUnsupported when the
 // mapping cannot be decoded (more than 8 fields, longer than 64 bits, a field
-// longer than 32 bits).
-bool build_pdo_decode(std::span<const MappedObject> mapping, PdoDecode& out, std::string& error);
+// longer than 32 bits), `out` then decodes nothing.
+[[nodiscard]] Error build_pdo_decode(std::span<const MappedObject> mapping, PdoDecode& out);
 
 }  // namespace cobridge::pipeline

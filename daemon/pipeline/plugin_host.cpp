@@ -78,12 +78,12 @@ Errc plugin_error_kind(PluginErrc e) noexcept {
 // ---------------------------------------------------------------------------
 // SharedLibrary
 
-SharedLibrary SharedLibrary::open(const std::filesystem::path& file, std::string& error) noexcept {
+Result<SharedLibrary> SharedLibrary::open(const std::filesystem::path& file) {
   dlerror();  // clear a stale message so the one read below is ours
   void* handle = dlopen(file.c_str(), RTLD_NOW | RTLD_LOCAL);
   if (handle == nullptr) {
     const char* why = dlerror();
-    error = why != nullptr ? why : "dlopen failed";
+    return Error(Errc::kUnavailable, why != nullptr ? why : "dlopen failed", file.string());
   }
   return SharedLibrary(handle);
 }
@@ -100,13 +100,13 @@ SharedLibrary& SharedLibrary::operator=(SharedLibrary&& other) noexcept {
   return *this;
 }
 
-void* SharedLibrary::symbol(const char* name, std::string* error) const noexcept {
-  if (handle_ == nullptr) return nullptr;
+Result<void*> SharedLibrary::symbol(const char* name) const {
+  if (handle_ == nullptr) return Error(Errc::kInternal, "no library open", name);
   dlerror();
   void* sym = dlsym(handle_, name);
-  if (sym == nullptr && error != nullptr) {
+  if (sym == nullptr) {
     const char* why = dlerror();
-    *error = why != nullptr ? why : "symbol not found";
+    return Error(Errc::kNotFound, why != nullptr ? why : "symbol not found", name);
   }
   return sym;
 }
@@ -195,7 +195,7 @@ int PluginHost::submit_trampoline(void* host, const cobridge_command* command) n
 
 // The instance's own log names it already: the line is the message alone.
 void PluginHost::report(const std::string& instance, const Error& e) const {
-  options_.log(LogLevel::kError, instance, e.message);
+  if (options_.log_failures) options_.log(LogLevel::kError, instance, e.message);
 }
 
 Error PluginHost::fail(const Instance& p, PluginErrc code, const std::string& reason) const {
@@ -210,15 +210,19 @@ Error PluginHost::open_library(Instance& p, cobridge_plugin_create_fn& create) c
   if (!std::filesystem::exists(p.file, fs_ec)) {
     return fail(p, PluginErrc::kFileNotFound, "file not found");
   }
-  std::string why = plugin_distrust(p.file, ::geteuid());
-  if (!why.empty()) return fail(p, PluginErrc::kNotTrusted, "refused: " + why);
-  p.library = SharedLibrary::open(p.file, why);
-  if (!p.library) return fail(p, PluginErrc::kNotLoadable, "not a loadable shared object (" + why + ")");
+  if (const Error distrust = plugin_distrust(p.file, ::geteuid()))
+    return fail(p, PluginErrc::kNotTrusted, "refused: " + distrust.message);
+  Result<SharedLibrary> library = SharedLibrary::open(p.file);
+  if (!library.ok())
+    return fail(p, PluginErrc::kNotLoadable, "not a loadable shared object (" + library.error().message + ")");
+  p.library = std::move(library).value();
 
-  void* entry = p.library.symbol(COBRIDGE_PLUGIN_ENTRY, &why);
-  if (entry == nullptr) {
-    return fail(p, PluginErrc::kNoEntryPoint, "no entry point " COBRIDGE_PLUGIN_ENTRY " (" + why + ")");
+  const Result<void*> entry_point = p.library.symbol(COBRIDGE_PLUGIN_ENTRY);
+  if (!entry_point.ok()) {
+    return fail(p, PluginErrc::kNoEntryPoint,
+                "no entry point " COBRIDGE_PLUGIN_ENTRY " (" + entry_point.error().message + ")");
   }
+  void* entry = entry_point.value();
   // dlsym hands out functions as void*; POSIX guarantees the round trip.
   create = reinterpret_cast<cobridge_plugin_create_fn>(entry);
   return {};

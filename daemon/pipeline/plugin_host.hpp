@@ -18,7 +18,7 @@
 // plugin logs or submits on.
 #pragma once
 
-#include "base/error.hpp"
+#include "base/result.hpp"
 #include "pipeline/sample.hpp"
 
 #include <cobridge/plugin.h>
@@ -78,8 +78,9 @@ class SharedLibrary {
  public:
   SharedLibrary() noexcept = default;
   // RTLD_NOW so that unresolved symbols fail here, not mid-delivery;
-  // RTLD_LOCAL so that plugins cannot see each other's symbols.
-  [[nodiscard]] static SharedLibrary open(const std::filesystem::path& file, std::string& error) noexcept;
+  // RTLD_LOCAL so that plugins cannot see each other's symbols. A failure
+  // (kUnavailable) carries dlerror()'s text.
+  [[nodiscard]] static Result<SharedLibrary> open(const std::filesystem::path& file);
   ~SharedLibrary();
   SharedLibrary(SharedLibrary&& other) noexcept;
   SharedLibrary& operator=(SharedLibrary&& other) noexcept;
@@ -87,8 +88,8 @@ class SharedLibrary {
   SharedLibrary& operator=(const SharedLibrary&) = delete;
 
   [[nodiscard]] explicit operator bool() const noexcept { return handle_ != nullptr; }
-  // nullptr if absent (error, if given, receives dlerror()).
-  [[nodiscard]] void* symbol(const char* name, std::string* error = nullptr) const noexcept;
+  // The symbol, or (kNotFound) dlerror()'s text when it is absent.
+  [[nodiscard]] Result<void*> symbol(const char* name) const;
   void close() noexcept;
 
  private:
@@ -137,6 +138,10 @@ class PluginHost {
     LogSink log;
     CommandSink commands{};
     std::uint8_t redundancy_node = 0;  // [redundancy] node_id; 0 = the gateway runs alone
+    // Whether a failure the host returns is also logged through `log`. Off
+    // for a caller that logs every failure it is returned (the daemon, which
+    // adds the configuration's file:line), so each is logged once.
+    bool log_failures = true;
   };
 
   explicit PluginHost(Options options);
@@ -145,7 +150,7 @@ class PluginHost {
   PluginHost& operator=(const PluginHost&) = delete;
 
   // Loads and creates one instance. On failure nothing is kept and the error
-  // is returned (and also logged through the sink).
+  // is returned (and logged through the sink when log_failures is set).
   [[nodiscard]] Error load(const PluginSpec& spec);
   // Loads every spec; returns the failures, the others stay loaded.
   std::vector<Error> load_all(std::span<const PluginSpec> specs);

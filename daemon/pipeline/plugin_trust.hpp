@@ -8,6 +8,8 @@
 // Thread: the control thread (plugin loading); file-system reads only.
 #pragma once
 
+#include "base/error.hpp"
+
 #include <sys/types.h>
 
 #include <filesystem>
@@ -15,9 +17,9 @@
 
 namespace cobridge::pipeline {
 
-// Empty when `file` may be loaded; else why not ("owned by uid 1000, not root
-// or the daemon's user (uid 0)", "writable by group or others (mode 0775)",
-// ...). `daemon_uid`: the daemon's effective uid.
-[[nodiscard]] std::string plugin_distrust(const std::filesystem::path& file, uid_t daemon_uid);
+// kOk when `file` may be loaded; else (kPermissionDenied) why not ("owned by
+// uid 1000, not root or the daemon's user (uid 0)", "writable by group or
+// others (mode 0775)", ...). `daemon_uid`: the daemon's effective uid.
+[[nodiscard]] Error plugin_distrust(const std::filesystem::path& file, uid_t daemon_uid);
 
 }  // namespace cobridge::pipeline

@@ -33,6 +33,15 @@ void setup_logging(LogTarget target, spdlog::level::level_enum level) {
   });
 }
 
+bool log_reaches_stderr() noexcept {
+  bool journal = false;
+  {
+    std::lock_guard lock(g_mutex);
+    journal = g_sink != nullptr && std::dynamic_pointer_cast<JournalSink>(g_sink) != nullptr;
+  }
+  return !journal || stderr_is_journal();
+}
+
 std::shared_ptr<spdlog::logger> logger(std::string_view module) {
   const std::string name(module);
   if (auto existing = spdlog::get(name)) return existing;

@@ -26,6 +26,11 @@ void setup_logging(LogTarget target = LogTarget::automatic,
 // The logger of a module; created on first use with the current sink.
 std::shared_ptr<spdlog::logger> logger(std::string_view module);
 
+// True when log lines reach what stderr reaches (the console sink, or the
+// journal when stderr is the journal's stream): a message printed on stderr
+// for an operator would then be the same failure a second time.
+[[nodiscard]] bool log_reaches_stderr() noexcept;
+
 // Returns false if `level_name` is not one of trace, debug, info, warn,
 // error, critical, off.
 bool set_level(std::string_view module, std::string_view level_name);

@@ -26,22 +26,27 @@ bool env_number(const char* name, unsigned long long& out) {
 
 }  // namespace
 
-std::error_code notify_datagram(std::string_view address, std::string_view message) {
+Error notify_datagram(std::string_view address, std::string_view message) {
+  const auto failed = [address](const char* what, std::error_code ec) {
+    return Error(Errc::kUnavailable, what + (": " + ec.message()), "notify socket " + std::string(address), ec);
+  };
   // sd_notify(3): "/path" is a file system socket, "@name" an abstract one.
-  if (address.empty() || (address[0] != '/' && address[0] != '@')) return std::make_error_code(std::errc::address_family_not_supported);
+  if (address.empty() || (address[0] != '/' && address[0] != '@'))
+    return failed("not a path or @name", std::make_error_code(std::errc::address_family_not_supported));
   sockaddr_un addr{};
   addr.sun_family = AF_UNIX;
-  if (address.size() >= sizeof addr.sun_path) return std::make_error_code(std::errc::filename_too_long);
+  if (address.size() >= sizeof addr.sun_path)
+    return failed("too long", std::make_error_code(std::errc::filename_too_long));
   std::memcpy(addr.sun_path, address.data(), address.size());
   if (address[0] == '@') addr.sun_path[0] = '\0';
   // A file system path is NUL-terminated; an abstract name is exactly its bytes.
   const auto len = static_cast<socklen_t>(offsetof(sockaddr_un, sun_path) + address.size() + (address[0] == '/' ? 1 : 0));
   const int fd = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-  if (fd < 0) return {errno, std::system_category()};
+  if (fd < 0) return failed("socket", std::error_code(errno, std::system_category()));
   const ssize_t n = ::sendto(fd, message.data(), message.size(), MSG_NOSIGNAL, reinterpret_cast<const sockaddr*>(&addr), len);
   const int err = errno;
   ::close(fd);
-  if (n < 0) return {err, std::system_category()};
+  if (n < 0) return failed("sendto", std::error_code(err, std::system_category()));
   return {};
 }
 
@@ -59,22 +64,22 @@ Notifier::Notifier() {
     watchdog_period_ = std::chrono::microseconds(static_cast<int64_t>(usec / 2));
 }
 
-std::error_code Notifier::send(std::string_view message) {
+Error Notifier::send(std::string_view message) {
   if (!enabled_) return {};
   return notify_datagram(socket_, message);
 }
 
-std::error_code Notifier::ready() { return send("READY=1"); }
+Error Notifier::ready() { return send("READY=1"); }
 
-std::error_code Notifier::status(std::string_view text) {
+Error Notifier::status(std::string_view text) {
   std::string m = "STATUS=";
   m.append(text);
   return send(m);
 }
 
-std::error_code Notifier::watchdog() { return send("WATCHDOG=1"); }
+Error Notifier::watchdog() { return send("WATCHDOG=1"); }
 
-std::error_code Notifier::reloading() {
+Error Notifier::reloading() {
   timespec ts{};
   clock_gettime(CLOCK_MONOTONIC, &ts);
   const auto usec = static_cast<unsigned long long>(ts.tv_sec) * 1000000ULL +
@@ -82,6 +87,6 @@ std::error_code Notifier::reloading() {
   return send("RELOADING=1\nMONOTONIC_USEC=" + std::to_string(usec));
 }
 
-std::error_code Notifier::stopping() { return send("STOPPING=1"); }
+Error Notifier::stopping() { return send("STOPPING=1"); }
 
 }  // namespace cobridge::sys

@@ -11,6 +11,8 @@
 // Thread: any one thread (the daemon's main loop); not thread-safe.
 #pragma once
 
+#include "base/error.hpp"
+
 #include <chrono>
 #include <string>
 #include <string_view>
@@ -19,8 +21,9 @@
 namespace cobridge::sys {
 
 // One datagram to a notify socket address as $NOTIFY_SOCKET gives it: an
-// absolute path, or "@name" for the abstract namespace. Any thread.
-std::error_code notify_datagram(std::string_view address, std::string_view message);
+// absolute path, or "@name" for the abstract namespace. Any thread. A failure
+// (kUnavailable) has the address as its where and the errno as its code.
+Error notify_datagram(std::string_view address, std::string_view message);
 
 class Notifier {
  public:
@@ -30,15 +33,15 @@ class Notifier {
   // Half the interval systemd expects pings at, or zero when no watchdog.
   [[nodiscard]] std::chrono::microseconds watchdog_period() const noexcept { return watchdog_period_; }
 
-  std::error_code ready();
-  std::error_code status(std::string_view text);
-  std::error_code watchdog();
+  Error ready();
+  Error status(std::string_view text);
+  Error watchdog();
   // RELOADING=1 with MONOTONIC_USEC (systemd >= 253 asks for it; older ones ignore it).
-  std::error_code reloading();
-  std::error_code stopping();
+  Error reloading();
+  Error stopping();
 
  private:
-  std::error_code send(std::string_view message);
+  Error send(std::string_view message);
   bool enabled_ = false;
   std::string socket_;
   std::chrono::microseconds watchdog_period_{0};

@@ -14,12 +14,17 @@ Signals::Signals() {
   sigaddset(&set, SIGTERM);
   sigaddset(&set, SIGINT);
   sigaddset(&set, SIGHUP);
-  if (pthread_sigmask(SIG_BLOCK, &set, nullptr) != 0) {
-    error_ = {errno, std::system_category()};
+  // pthread_sigmask returns its error number; signalfd sets errno.
+  if (const int err = pthread_sigmask(SIG_BLOCK, &set, nullptr); err != 0) {
+    const std::error_code ec(err, std::system_category());
+    error_ = Error(Errc::kFailed, ec.message(), "signals", ec);
     return;
   }
   fd_ = signalfd(-1, &set, SFD_NONBLOCK | SFD_CLOEXEC);
-  if (fd_ < 0) error_ = {errno, std::system_category()};
+  if (fd_ < 0) {
+    const std::error_code ec(errno, std::system_category());
+    error_ = Error(Errc::kFailed, ec.message(), "signals", ec);
+  }
 }
 
 Signals::~Signals() {

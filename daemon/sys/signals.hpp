@@ -7,7 +7,7 @@
 // Thread: the main loop only.
 #pragma once
 
-#include <system_error>
+#include "base/error.hpp"
 
 namespace cobridge::sys {
 
@@ -20,14 +20,16 @@ class Signals {
   Signals(const Signals&) = delete;
   Signals& operator=(const Signals&) = delete;
 
-  [[nodiscard]] std::error_code error() const noexcept { return error_; }
+  // Why the signals could not be taken over (where "signals", the errno as
+  // the code); kOk when they were.
+  [[nodiscard]] const Error& error() const noexcept { return error_; }
   [[nodiscard]] int fd() const noexcept { return fd_; }
   // Reads every pending signal; stop wins over reload.
   SignalAction take();
 
  private:
   int fd_ = -1;
-  std::error_code error_;
+  Error error_;
 };
 
 }  // namespace cobridge::sys

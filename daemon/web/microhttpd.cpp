@@ -9,14 +9,14 @@ namespace {
 
 struct Loaded {
   Microhttpd table;
-  std::string error;
+  Error error;  // the first thing missing
 };
 
 template <typename F>
-bool resolve(void* handle, const char* name, F& out, std::string& error) {
+void resolve(void* handle, const char* name, F& out, Error& first) {
   out = reinterpret_cast<F>(::dlsym(handle, name));
-  if (out == nullptr && error.empty()) error = std::string(microhttpd_library_name()) + ": no " + name;
-  return out != nullptr;
+  if (out == nullptr && first.ok())
+    first = Error(Errc::kUnavailable, std::string("no ") + name, microhttpd_library_name());
 }
 
 Loaded load() {
@@ -25,11 +25,11 @@ Loaded load() {
   void* h = ::dlopen(microhttpd_library_name(), RTLD_NOW | RTLD_LOCAL);
   if (h == nullptr) {
     const char* why = ::dlerror();
-    l.error = why != nullptr ? why : std::string("cannot load ") + microhttpd_library_name();
+    l.error = Error(Errc::kUnavailable, why != nullptr ? why : std::string("cannot load ") + microhttpd_library_name());
     return l;
   }
   Microhttpd& t = l.table;
-  std::string& e = l.error;
+  Error& e = l.error;
   resolve(h, "MHD_start_daemon", t.start_daemon, e);
   resolve(h, "MHD_stop_daemon", t.stop_daemon, e);
   resolve(h, "MHD_get_daemon_info", t.get_daemon_info, e);
@@ -51,12 +51,9 @@ Loaded load() {
 
 const char* microhttpd_library_name() noexcept { return COBRIDGE_MICROHTTPD_SONAME; }
 
-const Microhttpd* microhttpd(std::string* error) {
+Result<const Microhttpd*> microhttpd() {
   static const Loaded loaded = load();  // thread-safe once (C++11 statics)
-  if (!loaded.error.empty()) {
-    if (error != nullptr) *error = loaded.error;
-    return nullptr;
-  }
+  if (loaded.error) return loaded.error;
   return &loaded.table;
 }
 

@@ -12,6 +12,8 @@
 // libmicrohttpd's threads may still be unwinding when a server stops).
 #pragma once
 
+#include "base/result.hpp"
+
 #include <microhttpd.h>
 
 #include <string>
@@ -35,9 +37,9 @@ struct Microhttpd {
   decltype(&::MHD_destroy_response) destroy_response = nullptr;
 };
 
-// The loaded table, or nullptr with `error` set ("libmicrohttpd.so.12: cannot
-// open ..."): the library or one of its functions is missing.
-[[nodiscard]] const Microhttpd* microhttpd(std::string* error = nullptr);
+// The loaded table, or (kUnavailable) why the library or one of its
+// functions is missing ("libmicrohttpd.so.12: cannot open ...").
+[[nodiscard]] Result<const Microhttpd*> microhttpd();
 
 // The file loaded (its SONAME, found at build time).
 [[nodiscard]] const char* microhttpd_library_name() noexcept;

@@ -64,7 +64,7 @@ bool target_was_clean(const void* state, const char* version) {
 }
 
 // The callbacks run on libmicrohttpd's thread, so the library is loaded.
-const Microhttpd& mhd() { return *microhttpd(); }
+const Microhttpd& mhd() { return *microhttpd().value(); }
 
 MHD_Result count_host_lines(void* cls, MHD_ValueKind /*kind*/, const char* key, const char* /*value*/) {
   if (::strcasecmp(key, MHD_HTTP_HEADER_HOST) == 0) ++*static_cast<unsigned*>(cls);
@@ -146,11 +146,11 @@ std::vector<Error> check_web_settings(const config::WebSettings& settings) {
     if (Error e = read_pem(settings.tls_key, text)) errors.push_back(at(std::move(e), settings.tls_key_at, "tls_key"));
   }
   if (!settings.tls_cert.empty() || !settings.tls_key.empty()) {
-    std::string why;
-    const Microhttpd* lib = microhttpd(&why);
-    if (lib == nullptr)
-      errors.push_back(at(Error(Errc::kUnavailable, "cannot load the HTTP library: " + why), settings.tls_cert_at, "tls_cert"));
-    else if (lib->is_feature_supported(MHD_FEATURE_TLS) != MHD_YES)
+    const Result<const Microhttpd*> lib = microhttpd();
+    if (!lib.ok())
+      errors.push_back(at(Error(Errc::kUnavailable, "cannot load the HTTP library: " + lib.error().to_string()),
+                          settings.tls_cert_at, "tls_cert"));
+    else if (lib.value()->is_feature_supported(MHD_FEATURE_TLS) != MHD_YES)
       errors.push_back(at(Error(Errc::kUnsupported, "this libmicrohttpd was built without TLS"), settings.tls_cert_at,
                           "tls_cert"));
   }
@@ -168,9 +168,9 @@ WebServer::~WebServer() { stop(); }
 
 Error WebServer::start(const config::WebSettings& settings) {
   stop();
-  std::string why;
-  const Microhttpd* lib = microhttpd(&why);
-  if (lib == nullptr) return Error(Errc::kUnavailable, "cannot load the HTTP library: " + why);
+  const Result<const Microhttpd*> loaded = microhttpd();
+  if (!loaded.ok()) return Error(Errc::kUnavailable, "cannot load the HTTP library: " + loaded.error().to_string());
+  const Microhttpd* lib = loaded.value();
   auto problems = check_web_settings(settings);
   if (!problems.empty()) return std::move(problems.front());
   if (!settings.auth_file.empty()) {

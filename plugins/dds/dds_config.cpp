@@ -8,22 +8,6 @@
 namespace cobridge::dds {
 namespace {
 
-class ConfigCategory final : public std::error_category {
- public:
-  const char* name() const noexcept override { return "cobridge.dds.config"; }
-  std::string message(int c) const override {
-    switch (static_cast<DdsConfigErrc>(c)) {
-      case DdsConfigErrc::kSyntax: return "not valid TOML";
-      case DdsConfigErrc::kUnknownKey: return "unknown key";
-      case DdsConfigErrc::kWrongType: return "wrong value type";
-      case DdsConfigErrc::kOutOfRange: return "value out of range";
-      case DdsConfigErrc::kMissingKey: return "required key missing";
-      case DdsConfigErrc::kBadFile: return "file cannot be used";
-    }
-    return "unknown error";
-  }
-};
-
 // The default DDSI port mapping (PB 7400, DG 250) fits domains 0..232 into
 // the 16-bit UDP port range.
 constexpr std::int64_t kMaxDomain = 232;
@@ -36,31 +20,23 @@ constexpr std::string_view kKnownKeys =
     "domain, sample_reliability, sample_depth, topic_prefix, partition, write_batch, liveliness_lease_ms, "
     "sample_path, security";
 
-DdsConfigResult fail(DdsConfigErrc code, std::string message) {
+DdsConfigResult fail(plugin::Error e) {
   DdsConfigResult r;
-  r.error = make_error_code(code);
-  r.message = "config: " + std::move(message);
+  r.error = plugin::Error(e.code, "config: " + e.to_string());
   return r;
 }
 
-DdsConfigResult fail(std::error_code ec, std::string message) {
-  DdsConfigResult r;
-  r.error = ec;
-  r.message = "config: " + std::move(message);
-  return r;
-}
+DdsConfigResult fail(DdsConfigErrc code, std::string message) { return fail(plugin::Error(code, std::move(message))); }
 
 // One key of [security]: a non-empty absolute path. Absolute because the
 // plugin is given its table, not the configuration file's folder.
-std::error_code read_path(std::string_view key, const toml::node& node, std::string& out, std::string& message) {
+plugin::Error read_path(std::string_view key, const toml::node& node, std::string& out) {
   const auto* v = node.as_string();
-  if (v == nullptr) {
-    message = "'security." + std::string(key) + "' must be a string (a file path)";
-    return make_error_code(DdsConfigErrc::kWrongType);
-  }
+  if (v == nullptr)
+    return {DdsConfigErrc::kWrongType, "'security." + std::string(key) + "' must be a string (a file path)"};
   if (v->get().empty() || v->get().front() != '/') {
-    message = "'security." + std::string(key) + "' must be an absolute path, not \"" + v->get() + "\"";
-    return make_error_code(DdsConfigErrc::kOutOfRange);
+    return {DdsConfigErrc::kOutOfRange,
+            "'security." + std::string(key) + "' must be an absolute path, not \"" + v->get() + "\""};
   }
   out = v->get();
   return {};
@@ -72,7 +48,6 @@ DdsConfigResult parse_security(const toml::node& node, DdsConfigResult r) {
   const auto* table = node.as_table();
   if (table == nullptr) return fail(DdsConfigErrc::kWrongType, "'security' must be a table ([outputs.dds.security])");
   DdsSecurity s;
-  std::string message;
   for (const auto& [key, value] : *table) {
     const std::string_view k = key.str();
     std::string* target = k == "plugin_dir" ? &s.plugin_dir : nullptr;
@@ -83,7 +58,7 @@ DdsConfigResult parse_security(const toml::node& node, DdsConfigResult r) {
                                                   "' (expected identity_ca, identity_certificate, private_key, "
                                                   "permissions_ca, governance, permissions, plugin_dir)");
     }
-    if (const std::error_code ec = read_path(k, value, *target, message)) return fail(ec, message);
+    if (plugin::Error e = read_path(k, value, *target)) return fail(std::move(e));
   }
   std::string missing;
   for (const SecurityFileKey& f : kSecurityFileKeys)
@@ -92,33 +67,27 @@ DdsConfigResult parse_security(const toml::node& node, DdsConfigResult r) {
     return fail(DdsConfigErrc::kMissingKey, "DDS Security needs all six files, missing " + missing +
                                                 " (leave out [outputs.dds.security] for an open DDS)");
   }
-  if (const std::error_code ec = check_security(s, message)) return fail(ec, message);
+  if (plugin::Error e = check_security(s)) return fail(std::move(e));
   r.config.security = std::move(s);
   return r;
 }
 
 // An integer key within min..max.
-std::error_code read_integer(std::string_view key, const toml::node& node, std::int64_t min, std::int64_t max,
-                             std::int64_t& out, std::string& message) {
+plugin::Error read_integer(std::string_view key, const toml::node& node, std::int64_t min, std::int64_t max,
+                           std::int64_t& out) {
   const auto* v = node.as_integer();
-  if (v == nullptr) {
-    message = "'" + std::string(key) + "' must be an integer";
-    return make_error_code(DdsConfigErrc::kWrongType);
-  }
+  if (v == nullptr) return {DdsConfigErrc::kWrongType, "'" + std::string(key) + "' must be an integer"};
   if (v->get() < min || v->get() > max) {
-    message = "'" + std::string(key) + "' must be " + std::to_string(min) + ".." + std::to_string(max);
-    return make_error_code(DdsConfigErrc::kOutOfRange);
+    return {DdsConfigErrc::kOutOfRange,
+            "'" + std::string(key) + "' must be " + std::to_string(min) + ".." + std::to_string(max)};
   }
   out = v->get();
   return {};
 }
 
-std::error_code read_string(std::string_view key, const toml::node& node, std::string& out, std::string& message) {
+plugin::Error read_string(std::string_view key, const toml::node& node, std::string& out) {
   const auto* v = node.as_string();
-  if (v == nullptr) {
-    message = "'" + std::string(key) + "' must be a string";
-    return make_error_code(DdsConfigErrc::kWrongType);
-  }
+  if (v == nullptr) return {DdsConfigErrc::kWrongType, "'" + std::string(key) + "' must be a string"};
   out = v->get();
   return {};
 }
@@ -126,19 +95,18 @@ std::error_code read_string(std::string_view key, const toml::node& node, std::s
 // A string key that names one of `choices`; `allowed` lists them for the
 // message.
 template <typename Enum, std::size_t N>
-std::error_code read_choice(std::string_view key, const toml::node& node,
-                            const std::pair<std::string_view, Enum> (&choices)[N], std::string_view allowed,
-                            Enum& out, std::string& message) {
+plugin::Error read_choice(std::string_view key, const toml::node& node,
+                          const std::pair<std::string_view, Enum> (&choices)[N], std::string_view allowed, Enum& out) {
   std::string text;
-  if (const std::error_code ec = read_string(key, node, text, message)) return ec;
+  if (plugin::Error e = read_string(key, node, text)) return e;
   for (const auto& [name, value] : choices) {
     if (name == text) {
       out = value;
       return {};
     }
   }
-  message = "'" + std::string(key) + "' must be " + std::string(allowed) + ", not \"" + text + "\"";
-  return make_error_code(DdsConfigErrc::kOutOfRange);
+  return {DdsConfigErrc::kOutOfRange,
+          "'" + std::string(key) + "' must be " + std::string(allowed) + ", not \"" + text + "\""};
 }
 
 constexpr std::pair<std::string_view, Reliability> kReliabilities[] = {
@@ -147,45 +115,35 @@ constexpr std::pair<std::string_view, SamplePath> kSamplePaths[] = {
     {"auto", SamplePath::kAuto}, {"dispatcher", SamplePath::kDispatcher}, {"writer-thread", SamplePath::kWriterThread}};
 
 // One top-level key other than [security].
-std::error_code read_key(std::string_view k, const toml::node& node, DdsConfig& c, std::string& message) {
+plugin::Error read_key(std::string_view k, const toml::node& node, DdsConfig& c) {
   std::int64_t n = 0;
-  std::error_code ec;
+  plugin::Error e;
   if (k == "domain") {
-    if (!(ec = read_integer(k, node, 0, kMaxDomain, n, message))) c.domain = static_cast<std::uint32_t>(n);
+    if (!(e = read_integer(k, node, 0, kMaxDomain, n))) c.domain = static_cast<std::uint32_t>(n);
   } else if (k == "sample_reliability") {
-    ec = read_choice(k, node, kReliabilities, R"("best-effort" or "reliable")", c.sample_reliability, message);
+    e = read_choice(k, node, kReliabilities, R"("best-effort" or "reliable")", c.sample_reliability);
   } else if (k == "sample_depth") {
-    if (!(ec = read_integer(k, node, 1, kMaxDepth, n, message))) c.sample_depth = static_cast<std::int32_t>(n);
+    if (!(e = read_integer(k, node, 1, kMaxDepth, n))) c.sample_depth = static_cast<std::int32_t>(n);
   } else if (k == "topic_prefix") {
-    ec = read_string(k, node, c.topic_prefix, message);
+    e = read_string(k, node, c.topic_prefix);
   } else if (k == "partition") {
-    ec = read_string(k, node, c.partition, message);
+    e = read_string(k, node, c.partition);
   } else if (k == "write_batch") {
     const auto* v = node.as_boolean();
-    if (v == nullptr) {
-      message = "'write_batch' must be true or false";
-      return make_error_code(DdsConfigErrc::kWrongType);
-    }
+    if (v == nullptr) return {DdsConfigErrc::kWrongType, "'write_batch' must be true or false"};
     c.write_batch = v->get();
   } else if (k == "liveliness_lease_ms") {
-    if (!(ec = read_integer(k, node, kMinLeaseMs, kMaxLeaseMs, n, message))) c.liveliness_lease_ms = n;
+    if (!(e = read_integer(k, node, kMinLeaseMs, kMaxLeaseMs, n))) c.liveliness_lease_ms = n;
   } else if (k == "sample_path") {
-    ec = read_choice(k, node, kSamplePaths, R"("auto", "dispatcher" or "writer-thread")", c.sample_path, message);
+    e = read_choice(k, node, kSamplePaths, R"("auto", "dispatcher" or "writer-thread")", c.sample_path);
   } else {
-    message = "unknown key '" + std::string(k) + "' (expected " + std::string(kKnownKeys) + ")";
-    return make_error_code(DdsConfigErrc::kUnknownKey);
+    return {DdsConfigErrc::kUnknownKey,
+            "unknown key '" + std::string(k) + "' (expected " + std::string(kKnownKeys) + ")"};
   }
-  return ec;
+  return e;
 }
 
 }  // namespace
-
-const std::error_category& dds_config_category() noexcept {
-  static const ConfigCategory category;
-  return category;
-}
-
-std::error_code make_error_code(DdsConfigErrc e) noexcept { return {static_cast<int>(e), dds_config_category()}; }
 
 std::string_view to_string(Reliability r) noexcept {
   return r == Reliability::kReliable ? "reliable" : "best-effort";
@@ -200,14 +158,13 @@ DdsConfigResult parse_dds_config(std::string_view toml_text) {
                 std::string(e.description()) + " at line " + std::to_string(e.source().begin.line));
   }
   DdsConfigResult r;
-  std::string message;
   for (const auto& [key, node] : table) {
     const std::string_view k = key.str();
     if (k == "security") {
       r = parse_security(node, std::move(r));
       if (!r.ok()) return r;
-    } else if (const std::error_code ec = read_key(k, node, r.config, message)) {
-      return fail(ec, message);
+    } else if (plugin::Error e = read_key(k, node, r.config)) {
+      return fail(std::move(e));
     }
   }
   return r;

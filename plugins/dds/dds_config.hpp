@@ -67,23 +67,15 @@ struct DdsConfig {
   [[nodiscard]] bool spill_to_writer_thread() const noexcept { return sample_path == SamplePath::kAuto; }
 };
 
-enum class DdsConfigErrc {
-  kSyntax = 1,  // not TOML
-  kUnknownKey,  // a key the plugin does not know
-  kWrongType,   // a key with a value of the wrong TOML type
-  kOutOfRange,  // a value outside its range or set
-  kMissingKey,  // a key required with others is absent (the security files)
-  kBadFile,     // a file named by a key cannot be used (missing, unreadable, open to others)
-};
+// The precise codes of a configuration error, the SDK's set for every plugin.
+using DdsConfigErrc = plugin::ConfigErrc;
 
-[[nodiscard]] const std::error_category& dds_config_category() noexcept;
-[[nodiscard]] std::error_code make_error_code(DdsConfigErrc e) noexcept;
-
+// The configuration, or (error set) why the table is refused; the error's
+// message starts "config: ", ready for the plugin's err text.
 struct DdsConfigResult {
   DdsConfig config;
-  std::error_code error;
-  std::string message;  // "config: ..." when error is set
-  [[nodiscard]] bool ok() const noexcept { return !error; }
+  plugin::Error error;
+  [[nodiscard]] bool ok() const noexcept { return error.ok(); }
 };
 
 [[nodiscard]] DdsConfigResult parse_dds_config(std::string_view toml_text);
@@ -92,6 +84,3 @@ struct DdsConfigResult {
 [[nodiscard]] std::string_view to_string(SamplePath p) noexcept;
 
 }  // namespace cobridge::dds
-
-template <>
-struct std::is_error_code_enum<cobridge::dds::DdsConfigErrc> : std::true_type {};

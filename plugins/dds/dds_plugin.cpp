@@ -331,9 +331,9 @@ using plugin::copy_error;
 int dds_start(void* self) {
   auto* inst = static_cast<Instance*>(self);
   try {
-    std::string message, note;
-    if (const std::error_code ec = inst->publisher->start(message, note)) {
-      inst->log(COBRIDGE_LOG_ERROR, message);
+    std::string note;
+    if (const plugin::Error e = inst->publisher->start(note)) {
+      inst->log(COBRIDGE_LOG_ERROR, e.to_string());
       return -1;
     }
     if (!note.empty()) inst->log(COBRIDGE_LOG_WARN, note);
@@ -341,10 +341,10 @@ int dds_start(void* self) {
     inst->presence = std::make_unique<GatewayPresence>(inst->publisher->gateway(), cfg.topic_prefix, cfg.partition,
                                                        DDS_MSECS(cfg.liveliness_lease_ms));
     if (inst->pair) inst->presence->set_pair_node(inst->pair->node());
-    if (const std::error_code pec = inst->presence->start(inst->publisher->participant(), message)) {
-      if (cfg.security && pec.category() == dds_category())
-        message += security_failure_hint(-pec.value(), *cfg.security);
-      inst->log(COBRIDGE_LOG_ERROR, message);
+    if (plugin::Error e = inst->presence->start(inst->publisher->participant())) {
+      if (cfg.security && e.code.category() == dds_category())
+        e.message += security_failure_hint(-e.code.value(), *cfg.security);
+      inst->log(COBRIDGE_LOG_ERROR, e.to_string());
       inst->presence.reset();
       inst->publisher->stop();
       return -1;
@@ -477,9 +477,9 @@ void dds_on_role(void* self, const cobridge_role_info* info) {
   try {
     if (inst->pair->update(*info)) {
       const std::int32_t strength = inst->pair->strength();
-      if (const std::error_code ec = inst->publisher->set_ownership_strength(strength)) {
+      if (const plugin::Error e = inst->publisher->set_ownership_strength(strength)) {
         inst->log(COBRIDGE_LOG_ERROR, "cannot set the writers' ownership strength to " + std::to_string(strength) +
-                                          ": " + ec.message() + "; subscribers may keep the other gateway's stream");
+                                          ": " + e.to_string() + "; subscribers may keep the other gateway's stream");
       } else {
         inst->log(COBRIDGE_LOG_INFO, std::string("hot standby: writing at ownership strength ") +
                                          std::to_string(strength) +
@@ -552,10 +552,10 @@ extern "C" COBRIDGE_PLUGIN_EXPORT int cobridge_plugin_create(const cobridge_host
   using namespace cobridge::dds;
   return cobridge::plugin::create_plugin(
       "dds", &kOps, host, config_toml, config_len, ops_out, self_out, err, err_len,
-      [host](std::string_view config, std::string& error) -> void* {
+      [host](std::string_view config, cobridge::plugin::Error& error) -> void* {
         DdsConfigResult parsed = parse_dds_config(config);
         if (!parsed.ok()) {
-          error = parsed.message;
+          error = std::move(parsed.error);
           return nullptr;
         }
         const char* gateway_id = host->gateway_id != nullptr ? host->gateway_id : "";

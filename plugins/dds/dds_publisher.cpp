@@ -45,28 +45,28 @@ DdsPublisher::DdsPublisher(DdsConfig config, std::string gateway_id)
 
 DdsPublisher::~DdsPublisher() { stop(); }
 
-std::error_code DdsPublisher::start(std::string& message, std::string& note) {
+plugin::Error DdsPublisher::start(std::string& note) {
   if (started()) return {};
   const auto domain = static_cast<dds_domainid_t>(config_.domain);
   if (config_.write_batch) {
-    if (const std::error_code ec = create_domain(domain, message, note)) return ec;
+    if (plugin::Error e = create_domain(domain, note)) return e;
   }
-  if (const std::error_code ec = create_participant(domain, message)) {
+  if (plugin::Error e = create_participant(domain)) {
     stop();
-    return ec;
+    return e;
   }
   // Writers under a publisher of the configured partition.
   publisher_ = dds_create_publisher(participant_, partition_qos(config_.partition).get(), nullptr);
   if (publisher_ < 0) {
     const dds_return_t rc = publisher_;
     publisher_ = 0;
-    message = "cannot create a DDS publisher for partition '" + config_.partition + "': " + dds_strretcode(rc);
     stop();
-    return make_dds_error(rc);
+    return {make_dds_error(rc),
+            "cannot create a DDS publisher for partition '" + config_.partition + "': " + dds_strretcode(rc)};
   }
-  if (const std::error_code ec = create_writers(message)) {
+  if (plugin::Error e = create_writers()) {
     stop();
-    return ec;
+    return e;
   }
   // A restart re-announces what the plugin already knows.
   for (std::uint16_t i = 0; i < slots_.capacity(); ++i) {
@@ -78,7 +78,7 @@ std::error_code DdsPublisher::start(std::string& message, std::string& note) {
 
 // WriteBatch is a domain setting, and an explicitly created domain does not
 // read CYCLONEDDS_URI by itself: pass it on after ours.
-std::error_code DdsPublisher::create_domain(dds_domainid_t domain, std::string& message, std::string& note) {
+plugin::Error DdsPublisher::create_domain(dds_domainid_t domain, std::string& note) {
   std::string xml = kWriteBatchXml;
   if (const char* uri = std::getenv("CYCLONEDDS_URI"); uri != nullptr && *uri != '\0') {
     xml += ',';
@@ -91,15 +91,14 @@ std::error_code DdsPublisher::create_domain(dds_domainid_t domain, std::string& 
     note = "domain " + std::to_string(config_.domain) +
            " already exists in this process: write_batch follows that domain's configuration";
   } else {
-    message = "cannot create DDS domain " + std::to_string(config_.domain) + ": " + dds_strretcode(d) +
-              " (check CYCLONEDDS_URI)";
-    return make_dds_error(d);
+    return {make_dds_error(d), "cannot create DDS domain " + std::to_string(config_.domain) + ": " +
+                                   dds_strretcode(d) + " (check CYCLONEDDS_URI)"};
   }
   return {};
 }
 
 // The three topics and their writers; the caller stops on failure.
-std::error_code DdsPublisher::create_writers(std::string& message) {
+plugin::Error DdsPublisher::create_writers() {
   struct Spec {
     std::string_view topic;
     const dds_topic_descriptor_t* type;
@@ -120,41 +119,42 @@ std::error_code DdsPublisher::create_writers(std::string& message) {
     const std::string name = topic_name(config_.topic_prefix, spec.topic);
     const dds_entity_t topic = dds_create_topic(participant_, spec.type, name.c_str(), nullptr, nullptr);
     if (topic < 0) {
-      message = "cannot create topic '" + name + "': " + dds_strretcode(topic) + security_hint(topic);
-      return make_dds_error(topic);
+      return {make_dds_error(topic),
+              "cannot create topic '" + name + "': " + dds_strretcode(topic) + security_hint(topic)};
     }
     const dds_entity_t writer = dds_create_writer(publisher_, topic, spec.qos.get(), nullptr);
     if (writer < 0) {
-      message = "cannot create a writer for '" + name + "': " + dds_strretcode(writer) + security_hint(writer);
-      return make_dds_error(writer);
+      return {make_dds_error(writer),
+              "cannot create a writer for '" + name + "': " + dds_strretcode(writer) + security_hint(writer)};
     }
     *spec.writer = writer;
   }
   return {};
 }
 
-std::error_code DdsPublisher::set_ownership_strength(std::int32_t strength) noexcept {
+plugin::Error DdsPublisher::set_ownership_strength(std::int32_t strength) {
   if (config_.redundancy_node == 0) return {};
   const Qos q(dds_create_qos());
-  if (!q) return make_dds_error(DDS_RETCODE_OUT_OF_RESOURCES);
+  if (!q) return {make_dds_error(DDS_RETCODE_OUT_OF_RESOURCES), "cannot create a QoS: out of memory"};
   dds_qset_ownership_strength(q.get(), strength);
   for (const dds_entity_t w : {sample_writer_, event_writer_, status_writer_}) {
     if (w <= 0) continue;
-    if (const dds_return_t rc = dds_set_qos(w, q.get()); rc != DDS_RETCODE_OK) return make_dds_error(rc);
+    if (const dds_return_t rc = dds_set_qos(w, q.get()); rc != DDS_RETCODE_OK)
+      return {make_dds_error(rc), std::string("dds_set_qos on a writer: ") + dds_strretcode(rc)};
   }
   return {};
 }
 
-std::error_code DdsPublisher::create_participant(dds_domainid_t domain, std::string& message) {
+plugin::Error DdsPublisher::create_participant(dds_domainid_t domain) {
   // A secured participant joining a domain that another participant of this
   // process made without security crashed Cyclone 0.10.2 (SIGSEGV in its
   // "gc" thread, seen in the unit tests); the other order it refuses. So a
   // secured output wants its domain to itself in this process.
   if (config_.security && dds_lookup_participant(domain, nullptr, 0) > 0) {
-    message = "DDS Security: domain " + std::to_string(config_.domain) +
-              " already has a participant in this process (another DDS output?); a secured output needs a domain "
-              "of its own here";
-    return make_dds_error(DDS_RETCODE_PRECONDITION_NOT_MET);
+    return {make_dds_error(DDS_RETCODE_PRECONDITION_NOT_MET),
+            "DDS Security: domain " + std::to_string(config_.domain) +
+                " already has a participant in this process (another DDS output?); a secured output needs a domain "
+                "of its own here"};
   }
   // DDS Security is a property of the participant: every entity below
   // inherits its identity and permissions (OMG DDS Security 1.1, 8.8.1).
@@ -162,10 +162,9 @@ std::error_code DdsPublisher::create_participant(dds_domainid_t domain, std::str
   if (config_.security) set_security_properties(qos.get(), *config_.security);
   const dds_entity_t pp = dds_create_participant(domain, qos.get(), nullptr);
   if (pp < 0) {
-    message = "cannot create a DDS participant in domain " + std::to_string(config_.domain) + ": " +
-              dds_strretcode(pp) +
-              (config_.security ? security_failure_hint(pp, *config_.security) : " (check CYCLONEDDS_URI)");
-    return make_dds_error(pp);
+    return {make_dds_error(pp),
+            "cannot create a DDS participant in domain " + std::to_string(config_.domain) + ": " + dds_strretcode(pp) +
+                (config_.security ? security_failure_hint(pp, *config_.security) : " (check CYCLONEDDS_URI)")};
   }
   participant_ = pp;
   return {};

@@ -69,10 +69,11 @@ class DdsPublisher {
   // the user's CYCLONEDDS_URI, so the user's settings still apply and win),
   // the participant (secured with config.security: dds_security.hpp),
   // topics and writers, then publishes the DeviceStatus of
-  // every device already known. On failure nothing is left and `message`
-  // says which step failed. `note` is set when start succeeded but
-  // write_batch could not be applied (the process already had the domain).
-  [[nodiscard]] std::error_code start(std::string& message, std::string& note);
+  // every device already known. On failure nothing is left; the error's
+  // message says which step failed and its code is Cyclone's return code
+  // (dds_category). `note` is set when start succeeded but write_batch could
+  // not be applied (the process already had the domain).
+  [[nodiscard]] plugin::Error start(std::string& note);
   void stop() noexcept;
   [[nodiscard]] bool started() const noexcept { return participant_ > 0; }
 
@@ -110,7 +111,8 @@ class DdsPublisher {
   // Hot standby: the ownership strength of the three data writers (their
   // ownership is EXCLUSIVE when config().redundancy_node is set). Any thread
   // while started; Cyclone announces the change to the readers.
-  [[nodiscard]] std::error_code set_ownership_strength(std::int32_t strength) noexcept;
+  // A failure has Cyclone's return code (dds_category) and says which step.
+  [[nodiscard]] plugin::Error set_ownership_strength(std::int32_t strength);
   // Device and bus counts as of the last status change (any thread).
   [[nodiscard]] GatewayCounts counts() const noexcept;
 
@@ -122,11 +124,11 @@ class DdsPublisher {
   void tally(dds_return_t rc, std::atomic<std::uint64_t>& counter) noexcept;
   void forget_instance(const DeviceSlot& slot) noexcept;
   // The domain with WriteBatch (start, when config_.write_batch).
-  std::error_code create_domain(dds_domainid_t domain, std::string& message, std::string& note);
+  [[nodiscard]] plugin::Error create_domain(dds_domainid_t domain, std::string& note);
   // The topics and their writers under publisher_ (start).
-  std::error_code create_writers(std::string& message);
+  [[nodiscard]] plugin::Error create_writers();
   // The participant of config_.domain, secured with config_.security (start).
-  [[nodiscard]] std::error_code create_participant(dds_domainid_t domain, std::string& message);
+  [[nodiscard]] plugin::Error create_participant(dds_domainid_t domain);
   // With DDS Security on: what to add to a failed creation's message.
   [[nodiscard]] std::string security_hint(dds_return_t rc) const;
   // STATUS in queue order: the last EncoderSample again, stale, when the

@@ -34,41 +34,39 @@ std::string where(std::string_view key, const std::string& path) {
 
 // Opened and read by this process, as Cyclone will be: the test of access,
 // not the mode bits (root reads anything; another user's 0600 file fails).
-std::error_code check_file(std::string_view key, const std::string& path, bool secret, std::string& message) {
+plugin::Error check_file(std::string_view key, const std::string& path, bool secret) {
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) {
-    message = where(key, path) + ": " + std::strerror(errno);
-    return make_error_code(DdsConfigErrc::kBadFile);
-  }
+  if (fd < 0) return {DdsConfigErrc::kBadFile, std::strerror(errno), where(key, path)};
   struct stat st {};
   char byte = 0;
   const bool stat_ok = ::fstat(fd, &st) == 0;
   const ssize_t n = stat_ok && S_ISREG(st.st_mode) ? ::read(fd, &byte, 1) : 0;
   const int read_errno = errno;
   ::close(fd);
+  std::string message;
   if (!stat_ok || !S_ISREG(st.st_mode)) {
-    message = where(key, path) + ": not a regular file";
+    message = "not a regular file";
   } else if (n < 0) {
-    message = where(key, path) + ": " + std::strerror(read_errno);
+    message = std::strerror(read_errno);
   } else if (n == 0) {
-    message = where(key, path) + ": empty";
+    message = "empty";
   } else if (secret && (st.st_mode & 077) != 0) {
     // Whoever can read the key can pose as this gateway to every subscriber.
-    message = where(key, path) + ": readable or writable by group or others (mode " + mode_text(st.st_mode & 0777) +
-              "); chmod 600 it";
+    message = "readable or writable by group or others (mode " + mode_text(st.st_mode & 0777) + "); chmod 600 it";
   } else {
     return {};
   }
-  return make_error_code(DdsConfigErrc::kBadFile);
+  return {DdsConfigErrc::kBadFile, std::move(message), where(key, path)};
 }
 
-std::error_code check_plugins(const std::string& dir, std::string& message) {
+plugin::Error check_plugins(const std::string& dir) {
   for (const std::string_view file : kSecurityPluginFiles) {
     const std::string path = dir + "/" + std::string(file);
     if (::access(path.c_str(), R_OK) == 0) continue;
-    message = "DDS Security plugin " + path + ": " + std::strerror(errno) +
-              " (Debian 12: package libddsc0debian; 'security.plugin_dir' names another folder)";
-    return make_error_code(DdsConfigErrc::kBadFile);
+    return {DdsConfigErrc::kBadFile,
+            std::string(std::strerror(errno)) +
+                " (Debian 12: package libddsc0debian; 'security.plugin_dir' names another folder)",
+            "DDS Security plugin " + path};
   }
   return {};
 }
@@ -98,24 +96,18 @@ std::string subject_of(const X509* cert) {
 }
 
 // Cyclone refuses a certificate outside its validity with "Error" only.
-std::error_code read_identity(DdsSecurity& s, std::string& message) {
+plugin::Error read_identity(DdsSecurity& s) {
+  const std::string place = where("identity_certificate", s.identity_certificate);
   const std::unique_ptr<BIO, BioFree> in(BIO_new_file(s.identity_certificate.c_str(), "r"));
   const std::unique_ptr<X509, X509Free> cert(in ? PEM_read_bio_X509(in.get(), nullptr, nullptr, nullptr) : nullptr);
-  if (!cert) {
-    message = where("identity_certificate", s.identity_certificate) + ": not a PEM X.509 certificate";
-    return make_error_code(DdsConfigErrc::kBadFile);
-  }
+  if (!cert) return {DdsConfigErrc::kBadFile, "not a PEM X.509 certificate", place};
   s.subject = subject_of(cert.get());
   s.not_after = iso_time(X509_get0_notAfter(cert.get()));
-  if (X509_cmp_current_time(X509_get0_notAfter(cert.get())) <= 0) {
-    message = where("identity_certificate", s.identity_certificate) + ": expired on " + s.not_after;
-  } else if (X509_cmp_current_time(X509_get0_notBefore(cert.get())) >= 0) {
-    message = where("identity_certificate", s.identity_certificate) + ": not valid before " +
-              iso_time(X509_get0_notBefore(cert.get()));
-  } else {
-    return {};
-  }
-  return make_error_code(DdsConfigErrc::kBadFile);
+  if (X509_cmp_current_time(X509_get0_notAfter(cert.get())) <= 0)
+    return {DdsConfigErrc::kBadFile, "expired on " + s.not_after, place};
+  if (X509_cmp_current_time(X509_get0_notBefore(cert.get())) >= 0)
+    return {DdsConfigErrc::kBadFile, "not valid before " + iso_time(X509_get0_notBefore(cert.get())), place};
+  return {};
 }
 
 std::string file_uri(const std::string& path) { return "file:" + path; }
@@ -124,13 +116,13 @@ std::string file_uri(const std::string& path) { return "file:" + path; }
 
 std::string_view default_security_plugin_dir() noexcept { return COBRIDGE_DDS_SECURITY_PLUGIN_DIR; }
 
-std::error_code check_security(DdsSecurity& security, std::string& message) {
+plugin::Error check_security(DdsSecurity& security) {
   for (const SecurityFileKey& k : kSecurityFileKeys) {
     const bool secret = k.member == &DdsSecurity::private_key;
-    if (const std::error_code ec = check_file(k.key, security.*k.member, secret, message)) return ec;
+    if (plugin::Error e = check_file(k.key, security.*k.member, secret)) return e;
   }
-  if (const std::error_code ec = check_plugins(security.plugin_dir, message)) return ec;
-  return read_identity(security, message);
+  if (plugin::Error e = check_plugins(security.plugin_dir)) return e;
+  return read_identity(security);
 }
 
 void set_security_properties(dds_qos_t* qos, const DdsSecurity& s) {

@@ -16,6 +16,7 @@
 // checks, start sets the QoS). Reads files, allocates.
 #pragma once
 
+#include <cobridge/plugin_error.hpp>
 #include <dds/dds.h>
 
 #include <array>
@@ -66,8 +67,8 @@ inline constexpr std::array<std::string_view, 3> kSecurityPluginFiles{
 // private key is not readable or writable by group or others; the three
 // plugin libraries are in plugin_dir; the identity certificate is a PEM
 // X.509 certificate within its validity (fills subject and not_after).
-// On failure `message` names the key and the path (DdsConfigErrc::kBadFile).
-[[nodiscard]] std::error_code check_security(DdsSecurity& security, std::string& message);
+// A failure (ConfigErrc::kBadFile) has the key and the path as its where.
+[[nodiscard]] plugin::Error check_security(DdsSecurity& security);
 
 // Adds the dds.sec.* properties that make Cyclone secure the participant
 // created with `qos` (names: <dds/security/dds_security_api_defs.h>).

@@ -43,7 +43,7 @@ GatewayPresence::GatewayPresence(const GatewayName& gateway, std::string topic_p
 
 GatewayPresence::~GatewayPresence() { stop(); }
 
-std::error_code GatewayPresence::start(dds_entity_t participant, std::string& message) {
+plugin::Error GatewayPresence::start(dds_entity_t participant) {
   host_ = host_name();
   pid_ = static_cast<std::uint32_t>(::getpid());
   incarnation_ = new_incarnation();
@@ -51,31 +51,29 @@ std::error_code GatewayPresence::start(dds_entity_t participant, std::string& me
   const std::string name = topic_name(topic_prefix_, kGatewayStatusTopic);
   topic_ = dds_create_topic(participant, &cobridge_GatewayStatus_desc, name.c_str(), nullptr, nullptr);
   if (topic_ < 0) {
-    message = "cannot create topic '" + name + "': " + dds_strretcode(topic_);
-    const std::error_code ec = make_dds_error(topic_);
+    plugin::Error e(make_dds_error(topic_), "cannot create topic '" + name + "': " + dds_strretcode(topic_));
     topic_ = 0;
-    return ec;
+    return e;
   }
   publisher_ = dds_create_publisher(participant, partition_qos(partition_).get(), nullptr);
   subscriber_ = dds_create_subscriber(participant, partition_qos(partition_).get(), nullptr);
   if (publisher_ < 0 || subscriber_ < 0) {
     const dds_return_t rc = publisher_ < 0 ? publisher_ : subscriber_;
-    message = "cannot create a DDS publisher/subscriber for partition '" + partition_ + "': " + dds_strretcode(rc);
     if (publisher_ < 0) publisher_ = 0;
     if (subscriber_ < 0) subscriber_ = 0;
     stop();
-    return make_dds_error(rc);
+    return {make_dds_error(rc),
+            "cannot create a DDS publisher/subscriber for partition '" + partition_ + "': " + dds_strretcode(rc)};
   }
   writer_ = dds_create_writer(publisher_, topic_, gateway_status_writer_qos(lease_).get(), nullptr);
   reader_ = writer_ > 0 ? dds_create_reader(subscriber_, topic_, gateway_status_reader_qos().get(), nullptr) : 0;
   if (writer_ < 0 || reader_ < 0) {
     const dds_return_t rc = writer_ < 0 ? writer_ : reader_;
-    message = "cannot create the " + std::string(writer_ < 0 ? "writer" : "reader") + " of '" + name +
-              "': " + dds_strretcode(rc);
+    const std::string what = writer_ < 0 ? "writer" : "reader";
     if (writer_ < 0) writer_ = 0;
     if (reader_ < 0) reader_ = 0;
     stop();
-    return make_dds_error(rc);
+    return {make_dds_error(rc), "cannot create the " + what + " of '" + name + "': " + dds_strretcode(rc)};
   }
   publish(counts_, pair_, true);
   return {};

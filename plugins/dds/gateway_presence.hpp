@@ -53,8 +53,9 @@ class GatewayPresence {
   GatewayPresence& operator=(const GatewayPresence&) = delete;
 
   // Creates topic, writer and reader in `participant` and writes the first
-  // GatewayStatus. On failure nothing is left and `message` says why.
-  [[nodiscard]] std::error_code start(dds_entity_t participant, std::string& message);
+  // GatewayStatus. On failure nothing is left; the error says why, its code
+  // is Cyclone's return code (dds_category).
+  [[nodiscard]] plugin::Error start(dds_entity_t participant);
   // Disposes the instance (subscribers see the gateway leave at once) and
   // deletes the writer and reader.
   void stop() noexcept;

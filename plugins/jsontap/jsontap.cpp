@@ -15,6 +15,7 @@
 // through buffered stdio. A file write may still block on a slow disk or a
 // full pipe: this plugin is for debugging, not for production outputs.
 #include <cobridge/plugin.h>
+#include <cobridge/plugin_error.hpp>
 
 #include "host_log.hpp"
 
@@ -260,35 +261,38 @@ struct Tap {
 using plugin::copy_error;
 
 // Fills `tap` from the TOML text; returns an error message or "".
-std::string configure(Tap& tap, std::string_view text) {
+// The settings; a refusal's message starts "config: ", ready for the err text.
+plugin::Error configure(Tap& tap, std::string_view text) {
+  using plugin::ConfigErrc;
+  const auto refused = [](ConfigErrc code, std::string message) { return plugin::Error(code, "config: " + message); };
   toml::table table;
   try {
     table = toml::parse(text, std::string_view("jsontap"));
   } catch (const toml::parse_error& e) {
-    return std::string("config: ") + std::string(e.description()) + " at line " +
-           std::to_string(e.source().begin.line);
+    return refused(ConfigErrc::kSyntax,
+                   std::string(e.description()) + " at line " + std::to_string(e.source().begin.line));
   }
-  std::string error;
+  plugin::Error error;
   table.for_each([&](const toml::key& key, const auto& value) {
-    if (!error.empty()) return;
+    if (error) return;
     const std::string_view k = key.str();
     if (k == "path") {
       if (const auto* s = value.as_string()) {
         tap.path = s->get();
       } else {
-        error = "config: 'path' must be a string";
+        error = refused(ConfigErrc::kWrongType, "'path' must be a string");
       }
     } else if (k == "flush" || k == "append") {
       if (const auto* b = value.as_boolean()) {
         (k == "flush" ? tap.flush : tap.append) = b->get();
       } else {
-        error = "config: '" + std::string(k) + "' must be a boolean";
+        error = refused(ConfigErrc::kWrongType, "'" + std::string(k) + "' must be a boolean");
       }
     } else {
-      error = "config: unknown key '" + std::string(k) + "' (expected path, flush, append)";
+      error = refused(ConfigErrc::kUnknownKey, "unknown key '" + std::string(k) + "' (expected path, flush, append)");
     }
   });
-  if (error.empty() && tap.path.empty()) error = "config: 'path' is empty (use \"-\" for stdout)";
+  if (!error && tap.path.empty()) error = refused(ConfigErrc::kOutOfRange, "'path' is empty (use \"-\" for stdout)");
   return error;
 }
 
@@ -376,10 +380,10 @@ extern "C" COBRIDGE_PLUGIN_EXPORT int cobridge_plugin_create(const cobridge_host
   using namespace cobridge::jsontap;
   return cobridge::plugin::create_plugin(
       "jsontap", &kOps, host, config_toml, config_len, ops_out, self_out, err, err_len,
-      [host](std::string_view config, std::string& error) -> void* {
+      [host](std::string_view config, cobridge::plugin::Error& error) -> void* {
         auto tap = std::make_unique<Tap>();
         tap->host = host;
         error = configure(*tap, config);
-        return error.empty() ? tap.release() : nullptr;
+        return error ? nullptr : tap.release();
       });
 }

@@ -69,9 +69,8 @@ int modbus_start(void* self) {
     p->image->set_start(monotonic_ns());
     p->server = std::make_unique<TcpServer>(
         p->config, *p->image, [p](int level, const std::string& m) { p->log(level, m); }, p->commands.get());
-    std::string message;
-    if (const std::error_code ec = p->server->start(message)) {
-      p->log(COBRIDGE_LOG_ERROR, "cannot start the Modbus server: " + message);
+    if (const plugin::Error e = p->server->start()) {
+      p->log(COBRIDGE_LOG_ERROR, "cannot start the Modbus server: " + e.to_string());
       p->server.reset();
       return -1;
     }
@@ -170,14 +169,11 @@ extern "C" COBRIDGE_PLUGIN_EXPORT int cobridge_plugin_create(const cobridge_host
   using namespace cobridge::modbus;
   return cobridge::plugin::create_plugin(
       "modbus", &kOps, host, config_toml, config_len, ops_out, self_out, err, err_len,
-      [host](std::string_view config, std::string& error) -> void* {
+      [host](std::string_view config, cobridge::plugin::Error& error) -> void* {
         auto p = std::make_unique<Plugin>();
         p->host = host;
-        const ConfigResult r = parse_config(config, p->config);
-        if (!r) {
-          error = r.message;
-          return nullptr;
-        }
+        error = parse_config(config, p->config);
+        if (error) return nullptr;
         ImageOptions io;
         io.device_slots = p->config.max_devices;
         io.word_order = p->config.word_order;

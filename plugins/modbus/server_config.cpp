@@ -11,10 +11,10 @@
 namespace cobridge::modbus {
 namespace {
 
-ConfigResult fail(ConfigErrc code, std::string message) { return {code, "config: " + std::move(message)}; }
+plugin::Error fail(ConfigErrc code, std::string message) { return {code, "config: " + std::move(message)}; }
 
 // Integer key within [lo, hi].
-ConfigResult get_int(const toml::node& node, std::string_view key, std::int64_t lo, std::int64_t hi,
+plugin::Error get_int(const toml::node& node, std::string_view key, std::int64_t lo, std::int64_t hi,
                      std::int64_t& out) {
   const auto* v = node.as_integer();
   if (v == nullptr) return fail(ConfigErrc::kBadType, "'" + std::string(key) + "' must be an integer");
@@ -26,7 +26,7 @@ ConfigResult get_int(const toml::node& node, std::string_view key, std::int64_t 
   return {};
 }
 
-ConfigResult get_bool(const toml::node& node, std::string_view key, bool& out) {
+plugin::Error get_bool(const toml::node& node, std::string_view key, bool& out) {
   const auto* v = node.as_boolean();
   if (v == nullptr) return fail(ConfigErrc::kBadType, "'" + std::string(key) + "' must be a boolean");
   out = v->get();
@@ -34,7 +34,7 @@ ConfigResult get_bool(const toml::node& node, std::string_view key, bool& out) {
 }
 
 // `allow` / `write_allow`: an array of CIDR strings.
-ConfigResult parse_networks(std::string_view key, const toml::node& node, IpAllowList& out) {
+plugin::Error parse_networks(std::string_view key, const toml::node& node, IpAllowList& out) {
   const std::string k(key);
   const auto* a = node.as_array();
   if (a == nullptr) return fail(ConfigErrc::kBadType, "'" + k + "' must be an array of CIDR strings");
@@ -47,9 +47,9 @@ ConfigResult parse_networks(std::string_view key, const toml::node& node, IpAllo
   return {};
 }
 
-ConfigResult apply_key(std::string_view k, const toml::node& node, ServerConfig& c) {
+plugin::Error apply_key(std::string_view k, const toml::node& node, ServerConfig& c) {
   std::int64_t n = 0;
-  ConfigResult r;
+  plugin::Error r;
   if (k == "bind") {
     const auto* s = node.as_string();
     if (s == nullptr) return fail(ConfigErrc::kBadType, "'bind' must be a string");
@@ -59,22 +59,22 @@ ConfigResult apply_key(std::string_view k, const toml::node& node, ServerConfig&
     }
     c.bind = s->get();
   } else if (k == "port") {
-    if (!(r = get_int(node, k, 0, 65535, n))) return r;
+    if ((r = get_int(node, k, 0, 65535, n))) return r;
     c.port = static_cast<std::uint16_t>(n);
   } else if (k == "max_clients") {
-    if (!(r = get_int(node, k, 1, 4096, n))) return r;
+    if ((r = get_int(node, k, 1, 4096, n))) return r;
     c.max_clients = static_cast<std::uint32_t>(n);
   } else if (k == "idle_timeout_s") {
-    if (!(r = get_int(node, k, 0, 86400, n))) return r;
+    if ((r = get_int(node, k, 0, 86400, n))) return r;
     c.idle_timeout_s = static_cast<std::uint32_t>(n);
   } else if (k == "first_request_timeout_ms") {
-    if (!(r = get_int(node, k, 0, 600000, n))) return r;
+    if ((r = get_int(node, k, 0, 600000, n))) return r;
     c.first_request_timeout_ms = static_cast<std::uint32_t>(n);
   } else if (k == "unit_id") {
-    if (!(r = get_int(node, k, 0, 255, n))) return r;
+    if ((r = get_int(node, k, 0, 255, n))) return r;
     c.unit_id = static_cast<int>(n);
   } else if (k == "max_devices") {
-    if (!(r = get_int(node, k, 1, kMaxDeviceSlots, n))) return r;
+    if ((r = get_int(node, k, 1, kMaxDeviceSlots, n))) return r;
     c.max_devices = static_cast<std::uint16_t>(n);
   } else if (k == "writes_enabled") {
     return get_bool(node, k, c.writes_enabled);
@@ -105,7 +105,7 @@ ConfigResult apply_key(std::string_view k, const toml::node& node, ServerConfig&
 
 }  // namespace
 
-ConfigResult parse_config(std::string_view toml_text, ServerConfig& out) {
+plugin::Error parse_config(std::string_view toml_text, ServerConfig& out) {
   toml::table table;
   try {
     table = toml::parse(toml_text, std::string_view("modbus"));
@@ -115,8 +115,7 @@ ConfigResult parse_config(std::string_view toml_text, ServerConfig& out) {
   }
   ServerConfig c;
   for (const auto& [key, node] : table) {
-    ConfigResult r = apply_key(key.str(), node, c);
-    if (!r) return r;
+    if (plugin::Error r = apply_key(key.str(), node, c)) return r;
   }
   out = std::move(c);
   return {};

@@ -23,6 +23,7 @@
 #include "request.hpp"
 
 #include <cobridge/ip_allow_list.hpp>
+#include <cobridge/plugin_error.hpp>
 
 #include <cstdint>
 #include <string>
@@ -47,14 +48,11 @@ struct ServerConfig {
   [[nodiscard]] RequestPolicy policy() const noexcept { return {unit_id, writes_enabled, offline_exception}; }
 };
 
-enum class ConfigErrc : std::uint8_t { kOk = 0, kSyntax, kUnknownKey, kBadType, kBadValue };
+// The precise codes of a configuration error, the SDK's set for every plugin.
+using ConfigErrc = plugin::ConfigErrc;
 
-struct ConfigResult {
-  ConfigErrc code = ConfigErrc::kOk;
-  std::string message;  // "config: ..." ready for the plugin's err text
-  [[nodiscard]] explicit operator bool() const noexcept { return code == ConfigErrc::kOk; }
-};
-
-[[nodiscard]] ConfigResult parse_config(std::string_view toml_text, ServerConfig& out);
+// Fills `out` only on success; the error's message starts "config: ", ready for
+// the plugin's err text.
+[[nodiscard]] plugin::Error parse_config(std::string_view toml_text, ServerConfig& out);
 
 }  // namespace cobridge::modbus

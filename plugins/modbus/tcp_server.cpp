@@ -94,18 +94,16 @@ std::string TcpServer::endpoint() const {
   return (v6 ? "[" + config_.bind + "]" : config_.bind) + ":" + std::to_string(bound_port_);
 }
 
-std::error_code TcpServer::start(std::string& message) {
+plugin::Error TcpServer::start() {
   sockaddr_storage ss{};
   socklen_t len = 0;
   if (!parse_bind_address(config_.bind, config_.port, ss, len)) {
-    message = "bind address '" + config_.bind + "' is not an IP address";
-    return std::make_error_code(std::errc::invalid_argument);
+    return {std::make_error_code(std::errc::invalid_argument),
+            "bind address '" + config_.bind + "' is not an IP address"};
   }
-  if (const char* what = open_sockets(ss, len); what != nullptr) {
-    const int e = errno;
-    message = std::string(what) + " " + config_.bind + ":" + std::to_string(config_.port) + ": " + std::strerror(e);
+  if (plugin::Error e = open_sockets(ss, len)) {
     stop();
-    return std::error_code(e, std::system_category());
+    return e;
   }
   // Every connection's buffers are allocated here, once.
   conns_ = std::vector<Connection>(config_.max_clients);
@@ -117,23 +115,28 @@ std::error_code TcpServer::start(std::string& message) {
   try {
     thread_ = std::thread([this] { run(); });
   } catch (const std::system_error& e) {
-    message = std::string("cannot start the server thread: ") + e.what();
-    const std::error_code code = e.code();
     stop();
-    return code;
+    return {e.code(), std::string("cannot start the server thread: ") + e.what()};
   }
   return {};
 }
 
 // The listening socket, bound to `ss`, and the epoll set with the wake-up
-// eventfd. Returns nullptr, or the step that failed with errno set.
-const char* TcpServer::open_sockets(const sockaddr_storage& ss, socklen_t len) {
+// eventfd. A failure has the errno as its code and names the step and the
+// address in its message; the caller stops what was opened.
+plugin::Error TcpServer::open_sockets(const sockaddr_storage& ss, socklen_t len) {
+  const auto fail = [&](const char* what) {
+    const int e = errno;
+    return plugin::Error(std::error_code(e, std::system_category()),
+                         std::string(what) + " " + config_.bind + ":" + std::to_string(config_.port) + ": " +
+                             std::strerror(e));
+  };
   listen_fd_ = ::socket(ss.ss_family, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-  if (listen_fd_ < 0) return "socket";
+  if (listen_fd_ < 0) return fail("socket");
   const int one = 1;
   ::setsockopt(listen_fd_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
-  if (::bind(listen_fd_, reinterpret_cast<const sockaddr*>(&ss), len) != 0) return "bind";
-  if (::listen(listen_fd_, 128) != 0) return "listen";
+  if (::bind(listen_fd_, reinterpret_cast<const sockaddr*>(&ss), len) != 0) return fail("bind");
+  if (::listen(listen_fd_, 128) != 0) return fail("listen");
   sockaddr_storage bound{};
   socklen_t bound_len = sizeof bound;
   if (::getsockname(listen_fd_, reinterpret_cast<sockaddr*>(&bound), &bound_len) == 0) {
@@ -141,16 +144,16 @@ const char* TcpServer::open_sockets(const sockaddr_storage& ss, socklen_t len) {
                                              : ntohs(reinterpret_cast<const sockaddr_in6*>(&bound)->sin6_port);
   }
   epoll_fd_ = ::epoll_create1(EPOLL_CLOEXEC);
-  if (epoll_fd_ < 0) return "epoll_create1 for";
+  if (epoll_fd_ < 0) return fail("epoll_create1 for");
   wake_fd_ = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
-  if (wake_fd_ < 0) return "eventfd for";
+  if (wake_fd_ < 0) return fail("eventfd for");
   epoll_event ev{};
   ev.events = EPOLLIN;
   ev.data.u64 = kListenTag;
-  if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, listen_fd_, &ev) != 0) return "epoll_ctl for";
+  if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, listen_fd_, &ev) != 0) return fail("epoll_ctl for");
   ev.data.u64 = kWakeTag;
-  if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, wake_fd_, &ev) != 0) return "epoll_ctl for";
-  return nullptr;
+  if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, wake_fd_, &ev) != 0) return fail("epoll_ctl for");
+  return {};
 }
 
 void TcpServer::stop() noexcept {

@@ -59,9 +59,9 @@ class TcpServer {
   TcpServer(const TcpServer&) = delete;
   TcpServer& operator=(const TcpServer&) = delete;
 
-  // Binds, listens and starts the thread. On failure returns the errno code
-  // and sets `message` (naming the address).
-  [[nodiscard]] std::error_code start(std::string& message);
+  // Binds, listens and starts the thread. A failure has the errno as its
+  // code and names the address in its message.
+  [[nodiscard]] plugin::Error start();
   void stop() noexcept;
 
   // The bound port (useful with port = 0) and "address:port" for logs.
@@ -70,7 +70,7 @@ class TcpServer {
   [[nodiscard]] ServerStats stats() const noexcept;
 
  private:
-  const char* open_sockets(const sockaddr_storage& ss, socklen_t len);
+  plugin::Error open_sockets(const sockaddr_storage& ss, socklen_t len);
   static constexpr std::size_t kOutBuffer = 4096;
   struct Connection {
     int fd = -1;

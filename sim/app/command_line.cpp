@@ -100,48 +100,50 @@ struct PlacedDevices {
   std::vector<std::size_t> bus_of;
 };
 
+// A bad command line (the caller adds the program's name).
+Error bad(std::string message) { return Error(Errc::kInvalidArgument, std::move(message)); }
+
 // Walks the options in command-line order so each --device lands on the
-// --iface before it. Returns an error message, empty when all is well.
-std::string place_devices(const CLI::App& app, const RawArguments& raw, ModelLookup lookup,
-                          std::vector<BusOptions>& buses, PlacedDevices& placed) {
+// --iface before it.
+Error place_devices(const CLI::App& app, const RawArguments& raw, ModelLookup lookup,
+                    std::vector<BusOptions>& buses, PlacedDevices& placed) {
   std::size_t next_iface = 0, next_device = 0;
   std::map<std::string, std::size_t> bus_index;
   for (const CLI::Option* opt : app.parse_order()) {
     if (opt == raw.iface_opt) {
       const std::string& name = raw.ifaces.at(next_iface++);
       if (!valid_interface_name(name))
-        return "--iface '" + name + "': not an interface name (1.." + std::to_string(IFNAMSIZ - 1) +
-               " characters, no '/', ':' or blanks)";
-      if (bus_index.count(name) != 0) return "--iface '" + name + "' given twice";
+        return bad("--iface '" + name + "': not an interface name (1.." + std::to_string(IFNAMSIZ - 1) +
+                   " characters, no '/', ':' or blanks)");
+      if (bus_index.count(name) != 0) return bad("--iface '" + name + "' given twice");
       bus_index[name] = buses.size();
       buses.push_back(BusOptions{name, {}});
     } else if (opt == raw.device_opt) {
       const std::string& text = raw.devices.at(next_device++);
       if (buses.empty())
-        return "--device '" + text + "' comes before any --iface (a device belongs to the --iface before it)";
+        return bad("--device '" + text + "' comes before any --iface (a device belongs to the --iface before it)");
       auto r = parse_device_argument(text, lookup);
-      if (!r.device) return r.error;
-      placed.parsed.push_back(*r.device);
+      if (!r.ok()) return r.error();
+      placed.parsed.push_back(std::move(r).value());
       placed.bus_of.push_back(buses.size() - 1);
     }
   }
   for (const BusOptions& b : buses) {
     bool has_device = false;
     for (const std::size_t i : placed.bus_of) has_device = has_device || buses[i].iface == b.iface;
-    if (!has_device) return "--iface '" + b.iface + "' has no --device after it";
+    if (!has_device) return bad("--iface '" + b.iface + "' has no --device after it");
   }
   return {};
 }
 
-// Explicit serials must be unique; the others count up from 1. Returns an
-// error message, empty when all is well.
-std::string assign_serials(const PlacedDevices& placed, std::vector<BusOptions>& buses) {
+// Explicit serials must be unique; the others count up from 1.
+Error assign_serials(const PlacedDevices& placed, std::vector<BusOptions>& buses) {
   std::set<std::uint32_t> used;
   for (const DeviceArgument& d : placed.parsed) {
     if (!d.serial_given) continue;
     if (!used.insert(d.spec.serial).second)
-      return "serial " + std::to_string(d.spec.serial) +
-             " is used by two devices (control commands and the state files need unique serials)";
+      return bad("serial " + std::to_string(d.spec.serial) +
+                 " is used by two devices (control commands and the state files need unique serials)");
   }
   std::uint32_t next_serial = 1;
   for (std::size_t i = 0; i < placed.parsed.size(); ++i) {
@@ -157,35 +159,33 @@ std::string assign_serials(const PlacedDevices& placed, std::vector<BusOptions>&
 }
 
 // The directories: --devices-dir, else the first default that exists.
-// Returns an error message, empty when all is well.
-std::string resolve_directories(const RawArguments& raw, const std::filesystem::path& installed_devices_dir,
-                                const std::filesystem::path& source_devices_dir, SimOptions& options) {
+Error resolve_directories(const RawArguments& raw, const std::filesystem::path& installed_devices_dir,
+                          const std::filesystem::path& source_devices_dir, SimOptions& options) {
   if (!raw.devices_dir.empty()) {
     if (!std::filesystem::is_directory(raw.devices_dir))
-      return "--devices-dir '" + raw.devices_dir + "': not a directory";
+      return bad("--devices-dir '" + raw.devices_dir + "': not a directory");
     options.devices_dir = raw.devices_dir;
   } else if (std::filesystem::is_directory(installed_devices_dir)) {
     options.devices_dir = installed_devices_dir;
   } else if (std::filesystem::is_directory(source_devices_dir)) {
     options.devices_dir = source_devices_dir;
   } else {
-    return "no device descriptions: neither " + installed_devices_dir.string() + " nor " +
-           source_devices_dir.string() + " exists (use --devices-dir)";
+    return bad("no device descriptions: neither " + installed_devices_dir.string() + " nor " +
+               source_devices_dir.string() + " exists (use --devices-dir)");
   }
   if (!raw.state_dir.empty() && std::filesystem::exists(raw.state_dir) &&
       !std::filesystem::is_directory(raw.state_dir))
-    return "--state-dir '" + raw.state_dir + "': exists and is not a directory";
+    return bad("--state-dir '" + raw.state_dir + "': exists and is not a directory");
   return {};
 }
 
-// Checks and resolves what CLI11 parsed. Returns an error message, empty
-// when all is well.
-std::string resolve(const CLI::App& app, const RawArguments& raw, ModelLookup lookup,
-                    const std::filesystem::path& installed_devices_dir,
-                    const std::filesystem::path& source_devices_dir, SimOptions& options) {
+// Checks and resolves what CLI11 parsed.
+Error resolve(const CLI::App& app, const RawArguments& raw, ModelLookup lookup,
+              const std::filesystem::path& installed_devices_dir, const std::filesystem::path& source_devices_dir,
+              SimOptions& options) {
   PlacedDevices placed;
-  if (std::string e = place_devices(app, raw, lookup, options.buses, placed); !e.empty()) return e;
-  if (std::string e = assign_serials(placed, options.buses); !e.empty()) return e;
+  if (Error e = place_devices(app, raw, lookup, options.buses, placed)) return e;
+  if (Error e = assign_serials(placed, options.buses)) return e;
   options.state_dir = raw.state_dir;
   options.truth_file = raw.truth;
   options.control_path = raw.control;
@@ -194,6 +194,13 @@ std::string resolve(const CLI::App& app, const RawArguments& raw, ModelLookup lo
 }
 
 }  // namespace
+
+int CommandLineResult::exit_code() const noexcept {
+  if (error) return cobridge::exit_code(error.kind);
+  return help.empty() ? -1 : 0;
+}
+
+std::string CommandLineResult::output() const { return error ? "cobridge-sim: " + error.to_string() : help; }
 
 CommandLineResult parse_command_line(int argc, const char* const* argv, ModelLookup lookup,
                                      std::span<const ModelInfo> models,
@@ -208,19 +215,13 @@ CommandLineResult parse_command_line(int argc, const char* const* argv, ModelLoo
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp&) {
-    result.exit_code = 0;
-    result.output = app.help();
+    result.help = app.help();
     return result;
   } catch (const CLI::ParseError& e) {
-    result.exit_code = 2;
-    result.output = std::string("cobridge-sim: ") + e.what() + "\nRun with --help for more information.";
+    result.error = bad(std::string(e.what()) + "\nRun with --help for more information.");
     return result;
   }
-  if (std::string e = resolve(app, raw, lookup, installed_devices_dir, source_devices_dir, result.options);
-      !e.empty()) {
-    result.exit_code = 2;
-    result.output = "cobridge-sim: " + std::move(e);
-  }
+  result.error = resolve(app, raw, lookup, installed_devices_dir, source_devices_dir, result.options);
   return result;
 }
 

@@ -32,10 +32,17 @@ struct SimOptions {
   int rt_priority = 0;                // SCHED_FIFO priority of the loop thread; 0: the normal scheduler
 };
 
+// What the command line asks for: a run with `options`, the help text, or
+// nothing because it is wrong (`error`, kInvalidArgument).
 struct CommandLineResult {
   SimOptions options;
-  int exit_code = -1;  // -1: run; 0: --help printed; 2: error
-  std::string output;  // help text or error message for the caller to print
+  std::string help;  // --help: the text for stdout
+  Error error;       // a bad command line
+
+  // -1: run; 0: print the help; else exit_code(error.kind) (2).
+  [[nodiscard]] int exit_code() const noexcept;
+  // The help text, or "cobridge-sim: <error>", for the caller to print.
+  [[nodiscard]] std::string output() const;
 };
 
 // `lookup` resolves MODEL (sim::find_model), `models` lists them in --help

@@ -19,20 +19,21 @@ ControlChannel::~ControlChannel() {
   }
 }
 
-std::error_code ControlChannel::listen(const std::filesystem::path& path) {
+Error ControlChannel::listen(const std::filesystem::path& path) {
+  const auto failed = [&path](std::error_code ec) { return Error(Errc::kFailed, ec.message(), path.string(), ec); };
   sockaddr_un addr{};
   addr.sun_family = AF_UNIX;
   const std::string p = path.string();
-  if (p.empty() || p.size() >= sizeof addr.sun_path) return std::make_error_code(std::errc::filename_too_long);
+  if (p.empty() || p.size() >= sizeof addr.sun_path) return failed(std::make_error_code(std::errc::filename_too_long));
   std::memcpy(addr.sun_path, p.c_str(), p.size() + 1);
   const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-  if (fd < 0) return {errno, std::generic_category()};
+  if (fd < 0) return failed(std::error_code(errno, std::generic_category()));
   std::error_code ec;
   if (std::filesystem::is_socket(path, ec)) std::filesystem::remove(path, ec);
   if (::bind(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0 || ::listen(fd, 16) != 0) {
     const int err = errno;
     ::close(fd);
-    return {err, std::generic_category()};
+    return failed(std::error_code(err, std::generic_category()));
   }
   listen_fd_ = fd;
   path_ = path;

@@ -10,6 +10,8 @@
 // Thread: the simulator's loop thread; off the per-frame path (allocates).
 #pragma once
 
+#include "base/error.hpp"
+
 #include <poll.h>
 
 #include <filesystem>
@@ -31,8 +33,9 @@ class ControlChannel {
   ControlChannel(const ControlChannel&) = delete;
   ControlChannel& operator=(const ControlChannel&) = delete;
 
-  // Listens at `path` (a stale socket file there is replaced).
-  [[nodiscard]] std::error_code listen(const std::filesystem::path& path);
+  // Listens at `path` (a stale socket file there is replaced). A failure has
+  // the path as its where and the errno as its code.
+  [[nodiscard]] Error listen(const std::filesystem::path& path);
   // Reads commands from `fd` and writes replies to `reply_fd`.
   void watch_input(int fd, int reply_fd) noexcept;
 

@@ -23,8 +23,8 @@ std::string rate_list(FamilyId family) {
   return out;
 }
 
-DeviceArgumentResult fail(std::string_view text, std::string message) {
-  return DeviceArgumentResult{std::nullopt, "--device " + quoted(text) + ": " + std::move(message)};
+Error fail(std::string_view text, std::string message) {
+  return Error(Errc::kInvalidArgument, std::move(message), "--device " + quoted(text));
 }
 
 }  // namespace
@@ -138,7 +138,7 @@ KeyResult option_key(DeviceArgument& arg, const ModelInfo& model, std::string_vi
     // Checked here so that a typo is an argument error (exit 2), not a
     // device that fails to power on after the buses opened.
     const MotionParseResult m = Motion::parse(value);
-    if (!m) return "motion: " + (m.message.empty() ? m.error.message() : m.message);
+    if (!m.ok()) return "motion: " + m.error.message;
     arg.spec.motion = std::string(value);
     return kApplied;
   }
@@ -156,7 +156,7 @@ KeyResult apply_key(DeviceArgument& arg, const ModelInfo& model, std::string_vie
 
 }  // namespace
 
-DeviceArgumentResult parse_device_argument(std::string_view text, ModelLookup lookup) {
+Result<DeviceArgument> parse_device_argument(std::string_view text, ModelLookup lookup) {
   const std::size_t colon = text.find(':');
   const std::string_view model_name = text.substr(0, colon);
   if (model_name.empty()) return fail(text, "missing the model name (MODEL[:key=value,...])");
@@ -190,7 +190,7 @@ DeviceArgumentResult parse_device_argument(std::string_view text, ModelLookup lo
   }
   if ((arg.spec.late_lss == 0) != (arg.spec.late_lss_ms == 0))
     return fail(text, "late_lss and late_lss_ms go together (every Nth LSS answer, T ms late)");
-  return DeviceArgumentResult{arg, {}};
+  return arg;
 }
 
 }  // namespace cobridge::sim

@@ -11,6 +11,7 @@
 // Thread: start-up only (allocates, builds messages).
 #pragma once
 
+#include "base/result.hpp"
 #include "device/sim_device.hpp"
 
 #include <cstdint>
@@ -29,12 +30,9 @@ struct DeviceArgument {
   bool serial_given = false;  // false: cobridge-sim assigns one
 };
 
-struct DeviceArgumentResult {
-  std::optional<DeviceArgument> device;
-  std::string error;  // names the key and what is allowed when device is empty
-};
-
-[[nodiscard]] DeviceArgumentResult parse_device_argument(std::string_view text, ModelLookup lookup);
+// A failure (kInvalidArgument) has the argument as its where and a message
+// that names the key and what is allowed.
+[[nodiscard]] Result<DeviceArgument> parse_device_argument(std::string_view text, ModelLookup lookup);
 
 // Bit rates a family's devices can be ordered with (J§1.2.2, E§3.1: 50..1000;
 // F§7.4 0x3001: 20..1000), in kbit/s.

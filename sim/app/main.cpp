@@ -18,15 +18,15 @@ int main(int argc, char** argv) {
       sim::parse_command_line(argc, argv, &sim::find_model, sim::all_models(),
                               sys::installed_dir(sys::InstallDir::devices, sys::executable()),
                               COBRIDGE_SIM_SOURCE_DEVICES_DIR);
-  if (cl.exit_code >= 0) {
-    std::fputs(cl.output.c_str(), cl.exit_code == 0 ? stdout : stderr);
-    std::fputc('\n', cl.exit_code == 0 ? stdout : stderr);
-    return cl.exit_code;
+  if (const int code = cl.exit_code(); code >= 0) {
+    std::fputs(cl.output().c_str(), code == 0 ? stdout : stderr);
+    std::fputc('\n', code == 0 ? stdout : stderr);
+    return code;
   }
   // Blocked before anything else so no signal interrupts start-up half way.
   sys::Signals signals;
-  if (signals.error()) {
-    std::fprintf(stderr, "cobridge-sim: signals: %s\n", signals.error().message().c_str());
+  if (const Error& e = signals.error()) {
+    std::fprintf(stderr, "cobridge-sim: %s\n", e.to_string().c_str());
     return 1;
   }
   // 1 ms event timers want wake-ups close to their deadline, not 50 us late.
@@ -41,9 +41,9 @@ int main(int argc, char** argv) {
   }
 
   sim::Simulator simulator(cl.options);
-  if (const auto failure = simulator.start()) {
-    std::fprintf(stderr, "cobridge-sim: %s\n", failure->message.c_str());
-    return failure->exit_code;
+  if (const Error e = simulator.start()) {
+    std::fprintf(stderr, "cobridge-sim: %s\n", e.to_string().c_str());
+    return exit_code(e.kind);
   }
   return simulator.run(signals);
 }

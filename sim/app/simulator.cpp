@@ -43,19 +43,19 @@ Simulator::~Simulator() {
   truth_.flush();
 }
 
-std::optional<Simulator::Failure> Simulator::open_buses() {
+Error Simulator::open_buses() {
   for (const BusOptions& b : options_.buses) {
     auto bus = std::make_unique<SimulatedBus>(b.iface);
     auto last_sent_ns = std::make_shared<std::int64_t>(0);  // this bus's last truth stamp
-    if (const auto err = bus->open()) return Failure{1, "--iface '" + b.iface + "': " + err.message};
+    if (const Error err = bus->open()) return Error(Errc::kFailed, err.message, "--iface '" + b.iface + "'", err.code);
     for (const DeviceSpec& spec : b.devices) {
       const device::DeviceDescription* desc =
           catalog_.select(spec.model->vendor, spec.model->product, std::nullopt, variant_of(spec));
       if (desc == nullptr)
-        return Failure{2, "device " + std::string(spec.model->name) + " (serial " + std::to_string(spec.serial) +
-                              "): no description in " + options_.devices_dir.string() +
-                              " for its vendor/product" + (variant_of(spec).empty() ? "" : " and variant " +
-                              std::string(variant_of(spec)))};
+        return Error(Errc::kInvalidArgument,
+                     "no description in " + options_.devices_dir.string() + " for its vendor/product" +
+                         (variant_of(spec).empty() ? "" : " and variant " + std::string(variant_of(spec))),
+                     "device " + std::string(spec.model->name) + " (serial " + std::to_string(spec.serial) + ")");
       SimulatedBus* raw = bus.get();
       auto dev = std::make_unique<SimDevice>(spec, *desc, raw->sink_for(raw->size()), options_.state_dir);
       if (truth_.is_open()) {
@@ -77,45 +77,46 @@ std::optional<Simulator::Failure> Simulator::open_buses() {
     }
     buses_.push_back(std::move(bus));
   }
-  return std::nullopt;
+  return {};
 }
 
-std::optional<Simulator::Failure> Simulator::start() {
+Error Simulator::start() {
   const auto errors = catalog_.load_directory(options_.devices_dir);
   if (catalog_.size() == 0) {
     std::string msg = "no device description could be loaded from " + options_.devices_dir.string();
     if (!errors.empty()) msg += ": " + errors.front().message;
-    return Failure{2, msg};
+    return Error(Errc::kInvalidArgument, msg);
   }
   if (!options_.state_dir.empty()) {
     std::error_code ec;
     std::filesystem::create_directories(options_.state_dir, ec);
-    if (ec) return Failure{2, "--state-dir '" + options_.state_dir.string() + "': " + ec.message()};
+    if (ec) return Error(Errc::kInvalidArgument, ec.message(), "--state-dir '" + options_.state_dir.string() + "'", ec);
   }
   if (!options_.truth_file.empty()) {
-    if (const auto ec = truth_.open(options_.truth_file.c_str()))
-      return Failure{2, "--truth '" + options_.truth_file.string() + "': " + ec.message()};
+    if (const Error e = truth_.open(options_.truth_file.c_str()))
+      return Error(Errc::kInvalidArgument, e.message, "--truth '" + options_.truth_file.string() + "'", e.code);
   }
   if (!options_.control_path.empty()) {
-    if (const auto ec = control_.listen(options_.control_path))
-      return Failure{2, "--control '" + options_.control_path.string() + "': " + ec.message()};
+    if (const Error e = control_.listen(options_.control_path))
+      return Error(Errc::kInvalidArgument, e.message, "--control '" + options_.control_path.string() + "'", e.code);
   }
   control_.watch_input(STDIN_FILENO, STDOUT_FILENO);
 
-  if (auto failure = open_buses()) return failure;
+  if (Error e = open_buses()) return e;
   const canopen::TimePoint now = canopen::Clock::now();
   now_ = now;
   for (auto& bus : buses_) {
     for (std::size_t i = 0; i < bus->size(); ++i) {
       SimDevice& d = bus->device(i);
-      if (const auto ec = d.power_on(now))
-        return Failure{2, "device " + std::string(d.spec().model->name) + " (serial " +
-                              std::to_string(d.spec().serial) + ") on " + bus->iface() +
-                              " does not power on: " + ec.message()};
+      if (const Error e = d.power_on(now))
+        return Error(Errc::kInvalidArgument, "does not power on: " + e.to_string(),
+                     "device " + std::string(d.spec().model->name) + " (serial " + std::to_string(d.spec().serial) +
+                         ") on " + bus->iface(),
+                     e.code);
       bus->deliver_local(now);
     }
   }
-  return std::nullopt;
+  return {};
 }
 
 std::optional<Simulator::Located> Simulator::find_device(std::uint32_t serial) {
@@ -218,11 +219,11 @@ std::string Simulator::execute_on_device(const ControlCommand& c, canopen::TimeP
   if (!loc) return "error no device with serial " + std::to_string(c.serial);
   SimulatedBus& bus = *loc->bus;
   SimDevice& d = bus.device(loc->index);
-  std::error_code ec;
+  Error error;
   std::string what;
   switch (c.verb) {
     case ControlVerb::power_cycle:
-      ec = d.power_cycle(now);
+      error = d.power_cycle(now);
       what = "power-cycle";
       break;
     case ControlVerb::power_off:
@@ -231,7 +232,7 @@ std::string Simulator::execute_on_device(const ControlCommand& c, canopen::TimeP
       break;
     case ControlVerb::power_on:
       if (d.powered()) return "error device " + std::to_string(c.serial) + " is already powered";
-      ec = d.power_on(now);
+      error = d.power_on(now);
       what = "power-on";
       break;
     case ControlVerb::silence:
@@ -255,7 +256,7 @@ std::string Simulator::execute_on_device(const ControlCommand& c, canopen::TimeP
     default: return "error internal: unhandled command";
   }
   bus.deliver_local(now);
-  if (ec) return "error " + what + " " + std::to_string(c.serial) + ": " + ec.message();
+  if (error) return "error " + what + " " + std::to_string(c.serial) + ": " + error.to_string();
   return "ok " + what + " " + std::to_string(c.serial);
 }
 

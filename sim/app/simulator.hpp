@@ -38,19 +38,16 @@ struct LoopStats {
 
 class Simulator {
  public:
-  struct Failure {
-    int exit_code = 1;
-    std::string message;
-  };
-
   explicit Simulator(SimOptions options);
   ~Simulator();
   Simulator(const Simulator&) = delete;
   Simulator& operator=(const Simulator&) = delete;
 
   // Loads descriptions, opens buses, truth file and control socket, creates
-  // and powers on the devices. Prints nothing.
-  [[nodiscard]] std::optional<Failure> start();
+  // and powers on the devices. Prints nothing. A failure's kind gives the
+  // exit code: kFailed (1) when a bus cannot be opened, kInvalidArgument (2)
+  // for what the command line named.
+  [[nodiscard]] Error start();
   // Runs until quit or a stop signal. Returns the exit code.
   int run(sys::Signals& signals);
 
@@ -68,7 +65,7 @@ class Simulator {
   [[nodiscard]] std::string stats() const;
   void note_busy(canopen::TimePoint turn_start) noexcept;
   // Opens every --iface bus and creates its devices (not yet powered).
-  [[nodiscard]] std::optional<Failure> open_buses();
+  [[nodiscard]] Error open_buses();
   // The control commands on a bus (flood, babble, bus-error) and on a device.
   [[nodiscard]] std::string execute_on_bus(const ControlCommand& c, canopen::TimePoint now);
   [[nodiscard]] std::string execute_on_device(const ControlCommand& c, canopen::TimePoint now);

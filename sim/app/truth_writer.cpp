@@ -55,9 +55,12 @@ TruthWriter::~TruthWriter() {
   if (owned_ && file_ != nullptr) std::fclose(file_);
 }
 
-std::error_code TruthWriter::open(const char* path) {
+Error TruthWriter::open(const char* path) {
   std::FILE* f = std::fopen(path, "w");
-  if (f == nullptr) return {errno, std::generic_category()};
+  if (f == nullptr) {
+    const std::error_code ec(errno, std::generic_category());
+    return Error(Errc::kFailed, ec.message(), path, ec);
+  }
   if (owned_ && file_ != nullptr) std::fclose(file_);
   file_ = f;
   owned_ = true;

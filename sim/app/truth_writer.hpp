@@ -13,6 +13,7 @@
 // neither allocates nor throws.
 #pragma once
 
+#include "base/error.hpp"
 #include "canopen/clock.hpp"
 #include "device/sim_device.hpp"
 
@@ -35,8 +36,9 @@ class TruthWriter {
   TruthWriter(const TruthWriter&) = delete;
   TruthWriter& operator=(const TruthWriter&) = delete;
 
-  // Creates (truncates) the file. Off the hot path.
-  [[nodiscard]] std::error_code open(const char* path);
+  // Creates (truncates) the file. Off the hot path. A failure has the path
+  // as its where and the errno as its code.
+  [[nodiscard]] Error open(const char* path);
   // Takes an already open stream (tests use fmemopen/tmpfile); not closed by us.
   void attach(std::FILE* stream) noexcept;
   [[nodiscard]] bool is_open() const noexcept { return file_ != nullptr; }

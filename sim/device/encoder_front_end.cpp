@@ -30,10 +30,10 @@ void EncoderFrontEnd::set_family(FamilyId family, Resolution physical) noexcept 
   }
 }
 
-std::error_code EncoderFrontEnd::set_motion(std::string_view spec, TimePoint now) {
+Error EncoderFrontEnd::set_motion(std::string_view spec, TimePoint now) {
   if (started_ && spec == motion_.spec()) return {};
   MotionParseResult r = Motion::parse(spec);
-  if (r.error) return r.error;
+  if (r.error) return std::move(r.error);
   const double offset = motion_.offset();
   motion_ = std::move(r.motion);
   motion_.set_offset(offset);

@@ -78,7 +78,7 @@ class EncoderFrontEnd {
   void set_family(FamilyId family, Resolution physical) noexcept;
   // Motion grammar of encoder/motion.hpp. The shaft keeps its time origin
   // across power cycles (an absolute encoder sees where the shaft went).
-  [[nodiscard]] std::error_code set_motion(std::string_view spec, TimePoint now);
+  [[nodiscard]] Error set_motion(std::string_view spec, TimePoint now);
   // Turns the shaft by hand (control `move`): the offset adds up and stays
   // across set_motion, since the shaft does not go back when the drive changes.
   void move_by(double turns) noexcept { motion_.set_offset(motion_.offset() + turns); }

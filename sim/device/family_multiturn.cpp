@@ -426,8 +426,7 @@ void SimDevice::Impl::condition_persist() {
     img.set(index, 9, pack(t.lifetime, true));
   }
   persisted_time_total = h.time_total;
-  std::string message;
-  (void)persist(message);  // a failing disk loses the history, not the device
+  (void)persist();  // a failing disk loses the history, not the device
 }
 
 }  // namespace cobridge::sim

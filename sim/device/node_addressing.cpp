@@ -111,8 +111,7 @@ canopen::LssStoreError SimDevice::Impl::lss_store(const canopen::LssSlave& s) {
     const std::uint16_t kbit = canopen::lss_bit_rate_kbit(*bt);
     if (const auto v = bitrate_value(a, kbit)) nv_data.params.set(a.bitrate_index, 0, *v);
   }
-  std::string message;
-  return persist(message) ? canopen::LssStoreError::kMediaAccess : canopen::LssStoreError::kOk;
+  return persist() ? canopen::LssStoreError::kMediaAccess : canopen::LssStoreError::kOk;
 }
 
 void SimDevice::Impl::sync_lss_pending() {

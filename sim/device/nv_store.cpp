@@ -16,17 +16,6 @@ namespace cobridge::sim {
 
 namespace {
 
-class NvCategory final : public std::error_category {
- public:
-  [[nodiscard]] const char* name() const noexcept override { return "sim_nv"; }
-  [[nodiscard]] std::string message(int ev) const override {
-    switch (static_cast<NvErrc>(ev)) {
-      case NvErrc::kSyntax: return "malformed non-volatile memory file";
-    }
-    return "unknown non-volatile memory error";
-  }
-};
-
 bool parse_hex(std::string_view text, std::uint64_t& out) noexcept {
   if (text.empty()) return false;
   const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), out, 16);
@@ -45,14 +34,12 @@ void write_image(std::ostringstream& out, const char* header, const NvImage& ima
     out << fmt::format("{:04X}:{:X}={:X}\n", key >> 8, key & 0xFFU, raw);
 }
 
-}  // namespace
-
-const std::error_category& nv_category() noexcept {
-  static const NvCategory category;
-  return category;
+// An I/O failure on `file`: the errno as its code.
+Error io_error(const std::filesystem::path& file, const char* what, int err) {
+  return Error(Errc::kFailed, what, file.string(), std::error_code(err, std::generic_category()));
 }
 
-std::error_code make_error_code(NvErrc e) noexcept { return {static_cast<int>(e), nv_category()}; }
+}  // namespace
 
 std::optional<std::uint64_t> NvImage::get(std::uint16_t index, std::uint8_t sub) const {
   const auto it = values_.find(key(index, sub));
@@ -60,14 +47,13 @@ std::optional<std::uint64_t> NvImage::get(std::uint16_t index, std::uint8_t sub)
   return it->second;
 }
 
-std::error_code NvStore::load(NvContents& out, std::string& message) const {
+Error NvStore::load(NvContents& out) const {
   out = NvContents{};
   if (path_.empty()) return {};
   std::ifstream in(path_);
   if (!in) {
     if (errno == ENOENT) return {};
-    message = fmt::format("{}: cannot open", path_.string());
-    return {errno, std::generic_category()};
+    return io_error(path_, "cannot open", errno);
   }
   NvImage* image = &out.params;
   std::string line;
@@ -92,15 +78,14 @@ std::error_code NvStore::load(NvContents& out, std::string& message) const {
     if (colon == std::string_view::npos || equal == std::string_view::npos || equal < colon ||
         !parse_hex(text.substr(0, colon), index) || !parse_hex(text.substr(colon + 1, equal - colon - 1), sub) ||
         !parse_hex(text.substr(equal + 1), raw) || index > 0xFFFF || sub > 0xFF) {
-      message = fmt::format("{}:{}: expected `index:sub=hex`", path_.string(), number);
-      return NvErrc::kSyntax;
+      return Error(Errc::kInvalidArgument, "expected `index:sub=hex`", fmt::format("{}:{}", path_.string(), number));
     }
     image->set(static_cast<std::uint16_t>(index), static_cast<std::uint8_t>(sub), raw);
   }
   return {};
 }
 
-std::error_code NvStore::save(const NvContents& contents, std::string& message) const {
+Error NvStore::save(const NvContents& contents) const {
   if (path_.empty()) return {};
   std::ostringstream text;
   text << "# cobridge-sim non-volatile memory; written by the simulated device\n";
@@ -110,15 +95,11 @@ std::error_code NvStore::save(const NvContents& contents, std::string& message) 
 
   std::error_code ec;
   std::filesystem::create_directories(path_.parent_path(), ec);
-  if (ec) {
-    message = fmt::format("{}: cannot create directory", path_.parent_path().string());
-    return ec;
-  }
+  if (ec) return Error(Errc::kFailed, "cannot create directory", path_.parent_path().string(), ec);
   const std::filesystem::path tmp = path_.string() + ".tmp";
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) {
-    message = fmt::format("{}: cannot create", tmp.string());
-    return {errno, std::generic_category()};
+    return io_error(tmp, "cannot create", errno);
   }
   std::size_t done = 0;
   while (done < data.size()) {
@@ -127,8 +108,7 @@ std::error_code NvStore::save(const NvContents& contents, std::string& message) 
       if (errno == EINTR) continue;
       const int err = errno;
       ::close(fd);
-      message = fmt::format("{}: write failed", tmp.string());
-      return {err, std::generic_category()};
+      return io_error(tmp, "write failed", err);
     }
     done += static_cast<std::size_t>(n);
   }
@@ -137,12 +117,10 @@ std::error_code NvStore::save(const NvContents& contents, std::string& message) 
   // host. A flush to disk would stop every device of the simulator's one
   // loop for the disk's time (milliseconds on a loaded host) at each store.
   if (::close(fd) != 0) {
-    message = fmt::format("{}: close failed", tmp.string());
-    return {errno, std::generic_category()};
+    return io_error(tmp, "close failed", errno);
   }
   if (::rename(tmp.c_str(), path_.c_str()) != 0) {
-    message = fmt::format("{}: rename failed", path_.string());
-    return {errno, std::generic_category()};
+    return io_error(path_, "rename failed", errno);
   }
   return {};
 }

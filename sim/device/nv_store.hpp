@@ -15,6 +15,8 @@
 // (store commands, power on).
 #pragma once
 
+#include "base/error.hpp"
+
 #include <cstdint>
 #include <filesystem>
 #include <map>
@@ -56,20 +58,13 @@ class NvStore {
   [[nodiscard]] const std::filesystem::path& path() const noexcept { return path_; }
 
   // A missing file is an empty memory (a new device), not an error. A file
-  // that cannot be parsed is an error; `message` says where.
-  [[nodiscard]] std::error_code load(NvContents& out, std::string& message) const;
-  [[nodiscard]] std::error_code save(const NvContents& contents, std::string& message) const;
+  // that cannot be parsed is an error (kInvalidArgument, where "file:line");
+  // an I/O failure has the file as its where and the errno as its code.
+  [[nodiscard]] Error load(NvContents& out) const;
+  [[nodiscard]] Error save(const NvContents& contents) const;
 
  private:
   std::filesystem::path path_;
 };
 
-// Errors of the file format (I/O errors use std::generic_category).
-enum class NvErrc { kSyntax = 1 };
-[[nodiscard]] const std::error_category& nv_category() noexcept;
-[[nodiscard]] std::error_code make_error_code(NvErrc e) noexcept;
-
 }  // namespace cobridge::sim
-
-template <>
-struct std::is_error_code_enum<cobridge::sim::NvErrc> : std::true_type {};

@@ -61,8 +61,8 @@ std::uint64_t eds_default_raw(const device::ObjectDesc& entry, std::uint8_t node
   return entry.default_for_node(node_id).value_or(0);
 }
 
-std::error_code build_object_dictionary(const device::DeviceDescription& description, std::uint8_t node_id,
-                                        canopen::ObjectDictionary& od, std::string& message,
+Error build_object_dictionary(const device::DeviceDescription& description, std::uint8_t node_id,
+                              canopen::ObjectDictionary& od,
                                         const EntryAdjust& adjust) {
   // An unconfigured device (FFh) still has an object dictionary; its
   // $NODEID entries are meaningless until LSS gives it an ID, so resolve
@@ -90,9 +90,9 @@ std::error_code build_object_dictionary(const device::DeviceDescription& descrip
     }
     if (adjust) adjust(def);
     if (const std::error_code ec = od.insert(def)) {
-      message = fmt::format("{}: entry 0x{:04X}sub{:X} ({}): {}", description.source, e.index, e.sub, e.name,
-                            ec.message());
-      return ec;
+      return Error(Errc::kInvalidArgument,
+                   fmt::format("entry 0x{:04X}sub{:X} ({}): {}", e.index, e.sub, e.name, ec.message()),
+                   description.source, ec);
     }
   }
   return {};

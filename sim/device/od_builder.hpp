@@ -32,9 +32,9 @@ namespace cobridge::sim {
 // manual contradicts, a default the EDS leaves open).
 using EntryAdjust = std::function<void(canopen::EntryDef&)>;
 
-// Inserts every entry of `description`; on failure `message` names the entry.
-[[nodiscard]] std::error_code build_object_dictionary(const device::DeviceDescription& description,
-                                                      std::uint8_t node_id, canopen::ObjectDictionary& od,
-                                                      std::string& message, const EntryAdjust& adjust = {});
+// Inserts every entry of `description`; a failure has the description's
+// source as its where, names the entry and carries the dictionary's code.
+[[nodiscard]] Error build_object_dictionary(const device::DeviceDescription& description, std::uint8_t node_id,
+                                            canopen::ObjectDictionary& od, const EntryAdjust& adjust = {});
 
 }  // namespace cobridge::sim

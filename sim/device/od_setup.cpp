@@ -69,7 +69,7 @@ std::uint64_t SimDevice::Impl::factory_value(const device::ObjectDesc& e, std::u
   return eds_default_raw(e, node == cob::kNodeIdUnconfigured ? 0 : node);
 }
 
-std::error_code SimDevice::Impl::build_od(std::string& message) {
+Error SimDevice::Impl::build_od() {
   canopen::ObjectDictionary::Options options;
   od = std::make_unique<canopen::ObjectDictionary>(options);
   const std::uint8_t node = active_node;
@@ -110,7 +110,7 @@ std::error_code SimDevice::Impl::build_od(std::string& message) {
     }
     family_adjust(def);
   };
-  if (const std::error_code ec = build_object_dictionary(desc, node, *od, message, adjust)) return ec;
+  if (Error e = build_object_dictionary(desc, node, *od, adjust)) return e;
   family_extras();
   // Identity and names: per device, not in the EDS (J§1.2.1, E§4.1, F§7.3).
   (void)od->set_u32(kIdentity, 4, spec.serial);

@@ -16,11 +16,10 @@ namespace cobridge::sim {
 
 using namespace device_objects;
 
-std::error_code SimDevice::Impl::power_on(TimePoint now) {
+Error SimDevice::Impl::power_on(TimePoint now) {
   if (powered) return {};
   now_cache = now;
-  std::string message;
-  if (const std::error_code ec = nv.load(nv_data, message)) return ec;
+  if (Error e = nv.load(nv_data)) return e;
 
   // The node-ID the device boots with: what was stored, else the factory one.
   active_node = factory_node;
@@ -28,7 +27,7 @@ std::error_code SimDevice::Impl::power_on(TimePoint now) {
   if (const auto stored = nv_data.params.get(addressing.node_id_index, 0))
     active_node = node_of_value(addressing, *stored);
 
-  if (const std::error_code ec = build_od(message)) return ec;
+  if (Error e = build_od()) return e;
   load_parameters([](const device::ObjectDesc&) { return true; }, &nv_data.params);
   if (!nv_data.params.get(addressing.node_id_index, 0)) node_to_od(factory_node);
   pending_node = active_node;
@@ -36,7 +35,7 @@ std::error_code SimDevice::Impl::power_on(TimePoint now) {
 
   encoder.set_family(family, Resolution{static_cast<std::uint32_t>(od->get_raw(0x6501, 0).value_or(0x4000)),
                                         static_cast<std::uint32_t>(od->get_raw(0x6502, 0).value_or(1))});
-  if (const std::error_code ec = encoder.set_motion(spec.motion, now)) return ec;
+  if (Error e = encoder.set_motion(spec.motion, now)) return e;
 
   canopen::SdoServerConfig sdo_config;
   sdo_config.segmented = spec.segmented_sdo;

@@ -116,7 +116,7 @@ SimDevice::SimDevice(DeviceSpec spec, const device::DeviceDescription& descripti
 
 SimDevice::~SimDevice() = default;
 
-std::error_code SimDevice::power_on(TimePoint now) { return impl_->power_on(now); }
+Error SimDevice::power_on(TimePoint now) { return impl_->power_on(now); }
 void SimDevice::power_off() { impl_->power_off(); }
 void SimDevice::set_silent(bool silent) { impl_->silent = silent; }
 void SimDevice::reboot_on_sdo(std::uint32_t nth) noexcept { impl_->reboot_on_sdo = nth; }
@@ -134,8 +134,8 @@ std::uint16_t SimDevice::bitrate_kbit() const noexcept { return impl_->active_kb
 const canopen::ObjectDictionary* SimDevice::object_dictionary() const noexcept { return impl_->od.get(); }
 const std::filesystem::path& SimDevice::nv_path() const noexcept { return impl_->nv_file; }
 void SimDevice::move_by(double turns) noexcept { impl_->encoder.move_by(turns); }
-std::error_code SimDevice::set_motion(std::string_view motion, TimePoint now) {
-  if (const std::error_code ec = impl_->encoder.set_motion(motion, now)) return ec;
+Error SimDevice::set_motion(std::string_view motion, TimePoint now) {
+  if (Error e = impl_->encoder.set_motion(motion, now)) return e;
   impl_->spec.motion = std::string(motion);
   return {};
 }

@@ -145,9 +145,11 @@ class SimDevice {
 
   // Power on: load non-volatile memory (by serial), build the object
   // dictionary, send the boot-up (0x700+node, 00) unless unconfigured (FFh).
-  std::error_code power_on(TimePoint now);
+  // A failure names its place (the non-volatile memory file, the EDS entry,
+  // the motion spec).
+  Error power_on(TimePoint now);
   void power_off();                        // silent until power_on; RAM lost
-  std::error_code power_cycle(TimePoint now) { power_off(); return power_on(now); }
+  Error power_cycle(TimePoint now) { power_off(); return power_on(now); }
   void set_silent(bool silent);            // cable pulled: no RX, no TX, state kept
   // Power-cycles the device when the n-th SDO request (0x600+node) from now
   // arrives, instead of answering it: a reboot in the middle of a master's
@@ -177,7 +179,7 @@ class SimDevice {
   // <state_dir>/<family>-<serial>.nv, or empty when volatile.
   [[nodiscard]] const std::filesystem::path& nv_path() const noexcept;
   // Replaces the motion (same grammar as DeviceSpec::motion) at run time.
-  std::error_code set_motion(std::string_view motion, TimePoint now);
+  Error set_motion(std::string_view motion, TimePoint now);
   // Turns the shaft by `turns` at once (control `move`; negative and
   // fractional allowed). The offset adds up and survives set_motion and power
   // cycles (an absolute encoder sees where the shaft went); the position

@@ -143,7 +143,7 @@ struct SimDevice::Impl {
   std::map<std::uint32_t, std::uint64_t> factory;
 
   // ---- shared runtime (the concept files above) --------------------------
-  std::error_code power_on(TimePoint now);
+  Error power_on(TimePoint now);
   void power_off() noexcept;
   // TPDO policy, faults, status, guarding and controller state as after power-up.
   void clear_runtime_state();
@@ -192,7 +192,7 @@ struct SimDevice::Impl {
   void refresh_status() noexcept;
   void send_emcy(const canopen::Emcy& e, device::families::EmcyLevel level) noexcept;
 
-  std::error_code build_od(std::string& message);
+  Error build_od();
   void install_hooks();
   [[nodiscard]] std::uint64_t factory_value(const device::ObjectDesc& e, std::uint8_t node) const noexcept;
   // Writes factory values (overlaid with `image` where it has a value) to the
@@ -202,7 +202,7 @@ struct SimDevice::Impl {
   [[nodiscard]] std::uint32_t save(std::uint8_t store_sub);
   [[nodiscard]] std::uint32_t load(std::uint8_t store_sub);
   [[nodiscard]] std::uint32_t kill(std::uint8_t store_sub);
-  [[nodiscard]] std::error_code persist(std::string& message) const;
+  [[nodiscard]] Error persist() const;
 
   std::uint32_t on_read(std::uint16_t index, std::uint8_t sub);
   std::uint32_t on_write(const canopen::WriteRequest& req);

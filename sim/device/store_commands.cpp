@@ -17,7 +17,7 @@ namespace cobridge::sim {
 
 using namespace device_objects;
 
-std::error_code SimDevice::Impl::persist(std::string& message) const { return nv.save(nv_data, message); }
+Error SimDevice::Impl::persist() const { return nv.save(nv_data); }
 
 std::uint32_t SimDevice::Impl::save(std::uint8_t store_sub) {
   for (const device::ObjectDesc& e : desc.entries) {
@@ -48,8 +48,7 @@ std::uint32_t SimDevice::Impl::save(std::uint8_t store_sub) {
                          static_cast<std::uint64_t>(ifm_defaults_pending ? 0 : encoder.offset(static_cast<int>(ch))));
   }
   ifm_defaults_pending = false;
-  std::string message;
-  if (persist(message)) return canopen::od_abort::kCannotStore;  // J/E: "data transfer error"
+  if (persist()) return canopen::od_abort::kCannotStore;  // J/E: "data transfer error"
   return 0;
 }
 
@@ -87,8 +86,7 @@ std::uint32_t SimDevice::Impl::kill(std::uint8_t store_sub) {
       nv_data.params.erase(kOffsetKeyIndex, static_cast<std::uint8_t>(kOffsetKeySub + ch));
     restore_offsets(nullptr);
   }
-  std::string message;
-  if (persist(message)) return canopen::od_abort::kCannotStore;
+  if (persist()) return canopen::od_abort::kCannotStore;
   return 0;
 }
 

@@ -61,8 +61,7 @@ std::vector<std::string_view> split(std::string_view s, char sep) {
 
 MotionParseResult fail(MotionError e, std::string message) {
   MotionParseResult r;
-  r.error = make_error_code(e);
-  r.message = std::move(message);
+  r.error = Error(Errc::kInvalidArgument, std::move(message), {}, make_error_code(e));
   return r;
 }
 

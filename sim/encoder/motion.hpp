@@ -22,6 +22,8 @@
 // Thread: owned by the simulator's bus thread; not thread-safe.
 #pragma once
 
+#include "base/error.hpp"
+
 #include <cstdint>
 #include <string>
 #include <string_view>
@@ -50,8 +52,9 @@ enum class MotionError : std::uint8_t {
 [[nodiscard]] const std::error_category& motion_category() noexcept;
 [[nodiscard]] std::error_code make_error_code(MotionError e) noexcept;
 
-// A parse outcome: on error `motion` is the default (constant:0), `error` is
-// set and `message` names the offending part of the spec.
+// A parse outcome: on error `motion` is the default (constant:0) and `error`
+// is set (kInvalidArgument, code a MotionError, the message names the
+// offending part of the spec).
 struct MotionParseResult;
 
 class Motion {
@@ -85,9 +88,8 @@ class Motion {
 
 struct MotionParseResult {
   Motion motion;
-  std::error_code error;
-  std::string message;
-  explicit operator bool() const noexcept { return !error; }
+  Error error;
+  [[nodiscard]] bool ok() const noexcept { return error.ok(); }
 };
 
 }  // namespace cobridge::sim

@@ -96,9 +96,8 @@ int main(int argc, char** argv) {
     p.indexed = true;
     p.node_id = static_cast<std::uint8_t>(n);
     p.device_index = static_cast<std::uint16_t>(n - 1);
-    std::string err;
     std::vector<MappedObject> map = {{0x60200120, true}, {0x60300110, true}};
-    build_pdo_decode(map, p.tpdo[0], err);
+    (void)build_pdo_decode(map, p.tpdo[0]);
     table.publish(p);
   }
 

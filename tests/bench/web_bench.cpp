@@ -125,9 +125,8 @@ struct HotPath {
       p.active = p.indexed = true;
       p.node_id = static_cast<std::uint8_t>(n);
       p.device_index = static_cast<std::uint16_t>(n - 1);
-      std::string err;
       const std::vector<pipeline::MappedObject> map = {{0x60200120, true}, {0x60300110, true}};
-      pipeline::build_pdo_decode(map, p.tpdo[0], err);
+      (void)pipeline::build_pdo_decode(map, p.tpdo[0]);
       table.publish(p);
     }
     rx = std::make_unique<pipeline::BusReceiver>(

@@ -26,8 +26,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     for (auto& t : plan.tpdo) {
       std::vector<pipeline::MappedObject> mapping(in.u8() % 10);
       for (auto& m : mapping) m = {in.u32(), (in.u8() & 1) != 0};
-      std::string error;
-      if (!pipeline::build_pdo_decode(mapping, t, error)) t = {};
+      if (pipeline::build_pdo_decode(mapping, t)) t = {};
     }
     plan.active = (in.u8() & 1) != 0;
     table.publish(plan);

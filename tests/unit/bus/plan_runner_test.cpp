@@ -218,7 +218,7 @@ TEST(PlanRunner, E11_FirstRunWritesAndStores) {
   Fixture fx("novotechnik-multiturn.eds", 5);
   const ConfigPlan plan = fx.plan(multiturn_settings());
   const PlanRunResult r = fx.run(plan);
-  ASSERT_TRUE(r.ok()) << r.message;
+  ASSERT_TRUE(r.ok()) << r.error.message;
   EXPECT_GT(r.writes, 8u);
   EXPECT_TRUE(r.stored);
   EXPECT_EQ(fx.dev->saves, (std::vector<std::uint8_t>{2, 3}));
@@ -255,7 +255,7 @@ TEST(PlanRunner, E11_UnchangedDeviceIsNotRewrittenOrStored) {
   const ConfigPlan plan = fx.plan(multiturn_settings());
   ASSERT_TRUE(fx.run(plan).ok());
   const PlanRunResult again = fx.run(plan);
-  ASSERT_TRUE(again.ok()) << again.message;
+  ASSERT_TRUE(again.ok()) << again.error.message;
   EXPECT_EQ(again.writes, 0u);
   EXPECT_FALSE(again.stored);
   EXPECT_GT(again.reads, 8u);
@@ -273,7 +273,7 @@ TEST(PlanRunner, E11_ChangedSettingWritesOnlyThatAndStores) {
   fx.dev->saves.clear();
   d.tpdo1->event_timer_ms = 200;
   const PlanRunResult r = fx.run(fx.plan(d));
-  ASSERT_TRUE(r.ok()) << r.message;
+  ASSERT_TRUE(r.ok()) << r.error.message;
   EXPECT_EQ(r.writes, 1u);
   EXPECT_TRUE(r.stored);
   EXPECT_EQ(fx.dev->saves, (std::vector<std::uint8_t>{2}));
@@ -289,13 +289,13 @@ TEST(PlanRunner, StorePolicyAlwaysAndNever) {
   config::Device d = multiturn_settings();
   d.store = config::StorePolicy::never;
   PlanRunResult r = fx.run(fx.plan(d));
-  ASSERT_TRUE(r.ok()) << r.message;
+  ASSERT_TRUE(r.ok()) << r.error.message;
   EXPECT_GT(r.writes, 0u);
   EXPECT_FALSE(r.stored);
   EXPECT_TRUE(fx.dev->saves.empty());
   d.store = config::StorePolicy::always;
   r = fx.run(fx.plan(d));
-  ASSERT_TRUE(r.ok()) << r.message;
+  ASSERT_TRUE(r.ok()) << r.error.message;
   EXPECT_EQ(r.writes, 0u);
   EXPECT_TRUE(r.stored);
   EXPECT_EQ(fx.dev->saves, (std::vector<std::uint8_t>{2, 3}));
@@ -310,8 +310,8 @@ TEST(PlanRunner, ValueThatDoesNotStickFailsVerification) {
   ASSERT_FALSE(fx.dev->od.set_hooks(0x6003, 0, std::move(h)));
   const PlanRunResult r = fx.run(fx.plan(multiturn_settings()));
   ASSERT_FALSE(r.ok());
-  EXPECT_EQ(r.error, PlanRunErrc::verify_mismatch);
-  EXPECT_EQ(r.message, "device 'lift': preset: 0x6003 written 0x000003E8 but read back 0x00000000");
+  EXPECT_EQ(r.error.code, PlanRunErrc::verify_mismatch);
+  EXPECT_EQ(r.error.message, "device 'lift': preset: 0x6003 written 0x000003E8 but read back 0x00000000");
   EXPECT_FALSE(r.stored);
   EXPECT_FALSE(r.started);
   EXPECT_TRUE(fx.dev->saves.empty());
@@ -330,10 +330,11 @@ TEST(PlanRunner, E7_3_AbortReportedWithText) {
   d.scaling = config::Scaling{1u << 20, std::nullopt};
   const PlanRunResult r = fx.run(fx.plan(d));
   ASSERT_FALSE(r.ok());
-  EXPECT_EQ(r.error, PlanRunErrc::sdo_abort);
+  EXPECT_EQ(r.error.code, PlanRunErrc::sdo_abort);
   EXPECT_EQ(r.sdo_error, canopen::SdoAbort::kInvalidValue);
-  EXPECT_EQ(r.message, "device 'lift': scaling units_per_rev: writing 0x6001 = 0x00100000: SDO abort 0x06090030 (" +
-                           std::string(canopen::sdo_abort_text(0x06090030)) + ")");
+  EXPECT_EQ(r.error.message,
+            "device 'lift': scaling units_per_rev: writing 0x6001 = 0x00100000: SDO abort 0x06090030 (" +
+                std::string(canopen::sdo_abort_text(0x06090030)) + ")");
   const auto w = fx.downloads();
   EXPECT_EQ(std::count_if(w.begin(), w.end(), [](const can::Frame& f) { return f.data[1] == 0x01 && f.data[2] == 0x60; }),
             1);
@@ -355,7 +356,7 @@ TEST(PlanRunner, TimeoutRetriedThenReported) {
   d.name = "lift";
   d.heartbeat_ms = 250;
   PlanRunResult r = fx.run(fx.plan(d));
-  ASSERT_TRUE(r.ok()) << r.message;
+  ASSERT_TRUE(r.ok()) << r.error.message;
   EXPECT_EQ(r.retries, 1u);
   EXPECT_EQ(fx.dev->od.get_u16(0x1017, 0), 250);
 
@@ -364,11 +365,11 @@ TEST(PlanRunner, TimeoutRetriedThenReported) {
   o.sdo_retries = 2;
   r = fx.run(fx.plan(d), o);
   ASSERT_FALSE(r.ok());
-  EXPECT_EQ(r.error, PlanRunErrc::sdo_timeout);
+  EXPECT_EQ(r.error.code, PlanRunErrc::sdo_timeout);
   EXPECT_EQ(r.sdo_error, canopen::SdoAbort::kProtocolTimedOut);
-  EXPECT_NE(r.message.find("device 'lift': heartbeat_ms: reading 0x1017: no answer after 3 attempts"),
+  EXPECT_NE(r.error.message.find("device 'lift': heartbeat_ms: reading 0x1017: no answer after 3 attempts"),
             std::string::npos)
-      << r.message;
+      << r.error.message;
   const auto requests = fx.sdo_requests();
   EXPECT_EQ(std::count_if(requests.begin(), requests.end(), [](const can::Frame& f) { return f.data[0] == 0x40; }),
             3);
@@ -385,7 +386,7 @@ TEST(PlanRunner, J1_7_2_RemapFollowsTheManualOrder) {
   d.tpdo1 = config::TpdoSettings{};
   d.tpdo1->mapping = std::vector<config::MappingEntry>{{Signal::position, 0}, {Signal::cam, 0}, {Signal::work_area, 0}};
   const PlanRunResult r = fx.run(fx.plan(d));
-  ASSERT_TRUE(r.ok()) << r.message;
+  ASSERT_TRUE(r.ok()) << r.error.message;
   const std::vector<can::Frame> expected{
       sdo(7, {0x23, 0x00, 0x18, 0x01, 0x87, 0x01, 0x00, 0xC0}),
       sdo(7, {0x2F, 0x00, 0x1A, 0x00, 0x00, 0x00, 0x00, 0x00}),
@@ -421,7 +422,7 @@ TEST(PlanRunner, J1_2_2_HeartbeatRefusedFallsBackToGuarding) {
   d.name = "arm";
   d.heartbeat_ms = 200;
   const PlanRunResult r = fx.run(fx.plan(d));
-  ASSERT_TRUE(r.ok()) << r.message;
+  ASSERT_TRUE(r.ok()) << r.error.message;
   EXPECT_TRUE(r.guarding_fallback);
   EXPECT_EQ(fx.dev->od.get_u16(0x100C, 0), 200);
   EXPECT_EQ(fx.dev->od.get_u8(0x100D, 0), 3);
@@ -439,7 +440,7 @@ TEST(PlanRunner, J1_4_1_OperatingParameterKeepsOtherBits) {
   d.direction = config::Direction::ccw;
   d.position_filter = 2;
   const PlanRunResult r = fx.run(fx.plan(d));
-  ASSERT_TRUE(r.ok()) << r.message;
+  ASSERT_TRUE(r.ok()) << r.error.message;
   EXPECT_EQ(fx.dev->od.get_u16(0x6000, 0), 0x2003);
   const auto w = fx.downloads();
   ASSERT_FALSE(w.empty());
@@ -455,7 +456,7 @@ TEST(PlanRunner, F7_4_IfmNodeIdEncoding) {
   auto plan = make_node_id_plan("wheel", fx.eds, fx.profile, 32, 10);
   ASSERT_TRUE(plan.ok());
   const PlanRunResult r = fx.run(*plan.plan);
-  ASSERT_TRUE(r.ok()) << r.message;
+  ASSERT_TRUE(r.ok()) << r.error.message;
   const auto w = fx.downloads();
   ASSERT_EQ(w.size(), 2u);
   EXPECT_EQ(w[0], sdo(32, {0x2F, 0x00, 0x30, 0x00, 0x09, 0x00, 0x00, 0x00}));
@@ -472,7 +473,7 @@ TEST(PlanRunner, NoStartWhenTheCallerSaysSo) {
   PlanRunnerOptions o;
   o.start_node = false;
   const PlanRunResult r = fx.run(fx.plan(multiturn_settings()), o);
-  ASSERT_TRUE(r.ok()) << r.message;
+  ASSERT_TRUE(r.ok()) << r.error.message;
   EXPECT_FALSE(r.started);
   EXPECT_EQ(fx.dev->state, canopen::NmtState::pre_operational);
   EXPECT_EQ(fx.nmt().size(), 1u);
@@ -484,7 +485,7 @@ TEST(PlanRunner, BusyClientRefused) {
   ASSERT_FALSE(fx.client->start_upload(0x1000, 0, fx.now));
   PlanRunner runner(fx.bus, *fx.client, fx.plan(multiturn_settings()));
   const std::size_t before = fx.bus.log.size();
-  EXPECT_EQ(runner.start(fx.now), PlanRunErrc::sdo_busy);
+  EXPECT_EQ(runner.start(fx.now).code, PlanRunErrc::sdo_busy);
   EXPECT_EQ(fx.bus.log.size(), before);
   EXPECT_FALSE(runner.running());
 }
@@ -504,7 +505,7 @@ TEST(PlanRunner, DroppedMidTransferFreesTheSdoClient) {
   }
   EXPECT_FALSE(fx.client->busy());
   const PlanRunResult r = fx.run(fx.plan(multiturn_settings()));
-  EXPECT_TRUE(r.ok()) << r.message;
+  EXPECT_TRUE(r.ok()) << r.error.message;
   EXPECT_TRUE(r.started);
 }
 
@@ -576,12 +577,12 @@ struct SimRun {
 
 void first_and_second_run(SimRun& s, const config::Device& d) {
   const PlanRunResult first = s.run(d);
-  ASSERT_TRUE(first.ok()) << first.message;
+  ASSERT_TRUE(first.ok()) << first.error.message;
   EXPECT_GT(first.writes, 0u);
   EXPECT_TRUE(first.stored);
   EXPECT_EQ(s.dev->nmt_state(), canopen::NmtState::operational);
   const PlanRunResult second = s.run(d);
-  ASSERT_TRUE(second.ok()) << second.message;
+  ASSERT_TRUE(second.ok()) << second.error.message;
   EXPECT_EQ(second.writes, 0u);
   EXPECT_FALSE(second.stored);
 }

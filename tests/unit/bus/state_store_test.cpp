@@ -173,8 +173,8 @@ TEST_F(StateStoreTest, ConcurrentPutsFromTwoThreadsKeepEveryEntry) {
 
 TEST_F(StateStoreTest, InvalidAssignmentsAreRefused) {
   StateStore store(dir_);
-  EXPECT_EQ(store.put(sample(1, 128)), make_error_code(StateStoreErrc::invalid_assignment));
-  EXPECT_EQ(store.put(sample(1, 5, "")), make_error_code(StateStoreErrc::invalid_assignment));
+  EXPECT_EQ(store.put(sample(1, 128)).code, make_error_code(StateStoreErrc::invalid_assignment));
+  EXPECT_EQ(store.put(sample(1, 5, "")).code, make_error_code(StateStoreErrc::invalid_assignment));
   EXPECT_FALSE(fs::exists(dir_ / "assignments.state"));
 }
 

@@ -19,10 +19,9 @@ using cobridge::cli::via_daemon;
 
 namespace {
 cobridge::cli::Json parse(const char* text) {
-  std::string err;
-  auto doc = JsonParser(text).parse(err);
-  EXPECT_TRUE(doc.has_value()) << err;
-  return doc ? *doc : cobridge::cli::Json{};
+  auto doc = JsonParser(text).parse();
+  EXPECT_TRUE(doc.ok()) << doc.error().message;
+  return doc.ok() ? doc.value() : cobridge::cli::Json{};
 }
 }  // namespace
 

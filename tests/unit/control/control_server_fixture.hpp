@@ -37,11 +37,11 @@ class FakeHandler : public ControlHandler {
     ++status_calls;
     return report;
   }
-  ControlResult commission(std::string_view bus) override {
+  Result<std::vector<std::string>> commission(std::string_view bus) override {
     std::lock_guard lock(mutex);
     commissioned.emplace_back(bus);
-    if (!bus.empty() && bus != "line1") return {false, "unknown bus \"" + std::string(bus) + "\"", {}};
-    return {true, "", {"line1"}};
+    if (!bus.empty() && bus != "line1") return Error(Errc::kNotFound, "unknown bus \"" + std::string(bus) + "\"");
+    return std::vector<std::string>{"line1"};
   }
 
   std::mutex mutex;
@@ -201,7 +201,6 @@ using cobridge::Errc;
 using cobridge::Error;
 using cobridge::gateway::BusStatus;
 using cobridge::gateway::ControlHandler;
-using cobridge::gateway::ControlResult;
 using cobridge::gateway::ControlServer;
 using cobridge::gateway::ControlServerOptions;
 using cobridge::gateway::DeviceState;

@@ -53,9 +53,9 @@ TEST(OutputBridge, J_1_7_2_RotaryPlanSignedAndScaledFromConfig) {
   Fixture f;
   SharedConfig shared(f.cfg);
   OutputBridge bridge(shared, 0, f.catalog, f.table, nullptr, nullptr, nullptr);
-  std::string err;
+  Error err;
   const auto plan = bridge.make_plan(f.status("lift", 0x182, 0x0BE0, 10), {0x60200120, 0x60300110}, {0x60200120}, &err);
-  ASSERT_TRUE(plan.active) << err;
+  ASSERT_TRUE(plan.active) << err.to_string();
   EXPECT_EQ(plan.tpdo[0].count, 2);
   EXPECT_TRUE(plan.tpdo[0].fields[0].is_signed);
   EXPECT_TRUE(plan.tpdo[0].fields[1].is_signed);
@@ -72,9 +72,9 @@ TEST(OutputBridge, F_7_5_IfmPositionUnsignedWithLimitSwitchMask) {
   Fixture f;
   SharedConfig shared(f.cfg);
   OutputBridge bridge(shared, 0, f.catalog, f.table, nullptr, nullptr, nullptr);
-  std::string err;
+  Error err;
   const auto plan = bridge.make_plan(f.status("ifm-x", 0x0069666D, 0x4341, 32), {0x60040020}, {}, &err);
-  ASSERT_TRUE(plan.active) << err;
+  ASSERT_TRUE(plan.active) << err.to_string();
   EXPECT_FALSE(plan.tpdo[0].fields[0].is_signed);
   EXPECT_EQ(plan.position_mask, 0x3FFFFFFFu);
   EXPECT_DOUBLE_EQ(plan.eng_scale, 1.0) << "F§7.5 gives the resolution only on the label: counts, not degrees";
@@ -90,9 +90,9 @@ TEST(OutputBridge, E_4_1_MultiturnAliasDecodesSigned) {
   Fixture f;
   SharedConfig shared(f.cfg);
   OutputBridge bridge(shared, 0, f.catalog, f.table, nullptr, nullptr, nullptr);
-  std::string err;
+  Error err;
   const auto plan = bridge.make_plan(f.status("mt", 0x182, 0x0BB8, 12), {0x60200120, 0x60300110}, {}, &err);
-  ASSERT_TRUE(plan.active) << err;
+  ASSERT_TRUE(plan.active) << err.to_string();
   EXPECT_TRUE(plan.tpdo[0].fields[0].is_signed);
   EXPECT_EQ(plan.tpdo[0].fields[0].signal, pipeline::Signal::position);
 }
@@ -101,10 +101,10 @@ TEST(OutputBridge, UndecodableMappingIsRefusedWithDeviceName) {
   Fixture f;
   SharedConfig shared(f.cfg);
   OutputBridge bridge(shared, 0, f.catalog, f.table, nullptr, nullptr, nullptr);
-  std::string err;
+  Error err;
   const auto plan = bridge.make_plan(f.status("lift", 0x182, 0x0BE0, 10), {0x60200120, 0x60200120, 0x60300110}, {}, &err);
   EXPECT_FALSE(plan.active);
-  EXPECT_NE(err.find("lift"), std::string::npos) << err;
+  EXPECT_NE(err.to_string().find("lift"), std::string::npos) << err.to_string();
 }
 
 // Configured devices become active plans in the bus's table.

@@ -17,9 +17,10 @@ DecodePlan plan_for(std::uint8_t node, std::vector<MappedObject> tpdo1, std::vec
   p.indexed = true;
   p.node_id = node;
   p.device_index = static_cast<std::uint16_t>(node + 100);
-  std::string err;
-  EXPECT_TRUE(build_pdo_decode(tpdo1, p.tpdo[0], err)) << err;
-  EXPECT_TRUE(build_pdo_decode(tpdo2, p.tpdo[1], err)) << err;
+  const cobridge::Error err1 = build_pdo_decode(tpdo1, p.tpdo[0]);
+  EXPECT_TRUE(err1.ok()) << err1.message;
+  const cobridge::Error err2 = build_pdo_decode(tpdo2, p.tpdo[1]);
+  EXPECT_TRUE(err2.ok()) << err2.message;
   return p;
 }
 
@@ -314,13 +315,13 @@ TEST(FrameDecoder, WallClockStepDoesNotMakeFreshDataStale) {
 
 TEST(DecodePlan, RejectsUndecodableMappings) {
   PdoDecode out;
-  std::string err;
   std::vector<MappedObject> too_long = {{0x60040020, true}, {0x60040020, true}, {0x63000108, false}};
-  EXPECT_FALSE(build_pdo_decode(too_long, out, err));
-  EXPECT_NE(err.find("64 bits"), std::string::npos);
+  const cobridge::Error err = build_pdo_decode(too_long, out);
+  EXPECT_FALSE(err.ok());
+  EXPECT_NE(err.message.find("64 bits"), std::string::npos);
   std::vector<MappedObject> zero = {{0x60040000, true}};
-  EXPECT_FALSE(build_pdo_decode(zero, out, err));
+  EXPECT_FALSE(build_pdo_decode(zero, out).ok());
   std::vector<MappedObject> ok = {{0x60040020, true}, {0x63000108, false}, {0x64000108, false}};
-  ASSERT_TRUE(build_pdo_decode(ok, out, err));
+  ASSERT_TRUE(build_pdo_decode(ok, out).ok());
   EXPECT_EQ(out.frame_length, 6);
 }

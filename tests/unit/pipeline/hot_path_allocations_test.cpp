@@ -44,9 +44,9 @@ void add_devices(DeviceTable& table) {
     p.indexed = true;
     p.node_id = static_cast<std::uint8_t>(n);
     p.device_index = static_cast<std::uint16_t>(n - 1);
-    std::string err;
     const std::vector<MappedObject> map = {{0x60200120, true}, {0x60300110, true}};
-    ASSERT_TRUE(build_pdo_decode(map, p.tpdo[0], err)) << err;
+    const cobridge::Error err = build_pdo_decode(map, p.tpdo[0]);
+    ASSERT_TRUE(err.ok()) << err.message;
     table.publish(p);
   }
 }

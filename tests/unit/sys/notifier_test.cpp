@@ -62,7 +62,7 @@ TEST(Notifier, ReportsASocketThatIsNotThere) {
   ::setenv("NOTIFY_SOCKET", "/nonexistent/cobridge-notify", 1);
   Notifier n;
   EXPECT_TRUE(n.enabled());
-  EXPECT_EQ(n.ready(), std::errc::no_such_file_or_directory);
+  EXPECT_EQ(n.ready().code, std::errc::no_such_file_or_directory);
   ::setenv("NOTIFY_SOCKET", "vsock:2:1234", 1);
   Notifier vsock;
   EXPECT_TRUE(vsock.ready());

@@ -46,9 +46,9 @@ TEST(BusReceiverVcan, TpdosBecomeTimestampedSamplesWithoutLoss) {
   p.indexed = true;
   p.node_id = 10;
   p.device_index = 3;
-  std::string err;
   std::vector<MappedObject> map = {{0x60040020, true}, {0x60300110, true}};
-  ASSERT_TRUE(build_pdo_decode(map, p.tpdo[0], err)) << err;
+  const cobridge::Error err = build_pdo_decode(map, p.tpdo[0]);
+  ASSERT_TRUE(err.ok()) << err.message;
   table.publish(p);
 
   Collect sink;

@@ -169,9 +169,9 @@ TEST(RxSyscallsVcan, OnePollOneRecvmmsgAtMostOneWakePerBatchNoLockNoAllocation) 
   p.indexed = true;
   p.node_id = 10;
   p.device_index = 0;
-  std::string err;
   const std::vector<MappedObject> map = {{0x60040020, true}, {0x60300110, true}};
-  ASSERT_TRUE(build_pdo_decode(map, p.tpdo[0], err)) << err;
+  const cobridge::Error err = build_pdo_decode(map, p.tpdo[0]);
+  ASSERT_TRUE(err.ok()) << err.message;
   table.publish(p);
   Counting sink;
   Dispatcher dispatcher(sink);

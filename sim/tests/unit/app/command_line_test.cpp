@@ -31,7 +31,7 @@ CommandLineResult parse(std::vector<std::string> args, std::filesystem::path ins
 TEST(CommandLine, DevicesBelongToThePrecedingIface) {
   const auto r = parse({"--iface", "vcan0", "--device", "RFC-4800", "--device", "RM9000:serial=10", "--iface=vcan1",
                         "--device=RFC-4800:node=3"});
-  ASSERT_EQ(r.exit_code, -1) << r.output;
+  ASSERT_EQ(r.exit_code(), -1) << r.output();
   ASSERT_EQ(r.options.buses.size(), 2u);
   EXPECT_EQ(r.options.buses[0].iface, "vcan0");
   ASSERT_EQ(r.options.buses[0].devices.size(), 2u);
@@ -49,7 +49,7 @@ TEST(CommandLine, DevicesBelongToThePrecedingIface) {
 TEST(CommandLine, AutomaticSerialsSkipGivenOnes) {
   const auto r = parse({"--iface", "vcan0", "--device", "RFC-4800", "--device", "RFC-4800:serial=2", "--device",
                         "RFC-4800"});
-  ASSERT_EQ(r.exit_code, -1) << r.output;
+  ASSERT_EQ(r.exit_code(), -1) << r.output();
   EXPECT_EQ(r.options.buses[0].devices[0].serial, 1u);
   EXPECT_EQ(r.options.buses[0].devices[2].serial, 3u);
 }
@@ -59,7 +59,7 @@ TEST(CommandLine, PathsAndDevicesDirFallback) {
   const auto r = parse({"--iface", "vcan0", "--device", "RM9000", "--state-dir", "/tmp/s", "--truth", "/tmp/t",
                         "--control", "/tmp/c"},
                        "/nonexistent/devices", src);
-  ASSERT_EQ(r.exit_code, -1) << r.output;
+  ASSERT_EQ(r.exit_code(), -1) << r.output();
   EXPECT_EQ(r.options.state_dir, "/tmp/s");
   EXPECT_EQ(r.options.truth_file, "/tmp/t");
   EXPECT_EQ(r.options.control_path, "/tmp/c");
@@ -68,11 +68,11 @@ TEST(CommandLine, PathsAndDevicesDirFallback) {
 
 TEST(CommandLine, HelpDocumentsKeysAndControlCommands) {
   const auto r = parse({"--help"});
-  EXPECT_EQ(r.exit_code, 0);
+  EXPECT_EQ(r.exit_code(), 0);
   for (const char* s : {"--iface", "--device", "--state-dir", "--truth", "--control", "--devices-dir", "serial=",
                         "node=", "channels=", "bitrate=", "lss=", "segmented=", "motion=", "power-cycle", "silence",
                         "fault", "move", "flood", "babble", "bus-error", "RFC-4800", "RM9000"})
-    EXPECT_NE(r.output.find(s), std::string::npos) << s;
+    EXPECT_NE(r.output().find(s), std::string::npos) << s;
 }
 
 TEST(CommandLine, ErrorsExitWithTwoAndNameTheArgument) {
@@ -95,15 +95,15 @@ TEST(CommandLine, ErrorsExitWithTwoAndNameTheArgument) {
   };
   for (const Case& c : cases) {
     const auto r = parse(c.args);
-    EXPECT_EQ(r.exit_code, 2) << c.expect;
-    EXPECT_NE(r.output.find(c.expect), std::string::npos) << r.output;
+    EXPECT_EQ(r.exit_code(), 2) << c.expect;
+    EXPECT_NE(r.output().find(c.expect), std::string::npos) << r.output();
   }
 }
 
 TEST(CommandLine, NoDescriptionsAnywhereIsAnError) {
   const auto r = parse({"--iface", "vcan0", "--device", "RFC-4800"}, "/nonexistent/a", "/nonexistent/b");
-  EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.output.find("--devices-dir"), std::string::npos);
+  EXPECT_EQ(r.exit_code(), 2);
+  EXPECT_NE(r.output().find("--devices-dir"), std::string::npos);
 }
 
 }  // namespace

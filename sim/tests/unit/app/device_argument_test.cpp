@@ -23,14 +23,14 @@ const ModelInfo* lookup(std::string_view name) noexcept {
 
 DeviceSpec ok(std::string_view text) {
   const auto r = parse_device_argument(text, &lookup);
-  EXPECT_TRUE(r.device.has_value()) << r.error;
-  return r.device ? r.device->spec : DeviceSpec{};
+  EXPECT_TRUE(r.ok()) << r.error().to_string();
+  return r.ok() ? r.value().spec : DeviceSpec{};
 }
 
 std::string error(std::string_view text) {
   const auto r = parse_device_argument(text, &lookup);
-  EXPECT_FALSE(r.device.has_value()) << text;
-  return r.error;
+  EXPECT_FALSE(r.ok()) << text;
+  return r.error().to_string();
 }
 
 TEST(DeviceArgument, ModelAloneGivesFactoryDefaults) {

@@ -15,7 +15,7 @@ namespace {
 
 Motion parse_ok(const std::string& spec) {
   auto r = Motion::parse(spec);
-  EXPECT_TRUE(r) << spec << ": " << r.message;
+  EXPECT_TRUE(r.ok()) << spec << ": " << r.error.message;
   return r.motion;
 }
 
@@ -81,9 +81,9 @@ TEST(MotionSimGrammar, ScriptInterpolatesLinearly) {
     out << "0 0\n1 oops\n";
   }
   const auto bad = Motion::parse(std::string("script:") + path);
-  EXPECT_EQ(bad.error, MotionError::bad_script_line);
-  EXPECT_NE(bad.message.find(":2:"), std::string::npos) << bad.message;
-  EXPECT_NE(bad.message.find("oops"), std::string::npos) << bad.message;
+  EXPECT_EQ(bad.error.code, MotionError::bad_script_line);
+  EXPECT_NE(bad.error.message.find(":2:"), std::string::npos) << bad.error.message;
+  EXPECT_NE(bad.error.message.find("oops"), std::string::npos) << bad.error.message;
   std::remove(path);
 }
 
@@ -117,9 +117,9 @@ TEST(MotionSimGrammar, ErrorsCarryCodeAndNameTheBadPart) {
   };
   for (const auto& c : cases) {
     const auto r = Motion::parse(c.spec);
-    EXPECT_FALSE(r) << c.spec;
-    EXPECT_EQ(r.error, c.error) << c.spec << ": " << r.message;
-    EXPECT_NE(r.message.find(c.names), std::string::npos) << c.spec << ": " << r.message;
+    EXPECT_FALSE(r.ok()) << c.spec;
+    EXPECT_EQ(r.error.code, c.error) << c.spec << ": " << r.error.message;
+    EXPECT_NE(r.error.message.find(c.names), std::string::npos) << c.spec << ": " << r.error.message;
     EXPECT_EQ(r.motion.kind(), Motion::Kind::constant);
   }
   EXPECT_STREQ(make_error_code(MotionError::bad_number).category().name(), "motion");

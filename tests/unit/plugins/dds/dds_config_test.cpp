@@ -12,7 +12,7 @@ namespace {
 // docs/dds.md "Configuration": an empty table gives the documented defaults.
 TEST(DdsConfig, DocsDds_EmptyGivesDefaults) {
   const DdsConfigResult r = parse_dds_config("");
-  ASSERT_TRUE(r.ok()) << r.message;
+  ASSERT_TRUE(r.ok()) << r.error.message;
   EXPECT_EQ(r.config.domain, 0u);
   EXPECT_EQ(r.config.sample_reliability, Reliability::kBestEffort);
   EXPECT_EQ(r.config.sample_depth, 1);
@@ -35,7 +35,7 @@ TEST(DdsConfig, Issue16_SamplePath) {
   EXPECT_FALSE(parse_dds_config("sample_path = \"writer-thread\"").config.samples_on_dispatcher());
   EXPECT_FALSE(parse_dds_config("sample_path = \"writer-thread\"").config.spill_to_writer_thread());
   const DdsConfigResult d = parse_dds_config("sample_path = \"dispatcher\"\nsample_reliability = \"reliable\"");
-  ASSERT_TRUE(d.ok()) << d.message;
+  ASSERT_TRUE(d.ok()) << d.error.message;
   EXPECT_TRUE(d.config.samples_on_dispatcher());
   EXPECT_FALSE(d.config.spill_to_writer_thread());
 }
@@ -45,7 +45,7 @@ TEST(DdsConfig, DocsDds_AllKeys) {
   const DdsConfigResult r =
       parse_dds_config("domain = 42\nsample_reliability = \"reliable\"\nsample_depth = 16\ntopic_prefix = \"p/\"\n"
                        "write_batch = false\nliveliness_lease_ms = 250\npartition = \"hall-3\"\n");
-  ASSERT_TRUE(r.ok()) << r.message;
+  ASSERT_TRUE(r.ok()) << r.error.message;
   EXPECT_EQ(r.config.domain, 42u);
   EXPECT_EQ(r.config.sample_reliability, Reliability::kReliable);
   EXPECT_EQ(r.config.sample_depth, 16);
@@ -90,9 +90,9 @@ TEST(DdsConfig, DocsDds_Refusals) {
   };
   for (const Case& c : cases) {
     const DdsConfigResult r = parse_dds_config(c.text);
-    EXPECT_EQ(r.error, make_error_code(c.code)) << c.text;
-    EXPECT_NE(r.message.find(c.mentions), std::string::npos) << c.text << " -> " << r.message;
-    EXPECT_EQ(r.message.rfind("config: ", 0), 0u) << r.message;
+    EXPECT_EQ(r.error.code, make_error_code(c.code)) << c.text;
+    EXPECT_NE(r.error.message.find(c.mentions), std::string::npos) << c.text << " -> " << r.error.message;
+    EXPECT_EQ(r.error.message.rfind("config: ", 0), 0u) << r.error.message;
   }
 }
 
@@ -109,18 +109,20 @@ TEST(DdsConfig, OmgDdsSec11_9_3_1_and_9_4_1_SecurityIsAllSixFilesOrNone) {
     for (const char* k : keys)
       if (k != left_out) text += std::string(k) + " = \"/nonexistent/" + k + "\"\n";
     const DdsConfigResult r = parse_dds_config(text);
-    EXPECT_EQ(r.error, make_error_code(DdsConfigErrc::kMissingKey)) << left_out << ": " << r.message;
-    EXPECT_NE(r.message.find("missing 'security." + std::string(left_out) + "'"), std::string::npos) << r.message;
-    EXPECT_EQ(r.message.find("/nonexistent"), std::string::npos) << "no file is looked at: " << r.message;
+    EXPECT_EQ(r.error.code, make_error_code(DdsConfigErrc::kMissingKey)) << left_out << ": " << r.error.message;
+    EXPECT_NE(r.error.message.find("missing 'security." + std::string(left_out) + "'"), std::string::npos)
+        << r.error.message;
+    EXPECT_EQ(r.error.message.find("/nonexistent"), std::string::npos) << "no file is looked at: " << r.error.message;
   }
   const DdsConfigResult empty = parse_dds_config("[security]\n");
-  EXPECT_EQ(empty.error, make_error_code(DdsConfigErrc::kMissingKey));
-  for (const char* k : keys) EXPECT_NE(empty.message.find("'security." + std::string(k) + "'"), std::string::npos) << k;
+  EXPECT_EQ(empty.error.code, make_error_code(DdsConfigErrc::kMissingKey));
+  for (const char* k : keys)
+    EXPECT_NE(empty.error.message.find("'security." + std::string(k) + "'"), std::string::npos) << k;
   const DdsConfigResult two = parse_dds_config("[security]\nidentity_ca = \"/a\"\ngovernance = \"/b\"\n");
-  EXPECT_NE(two.message.find("missing 'security.identity_certificate', 'security.private_key', "
+  EXPECT_NE(two.error.message.find("missing 'security.identity_certificate', 'security.private_key', "
                              "'security.permissions_ca', 'security.permissions'"),
             std::string::npos)
-      << two.message;
+      << two.error.message;
 }
 
 }  // namespace

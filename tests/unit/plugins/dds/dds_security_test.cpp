@@ -54,7 +54,7 @@ std::string scratch(const std::string& name, const std::string& text, mode_t mod
 // permissions document's subject_name uses.
 TEST(DdsSecurity, OmgDdsSec11_9_3_1_FullSetIsReadWithTheIdentitySubject) {
   const DdsConfigResult r = parse_dds_config(TestCa::get().table());
-  ASSERT_TRUE(r.ok()) << r.message;
+  ASSERT_TRUE(r.ok()) << r.error.message;
   ASSERT_TRUE(r.config.security.has_value());
   const DdsSecurity& s = *r.config.security;
   EXPECT_EQ(s.identity_certificate, TestCa::get().file("gateway.pem"));
@@ -70,17 +70,17 @@ TEST(DdsSecurity, DocsDds_EveryFileMustExistAndBeReadable) {
   for (const SecurityFileKey& k : kSecurityFileKeys) {
     const std::string missing = "/nonexistent/cobridge/" + std::string(k.key) + ".pem";
     const DdsConfigResult r = parse_dds_config(with(std::string(k.key), missing));
-    EXPECT_EQ(r.error, make_error_code(DdsConfigErrc::kBadFile)) << k.key << ": " << r.message;
-    EXPECT_NE(r.message.find("'security." + std::string(k.key) + "'"), std::string::npos) << r.message;
-    EXPECT_NE(r.message.find(missing), std::string::npos) << r.message;
-    EXPECT_NE(r.message.find("No such file"), std::string::npos) << r.message;
+    EXPECT_EQ(r.error.code, make_error_code(DdsConfigErrc::kBadFile)) << k.key << ": " << r.error.message;
+    EXPECT_NE(r.error.message.find("'security." + std::string(k.key) + "'"), std::string::npos) << r.error.message;
+    EXPECT_NE(r.error.message.find(missing), std::string::npos) << r.error.message;
+    EXPECT_NE(r.error.message.find("No such file"), std::string::npos) << r.error.message;
   }
   const DdsConfigResult dir = parse_dds_config(with("governance", "/tmp"));
-  EXPECT_EQ(dir.error, make_error_code(DdsConfigErrc::kBadFile));
-  EXPECT_NE(dir.message.find("not a regular file"), std::string::npos) << dir.message;
+  EXPECT_EQ(dir.error.code, make_error_code(DdsConfigErrc::kBadFile));
+  EXPECT_NE(dir.error.message.find("not a regular file"), std::string::npos) << dir.error.message;
   const DdsConfigResult empty = parse_dds_config(with("permissions", scratch("empty.p7s", "", 0644)));
-  EXPECT_EQ(empty.error, make_error_code(DdsConfigErrc::kBadFile));
-  EXPECT_NE(empty.message.find("empty"), std::string::npos) << empty.message;
+  EXPECT_EQ(empty.error.code, make_error_code(DdsConfigErrc::kBadFile));
+  EXPECT_NE(empty.error.message.find("empty"), std::string::npos) << empty.error.message;
 }
 
 // docs/dds.md "Security": a private key that group or others may read (or
@@ -91,13 +91,13 @@ TEST(DdsSecurity, DocsDds_PrivateKeyOpenToGroupOrOthersIsRefused) {
   for (const mode_t mode : {0640u, 0604u, 0620u, 0644u}) {
     const std::string path = scratch("open_key.pem", key, mode);
     const DdsConfigResult r = parse_dds_config(with("private_key", path));
-    EXPECT_EQ(r.error, make_error_code(DdsConfigErrc::kBadFile)) << std::oct << mode;
-    EXPECT_NE(r.message.find("'security.private_key' (" + path + ")"), std::string::npos) << r.message;
-    EXPECT_NE(r.message.find("chmod 600"), std::string::npos) << r.message;
+    EXPECT_EQ(r.error.code, make_error_code(DdsConfigErrc::kBadFile)) << std::oct << mode;
+    EXPECT_NE(r.error.message.find("'security.private_key' (" + path + ")"), std::string::npos) << r.error.message;
+    EXPECT_NE(r.error.message.find("chmod 600"), std::string::npos) << r.error.message;
   }
   for (const mode_t mode : {0600u, 0400u}) {
     const DdsConfigResult r = parse_dds_config(with("private_key", scratch("closed_key.pem", key, mode)));
-    EXPECT_TRUE(r.ok()) << std::oct << mode << ": " << r.message;
+    EXPECT_TRUE(r.ok()) << std::oct << mode << ": " << r.error.message;
   }
   // The other files are public: a certificate at 0644 is fine (above).
 }
@@ -105,18 +105,18 @@ TEST(DdsSecurity, DocsDds_PrivateKeyOpenToGroupOrOthersIsRefused) {
 // The identity certificate is read at load: something else there is named.
 TEST(DdsSecurity, DocsDds_IdentityCertificateMustBeAPemCertificate) {
   const DdsConfigResult r = parse_dds_config(with("identity_certificate", TestCa::get().file("governance.xml")));
-  EXPECT_EQ(r.error, make_error_code(DdsConfigErrc::kBadFile));
-  EXPECT_NE(r.message.find("'security.identity_certificate'"), std::string::npos) << r.message;
-  EXPECT_NE(r.message.find("not a PEM X.509 certificate"), std::string::npos) << r.message;
+  EXPECT_EQ(r.error.code, make_error_code(DdsConfigErrc::kBadFile));
+  EXPECT_NE(r.error.message.find("'security.identity_certificate'"), std::string::npos) << r.error.message;
+  EXPECT_NE(r.error.message.find("not a PEM X.509 certificate"), std::string::npos) << r.error.message;
 }
 
 // Debian 12 installs the builtin plugins outside the library search path:
 // a folder without them is an error that names the file and the package.
 TEST(DdsSecurity, DocsDds_MissingPluginLibrariesAreNamed) {
   const DdsConfigResult r = parse_dds_config(TestCa::get().table() + "plugin_dir = \"/nonexistent/lib\"\n");
-  EXPECT_EQ(r.error, make_error_code(DdsConfigErrc::kBadFile));
-  EXPECT_NE(r.message.find("/nonexistent/lib/libdds_security_auth.so"), std::string::npos) << r.message;
-  EXPECT_NE(r.message.find("libddsc0debian"), std::string::npos) << r.message;
+  EXPECT_EQ(r.error.code, make_error_code(DdsConfigErrc::kBadFile));
+  EXPECT_NE(r.error.message.find("/nonexistent/lib/libdds_security_auth.so"), std::string::npos) << r.error.message;
+  EXPECT_NE(r.error.message.find("libddsc0debian"), std::string::npos) << r.error.message;
   // This build found them (plugins/dds/CMakeLists.txt).
   for (const std::string_view f : kSecurityPluginFiles) {
     const std::string path = std::string(default_security_plugin_dir()) + "/" + std::string(f);
