@@ -240,6 +240,13 @@ void ControlServer::answer(Client& c, std::string_view line, TimePoint now) {
     reply = to_json(handler_.status());
   } else if (req.kind == ControlRequest::Kind::commission) {
     reply = commission(c, req.bus);
+  } else if (req.kind == ControlRequest::Kind::capture_now) {
+    const ControlResult r = handler_.capture_now(req.bus);
+    reply = r.ok ? commission_answer(r.buses, r.message) : error_answer(Error(Errc::kNotFound, r.message));
+  } else if (req.kind == ControlRequest::Kind::capture_get) {
+    std::string text;
+    const Error e = handler_.read_capture(req.name, text);
+    reply = e ? error_answer(e) : "{\"ok\":true,\"name\":" + json_quote(req.name) + ",\"text\":" + json_quote(text) + "}";
   } else {
     submit(c, std::move(req), now);
     if (c.waiting_tag != 0) return;

@@ -8,6 +8,8 @@
 //
 //   status             -> {"gateway": ..., "buses": [...], ...}  (StatusReport)
 //   commission [BUS]   -> {"ok": true, "buses": [...]}   (every bus when BUS is left out)
+//   capture-now [BUS]  -> {"ok": true, "buses": [...]}   (flight recorder; every bus when BUS is left out)
+//   capture-get NAME   -> {"ok": true, "name": ..., "text": "<the candump log>"}
 //   sdo-read, sdo-write, nmt, lss-set-node-id (control_request.hpp)
 //                      -> {"ok": true, ...}  (control_answer.hpp), answered when
 //                         the bus's control thread has run the command
@@ -86,6 +88,13 @@ class ControlHandler {
   [[nodiscard]] virtual StatusReport status() = 0;
   // `bus` empty = every bus.
   virtual ControlResult commission(std::string_view bus) = 0;
+  // Flight recorder: a capture of `bus` (empty = every bus) with cause
+  // "operator", written once its window closes.
+  virtual ControlResult capture_now(std::string_view /*bus*/) { return {false, "no flight recorder", {}}; }
+  // The text of the capture file `name` (as the status lists it).
+  [[nodiscard]] virtual Error read_capture(std::string_view /*name*/, std::string& /*text*/) {
+    return Error(Errc::kUnsupported, "no flight recorder");
+  }
 };
 
 struct ControlServerOptions {

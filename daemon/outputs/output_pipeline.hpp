@@ -68,6 +68,8 @@ class OutputPipeline {
   // the daemon must not run without an output it was told to feed. After a
   // failed load() nothing is left loaded.
   [[nodiscard]] std::vector<Error> load();
+  // Before start_receivers(): the bus's flight recorder (nullptr: none).
+  void set_recorder(std::size_t bus_index, can::FrameRecorder* recorder);
   [[nodiscard]] std::vector<Error> start_receivers();
   [[nodiscard]] std::vector<Error> start_plugins();
   // The three in order (tests, tools).
