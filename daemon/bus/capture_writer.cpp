@@ -195,11 +195,12 @@ Error CaptureWriter::write(CaptureInfo& info, std::int64_t window_end_ns) {
   }
   std::error_code ec;
   info.bytes = std::filesystem::file_size(partial, ec);
-  // Renamed once complete: a listed capture is always whole.
+  // The sidecar first, the log renamed last: a listed capture is whole and
+  // has its sidecar.
+  std::ofstream(options_.dir / (info.name.substr(0, info.name.size() - 4) + ".json"), std::ios::trunc)
+      << capture_sidecar(options_, info);
   std::filesystem::rename(partial, path, ec);
   if (ec) return Error(Errc::kFailed, "cannot rename: " + ec.message(), path.string(), ec);
-  std::ofstream side(options_.dir / (info.name.substr(0, info.name.size() - 4) + ".json"), std::ios::trunc);
-  side << capture_sidecar(options_, info);
   return {};
 }
 
