@@ -2,14 +2,18 @@
 // written around a fault (the "flight recorder").
 //
 // A fixed ring of slots, allocated once at construction. The writer (the
-// bus's RX thread) stores each frame with record(): a handful of relaxed
-// atomic stores, no allocation, lock, system call or logging. A reader on
-// another thread copies a time window with snapshot() without stopping the
-// writer: every slot carries a sequence (seqlock style) that says which
-// frame it holds and whether a write is under way, so a slot overwritten
-// while it was copied is detected and skipped (and counted), never returned
-// torn. The slots' contents are atomics, so the protocol is also data-race
-// free as the C++ memory model (and TSan) define it.
+// bus's RX thread) stores each frame with record(): four atomic stores
+// (plain moves on x86), no allocation, lock, system call or logging. A
+// reader on another thread copies a time window with snapshot() without
+// stopping the writer, seqlock style with the frame counter as the
+// sequence: the writer publishes "frame k is being written" (the counter
+// at k) before it touches slot k % slots, so a reader that copied frame j
+// and then sees the counter at j + slots or beyond knows the copy may be
+// torn and drops it (counted as skipped); frames are never returned torn.
+// One slot more than the capacity: the slot the next frame goes into, so
+// that `capacity` frames are whole while the writer is idle. The slots' words are atomics (release stores, acquire loads), so
+// the protocol is data-race free as the C++ memory model and TSan define
+// it, without fences.
 //
 // Threads: record() from exactly one thread (the RX thread); snapshot(),
 // recorded() and the size figures from any thread.
@@ -58,41 +62,36 @@ class FrameRecorder {
 
   [[nodiscard]] std::size_t capacity() const noexcept { return capacity_; }
   [[nodiscard]] std::size_t memory_bytes() const noexcept { return bytes_for(capacity_); }
-  // Frames recorded since construction (also those overwritten since).
+  // Frames recorded since construction (also those overwritten since);
+  // frame k (0-based) is in slot k % capacity.
   [[nodiscard]] std::uint64_t recorded() const noexcept { return written_.load(std::memory_order_acquire); }
 
  private:
   static constexpr std::size_t kWords = sizeof(Frame) / sizeof(std::uint64_t);
   static_assert(sizeof(Frame) % sizeof(std::uint64_t) == 0);
-  // seq: 0 = never written, kBusy = a write is under way, else index + 1 of
-  // the frame the words hold.
-  static constexpr std::uint64_t kBusy = ~std::uint64_t{0};
   struct Slot {
-    std::atomic<std::uint64_t> seq{0};
     std::atomic<std::uint64_t> words[kWords];
   };
-  // One slot's frame if it still holds frame `index`.
-  bool read_slot(std::uint64_t index, Frame& out) const noexcept;
+  Frame read_slot(std::uint64_t index) const noexcept;
 
-  std::size_t capacity_;
+  std::size_t capacity_;     // frames a snapshot can return
+  std::size_t slot_count_;   // capacity_ + 1
   std::unique_ptr<Slot[]> slots_;
-  std::size_t next_slot_ = 0;  // writer's own position (index % capacity without a division)
+  std::size_t next_slot_ = 0;  // writer's own position (index % slot_count_ without a division)
   std::atomic<std::uint64_t> written_{0};
 };
 
 // Inline: the RX thread calls it per frame.
 inline void FrameRecorder::record(const Frame& frame) noexcept {
-  const std::uint64_t index = written_.load(std::memory_order_relaxed);
+  // written_ already says k (this frame's index) since the last call: a
+  // reader that sees any of these words sees that too (release stores), and
+  // so knows slot k % capacity is no longer frame k - capacity.
   Slot& slot = slots_[next_slot_];
   std::uint64_t words[kWords];
   std::memcpy(words, &frame, sizeof words);
-  // Seqlock write side: mark busy, then the payload, then the new sequence.
-  slot.seq.store(kBusy, std::memory_order_relaxed);
-  std::atomic_thread_fence(std::memory_order_release);
-  for (std::size_t i = 0; i < kWords; ++i) slot.words[i].store(words[i], std::memory_order_relaxed);
-  slot.seq.store(index + 1, std::memory_order_release);
-  written_.store(index + 1, std::memory_order_release);
-  if (++next_slot_ == capacity_) next_slot_ = 0;
+  for (std::size_t i = 0; i < kWords; ++i) slot.words[i].store(words[i], std::memory_order_release);
+  written_.store(written_.load(std::memory_order_relaxed) + 1, std::memory_order_release);
+  if (++next_slot_ == slot_count_) next_slot_ = 0;
 }
 
 }  // namespace cobridge::can

@@ -23,8 +23,9 @@ TEST(FrameRecorder, CapacityCoversTheShortestFramesAtTheBitrate) {
   EXPECT_EQ(FrameRecorder::capacity_for(125, 10), 26600u);
   EXPECT_EQ(FrameRecorder::capacity_for(125, 0), 1u);
   FrameRecorder r(FrameRecorder::capacity_for(1000, 10));
-  // A slot is the frame (24 bytes) and its sequence (8 bytes).
-  EXPECT_EQ(r.memory_bytes(), 212770u * 32u);
+  // A slot is the frame, 24 bytes; one slot more than the capacity (the
+  // one being written).
+  EXPECT_EQ(r.memory_bytes(), 212771u * 24u);
   EXPECT_EQ(FrameRecorder::bytes_for(r.capacity()), r.memory_bytes());
 }
 
