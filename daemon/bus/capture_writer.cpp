@@ -12,6 +12,7 @@ namespace cobridge::gateway {
 namespace {
 
 constexpr std::uint32_t kCanErrFlag = 0x20000000u;  // linux/can.h CAN_ERR_FLAG
+constexpr std::size_t kMaxPending = 16;
 
 std::int64_t capture_wall_ns() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
@@ -134,6 +135,9 @@ void CaptureWriter::request(std::string cause, std::string device, std::int64_t 
         p.info.devices.push_back(std::move(device));
       return;
     }
+    // Faults come in time order, so a new window opens at most once per
+    // `after`; more than this waiting means the writer is stuck (disk).
+    if (pending_.size() >= kMaxPending) return;
     Pending p;
     p.info.causes.push_back(std::move(cause));
     p.info.devices.push_back(std::move(device));
@@ -159,7 +163,6 @@ std::vector<CaptureInfo> CaptureWriter::poll(std::int64_t now_ns) {
       sys::logger("gateway")->warn("bus {}: capture not written: {}", options_.bus, e.to_string());
       continue;
     }
-    enforce_cap();
     {
       std::lock_guard lock(mutex_);
       recent_.push_back(due.info);
@@ -176,29 +179,27 @@ Error CaptureWriter::write(CaptureInfo& info, std::int64_t window_end_ns) {
               capture_file_word(info.causes.front()) + ".log";
   info.frames = window.frames.size();
   info.skipped = window.skipped;
+  // The whole text first: its size makes room under the cap before anything
+  // is written, so the cap holds at every moment, not only after a write.
+  std::string text;
+  text.reserve(window.frames.size() * (28 + options_.interface.size()));
+  for (const can::Frame& f : window.frames) text += candump_line(f, options_.interface);
+  info.bytes = text.size();
+  const std::string sidecar = capture_sidecar(options_, info);
+  enforce_cap(text.size() + sidecar.size());
   const std::filesystem::path path = options_.dir / info.name;
   const std::filesystem::path partial = options_.dir / (info.name + ".part");
   {
     std::ofstream out(partial, std::ios::binary | std::ios::trunc);
     if (!out) return Error(Errc::kFailed, "cannot open for writing", partial.string());
-    std::string block;
-    for (const can::Frame& f : window.frames) {
-      block += candump_line(f, options_.interface);
-      if (block.size() >= 64 * 1024) {
-        out.write(block.data(), static_cast<std::streamsize>(block.size()));
-        block.clear();
-      }
-    }
-    out.write(block.data(), static_cast<std::streamsize>(block.size()));
+    out.write(text.data(), static_cast<std::streamsize>(text.size()));
     out.flush();
     if (!out) return Error(Errc::kFailed, "write failed (disk full?)", partial.string());
   }
-  std::error_code ec;
-  info.bytes = std::filesystem::file_size(partial, ec);
   // The sidecar first, the log renamed last: a listed capture is whole and
   // has its sidecar.
-  std::ofstream(options_.dir / (info.name.substr(0, info.name.size() - 4) + ".json"), std::ios::trunc)
-      << capture_sidecar(options_, info);
+  std::ofstream(options_.dir / (info.name.substr(0, info.name.size() - 4) + ".json"), std::ios::trunc) << sidecar;
+  std::error_code ec;
   std::filesystem::rename(partial, path, ec);
   if (ec) return Error(Errc::kFailed, "cannot rename: " + ec.message(), path.string(), ec);
   return {};
@@ -236,13 +237,13 @@ std::vector<CaptureOnDisk> captures_on_disk(const std::filesystem::path& dir, co
 
 }  // namespace
 
-void CaptureWriter::enforce_cap() {
+void CaptureWriter::enforce_cap(std::uint64_t room) {
   const std::string prefix = capture_file_word(options_.bus) + "-";
   std::vector<CaptureOnDisk> found = captures_on_disk(options_.dir, prefix);
-  std::uint64_t total = 0;
+  std::uint64_t total = room;
   for (const auto& c : found) total += c.bytes;
-  // Oldest first; the newest capture stays even when it alone is over the cap.
-  for (std::size_t i = 0; i + 1 < found.size() && total > options_.cap_bytes; ++i) {
+  // Oldest first; a capture that alone is over the cap is still written.
+  for (std::size_t i = 0; i < found.size() && total > options_.cap_bytes; ++i) {
     std::error_code ec;
     std::filesystem::remove(options_.dir / (found[i].stem + ".log"), ec);
     std::filesystem::remove(options_.dir / (found[i].stem + ".json"), ec);

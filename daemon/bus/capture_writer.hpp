@@ -10,8 +10,8 @@
 // candump logs have no comment lines, hence the sidecar. A fault inside the
 // window of a capture still pending joins it (one file, every cause in the
 // sidecar), so a storm of faults makes one file per window, not one per
-// fault. After each write the bus's oldest captures are deleted until its
-// captures (logs and sidecars) fit in `cap_bytes`.
+// fault. Before each write the bus's oldest captures are deleted until its
+// captures (logs and sidecars) and the new one fit in `cap_bytes`.
 //
 // Threads: request(), recent() and pending() from any thread (a mutex, held
 // only to copy or append); start()/stop() from the owner; the writer thread
@@ -96,7 +96,9 @@ class CaptureWriter {
   };
   void run();
   [[nodiscard]] Error write(CaptureInfo& info, std::int64_t window_end_ns);
-  void enforce_cap();
+  // Deletes the bus's oldest captures until they and `room` more bytes fit
+  // in the cap.
+  void enforce_cap(std::uint64_t room);
 
   CaptureOptions options_;
   const can::FrameRecorder& recorder_;

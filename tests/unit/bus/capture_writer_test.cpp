@@ -113,6 +113,13 @@ TEST_F(CaptureWriterTest, FaultsInsideAPendingWindowJoinIt) {
   EXPECT_EQ(w.recent().size(), 2u);
 }
 
+TEST_F(CaptureWriterTest, PendingCapturesAreBounded) {
+  can::FrameRecorder rec(10);
+  CaptureWriter w(options(), rec);
+  for (int i = 0; i < 40; ++i) w.request("emcy", "enc1", kT0 + std::int64_t{i} * 10 * kSecond);
+  EXPECT_EQ(w.pending(), 16u);
+}
+
 TEST_F(CaptureWriterTest, OldestCapturesGoFirstToKeepTheCap) {
   can::FrameRecorder rec(10000);
   // A frame each 40 ms: a 12 s window holds 300 lines of 47 bytes, ~14 kB.

@@ -8,11 +8,17 @@ its configured node-ID with heartbeat 100 ms, recorder on (10 s, 2 s after):
    boot-up among them;
  * silenced (cable pulled): a capture naming "heartbeat lost";
  * `cobridge capture list` shows both; `cobridge capture now` makes a
-   capture with cause "operator"; `cobridge capture get` returns the file.
+   capture with cause "operator"; `cobridge capture get` returns the file;
+ * an EMCY storm (as fast as Python sends them, ~1 000/s in UML, for 12 s:
+   more than 1 MiB of captures): the EMCY captures coalesce (one per
+   capture_after_s window, not one per EMCY) and the bus's captures stay
+   within capture_cap_mib (1 MiB here) on disk, the oldest deleted.
 """
 import glob
 import json
 import os
+import socket
+import struct
 import subprocess
 import sys
 import time
@@ -21,6 +27,7 @@ import e2e
 
 SERIAL, NODE = 1001, 10
 AFTER = 2.0
+STORM_S = 12.0
 
 
 def wait_capture(ws, word, since_files, timeout):
@@ -61,6 +68,38 @@ def check_replay(report, path):
         listener.close()
 
 
+def captures_bytes(ws):
+    return sum(os.path.getsize(p) for p in glob.glob(os.path.join(ws.state, "captures", "line1-*")))
+
+
+def check_emcy_storm(report, ws):
+    cap = 1 << 20
+    pattern = os.path.join(ws.state, "captures", "*-emcy.log")
+    before = set(glob.glob(pattern))
+    seen = set()
+    s = socket.socket(socket.AF_CAN, socket.SOCK_RAW, socket.CAN_RAW)
+    s.bind(("vcan0",))
+    sent, worst = 0, 0
+    t0 = time.time()
+    while time.time() - t0 < STORM_S + AFTER + 1.0:
+        if time.time() - t0 < STORM_S:
+            for _ in range(15):
+                code = 0x1000 + (sent % 0x100)
+                data = bytes([code & 0xFF, code >> 8, 0x01, sent & 0xFF, 0, 0, 0, 0])
+                s.send(struct.pack("=IB3x8s", 0x080 + NODE, 8, data))
+                sent += 1
+        worst = max(worst, captures_bytes(ws))
+        seen |= set(glob.glob(pattern)) - before
+        time.sleep(0.01)
+    s.close()
+    left = set(glob.glob(pattern)) - before
+    report.check(1 <= len(seen) <= STORM_S / AFTER + 2, "EMCY storm: the captures coalesce, one per window",
+                 "%d EMCY sent, %d EMCY captures written, %d left" % (sent, len(seen), len(left)))
+    report.check(worst <= cap and len(left) < len(seen),
+                 "EMCY storm: the captures stay within capture_cap_mib on disk, the oldest deleted",
+                 "at most %d bytes seen (cap %d); %d deleted" % (worst, cap, len(seen) - len(left)))
+
+
 def main():
     args = e2e.parse_args()
     report = e2e.Report("test_flight_recorder")
@@ -68,7 +107,7 @@ def main():
     listener = e2e.CanListener("vcan0")
     sim = e2e.Simulator(args.sim, ws, {"vcan0": ["RFC-4800:serial=%d,node=%d" % (SERIAL, NODE)]})
     bus = {"name": "line1", "interface": "vcan0", "bitrate": 250, "discovery_period_s": 30, "node_pool": "40-60",
-           "recorder_seconds": 10, "capture_after_s": int(AFTER), "capture_cap_mib": 8}
+           "recorder_seconds": 10, "capture_after_s": int(AFTER), "capture_cap_mib": 1}
     devices = [{"name": "rot-a", "bus": "line1", "serial": SERIAL, "model": "RFC-4800", "node_id": NODE,
                 "heartbeat_ms": 100, "tpdo1": {"mapping": ["position"], "transmission": "event", "event_timer_ms": 100}}]
     daemon = e2e.Daemon(args.daemon, e2e.write_config(ws, [bus], devices), ws)
@@ -126,6 +165,7 @@ def main():
             code, out, err = e2e.run_cli(args.cli, "capture", "get", os.path.basename(path), *ctl)
             with open(path) as f:
                 report.check(code == 0 and out == f.read(), "cobridge capture get returns the file", err)
+        check_emcy_storm(report, ws)
         e2e.check_clean_exit(report, daemon)
         daemon = None
     return report.finish()
