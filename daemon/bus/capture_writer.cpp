@@ -107,6 +107,13 @@ Error CaptureWriter::start() {
   std::filesystem::create_directories(options_.dir, ec);
   if (ec) return Error(Errc::kFailed, "cannot create the captures directory: " + ec.message(), options_.dir.string(), ec);
   if (thread_.joinable()) return {};
+  // A capture cut short by a crash or power loss: never listed, never counted.
+  const std::string prefix = capture_file_word(options_.bus) + "-";
+  for (const auto& entry : std::filesystem::directory_iterator(options_.dir, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (entry.path().extension() == ".part" && name.compare(0, prefix.size(), prefix) == 0)
+      std::filesystem::remove(entry.path(), ec);
+  }
   {
     std::lock_guard lock(mutex_);
     stopping_ = false;

@@ -46,6 +46,12 @@ std::string joined(const Json& list) {
   return out.empty() ? "-" : out;
 }
 
+std::string json_list(const Json& list) {
+  std::string out = "[";
+  for (const auto& item : list.items) out += (out.size() > 1 ? "," : "") + json_quote(item.text);
+  return out + "]";
+}
+
 int list(const CaptureOptions& o) {
   int code = 0;
   CaptureOptions quiet = o;
@@ -62,7 +68,7 @@ int list(const CaptureOptions& o) {
       if (o.json) {
         std::printf("%s{\"bus\":%s,\"name\":%s,\"causes\":%s,\"at\":%s,\"frames\":%lld,\"bytes\":%lld}",
                     first ? "" : ",", json_quote(bus["name"].str()).c_str(), json_quote(c["name"].str()).c_str(),
-                    json_quote(joined(c["causes"])).c_str(), json_quote(c["at"].str()).c_str(), c["frames"].integer(),
+                    json_list(c["causes"]).c_str(), json_quote(c["at"].str()).c_str(), c["frames"].integer(),
                     c["bytes"].integer());
       } else {
         std::printf("%-10s %-48s %-24s %-26s %8lld %10lld\n", bus["name"].str().c_str(), c["name"].str().c_str(),

@@ -143,6 +143,17 @@ TEST_F(CaptureWriterTest, OldestCapturesGoFirstToKeepTheCap) {
   EXPECT_TRUE(fs::exists(dir_ / "line2-20251128T031800.000Z-emcy.log"));
 }
 
+TEST_F(CaptureWriterTest, StartRemovesThisBusesPartialFiles) {
+  can::FrameRecorder rec(10);
+  std::ofstream(dir_ / "line1-20251128T032015.000Z-emcy.log.part") << "(1.000000) vcan0 081#";
+  std::ofstream(dir_ / "line2-20251128T032015.000Z-emcy.log.part") << "another bus's";
+  CaptureWriter w(options(), rec);
+  ASSERT_TRUE(w.start().ok());
+  w.stop();
+  EXPECT_FALSE(fs::exists(dir_ / "line1-20251128T032015.000Z-emcy.log.part"));
+  EXPECT_TRUE(fs::exists(dir_ / "line2-20251128T032015.000Z-emcy.log.part"));
+}
+
 TEST_F(CaptureWriterTest, TheThreadWritesADueCaptureOnItsOwn) {
   can::FrameRecorder rec(10);
   const std::int64_t now = std::chrono::duration_cast<std::chrono::nanoseconds>(

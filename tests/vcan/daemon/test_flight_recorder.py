@@ -161,6 +161,14 @@ def main():
         code, out, err = e2e.run_cli(args.cli, "capture", "list", *ctl)
         names = [os.path.basename(p) for p in (path, hb_path, op_path) if p]
         report.check(code == 0 and all(n in out for n in names), "cobridge capture list shows the captures", out + err)
+        code, out, err = e2e.run_cli(args.cli, "capture", "list", "--json", *ctl)
+        try:
+            listed = {c["name"]: c for c in json.loads(out)}
+        except ValueError:
+            listed = {}
+        report.check(code == 0 and all(n in listed for n in names) and
+                     listed.get(os.path.basename(path or ""), {}).get("causes") == ["boot-up"],
+                     "cobridge capture list --json: every capture with its causes", out + err)
         if path:
             code, out, err = e2e.run_cli(args.cli, "capture", "get", os.path.basename(path), *ctl)
             with open(path) as f:
