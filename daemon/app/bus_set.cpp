@@ -6,11 +6,13 @@
 namespace cobridge::app {
 
 void BusSet::build(const config::Config& cfg, const device::DeviceCatalog& catalog, gateway::StateStore& state,
-                   gateway::OutputPipeline& outputs, gateway::BusRegistry& registry) {
+                   gateway::OutputPipeline& outputs, gateway::BusRegistry& registry,
+                   const FlightRecorders* recorders) {
   for (std::size_t i = 0; i < cfg.buses.size(); ++i) {
     gateway::BusManagerOptions options;
     options.observer = outputs.observer(i);
     options.registry = &registry;
+    options.captures = recorders ? recorders->captures(i) : nullptr;
     buses_.push_back(std::make_unique<gateway::BusManager>(cfg, i, catalog, state, options));
     outputs.set_command_target(i, buses_.back().get());
   }

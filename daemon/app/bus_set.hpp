@@ -12,6 +12,7 @@
 #include "config/config.hpp"
 #include "device/device_catalog.hpp"
 #include "bus/bus_manager.hpp"
+#include "app/flight_recorders.hpp"
 #include "outputs/output_pipeline.hpp"
 #include "bus/state_store.hpp"
 
@@ -27,7 +28,8 @@ class BusSet {
   // One BusManager per bus, connected to `outputs` (which must outlive them).
   // Each bus is put in `registry` while it runs (clients' commands find it there).
   void build(const config::Config& cfg, const device::DeviceCatalog& catalog, gateway::StateStore& state,
-             gateway::OutputPipeline& outputs, gateway::BusRegistry& registry);
+             gateway::OutputPipeline& outputs, gateway::BusRegistry& registry,
+             const FlightRecorders* recorders = nullptr);
 
   // Starts every bus; on the first failure stops those started and returns
   // it as the bus gave it (where = "bus NAME: IFACE", its kind and code).

@@ -4,13 +4,16 @@
 
 #include <unistd.h>
 
+#include <fstream>
+#include <sstream>
+
 #include <utility>
 
 namespace cobridge::app {
 
 ControlFacade::ControlFacade(const config::Config& cfg, BusSet& buses, const gateway::OutputPipeline& outputs,
-                             std::string version)
-    : config_(&cfg), buses_(buses), outputs_(outputs), version_(std::move(version)),
+                             std::string version, const FlightRecorders* recorders)
+    : config_(&cfg), buses_(buses), outputs_(outputs), version_(std::move(version)), recorders_(recorders),
       started_(std::chrono::system_clock::now()) {}
 
 void ControlFacade::set_config(const config::Config& cfg) {
@@ -59,6 +62,46 @@ Result<std::vector<std::string>> ControlFacade::commission(std::string_view bus)
   }
   sys::logger("gateway")->info("control socket: commissioning requested on {}", bus.empty() ? "every bus" : bus);
   return acted_on;
+}
+
+Result<std::vector<std::string>> ControlFacade::capture_now(std::string_view bus) {
+  const std::lock_guard lock(mutex_);
+  std::vector<std::string> asked;
+  const auto now = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                       std::chrono::system_clock::now().time_since_epoch()).count();
+  bool named = bus.empty();
+  for (std::size_t i = 0; i < config_->buses.size(); ++i) {
+    const auto& b = config_->buses[i];
+    if (!bus.empty() && b.name != bus && b.interface != bus) continue;
+    named = true;
+    gateway::CaptureWriter* w = recorders_ ? recorders_->captures(i) : nullptr;
+    if (w == nullptr) continue;
+    w->request("operator", {}, now);
+    asked.push_back(b.name);
+  }
+  const std::string where = bus.empty() ? std::string("every bus") : "bus \"" + std::string(bus) + "\"";
+  if (!named) return Error(Errc::kNotFound, "unknown bus \"" + std::string(bus) + "\"");
+  if (asked.empty()) return Error(Errc::kUnavailable, "the flight recorder is off (recorder_seconds = 0)", where);
+  sys::logger("gateway")->info("control socket: capture requested on {}", where);
+  return asked;
+}
+
+Result<std::string> ControlFacade::read_capture(std::string_view name) {
+  const std::lock_guard lock(mutex_);
+  for (std::size_t i = 0; i < config_->buses.size(); ++i) {
+    const gateway::CaptureWriter* w = recorders_ ? recorders_->captures(i) : nullptr;
+    if (w == nullptr) continue;
+    // Only a name the writer lists: nothing outside the captures directory.
+    for (const auto& c : w->recent()) {
+      if (c.name != name) continue;
+      std::ifstream in(w->options().dir / c.name, std::ios::binary);
+      if (!in) return Error(Errc::kUnavailable, "cannot read the capture", (w->options().dir / c.name).string());
+      std::ostringstream s;
+      s << in.rdbuf();
+      return std::move(s).str();
+    }
+  }
+  return Error(Errc::kNotFound, "no capture \"" + std::string(name) + "\" (cobridge capture list shows them)");
 }
 
 }  // namespace cobridge::app

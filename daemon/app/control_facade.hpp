@@ -10,6 +10,7 @@
 #pragma once
 
 #include "app/bus_set.hpp"
+#include "app/flight_recorders.hpp"
 #include "config/config.hpp"
 #include "control/control_server.hpp"
 #include "outputs/output_pipeline.hpp"
@@ -24,7 +25,7 @@ namespace cobridge::app {
 class ControlFacade final : public gateway::ControlHandler {
  public:
   ControlFacade(const config::Config& cfg, BusSet& buses, const gateway::OutputPipeline& outputs,
-                std::string version);
+                std::string version, const FlightRecorders* recorders = nullptr);
 
   // After an accepted reload: `cfg` must outlive the next set_config().
   void set_config(const config::Config& cfg);
@@ -32,12 +33,15 @@ class ControlFacade final : public gateway::ControlHandler {
 
   gateway::StatusReport status() override;
   Result<std::vector<std::string>> commission(std::string_view bus) override;
+  Result<std::vector<std::string>> capture_now(std::string_view bus) override;
+  [[nodiscard]] Result<std::string> read_capture(std::string_view name) override;
 
  private:
   const config::Config* config_;
   BusSet& buses_;
   const gateway::OutputPipeline& outputs_;
   std::string version_;
+  const FlightRecorders* recorders_;
   std::chrono::system_clock::time_point started_;
   bool ready_ = false;
   std::mutex mutex_;

@@ -62,7 +62,7 @@ Error Daemon::start() {
   // Made here, started below once the control socket is ours; the control
   // socket's status reads its hot-path counters.
   outputs_.emplace(*cfg_, *catalog_, options_.plugin_dir);
-  facade_.emplace(*cfg_, buses_, *outputs_, options_.version);
+  facade_.emplace(*cfg_, buses_, *outputs_, options_.version, &recorders_);
   // The control socket first: a second daemon started by mistake stops here,
   // before it touches a bus the first one serves.
   gateway::ControlServerOptions control_options;
@@ -74,11 +74,12 @@ Error Daemon::start() {
   }
   open_beacons();
   if (Error e = output_problems(outputs_->load(), "no bus was touched")) return e;
+  start_recorders();
   if (Error e = output_problems(outputs_->start_receivers(), "no bus was touched")) return e;
   // The plugins start (a DDS participant takes tenths of a second) while the
   // buses come up; the dispatcher holds what the buses produce meanwhile.
   auto plugins = std::async(std::launch::async, [this] { return start_plugins(); });
-  buses_.build(*cfg_, *catalog_, *state_, *outputs_, registry_);
+  buses_.build(*cfg_, *catalog_, *state_, *outputs_, registry_, &recorders_);
   const Error bus_error = buses_.start();
   std::vector<Error> plugin_problems = plugins.get();
   if (bus_error) {
@@ -136,6 +137,19 @@ void Daemon::open_beacons() {
       }
     }
   }
+}
+
+void Daemon::start_recorders() {
+  auto log = sys::logger("gateway");
+  recorders_.build(*cfg_);
+  for (std::size_t i = 0; i < cfg_->buses.size(); ++i) {
+    outputs_->set_recorder(i, recorders_.recorder(i));
+    if (const can::FrameRecorder* r = recorders_.recorder(i)) {
+      log->info("bus {}: flight recorder of {} s, {} frames, {} KiB", cfg_->buses[i].name,
+                cfg_->buses[i].recorder_seconds, r->capacity(), r->memory_bytes() / 1024);
+    }
+  }
+  for (const Error& e : recorders_.start()) log->warn("flight recorder: no captures: {}", e.to_string());
 }
 
 void Daemon::retry_beacons(Clock::time_point now) {
@@ -225,6 +239,7 @@ void Daemon::stop() {
   for (std::size_t i = 0; i < buses_.size(); ++i) outputs_->set_command_target(i, nullptr);
   buses_.stop();
   outputs_->stop();
+  recorders_.stop();
   control_->close();
   beacons_.clear();
   log->info("stopped in {} ms", std::chrono::duration_cast<milliseconds>(Clock::now() - t0).count());

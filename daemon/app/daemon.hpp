@@ -73,6 +73,8 @@ class Daemon {
   [[nodiscard]] std::vector<Error> start_plugins();  // a helper thread, while the buses start
   [[nodiscard]] Error start_web();
   void open_beacons();
+  // The flight recorders into the receivers, their capture writers started.
+  void start_recorders();
   void retry_beacons(std::chrono::steady_clock::time_point now);  // [redundancy]: take the peer's over
   void reload();
 
@@ -83,6 +85,7 @@ class Daemon {
   std::optional<sys::Notifier> notifier_;
   std::optional<gateway::StateStore> state_;
   gateway::BusRegistry registry_;  // the buses clients' commands may reach; outlives them
+  FlightRecorders recorders_;  // outlives the receivers and buses that use it
   BusSet buses_;
   std::optional<gateway::OutputPipeline> outputs_;
   std::optional<ControlFacade> facade_;

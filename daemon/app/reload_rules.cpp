@@ -13,6 +13,13 @@ std::string bus_change(const config::Config& running, const config::Config& next
     if (running.buses[i].name != next.buses[i].name || running.buses[i].interface != next.buses[i].interface)
       return "bus " + running.buses[i].name + " (" + running.buses[i].interface + ") became " + next.buses[i].name +
              " (" + next.buses[i].interface + ")";
+    // The flight recorder's ring is allocated at start, and its writer made then.
+    const auto& a = running.buses[i];
+    const auto& b = next.buses[i];
+    if (a.recorder_seconds != b.recorder_seconds || a.capture_after_s != b.capture_after_s ||
+        a.capture_cap_mib != b.capture_cap_mib)
+      return "bus " + a.name + ": the flight recorder's settings (recorder_seconds, capture_after_s, "
+             "capture_cap_mib) take a restart";
   }
   return {};
 }

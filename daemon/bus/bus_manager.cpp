@@ -1,6 +1,7 @@
 // BusManager: construction, the control thread's loop, the hand-over of
 // commands from other threads, and the public API (see bus_manager.hpp).
 #include "bus/bus_manager_impl.hpp"
+#include "bus/capture_writer.hpp"
 
 #include <poll.h>
 #include <sys/eventfd.h>
@@ -338,6 +339,13 @@ BusStatus BusManager::status() const {
     s = impl_->published;
   }
   s.open = impl_->open_flag.load();
+  if (const CaptureWriter* c = impl_->options.captures) {
+    const can::FrameRecorder& r = c->recorder();
+    s.recorder = RecorderStatus{true,
+                                static_cast<std::uint32_t>(std::chrono::duration_cast<std::chrono::seconds>(c->options().before).count()),
+                                r.capacity(), r.memory_bytes(), r.recorded(),
+                                c->pending(), c->options().dir.string(), c->recent()};
+  }
   if (impl_->channel) {
     const auto st = impl_->channel->stats();
     s.rx_frames = st.rx_frames;

@@ -63,6 +63,7 @@ class BusObserver {
 };
 
 class BusRegistry;
+class CaptureWriter;
 
 struct BusManagerOptions {
   // How long start-up waits for the known devices before ready() is true anyway.
@@ -72,6 +73,9 @@ struct BusManagerOptions {
   // it runs; the daemon makes one and passes it to every bus and to the
   // control socket. nullptr: the bus takes no client commands.
   BusRegistry* registry = nullptr;
+  // The bus's flight recorder captures: the control thread requests one
+  // around each fault it sees. nullptr: recorder off.
+  CaptureWriter* captures = nullptr;
 };
 
 class BusManager {

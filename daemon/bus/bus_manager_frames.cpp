@@ -3,6 +3,8 @@
 // Control thread only.
 #include "bus/bus_manager_impl.hpp"
 
+#include "bus/capture_writer.hpp"
+
 namespace cobridge::gateway {
 
 void BusManager::Impl::dispatch(const can::Frame& frame, TimePoint now) {
@@ -107,6 +109,7 @@ bool BusManager::Impl::handle_bus_events(TimePoint now) {
     }
     live_bus_event = text;
     dirty = true;
+    if (!good_news) capture(ev.kind == can::BusEventKind::InterfaceDown ? "adapter lost" : "bus error", {});
     if (ev.kind == can::BusEventKind::InterfaceDown) {
       // Its devices cannot be heard any more: offline now (status and the
       // outputs tell the truth at once), not one heartbeat consumer time later.
@@ -149,6 +152,12 @@ void BusManager::Impl::on_interface_back(TimePoint now) {
   check_configured_nodes(now);
 }
 
+void BusManager::Impl::capture(const char* cause, const std::string& device) {
+  if (options.captures == nullptr) return;
+  const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(wall_now().time_since_epoch()).count();
+  options.captures->request(cause, device, ns);
+}
+
 void BusManager::Impl::on_supervisor_change(const Supervisor::Change& c, TimePoint now) {
   Managed* m = find_node(c.node);
   if (m == nullptr && !bus.discovery && c.kind == Supervisor::ChangeKind::rebooted) m = find_configured_node(c.node);
@@ -159,6 +168,7 @@ void BusManager::Impl::on_supervisor_change(const Supervisor::Change& c, TimePoi
   switch (c.kind) {
     case Supervisor::ChangeKind::rebooted:
       log->info("bus {}: device {} (node {}) rebooted", bus.name, m->st.name, c.node);
+      capture("boot-up", m->st.name);
       // Discovery re-identifies it after every boot-up (same serial, or a
       // replacement part); its `identified` event restarts the plan.
       m->boot_up_at = now;
@@ -180,6 +190,7 @@ void BusManager::Impl::on_supervisor_change(const Supervisor::Change& c, TimePoi
       break;
     case Supervisor::ChangeKind::offline:
       log->warn("bus {}: device {} (node {}) offline: {}", bus.name, m->st.name, c.node, c.reason);
+      capture("heartbeat lost", m->st.name);
       // Let discovery's periodic probe look at it: if it rebooted without a
       // boot-up we saw (interface loss), it is re-identified and configured.
       discovery->set_supervised(c.node, false);
@@ -194,6 +205,7 @@ void BusManager::Impl::on_supervisor_change(const Supervisor::Change& c, TimePoi
       break;
     case Supervisor::ChangeKind::emcy:
       if (emcy_log_allowed(*m, now)) log->warn("bus {}: device {} (node {}): {}", bus.name, m->st.name, c.node, c.emcy_text);
+      capture("emcy", m->st.name);
       on_sign_of_life(*m, now);
       break;
   }

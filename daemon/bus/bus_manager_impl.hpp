@@ -221,6 +221,9 @@ struct BusManager::Impl final : RemoteGate {
   // ---- supervision -------------------------------------------------------------
 
   void on_supervisor_change(const Supervisor::Change& c, TimePoint now);
+  // A flight-recorder capture around a fault seen now (nothing when the
+  // recorder is off); `device` empty for the bus itself.
+  void capture(const char* cause, const std::string& device);
 
   // The heartbeat (or guarding reply) tells the device's NMT state (CiA 301
   // §7.2.8.3.2): the status follows it, and a device another NMT master

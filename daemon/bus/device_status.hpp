@@ -7,6 +7,7 @@
 
 #include "can/controller_health.hpp"
 #include "base/arrival_histogram.hpp"
+#include "bus/capture_writer.hpp"
 #include "canopen/lss.hpp"
 #include "canopen/nmt.hpp"
 
@@ -96,6 +97,18 @@ struct StepTiming {
   WallTime at{};
 };
 
+// The bus's flight recorder (docs/operations.md "Flight recorder").
+struct RecorderStatus {
+  bool on = false;                // recorder_seconds > 0 and its captures directory usable
+  std::uint32_t seconds = 0;      // the window kept in memory
+  std::size_t capacity = 0;       // frames the ring holds
+  std::uint64_t memory_bytes = 0; // what the ring takes
+  std::uint64_t recorded = 0;     // frames recorded since start
+  std::size_t pending = 0;        // captures waiting for their window to close
+  std::string dir;                // where the captures are
+  std::vector<CaptureInfo> captures;  // on disk, oldest first
+};
+
 struct BusStatus {
   std::string name;
   std::string interface;
@@ -125,6 +138,7 @@ struct BusStatus {
   std::vector<DeviceStatus> devices;
   std::vector<StepTiming> steps;      // most recent last, bounded
   std::vector<std::string> problems;  // unknown serial, clash, wrong model, ...
+  RecorderStatus recorder;
 };
 
 }  // namespace cobridge::gateway

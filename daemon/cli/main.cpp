@@ -1,6 +1,7 @@
 // cobridge: the command-line tool. Wires CLI11 subcommands to the command
 // modules; all work is in scan_command, sdo_command, nmt_command, lss_command,
 // status_command.
+#include "cli/capture_command.hpp"
 #include "cli/lss_command.hpp"
 #include "cli/modbus_map_command.hpp"
 #include "cli/nmt_command.hpp"
@@ -29,6 +30,7 @@ struct Commands {
   CommissionOptions commission_o;
   WatchOptions watch_o;
   ModbusMapOptions modbus_map_o;
+  CaptureOptions capture_o;
   CLI::App* scan_c = nullptr;
   CLI::App* sdo_r = nullptr;
   CLI::App* sdo_w = nullptr;
@@ -38,6 +40,7 @@ struct Commands {
   CLI::App* commission_c = nullptr;
   CLI::App* watch_c = nullptr;
   CLI::App* modbus_map_c = nullptr;
+  CLI::App* capture_c = nullptr;
 };
 
 void add_scan(CLI::App& app, Commands& k) {
@@ -118,6 +121,25 @@ void add_daemon_commands(CLI::App& app, Commands& k) {
   commission_c->add_flag("--json", commission_o.json, "the daemon's JSON answer, unchanged");
 }
 
+void add_capture(CLI::App& app, Commands& k) {
+  auto& o = k.capture_o;
+  auto* c = k.capture_c = app.add_subcommand("capture", "the flight recorder's captures (candump logs around faults)");
+  c->require_subcommand(1);
+  auto* list = c->add_subcommand("list", "list the captures of every bus");
+  list->callback([&o] { o.verb = CaptureOptions::Verb::list; });
+  auto* now = c->add_subcommand("now", "capture the window around now (cause \"operator\")");
+  now->add_option("bus", o.bus, "only this bus (name or interface)");
+  now->callback([&o] { o.verb = CaptureOptions::Verb::now; });
+  auto* get = c->add_subcommand("get", "print a capture file (candump -l format), or write it with -o");
+  get->add_option("name", o.name, "the capture's name as `capture list` shows it")->required();
+  get->add_option("-o,--output", o.output, "write to this file");
+  get->callback([&o] { o.verb = CaptureOptions::Verb::get; });
+  for (auto* s : {list, now, get}) {
+    s->add_option("--control", o.control, "daemon control socket")->capture_default_str();
+    s->add_flag("--json", o.json, "machine-readable output");
+  }
+}
+
 void add_output_commands(CLI::App& app, Commands& k) {
   auto& watch_o = k.watch_o;
   auto& modbus_map_o = k.modbus_map_o;
@@ -148,6 +170,7 @@ int run(const Commands& k) {
   if (*k.commission_c) return commission(k.commission_o);
   if (*k.watch_c) return watch(k.watch_o);
   if (*k.modbus_map_c) return modbus_map(k.modbus_map_o);
+  if (*k.capture_c) return capture(k.capture_o);
   return 2;
 }
 
@@ -164,6 +187,7 @@ int main(int argc, char** argv) {
   add_nmt_and_lss(app, k);
   add_daemon_commands(app, k);
   add_output_commands(app, k);
+  add_capture(app, k);
   CLI11_PARSE(app, argc, argv);
   // The commands print their own errors; the layers' log lines are for -v.
   // (setup_logging: loggers made later take this level too, not only those made so far.)

@@ -91,6 +91,12 @@ struct Bus {
   std::uint8_t sdo_retries = 2;
   ForeignNmt foreign_nmt = ForeignNmt::restart;
   UnknownDevices unknown_devices = UnknownDevices::ignore;
+  // Flight recorder: the last recorder_seconds of frames kept in memory (0 =
+  // off), written around each fault with capture_after_s after it; this
+  // bus's capture files take at most capture_cap_mib on disk.
+  std::uint32_t recorder_seconds = 10;
+  std::uint32_t capture_after_s = 2;
+  std::uint32_t capture_cap_mib = 64;
   SourceLocation where;  // the [[bus]] header
 };
 

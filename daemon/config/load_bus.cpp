@@ -74,7 +74,8 @@ void Loader::read_bus(const toml::table& t) {
   TableReader r(t, "[[bus]]", entry_context("bus", config_.buses.size() + 1, name_node), "", sink_);
   r.check_keys({"name", "interface", "bitrate", "sync_period_ms", "sync_counter", "discovery", "discovery_period_s",
                 "node_pool", "commissioning", "swap_policy", "lss_timeout_ms", "lss_timeout_min_ms", "sdo_timeout_ms",
-                "sdo_retries", "foreign_nmt", "unknown_devices"});
+                "sdo_retries", "foreign_nmt", "unknown_devices", "recorder_seconds", "capture_after_s",
+                "capture_cap_mib"});
   read_name(r, name_node, bus.name, spots.name, spots.has_name);
   read_bus_interface(r, bus, spots);
   read_bus_sync(r, bus);
@@ -90,6 +91,7 @@ void Loader::read_bus(const toml::table& t) {
     bus.swap_policy = *v;
   }
   read_bus_timeouts(r, bus);
+  read_bus_recorder(r, bus);
   if (auto v = r.choice<ForeignNmt>("foreign_nmt", {{"restart", ForeignNmt::restart}, {"respect", ForeignNmt::respect}})) {
     bus.foreign_nmt = *v;
   }
@@ -146,6 +148,13 @@ void Loader::read_bus_timeouts(TableReader& r, Bus& bus) {
   }
   if (auto v = r.integer("sdo_timeout_ms", 1, 60000)) bus.sdo_timeout_ms = static_cast<std::uint32_t>(*v);
   if (auto v = r.integer("sdo_retries", 0, 10)) bus.sdo_retries = static_cast<std::uint8_t>(*v);
+}
+
+// The flight recorder's window and its captures' disk cap.
+void Loader::read_bus_recorder(TableReader& r, Bus& bus) {
+  if (auto v = r.integer("recorder_seconds", 0, 600)) bus.recorder_seconds = static_cast<std::uint32_t>(*v);
+  if (auto v = r.integer("capture_after_s", 0, 60)) bus.capture_after_s = static_cast<std::uint32_t>(*v);
+  if (auto v = r.integer("capture_cap_mib", 1, 1u << 20)) bus.capture_cap_mib = static_cast<std::uint32_t>(*v);
 }
 
 }  // namespace cobridge::config::detail

@@ -100,6 +100,7 @@ class Loader {
   void read_bus_interface(TableReader& r, Bus& bus, BusSpots& spots);
   void read_bus_sync(TableReader& r, Bus& bus);
   void read_bus_timeouts(TableReader& r, Bus& bus);
+  void read_bus_recorder(TableReader& r, Bus& bus);
   // ---- [[device]] --------------------------------------------------------
   std::optional<MappingEntry> read_mapping_entry(TableReader& r, const toml::node& item);
   std::optional<TpdoSettings> read_tpdo(TableReader& device, std::string_view key);

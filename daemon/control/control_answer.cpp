@@ -38,10 +38,12 @@ std::string error_answer(const Error& error, std::uint32_t abort_code) {
   return out + "}";
 }
 
-std::string commission_answer(const std::vector<std::string>& buses) {
+std::string commission_answer(const std::vector<std::string>& buses, const std::string& message) {
   std::string out = "{\"ok\":true,\"buses\":[";
   for (std::size_t i = 0; i < buses.size(); ++i) out += (i == 0 ? "" : ",") + json_quote(buses[i]);
-  return out + "]}";
+  out += "]";
+  if (!message.empty()) out += ",\"message\":" + json_quote(message);
+  return out + "}";
 }
 
 std::string remote_answer(const ControlRequest& request, const RemoteResult& result) {

@@ -10,7 +10,8 @@ namespace cobridge::gateway {
 namespace {
 
 constexpr const char* kCommands =
-    "commands: status, commission [BUS], sdo-read, sdo-write, nmt, lss-set-node-id";
+    "commands: status, commission [BUS], sdo-read, sdo-write, nmt, lss-set-node-id, capture-now [BUS], "
+    "capture-get NAME";
 
 // At most 40 bytes of what the client sent, non-printable bytes as '?'.
 std::string quoted_input(std::string_view s) {
@@ -121,6 +122,20 @@ ControlRequest parse_lss_set(const std::vector<std::string_view>& w) {
   return r;
 }
 
+ControlRequest parse_capture(const std::vector<std::string_view>& w) {
+  ControlRequest r;
+  if (w[0] == "capture-now") {
+    if (w.size() > 2) return invalid("usage: capture-now [BUS]");
+    r.kind = ControlRequest::Kind::capture_now;
+    if (w.size() == 2) r.bus = std::string(w[1]);
+    return r;
+  }
+  if (w.size() != 2) return invalid("usage: capture-get NAME");
+  r.kind = ControlRequest::Kind::capture_get;
+  r.name = std::string(w[1]);
+  return r;
+}
+
 }  // namespace
 
 ControlRequest parse_control_request(std::string_view line) {
@@ -139,6 +154,7 @@ ControlRequest parse_control_request(std::string_view line) {
     if (w.size() == 2) r.bus = std::string(w[1]);
     return r;
   }
+  if (w[0] == "capture-now" || w[0] == "capture-get") return parse_capture(w);
   if (w[0] == "sdo-read") return parse_sdo(w, false);
   if (w[0] == "sdo-write") return parse_sdo(w, true);
   if (w[0] == "nmt") return parse_nmt(w);

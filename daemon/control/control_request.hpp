@@ -8,6 +8,8 @@
 //   sdo-write BUS NODE INDEX SUB HEXBYTES [TIMEOUT_MS] (the bytes as on the wire, e.g. E803 = 1000 as u16)
 //   nmt BUS start|stop|preop|reset|reset-comm NODE     (NODE 0 = all nodes)
 //   lss-set-node-id BUS VENDOR PRODUCT REVISION SERIAL NODE store|no-store [TIMEOUT_MS]
+//   capture-now [BUS]                                  (a flight-recorder capture, cause "operator")
+//   capture-get NAME                                   (a capture file's text)
 //
 // BUS is a bus name or its interface. `cobridge sdo|nmt|lss` send these
 // while a daemon owns the bus.
@@ -24,8 +26,9 @@
 namespace cobridge::gateway {
 
 struct ControlRequest {
-  enum class Kind { invalid, status, commission, remote } kind = Kind::invalid;
-  std::string bus;        // commission: the bus (empty = every bus); remote: bus name or interface
+  enum class Kind { invalid, status, commission, remote, capture_now, capture_get } kind = Kind::invalid;
+  std::string bus;        // commission, capture_now: the bus (empty = every bus); remote: bus name or interface
+  std::string name;       // capture_get: the capture's file name
   RemoteCommand command;  // remote: what to run (tag and caller left for the server)
   Error error;            // invalid: kInvalidArgument with what is wrong, printable ASCII only
 };

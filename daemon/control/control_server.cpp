@@ -240,6 +240,14 @@ void ControlServer::answer(Client& c, std::string_view line, TimePoint now) {
     reply = to_json(handler_.status());
   } else if (req.kind == ControlRequest::Kind::commission) {
     reply = commission(c, req.bus);
+  } else if (req.kind == ControlRequest::Kind::capture_now) {
+    const Result<std::vector<std::string>> r = handler_.capture_now(req.bus);
+    reply = r.ok() ? commission_answer(r.value(), "written once the window closes (capture_after_s)")
+                   : error_answer(r.error());
+  } else if (req.kind == ControlRequest::Kind::capture_get) {
+    const Result<std::string> text = handler_.read_capture(req.name);
+    reply = !text.ok() ? error_answer(text.error())
+                       : "{\"ok\":true,\"name\":" + json_quote(req.name) + ",\"text\":" + json_quote(text.value()) + "}";
   } else {
     submit(c, std::move(req), now);
     if (c.waiting_tag != 0) return;

@@ -8,6 +8,8 @@
 //
 //   status             -> {"gateway": ..., "buses": [...], ...}  (StatusReport)
 //   commission [BUS]   -> {"ok": true, "buses": [...]}   (every bus when BUS is left out)
+//   capture-now [BUS]  -> {"ok": true, "buses": [...]}   (flight recorder; every bus when BUS is left out)
+//   capture-get NAME   -> {"ok": true, "name": ..., "text": "<the candump log>"}
 //   sdo-read, sdo-write, nmt, lss-set-node-id (control_request.hpp)
 //                      -> {"ok": true, ...}  (control_answer.hpp), answered when
 //                         the bus's control thread has run the command
@@ -81,6 +83,15 @@ class ControlHandler {
   // `bus` empty = every bus. The buses it acted on, or why it did not act
   // (kNotFound: no such bus).
   virtual Result<std::vector<std::string>> commission(std::string_view bus) = 0;
+  // Flight recorder: a capture of `bus` (empty = every bus) with cause
+  // "operator", written once its window closes. The buses it asked.
+  virtual Result<std::vector<std::string>> capture_now(std::string_view /*bus*/) {
+    return Error(Errc::kUnsupported, "no flight recorder");
+  }
+  // The text of the capture file `name` (as the status lists it).
+  [[nodiscard]] virtual Result<std::string> read_capture(std::string_view /*name*/) {
+    return Error(Errc::kUnsupported, "no flight recorder");
+  }
 };
 
 struct ControlServerOptions {

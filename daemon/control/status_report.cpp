@@ -196,6 +196,44 @@ void write_controller(JsonWriter& w, const can::ControllerHealth& c) {
   w.end_object();
 }
 
+void write_strings(JsonWriter& w, std::string_view key, const std::vector<std::string>& items) {
+  w.key(key);
+  w.begin_array();
+  for (const auto& s : items) w.value(s);
+  w.end_array();
+}
+
+// The flight recorder: its ring and the captures on disk (null when off).
+void write_recorder(JsonWriter& w, const RecorderStatus& r) {
+  w.key("recorder");
+  if (!r.on) {
+    w.null();
+    return;
+  }
+  w.begin_object();
+  w.field("seconds", std::uint64_t{r.seconds});
+  w.field("capacity_frames", std::uint64_t{r.capacity});
+  w.field("memory_bytes", r.memory_bytes);
+  w.field("recorded_frames", r.recorded);
+  w.field("pending_captures", std::uint64_t{r.pending});
+  w.field("dir", r.dir);
+  w.key("captures");
+  w.begin_array();
+  for (const auto& c : r.captures) {
+    w.begin_object();
+    w.field("name", c.name);
+    write_strings(w, "causes", c.causes);
+    write_strings(w, "devices", c.devices);
+    w.key("at");
+    w.time(c.fault_ns == 0 ? WallTime{} : WallTime{std::chrono::duration_cast<WallTime::duration>(std::chrono::nanoseconds(c.fault_ns))});
+    w.field("frames", std::uint64_t{c.frames});
+    w.field("bytes", c.bytes);
+    w.end_object();
+  }
+  w.end_array();
+  w.end_object();
+}
+
 void write_bus(JsonWriter& w, const BusStatus& b) {
   w.begin_object();
   w.field("name", b.name);
@@ -205,6 +243,7 @@ void write_bus(JsonWriter& w, const BusStatus& b) {
   w.field("last_bus_event", b.last_bus_event);
   if (!b.role.empty()) write_redundancy(w, b);
   write_controller(w, b.controller);
+  write_recorder(w, b.recorder);
   w.key("counters");
   w.begin_object();
   w.field("rx_frames", b.rx_frames);

@@ -67,6 +67,10 @@ OutputPipeline::OutputPipeline(const config::Config& config, const device::Devic
 
 OutputPipeline::~OutputPipeline() { stop(); }
 
+void OutputPipeline::set_recorder(std::size_t bus_index, can::FrameRecorder* recorder) {
+  if (bus_index < buses_.size()) buses_[bus_index]->receiver->set_recorder(recorder);
+}
+
 std::vector<Error> OutputPipeline::load() {
   std::vector<Error> problems = host_.load_all(plugin_specs(*config_.get()));
   // Nothing else starts: no receiver opens a bus for outputs that are not there.

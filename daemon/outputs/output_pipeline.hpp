@@ -70,6 +70,8 @@ class OutputPipeline {
   // failed load() nothing is left loaded. Nothing here logs a problem: the
   // caller reports each one, once.
   [[nodiscard]] std::vector<Error> load();
+  // Before start_receivers(): the bus's flight recorder (nullptr: none).
+  void set_recorder(std::size_t bus_index, can::FrameRecorder* recorder);
   [[nodiscard]] std::vector<Error> start_receivers();
   [[nodiscard]] std::vector<Error> start_plugins();
   // The three in order (tests, tools).

@@ -95,7 +95,9 @@ void BusReceiver::refresh_plans() noexcept {
 std::size_t BusReceiver::handle(std::span<const can::Frame> frames) noexcept {
   std::size_t pushed = 0;
   Sample s;
+  can::FrameRecorder* const recorder = options_.recorder;
   for (const can::Frame& f : frames) {
+    if (recorder != nullptr) recorder->record(f);
     if (decoder_.decode(f, s)) {
       push(s);
       ++pushed;

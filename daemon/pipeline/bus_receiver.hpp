@@ -5,7 +5,8 @@
 //
 // Per frame nothing allocates, locks, throws or logs. A full ring drops the
 // sample and counts it (stats().ring_drops); the kernel's own drops are
-// counted by the channel (SO_RXQ_OVFL). Status changes from the control
+// counted by the channel (SO_RXQ_OVFL). Every frame also goes into the
+// bus's flight recorder when there is one (a few atomic stores). Status changes from the control
 // thread (online/offline) travel through a second small SPSC ring into the
 // RX thread, which stamps them with the device's sequence number, so every
 // sample of a device has exactly one producer.
@@ -15,6 +16,7 @@
 #pragma once
 
 #include "base/error.hpp"
+#include "can/frame_recorder.hpp"
 #include "can/socketcan_channel.hpp"
 #include "pipeline/device_table.hpp"
 #include "pipeline/dispatcher.hpp"
@@ -36,6 +38,9 @@ struct BusReceiverOptions {
   std::size_t ring_capacity = 1u << 16;
   int receive_buffer_bytes = 1 << 20;  // SO_RCVBUF: room for bursts at 1 Mbit/s
   std::chrono::milliseconds stale_check{10};
+  // The flight recorder every received frame goes into (nullptr: none). It
+  // must outlive the receiver; only the RX thread writes it.
+  can::FrameRecorder* recorder = nullptr;
 };
 
 // What the control thread tells the RX thread about a device: a change of
@@ -74,6 +79,9 @@ class BusReceiver {
   // interface cannot be opened (where = the interface).
   [[nodiscard]] Error start();
   void stop();
+
+  // Before start(): the flight recorder every frame goes into (nullptr: none).
+  void set_recorder(can::FrameRecorder* recorder) noexcept { options_.recorder = recorder; }
 
   // Control thread: online/offline/NMT changes of a device, command outcomes.
   bool post_status(const StatusEvent& e) noexcept;

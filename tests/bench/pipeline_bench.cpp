@@ -17,6 +17,8 @@
 //   are printed after the run, so a rate is only sustained through DDS if
 //   its writer dropped nothing. The main thread's CPU time at that rate is
 //   the RX + dispatcher cost.
+//   --recorder S: the flight recorder on, S seconds at 1000 kbit/s (every
+//   frame into its ring, as the RX thread does); compare with a run without.
 #include "alloc_counter.hpp"
 #include "pipeline/bus_receiver.hpp"
 #include "pipeline/dispatcher.hpp"
@@ -31,6 +33,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -74,14 +77,16 @@ int main(int argc, char** argv) {
   double rate = 0;
   std::string plugin_dir;
   std::string with;
+  unsigned recorder_s = 0;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--frames" && i + 1 < argc) frames_total = std::strtoull(argv[++i], nullptr, 10);
     else if (a == "--rate" && i + 1 < argc) rate = std::strtod(argv[++i], nullptr);
     else if (a == "--plugins" && i + 1 < argc) plugin_dir = argv[++i];
     else if (a == "--with" && i + 1 < argc) with = argv[++i];
+    else if (a == "--recorder" && i + 1 < argc) recorder_s = static_cast<unsigned>(std::strtoul(argv[++i], nullptr, 10));
     else {
-      std::fprintf(stderr, "usage: %s [--frames N] [--rate FRAMES_PER_S] [--plugins DIR] [--with jsontap,dds,modbus]\n",
+      std::fprintf(stderr, "usage: %s [--frames N] [--rate FRAMES_PER_S] [--plugins DIR] [--with jsontap,dds,modbus] [--recorder S]\n",
                    argv[0]);
       return 2;
     }
@@ -150,7 +155,10 @@ int main(int argc, char** argv) {
 
   CountingSink sink(loaded.empty() ? nullptr : &host);
   Dispatcher dispatcher(sink);  // not started: drained on this thread
-  BusReceiver rx(BusReceiverOptions{.bus_index = 0, .interface = {}, .ring_capacity = 4096}, table, dispatcher);
+  std::unique_ptr<can::FrameRecorder> recorder;
+  if (recorder_s > 0) recorder = std::make_unique<can::FrameRecorder>(can::FrameRecorder::capacity_for(1000, recorder_s));
+  BusReceiver rx(BusReceiverOptions{.bus_index = 0, .interface = {}, .ring_capacity = 4096, .recorder = recorder.get()},
+                 table, dispatcher);
   dispatcher.add_source(rx.ring());
 
   // A batch as recvmmsg would return it: 64 TPDOs round-robin over the devices.
@@ -196,6 +204,8 @@ int main(int argc, char** argv) {
   if (plugins.empty()) plugins = "none (counting sink)";
   std::printf("pipeline one core: plugins=%s devices=%d frames=%zu\n", plugins.c_str(), kDevices, frames);
   if (rate > 0) std::printf("  paced at        : %.0f frames/s\n", rate);
+  if (recorder) std::printf("  flight recorder : %u s, %zu frames, %zu KiB\n", recorder_s, recorder->capacity(),
+                            recorder->memory_bytes() / 1024);
   std::printf("  throughput      : %.0f frames/s (%.1f ns/frame)\n", static_cast<double>(frames) / secs,
               secs * 1e9 / static_cast<double>(frames));
   std::printf("  RX + dispatcher : %.1f%% of one core (%.1f ns CPU/frame)\n", 100.0 * cpu / secs,

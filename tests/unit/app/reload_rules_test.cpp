@@ -42,6 +42,18 @@ TEST(ReloadRules, BusesStayOpen) {
   EXPECT_EQ(reload_refusal(running(), next), "the number of [[bus]] tables changed");
 }
 
+// docs/configuration.md [[bus]] recorder_seconds: the ring is sized at start.
+TEST(ReloadRules, TheFlightRecorderKeepsItsStartSettings) {
+  Config next = running();
+  next.buses[0].recorder_seconds = 30;
+  EXPECT_EQ(reload_refusal(running(), next),
+            "bus line1: the flight recorder's settings (recorder_seconds, capture_after_s, capture_cap_mib) take a "
+            "restart");
+  next = running();
+  next.buses[0].capture_cap_mib = 1;
+  EXPECT_NE(reload_refusal(running(), next), "");
+}
+
 TEST(ReloadRules, StateFileAndControlSocketStayWhereTheyAre) {
   Config next = running();
   next.gateway.state_dir = "/srv/cobridge";

@@ -4,7 +4,8 @@
 // -> PluginHost -> the real Modbus and JSON tap plugins (their on_samples run
 // on the dispatcher's thread). malloc, calloc and realloc are interposed for
 // the whole process (tests/bench/alloc_counter.cpp) and counted over 64,000
-// frames after a warm-up. A count, not a time: it cannot flake. Not built in
+// frames after a warm-up. The flight recorder is on (docs/operations.md
+// "Flight recorder": every frame into its ring, no allocation). A count, not a time: it cannot flake. Not built in
 // the sanitizer builds (their runtimes own malloc).
 #include "alloc_counter.hpp"
 #include "pipeline/bus_receiver.hpp"
@@ -81,7 +82,9 @@ TEST(HotPathAllocations, ZeroPerFrameThroughModbusAndTheJsonTap) {
 
   HostSink sink(host);
   Dispatcher dispatcher(sink);  // not started: drained on this thread
-  BusReceiver rx(BusReceiverOptions{.bus_index = 0, .interface = {}, .ring_capacity = 4096}, table, dispatcher);
+  can::FrameRecorder recorder(can::FrameRecorder::capacity_for(1000, 10));
+  BusReceiver rx(BusReceiverOptions{.bus_index = 0, .interface = {}, .ring_capacity = 4096, .recorder = &recorder},
+                 table, dispatcher);
   dispatcher.add_source(rx.ring());
   std::vector<can::Frame> batch(64);  // as recvmmsg returns them
   for (std::size_t i = 0; i < batch.size(); ++i)
@@ -103,6 +106,7 @@ TEST(HotPathAllocations, ZeroPerFrameThroughModbusAndTheJsonTap) {
   host.stop_all();
   EXPECT_EQ(sink.delivered, kRounds * batch.size()) << "every frame reached the plugins";
   EXPECT_EQ(rx.stats().ring_drops, 0U);
+  EXPECT_EQ(recorder.recorded(), (200 + kRounds) * batch.size()) << "every frame recorded";
   EXPECT_EQ(allocs, 0U) << "heap allocations in " << kRounds * batch.size() << " frames";
 }
 

@@ -1,0 +1,121 @@
+#include "cli/capture_command.hpp"
+
+#include "base/error.hpp"
+#include "cli/control_client.hpp"
+#include "cli/daemon_route.hpp"
+#include "cli/json_value.hpp"
+
+#include <cstdio>
+#include <fstream>
+#include <optional>
+
+namespace cobridge::cli {
+namespace {
+
+// The daemon's answer to `line` as JSON, or the failure's exit code.
+std::optional<Json> ask(const CaptureOptions& o, const std::string& line, const char* what, int& code) {
+  const Result<std::string> reply = request(o.control, line, o.timeout_ms);
+  if (!reply.ok()) {
+    code = report_failure(what, reply.error(), o.json);
+    return std::nullopt;
+  }
+  const std::string* answer = &reply.value();
+  Result<Json> parsed = JsonParser(*answer).parse();
+  if (!parsed.ok() || parsed.value().type != Json::Type::object) {
+    code = report_failure(what, Error(Errc::kInternal, "the daemon's answer is not a JSON object: " +
+                                                           (parsed.ok() ? std::string("another value")
+                                                                        : parsed.error().message)), o.json);
+    return std::nullopt;
+  }
+  std::optional<Json> doc(std::move(parsed.value()));
+  if ((*doc)["ok"].type == Json::Type::boolean && !(*doc)["ok"].boolean) {
+    const Error e = error_of_answer(*doc);
+    if (o.json) {
+      std::printf("%s\n", answer->c_str());
+    } else {
+      std::fprintf(stderr, "cobridge: %s: %s\n", what, e.to_string().c_str());
+    }
+    code = exit_code(e.kind);
+    return std::nullopt;
+  }
+  if (o.json) std::printf("%s\n", answer->c_str());
+  return doc;
+}
+
+std::string joined(const Json& list) {
+  std::string out;
+  for (const auto& item : list.items) out += (out.empty() ? "" : ",") + item.str("(bus)");
+  return out.empty() ? "-" : out;
+}
+
+std::string json_list(const Json& list) {
+  std::string out = "[";
+  for (const auto& item : list.items) out += (out.size() > 1 ? "," : "") + json_quote(item.text);
+  return out + "]";
+}
+
+int list(const CaptureOptions& o) {
+  int code = 0;
+  CaptureOptions quiet = o;
+  quiet.json = false;  // the answer is printed here, not as it came
+  const auto doc = ask(quiet, "status", "capture list", code);
+  if (!doc) return code;
+  if (o.json) std::printf("[");
+  bool first = true;
+  if (!o.json) std::printf("%-10s %-48s %-24s %-26s %8s %10s\n", "BUS", "NAME", "CAUSES", "AT", "FRAMES", "BYTES");
+  for (const auto& bus : (*doc)["buses"].items) {
+    const Json& rec = bus["recorder"];
+    if (rec.is_null()) continue;
+    for (const auto& c : rec["captures"].items) {
+      if (o.json) {
+        std::printf("%s{\"bus\":%s,\"name\":%s,\"causes\":%s,\"at\":%s,\"frames\":%lld,\"bytes\":%lld}",
+                    first ? "" : ",", json_quote(bus["name"].str()).c_str(), json_quote(c["name"].str()).c_str(),
+                    json_list(c["causes"]).c_str(), json_quote(c["at"].str()).c_str(), c["frames"].integer(),
+                    c["bytes"].integer());
+      } else {
+        std::printf("%-10s %-48s %-24s %-26s %8lld %10lld\n", bus["name"].str().c_str(), c["name"].str().c_str(),
+                    joined(c["causes"]).c_str(), c["at"].str().c_str(), c["frames"].integer(), c["bytes"].integer());
+      }
+      first = false;
+    }
+  }
+  if (o.json) std::printf("]\n");
+  return 0;
+}
+
+int get(const CaptureOptions& o) {
+  int code = 0;
+  CaptureOptions quiet = o;
+  quiet.json = false;  // the answer is printed here, not as it came
+  const auto doc = ask(quiet, "capture-get " + o.name, "capture get", code);
+  if (!doc) return code;
+  const std::string& text = (*doc)["text"].text;
+  if (o.output.empty()) {
+    std::fwrite(text.data(), 1, text.size(), stdout);
+    return 0;
+  }
+  std::ofstream out(o.output, std::ios::binary | std::ios::trunc);
+  out.write(text.data(), static_cast<std::streamsize>(text.size()));
+  if (!out) return report_failure("capture get", Error(Errc::kFailed, "cannot write", o.output), false);
+  return 0;
+}
+
+}  // namespace
+
+int capture(const CaptureOptions& o) {
+  switch (o.verb) {
+    case CaptureOptions::Verb::list:
+      return list(o);
+    case CaptureOptions::Verb::get:
+      return get(o);
+    case CaptureOptions::Verb::now:
+      break;
+  }
+  int code = 0;
+  const auto doc = ask(o, o.bus.empty() ? "capture-now" : "capture-now " + o.bus, "capture now", code);
+  if (!doc) return code;
+  if (!o.json) std::printf("capture requested on %s; %s\n", joined((*doc)["buses"]).c_str(), (*doc)["message"].str("").c_str());
+  return 0;
+}
+
+}  // namespace cobridge::cli

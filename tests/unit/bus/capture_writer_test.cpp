@@ -1,0 +1,174 @@
+// CaptureWriter: the flight recorder's capture files (docs/operations.md,
+// "Flight recorder"). The line format is can-utils' candump -l log format,
+// the one canplayer reads: "(SEC.USEC) IFACE ID#DATA", 3 hex digits for an
+// 11-bit identifier, 8 for a 29-bit one (and error frames, CAN_ERR_FLAG
+// set), "#R" for a remote frame (can-utils lib.c, parse_canframe/sprint_canframe).
+#include "bus/capture_writer.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <unistd.h>
+
+namespace cobridge::gateway {
+namespace {
+
+namespace fs = std::filesystem;
+constexpr std::int64_t kSecond = 1'000'000'000;
+constexpr std::int64_t kT0 = 1'764'300'000LL * kSecond;  // 2025-11-28, a whole second
+
+can::Frame frame_at(std::int64_t ns, std::uint32_t id, std::initializer_list<std::uint8_t> bytes) {
+  can::Frame f = can::Frame::make(id, bytes);
+  f.timestamp_ns = ns;
+  return f;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+class CaptureWriterTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("cobridge-captures-" + std::to_string(::getpid()) + "-" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  CaptureOptions options() const {
+    CaptureOptions o;
+    o.dir = dir_;
+    o.bus = "line1";
+    o.interface = "vcan0";
+    o.before = std::chrono::seconds(10);
+    o.after = std::chrono::seconds(2);
+    return o;
+  }
+  fs::path dir_;
+};
+
+TEST(CandumpLine, StandardExtendedRtrAndErrorFrames) {
+  EXPECT_EQ(candump_line(frame_at(kT0 + 123'456'789, 0x701, {0x00}), "vcan0"), "(1764300000.123456) vcan0 701#00\n");
+  can::Frame ext = frame_at(5 * kSecond + 1000, 0x1ABCDEF, {0xDE, 0xAD});
+  ext.flags = can::Frame::kFlagExtended;
+  EXPECT_EQ(candump_line(ext, "can1"), "(5.000001) can1 01ABCDEF#DEAD\n");
+  can::Frame rtr = frame_at(0, 0x70A, {});
+  rtr.flags = can::Frame::kFlagRtr;
+  EXPECT_EQ(candump_line(rtr, "vcan0"), "(0.000000) vcan0 70A#R\n");
+  EXPECT_EQ(candump_line(frame_at(0, 0x80, {}), "vcan0"), "(0.000000) vcan0 080#\n");
+  can::Frame err = frame_at(0, 0x004, {0, 0x04, 0, 0, 0, 0, 0, 0});
+  err.flags = can::Frame::kFlagError;
+  EXPECT_EQ(candump_line(err, "vcan0"), "(0.000000) vcan0 20000004#0004000000000000\n");
+}
+
+TEST(CaptureFileWord, LowercaseWordsJoinedByDashes) {
+  EXPECT_EQ(capture_file_word("heartbeat lost"), "heartbeat-lost");
+  EXPECT_EQ(capture_file_word("Boot-up"), "boot-up");
+  EXPECT_EQ(capture_file_word("../x"), "x");
+  EXPECT_EQ(capture_file_word(""), "fault");
+}
+
+TEST_F(CaptureWriterTest, WritesTheWindowAroundTheFaultOnceItCloses) {
+  can::FrameRecorder rec(1000);
+  for (int i = 0; i < 30; ++i) rec.record(frame_at(kT0 + std::int64_t{i} * kSecond, 0x181, {static_cast<std::uint8_t>(i)}));
+  CaptureWriter w(options(), rec);
+  w.request("boot-up", "enc1", kT0 + 15 * kSecond);
+  EXPECT_TRUE(w.poll(kT0 + 16 * kSecond).empty());  // the window is still open
+  const auto written = w.poll(kT0 + 17 * kSecond);
+  ASSERT_EQ(written.size(), 1u);
+  const CaptureInfo& c = written[0];
+  // [15 s - 10 s, 15 s + 2 s]: frames 5..17.
+  EXPECT_EQ(c.frames, 13u);
+  EXPECT_EQ(c.name, "line1-20251128T032015.000Z-boot-up.log");
+  const std::string log = slurp(dir_ / c.name);
+  EXPECT_EQ(log.rfind("(1764300005.000000) vcan0 181#05\n", 0), 0u) << log;
+  EXPECT_EQ(std::count(log.begin(), log.end(), '\n'), 13);
+  EXPECT_EQ(c.bytes, log.size());
+  const std::string side = slurp(dir_ / "line1-20251128T032015.000Z-boot-up.json");
+  EXPECT_NE(side.find("\"causes\":[\"boot-up\"]"), std::string::npos) << side;
+  EXPECT_NE(side.find("\"frames\":13"), std::string::npos) << side;
+  EXPECT_FALSE(fs::exists(dir_ / (c.name + ".part")));
+}
+
+TEST_F(CaptureWriterTest, FaultsInsideAPendingWindowJoinIt) {
+  can::FrameRecorder rec(100);
+  rec.record(frame_at(kT0, 0x81, {0x10, 0x00}));
+  CaptureWriter w(options(), rec);
+  w.request("emcy", "enc1", kT0);
+  w.request("emcy", "enc2", kT0 + kSecond);
+  w.request("heartbeat lost", "enc1", kT0 + 2 * kSecond);
+  w.request("emcy", "enc1", kT0 + 3 * kSecond);  // after the first window: a capture of its own
+  EXPECT_EQ(w.pending(), 2u);
+  const auto written = w.poll(kT0 + 10 * kSecond);
+  ASSERT_EQ(written.size(), 2u);
+  EXPECT_EQ(written[0].causes, (std::vector<std::string>{"emcy", "heartbeat lost"}));
+  EXPECT_EQ(written[0].devices, (std::vector<std::string>{"enc1", "enc2"}));
+  EXPECT_EQ(written[1].causes, (std::vector<std::string>{"emcy"}));
+  EXPECT_EQ(w.recent().size(), 2u);
+}
+
+TEST_F(CaptureWriterTest, PendingCapturesAreBounded) {
+  can::FrameRecorder rec(10);
+  CaptureWriter w(options(), rec);
+  for (int i = 0; i < 40; ++i) w.request("emcy", "enc1", kT0 + std::int64_t{i} * 10 * kSecond);
+  EXPECT_EQ(w.pending(), 16u);
+}
+
+TEST_F(CaptureWriterTest, OldestCapturesGoFirstToKeepTheCap) {
+  can::FrameRecorder rec(10000);
+  // A frame each 40 ms: a 12 s window holds 300 lines of 47 bytes, ~14 kB.
+  for (int i = 0; i < 1000; ++i) rec.record(frame_at(kT0 + std::int64_t{i} * 40'000'000, 0x181, {1, 2, 3, 4, 5, 6, 7, 8}));
+  CaptureOptions o = options();
+  o.cap_bytes = 30'000;  // room for two captures and their sidecars
+  CaptureWriter w(o, rec);
+  std::ofstream(dir_ / "line2-20251128T031800.000Z-emcy.log") << "another bus's capture stays\n";
+  for (int i = 0; i < 4; ++i) {
+    w.request("emcy", "enc1", kT0 + std::int64_t{20 + i * 3} * kSecond);
+    (void)w.poll(kT0 + 40 * kSecond);
+  }
+  const auto left = w.recent();
+  ASSERT_EQ(left.size(), 2u);
+  EXPECT_EQ(left[0].name, "line1-20251128T032026.000Z-emcy.log");
+  EXPECT_EQ(left[1].name, "line1-20251128T032029.000Z-emcy.log");
+  std::uint64_t total = 0;
+  for (const auto& e : fs::directory_iterator(dir_))
+    if (e.path().filename().string().rfind("line1-", 0) == 0) total += e.file_size();
+  EXPECT_LE(total, o.cap_bytes);
+  EXPECT_TRUE(fs::exists(dir_ / "line2-20251128T031800.000Z-emcy.log"));
+}
+
+TEST_F(CaptureWriterTest, StartRemovesThisBusesPartialFiles) {
+  can::FrameRecorder rec(10);
+  std::ofstream(dir_ / "line1-20251128T032015.000Z-emcy.log.part") << "(1.000000) vcan0 081#";
+  std::ofstream(dir_ / "line2-20251128T032015.000Z-emcy.log.part") << "another bus's";
+  CaptureWriter w(options(), rec);
+  ASSERT_TRUE(w.start().ok());
+  w.stop();
+  EXPECT_FALSE(fs::exists(dir_ / "line1-20251128T032015.000Z-emcy.log.part"));
+  EXPECT_TRUE(fs::exists(dir_ / "line2-20251128T032015.000Z-emcy.log.part"));
+}
+
+TEST_F(CaptureWriterTest, TheThreadWritesADueCaptureOnItsOwn) {
+  can::FrameRecorder rec(10);
+  const std::int64_t now = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                               std::chrono::system_clock::now().time_since_epoch()).count();
+  rec.record(frame_at(now - kSecond, 0x70A, {0x00}));
+  CaptureOptions o = options();
+  o.after = std::chrono::milliseconds(100);
+  CaptureWriter w(o, rec);
+  ASSERT_TRUE(w.start().ok());
+  w.request("operator", "", now);
+  for (int i = 0; i < 50 && w.recent().empty(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  w.stop();
+  ASSERT_EQ(w.recent().size(), 1u);
+  EXPECT_EQ(w.recent()[0].frames, 1u);
+}
+
+}  // namespace
+}  // namespace cobridge::gateway

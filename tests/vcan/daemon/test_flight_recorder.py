@@ -1,0 +1,183 @@
+"""The flight recorder (docs/operations.md "Flight recorder"): one device at
+its configured node-ID with heartbeat 100 ms, recorder on (10 s, 2 s after):
+ * power-cycled: a capture <bus>-<time>-boot-up.log is in
+   <state_dir>/captures within capture_after_s + 1 s of the boot-up message
+   (CiA 301 §7.2.8.3.3: 0x700+id, data 00) and holds that frame;
+ * the file is a candump -l log (can-utils): canplayer replays it onto vcan1
+   and a listener there counts as many frames as the file has lines, the
+   boot-up among them;
+ * silenced (cable pulled): a capture naming "heartbeat lost";
+ * `cobridge capture list` shows both; `cobridge capture now` makes a
+   capture with cause "operator"; `cobridge capture get` returns the file;
+ * an EMCY storm (as fast as Python sends them, ~1 000/s in UML, for 12 s:
+   more than 1 MiB of captures): the EMCY captures coalesce (one per
+   capture_after_s window, not one per EMCY) and the bus's captures stay
+   within capture_cap_mib (1 MiB here) on disk, the oldest deleted.
+"""
+import glob
+import json
+import os
+import socket
+import struct
+import subprocess
+import sys
+import time
+
+import e2e
+
+SERIAL, NODE = 1001, 10
+AFTER = 2.0
+STORM_S = 12.0
+
+
+def wait_capture(ws, word, since_files, timeout):
+    """The first new capture whose name holds `word` and its sidecar, or (None, None)."""
+    end = time.time() + timeout
+    while time.time() < end:
+        for path in sorted(glob.glob(os.path.join(ws.state, "captures", "*-%s.log" % word))):
+            if path not in since_files:
+                with open(path[:-4] + ".json") as f:
+                    return path, json.load(f)
+        time.sleep(0.02)
+    return None, None
+
+
+def lines_of(path):
+    with open(path) as f:
+        return [l for l in f.read().splitlines() if l]
+
+
+def check_replay(report, path):
+    """canplayer sends every line of the file onto vcan1 (vcan1=vcan0: the log's interface is vcan0)."""
+    listener = e2e.CanListener("vcan1")
+    try:
+        time.sleep(0.2)
+        t0 = time.time()
+        r = subprocess.run(["canplayer", "-t", "-I", path, "vcan1=vcan0"], capture_output=True, text=True, timeout=30)
+        want = len(lines_of(path))
+        deadline = time.time() + 5
+        while time.time() < deadline and len(listener.snapshot(t0)) < want:
+            time.sleep(0.05)
+        got = listener.snapshot(t0)
+        boot = [f for f in got if f[1] == 0x700 + NODE and f[2] == b"\x00"]
+        report.check(r.returncode == 0 and len(got) == want and boot,
+                     "canplayer replays the capture: as many frames as lines, the boot-up among them",
+                     "exit %d %s; %d lines, %d frames replayed, %d boot-ups" % (r.returncode, r.stderr.strip(), want,
+                                                                                 len(got), len(boot)))
+    finally:
+        listener.close()
+
+
+def captures_bytes(ws):
+    return sum(os.path.getsize(p) for p in glob.glob(os.path.join(ws.state, "captures", "line1-*")))
+
+
+def check_emcy_storm(report, ws):
+    cap = 1 << 20
+    pattern = os.path.join(ws.state, "captures", "*-emcy.log")
+    before = set(glob.glob(pattern))
+    seen = set()
+    s = socket.socket(socket.AF_CAN, socket.SOCK_RAW, socket.CAN_RAW)
+    s.bind(("vcan0",))
+    sent, worst = 0, 0
+    t0 = time.time()
+    while time.time() - t0 < STORM_S + AFTER + 1.0:
+        if time.time() - t0 < STORM_S:
+            for _ in range(15):
+                code = 0x1000 + (sent % 0x100)
+                data = bytes([code & 0xFF, code >> 8, 0x01, sent & 0xFF, 0, 0, 0, 0])
+                s.send(struct.pack("=IB3x8s", 0x080 + NODE, 8, data))
+                sent += 1
+        worst = max(worst, captures_bytes(ws))
+        seen |= set(glob.glob(pattern)) - before
+        time.sleep(0.01)
+    s.close()
+    left = set(glob.glob(pattern)) - before
+    report.check(1 <= len(seen) <= STORM_S / AFTER + 2, "EMCY storm: the captures coalesce, one per window",
+                 "%d EMCY sent, %d EMCY captures written, %d left" % (sent, len(seen), len(left)))
+    report.check(worst <= cap and len(left) < len(seen),
+                 "EMCY storm: the captures stay within capture_cap_mib on disk, the oldest deleted",
+                 "at most %d bytes seen (cap %d); %d deleted" % (worst, cap, len(seen) - len(left)))
+
+
+def main():
+    args = e2e.parse_args()
+    report = e2e.Report("test_flight_recorder")
+    ws = e2e.Workspace("recorder", args.keep)
+    listener = e2e.CanListener("vcan0")
+    sim = e2e.Simulator(args.sim, ws, {"vcan0": ["RFC-4800:serial=%d,node=%d" % (SERIAL, NODE)]})
+    bus = {"name": "line1", "interface": "vcan0", "bitrate": 250, "discovery_period_s": 30, "node_pool": "40-60",
+           "recorder_seconds": 10, "capture_after_s": int(AFTER), "capture_cap_mib": 1}
+    devices = [{"name": "rot-a", "bus": "line1", "serial": SERIAL, "model": "RFC-4800", "node_id": NODE,
+                "heartbeat_ms": 100, "tpdo1": {"mapping": ["position"], "transmission": "event", "event_timer_ms": 100}}]
+    daemon = e2e.Daemon(args.daemon, e2e.write_config(ws, [bus], devices), ws)
+    ctl = ["--control", ws.control]
+    with e2e.shut_down_after(ws, lambda: (daemon, sim, listener)):
+        report.check(daemon.wait_socket(), "control socket up")
+        _, took = daemon.wait_until(e2e.all_operational(["rot-a"]), 60, interval=0.1)
+        if not report.check(took is not None, "device operational"):
+            print(daemon.tail(60))
+        rec = daemon.status()["buses"][0]["recorder"]
+        report.check(rec is not None and rec["memory_bytes"] > 0 and rec["seconds"] == 10,
+                     "the status reports the recorder and its memory", "%r" % {k: rec[k] for k in rec if k != "captures"}
+                     if rec else "null")
+        time.sleep(1.0)
+
+        # Power cycle -> a boot-up capture holding the boot-up frame.
+        t0 = time.time()
+        sim.command("power-cycle %d" % SERIAL)
+        boot = listener.wait_for(lambda i, d: i == 0x700 + NODE and d == b"\x00", 3, since=t0)
+        report.check(boot is not None, "boot-up seen after power-cycle")
+        path, side = wait_capture(ws, "boot-up", set(), AFTER + 3.0)
+        if boot is not None and path:
+            # Seen by this process (the file's mtime comes from the host's clock, not UML's).
+            appeared = time.time() - boot[0]
+            report.check(appeared <= AFTER + 1.0, "the capture is on disk within capture_after_s + 1 s of the boot-up",
+                         "seen %.3f s after the boot-up" % appeared)
+        report.check(path is not None, "a boot-up capture appears", path or "none")
+        if path:
+            boot_line = "vcan0 %03X#00" % (0x700 + NODE)
+            report.check(any(l.endswith(boot_line) for l in lines_of(path)),
+                         "the capture holds the boot-up frame (%s)" % boot_line, "%d lines" % len(lines_of(path)))
+            report.check(side["causes"][0] == "boot-up" and "rot-a" in side["devices"] and side["frames"] == len(lines_of(path)),
+                         "the sidecar names the cause, the device and the frame count", "%r" % side)
+            check_replay(report, path)
+        time.sleep(AFTER + 0.5)
+
+        # Silence -> offline -> a heartbeat-lost capture.
+        before = set(glob.glob(os.path.join(ws.state, "captures", "*.log")))
+        sim.command("silence %d on" % SERIAL)
+        hb_path, hb_side = wait_capture(ws, "heartbeat-lost", before, AFTER + 3.0)
+        report.check(hb_path is not None and "heartbeat lost" in hb_side["causes"],
+                     "silenced: a capture with cause heartbeat lost", hb_path or "none")
+        sim.command("silence %d off" % SERIAL)
+        time.sleep(AFTER + 0.5)
+
+        # capture now / list / get.
+        code, out, err = e2e.run_cli(args.cli, "capture", "now", "line1", *ctl)
+        report.check(code == 0, "cobridge capture now", out + err)
+        op_path, _ = wait_capture(ws, "operator", set(), AFTER + 2.0)
+        report.check(op_path is not None, "capture now: a capture with cause operator", op_path or "none")
+        code, out, err = e2e.run_cli(args.cli, "capture", "list", *ctl)
+        names = [os.path.basename(p) for p in (path, hb_path, op_path) if p]
+        report.check(code == 0 and all(n in out for n in names), "cobridge capture list shows the captures", out + err)
+        code, out, err = e2e.run_cli(args.cli, "capture", "list", "--json", *ctl)
+        try:
+            listed = {c["name"]: c for c in json.loads(out)}
+        except ValueError:
+            listed = {}
+        report.check(code == 0 and all(n in listed for n in names) and
+                     listed.get(os.path.basename(path or ""), {}).get("causes") == ["boot-up"],
+                     "cobridge capture list --json: every capture with its causes", out + err)
+        if path:
+            code, out, err = e2e.run_cli(args.cli, "capture", "get", os.path.basename(path), *ctl)
+            with open(path) as f:
+                report.check(code == 0 and out == f.read(), "cobridge capture get returns the file", err)
+        check_emcy_storm(report, ws)
+        e2e.check_clean_exit(report, daemon)
+        daemon = None
+    return report.finish()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
