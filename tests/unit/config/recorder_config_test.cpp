@@ -2,6 +2,7 @@
 // recorder_seconds, capture_after_s, capture_cap_mib): defaults, every key,
 // out-of-range values at their line.
 #include "config/load.hpp"
+#include "unit/config/one_bus_config.hpp"
 
 #include <gtest/gtest.h>
 
@@ -11,15 +12,9 @@ using cobridge::config::load_string;
 
 namespace {
 
-const std::string kBase =
-    "[gateway]\nid = \"t\"\nstate_dir = \"/tmp/x\"\ncontrol_socket = \"/run/x/control.sock\"\n"
-    "[[bus]]\nname = \"line1\"\ninterface = \"vcan0\"\nnode_pool = [40, 41]\n";
+const std::string& kBase = cobridge::config::test::kOneBus;
 
-std::string all(const cobridge::config::LoadResult& r) {
-  std::string s;
-  for (const auto& d : r.diagnostics()) s += std::to_string(d.line) + ": " + d.message + "\n";
-  return s;
-}
+std::string all(const cobridge::config::LoadResult& r) { return cobridge::config::test::all_diagnostics(r); }
 
 TEST(RecorderConfig, DefaultsAreTheDocumentedOnes) {
   const auto r = load_string(kBase, "t.toml", "/tmp");

@@ -2,6 +2,7 @@
 // off changes nothing; hot-standby needs the gateway's own node-ID, which no
 // device and no node pool may use; every mistake at its line.
 #include "config/load.hpp"
+#include "unit/config/one_bus_config.hpp"
 
 #include <gtest/gtest.h>
 
@@ -12,15 +13,9 @@ using cobridge::config::load_string;
 
 namespace {
 
-const std::string kBase =
-    "[gateway]\nid = \"t\"\nstate_dir = \"/tmp/x\"\ncontrol_socket = \"/run/x/control.sock\"\n"
-    "[[bus]]\nname = \"line1\"\ninterface = \"vcan0\"\nnode_pool = [40, 41]\n";
+const std::string& kBase = cobridge::config::test::kOneBus;
 
-std::string all(const cobridge::config::LoadResult& r) {
-  std::string s;
-  for (const auto& d : r.diagnostics()) s += std::to_string(d.line) + ": " + d.message + "\n";
-  return s;
-}
+std::string all(const cobridge::config::LoadResult& r) { return cobridge::config::test::all_diagnostics(r); }
 
 TEST(RedundancyConfig, AbsentOrOffMeansTheOnlyMaster) {
   auto r = load_string(kBase, "t.toml", "/tmp");

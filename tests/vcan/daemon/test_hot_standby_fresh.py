@@ -44,20 +44,32 @@ def nodes(daemon):
     return {d["name"]: d["node_id"] for d in daemon.status()["buses"][0]["devices"]}
 
 
+class Scene:
+    """Fresh devices on vcan0 and two gateways: a started first (it will be master and
+    commission them), b right after (standby: it hears a's identity reads)."""
+
+    def __init__(self, args, report, name):
+        self.ws = {k: e2e.Workspace(name + "-" + k, args.keep, base="/run") for k in "ab"}
+        cfg = {"a": config(self.ws["a"], 120), "b": config(self.ws["b"], 121)}
+        self.listener = e2e.CanListener("vcan0")
+        self.sim = e2e.Simulator(args.sim, self.ws["a"],
+                                 {"vcan0": ["%s:serial=%d" % (sm, s) for (_, _, sm, s) in DEVICES]})
+        self.daemons = []
+        for k in "ab":
+            d = e2e.Daemon(args.daemon, cfg[k], self.ws[k])
+            self.daemons.append(d)
+            report.check(d.wait_socket(), "%s: gateway %s up" % (name, k))
+        self.a, self.b = self.daemons
+
+    def close(self):
+        e2e.shut_down_pair(self.daemons, [self.sim, self.listener], self.ws.values())
+
+
 def during_commissioning(args, report):
     """The master killed in the middle of its LSS commissioning: the standby, master now, finishes it."""
-    ws = {k: e2e.Workspace("fresh-mid-" + k, args.keep, base="/run") for k in "ab"}
-    cfg = {"a": config(ws["a"], 120), "b": config(ws["b"], 121)}
-    listener = e2e.CanListener("vcan0")
-    sim = e2e.Simulator(args.sim, ws["a"], {"vcan0": ["%s:serial=%d" % (sm, s) for (_, _, sm, s) in DEVICES]})
-    daemons = []
+    scene = Scene(args, report, "fresh-mid")
+    listener, a, b = scene.listener, scene.a, scene.b
     try:
-        a = e2e.Daemon(args.daemon, cfg["a"], ws["a"])
-        daemons.append(a)
-        report.check(a.wait_socket(), "mid-commissioning: gateway a up")
-        b = e2e.Daemon(args.daemon, cfg["b"], ws["b"])
-        daemons.append(b)
-        report.check(b.wait_socket(), "mid-commissioning: gateway b up")
         # Kill a once its LSS commissioning has begun (the first Fastscan frames on the bus).
         end = time.time() + 10
         while time.time() < end and not [1 for t, cid, d in listener.snapshot(0) if cid == LSS_MASTER]:
@@ -74,25 +86,15 @@ def during_commissioning(args, report):
                      "b, master now, finished the commissioning: every device operational at its own pool node-ID",
                      str(got))
     finally:
-        e2e.shut_down_pair(daemons, [sim, listener], ws.values())
+        scene.close()
 
 
 def main():
     args = e2e.parse_args()
     report = e2e.Report("test_hot_standby_fresh")
-    ws = {k: e2e.Workspace("fresh-" + k, args.keep, base="/run") for k in "ab"}
-    cfg = {"a": config(ws["a"], 120), "b": config(ws["b"], 121)}
-    listener = e2e.CanListener("vcan0")
-    sim = e2e.Simulator(args.sim, ws["a"], {"vcan0": ["%s:serial=%d" % (sm, s) for (_, _, sm, s) in DEVICES]})
-    daemons = []
+    scene = Scene(args, report, "fresh")
+    listener, a, b, ws = scene.listener, scene.a, scene.b, scene.ws
     try:
-        a = e2e.Daemon(args.daemon, cfg["a"], ws["a"])
-        daemons.append(a)
-        report.check(a.wait_socket(), "gateway a up")
-        # b joins while a commissions: it hears the master's identity reads.
-        b = e2e.Daemon(args.daemon, cfg["b"], ws["b"])
-        daemons.append(b)
-        report.check(b.wait_socket(), "gateway b up")
         _, took = a.wait_until(e2e.all_operational(NAMES), 60, interval=0.05)
         report.check(took is not None, "a commissioned every fresh device (LSS Fastscan)", str(nodes(a)))
         given = nodes(a)
@@ -122,7 +124,7 @@ def main():
         writes = sum(int(l.split(" writes")[0].split()[-1]) for l in lines if " writes" in l)
         report.check(lines and writes == 0, "and writes no configuration (0 writes)", "%d lines" % len(lines))
     finally:
-        e2e.shut_down_pair(daemons, [sim, listener], ws.values())
+        scene.close()
     during_commissioning(args, report)
     return report.finish()
 
