@@ -191,6 +191,7 @@ std::vector<Error> Daemon::start_plugins() {
 // to serve it does not run without it (like an output).
 Error Daemon::start_web() {
   web_.emplace([this] { return facade_->status(); });
+  web_->set_captures([this](std::string_view name) { return facade_->read_capture(name); });
   if (!cfg_->web || !cfg_->web->enabled) return {};
   if (const Error e = web_->start(*cfg_->web)) {
     FatalReport().line("web: " + e.to_string(), "cobridged: web: " + e.to_string());

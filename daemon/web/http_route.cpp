@@ -20,6 +20,18 @@ bool escapes_control(std::string_view s, std::size_t i) noexcept {
   return high >= 0 && low >= 0 && is_control(static_cast<unsigned char>(high * 16 + low));
 }
 
+// A capture's file name as the recorder writes it: letters, digits, '-',
+// '_', '.', ending in ".log"; never a path.
+bool capture_name_ok(std::string_view name) noexcept {
+  if (name.size() < 5 || !name.ends_with(".log") || name.front() == '.') return false;
+  for (const char c : name) {
+    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '-' ||
+                    c == '_' || c == '.';
+    if (!ok) return false;
+  }
+  return name.find("..") == std::string_view::npos;
+}
+
 }  // namespace
 
 bool is_clean_target(std::string_view raw) noexcept {
@@ -57,9 +69,12 @@ HttpRoute route_request(std::string_view method, std::string_view path, bool cle
     r.resource = Resource::metrics;
   } else if (path == "/healthz") {
     r.resource = Resource::health;
+  } else if (path.starts_with(kCapturePrefix) && capture_name_ok(path.substr(kCapturePrefix.size()))) {
+    r.resource = Resource::capture;
+    r.capture = path.substr(kCapturePrefix.size());
   } else {
     r.status = 404;
-    r.reason = "not found (resources: /, /api/v1/status, /metrics, /healthz)";
+    r.reason = "not found (resources: /, /api/v1/status, /metrics, /healthz, /api/v1/captures/NAME)";
   }
   return r;
 }
@@ -69,6 +84,7 @@ const char* content_type(Resource r) noexcept {
     case Resource::page: return "text/html; charset=utf-8";
     case Resource::status_json: return "application/json";
     case Resource::metrics: return "text/plain; version=0.0.4; charset=utf-8";
+    case Resource::capture: return "text/plain; charset=utf-8";  // a candump -l log
     case Resource::health:
     case Resource::none: break;
   }

@@ -1,6 +1,6 @@
 // HttpRoute: what one HTTP request to the web service asks for, decided from
 // its method, its path and whether its target was clean. The service is
-// read-only: GET and HEAD of four resources, anything else an error status
+// read-only: GET and HEAD of five kinds of resource, anything else an error status
 // with no effect on the daemon. Requests come from any host the service's
 // address reaches, so every input gets a route or a 4xx, never a crash.
 // Thread: any; pure functions.
@@ -10,14 +10,18 @@
 
 namespace cobridge::web {
 
-enum class Resource { none, page, status_json, metrics, health };
+enum class Resource { none, page, status_json, metrics, health, capture };
 
 struct HttpRoute {
   Resource resource = Resource::none;
   unsigned status = 200;    // 200, or the error: 400, 404, 405, 414
   bool head = false;        // HEAD: headers only
   const char* reason = "";  // the error's one-line text (the body of an error answer)
+  std::string_view capture;  // Resource::capture: the capture's file name (a view into the path)
 };
+
+// The path prefix of a flight recorder capture: /api/v1/captures/NAME.
+inline constexpr std::string_view kCapturePrefix = "/api/v1/captures/";
 
 inline constexpr std::size_t kMaxPath = 256;
 

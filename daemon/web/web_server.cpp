@@ -275,7 +275,13 @@ HttpAnswer WebServer::handle(const HttpRequest& request) {
   HttpAnswer a;
   const HttpRoute route = route_request(request.method, request.path, request.clean_target);
   a.content_type = content_type(route.resource);
-  if (!refuse_host(request, a) && !refuse_route(route, a) && !refuse_login(request, a)) serve(route.resource, a);
+  if (!refuse_host(request, a) && !refuse_route(route, a) && !refuse_login(request, a)) {
+    if (route.resource == Resource::capture) {
+      serve_capture(route.capture, a);
+    } else {
+      serve(route.resource, a);
+    }
+  }
   // HEAD keeps the body here: libmicrohttpd sends its length and not the bytes.
   a.content_length = a.body.size();
   return a;
@@ -320,6 +326,21 @@ bool WebServer::refuse_login(const HttpRequest& r, HttpAnswer& a) {
   return true;
 }
 
+// A capture file, as `cobridge capture get` reads it (only a name the
+// recorder lists; nothing outside its directory).
+void WebServer::serve_capture(std::string_view name, HttpAnswer& a) {
+  if (!captures_) {
+    refuse(a, 404, "no flight recorder");
+    return;
+  }
+  Result<std::string> text = captures_(name);
+  if (!text.ok()) {
+    refuse(a, text.error().kind == Errc::kNotFound ? 404 : 503, text.error().message);
+    return;
+  }
+  a.body = std::move(text.value());
+}
+
 void WebServer::serve(Resource resource, HttpAnswer& a) {
   switch (resource) {
     case Resource::page: a.body = std::string(status_page_html()); break;
@@ -339,6 +360,7 @@ void WebServer::serve(Resource resource, HttpAnswer& a) {
       a.body = s.metrics;
       break;
     }
+    case Resource::capture:
     case Resource::none: break;
   }
 }

@@ -24,6 +24,7 @@
 #pragma once
 
 #include "base/error.hpp"
+#include "base/result.hpp"
 #include "config/config.hpp"
 #include "control/status_report.hpp"
 #include "web/auth_file.hpp"
@@ -77,6 +78,9 @@ struct HttpRequest {
 class WebServer {
  public:
   using StatusSource = std::function<gateway::StatusReport()>;
+  // The text of a flight recorder capture by its file name (as the status
+  // lists it); unset: none are served.
+  using CaptureSource = std::function<Result<std::string>(std::string_view name)>;
 
   explicit WebServer(StatusSource source, std::chrono::milliseconds refresh = std::chrono::milliseconds(250));
   ~WebServer();
@@ -101,6 +105,7 @@ class WebServer {
   // Test hooks, before requests: require these users (as if an auth file
   // were loaded); judge Host as `settings` would; the clock of the backoff.
   void set_auth(AuthFile auth) { auth_ = std::move(auth); }
+  void set_captures(CaptureSource captures) { captures_ = std::move(captures); }
   void set_host_check(const config::WebSettings& settings) { host_check_ = HostCheck(settings); }
   void set_clock(std::function<LoginThrottle::Clock::time_point()> clock) { clock_ = std::move(clock); }
 
@@ -118,8 +123,10 @@ class WebServer {
   bool refuse_host(const HttpRequest& r, HttpAnswer& a) const;
   bool refuse_login(const HttpRequest& r, HttpAnswer& a);
   void serve(Resource resource, HttpAnswer& a);
+  void serve_capture(std::string_view name, HttpAnswer& a);
 
   StatusSource source_;
+  CaptureSource captures_;
   std::chrono::milliseconds refresh_;
   std::optional<AuthFile> auth_;
   HostCheck host_check_;  // any Host until start()

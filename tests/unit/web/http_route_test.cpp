@@ -46,4 +46,21 @@ TEST(HttpRoute, AnUncleanTargetIs400WhateverTheMethodAndPath) {
   EXPECT_EQ(route_request("GET", "/metrics", true).status, 200U);
 }
 
+// docs/web.md "Flight recorder captures": /api/v1/captures/NAME serves a
+// capture by its file name, and only a plain name the recorder could have
+// written (no path, no "..", ending in .log).
+TEST(HttpRoute, CapturesByPlainNameOnly) {
+  const auto ok = route_request("GET", "/api/v1/captures/line1-20261128T021500Z-boot-up.log", true);
+  EXPECT_EQ(ok.status, 200U);
+  EXPECT_EQ(ok.resource, Resource::capture);
+  EXPECT_EQ(ok.capture, "line1-20261128T021500Z-boot-up.log");
+  for (const char* bad : {"/api/v1/captures/", "/api/v1/captures/../state/assignments.state",
+                          "/api/v1/captures/a/b.log", "/api/v1/captures/..log", "/api/v1/captures/x..y.log",
+                          "/api/v1/captures/.hidden.log", "/api/v1/captures/x.json", "/api/v1/captures/x y.log"}) {
+    const auto r = route_request("GET", bad, true);
+    EXPECT_EQ(r.status, 404U) << bad;
+    EXPECT_EQ(r.resource, Resource::none) << bad;
+  }
+}
+
 }  // namespace

@@ -261,6 +261,25 @@ def main():
         report.check(metric(metrics(), "cobridge_value_stale", name=name) == 0,
                      "%s: cobridge_value_stale 0 after the power cycle" % name)
 
+        # ---- the power cycle's flight recorder capture, listed in the status and served over HTTP
+        cap = None
+        end = time.time() + 8
+        while time.time() < end and cap is None:
+            st = status() or {"buses": []}
+            caps = [c for b in st["buses"] for c in ((b.get("recorder") or {}).get("captures") or [])]
+            cap = next((c for c in caps if "boot-up" in c["causes"]), None)
+            time.sleep(0.2)
+        report.check(cap is not None, "%s: the power cycle's capture is listed (recorder.captures)" % name, str(cap))
+        if cap:
+            code, headers, body = get("/api/v1/captures/" + cap["name"])
+            lines = body.decode(errors="replace").splitlines()
+            ok = code == 200 and len(lines) == cap["frames"] and all(
+                re.match(r"^\(\d+\.\d{6}\) \S+ [0-9A-F]{3,8}#", l) for l in lines)
+            report.check(ok, "the capture is served at /api/v1/captures/NAME as a candump -l log (%d lines)" % len(
+                lines), "HTTP %s, %s" % (code, lines[:2]))
+            code, _, _ = get("/api/v1/captures/..%2Fstate%2Fassignments.state")
+            report.check(code in (400, 404), "a capture path outside the recorder's names is refused", str(code))
+
         # ---- heartbeat / TPDO arrival histograms; the whole text passes promtool
         _, _, text = get("/metrics")
         r = subprocess.run(["promtool", "check", "metrics"], input=text, capture_output=True)
@@ -539,6 +558,8 @@ def browser(report, ws, args, names, stale_name):
     row = re.search(r'<tr class="device[^"]*" data-name="%s".*?</tr>' % re.escape(stale_name), doms[-1], re.S)
     report.check(row is not None and 'class="nmt-unknown"' in row.group(0) and ">unknown<" in row.group(0),
                  "browser: the silenced device's NMT state reads unknown, not its last heartbeat's")
+    report.check('data-capture="' in doms[-1] and 'href="api/v1/captures/' in doms[-1],
+                 "browser: the bus's flight recorder captures are listed, each a link to its file")
     report.check('stroke-width="2"' in doms[-1] and "<circle" in doms[-1],
                  "browser: the sparkline is drawn legibly (2 px stroke, the newest point marked)")
     report.check("\u00a7" in doms[-1] and not re.search(r"\([JEF]\u00a7", doms[-1]),
