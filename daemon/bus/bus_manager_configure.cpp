@@ -141,6 +141,9 @@ void BusManager::Impl::finish_configuration(Managed& m, TimePoint now) {
   }
   if (m.quick && outcome.writes > 0) {
     // The fingerprint matched but the device did not carry the values.
+    add_event(m, TimelineKind::mismatch,
+              "the device no longer carries its stored configuration: " + join_differences(outcome) +
+                  "; the full plan runs");
     log->info("bus {}: device {}: key objects differed from the stored configuration; full plan", bus.name,
               m.st.name);
     m.force_full = true;
@@ -164,6 +167,7 @@ void BusManager::Impl::finish_configuration(Managed& m, TimePoint now) {
 // used up.
 void BusManager::Impl::configuration_failed(Managed& m, const PlanRunResult& outcome, TimePoint now) {
   m.st.last_error = outcome.error.message;
+  note_failure(m, outcome);
   log->warn("bus {}: device {}: configuration failed (attempt {}): {}", bus.name, m.st.name, m.attempts,
             outcome.error.message);
   m.want_configure = true;
@@ -175,6 +179,31 @@ void BusManager::Impl::configuration_failed(Managed& m, const PlanRunResult& out
     set_state(m, DeviceState::identified);
     m.not_before = now + kConfigureRetryDelay;
   }
+}
+
+// The timeline's entry for a failed plan: an SDO abort (CiA 301 text) or
+// timeout, or a value that read back different; the frames are captured.
+void BusManager::Impl::note_failure(Managed& m, const PlanRunResult& outcome) {
+  const auto& code = outcome.error.code;
+  TimelineKind kind = TimelineKind::sdo;
+  const char* cause = "sdo abort";
+  if (code == make_error_code(PlanRunErrc::verify_mismatch)) {
+    kind = TimelineKind::mismatch;
+    cause = "configuration mismatch";
+  } else if (code == make_error_code(PlanRunErrc::sdo_timeout) || code == make_error_code(PlanRunErrc::send_failed)) {
+    cause = "sdo timeout";
+  } else if (code != make_error_code(PlanRunErrc::sdo_abort)) {
+    return;  // the client was busy: nothing happened on the bus
+  }
+  add_event(m, kind, "configuration attempt " + std::to_string(m.attempts) + " failed: " + outcome.error.message,
+            capture(cause, m.st.name));
+}
+
+std::string BusManager::Impl::join_differences(const PlanRunResult& outcome) {
+  std::string text;
+  for (const auto& d : outcome.differed) text += (text.empty() ? "" : "; ") + d;
+  if (outcome.writes > outcome.differed.size()) text += " (and more)";
+  return text.empty() ? "a PDO mapping differs" : text;
 }
 
 // Stores the device's node-ID and plan fingerprint, so that its next start
@@ -191,6 +220,17 @@ void BusManager::Impl::remember_assignment(const Managed& m, const std::string& 
   if (const Error err = state.put(a)) log->error("bus {}: state file {}", bus.name, err.to_string());
 }
 
+void BusManager::Impl::note_configured(Managed& m, const PlanRunResult& outcome) {
+  std::string text = m.quick ? "configuration checked: the device carries it" : "configured: ";
+  if (!m.quick) {
+    text += std::to_string(outcome.writes) + " value(s) written and verified";
+    if (outcome.stored) text += ", stored";
+    if (outcome.writes > 0) text += " (" + join_differences(outcome) + ")";
+  }
+  if (outcome.guarding_fallback) text += "; heartbeat refused, node guarding instead";
+  add_event(m, TimelineKind::configured, std::move(text));
+}
+
 // Started: operational from here, and supervised from now on.
 void BusManager::Impl::mark_operational(Managed& m, const PlanRunResult& outcome, TimePoint now, double ms) {
   m.started = true;
@@ -199,6 +239,7 @@ void BusManager::Impl::mark_operational(Managed& m, const PlanRunResult& outcome
   m.st.nmt = canopen::NmtState::operational;
   supervisor.watch(m.st.node_id, m.profile->family, m.supervision, now);
   m.st.online = m.supervision.mode == Supervision::Mode::none;
+  note_configured(m, outcome);
   set_state(m, DeviceState::operational);
   clear_problems([&](const Problem& p) { return p.device == m.st.name; });
   if (m.boot_up_at != kNever) {

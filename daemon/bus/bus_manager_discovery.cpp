@@ -96,6 +96,7 @@ void BusManager::Impl::on_discovery_event(const DiscoveryEvent& e, TimePoint now
       break;
     case DiscoveryEventKind::commissioned: {
       log->info("bus {}: {}", bus.name, e.text);
+      if (Managed* m = e.device.empty() ? nullptr : find_device(e.device)) add_event(*m, TimelineKind::lss, e.text);
       if (const Error err = record_assignment(state, bus.name, e))
         log->error("bus {}: state file {}", bus.name, err.to_string());
       break;
@@ -170,6 +171,16 @@ bool BusManager::Impl::drop_unknown_entry(const DiscoveryEvent& e) {
 // The device is at its node-ID: remember it there, supervise it and
 // configure it from the start.
 void BusManager::Impl::reconfigure_identified(Managed& m, const DiscoveryEvent& e, TimePoint now) {
+  if (m.st.node_id != 0 && m.st.node_id != e.node_id) {
+    add_event(m, TimelineKind::node_id,
+              "node-ID " + std::to_string(m.st.node_id) + " -> " + std::to_string(e.node_id) + " (serial " +
+                  std::to_string(e.identity.serial) + ")");
+  }
+  if (m.st.identity.serial != 0 && m.st.identity.serial != e.identity.serial) {
+    add_event(m, TimelineKind::node_id,
+              "serial " + std::to_string(e.identity.serial) + " takes the place of serial " +
+                  std::to_string(m.st.identity.serial));
+  }
   m.st.identity = e.identity;
   m.st.node_id = e.node_id;
   m.st.next_retry = {};  // commissioned (the failures so far stay counted)
@@ -205,6 +216,7 @@ void BusManager::Impl::on_retry(const DiscoveryEvent& e) {
   m->st.next_retry = wall_now() + std::chrono::duration_cast<std::chrono::system_clock::duration>(e.retry_in);
   m->st.last_error = e.text;
   if (m->st.identity.serial == 0) m->st.identity = e.identity;
+  add_event(*m, TimelineKind::lss, e.text, capture("lss failed", m->st.name));
   set_state(*m, DeviceState::failed);
   dirty = true;
 }

@@ -94,14 +94,20 @@ bool BusManager::Impl::handle_bus_events(TimePoint now) {
   for (const auto& ev : channel->take_events()) {
     const std::string text(can::to_string(ev.kind));
     const can::ControllerState before = controller.state;
+    const bool good_news = ev.kind == can::BusEventKind::InterfaceReopened ||
+                           ev.kind == can::BusEventKind::ErrorActive || ev.kind == can::BusEventKind::Restarted;
+    const std::string file =
+        good_news ? std::string() : capture(ev.kind == can::BusEventKind::InterfaceDown ? "adapter lost" : "bus error", {});
     if (controller.apply(ev)) {
+      add_bus_event(TimelineKind::controller,
+                    "CAN controller " + std::string(can::to_string(before)) + " -> " +
+                        std::string(can::to_string(controller.state)),
+                    file);
       log->warn("bus {}: CAN controller {} -> {}{}", bus.name, can::to_string(before), can::to_string(controller.state),
                 controller.counters_known ? fmt::format(" (tx errors {}, rx errors {})", controller.tx_errors,
                                                         controller.rx_errors)
                                           : std::string());
     }
-    const bool good_news = ev.kind == can::BusEventKind::InterfaceReopened ||
-                           ev.kind == can::BusEventKind::ErrorActive || ev.kind == can::BusEventKind::Restarted;
     if (good_news) {
       log->info("bus {}: {}", bus.name, text);
     } else {
@@ -109,7 +115,8 @@ bool BusManager::Impl::handle_bus_events(TimePoint now) {
     }
     live_bus_event = text;
     dirty = true;
-    if (!good_news) capture(ev.kind == can::BusEventKind::InterfaceDown ? "adapter lost" : "bus error", {});
+    if (ev.kind == can::BusEventKind::InterfaceDown || ev.kind == can::BusEventKind::InterfaceReopened)
+      add_bus_event(TimelineKind::controller, text, file);
     if (ev.kind == can::BusEventKind::InterfaceDown) {
       // Its devices cannot be heard any more: offline now (status and the
       // outputs tell the truth at once), not one heartbeat consumer time later.
@@ -152,23 +159,24 @@ void BusManager::Impl::on_interface_back(TimePoint now) {
   check_configured_nodes(now);
 }
 
-void BusManager::Impl::capture(const char* cause, const std::string& device) {
-  if (options.captures == nullptr) return;
+std::string BusManager::Impl::capture(const char* cause, const std::string& device) {
+  if (options.captures == nullptr) return {};
   const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(wall_now().time_since_epoch()).count();
-  options.captures->request(cause, device, ns);
+  return options.captures->request(cause, device, ns);
 }
 
 void BusManager::Impl::on_supervisor_change(const Supervisor::Change& c, TimePoint now) {
   Managed* m = find_node(c.node);
   if (m == nullptr && !bus.discovery && c.kind == Supervisor::ChangeKind::rebooted) m = find_configured_node(c.node);
   if (m == nullptr) return;
+  const DeviceState before = m->st.state;
   apply(c, m->st, wall_now());
+  note_supervision(*m, c, before);
   dirty = true;
   notify(*m);
   switch (c.kind) {
     case Supervisor::ChangeKind::rebooted:
       log->info("bus {}: device {} (node {}) rebooted", bus.name, m->st.name, c.node);
-      capture("boot-up", m->st.name);
       // Discovery re-identifies it after every boot-up (same serial, or a
       // replacement part); its `identified` event restarts the plan.
       m->boot_up_at = now;
@@ -190,7 +198,6 @@ void BusManager::Impl::on_supervisor_change(const Supervisor::Change& c, TimePoi
       break;
     case Supervisor::ChangeKind::offline:
       log->warn("bus {}: device {} (node {}) offline: {}", bus.name, m->st.name, c.node, c.reason);
-      capture("heartbeat lost", m->st.name);
       // Let discovery's periodic probe look at it: if it rebooted without a
       // boot-up we saw (interface loss), it is re-identified and configured.
       discovery->set_supervised(c.node, false);
@@ -205,9 +212,36 @@ void BusManager::Impl::on_supervisor_change(const Supervisor::Change& c, TimePoi
       break;
     case Supervisor::ChangeKind::emcy:
       if (emcy_log_allowed(*m, now)) log->warn("bus {}: device {} (node {}): {}", bus.name, m->st.name, c.node, c.emcy_text);
-      capture("emcy", m->st.name);
       on_sign_of_life(*m, now);
       break;
+  }
+}
+
+// The timeline's side of a supervision change: what happened, in words,
+// with the capture that holds its frames, and the state change it made.
+void BusManager::Impl::note_supervision(Managed& m, const Supervisor::Change& c, DeviceState before) {
+  switch (c.kind) {
+    case Supervisor::ChangeKind::rebooted:
+      add_event(m, TimelineKind::boot_up,
+                "boot-up message from node " + std::to_string(c.node) + ": the device restarted (boot-up " +
+                    std::to_string(m.st.boot_ups) + " since the gateway started)",
+                capture("boot-up", m.st.name));
+      break;
+    case Supervisor::ChangeKind::offline:
+      add_event(m, TimelineKind::heartbeat, c.reason, capture("heartbeat lost", m.st.name));
+      break;
+    case Supervisor::ChangeKind::online:
+      add_event(m, TimelineKind::heartbeat, c.reason.empty() ? "heard again" : c.reason);
+      break;
+    case Supervisor::ChangeKind::emcy:
+      add_event(m, TimelineKind::emcy, c.emcy_text, capture("emcy", m.st.name));
+      break;
+    case Supervisor::ChangeKind::nmt_state:
+      break;
+  }
+  if (m.st.state != before) {
+    add_event(m, TimelineKind::state, std::string(to_string(before)) + " -> " + to_string(m.st.state) + ": " +
+                                          (m.st.state == DeviceState::offline ? c.reason : "heard again"));
   }
 }
 

@@ -199,6 +199,9 @@ struct BusManager::Impl final : RemoteGate {
   Supervision supervision_for(const Managed& m) const;
   void finish_configuration(Managed& m, TimePoint now);
   void configuration_failed(Managed& m, const PlanRunResult& outcome, TimePoint now);
+  void note_failure(Managed& m, const PlanRunResult& outcome);
+  void note_configured(Managed& m, const PlanRunResult& outcome);
+  static std::string join_differences(const PlanRunResult& outcome);
   void remember_assignment(const Managed& m, const std::string& fingerprint);
   void mark_operational(Managed& m, const PlanRunResult& outcome, TimePoint now, double ms);
 
@@ -221,9 +224,11 @@ struct BusManager::Impl final : RemoteGate {
   // ---- supervision -------------------------------------------------------------
 
   void on_supervisor_change(const Supervisor::Change& c, TimePoint now);
+  void note_supervision(Managed& m, const Supervisor::Change& c, DeviceState before);
   // A flight-recorder capture around a fault seen now (nothing when the
   // recorder is off); `device` empty for the bus itself.
-  void capture(const char* cause, const std::string& device);
+  // Returns the capture's file name (empty: no capture).
+  std::string capture(const char* cause, const std::string& device);
 
   // The heartbeat (or guarding reply) tells the device's NMT state (CiA 301
   // §7.2.8.3.2): the status follows it, and a device another NMT master
@@ -252,7 +257,13 @@ struct BusManager::Impl final : RemoteGate {
 
   // ---- status ------------------------------------------------------------------
 
-  void set_state(Managed& m, DeviceState s);
+  // `why` is the timeline's cause; empty: the device's last_error, or the
+  // usual reason for entering `s`.
+  void set_state(Managed& m, DeviceState s, std::string why = {});
+  // A timeline event of `m` (now); `capture` names the recorder's file.
+  void add_event(Managed& m, TimelineKind kind, std::string text, std::string capture = {});
+  // A bus-wide event (controller, adapter) on the timeline of every device of the bus.
+  void add_bus_event(TimelineKind kind, const std::string& text, const std::string& capture);
   void notify(const Managed& m);
   void add_step(StepTiming t);
 

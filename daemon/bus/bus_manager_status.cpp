@@ -4,12 +4,43 @@
 
 namespace cobridge::gateway {
 
-void BusManager::Impl::set_state(Managed& m, DeviceState s) {
+namespace {
+
+// Why a device usually enters `s`, when the caller gave no reason.
+const char* usual_reason(DeviceState s) {
+  switch (s) {
+    case DeviceState::identified: return "identified (0x1018)";
+    case DeviceState::commissioning: return "being given its node-ID (LSS)";
+    case DeviceState::configuring: return "configuration plan started";
+    case DeviceState::operational: return "configured and started";
+    case DeviceState::offline: return "silent";
+    default: return "";
+  }
+}
+
+}  // namespace
+
+void BusManager::Impl::set_state(Managed& m, DeviceState s, std::string why) {
   if (m.st.state == s) return;
+  if (why.empty()) why = m.st.last_error;
+  if (why.empty()) why = usual_reason(s);
+  add_event(m, TimelineKind::state,
+            std::string(to_string(m.st.state)) + " -> " + to_string(s) + (why.empty() ? "" : ": " + why));
   m.st.state = s;
   m.st.since = wall_now();
   dirty = true;
   notify(m);
+}
+
+void BusManager::Impl::add_event(Managed& m, TimelineKind kind, std::string text, std::string capture) {
+  append_event(m.st.timeline, TimelineEvent{wall_now(), kind, std::move(text), std::move(capture)});
+  dirty = true;
+}
+
+void BusManager::Impl::add_bus_event(TimelineKind kind, const std::string& text, const std::string& capture) {
+  for (auto& m : devices) {
+    if (m.in_config) add_event(m, kind, "bus " + bus.name + ": " + text, capture);
+  }
 }
 
 void BusManager::Impl::notify(const Managed& m) {

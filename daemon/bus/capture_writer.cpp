@@ -131,7 +131,8 @@ void CaptureWriter::stop() {
   if (thread_.joinable()) thread_.join();
 }
 
-void CaptureWriter::request(std::string cause, std::string device, std::int64_t fault_ns) {
+std::string CaptureWriter::request(std::string cause, std::string device, std::int64_t fault_ns) {
+  std::string name;
   {
     std::lock_guard lock(mutex_);
     for (Pending& p : pending_) {
@@ -140,12 +141,16 @@ void CaptureWriter::request(std::string cause, std::string device, std::int64_t 
         p.info.causes.push_back(std::move(cause));
       if (std::find(p.info.devices.begin(), p.info.devices.end(), device) == p.info.devices.end())
         p.info.devices.push_back(std::move(device));
-      return;
+      return p.info.name;
     }
     // Faults come in time order, so a new window opens at most once per
     // `after`; more than this waiting means the writer is stuck (disk).
-    if (pending_.size() >= kMaxPending) return;
+    if (pending_.size() >= kMaxPending) return {};
     Pending p;
+    // Named now, so that whoever reports the fault can say which file holds it.
+    p.info.name = capture_file_word(options_.bus) + "-" + capture_utc_stamp(fault_ns) + "-" +
+                  capture_file_word(cause) + ".log";
+    name = p.info.name;
     p.info.causes.push_back(std::move(cause));
     p.info.devices.push_back(std::move(device));
     p.info.fault_ns = fault_ns;
@@ -153,6 +158,7 @@ void CaptureWriter::request(std::string cause, std::string device, std::int64_t 
     pending_.push_back(std::move(p));
   }
   wake_.notify_all();
+  return name;
 }
 
 std::vector<CaptureInfo> CaptureWriter::poll(std::int64_t now_ns) {
@@ -182,8 +188,9 @@ std::vector<CaptureInfo> CaptureWriter::poll(std::int64_t now_ns) {
 
 Error CaptureWriter::write(CaptureInfo& info, std::int64_t window_end_ns) {
   const can::RecorderWindow window = recorder_.snapshot(info.fault_ns - options_.before.count(), window_end_ns);
-  info.name = capture_file_word(options_.bus) + "-" + capture_utc_stamp(info.fault_ns) + "-" +
-              capture_file_word(info.causes.front()) + ".log";
+  if (info.name.empty())
+    info.name = capture_file_word(options_.bus) + "-" + capture_utc_stamp(info.fault_ns) + "-" +
+                capture_file_word(info.causes.front()) + ".log";
   info.frames = window.frames.size();
   info.skipped = window.skipped;
   // The whole text first: its size makes room under the cap before anything

@@ -77,8 +77,9 @@ class CaptureWriter {
   void stop();
 
   // A fault at `fault_ns` (wall clock, ns since the Unix epoch). Never blocks
-  // on I/O; joins a pending capture whose window holds the fault.
-  void request(std::string cause, std::string device, std::int64_t fault_ns);
+  // on I/O; joins a pending capture whose window holds the fault. Returns
+  // the file the frames will be in (empty: none, the writer is stuck).
+  std::string request(std::string cause, std::string device, std::int64_t fault_ns);
 
   // Writes every pending capture whose window closed by `now_ns`; returns
   // what was written.

@@ -8,6 +8,7 @@
 #include "can/controller_health.hpp"
 #include "base/arrival_histogram.hpp"
 #include "bus/capture_writer.hpp"
+#include "bus/device_timeline.hpp"
 #include "canopen/lss.hpp"
 #include "canopen/nmt.hpp"
 
@@ -83,6 +84,7 @@ struct DeviceStatus {
   std::uint32_t commission_failures = 0;
   WallTime next_retry{};
   std::vector<EmcyRecord> emcy_history;  // most recent last, at most kEmcyHistory
+  std::vector<TimelineEvent> timeline;   // most recent last, at most kTimelineLength
   LiveValues values;
 };
 

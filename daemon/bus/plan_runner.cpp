@@ -309,6 +309,10 @@ void PlanRunner::on_write_answer(std::uint32_t value, canopen::TimePoint now) {
       next_write(now);
       return;
     }
+    if (result_.differed.size() < PlanRunResult::kMaxDiffered) {
+      result_.differed.push_back(object_text(w.index, w.sub) + " read " + hex(current & w.owned()) + ", configured " +
+                                 hex(w.value & w.owned()));
+    }
     written_ = w.merged(current);
     phase_ = Phase::kWriteDownload;
     download(w.index, w.sub, written_, w.size, now);

@@ -9,6 +9,14 @@ namespace cobridge::gateway {
 
 using canopen::TimePoint;
 
+namespace {
+
+std::string milliseconds_text(canopen::Duration d) {
+  return std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(d).count()) + " ms";
+}
+
+}  // namespace
+
 std::chrono::milliseconds consumer_time_for(std::chrono::milliseconds producer) noexcept {
   if (producer <= std::chrono::milliseconds::zero()) return std::chrono::milliseconds::zero();
   return producer + producer / 2 + kConsumerMargin;
@@ -99,6 +107,10 @@ void Supervisor::set_online(std::uint8_t node, TimePoint at) {
   c.node = node;
   c.at = at;
   c.nmt = n.nmt;
+  if (n.silent_since != canopen::kNever && at >= n.silent_since) {
+    c.reason = "heard again after " + milliseconds_text(at - n.silent_since) + " of silence";
+  }
+  n.silent_since = canopen::kNever;
   push(std::move(c));
 }
 
@@ -146,9 +158,18 @@ void Supervisor::on_heartbeat_event(const canopen::HeartbeatConsumer::Event& e) 
       on_alive(e.node, e.state, e.time);
       break;
     case K::timeout:
-      set_offline(e.node, e.time, "heartbeat lost");
+      set_offline(e.node, e.time, heartbeat_loss_text(e.node, e.time));
       break;
   }
+}
+
+std::string Supervisor::heartbeat_loss_text(std::uint8_t node, TimePoint detected) {
+  const canopen::HeartbeatConsumer::NodeStatus st = heartbeat_.status(node);
+  Node& n = nodes_[node];
+  n.silent_since = st.last_seen;
+  return "heartbeat lost: none for " + milliseconds_text(detected - st.last_seen) + " (consumer time " +
+         milliseconds_text(st.consumer_time) + ", producer time " + milliseconds_text(n.supervision.producer_time) +
+         ")";
 }
 
 void Supervisor::on_guard_event(const canopen::NodeGuardMaster::Event& e) {

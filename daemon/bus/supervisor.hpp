@@ -61,7 +61,7 @@ class Supervisor {
     std::uint8_t node = 0;
     canopen::TimePoint at{};
     canopen::NmtState nmt = canopen::NmtState::boot_up;  // state known at that time
-    std::string reason;                                   // offline / rebooted
+    std::string reason;                                   // offline / rebooted / online (the gap)
     std::uint16_t emcy_code = 0;                          // emcy
     std::string emcy_text;                                // emcy: describe(family, emcy)
     bool emcy_reset = false;                              // emcy: "error reset / no error"
@@ -112,8 +112,11 @@ class Supervisor {
     bool heard = false;       // a heartbeat / guarding reply since watch()
     canopen::TimePoint first_deadline = canopen::kNever;  // "never heard" check
     canopen::NmtState nmt = canopen::NmtState::boot_up;
+    canopen::TimePoint silent_since = canopen::kNever;  // its last heartbeat before a loss
   };
 
+  // "heartbeat lost: none for 250 ms (consumer time 250 ms, producer time 100 ms)".
+  [[nodiscard]] std::string heartbeat_loss_text(std::uint8_t node, canopen::TimePoint detected);
   void on_alive(std::uint8_t node, canopen::NmtState state, canopen::TimePoint at);
   void on_heartbeat_event(const canopen::HeartbeatConsumer::Event& e);
   void on_guard_event(const canopen::NodeGuardMaster::Event& e);

@@ -112,6 +112,27 @@ void write_emcy_history(JsonWriter& w, const DeviceStatus& d) {
   w.end_array();
 }
 
+// The device's timeline (bus/device_timeline.hpp), oldest first: what
+// `cobridge why` and the page's timeline read.
+void write_timeline(JsonWriter& w, const DeviceStatus& d) {
+  w.key("timeline");
+  w.begin_array();
+  for (const auto& e : d.timeline) {
+    w.begin_object();
+    w.key("at");
+    w.time(e.at);
+    w.field("kind", to_string(e.kind));
+    w.field("text", e.text);
+    w.key("capture");
+    if (e.capture.empty()) w.null(); else w.value(e.capture);
+    w.field("repeats", std::uint64_t{e.repeats});
+    w.key("last_at");
+    w.time(e.last_at);
+    w.end_object();
+  }
+  w.end_array();
+}
+
 // The latest values (null before the first) and the heartbeat's age.
 void write_values(JsonWriter& w, const LiveValues& v) {
   w.key("values");
@@ -165,6 +186,7 @@ void write_device(JsonWriter& w, const DeviceStatus& d) {
   w.key("next_retry");
   w.time(d.next_retry);
   write_emcy_history(w, d);
+  write_timeline(w, d);
   write_values(w, d.values);
   w.end_object();
 }

@@ -1,0 +1,37 @@
+#include "bus/device_timeline.hpp"
+
+namespace cobridge::gateway {
+
+const char* to_string(TimelineKind k) noexcept {
+  switch (k) {
+    case TimelineKind::state: return "state";
+    case TimelineKind::boot_up: return "boot-up";
+    case TimelineKind::heartbeat: return "heartbeat";
+    case TimelineKind::emcy: return "emcy";
+    case TimelineKind::sdo: return "sdo";
+    case TimelineKind::mismatch: return "mismatch";
+    case TimelineKind::lss: return "lss";
+    case TimelineKind::node_id: return "node-id";
+    case TimelineKind::controller: return "controller";
+    case TimelineKind::drift: return "drift";
+    case TimelineKind::configured: return "configured";
+  }
+  return "?";
+}
+
+void append_event(std::vector<TimelineEvent>& timeline, TimelineEvent e) {
+  if (!timeline.empty()) {
+    TimelineEvent& last = timeline.back();
+    if (last.kind == e.kind && last.text == e.text && e.at - last.at < kTimelineRepeatWindow && e.at >= last.at) {
+      ++last.repeats;
+      last.last_at = e.at;
+      if (last.capture.empty()) last.capture = std::move(e.capture);
+      return;
+    }
+  }
+  e.last_at = e.at;
+  if (timeline.size() >= kTimelineLength) timeline.erase(timeline.begin());
+  timeline.push_back(std::move(e));
+}
+
+}  // namespace cobridge::gateway

@@ -1,0 +1,53 @@
+// DeviceTimeline: a device's recent events with their cause in words, so
+// that status, the web page and `cobridge why` can tell why a device is in
+// the state it is in, and which capture holds the frames.
+//
+// Threads: the bus's control thread appends (BusManager::Impl::add_event);
+// the status copies travel to other threads as plain values.
+#pragma once
+
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace cobridge::gateway {
+
+// What kind of event: the page colours by it and `cobridge why` groups by it.
+enum class TimelineKind : std::uint8_t {
+  state,       // the gateway's state of the device changed (text: from, to, why)
+  boot_up,     // a boot-up message (CiA 301 §7.2.8.3.2.1)
+  heartbeat,   // heartbeat / guarding lost or back, with the measured gap
+  emcy,        // an emergency message, decoded per family
+  sdo,         // an SDO abort or timeout (CiA 301 §7.2.4.3.17 text)
+  mismatch,    // a configured object read back different (object, expected, read)
+  lss,         // a commissioning (CiA 305) step failed or assigned a node-ID
+  node_id,     // the device moved to another node-ID
+  controller,  // the bus's CAN controller changed its error state
+  drift,       // an object the configuration sets was written by a client
+  configured,  // a configuration plan finished (written, verified, stored)
+};
+[[nodiscard]] const char* to_string(TimelineKind k) noexcept;
+
+struct TimelineEvent {
+  std::chrono::system_clock::time_point at{};
+  TimelineKind kind = TimelineKind::state;
+  std::string text;     // the cause in words, complete on its own
+  std::string capture;  // the flight recorder's file holding the frames; empty = none
+  // The same event again soon after (an EMCY storm, a flapping heartbeat) is
+  // counted on the first, so a storm cannot push the cause out of the window.
+  std::uint32_t repeats = 1;
+  std::chrono::system_clock::time_point last_at{};  // of the latest repeat
+};
+// Repeats of one event within this are counted, not appended.
+inline constexpr std::chrono::seconds kTimelineRepeatWindow{10};
+
+inline constexpr std::size_t kTimelineLength = 100;  // events kept per device
+
+// Appends `e`, dropping the oldest beyond kTimelineLength (most recent last),
+// or counts it on the latest event when that is the same (kind, text) and
+// began less than kTimelineRepeatWindow before.
+void append_event(std::vector<TimelineEvent>& timeline, TimelineEvent e);
+
+}  // namespace cobridge::gateway
