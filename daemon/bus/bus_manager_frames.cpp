@@ -231,7 +231,8 @@ void BusManager::Impl::note_supervision(Managed& m, const Supervisor::Change& c,
       add_event(m, TimelineKind::heartbeat, c.reason, capture("heartbeat lost", m.st.name));
       break;
     case Supervisor::ChangeKind::online:
-      add_event(m, TimelineKind::heartbeat, c.reason.empty() ? "heard again" : c.reason);
+      // A gap measured: back after a loss (the first heartbeat after a start is no news).
+      if (!c.reason.empty()) add_event(m, TimelineKind::heartbeat, c.reason);
       break;
     case Supervisor::ChangeKind::emcy:
       add_event(m, TimelineKind::emcy, c.emcy_text, capture("emcy", m.st.name));

@@ -22,7 +22,9 @@ const char* to_string(TimelineKind k) noexcept {
 void append_event(std::vector<TimelineEvent>& timeline, TimelineEvent e) {
   if (!timeline.empty()) {
     TimelineEvent& last = timeline.back();
-    if (last.kind == e.kind && last.text == e.text && e.at - last.at < kTimelineRepeatWindow && e.at >= last.at) {
+    // EMCYs of a storm differ in their codes; the first names the cause.
+    const bool same = last.text == e.text || e.kind == TimelineKind::emcy;
+    if (last.kind == e.kind && same && e.at - last.at < kTimelineRepeatWindow && e.at >= last.at) {
       ++last.repeats;
       last.last_at = e.at;
       if (last.capture.empty()) last.capture = std::move(e.capture);

@@ -46,8 +46,8 @@ inline constexpr std::chrono::seconds kTimelineRepeatWindow{10};
 inline constexpr std::size_t kTimelineLength = 100;  // events kept per device
 
 // Appends `e`, dropping the oldest beyond kTimelineLength (most recent last),
-// or counts it on the latest event when that is the same (kind, text) and
-// began less than kTimelineRepeatWindow before.
+// or counts it on the latest event when that is the same (kind, text; any
+// EMCY after an EMCY) and began less than kTimelineRepeatWindow before.
 void append_event(std::vector<TimelineEvent>& timeline, TimelineEvent e);
 
 }  // namespace cobridge::gateway

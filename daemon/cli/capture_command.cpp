@@ -12,34 +12,8 @@
 namespace cobridge::cli {
 namespace {
 
-// The daemon's answer to `line` as JSON, or the failure's exit code.
 std::optional<Json> ask(const CaptureOptions& o, const std::string& line, const char* what, int& code) {
-  const Result<std::string> reply = request(o.control, line, o.timeout_ms);
-  if (!reply.ok()) {
-    code = report_failure(what, reply.error(), o.json);
-    return std::nullopt;
-  }
-  const std::string* answer = &reply.value();
-  Result<Json> parsed = JsonParser(*answer).parse();
-  if (!parsed.ok() || parsed.value().type != Json::Type::object) {
-    code = report_failure(what, Error(Errc::kInternal, "the daemon's answer is not a JSON object: " +
-                                                           (parsed.ok() ? std::string("another value")
-                                                                        : parsed.error().message)), o.json);
-    return std::nullopt;
-  }
-  std::optional<Json> doc(std::move(parsed.value()));
-  if ((*doc)["ok"].type == Json::Type::boolean && !(*doc)["ok"].boolean) {
-    const Error e = error_of_answer(*doc);
-    if (o.json) {
-      std::printf("%s\n", answer->c_str());
-    } else {
-      std::fprintf(stderr, "cobridge: %s: %s\n", what, e.to_string().c_str());
-    }
-    code = exit_code(e.kind);
-    return std::nullopt;
-  }
-  if (o.json) std::printf("%s\n", answer->c_str());
-  return doc;
+  return ask_daemon(o.control, line, what, o.timeout_ms, o.json, code);
 }
 
 std::string joined(const Json& list) {

@@ -80,4 +80,35 @@ int report_failure(const char* what, const Error& error, bool json) {
   return exit_code(error.kind);
 }
 
+// The daemon's answer to `line` as JSON, or the failure's exit code.
+std::optional<Json> ask_daemon(const std::string& control, const std::string& line, const char* what, int timeout_ms,
+                               bool json, int& code) {
+  const Result<std::string> reply = request(control, line, timeout_ms);
+  if (!reply.ok()) {
+    code = report_failure(what, reply.error(), json);
+    return std::nullopt;
+  }
+  const std::string* answer = &reply.value();
+  Result<Json> parsed = JsonParser(*answer).parse();
+  if (!parsed.ok() || parsed.value().type != Json::Type::object) {
+    code = report_failure(what, Error(Errc::kInternal, "the daemon's answer is not a JSON object: " +
+                                                           (parsed.ok() ? std::string("another value")
+                                                                        : parsed.error().message)), json);
+    return std::nullopt;
+  }
+  std::optional<Json> doc(std::move(parsed.value()));
+  if ((*doc)["ok"].type == Json::Type::boolean && !(*doc)["ok"].boolean) {
+    const Error e = error_of_answer(*doc);
+    if (json) {
+      std::printf("%s\n", answer->c_str());
+    } else {
+      std::fprintf(stderr, "cobridge: %s: %s\n", what, e.to_string().c_str());
+    }
+    code = exit_code(e.kind);
+    return std::nullopt;
+  }
+  if (json) std::printf("%s\n", answer->c_str());
+  return doc;
+}
+
 }  // namespace cobridge::cli

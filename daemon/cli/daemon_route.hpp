@@ -53,4 +53,10 @@ int report_failure(const char* what, const Error& error, bool json);
 // The same for a failure the daemon answered: with --json its answer as it is.
 int report_daemon_failure(const char* what, const std::pair<Error, DaemonAnswer>& routed, bool json);
 
+// Sends `line` to the daemon at `control` and parses its JSON answer. On a
+// failure (transport, garbage, {"ok":false}) prints it as report_failure
+// does, sets `code` and returns nullopt; with `json` the answer is printed.
+std::optional<Json> ask_daemon(const std::string& control, const std::string& line, const char* what, int timeout_ms,
+                               bool json, int& code);
+
 }  // namespace cobridge::cli

@@ -8,6 +8,7 @@
 #include "cli/scan_command.hpp"
 #include "cli/sdo_command.hpp"
 #include "cli/status_command.hpp"
+#include "cli/why_command.hpp"
 #include "cli/watch_command.hpp"
 #include "sys/logging.hpp"
 
@@ -31,6 +32,8 @@ struct Commands {
   WatchOptions watch_o;
   ModbusMapOptions modbus_map_o;
   CaptureOptions capture_o;
+  WhyOptions why_o;
+  CLI::App* why_c = nullptr;
   CLI::App* scan_c = nullptr;
   CLI::App* sdo_r = nullptr;
   CLI::App* sdo_w = nullptr;
@@ -140,6 +143,15 @@ void add_capture(CLI::App& app, Commands& k) {
   }
 }
 
+void add_why(CLI::App& app, Commands& k) {
+  auto& o = k.why_o;
+  auto* c = k.why_c = app.add_subcommand("why", "the chain of events that led to a device's present state, with its captures");
+  c->add_option("device", o.device, "a device name, or BUS:NODE")->required();
+  c->add_flag("--all", o.all, "the whole timeline (at most 100 events), not only the chain");
+  c->add_option("--control", o.control, "daemon control socket")->capture_default_str();
+  c->add_flag("--json", o.json, "machine-readable output");
+}
+
 void add_output_commands(CLI::App& app, Commands& k) {
   auto& watch_o = k.watch_o;
   auto& modbus_map_o = k.modbus_map_o;
@@ -171,6 +183,7 @@ int run(const Commands& k) {
   if (*k.watch_c) return watch(k.watch_o);
   if (*k.modbus_map_c) return modbus_map(k.modbus_map_o);
   if (*k.capture_c) return capture(k.capture_o);
+  if (*k.why_c) return why(k.why_o);
   return 2;
 }
 
@@ -188,6 +201,7 @@ int main(int argc, char** argv) {
   add_daemon_commands(app, k);
   add_output_commands(app, k);
   add_capture(app, k);
+  add_why(app, k);
   CLI11_PARSE(app, argc, argv);
   // The commands print their own errors; the layers' log lines are for -v.
   // (setup_logging: loggers made later take this level too, not only those made so far.)

@@ -174,8 +174,10 @@ class CanListener(_SocketReader):
     _SO_RCVBUFFORCE = getattr(socket, "SO_RCVBUFFORCE", 33)  # <asm-generic/socket.h>
     _SO_TIMESTAMP = getattr(socket, "SO_TIMESTAMP", 29)  # struct timeval in the cmsg
 
-    def __init__(self, iface="vcan0"):
+    def __init__(self, iface="vcan0", errors=False):
         sock = socket.socket(socket.AF_CAN, socket.SOCK_RAW, socket.CAN_RAW)
+        if errors:  # CAN_RAW_ERR_FILTER (linux/can/raw.h): every error class, as candump -e
+            sock.setsockopt(socket.SOL_CAN_RAW, 2, struct.pack("=I", 0x1FFFFFFF))
         try:  # root in UML: beyond net.core.rmem_max, so a flood loses nothing
             sock.setsockopt(socket.SOL_SOCKET, self._SO_RCVBUFFORCE, 4 << 20)
         except OSError:
@@ -196,7 +198,9 @@ class CanListener(_SocketReader):
     def _received(self, t, data):
         can_id, dlc = struct.unpack("=IB3x", data[:8])
         with self.lock:
-            self.frames.append((t, can_id & 0x1FFFFFFF, bytes(data[8:8 + dlc])))
+            # Error frames keep CAN_ERR_FLAG (0x20000000) in the id, so they are told apart.
+            self.frames.append((t, can_id & (0x3FFFFFFF if can_id & 0x20000000 else 0x1FFFFFFF),
+                                bytes(data[8:8 + dlc])))
 
     def snapshot(self, since=0.0):
         with self.lock:

@@ -12,7 +12,17 @@ its configured node-ID with heartbeat 100 ms, recorder on (10 s, 2 s after):
  * an EMCY storm (as fast as Python sends them, ~1 000/s in UML, for 12 s:
    more than 1 MiB of captures): the EMCY captures coalesce (one per
    capture_after_s window, not one per EMCY) and the bus's captures stay
-   within capture_cap_mib (1 MiB here) on disk, the oldest deleted.
+   within capture_cap_mib (1 MiB here) on disk, the oldest deleted;
+ * error frames on the bus (the controller error-passive, then bus-off, as a
+   driver reports them, Linux can.rst "Network Problem Notifications"): a
+   capture naming "bus error" that holds the error frames, and canplayer
+   replays them.
+The device's timeline (docs/operations.md "Why a device is where it is")
+names each fault's cause and the capture holding its frames: the boot-up,
+the heartbeat loss with the measured silence, the EMCY (decoded per family,
+Novotechnik rotary manual §1.8.1; a storm counted on one entry), the
+controller's transitions; `cobridge why rot-a` prints the chain while the
+device is offline, and after it is back.
 """
 import glob
 import json
@@ -47,9 +57,41 @@ def lines_of(path):
         return [l for l in f.read().splitlines() if l]
 
 
-def check_replay(report, path):
+def timeline_event(daemon, kind, pred=lambda e: True, timeout=3.0):
+    """The newest event of rot-a's timeline of `kind` for which pred holds, or None."""
+    end = time.time() + timeout
+    while True:
+        try:
+            events = daemon.status()["buses"][0]["devices"][0]["timeline"]
+        except (OSError, ValueError, KeyError, IndexError):
+            events = []
+        hits = [e for e in events if e["kind"] == kind and pred(e)]
+        if hits or time.time() >= end:
+            return hits[-1] if hits else None
+        time.sleep(0.05)
+
+
+def check_timeline(report, daemon, kind, capture_path, what, pred=lambda e: True):
+    """The timeline holds a `kind` event naming its cause and the capture (when one is given)."""
+    want = os.path.basename(capture_path) if capture_path else None
+    e = timeline_event(daemon, kind, lambda e: pred(e) and (want is None or e["capture"] == want))
+    report.check(e is not None and e["text"], "timeline: %s, with the capture holding its frames" % what,
+                 "%r" % e if e else "no %s event with capture %s" % (kind, want))
+    return e
+
+
+def check_why(report, cli, ctl, must, what):
+    """`cobridge why rot-a` prints the chain: every text of `must` is in it."""
+    code, out, err = e2e.run_cli(cli, "why", "rot-a", *ctl)
+    missing = [m for m in must if m not in out]
+    report.check(code == 0 and not missing, "cobridge why: " + what, out + err if missing or code else out.strip())
+
+
+def check_replay(report, path, pred=None, label="the boot-up", errors=False):
     """canplayer sends every line of the file onto vcan1 (vcan1=vcan0: the log's interface is vcan0)."""
-    listener = e2e.CanListener("vcan1")
+    if pred is None:
+        pred = lambda f: f[1] == 0x700 + NODE and f[2] == b"\x00"
+    listener = e2e.CanListener("vcan1", errors=errors)
     try:
         time.sleep(0.2)
         t0 = time.time()
@@ -59,11 +101,11 @@ def check_replay(report, path):
         while time.time() < deadline and len(listener.snapshot(t0)) < want:
             time.sleep(0.05)
         got = listener.snapshot(t0)
-        boot = [f for f in got if f[1] == 0x700 + NODE and f[2] == b"\x00"]
-        report.check(r.returncode == 0 and len(got) == want and boot,
-                     "canplayer replays the capture: as many frames as lines, the boot-up among them",
-                     "exit %d %s; %d lines, %d frames replayed, %d boot-ups" % (r.returncode, r.stderr.strip(), want,
-                                                                                 len(got), len(boot)))
+        hits = [f for f in got if pred(f)]
+        report.check(r.returncode == 0 and len(got) == want and hits,
+                     "canplayer replays the capture: as many frames as lines, %s among them" % label,
+                     "exit %d %s; %d lines, %d frames replayed, %d of %s" % (r.returncode, r.stderr.strip(), want,
+                                                                            len(got), len(hits), label))
     finally:
         listener.close()
 
@@ -98,6 +140,26 @@ def check_emcy_storm(report, ws):
     report.check(worst <= cap and len(left) < len(seen),
                  "EMCY storm: the captures stay within capture_cap_mib on disk, the oldest deleted",
                  "at most %d bytes seen (cap %d); %d deleted" % (worst, cap, len(seen) - len(left)))
+
+
+def check_bus_error(report, ws, sim, daemon, listener):
+    """Error frames: a capture naming "bus error" holds them, canplayer replays them, the timeline tells."""
+    before = set(glob.glob(os.path.join(ws.state, "captures", "*.log")))
+    sim.command("bus-error vcan0 error-passive")
+    time.sleep(0.2)
+    sim.command("bus-error vcan0 bus-off")
+    path, side = wait_capture(ws, "bus-error", before, AFTER + 3.0)
+    report.check(path is not None and "bus error" in side["causes"], "error frames: a capture with cause bus error",
+                 path or "none")
+    if path:
+        errs = [l for l in lines_of(path) if l.split(" ")[-1][:8].upper().startswith("2")]
+        report.check(len(errs) >= 2, "the capture holds the error frames (CAN_ERR_FLAG ids)", "%d error lines" % len(errs))
+        check_replay(report, path, lambda f: f[1] & 0x20000000, "the error frames", errors=True)
+    check_timeline(report, daemon, "controller", path, "the controller's transition to bus-off",
+                   lambda e: "bus-off" in e["text"])
+    sim.command("bus-error vcan0 restarted")
+    sim.command("bus-error vcan0 error-active")
+    time.sleep(AFTER + 0.5)
 
 
 def main():
@@ -142,6 +204,7 @@ def main():
             report.check(side["causes"][0] == "boot-up" and "rot-a" in side["devices"] and side["frames"] == len(lines_of(path)),
                          "the sidecar names the cause, the device and the frame count", "%r" % side)
             check_replay(report, path)
+        check_timeline(report, daemon, "boot-up", path, "the boot-up", lambda e: "restarted" in e["text"])
         time.sleep(AFTER + 0.5)
 
         # Silence -> offline -> a heartbeat-lost capture.
@@ -150,7 +213,15 @@ def main():
         hb_path, hb_side = wait_capture(ws, "heartbeat-lost", before, AFTER + 3.0)
         report.check(hb_path is not None and "heartbeat lost" in hb_side["causes"],
                      "silenced: a capture with cause heartbeat lost", hb_path or "none")
+        lost = check_timeline(report, daemon, "heartbeat", hb_path, "the heartbeat loss with the measured silence",
+                              lambda e: e["text"].startswith("heartbeat lost: none for "))
+        check_why(report, args.cli, ctl, ["offline since", "heartbeat lost: none for", "operational -> offline",
+                                          os.path.basename(hb_path or "?")], "the chain of an offline device")
         sim.command("silence %d off" % SERIAL)
+        back = timeline_event(daemon, "heartbeat", lambda e: e["text"].startswith("heard again after"), 5.0)
+        report.check(back is not None, "timeline: heard again, with the gap measured", "%r" % back)
+        check_why(report, args.cli, ctl, ["operational since", "heartbeat lost: none for", "heard again after"],
+                  "the way back of an operational device")
         time.sleep(AFTER + 0.5)
 
         # capture now / list / get.
@@ -173,7 +244,12 @@ def main():
             code, out, err = e2e.run_cli(args.cli, "capture", "get", os.path.basename(path), *ctl)
             with open(path) as f:
                 report.check(code == 0 and out == f.read(), "cobridge capture get returns the file", err)
+        check_bus_error(report, ws, sim, daemon, listener)
         check_emcy_storm(report, ws)
+        emcy = timeline_event(daemon, "emcy", lambda e: e["repeats"] > 1 and e["capture"])
+        report.check(emcy is not None and emcy["text"].startswith("EMCY 0x10") and emcy["repeats"] > 100,
+                     "timeline: the EMCY storm counted on one entry (decoded: code, meaning, source), with a capture",
+                     "%r" % emcy)
         e2e.check_clean_exit(report, daemon)
         daemon = None
     return report.finish()

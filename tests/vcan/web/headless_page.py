@@ -103,8 +103,9 @@ class HeadlessPage:
     def open(self, url, timeout=120.0):
         self._call("Page.navigate", {"url": url}, timeout=timeout)
 
-    def evaluate(self, expression, timeout=60.0):
-        r = self._call("Runtime.evaluate", {"expression": expression, "returnByValue": True}, timeout=timeout)
+    def evaluate(self, expression, timeout=60.0, await_promise=False):
+        r = self._call("Runtime.evaluate", {"expression": expression, "returnByValue": True,
+                                            "awaitPromise": await_promise}, timeout=timeout)
         if "exceptionDetails" in r:
             raise BrowserError("%s: %s" % (expression, r["exceptionDetails"].get("text")))
         return r["result"].get("value")

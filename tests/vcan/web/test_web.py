@@ -463,6 +463,28 @@ def shown_fresh(dom, name):
     return re.search(r'<tr class="device[^"]*" data-name="%s"[^>]*data-stale="0"' % re.escape(name), dom) is not None
 
 
+# The device's timeline as a person uses it: opens its details, which stay
+# open across the page's redraws, and follows the newest capture link there.
+TIMELINE_JS = """(async () => {
+  const list = () => document.querySelector('ol.timeline[data-timeline="%s"]');
+  if (!list()) return {found: false};
+  list().closest('details').querySelector('summary').click();
+  await new Promise(r => setTimeout(r, 2500));
+  const kinds = [...list().querySelectorAll('li.tl')].map(li => li.dataset.kind);
+  const link = list().querySelector('li.tl[data-capture] a');
+  const got = link ? await fetch(link.href) : null;
+  const text = got ? await got.text() : '';
+  return {found: true, open: list().closest('details').open, kinds: kinds,
+          capture: link ? link.textContent : null, status: got ? got.status : 0,
+          lines: text.split('\\n').filter(l => l).length,
+          candump: /^\\(\\d+\\.\\d{6}\\) \\S+ [0-9A-F]{3,8}#/.test(text)};
+})()"""
+
+
+def timeline_in_page(page, name):
+    return page.evaluate(TIMELINE_JS % name, await_promise=True)
+
+
 def take_views(work, url, names, stale_name, screenshot):
     """Everything Chromium does, in one Chromium: the page as a person sees it
     once its own polls (1 s, real time) ran, twice a few seconds apart (every
@@ -501,9 +523,10 @@ def take_views(work, url, names, stale_name, screenshot):
         page.screenshot_png(width=1280, height=900)
         overflow = page.evaluate("Math.max(0, ...[...document.querySelectorAll('section.bus')]"
                                  ".map(s => s.scrollWidth - s.clientWidth))")
+        tl = timeline_in_page(page, stale_name)
         pngs = {w: page.screenshot_png(width=w, height=900) for w in (1280, 1920)} if screenshot else None
         print("FIGURE the browser part took %.1f s" % (time.time() - t0), flush=True)
-        return doms, (pngs, overflow)
+        return doms, (pngs, overflow, tl)
     finally:
         page.close()
 
@@ -530,8 +553,8 @@ def browser(report, ws, args, names, stale_name):
     url = "http://127.0.0.1:%d/" % PORT
     work = tempfile.mkdtemp(prefix="cobridge-chrome-", dir="/tmp")
     try:
-        doms, (pngs, overflow) = views_with_one_fresh_chromium(work, url, names, stale_name,
-                                                                bool(args.screenshot_dir))
+        doms, (pngs, overflow, tl) = views_with_one_fresh_chromium(work, url, names, stale_name,
+                                                                    bool(args.screenshot_dir))
     except BrowserError as e:
         logs = sorted(glob.glob(os.path.join(work, "*", "chromium.log")))
         report.check(False, "browser: Chromium drove the page", "%s; its stderr ends:\n%s" % (
@@ -560,6 +583,12 @@ def browser(report, ws, args, names, stale_name):
                  "browser: the silenced device's NMT state reads unknown, not its last heartbeat's")
     report.check('data-capture="' in doms[-1] and 'href="api/v1/captures/' in doms[-1],
                  "browser: the bus's flight recorder captures are listed, each a link to its file")
+    report.check(tl.get("found") and tl.get("open") and "heartbeat" in tl.get("kinds", []) and
+                 "state" in tl.get("kinds", []),
+                 "browser: %s's timeline shows the heartbeat loss and the state change; its details stay open "
+                 "across redraws" % stale_name, json.dumps(tl))
+    report.check(tl.get("capture") and tl.get("status") == 200 and tl.get("lines", 0) > 0 and tl.get("candump"),
+                 "browser: the timeline's capture link serves the frames as a candump -l log", json.dumps(tl))
     report.check('stroke-width="2"' in doms[-1] and "<circle" in doms[-1],
                  "browser: the sparkline is drawn legibly (2 px stroke, the newest point marked)")
     report.check("\u00a7" in doms[-1] and not re.search(r"\([JEF]\u00a7", doms[-1]),

@@ -1,0 +1,118 @@
+#include "cli/why_command.hpp"
+
+#include "base/error.hpp"
+#include "cli/daemon_route.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <optional>
+
+namespace cobridge::cli {
+namespace {
+
+// "operational -> offline: ..." enters "offline": a state event's target.
+bool enters(const Json& event, std::string_view state) {
+  if (event["kind"].str("") != "state") return false;
+  const std::string& text = event["text"].text;
+  const std::size_t arrow = text.find(" -> ");
+  if (arrow == std::string::npos) return false;
+  const std::string_view rest = std::string_view(text).substr(arrow + 4);
+  return rest.substr(0, rest.find(':')) == state;
+}
+
+// The device named `wanted` ("name" or "bus:node") in the status document.
+const Json* find_device(const Json& doc, const std::string& wanted, std::string& known) {
+  for (const auto& bus : doc["buses"].items) {
+    for (const auto& d : bus["devices"].items) {
+      const std::string name = d["name"].str("");
+      const std::string at = bus["name"].str("") + ":" + d["node_id"].str("");
+      if (name == wanted || at == wanted) return &d;
+      known += (known.empty() ? "" : ", ") + name;
+    }
+  }
+  return nullptr;
+}
+
+// "2026-11-28T04:30:01.123Z" -> "04:30:01.123"
+std::string clock_of(const Json& t) {
+  const std::string s = t.str("");
+  return s.size() >= 23 ? s.substr(11, 12) : s;
+}
+
+void print_event(const Json& e) {
+  const std::string kind = e["kind"].str("");
+  std::string line = clock_of(e["at"]) + "  " + kind + std::string(12 - std::min<std::size_t>(11, kind.size()), ' ') +
+                     e["text"].str("");
+  if (e["repeats"].integer() > 1)
+    line += " (x" + std::to_string(e["repeats"].integer()) + ", last " + clock_of(e["last_at"]) + ")";
+  if (!e["capture"].is_null()) line += "\n" + std::string(26, ' ') + "frames: " + e["capture"].str("");
+  std::printf("%s\n", line.c_str());
+}
+
+void print_chain(const Json& d, std::size_t first) {
+  std::printf("%s (bus %s, node %s): %s since %s%s%s\n", d["name"].str().c_str(), d["bus"].str().c_str(),
+              d["node_id"].str().c_str(), d["state"].str().c_str(), d["since"].str().c_str(),
+              d["last_error"].str("").empty() ? "" : ": ", d["last_error"].str("").c_str());
+  const auto& events = d["timeline"].items;
+  if (first >= events.size()) {
+    std::printf("no events recorded\n");
+    return;
+  }
+  bool captures = false;
+  for (std::size_t i = first; i < events.size(); ++i) {
+    print_event(events[i]);
+    captures = captures || !events[i]["capture"].is_null();
+  }
+  if (captures) std::printf("`cobridge capture get NAME` prints a capture's frames (candump -l; canplayer replays it)\n");
+}
+
+void print_json(const Json& d, std::size_t first) {
+  std::string out = "{\"device\":" + json_quote(d["name"].str("")) + ",\"state\":" + json_quote(d["state"].str("")) +
+                    ",\"since\":" + json_quote(d["since"].str("")) + ",\"chain\":[";
+  const auto& events = d["timeline"].items;
+  for (std::size_t i = first; i < events.size(); ++i) {
+    const Json& e = events[i];
+    out += (i == first ? "" : ",");
+    out += "{\"at\":" + json_quote(e["at"].str("")) + ",\"kind\":" + json_quote(e["kind"].str("")) +
+           ",\"text\":" + json_quote(e["text"].str("")) + ",\"repeats\":" + std::to_string(e["repeats"].integer()) +
+           ",\"capture\":" + (e["capture"].is_null() ? std::string("null") : json_quote(e["capture"].str(""))) + "}";
+  }
+  std::printf("%s]}\n", out.c_str());
+}
+
+}  // namespace
+
+std::size_t chain_start(const Json& timeline, std::string_view state) {
+  const auto& events = timeline.items;
+  // The latest entries into operational, newest first.
+  std::optional<std::size_t> last;
+  std::optional<std::size_t> before_last;
+  for (std::size_t i = 0; i < events.size(); ++i) {
+    if (!enters(events[i], "operational")) continue;
+    before_last = last;
+    last = i;
+  }
+  const std::optional<std::size_t> since = state == "operational" ? before_last : last;
+  return since ? *since + 1 : 0;
+}
+
+int why(const WhyOptions& o) {
+  int code = 0;
+  const auto doc = ask_daemon(o.control, "status", "why", o.timeout_ms, false, code);
+  if (!doc) return code;
+  std::string known;
+  const Json* d = find_device(*doc, o.device, known);
+  if (d == nullptr) {
+    return report_failure("why", Error(Errc::kNotFound, "no such device (known: " + (known.empty() ? "none" : known) + ")",
+                                       o.device), o.json);
+  }
+  const std::size_t first = o.all ? 0 : chain_start((*d)["timeline"], (*d)["state"].str(""));
+  if (o.json) {
+    print_json(*d, first);
+  } else {
+    print_chain(*d, first);
+  }
+  return 0;
+}
+
+}  // namespace cobridge::cli

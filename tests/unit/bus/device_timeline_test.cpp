@@ -1,0 +1,55 @@
+// A device's timeline (issue "Why, at a glance", item 2): the last 100 events,
+// a storm of one event counted instead of pushing the cause out.
+#include "bus/device_timeline.hpp"
+
+#include <gtest/gtest.h>
+
+namespace cobridge::gateway {
+namespace {
+
+using namespace std::chrono_literals;
+const std::chrono::system_clock::time_point kT0{std::chrono::seconds(1'800'000'000)};
+
+TEST(DeviceTimeline, KeepsTheLastHundredEventsOldestFirst) {
+  std::vector<TimelineEvent> tl;
+  for (int i = 0; i < 150; ++i) {
+    append_event(tl, TimelineEvent{kT0 + i * 1s, TimelineKind::state, "event " + std::to_string(i), {}});
+  }
+  ASSERT_EQ(tl.size(), kTimelineLength);
+  EXPECT_EQ(tl.front().text, "event 50");
+  EXPECT_EQ(tl.back().text, "event 149");
+}
+
+TEST(DeviceTimeline, AStormOfOneEventIsCountedNotAppended) {
+  std::vector<TimelineEvent> tl;
+  append_event(tl, TimelineEvent{kT0, TimelineKind::heartbeat, "heartbeat lost: none for 250 ms", "cap-1.log"});
+  for (int i = 1; i <= 500; ++i) {
+    append_event(tl, TimelineEvent{kT0 + i * 10ms, TimelineKind::emcy, "EMCY 0x50" + std::to_string(i % 10), {}});
+  }
+  ASSERT_EQ(tl.size(), 2U);  // the cause before the storm is still there
+  EXPECT_EQ(tl[1].text, "EMCY 0x501");  // the storm's first names it
+  EXPECT_EQ(tl[0].capture, "cap-1.log");
+  EXPECT_EQ(tl[1].repeats, 500U);
+  EXPECT_EQ(tl[1].at, kT0 + 10ms);
+  EXPECT_EQ(tl[1].last_at, kT0 + 5000ms);
+}
+
+TEST(DeviceTimeline, TheSameEventLaterOrOfAnotherKindIsANewEntry) {
+  std::vector<TimelineEvent> tl;
+  append_event(tl, TimelineEvent{kT0, TimelineKind::state, "operational -> offline", {}});
+  append_event(tl, TimelineEvent{kT0 + kTimelineRepeatWindow, TimelineKind::state, "operational -> offline", {}});
+  append_event(tl, TimelineEvent{kT0 + kTimelineRepeatWindow, TimelineKind::heartbeat, "operational -> offline", {}});
+  append_event(tl, TimelineEvent{kT0 + kTimelineRepeatWindow, TimelineKind::heartbeat, "heard again", {}});
+  ASSERT_EQ(tl.size(), 4U);
+  EXPECT_EQ(tl[0].repeats, 1U);
+  EXPECT_EQ(tl[0].last_at, kT0);
+}
+
+TEST(DeviceTimeline, KindsHaveTheirDocumentedNames) {
+  EXPECT_STREQ(to_string(TimelineKind::boot_up), "boot-up");
+  EXPECT_STREQ(to_string(TimelineKind::node_id), "node-id");
+  EXPECT_STREQ(to_string(TimelineKind::drift), "drift");
+}
+
+}  // namespace
+}  // namespace cobridge::gateway
