@@ -111,7 +111,13 @@ def check_replay(report, path, pred=None, label="the boot-up", errors=False):
 
 
 def captures_bytes(ws):
-    return sum(os.path.getsize(p) for p in glob.glob(os.path.join(ws.state, "captures", "line1-*")))
+    total = 0
+    for p in glob.glob(os.path.join(ws.state, "captures", "line1-*")):
+        try:
+            total += os.path.getsize(p)
+        except FileNotFoundError:  # deleted by the cap between the listing and now
+            pass
+    return total
 
 
 def check_emcy_storm(report, ws):
