@@ -92,6 +92,16 @@ def main():
             for s in steps:
                 print("  %-28s %-10s %9.1f ms" % s)
             report.check(len(steps) > 0, "status reports the timed commissioning steps", "%d steps" % len(steps))
+            # The timeline tells each device's way here: the LSS assignment (CiA 305), the
+            # plan that configured it (values written and verified), the entry into operational.
+            for (n, _, _, serial, node) in DEVICES:
+                tl = (devs.get(n) or {}).get("timeline") or []
+                kinds = [e["kind"] for e in tl]
+                lss = [e for e in tl if e["kind"] == "lss" and str(node) in e["text"]]
+                done = [e for e in tl if e["kind"] == "configured" and "written and verified" in e["text"]]
+                up = [e for e in tl if e["kind"] == "state" and e["text"].endswith("-> operational: configured and started")]
+                report.check(lss and done and up, "timeline of %s: its node-ID assignment, its configuration, operational"
+                             % n, repr(kinds) if not (lss and done and up) else lss[-1]["text"])
             problems = [p for b in doc["buses"] for p in b["problems"]]
             print("problems reported: %s" % problems)
 
