@@ -81,6 +81,27 @@ std::string candump_line(const can::Frame& frame, std::string_view interface) {
   return line;
 }
 
+CaptureInfo capture_from_name(const std::string& name, std::size_t prefix) {
+  CaptureInfo info;
+  info.name = name;
+  // "<bus>-YYYYMMDDTHHMMSS.mmmZ-<cause>.log": the stamp is 20 characters.
+  if (name.size() < prefix + 25 || name.compare(name.size() - 4, 4, ".log") != 0) return info;
+  std::tm utc{};
+  int millis = 0;
+  char t = 0;
+  char z = 0;
+  if (std::sscanf(name.c_str() + prefix, "%4d%2d%2d%c%2d%2d%2d.%3d%c", &utc.tm_year, &utc.tm_mon, &utc.tm_mday, &t,
+                  &utc.tm_hour, &utc.tm_min, &utc.tm_sec, &millis, &z) != 9 || t != 'T' || z != 'Z')
+    return info;
+  utc.tm_year -= 1900;
+  utc.tm_mon -= 1;
+  info.fault_ns = static_cast<std::int64_t>(timegm(&utc)) * 1'000'000'000 + std::int64_t{millis} * 1'000'000;
+  std::string word = name.substr(prefix + 21, name.size() - 4 - (prefix + 21));
+  std::replace(word.begin(), word.end(), '-', ' ');
+  if (!word.empty()) info.causes.push_back(word);
+  return info;
+}
+
 std::string capture_file_word(std::string_view cause) {
   std::string out;
   for (char c : cause) {
@@ -280,8 +301,7 @@ std::vector<CaptureInfo> CaptureWriter::recent() const {
     if (it != recent_.end()) {
       out.push_back(*it);
     } else {
-      CaptureInfo info;
-      info.name = name;
+      CaptureInfo info = capture_from_name(name, prefix.size());
       std::error_code ec;
       info.bytes = std::filesystem::file_size(options_.dir / name, ec);
       out.push_back(std::move(info));

@@ -62,6 +62,11 @@ struct CaptureInfo {
 // CAN_ERR_FLAG bit) as 8; RTR frames as "ID#R".
 [[nodiscard]] std::string candump_line(const can::Frame& frame, std::string_view interface);
 
+// A capture of an earlier run as its file name tells it: the fault's time
+// and its first cause ("heartbeat-lost" -> "heartbeat lost"); `prefix` is the
+// length of "<bus>-". A name of another form gives the name only.
+[[nodiscard]] CaptureInfo capture_from_name(const std::string& name, std::size_t prefix);
+
 // "boot-up", "heartbeat lost" -> "heartbeat-lost": what a cause is in a file name.
 [[nodiscard]] std::string capture_file_word(std::string_view cause);
 

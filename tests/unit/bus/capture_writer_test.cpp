@@ -67,6 +67,17 @@ TEST(CandumpLine, StandardExtendedRtrAndErrorFrames) {
   EXPECT_EQ(candump_line(err, "vcan0"), "(0.000000) vcan0 20000004#0004000000000000\n");
 }
 
+// A capture of an earlier run: its time and cause from its name, as the writer names it.
+TEST(CaptureFromName, TheNameGivesTheFaultTimeAndCause) {
+  const CaptureInfo c = capture_from_name("line1-20261128T015512.345Z-heartbeat-lost.log", 6);
+  EXPECT_EQ(c.fault_ns, 1795830912345000000LL);  // date -u -d 2026-11-28T01:55:12 +%s = 1795830912
+  EXPECT_EQ(c.causes, (std::vector<std::string>{"heartbeat lost"}));
+  const CaptureInfo odd = capture_from_name("line1-garbage.log", 6);
+  EXPECT_EQ(odd.name, "line1-garbage.log");
+  EXPECT_EQ(odd.fault_ns, 0);
+  EXPECT_TRUE(odd.causes.empty());
+}
+
 TEST(CaptureFileWord, LowercaseWordsJoinedByDashes) {
   EXPECT_EQ(capture_file_word("heartbeat lost"), "heartbeat-lost");
   EXPECT_EQ(capture_file_word("Boot-up"), "boot-up");
