@@ -62,8 +62,11 @@ void BusManager::Impl::note_command_writes(Managed& m, const ConfigPlan& command
 
 // The full plan, as after a boot-up: it rewrites what differs, verifies and
 // stores; mark_operational() clears the drift when it succeeds.
+// A device a client stopped (operator_hold) is not started by a restore:
+// the restore waits for the client's NMT start (on_nmt_sent).
 void BusManager::Impl::restore_configuration(Managed& m, TimePoint now) {
   if (m.runner || m.description == nullptr || !m.profile) return;  // a plan is on its way anyway
+  if (m.operator_hold) return;
   m.force_full = true;
   m.want_configure = true;
   m.attempts = 0;

@@ -135,7 +135,8 @@ void Loader::read_functions(TableReader& r, Device& d, const KnownModel* model) 
           "store", {{"on-change", StorePolicy::on_change}, {"always", StorePolicy::always}, {"never", StorePolicy::never}})) {
     d.store = *v;
   }
-  if (auto v = r.choice<DriftPolicy>("on_config_drift", {{"restore", DriftPolicy::restore}, {"keep", DriftPolicy::keep}})) {
+  if (auto v = r.choice<DriftPolicy>("on_config_drift",
+                                     {{"restore", DriftPolicy::restore}, {"keep", DriftPolicy::keep}})) {
     d.on_config_drift = *v;
   }
 }

@@ -127,7 +127,7 @@ def keep_case(report, args, ws, daemon, sim):
     report.check(d["state"] == "operational" and d["online"],
                  "keep: the heartbeat consumer follows 1000 ms (mt-a stays online)", d["state"])
     rc, out, err = e2e.run_cli(args.cli, "sdo", "read", "-i", "vcan0", "-n", str(MT[1]), "1017:0", *ctl)
-    report.check(rc == 0 and "1000" in out, "keep: 0x1017 still the operator's 1000", out.strip() + err.strip())
+    report.check(rc == 0 and "(1000)" in out, "keep: 0x1017 still the operator's 1000", out.strip() + err.strip())
 
     sim.command("power-cycle %d" % MT[0])
     st, took = daemon.wait_until(lambda s: any(d["name"] == "mt-a" and not d["config_differs"]
@@ -138,7 +138,7 @@ def keep_case(report, args, ws, daemon, sim):
                  "after a power cycle the configuration is applied again and the drift cleared",
                  "%s s" % ("%.2f" % took if took else took))
     rc, out, err = e2e.run_cli(args.cli, "sdo", "read", "-i", "vcan0", "-n", str(MT[1]), "1017:0", *ctl)
-    report.check(rc == 0 and out.split()[-1:] in (["100"], ["0x0064"], ["0x64"]),
+    report.check(rc == 0 and "(100)" in out,
                  "0x1017 reads 100 after the power cycle", out.strip() + err.strip())
 
 
