@@ -14,8 +14,11 @@ the producer heartbeat time, 0x1017 (CiA 301 §7.4.8.3), configured 100 ms.
      `cobridge status` ("configuration differs") and /metrics
      (cobridge_device_config_differs 1) say so, and keep saying so; the value
      stays 1000 and the heartbeat consumer follows it (1000 ms silences are
-     no loss: still online). After a power cycle of the device the
-     configuration is applied again: drift cleared, 0x1017 reads 100.
+     no loss: still online). A Modbus preset (command registers +28..+30,
+     docs/modbus.md; mt-a's configuration sets preset = 0, 0x6003, E§4.2)
+     is drift too, written by "plugin modbus". After a power cycle of the
+     device the configuration is applied again: drift cleared, 0x1017
+     reads 100.
 """
 import socket
 import sys
@@ -25,7 +28,8 @@ import urllib.request
 import e2e
 
 ROT, MT = (1001, 10), (2001, 20)
-TCP_PORT, WEB_PORT = 5309, 8089
+TCP_PORT, WEB_PORT, MODBUS_PORT = 5309, 8089, 1502
+MT_SLOT = 1  # device_index = position in the configuration (docs/modbus.md)
 
 
 def ask_309(line):
@@ -104,6 +108,25 @@ def metric(name, device_name):
     return None
 
 
+def modbus_preset(report, daemon):
+    from pymodbus.client import ModbusTcpClient
+    mb = ModbusTcpClient("127.0.0.1", port=MODBUS_PORT, timeout=5)
+    try:
+        w = mb.write_registers(256 + 32 * MT_SLOT + 28, [0, 5000, 1], slave=1) if mb.connect() else None
+        report.check(w is not None and not w.isError(), "Modbus preset of mt-a to 5000", str(w))
+    finally:
+        mb.close()
+    st, took = daemon.wait_until(lambda s: any(d["name"] == "mt-a" and any(r["object"] == "0x6003:00"
+                                                                             for r in d["drift"])
+                                               for b in s["buses"] for d in b["devices"]), 5)
+    recs = {r["object"]: r for r in device(daemon, "mt-a")["drift"]}
+    rec = recs.get("0x6003:00", {})
+    report.check(took is not None and rec.get("writer") == "plugin modbus" and rec.get("configured") == 0
+                 and rec.get("value") == 5000 and "0x1017:00" in recs,
+                 "Modbus preset: drift 0x6003:00 configured 0, 5000, writer plugin modbus (0x1017 still open)",
+                 repr(list(recs.values())))
+
+
 def keep_case(report, args, ws, daemon, sim):
     ctl = ["--control", ws.control]
     rc, out, err = e2e.run_cli(args.cli, "sdo", "write", "-i", "vcan0", "-n", str(MT[1]), "1017:0", "1000",
@@ -129,6 +152,7 @@ def keep_case(report, args, ws, daemon, sim):
     rc, out, err = e2e.run_cli(args.cli, "sdo", "read", "-i", "vcan0", "-n", str(MT[1]), "1017:0", *ctl)
     report.check(rc == 0 and "(1000)" in out, "keep: 0x1017 still the operator's 1000", out.strip() + err.strip())
 
+    modbus_preset(report, daemon)
     sim.command("power-cycle %d" % MT[0])
     st, took = daemon.wait_until(lambda s: any(d["name"] == "mt-a" and not d["config_differs"]
                                                and d["state"] == "operational" and d["online"]
@@ -154,11 +178,14 @@ def main():
     devices = [{"name": "rot-a", "bus": "line1", "serial": ROT[0], "model": "RFC-4800", "node_id": ROT[1],
                 "heartbeat_ms": 100, "tpdo1": tpdo},
                {"name": "mt-a", "bus": "line1", "serial": MT[0], "model": "MC1-2800", "node_id": MT[1],
-                "heartbeat_ms": 100, "on_config_drift": "keep", "tpdo1": tpdo}]
+                "heartbeat_ms": 100, "preset": 0, "on_config_drift": "keep", "tpdo1": tpdo}]
     extra = ("[control]\nwrites_enabled = true\nwrite_group = \"\"\n"
              "[ascii_gateway]\ntcp_port = %d\nwrites_enabled = true\nwrite_group = \"\"\nwrite_allow = [\"127.0.0.1/32\"]\n"
-             "[web]\nport = %d\n" % (TCP_PORT, WEB_PORT))
-    daemon = e2e.Daemon(args.daemon, e2e.write_config(ws, [bus], devices, extra=extra), ws)
+             "[web]\nport = %d\n"
+             "[outputs.modbus]\nbind = \"127.0.0.1\"\nport = %d\nwrites_enabled = true\n"
+             "write_allow = [\"127.0.0.1/32\"]\n" % (TCP_PORT, WEB_PORT, MODBUS_PORT))
+    daemon = e2e.Daemon(args.daemon, e2e.write_config(ws, [bus], devices, extra=extra), ws,
+                        extra_args=["--plugin-dir", args.plugins])
     with e2e.shut_down_after(ws, lambda: (daemon, sim, listener)):
         report.check(daemon.wait_socket(), "control socket up")
         _, took = daemon.wait_until(e2e.all_operational(["rot-a", "mt-a"]), 30, interval=0.1)
