@@ -270,10 +270,12 @@ void BusManager::Impl::apply_reload(config::Config next, TimePoint now) {
     old.erase(it);
     m.cfg = d;
     if (m.started && m.description != nullptr && m.profile) {
-      // Reconfigure only if the settings as applied would differ.
+      // Reconfigure only if the settings as applied would differ, or over
+      // a client's value kept under on_config_drift = "keep".
       const auto plan = make_config_plan(m.cfg, *m.description, *m.profile, m.st.node_id);
-      if (!plan.ok() || !m.plan || plan.plan->fingerprint != m.plan->fingerprint) {
-        log->info("bus {}: device {}: settings changed; reconfiguring", bus.name, m.st.name);
+      if (!plan.ok() || !m.plan || plan.plan->fingerprint != m.plan->fingerprint || !m.st.drift.empty()) {
+        log->info("bus {}: device {}: {}; reconfiguring", bus.name, m.st.name,
+                  m.st.drift.empty() ? "settings changed" : "configuration differs");
         m.plan.reset();
         m.started = false;  // the plan puts it in pre-operational: not a surprise
         supervisor.listen(m.st.node_id, m.profile->family);

@@ -47,6 +47,9 @@ canopen::SdoClient& BusManager::Impl::sdo_of(Managed& m) {
 }
 
 bool BusManager::Impl::begin_configuration(Managed& m, TimePoint now) {
+  // A client's value may be stored in the device: only the full plan sees
+  // every configured object again.
+  if (!m.st.drift.empty()) m.force_full = true;
   if (!m.plan || m.plan->node_id != m.st.node_id || m.force_full) {
     auto result = make_config_plan(m.cfg, *m.description, *m.profile, m.st.node_id);
     if (!result.ok()) {
@@ -240,6 +243,7 @@ void BusManager::Impl::mark_operational(Managed& m, const PlanRunResult& outcome
   supervisor.watch(m.st.node_id, m.profile->family, m.supervision, now);
   m.st.online = m.supervision.mode == Supervision::Mode::none;
   note_configured(m, outcome);
+  clear_drift(m);
   set_state(m, DeviceState::operational);
   clear_problems([&](const Problem& p) { return p.device == m.st.name; });
   if (m.boot_up_at != kNever) {
@@ -367,9 +371,12 @@ void BusManager::Impl::start_command(DeviceCommand cmd, TimePoint now) {
 
 void BusManager::Impl::finish_command(Managed& m, TimePoint now) {
   const PlanRunResult r = m.runner->result();
+  const ConfigPlan command_plan = m.runner->plan();
   m.runner.reset();
   DeviceCommand cmd = std::move(*m.command);
   m.command.reset();
+  // A preset of an object the configuration presets (`preset`) is drift.
+  if (r.ok()) note_command_writes(m, command_plan, cmd, now);
   if (cmd.kind == CommandKind::store) m.preop_expected_until = now + kCommandSettle;
   CommandOutcome out;
   out.message = r.error.message;

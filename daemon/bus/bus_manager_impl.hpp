@@ -5,8 +5,9 @@
 // and bus events of the protocol components; supervision),
 // bus_manager_discovery.cpp (discovery and the identity check of buses
 // without it), bus_manager_configure.cpp (configuration plans and plugins'
-// commands), bus_manager_remote.cpp (the RemoteGate for clients' commands)
-// and bus_manager_status.cpp (the published status).
+// commands), bus_manager_remote.cpp (the RemoteGate for clients' commands),
+// bus_manager_drift.cpp (clients' writes of configured objects) and
+// bus_manager_status.cpp (the published status).
 //
 // Threads: everything runs on the bus's control thread except the public
 // BusManager calls (any thread), which touch only the atomics and what
@@ -254,6 +255,20 @@ struct BusManager::Impl final : RemoteGate {
 
   void on_nmt_sent(canopen::NmtCommand command, std::uint8_t node, const std::string& caller) override;
   void on_lss_node_id(const canopen::LssAddress& device, std::uint8_t node, bool stored) override;
+  void on_sdo_written(const RemoteCommand& c, TimePoint now) override;
+
+  // ---- configuration drift (bus_manager_drift.cpp) ------------------------------
+
+  // A client's confirmed write of index:sub on `m`: recorded, logged and
+  // restored or kept per m.cfg.on_config_drift when the plan sets the object
+  // to another value; a write of the configured value closes its record.
+  void note_client_write(Managed& m, std::uint16_t index, std::uint8_t sub, std::span<const std::uint8_t> bytes,
+                         const std::string& writer, TimePoint now);
+  // Drift of an object a plugin's command wrote (its runner's plan).
+  void note_command_writes(Managed& m, const ConfigPlan& command_plan, const DeviceCommand& cmd, TimePoint now);
+  void restore_configuration(Managed& m, TimePoint now);
+  void follow_written_heartbeat(Managed& m, const DriftRecord& r);
+  void clear_drift(Managed& m);
 
   // ---- status ------------------------------------------------------------------
 

@@ -36,6 +36,7 @@ struct DeviceCommand {
   CommandKind kind = CommandKind::preset;
   std::int64_t value = 0;  // preset: the position in counts
   std::uint32_t tag = 0;   // the submitter's, echoed in the outcome
+  std::string source;      // who submitted it: "plugin modbus" (its instance name)
 };
 
 struct CommandOutcome {

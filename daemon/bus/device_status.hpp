@@ -61,6 +61,20 @@ struct LiveValues {
   ArrivalHistogram tpdo_intervals;       // between two TPDOs
 };
 
+// An object the configuration sets that a client wrote to another value
+// (bus/config_drift.hpp); open until the configured value is back.
+struct DriftRecord {
+  std::uint16_t index = 0;
+  std::uint8_t sub = 0;
+  std::string object;              // "0x1017:00"
+  std::string name;                // the configuration's name for it: "heartbeat_ms"; may be empty
+  std::uint32_t configured = 0;    // the configured bits (owned bits only)
+  std::uint32_t owned = 0xFFFFFFFFu;  // the bits the configuration sets
+  std::uint32_t value = 0;         // as the client wrote it
+  std::string writer;              // "uid 0 pid 42 (control socket)", "309-3 10.0.0.5:4711", "plugin modbus"
+  WallTime at{};
+};
+
 struct DeviceStatus {
   std::string name;            // configured name, or "unknown-<serial>"
   std::string bus;
@@ -85,6 +99,9 @@ struct DeviceStatus {
   WallTime next_retry{};
   std::vector<EmcyRecord> emcy_history;  // most recent last, at most kEmcyHistory
   std::vector<TimelineEvent> timeline;   // most recent last, at most kTimelineLength
+  // Objects a client set away from the configuration ("configuration
+  // differs" while not empty); cleared by the next successful plan.
+  std::vector<DriftRecord> drift;
   LiveValues values;
 };
 

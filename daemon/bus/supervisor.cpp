@@ -61,6 +61,23 @@ void Supervisor::watch(std::uint8_t node, const device::families::Family* family
   }
 }
 
+bool Supervisor::follow_producer_time(std::uint8_t node, std::chrono::milliseconds producer_time) noexcept {
+  if (!canopen::cob::valid_node_id(node)) return false;
+  Node& n = nodes_[node];
+  if (!n.watched || n.supervision.mode != Supervision::Mode::heartbeat) return false;
+  if (producer_time <= std::chrono::milliseconds::zero()) {
+    heartbeat_.remove(node);
+    n.supervision.mode = Supervision::Mode::none;
+    n.first_deadline = canopen::kNever;
+    return true;
+  }
+  n.supervision.producer_time = producer_time;
+  // configure() keeps an armed consumer's last heartbeat; its deadline is
+  // that heartbeat plus the new consumer time.
+  heartbeat_.configure(node, consumer_time_for(producer_time));
+  return true;
+}
+
 void Supervisor::listen(std::uint8_t node, const device::families::Family* family) {
   if (!canopen::cob::valid_node_id(node)) return;
   Node& n = nodes_[node];

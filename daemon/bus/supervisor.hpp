@@ -79,6 +79,12 @@ class Supervisor {
   // run yet). watch() later upgrades it.
   void listen(std::uint8_t node, const device::families::Family* family);
   void unwatch(std::uint8_t node) noexcept;
+  // A client changed the device's heartbeat producer time (0x1017, CiA 301
+  // §7.4.8.3) and the gateway keeps it (on_config_drift = "keep"): the
+  // consumer follows it from now on, without losing what it heard (0 =
+  // the device sends none: no longer watched by heartbeat). Only a node
+  // watched by heartbeat; returns whether it was.
+  bool follow_producer_time(std::uint8_t node, std::chrono::milliseconds producer_time) noexcept;
   [[nodiscard]] bool watching(std::uint8_t node) const noexcept;
   [[nodiscard]] bool online(std::uint8_t node) const noexcept;
   // The NMT state its last heartbeat / guarding reply reported (boot_up: none yet).

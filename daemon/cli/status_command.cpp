@@ -82,7 +82,14 @@ void print_devices(const std::vector<Json>& buses) {
       table.push_back({b["name"].str(), d["node_id"].str(), d["name"].str(), d["model"].str(),
                        d["identity"]["serial"].str(), d["state"].str(), d["online"].boolean ? "yes" : "no",
                        short_time(d["since"]), last_emcy});
-      errors.push_back(d["last_error"].str(""));
+      std::string notes = d["last_error"].str("");
+      // Issue 29: a client set configured objects to other values.
+      if (d["config_differs"].boolean) {
+        std::string objects;
+        for (const auto& r : d["drift"].items) objects += (objects.empty() ? "" : "; ") + r["text"].str("");
+        notes += std::string(notes.empty() ? "" : "\n    ") + "configuration differs: " + objects;
+      }
+      errors.push_back(std::move(notes));
     }
   }
   std::vector<std::size_t> width(table.front().size(), 0);
@@ -96,7 +103,10 @@ void print_devices(const std::vector<Json>& buses) {
       if (i + 1 < table[r].size()) line += std::string(width[i] - table[r][i].size() + 2, ' ');
     }
     std::printf("%s\n", line.c_str());
-    if (!errors[r].empty()) std::printf("    last error: %s\n", errors[r].c_str());
+    if (errors[r].empty()) continue;
+    // A last error comes first; "configuration differs" stands on its own line.
+    const bool error_first = errors[r].rfind("configuration differs", 0) != 0;
+    std::printf("    %s%s\n", error_first ? "last error: " : "", errors[r].c_str());
   }
   if (table.size() == 1) std::printf("(no devices)\n");
 }

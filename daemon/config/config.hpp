@@ -153,6 +153,12 @@ struct WorkArea {
 // When the gateway writes 'save' to 0x1010 after configuring the device.
 enum class StorePolicy : std::uint8_t { on_change, always, never };
 
+// What the gateway does when a client (CLI, CiA 309-3, Modbus command)
+// writes an object the configuration sets to another value: write the
+// configuration again at once, or leave the operator's value until the
+// device's next configuration (reboot, reload, re-plug).
+enum class DriftPolicy : std::uint8_t { restore, keep };
+
 struct Device {
   std::string name;
   std::string bus;
@@ -177,6 +183,7 @@ struct Device {
   std::optional<std::uint8_t> position_filter;
   std::optional<std::uint8_t> speed_filter;
   StorePolicy store = StorePolicy::on_change;
+  DriftPolicy on_config_drift = DriftPolicy::restore;
   SourceLocation where;  // the [[device]] header
 };
 

@@ -19,7 +19,7 @@ void Loader::read_device(const toml::table& t) {
   TableReader r(t, "[[device]]", entry_context("device", config_.devices.size() + 1, name_node), "", sink_);
   r.check_keys({"name", "bus", "serial", "vendor", "product", "node_id", "model", "channels", "eds", "tpdo1", "tpdo2",
                 "heartbeat_ms", "guarding", "direction", "scaling", "preset", "cam", "work_area", "position_filter",
-                "speed_filter", "store"});
+                "speed_filter", "store", "on_config_drift"});
   read_name(r, name_node, d.name, spots.name, spots.has_name);
   read_address(r, d, spots);
   const KnownModel* model = read_model(r, d);
@@ -134,6 +134,10 @@ void Loader::read_functions(TableReader& r, Device& d, const KnownModel* model) 
   if (auto v = r.choice<StorePolicy>(
           "store", {{"on-change", StorePolicy::on_change}, {"always", StorePolicy::always}, {"never", StorePolicy::never}})) {
     d.store = *v;
+  }
+  if (auto v = r.choice<DriftPolicy>("on_config_drift",
+                                     {{"restore", DriftPolicy::restore}, {"keep", DriftPolicy::keep}})) {
+    d.on_config_drift = *v;
   }
 }
 

@@ -2,6 +2,7 @@
 
 #include "base/error.hpp"
 #include "canopen/nmt.hpp"
+#include "bus/config_drift.hpp"
 
 #include <array>
 #include <cstdio>
@@ -133,6 +134,26 @@ void write_timeline(JsonWriter& w, const DeviceStatus& d) {
   w.end_array();
 }
 
+// Issue 29 item 4: the objects a client set away from the configuration.
+void write_drift(JsonWriter& w, const DeviceStatus& d) {
+  w.field("config_differs", !d.drift.empty());
+  w.key("drift");
+  w.begin_array();
+  for (const auto& r : d.drift) {
+    w.begin_object();
+    w.field("object", r.object);
+    w.field("name", r.name);
+    w.field("configured", std::uint64_t{r.configured});
+    w.field("value", std::uint64_t{r.value});
+    w.field("writer", r.writer);
+    w.key("at");
+    w.time(r.at);
+    w.field("text", drift_text(r));
+    w.end_object();
+  }
+  w.end_array();
+}
+
 // The latest values (null before the first) and the heartbeat's age.
 void write_values(JsonWriter& w, const LiveValues& v) {
   w.key("values");
@@ -187,6 +208,7 @@ void write_device(JsonWriter& w, const DeviceStatus& d) {
   w.time(d.next_retry);
   write_emcy_history(w, d);
   write_timeline(w, d);
+  write_drift(w, d);
   write_values(w, d.values);
   w.end_object();
 }

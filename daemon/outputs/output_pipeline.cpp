@@ -48,7 +48,7 @@ OutputPipeline::OutputPipeline(const config::Config& config, const device::Devic
                                std::filesystem::path plugin_dir)
     : config_(config),
       command_targets_(config.buses.size()),
-      host_(host_options(config, std::move(plugin_dir), [this](const cobridge_command& c) { return submit(c); })),
+      host_(host_options(config, std::move(plugin_dir), [this](std::string_view instance, const cobridge_command& c) { return submit(instance, c); })),
       last_values_(config.buses.size()),
       arrivals_(config.buses.size()),
       sink_(host_, last_values_, arrivals_),
@@ -118,7 +118,7 @@ void OutputPipeline::set_command_target(std::size_t bus_index, BusManager* targe
   if (bus_index < command_targets_.size()) command_targets_[bus_index].store(target, std::memory_order_release);
 }
 
-int OutputPipeline::submit(const cobridge_command& command) const {
+int OutputPipeline::submit(std::string_view instance, const cobridge_command& command) const {
   const auto kind = command_kind(command.kind);
   if (!kind) return COBRIDGE_COMMAND_UNSUPPORTED;
   // device_index is the device's position in the configuration (OutputBridge::device_index).
@@ -128,7 +128,8 @@ int OutputPipeline::submit(const cobridge_command& command) const {
   if (device.bus_index >= command_targets_.size()) return COBRIDGE_COMMAND_UNKNOWN_DEVICE;
   BusManager* target = command_targets_[device.bus_index].load(std::memory_order_acquire);
   if (target == nullptr) return COBRIDGE_COMMAND_OFFLINE;
-  return static_cast<int>(target->submit(DeviceCommand{device.name, *kind, command.value, command.tag}));
+  return static_cast<int>(
+      target->submit(DeviceCommand{device.name, *kind, command.value, command.tag, "plugin " + std::string(instance)}));
 }
 
 std::string OutputPipeline::reload(const config::Config& next) {

@@ -124,7 +124,7 @@ class OutputPipeline {
   };
 
   // Plugin threads: cobridge_host_api.submit_command.
-  [[nodiscard]] int submit(const cobridge_command& command) const;
+  [[nodiscard]] int submit(std::string_view instance, const cobridge_command& command) const;
 
   SharedConfig config_;
   DeviceIndexPool unknown_indices_;  // shared by every bus's bridge

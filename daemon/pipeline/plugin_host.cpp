@@ -187,7 +187,7 @@ int PluginHost::submit_trampoline(void* host, const cobridge_command* command) n
   const CommandSink& sink = p->owner->options_.commands;
   if (!sink) return COBRIDGE_COMMAND_UNSUPPORTED;
   try {
-    return sink(*command);
+    return sink(p->name, *command);
   } catch (...) {
     return COBRIDGE_COMMAND_FAILED;  // nothing may unwind into C code
   }

@@ -130,7 +130,9 @@ class PluginHost {
   // Receives host->submit_command (ABI 2) from any plugin thread; returns an
   // enum cobridge_command_status. Must be thread-safe and must not block.
   // Unset: every command is refused with COBRIDGE_COMMAND_UNSUPPORTED.
-  using CommandSink = std::function<int(const cobridge_command& command)>;
+  // `instance` names the submitting plugin instance (what its writes are
+  // recorded as: a configuration drift's writer).
+  using CommandSink = std::function<int(std::string_view instance, const cobridge_command& command)>;
 
   struct Options {
     std::filesystem::path plugin_dir;

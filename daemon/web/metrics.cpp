@@ -274,6 +274,8 @@ void device_families(Writer& w, const gateway::StatusReport& report) {
                  d.state == s ? 1 : 0);
     }
   }
+  per_device("cobridge_device_config_differs", "gauge", "1 while a client left a configured object at another value.",
+             [](const DeviceStatus& d, double& v) { v = d.drift.empty() ? 0 : 1; return true; });
   per_device("cobridge_device_boot_ups_total", "counter", "Boot-up messages seen from the device.",
              [](const DeviceStatus& d, double& v) { v = d.boot_ups; return true; });
   per_device("cobridge_device_configurations_total", "counter", "Configuration plans run on the device (with writes).",

@@ -182,7 +182,7 @@ TimePoint RemoteExecutor::drive(TimePoint now, RemoteGate& gate) {
   return next;
 }
 
-void RemoteExecutor::finish_sdo(const canopen::SdoClient::Result& r, TimePoint now, const RemoteGate& gate) {
+void RemoteExecutor::finish_sdo(const canopen::SdoClient::Result& r, TimePoint now, RemoteGate& gate) {
   auto& c = active_->cmd;
   const bool silence = r.error == canopen::make_error_code(canopen::SdoAbort::kProtocolTimedOut);
   if (silence && gate.node_supervised(c.node) && now + c.sdo_timeout < active_->deadline) {
@@ -204,6 +204,7 @@ void RemoteExecutor::finish_sdo(const canopen::SdoClient::Result& r, TimePoint n
   const std::string where = where_of(bus_, c.node) + " object " + object_text(c.index, c.sub);
   if (r.ok()) {
     out.data.assign(r.data.begin(), r.data.end());
+    if (c.op == RemoteOp::sdo_download) gate.on_sdo_written(c, now);
   } else if (silence) {
     out.error = Error(Errc::kTimeout, "no answer from the device", where, r.error);
   } else {

@@ -19,8 +19,9 @@
 //     still be in LSS configuration state (lss_session(): 10 s after a
 //     step that can switch them there, a step of a session still held, or
 //     a device's answer; not after an inquiry nobody answered outside one);
-//   * NMT and LSS results go to the gate, so the bus manager knows what a
-//     client did (a device stopped on purpose, a node-ID set).
+//   * NMT and LSS results and confirmed SDO downloads go to the gate, so
+//     the bus manager knows what a client did (a device stopped on purpose,
+//     a node-ID set, a configured object written).
 //
 // Thread: the bus's control thread owns it, like every protocol component:
 // frames and `now` are passed in, process(now, gate) returns the next
@@ -59,6 +60,10 @@ class RemoteGate {
   virtual void on_nmt_sent(canopen::NmtCommand command, std::uint8_t node, const std::string& caller) = 0;
   // A node-ID was configured (and stored) in the device of that identity.
   virtual void on_lss_node_id(const canopen::LssAddress& device, std::uint8_t node, bool stored) = 0;
+  // A client's SDO download the device confirmed (CiA 301 §7.2.4.3.3/5):
+  // the bus manager compares it with the device's configuration
+  // (bus/config_drift.hpp). Called before the client's answer is pushed.
+  virtual void on_sdo_written(const RemoteCommand& command, canopen::TimePoint now) = 0;
 };
 
 class RemoteExecutor {
@@ -95,7 +100,7 @@ class RemoteExecutor {
   void start_sdo(canopen::TimePoint now);
   void start_lss_step(canopen::TimePoint now, RemoteGate& gate);
   canopen::TimePoint drive(canopen::TimePoint now, RemoteGate& gate);
-  void finish_sdo(const canopen::SdoClient::Result& r, canopen::TimePoint now, const RemoteGate& gate);
+  void finish_sdo(const canopen::SdoClient::Result& r, canopen::TimePoint now, RemoteGate& gate);
   void lss_step_done(std::error_code ec, std::uint32_t value, canopen::TimePoint now, RemoteGate& gate);
   void retry_later(canopen::TimePoint now, const char* why);
   void reply(Entry& e, RemoteResult result);

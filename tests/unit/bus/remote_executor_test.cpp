@@ -222,3 +222,32 @@ TEST_F(RemoteExecutorTest, TheBusStoppingEndsEveryCommandWithAnError) {
   for (const auto& res : r) EXPECT_EQ(res.error.kind, Errc::kUnavailable);
   EXPECT_EQ(ex.waiting(), 0U);
 }
+
+// A confirmed download (CiA 301 §7.2.4.3.3: 0x2B -> 0x60) reaches the gate,
+// with its caller, for the configuration-drift check; a refused one (0x80)
+// does not: the device kept its value.
+TEST_F(RemoteExecutorTest, ConfirmedDownloadsReachTheGate) {
+  gw::RemoteCommand c = upload(10);
+  c.op = gw::RemoteOp::sdo_download;
+  c.index = 0x1017;
+  c.sub = 0;
+  c.data = {0x45, 0x23};
+  c.caller = "tcp 10.0.0.5 (CiA 309-3 gateway)";
+  ex.add(c, replies, t0);
+  ex.process(t0, gate);
+  ASSERT_EQ(bus.sent.size(), 1U);
+  EXPECT_EQ(bus.sent[0].data[0], 0x2B);
+  ex.on_frame(frame(0x58A, {0x60, 0x17, 0x10, 0x00, 0, 0, 0, 0}), t0 + 1ms);
+  ex.process(t0 + 1ms, gate);
+  ASSERT_EQ(gate.written.size(), 1U);
+  EXPECT_EQ(gate.written[0].index, 0x1017);
+  EXPECT_EQ(gate.written[0].data, (std::vector<std::uint8_t>{0x45, 0x23}));
+  EXPECT_EQ(gate.written[0].caller, "tcp 10.0.0.5 (CiA 309-3 gateway)");
+  EXPECT_EQ(replies->take().size(), 1U);
+
+  ex.add(c, replies, t0 + 2ms);
+  ex.process(t0 + 2ms, gate);
+  ex.on_frame(frame(0x58A, {0x80, 0x17, 0x10, 0x00, 0x30, 0x00, 0x09, 0x06}), t0 + 3ms);  // 0x06090030
+  ex.process(t0 + 3ms, gate);
+  EXPECT_EQ(gate.written.size(), 1U) << "an aborted download changed nothing";
+}

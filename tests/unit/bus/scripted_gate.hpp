@@ -30,8 +30,10 @@ struct ScriptedGate : RemoteGate {
   bool lss_allowed() const override { return true; }
   void on_nmt_sent(canopen::NmtCommand, std::uint8_t node, const std::string&) override { nmt.push_back(node); }
   void on_lss_node_id(const canopen::LssAddress&, std::uint8_t, bool) override {}
+  void on_sdo_written(const RemoteCommand& c, canopen::TimePoint) override { written.push_back(c); }
   std::set<std::uint8_t> busy, supervised;
   std::vector<std::uint8_t> nmt;
+  std::vector<RemoteCommand> written;  // confirmed downloads
 };
 
 // One bus "line1" as its control thread sees it: the executor under test,

@@ -356,3 +356,31 @@ TEST_F(SupervisorTest, Cia301_7_2_8_3_2_2_BackPreOperationalAfterLossIsReported)
 
 }  // namespace
 }  // namespace cobridge::gateway
+
+namespace cobridge::gateway {
+namespace {
+
+// Issue 29 item 4, on_config_drift = "keep": a client set the producer
+// heartbeat time (CiA 301 §7.4.8.3, 0x1017) from 100 to 9029 ms; the
+// consumer follows it: 2 s of silence is no loss, 9029 ms x 1.5 + margin is.
+TEST_F(SupervisorTest, Issue29_ConsumerFollowsAProducerTimeTheGatewayKeeps) {
+  sup.watch(5, &fam::kNovotechnikRotary, heartbeat(100ms), t0);
+  sup.on_frame(canopen::make_heartbeat(5, NmtState::operational), t0 + 10ms);
+  drain();
+  ASSERT_TRUE(sup.online(5));
+  EXPECT_TRUE(sup.follow_producer_time(5, 9029ms));
+  sup.process(t0 + 2s, sink);
+  drain();
+  EXPECT_TRUE(sup.online(5)) << "silence within the new consumer time is no loss";
+  sup.on_frame(canopen::make_heartbeat(5, NmtState::operational), t0 + 9s);
+  sup.process(t0 + 9s + consumer_time_for(9029ms) - 1ms, sink);
+  drain();
+  EXPECT_TRUE(sup.online(5));
+  sup.process(t0 + 9s + consumer_time_for(9029ms) + 1ms, sink);
+  drain();
+  EXPECT_FALSE(sup.online(5)) << "silence beyond it still is";
+  EXPECT_FALSE(sup.follow_producer_time(7, 500ms)) << "a node not watched by heartbeat";
+}
+
+}  // namespace
+}  // namespace cobridge::gateway

@@ -295,6 +295,10 @@ def main():
     devices = [{"name": name, "bus": bus, "serial": s, "model": m, "node_id": n, "heartbeat_ms": 100,
                 "tpdo1": {"mapping": ["position"], "transmission": "event", "event_timer_ms": 1}}
                for (name, m, _, s, n, bus) in DEVICES]
+    # mt-a keeps a client's value of a configured object (the default,
+    # "restore", would write 100 ms again before the read-back of 80 ms;
+    # that policy has its own test: tests/vcan/daemon/test_config_drift.py).
+    devices[1]["on_config_drift"] = "keep"
     path = os.path.join(ws.run, "ascii.sock")
     extra = '[outputs.modbus]\nbind = "127.0.0.1"\nport = 1502\n'
     extra += "[ascii_gateway]\nsocket = %s\ntcp_port = %d\nwrites_enabled = true\nwrite_group = \"root\"\n" % (

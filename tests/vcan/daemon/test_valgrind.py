@@ -59,7 +59,10 @@ def config(ws, devices, gateway_socket):
 
 
 def device_entries(event_timer_ms):
+    # Node 20 keeps a client's value of a configured object (the 309-3 write
+    # below reads its 150 ms back; the default "restore" would write 200 again).
     return [{"name": name, "bus": "line1", "serial": s, "model": m, "node_id": n, "heartbeat_ms": 200,
+             "on_config_drift": "keep" if n == 20 else "restore",
              "tpdo1": {"mapping": ["position"], "transmission": "event", "event_timer_ms": event_timer_ms}}
             for (name, m, _, s, n) in DEVICES]
 

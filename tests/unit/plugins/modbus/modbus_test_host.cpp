@@ -72,7 +72,7 @@ int main(int argc, char** argv) {
 
   PluginHost::Options options;
   options.gateway_id = "test";
-  options.commands = [&](const cobridge_command& c) -> int {
+  options.commands = [&](std::string_view, const cobridge_command& c) -> int {
     if (c.device_index >= devices) return COBRIDGE_COMMAND_UNKNOWN_DEVICE;
     std::printf("COMMAND device=%u kind=%u tag=%u value=%lld\n", static_cast<unsigned>(c.device_index),
                 static_cast<unsigned>(c.kind), c.tag, static_cast<long long>(c.value));

@@ -1,0 +1,204 @@
+"""Configuration drift (issue 29 item 4; docs/operations.md "Configuration
+differs"): a client writes an object the configuration sets. The object is
+the producer heartbeat time, 0x1017 (CiA 301 §7.4.8.3), configured 100 ms.
+
+ (a) rot-a, on_config_drift default ("restore"): a CiA 309-3 client on the
+     gateway's TCP port (requests "[<seq>] <net> <node> w <index> <sub>
+     <type> <value>", as CANopenNode's cocomm sends them) writes 9029. The
+     timeline names the writer, the object, 100 and 9029; the configuration
+     is written again at once (timeline "restored ..."), config_differs is
+     false again, 0x1017 reads 100 (CiA 309-3 "r"), and the heartbeat never
+     stopped: the device was never offline, no gap of 9 s on the bus.
+ (b) mt-a, on_config_drift = "keep": `cobridge sdo write` through the daemon
+     sets 0x1017 to 1000. Status (config_differs, drift with the writer),
+     `cobridge status` ("configuration differs") and /metrics
+     (cobridge_device_config_differs 1) say so, and keep saying so; the value
+     stays 1000 and the heartbeat consumer follows it (1000 ms silences are
+     no loss: still online). A Modbus preset (command registers +28..+30,
+     docs/modbus.md; mt-a's configuration sets preset = 0, 0x6003, E§4.2)
+     is drift too, written by "plugin modbus". After a power cycle of the
+     device the configuration is applied again: drift cleared, 0x1017
+     reads 100.
+"""
+import socket
+import sys
+import time
+import urllib.request
+
+import e2e
+
+ROT, MT = (1001, 10), (2001, 20)
+TCP_PORT, WEB_PORT, MODBUS_PORT = 5309, 8089, 1502
+MT_SLOT = 1  # device_index = position in the configuration (docs/modbus.md)
+
+
+def ask_309(line):
+    """One CiA 309-3 request on a fresh TCP connection, as cocomm sends it; the answer without CR LF."""
+    s = socket.create_connection(("127.0.0.1", TCP_PORT), timeout=15)
+    try:
+        s.sendall((line + "\n").encode())
+        got = b""
+        while not got.endswith(b"\r\n"):
+            chunk = s.recv(256)
+            if not chunk:
+                break
+            got += chunk
+        return got.decode().strip()
+    finally:
+        s.close()
+
+
+def device(daemon, name):
+    return daemon.devices()[name]
+
+
+def events(dev, kind):
+    return [e["text"] for e in dev["timeline"] if e["kind"] == kind]
+
+
+def offline_events(dev, since):
+    return [e["text"] for e in dev["timeline"] if e["kind"] in ("state", "heartbeat") and "offline" in e["text"]
+            and e2e.iso_to_epoch(e["at"]) >= since]
+
+
+def heartbeat_gap(listener, node, since):
+    """The longest silence between two heartbeats of `node` after `since` (to now)."""
+    times = [f[0] for f in listener.snapshot(since) if f[1] == 0x700 + node]
+    if not times:
+        return None
+    return max(b - a for a, b in zip([since] + times, times + [time.time()]))
+
+
+def restore_case(report, daemon, listener):
+    t0 = time.time()
+    answer = ask_309("[1] 1 %d w 0x1017 0 u16 9029" % ROT[1])
+    report.check(answer == "[1] OK", "309-3 write 0x1017 = 9029 on rot-a", answer)
+    seen_differs = False
+    end = time.time() + 10
+    while time.time() < end:
+        d = device(daemon, "rot-a")
+        seen_differs = seen_differs or d["config_differs"]
+        if any("restored" in t for t in events(d, "drift")) and not d["config_differs"]:
+            break
+        time.sleep(0.01)
+    drift = events(d, "drift")
+    first = drift[0] if drift else ""
+    report.check(all(w in first for w in ("0x1017:00", "set to 9029", "configured 100", "CiA 309-3 gateway")),
+                 "timeline: the drift event names the object, 9029, configured 100 and the 309-3 writer", first)
+    report.check(len(drift) >= 2 and "restored the configuration of 0x1017:00" in drift[-1],
+                 "timeline: restored at once (on_config_drift default restore)", repr(drift))
+    report.check(not d["config_differs"] and d["drift"] == [], "status: config_differs false once restored",
+                 "differs seen while restoring: %s" % seen_differs)
+    answer = ask_309("[2] 1 %d r 0x1017 0 u16" % ROT[1])
+    report.check(answer == "[2] 100", "0x1017 reads 100 again (309-3 read)", answer)
+    time.sleep(1.0)
+    d = device(daemon, "rot-a")
+    gap = heartbeat_gap(listener, ROT[1], t0)
+    report.check(d["state"] == "operational" and d["online"] and not offline_events(d, t0)
+                 and gap is not None and gap < 2.0,
+                 "rot-a never offline, its heartbeat kept flowing",
+                 "state %s, longest heartbeat gap %s s" % (d["state"], "%.3f" % gap if gap else gap))
+
+
+def metric(name, device_name):
+    text = urllib.request.urlopen("http://127.0.0.1:%d/metrics" % WEB_PORT, timeout=5).read().decode()
+    for line in text.splitlines():
+        if line.startswith(name + "{") and 'name="%s"' % device_name in line:
+            return float(line.rsplit(" ", 1)[1])
+    return None
+
+
+def modbus_preset(report, daemon):
+    from pymodbus.client import ModbusTcpClient
+    mb = ModbusTcpClient("127.0.0.1", port=MODBUS_PORT, timeout=5)
+    try:
+        w = mb.write_registers(256 + 32 * MT_SLOT + 28, [0, 5000, 1], slave=1) if mb.connect() else None
+        report.check(w is not None and not w.isError(), "Modbus preset of mt-a to 5000", str(w))
+    finally:
+        mb.close()
+    st, took = daemon.wait_until(lambda s: any(d["name"] == "mt-a" and any(r["object"] == "0x6003:00"
+                                                                             for r in d["drift"])
+                                               for b in s["buses"] for d in b["devices"]), 5)
+    recs = {r["object"]: r for r in device(daemon, "mt-a")["drift"]}
+    rec = recs.get("0x6003:00", {})
+    report.check(took is not None and rec.get("writer") == "plugin modbus" and rec.get("configured") == 0
+                 and rec.get("value") == 5000 and "0x1017:00" in recs,
+                 "Modbus preset: drift 0x6003:00 configured 0, 5000, writer plugin modbus (0x1017 still open)",
+                 repr(list(recs.values())))
+
+
+def keep_case(report, args, ws, daemon, sim):
+    ctl = ["--control", ws.control]
+    rc, out, err = e2e.run_cli(args.cli, "sdo", "write", "-i", "vcan0", "-n", str(MT[1]), "1017:0", "1000",
+                               "--size", "2", *ctl)
+    report.check(rc == 0, "cobridge sdo write 0x1017 = 1000 on mt-a through the daemon", out.strip() + err.strip())
+    st, took = daemon.wait_until(lambda s: any(d["name"] == "mt-a" and d["config_differs"]
+                                               for b in s["buses"] for d in b["devices"]), 5)
+    d = device(daemon, "mt-a")
+    rec = d["drift"][0] if d["drift"] else {}
+    report.check(took is not None and rec.get("object") == "0x1017:00" and rec.get("configured") == 100
+                 and rec.get("value") == 1000 and "control socket" in rec.get("writer", ""),
+                 "status: config_differs, drift names 0x1017:00, 100, 1000 and the CLI writer", repr(rec))
+    time.sleep(3.5)  # several 1000 ms heartbeat periods, beyond the 100 ms consumer time
+    d = device(daemon, "mt-a")
+    rc, out, _ = e2e.run_cli(args.cli, "status", *ctl)
+    report.check(d["config_differs"] and "configuration differs: 0x1017:00" in out,
+                 "keep: it stays differing (status, `cobridge status` text)",
+                 " | ".join(l.strip() for l in out.splitlines() if "mt-a" in l or "differs" in l))
+    report.check(metric("cobridge_device_config_differs", "mt-a") == 1.0
+                 and metric("cobridge_device_config_differs", "rot-a") == 0.0,
+                 "/metrics: cobridge_device_config_differs 1 for mt-a, 0 for rot-a")
+    report.check(d["state"] == "operational" and d["online"],
+                 "keep: the heartbeat consumer follows 1000 ms (mt-a stays online)", d["state"])
+    rc, out, err = e2e.run_cli(args.cli, "sdo", "read", "-i", "vcan0", "-n", str(MT[1]), "1017:0", *ctl)
+    report.check(rc == 0 and "(1000)" in out, "keep: 0x1017 still the operator's 1000", out.strip() + err.strip())
+
+    modbus_preset(report, daemon)
+    sim.command("power-cycle %d" % MT[0])
+    st, took = daemon.wait_until(lambda s: any(d["name"] == "mt-a" and not d["config_differs"]
+                                               and d["state"] == "operational" and d["online"]
+                                               for b in s["buses"] for d in b["devices"]), 20, interval=0.05)
+    d = device(daemon, "mt-a")
+    report.check(took is not None and any("restored the configuration of 0x1017:00" in t for t in events(d, "drift")),
+                 "after a power cycle the configuration is applied again and the drift cleared",
+                 "%s s" % ("%.2f" % took if took else took))
+    rc, out, err = e2e.run_cli(args.cli, "sdo", "read", "-i", "vcan0", "-n", str(MT[1]), "1017:0", *ctl)
+    report.check(rc == 0 and "(100)" in out,
+                 "0x1017 reads 100 after the power cycle", out.strip() + err.strip())
+
+
+def main():
+    args = e2e.parse_args()
+    report = e2e.Report("test_config_drift")
+    ws = e2e.Workspace("drift", args.keep)
+    listener = e2e.CanListener("vcan0")
+    sim = e2e.Simulator(args.sim, ws, {"vcan0": ["RFC-4800:serial=%d,node=%d" % ROT,
+                                                 "MC1-2800:serial=%d,node=%d" % MT]})
+    bus = {"name": "line1", "interface": "vcan0", "bitrate": 250, "discovery_period_s": 30}
+    tpdo = {"mapping": ["position"], "transmission": "event", "event_timer_ms": 100}
+    devices = [{"name": "rot-a", "bus": "line1", "serial": ROT[0], "model": "RFC-4800", "node_id": ROT[1],
+                "heartbeat_ms": 100, "tpdo1": tpdo},
+               {"name": "mt-a", "bus": "line1", "serial": MT[0], "model": "MC1-2800", "node_id": MT[1],
+                "heartbeat_ms": 100, "preset": 0, "on_config_drift": "keep", "tpdo1": tpdo}]
+    extra = ("[control]\nwrites_enabled = true\nwrite_group = \"\"\n"
+             "[ascii_gateway]\ntcp_port = %d\nwrites_enabled = true\nwrite_group = \"\"\nwrite_allow = [\"127.0.0.1/32\"]\n"
+             "[web]\nport = %d\n"
+             "[outputs.modbus]\nbind = \"127.0.0.1\"\nport = %d\nwrites_enabled = true\n"
+             "write_allow = [\"127.0.0.1/32\"]\n" % (TCP_PORT, WEB_PORT, MODBUS_PORT))
+    daemon = e2e.Daemon(args.daemon, e2e.write_config(ws, [bus], devices, extra=extra), ws,
+                        extra_args=["--plugin-dir", args.plugins])
+    with e2e.shut_down_after(ws, lambda: (daemon, sim, listener)):
+        report.check(daemon.wait_socket(), "control socket up")
+        _, took = daemon.wait_until(e2e.all_operational(["rot-a", "mt-a"]), 30, interval=0.1)
+        if report.check(took is not None, "both devices operational"):
+            restore_case(report, daemon, listener)
+            keep_case(report, args, ws, daemon, sim)
+        else:
+            print(daemon.tail(60))
+        e2e.check_clean_exit(report, daemon, tail=60)
+        daemon = None
+    return report.finish()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
