@@ -40,11 +40,15 @@ void BusManager::Impl::poll_netlink() {
   const can::ControllerHealth before = controller;
   const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(wall_now().time_since_epoch()).count();
   if (can::apply_netlink(controller, *reading, ns)) {
-    log->warn("bus {}: CAN controller {} -> {} (netlink{})", bus.name, can::to_string(before.state),
-              can::to_string(controller.state),
-              controller.counters_known
-                  ? fmt::format(": tx errors {}, rx errors {}", controller.tx_errors, controller.rx_errors)
-                  : std::string());
+    // The first state a healthy adapter reports at start is news, not a
+    // fault: info for it and for a return to error-active, warn otherwise.
+    const bool news_only = before.state == can::ControllerState::unknown ||
+                           controller.state == can::ControllerState::error_active;
+    log->log(news_only ? spdlog::level::info : spdlog::level::warn, "bus {}: CAN controller {} -> {} (netlink{})",
+             bus.name, can::to_string(before.state), can::to_string(controller.state),
+             controller.counters_known
+                 ? fmt::format(": tx errors {}, rx errors {}", controller.tx_errors, controller.rx_errors)
+                 : std::string());
   }
   if (before.driver != controller.driver && controller.driver == can::DriverReport::no_state)
     log->info("bus {}: {} reports no CAN controller state over netlink (not a can-dev driver, e.g. vcan); "
