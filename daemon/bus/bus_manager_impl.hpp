@@ -5,8 +5,9 @@
 // and bus events of the protocol components; supervision),
 // bus_manager_discovery.cpp (discovery and the identity check of buses
 // without it), bus_manager_configure.cpp (configuration plans and plugins'
-// commands), bus_manager_remote.cpp (the RemoteGate for clients' commands)
-// and bus_manager_status.cpp (the published status).
+// commands), bus_manager_remote.cpp (the RemoteGate for clients' commands),
+// bus_manager_health.cpp (the controller over netlink, the bus's health to
+// the observer) and bus_manager_status.cpp (the published status).
 //
 // Threads: everything runs on the bus's control thread except the public
 // BusManager calls (any thread), which touch only the atomics and what

@@ -57,8 +57,9 @@ void print_summary(const Json& doc, const std::vector<Json>& buses) {
     const auto& ctl = b["controller"];
     const std::string ctl_state = ctl.is_null() ? std::string() : ctl["state"].str("");
     if (!ctl_state.empty() && ctl_state != "error-active" && ctl_state != "unknown") {
-      std::printf("  CAN controller %s (tx errors %lld, rx errors %lld, restarts %lld)\n", ctl["state"].str().c_str(),
-                  ctl["tx_errors"].integer(), ctl["rx_errors"].integer(), ctl["restarts"].integer());
+      std::printf("  CAN controller %s (tx errors %lld, rx errors %lld, restarts %lld; from %s)\n",
+                  ctl["state"].str().c_str(), ctl["tx_errors"].integer(), ctl["rx_errors"].integer(),
+                  ctl["restarts"].integer(), ctl["source"].str("?").c_str());
     }
     const auto& r = b["redundancy"];
     if (!r.is_null()) {

@@ -131,7 +131,7 @@ def main():
         sim.command("bus-error vcan0 error-passive")
         wait_state(daemon, "error-passive")
         rc, out, _ = e2e.run_cli(args.cli, "status", "--control", ws.control)
-        report.check(rc == 0 and "CAN controller error-passive (tx errors 128" in out,
+        report.check(rc == 0 and "CAN controller error-passive (tx errors 128" in out and "from error frames)" in out,
                      "cobridge status (text) shows a controller that is not error-active", out[:300])
         time.sleep(0.5)  # the web service's snapshot
         m = metrics()
