@@ -253,9 +253,6 @@ void OutputBridge::on_role_changed(const BusRole& role) {
   });
 }
 
-namespace {
-
-// The bus's health in the plugin ABI's terms (plugin.h, ABI 5).
 cobridge_bus_info to_bus_info(const BusHealth& health, std::size_t bus_index) {
   const can::ControllerHealth& c = health.controller;
   cobridge_bus_info info{};
@@ -285,8 +282,6 @@ static_assert(static_cast<int>(can::ControllerState::bus_off) == COBRIDGE_CONTRO
 static_assert(static_cast<int>(can::HealthSource::none) == COBRIDGE_SOURCE_NONE);
 static_assert(static_cast<int>(can::HealthSource::error_frames) == COBRIDGE_SOURCE_ERROR_FRAMES);
 static_assert(static_cast<int>(can::HealthSource::netlink) == COBRIDGE_SOURCE_NETLINK);
-
-}  // namespace
 
 void OutputBridge::on_bus_health(const BusHealth& health) {
   if (!host_ || !dispatcher_) return;

@@ -29,6 +29,11 @@
 
 namespace cobridge::gateway {
 
+// A bus's health in the plugin ABI's terms (plugin.h ABI 5 cobridge_bus_info;
+// bus_name left null: the caller points it at storage that outlives the call).
+// Pure; exposed for tests.
+[[nodiscard]] cobridge_bus_info to_bus_info(const BusHealth& health, std::size_t bus_index);
+
 class OutputBridge final : public BusObserver {
  public:
   // `host`/`dispatcher` may be nullptr (no plugins); device announcements run
