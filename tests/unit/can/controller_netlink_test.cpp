@@ -3,7 +3,8 @@
 // with enum can_state of linux/can/netlink.h, IFLA_CAN_BERR_COUNTER), mapped
 // to ISO 11898-1 fault confinement states and merged with what the error
 // frames told; no socket (the reading is what libnl parsed). The read itself
-// runs against vcan inside UML in vcan_daemon_bus_health.
+// runs against vcan inside UML in vcan_daemon_bus_health, and here against
+// the host's loopback (rtnetlink needs no CAN in the kernel).
 #include "can/controller_netlink.hpp"
 
 #include <linux/can/netlink.h>
@@ -93,6 +94,29 @@ TEST(ControllerNetlink, CanRst_FramesRefreshNetlinkFiguresBetweenPolls) {
   EXPECT_EQ(h.state, ControllerState::unknown);
   EXPECT_EQ(h.source, HealthSource::none);
   EXPECT_FALSE(h.counters_known);
+}
+
+// RTM_GETLINK of a link that is not a can-dev one (loopback, like vcan):
+// read, but no controller data.
+TEST(ControllerNetlink, RtnetlinkLoopbackIsReadAsNotACanDevice) {
+  ControllerNetlink nl;
+  const auto r = nl.read("lo");
+  ASSERT_TRUE(r.ok()) << r.error().message;
+  EXPECT_FALSE(r->can_device);
+  EXPECT_FALSE(r->has_state);
+  EXPECT_FALSE(r->has_berr);
+  const auto again = nl.read("lo");  // the socket is kept and reused
+  EXPECT_TRUE(again.ok());
+}
+
+// A missing interface (an adapter unplugged) is an error that names it.
+TEST(ControllerNetlink, MissingInterfaceIsNotFoundAndNamed) {
+  ControllerNetlink nl;
+  const auto r = nl.read("nocan9");
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().kind, Errc::kNotFound) << r.error().message;
+  EXPECT_EQ(r.error().where, "interface nocan9");
+  EXPECT_NE(r.error().message.find("RTM_GETLINK"), std::string::npos) << r.error().message;
 }
 
 }  // namespace
