@@ -13,8 +13,8 @@
  * Threads:
  *   - cobridge_plugin_create, start, stop, destroy: the daemon's control
  *     thread, never concurrently with each other or with the two below.
- *   - on_samples, on_device: the dispatcher thread, between start and stop.
- *     They are the hot path: they must not block (no waiting on sockets,
+ *   - on_samples, on_device, on_role (ABI 4), on_bus (ABI 5): the
+ *     dispatcher thread, between start and stop. They are the hot path: they must not block (no waiting on sockets,
  *     locks held by slow threads, or disk flushes per sample). A plugin with
  *     slow I/O copies the samples into its own queue and does the I/O on its
  *     own thread.
