@@ -17,6 +17,7 @@
 
 #include "config/config.hpp"
 #include "device/device_catalog.hpp"
+#include "bus/bus_health.hpp"
 #include "bus/device_command.hpp"
 #include "bus/device_status.hpp"
 #include "bus/remote/remote_command.hpp"
@@ -60,6 +61,10 @@ class BusObserver {
   virtual void on_device_removed(const DeviceStatus& /*device*/) {}
   // Hot standby ([redundancy]): the gateway's role on this bus changed.
   virtual void on_role_changed(const BusRole& /*role*/) {}
+  // The bus's health changed (interface open, CAN controller state and
+  // counters): a transition at once, counters at most once a second
+  // (BusHealthGate); once at start.
+  virtual void on_bus_health(const BusHealth& /*health*/) {}
 };
 
 class BusRegistry;

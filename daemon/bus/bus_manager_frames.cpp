@@ -24,6 +24,7 @@ TimePoint BusManager::Impl::run_components(TimePoint now) {
   TimePoint next = kNever;
   next = std::min(next, channel->process(now));
   open_flag.store(channel->is_open());
+  next = std::min(next, watch_health(now));
   if (election) {
     // The role is not handed over in the middle of a device's configuration,
     // which starts at its boot-up: a rebooted device waiting for its plan

@@ -6,8 +6,9 @@
 // bus_manager_discovery.cpp (discovery and the identity check of buses
 // without it), bus_manager_configure.cpp (configuration plans and plugins'
 // commands), bus_manager_remote.cpp (the RemoteGate for clients' commands),
-// bus_manager_drift.cpp (clients' writes of configured objects) and
-// bus_manager_status.cpp (the published status).
+// bus_manager_drift.cpp (clients' writes of configured objects),
+// bus_manager_health.cpp (the controller over netlink, the bus's health to
+// the observer) and bus_manager_status.cpp (the published status).
 //
 // Threads: everything runs on the bus's control thread except the public
 // BusManager calls (any thread), which touch only the atomics and what
@@ -17,6 +18,7 @@
 #include "bus/bus_manager.hpp"
 
 #include "can/bus_event.hpp"
+#include "can/controller_netlink.hpp"
 #include "can/socketcan_channel.hpp"
 #include "canopen/cob_id.hpp"
 #include "canopen/master_election.hpp"
@@ -321,7 +323,16 @@ struct BusManager::Impl final : RemoteGate {
   };
   std::vector<Problem> problems;
   std::string live_bus_event;
-  can::ControllerHealth controller;  // from the channel's error frames
+  can::ControllerHealth controller;  // from the channel's error frames and netlink
+  // The controller over netlink and the health told to the outputs
+  // (bus_manager_health.cpp).
+  can::ControllerNetlink netlink;
+  TimePoint netlink_due{};
+  bool netlink_failing = false;  // the last read failed (logged once per run of failures)
+  BusHealthGate health_gate{std::chrono::seconds(1)};
+  [[nodiscard]] TimePoint watch_health(TimePoint now);
+  void poll_netlink();
+  void tell_health(TimePoint now);
   std::uint32_t reopens_seen = 0;
   bool discovery_started = false;
   bool dirty = true;

@@ -5,13 +5,15 @@
 // Notifications": CAN_ERR_CRTL status, CAN_ERR_BUSOFF, CAN_ERR_RESTARTED,
 // CAN_ERR_CNT counters in data[6]/data[7]).
 //
-// vcan has no controller and sends no error frames of its own; a real
-// adapter's driver sends them on every state change (and, with
-// berr-reporting, on bus errors). The state is what the last state frame
-// said: a driver that reports nothing leaves it at error-active.
+// Two sources feed it: the error frames (apply(BusEvent)) and, where the
+// driver gives them, the controller's own state and counters read over
+// rtnetlink (can/controller_netlink, merged by apply_netlink). vcan has no
+// controller: it sends no error frames of its own and no IFLA_CAN data, so
+// until error frames arrive the state is `unknown` and `source` none, never
+// a guessed error-active.
 //
 // Thread contract: the bus control thread only (BusEvents from the
-// channel); a value copy for status readers.
+// channel, the netlink poll); a value copy for status readers.
 #pragma once
 
 #include "can/bus_event.hpp"
@@ -21,21 +23,33 @@
 
 namespace cobridge::can {
 
-enum class ControllerState : std::uint8_t { error_active, error_warning, error_passive, bus_off };
+// `unknown`: nothing told the state yet (no error frame, no netlink state).
+enum class ControllerState : std::uint8_t { unknown, error_active, error_warning, error_passive, bus_off };
+
+// Where the present figures came from.
+enum class HealthSource : std::uint8_t { none, error_frames, netlink };
+
+// What the driver answered to the netlink poll (IFLA_CAN_STATE present?).
+enum class DriverReport : std::uint8_t { not_read, state, no_state, failed };
 
 [[nodiscard]] std::string_view to_string(ControllerState s) noexcept;
+[[nodiscard]] std::string_view to_string(HealthSource s) noexcept;
 
 struct ControllerHealth {
-  ControllerState state = ControllerState::error_active;
-  bool counters_known = false;   // a frame with CAN_ERR_CNT was seen
-  std::uint8_t tx_errors = 0;    // transmit error counter, as last reported
-  std::uint8_t rx_errors = 0;    // receive error counter
+  ControllerState state = ControllerState::unknown;
+  HealthSource source = HealthSource::none;
+  DriverReport driver = DriverReport::not_read;
+  bool counters_known = false;   // CAN_ERR_CNT or IFLA_CAN_BERR_COUNTER seen
+  std::uint16_t tx_errors = 0;   // transmit error counter, as last reported
+  std::uint16_t rx_errors = 0;   // receive error counter
   std::uint64_t restarts = 0;    // restarts after bus-off
   std::uint64_t bus_errors = 0;  // protocol violations, missing ACKs, transceiver faults
   std::int64_t since_ns = 0;     // realtime of the last state change, 0 = none yet
 
   // Applies one event; returns true when the state changed.
   bool apply(const BusEvent& ev) noexcept;
+  // Sets the state from whichever source told it; true when it changed.
+  bool set_state(ControllerState next, std::int64_t at_ns) noexcept;
 };
 
 }  // namespace cobridge::can

@@ -55,9 +55,11 @@ void print_summary(const Json& doc, const std::vector<Json>& buses) {
                 b["last_bus_event"].str("").c_str(), c["rx_frames"].integer(), c["tx_frames"].integer(),
                 c["error_frames"].integer(), c["rx_overflow_drops"].integer(), c["reopens"].integer());
     const auto& ctl = b["controller"];
-    if (!ctl.is_null() && ctl["state"].str("") != "error-active") {
-      std::printf("  CAN controller %s (tx errors %lld, rx errors %lld, restarts %lld)\n", ctl["state"].str().c_str(),
-                  ctl["tx_errors"].integer(), ctl["rx_errors"].integer(), ctl["restarts"].integer());
+    const std::string ctl_state = ctl.is_null() ? std::string() : ctl["state"].str("");
+    if (!ctl_state.empty() && ctl_state != "error-active" && ctl_state != "unknown") {
+      std::printf("  CAN controller %s (tx errors %lld, rx errors %lld, restarts %lld; from %s)\n",
+                  ctl["state"].str().c_str(), ctl["tx_errors"].integer(), ctl["rx_errors"].integer(),
+                  ctl["restarts"].integer(), ctl["source"].str("?").c_str());
     }
     const auto& r = b["redundancy"];
     if (!r.is_null()) {

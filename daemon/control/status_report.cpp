@@ -226,11 +226,18 @@ void write_redundancy(JsonWriter& w, const BusStatus& b) {
   w.end_object();
 }
 
-// The CAN controller's fault confinement state and counters (error frames).
+// The CAN controller's fault confinement state and counters (error frames,
+// netlink), where they came from, and whether the driver reports a state
+// at all (vcan does not: then "unknown" until error frames tell one).
 void write_controller(JsonWriter& w, const can::ControllerHealth& c) {
   w.key("controller");
   w.begin_object();
   w.field("state", std::string(can::to_string(c.state)));
+  w.field("source", std::string(can::to_string(c.source)));
+  w.key("driver_reports_state");
+  if (c.driver == can::DriverReport::state) w.value(true);
+  else if (c.driver == can::DriverReport::no_state) w.value(false);
+  else w.null();
   w.key("tx_errors");
   if (c.counters_known) w.value(std::uint64_t{c.tx_errors}); else w.null();
   w.key("rx_errors");

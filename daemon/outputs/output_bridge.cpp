@@ -253,4 +253,48 @@ void OutputBridge::on_role_changed(const BusRole& role) {
   });
 }
 
+cobridge_bus_info to_bus_info(const BusHealth& health, std::size_t bus_index) {
+  const can::ControllerHealth& c = health.controller;
+  cobridge_bus_info info{};
+  info.struct_size = sizeof info;
+  info.bus_index = static_cast<std::uint8_t>(bus_index);
+  info.open = health.open ? 1 : 0;
+  // ControllerState and HealthSource are in the ABI's order (static_asserts below).
+  info.state = static_cast<std::uint8_t>(c.state);
+  info.source = static_cast<std::uint8_t>(c.source);
+  info.counters_known = c.counters_known ? 1 : 0;
+  info.driver_reports_state = c.driver == can::DriverReport::state      ? 1
+                              : c.driver == can::DriverReport::no_state ? 0
+                                                                        : 2;
+  info.tx_errors = c.counters_known ? c.tx_errors : 0;
+  info.rx_errors = c.counters_known ? c.rx_errors : 0;
+  info.restarts = c.restarts;
+  info.error_frames = health.error_frames;
+  info.since_ns = static_cast<std::uint64_t>(c.since_ns);
+  return info;
+}
+
+static_assert(static_cast<int>(can::ControllerState::unknown) == COBRIDGE_CONTROLLER_UNKNOWN);
+static_assert(static_cast<int>(can::ControllerState::error_active) == COBRIDGE_CONTROLLER_ERROR_ACTIVE);
+static_assert(static_cast<int>(can::ControllerState::error_warning) == COBRIDGE_CONTROLLER_ERROR_WARNING);
+static_assert(static_cast<int>(can::ControllerState::error_passive) == COBRIDGE_CONTROLLER_ERROR_PASSIVE);
+static_assert(static_cast<int>(can::ControllerState::bus_off) == COBRIDGE_CONTROLLER_BUS_OFF);
+static_assert(static_cast<int>(can::HealthSource::none) == COBRIDGE_SOURCE_NONE);
+static_assert(static_cast<int>(can::HealthSource::error_frames) == COBRIDGE_SOURCE_ERROR_FRAMES);
+static_assert(static_cast<int>(can::HealthSource::netlink) == COBRIDGE_SOURCE_NETLINK);
+
+void OutputBridge::on_bus_health(const BusHealth& health) {
+  if (!host_ || !dispatcher_) return;
+  const auto cfg = config_.get();
+  cobridge_bus_info info = to_bus_info(health, bus_index_);
+  // In order with the samples (plugin.h), like on_role.
+  auto name = std::make_shared<std::string>(bus_index_ < cfg->buses.size() ? cfg->buses[bus_index_].name
+                                                                            : std::string());
+  pipeline::PluginHost* host = host_;
+  dispatcher_->post([host, info, name]() mutable {
+    info.bus_name = name->c_str();
+    host->announce_bus(info);
+  });
+}
+
 }  // namespace cobridge::gateway

@@ -8,7 +8,8 @@
 // the bus's RX thread as StatusEvents (so every sample of a device keeps one
 // producer and one sequence); device identities go to the plugins
 // (cobridge_device_info) through the plugin host; command outcomes go to the
-// RX thread too, which turns them into COMMAND samples.
+// RX thread too, which turns them into COMMAND samples; the bus's health
+// and the pair's role go to the plugins (ABI 5 on_bus, ABI 4 on_role).
 // Threads: the BusObserver callbacks run on each bus's control thread; the
 // bridge hands plugin announcements to the dispatcher thread (plugin.h).
 #pragma once
@@ -28,6 +29,11 @@
 
 namespace cobridge::gateway {
 
+// A bus's health in the plugin ABI's terms (plugin.h ABI 5 cobridge_bus_info;
+// bus_name left null: the caller points it at storage that outlives the call).
+// Pure; exposed for tests.
+[[nodiscard]] cobridge_bus_info to_bus_info(const BusHealth& health, std::size_t bus_index);
+
 class OutputBridge final : public BusObserver {
  public:
   // `host`/`dispatcher` may be nullptr (no plugins); device announcements run
@@ -43,6 +49,7 @@ class OutputBridge final : public BusObserver {
                        const CommandOutcome& outcome) override;
   void on_device_removed(const DeviceStatus& device) override;
   void on_role_changed(const BusRole& role) override;
+  void on_bus_health(const BusHealth& health) override;
 
   // The plan that would be published (exposed for tests); an inactive plan
   // when the mapping cannot be decoded, `error` (if given) then says why

@@ -148,6 +148,7 @@ struct PluginHost::Instance {
   void (*on_device)(void*, const cobridge_device_info*) = nullptr;
   std::size_t (*stats)(void*, cobridge_stat*, std::size_t) = nullptr;
   void (*on_role)(void*, const cobridge_role_info*) = nullptr;
+  void (*on_bus)(void*, const cobridge_bus_info*) = nullptr;
   std::string type;
   bool started = false;
 };
@@ -305,6 +306,7 @@ Error PluginHost::load(const PluginSpec& spec) {
   if (covers(size, offsetof(cobridge_plugin_ops, on_device))) p->on_device = ops->on_device;
   if (covers(size, offsetof(cobridge_plugin_ops, stats))) p->stats = ops->stats;
   if (covers(size, offsetof(cobridge_plugin_ops, on_role))) p->on_role = ops->on_role;
+  if (covers(size, offsetof(cobridge_plugin_ops, on_bus))) p->on_bus = ops->on_bus;
 
   const char* type = ops->name != nullptr ? ops->name : "?";
   p->type = type;
@@ -365,6 +367,12 @@ void PluginHost::announce(const cobridge_device_info& info) noexcept {
 void PluginHost::announce_role(const cobridge_role_info& info) noexcept {
   for (const auto& p : plugins_) {
     if (p->started && p->on_role != nullptr) p->on_role(p->self, &info);
+  }
+}
+
+void PluginHost::announce_bus(const cobridge_bus_info& info) noexcept {
+  for (const auto& p : plugins_) {
+    if (p->started && p->on_bus != nullptr) p->on_bus(p->self, &info);
   }
 }
 

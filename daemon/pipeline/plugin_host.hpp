@@ -170,6 +170,9 @@ class PluginHost {
   // Dispatcher thread. Tells every started plugin whose ABI has on_role that
   // the gateway's role on a bus changed (hot standby).
   void announce_role(const cobridge_role_info& info) noexcept;
+  // Dispatcher thread. Tells every started plugin whose ABI has on_bus
+  // (ABI 5) a bus's health.
+  void announce_bus(const cobridge_bus_info& info) noexcept;
 
   // Stops the started instances in reverse load order; they stay loaded and
   // may be started again.

@@ -72,6 +72,13 @@ static_assert(offsetof(cobridge_plugin_ops, start) == 16);
 static_assert(offsetof(cobridge_plugin_ops, on_samples) == 40);
 static_assert(COBRIDGE_PLUGIN_OPS_MIN_SIZE == 48);
 static_assert(offsetof(cobridge_plugin_ops, on_device) == 48);
+static_assert(offsetof(cobridge_plugin_ops, on_role) == 64);
+static_assert(offsetof(cobridge_plugin_ops, on_bus) == 72);  // ABI 5
+// ABI 5's bus info: no implicit padding, 64-bit fields aligned.
+static_assert(offsetof(cobridge_bus_info, tx_errors) == 10);
+static_assert(offsetof(cobridge_bus_info, restarts) == 24);
+static_assert(offsetof(cobridge_bus_info, bus_name) == 48);
+static_assert(sizeof(cobridge_bus_info) == 56);
 
 enum class SampleKind : std::uint8_t {
   kTpdo = COBRIDGE_SAMPLE_TPDO,

@@ -153,14 +153,16 @@ void gateway_families(Writer& w, const gateway::StatusReport& report) {
 void controller_families(Writer& w, const gateway::StatusReport& report) {
   using can::ControllerState;
   w.family("cobridge_bus_controller_state", "gauge",
-           "1 for the CAN controller's present state (error-active, error-warning, error-passive, bus-off).");
+           "1 for the CAN controller's present state (unknown: no error frame or netlink state yet; error-active, "
+           "error-warning, error-passive, bus-off).");
   for (const auto& b : report.buses) {
-    for (const ControllerState s : {ControllerState::error_active, ControllerState::error_warning,
-                                    ControllerState::error_passive, ControllerState::bus_off})
+    for (const ControllerState s : {ControllerState::unknown, ControllerState::error_active,
+                                    ControllerState::error_warning, ControllerState::error_passive,
+                                    ControllerState::bus_off})
       w.sample({{"bus", b.name}, {"state", can::to_string(s)}}, b.controller.state == s ? 1 : 0);
   }
   w.family("cobridge_bus_controller_errors", "gauge",
-           "The controller's transmit / receive error counter as its last error frame reported it.");
+           "The controller's transmit / receive error counter as netlink or its last error frame reported it.");
   for (const auto& b : report.buses) {
     if (!b.controller.counters_known) continue;
     w.sample({{"bus", b.name}, {"direction", "tx"}}, b.controller.tx_errors);

@@ -44,6 +44,7 @@
 #include "dds/dds_publisher.hpp"
 #include "dds/dds_security.hpp"
 #include "dds/dispatcher_samples.hpp"
+#include "dds/bus_health_table.hpp"
 #include "dds/gateway_presence.hpp"
 #include "dds/topics.hpp"
 
@@ -101,6 +102,7 @@ struct Instance {
   std::unique_ptr<DispatcherSamples> direct;  // set when samples are written on the dispatcher
   std::unique_ptr<GatewayPresence> presence;
   std::unique_ptr<PairRole> pair;  // hot standby only (host->redundancy_node)
+  BusHealthTable bus_health;       // ABI 5 on_bus, for GatewayStatus.bus_health
   std::thread presence_thread;
   std::mutex presence_mutex;
   std::condition_variable presence_cv;
@@ -278,7 +280,7 @@ struct Instance {
       const bool refresh = now >= refresh_at;
       // Forced when the other one disposed our key (kGone), and every kPresenceRefresh.
       const std::uint64_t writes = presence->writes();
-      presence->publish(publisher->counts(), pair ? pair->snapshot() : PairStatus{},
+      presence->publish(publisher->counts(), pair ? pair->snapshot() : PairStatus{}, bus_health.snapshot(),
                         d == DuplicateChange::kGone || refresh);
       if (refresh || presence->writes() != writes) refresh_at = now + kPresenceRefresh;
       try {
@@ -492,6 +494,18 @@ void dds_on_role(void* self, const cobridge_role_info* info) {
   }
 }
 
+// ABI 5: a bus's health (CAN controller); GatewayStatus says it. Dispatcher
+// thread: a copy under a mutex and a wake-up; the presence thread writes.
+void dds_on_bus(void* self, const cobridge_bus_info* info) {
+  if (info == nullptr) return;
+  auto* inst = static_cast<Instance*>(self);
+  try {
+    if (inst->bus_health.update(*info) && inst->presence) inst->wake_presence();
+  } catch (...) {
+    // Out of memory: the health shows at the next change.
+  }
+}
+
 // ABI 3: what the status page and /metrics show of this output. Control-plane
 // thread, between start and stop: atomics and one Cyclone status query per writer.
 std::size_t dds_stats(void* self, cobridge_stat* out, std::size_t max) {
@@ -541,6 +555,7 @@ constexpr cobridge_plugin_ops kOps = {
     &dds_on_device,
     &dds_stats,
     &dds_on_role,
+    &dds_on_bus,
 };
 
 }  // namespace

@@ -32,6 +32,23 @@ std::uint64_t new_incarnation() {
   return r ^ realtime_ns();
 }
 
+// One bus of GatewayStatus.bus_health; the strings point into `b`.
+cobridge_BusHealth to_idl(const BusHealthEntry& b) noexcept {
+  cobridge_BusHealth h{};
+  h.bus_index = b.bus_index;
+  h.bus_name = const_cast<char*>(b.bus_name.c_str());
+  h.open = b.open;
+  h.controller_state = b.controller_state;
+  h.source = const_cast<char*>(b.source.c_str());
+  h.counters_known = b.counters_known;
+  h.tx_errors = b.tx_errors;
+  h.rx_errors = b.rx_errors;
+  h.restarts = b.restarts;
+  h.error_frames = b.error_frames;
+  h.since_ns = b.since_ns;
+  return h;
+}
+
 // Reader take size; the same on every take (see docs/dds.md, the loan quirk).
 constexpr std::uint32_t kTake = 16;
 
@@ -75,7 +92,7 @@ plugin::Error GatewayPresence::start(dds_entity_t participant) {
     stop();
     return {make_dds_error(rc), "cannot create the " + what + " of '" + name + "': " + dds_strretcode(rc)};
   }
-  publish(counts_, pair_, true);
+  publish(counts_, pair_, buses_, true);
   return {};
 }
 
@@ -131,14 +148,18 @@ void GatewayPresence::set_pair_node(std::uint8_t node) {
   pair_.node = node;
 }
 
-void GatewayPresence::publish(const GatewayCounts& counts, const PairStatus& pair, bool force) noexcept {
+void GatewayPresence::publish(const GatewayCounts& counts, const PairStatus& pair,
+                              const std::vector<BusHealthEntry>& buses, bool force) noexcept {
   if (writer_ <= 0) return;
-  if (!force && ever_written_ && counts == counts_ && pair == pair_ && duplicate() == written_duplicate_) return;
+  if (!force && ever_written_ && counts == counts_ && pair == pair_ && buses == buses_ &&
+      duplicate() == written_duplicate_)
+    return;
   counts_ = counts;
   try {
     pair_ = pair;
+    buses_ = buses;
   } catch (...) {
-    // std::string out of memory: the last role is written again.
+    // std::string out of memory: the last role and health are written again.
   }
   write(realtime_ns());
 }
@@ -164,6 +185,20 @@ void GatewayPresence::write(std::uint64_t now_ns) noexcept {
   st.peer_node = pair_.peer_node;
   st.election_cause = const_cast<char*>(pair_.cause.c_str());
   st.election_ns = pair_.since_ns;
+  // The sequence points into buses_ for the write only (Cyclone copies it).
+  std::vector<cobridge_BusHealth> health;
+  try {
+    health.reserve(buses_.size());
+  } catch (...) {
+    // Out of memory: written without bus_health this time.
+  }
+  for (const BusHealthEntry& b : buses_) {
+    if (health.size() == health.capacity()) break;
+    health.push_back(to_idl(b));
+  }
+  st.bus_health._length = st.bus_health._maximum = static_cast<std::uint32_t>(health.size());
+  st.bus_health._buffer = health.data();
+  st.bus_health._release = false;
   if (dds_write(writer_, &st) == DDS_RETCODE_OK) ++writes_;
   (void)dds_write_flush(writer_);  // the domain may batch writes (write_batch)
   written_duplicate_ = duplicate();

@@ -16,6 +16,7 @@
 // path: allocates, takes Cyclone's locks.
 #pragma once
 
+#include "dds/bus_health_table.hpp"
 #include "dds/dds_config.hpp"
 #include "dds/pair_role.hpp"
 #include "dds/sample_mapping.hpp"
@@ -25,6 +26,7 @@
 #include <cstdint>
 #include <string>
 #include <system_error>
+#include <vector>
 
 namespace cobridge::dds {
 
@@ -62,9 +64,11 @@ class GatewayPresence {
 
   // Takes what the reader received; reports a duplicate appearing or going.
   [[nodiscard]] DuplicateChange poll() noexcept;
-  // Writes GatewayStatus when the counts, the pair's role or the duplicate
-  // state changed since the last write (or always, with force).
-  void publish(const GatewayCounts& counts, const PairStatus& pair, bool force = false) noexcept;
+  // Writes GatewayStatus when the counts, the pair's role, the buses'
+  // health or the duplicate state changed since the last write (or always,
+  // with force).
+  void publish(const GatewayCounts& counts, const PairStatus& pair, const std::vector<BusHealthEntry>& buses,
+               bool force = false) noexcept;
   // Hot standby: before start, this gateway's node-ID in the pair. Its
   // GatewayStatus is then keyed by "<gateway_id>#<node>", so the two
   // gateways of a pair (one gateway_id) are two instances, not duplicates.
@@ -92,6 +96,7 @@ class GatewayPresence {
   dds_entity_t topic_ = 0;
   GatewayCounts counts_{};
   PairStatus pair_{};
+  std::vector<BusHealthEntry> buses_;  // GatewayStatus.bus_health
   bool written_duplicate_ = false;
   bool ever_written_ = false;
   std::string duplicate_of_;  // "host pid" of the other gateway, "" = none

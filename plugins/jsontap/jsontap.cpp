@@ -369,6 +369,7 @@ constexpr cobridge_plugin_ops kOps = {
     &tap_on_device,
     nullptr,  // stats: the tap reports nothing of its own
     nullptr,  // on_role: both gateways of a pair tap the same frames
+    nullptr,  // on_bus: the tap prints samples only
 };
 
 }  // namespace

@@ -132,6 +132,13 @@ void modbus_on_device(void* self, const cobridge_device_info* info) {
   p->image->apply(*info);
 }
 
+// ABI 5: a bus's health (CAN controller state, error counters, restarts).
+void modbus_on_bus(void* self, const cobridge_bus_info* info) {
+  auto* p = static_cast<Plugin*>(self);
+  if (info == nullptr || info->struct_size < offsetof(cobridge_bus_info, restarts) + sizeof(info->restarts)) return;
+  p->image->apply(*info);
+}
+
 // ABI 3: what the status page and /metrics show of this output. Control-plane
 // thread; the server's counters are atomics, so this only loads them.
 std::size_t modbus_stats(void* self, cobridge_stat* out, std::size_t max) {
@@ -158,6 +165,7 @@ constexpr cobridge_plugin_ops kOps = {
     COBRIDGE_PLUGIN_ABI_VERSION, sizeof(cobridge_plugin_ops), "modbus", &modbus_start, &modbus_stop,
     &modbus_destroy,             &modbus_on_samples,          &modbus_on_device, &modbus_stats,
     nullptr,  // on_role: both gateways of a pair serve live registers; SCADA may poll either
+    &modbus_on_bus,
 };
 
 }  // namespace

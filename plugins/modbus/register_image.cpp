@@ -201,6 +201,18 @@ void RegisterImage::apply(const cobridge_device_info& info) noexcept {
   publish(info.device_index, sh.state);
 }
 
+void RegisterImage::apply(const cobridge_bus_info& info) noexcept {
+  if (info.bus_index >= kMaxBuses) return;
+  BusCounters& b = buses_[info.bus_index];
+  // cobridge_controller_state values are the register's (docs/modbus.md).
+  b.controller_state.store(info.state <= COBRIDGE_CONTROLLER_BUS_OFF ? info.state : 0, std::memory_order_relaxed);
+  b.tx_errors.store(info.counters_known != 0 ? std::min<std::uint16_t>(info.tx_errors, kCounterUnknown - 1) : kCounterUnknown,
+                    std::memory_order_relaxed);
+  b.rx_errors.store(info.counters_known != 0 ? std::min<std::uint16_t>(info.rx_errors, kCounterUnknown - 1) : kCounterUnknown,
+                    std::memory_order_relaxed);
+  b.restarts.store(static_cast<std::uint32_t>(info.restarts), std::memory_order_relaxed);
+}
+
 void RegisterImage::render_gateway(std::uint16_t* block, ReadTime now) const noexcept {
   const std::uint64_t start = start_ns_.load(std::memory_order_relaxed);
   const std::uint64_t up = now.monotonic_ns > start ? (now.monotonic_ns - start) / 1'000'000'000u : 0;
@@ -246,6 +258,21 @@ void RegisterImage::render_bus(std::uint16_t bus, std::uint16_t* block) const no
       case Field::kBusOnline: v = online; break;
       case Field::kBusFrames: v = b.frames.load(std::memory_order_relaxed); break;
       case Field::kBusDrops: v = b.drops.load(std::memory_order_relaxed); break;
+      case Field::kBusControllerState: v = b.controller_state.load(std::memory_order_relaxed); break;
+      default: break;
+    }
+    put(block, d, v, options_.word_order);
+  }
+}
+
+void RegisterImage::render_controller(std::uint16_t bus, std::uint16_t* block) const noexcept {
+  const BusCounters& b = buses_[bus];
+  for (const RegisterDef& d : controller_registers()) {
+    std::uint32_t v = 0;
+    switch (d.field) {
+      case Field::kControllerTxErrors: v = b.tx_errors.load(std::memory_order_relaxed); break;
+      case Field::kControllerRxErrors: v = b.rx_errors.load(std::memory_order_relaxed); break;
+      case Field::kControllerRestarts: v = b.restarts.load(std::memory_order_relaxed); break;
       default: break;
     }
     put(block, d, v, options_.word_order);
@@ -299,7 +326,10 @@ ReadStatus RegisterImage::read(std::uint16_t address, std::span<std::uint16_t> o
   if (pos < kDeviceBase) {
     std::array<std::uint16_t, kDeviceBase> low{};
     render_gateway(low.data() + kGatewayBase, now);
-    for (std::uint16_t b = 0; b < kMaxBuses; ++b) render_bus(b, low.data() + bus_base(b));
+    for (std::uint16_t b = 0; b < kMaxBuses; ++b) {
+      render_bus(b, low.data() + bus_base(b));
+      render_controller(b, low.data() + controller_base(b));
+    }
     const std::uint32_t stop = std::min<std::uint32_t>(end, kDeviceBase);
     std::copy(low.begin() + pos, low.begin() + stop, out.begin());
     pos = stop;

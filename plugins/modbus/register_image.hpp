@@ -8,7 +8,9 @@
 // a reader retries only while a write of ~10 stores is in flight. Values are
 // kept raw (position, timestamps, ...) and turned into registers at read time,
 // so the data age is computed when the client asks, and word order is a
-// property of the read. Bus and gateway counters are relaxed atomics.
+// property of the read. Bus and gateway counters are relaxed atomics; so
+// are a bus's CAN controller figures (on_bus, ABI 5), each register whole,
+// the state and counters possibly from two consecutive reports.
 //
 // The command registers of each slot (+28..+31) are not in the seqlock: they
 // belong to CommandRegisters, which read() asks when one is attached.
@@ -105,6 +107,7 @@ class RegisterImage {
   // Writer side (dispatcher thread).
   void apply(const cobridge_sample& s) noexcept;
   void apply(const cobridge_device_info& info) noexcept;
+  void apply(const cobridge_bus_info& info) noexcept;
   // Renders +28..+31 of every present slot from `commands` (may be nullptr).
   void attach(const CommandRegisters* commands) noexcept { commands_ = commands; }
   // Marks the start of the uptime count.
@@ -137,6 +140,11 @@ class RegisterImage {
     std::atomic<std::uint32_t> drops{0};
     std::atomic<std::uint16_t> devices{0};
     std::atomic<std::uint16_t> online{0};
+    // The CAN controller (cobridge_bus_info); unknown until a daemon with ABI 5 tells it.
+    std::atomic<std::uint16_t> controller_state{0};
+    std::atomic<std::uint16_t> tx_errors{kCounterUnknown};
+    std::atomic<std::uint16_t> rx_errors{kCounterUnknown};
+    std::atomic<std::uint32_t> restarts{0};
   };
 
   void publish(std::uint16_t slot, const DeviceState& st) noexcept;
@@ -146,6 +154,7 @@ class RegisterImage {
   static void copy_values(const cobridge_sample& s, DeviceState& st) noexcept;
   void render_gateway(std::uint16_t* block, ReadTime now) const noexcept;
   void render_bus(std::uint16_t bus, std::uint16_t* block) const noexcept;
+  void render_controller(std::uint16_t bus, std::uint16_t* block) const noexcept;
   void render_device(std::uint16_t slot, const DeviceState& st, std::uint16_t* block, ReadTime now) const noexcept;
 
   ImageOptions options_;

@@ -11,7 +11,7 @@ constexpr Access RW = Access::kReadWrite;
 
 constexpr std::array kGateway = {
     RegisterDef{0, RegType::kU16, Field::kLayoutVersion, "map_version", "", 1, R,
-                "layout version of this register map (2)"},
+                "layout version of this register map (3)"},
     RegisterDef{1, RegType::kU16, Field::kVersionMajor, "version_major", "", 1, R, "gateway software version, major"},
     RegisterDef{2, RegType::kU16, Field::kVersionMinor, "version_minor", "", 1, R, "gateway software version, minor"},
     RegisterDef{3, RegType::kU16, Field::kVersionPatch, "version_patch", "", 1, R, "gateway software version, patch"},
@@ -36,10 +36,22 @@ constexpr std::array kBus = {
                 "0 = no device seen, 1 = all devices online, 2 = some offline, 3 = all offline"},
     RegisterDef{1, RegType::kU16, Field::kBusDevices, "devices", "", 1, R, "devices on this bus"},
     RegisterDef{2, RegType::kU16, Field::kBusOnline, "devices_online", "", 1, R, "devices online on this bus"},
+    RegisterDef{3, RegType::kU16, Field::kBusControllerState, "controller_state", "", 1, R,
+                "CAN controller: 0 = unknown (no error frame or netlink state yet), 1 = error-active, "
+                "2 = error-warning, 3 = error-passive, 4 = bus-off"},
     RegisterDef{4, RegType::kU32, Field::kBusFrames, "frames", "", 1, R,
                 "samples received from this bus (decoded frames), wraps"},
     RegisterDef{6, RegType::kU32, Field::kBusDrops, "drops", "", 1, R,
                 "samples lost before the output (gaps in the per-device sequence), wraps"},
+};
+
+constexpr std::array kController = {
+    RegisterDef{0, RegType::kU16, Field::kControllerTxErrors, "tx_errors", "", 1, R,
+                "CAN controller transmit error counter; 65535 = not reported by the driver"},
+    RegisterDef{1, RegType::kU16, Field::kControllerRxErrors, "rx_errors", "", 1, R,
+                "CAN controller receive error counter; 65535 = not reported by the driver"},
+    RegisterDef{2, RegType::kU32, Field::kControllerRestarts, "restarts", "", 1, R,
+                "controller restarts after bus-off, wraps"},
 };
 
 constexpr std::array kDevice = {
@@ -99,6 +111,7 @@ constexpr bool well_formed(const auto& defs, std::uint16_t block) {
 }
 static_assert(well_formed(kGateway, kGatewayBlockSize));
 static_assert(well_formed(kBus, kBusStride));
+static_assert(well_formed(kController, kControllerStride));
 static_assert(well_formed(kDevice, kDeviceStride));
 
 void csv_field(std::string& out, const char* text) {
@@ -138,6 +151,7 @@ const char* access_name(Access a) noexcept { return a == Access::kRead ? "R" : "
 
 std::span<const RegisterDef> gateway_registers() noexcept { return kGateway; }
 std::span<const RegisterDef> bus_registers() noexcept { return kBus; }
+std::span<const RegisterDef> controller_registers() noexcept { return kController; }
 std::span<const RegisterDef> device_registers() noexcept { return kDevice; }
 
 std::vector<MapRow> map_rows(std::uint16_t buses, std::uint16_t slots) {
@@ -147,6 +161,9 @@ std::vector<MapRow> map_rows(std::uint16_t buses, std::uint16_t slots) {
   append_rows(rows, kGateway, kGatewayBase, "gateway.");
   for (std::uint16_t b = 0; b < buses; ++b) {
     append_rows(rows, kBus, bus_base(b), "bus[" + std::to_string(b) + "].");
+  }
+  for (std::uint16_t b = 0; b < buses; ++b) {
+    append_rows(rows, kController, controller_base(b), "controller[" + std::to_string(b) + "].");
   }
   for (std::uint16_t n = 0; n < slots; ++n) {
     append_rows(rows, kDevice, device_base(n), "device[" + std::to_string(n) + "].");

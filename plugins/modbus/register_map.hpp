@@ -5,6 +5,7 @@
 //
 //   0 .. 15                  gateway block
 //   16 + 8*b                 bus block b (b = 0 .. kMaxBuses-1)
+//   144 + 4*b                controller block b: bus b's CAN error counters
 //   kDeviceBase + n*kStride  device slot n (n = the daemon's device_index)
 //
 // 32-bit values occupy two registers; their word order is a configuration
@@ -24,19 +25,25 @@ namespace cobridge::modbus {
 
 // Bumped whenever an address, type or scale changes (gateway register 0).
 // 2: the command registers of the device slot (+28..+31).
-inline constexpr std::uint16_t kMapVersion = 2;
+// 3: the CAN controller's state (bus block +3) and the controller blocks.
+inline constexpr std::uint16_t kMapVersion = 3;
 
 inline constexpr std::uint16_t kGatewayBase = 0;
 inline constexpr std::uint16_t kGatewayBlockSize = 16;
 inline constexpr std::uint16_t kBusBase = 16;
 inline constexpr std::uint16_t kBusStride = 8;
 inline constexpr std::uint16_t kMaxBuses = 16;
+// The bus block had one free register (its state went there); the error
+// counters and restarts got a block of their own, after the bus blocks.
+inline constexpr std::uint16_t kControllerBase = 144;
+inline constexpr std::uint16_t kControllerStride = 4;
 inline constexpr std::uint16_t kDeviceBase = 256;
 inline constexpr std::uint16_t kDeviceStride = 32;
 // 256 + 2016 * 32 = 64 768: the slots stay inside the 16-bit address space.
 inline constexpr std::uint16_t kMaxDeviceSlots = 2016;
 
-static_assert(kBusBase + kBusStride * kMaxBuses <= kDeviceBase);
+static_assert(kBusBase + kBusStride * kMaxBuses <= kControllerBase);
+static_assert(kControllerBase + kControllerStride * kMaxBuses <= kDeviceBase);
 
 enum class RegType : std::uint8_t { kU16, kI16, kU32, kI32 };
 enum class Access : std::uint8_t { kRead, kReadWrite };
@@ -64,6 +71,11 @@ enum class Field : std::uint8_t {
   kBusOnline,
   kBusFrames,
   kBusDrops,
+  kBusControllerState,
+  // controller block
+  kControllerTxErrors,
+  kControllerRxErrors,
+  kControllerRestarts,
   // device slot
   kPosition,
   kSpeed,
@@ -94,6 +106,8 @@ enum class Field : std::uint8_t {
 
 // Bus block register kBusState.
 enum class BusState : std::uint16_t { kUnknown = 0, kOk = 1, kDegraded = 2, kDown = 3 };
+// Controller block: an error counter the driver does not report.
+inline constexpr std::uint16_t kCounterUnknown = 65535;
 
 // One value of the map. `offset` is relative to the block's base.
 struct RegisterDef {
@@ -113,13 +127,17 @@ struct RegisterDef {
 [[nodiscard]] const char* type_name(RegType t) noexcept;
 [[nodiscard]] const char* access_name(Access a) noexcept;
 
-// The three block layouts, sorted by offset, non-overlapping.
+// The four block layouts, sorted by offset, non-overlapping.
 [[nodiscard]] std::span<const RegisterDef> gateway_registers() noexcept;
 [[nodiscard]] std::span<const RegisterDef> bus_registers() noexcept;
+[[nodiscard]] std::span<const RegisterDef> controller_registers() noexcept;
 [[nodiscard]] std::span<const RegisterDef> device_registers() noexcept;
 
 [[nodiscard]] constexpr std::uint16_t bus_base(std::uint16_t bus) noexcept {
   return static_cast<std::uint16_t>(kBusBase + bus * kBusStride);
+}
+[[nodiscard]] constexpr std::uint16_t controller_base(std::uint16_t bus) noexcept {
+  return static_cast<std::uint16_t>(kControllerBase + bus * kControllerStride);
 }
 [[nodiscard]] constexpr std::uint16_t device_base(std::uint16_t slot) noexcept {
   return static_cast<std::uint16_t>(kDeviceBase + slot * kDeviceStride);

@@ -13,8 +13,8 @@
  * Threads:
  *   - cobridge_plugin_create, start, stop, destroy: the daemon's control
  *     thread, never concurrently with each other or with the two below.
- *   - on_samples, on_device: the dispatcher thread, between start and stop.
- *     They are the hot path: they must not block (no waiting on sockets,
+ *   - on_samples, on_device, on_role (ABI 4), on_bus (ABI 5): the
+ *     dispatcher thread, between start and stop. They are the hot path: they must not block (no waiting on sockets,
  *     locks held by slow threads, or disk flushes per sample). A plugin with
  *     slow I/O copies the samples into its own queue and does the I/O on its
  *     own thread.
@@ -44,8 +44,9 @@ extern "C" {
  * COBRIDGE_SAMPLE_COMMAND and the command_* sample fields); 3 = the optional
  * stats operation (what the status page and /metrics show of an output);
  * 4 = hot standby (cobridge_host_api.redundancy_node, the optional on_role
- * operation and cobridge_role_info). */
-#define COBRIDGE_PLUGIN_ABI_VERSION 4u
+ * operation and cobridge_role_info); 5 = bus health (the optional on_bus
+ * operation and cobridge_bus_info). */
+#define COBRIDGE_PLUGIN_ABI_VERSION 5u
 
 /* Name of the exported entry point, for dlsym(). */
 #define COBRIDGE_PLUGIN_ENTRY "cobridge_plugin_create"
@@ -324,6 +325,47 @@ typedef struct cobridge_role_info {
 } cobridge_role_info;
 
 /* ------------------------------------------------------------------------ */
+/* Bus health (ABI 5): the interface and its CAN controller                 */
+
+/* The controller's fault confinement state (ISO 11898-1; error-warning is
+ * Linux's level at an error counter of 96). Values are frozen. */
+enum cobridge_controller_state {
+  COBRIDGE_CONTROLLER_UNKNOWN = 0,       /* nothing told a state yet (e.g. vcan before any error frame) */
+  COBRIDGE_CONTROLLER_ERROR_ACTIVE = 1,
+  COBRIDGE_CONTROLLER_ERROR_WARNING = 2,
+  COBRIDGE_CONTROLLER_ERROR_PASSIVE = 3,
+  COBRIDGE_CONTROLLER_BUS_OFF = 4
+};
+
+/* Where the controller figures came from. Values are frozen. */
+enum cobridge_controller_source {
+  COBRIDGE_SOURCE_NONE = 0,         /* neither: state unknown, counters not known */
+  COBRIDGE_SOURCE_ERROR_FRAMES = 1, /* the driver's CAN error frames (can.rst CAN_ERR_CRTL, CAN_ERR_CNT) */
+  COBRIDGE_SOURCE_NETLINK = 2       /* the driver's IFLA_CAN_STATE / IFLA_CAN_BERR_COUNTER */
+};
+
+/* One bus's health; given to on_bus at start and whenever it changes (a
+ * state transition or the interface opening/closing at once, counters at
+ * most once a second). The string is valid only during the call. Grows at
+ * its end like the other sized structs: read struct_size first. */
+typedef struct cobridge_bus_info {
+  uint32_t struct_size;
+  uint8_t bus_index;        /* index of the CAN bus in the gateway's configuration */
+  uint8_t open;             /* 1 = the CAN interface is open (up and bound) */
+  uint8_t state;            /* enum cobridge_controller_state */
+  uint8_t source;           /* enum cobridge_controller_source */
+  uint8_t counters_known;   /* 1 = tx_errors / rx_errors hold what the driver reported */
+  uint8_t driver_reports_state; /* 1 = the driver gives its state over netlink, 0 = it does not (vcan), 2 = not known yet */
+  uint16_t tx_errors;       /* transmit error counter (0 when not known) */
+  uint16_t rx_errors;       /* receive error counter (0 when not known) */
+  uint8_t reserved_[10];
+  uint64_t restarts;        /* controller restarts after bus-off (CAN_ERR_RESTARTED) */
+  uint64_t error_frames;    /* CAN error frames received on the bus */
+  uint64_t since_ns;        /* when the state last changed, ns since the Unix epoch; 0 = never */
+  const char* bus_name;     /* the configured bus name */
+} cobridge_bus_info;
+
+/* ------------------------------------------------------------------------ */
 /* Plugin operations: what a plugin gives the daemon                        */
 
 /* One figure an output reports about itself (ABI 3, ops->stats), e.g. the
@@ -381,10 +423,14 @@ typedef struct cobridge_plugin_ops {
    * Dispatcher thread, in order with on_samples; must not block. */
   void (*on_role)(void* self, const cobridge_role_info* info);
 
-  /* Later versions append here, never in between, e.g. for ABI 2:
-   *   void (*on_bus)(void* self, const cobridge_bus_info* info);
-   * and bump COBRIDGE_PLUGIN_ABI_VERSION. A v1 plugin's struct_size stops
-   * before on_bus, so a v2 daemon never calls it. */
+  /* ABI 5. A bus's health changed (cobridge_bus_info), and once per bus
+   * at start. Dispatcher thread, in order with on_samples; must not block.
+   * A plugin built for ABI 4 or older has a struct_size that stops before
+   * it, so the daemon never calls it there. */
+  void (*on_bus)(void* self, const cobridge_bus_info* info);
+
+  /* Later versions append here, never in between, and bump
+   * COBRIDGE_PLUGIN_ABI_VERSION. */
 } cobridge_plugin_ops;
 
 /* The end of the mandatory part of cobridge_plugin_ops: a table smaller than

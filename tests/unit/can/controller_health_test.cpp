@@ -21,9 +21,14 @@ BusEvent event(BusEventKind kind, std::int64_t at, int tx = -1, int rx = -1) {
 
 TEST(ControllerHealth, CanRst_StatesCountersAndRestarts) {
   ControllerHealth h;
-  EXPECT_EQ(h.state, ControllerState::error_active);
+  EXPECT_EQ(h.state, ControllerState::unknown) << "nothing told a state yet: not a guessed error-active";
+  EXPECT_EQ(h.source, HealthSource::none);
   EXPECT_FALSE(h.counters_known);
+  EXPECT_FALSE(h.apply(event(BusEventKind::ProtocolViolation, 5))) << "a bus error tells no state";
+  EXPECT_EQ(h.source, HealthSource::none);
   EXPECT_TRUE(h.apply(event(BusEventKind::ErrorWarning, 10, 96, 0)));
+  EXPECT_EQ(h.source, HealthSource::error_frames);
+  EXPECT_EQ(to_string(h.source), "error frames");
   EXPECT_EQ(h.state, ControllerState::error_warning);
   EXPECT_TRUE(h.counters_known);
   EXPECT_EQ(h.tx_errors, 96);
@@ -34,7 +39,7 @@ TEST(ControllerHealth, CanRst_StatesCountersAndRestarts) {
   EXPECT_TRUE(h.apply(event(BusEventKind::BusOff, 30)));
   EXPECT_EQ(to_string(h.state), "bus-off");
   EXPECT_FALSE(h.apply(event(BusEventKind::ProtocolViolation, 31)));
-  EXPECT_EQ(h.bus_errors, 1u);
+  EXPECT_EQ(h.bus_errors, 2u);
   EXPECT_TRUE(h.apply(event(BusEventKind::Restarted, 40, 0, 0)));
   EXPECT_EQ(h.state, ControllerState::error_active);
   EXPECT_EQ(h.restarts, 1u);

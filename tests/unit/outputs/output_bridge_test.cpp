@@ -140,3 +140,51 @@ TEST(OutputBridge, ReloadedSettingsReachTheNextPlan) {
 
 }  // namespace
 }  // namespace cobridge::gateway
+
+namespace cobridge::gateway {
+namespace {
+
+// docs/plugins.md "Bus health" (plugin.h ABI 5 cobridge_bus_info): the
+// controller's ISO 11898-1 state, where the figures came from, and
+// counters only when the driver reported them.
+TEST(OutputBridge, BusHealthBecomesTheAbi5BusInfo) {
+  BusHealth h;
+  h.open = true;
+  h.error_frames = 7;
+  h.controller.state = can::ControllerState::error_passive;
+  h.controller.source = can::HealthSource::netlink;
+  h.controller.driver = can::DriverReport::state;
+  h.controller.counters_known = true;
+  h.controller.tx_errors = 300;
+  h.controller.rx_errors = 2;
+  h.controller.restarts = 4;
+  h.controller.since_ns = 99;
+  cobridge_bus_info info = to_bus_info(h, 3);
+  EXPECT_EQ(info.struct_size, sizeof info);
+  EXPECT_EQ(info.bus_index, 3);
+  EXPECT_EQ(info.open, 1);
+  EXPECT_EQ(info.state, COBRIDGE_CONTROLLER_ERROR_PASSIVE);
+  EXPECT_EQ(info.source, COBRIDGE_SOURCE_NETLINK);
+  EXPECT_EQ(info.driver_reports_state, 1);
+  EXPECT_EQ(info.counters_known, 1);
+  EXPECT_EQ(info.tx_errors, 300);
+  EXPECT_EQ(info.rx_errors, 2);
+  EXPECT_EQ(info.restarts, 4u);
+  EXPECT_EQ(info.error_frames, 7u);
+  EXPECT_EQ(info.since_ns, 99u);
+  // vcan: no state from the driver, counters never reported.
+  BusHealth v;
+  v.controller.driver = can::DriverReport::no_state;
+  v.controller.tx_errors = 5;  // stale, not reported: must not show
+  info = to_bus_info(v, 0);
+  EXPECT_EQ(info.state, COBRIDGE_CONTROLLER_UNKNOWN);
+  EXPECT_EQ(info.source, COBRIDGE_SOURCE_NONE);
+  EXPECT_EQ(info.driver_reports_state, 0);
+  EXPECT_EQ(info.counters_known, 0);
+  EXPECT_EQ(info.tx_errors, 0);
+  v.controller.driver = can::DriverReport::failed;
+  EXPECT_EQ(to_bus_info(v, 0).driver_reports_state, 2) << "not known";
+}
+
+}  // namespace
+}  // namespace cobridge::gateway

@@ -207,6 +207,20 @@ TEST(PluginHostAbi, V1PluginLoadsAndReceivesSamples) {
   EXPECT_STREQ(rec->last_role_cause, "an active master answered");
   EXPECT_EQ(rec->host_redundancy_node, 0u) << "no [redundancy]: the plugin is told it runs alone";
 
+  // ABI 5: a bus's health reaches the plugin (plugin.h cobridge_bus_info).
+  cobridge_bus_info bus{};
+  bus.struct_size = sizeof bus;
+  bus.state = COBRIDGE_CONTROLLER_BUS_OFF;
+  bus.tx_errors = 256;
+  bus.restarts = 3;
+  bus.bus_name = "line1";
+  host.announce_bus(bus);
+  EXPECT_EQ(rec->on_bus_calls, 1);
+  EXPECT_EQ(rec->last_bus_state, COBRIDGE_CONTROLLER_BUS_OFF);
+  EXPECT_EQ(rec->last_bus_tx_errors, 256);
+  EXPECT_EQ(rec->last_bus_restarts, 3u);
+  EXPECT_STREQ(rec->last_bus_name, "line1");
+
   host.stop_all();
   EXPECT_EQ(rec->stopped, 1);
   host.deliver(batch);
@@ -258,6 +272,26 @@ TEST(PluginHostAbi, StatsAreReadWhileRunningAndBadNamesLeftOut) {
   const int calls = rec->stats_calls;
   EXPECT_TRUE(host.stats()[0].figures.empty());
   EXPECT_EQ(rec->stats_calls, calls) << "a stopped plugin's stats must not be called";
+}
+
+// Concept: backward compatibility (plugin.h "Versioning") — a plugin built
+// for ABI 4 has no on_bus: the host reads its struct_size and never calls
+// the trap that sits where an ABI 5 table has on_bus.
+TEST(PluginHostAbi, Abi4PluginIsNeverToldBusHealth) {
+  Record rec("test_abi4");
+  LogCapture log;
+  PluginHost host({kTestPluginDir, "gw", log.sink()});
+  const Error error = host.load(spec("four", "test_abi4"));
+  ASSERT_FALSE(error) << error.to_string();
+  EXPECT_TRUE(host.start_all().empty());
+  cobridge_bus_info bus{};
+  bus.struct_size = sizeof bus;
+  bus.bus_name = "line1";
+  host.announce_bus(bus);
+  host.unload_all();
+  EXPECT_EQ(rec->started, 1);
+  EXPECT_EQ(rec->trap_calls, 0) << "the host called on_bus past the plugin's struct_size";
+  EXPECT_EQ(rec->destroyed, 1);
 }
 
 // Concept: backward compatibility — a plugin built for ABI 0, whose ops table

@@ -30,6 +30,7 @@ inline gateway::StatusReport sample_report(int buses, int devices) {
     bus.name = "line" + std::to_string(b + 1);
     bus.controller.counters_known = b == 0;  // the first bus's adapter reports its error counters
     bus.controller.tx_errors = 12;
+    bus.controller.state = b == 0 ? can::ControllerState::error_active : can::ControllerState::unknown;
     bus.interface = "can" + std::to_string(b);
     bus.open = true;
     bus.bitrate_kbit = 250;

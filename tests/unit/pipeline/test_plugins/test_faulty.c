@@ -40,15 +40,15 @@ static void faulty_on_samples(void* self, const cobridge_sample* samples, size_t
 
 static const cobridge_plugin_ops small_table = {
     COBRIDGE_PLUGIN_ABI_VERSION, 16u, "test_faulty", faulty_start, faulty_stop, faulty_destroy, faulty_on_samples,
-    NULL, NULL, NULL,
+    NULL, NULL, NULL, NULL,
 };
 static const cobridge_plugin_ops missing_op = {
     COBRIDGE_PLUGIN_ABI_VERSION, sizeof(cobridge_plugin_ops), "test_faulty", faulty_start, faulty_stop,
-    faulty_destroy, NULL, NULL, NULL, NULL,
+    faulty_destroy, NULL, NULL, NULL, NULL, NULL,
 };
 static const cobridge_plugin_ops start_fails = {
     COBRIDGE_PLUGIN_ABI_VERSION, sizeof(cobridge_plugin_ops), "test_faulty", faulty_start_fails, faulty_stop,
-    faulty_destroy, faulty_on_samples, NULL, NULL, NULL,
+    faulty_destroy, faulty_on_samples, NULL, NULL, NULL, NULL,
 };
 
 static int is_mode(const char* config, size_t len, const char* mode) {

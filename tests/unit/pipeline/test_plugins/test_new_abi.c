@@ -43,7 +43,7 @@ static void next_on_future(void* self) {
 
 static const ops_next table = {
     {COBRIDGE_PLUGIN_ABI_VERSION + 1u, sizeof(ops_next), "test_new_abi", next_start, next_stop, next_destroy,
-     next_on_samples, next_on_device, NULL, NULL},
+     next_on_samples, next_on_device, NULL, NULL, NULL},
     next_on_future,
 };
 

@@ -31,6 +31,12 @@ typedef struct test_plugin_record {
   int last_role;
   int last_role_master;
   char last_role_cause[64];
+  /* ABI 5 */
+  int on_bus_calls;
+  int last_bus_state;
+  int last_bus_tx_errors;
+  unsigned long long last_bus_restarts;
+  char last_bus_name[64];
 } test_record;
 
 #endif

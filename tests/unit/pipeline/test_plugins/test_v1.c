@@ -79,9 +79,20 @@ static void v1_on_role(void* self, const cobridge_role_info* info) {
            strlen(info->cause));
 }
 
+/* ABI 5: a bus's health. */
+static void v1_on_bus(void* self, const cobridge_bus_info* info) {
+  (void)self;
+  ++test_plugin_record.on_bus_calls;
+  test_plugin_record.last_bus_state = info->state;
+  test_plugin_record.last_bus_tx_errors = info->tx_errors;
+  test_plugin_record.last_bus_restarts = info->restarts;
+  copy_str(test_plugin_record.last_bus_name, sizeof test_plugin_record.last_bus_name, info->bus_name,
+           strlen(info->bus_name));
+}
+
 static const cobridge_plugin_ops ops = {
     COBRIDGE_PLUGIN_ABI_VERSION, sizeof(cobridge_plugin_ops), "test_v1", v1_start, v1_stop, v1_destroy,
-    v1_on_samples, v1_on_device, v1_stats, v1_on_role,
+    v1_on_samples, v1_on_device, v1_stats, v1_on_role, v1_on_bus,
 };
 
 int cobridge_plugin_create(const cobridge_host_api* host, const char* config_toml, size_t config_len,

@@ -765,6 +765,45 @@ TEST(DdsPlugin, Issue16_GatewayStatusCountsDevicesAndIsDisposedOnStop) {
   EXPECT_TRUE(disposed);
 }
 
+// docs/dds.md "GatewayStatus" bus_health (plugin.h ABI 5 on_bus): each
+// bus's CAN controller (ISO 11898-1 state, error counters, restarts) in
+// the gateway's GatewayStatus, the latest per bus, in bus order.
+TEST(DdsPlugin, DocsDds_GatewayStatusCarriesEachBusControllerHealth) {
+  Reader gw(&cobridge_GatewayStatus_desc, "GatewayStatus", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_TRANSIENT_LOCAL,
+            false, 1);
+  Plugin p(base_config());
+  cobridge_bus_info b{};
+  b.struct_size = sizeof b;
+  b.bus_index = 1;
+  b.bus_name = "line2";
+  b.open = 1;
+  b.state = COBRIDGE_CONTROLLER_UNKNOWN;
+  p.host.announce_bus(b);
+  b.bus_index = 0;
+  b.bus_name = "line1";
+  b.state = COBRIDGE_CONTROLLER_ERROR_PASSIVE;
+  b.source = COBRIDGE_SOURCE_ERROR_FRAMES;
+  b.counters_known = 1;
+  b.tx_errors = 128;
+  b.rx_errors = 4;
+  b.restarts = 2;
+  b.error_frames = 9;
+  p.host.announce_bus(b);
+  std::string seen;
+  const bool told = take_until<cobridge_GatewayStatus>(gw.id(), [&](const auto& s, const auto& info) {
+    if (!info.valid_data || test_gateway() != s.gateway_id || s.bus_health._length != 2) return false;
+    const cobridge_BusHealth& h = s.bus_health._buffer[0];
+    seen = std::string(h.bus_name) + " " + std::to_string(h.controller_state) + " " + h.source + " " +
+           std::to_string(h.tx_errors) + "/" + std::to_string(h.rx_errors) + " restarts " +
+           std::to_string(h.restarts) + " frames " + std::to_string(h.error_frames) + "; " +
+           s.bus_health._buffer[1].bus_name + " " + std::to_string(s.bus_health._buffer[1].controller_state);
+    return h.controller_state == cobridge_CONTROLLER_ERROR_PASSIVE;
+  });
+  ASSERT_TRUE(told) << "GatewayStatus never carried both buses' health; last: " << seen;
+  EXPECT_EQ(seen, "line1 3 error frames 128/4 restarts 2 frames 9; line2 0");
+  p.host.stop_all();
+}
+
 // `cobridge watch` in another process, a participant without credentials:
 // exit 0 with a DeviceStatus line when it got one within 3 s, 3 otherwise.
 // Another process because Cyclone delivers between participants of one

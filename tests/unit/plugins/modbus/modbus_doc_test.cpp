@@ -1,5 +1,5 @@
-// docs/modbus.md must describe the map the plugin serves: its three register
-// tables (gateway, bus, device slot), read in document order, list exactly
+// docs/modbus.md must describe the map the plugin serves: its four register
+// tables (gateway, bus, controller, device slot), read in document order, list exactly
 // the registers of register_map.cpp with the same offsets, names and types.
 #include "register_map.hpp"
 
@@ -39,6 +39,7 @@ TEST(ModbusDoc, RegisterTablesMatchTheMap) {
   std::vector<const RegisterDef*> defs;
   for (const auto& d : gateway_registers()) defs.push_back(&d);
   for (const auto& d : bus_registers()) defs.push_back(&d);
+  for (const auto& d : controller_registers()) defs.push_back(&d);
   for (const auto& d : device_registers()) defs.push_back(&d);
   const std::vector<DocRow> rows = doc_rows();
   ASSERT_EQ(rows.size(), defs.size());

@@ -38,6 +38,7 @@ except ImportError:
 from pymodbus.client import ModbusTcpClient  # noqa: E402
 
 ARGS = None
+MAP_VERSION = 3  # gateway register 0 (docs/modbus.md)
 DEVICE_BASE = 256
 STRIDE = 32
 
@@ -185,7 +186,7 @@ class HostCase(unittest.TestCase):
         self.assertTrue(self.host.alive())
         r = self.read(0, 1)
         self.assertEqual(r[7], 3)
-        self.assertEqual(regs_of(r), [2])  # map_version
+        self.assertEqual(regs_of(r), [MAP_VERSION])
 
 
 class Values(HostCase):
@@ -233,7 +234,7 @@ class Values(HostCase):
         self.assertTrue(client.connect())
         try:
             gw = client.read_holding_registers(0, 16, slave=1).registers
-            self.assertEqual(gw[0], 2)            # map_version
+            self.assertEqual(gw[0], MAP_VERSION)
             self.assertEqual(gw[6], 2)            # buses 0 and 1
             self.assertEqual(gw[7], self.DEVICES)
             self.assertEqual(gw[8], self.DEVICES)  # all online
@@ -248,6 +249,10 @@ class Values(HostCase):
                 self.assertEqual(blk[2], 2)
                 self.assertGreater(u32(blk, 4), 0)  # frames
                 self.assertEqual(u32(blk, 6), 0)    # drops
+                self.assertEqual(blk[3], 0)  # controller_state: unknown, no on_bus from this host
+            ctl = client.read_holding_registers(144, 8, slave=1).registers
+            self.assertEqual(ctl[0:2], [65535, 65535])  # controller block 0: counters not reported
+            self.assertEqual(u32(ctl, 2), 0)            # restarts
         finally:
             client.close()
 
@@ -648,7 +653,7 @@ class ConcurrentClients(HostCase):
                 self.assertIsNotNone(recv_frame(s))
             extra = connect(self.host.port)
             extra.sendall(read_req(2, 0, 1))
-            self.assertEqual(regs_of(recv_frame(extra)), [2], "the 33rd client is served")
+            self.assertEqual(regs_of(recv_frame(extra)), [MAP_VERSION], "the 33rd client is served")
             self.assertTrue(is_closed(socks[2]), "the one that never asked anything was closed")
             for s in socks[:2]:
                 s.sendall(read_req(3, 0, 1))
@@ -733,7 +738,7 @@ class Hostile(unittest.TestCase):
                 s.close()
             with connect(host.port) as s:
                 s.sendall(read_req(1, 0, 1))
-                self.assertEqual(regs_of(recv_frame(s)), [2])
+                self.assertEqual(regs_of(recv_frame(s)), [MAP_VERSION])
         finally:
             host.stop()
 
@@ -764,7 +769,7 @@ class Hostile(unittest.TestCase):
             with connect(host.port) as s:
                 s.sendall(read_req(1, 0, 1))
                 s.settimeout(5)
-                self.assertEqual(regs_of(recv_frame(s)), [2])
+                self.assertEqual(regs_of(recv_frame(s)), [MAP_VERSION])
         finally:
             for s in socks:
                 s.close()
@@ -785,7 +790,7 @@ class Admission(unittest.TestCase):
         try:
             with connect(host.port) as s:
                 s.sendall(read_req(1, 0, 1))
-                self.assertEqual(regs_of(recv_frame(s)), [2])
+                self.assertEqual(regs_of(recv_frame(s)), [MAP_VERSION])
         finally:
             host.stop()
 
@@ -808,7 +813,7 @@ class Admission(unittest.TestCase):
                 s.sendall(read_req(1, 0, 1, unit=1))
                 self.assertEqual(recv_frame(s), bytes([0, 1, 0, 0, 0, 3, 1, 0x83, 0x0A]))
                 s.sendall(read_req(2, 0, 1, unit=3))
-                self.assertEqual(regs_of(recv_frame(s)), [2])
+                self.assertEqual(regs_of(recv_frame(s)), [MAP_VERSION])
         finally:
             host.stop()
 

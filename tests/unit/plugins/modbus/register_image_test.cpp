@@ -200,6 +200,45 @@ TEST(RegisterImage, BusCountersCountFramesAndSequenceGaps) {
   EXPECT_EQ(bus[7], 3);  // no new drop
 }
 
+// docs/modbus.md bus block +3 and controller block: the CAN controller as
+// on_bus (plugin.h ABI 5) tells it; ISO 11898-1 states, 65535 = a counter
+// the driver does not report.
+TEST(RegisterImage, ControllerStateAndCountersFromOnBus) {
+  RegisterImage img(ImageOptions{});
+  std::array<std::uint16_t, 8> bus{};
+  std::array<std::uint16_t, 4> ctl{};
+  ASSERT_EQ(img.read(controller_base(1), ctl, ReadTime{}, false), ReadStatus::kOk);
+  EXPECT_EQ(ctl[0], kCounterUnknown) << "nothing told yet";
+  EXPECT_EQ(ctl[1], kCounterUnknown);
+  cobridge_bus_info info{};
+  info.struct_size = sizeof info;
+  info.bus_index = 1;
+  info.state = COBRIDGE_CONTROLLER_ERROR_PASSIVE;
+  info.counters_known = 1;
+  info.tx_errors = 128;
+  info.rx_errors = 3;
+  info.restarts = 0x1'0002;
+  img.apply(info);
+  ASSERT_EQ(img.read(bus_base(1), bus, ReadTime{}, false), ReadStatus::kOk);
+  EXPECT_EQ(bus[3], 3) << "error-passive";
+  ASSERT_EQ(img.read(controller_base(1), ctl, ReadTime{}, false), ReadStatus::kOk);
+  EXPECT_EQ(ctl[0], 128);
+  EXPECT_EQ(ctl[1], 3);
+  EXPECT_EQ(ctl[2], 1) << "restarts, high word first";
+  EXPECT_EQ(ctl[3], 2);
+  ASSERT_EQ(img.read(bus_base(0), bus, ReadTime{}, false), ReadStatus::kOk);
+  EXPECT_EQ(bus[3], 0) << "another bus stays unknown";
+  info.counters_known = 0;  // vcan: the driver reports no counters
+  info.state = COBRIDGE_CONTROLLER_BUS_OFF;
+  img.apply(info);
+  ASSERT_EQ(img.read(controller_base(1), ctl, ReadTime{}, false), ReadStatus::kOk);
+  EXPECT_EQ(ctl[0], kCounterUnknown);
+  ASSERT_EQ(img.read(bus_base(1), bus, ReadTime{}, false), ReadStatus::kOk);
+  EXPECT_EQ(bus[3], 4) << "bus-off";
+  info.bus_index = kMaxBuses;  // beyond the map: ignored, not a crash
+  img.apply(info);
+}
+
 // A device removed (on_device REMOVED) empties its slot.
 TEST(RegisterImage, RemovedDeviceEmptiesSlot) {
   RegisterImage img(ImageOptions{});

@@ -28,6 +28,15 @@ TEST(RegisterMap, SlotAddressesFollowTheStride) {
   EXPECT_TRUE(found);
 }
 
+// docs/modbus.md "Controller block": bus b's error counters at 144 + 4 b,
+// after the 16 bus blocks and before the device slots.
+TEST(RegisterMap, ControllerBlocksSitBetweenBusBlocksAndSlots) {
+  EXPECT_EQ(controller_base(0), 144);
+  EXPECT_EQ(controller_base(15), 144 + 60);
+  EXPECT_LE(controller_base(kMaxBuses), kDeviceBase);
+  EXPECT_EQ(bus_base(kMaxBuses), controller_base(0)) << "no gap, no overlap";
+}
+
 // RFC 4180 CSV with the columns SCADA import expects; one row per value.
 TEST(RegisterMap, CsvHasHeaderAndOneRowPerValue) {
   const std::string csv = map_csv(2, 3);
@@ -41,10 +50,14 @@ TEST(RegisterMap, CsvHasHeaderAndOneRowPerValue) {
     ++rows;
     names.insert(line.substr(0, line.find(',', line.find(',') + 1)));
   }
-  const std::size_t expected = gateway_registers().size() + 2 * bus_registers().size() + 3 * device_registers().size();
+  const std::size_t expected = gateway_registers().size() + 2 * bus_registers().size() +
+                               2 * controller_registers().size() + 3 * device_registers().size();
   EXPECT_EQ(rows, expected);
   EXPECT_EQ(names.size(), expected);  // no duplicate address/name
   EXPECT_NE(csv.find("\r\n16,bus[0].state,uint16,,1,R,"), std::string::npos);
+  EXPECT_NE(csv.find("\r\n27,bus[1].controller_state,uint16,,1,R,"), std::string::npos);
+  EXPECT_NE(csv.find("\r\n148,controller[1].tx_errors,uint16,,1,R,"), std::string::npos);
+  EXPECT_NE(csv.find("\r\n150,controller[1].restarts,uint32,,1,R,"), std::string::npos);
   EXPECT_NE(csv.find("\r\n272,device[0].temperature,int16,degC,0.1,R,device temperature\r\n"), std::string::npos);
   EXPECT_NE(csv.find("\r\n256,device[0].position,int32,counts,1,R,\"position after"), std::string::npos);  // quoted (comma)
 }

@@ -49,8 +49,8 @@ class RequestTest : public ::testing::Test {
 // MBAP §6.3 (0x03 Read Holding Registers) response: byte count + values, big-endian.
 TEST_F(RequestTest, ReadHoldingRegistersAnswersValues_MBAP_6_3) {
   const Bytes r = handle(frame(0x1234, 0x11, {0x03, 0x00, 0x00, 0x00, 0x02}));
-  // map_version = 2, version_major = 0 (no version defined in the test build)
-  const Bytes expected = {0x12, 0x34, 0, 0, 0, 7, 0x11, 0x03, 4, 0x00, 0x02, 0x00, 0x00};
+  // map_version = 3, version_major = 0 (no version defined in the test build)
+  const Bytes expected = {0x12, 0x34, 0, 0, 0, 7, 0x11, 0x03, 4, 0x00, 0x03, 0x00, 0x00};
   EXPECT_EQ(r, expected);
 }
 
