@@ -3,6 +3,18 @@
 #include "bus/bus_manager_impl.hpp"
 
 namespace cobridge::gateway {
+namespace {
+
+// The flight recorder's cause for a plan that stopped on the bus (CiA 301
+// §7.2.4.3.17: the device aborted the transfer, or never answered); nullptr
+// for the other failures (a value read back differently, a full queue).
+const char* capture_cause(const PlanRunResult& r) noexcept {
+  if (r.error.code == make_error_code(PlanRunErrc::sdo_abort)) return "sdo abort";
+  if (r.error.code == make_error_code(PlanRunErrc::sdo_timeout)) return "sdo timeout";
+  return nullptr;
+}
+
+}  // namespace
 
 bool BusManager::Impl::start_configurations(TimePoint now) {
   if (discovery->commissioning()) return false;  // LSS/NMT resets under way: no SDO now
@@ -166,6 +178,7 @@ void BusManager::Impl::configuration_failed(Managed& m, const PlanRunResult& out
   m.st.last_error = outcome.error.message;
   log->warn("bus {}: device {}: configuration failed (attempt {}): {}", bus.name, m.st.name, m.attempts,
             outcome.error.message);
+  if (const char* cause = capture_cause(outcome)) capture(cause, m.st.name);
   m.want_configure = true;
   if (m.attempts >= kConfigureAttempts) {
     set_state(m, DeviceState::failed);

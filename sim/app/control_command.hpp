@@ -6,6 +6,7 @@
 //   power-cycle|power-off|power-on <serial>
 //   silence <serial> on|off               cable pulled: no RX, no TX, state kept
 //   reboot-on-sdo <serial> <n>            power-cycle when the n-th SDO request from now arrives
+//   abort-sdo <serial> <index hex> [code hex]  abort the next SDO request for that object
 //   fault <serial> <kind>                 see fault_kind_names()
 //   move <serial> <turns>                 add an offset (turns, may be negative/fractional)
 //   flood <iface> <ms>                    highest-priority frames back to back
@@ -33,6 +34,7 @@ enum class ControlVerb : std::uint8_t {
   power_on,
   silence,
   reboot_on_sdo,
+  abort_sdo,
   fault,
   move,
   flood,
@@ -53,6 +55,8 @@ struct ControlCommand {
   std::uint32_t cob_id = 0;       // babble
   std::uint32_t duration_ms = 0;  // flood, babble
   std::uint32_t count = 0;        // reboot-on-sdo
+  std::uint16_t sdo_index = 0;    // abort-sdo
+  std::uint32_t abort_code = 0;   // abort-sdo (CiA 301 §7.2.4.3.17)
   BusErrorKind bus_error = BusErrorKind::error_passive;
 };
 

@@ -84,6 +84,7 @@ void SimDevice::Impl::clear_runtime_state() {
 
 void SimDevice::Impl::power_off() noexcept {
   powered = false;
+  abort_sdo_index = 0;  // an injected abort does not survive the power
   late_lss.clear();
   lss.reset();
   sdo.reset();

@@ -13,6 +13,17 @@ its configured node-ID with heartbeat 100 ms, recorder on (10 s, 2 s after):
    more than 1 MiB of captures): the EMCY captures coalesce (one per
    capture_after_s window, not one per EMCY) and the bus's captures stay
    within capture_cap_mib (1 MiB here) on disk, the oldest deleted.
+A second scene, configuration and commissioning faults (a daemon of its own):
+ * a device whose first SDO request for 0x1800 (TPDO1 communication) the
+   simulator aborts (`abort-sdo`, code 08000020): a capture with cause
+   "sdo abort" naming the device, holding the daemon's own request
+   (0x600+id) and the abort (0x580+id, 80 | index | sub | code;
+   CiA 301 §7.2.4.3.17);
+ * a factory-fresh device at FFh that does not answer its first LSS
+   configure node-ID (cobridge-sim lose_configure=1): a capture with cause
+   "lss failed" naming the device, holding the daemon's configure node-ID
+   request (0x7E5, 11 | node-ID; CiA 305 §8.3.2.1);
+ * canplayer replays that capture onto vcan1 and a listener there sees both.
 """
 import glob
 import json
@@ -100,9 +111,115 @@ def check_emcy_storm(report, ws):
                  "at most %d bytes seen (cap %d); %d deleted" % (worst, cap, len(seen) - len(left)))
 
 
+CFG_SERIAL, CFG_NODE = 2001, 20
+LSS_SERIAL, LSS_NODE = 2002, 21
+ABORT_CODE = 0x08000020  # CiA 301 §7.2.4.3.17: data cannot be transferred or stored to the application
+
+
+def wait_cause(ws, cause, timeout):
+    """A capture whose sidecar lists `cause` (it may have joined another fault's window), or (None, None)."""
+    end = time.time() + timeout
+    while time.time() < end:
+        for side_path in sorted(glob.glob(os.path.join(ws.state, "captures", "*.json"))):
+            try:
+                with open(side_path) as f:
+                    side = json.load(f)
+            except ValueError:
+                continue  # being written
+            if cause in side.get("causes", []) and os.path.exists(side_path[:-5] + ".log"):
+                return side_path[:-5] + ".log", side
+        time.sleep(0.05)
+    return None, None
+
+
+def frames_of(path):
+    """The candump -l lines as (id, data bytes): "(SECONDS.MICROSECONDS) IFACE ID#DATA"."""
+    out = []
+    for line in lines_of(path):
+        ident, _, data = line.split()[2].partition("#")
+        out.append((int(ident, 16), bytes.fromhex(data) if not data.startswith("R") else b""))
+    return out
+
+
+def is_abort(i, d):
+    return (i == 0x580 + CFG_NODE and len(d) == 8 and d[0] == 0x80 and d[1:3] == b"\x00\x18"
+            and struct.unpack("<I", d[4:8])[0] == ABORT_CODE)
+
+
+def is_abort_request(i, d):
+    return i == 0x600 + CFG_NODE and len(d) == 8 and d[0] >> 5 in (1, 2) and d[1:3] == b"\x00\x18"
+
+
+def is_configure_id(i, d):
+    return i == 0x7E5 and len(d) == 8 and d[0] == 0x11 and d[1] == LSS_NODE
+
+
+def check_fault_capture(report, ws, cause, device, wanted):
+    """wanted: [(what, predicate(id, data))] that the capture's frames must hold."""
+    path, side = wait_cause(ws, cause, 15.0)
+    if not report.check(path is not None and device in side["devices"],
+                        "a capture with cause %s names the device %s" % (cause, device), "%r" % (side,)):
+        return None
+    frames = frames_of(path)
+    for what, pred in wanted:
+        report.check(any(pred(i, d) for i, d in frames), "the %s capture holds %s" % (cause, what),
+                     "%d frames in %s" % (len(frames), os.path.basename(path)))
+    return path
+
+
+def check_fault_replay(report, path, wanted):
+    listener = e2e.CanListener("vcan1")
+    try:
+        time.sleep(0.2)
+        t0 = time.time()
+        r = subprocess.run(["canplayer", "-t", "-I", path, "vcan1=vcan0"], capture_output=True, text=True, timeout=30)
+        deadline = time.time() + 5
+        while time.time() < deadline and not all(any(p(f[1], f[2]) for f in listener.snapshot(t0)) for _, p in wanted):
+            time.sleep(0.05)
+        got = listener.snapshot(t0)
+        missing = [w for w, p in wanted if not any(p(f[1], f[2]) for f in got)]
+        report.check(r.returncode == 0 and not missing, "canplayer replays the fault capture onto vcan1 with its fault frames",
+                     "exit %d %s; %d frames replayed; missing %r" % (r.returncode, r.stderr.strip(), len(got), missing))
+    finally:
+        listener.close()
+
+
+def configuration_faults(args, report):
+    """An SDO abort during configuration and a failed LSS step, each in a capture."""
+    ws = e2e.Workspace("recorder-faults", args.keep)
+    sim = e2e.Simulator(args.sim, ws, {"vcan0": ["RFC-4800:serial=%d,node=%d" % (CFG_SERIAL, CFG_NODE),
+                                                 "MC1-2800:serial=%d,node=unconfigured,lose_configure=1" % LSS_SERIAL]})
+    reply = sim.command("abort-sdo %d 1800 %08X" % (CFG_SERIAL, ABORT_CODE))
+    report.check(reply.startswith("ok"), "cobridge-sim abort-sdo armed", reply)
+    bus = {"name": "line1", "interface": "vcan0", "bitrate": 250, "capture_after_s": int(AFTER)}
+    tpdo = {"mapping": ["position"], "transmission": "event", "event_timer_ms": 100}
+    devices = [{"name": "cfg-a", "bus": "line1", "serial": CFG_SERIAL, "model": "RFC-4800", "node_id": CFG_NODE,
+                "heartbeat_ms": 100, "tpdo1": tpdo},
+               {"name": "lss-b", "bus": "line1", "serial": LSS_SERIAL, "model": "MC1-2800", "node_id": LSS_NODE,
+                "heartbeat_ms": 100, "tpdo1": tpdo}]
+    daemon = e2e.Daemon(args.daemon, e2e.write_config(ws, [bus], devices), ws)
+    with e2e.shut_down_after(ws, lambda: (daemon, sim)):
+        report.check(daemon.wait_socket(), "faults scene: control socket up")
+        _, took = daemon.wait_until(e2e.all_operational(["cfg-a", "lss-b"]), 60, interval=0.1)
+        if not report.check(took is not None, "faults scene: both devices operational after their faults"):
+            print(daemon.tail(60))
+        sdo = [("the daemon's SDO request for 0x1800 (0x600+id)", is_abort_request),
+               ("the abort (0x580+id, 80 00 18 .. 20 00 00 08)", is_abort)]
+        lss = [("the LSS configure node-ID request (7E5, 11 %02X)" % LSS_NODE, is_configure_id)]
+        sdo_path = check_fault_capture(report, ws, "sdo abort", "cfg-a", sdo)
+        lss_path = check_fault_capture(report, ws, "lss failed", "lss-b", lss)
+        if sdo_path:
+            check_fault_replay(report, sdo_path, sdo + (lss if lss_path == sdo_path else []))
+        if lss_path and lss_path != sdo_path:
+            check_fault_replay(report, lss_path, lss)
+        e2e.check_clean_exit(report, daemon)
+        daemon = None
+
+
 def main():
     args = e2e.parse_args()
     report = e2e.Report("test_flight_recorder")
+    configuration_faults(args, report)
     ws = e2e.Workspace("recorder", args.keep)
     listener = e2e.CanListener("vcan0")
     sim = e2e.Simulator(args.sim, ws, {"vcan0": ["RFC-4800:serial=%d,node=%d" % (SERIAL, NODE)]})
