@@ -5,9 +5,8 @@
 // bus's RX thread) stores each receive batch with record(): one copy of the
 // batch into the slots (wrapping at most once), two counter stores and a
 // prefetch of the next batch's slots; no allocation, lock, system call or
-// logging. A reader on another thread
-// copies a time window with snapshot() without stopping the writer, seqlock
-// style with two frame counters: `begun` (frames below it have started to
+// logging. A reader on another thread copies a time window with snapshot()
+// without stopping the writer, seqlock style with two frame counters: `begun` (frames below it have started to
 // be written; stored, then a release fence, before the batch's slots are
 // touched) and `written` (frames below it are whole; a release store after).
 // A reader that copied frame j and then sees `begun` beyond j + slots knows
@@ -15,9 +14,9 @@
 // (counted as skipped); frames are never returned torn. One slot more than
 // the capacity, so that `capacity` frames are whole while the writer is idle.
 //
-// The batch is copied with memcpy (vector stores: a 64-frame batch is 1.5 KiB,
-// and per-word atomic stores cost the hot path twice as much,
-// docs/performance.md); the reader loads words with acquire atomics. That is
+// The batch is copied with memcpy (vector stores: a 64-frame batch is 1.5 KiB;
+// per-word atomic stores took twice as long, docs/performance-notes.md);
+// the reader loads words with acquire atomics. That is
 // the classic seqlock: a copy that raced the writer is detected and dropped,
 // but the C++ model calls the race itself undefined. Under ThreadSanitizer
 // the writer stores each word with a release atomic instead, the same
@@ -142,8 +141,8 @@ inline void FrameRecorder::prefetch_next(std::size_t n) noexcept {
   // The next batch's slots, fetched now: after a lap of the ring their cache
   // lines are in L3 or memory, and they arrive while this batch is decoded
   // instead of stalling the next copy (10 s at 1 Mbit/s is 5 MiB of slots;
-  // without this the recorder cost 1.10x per frame, with it 1.03x on the
-  // build host, docs/performance.md). The next batch is guessed to be as
+  // the bench's bare path: 1.08-1.10x per frame without this, 1.03-1.05x
+  // with it, docs/performance-notes.md). The next batch is guessed to be as
   // long as this one; up to the ring's end.
   const auto first = reinterpret_cast<std::uintptr_t>(&words_[next_slot_ * kWords]);
   const std::uintptr_t end = first + std::min(n, slot_count_ - next_slot_) * sizeof(Frame);
