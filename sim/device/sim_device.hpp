@@ -159,6 +159,9 @@ class SimDevice {
   // with an abort of `code` (CiA 301 §7.2.4.3.17) instead of serving it: a
   // configuration fault. One request only; index 0 cancels; a reboot clears it.
   void abort_sdo(std::uint16_t index, std::uint32_t code) noexcept;
+  // Leaves the next `n` SDO initiate requests for `index` unanswered (lost,
+  // as far as the master can tell: an SDO timeout). 0 cancels; a reboot clears it.
+  void ignore_sdo(std::uint16_t index, std::uint32_t n) noexcept;
   [[nodiscard]] bool powered() const noexcept;
 
   void on_frame(const can::Frame& frame, TimePoint now);

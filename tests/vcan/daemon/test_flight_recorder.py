@@ -19,6 +19,9 @@ A second scene, configuration and commissioning faults (a daemon of its own):
    "sdo abort" naming the device, holding the daemon's own request
    (0x600+id) and the abort (0x580+id, 80 | index | sub | code;
    CiA 301 §7.2.4.3.17);
+ * a device that leaves its first three SDO requests for 0x1800 unanswered
+   (`ignore-sdo`; sdo_retries 2: every attempt of one transfer): a capture
+   with cause "sdo timeout" naming the device, holding the three requests;
  * a factory-fresh device at FFh that does not answer its first LSS
    configure node-ID (cobridge-sim lose_configure=1): a capture with cause
    "lss failed" naming the device, holding the daemon's configure node-ID
@@ -119,6 +122,7 @@ def check_emcy_storm(report, ws):
 
 CFG_SERIAL, CFG_NODE = 2001, 20
 LSS_SERIAL, LSS_NODE = 2002, 21
+TMO_SERIAL, TMO_NODE = 2003, 22
 ABORT_CODE = 0x08000020  # CiA 301 §7.2.4.3.17: data cannot be transferred or stored to the application
 
 
@@ -156,6 +160,25 @@ def is_abort_request(i, d):
     return i == 0x600 + CFG_NODE and len(d) == 8 and d[0] >> 5 in (1, 2) and d[1:3] == b"\x00\x18"
 
 
+def is_timeout_request(i, d):
+    return i == 0x600 + TMO_NODE and len(d) == 8 and d[0] >> 5 in (1, 2) and d[1:3] == b"\x00\x18"
+
+
+def unanswered_tries(frames, node):
+    """The longest run of one SDO request for 0x1800 sent again and again by the
+    daemon (0x600+node) with no answer (0x580+node) between: the client's tries
+    of one transfer."""
+    best, run, last = 0, 0, None
+    for i, d in frames:
+        if i == 0x580 + node:
+            run, last = 0, None
+        elif is_timeout_request(i, d):
+            run = run + 1 if d == last else 1
+            last = d
+            best = max(best, run)
+    return best
+
+
 def is_configure_id(i, d):
     return i == 0x7E5 and len(d) == 8 and d[0] == 0x11 and d[1] == LSS_NODE
 
@@ -168,8 +191,9 @@ def check_fault_capture(report, ws, cause, device, wanted):
         return None
     frames = frames_of(path)
     for what, pred in wanted:
-        report.check(any(pred(i, d) for i, d in frames), "the %s capture holds %s" % (cause, what),
-                     "%d frames in %s" % (len(frames), os.path.basename(path)))
+        n = sum(1 for i, d in frames if pred(i, d))
+        report.check(n >= 1, "the %s capture holds %s" % (cause, what),
+                     "%d of them among %d frames in %s" % (n, len(frames), os.path.basename(path)))
     return path
 
 
@@ -194,25 +218,35 @@ def configuration_faults(args, report):
     """An SDO abort during configuration and a failed LSS step, each in a capture."""
     ws = e2e.Workspace("recorder-faults", args.keep)
     sim = e2e.Simulator(args.sim, ws, {"vcan0": ["RFC-4800:serial=%d,node=%d" % (CFG_SERIAL, CFG_NODE),
-                                                 "MC1-2800:serial=%d,node=unconfigured,lose_configure=1" % LSS_SERIAL]})
-    reply = sim.command("abort-sdo %d 1800 %08X" % (CFG_SERIAL, ABORT_CODE))
-    report.check(reply.startswith("ok"), "cobridge-sim abort-sdo armed", reply)
-    bus = {"name": "line1", "interface": "vcan0", "bitrate": 250, "capture_after_s": int(AFTER)}
+                                                 "MC1-2800:serial=%d,node=unconfigured,lose_configure=1" % LSS_SERIAL,
+                                                 "RFC-4800:serial=%d,node=%d" % (TMO_SERIAL, TMO_NODE)]})
+    sim.command("abort-sdo %d 1800 %08X" % (CFG_SERIAL, ABORT_CODE))
+    sim.command("ignore-sdo %d 1800 3" % TMO_SERIAL)
+    bus = {"name": "line1", "interface": "vcan0", "bitrate": 250, "capture_after_s": int(AFTER),
+           "sdo_timeout_ms": 200, "sdo_retries": 2}
     tpdo = {"mapping": ["position"], "transmission": "event", "event_timer_ms": 100}
     devices = [{"name": "cfg-a", "bus": "line1", "serial": CFG_SERIAL, "model": "RFC-4800", "node_id": CFG_NODE,
                 "heartbeat_ms": 100, "tpdo1": tpdo},
                {"name": "lss-b", "bus": "line1", "serial": LSS_SERIAL, "model": "MC1-2800", "node_id": LSS_NODE,
+                "heartbeat_ms": 100, "tpdo1": tpdo},
+               {"name": "tmo-c", "bus": "line1", "serial": TMO_SERIAL, "model": "RFC-4800", "node_id": TMO_NODE,
                 "heartbeat_ms": 100, "tpdo1": tpdo}]
     daemon = e2e.Daemon(args.daemon, e2e.write_config(ws, [bus], devices), ws)
     with e2e.shut_down_after(ws, lambda: (daemon, sim)):
         report.check(daemon.wait_socket(), "faults scene: control socket up")
-        _, took = daemon.wait_until(e2e.all_operational(["cfg-a", "lss-b"]), 60, interval=0.1)
-        if not report.check(took is not None, "faults scene: both devices operational after their faults"):
+        _, took = daemon.wait_until(e2e.all_operational(["cfg-a", "lss-b", "tmo-c"]), 60, interval=0.1)
+        if not report.check(took is not None, "faults scene: the three devices operational after their faults"):
             print(daemon.tail(60))
         sdo = [("the daemon's SDO request for 0x1800 (0x600+id)", is_abort_request),
                ("the abort (0x580+id, 80 00 18 .. 20 00 00 08)", is_abort)]
         lss = [("the LSS configure node-ID request (7E5, 11 %02X)" % LSS_NODE, is_configure_id)]
+        tmo = [("the daemon's SDO request for 0x1800 (0x600+id)", is_timeout_request)]
         sdo_path = check_fault_capture(report, ws, "sdo abort", "cfg-a", sdo)
+        tmo_path = check_fault_capture(report, ws, "sdo timeout", "tmo-c", tmo)
+        if tmo_path:
+            tries = unanswered_tries(frames_of(tmo_path), TMO_NODE)
+            report.check(tries >= 3, "the sdo timeout capture holds the three unanswered tries of one request",
+                         "longest run of one request without an answer: %d" % tries)
         lss_path = check_fault_capture(report, ws, "lss failed", "lss-b", lss)
         if sdo_path:
             check_fault_replay(report, sdo_path, sdo + (lss if lss_path == sdo_path else []))

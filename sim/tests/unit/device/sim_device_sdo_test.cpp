@@ -178,5 +178,18 @@ TEST(SimDeviceSdo, InjectedAbortAnswersOneRequestForTheObject) {
   EXPECT_EQ(Bench::abort_code(b.read(0x1017, 0)), 0u);
 }
 
+// cobridge-sim `ignore-sdo`: the next n initiate requests for the object get
+// no answer (the master's SDO timeout, CiA 301 §7.2.4.3: a lost request);
+// the one after is served.
+TEST(SimDeviceSdo, IgnoredRequestsGetNoAnswer) {
+  Bench b("RFC-4800", "novotechnik-rfc4800-1ch.eds");
+  b.power_on();
+  b.device->ignore_sdo(0x1800, 2);
+  EXPECT_EQ(b.read(0x1800, 5), Frame{});
+  EXPECT_EQ(b.read(0x1018, 4).data[0], 0x43);  // another object: served
+  EXPECT_EQ(b.read(0x1800, 5), Frame{});
+  EXPECT_EQ(b.read(0x1800, 5).data[0], 0x4B);  // served again (expedited upload, 2 bytes)
+}
+
 }  // namespace
 }  // namespace cobridge::sim::test
