@@ -189,17 +189,19 @@ void BusManager::Impl::configuration_failed(Managed& m, const PlanRunResult& out
 void BusManager::Impl::note_failure(Managed& m, const PlanRunResult& outcome) {
   const auto& code = outcome.error.code;
   TimelineKind kind = TimelineKind::sdo;
-  const char* cause = "sdo abort";
+  const char* cause = nullptr;  // the flight recorder's (CiA 301 §7.2.4.3.17: aborted, or never answered)
   if (code == make_error_code(PlanRunErrc::verify_mismatch)) {
     kind = TimelineKind::mismatch;
     cause = "configuration mismatch";
-  } else if (code == make_error_code(PlanRunErrc::sdo_timeout) || code == make_error_code(PlanRunErrc::send_failed)) {
+  } else if (code == make_error_code(PlanRunErrc::sdo_timeout)) {
     cause = "sdo timeout";
-  } else if (code != make_error_code(PlanRunErrc::sdo_abort)) {
+  } else if (code == make_error_code(PlanRunErrc::sdo_abort)) {
+    cause = "sdo abort";
+  } else if (code != make_error_code(PlanRunErrc::send_failed)) {
     return;  // the client was busy: nothing happened on the bus
   }
   add_event(m, kind, "configuration attempt " + std::to_string(m.attempts) + " failed: " + outcome.error.message,
-            capture(cause, m.st.name));
+            cause != nullptr ? capture(cause, m.st.name) : std::string());
 }
 
 std::string BusManager::Impl::join_differences(const PlanRunResult& outcome) {

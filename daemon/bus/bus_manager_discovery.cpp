@@ -204,8 +204,10 @@ void BusManager::Impl::reconfigure_identified(Managed& m, const DiscoveryEvent& 
 
 void BusManager::Impl::on_retry(const DiscoveryEvent& e) {
   log->warn("bus {}: {}", bus.name, e.text);
+  // Every failed commissioning step comes here (Commissioning::retry_later).
   Managed* m = e.device.empty() ? nullptr : find_device(e.device);
   if (m == nullptr) {
+    capture("lss failed", e.device);
     add_problem(e.text, "");
     return;
   }

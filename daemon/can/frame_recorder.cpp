@@ -11,22 +11,23 @@ std::size_t FrameRecorder::capacity_for(std::uint32_t bitrate_kbit, std::uint32_
 }
 
 std::size_t FrameRecorder::bytes_for(std::size_t capacity) noexcept {
-  return (std::max<std::size_t>(1, capacity) + 1) * sizeof(Slot);
+  return (std::max<std::size_t>(1, capacity) + 1) * sizeof(Frame);
 }
 
 FrameRecorder::FrameRecorder(std::size_t capacity)
     : capacity_(std::max<std::size_t>(1, capacity)),
       slot_count_(capacity_ + 1),
-      slots_(std::make_unique<Slot[]>(slot_count_)) {
-  // Touched once here, so the RX thread takes no page faults later.
-  for (std::size_t i = 0; i < slot_count_; ++i)
-    for (auto& w : slots_[i].words) w.store(0, std::memory_order_relaxed);
+      words_(std::make_unique<std::uint64_t[]>(slot_count_ * kWords)) {
+  // make_unique value-initialises: every page is touched here, so the RX
+  // thread takes no page faults later.
 }
 
 Frame FrameRecorder::read_slot(std::uint64_t index) const noexcept {
-  const Slot& slot = slots_[index % slot_count_];
+  std::uint64_t* slot = &words_[(index % slot_count_) * kWords];
   std::uint64_t words[kWords];
-  for (std::size_t i = 0; i < kWords; ++i) words[i] = slot.words[i].load(std::memory_order_acquire);
+  // Acquire: the `begun` read after the copy is at least what the writer
+  // had published when it wrote any word seen here.
+  for (std::size_t i = 0; i < kWords; ++i) words[i] = std::atomic_ref<std::uint64_t>(slot[i]).load(std::memory_order_acquire);
   Frame f;
   std::memcpy(&f, words, sizeof words);
   return f;
@@ -46,9 +47,9 @@ RecorderWindow FrameRecorder::snapshot(std::int64_t from_ns, std::int64_t to_ns)
     indices.push_back(i);
   }
   // Slots the writer reached meanwhile (frame i + slots begun) may be torn:
-  // frame i is whole only if i + slots > the counter now.
-  const std::uint64_t now = written_.load(std::memory_order_acquire);
-  const std::uint64_t first_whole = now >= slot_count_ ? now - slot_count_ + 1 : 0;
+  // frame i is whole only if i + slots >= what has begun now.
+  const std::uint64_t begun = begun_.load(std::memory_order_acquire);
+  const std::uint64_t first_whole = begun >= slot_count_ ? begun - slot_count_ : 0;
   window.skipped = first_whole > begin ? static_cast<std::size_t>(std::min(first_whole, end) - begin) : 0;
   const auto keep = std::lower_bound(indices.begin(), indices.end(), first_whole) - indices.begin();
   window.frames.erase(window.frames.begin(), window.frames.begin() + keep);

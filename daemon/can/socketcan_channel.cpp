@@ -353,7 +353,7 @@ std::size_t SocketCanChannel::receive(std::span<Frame> out) noexcept {
         const std::size_t m = decode_error_frame(f, ev);
         for (std::size_t j = 0; j < m; ++j) push_event(ev[j]);
         error_frames_.add(1);
-        continue;
+        if (!config_.deliver_error_frames) continue;
       }
       out[k++] = f;
     }

@@ -75,6 +75,10 @@ struct SocketCanConfig {
   // unplugged) is waited for like one that is down: open() succeeds closed,
   // process() opens it when it appears. Off: open() fails with ENODEV (CLI).
   bool wait_for_interface = false;
+  // Error frames are decoded into bus events and, by default, not handed
+  // out with the data frames; a flight recorder's socket wants them too
+  // (the frames a capture around a bus error must hold).
+  bool deliver_error_frames = false;
 };
 
 struct ChannelStats {
@@ -125,6 +129,10 @@ class SocketCanChannel final : public FrameSink {
   // re-register it after InterfaceDown / InterfaceReopened events.
   [[nodiscard]] int fd() const noexcept { return fd_; }
   [[nodiscard]] const std::string& interface() const noexcept { return config_.interface; }
+
+  // SocketCanConfig::deliver_error_frames, for an owner that learns after
+  // construction whether it wants them (before open() or between receives).
+  void set_deliver_error_frames(bool on) noexcept { config_.deliver_error_frames = on; }
 
   // Replaces the kernel acceptance filters (applied again after a reopen).
   // An empty span receives no data frames; the default after open() is

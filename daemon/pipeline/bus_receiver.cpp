@@ -24,6 +24,27 @@ std::int64_t realtime_ns() noexcept {
   return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000LL + ts.tv_nsec;
 }
 
+// Without a recorder, only what becomes samples: SYNC + EMCY (0x080..0x0FF),
+// TPDO1 (0x180..0x1FF), TPDO2 (0x280..0x2FF), error control (0x700..0x77F).
+// With one, every frame: the recording must hold the SDO, LSS and NMT
+// exchanges around a configuration or commissioning fault, the daemon's own
+// requests included (they come from the control thread's socket, and the
+// kernel loops a socket's transmissions back to the host's other sockets,
+// CAN_RAW_LOOPBACK). The decoder drops what it does not publish (one compare
+// chain, counted as `ignored`); the bus carries at most ~21 000 frames/s.
+std::span<const can::Filter> receive_filters(bool recorder) noexcept {
+  namespace cob = canopen::cob;
+  static constexpr can::Filter kSamples[] = {
+      {cob::kSync, 0x780, false},
+      {cob::kTpdo1Base, 0x780, false},
+      {cob::kTpdo2Base, 0x780, false},
+      {cob::kNmtErrorControlBase, 0x780, false},
+  };
+  static constexpr can::Filter kEverything[] = {can::Filter::all_standard(), {0, 0, true}};
+  if (recorder) return kEverything;
+  return kSamples;
+}
+
 }  // namespace
 
 BusReceiver::BusReceiver(BusReceiverOptions options, const DeviceTable& table, Dispatcher& dispatcher)
@@ -46,16 +67,10 @@ BusReceiver::~BusReceiver() {
 Error BusReceiver::start() {
   if (running_.load()) return {};
   if (Error e = channel_.open()) return e;
-  namespace cob = canopen::cob;
-  // Only what becomes samples: SYNC + EMCY (0x080..0x0FF), TPDO1 (0x180..0x1FF),
-  // TPDO2 (0x280..0x2FF), error control (0x700..0x77F).
-  const can::Filter filters[] = {
-      {cob::kSync, 0x780, false},
-      {cob::kTpdo1Base, 0x780, false},
-      {cob::kTpdo2Base, 0x780, false},
-      {cob::kNmtErrorControlBase, 0x780, false},
-  };
-  if (Error e = channel_.set_filters(filters)) return e;
+  if (Error e = channel_.set_filters(receive_filters(options_.recorder != nullptr))) return e;
+  // Error frames too: the recorder keeps them (a capture around a bus error
+  // holds them); the decoder ignores them.
+  channel_.set_deliver_error_frames(options_.recorder != nullptr);
   running_.store(true);
   thread_ = std::thread([this] { run(); });
   return {};
@@ -95,9 +110,9 @@ void BusReceiver::refresh_plans() noexcept {
 std::size_t BusReceiver::handle(std::span<const can::Frame> frames) noexcept {
   std::size_t pushed = 0;
   Sample s;
-  can::FrameRecorder* const recorder = options_.recorder;
+  // The whole batch at once: the recorder's counters move once per batch.
+  if (options_.recorder != nullptr) options_.recorder->record(frames);
   for (const can::Frame& f : frames) {
-    if (recorder != nullptr) recorder->record(f);
     if (decoder_.decode(f, s)) {
       push(s);
       ++pushed;

@@ -1,12 +1,14 @@
 // BusReceiver: the hot path of one CAN bus. Its RX thread owns a CAN_RAW
 // socket filtered to what becomes samples (SYNC, EMCY, TPDO1, TPDO2,
-// heartbeat), receives in batches with kernel timestamps, decodes each frame
-// with the FrameDecoder and pushes the samples into the bus's SPSC ring.
+// heartbeat), or, with a flight recorder, to every frame on the bus (SDO,
+// LSS and NMT too, the daemon's own requests included); it receives in
+// batches with kernel timestamps, copies each batch into the recorder,
+// decodes each frame with the FrameDecoder (which drops what it does not
+// publish) and pushes the samples into the bus's SPSC ring.
 //
 // Per frame nothing allocates, locks, throws or logs. A full ring drops the
 // sample and counts it (stats().ring_drops); the kernel's own drops are
-// counted by the channel (SO_RXQ_OVFL). Every frame also goes into the
-// bus's flight recorder when there is one (a few atomic stores). Status changes from the control
+// counted by the channel (SO_RXQ_OVFL). Status changes from the control
 // thread (online/offline) travel through a second small SPSC ring into the
 // RX thread, which stamps them with the device's sequence number, so every
 // sample of a device has exactly one producer.
@@ -38,8 +40,9 @@ struct BusReceiverOptions {
   std::size_t ring_capacity = 1u << 16;
   int receive_buffer_bytes = 1 << 20;  // SO_RCVBUF: room for bursts at 1 Mbit/s
   std::chrono::milliseconds stale_check{10};
-  // The flight recorder every received frame goes into (nullptr: none). It
-  // must outlive the receiver; only the RX thread writes it.
+  // The flight recorder every received frame goes into (nullptr: none; the
+  // socket then passes only what becomes samples). It must outlive the
+  // receiver; only the RX thread writes it.
   can::FrameRecorder* recorder = nullptr;
 };
 

@@ -31,7 +31,7 @@ struct DecoderStats {
   std::uint64_t samples = 0;        // samples produced
   std::uint64_t unknown_node = 0;   // frame of a node no device index belongs to (or a PDO without an active plan)
   std::uint64_t bad_length = 0;     // PDO shorter than its mapping, EMCY/heartbeat of the wrong length
-  std::uint64_t ignored = 0;        // other COB-IDs
+  std::uint64_t ignored = 0;        // other COB-IDs (SDO, LSS, NMT, ... that a recorder's socket passes): not errors
 };
 
 class FrameDecoder {

@@ -74,6 +74,10 @@ std::string_view control_help() noexcept {
          "  silence <serial> on|off           cable pulled: no RX, no TX, state kept\n"
          "  reboot-on-sdo <serial> <n>        power-cycle when the n-th SDO request from now arrives\n"
          "                                    (that request is never answered; 0 cancels)\n"
+         "  abort-sdo <serial> <index hex> [code hex]  answer the next SDO request for that object\n"
+         "                                    with an abort (default code 08000020; index 0 cancels)\n"
+         "  ignore-sdo <serial> <index hex> <n>  leave the next n SDO requests for that object\n"
+         "                                    unanswered (an SDO timeout; 0 cancels)\n"
          "  fault <serial> <kind>             measurement-error|over-range|under-range|hardware-fault|\n"
          "                                    temperature-high|temperature-low|voltage-high|voltage-low|\n"
          "                                    channel-disagreement|clear\n"
@@ -165,6 +169,32 @@ std::optional<ControlParse> parse_device_command(CommandWords& p, std::string_vi
   return std::nullopt;
 }
 
+// `abort-sdo <serial> <index hex> [code hex]`: a device refusing one SDO
+// transfer (CiA 301 §7.2.4.3.17); `ignore-sdo <serial> <index hex> <n>`: a
+// device not answering n requests. Configuration faults for the daemon.
+std::optional<ControlParse> parse_sdo_fault_command(CommandWords& p, std::string_view verb) {
+  if (verb != "abort-sdo" && verb != "ignore-sdo") return std::nullopt;
+  const bool ignore = verb == "ignore-sdo";
+  if (ignore ? p.w.size() != 4 : (p.w.size() != 3 && p.w.size() != 4))
+    return fail(ignore ? "usage: ignore-sdo <serial> <index hex> <n>" : "usage: abort-sdo <serial> <index hex> [code hex]");
+  if (!p.serial_at(1)) return p.bad_serial();
+  const auto index = parse_hex32(p.w[2]);
+  if (!index || *index > 0xFFFF) return fail("index must be hex 0..FFFF, got '" + std::string(p.w[2]) + "'");
+  p.c.sdo_index = static_cast<std::uint16_t>(*index);
+  if (ignore) {
+    const auto n = parse_unsigned(p.w[3], 1000);
+    if (!n) return fail("n must be 0..1000, got '" + std::string(p.w[3]) + "'");
+    p.c.verb = ControlVerb::ignore_sdo;
+    p.c.count = static_cast<std::uint32_t>(*n);
+    return p.done();
+  }
+  const auto code = p.w.size() == 4 ? parse_hex32(p.w[3]) : std::optional<std::uint32_t>(0x08000020u);
+  if (!code || *code == 0) return fail("code must be a non-zero hex abort code, got '" + std::string(p.w[3]) + "'");
+  p.c.verb = ControlVerb::abort_sdo;
+  p.c.abort_code = *code;
+  return p.done();
+}
+
 // Commands on one bus: `<verb> <iface> ...`.
 std::optional<ControlParse> parse_bus_command(CommandWords& p, std::string_view verb) {
   if (verb == "flood") {
@@ -213,6 +243,7 @@ ControlParse parse_control_command(std::string_view line) {
     return p.done();
   }
   if (auto r = parse_device_command(p, verb)) return *r;
+  if (auto r = parse_sdo_fault_command(p, verb)) return *r;
   if (auto r = parse_bus_command(p, verb)) return *r;
   return fail("unknown command '" + std::string(verb) + "' (try 'help')");
 }

@@ -6,6 +6,8 @@
 //   power-cycle|power-off|power-on <serial>
 //   silence <serial> on|off               cable pulled: no RX, no TX, state kept
 //   reboot-on-sdo <serial> <n>            power-cycle when the n-th SDO request from now arrives
+//   abort-sdo <serial> <index hex> [code hex]  abort the next SDO request for that object
+//   ignore-sdo <serial> <index hex> <n>   leave the next n SDO requests for that object unanswered
 //   fault <serial> <kind>                 see fault_kind_names()
 //   move <serial> <turns>                 add an offset (turns, may be negative/fractional)
 //   flood <iface> <ms>                    highest-priority frames back to back
@@ -33,6 +35,8 @@ enum class ControlVerb : std::uint8_t {
   power_on,
   silence,
   reboot_on_sdo,
+  abort_sdo,
+  ignore_sdo,
   fault,
   move,
   flood,
@@ -52,7 +56,9 @@ struct ControlCommand {
   double turns = 0;               // move
   std::uint32_t cob_id = 0;       // babble
   std::uint32_t duration_ms = 0;  // flood, babble
-  std::uint32_t count = 0;        // reboot-on-sdo
+  std::uint32_t count = 0;        // reboot-on-sdo, ignore-sdo
+  std::uint16_t sdo_index = 0;    // abort-sdo, ignore-sdo
+  std::uint32_t abort_code = 0;   // abort-sdo (CiA 301 §7.2.4.3.17)
   BusErrorKind bus_error = BusErrorKind::error_passive;
 };
 

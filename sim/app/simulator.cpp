@@ -243,6 +243,14 @@ std::string Simulator::execute_on_device(const ControlCommand& c, canopen::TimeP
       d.reboot_on_sdo(c.count);
       what = "reboot-on-sdo";
       break;
+    case ControlVerb::abort_sdo:
+      d.abort_sdo(c.sdo_index, c.abort_code);
+      what = "abort-sdo";
+      break;
+    case ControlVerb::ignore_sdo:
+      d.ignore_sdo(c.sdo_index, c.count);
+      what = "ignore-sdo";
+      break;
     case ControlVerb::fault:
       if (!d.powered()) return "error device " + std::to_string(c.serial) + " is powered off";
       d.inject(c.fault, now);

@@ -50,6 +50,7 @@ void SimDevice::Impl::on_frame(const can::Frame& frame, TimePoint now) {
     return;
   }
   if (sdo && nmt.allows(canopen::NmtService::sdo)) {
+    if (sdo_fault_injected(frame)) return;
     (void)sdo->on_frame(frame, now);
     if (reset_node_requested) {
       // ifm 0x2300: the confirmation went out above, now the reset (F§6.3.4).
@@ -57,6 +58,28 @@ void SimDevice::Impl::on_frame(const can::Frame& frame, TimePoint now) {
       reset_node(now);
     }
   }
+}
+
+bool SimDevice::Impl::sdo_fault_injected(const can::Frame& frame) noexcept {
+  if ((abort_sdo_index == 0 && ignore_sdo_index == 0) || frame.id != cob::kSdoRxBase + active_node || frame.len != 8)
+    return false;
+  const unsigned ccs = frame.data[0] >> 5;  // 1 initiate download, 2 initiate upload (CiA 301 §7.2.4.3)
+  const auto index = static_cast<std::uint16_t>(frame.data[1] | (frame.data[2] << 8));
+  if (ccs != 1 && ccs != 2) return false;
+  if (ignore_sdo_index != 0 && index == ignore_sdo_index) {
+    if (--ignore_sdo_left == 0) ignore_sdo_index = 0;
+    return true;
+  }
+  if (abort_sdo_index == 0 || index != abort_sdo_index) return false;
+  const std::uint32_t c = abort_sdo_code;
+  // CiA 301 §7.2.4.3.17: 0x80, the request's multiplexer, the code (little-endian).
+  (void)send(can::Frame::make8(cob::kSdoTxBase + active_node,
+                               {0x80, frame.data[1], frame.data[2], frame.data[3], static_cast<std::uint8_t>(c),
+                                static_cast<std::uint8_t>(c >> 8), static_cast<std::uint8_t>(c >> 16),
+                                static_cast<std::uint8_t>(c >> 24)}),
+             TruthRecord::Kind::sdo);
+  abort_sdo_index = 0;
+  return true;
 }
 
 void SimDevice::Impl::on_nmt_frame(const can::Frame& frame, TimePoint now) {

@@ -84,6 +84,8 @@ void SimDevice::Impl::clear_runtime_state() {
 
 void SimDevice::Impl::power_off() noexcept {
   powered = false;
+  abort_sdo_index = 0;  // injected SDO faults do not survive the power
+  ignore_sdo_index = 0;
   late_lss.clear();
   lss.reset();
   sdo.reset();

@@ -120,6 +120,14 @@ Error SimDevice::power_on(TimePoint now) { return impl_->power_on(now); }
 void SimDevice::power_off() { impl_->power_off(); }
 void SimDevice::set_silent(bool silent) { impl_->silent = silent; }
 void SimDevice::reboot_on_sdo(std::uint32_t nth) noexcept { impl_->reboot_on_sdo = nth; }
+void SimDevice::abort_sdo(std::uint16_t index, std::uint32_t code) noexcept {
+  impl_->abort_sdo_index = index;
+  impl_->abort_sdo_code = code;
+}
+void SimDevice::ignore_sdo(std::uint16_t index, std::uint32_t n) noexcept {
+  impl_->ignore_sdo_index = n == 0 ? 0 : index;
+  impl_->ignore_sdo_left = n;
+}
 bool SimDevice::powered() const noexcept { return impl_->powered; }
 void SimDevice::on_frame(const can::Frame& frame, TimePoint now) { impl_->on_frame(frame, now); }
 TimePoint SimDevice::process(TimePoint now) { return impl_->process(now); }

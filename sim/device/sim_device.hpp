@@ -155,6 +155,13 @@ class SimDevice {
   // arrives, instead of answering it: a reboot in the middle of a master's
   // transfer (0 cancels). Survives nothing: the count is cleared by the reboot.
   void reboot_on_sdo(std::uint32_t nth) noexcept;
+  // Answers the next SDO initiate request (upload or download) for `index`
+  // with an abort of `code` (CiA 301 §7.2.4.3.17) instead of serving it: a
+  // configuration fault. One request only; index 0 cancels; a reboot clears it.
+  void abort_sdo(std::uint16_t index, std::uint32_t code) noexcept;
+  // Leaves the next `n` SDO initiate requests for `index` unanswered (lost,
+  // as far as the master can tell: an SDO timeout). 0 cancels; a reboot clears it.
+  void ignore_sdo(std::uint16_t index, std::uint32_t n) noexcept;
   [[nodiscard]] bool powered() const noexcept;
 
   void on_frame(const can::Frame& frame, TimePoint now);

@@ -97,6 +97,10 @@ struct SimDevice::Impl {
   bool powered = false;
   bool silent = false;
   std::uint32_t reboot_on_sdo = 0;  // see SimDevice::reboot_on_sdo
+  std::uint16_t abort_sdo_index = 0;  // see SimDevice::abort_sdo (0: none)
+  std::uint32_t abort_sdo_code = 0;
+  std::uint16_t ignore_sdo_index = 0;  // see SimDevice::ignore_sdo (0: none)
+  std::uint32_t ignore_sdo_left = 0;
   NvContents nv_data;
   std::unique_ptr<canopen::ObjectDictionary> od;
   std::unique_ptr<canopen::SdoServer> sdo;
@@ -173,6 +177,9 @@ struct SimDevice::Impl {
   void send_can_emcy(std::uint16_t code);
 
   bool send(const can::Frame& frame, TruthRecord::Kind kind, std::uint8_t pdo = 0) noexcept;
+  // True when `frame` was an SDO request abort_sdo() or ignore_sdo() waits
+  // for (now aborted, or left unanswered).
+  bool sdo_fault_injected(const can::Frame& frame) noexcept;
   static bool emcy_thunk(void* context, const can::Frame& frame) noexcept;
   void emit_truth(const can::Frame& frame, TruthRecord::Kind kind, std::uint8_t pdo) const;
   void send_tpdo(std::size_t i, TimePoint now);

@@ -179,6 +179,7 @@ int main(int argc, char** argv) {
   sink.delivered = 0;
 
   const std::size_t rounds = frames_total / batch.size();
+  const std::uint64_t recorded_before = recorder ? recorder->recorded() : 0;
   bench::start_counting_allocations();
   const double cpu0 = thread_cpu_s();
   const auto t0 = std::chrono::steady_clock::now();
@@ -204,8 +205,12 @@ int main(int argc, char** argv) {
   if (plugins.empty()) plugins = "none (counting sink)";
   std::printf("pipeline one core: plugins=%s devices=%d frames=%zu\n", plugins.c_str(), kDevices, frames);
   if (rate > 0) std::printf("  paced at        : %.0f frames/s\n", rate);
-  if (recorder) std::printf("  flight recorder : %u s, %zu frames, %zu KiB\n", recorder_s, recorder->capacity(),
-                            recorder->memory_bytes() / 1024);
+  if (recorder) {
+    std::printf("  flight recorder : %u s, %zu frames, %zu KiB\n", recorder_s, recorder->capacity(),
+                recorder->memory_bytes() / 1024);
+    std::printf("  recorded        : %llu of %zu frames\n",
+                static_cast<unsigned long long>(recorder->recorded() - recorded_before), frames);
+  }
   std::printf("  throughput      : %.0f frames/s (%.1f ns/frame)\n", static_cast<double>(frames) / secs,
               secs * 1e9 / static_cast<double>(frames));
   std::printf("  RX + dispatcher : %.1f%% of one core (%.1f ns CPU/frame)\n", 100.0 * cpu / secs,

@@ -7,6 +7,7 @@
 #include <atomic>
 #include <cstdint>
 #include <thread>
+#include <vector>
 
 namespace cobridge::can {
 namespace {
@@ -67,23 +68,51 @@ TEST(FrameRecorder, FramesKeepIdFlagsAndData) {
   EXPECT_TRUE(w.frames[0].is_extended());
 }
 
+// The RX thread records whole receive batches: a batch that runs over the
+// ring's end wraps, and the newest `capacity` frames come back in order.
+TEST(FrameRecorder, BatchesWrapAroundTheRingEnd) {
+  FrameRecorder r(10);  // 11 slots
+  std::vector<Frame> batch(4);
+  for (int b = 0; b < 7; ++b) {
+    for (int i = 0; i < 4; ++i) batch[static_cast<std::size_t>(i)] = at(b * 4 + i, 0x181, static_cast<std::uint8_t>(b * 4 + i));
+    r.record(batch);
+  }
+  EXPECT_EQ(r.recorded(), 28u);
+  const RecorderWindow w = r.snapshot(0, 1000);
+  ASSERT_EQ(w.frames.size(), 10u);
+  for (std::size_t i = 0; i < w.frames.size(); ++i) {
+    EXPECT_EQ(w.frames[i].timestamp_ns, 18 + static_cast<int>(i));
+    EXPECT_EQ(w.frames[i].data[0], 18 + i);
+  }
+}
+
+// One frame whose payload is derived from its number i (its timestamp).
+Frame numbered(std::int64_t i) {
+  Frame f = at(i, static_cast<std::uint32_t>(i & 0x7FF), static_cast<std::uint8_t>(i));
+  f.data[1] = static_cast<std::uint8_t>(i >> 8);
+  f.data[7] = static_cast<std::uint8_t>(~i);
+  return f;
+}
+
 // A reader copies windows while the writer overwrites the ring at full
-// speed: every frame returned is whole (its payload matches its timestamp)
-// and in order; overwritten slots are skipped, not returned torn.
+// speed, in batches of 1 to 7 frames: every frame returned is whole (its
+// payload matches its timestamp) and in order; overwritten slots are
+// skipped, not returned torn.
 TEST(FrameRecorder, ConcurrentWriterAndReaderNeverSeeTornFrames) {
   FrameRecorder r(256);
   std::atomic<bool> stop{false};
   std::atomic<std::int64_t> last_written{0};
   std::thread writer([&] {
-    for (std::int64_t i = 1; !stop.load(std::memory_order_relaxed) || i < 100'000; ++i) {
-      Frame f = at(i, static_cast<std::uint32_t>(i & 0x7FF), static_cast<std::uint8_t>(i));
-      f.data[1] = static_cast<std::uint8_t>(i >> 8);
-      f.data[7] = static_cast<std::uint8_t>(~i);
-      r.record(f);
-      last_written.store(i, std::memory_order_relaxed);
+    Frame batch[7];
+    for (std::int64_t i = 1; !stop.load(std::memory_order_relaxed) || i < 100'000;) {
+      const auto n = static_cast<std::size_t>(1 + i % 7);
+      for (std::size_t k = 0; k < n; ++k) batch[k] = numbered(i + static_cast<std::int64_t>(k));
+      r.record(std::span<const Frame>(batch, n));
+      i += static_cast<std::int64_t>(n);
+      last_written.store(i - 1, std::memory_order_relaxed);
       // Now and then a pause, so that the reader also finishes windows
       // between laps (the real writer is bounded by the bus: 21277 frames/s).
-      if (i % 64 == 0) std::this_thread::yield();
+      if (i % 64 < 7) std::this_thread::yield();
     }
   });
   while (last_written.load() < 1000) std::this_thread::yield();

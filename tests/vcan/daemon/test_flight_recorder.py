@@ -23,6 +23,20 @@ the heartbeat loss with the measured silence, the EMCY (decoded per family,
 Novotechnik rotary manual §1.8.1; a storm counted on one entry), the
 controller's transitions; `cobridge why rot-a` prints the chain while the
 device is offline, and after it is back.
+A second scene, configuration and commissioning faults (a daemon of its own):
+ * a device whose first SDO request for 0x1800 (TPDO1 communication) the
+   simulator aborts (`abort-sdo`, code 08000020): a capture with cause
+   "sdo abort" naming the device, holding the daemon's own request
+   (0x600+id) and the abort (0x580+id, 80 | index | sub | code;
+   CiA 301 §7.2.4.3.17);
+ * a device that leaves its first three SDO requests for 0x1800 unanswered
+   (`ignore-sdo`; sdo_retries 2: every attempt of one transfer): a capture
+   with cause "sdo timeout" naming the device, holding the three requests;
+ * a factory-fresh device at FFh that does not answer its first LSS
+   configure node-ID (cobridge-sim lose_configure=1): a capture with cause
+   "lss failed" naming the device, holding the daemon's configure node-ID
+   request (0x7E5, 11 | node-ID; CiA 305 §8.3.2.1);
+ * canplayer replays that capture onto vcan1 and a listener there sees both.
 """
 import glob
 import json
@@ -168,9 +182,165 @@ def check_bus_error(report, ws, sim, daemon, listener):
     time.sleep(AFTER + 0.5)
 
 
+CFG_SERIAL, CFG_NODE = 2001, 20
+LSS_SERIAL, LSS_NODE = 2002, 21
+TMO_SERIAL, TMO_NODE = 2003, 22
+ABORT_CODE = 0x08000020  # CiA 301 §7.2.4.3.17: data cannot be transferred or stored to the application
+
+
+def wait_cause(ws, cause, timeout):
+    """A capture whose sidecar lists `cause` (it may have joined another fault's window), or (None, None)."""
+    end = time.time() + timeout
+    while time.time() < end:
+        for side_path in sorted(glob.glob(os.path.join(ws.state, "captures", "*.json"))):
+            try:
+                with open(side_path) as f:
+                    side = json.load(f)
+            except ValueError:
+                continue  # being written
+            if cause in side.get("causes", []) and os.path.exists(side_path[:-5] + ".log"):
+                return side_path[:-5] + ".log", side
+        time.sleep(0.05)
+    return None, None
+
+
+def frames_of(path):
+    """The candump -l lines as (id, data bytes): "(SECONDS.MICROSECONDS) IFACE ID#DATA"."""
+    out = []
+    for line in lines_of(path):
+        ident, _, data = line.split()[2].partition("#")
+        out.append((int(ident, 16), bytes.fromhex(data) if not data.startswith("R") else b""))
+    return out
+
+
+def is_abort(i, d):
+    return (i == 0x580 + CFG_NODE and len(d) == 8 and d[0] == 0x80 and d[1:3] == b"\x00\x18"
+            and struct.unpack("<I", d[4:8])[0] == ABORT_CODE)
+
+
+def is_abort_request(i, d):
+    return i == 0x600 + CFG_NODE and len(d) == 8 and d[0] >> 5 in (1, 2) and d[1:3] == b"\x00\x18"
+
+
+def is_timeout_request(i, d):
+    return i == 0x600 + TMO_NODE and len(d) == 8 and d[0] >> 5 in (1, 2) and d[1:3] == b"\x00\x18"
+
+
+def unanswered_tries(frames, node):
+    """The longest run of one SDO request for 0x1800 sent again and again by the
+    daemon (0x600+node) with no answer (0x580+node) between: the client's tries
+    of one transfer."""
+    best, run, last = 0, 0, None
+    for i, d in frames:
+        if i == 0x580 + node:
+            run, last = 0, None
+        elif is_timeout_request(i, d):
+            run = run + 1 if d == last else 1
+            last = d
+            best = max(best, run)
+    return best
+
+
+def is_configure_id(i, d):
+    return i == 0x7E5 and len(d) == 8 and d[0] == 0x11 and d[1] == LSS_NODE
+
+
+def check_fault_capture(report, ws, cause, device, wanted):
+    """wanted: [(what, predicate(id, data))] that the capture's frames must hold."""
+    path, side = wait_cause(ws, cause, 15.0)
+    if not report.check(path is not None and device in side["devices"],
+                        "a capture with cause %s names the device %s" % (cause, device), "%r" % (side,)):
+        return None
+    frames = frames_of(path)
+    for what, pred in wanted:
+        n = sum(1 for i, d in frames if pred(i, d))
+        report.check(n >= 1, "the %s capture holds %s" % (cause, what),
+                     "%d of them among %d frames in %s" % (n, len(frames), os.path.basename(path)))
+    return path
+
+
+def check_fault_replay(report, path, wanted):
+    listener = e2e.CanListener("vcan1")
+    try:
+        time.sleep(0.2)
+        t0 = time.time()
+        r = subprocess.run(["canplayer", "-t", "-I", path, "vcan1=vcan0"], capture_output=True, text=True, timeout=30)
+        deadline = time.time() + 5
+        while time.time() < deadline and not all(any(p(f[1], f[2]) for f in listener.snapshot(t0)) for _, p in wanted):
+            time.sleep(0.05)
+        got = listener.snapshot(t0)
+        missing = [w for w, p in wanted if not any(p(f[1], f[2]) for f in got)]
+        report.check(r.returncode == 0 and not missing, "canplayer replays the fault capture onto vcan1 with its fault frames",
+                     "exit %d %s; %d frames replayed; missing %r" % (r.returncode, r.stderr.strip(), len(got), missing))
+    finally:
+        listener.close()
+
+
+def fault_timelines(report, args, ws, daemon, paths):
+    """Each device's timeline names its fault in words (the CiA 301 abort text, the tries,
+    the LSS step) with the capture holding its frames; `cobridge why` prints it."""
+    want = {"cfg-a": ("sdo", "SDO abort 0x%08X (" % ABORT_CODE),
+            "tmo-c": ("sdo", "no answer after 3 attempts"),
+            "lss-b": ("lss", "")}
+    devs = {d["name"]: d for b in daemon.status()["buses"] for d in b["devices"]}
+    for name, (kind, text) in want.items():
+        names = set(os.path.basename(p) for p in [paths.get(name)] if p)
+        hits = [e for e in devs.get(name, {}).get("timeline", []) if e["kind"] == kind and text in e["text"]]
+        ok = hits and (not names or hits[0]["capture"] in names)
+        report.check(ok, "timeline of %s: the %s fault in words, with its capture" % (name, kind),
+                     "%r" % (hits[0] if hits else [e["kind"] for e in devs.get(name, {}).get("timeline", [])]))
+    code, out, err = e2e.run_cli(args.cli, "why", "cfg-a", "--control", ws.control)
+    report.check(code == 0 and "SDO abort 0x%08X" % ABORT_CODE in out and "frames: " in out,
+                 "cobridge why cfg-a: the abort, its CiA 301 text and the capture, then operational", out + err)
+
+
+def configuration_faults(args, report):
+    """An SDO abort during configuration and a failed LSS step, each in a capture."""
+    ws = e2e.Workspace("recorder-faults", args.keep)
+    sim = e2e.Simulator(args.sim, ws, {"vcan0": ["RFC-4800:serial=%d,node=%d" % (CFG_SERIAL, CFG_NODE),
+                                                 "MC1-2800:serial=%d,node=unconfigured,lose_configure=1" % LSS_SERIAL,
+                                                 "RFC-4800:serial=%d,node=%d" % (TMO_SERIAL, TMO_NODE)]})
+    sim.command("abort-sdo %d 1800 %08X" % (CFG_SERIAL, ABORT_CODE))
+    sim.command("ignore-sdo %d 1800 3" % TMO_SERIAL)
+    bus = {"name": "line1", "interface": "vcan0", "bitrate": 250, "capture_after_s": int(AFTER),
+           "sdo_timeout_ms": 200, "sdo_retries": 2}
+    tpdo = {"mapping": ["position"], "transmission": "event", "event_timer_ms": 100}
+    devices = [{"name": "cfg-a", "bus": "line1", "serial": CFG_SERIAL, "model": "RFC-4800", "node_id": CFG_NODE,
+                "heartbeat_ms": 100, "tpdo1": tpdo},
+               {"name": "lss-b", "bus": "line1", "serial": LSS_SERIAL, "model": "MC1-2800", "node_id": LSS_NODE,
+                "heartbeat_ms": 100, "tpdo1": tpdo},
+               {"name": "tmo-c", "bus": "line1", "serial": TMO_SERIAL, "model": "RFC-4800", "node_id": TMO_NODE,
+                "heartbeat_ms": 100, "tpdo1": tpdo}]
+    daemon = e2e.Daemon(args.daemon, e2e.write_config(ws, [bus], devices), ws)
+    with e2e.shut_down_after(ws, lambda: (daemon, sim)):
+        report.check(daemon.wait_socket(), "faults scene: control socket up")
+        _, took = daemon.wait_until(e2e.all_operational(["cfg-a", "lss-b", "tmo-c"]), 60, interval=0.1)
+        if not report.check(took is not None, "faults scene: the three devices operational after their faults"):
+            print(daemon.tail(60))
+        sdo = [("the daemon's SDO request for 0x1800 (0x600+id)", is_abort_request),
+               ("the abort (0x580+id, 80 00 18 .. 20 00 00 08)", is_abort)]
+        lss = [("the LSS configure node-ID request (7E5, 11 %02X)" % LSS_NODE, is_configure_id)]
+        tmo = [("the daemon's SDO request for 0x1800 (0x600+id)", is_timeout_request)]
+        sdo_path = check_fault_capture(report, ws, "sdo abort", "cfg-a", sdo)
+        tmo_path = check_fault_capture(report, ws, "sdo timeout", "tmo-c", tmo)
+        if tmo_path:
+            tries = unanswered_tries(frames_of(tmo_path), TMO_NODE)
+            report.check(tries >= 3, "the sdo timeout capture holds the three unanswered tries of one request",
+                         "longest run of one request without an answer: %d" % tries)
+        lss_path = check_fault_capture(report, ws, "lss failed", "lss-b", lss)
+        if sdo_path:
+            check_fault_replay(report, sdo_path, sdo + (lss if lss_path == sdo_path else []))
+        if lss_path and lss_path != sdo_path:
+            check_fault_replay(report, lss_path, lss)
+        fault_timelines(report, args, ws, daemon, {"cfg-a": sdo_path, "tmo-c": tmo_path, "lss-b": lss_path})
+        e2e.check_clean_exit(report, daemon)
+        daemon = None
+
+
 def main():
     args = e2e.parse_args()
     report = e2e.Report("test_flight_recorder")
+    configuration_faults(args, report)
     ws = e2e.Workspace("recorder", args.keep)
     listener = e2e.CanListener("vcan0")
     sim = e2e.Simulator(args.sim, ws, {"vcan0": ["RFC-4800:serial=%d,node=%d" % (SERIAL, NODE)]})

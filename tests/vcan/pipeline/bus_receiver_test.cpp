@@ -1,6 +1,7 @@
 // BusReceiver on real SocketCAN: TPDOs sent on vcan0 arrive as samples with
 // kernel receive timestamps and contiguous sequence numbers; what the
-// kernel filter excludes (SDO) never reaches the hot path.
+// kernel filter excludes (SDO) never reaches the hot path, unless the bus has
+// a flight recorder, whose recording then holds every frame.
 #include "pipeline/bus_receiver.hpp"
 
 #include <gtest/gtest.h>
@@ -11,6 +12,8 @@
 #include <mutex>
 #include <thread>
 #include <vector>
+
+#include "can/frame_recorder.hpp"
 
 using namespace cobridge;
 using namespace cobridge::pipeline;
@@ -129,4 +132,56 @@ TEST(BusReceiverVcan, StatusFromControlThreadBecomesStatusSample) {
   EXPECT_EQ(sink.samples[0].kind, COBRIDGE_SAMPLE_STATUS);
   EXPECT_EQ(sink.samples[0].online, 0);
   EXPECT_EQ(sink.samples[0].node_id, 12);
+}
+
+// With a flight recorder the RX socket passes every frame: an SDO request and
+// its abort (CiA 301 §7.2.4.3.17), LSS (CiA 305) and NMT, sent by another
+// socket of this host as the control thread's are, land in the recording
+// with kernel timestamps, oldest first; they become no samples and count as
+// neither unknown nodes nor bad lengths, only as ignored. The TPDO beside
+// them is still a sample.
+TEST(BusReceiverVcan, WithARecorderEveryFrameIsRecordedAndOnlySamplesArePublished) {
+  DeviceTable table;
+  DecodePlan p;
+  p.active = true;
+  p.indexed = true;
+  p.node_id = 10;
+  std::vector<MappedObject> map = {{0x60040020, true}};
+  ASSERT_TRUE(build_pdo_decode(map, p.tpdo[0]).ok());
+  table.publish(p);
+  Collect sink;
+  Dispatcher dispatcher(sink);
+  can::FrameRecorder recorder(64);
+  BusReceiver rx(BusReceiverOptions{.bus_index = 0, .interface = "vcan0", .recorder = &recorder}, table, dispatcher);
+  dispatcher.add_source(rx.ring());
+  dispatcher.start();
+  ASSERT_FALSE(rx.start());
+  can::SocketCanChannel tx(can::SocketCanConfig{.interface = "vcan0"});
+  ASSERT_FALSE(tx.open());
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  const std::vector<can::Frame> sent = {
+      can::Frame::make8(0x60A, {0x23, 0x00, 0x18, 0x05, 100, 0, 0, 0}),           // SDO download 0x1800/5
+      can::Frame::make8(0x58A, {0x80, 0x00, 0x18, 0x05, 0x20, 0x00, 0x00, 0x08}),  // its abort 08000020
+      can::Frame::make8(0x7E5, {0x11, 0x15, 0, 0, 0, 0, 0, 0}),                    // LSS configure node-ID 21
+      can::Frame::make(0x000, {0x01, 0x0A}),                                       // NMT start node 10
+      can::Frame::make(0x18A, {1, 2, 3, 4}),                                       // TPDO1: a sample
+  };
+  for (const auto& f : sent) ASSERT_TRUE(tx.send(f));
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while ((recorder.recorded() < sent.size() || sink.size() < 1) && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  rx.stop();
+  dispatcher.stop();
+  const can::RecorderWindow w = recorder.snapshot(0, INT64_MAX);
+  ASSERT_EQ(w.frames.size(), sent.size());
+  for (std::size_t i = 0; i < sent.size(); ++i) {
+    EXPECT_EQ(w.frames[i], sent[i]) << "frame " << i;
+    EXPECT_GT(w.frames[i].timestamp_ns, 0) << "kernel receive time";
+  }
+  ASSERT_EQ(sink.samples.size(), 1u);
+  EXPECT_EQ(sink.samples[0].kind, COBRIDGE_SAMPLE_TPDO);
+  const auto st = rx.stats();
+  EXPECT_EQ(st.decoder.unknown_node, 0u);
+  EXPECT_EQ(st.decoder.bad_length, 0u);
+  EXPECT_EQ(st.decoder.ignored, 4u) << "SDO x2, LSS, NMT: dropped, not errors";
 }

@@ -163,5 +163,33 @@ TEST(SimDeviceSdo, AbortCodes_J1_6_3) {
   EXPECT_EQ(Bench::abort_code(b.write_u8(0x1800, 2, 253)), 0x06090030u);  // no RTR types on E
 }
 
+// cobridge-sim `abort-sdo`: the next initiate request for the object gets a
+// CiA 301 §7.2.4.3.17 abort (80 | index | sub | code, little-endian) instead
+// of its answer; one request only, other objects are served meanwhile.
+TEST(SimDeviceSdo, InjectedAbortAnswersOneRequestForTheObject) {
+  Bench b("RFC-4800", "novotechnik-rfc4800-1ch.eds");
+  b.power_on();
+  b.device->abort_sdo(0x1800, 0x08000020);
+  EXPECT_EQ(b.read(0x1018, 4).data[0], 0x43);  // another object: served (expedited upload, 4 bytes)
+  EXPECT_EQ(b.write_u32(0x1800, 5, 100), Frame::make8(0x5FF, {0x80, 0x00, 0x18, 0x05, 0x20, 0x00, 0x00, 0x08}));
+  EXPECT_EQ(b.write_u32(0x1800, 1, 0xC00001FF), Frame::make8(0x5FF, {0x60, 0x00, 0x18, 0x01, 0, 0, 0, 0}));
+  b.device->abort_sdo(0x1017, 0x06090030);
+  EXPECT_EQ(Bench::abort_code(b.read(0x1017, 0)), 0x06090030u);  // an upload too
+  EXPECT_EQ(Bench::abort_code(b.read(0x1017, 0)), 0u);
+}
+
+// cobridge-sim `ignore-sdo`: the next n initiate requests for the object get
+// no answer (the master's SDO timeout, CiA 301 §7.2.4.3: a lost request);
+// the one after is served.
+TEST(SimDeviceSdo, IgnoredRequestsGetNoAnswer) {
+  Bench b("RFC-4800", "novotechnik-rfc4800-1ch.eds");
+  b.power_on();
+  b.device->ignore_sdo(0x1800, 2);
+  EXPECT_EQ(b.read(0x1800, 5), Frame{});
+  EXPECT_EQ(b.read(0x1018, 4).data[0], 0x43);  // another object: served
+  EXPECT_EQ(b.read(0x1800, 5), Frame{});
+  EXPECT_EQ(b.read(0x1800, 5).data[0], 0x4B);  // served again (expedited upload, 2 bytes)
+}
+
 }  // namespace
 }  // namespace cobridge::sim::test
