@@ -596,6 +596,10 @@ def browser(report, ws, args, names, stale_name):
     load = re.search(r'data-load="([0-9.]+)"', doms[-1])
     report.check(load is not None and float(load.group(1)) > 0, "browser: the bus load is shown",
                  load.group(1) + " %" if load else "none")
+    ctl = re.search(r'<span[^>]*data-controller="([^"]*)"[^>]*>(.*?)</span>', doms[-1], re.S)
+    report.check(ctl is not None and ctl.group(1) == "unknown" and "the driver reports no state" in ctl.group(2),
+                 "browser: the CAN controller line says where its figures come from (vcan: the driver reports no "
+                 "state over netlink)", ctl.group(0)[:200] if ctl else "none")
     report.check('data-output="modbus"' in doms[-1] and 'data-figure="modbus_clients_connected"' in doms[-1],
                  "browser: the Modbus output and its clients connected are shown")
     for width, png in (pngs or {}).items():
