@@ -33,7 +33,7 @@ void BusManager::Impl::set_state(Managed& m, DeviceState s, std::string why) {
 }
 
 void BusManager::Impl::add_event(Managed& m, TimelineKind kind, std::string text, std::string capture) {
-  append_event(m.st.timeline, TimelineEvent{wall_now(), kind, std::move(text), std::move(capture)});
+  m.st.timeline.add(TimelineEvent{wall_now(), kind, std::move(text), std::move(capture)});
   dirty = true;
 }
 

@@ -98,7 +98,7 @@ struct DeviceStatus {
   std::uint32_t commission_failures = 0;
   WallTime next_retry{};
   std::vector<EmcyRecord> emcy_history;  // most recent last, at most kEmcyHistory
-  std::vector<TimelineEvent> timeline;   // most recent last, at most kTimelineLength
+  DeviceTimeline timeline;               // most recent last, at most kTimelineLength (shared by copies)
   // Objects a client set away from the configuration ("configuration
   // differs" while not empty); cleared by the next successful plan.
   std::vector<DriftRecord> drift;

@@ -36,4 +36,16 @@ void append_event(std::vector<TimelineEvent>& timeline, TimelineEvent e) {
   timeline.push_back(std::move(e));
 }
 
+void DeviceTimeline::add(TimelineEvent e) {
+  auto next = events_ ? std::make_shared<std::vector<TimelineEvent>>(*events_)
+                      : std::make_shared<std::vector<TimelineEvent>>();
+  append_event(*next, std::move(e));
+  events_ = std::move(next);
+}
+
+const std::vector<TimelineEvent>& DeviceTimeline::events() const noexcept {
+  static const std::vector<TimelineEvent> kNone;
+  return events_ ? *events_ : kNone;
+}
+
 }  // namespace cobridge::gateway

@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -44,6 +45,25 @@ struct TimelineEvent {
 inline constexpr std::chrono::seconds kTimelineRepeatWindow{10};
 
 inline constexpr std::size_t kTimelineLength = 100;  // events kept per device
+
+// A device's timeline as DeviceStatus carries it. Status snapshots are
+// copied on every change of any device (BusManager::Impl::publish_all, up
+// to once per loop turn under an EMCY storm), so the events are shared,
+// immutable once made: a copy is one reference count, and add() makes a new
+// list (at most kTimelineLength events) that later copies share.
+// Threads: add() on the bus's control thread; copies and reads anywhere.
+class DeviceTimeline {
+ public:
+  void add(TimelineEvent e);
+  [[nodiscard]] const std::vector<TimelineEvent>& events() const noexcept;
+  [[nodiscard]] auto begin() const noexcept { return events().begin(); }
+  [[nodiscard]] auto end() const noexcept { return events().end(); }
+  [[nodiscard]] std::size_t size() const noexcept { return events().size(); }
+  [[nodiscard]] bool empty() const noexcept { return events().empty(); }
+
+ private:
+  std::shared_ptr<const std::vector<TimelineEvent>> events_;
+};
 
 // Appends `e`, dropping the oldest beyond kTimelineLength (most recent last),
 // or counts it on the latest event when that is the same (kind, text; any

@@ -45,6 +45,19 @@ TEST(DeviceTimeline, TheSameEventLaterOrOfAnotherKindIsANewEntry) {
   EXPECT_EQ(tl[0].last_at, kT0);
 }
 
+// Status snapshots share the events: a copy made before an event keeps what it saw.
+TEST(DeviceTimeline, ACopyKeepsTheEventsItWasMadeWith) {
+  DeviceTimeline tl;
+  EXPECT_TRUE(tl.empty());
+  tl.add(TimelineEvent{kT0, TimelineKind::boot_up, "boot-up", {}});
+  const DeviceTimeline snapshot = tl;
+  EXPECT_EQ(&snapshot.events(), &tl.events());  // shared, not copied
+  tl.add(TimelineEvent{kT0 + 1s, TimelineKind::state, "identified -> configuring", {}});
+  ASSERT_EQ(snapshot.size(), 1U);
+  ASSERT_EQ(tl.size(), 2U);
+  EXPECT_EQ(tl.events().back().text, "identified -> configuring");
+}
+
 TEST(DeviceTimeline, KindsHaveTheirDocumentedNames) {
   EXPECT_STREQ(to_string(TimelineKind::boot_up), "boot-up");
   EXPECT_STREQ(to_string(TimelineKind::node_id), "node-id");
