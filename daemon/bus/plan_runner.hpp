@@ -71,7 +71,7 @@ struct PlanRunResult {
   canopen::Duration duration{};
   std::vector<PlanStepTiming> steps;
   // Values found different from the plan before writing them, in words
-  // ("0x1017:00 read 0x00002355, configured 0x00000064"); at most kMaxDiffered.
+  // ("0x1017 read 0x00002355, configured 0x00000064"); at most kMaxDiffered.
   std::vector<std::string> differed;
   static constexpr std::size_t kMaxDiffered = 8;
 

@@ -154,6 +154,16 @@ def keep_case(report, args, ws, daemon, sim):
     report.check(rc == 0 and "(1000)" in out, "keep: 0x1017 still the operator's 1000", out.strip() + err.strip())
 
     modbus_preset(report, daemon)
+    # The operator also stores it (CiA 301 §7.5.2.13: "save" to 0x1010:01, which the
+    # multiturn takes in pre-operational only, Novotechnik multiturn manual §6): the device
+    # comes back from its power cycle with 1000, and the gateway's read-back after the
+    # boot-up names the object, the value read and the configured one on the timeline.
+    rc, out, err = e2e.run_cli(args.cli, "nmt", "-i", "vcan0", "preop", str(MT[1]), *ctl)
+    report.check(rc == 0, "cobridge nmt preop mt-a (the operator, before storing)", out.strip() + err.strip())
+    rc, out, err = e2e.run_cli(args.cli, "sdo", "write", "-i", "vcan0", "-n", str(MT[1]), "1010:1",
+                               str(0x65766173), "--size", "4", *ctl)
+    report.check(rc == 0, "cobridge sdo write 0x1010:01 = \"save\" on mt-a (the operator stores it)",
+                 out.strip() + err.strip())
     sim.command("power-cycle %d" % MT[0])
     st, took = daemon.wait_until(lambda s: any(d["name"] == "mt-a" and not d["config_differs"]
                                                and d["state"] == "operational" and d["online"]
@@ -165,6 +175,10 @@ def keep_case(report, args, ws, daemon, sim):
     rc, out, err = e2e.run_cli(args.cli, "sdo", "read", "-i", "vcan0", "-n", str(MT[1]), "1017:0", *ctl)
     report.check(rc == 0 and "(100)" in out,
                  "0x1017 reads 100 after the power cycle", out.strip() + err.strip())
+    seen = [e["kind"] + ": " + e["text"] for e in d["timeline"]
+            if "0x1017 read 0x000003E8, configured 0x00000064" in e["text"]]
+    report.check(seen, "timeline: the stored value found at the boot-up, in words (object, read, configured)",
+                 seen[0] if seen else repr([e["text"] for e in d["timeline"][-8:]]))
 
 
 def main():
