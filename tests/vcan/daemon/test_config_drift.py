@@ -16,9 +16,11 @@ the producer heartbeat time, 0x1017 (CiA 301 §7.4.8.3), configured 100 ms.
      stays 1000 and the heartbeat consumer follows it (1000 ms silences are
      no loss: still online). A Modbus preset (command registers +28..+30,
      docs/modbus.md; mt-a's configuration sets preset = 0, 0x6003, E§4.2)
-     is drift too, written by "plugin modbus". After a power cycle of the
-     device the configuration is applied again: drift cleared, 0x1017
-     reads 100.
+     is drift too, written by "plugin modbus". The operator then stores
+     it (pre-operational, 0x1010:01 "save"), and after a power cycle of
+     the device the configuration is applied again: drift cleared, 0x1017
+     reads 100, and the timeline names what the device came back with
+     (0x1017 read 0x000003E8, configured 0x00000064).
 """
 import socket
 import sys
