@@ -2,11 +2,9 @@
  * spelled out as the ABI 4 header had it. Right behind the table sits a trap
  * where an ABI 5 table has on_bus: a host that ignored struct_size would
  * call it and the test would see it. */
-#include "test_plugin_record.h"
+#include "test_plugin_common.h"
 
 #include <stddef.h>
-
-COBRIDGE_PLUGIN_EXPORT test_record test_plugin_record;
 
 /* cobridge_plugin_ops as of ABI 4. */
 typedef struct ops_v4 {
@@ -30,21 +28,6 @@ typedef struct ops_v4_with_trap {
 _Static_assert(offsetof(ops_v4_with_trap, trap) == offsetof(cobridge_plugin_ops, on_bus),
                "the trap must sit exactly where an ABI 5 host looks for on_bus");
 
-static int dummy_self;
-
-static int v4_start(void* self) {
-  (void)self;
-  ++test_plugin_record.started;
-  return 0;
-}
-static void v4_stop(void* self) {
-  (void)self;
-  ++test_plugin_record.stopped;
-}
-static void v4_destroy(void* self) {
-  (void)self;
-  ++test_plugin_record.destroyed;
-}
 static void v4_on_samples(void* self, const cobridge_sample* samples, size_t count) {
   (void)self;
   (void)samples;
@@ -57,20 +40,8 @@ static void v4_trap(void* self, const cobridge_bus_info* info) {
 }
 
 static const ops_v4_with_trap table = {
-    {4u, sizeof(ops_v4), "test_abi4", v4_start, v4_stop, v4_destroy, v4_on_samples, NULL, NULL, NULL},
+    {4u, sizeof(ops_v4), "test_abi4", test_start, test_stop, test_destroy, v4_on_samples, NULL, NULL, NULL},
     v4_trap,
 };
 
-COBRIDGE_PLUGIN_EXPORT int cobridge_plugin_create(const cobridge_host_api* host, const char* config_toml,
-                                                  size_t config_len, const cobridge_plugin_ops** ops_out,
-                                                  void** self_out, char* err, size_t err_len) {
-  (void)host;
-  (void)config_toml;
-  (void)config_len;
-  (void)err;
-  (void)err_len;
-  ++test_plugin_record.created;
-  *ops_out = (const cobridge_plugin_ops*)(const void*)&table.ops;
-  *self_out = &dummy_self;
-  return 0;
-}
+TEST_PLUGIN_CREATE(&table.ops)

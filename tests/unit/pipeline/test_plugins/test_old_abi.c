@@ -2,11 +2,9 @@
  * ended at on_samples. The layout is spelled out here as that older header
  * had it. Right behind the table sits a trap where a v1 table has on_device:
  * a host that ignored struct_size would call it and the test would see it. */
-#include "test_plugin_record.h"
+#include "test_plugin_common.h"
 
 #include <stddef.h>
-
-COBRIDGE_PLUGIN_EXPORT test_record test_plugin_record;
 
 /* cobridge_plugin_ops as of ABI 0. */
 typedef struct ops_v0 {
@@ -27,21 +25,6 @@ typedef struct ops_v0_with_trap {
 _Static_assert(offsetof(ops_v0_with_trap, trap) == offsetof(cobridge_plugin_ops, on_device),
                "the trap must sit exactly where a v1 host would look for on_device");
 
-static int dummy_self;
-
-static int v0_start(void* self) {
-  (void)self;
-  ++test_plugin_record.started;
-  return 0;
-}
-static void v0_stop(void* self) {
-  (void)self;
-  ++test_plugin_record.stopped;
-}
-static void v0_destroy(void* self) {
-  (void)self;
-  ++test_plugin_record.destroyed;
-}
 static void v0_on_samples(void* self, const cobridge_sample* samples, size_t count) {
   size_t i;
   (void)self;
@@ -58,20 +41,9 @@ static void v0_trap(void* self, const cobridge_device_info* info) {
 }
 
 static const ops_v0_with_trap table = {
-    {0u, sizeof(ops_v0), "test_old_abi", v0_start, v0_stop, v0_destroy, v0_on_samples},
+    {0u, sizeof(ops_v0), "test_old_abi", test_start, test_stop, test_destroy, v0_on_samples},
     v0_trap,
 };
 
-int cobridge_plugin_create(const cobridge_host_api* host, const char* config_toml, size_t config_len,
-                           const cobridge_plugin_ops** ops_out, void** self_out, char* err, size_t err_len) {
-  (void)host;
-  (void)config_toml;
-  (void)config_len;
-  (void)err;
-  (void)err_len;
-  ++test_plugin_record.created;
-  /* What an ABI-0 plugin hands over: a pointer to its (shorter) table. */
-  *ops_out = (const cobridge_plugin_ops*)(const void*)&table.ops;
-  *self_out = &dummy_self;
-  return 0;
-}
+/* What an ABI-0 plugin hands over: a pointer to its (shorter) table. */
+TEST_PLUGIN_CREATE(&table.ops)
