@@ -11,6 +11,7 @@ separated by blanks ("23 10 10 01 73 61 76 65").
 import argparse
 import os
 import select
+import shutil
 import socket
 import struct
 import subprocess
@@ -336,6 +337,7 @@ def main(run):
     finally:
         for sim in RUNNING:
             sim.kill()
+        shutil.rmtree(args.tmp, ignore_errors=True)
     elapsed = time.monotonic() - started
     if REPORT.failures:
         print("FAIL (%d of %d checks failed, %.1f s)" % (len(REPORT.failures), REPORT.checks, elapsed), flush=True)

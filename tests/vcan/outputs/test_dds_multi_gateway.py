@@ -23,6 +23,7 @@ Asserts (docs/dds.md, "Many gateways in one domain"):
 import argparse
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -172,6 +173,13 @@ def main():
     os.environ["CYCLONEDDS_URI"] = ('<General><Interfaces><NetworkInterface name="lo" multicast="true"/></Interfaces></General>'
                                     '<Internal><Watermarks><WhcHigh>64MB</WhcHigh></Watermarks></Internal>')
     work = tempfile.mkdtemp(prefix="cobridge-mgw-")
+    try:
+        return run(a, work)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+def run(a, work):
     procs = {}
 
     def start_daemon(tag, gw, iface, first_node, first_serial):

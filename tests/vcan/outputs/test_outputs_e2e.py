@@ -21,6 +21,7 @@ Asserts:
 import argparse
 import json
 import os
+import shutil
 import signal
 import socket
 import subprocess
@@ -134,7 +135,19 @@ def main():
     # UML's slow reader acknowledges (docs/dds.md).
     os.environ["CYCLONEDDS_URI"] = ('<General><Interfaces><NetworkInterface name="lo" multicast="true"/></Interfaces></General>'
                                     '<Internal><Watermarks><WhcHigh>64MB</WhcHigh></Watermarks></Internal>')
-    work = tempfile.mkdtemp(prefix="cobridge-e2e-")
+    work = tempfile.mkdtemp(prefix="cobridge-e2e-outputs-")
+    rc = 1
+    try:
+        rc = run(a, work)
+    finally:
+        if rc == 0:
+            shutil.rmtree(work, ignore_errors=True)  # 60 MB of logs and taps per run
+        else:
+            print(f"work directory kept for inspection: {work}")
+    return rc
+
+
+def run(a, work):
     with open(f"{work}/e2e.toml", "w") as f:
         f.write(config_text(work, a.repo))
     sim_args = [a.sim, "--iface", "vcan0", "--truth", f"{work}/truth.txt", "--control", f"{work}/sim.sock",
