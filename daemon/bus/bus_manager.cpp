@@ -17,6 +17,7 @@ BusManager::Impl::Impl(const config::Config& config_in, std::size_t index, const
   bus = config.buses.at(bus_index);
   log = sys::logger("gateway");
   build_devices();
+  restore_timelines();
   wake_fd = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
 }
 
@@ -152,9 +153,11 @@ void BusManager::Impl::run() {
     }
     update_ready(now);
     publish_if_dirty();
+    next = std::min(next, flush_timelines(now));
 
     wait(now, next);
   }
+  (void)flush_timelines(Clock::now(), true);
   sync.stop();
   runners_abort();
   remote->abort_all("the bus stopped");

@@ -34,6 +34,7 @@
 #include "bus/remote/remote_executor.hpp"
 #include "bus/remote/remote_target.hpp"
 #include "bus/supervisor.hpp"
+#include "bus/timeline_journal.hpp"
 #include "sys/logging.hpp"
 
 #include <poll.h>
@@ -277,10 +278,19 @@ struct BusManager::Impl final : RemoteGate {
   // `why` is the timeline's cause; empty: the device's last_error, or the
   // usual reason for entering `s`.
   void set_state(Managed& m, DeviceState s, std::string why = {});
+  // ---- timelines (bus_manager_timeline.cpp) ---------------------------------
+
   // A timeline event of `m` (now); `capture` names the recorder's file.
+  // A configured device's event is queued for the journal.
   void add_event(Managed& m, TimelineKind kind, std::string text, std::string capture = {});
   // A bus-wide event (controller, adapter) on the timeline of every device of the bus.
   void add_bus_event(TimelineKind kind, const std::string& text, const std::string& capture);
+  // Start-up: the configured devices' timelines from the journal, then a
+  // "gateway started" event on each.
+  void restore_timelines();
+  // Writes the journal's queued events once per kFlushInterval, or now when
+  // `force` (the bus stops); returns when it is next due.
+  TimePoint flush_timelines(TimePoint now, bool force = false);
   void notify(const Managed& m);
   void add_step(StepTiming t);
 
@@ -323,6 +333,9 @@ struct BusManager::Impl final : RemoteGate {
   };
   std::vector<Problem> problems;
   std::string live_bus_event;
+  std::optional<TimelineJournal> journal;  // <state_dir>/timelines/<bus>.timeline
+  TimePoint journal_due{};
+  bool journal_failing = false;  // the last write failed (logged once per run of failures)
   can::ControllerHealth controller;  // from the channel's error frames and netlink
   // The controller over netlink and the health told to the outputs
   // (bus_manager_health.cpp).

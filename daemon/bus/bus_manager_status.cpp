@@ -32,17 +32,6 @@ void BusManager::Impl::set_state(Managed& m, DeviceState s, std::string why) {
   notify(m);
 }
 
-void BusManager::Impl::add_event(Managed& m, TimelineKind kind, std::string text, std::string capture) {
-  m.st.timeline.add(TimelineEvent{wall_now(), kind, std::move(text), std::move(capture)});
-  dirty = true;
-}
-
-void BusManager::Impl::add_bus_event(TimelineKind kind, const std::string& text, const std::string& capture) {
-  for (auto& m : devices) {
-    if (m.in_config) add_event(m, kind, "bus " + bus.name + ": " + text, capture);
-  }
-}
-
 void BusManager::Impl::notify(const Managed& m) {
   if (options.observer != nullptr) options.observer->on_device_status(m.st);
 }

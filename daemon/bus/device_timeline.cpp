@@ -15,8 +15,19 @@ const char* to_string(TimelineKind k) noexcept {
     case TimelineKind::controller: return "controller";
     case TimelineKind::drift: return "drift";
     case TimelineKind::configured: return "configured";
+    case TimelineKind::gateway: return "gateway";
   }
   return "?";
+}
+
+bool parse_timeline_kind(std::string_view text, TimelineKind& out) noexcept {
+  for (unsigned k = 0; k <= static_cast<unsigned>(TimelineKind::gateway); ++k) {
+    if (text == to_string(static_cast<TimelineKind>(k))) {
+      out = static_cast<TimelineKind>(k);
+      return true;
+    }
+  }
+  return false;
 }
 
 void append_event(std::vector<TimelineEvent>& timeline, TimelineEvent e) {
@@ -34,6 +45,12 @@ void append_event(std::vector<TimelineEvent>& timeline, TimelineEvent e) {
   e.last_at = e.at;
   if (timeline.size() >= kTimelineLength) timeline.erase(timeline.begin());
   timeline.push_back(std::move(e));
+}
+
+DeviceTimeline::DeviceTimeline(std::vector<TimelineEvent> events) {
+  if (events.size() > kTimelineLength)
+    events.erase(events.begin(), events.end() - static_cast<std::ptrdiff_t>(kTimelineLength));
+  if (!events.empty()) events_ = std::make_shared<const std::vector<TimelineEvent>>(std::move(events));
 }
 
 void DeviceTimeline::add(TimelineEvent e) {

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace cobridge::gateway {
@@ -28,8 +29,11 @@ enum class TimelineKind : std::uint8_t {
   controller,  // the bus's CAN controller changed its error state
   drift,       // an object the configuration sets was written by a client
   configured,  // a configuration plan finished (written, verified, stored)
+  gateway,     // the gateway started: the events before it are from the journal
 };
 [[nodiscard]] const char* to_string(TimelineKind k) noexcept;
+// The kind to_string() names; false for any other text.
+[[nodiscard]] bool parse_timeline_kind(std::string_view text, TimelineKind& out) noexcept;
 
 struct TimelineEvent {
   std::chrono::system_clock::time_point at{};
@@ -54,6 +58,9 @@ inline constexpr std::size_t kTimelineLength = 100;  // events kept per device
 // Threads: add() on the bus's control thread; copies and reads anywhere.
 class DeviceTimeline {
  public:
+  DeviceTimeline() = default;
+  // Events kept from before (the journal), most recent last.
+  explicit DeviceTimeline(std::vector<TimelineEvent> events);
   void add(TimelineEvent e);
   [[nodiscard]] const std::vector<TimelineEvent>& events() const noexcept;
   [[nodiscard]] auto begin() const noexcept { return events().begin(); }

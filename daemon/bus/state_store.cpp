@@ -1,12 +1,9 @@
 #include "bus/state_store.hpp"
 
+#include "base/field_text.hpp"
 #include "base/number_text.hpp"
+#include "sys/atomic_file.hpp"
 
-#include <fcntl.h>
-#include <unistd.h>
-
-#include <atomic>
-#include <cerrno>
 #include <charconv>
 #include <fstream>
 #include <sstream>
@@ -28,78 +25,14 @@ class StateStoreCategory final : public std::error_category {
   }
 };
 
-bool needs_escape(char c) noexcept {
-  return c == ' ' || c == '\t' || c == '%' || c == '=' || c == '#' || c == '\n' || c == '\r' ||
-         static_cast<unsigned char>(c) < 0x20 || static_cast<unsigned char>(c) == 0x7F;
-}
-
-std::string escape(std::string_view s) {
-  static constexpr char kHex[] = "0123456789ABCDEF";
-  std::string out;
-  out.reserve(s.size());
-  for (const char c : s) {
-    if (needs_escape(c)) {
-      const auto u = static_cast<unsigned char>(c);
-      out += '%';
-      out += kHex[u >> 4];
-      out += kHex[u & 0x0F];
-    } else {
-      out += c;
-    }
-  }
-  return out;
-}
-
-int hex_digit(char c) noexcept {
-  if (c >= '0' && c <= '9') return c - '0';
-  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
-  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
-  return -1;
-}
-
-bool unescape(std::string_view s, std::string& out) {
-  out.clear();
-  for (std::size_t i = 0; i < s.size(); ++i) {
-    if (s[i] != '%') {
-      out += s[i];
-      continue;
-    }
-    if (i + 2 >= s.size()) return false;
-    const int hi = hex_digit(s[i + 1]);
-    const int lo = hex_digit(s[i + 2]);
-    if (hi < 0 || lo < 0) return false;
-    out += static_cast<char>((hi << 4) | lo);
-    i += 2;
-  }
-  return true;
-}
-
 std::string hex(std::uint32_t v) {
   std::ostringstream s;
   s << "0x" << std::hex << std::uppercase << v;
   return s.str();
 }
 
-std::atomic<unsigned> g_temp_counter{0};
-
-std::error_code errno_code() noexcept { return {errno, std::generic_category()}; }
-
 // A line parse_line refuses; load() adds the file and line.
 Error refused(std::string why) { return Error(Errc::kInvalidArgument, std::move(why)); }
-
-// write() all of `data`, retrying on EINTR and short writes.
-bool write_all(int fd, const std::string& data) noexcept {
-  std::size_t done = 0;
-  while (done < data.size()) {
-    const ssize_t n = ::write(fd, data.data() + done, data.size() - done);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      return false;
-    }
-    done += static_cast<std::size_t>(n);
-  }
-  return true;
-}
 
 // The fields of a line, one bit each in the set of those seen.
 enum StateField : unsigned {
@@ -130,16 +63,6 @@ std::string missing_fields(unsigned seen) {
   for (const auto& [name, field] : kFieldNames)
     if ((kRequiredFields & field) != 0 && (seen & field) == 0) names += " " + std::string(name);
   return names;
-}
-
-// The next blank-separated token from `pos` on; empty at the end.
-std::string_view next_token(std::string_view line, std::size_t& pos) noexcept {
-  while (pos < line.size() && (line[pos] == ' ' || line[pos] == '\t')) ++pos;
-  std::size_t end = pos;
-  while (end < line.size() && line[end] != ' ' && line[end] != '\t') ++end;
-  const std::string_view token = line.substr(pos, end - pos);
-  pos = end;
-  return token;
 }
 
 // Stores the unescaped value of a known field in `out`, or says why it is
@@ -185,35 +108,28 @@ std::error_code make_error_code(StateStoreErrc e) noexcept { return {static_cast
 StateStore::StateStore(std::filesystem::path dir) : dir_(std::move(dir)), path_(dir_ / kFileName) {}
 
 std::string StateStore::format_line(const Assignment& a) {
-  std::string line = "bus=" + escape(a.bus);
+  std::string line = "bus=" + escape_field(a.bus);
   line += " serial=" + hex(a.serial);
   line += " vendor=" + hex(a.vendor);
   line += " product=" + hex(a.product);
   line += " revision=" + hex(a.revision);
   line += " node=" + std::to_string(unsigned{a.node_id});
-  line += " fingerprint=" + escape(a.fingerprint);
+  line += " fingerprint=" + escape_field(a.fingerprint);
   return line;
 }
 
 Result<Assignment> StateStore::parse_line(std::string_view line) {
   Assignment out;
   unsigned seen = 0;
-  std::size_t pos = 0;
-  std::string value;
-  for (std::string_view token = next_token(line, pos); !token.empty(); token = next_token(line, pos)) {
-    const auto eq = token.find('=');
-    if (eq == std::string_view::npos || eq == 0) {
-      return refused("expected key=value, got '" + std::string(token) + "'");
-    }
-    const std::string_view key = token.substr(0, eq);
-    if (!unescape(token.substr(eq + 1), value)) {
-      return refused("bad %-escape in '" + std::string(token) + "'");
-    }
+  Fields fields;
+  std::string why;
+  if (!split_fields(line, fields, why)) return refused(std::move(why));
+  for (const auto& [key, value] : fields) {
     const unsigned field = field_of(key);
     if (field == 0) continue;  // a newer gateway may add fields; an older one keeps the line
     if (Error e = store_field(field, key, value, out)) return e;
     if ((seen & field) != 0) {
-      return refused("'" + std::string(key) + "' given twice");
+      return refused("'" + key + "' given twice");
     }
     seen |= field;
   }
@@ -331,49 +247,12 @@ Error StateStore::erase(const std::string& bus, std::uint32_t vendor, std::uint3
 }
 
 Error StateStore::save_locked() {
-  // What failed, with the errno; where = the file the store writes.
-  const auto failed = [this](const char* what, std::error_code ec) {
-    return Error(Errc::kFailed, std::string(what) + ": " + ec.message(), path_.string(), ec);
-  };
-  std::error_code ec;
-  std::filesystem::create_directories(dir_, ec);
-  if (ec) return failed("cannot create the directory", ec);
-
   std::string text = "# cobridge node-ID assignments and configuration fingerprints; written by cobridged\n";
   for (const auto& a : items_) {
     text += format_line(a);
     text += '\n';
   }
-
-  // Unique per process and call, so two stores on one directory never share
-  // a temp file.
-  const auto temp = dir_ / (std::string(kFileName) + ".tmp." + std::to_string(::getpid()) + "." +
-                            std::to_string(g_temp_counter.fetch_add(1)));
-  const int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return failed("cannot create the temporary file", errno_code());
-  if (!write_all(fd, text) || ::fsync(fd) != 0) {
-    const auto err = errno_code();
-    ::close(fd);
-    ::unlink(temp.c_str());
-    return failed("cannot write the temporary file", err);
-  }
-  if (::close(fd) != 0) {
-    const auto err = errno_code();
-    ::unlink(temp.c_str());
-    return failed("cannot close the temporary file", err);
-  }
-  if (::rename(temp.c_str(), path_.c_str()) != 0) {
-    const auto err = errno_code();
-    ::unlink(temp.c_str());
-    return failed("cannot rename the temporary file", err);
-  }
-  // The rename itself is only durable once the directory is synced.
-  const int dfd = ::open(dir_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (dfd >= 0) {
-    (void)::fsync(dfd);
-    ::close(dfd);
-  }
-  return {};
+  return sys::write_file_atomically(path_, text);
 }
 
 }  // namespace cobridge::gateway

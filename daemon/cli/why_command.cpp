@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cstdio>
 #include <optional>
+#include <string>
+#include <vector>
 
 namespace cobridge::cli {
 namespace {
@@ -20,12 +22,14 @@ bool enters(const Json& event, std::string_view state) {
   return rest.substr(0, rest.find(':')) == state;
 }
 
-// The device named `wanted` ("name" or "bus:node") in the status document.
-const Json* find_device(const Json& doc, const std::string& wanted, std::string& known) {
+// The device named `wanted` ("name" or "bus:node") in the status document,
+// and its bus.
+const Json* find_device(const Json& doc, const std::string& wanted, std::string& known, const Json*& bus_of) {
   for (const auto& bus : doc["buses"].items) {
     for (const auto& d : bus["devices"].items) {
       const std::string name = d["name"].str("");
       const std::string at = bus["name"].str("") + ":" + d["node_id"].str("");
+      bus_of = &bus;
       if (name == wanted || at == wanted) return &d;
       known += (known.empty() ? "" : ", ") + name;
     }
@@ -33,23 +37,49 @@ const Json* find_device(const Json& doc, const std::string& wanted, std::string&
   return nullptr;
 }
 
+// Whether the capture an event names is still on disk: the bus keeps
+// capture_cap_mib of captures and deletes the oldest, so an old event's
+// frames may be gone; a capture still being written is not there yet.
+struct CapturesOnDisk {
+  std::vector<std::string> names;
+  bool pending = false;
+
+  explicit CapturesOnDisk(const Json& bus) {
+    const Json& rec = bus["recorder"];
+    if (rec.is_null()) return;
+    for (const auto& c : rec["captures"].items) names.push_back(c["name"].str(""));
+    pending = rec["pending_captures"].integer() > 0;
+  }
+  [[nodiscard]] bool has(const std::string& name) const {
+    return std::find(names.begin(), names.end(), name) != names.end();
+  }
+  // What to say of a capture that is not on disk.
+  [[nodiscard]] const char* missing() const {
+    return pending ? " (not on disk: still being written, or deleted beyond capture_cap_mib)"
+                   : " (no longer on disk: deleted beyond capture_cap_mib)";
+  }
+};
+
 // "2026-11-28T04:30:01.123Z" -> "04:30:01.123"
 std::string clock_of(const Json& t) {
   const std::string s = t.str("");
   return s.size() >= 23 ? s.substr(11, 12) : s;
 }
 
-void print_event(const Json& e) {
+void print_event(const Json& e, const CapturesOnDisk& disk) {
   const std::string kind = e["kind"].str("");
   std::string line = clock_of(e["at"]) + "  " + kind + std::string(12 - std::min<std::size_t>(11, kind.size()), ' ') +
                      e["text"].str("");
   if (e["repeats"].integer() > 1)
     line += " (x" + std::to_string(e["repeats"].integer()) + ", last " + clock_of(e["last_at"]) + ")";
-  if (!e["capture"].is_null()) line += "\n" + std::string(26, ' ') + "frames: " + e["capture"].str("");
+  if (!e["capture"].is_null()) {
+    const std::string name = e["capture"].str("");
+    line += "\n" + std::string(26, ' ') + "frames: " + name + (disk.has(name) ? "" : disk.missing());
+  }
   std::printf("%s\n", line.c_str());
 }
 
-void print_chain(const Json& d, std::size_t first) {
+void print_chain(const Json& d, std::size_t first, const CapturesOnDisk& disk) {
   std::printf("%s (bus %s, node %s): %s since %s%s%s\n", d["name"].str().c_str(), d["bus"].str().c_str(),
               d["node_id"].str().c_str(), d["state"].str().c_str(), d["since"].str().c_str(),
               d["last_error"].str("").empty() ? "" : ": ", d["last_error"].str("").c_str());
@@ -59,23 +89,31 @@ void print_chain(const Json& d, std::size_t first) {
     return;
   }
   bool captures = false;
+  std::string day;  // events kept over a restart may span days: a line per day, as journalctl does
   for (std::size_t i = first; i < events.size(); ++i) {
-    print_event(events[i]);
-    captures = captures || !events[i]["capture"].is_null();
+    const std::string at = events[i]["at"].str("");
+    if (at.substr(0, 10) != day) {
+      day = at.substr(0, 10);
+      std::printf("-- %s --\n", day.c_str());
+    }
+    print_event(events[i], disk);
+    captures = captures || disk.has(events[i]["capture"].str(""));
   }
   if (captures) std::printf("`cobridge capture get NAME` prints a capture's frames (candump -l; canplayer replays it)\n");
 }
 
-void print_json(const Json& d, std::size_t first) {
+void print_json(const Json& d, std::size_t first, const CapturesOnDisk& disk) {
   std::string out = "{\"device\":" + json_quote(d["name"].str("")) + ",\"state\":" + json_quote(d["state"].str("")) +
                     ",\"since\":" + json_quote(d["since"].str("")) + ",\"chain\":[";
   const auto& events = d["timeline"].items;
   for (std::size_t i = first; i < events.size(); ++i) {
     const Json& e = events[i];
+    const char* on_disk = e["capture"].is_null() ? "null" : disk.has(e["capture"].str("")) ? "true" : "false";
     out += (i == first ? "" : ",");
     out += "{\"at\":" + json_quote(e["at"].str("")) + ",\"kind\":" + json_quote(e["kind"].str("")) +
            ",\"text\":" + json_quote(e["text"].str("")) + ",\"repeats\":" + std::to_string(e["repeats"].integer()) +
-           ",\"capture\":" + (e["capture"].is_null() ? std::string("null") : json_quote(e["capture"].str(""))) + "}";
+           ",\"capture\":" + (e["capture"].is_null() ? std::string("null") : json_quote(e["capture"].str(""))) +
+           ",\"capture_on_disk\":" + on_disk + "}";
   }
   std::printf("%s]}\n", out.c_str());
 }
@@ -101,16 +139,18 @@ int why(const WhyOptions& o) {
   const auto doc = ask_daemon(o.control, "status", "why", o.timeout_ms, false, code);
   if (!doc) return code;
   std::string known;
-  const Json* d = find_device(*doc, o.device, known);
+  const Json* bus = nullptr;
+  const Json* d = find_device(*doc, o.device, known, bus);
   if (d == nullptr) {
     return report_failure("why", Error(Errc::kNotFound, "no such device (known: " + (known.empty() ? "none" : known) + ")",
                                        o.device), o.json);
   }
   const std::size_t first = o.all ? 0 : chain_start((*d)["timeline"], (*d)["state"].str(""));
+  const CapturesOnDisk disk(*bus);
   if (o.json) {
-    print_json(*d, first);
+    print_json(*d, first, disk);
   } else {
-    print_chain(*d, first);
+    print_chain(*d, first, disk);
   }
   return 0;
 }

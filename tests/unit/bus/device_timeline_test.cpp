@@ -62,6 +62,31 @@ TEST(DeviceTimeline, KindsHaveTheirDocumentedNames) {
   EXPECT_STREQ(to_string(TimelineKind::boot_up), "boot-up");
   EXPECT_STREQ(to_string(TimelineKind::node_id), "node-id");
   EXPECT_STREQ(to_string(TimelineKind::drift), "drift");
+  EXPECT_STREQ(to_string(TimelineKind::gateway), "gateway");
+}
+
+TEST(DeviceTimeline, EveryKindReadsBackFromItsName) {
+  for (unsigned k = 0; k <= static_cast<unsigned>(TimelineKind::gateway); ++k) {
+    TimelineKind back = TimelineKind::state;
+    ASSERT_TRUE(parse_timeline_kind(to_string(static_cast<TimelineKind>(k)), back)) << k;
+    EXPECT_EQ(static_cast<unsigned>(back), k);
+  }
+  TimelineKind back = TimelineKind::emcy;
+  EXPECT_FALSE(parse_timeline_kind("Boot-up", back));
+  EXPECT_FALSE(parse_timeline_kind("", back));
+  EXPECT_EQ(back, TimelineKind::emcy);
+}
+
+TEST(DeviceTimeline, KeptEventsStartTheTimelineAndAreBoundedToo) {
+  std::vector<TimelineEvent> kept;
+  for (int i = 0; i < 120; ++i) kept.push_back(TimelineEvent{kT0 + i * 11s, TimelineKind::state, std::to_string(i), {}});
+  DeviceTimeline tl(std::move(kept));
+  ASSERT_EQ(tl.size(), kTimelineLength);
+  EXPECT_EQ(tl.events().front().text, "20");
+  tl.add(TimelineEvent{kT0 + 2000s, TimelineKind::gateway, "gateway started", {}});
+  EXPECT_EQ(tl.size(), kTimelineLength);
+  EXPECT_EQ(tl.events().back().kind, TimelineKind::gateway);
+  EXPECT_TRUE(DeviceTimeline(std::vector<TimelineEvent>{}).empty());
 }
 
 }  // namespace

@@ -22,7 +22,12 @@ names each fault's cause and the capture holding its frames: the boot-up,
 the heartbeat loss with the measured silence, the EMCY (decoded per family,
 Novotechnik rotary manual §1.8.1; a storm counted on one entry), the
 controller's transitions; `cobridge why rot-a` prints the chain while the
-device is offline, and after it is back.
+device is offline, and after it is back. The timeline outlives the daemon
+(<state_dir>/timelines): killed with SIGKILL 1.5 s after the last event
+(the journal is written once per second), the restarted daemon shows the
+heartbeat loss and the EMCY storm as they were (time, text, count, capture),
+then a "gateway" event; stopped with SIGTERM right after a boot-up, the next
+one shows that boot-up too.
 A second scene, configuration and commissioning faults (a daemon of its own):
  * a device whose first SDO request for 0x1800 (TPDO1 communication) the
    simulator aborts (`abort-sdo`, code 08000020): a capture with cause
@@ -337,6 +342,70 @@ def configuration_faults(args, report):
         daemon = None
 
 
+def same_event(a, b):
+    return a["kind"] == b["kind"] and a["at"] == b["at"] and a["text"] == b["text"]
+
+
+def check_history(report, cli, ctl, kept, what):
+    """After a restart, `cobridge why rot-a --all --json` holds every event of
+    `kept` (same time, text, count and capture), then the gateway's start."""
+    code, out, err = e2e.run_cli(cli, "why", "rot-a", "--all", "--json", *ctl)
+    try:
+        chain = json.loads(out)["chain"]
+    except (ValueError, KeyError):
+        chain = []
+    found = [next((c for c in chain if same_event(c, k)), None) for k in kept]
+    report.check(code == 0 and all(found) and all(f["repeats"] == k["repeats"] and f["capture"] == k["capture"]
+                                                  for f, k in zip(found, kept)),
+                 "%s: the timeline from before is back (%d events, counts and captures)" % (what, len(kept)),
+                 out + err if not all(found) else "")
+    starts = [i for i, c in enumerate(chain) if c["kind"] == "gateway"]
+    last_kept = max((chain.index(f) for f in found if f), default=-1)
+    report.check(bool(starts) and starts[-1] > last_kept and "journal" in chain[starts[-1]]["text"],
+                 "%s: a gateway event marks the restart after them" % what,
+                 "%r" % [chain[i] for i in starts])
+    return chain
+
+
+def check_restarts(report, args, ws, config, daemon, sim, ctl, kept):
+    """The timeline outlives the daemon (issue "Why, at a glance", item 2):
+    after a crash (SIGKILL, events older than the journal's 1 s flush) and
+    after a clean stop right after an event. Returns the daemon left running."""
+    time.sleep(1.5)  # the journal is written within 1 s
+    now = daemon.status()["buses"][0]["devices"][0]["timeline"]
+    kept = [next((e for e in now if e["kind"] == k["kind"] and e["at"] == k["at"]), k) for k in kept if k]
+    daemon.proc.kill()
+    daemon.proc.wait()
+    daemon = e2e.Daemon(args.daemon, config, ws, log_name="daemon-2.log")
+    report.check(daemon.wait_socket(), "restarted after SIGKILL: control socket up")
+    chain = check_history(report, args.cli, ctl, kept, "after SIGKILL")
+    # The EMCY storm's captures pushed the heartbeat loss's out (capture_cap_mib):
+    # the chain says which frames are still there, and those are served.
+    listed = {os.path.basename(p) for p in glob.glob(os.path.join(ws.state, "captures", "*.log"))}
+    named = [c for c in chain if c["capture"]]
+    wrong = [c for c in named if c["capture_on_disk"] != (c["capture"] in listed)]
+    report.check(named and not wrong and any(not c["capture_on_disk"] for c in named),
+                 "after SIGKILL: cobridge why tells which captures are still on disk and which were deleted",
+                 "%d named, %d on disk; wrong: %r" % (len(named), sum(c["capture_on_disk"] for c in named), wrong))
+    code, out, err = e2e.run_cli(args.cli, "capture", "get", kept[-1]["capture"] or "?", *ctl)
+    report.check(code == 0 and out, "after SIGKILL: the EMCY storm's capture is still served", err)
+    code, out, err = e2e.run_cli(args.cli, "why", "rot-a", "--all", *ctl)
+    report.check("(no longer on disk: deleted beyond capture_cap_mib)" in out,
+                 "cobridge why: a deleted capture is marked so", out + err)
+    # An event just before a clean stop: written at the stop.
+    daemon.wait_until(e2e.all_operational(["rot-a"]), 30, interval=0.1)
+    earlier = {e["at"] for e in daemon.status()["buses"][0]["devices"][0]["timeline"] if e["kind"] == "boot-up"}
+    sim.command("power-cycle %d" % SERIAL)
+    boot = timeline_event(daemon, "boot-up", lambda e: e["at"] not in earlier, 5.0)
+    report.check(boot is not None, "restarted daemon: the boot-up on the timeline", "%r" % boot)
+    e2e.check_clean_exit(report, daemon, "SIGTERM right after an event -> exit 0 within 1 s")
+    daemon = e2e.Daemon(args.daemon, config, ws, log_name="daemon-3.log")
+    report.check(daemon.wait_socket(), "restarted after SIGTERM: control socket up")
+    if boot:
+        check_history(report, args.cli, ctl, kept + [boot], "after SIGTERM")
+    return daemon
+
+
 def main():
     args = e2e.parse_args()
     report = e2e.Report("test_flight_recorder")
@@ -348,7 +417,8 @@ def main():
            "recorder_seconds": 10, "capture_after_s": int(AFTER), "capture_cap_mib": 1}
     devices = [{"name": "rot-a", "bus": "line1", "serial": SERIAL, "model": "RFC-4800", "node_id": NODE,
                 "heartbeat_ms": 100, "tpdo1": {"mapping": ["position"], "transmission": "event", "event_timer_ms": 100}}]
-    daemon = e2e.Daemon(args.daemon, e2e.write_config(ws, [bus], devices), ws)
+    config = e2e.write_config(ws, [bus], devices)
+    daemon = e2e.Daemon(args.daemon, config, ws)
     ctl = ["--control", ws.control]
     with e2e.shut_down_after(ws, lambda: (daemon, sim, listener)):
         report.check(daemon.wait_socket(), "control socket up")
@@ -426,6 +496,7 @@ def main():
         report.check(emcy is not None and emcy["text"].startswith("EMCY 0x10") and emcy["repeats"] > 100,
                      "timeline: the EMCY storm counted on one entry (decoded: code, meaning, source), with a capture",
                      "%r" % emcy)
+        daemon = check_restarts(report, args, ws, config, daemon, sim, ctl, [lost, emcy])
         e2e.check_clean_exit(report, daemon)
         daemon = None
     return report.finish()

@@ -1,0 +1,84 @@
+#include "base/field_text.hpp"
+
+namespace cobridge {
+
+namespace {
+
+bool needs_escape(char c) noexcept {
+  return c == ' ' || c == '\t' || c == '%' || c == '=' || c == '#' || static_cast<unsigned char>(c) < 0x20 ||
+         static_cast<unsigned char>(c) == 0x7F;
+}
+
+int hex_digit(char c) noexcept {
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  return -1;
+}
+
+// The next blank-separated token from `pos` on; empty at the end.
+std::string_view next_token(std::string_view line, std::size_t& pos) noexcept {
+  while (pos < line.size() && (line[pos] == ' ' || line[pos] == '\t')) ++pos;
+  std::size_t end = pos;
+  while (end < line.size() && line[end] != ' ' && line[end] != '\t') ++end;
+  const std::string_view token = line.substr(pos, end - pos);
+  pos = end;
+  return token;
+}
+
+}  // namespace
+
+std::string escape_field(std::string_view text) {
+  static constexpr char kHex[] = "0123456789ABCDEF";
+  std::string out;
+  out.reserve(text.size());
+  for (const char c : text) {
+    if (needs_escape(c)) {
+      const auto u = static_cast<unsigned char>(c);
+      out += '%';
+      out += kHex[u >> 4];
+      out += kHex[u & 0x0F];
+    } else {
+      out += c;
+    }
+  }
+  return out;
+}
+
+bool unescape_field(std::string_view text, std::string& out) {
+  out.clear();
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    if (text[i] != '%') {
+      out += text[i];
+      continue;
+    }
+    if (i + 2 >= text.size()) return false;
+    const int hi = hex_digit(text[i + 1]);
+    const int lo = hex_digit(text[i + 2]);
+    if (hi < 0 || lo < 0) return false;
+    out += static_cast<char>((hi << 4) | lo);
+    i += 2;
+  }
+  return true;
+}
+
+bool split_fields(std::string_view line, Fields& out, std::string& why) {
+  out.clear();
+  std::size_t pos = 0;
+  std::string value;
+  for (std::string_view token = next_token(line, pos); !token.empty(); token = next_token(line, pos)) {
+    const auto eq = token.find('=');
+    if (eq == std::string_view::npos || eq == 0) {
+      why = "expected key=value, got '" + std::string(token) + "'";
+      return false;
+    }
+    if (!unescape_field(token.substr(eq + 1), value)) {
+      why = "bad %-escape in '" + std::string(token) + "'";
+      return false;
+    }
+    out.emplace_back(std::string(token.substr(0, eq)), value);
+  }
+  return true;
+}
+
+}  // namespace cobridge

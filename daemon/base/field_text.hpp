@@ -1,0 +1,27 @@
+// Field text: the line format of the gateway's own files (the state file,
+// the timeline journal): blank-separated `key=value` fields, values
+// percent-encoded where they hold blanks, '%', '=', '#' or control
+// characters, so any text fits on one line and a line reads back exactly.
+//
+// Thread: pure functions, any thread (not used on the hot path).
+#pragma once
+
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+namespace cobridge {
+
+// `text` with every character a field cannot hold as %XX.
+[[nodiscard]] std::string escape_field(std::string_view text);
+// The text of an escaped value; false on a bad %-escape (`out` undefined).
+[[nodiscard]] bool unescape_field(std::string_view text, std::string& out);
+
+// One line's fields in order, values unescaped.
+using Fields = std::vector<std::pair<std::string, std::string>>;
+// The fields of `line`, or false with `why` naming the token that is not
+// key=value or holds a bad escape.
+[[nodiscard]] bool split_fields(std::string_view line, Fields& out, std::string& why);
+
+}  // namespace cobridge

@@ -1,0 +1,77 @@
+// TimelineJournal: a bus's device timelines on disk, so that after the
+// daemon restarts (an update, a crash, a power cut) `cobridge why` and the
+// page still tell why a device dropped before it.
+//
+// File: <state_dir>/timelines/<bus>.timeline, one event per line in field
+// text (base/field_text.hpp):
+//   at=<ms since 1970> device=<name> kind=<kind> repeats=<n> last=<ms> capture=<file> text=<words>
+// Lines are appended, batched: the control loop flushes at most once per
+// kFlushInterval, so an EMCY storm costs one line per interval, not one per
+// EMCY. No fsync: the page cache outlives a crash of the process; a power cut
+// loses at most the last interval. A repeat of an event is written again
+// with the same `at` and kind; on load the later line replaces the earlier.
+// Once the file holds kCompactFactor times the events kept, it is rewritten
+// atomically from the timelines in memory.
+//
+// Thread: the bus's control thread only.
+#pragma once
+
+#include "base/error.hpp"
+#include "bus/device_timeline.hpp"
+
+#include <chrono>
+#include <cstddef>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+namespace cobridge::gateway {
+
+class TimelineJournal {
+ public:
+  static constexpr std::chrono::seconds kFlushInterval{1};
+  static constexpr std::size_t kCompactFactor = 4;
+
+  // The journal of bus `bus` under `state_dir`. The bus name is made safe
+  // for a file name (%XX for anything but letters, digits, '.', '_', '-').
+  TimelineJournal(const std::filesystem::path& state_dir, std::string_view bus);
+
+  // Every device's events from the file, most recent last, at most
+  // kTimelineLength each. A missing file: none. Malformed lines are skipped;
+  // then kInvalidArgument names each (file:line) and the rest still counts.
+  // An unreadable file: kFailed.
+  [[nodiscard]] Error load(std::map<std::string, std::vector<TimelineEvent>>& out);
+
+  // The device's latest event (new or counted as a repeat), queued for the
+  // next flush; a repeat replaces its queued line.
+  void note(const std::string& device, const TimelineEvent& e);
+  [[nodiscard]] bool pending() const noexcept { return !queue_.empty(); }
+
+  // Appends the queued lines in one write. When the file has grown past
+  // kCompactFactor x the events of `devices` (at least kTimelineLength),
+  // rewrites it from `devices` instead. On a failure the queue is kept for
+  // the next try, up to kMaxQueued lines (the oldest go first).
+  using Devices = std::vector<std::pair<std::string, const DeviceTimeline*>>;
+  [[nodiscard]] Error flush(const Devices& devices);
+
+  [[nodiscard]] const std::filesystem::path& path() const noexcept { return path_; }
+
+  // One event's line and its parser, exposed for tests.
+  [[nodiscard]] static std::string format_line(const std::string& device, const TimelineEvent& e);
+  // False with `why` when the line is not an event.
+  [[nodiscard]] static bool parse_line(std::string_view line, std::string& device, TimelineEvent& e,
+                                       std::string& why);
+
+ private:
+  static constexpr std::size_t kMaxQueued = 1000;
+  [[nodiscard]] Error compact(const Devices& devices);
+
+  std::filesystem::path path_;
+  std::vector<std::pair<std::string, TimelineEvent>> queue_;
+  std::size_t lines_ = 0;  // lines in the file (as loaded and written since)
+};
+
+}  // namespace cobridge::gateway

@@ -1,0 +1,63 @@
+// The gateway's own files are replaced whole or not at all, and appended to
+// in one write.
+#include "sys/atomic_file.hpp"
+
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace cobridge::sys {
+namespace {
+
+namespace fs = std::filesystem;
+
+class AtomicFileTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("cobridge-atomic-test-" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  static std::string read(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+  }
+  fs::path dir_;
+};
+
+TEST_F(AtomicFileTest, ReplacesTheFileAndLeavesNoTemporaryFile) {
+  const auto path = dir_ / "sub" / "state";
+  ASSERT_FALSE(write_file_atomically(path, "one\n"));  // creates the directories
+  ASSERT_FALSE(write_file_atomically(path, "two\n"));
+  EXPECT_EQ(read(path), "two\n");
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir_ / "sub"), fs::directory_iterator{}), 1);
+}
+
+TEST_F(AtomicFileTest, AppendsAndCreates) {
+  const auto path = dir_ / "journal";
+  ASSERT_FALSE(append_to_file(path, "a\n"));
+  ASSERT_FALSE(append_to_file(path, "b\n"));
+  EXPECT_EQ(read(path), "a\nb\n");
+}
+
+TEST_F(AtomicFileTest, AFailureNamesTheFileAndLeavesItAsItWas) {
+  fs::create_directories(dir_);
+  std::ofstream(dir_ / "blocker") << "x";  // a file where a directory should be
+  const Error e = write_file_atomically(dir_ / "blocker" / "state", "text");
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e.kind, Errc::kFailed);
+  EXPECT_EQ(e.where, (dir_ / "blocker" / "state").string());
+  EXPECT_NE(e.message.find("cannot create the directory"), std::string::npos) << e.message;
+  const Error a = append_to_file(dir_ / "blocker" / "journal", "text");
+  ASSERT_TRUE(a);
+  EXPECT_EQ(read(dir_ / "blocker"), "x");
+}
+
+}  // namespace
+}  // namespace cobridge::sys
