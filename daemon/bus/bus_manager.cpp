@@ -84,8 +84,9 @@ Error BusManager::Impl::start() {
     return err;
   }
   // What the control plane needs; the TPDOs go to the hot path's own socket.
-  static constexpr std::array<can::Filter, 5> kFilters{{
+  static constexpr std::array<can::Filter, 6> kFilters{{
       {canopen::cob::kSdoTxBase, 0x780, false},            // SDO responses 0x580..0x5FF
+      {canopen::cob::kSdoRxBase, 0x780, false},            // other clients' SDO requests 0x600..0x67F
       {canopen::cob::kMasterNodeId & ~0x7U, 0x7F8, false},  // the master election 0x70..0x77 ([redundancy])
       can::Filter::exact(canopen::cob::kLssSlaveToMaster),  // LSS 0x7E4
       {canopen::cob::kNmtErrorControlBase, 0x780, false},   // boot-up/heartbeat/guarding 0x700..0x77F

@@ -1,5 +1,6 @@
 // BusManager::Impl: configuration drift (issue 29 item 4). A client's
-// confirmed write (CLI / control socket, CiA 309-3, a plugin's preset) of
+// confirmed write (CLI / control socket, CiA 309-3, a plugin's preset, or
+// another SDO client on the bus, canopen/sdo_observer.hpp) of
 // an object the device's plan sets, to another value, is recorded on the
 // device (status "configuration differs"), put on its timeline and logged
 // once; then, per the device's on_config_drift, the full plan runs again at
@@ -17,6 +18,13 @@ void BusManager::Impl::on_sdo_written(const RemoteCommand& c, TimePoint now) {
   for (auto& m : devices) {
     if (m.in_config && m.st.node_id == c.node) note_client_write(m, c.index, c.sub, c.data, c.caller, now);
   }
+}
+
+void BusManager::Impl::on_foreign_write(const canopen::ObservedWrite& w, TimePoint now) {
+  Managed* m = find_node(w.node);
+  if (m == nullptr) return;
+  note_client_write(*m, w.index, w.sub, std::span(w.data.data(), w.size),
+                    "an SDO client on the bus (not through the gateway)", now);
 }
 
 void BusManager::Impl::note_client_write(Managed& m, std::uint16_t index, std::uint8_t sub,

@@ -9,6 +9,11 @@ namespace cobridge::gateway {
 
 void BusManager::Impl::dispatch(const can::Frame& frame, TimePoint now) {
   if (election_frame(frame, now)) return;  // a gateway's, not a device's
+  // Another SDO client's requests (this socket never gets its own) are only
+  // followed, to see what it writes; the responses go on to our clients too.
+  const std::optional<canopen::ObservedWrite> written = sdo_observer.on_frame(frame, now);
+  if (written) on_foreign_write(*written, now);
+  if (frame.id > canopen::cob::kSdoRxBase && frame.id <= canopen::cob::kSdoRxBase + 127) return;
   if (standby()) listen_as_standby(frame);
   // While a client's LSS command runs, its answers are not discovery's.
   if (frame.id != canopen::cob::kLssSlaveToMaster || !remote->lss_session(now)) discovery->on_frame(frame, now);

@@ -24,6 +24,7 @@
 #include "canopen/master_election.hpp"
 #include "canopen/nmt.hpp"
 #include "canopen/sdo_client.hpp"
+#include "canopen/sdo_observer.hpp"
 #include "canopen/sync.hpp"
 #include "device/family_profile.hpp"
 #include "bus/config_plan.hpp"
@@ -267,6 +268,8 @@ struct BusManager::Impl final : RemoteGate {
   // to another value; a write of the configured value closes its record.
   void note_client_write(Managed& m, std::uint16_t index, std::uint8_t sub, std::span<const std::uint8_t> bytes,
                          const std::string& writer, TimePoint now);
+  // A write another SDO client made on the bus (seen by sdo_observer).
+  void on_foreign_write(const canopen::ObservedWrite& w, TimePoint now);
   // Drift of an object a plugin's command wrote (its runner's plan).
   void note_command_writes(Managed& m, const ConfigPlan& command_plan, const DeviceCommand& cmd, TimePoint now);
   void restore_configuration(Managed& m, TimePoint now);
@@ -333,6 +336,7 @@ struct BusManager::Impl final : RemoteGate {
   };
   std::vector<Problem> problems;
   std::string live_bus_event;
+  canopen::SdoObserver sdo_observer;  // other SDO clients' writes (drift)
   std::optional<TimelineJournal> journal;  // <state_dir>/timelines/<bus>.timeline
   TimePoint journal_due{};
   bool journal_failing = false;  // the last write failed (logged once per run of failures)

@@ -21,8 +21,14 @@ the producer heartbeat time, 0x1017 (CiA 301 §7.4.8.3), configured 100 ms.
      the device the configuration is applied again: drift cleared, 0x1017
      reads 100, and the timeline names what the device came back with
      (0x1017 read 0x000003E8, configured 0x00000064).
+ (c) rot-a again: a service tool on its own CAN adapter, not through the
+     gateway, writes 0x1017 = 9029 with an expedited SDO download; the
+     gateway sees the request and the device's confirmation from the side
+     (canopen/sdo_observer.hpp): drift named for "an SDO client on the
+     bus", restored at once, 0x1017 reads 100.
 """
 import socket
+import struct
 import sys
 import time
 import urllib.request
@@ -183,6 +189,37 @@ def keep_case(report, args, ws, daemon, sim):
                  seen[0] if seen else repr([e["text"] for e in d["timeline"][-8:]]))
 
 
+def foreign_tool_case(report, daemon, listener):
+    """(c) A service tool on its own CAN adapter (here a raw socket on vcan0),
+    not through the gateway, writes 0x1017 = 9029 to rot-a with an expedited
+    SDO download (CiA 301 §7.2.4.3.3: 2B 17 10 00 45 23 00 00); the device
+    confirms (60 17 10 00). The gateway sees it from the side: drift named
+    for "an SDO client on the bus", restored, 0x1017 reads 100."""
+    t0 = time.time()
+    tool = socket.socket(socket.AF_CAN, socket.SOCK_RAW, socket.CAN_RAW)
+    try:
+        tool.bind(("vcan0",))
+        tool.send(struct.pack("=IB3x8s", 0x600 + ROT[1], 8, bytes([0x2B, 0x17, 0x10, 0x00, 0x45, 0x23, 0, 0])))
+    finally:
+        tool.close()
+    confirmed = listener.wait_for(lambda i, d: i == 0x580 + ROT[1] and d[:4] == b"\x60\x17\x10\x00", 2, since=t0)
+    report.check(confirmed is not None, "the device confirmed the tool's write of 0x1017")
+    drift, end = [], time.time() + 10
+    while time.time() < end:
+        d = device(daemon, "rot-a")
+        drift = [e["text"] for e in d["timeline"] if e["kind"] == "drift" and e2e.iso_to_epoch(e["at"]) >= t0 - 0.05]
+        if any("restored" in t for t in drift) and not d["config_differs"]:
+            break
+        time.sleep(0.02)
+    first = drift[0] if drift else ""
+    report.check(all(w in first for w in ("0x1017:00", "set to 9029", "configured 100", "an SDO client on the bus")),
+                 "timeline: a write by another SDO client on the bus is drift too, its writer named so", first)
+    report.check(any("restored the configuration of 0x1017:00" in t for t in drift) and not d["config_differs"],
+                 "the other client's write is restored at once (on_config_drift default restore)", repr(drift))
+    answer = ask_309("[3] 1 %d r 0x1017 0 u16" % ROT[1])
+    report.check(answer == "[3] 100", "0x1017 reads 100 again after the other client's write", answer)
+
+
 def main():
     args = e2e.parse_args()
     report = e2e.Report("test_config_drift")
@@ -208,6 +245,7 @@ def main():
         _, took = daemon.wait_until(e2e.all_operational(["rot-a", "mt-a"]), 30, interval=0.1)
         if report.check(took is not None, "both devices operational"):
             restore_case(report, daemon, listener)
+            foreign_tool_case(report, daemon, listener)
             keep_case(report, args, ws, daemon, sim)
         else:
             print(daemon.tail(60))

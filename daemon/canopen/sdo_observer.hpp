@@ -1,0 +1,64 @@
+// SdoObserver: the SDO downloads another client makes on the bus, seen from
+// the side: a service tool on its own CAN adapter that writes an object
+// the gateway's configuration sets (its drift is then noticed like a write
+// through the gateway; docs/operations.md "Configuration differs").
+//
+// It follows a client's download to a server from the request (0x600+n)
+// to the server's confirmation (0x580+n), CiA 301 §7.2.4.3.3..§7.2.4.3.6:
+//   expedited:  initiate (ccs 1, e = 1, the value in bytes 4..7)
+//               -> confirmed by the initiate response (scs 3, same index:sub);
+//   segmented:  initiate (ccs 1, e = 0) -> initiate response (scs 3), then
+//               segments (ccs 0) -> confirmed by the response (scs 1) to the
+//               segment with c = 1; the first kKeptBytes bytes are kept.
+// An abort (cs 4) either way, another request, or a confirmation later than
+// kAnswerWithin forgets the transfer. Block transfers are not followed.
+//
+// Which requests are another client's is the caller's knowledge: the bus
+// manager's socket never receives its own frames (SocketCAN loops a frame
+// back to the other sockets only, CAN_RAW_RECV_OWN_MSGS being off).
+//
+// Thread: the bus's control thread; no allocation.
+#pragma once
+
+#include "can/frame.hpp"
+#include "canopen/clock.hpp"
+
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <optional>
+
+namespace cobridge::canopen {
+
+struct ObservedWrite {
+  std::uint8_t node = 0;
+  std::uint16_t index = 0;
+  std::uint8_t sub = 0;
+  std::array<std::uint8_t, 8> data{};  // the first `size` bytes written (at most kKeptBytes)
+  std::uint8_t size = 0;
+  std::uint32_t total = 0;  // the bytes the client wrote in all
+};
+
+class SdoObserver {
+ public:
+  static constexpr std::size_t kKeptBytes = 8;
+  static constexpr std::chrono::milliseconds kAnswerWithin{1000};
+
+  // A frame the caller's socket received: the write it confirms, if any.
+  [[nodiscard]] std::optional<ObservedWrite> on_frame(const can::Frame& frame, TimePoint now) noexcept;
+
+ private:
+  enum class Phase : std::uint8_t { idle, expedited, initiated, segments };
+  struct Transfer {
+    Phase phase = Phase::idle;
+    bool last = false;  // the client sent the segment with c = 1
+    TimePoint at{};     // the latest request
+    ObservedWrite write;
+  };
+  void on_request(Transfer& t, std::uint8_t node, const can::Frame& frame, TimePoint now) noexcept;
+  [[nodiscard]] std::optional<ObservedWrite> on_response(Transfer& t, const can::Frame& frame,
+                                                         TimePoint now) noexcept;
+  std::array<Transfer, 128> transfers_{};
+};
+
+}  // namespace cobridge::canopen
