@@ -35,7 +35,7 @@
 #include "bus/remote/remote_executor.hpp"
 #include "bus/remote/remote_target.hpp"
 #include "bus/supervisor.hpp"
-#include "bus/timeline_journal.hpp"
+#include "bus/timeline_journal_thread.hpp"
 #include "sys/logging.hpp"
 
 #include <poll.h>
@@ -291,8 +291,9 @@ struct BusManager::Impl final : RemoteGate {
   // Start-up: the configured devices' timelines from the journal, then a
   // "gateway started" event on each.
   void restore_timelines();
-  // Writes the journal's queued events once per kFlushInterval, or now when
-  // `force` (the bus stops); returns when it is next due.
+  // Hands the journal's noted events to its writer thread once per
+  // kFlushInterval, or now when `force` (the bus stops); returns when it is
+  // next due.
   TimePoint flush_timelines(TimePoint now, bool force = false);
   void notify(const Managed& m);
   void add_step(StepTiming t);
@@ -337,9 +338,8 @@ struct BusManager::Impl final : RemoteGate {
   std::vector<Problem> problems;
   std::string live_bus_event;
   canopen::SdoObserver sdo_observer;  // other SDO clients' writes (drift)
-  std::optional<TimelineJournal> journal;  // <state_dir>/timelines/<bus>.timeline
+  std::unique_ptr<TimelineJournalThread> journal;  // <state_dir>/timelines/<bus>.timeline
   TimePoint journal_due{};
-  bool journal_failing = false;  // the last write failed (logged once per run of failures)
   can::ControllerHealth controller;  // from the channel's error frames and netlink
   // The controller over netlink and the health told to the outputs
   // (bus_manager_health.cpp).

@@ -1,6 +1,7 @@
 // BusManager::Impl: the devices' timelines and their journal on disk, so
 // that the causes outlive a restart of the daemon. Control thread only
-// (restore_timelines() runs in the constructor, before the thread starts).
+// (restore_timelines() runs in the constructor, before the thread starts);
+// the disk writes run on the journal's own thread.
 #include "bus/bus_manager_impl.hpp"
 
 namespace cobridge::gateway {
@@ -18,9 +19,10 @@ void BusManager::Impl::add_bus_event(TimelineKind kind, const std::string& text,
 }
 
 void BusManager::Impl::restore_timelines() {
-  journal.emplace(state.path().parent_path(), bus.name);
+  TimelineJournal file(state.path().parent_path(), bus.name);
   std::map<std::string, std::vector<TimelineEvent>> kept;
-  if (Error err = journal->load(kept)) log->warn("bus {}: timeline journal: {}", bus.name, err.to_string());
+  if (Error err = file.load(kept)) log->warn("bus {}: timeline journal: {}", bus.name, err.to_string());
+  journal = std::make_unique<TimelineJournalThread>(std::move(file), bus.name);
   for (auto& m : devices) {
     auto it = kept.find(m.st.name);
     const bool history = it != kept.end() && !it->second.empty();
@@ -35,14 +37,11 @@ TimePoint BusManager::Impl::flush_timelines(TimePoint now, bool force) {
   if (!force && now < journal_due) return journal_due;
   TimelineJournal::Devices all;
   for (const auto& m : devices) {
-    if (m.in_config) all.emplace_back(m.st.name, &m.st.timeline);
+    if (m.in_config) all.emplace_back(m.st.name, m.st.timeline);
   }
-  const Error err = journal->flush(all);
-  if (err && !journal_failing) log->warn("bus {}: timeline journal not written: {}", bus.name, err.to_string());
-  if (!err && journal_failing) log->info("bus {}: timeline journal written again", bus.name);
-  journal_failing = static_cast<bool>(err);
+  journal->hand_over(std::move(all));
   journal_due = now + TimelineJournal::kFlushInterval;
-  return journal->pending() ? journal_due : kNever;
+  return kNever;
 }
 
 }  // namespace cobridge::gateway

@@ -145,23 +145,25 @@ Error TimelineJournal::load(std::map<std::string, std::vector<TimelineEvent>>& o
   return Error(Errc::kInvalidArgument, "lines skipped:\n" + problems, path_.string());
 }
 
-void TimelineJournal::note(const std::string& device, const TimelineEvent& e) {
-  if (!queue_.empty()) {
-    auto& [last_device, last] = queue_.back();
+void TimelineJournal::queue_event(Queue& queue, const std::string& device, const TimelineEvent& e) {
+  if (!queue.empty()) {
+    auto& [last_device, last] = queue.back();
     if (last_device == device && last.at == e.at && last.kind == e.kind) {
       last = e;
       return;
     }
   }
-  if (queue_.size() >= kMaxQueued) queue_.erase(queue_.begin());
-  queue_.emplace_back(device, e);
+  if (queue.size() >= kMaxQueued) queue.erase(queue.begin());
+  queue.emplace_back(device, e);
 }
 
 Error TimelineJournal::flush(const Devices& devices) {
   if (queue_.empty()) return {};
   std::size_t kept = 0;
-  for (const auto& [name, timeline] : devices) kept += timeline->size();
-  if (lines_ + queue_.size() > kCompactFactor * std::max(kept, kTimelineLength)) return compact(devices);
+  for (const auto& [name, timeline] : devices) kept += timeline.size();
+  // Never from no timelines at all: that would write the history away.
+  if (!devices.empty() && lines_ + queue_.size() > kCompactFactor * std::max(kept, kTimelineLength))
+    return compact(devices);
   std::string text;
   for (const auto& [device, e] : queue_) text += format_line(device, e) + '\n';
   if (Error err = sys::append_to_file(path_, text)) return err;
@@ -174,7 +176,7 @@ Error TimelineJournal::compact(const Devices& devices) {
   std::string text = "# cobridge device timelines; written by cobridged\n";
   std::size_t lines = 1;
   for (const auto& [name, timeline] : devices) {
-    for (const TimelineEvent& e : *timeline) {
+    for (const TimelineEvent& e : timeline) {
       text += format_line(name, e) + '\n';
       ++lines;
     }

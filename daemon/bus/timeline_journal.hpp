@@ -13,7 +13,8 @@
 // Once the file holds kCompactFactor times the events kept, it is rewritten
 // atomically from the timelines in memory.
 //
-// Thread: the bus's control thread only.
+// Thread: one thread at a time (TimelineJournalThread's writer thread in the
+// daemon; the test's thread in unit tests).
 #pragma once
 
 #include "base/error.hpp"
@@ -45,16 +46,22 @@ class TimelineJournal {
   // An unreadable file: kFailed.
   [[nodiscard]] Error load(std::map<std::string, std::vector<TimelineEvent>>& out);
 
-  // The device's latest event (new or counted as a repeat), queued for the
-  // next flush; a repeat replaces its queued line.
-  void note(const std::string& device, const TimelineEvent& e);
+  // Events waiting to be written: (device, event), oldest first.
+  using Queue = std::vector<std::pair<std::string, TimelineEvent>>;
+  static constexpr std::size_t kMaxQueued = 1000;
+  // The device's latest event (new or counted as a repeat) into `queue`; a
+  // repeat replaces its queued line; beyond kMaxQueued the oldest go.
+  static void queue_event(Queue& queue, const std::string& device, const TimelineEvent& e);
+
+  void note(const std::string& device, const TimelineEvent& e) { queue_event(queue_, device, e); }
   [[nodiscard]] bool pending() const noexcept { return !queue_.empty(); }
 
   // Appends the queued lines in one write. When the file has grown past
   // kCompactFactor x the events of `devices` (at least kTimelineLength),
-  // rewrites it from `devices` instead. On a failure the queue is kept for
-  // the next try, up to kMaxQueued lines (the oldest go first).
-  using Devices = std::vector<std::pair<std::string, const DeviceTimeline*>>;
+  // rewrites it from `devices` instead (never from none). On a failure the queue is kept for
+  // the next try. `devices`: the configured devices' timelines as they are
+  // now (copies share the events; DeviceTimeline).
+  using Devices = std::vector<std::pair<std::string, DeviceTimeline>>;
   [[nodiscard]] Error flush(const Devices& devices);
 
   [[nodiscard]] const std::filesystem::path& path() const noexcept { return path_; }
@@ -66,11 +73,10 @@ class TimelineJournal {
                                        std::string& why);
 
  private:
-  static constexpr std::size_t kMaxQueued = 1000;
   [[nodiscard]] Error compact(const Devices& devices);
 
   std::filesystem::path path_;
-  std::vector<std::pair<std::string, TimelineEvent>> queue_;
+  Queue queue_;
   std::size_t lines_ = 0;  // lines in the file (as loaded and written since)
 };
 

@@ -47,7 +47,7 @@ TEST_F(TimelineJournalTest, EventsReadBackAsTheyWereWritten) {
   DeviceTimeline gate;
   add(j, "lift", lift, {kT0, TimelineKind::heartbeat, "heartbeat lost: none for 250 ms = 1 #x", "cap 1.log"});
   add(j, "gate", gate, {kT0 + 1s, TimelineKind::state, "operational -> offline: silent", {}});
-  ASSERT_FALSE(j.flush({{"lift", &lift}, {"gate", &gate}}));
+  ASSERT_FALSE(j.flush({{"lift", lift}, {"gate", gate}}));
   EXPECT_FALSE(j.pending());
 
   std::map<std::string, std::vector<TimelineEvent>> back;
@@ -67,10 +67,10 @@ TEST_F(TimelineJournalTest, AStormIsOneLinePerFlushAndItsCountSurvives) {
   TimelineJournal j(dir_, "line1");
   DeviceTimeline tl;
   for (int i = 0; i < 500; ++i) add(j, "lift", tl, {kT0 + i * 10ms, TimelineKind::emcy, "EMCY 0x5001", {}});
-  ASSERT_FALSE(j.flush({{"lift", &tl}}));
+  ASSERT_FALSE(j.flush({{"lift", tl}}));
   EXPECT_EQ(lines(j.path()), 1U);
   for (int i = 500; i < 600; ++i) add(j, "lift", tl, {kT0 + i * 10ms, TimelineKind::emcy, "EMCY 0x5001", {}});
-  ASSERT_FALSE(j.flush({{"lift", &tl}}));
+  ASSERT_FALSE(j.flush({{"lift", tl}}));
   EXPECT_EQ(lines(j.path()), 2U);  // the same event again, its count grown
 
   std::map<std::string, std::vector<TimelineEvent>> back;
@@ -85,7 +85,7 @@ TEST_F(TimelineJournalTest, TheFileIsRewrittenOnceItHoldsFourTimesWhatIsKept) {
   DeviceTimeline tl;
   for (int i = 0; i < 1000; ++i) {
     add(j, "lift", tl, {kT0 + i * 11s, TimelineKind::state, "event " + std::to_string(i), {}});
-    ASSERT_FALSE(j.flush({{"lift", &tl}}));
+    ASSERT_FALSE(j.flush({{"lift", tl}}));
     ASSERT_LE(lines(j.path()), TimelineJournal::kCompactFactor * kTimelineLength);
   }
   std::map<std::string, std::vector<TimelineEvent>> back;
@@ -126,13 +126,23 @@ TEST_F(TimelineJournalTest, AFailedWriteKeepsTheEventsForTheNextTry) {
   TimelineJournal j(dir_, "line1");
   DeviceTimeline tl;
   add(j, "lift", tl, {kT0, TimelineKind::boot_up, "boot-up", {}});
-  const Error e = j.flush({{"lift", &tl}});
+  const Error e = j.flush({{"lift", tl}});
   ASSERT_TRUE(e);
   EXPECT_EQ(e.where, j.path().string());
   EXPECT_TRUE(j.pending());
   fs::remove(dir_ / "timelines");
-  ASSERT_FALSE(j.flush({{"lift", &tl}}));
+  ASSERT_FALSE(j.flush({{"lift", tl}}));
   EXPECT_EQ(lines(j.path()), 1U);
+}
+
+TEST_F(TimelineJournalTest, NoTimelinesNeverCompactTheHistoryAway) {
+  TimelineJournal j(dir_, "line1");
+  DeviceTimeline tl;
+  for (int i = 0; i < 500; ++i) {
+    add(j, "lift", tl, {kT0 + i * 11s, TimelineKind::state, "event " + std::to_string(i), {}});
+    ASSERT_FALSE(j.flush({}));
+  }
+  EXPECT_EQ(lines(j.path()), 500U);
 }
 
 TEST_F(TimelineJournalTest, AMissingFileIsNoHistory) {
