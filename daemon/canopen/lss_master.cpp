@@ -430,15 +430,17 @@ void LssMaster::fastscan_confirm_done(TimePoint now) noexcept {
     return fastscan_field(static_cast<uint8_t>(fs_field_ + 1), now);
   }
   if (fs_guess_) return fastscan_next_guess(now);  // a wrong guess: nobody moved on
-  if (begin_again()) {
-    // A bit decided on a late answer (taken for the next step's), or this
-    // confirm's own answer late: then the slave did match and moved on to
-    // the next field, and would ignore a search of this one. Only the reset
-    // brings it back: the scan begins again, with longer waits.
-    if (!fastscan_probe(now)) finish(LssErrc::kSendFailed, now);
-    return;
-  }
-  finish(LssErrc::kFastscanLost, now);
+  // A bit decided on a late answer (taken for the next step's), or this
+  // confirm's own answer late: then the slave did match and moved on to the
+  // next field, and would ignore a search of this one; after the serial's
+  // confirm it is in configuration state, where it ignores Fastscan and
+  // identify non-configured alike, for good. Switch state global waiting
+  // brings that one back, the reset every other: the scan begins again, with
+  // longer waits; or, with no restart left, ends with every slave waiting.
+  if (!send_lss(LssCs::kSwitchStateGlobal, static_cast<uint8_t>(LssMode::kWaiting)))
+    return finish(LssErrc::kSendFailed, now);
+  if (!begin_again()) return finish(LssErrc::kFastscanLost, now);
+  if (!fastscan_probe(now)) finish(LssErrc::kSendFailed, now);
 }
 
 // The slave found entered configuration state with the last confirm. Back

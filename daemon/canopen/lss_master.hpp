@@ -11,9 +11,10 @@
 // the bus taught (AnswerTiming, between `min_timeout` and `timeout`), and an
 // answered step ends once the other slaves' answers have had time to come.
 // A Fastscan whose field confirmation fails (a bit decided on a late answer,
-// or the confirm's own answer late) begins again from its reset with longer
-// waits, twice at most; so does a Slowscan whose final switch selective is
-// unanswered.
+// or the confirm's own answer late) sends switch state global waiting (a
+// slave that took the serial's confirm is in configuration state, deaf to
+// Fastscan) and begins again from its reset with longer waits, twice at
+// most; so does a Slowscan whose final switch selective is unanswered.
 // A found identity is a verified identity: a Fastscan answer
 // (0x4F) says nothing of the step it answers, so a late answer taken for a
 // later step's can decide a bit, and even a confirm, wrongly: once (UML, 32
