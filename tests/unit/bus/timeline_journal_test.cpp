@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-#include <unistd.h>
+#include "unit/support/temp_dir.hpp"
 
 #include <filesystem>
 #include <fstream>
@@ -21,11 +21,6 @@ const std::chrono::system_clock::time_point kT0{std::chrono::milliseconds(1'800'
 
 class TimelineJournalTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("cobridge-journal-test-" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
   std::size_t lines(const fs::path& p) const {
     std::ifstream in(p);
     std::size_t n = 0;
@@ -37,7 +32,8 @@ class TimelineJournalTest : public ::testing::Test {
     tl.add(std::move(e));
     j.note(device, tl.events().back());
   }
-  fs::path dir_;
+  test::TempDir tmp_{"journal-test"};
+  const fs::path& dir_ = tmp_.path();
 };
 
 TEST_F(TimelineJournalTest, EventsReadBackAsTheyWereWritten) {

@@ -4,7 +4,7 @@
 
 #include <gtest/gtest.h>
 
-#include <unistd.h>
+#include "unit/support/temp_dir.hpp"
 
 #include <filesystem>
 #include <fstream>
@@ -20,12 +20,8 @@ const std::chrono::system_clock::time_point kT0{std::chrono::milliseconds(1'800'
 
 class TimelineJournalThreadTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("cobridge-journal-thread-test-" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  fs::path dir_;
+  test::TempDir tmp_{"journal-thread-test"};
+  const fs::path& dir_ = tmp_.path();
 };
 
 TEST_F(TimelineJournalThreadTest, WritesWhatIsHandedOverAndTheRestAtItsEnd) {

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <optional>
 #include <set>
 
 #include "canopen/lss_master.hpp"
@@ -35,6 +36,22 @@ void assign(LssTestBus& bus, uint8_t node_id) {
   ASSERT_FALSE(r->error) << r->error.message();
   ASSERT_FALSE(bus.master().switch_state_global(LssMode::kWaiting));
   bus.run();
+}
+
+// One slave at FFh, found once by a Fastscan that taught the master its
+// 1 ms answers (a learnt wait of 5 ms), then back in waiting state.
+void learn_one_slave(LssTestBus& bus, const LssAddress& a) {
+  bus.add_slave(a, 0xFF);
+  ASSERT_FALSE(bus.master().fastscan(bus.now()));
+  ASSERT_TRUE(bus.run_result());
+  ASSERT_FALSE(bus.master().switch_state_global(LssMode::kWaiting));
+  bus.run();
+}
+
+// A Fastscan run to its end.
+std::optional<LssMaster::Result> scan(LssTestBus& bus) {
+  EXPECT_FALSE(bus.master().fastscan(bus.now()));
+  return bus.run_result();
 }
 
 std::size_t in_configuration(LssTestBus& bus) {
@@ -377,16 +394,11 @@ TEST(LssScanTest, CiA305_FastscanBeginsAgainAfterAFailedConfirm) {
 TEST(LssScanTest, CiA305_FastscanBeginsAgainWhenAConfirmsAnswerIsLate) {
   LssTestBus bus(LssMasterConfig{100ms, 2ms});
   const LssAddress a{0x182, 0x0BB8, 0x00010003, 0x0000000F};
-  bus.add_slave(a, 0xFF);
-  ASSERT_FALSE(bus.master().fastscan(bus.now()));  // learns 1 ms answers: a 5 ms wait
-  ASSERT_TRUE(bus.run_result());
-  ASSERT_FALSE(bus.master().switch_state_global(LssMode::kWaiting));
-  bus.run();
+  learn_one_slave(bus, a);
   // Answers: the probe, the 29 bits of the vendor-ID 0x182 that are 0, then
   // the vendor's confirm (the 31st), 6 ms after its request.
   bus.delay_answer(0, 30, 6ms);
-  ASSERT_FALSE(bus.master().fastscan(bus.now()));
-  const auto r = bus.run_result();
+  const auto r = scan(bus);
   ASSERT_TRUE(r.has_value());
   ASSERT_FALSE(r->error) << r->error.message();
   EXPECT_EQ(r->address, a);
@@ -404,16 +416,11 @@ TEST(LssScanTest, CiA305_FastscanBeginsAgainWhenAConfirmsAnswerIsLate) {
 TEST(LssScanTest, CiA305_ASlaveTheLastConfirmMovedOnIsBroughtBackToWaiting) {
   LssTestBus bus(LssMasterConfig{100ms, 2ms});
   const LssAddress a{0x182, 0x0BB8, 0x00010003, 0x0000000F};
-  bus.add_slave(a, 0xFF);
-  ASSERT_FALSE(bus.master().fastscan(bus.now()));  // learns 1 ms answers: a 5 ms wait
-  ASSERT_TRUE(bus.run_result());
-  ASSERT_FALSE(bus.master().switch_state_global(LssMode::kWaiting));
-  bus.run();
+  learn_one_slave(bus, a);
   // Answers (0-based): the probe; per field its 0 bits, then its confirm:
   // vendor 29 + 1, product 25 + 1, revision 29 + 1, serial 28, then the serial's confirm.
   bus.delay_answer(0, 1 + 30 + 26 + 30 + 28, 6ms);
-  ASSERT_FALSE(bus.master().fastscan(bus.now()));
-  const auto r = bus.run_result();
+  const auto r = scan(bus);
   ASSERT_TRUE(r.has_value());
   ASSERT_FALSE(r->error) << r->error.message();
   EXPECT_EQ(r->address, a);

@@ -4,7 +4,7 @@
 
 #include <gtest/gtest.h>
 
-#include <unistd.h>
+#include "unit/support/temp_dir.hpp"
 
 #include <filesystem>
 #include <fstream>
@@ -17,18 +17,14 @@ namespace fs = std::filesystem;
 
 class AtomicFileTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("cobridge-atomic-test-" + std::to_string(::getpid()));
-    fs::remove_all(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
   static std::string read(const fs::path& p) {
     std::ifstream in(p, std::ios::binary);
     std::ostringstream s;
     s << in.rdbuf();
     return s.str();
   }
-  fs::path dir_;
+  test::TempDir tmp_{"atomic-test"};
+  const fs::path& dir_ = tmp_.path();
 };
 
 TEST_F(AtomicFileTest, ReplacesTheFileAndLeavesNoTemporaryFile) {
