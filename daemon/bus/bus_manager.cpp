@@ -148,8 +148,14 @@ void BusManager::Impl::run() {
     TimePoint next = run_components(now);
     // Handling the components' output may have started new work (a plan,
     // a reconfiguration): give it a turn at once rather than a poll later.
+    // That handling can take milliseconds (the state store's fsync of a
+    // node-ID just assigned): what the socket took in meanwhile is
+    // dispatched before a component judges its timeouts at the new time, or
+    // a Fastscan answer waiting there would count as silence.
     while (handle_outputs(now)) {
       now = Clock::now();
+      rx_ready = true;
+      if (receive(frames, now)) open_flag.store(channel->is_open());
       next = run_components(now);
     }
     update_ready(now);
