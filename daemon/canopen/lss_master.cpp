@@ -413,8 +413,19 @@ void LssMaster::fastscan_next_guess(TimePoint now) noexcept {
     fastscan_confirm(now);
     return;
   }
-  if (!plan_.may_search(current_.address, fs_field_)) return finish(LssErrc::kNotFound, now);
+  if (!plan_.may_search(current_.address, fs_field_)) return fastscan_not_found(now);
   fastscan_search(now);
+}
+
+// No slave of the plan answered; or one did, later than the wait, to a
+// guessed serial's confirm (the last): it matched and is in configuration
+// state, deaf to Fastscan and identify non-configured for good. Switch
+// state global waiting brings it back for the next round; every other slave
+// is waiting already.
+void LssMaster::fastscan_not_found(TimePoint now) noexcept {
+  if (fs_field_ == kLastField && !send_lss(LssCs::kSwitchStateGlobal, static_cast<uint8_t>(LssMode::kWaiting)))
+    return finish(LssErrc::kSendFailed, now);
+  finish(LssErrc::kNotFound, now);
 }
 
 void LssMaster::fastscan_search(TimePoint now) noexcept {

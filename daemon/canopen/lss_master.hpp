@@ -204,6 +204,7 @@ class LssMaster {
   [[nodiscard]] bool begin_again() noexcept;
   void fastscan_field(uint8_t field, TimePoint now) noexcept;
   void fastscan_next_guess(TimePoint now) noexcept;
+  void fastscan_not_found(TimePoint now) noexcept;
   void fastscan_search(TimePoint now) noexcept;
   void fastscan_confirm_done(TimePoint now) noexcept;
   void fastscan_bit_step(TimePoint now) noexcept;

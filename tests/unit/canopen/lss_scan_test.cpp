@@ -447,6 +447,35 @@ TEST(LssScanTest, CiA305_AScanThatGivesUpLeavesNoSlaveInConfiguration) {
   EXPECT_TRUE(again->answered) << "the slave answers identify non-configured again";
 }
 
+// A scan for a configured device (every field known, nothing searched): the
+// slave's answer to the serial's confirm, the scan's last, comes after the
+// wait. The slave matched and is in configuration state (CiA 305), where it
+// ignores Fastscan and identify non-configured; the scan, with no other
+// candidate and nothing to search, ends not found with every slave back in
+// waiting state, so the next round finds it.
+TEST(LssScanTest, CiA305_AGuessedSerialConfirmedLateLeavesNoSlaveInConfiguration) {
+  LssTestBus bus(LssMasterConfig{10ms, {}});
+  const LssAddress a{0x182, 0x0BB8, 0x00010003, 0x0000000F};
+  bus.add_slave(a, 0xFF);
+  LssMaster::FastscanKnown known;
+  known.vendor = a.vendor;
+  known.product = a.product;
+  known.revision = a.revision;
+  known.serial = a.serial;
+  bus.delay_answer(0, 4, 15ms);  // answers: the probe, then the confirms of vendor, product, revision, serial
+  ASSERT_FALSE(bus.master().fastscan(bus.now(), known));
+  const auto r = bus.run_result();
+  ASSERT_TRUE(r.has_value());
+  EXPECT_EQ(r->error, make_error_code(LssErrc::kNotFound));
+  bus.run_until(bus.now() + 50ms);  // the late answer has come
+  EXPECT_EQ(in_configuration(bus), 0u);
+  ASSERT_FALSE(bus.master().fastscan(bus.now(), known));
+  const auto again = bus.run_result();
+  ASSERT_TRUE(again.has_value());
+  ASSERT_FALSE(again->error) << again->error.message();
+  EXPECT_EQ(again->address, a);
+}
+
 // CiA 305 Fastscan + switch state selective: a late answer is taken
 // for a later step's. The slave's answer to the serial's bit-1 step (its bit
 // 1 is 0) comes 12 ms late: bit 1 is taken for silence (1), bit 0 is silent
