@@ -151,7 +151,9 @@ void BusManager::Impl::run() {
     // That handling can take milliseconds (the state store's fsync of a
     // node-ID just assigned): what the socket took in meanwhile is
     // dispatched before a component judges its timeouts at the new time, or
-    // a Fastscan answer waiting there would count as silence.
+    // a Fastscan answer waiting there would count as silence. (LssMaster
+    // judges an answer by its kernel stamp: one that came in time is in
+    // time, however late the turn gets to it.)
     while (handle_outputs(now)) {
       now = Clock::now();
       rx_ready = true;

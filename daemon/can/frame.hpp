@@ -7,6 +7,8 @@
 // Thread-safety: a plain value; no shared state.
 #pragma once
 
+#include <time.h>
+
 #include <array>
 #include <cstdint>
 #include <type_traits>
@@ -58,6 +60,14 @@ struct Frame {
     return true;
   }
 };
+
+// Now on the clock of Frame::timestamp_ns (CLOCK_REALTIME, ns since the
+// epoch). A system call under UML: not for the hot path.
+inline int64_t frame_clock_ns() noexcept {
+  timespec ts{};
+  ::clock_gettime(CLOCK_REALTIME, &ts);
+  return static_cast<int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
 
 static_assert(std::is_trivially_copyable_v<Frame>);
 static_assert(sizeof(Frame) == 24);

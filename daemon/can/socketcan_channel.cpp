@@ -87,12 +87,6 @@ int query_interface_up(int fd, const std::string& name, bool& up) noexcept {
   return 0;
 }
 
-int64_t realtime_now_ns() noexcept {
-  timespec ts{};
-  ::clock_gettime(CLOCK_REALTIME, &ts);
-  return static_cast<int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
-
 // Walks the control messages of one received message. The libc CMSG_* macros
 // are written with C casts, which this project's warnings reject.
 template <typename Fn>
@@ -491,7 +485,7 @@ void SocketCanChannel::push_event(const BusEvent& event) noexcept {
 void SocketCanChannel::push_interface_event(BusEventKind kind) noexcept {
   BusEvent e;
   e.kind = kind;
-  e.timestamp_ns = realtime_now_ns();
+  e.timestamp_ns = frame_clock_ns();
   push_event(e);
 }
 

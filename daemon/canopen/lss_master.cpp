@@ -131,6 +131,7 @@ void LssMaster::arm(Phase phase, LssCs expect, TimePoint now) noexcept {
   expect_ = expect;
   answered_ = false;
   step_sent_ = now;
+  step_sent_stamp_ns_ = config_.stamp_clock_ns != nullptr ? config_.stamp_clock_ns() : 0;
   ++current_.steps;
   // The first step of an operation (Fastscan probe, identify, Slowscan
   // probe) decides "nobody there": it always waits the full timeout, and
@@ -302,12 +303,23 @@ bool LssMaster::begin_again() noexcept {
   return true;
 }
 
+// When an answer came, on the master's clock: its kernel stamp's distance
+// from the step's send, where both have a stamp; else `now`. Never after
+// `now` nor before the send (a step of the wall clock in between).
+TimePoint LssMaster::answered_at(const can::Frame& f, TimePoint now) const noexcept {
+  if (step_sent_stamp_ns_ == 0 || f.timestamp_ns == 0) return now;
+  const Duration since_sent = std::chrono::nanoseconds(std::max<int64_t>(0, f.timestamp_ns - step_sent_stamp_ns_));
+  return std::min(now, step_sent_ + since_sent);
+}
+
 bool LssMaster::on_frame(const can::Frame& f, TimePoint now) noexcept {
   if (!is_lss_frame(f, cob::kLssSlaveToMaster)) return false;
-  // Answers that come after the deadline belong to a step already decided.
-  if (phase_ == Phase::kIdle || f.data[0] != static_cast<uint8_t>(expect_) || now > deadline_) return true;
+  if (phase_ == Phase::kIdle || f.data[0] != static_cast<uint8_t>(expect_)) return true;
+  // Answers that came after the deadline belong to a step already decided.
+  const TimePoint at = answered_at(f, now);
+  if (at > deadline_) return true;
   ++current_.answers;
-  timing_.record(now - step_sent_);
+  timing_.record(at - step_sent_);
   if (phase_ == Phase::kFastscanVerify) {
     finish({}, now);  // the slave found is there, in configuration state again
     return true;
@@ -320,7 +332,7 @@ bool LssMaster::on_frame(const can::Frame& f, TimePoint now) noexcept {
     // timeout, so that a burst belongs to the step that caused it and does
     // not spill into the next one.
     if (timing_.learning()) {
-      const TimePoint quiet = now + (careful_ ? timing_.no_answer_wait() : timing_.settle());
+      const TimePoint quiet = at + (careful_ ? timing_.no_answer_wait() : timing_.settle());
       deadline_ = answered_ ? std::min(std::max(quiet, deadline_), step_sent_ + config_.timeout)
                             : std::min(deadline_, quiet);
     }

@@ -6,6 +6,10 @@
 // ends its outcome is collected with `take_result()`. Operations without an
 // answer (switch state global, activate bit timing) complete synchronously.
 //
+// An answer is in time when its kernel receive stamp is within the step's
+// wait of the request, whenever the caller hands it over (a control thread
+// held up by an fsync or the scheduler does not make answers late); the
+// caller hands over what it has received before calling `process`.
 // "No answer" is only visible as a timeout. The first step of a search
 // ("is anybody there?") waits `Config::timeout`; later search steps wait what
 // the bus taught (AnswerTiming, between `min_timeout` and `timeout`), and an
@@ -29,7 +33,7 @@
 // whole.
 // Slowscan: at most 65 identify steps of 6 frames each, plus switch selective.
 // Thread: the one thread that owns the LSS channel (bus manager); never
-// blocks, does not allocate per frame.
+// blocks, does not allocate per frame; one clock read per step sent.
 #pragma once
 
 #include <chrono>
@@ -38,6 +42,7 @@
 #include <system_error>
 #include <type_traits>
 
+#include "can/frame.hpp"
 #include "can/frame_sink.hpp"
 #include "canopen/answer_timing.hpp"
 #include "canopen/clock.hpp"
@@ -87,6 +92,12 @@ struct LssMasterConfig {
   // have been measured (AnswerTiming); zero or >= timeout: every search step
   // waits the full timeout and nothing is learnt.
   Duration min_timeout{};
+  // The clock of the answers' kernel receive stamps (can::Frame::timestamp_ns).
+  // An answer is judged by its stamp against the step's send: one that came
+  // within the wait counts even when the control thread got to it late
+  // (a descheduled thread, a slow fsync). Frames without a stamp (0) are
+  // judged by the time they are handed over. Tests set a clock of their own.
+  int64_t (*stamp_clock_ns)() noexcept = &can::frame_clock_ns;
 };
 
 class LssMaster {
@@ -196,6 +207,7 @@ class LssMaster {
   bool send_identify(const LssRange& range) noexcept;
   bool send_switch_selective(const LssAddress& a) noexcept;
   void arm(Phase phase, LssCs expect, TimePoint now) noexcept;
+  [[nodiscard]] TimePoint answered_at(const can::Frame& f, TimePoint now) const noexcept;
   void finish(std::error_code ec, TimePoint now) noexcept;
   void on_step_done(TimePoint now) noexcept;
   [[nodiscard]] bool fastscan_probe(TimePoint now) noexcept;
@@ -219,6 +231,7 @@ class LssMaster {
   Config config_;
   AnswerTiming timing_;
   TimePoint step_sent_{};
+  int64_t step_sent_stamp_ns_ = 0;  // step_sent_ on stamp_clock_ns (0: none)
   bool careful_ = false;  // a scan begun again: longer waits for silence and for other slaves' answers
   Phase phase_ = Phase::kIdle;
   LssCs expect_ = LssCs::kSwitchSelectiveResponse;

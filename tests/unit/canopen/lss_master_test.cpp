@@ -288,5 +288,46 @@ TEST(LssMasterTest, CiA305_IdentifyNonConfigured) {
   EXPECT_EQ(r->answers, 1u);
 }
 
+// The answers' kernel receive stamps (SO_TIMESTAMPNS) on a clock the test sets.
+int64_t g_stamp_now_ns = 0;
+int64_t stamp_clock() noexcept { return g_stamp_now_ns; }
+
+// Identify non-configured (CiA 305) with a 100 ms wait, its answer stamped
+// `answered_after` after the request and handed to the master 130 ms after
+// it, as a control thread held up (an fsync, a descheduled thread) would.
+std::optional<LssMaster::Result> identify_answered_late(std::optional<Duration> answered_after) {
+  RecordingSink sink;
+  LssMasterConfig config{100ms, {}};
+  config.stamp_clock_ns = &stamp_clock;
+  LssMaster master(sink, config);
+  const TimePoint t0{std::chrono::seconds(3600)};
+  g_stamp_now_ns = 1'700'000'000'000'000'000;
+  EXPECT_FALSE(master.identify_non_configured(t0));
+  can::Frame answer = test::lss_rx({0x50, 0, 0, 0, 0, 0, 0, 0});
+  if (answered_after)
+    answer.timestamp_ns = g_stamp_now_ns + std::chrono::duration_cast<std::chrono::nanoseconds>(*answered_after).count();
+  const TimePoint handed = t0 + 130ms;
+  EXPECT_TRUE(master.on_frame(answer, handed));
+  (void)master.process(handed);
+  return master.take_result();
+}
+
+// CiA 305 gives no answer time; the master's wait is its own. An answer
+// stamped 2 ms after the request came in time, however late the control
+// thread got to it; one stamped after the wait, or with no stamp and handed
+// over after the wait, belongs to a step already decided.
+TEST(LssMasterTest, CiA305_AnAnswerIsJudgedByItsKernelStampNotByWhenItIsHandedOver) {
+  auto r = identify_answered_late(2ms);
+  ASSERT_TRUE(r.has_value());
+  EXPECT_TRUE(r->answered) << "stamped in time, handed over late";
+  EXPECT_EQ(r->answers, 1u);
+  r = identify_answered_late(120ms);
+  ASSERT_TRUE(r.has_value());
+  EXPECT_FALSE(r->answered) << "stamped after the 100 ms wait";
+  r = identify_answered_late(std::nullopt);
+  ASSERT_TRUE(r.has_value());
+  EXPECT_FALSE(r->answered) << "no stamp: judged by when it is handed over";
+}
+
 }  // namespace
 }  // namespace cobridge::canopen
