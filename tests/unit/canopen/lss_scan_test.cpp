@@ -54,6 +54,17 @@ std::optional<LssMaster::Result> scan(LssTestBus& bus) {
   return bus.run_result();
 }
 
+// A scan's known fields: vendor, product and revision of `a`, and its serial
+// when `with_serial` (a configured device's whole identity).
+LssMaster::FastscanKnown known_of(const LssAddress& a, bool with_serial) {
+  LssMaster::FastscanKnown known;
+  known.vendor = a.vendor;
+  known.product = a.product;
+  known.revision = a.revision;
+  if (with_serial) known.serial = a.serial;
+  return known;
+}
+
 std::size_t in_configuration(LssTestBus& bus) {
   std::size_t n = 0;
   for (std::size_t i = 0; i < bus.slave_count(); ++i)
@@ -457,11 +468,7 @@ TEST(LssScanTest, CiA305_AGuessedSerialConfirmedLateLeavesNoSlaveInConfiguration
   LssTestBus bus(LssMasterConfig{10ms, {}});
   const LssAddress a{0x182, 0x0BB8, 0x00010003, 0x0000000F};
   bus.add_slave(a, 0xFF);
-  LssMaster::FastscanKnown known;
-  known.vendor = a.vendor;
-  known.product = a.product;
-  known.revision = a.revision;
-  known.serial = a.serial;
+  const LssMaster::FastscanKnown known = known_of(a, true);
   bus.delay_answer(0, 4, 15ms);  // answers: the probe, then the confirms of vendor, product, revision, serial
   ASSERT_FALSE(bus.master().fastscan(bus.now(), known));
   const auto r = bus.run_result();
@@ -487,10 +494,7 @@ TEST(LssScanTest, CiA305_LateAnswerFromAnEarlierBitStepGivesNoWrongIdentity) {
   LssTestBus bus(LssMasterConfig{100ms, 2ms});
   const LssAddress a{0x182, 0x0BB8, 0x00010003, 0x00000001};
   bus.add_slave(a, 0xFF);
-  LssMaster::FastscanKnown known;
-  known.vendor = a.vendor;
-  known.product = a.product;
-  known.revision = a.revision;
+  const LssMaster::FastscanKnown known = known_of(a, false);
   ASSERT_FALSE(bus.master().fastscan(bus.now(), known));  // learns 1 ms answers: a 5 ms wait
   ASSERT_TRUE(bus.run_result());
   ASSERT_FALSE(bus.master().switch_state_global(LssMode::kWaiting));
@@ -519,10 +523,7 @@ TEST(LssScanTest, CiA305_EveryAnswerOfABurstBelongsToItsStep) {
   bus.add_slave(a, 0xFF);
   bus.add_slave({a.vendor, a.product, a.revision, 5}, 0xFF);
   bus.add_slave({a.vendor, a.product, a.revision, 6}, 0xFF);
-  LssMaster::FastscanKnown known;
-  known.vendor = a.vendor;
-  known.product = a.product;
-  known.revision = a.revision;
+  const LssMaster::FastscanKnown known = known_of(a, false);
   // Slave 6's answers: the probe, the 3 confirms, serial bits 31..4 (28), then bit 3's.
   bus.delay_answer(2, 32, 2600us);
   ASSERT_FALSE(bus.master().fastscan(bus.now(), known));
@@ -539,10 +540,7 @@ TEST(LssScanTest, CiA305_FastscanResultNobodyConfirmsIsNoResult) {
   LssTestBus bus(LssMasterConfig{5ms, 5ms});
   const LssAddress a{0x182, 0x0BB8, 0x00010003, 0x00000001};
   bus.add_slave(a, 0xFF);
-  LssMaster::FastscanKnown known;
-  known.vendor = a.vendor;
-  known.product = a.product;
-  known.revision = a.revision;
+  const LssMaster::FastscanKnown known = known_of(a, false);
   bus.delay_answer(0, 34, 12ms);
   ASSERT_FALSE(bus.master().fastscan(bus.now(), known));
   const auto r = bus.run_result();
