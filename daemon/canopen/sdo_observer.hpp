@@ -10,8 +10,15 @@
 //   segmented:  initiate (ccs 1, e = 0) -> initiate response (scs 3), then
 //               segments (ccs 0) -> confirmed by the response (scs 1) to the
 //               segment with c = 1; the first kKeptBytes bytes are kept.
+//   block (§7.2.4.3.9..§7.2.4.3.14): initiate (ccs 6, cs 0) -> initiate
+//               response (scs 5, ss 0), then sub-blocks of segments (seqno
+//               1..127, c = 1 on the last), each acknowledged (scs 5, ss 2,
+//               ackseq: the segments after it are sent again), then end
+//               (ccs 6, cs 1, n unused bytes in the last segment) ->
+//               confirmed by the end response (scs 5, ss 1). The CRC is the
+//               server's to check: its confirmation says it held.
 // An abort (cs 4) either way, another request, or a confirmation later than
-// kAnswerWithin forgets the transfer. Block transfers are not followed.
+// kAnswerWithin forgets the transfer. Block uploads write nothing.
 //
 // Which requests are another client's is the caller's knowledge: the bus
 // manager's socket never receives its own frames (SocketCAN loops a frame
@@ -48,16 +55,22 @@ class SdoObserver {
   [[nodiscard]] std::optional<ObservedWrite> on_frame(const can::Frame& frame, TimePoint now) noexcept;
 
  private:
-  enum class Phase : std::uint8_t { idle, expedited, initiated, segments };
+  enum class Phase : std::uint8_t { idle, expedited, initiated, segments, block_initiated, block, block_end };
   struct Transfer {
     Phase phase = Phase::idle;
-    bool last = false;  // the client sent the segment with c = 1
-    TimePoint at{};     // the latest request
+    bool last = false;        // the client sent the segment with c = 1
+    std::uint8_t seq = 0;     // block: the last segment's seqno in this sub-block
+    std::uint8_t last_seq = 0;  // block: the seqno of the segment with c = 1
+    std::uint32_t acked = 0;  // block: the bytes of the sub-blocks acknowledged
+    TimePoint at{};           // the latest request
     ObservedWrite write;
   };
   void on_request(Transfer& t, std::uint8_t node, const can::Frame& frame, TimePoint now) noexcept;
+  [[nodiscard]] bool on_block_request(Transfer& t, const can::Frame& frame, TimePoint now) noexcept;
+  void begin(Transfer& t, std::uint8_t node, const can::Frame& frame, TimePoint now) noexcept;
   [[nodiscard]] std::optional<ObservedWrite> on_response(Transfer& t, const can::Frame& frame,
                                                          TimePoint now) noexcept;
+  [[nodiscard]] std::optional<ObservedWrite> on_block_response(Transfer& t, const can::Frame& frame) noexcept;
   std::array<Transfer, 128> transfers_{};
 };
 

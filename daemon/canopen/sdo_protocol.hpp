@@ -29,6 +29,10 @@ inline constexpr std::uint8_t kScsUploadInitiate = 2;
 inline constexpr std::uint8_t kScsDownloadInitiate = 3;
 // Abort transfer: the same specifier in both directions.
 inline constexpr std::uint8_t kCsAbort = 4;
+// Block download (§7.2.4.3.9..§7.2.4.3.14): the client's ccs and the
+// server's scs; the low bits say which step (initiate, end, block ack).
+inline constexpr std::uint8_t kCcsBlockDownload = 6;
+inline constexpr std::uint8_t kScsBlockDownload = 5;
 
 inline constexpr std::uint8_t kBitToggle = 0x10;         // segment frames: t
 inline constexpr std::uint8_t kBitExpedited = 0x02;      // initiate frames: e

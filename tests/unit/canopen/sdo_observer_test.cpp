@@ -75,6 +75,66 @@ TEST(SdoObserver, ASegmentedDownloadCountsAtTheLastSegmentsConfirmation) {
   EXPECT_EQ(w->data[7], 8);
 }
 
+// §7.2.4.3.9..§7.2.4.3.14: 0x1017:00 = 9029 in a block download (as a
+// tool that writes every object by block does): initiate (size 2), one
+// segment (c = 1, seqno 1), block ack 1, end with n = 5, end response.
+TEST(SdoObserver, ABlockDownloadCountsAtTheEndResponse) {
+  SdoObserver o;
+  EXPECT_FALSE(o.on_frame(frame(0x605, {0xC6, 0x17, 0x10, 0x00, 2, 0, 0, 0}), kT0));
+  EXPECT_FALSE(o.on_frame(frame(0x585, {0xA4, 0x17, 0x10, 0x00, 127, 0, 0, 0}), kT0));
+  EXPECT_FALSE(o.on_frame(frame(0x605, {0x81, 0x45, 0x23, 0, 0, 0, 0, 0}), kT0));
+  EXPECT_FALSE(o.on_frame(frame(0x585, {0xA2, 1, 127, 0, 0, 0, 0, 0}), kT0));
+  EXPECT_FALSE(o.on_frame(frame(0x605, {0xC1 | (5 << 2), 0x12, 0x34, 0, 0, 0, 0, 0}), kT0));
+  const auto w = o.on_frame(frame(0x585, {0xA1, 0, 0, 0, 0, 0, 0, 0}), kT0 + 2ms);
+  ASSERT_TRUE(w);
+  EXPECT_EQ(w->node, 5);
+  EXPECT_EQ(w->index, 0x1017);
+  EXPECT_EQ(w->total, 2U);
+  ASSERT_EQ(w->size, 2);
+  EXPECT_EQ(w->data[0], 0x45);
+  EXPECT_EQ(w->data[1], 0x23);
+}
+
+// A sub-block the server took only in part (ackseq 1 of 2: the second
+// segment was lost) is sent again from there, seqno 1 again; a segment out
+// of order is ignored, as the server ignores it. 10 bytes in all. A segment
+// whose byte 0 reads like an expedited initiate (0x23: seqno 35) starts
+// nothing while the block runs.
+TEST(SdoObserver, ABlockDownloadFollowsTheSegmentsTheServerTook) {
+  SdoObserver o;
+  EXPECT_FALSE(o.on_frame(frame(0x60A, {0xC2, 0x00, 0x20, 0x01, 0, 0, 0, 0}), kT0));
+  EXPECT_FALSE(o.on_frame(frame(0x58A, {0xA0, 0x00, 0x20, 0x01, 2, 0, 0, 0}), kT0));
+  EXPECT_FALSE(o.on_frame(frame(0x60A, {0x01, 1, 2, 3, 4, 5, 6, 7}), kT0));
+  EXPECT_FALSE(o.on_frame(frame(0x60A, {0x03, 0xEE, 0xEE, 0xEE, 0xEE, 0xEE, 0xEE, 0xEE}), kT0));  // seqno 2 lost
+  EXPECT_FALSE(o.on_frame(frame(0x58A, {0xA2, 1, 2, 0, 0, 0, 0, 0}), kT0));
+  EXPECT_FALSE(o.on_frame(frame(0x60A, {0x81, 8, 9, 10, 0, 0, 0, 0}), kT0));
+  EXPECT_FALSE(o.on_frame(frame(0x58A, {0xA2, 1, 2, 0, 0, 0, 0, 0}), kT0));
+  EXPECT_FALSE(o.on_frame(frame(0x60A, {0xC1 | (4 << 2), 0, 0, 0, 0, 0, 0, 0}), kT0));
+  const auto w = o.on_frame(frame(0x58A, {0xA1, 0, 0, 0, 0, 0, 0, 0}), kT0);
+  ASSERT_TRUE(w);
+  EXPECT_EQ(w->index, 0x2000);
+  EXPECT_EQ(w->total, 10U);
+  ASSERT_EQ(w->size, SdoObserver::kKeptBytes);
+  EXPECT_EQ(w->data[6], 7);
+  EXPECT_EQ(w->data[7], 8);
+
+  EXPECT_FALSE(o.on_frame(frame(0x60A, {0xC2, 0x17, 0x10, 0x00, 0, 0, 0, 0}), kT0));
+  EXPECT_FALSE(o.on_frame(frame(0x58A, {0xA0, 0x17, 0x10, 0x00, 4, 0, 0, 0}), kT0));
+  EXPECT_FALSE(o.on_frame(frame(0x60A, {0x23, 0x17, 0x10, 0x00, 1, 0, 0, 0}), kT0));  // a segment, seqno 35
+  EXPECT_FALSE(o.on_frame(frame(0x58A, {0x60, 0x17, 0x10, 0x00, 0, 0, 0, 0}), kT0));
+}
+
+// An abort (cs 4, byte 0 = 0x80) ends a block download unconfirmed.
+TEST(SdoObserver, AnAbortedBlockDownloadIsNoWrite) {
+  SdoObserver o;
+  EXPECT_FALSE(o.on_frame(frame(0x605, {0xC6, 0x17, 0x10, 0x00, 2, 0, 0, 0}), kT0));
+  EXPECT_FALSE(o.on_frame(frame(0x585, {0xA4, 0x17, 0x10, 0x00, 127, 0, 0, 0}), kT0));
+  EXPECT_FALSE(o.on_frame(frame(0x605, {0x80, 0x17, 0x10, 0x00, 0, 0, 4, 5}), kT0));
+  EXPECT_FALSE(o.on_frame(frame(0x585, {0xA2, 1, 127, 0, 0, 0, 0, 0}), kT0));
+  EXPECT_FALSE(o.on_frame(frame(0x605, {0xC1 | (5 << 2), 0, 0, 0, 0, 0, 0, 0}), kT0));
+  EXPECT_FALSE(o.on_frame(frame(0x585, {0xA1, 0, 0, 0, 0, 0, 0, 0}), kT0));
+}
+
 TEST(SdoObserver, OddFramesAreIgnored) {
   SdoObserver o;
   can::Frame rtr = frame(0x605, {0x2B, 0x17, 0x10, 0x00, 0x45, 0x23, 0, 0});
