@@ -22,6 +22,15 @@ can::Frame frame(std::uint32_t id, std::initializer_list<std::uint8_t> bytes) {
   return f;
 }
 
+// Feeds the frames in order at kT0; none of them may complete a write.
+void feed_without_write(SdoObserver& o, std::initializer_list<can::Frame> frames) {
+  std::size_t i = 0;
+  for (const auto& f : frames) {
+    EXPECT_FALSE(o.on_frame(f, kT0)) << "frame " << i << " completed a write";
+    ++i;
+  }
+}
+
 TEST(SdoObserver, AnExpeditedDownloadCountsWhenTheServerConfirmsIt) {
   SdoObserver o;
   // 0x1017:00 = 9029 (0x2345), 2 bytes indicated (0x2B), node 5.
@@ -60,11 +69,11 @@ TEST(SdoObserver, NoWriteWithoutTheConfirmation) {
 TEST(SdoObserver, ASegmentedDownloadCountsAtTheLastSegmentsConfirmation) {
   SdoObserver o;
   // 0x2000:01, 9 bytes in two segments (7, then 2 with n = 5 and c = 1).
-  EXPECT_FALSE(o.on_frame(frame(0x60A, {0x21, 0x00, 0x20, 0x01, 9, 0, 0, 0}), kT0));
-  EXPECT_FALSE(o.on_frame(frame(0x58A, {0x60, 0x00, 0x20, 0x01, 0, 0, 0, 0}), kT0));
-  EXPECT_FALSE(o.on_frame(frame(0x60A, {0x00, 1, 2, 3, 4, 5, 6, 7}), kT0));
-  EXPECT_FALSE(o.on_frame(frame(0x58A, {0x20, 0, 0, 0, 0, 0, 0, 0}), kT0));
-  EXPECT_FALSE(o.on_frame(frame(0x60A, {0x1B, 8, 9, 0, 0, 0, 0, 0}), kT0));
+  feed_without_write(o, {frame(0x60A, {0x21, 0x00, 0x20, 0x01, 9, 0, 0, 0}),
+                         frame(0x58A, {0x60, 0x00, 0x20, 0x01, 0, 0, 0, 0}),
+                         frame(0x60A, {0x00, 1, 2, 3, 4, 5, 6, 7}),
+                         frame(0x58A, {0x20, 0, 0, 0, 0, 0, 0, 0}),
+                         frame(0x60A, {0x1B, 8, 9, 0, 0, 0, 0, 0})});
   const auto w = o.on_frame(frame(0x58A, {0x30, 0, 0, 0, 0, 0, 0, 0}), kT0);
   ASSERT_TRUE(w);
   EXPECT_EQ(w->index, 0x2000);
@@ -80,11 +89,11 @@ TEST(SdoObserver, ASegmentedDownloadCountsAtTheLastSegmentsConfirmation) {
 // segment (c = 1, seqno 1), block ack 1, end with n = 5, end response.
 TEST(SdoObserver, ABlockDownloadCountsAtTheEndResponse) {
   SdoObserver o;
-  EXPECT_FALSE(o.on_frame(frame(0x605, {0xC6, 0x17, 0x10, 0x00, 2, 0, 0, 0}), kT0));
-  EXPECT_FALSE(o.on_frame(frame(0x585, {0xA4, 0x17, 0x10, 0x00, 127, 0, 0, 0}), kT0));
-  EXPECT_FALSE(o.on_frame(frame(0x605, {0x81, 0x45, 0x23, 0, 0, 0, 0, 0}), kT0));
-  EXPECT_FALSE(o.on_frame(frame(0x585, {0xA2, 1, 127, 0, 0, 0, 0, 0}), kT0));
-  EXPECT_FALSE(o.on_frame(frame(0x605, {0xC1 | (5 << 2), 0x12, 0x34, 0, 0, 0, 0, 0}), kT0));
+  feed_without_write(o, {frame(0x605, {0xC6, 0x17, 0x10, 0x00, 2, 0, 0, 0}),
+                         frame(0x585, {0xA4, 0x17, 0x10, 0x00, 127, 0, 0, 0}),
+                         frame(0x605, {0x81, 0x45, 0x23, 0, 0, 0, 0, 0}),
+                         frame(0x585, {0xA2, 1, 127, 0, 0, 0, 0, 0}),
+                         frame(0x605, {0xC1 | (5 << 2), 0x12, 0x34, 0, 0, 0, 0, 0})});
   const auto w = o.on_frame(frame(0x585, {0xA1, 0, 0, 0, 0, 0, 0, 0}), kT0 + 2ms);
   ASSERT_TRUE(w);
   EXPECT_EQ(w->node, 5);
@@ -95,21 +104,22 @@ TEST(SdoObserver, ABlockDownloadCountsAtTheEndResponse) {
   EXPECT_EQ(w->data[1], 0x23);
 }
 
-// A sub-block the server took only in part (ackseq 1 of 2: the second
-// segment was lost) is sent again from there, seqno 1 again; a segment out
-// of order is ignored, as the server ignores it. 10 bytes in all. A segment
-// whose byte 0 reads like an expedited initiate (0x23: seqno 35) starts
-// nothing while the block runs.
+// A sub-block the server took only in part (ackseq 1 of 2: it did not take
+// the second segment, which this socket saw) is sent again from there,
+// seqno 1 again; a segment out of order is ignored, as the server ignores
+// it. 10 bytes in all. A segment whose byte 0 reads like an expedited
+// initiate (0x23: seqno 35) starts nothing while the block runs.
 TEST(SdoObserver, ABlockDownloadFollowsTheSegmentsTheServerTook) {
   SdoObserver o;
-  EXPECT_FALSE(o.on_frame(frame(0x60A, {0xC2, 0x00, 0x20, 0x01, 0, 0, 0, 0}), kT0));
-  EXPECT_FALSE(o.on_frame(frame(0x58A, {0xA0, 0x00, 0x20, 0x01, 2, 0, 0, 0}), kT0));
-  EXPECT_FALSE(o.on_frame(frame(0x60A, {0x01, 1, 2, 3, 4, 5, 6, 7}), kT0));
-  EXPECT_FALSE(o.on_frame(frame(0x60A, {0x03, 0xEE, 0xEE, 0xEE, 0xEE, 0xEE, 0xEE, 0xEE}), kT0));  // seqno 2 lost
-  EXPECT_FALSE(o.on_frame(frame(0x58A, {0xA2, 1, 2, 0, 0, 0, 0, 0}), kT0));
-  EXPECT_FALSE(o.on_frame(frame(0x60A, {0x81, 8, 9, 10, 0, 0, 0, 0}), kT0));
-  EXPECT_FALSE(o.on_frame(frame(0x58A, {0xA2, 1, 2, 0, 0, 0, 0, 0}), kT0));
-  EXPECT_FALSE(o.on_frame(frame(0x60A, {0xC1 | (4 << 2), 0, 0, 0, 0, 0, 0, 0}), kT0));
+  feed_without_write(o, {frame(0x60A, {0xC2, 0x00, 0x20, 0x01, 0, 0, 0, 0}),
+                         frame(0x58A, {0xA0, 0x00, 0x20, 0x01, 2, 0, 0, 0}),
+                         frame(0x60A, {0x01, 1, 2, 3, 4, 5, 6, 7}),
+                         frame(0x60A, {0x02, 0xEE, 0xEE, 0xEE, 0xEE, 0xEE, 0xEE, 0xEE}),  // not taken
+                         frame(0x58A, {0xA2, 1, 2, 0, 0, 0, 0, 0}),
+                         frame(0x60A, {0x03, 0xDD, 0xDD, 0xDD, 0xDD, 0xDD, 0xDD, 0xDD}),  // out of order
+                         frame(0x60A, {0x81, 8, 9, 10, 0, 0, 0, 0}),
+                         frame(0x58A, {0xA2, 1, 2, 0, 0, 0, 0, 0}),
+                         frame(0x60A, {0xC1 | (4 << 2), 0, 0, 0, 0, 0, 0, 0})});
   const auto w = o.on_frame(frame(0x58A, {0xA1, 0, 0, 0, 0, 0, 0, 0}), kT0);
   ASSERT_TRUE(w);
   EXPECT_EQ(w->index, 0x2000);
@@ -118,21 +128,21 @@ TEST(SdoObserver, ABlockDownloadFollowsTheSegmentsTheServerTook) {
   EXPECT_EQ(w->data[6], 7);
   EXPECT_EQ(w->data[7], 8);
 
-  EXPECT_FALSE(o.on_frame(frame(0x60A, {0xC2, 0x17, 0x10, 0x00, 0, 0, 0, 0}), kT0));
-  EXPECT_FALSE(o.on_frame(frame(0x58A, {0xA0, 0x17, 0x10, 0x00, 4, 0, 0, 0}), kT0));
-  EXPECT_FALSE(o.on_frame(frame(0x60A, {0x23, 0x17, 0x10, 0x00, 1, 0, 0, 0}), kT0));  // a segment, seqno 35
-  EXPECT_FALSE(o.on_frame(frame(0x58A, {0x60, 0x17, 0x10, 0x00, 0, 0, 0, 0}), kT0));
+  feed_without_write(o, {frame(0x60A, {0xC2, 0x17, 0x10, 0x00, 0, 0, 0, 0}),
+                         frame(0x58A, {0xA0, 0x17, 0x10, 0x00, 4, 0, 0, 0}),
+                         frame(0x60A, {0x23, 0x17, 0x10, 0x00, 1, 0, 0, 0}),  // a segment, seqno 35
+                         frame(0x58A, {0x60, 0x17, 0x10, 0x00, 0, 0, 0, 0})});
 }
 
 // An abort (cs 4, byte 0 = 0x80) ends a block download unconfirmed.
 TEST(SdoObserver, AnAbortedBlockDownloadIsNoWrite) {
   SdoObserver o;
-  EXPECT_FALSE(o.on_frame(frame(0x605, {0xC6, 0x17, 0x10, 0x00, 2, 0, 0, 0}), kT0));
-  EXPECT_FALSE(o.on_frame(frame(0x585, {0xA4, 0x17, 0x10, 0x00, 127, 0, 0, 0}), kT0));
-  EXPECT_FALSE(o.on_frame(frame(0x605, {0x80, 0x17, 0x10, 0x00, 0, 0, 4, 5}), kT0));
-  EXPECT_FALSE(o.on_frame(frame(0x585, {0xA2, 1, 127, 0, 0, 0, 0, 0}), kT0));
-  EXPECT_FALSE(o.on_frame(frame(0x605, {0xC1 | (5 << 2), 0, 0, 0, 0, 0, 0, 0}), kT0));
-  EXPECT_FALSE(o.on_frame(frame(0x585, {0xA1, 0, 0, 0, 0, 0, 0, 0}), kT0));
+  feed_without_write(o, {frame(0x605, {0xC6, 0x17, 0x10, 0x00, 2, 0, 0, 0}),
+                         frame(0x585, {0xA4, 0x17, 0x10, 0x00, 127, 0, 0, 0}),
+                         frame(0x605, {0x80, 0x17, 0x10, 0x00, 0, 0, 4, 5}),
+                         frame(0x585, {0xA2, 1, 127, 0, 0, 0, 0, 0}),
+                         frame(0x605, {0xC1 | (5 << 2), 0, 0, 0, 0, 0, 0, 0}),
+                         frame(0x585, {0xA1, 0, 0, 0, 0, 0, 0, 0})});
 }
 
 TEST(SdoObserver, OddFramesAreIgnored) {
