@@ -928,7 +928,7 @@ TEST(DiscoveryTest, ReplacedDeviceComingBackIsLeftAlone_E3_1) {
 
 // ---- mixed clash (two rotary + one multiturn at one node-ID) ----
 
-// The bus settings of the end-to-end run (scripts/main-job-in-uml): short LSS
+// The bus settings of the end-to-end run (scripts/main-job-in-vcan): short LSS
 // and SDO timeouts, as on a quiet 250 kbit/s bus.
 void fast_timeouts(Rig& rig) {
   rig.config_.buses[0].lss_timeout_ms = 30;

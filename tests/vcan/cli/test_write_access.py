@@ -49,17 +49,20 @@ WRITE = ["sdo", "write", "-i", "vcan0", "-n", "20", "1017:0", "100", "--size", "
 READ = ["sdo", "read", "-i", "vcan0", "-n", "20", "1018:4", "--json"]
 
 
-def in_uml():
+def in_can_bed_guest():
+    """True inside a guest of tests/vcan/run-in-vcan (UML or QEMU), whose PID 1 is its
+    init script: the bind mounts below then change the guest's mount table, never the
+    host's."""
     try:
-        with open("/proc/cpuinfo") as f:
-            return "User Mode Linux" in f.read()
+        with open("/proc/1/cmdline", "rb") as f:
+            return b"/run-in-vcan." in f.read()
     except OSError:
         return False
 
 
 def install_identities(ws):
     """Bind-mounts /etc/passwd and /etc/group copies holding the test users
-    (UML's mount table only). Returns the mounted paths."""
+    (the guest's mount table only). Returns the mounted paths."""
     with open("/etc/passwd") as f:
         passwd = f.read().rstrip("\n").split("\n")
     with open("/etc/group") as f:
@@ -321,14 +324,14 @@ def main():
     args = e2e.parse_args()
     args.daemon, args.cli = os.path.abspath(args.daemon), os.path.abspath(args.cli)  # run through setpriv
     report = e2e.Report("test_write_access")
-    if not in_uml():
-        print("FAIL: this test bind-mounts /etc/passwd and /etc/group: run it inside UML (tests/vcan/run-in-vcan)")
+    if not in_can_bed_guest():
+        print("FAIL: this test bind-mounts /etc/passwd and /etc/group: run it in a CAN bed guest (tests/vcan/run-in-vcan)")
         return 1
     ws = e2e.Workspace("write-access", args.keep)
     mounted = install_identities(ws)
     svc_uid, svc_gid = USERS["cbt-svc"][0], GROUPS["cbt-svc"][0]
     report.check(pwd.getpwnam("cbt-member").pw_uid == 64104 and "cbt-member" in grp.getgrnam("cbt-admin").gr_mem,
-                 "test users and groups visible (inside UML only)")
+                 "test users and groups visible (inside the guest only)")
     # The service's directories, as systemd's StateDirectory= / RuntimeDirectory= make them.
     for d in (ws.dir, ws.run):
         os.chmod(d, 0o755)

@@ -1,4 +1,4 @@
-"""Commissioning, the bus of the main job (scripts/main-job-in-uml): a
+"""Commissioning, the bus of the main job (scripts/main-job-in-vcan): a
 mixed three-way clash at node-ID 127 (J§1.2.2 / E§3.1: every Novotechnik
 ships at 127) of two rotary RFC-4800 (J, DSP-305 V1.1.2: switch selective and
 identify remote slave, no Fastscan) and one multiturn MC1-2800 (E§6, CiA 305
