@@ -31,9 +31,11 @@ answer (0x7E4, CiA 305 §8.3) and SDO answer (0x580+n, CiA 301 §7.2.4.3)
 with its request; its p99 is printed beside the same run's floor (--echo)
 and judged against the 1 ms target by the bench (scripts/bench --only
 commissioning), not here: a timing bound in a test flakes with the host.
-This test bounds it at 20 ms, a guard against the simulator falling behind
+This test bounds it at 20 ms above the same run's floor p99 (the
+smallest responder's: under 1 ms in UML, more on the QEMU bed, whose TCG
+timer wake-ups jitter more), a guard against the simulator falling behind
 again (before its answers were merged and it ran at real-time priority its
-p99 was 39 ms). The observer missed no frame. It also counts the SDO writes (initiate download requests)
+p99 was 39 ms in UML). The observer missed no frame. It also counts the SDO writes (initiate download requests)
 of each start.
 --echo PATH: cobridge-bus-echo answers pings (0x7F0 -> 0x7F1) beside the
 simulator at the same priority while a pinger sends one every 5 ms: the
@@ -57,7 +59,7 @@ FIRST_SERIAL = 9001
 FIRST_NODE = 20
 
 
-LATENCY_P99_GUARD_US = 20000.0  # a regression guard; the 1 ms target is the bench's verdict
+LATENCY_P99_GUARD_US = 20000.0  # above the same-run floor: a regression guard; the 1 ms target is the bench's
 SIM_RT_PRIORITY = "10"  # SCHED_FIFO: real encoders answer in microseconds whatever the master does
 LATE_EVERY = 16     # every 16th LSS answer of a late device ...
 LATE_MS = 40        # ... leaves 40 ms late
@@ -135,8 +137,9 @@ def check_latency(report, lat):
     floor = lat["echo"]["p99_us"] if lat["echo"]["requests"] else None
     for svc in ("lss", "sdo"):
         x = lat[svc]
-        report.check(x["answers"] > 0 and x["p99_us"] <= LATENCY_P99_GUARD_US,
-                     "simulator %s answers within %.0f ms of the request at p99 (CiA %s; the 1 ms target: bench)"
+        report.check(x["answers"] > 0 and x["p99_us"] <= LATENCY_P99_GUARD_US + (floor or 0.0),
+                     "simulator %s answers within %.0f ms of the request at p99 above the same-run floor (CiA %s; "
+                     "the 1 ms target: bench)"
                      % (svc.upper(), LATENCY_P99_GUARD_US / 1000, "305 §8.3" if svc == "lss" else "301 §7.2.4.3"),
                      "n=%d p99 %.0f us; same-run floor p99 %s" % (
                          x["answers"], x["p99_us"], "%.0f us" % floor if floor is not None else "not measured"))
