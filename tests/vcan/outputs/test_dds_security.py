@@ -202,7 +202,14 @@ def main():
         procs["watch"] = subprocess.Popen([a.cli, "watch", "--json", "--gateway", "sec-gw", "--count", "40",
                                            "--timeout", "30"], env=env,
                                           stdout=open(f"{work}/watch.jsonl", "w"), stderr=open(f"{work}/watch.err", "w"))
-        time.sleep(3.0)  # discovery, authentication handshakes, matching
+        # Discovery, authentication handshakes, matching: done once both granted readers hold a
+        # DeviceStatus of the gateway (3 s in UML; the handshakes' crypto is slower on the QEMU bed).
+        t_match = time.time()
+        while time.time() - t_match < 60 and not all(
+                any(e.get("ev") == "status" and e.get("gateway_id") == "sec-gw"
+                    for e in read_events(f"{work}/{name}.jsonl")) for name in ("reader-all", "reader-status")):
+            time.sleep(0.2)
+        print(f"  the granted readers matched after {time.time() - t_match:.1f} s", flush=True)
         check(sim_command(work, f"fault {DEVICES[0][2]} hardware-fault").startswith("ok"),
               "simulator: EMCY (hardware fault) injected")
         time.sleep(a.seconds)
