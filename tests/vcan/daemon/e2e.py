@@ -38,6 +38,13 @@ def parse_args(extra=None):
     return p.parse_args()
 
 
+# A sanitizer build's end-to-end run (tests/vcan/sanitizer-reports: COBRIDGE_SANITIZER names the
+# sanitizer): an -O0 instrumented daemon on the QEMU bed's emulated CPU is many times slower than the
+# build users run, so its time bounds are printed, not judged; the default build judges them on both
+# beds. Every other check is judged, and any sanitizer report fails the test.
+SANITIZER = os.environ.get("COBRIDGE_SANITIZER", "")
+
+
 class Report:
     """Collects check results; a failed check does not stop the script."""
 
@@ -45,6 +52,16 @@ class Report:
         self.name = name
         self.failed = []
         self.passed = 0
+        self.unjudged = []
+
+    def check_bound(self, ok, what, detail=""):
+        """A time bound: judged as check() except in a sanitizer build, where a missed one is printed."""
+        if ok or not SANITIZER:
+            return self.check(ok, what, detail)
+        print("BOUND " + what + ((" -- " + detail) if detail else "") + " (not judged: %s build)" % SANITIZER,
+              flush=True)
+        self.unjudged.append(what)
+        return True
 
     def check(self, ok, what, detail=""):
         line = ("PASS " if ok else "FAIL ") + what + ((" -- " + detail) if detail else "")
@@ -56,6 +73,9 @@ class Report:
         return ok
 
     def finish(self):
+        if self.unjudged:
+            print("%s: %d time bounds missed in the %s build, not judged: %s" % (
+                self.name, len(self.unjudged), SANITIZER, "; ".join(self.unjudged)), flush=True)
         print("%s: %d passed, %d failed%s" % (self.name, self.passed, len(self.failed),
                                              (": " + "; ".join(self.failed)) if self.failed else ""), flush=True)
         return 1 if self.failed else 0
@@ -355,7 +375,7 @@ class Daemon:
     def pid(self):
         return self.proc.pid
 
-    def wait_socket(self, timeout=10):
+    def wait_socket(self, timeout=30):
         end = time.time() + timeout
         while time.time() < end:
             if self.proc.poll() is not None:
@@ -460,6 +480,9 @@ def check_clean_exit(report, daemon, what="SIGTERM -> exit 0 within 1 s", tail=0
     if tail and report.failed:
         print(daemon.tail(tail))
     rc, took = daemon.stop()
+    if SANITIZER:
+        report.check(rc == 0, what + ": exit 0", "exit %s" % rc)
+        return report.check_bound(took < 1.0, what, "exit %s after %.3f s" % (rc, took))
     return report.check(rc == 0 and took < 1.0, what, "exit %s after %.3f s" % (rc, took))
 
 

@@ -38,6 +38,18 @@ def check(cond, what):
         FAIL.append(what)
 
 
+# A sanitizer build (tests/vcan/sanitizer-reports): its time bounds are printed, not judged
+# (tests/vcan/daemon/e2e.py, Report.check_bound).
+SANITIZER = os.environ.get("COBRIDGE_SANITIZER", "")
+
+
+def check_bound(cond, what):
+    if cond or not SANITIZER:
+        check(cond, what)
+    else:
+        print("BOUND %s (not judged: %s build)" % (what, SANITIZER), flush=True)
+
+
 def now_ns():
     return time.clock_gettime_ns(time.CLOCK_REALTIME)
 
@@ -174,7 +186,12 @@ def run(a, work):
             return 1
         watch = subprocess.Popen([a.cli, "watch", "--json", "--reliable", "--gateway", "e2e"],
                                  stdout=open(f"{work}/watch.jsonl", "w"), stderr=subprocess.DEVNULL)
-        time.sleep(2.0)  # DDS discovery and matching
+        # DDS discovery and matching: done once the subscriber prints a sample (about 2 s in UML;
+        # longer for a sanitizer build on the QEMU bed).
+        t_match = time.time()
+        while time.time() - t_match < 60 and b'"position"' not in open(f"{work}/watch.jsonl", "rb").read(65536):
+            time.sleep(0.2)
+        print(f"info DDS subscriber matched after {time.time() - t_match:.1f} s", flush=True)
         t0 = now_ns()
         time.sleep(a.seconds)
         t1 = now_ns()
@@ -260,7 +277,8 @@ def run(a, work):
         daemon.send_signal(signal.SIGTERM)
         rc = daemon.wait(timeout=10)
         took = time.time() - t_stop
-        check(rc == 0 and took < 1.0, f"SIGTERM under full load: exit {rc} after {took:.3f} s (limit 1 s)")
+        check(rc == 0, f"SIGTERM under full load: exit {rc}")
+        check_bound(took < 1.0, f"SIGTERM under full load: exit after {took:.3f} s (limit 1 s)")
     finally:
         if watch and watch.poll() is None:
             watch.send_signal(signal.SIGINT)
@@ -360,7 +378,7 @@ def run(a, work):
             # Median and 95th percentile: a single stall of UML's one CPU
             # (the host's other load) is not the gateway's; the max is shown.
             p95 = excess[min(len(excess) - 1, (len(excess) * 95) // 100)] if excess else None
-            check(excess and excess[len(excess) // 2] <= 10 and p95 <= 50,
+            check_bound(excess and excess[len(excess) // 2] <= 10 and p95 <= 50,
                   f"{name}: Modbus data age median {ages[len(ages) // 2]} ms, max {ages[-1]} ms; beyond the time "
                   f"since the device's last frame: median {excess[len(excess) // 2]:.1f} ms, "
                   f"p95 {p95 if p95 is not None else float('nan'):.1f} ms, max {excess[-1] if excess else 0:.1f} ms "
