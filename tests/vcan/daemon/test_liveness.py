@@ -169,7 +169,7 @@ def scenario_reboot_mid_sdo(report, daemon, sim, listener, rogue_nodes=()):
         report.check(len(ups) >= expect_ups, "%s: %d boot-ups seen%s" % (name, expect_ups, tag),
                      "%d seen" % len(ups))
         ok = took is not None and took <= BOUND
-        report.check(ok, "%s: operational <= %.0f s after its last boot-up%s" % (name, BOUND, tag),
+        report.check_bound(ok, "%s: operational <= %.0f s after its last boot-up%s" % (name, BOUND, tag),
                      "%.3f s" % took if took is not None else "state %r" % ((d["state"], d["last_error"]) if d else None,))
         if ok:
             f = tpdo_after(listener, node, e2e.iso_to_epoch(d["since"]))
@@ -205,7 +205,7 @@ def scenario_foreign_stop(report, daemon, listener, ws, config_path):
     open(config_path, "w").write(text)
     mark = daemon.log_size()
     os.kill(daemon.pid, signal.SIGHUP)
-    report.check(daemon.wait_log("bus line1: new configuration applied", mark, 10),
+    report.check(daemon.wait_log("bus line1: new configuration applied", mark, 30),
                  "SIGHUP: the bus runs with the new policy (logged by its thread)")
     t1 = time.time()
     send(ctl, 0x000, [0x02, 20])
@@ -272,8 +272,9 @@ def scenario_emcy_storm(report, daemon, tap_path):
         time.sleep(0.01)
     ctl.close()
     # The log budget's window ends (10 s after its first line): its summary follows. Waited for
-    # until the log accounts for every EMCY sent, at most 30 s.
-    end = time.time() + 30
+    # until the log accounts for every EMCY sent, at most 60 s (a slow daemon spreads the storm's
+    # handling over more than one window).
+    end = time.time() + 60
     while True:
         lines, summary, suppressed = emcy_log_counts(daemon, before)
         if suppressed + lines - len(summary) >= sent or time.time() > end:
