@@ -38,7 +38,7 @@ TEST_F(AtomicFileTest, ReplacesTheFileAndLeavesNoTemporaryFile) {
 TEST_F(AtomicFileTest, AppendsAndCreates) {
   const auto path = dir_ / "journal";
   ASSERT_FALSE(append_to_file(path, "a\n"));
-  ASSERT_FALSE(append_to_file(path, "b\n"));
+  ASSERT_FALSE(append_to_file(path, "b\n", true));  // synced: the same text
   EXPECT_EQ(read(path), "a\nb\n");
 }
 
@@ -53,6 +53,23 @@ TEST_F(AtomicFileTest, AFailureNamesTheFileAndLeavesItAsItWas) {
   const Error a = append_to_file(dir_ / "blocker" / "journal", "text");
   ASSERT_TRUE(a);
   EXPECT_EQ(read(dir_ / "blocker"), "x");
+}
+
+// A journal's name made a symbolic link to another file: appending refuses
+// it (O_NOFOLLOW) and the file it names is untouched; a replacement replaces
+// the link itself, never the file it names.
+TEST_F(AtomicFileTest, ASymbolicLinkIsNeverWrittenThrough) {
+  fs::create_directories(dir_);
+  std::ofstream(dir_ / "victim") << "precious\n";
+  fs::create_symlink(dir_ / "victim", dir_ / "journal");
+  const Error a = append_to_file(dir_ / "journal", "event\n");
+  ASSERT_TRUE(a);
+  EXPECT_NE(a.message.find("symbolic link"), std::string::npos) << a.message;
+  EXPECT_EQ(read(dir_ / "victim"), "precious\n");
+  ASSERT_FALSE(write_file_atomically(dir_ / "journal", "whole\n"));
+  EXPECT_FALSE(fs::is_symlink(dir_ / "journal"));
+  EXPECT_EQ(read(dir_ / "journal"), "whole\n");
+  EXPECT_EQ(read(dir_ / "victim"), "precious\n");
 }
 
 }  // namespace
