@@ -12,9 +12,10 @@
 namespace cobridge::app {
 
 ControlFacade::ControlFacade(const config::Config& cfg, BusSet& buses, const gateway::OutputPipeline& outputs,
-                             std::string version, const FlightRecorders* recorders)
+                             std::string version, const FlightRecorders* recorders,
+                             const gateway::StateStore* state)
     : config_(&cfg), buses_(buses), outputs_(outputs), version_(std::move(version)), recorders_(recorders),
-      started_(std::chrono::system_clock::now()) {}
+      state_(state), started_(std::chrono::system_clock::now()) {}
 
 void ControlFacade::set_config(const config::Config& cfg) {
   const std::lock_guard lock(mutex_);
@@ -48,6 +49,10 @@ gateway::StatusReport ControlFacade::status() {
 
 Result<std::vector<std::string>> ControlFacade::commission(std::string_view bus) {
   const std::lock_guard lock(mutex_);
+  if (const std::string hold = state_ != nullptr ? state_->hold() : std::string(); !hold.empty()) {
+    sys::logger("gateway")->warn("control socket: commissioning refused: the state file is held");
+    return Error(Errc::kUnavailable, "commissioning refused: " + hold);
+  }
   std::vector<std::string> acted_on;
   for (std::size_t i = 0; i < buses_.size(); ++i) {
     const auto& name = config_->buses[i].name;

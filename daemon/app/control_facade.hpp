@@ -1,6 +1,7 @@
 // What the control socket and the web service see of the daemon: the status
 // report (gateway id, version, readiness, every bus with its live hot-path
-// figures) and the commissioning request.
+// figures) and the commissioning request (refused while the state file is
+// held: no node-ID is assigned until an operator decides).
 //
 // Thread: status() from the main thread (control socket) and the web
 // service's thread; commission() from the main thread. The lock keeps the
@@ -13,6 +14,7 @@
 #include "app/flight_recorders.hpp"
 #include "config/config.hpp"
 #include "control/control_server.hpp"
+#include "bus/state_store.hpp"
 #include "outputs/output_pipeline.hpp"
 
 #include <chrono>
@@ -24,8 +26,10 @@ namespace cobridge::app {
 
 class ControlFacade final : public gateway::ControlHandler {
  public:
+  // `state`: the node-ID memory, whose hold refuses commissioning (may be null).
   ControlFacade(const config::Config& cfg, BusSet& buses, const gateway::OutputPipeline& outputs,
-                std::string version, const FlightRecorders* recorders = nullptr);
+                std::string version, const FlightRecorders* recorders = nullptr,
+                const gateway::StateStore* state = nullptr);
 
   // After an accepted reload: `cfg` must outlive the next set_config().
   void set_config(const config::Config& cfg);
@@ -42,6 +46,7 @@ class ControlFacade final : public gateway::ControlHandler {
   const gateway::OutputPipeline& outputs_;
   std::string version_;
   const FlightRecorders* recorders_;
+  const gateway::StateStore* state_;
   std::chrono::system_clock::time_point started_;
   bool ready_ = false;
   std::mutex mutex_;

@@ -57,12 +57,14 @@ Error Daemon::start() {
   auto log = sys::logger("gateway");
   notifier_.emplace();
   state_.emplace(cfg_->gateway.state_dir);
-  if (const Error e = state_->load()) log->warn("state file {}", e.to_string());
+  // A file that cannot be read is set aside and holds every assignment
+  // (gateway::StateStore); the daemon runs on, and says so here and in status.
+  if (const Error e = state_->load()) log->error("state file {}", e.to_string());
 
   // Made here, started below once the control socket is ours; the control
   // socket's status reads its hot-path counters.
   outputs_.emplace(*cfg_, *catalog_, options_.plugin_dir);
-  facade_.emplace(*cfg_, buses_, *outputs_, options_.version, &recorders_);
+  facade_.emplace(*cfg_, buses_, *outputs_, options_.version, &recorders_, &*state_);
   // The control socket first: a second daemon started by mistake stops here,
   // before it touches a bus the first one serves.
   gateway::ControlServerOptions control_options;
@@ -246,11 +248,28 @@ void Daemon::stop() {
   log->info("stopped in {} ms", std::chrono::duration_cast<milliseconds>(Clock::now() - t0).count());
 }
 
+// A held state file (it could not be read, gateway::StateStore) is read
+// again at every reload: the operator's decision is a file that reads
+// (docs/operations.md, "A state file that cannot be read"). True when the
+// hold changed (released, or another file set aside).
+bool Daemon::reload_state() {
+  const std::string before = state_->hold();
+  if (before.empty()) return false;
+  auto log = sys::logger("gateway");
+  if (const Error e = state_->load()) {
+    log->error("state file {}", e.to_string());
+  } else {
+    log->info("state file {} reads; node-IDs are assigned again", state_->path().string());
+  }
+  return state_->hold() != before;
+}
+
 // Every part takes the new configuration, or none does.
 void Daemon::reload() {
   auto log = sys::logger("gateway");
   service_->reloading();
   log->info("SIGHUP: reloading {}", options_.config_file.string());
+  const bool state_news = reload_state();
   Validated next = validate(options_.config_file);
   std::string refusal;
   if (next.config) {
@@ -263,6 +282,8 @@ void Daemon::reload() {
     for (const auto& e : next.errors) log->error("{}", e.to_string());
     if (!refusal.empty()) log->error("reload rejected: {}", refusal);
     log->error("reload rejected; still running the previous configuration");
+    // The state file's news reach the buses all the same.
+    if (state_news) buses_.reload(*cfg_);
     const std::size_t n = next.errors.size();
     service_->reloaded("; reload rejected (" +
                        (refusal.empty() ? std::to_string(n) + (n == 1 ? " config error" : " config errors") : refusal) +

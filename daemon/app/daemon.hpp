@@ -77,6 +77,7 @@ class Daemon {
   void start_recorders();
   void retry_beacons(std::chrono::steady_clock::time_point now);  // [redundancy]: take the peer's over
   void reload();
+  [[nodiscard]] bool reload_state();
 
   DaemonOptions options_;
   sys::Signals signals_;

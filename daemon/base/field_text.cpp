@@ -81,4 +81,22 @@ bool split_fields(std::string_view line, Fields& out, std::string& why) {
   return true;
 }
 
+std::string log_excerpt(std::string_view text, std::size_t max) {
+  static constexpr char kHex[] = "0123456789ABCDEF";
+  std::string out;
+  for (const char c : text) {
+    const auto u = static_cast<unsigned char>(c);
+    const bool plain = u >= 0x20 && u < 0x7F;
+    if (out.size() + (plain ? 1 : 4) > max) return out + "...";
+    if (plain) {
+      out += c;
+    } else {
+      out += "\\x";
+      out += kHex[u >> 4];
+      out += kHex[u & 0x0F];
+    }
+  }
+  return out;
+}
+
 }  // namespace cobridge

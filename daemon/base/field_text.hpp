@@ -6,6 +6,7 @@
 // Thread: pure functions, any thread (not used on the hot path).
 #pragma once
 
+#include <cstddef>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -23,5 +24,10 @@ using Fields = std::vector<std::pair<std::string, std::string>>;
 // The fields of `line`, or false with `why` naming the token that is not
 // key=value or holds a bad escape.
 [[nodiscard]] bool split_fields(std::string_view line, Fields& out, std::string& why);
+
+// At most `max` characters of `text` for a log line or a status message
+// about a file that does not read: bytes outside printable ASCII as \xNN,
+// "..." when cut. A file's content never reaches a log whole.
+[[nodiscard]] std::string log_excerpt(std::string_view text, std::size_t max);
 
 }  // namespace cobridge

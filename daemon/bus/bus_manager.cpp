@@ -179,6 +179,7 @@ void BusManager::Impl::run() {
 void BusManager::Impl::start_components(TimePoint now) {
   DiscoveryOptions dopt;
   discovery = std::make_unique<Discovery>(tx, config, bus_index, state.on_bus(bus.name), dopt);
+  follow_state_hold(now);
   remote = std::make_unique<RemoteExecutor>(tx, bus.name, milliseconds(bus.lss_timeout_ms));
   if (bus.sync_period_ms > 0) {
     canopen::SyncProducer::Config sc;
@@ -191,6 +192,32 @@ void BusManager::Impl::start_components(TimePoint now) {
     }
   }
   log->info("bus {}: serving {} ({} configured devices)", bus.name, bus.interface, devices.size());
+}
+
+void BusManager::Impl::follow_state_hold(TimePoint now) {
+  std::string hold = state.hold();
+  if (hold == state_hold) {
+    discovery->hold_assignments(hold);
+    return;
+  }
+  const bool released = hold.empty();
+  state_hold = std::move(hold);
+  dirty = true;
+  if (released) {
+    log->info("bus {}: the state file reads again; node-IDs are assigned from it", bus.name);
+    restart_discovery(now);
+    return;
+  }
+  log->warn("bus {}: no node-ID is assigned while the state file is held (cobridge status says why)", bus.name);
+  discovery->hold_assignments(state_hold);
+}
+
+void BusManager::Impl::restart_discovery(TimePoint now) {
+  discovery = std::make_unique<Discovery>(tx, config, bus_index, state.on_bus(bus.name), DiscoveryOptions{});
+  if (!discovery_started) return;
+  discovery->start(now);
+  for (const auto& m : devices)
+    if (m.started && m.st.online) discovery->set_supervised(m.st.node_id, true);
 }
 
 // Receives and dispatches what the socket holds; true when the interface
@@ -255,10 +282,8 @@ void BusManager::Impl::apply_reload(config::Config next, TimePoint now) {
     log->warn("bus {}: not in the new configuration; kept as it is until restart", bus.name);
     return;
   }
-  std::size_t new_index = 0;
-  for (std::size_t i = 0; i < next.buses.size(); ++i) {
-    if (next.buses[i].name == bus.name) new_index = i;
-  }
+  std::size_t new_index = 0;  // find_bus found it
+  while (next.buses[new_index].name != bus.name) ++new_index;
   if (nb->interface != bus.interface) {
     log->warn("bus {}: a new interface ({}) needs a restart; kept {}", bus.name, nb->interface, bus.interface);
   }
@@ -305,6 +330,7 @@ void BusManager::Impl::apply_reload(config::Config next, TimePoint now) {
     }
     if (!o.in_config) devices.push_back(std::move(o));  // still on the bus
   }
+  follow_state_hold(now);  // after the devices: a new discovery learns which are supervised
   dirty = true;
   // The moment the bus thread runs with the new settings (SIGHUP only asks).
   log->info("bus {}: new configuration applied", bus.name);

@@ -131,6 +131,14 @@ void BusManager::Impl::on_identified(const DiscoveryEvent& e, TimePoint now) {
               e.replaces, e.replaced.serial);
   }
   if (drop_unknown_entry(e)) m = find_device(name);  // the erase moved the elements
+  if (!e.at_target && e.target_node_id != 0 && !state_hold.empty()) {
+    // Nothing moves it while the state file is held: it waits where it is.
+    m->st.identity = e.identity;
+    set_state(*m, DeviceState::identified,
+              "at node " + std::to_string(e.node_id) + ", not moved to node " + std::to_string(e.target_node_id) +
+                  ": no node-ID is assigned while the state file is held");
+    return;
+  }
   if (!e.at_target) {
     // Discovery is moving it; it reports `identified` again at the target.
     set_state(*m, DeviceState::commissioning);

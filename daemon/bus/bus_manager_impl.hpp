@@ -138,6 +138,13 @@ struct BusManager::Impl final : RemoteGate {
   void wake() noexcept;
   void run();
   void start_components(TimePoint now);
+  // A new Discovery on the state store's memory as it is now (its
+  // decisions and promises start over), started when the old one was, told
+  // which devices are supervised. After a hold on the state file is released.
+  void restart_discovery(TimePoint now);
+  // The state store's hold (StateStore::hold) into discovery and the status;
+  // a released hold restarts discovery. Start and reload.
+  void follow_state_hold(TimePoint now);
   bool receive(std::span<can::Frame> frames, TimePoint now);
   void wait(TimePoint now, TimePoint next);
 
@@ -325,6 +332,9 @@ struct BusManager::Impl final : RemoteGate {
 
   std::unique_ptr<can::SocketCanChannel> channel;
   std::unique_ptr<Discovery> discovery;
+  // Why node-IDs must not be assigned (the state file could not be read;
+  // StateStore::hold): the first of the bus's problems while not empty.
+  std::string state_hold;
   std::unique_ptr<RemoteExecutor> remote;
   Supervisor supervisor;
   canopen::SyncProducer sync;

@@ -82,6 +82,9 @@ void BusManager::Impl::publish_all() {
   s.devices.reserve(devices.size());
   for (const auto& m : devices) s.devices.push_back(m.st);
   s.steps = steps;
+  // The state file first: while it is held no node-ID is assigned, and an
+  // operator must decide (docs/operations.md).
+  if (!state_hold.empty()) s.problems.push_back(state_hold);
   for (const auto& p : problems) s.problems.push_back(p.text);
   describe_role(s);
   const std::lock_guard lock(mutex);

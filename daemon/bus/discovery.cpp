@@ -78,6 +78,10 @@ struct Discovery::Impl final : discovery::ProbeListener {
     bool pending = false;  // nothing reported yet: the decision waits
   };
   std::vector<Unplaced> unplaced;
+  // Node-IDs must not be assigned (hold_assignments): the policy the
+  // configuration gives is kept here while s.bus says off.
+  std::string hold;
+  config::Commissioning configured_policy = config::Commissioning::automatic;
 
   Impl(can::FrameSink& sink, const config::Config& config, std::size_t bus_index, std::vector<Assignment> prev,
        DiscoveryOptions o)
@@ -117,6 +121,8 @@ struct Discovery::Impl final : discovery::ProbeListener {
   // A reload keeps the LSS master (and its timeout): it may be mid-operation.
   void apply_config(const config::Config& config, std::size_t bus_index, std::vector<Assignment> prev) {
     s.bus = config.buses.at(bus_index);
+    configured_policy = s.bus.commissioning;
+    if (!hold.empty()) s.bus.commissioning = config::Commissioning::off;
     s.devices.clear();
     for (const auto& d : config.devices)
       if (d.bus_index == bus_index) s.devices.push_back(d);
@@ -396,6 +402,12 @@ bool Discovery::on_frame(const can::Frame& frame, TimePoint now) noexcept { retu
 TimePoint Discovery::process(TimePoint now) { return impl_->process(now); }
 
 void Discovery::request_commission() { impl_->work.request(); }
+
+void Discovery::hold_assignments(std::string why) {
+  Impl& d = *impl_;
+  d.hold = std::move(why);
+  d.s.bus.commissioning = d.hold.empty() ? d.configured_policy : config::Commissioning::off;
+}
 
 void Discovery::reload(const config::Config& config, std::size_t bus_index, std::vector<Assignment> previous) {
   impl_->apply_config(config, bus_index, std::move(previous));

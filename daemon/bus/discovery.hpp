@@ -127,6 +127,14 @@ class Discovery {
 
   // `cobridge commission`: commission now, whatever the policy except off.
   void request_commission();
+  // While `why` is not empty node-IDs must not be assigned (the state file
+  // could not be read, StateStore::hold()): commissioning behaves as policy
+  // off, whatever the configuration says (identities are read, nothing is
+  // moved, request_commission() is ignored); devices found at the node-ID
+  // they must have are still identified at their target. Empty: the bus's
+  // policy again. A released hold should start a new Discovery, whose
+  // decisions rest on the memory the operator gave back.
+  void hold_assignments(std::string why);
   // SIGHUP: new devices/policy; running work finishes under the old settings.
   // The LSS timeout stays as constructed.
   void reload(const config::Config& config, std::size_t bus_index, std::vector<Assignment> previous);

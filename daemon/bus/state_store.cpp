@@ -3,9 +3,12 @@
 #include "base/field_text.hpp"
 #include "base/number_text.hpp"
 #include "sys/atomic_file.hpp"
+#include "sys/guarded_file.hpp"
+#include "sys/set_aside.hpp"
 
+#include <algorithm>
 #include <charconv>
-#include <fstream>
+#include <chrono>
 #include <sstream>
 
 namespace cobridge::gateway {
@@ -17,9 +20,10 @@ class StateStoreCategory final : public std::error_category {
   const char* name() const noexcept override { return "state_store"; }
   std::string message(int ev) const override {
     switch (static_cast<StateStoreErrc>(ev)) {
-      case StateStoreErrc::malformed_lines: return "state file has malformed lines (skipped)";
-      case StateStoreErrc::read_failed: return "state file cannot be read";
+      case StateStoreErrc::malformed_lines: return "state file has lines that do not read (set aside)";
+      case StateStoreErrc::read_failed: return "state file cannot be read (set aside)";
       case StateStoreErrc::invalid_assignment: return "invalid assignment (empty bus or node-ID > 127)";
+      case StateStoreErrc::held: return "state file missing while a set-aside copy waits for an operator";
     }
     return "unknown state store error";
   }
@@ -96,6 +100,47 @@ bool same_key(const Assignment& a, const std::string& bus, std::uint32_t vendor,
   return a.bus == bus && a.vendor == vendor && a.product == product && a.serial == serial;
 }
 
+// Where the operator's decision is described, named by every hold.
+constexpr const char* kDecision = "docs/operations.md, \"A state file that cannot be read\"";
+
+// A later line for the same device wins, as put() would have done.
+void take(std::vector<Assignment>& loaded, Assignment a) {
+  for (auto& existing : loaded) {
+    if (same_key(existing, a.bus, a.vendor, a.product, a.serial)) {
+      existing = std::move(a);
+      return;
+    }
+  }
+  loaded.push_back(std::move(a));
+}
+
+// The assignments of `text` into `loaded`; returns how many lines do not
+// read, the first StateStore::kProblemsNamed of them in `problems` as
+// "file:line: why" lines (why cut short: the file's bytes stay out of the log).
+std::size_t parse_text(std::string_view text, const std::string& file, std::vector<Assignment>& loaded,
+                       std::string& problems) {
+  std::size_t bad = 0;
+  std::uint32_t number = 0;
+  for (std::size_t pos = 0; pos < text.size();) {
+    const std::size_t end = std::min(text.find('\n', pos), text.size());
+    std::string_view line = text.substr(pos, end - pos);
+    pos = end + 1;
+    ++number;
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    const auto first = line.find_first_not_of(" \t");
+    if (first == std::string_view::npos || line[first] == '#') continue;
+    Result<Assignment> parsed = StateStore::parse_line(line);
+    if (parsed.ok()) {
+      take(loaded, std::move(parsed).value());
+      continue;
+    }
+    if (++bad <= StateStore::kProblemsNamed)
+      problems += file + ":" + std::to_string(number) + ": " + log_excerpt(parsed.error().message, 120) + "\n";
+  }
+  if (bad > StateStore::kProblemsNamed) problems += std::to_string(bad - StateStore::kProblemsNamed) + " more\n";
+  return bad;
+}
+
 }  // namespace
 
 const std::error_category& state_store_category() noexcept {
@@ -143,52 +188,65 @@ Result<Assignment> StateStore::parse_line(std::string_view line) {
 }
 
 Error StateStore::load() {
+  const Result<sys::FileText> file = sys::read_file_bounded(path_, kMaxFileBytes);
+  if (!file.ok() && file.error().kind == Errc::kNotFound) return load_missing();
+  if (!file.ok()) {
+    return set_aside_and_hold(Error(Errc::kFailed, file.error().message, path_.string(),
+                                    make_error_code(StateStoreErrc::read_failed)));
+  }
+  if (file->skipped != 0) {
+    return set_aside_and_hold(Error(Errc::kFailed,
+                                    "is " + std::to_string(file->size) + " bytes, more than the " +
+                                        std::to_string(kMaxFileBytes) + " a state file may have",
+                                    path_.string(), make_error_code(StateStoreErrc::read_failed)));
+  }
   std::vector<Assignment> loaded;
   std::string problems;
-  {
-    std::error_code ec;
-    if (!std::filesystem::exists(path_, ec)) {
-      const std::lock_guard lock(mutex_);
-      items_.clear();
-      return {};
-    }
-    std::ifstream in(path_, std::ios::binary);
-    if (!in) return Error(Errc::kFailed, "cannot be read", path_.string(), make_error_code(StateStoreErrc::read_failed));
-    std::string line;
-    std::uint32_t number = 0;
-    while (std::getline(in, line)) {
-      ++number;
-      if (!line.empty() && line.back() == '\r') line.pop_back();
-      const auto first = line.find_first_not_of(" \t");
-      if (first == std::string::npos || line[first] == '#') continue;
-      Result<Assignment> parsed = parse_line(line);
-      if (!parsed.ok()) {
-        problems += path_.string() + ":" + std::to_string(number) + ": " + parsed.error().message + " (line skipped)\n";
-        continue;
-      }
-      Assignment a = std::move(parsed).value();
-      // A later line for the same device wins, as put() would have done.
-      bool replaced = false;
-      for (auto& existing : loaded) {
-        if (same_key(existing, a.bus, a.vendor, a.product, a.serial)) {
-          existing = a;
-          replaced = true;
-        }
-      }
-      if (!replaced) loaded.push_back(std::move(a));
-    }
-    if (in.bad()) return Error(Errc::kFailed, "read error", path_.string(), make_error_code(StateStoreErrc::read_failed));
-  }
-  {
-    const std::lock_guard lock(mutex_);
-    items_ = std::move(loaded);
-  }
-  if (!problems.empty()) {
+  if (const std::size_t bad = parse_text(file->text, path_.string(), loaded, problems)) {
     problems.pop_back();
-    return Error(Errc::kInvalidArgument, "lines skipped:\n" + problems, path_.string(),
-                 make_error_code(StateStoreErrc::malformed_lines));
+    return set_aside_and_hold(Error(Errc::kInvalidArgument,
+                                    std::to_string(bad) + (bad == 1 ? " line does" : " lines do") + " not read:\n" +
+                                        problems,
+                                    path_.string(), make_error_code(StateStoreErrc::malformed_lines)));
   }
+  const std::lock_guard lock(mutex_);
+  items_ = std::move(loaded);
+  hold_.clear();
   return {};
+}
+
+Error StateStore::load_missing() {
+  const std::vector<std::filesystem::path> copies = sys::set_aside_copies(path_);
+  const std::lock_guard lock(mutex_);
+  items_.clear();
+  if (copies.empty()) {
+    hold_.clear();
+    return {};
+  }
+  const std::string decide = "no node-ID is assigned until an operator decides (" + std::string(kDecision) + ")";
+  hold_ = "state file " + path_.string() + " is missing and " + copies.back().string() +
+          " was set aside because it could not be read; " + decide;
+  return Error(Errc::kFailed, "missing, and the set-aside copy " + copies.back().string() +
+                                  " waits for an operator; " + decide,
+               path_.string(), make_error_code(StateStoreErrc::held));
+}
+
+Error StateStore::set_aside_and_hold(Error problem) {
+  const Result<std::filesystem::path> aside = sys::set_aside(path_, std::chrono::system_clock::now());
+  const std::string now_where = aside.ok() ? "set aside as " + aside.value().string()
+                                           : "left where it is and never written (" + aside.error().message + ")";
+  const std::string decide = "no node-ID is assigned until an operator decides (" + std::string(kDecision) + ")";
+  const std::string reason = problem.message.substr(0, problem.message.find(":\n"));
+  problem.message += "\n" + now_where + "; " + decide;
+  const std::lock_guard lock(mutex_);
+  items_.clear();
+  hold_ = "state file " + path_.string() + " could not be read (" + reason + "); " + now_where + "; " + decide;
+  return problem;
+}
+
+std::string StateStore::hold() const {
+  const std::lock_guard lock(mutex_);
+  return hold_;
 }
 
 std::optional<Assignment> StateStore::find(const std::string& bus, std::uint32_t vendor, std::uint32_t product,
@@ -247,6 +305,9 @@ Error StateStore::erase(const std::string& bus, std::uint32_t vendor, std::uint3
 }
 
 Error StateStore::save_locked() {
+  // Holding: the place of the file that could not be read stays empty
+  // until the operator fills it (the memory alone has the change).
+  if (!hold_.empty()) return {};
   std::string text = "# cobridge node-ID assignments and configuration fingerprints; written by cobridged\n";
   for (const auto& a : items_) {
     text += format_line(a);

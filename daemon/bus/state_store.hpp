@@ -7,12 +7,25 @@
 // (values percent-encoded where they hold blanks, '%', '=' or '#'); '#'
 // starts a comment line. Written atomically (temp file + fsync + rename +
 // fsync of the directory), so a crash leaves the old or the new file, never a
-// torn one. A line that cannot be read is reported with file:line and skipped;
-// the rest of the file still counts.
+// torn one.
+//
+// A file that cannot be read (a line that does not read, binary garbage,
+// more than kMaxFileBytes, an I/O error, a symbolic link) is never written
+// over: it is set aside as assignments.state.bad-<UTC time>
+// (sys/set_aside.hpp) and the store *holds*: it starts empty, and node-IDs
+// must not be assigned (the bus managers commission nothing and say why in
+// their status) until an operator decides, because a gateway that forgot
+// which serial had which node-ID would hand them out again differently.
+// While a set-aside copy is in the directory and no state file is, the store
+// holds too, so a restart does not take the missing file for a fresh start.
+// The operator's decision is a state file that reads: the repaired or a
+// restored file, or an empty one to start without the memory, then a reload
+// (docs/operations.md, "A state file that cannot be read"). While it holds,
+// put() and erase() change the memory only; the file is not written.
 //
 // Thread: shared by the bus managers; every call takes an internal mutex.
-// File I/O happens inside put()/erase(): control threads only, never the hot
-// path.
+// File I/O happens inside load()/put()/erase(): the start, the main thread's
+// reload and the control threads, never the hot path.
 #pragma once
 
 #include "base/result.hpp"
@@ -41,9 +54,10 @@ struct Assignment {
 };
 
 enum class StateStoreErrc {
-  malformed_lines = 1,  // load(): some lines were skipped (see the message)
-  read_failed,          // load(): the file exists but cannot be read
+  malformed_lines = 1,  // load(): lines that do not read: the file was set aside, the store holds
+  read_failed,          // load(): the file exists but cannot be read: set aside, the store holds
   invalid_assignment,   // put(): empty bus name or node-ID outside 0..127
+  held,                 // load(): no state file, but a set-aside copy waits for an operator
 };
 [[nodiscard]] const std::error_category& state_store_category() noexcept;
 [[nodiscard]] std::error_code make_error_code(StateStoreErrc e) noexcept;
@@ -51,20 +65,30 @@ enum class StateStoreErrc {
 class StateStore {
  public:
   static constexpr const char* kFileName = "assignments.state";
+  // Far beyond 127 node-IDs on any number of buses (about 150 bytes a line).
+  static constexpr std::uint64_t kMaxFileBytes = 4u << 20;
+  // The problems load() names (file:line: why) before it counts the rest.
+  static constexpr std::size_t kProblemsNamed = 5;
 
   explicit StateStore(std::filesystem::path dir);
-  // Reads the file; a missing file is an empty store, a malformed line is
-  // reported (file:line) and skipped. When lines were skipped: kInvalidArgument
-  // with code malformed_lines, where = the file and every problem in the
-  // message, one per line (the good lines are loaded all the same); a file
-  // that cannot be read: kFailed with read_failed. The caller logs it.
+  // Reads the file and replaces the memory with it. A missing file is an
+  // empty store (it holds when a set-aside copy is there: kFailed, code
+  // held). A file that cannot be read is set aside and the store holds:
+  // kInvalidArgument with code malformed_lines (the first kProblemsNamed
+  // lines that do not read as file:line: why, one per line, then how many
+  // more), or kFailed with read_failed (why); where = the file, and the
+  // message ends with where the bytes are now. A file that reads releases a
+  // hold. The caller logs it; hold() gives the one-line text for status.
   [[nodiscard]] Error load();
+  // Why node-IDs must not be assigned now, in one line for the log and
+  // `cobridge status`; empty when they may be.
+  [[nodiscard]] std::string hold() const;
   [[nodiscard]] std::optional<Assignment> find(const std::string& bus, std::uint32_t vendor,
                                                std::uint32_t product, std::uint32_t serial) const;
   [[nodiscard]] std::vector<Assignment> on_bus(const std::string& bus) const;
-  // Inserts or replaces (same bus + identity) and writes the file. The
-  // directory is created if missing. Writing nothing when the entry is
-  // unchanged spares the disk on every reconfiguration.
+  // Inserts or replaces (same bus + identity) and writes the file (not while
+  // the store holds). The directory is created if missing. Writing nothing
+  // when the entry is unchanged spares the disk on every reconfiguration.
   // A failure: kInvalidArgument (code invalid_assignment) for an empty bus
   // name or a node-ID above 127, else kFailed with the errno; where = the
   // file. The store is unchanged then.
@@ -79,10 +103,14 @@ class StateStore {
 
  private:
   Error save_locked();
+  // The file cannot be used (`problem`): set aside, memory emptied, held.
+  Error set_aside_and_hold(Error problem);
+  Error load_missing();
   std::filesystem::path dir_;
   std::filesystem::path path_;
   mutable std::mutex mutex_;
   std::vector<Assignment> items_;
+  std::string hold_;  // why nothing may be assigned; empty: not held
 };
 
 }  // namespace cobridge::gateway

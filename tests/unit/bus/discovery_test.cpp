@@ -235,8 +235,10 @@ class Rig {
     return *sims_.back()->dev;
   }
 
-  void start(std::vector<Assignment> previous = {}) {
+  // `hold`: the state file could not be read (StateStore::hold()).
+  void start(std::vector<Assignment> previous = {}, std::string hold = {}) {
     disc_ = std::make_unique<Discovery>(port_, config_, 0, std::move(previous));
+    if (!hold.empty()) disc_->hold_assignments(std::move(hold));
     disc_->start(now_);
   }
   Discovery& disc() { return *disc_; }
@@ -680,6 +682,50 @@ TEST(DiscoveryTest, DeviceAtTargetIsOnlyIdentified_CiA301_7_2_8_3_3) {
   ASSERT_EQ(ids.size(), 2u);
   EXPECT_TRUE(ids[1].boot_up);
   EXPECT_TRUE(ids[1].at_target);
+}
+
+// Issue 38 item 4: a state file that could not be read holds every
+// assignment (StateStore::hold): under policy automatic nothing is moved or
+// given a node-ID (no LSS at all, no NMT, no SDO download), also not after
+// `cobridge commission`; a device found at the node-ID its configuration
+// gives is identified at its target all the same (it keeps working), the
+// others are identified where they are and left there.
+TEST(DiscoveryTest, Issue38_AHeldStateFileAssignsNoNodeIdButDevicesAtTheirOwnKeepWorking) {
+  Rig rig;
+  rig.config_.buses[0].unknown_devices = config::UnknownDevices::assign;
+  rig.with(device("rot-a", 1001, 10, "RFC-4800")).with(device("rot-b", 1002, 11, "RFC-4800"));
+  auto& ra = rig.add(Kind::rotary, rotary(1001), 127);  // factory node-ID: would be moved to 10
+  auto& rb = rig.add(Kind::rotary, rotary(1002), 11);   // at its own
+  auto& mt = rig.add(Kind::multiturn, multiturn(2001), canopen::cob::kNodeIdUnconfigured);  // would get 50
+  rig.start({}, "state file could not be read");
+  rig.run(60s);
+  rig.disc().request_commission();
+  rig.run(10s);
+  EXPECT_EQ(ra.node(), 127);
+  EXPECT_EQ(rb.node(), 11);
+  EXPECT_EQ(mt.node(), canopen::cob::kNodeIdUnconfigured);
+  EXPECT_EQ(rig.frames_on(canopen::cob::kLssMasterToSlave), 0u);
+  EXPECT_EQ(rig.frames_on(canopen::cob::kNmt), 0u);
+  for (const auto& f : rig.log()) {
+    if (f.id >= 0x601 && f.id <= 0x67F) {
+      EXPECT_EQ(f.data[0], 0x40) << "an SDO download to node " << (f.id - 0x600);
+    }
+  }
+  EXPECT_TRUE(rig.of(DiscoveryEventKind::commissioned).empty());
+  bool b_at_target = false;
+  for (const auto& e : rig.of(DiscoveryEventKind::identified)) {
+    if (e.device == "rot-b") b_at_target = e.at_target && e.node_id == 11;
+    if (e.device == "rot-a") {
+      EXPECT_FALSE(e.at_target);
+    }
+  }
+  EXPECT_TRUE(b_at_target);
+  // Released: the bus's policy again (the bus manager starts a new Discovery
+  // on the memory the operator gave back; this one moves what it queues now).
+  rig.disc().hold_assignments({});
+  rig.disc().request_commission();
+  rig.run(30s);
+  EXPECT_EQ(mt.node(), 50);
 }
 
 // Previous assignment (state file) wins for a configured device without node_id;

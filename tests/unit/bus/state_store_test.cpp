@@ -1,7 +1,8 @@
 // StateStore: the assignments file that lets a restart skip the scan
 // ("Assignments are kept in a state file, so a restart needs no new
 // scan"; "A configuration fingerprint lets an unchanged device come up
-// without being rewritten").
+// without being rewritten"); a file it cannot read is kept and holds every
+// assignment until an operator decides (issue 38 item 4).
 #include "bus/state_store.hpp"
 
 #include <gtest/gtest.h>
@@ -33,11 +34,19 @@ class StateStoreTest : public ::testing::Test {
     fs::create_directories(dir_);
     std::ofstream(dir_ / StateStore::kFileName, std::ios::binary) << text;
   }
-  std::string read_file() const {
-    std::ifstream in(dir_ / StateStore::kFileName, std::ios::binary);
+  std::string read_file() const { return read(dir_ / StateStore::kFileName); }
+  static std::string read(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
     std::ostringstream s;
     s << in.rdbuf();
     return s.str();
+  }
+  // assignments.state.bad-*: the files the store set aside.
+  std::vector<fs::path> aside_copies() const {
+    std::vector<fs::path> out;
+    for (const auto& e : fs::directory_iterator(dir_))
+      if (e.path().filename().string().rfind("assignments.state.bad-", 0) == 0) out.push_back(e.path());
+    return out;
   }
 
   fs::path dir_;
@@ -109,8 +118,11 @@ TEST_F(StateStoreTest, PutReplacesTheSameDeviceAndEraseRemovesIt) {
   EXPECT_EQ(again.on_bus("line2").size(), 1U);
 }
 
-TEST_F(StateStoreTest, MalformedLinesAreReportedWithFileLineAndSkipped) {
-  write_file(
+// Issue 38 item 4: a line that does not read makes the whole file
+// untrusted: it is set aside (never written over), every problem named as
+// file:line (the first five, then a count), and the store holds.
+TEST_F(StateStoreTest, Issue38_ALineThatDoesNotReadSetsTheFileAsideAndHolds) {
+  const std::string text =
       "# comment\n"
       "\n"
       "bus=line1 serial=0x3E9 vendor=0x182 product=0xBE0 revision=0x1 node=5 fingerprint=abc\n"  // 3: good
@@ -119,7 +131,9 @@ TEST_F(StateStoreTest, MalformedLinesAreReportedWithFileLineAndSkipped) {
       "bus=line1 serial=zz vendor=1 product=1 revision=1 node=1\n"                              // 6: number
       "bus=line1 vendor=1 product=1 revision=1 node=1\n"                                        // 7: no serial
       "\x01\x02\xff\xfe=\n"                                                                     // 8: binary
-      "bus=line1 serial=0x3EA vendor=0x182 product=0xBE0 revision=0x1 node=6 future=1\r\n");    // 9: good
+      "bus=line1 serial=0x3EA vendor=0x182 product=0xBE0 revision=0x1 node=6 future=1\r\n"      // 9: good
+      "x\ny\nz\n";                                                                              // 10-12
+  write_file(text);
   StateStore store(dir_);
   const cobridge::Error e = store.load();
   EXPECT_EQ(e.kind, cobridge::Errc::kInvalidArgument);
@@ -127,15 +141,103 @@ TEST_F(StateStoreTest, MalformedLinesAreReportedWithFileLineAndSkipped) {
   const std::string file = (dir_ / "assignments.state").string();
   EXPECT_EQ(e.where, file);
   const std::string& message = e.message;
+  EXPECT_EQ(message.rfind("8 lines do not read:\n", 0), 0u) << message;
   for (int line : {4, 5, 6, 7, 8}) {
     EXPECT_NE(message.find(file + ":" + std::to_string(line) + ":"), std::string::npos) << "line " << line << "\n"
                                                                                           << message;
   }
   EXPECT_EQ(message.find(file + ":3:"), std::string::npos);
-  EXPECT_EQ(message.find(file + ":9:"), std::string::npos);
-  EXPECT_EQ(store.on_bus("line1").size(), 2U);
-  EXPECT_EQ(store.find("line1", 0x182, 0xBE0, 1001)->fingerprint, "abc");
-  EXPECT_EQ(store.find("line1", 0x182, 0xBE0, 1002)->node_id, 6);
+  EXPECT_EQ(message.find(file + ":10:"), std::string::npos);
+  EXPECT_NE(message.find("\n3 more\n"), std::string::npos) << message;
+  EXPECT_EQ(message.find('\xff'), std::string::npos) << "the file's bytes reach the log";
+  // Nothing of it is trusted; its bytes are kept under another name.
+  EXPECT_TRUE(store.on_bus("line1").empty());
+  EXPECT_FALSE(fs::exists(dir_ / "assignments.state"));
+  const auto aside = aside_copies();
+  ASSERT_EQ(aside.size(), 1u);
+  EXPECT_EQ(read(aside[0]), text);
+  EXPECT_NE(message.find("set aside as " + aside[0].string()), std::string::npos) << message;
+  const std::string hold = store.hold();
+  EXPECT_NE(hold.find("could not be read (8 lines do not read)"), std::string::npos) << hold;
+  EXPECT_NE(hold.find(aside[0].string()), std::string::npos) << hold;
+  EXPECT_NE(hold.find("no node-ID is assigned until an operator decides"), std::string::npos) << hold;
+}
+
+// Issue 38 item 4, as measured: 2 KiB of binary garbage in place of the
+// state file. Its bytes stay on the disk (set aside), and while the store
+// holds no assignment writes the file: the set-aside copy is never replaced
+// and the state file's place stays empty for the operator's decision.
+TEST_F(StateStoreTest, Issue38_BinaryGarbageIsKeptAndNeverOverwritten) {
+  std::mt19937 rng(38);
+  std::string garbage;
+  for (int i = 0; i < 2048; ++i) garbage += static_cast<char>(rng() % 256);
+  write_file(garbage);
+  StateStore store(dir_);
+  const cobridge::Error e = store.load();
+  ASSERT_TRUE(e);
+  EXPECT_FALSE(store.hold().empty());
+  EXPECT_LT(e.message.size(), 2000u) << "the log line holds the garbage";
+  // What a commissioning or a configuration would record.
+  EXPECT_FALSE(store.put(sample(1001, 5)));
+  EXPECT_EQ(store.find("line1", 0x182, 0x0BE0, 1001)->node_id, 5);  // in memory
+  EXPECT_FALSE(store.erase("line1", 0x182, 0x0BE0, 1001));
+  EXPECT_FALSE(store.put(sample(1002, 6)));
+  EXPECT_FALSE(fs::exists(dir_ / "assignments.state"));
+  const auto aside = aside_copies();
+  ASSERT_EQ(aside.size(), 1u);
+  EXPECT_EQ(read(aside[0]), garbage);
+}
+
+// Issue 38 item 4: the hold outlives a restart. With no state file and a
+// set-aside copy beside it the store holds again (a missing file is not a
+// fresh start then); a file that reads, the operator's decision (an empty
+// one: start without the memory), releases it, and the file is written again.
+TEST_F(StateStoreTest, Issue38_TheHoldOutlivesARestartUntilAFileThatReadsIsPutBack) {
+  write_file("garbage\n");
+  {
+    StateStore store(dir_);
+    ASSERT_TRUE(store.load());
+  }
+  StateStore again(dir_);
+  const cobridge::Error e = again.load();
+  EXPECT_EQ(e.code, make_error_code(StateStoreErrc::held));
+  EXPECT_NE(again.hold().find(aside_copies().at(0).string()), std::string::npos) << again.hold();
+  EXPECT_FALSE(again.put(sample(1001, 5)));
+  EXPECT_FALSE(fs::exists(dir_ / "assignments.state"));
+  write_file("");  // the operator: start without the memory
+  const cobridge::Error released = again.load();
+  EXPECT_FALSE(released) << released.to_string();
+  EXPECT_TRUE(again.hold().empty());
+  EXPECT_TRUE(again.on_bus("line1").empty());  // what the memory had while it held is gone with it
+  ASSERT_FALSE(again.put(sample(1001, 5)));
+  EXPECT_NE(read_file().find("serial=0x3E9"), std::string::npos);
+  EXPECT_EQ(aside_copies().size(), 1u);  // the copy is the operator's to remove
+}
+
+// Issue 38 item 4: unreadable is not only bad syntax: a symbolic link (the
+// file it names is never read nor written) and a file larger than any state
+// file are set aside too.
+TEST_F(StateStoreTest, Issue38_ASymbolicLinkOrAnOversizedFileIsSetAside) {
+  fs::create_directories(dir_);
+  std::ofstream(dir_ / "elsewhere") << "bus=line1 serial=1 vendor=1 product=1 revision=1 node=5\n";
+  fs::create_symlink(dir_ / "elsewhere", dir_ / StateStore::kFileName);
+  StateStore store(dir_);
+  const cobridge::Error e = store.load();
+  EXPECT_EQ(e.code, make_error_code(StateStoreErrc::read_failed));
+  EXPECT_NE(e.message.find("symbolic link"), std::string::npos) << e.message;
+  EXPECT_TRUE(store.on_bus("line1").empty());
+  ASSERT_EQ(aside_copies().size(), 1u);
+  EXPECT_TRUE(fs::is_symlink(aside_copies()[0]));
+  EXPECT_FALSE(store.put(sample(1001, 5)));
+  EXPECT_EQ(read(dir_ / "elsewhere"), "bus=line1 serial=1 vendor=1 product=1 revision=1 node=5\n");
+
+  fs::remove(aside_copies()[0]);
+  write_file(std::string(StateStore::kMaxFileBytes + 1, '#'));
+  const cobridge::Error big = store.load();
+  EXPECT_EQ(big.code, make_error_code(StateStoreErrc::read_failed));
+  EXPECT_NE(big.message.find(std::to_string(StateStore::kMaxFileBytes + 1) + " bytes"), std::string::npos)
+      << big.message;
+  EXPECT_EQ(aside_copies().size(), 1u);
 }
 
 TEST_F(StateStoreTest, RandomGarbageNeverCrashes) {
@@ -144,6 +246,7 @@ TEST_F(StateStoreTest, RandomGarbageNeverCrashes) {
     std::string text;
     const auto n = rng() % 400;
     for (unsigned i = 0; i < n; ++i) text += static_cast<char>(rng() % 256);
+    fs::remove_all(dir_);  // no set-aside copy from the round before
     write_file(text);
     StateStore store(dir_);
     (void)store.load();
