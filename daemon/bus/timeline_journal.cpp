@@ -3,10 +3,10 @@
 #include "base/field_text.hpp"
 #include "base/number_text.hpp"
 #include "sys/atomic_file.hpp"
+#include "sys/guarded_file.hpp"
 
 #include <algorithm>
 #include <cstdint>
-#include <fstream>
 
 namespace cobridge::gateway {
 
@@ -39,23 +39,36 @@ std::string file_name_of(std::string_view bus) {
   return out + ".timeline";
 }
 
-bool read_ms(const std::string& value, Clock::time_point& out) {
+// The latest time the clock can hold, in ms: system_clock counts
+// nanoseconds in 64 bits (2262-04-11). A later `at=` would overflow it.
+constexpr std::uint64_t kMaxMs =
+    static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::milliseconds>(Clock::duration::max()).count());
+
+// False with `why` for a value that is no time the clock holds.
+bool read_ms(const std::string& key, const std::string& value, Clock::time_point& out, std::string& why) {
   std::uint64_t ms = 0;
-  if (!parse_unsigned(value, UINT64_MAX, ms)) return false;
-  out = time_of(ms);
-  return true;
+  if (parse_unsigned(value, kMaxMs, ms)) {
+    out = time_of(ms);
+    return true;
+  }
+  why = parse_unsigned(value, UINT64_MAX, ms) ? "'" + key + "' is after the year 2262, the clock's end"
+                                              : "'" + key + "' cannot be '" + value + "'";
+  return false;
+}
+
+// An event's text as written: cut to the bound, so that its line fits.
+std::string_view bounded_text(const std::string& text) {
+  return std::string_view(text).substr(0, TimelineJournal::kMaxTextBytes);
 }
 
 // One field into `e`; false with `why` for a value that does not read.
 bool store_field(const std::string& key, const std::string& value, std::string& device, TimelineEvent& e,
                  std::string& why) {
+  if (key == "at") return read_ms(key, value, e.at, why);
+  if (key == "last") return read_ms(key, value, e.last_at, why);
   std::uint64_t n = 0;
   bool good = true;
-  if (key == "at") {
-    good = read_ms(value, e.at);
-  } else if (key == "last") {
-    good = read_ms(value, e.last_at);
-  } else if (key == "device") {
+  if (key == "device") {
     device = value;
   } else if (key == "kind") {
     good = parse_timeline_kind(value, e.kind);
@@ -94,7 +107,7 @@ std::string TimelineJournal::format_line(const std::string& device, const Timeli
   line += " repeats=" + std::to_string(e.repeats);
   line += " last=" + std::to_string(ms_of(e.last_at));
   if (!e.capture.empty()) line += " capture=" + escape_field(e.capture);
-  line += " text=" + escape_field(e.text);
+  line += " text=" + escape_field(bounded_text(e.text));
   return line;
 }
 
@@ -121,28 +134,53 @@ bool TimelineJournal::parse_line(std::string_view line, std::string& device, Tim
 Error TimelineJournal::load(std::map<std::string, std::vector<TimelineEvent>>& out) {
   out.clear();
   lines_ = 0;
-  std::error_code ec;
-  if (!std::filesystem::exists(path_, ec)) return {};
-  std::ifstream in(path_, std::ios::binary);
-  if (!in) return Error(Errc::kFailed, "cannot be read", path_.string());
-  std::string line;
+  compact_next_ = false;
+  // The newest part of an oversized file: the events that matter now.
+  const Result<sys::FileText> file = sys::read_file_bounded(path_, kMaxLoadBytes, sys::KeepEnd::tail);
+  if (!file.ok()) return file.error().kind == Errc::kNotFound ? Error{} : file.error();
+  std::string_view text = file->text;
   std::string problems;
-  std::string device;
-  std::string why;
-  TimelineEvent e;
-  for (std::uint32_t number = 1; std::getline(in, line); ++number) {
-    ++lines_;
-    if (line.empty() || line[0] == '#') continue;
-    if (!parse_line(line, device, e, why)) {
-      problems += path_.string() + ":" + std::to_string(number) + ": " + why + " (line skipped)\n";
-      continue;
-    }
-    take(out[device], std::move(e));
+  if (file->skipped != 0) {
+    // The cut fell inside a line: the piece before the first newline goes.
+    const std::size_t newline = text.find('\n');
+    text.remove_prefix(newline == std::string_view::npos ? text.size() : newline + 1);
+    compact_next_ = true;
+    problems += path_.string() + ": " + std::to_string(file->size) + " bytes, more than the " +
+                std::to_string(kMaxLoadBytes) + " read; the oldest " + std::to_string(file->skipped) +
+                " bytes skipped (line numbers below count from there; the file is rewritten from memory at the "
+                "next write)\n";
   }
-  if (in.bad()) return Error(Errc::kFailed, "read error", path_.string());
+  load_lines(text, out, problems);
   if (problems.empty()) return {};
   problems.pop_back();
   return Error(Errc::kInvalidArgument, "lines skipped:\n" + problems, path_.string());
+}
+
+void TimelineJournal::load_lines(std::string_view text, std::map<std::string, std::vector<TimelineEvent>>& out,
+                                 std::string& problems) {
+  std::size_t bad = 0;
+  std::string device;
+  std::string why;
+  TimelineEvent e;
+  std::uint32_t number = 0;
+  for (std::size_t pos = 0; pos < text.size();) {
+    const std::size_t end = std::min(text.find('\n', pos), text.size());
+    const std::string_view line = text.substr(pos, end - pos);
+    pos = end + 1;
+    ++number;
+    ++lines_;
+    if (line.empty() || line[0] == '#') continue;
+    if (line.size() > kMaxLineBytes) {
+      why = std::to_string(line.size()) + " bytes, longer than the " + std::to_string(kMaxLineBytes) +
+            " a line may have";
+    } else if (parse_line(line, device, e, why)) {
+      take(out[device], std::move(e));
+      continue;
+    }
+    if (++bad <= kProblemsNamed)
+      problems += path_.string() + ":" + std::to_string(number) + ": " + log_excerpt(why, 120) + " (line skipped)\n";
+  }
+  if (bad > kProblemsNamed) problems += std::to_string(bad - kProblemsNamed) + " more lines skipped\n";
 }
 
 void TimelineJournal::queue_event(Queue& queue, const std::string& device, const TimelineEvent& e) {
@@ -157,18 +195,27 @@ void TimelineJournal::queue_event(Queue& queue, const std::string& device, const
   queue.emplace_back(device, e);
 }
 
-Error TimelineJournal::flush(const Devices& devices) {
+Error TimelineJournal::flush(const Devices& devices, bool sync) {
   if (queue_.empty()) return {};
   std::size_t kept = 0;
   for (const auto& [name, timeline] : devices) kept += timeline.size();
   // Never from no timelines at all: that would write the history away.
-  if (!devices.empty() && lines_ + queue_.size() > kCompactFactor * std::max(kept, kTimelineLength))
+  if (!devices.empty() &&
+      (compact_next_ || lines_ + queue_.size() > kCompactFactor * std::max(kept, kTimelineLength)))
     return compact(devices);
   std::string text;
   for (const auto& [device, e] : queue_) text += format_line(device, e) + '\n';
-  if (Error err = sys::append_to_file(path_, text)) return err;
+  if (Error err = sys::append_to_file(path_, text, sync)) return err;
+  unsynced_ = !sync;
   lines_ += queue_.size();
   queue_.clear();
+  return {};
+}
+
+Error TimelineJournal::sync() {
+  if (!unsynced_) return {};
+  if (Error err = sys::append_to_file(path_, {}, true)) return err;
+  unsynced_ = false;
   return {};
 }
 
@@ -183,6 +230,8 @@ Error TimelineJournal::compact(const Devices& devices) {
   }
   if (Error err = sys::write_file_atomically(path_, text)) return err;
   lines_ = lines;
+  compact_next_ = false;
+  unsynced_ = false;
   queue_.clear();
   return {};
 }

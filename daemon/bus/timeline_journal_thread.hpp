@@ -7,9 +7,10 @@
 // The control thread notes each event (a lock and a copy) and hands the
 // noted events over with the configured devices' timelines as they are
 // (shared copies) at most once per TimelineJournal::kFlushInterval; the
-// writer thread writes them (TimelineJournal::flush), logs a failure once
-// per run of failures and keeps the events for the next hand-over. The
-// destructor writes every event noted, then joins.
+// writer thread writes them (TimelineJournal::flush), syncing the file at
+// most every TimelineJournal::kSyncInterval, logs a failure once per run of
+// failures and keeps the events for the next hand-over. The destructor
+// writes every event noted and syncs the file, then joins.
 //
 // Threads: note(), pending() and hand_over() on the bus's control thread;
 // the writer thread owns the TimelineJournal.
@@ -17,6 +18,7 @@
 
 #include "bus/timeline_journal.hpp"
 
+#include <chrono>
 #include <condition_variable>
 #include <mutex>
 #include <string>
@@ -39,11 +41,13 @@ class TimelineJournalThread {
 
  private:
   void run();
-  void write(TimelineJournal::Queue events, const TimelineJournal::Devices& devices);
+  // `last`: the stop; the file is synced then whatever the interval.
+  void write(TimelineJournal::Queue events, const TimelineJournal::Devices& devices, bool last);
 
   TimelineJournal journal_;  // the writer thread's
   const std::string bus_;
   bool failing_ = false;  // the writer thread's: the last write failed
+  std::chrono::steady_clock::time_point synced_at_{};  // the writer thread's: the last synced write
   bool pending_ = false;  // the control thread's: events noted since the last hand-over
 
   std::mutex mutex_;

@@ -141,6 +141,102 @@ TEST_F(TimelineJournalTest, NoTimelinesNeverCompactTheHistoryAway) {
   EXPECT_EQ(lines(j.path()), 500U);
 }
 
+// Issue 38 item 4: a symbolic link planted as the journal (to a file the
+// daemon must not read or write) is refused with an error naming it, and
+// never followed: nothing is read from the file it names, nothing appended.
+TEST_F(TimelineJournalTest, Issue38_ASymbolicLinkAsTheJournalIsRefusedNeverFollowed) {
+  fs::create_directories(dir_ / "timelines");
+  const std::string victim_text =
+      TimelineJournal::format_line("lift", {kT0, TimelineKind::boot_up, "from the victim", {}}) + "\n";
+  std::ofstream(dir_ / "victim") << victim_text;
+  fs::create_symlink(dir_ / "victim", dir_ / "timelines" / "line1.timeline");
+  TimelineJournal j(dir_, "line1");
+  std::map<std::string, std::vector<TimelineEvent>> back;
+  const Error e = j.load(back);
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e.where, j.path().string());
+  EXPECT_NE(e.message.find("symbolic link"), std::string::npos) << e.message;
+  EXPECT_TRUE(back.empty());
+  DeviceTimeline tl;
+  add(j, "lift", tl, {kT0 + 1s, TimelineKind::state, "appended?", {}});
+  const Error w = j.flush({});  // no timelines: an append, not a compaction
+  ASSERT_TRUE(w);
+  EXPECT_NE(w.message.find("symbolic link"), std::string::npos) << w.message;
+  std::ifstream in(dir_ / "victim");
+  std::ostringstream text;
+  text << in.rdbuf();
+  EXPECT_EQ(text.str(), victim_text);
+}
+
+// Issue 38 item 4: reads are bounded. A line over kMaxLineBytes is skipped
+// and named with its size, not its content; of a file over kMaxLoadBytes
+// (16 MB logged a 9.3 MB warning line before) only the newest part is read,
+// the warning names the file and its size, and the next write rewrites the
+// file from memory.
+TEST_F(TimelineJournalTest, Issue38_AnOverlongLineAndAnOversizedFileAreReadWithinBounds) {
+  fs::create_directories(dir_ / "timelines");
+  const fs::path file = dir_ / "timelines" / "line1.timeline";
+  const std::string event = TimelineJournal::format_line("lift", {kT0, TimelineKind::boot_up, "boot-up", {}});
+  {
+    std::ofstream out(file, std::ios::binary);
+    out << "at=1 device=lift kind=state text=" << std::string(TimelineJournal::kMaxLineBytes, 'A') << "\n";
+    out << event << "\n";
+  }
+  std::map<std::string, std::vector<TimelineEvent>> back;
+  const Error e = TimelineJournal(dir_, "line1").load(back);
+  ASSERT_TRUE(e);
+  EXPECT_NE(e.message.find(file.string() + ":1: " + std::to_string(TimelineJournal::kMaxLineBytes + 33) +
+                           " bytes, longer than the 4096 a line may have"),
+            std::string::npos)
+      << e.message;
+  EXPECT_EQ(e.message.find("AAAA"), std::string::npos) << "the line's content is in the warning";
+  EXPECT_EQ(back["lift"].size(), 1U);
+
+  {
+    std::ofstream out(file, std::ios::binary | std::ios::trunc);
+    const std::string filler = "# " + std::string(1000, 'B') + "\n";
+    for (std::uint64_t n = 0; n <= TimelineJournal::kMaxLoadBytes / filler.size(); ++n) out << filler;
+    out << event << "\n";
+  }
+  const auto size = fs::file_size(file);
+  TimelineJournal big(dir_, "line1");
+  const Error b = big.load(back);
+  ASSERT_TRUE(b);
+  EXPECT_LT(b.message.size(), 1000U);
+  EXPECT_NE(b.message.find(file.string() + ": " + std::to_string(size) + " bytes, more than the " +
+                           std::to_string(TimelineJournal::kMaxLoadBytes) + " read"),
+            std::string::npos)
+      << b.message;
+  ASSERT_EQ(back["lift"].size(), 1U);  // the newest part was read
+  DeviceTimeline tl(back["lift"]);
+  add(big, "lift", tl, {kT0 + 1s, TimelineKind::state, "after", {}});
+  ASSERT_FALSE(big.flush({{"lift", tl}}));
+  EXPECT_LT(fs::file_size(file), 1000U);  // rewritten from memory
+}
+
+// Issue 38 item 4: an `at=` (or `last=`) after the year 2262 does not fit
+// the clock's 64-bit nanoseconds: the line is refused, without undefined
+// behaviour (UBSan reported the overflow before); the clock's last
+// millisecond still reads.
+TEST_F(TimelineJournalTest, Issue38_ATimeBeyondTheClockIsRefusedWithoutOverflow) {
+  const std::uint64_t last_ms = static_cast<std::uint64_t>(
+      std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::duration::max()).count());
+  std::string device;
+  std::string why;
+  TimelineEvent e;
+  for (const std::string& at : {std::to_string(last_ms + 1), std::string("18446744073709551615")}) {
+    EXPECT_FALSE(TimelineJournal::parse_line("at=" + at + " device=lift kind=state text=x", device, e, why)) << at;
+    EXPECT_EQ(why, "'at' is after the year 2262, the clock's end");
+    EXPECT_FALSE(TimelineJournal::parse_line("at=1 last=" + at + " device=lift kind=state text=x", device, e, why));
+    EXPECT_EQ(why, "'last' is after the year 2262, the clock's end");
+  }
+  ASSERT_TRUE(TimelineJournal::parse_line("at=" + std::to_string(last_ms) + " device=lift kind=state text=x", device,
+                                          e, why))
+      << why;
+  EXPECT_EQ(std::chrono::duration_cast<std::chrono::milliseconds>(e.at.time_since_epoch()).count(),
+            static_cast<std::int64_t>(last_ms));
+}
+
 TEST_F(TimelineJournalTest, AMissingFileIsNoHistory) {
   std::map<std::string, std::vector<TimelineEvent>> back{{"stale", {}}};
   EXPECT_FALSE(TimelineJournal(dir_, "line1").load(back));
