@@ -4,9 +4,6 @@
 
 #include <unistd.h>
 
-#include <fstream>
-#include <sstream>
-
 #include <utility>
 
 namespace cobridge::app {
@@ -97,14 +94,8 @@ Result<std::string> ControlFacade::read_capture(std::string_view name) {
     const gateway::CaptureWriter* w = recorders_ ? recorders_->captures(i) : nullptr;
     if (w == nullptr) continue;
     // Only a name the writer lists: nothing outside the captures directory.
-    for (const auto& c : w->recent()) {
-      if (c.name != name) continue;
-      std::ifstream in(w->options().dir / c.name, std::ios::binary);
-      if (!in) return Error(Errc::kUnavailable, "cannot read the capture", (w->options().dir / c.name).string());
-      std::ostringstream s;
-      s << in.rdbuf();
-      return std::move(s).str();
-    }
+    Result<std::string> text = w->read(name);
+    if (text.ok() || text.error().kind != Errc::kNotFound) return text;
   }
   return Error(Errc::kNotFound, "no capture \"" + std::string(name) + "\" (cobridge capture list shows them)");
 }

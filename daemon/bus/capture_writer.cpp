@@ -1,11 +1,11 @@
 #include "bus/capture_writer.hpp"
 
+#include "sys/guarded_file.hpp"
 #include "sys/logging.hpp"
 
 #include <algorithm>
 #include <cstdio>
 #include <ctime>
-#include <fstream>
 #include <system_error>
 
 namespace cobridge::gateway {
@@ -29,6 +29,23 @@ std::string capture_utc_stamp(std::int64_t ns) {
   std::snprintf(text, sizeof text, "%04d%02d%02dT%02d%02d%02d.%03dZ", utc.tm_year + 1900, utc.tm_mon + 1,
                 utc.tm_mday, utc.tm_hour, utc.tm_min, utc.tm_sec, millis);
   return text;
+}
+
+// <bus>-<stamp>-<cause>.log: the bus's name as configured (its letters are
+// those of a file name), so that no two buses share a prefix.
+std::string capture_name(const std::string& bus, std::int64_t fault_ns, std::string_view cause) {
+  return bus + "-" + capture_utc_stamp(fault_ns) + "-" + capture_file_word(cause) + ".log";
+}
+
+// "YYYYMMDDTHHMMSS.mmmZ" at the start of `text`.
+bool is_stamp(std::string_view text) {
+  static constexpr std::string_view kForm = "########T######.###Z";
+  if (text.size() < kForm.size()) return false;
+  for (std::size_t i = 0; i < kForm.size(); ++i) {
+    const bool digit = text[i] >= '0' && text[i] <= '9';
+    if (kForm[i] == '#' ? !digit : text[i] != kForm[i]) return false;
+  }
+  return true;
 }
 
 std::string capture_json_list(const std::vector<std::string>& items) {
@@ -95,7 +112,12 @@ CaptureInfo capture_from_name(const std::string& name, std::size_t prefix) {
     return info;
   utc.tm_year -= 1900;
   utc.tm_mon -= 1;
-  info.fault_ns = static_cast<std::int64_t>(timegm(&utc)) * 1'000'000'000 + std::int64_t{millis} * 1'000'000;
+  // Nanoseconds since 1970 in 64 bits reach from 1677 to 2262: a name's
+  // year 9999 (or 0000) would overflow them.
+  const std::int64_t seconds = static_cast<std::int64_t>(timegm(&utc));
+  constexpr std::int64_t kLimit = INT64_MAX / 1'000'000'000 - 1;
+  if (seconds > kLimit || seconds < -kLimit) return info;
+  info.fault_ns = seconds * 1'000'000'000 + std::int64_t{millis} * 1'000'000;
   std::string word = name.substr(prefix + 21, name.size() - 4 - (prefix + 21));
   std::replace(word.begin(), word.end(), '-', ' ');
   if (!word.empty()) info.causes.push_back(word);
@@ -118,6 +140,18 @@ std::string capture_file_word(std::string_view cause) {
   return out.empty() ? "fault" : out;
 }
 
+bool is_capture_of(std::string_view file_name, std::string_view bus, std::string_view ext) {
+  const std::size_t stamp_at = bus.size() + 1;
+  const std::size_t word_at = stamp_at + 21;  // the stamp's 20 characters and '-'
+  if (file_name.size() <= word_at + ext.size()) return false;
+  if (file_name.substr(0, bus.size()) != bus || file_name[bus.size()] != '-') return false;
+  if (!is_stamp(file_name.substr(stamp_at)) || file_name[word_at - 1] != '-') return false;
+  if (file_name.substr(file_name.size() - ext.size()) != ext) return false;
+  const std::string_view word = file_name.substr(word_at, file_name.size() - ext.size() - word_at);
+  return std::all_of(word.begin(), word.end(),
+                     [](char c) { return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '-'; });
+}
+
 CaptureWriter::CaptureWriter(CaptureOptions options, const can::FrameRecorder& recorder)
     : options_(std::move(options)), recorder_(recorder) {}
 
@@ -129,12 +163,12 @@ Error CaptureWriter::start() {
   if (ec) return Error(Errc::kFailed, "cannot create the captures directory: " + ec.message(), options_.dir.string(), ec);
   if (thread_.joinable()) return {};
   // A capture cut short by a crash or power loss: never listed, never counted.
-  const std::string prefix = capture_file_word(options_.bus) + "-";
   for (const auto& entry : std::filesystem::directory_iterator(options_.dir, ec)) {
     const std::string name = entry.path().filename().string();
-    if (entry.path().extension() == ".part" && name.compare(0, prefix.size(), prefix) == 0)
-      std::filesystem::remove(entry.path(), ec);
+    if (entry.path().extension() == ".part" && is_capture_of(entry.path().stem().string(), options_.bus, ".log"))
+      std::filesystem::remove(entry.path(), ec);  // a link itself, never what it names
   }
+  warn_strangers();
   {
     std::lock_guard lock(mutex_);
     stopping_ = false;
@@ -169,8 +203,7 @@ std::string CaptureWriter::request(std::string cause, std::string device, std::i
     if (pending_.size() >= kMaxPending) return {};
     Pending p;
     // Named now, so that whoever reports the fault can say which file holds it.
-    p.info.name = capture_file_word(options_.bus) + "-" + capture_utc_stamp(fault_ns) + "-" +
-                  capture_file_word(cause) + ".log";
+    p.info.name = capture_name(options_.bus, fault_ns, cause);
     name = p.info.name;
     p.info.causes.push_back(std::move(cause));
     p.info.devices.push_back(std::move(device));
@@ -209,9 +242,7 @@ std::vector<CaptureInfo> CaptureWriter::poll(std::int64_t now_ns) {
 
 Error CaptureWriter::write(CaptureInfo& info, std::int64_t window_end_ns) {
   const can::RecorderWindow window = recorder_.snapshot(info.fault_ns - options_.before.count(), window_end_ns);
-  if (info.name.empty())
-    info.name = capture_file_word(options_.bus) + "-" + capture_utc_stamp(info.fault_ns) + "-" +
-                capture_file_word(info.causes.front()) + ".log";
+  if (info.name.empty()) info.name = capture_name(options_.bus, info.fault_ns, info.causes.front());
   info.frames = window.frames.size();
   info.skipped = window.skipped;
   // The whole text first: its size makes room under the cap before anything
@@ -222,22 +253,33 @@ Error CaptureWriter::write(CaptureInfo& info, std::int64_t window_end_ns) {
   info.bytes = text.size();
   const std::string sidecar = capture_sidecar(options_, info);
   enforce_cap(text.size() + sidecar.size());
-  const std::filesystem::path path = options_.dir / info.name;
-  const std::filesystem::path partial = options_.dir / (info.name + ".part");
-  {
-    std::ofstream out(partial, std::ios::binary | std::ios::trunc);
-    if (!out) return Error(Errc::kFailed, "cannot open for writing", partial.string());
-    out.write(text.data(), static_cast<std::streamsize>(text.size()));
-    out.flush();
-    if (!out) return Error(Errc::kFailed, "write failed (disk full?)", partial.string());
-  }
-  // The sidecar first, the log renamed last: a listed capture is whole and
-  // has its sidecar.
-  std::ofstream(options_.dir / (info.name.substr(0, info.name.size() - 4) + ".json"), std::ios::trunc) << sidecar;
+  return write_files(info.name, text, sidecar);
+}
+
+Error CaptureWriter::write_files(const std::string& name, const std::string& text, const std::string& sidecar) {
+  const std::filesystem::path path = options_.dir / name;
+  const std::filesystem::path partial = options_.dir / (name + ".part");
+  const std::filesystem::path side = options_.dir / (name.substr(0, name.size() - 4) + ".json");
+  // Each file new (O_EXCL) and synced; the sidecar first, the log renamed
+  // last, never over a name that exists: a listed capture is whole, has its
+  // sidecar and is on the disk.
+  Result<sys::OpenFile> log = sys::create_new_file(partial);
+  if (!log.ok()) return log.error();
+  Error e = sys::write_all(*log, text, partial);
+  if (!e) e = sys::sync_file(*log, partial);
+  log = sys::OpenFile();
+  Result<sys::OpenFile> json = e ? Result<sys::OpenFile>(e) : sys::create_new_file(side);
+  const bool made_side = json.ok();
+  if (!e && !json.ok()) e = json.error();
+  if (!e) e = sys::write_all(*json, sidecar, side);
+  if (!e) e = sys::sync_file(*json, side);
+  json = sys::OpenFile();
+  if (!e) e = sys::rename_no_replace(partial, path);
+  if (!e) return sys::sync_directory(options_.dir);
   std::error_code ec;
-  std::filesystem::rename(partial, path, ec);
-  if (ec) return Error(Errc::kFailed, "cannot rename: " + ec.message(), path.string(), ec);
-  return {};
+  std::filesystem::remove(partial, ec);  // ours: created above
+  if (made_side) std::filesystem::remove(side, ec);
+  return e;
 }
 
 namespace {
@@ -245,26 +287,33 @@ namespace {
 struct CaptureOnDisk {
   std::string stem;  // name without .log / .json
   std::uint64_t bytes = 0;
-  bool has_log = false;
+  bool has_log = false;   // a regular <stem>.log
+  bool has_json = false;  // a regular <stem>.json
 };
 
-// This bus's captures in `dir`, oldest first (their names sort by time).
-std::vector<CaptureOnDisk> captures_on_disk(const std::filesystem::path& dir, const std::string& prefix) {
+// Is `name` (.log or .json) a capture file of `bus`?
+bool capture_file_of(const std::string& name, const std::string& bus) {
+  return is_capture_of(name, bus, ".log") || is_capture_of(name, bus, ".json");
+}
+
+// This bus's captures in `dir`, oldest first (their names sort by time):
+// regular files only, never what a link names.
+std::vector<CaptureOnDisk> captures_on_disk(const std::filesystem::path& dir, const std::string& bus) {
   std::vector<CaptureOnDisk> found;
   std::error_code ec;
   for (const auto& entry : std::filesystem::directory_iterator(dir, ec)) {
     const std::string name = entry.path().filename().string();
     const std::string ext = entry.path().extension().string();
-    if (ext != ".log" && ext != ".json") continue;
-    if (name.size() <= prefix.size() || name.compare(0, prefix.size(), prefix) != 0) continue;
-    if (name[prefix.size()] < '0' || name[prefix.size()] > '9') continue;  // another bus whose name extends ours
+    std::error_code type_ec;
+    if (!capture_file_of(name, bus) || entry.symlink_status(type_ec).type() != std::filesystem::file_type::regular)
+      continue;
     const std::string stem = entry.path().stem().string();
     auto it = std::find_if(found.begin(), found.end(), [&](const CaptureOnDisk& c) { return c.stem == stem; });
-    if (it == found.end()) it = found.insert(found.end(), CaptureOnDisk{stem, 0, false});
+    if (it == found.end()) it = found.insert(found.end(), CaptureOnDisk{stem, 0, false, false});
     std::error_code size_ec;
     const auto size = entry.file_size(size_ec);
     if (!size_ec) it->bytes += size;
-    if (ext == ".log") it->has_log = true;
+    (ext == ".log" ? it->has_log : it->has_json) = true;
   }
   std::sort(found.begin(), found.end(), [](const auto& a, const auto& b) { return a.stem < b.stem; });
   return found;
@@ -273,35 +322,65 @@ std::vector<CaptureOnDisk> captures_on_disk(const std::filesystem::path& dir, co
 }  // namespace
 
 void CaptureWriter::enforce_cap(std::uint64_t room) {
-  const std::string prefix = capture_file_word(options_.bus) + "-";
-  std::vector<CaptureOnDisk> found = captures_on_disk(options_.dir, prefix);
+  warn_strangers();
+  std::vector<CaptureOnDisk> found = captures_on_disk(options_.dir, options_.bus);
   std::uint64_t total = room;
   for (const auto& c : found) total += c.bytes;
   // Oldest first; a capture that alone is over the cap is still written.
   for (std::size_t i = 0; i < found.size() && total > options_.cap_bytes; ++i) {
     std::error_code ec;
-    std::filesystem::remove(options_.dir / (found[i].stem + ".log"), ec);
-    std::filesystem::remove(options_.dir / (found[i].stem + ".json"), ec);
+    if (found[i].has_log) std::filesystem::remove(options_.dir / (found[i].stem + ".log"), ec);
+    if (found[i].has_json) std::filesystem::remove(options_.dir / (found[i].stem + ".json"), ec);
     total -= found[i].bytes;
     std::lock_guard lock(mutex_);
     std::erase_if(recent_, [&](const CaptureInfo& r) { return r.name == found[i].stem + ".log"; });
   }
 }
 
+void CaptureWriter::warn_strangers() {
+  std::error_code ec;
+  for (const auto& entry : std::filesystem::directory_iterator(options_.dir, ec)) {
+    const std::string name = entry.path().filename().string();
+    std::error_code type_ec;
+    if (!capture_file_of(name, options_.bus) || entry.symlink_status(type_ec).type() == std::filesystem::file_type::regular)
+      continue;
+    if (std::find(strangers_.begin(), strangers_.end(), name) != strangers_.end()) continue;
+    strangers_.push_back(name);
+    sys::logger("gateway")->warn("bus {}: {}: {}; not listed, served or deleted (never followed)", options_.bus,
+                                 entry.path().string(),
+                                 entry.is_symlink(type_ec) ? "a symbolic link" : "not a regular file");
+  }
+}
+
+Result<std::string> CaptureWriter::read(std::string_view name) const {
+  const auto listed = recent();
+  if (std::none_of(listed.begin(), listed.end(), [&](const CaptureInfo& c) { return c.name == name; }))
+    return Error(Errc::kNotFound, "no capture \"" + std::string(name) + "\" (cobridge capture list shows them)");
+  const std::filesystem::path path = options_.dir / std::string(name);
+  Result<sys::FileText> file = sys::read_file_bounded(path, kMaxServedBytes);
+  if (!file.ok()) return Error(Errc::kUnavailable, "cannot read the capture: " + file.error().message, path.string());
+  if (file->skipped != 0)
+    return Error(Errc::kUnavailable,
+                 "the capture is " + std::to_string(file->size) + " bytes, more than the " +
+                     std::to_string(kMaxServedBytes) + " served",
+                 path.string());
+  return std::move(file.value().text);
+}
+
 std::vector<CaptureInfo> CaptureWriter::recent() const {
-  const std::string prefix = capture_file_word(options_.bus) + "-";
+  const std::size_t prefix = options_.bus.size() + 1;
   std::vector<CaptureInfo> out;
   std::lock_guard lock(mutex_);
   // What is on disk (also from an earlier run), with the details of those
   // this run wrote.
-  for (const CaptureOnDisk& c : captures_on_disk(options_.dir, prefix)) {
+  for (const CaptureOnDisk& c : captures_on_disk(options_.dir, options_.bus)) {
     if (!c.has_log) continue;
     const std::string name = c.stem + ".log";
     auto it = std::find_if(recent_.begin(), recent_.end(), [&](const CaptureInfo& r) { return r.name == name; });
     if (it != recent_.end()) {
       out.push_back(*it);
     } else {
-      CaptureInfo info = capture_from_name(name, prefix.size());
+      CaptureInfo info = capture_from_name(name, prefix);
       std::error_code ec;
       info.bytes = std::filesystem::file_size(options_.dir / name, ec);
       out.push_back(std::move(info));

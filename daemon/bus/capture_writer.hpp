@@ -13,13 +13,24 @@
 // fault. Before each write the bus's oldest captures are deleted until its
 // captures (logs and sidecars) and the new one fit in `cap_bytes`.
 //
+// The captures directory may hold what others put there. A bus's captures
+// are the regular files named exactly <bus>-<stamp>-<word>.log/.json (the
+// bus name as configured, then the stamp's digits: bus "a" never counts,
+// lists or deletes a file of bus "a-1"); anything else is left alone. Files
+// are opened as sys/guarded_file.hpp says: created with O_EXCL (a name
+// planted where a capture goes is an error, never written through), read
+// with O_NOFOLLOW (a symbolic link is neither listed nor served nor
+// followed, and is named once in a warning); the log, its sidecar and then
+// the directory are fsynced before the capture is listed or returned as
+// written.
+//
 // Threads: request(), recent() and pending() from any thread (a mutex, held
 // only to copy or append); start()/stop() from the owner; the writer thread
 // does the snapshot and the file I/O, never the caller. poll() is the
 // writer thread's step, public for tests that run it without the thread.
 #pragma once
 
-#include "base/error.hpp"
+#include "base/result.hpp"
 #include "can/frame.hpp"
 #include "can/frame_recorder.hpp"
 
@@ -64,8 +75,15 @@ struct CaptureInfo {
 
 // A capture of an earlier run as its file name tells it: the fault's time
 // and its first cause ("heartbeat-lost" -> "heartbeat lost"); `prefix` is the
-// length of "<bus>-". A name of another form gives the name only.
+// length of "<bus>-". A name of another form, or a time the clock cannot
+// hold (a year before 1678 or after 2261), gives the name only.
 [[nodiscard]] CaptureInfo capture_from_name(const std::string& name, std::size_t prefix);
+
+// Is `file_name` exactly a capture file of bus `bus` with extension `ext`
+// (".log", ".json"): "<bus>-YYYYMMDDTHHMMSS.mmmZ-<word><ext>", the word of
+// lowercase letters, digits and dashes. A name of another bus never is: a
+// word holds no 'T' or '.', so no bus's stamp can hide in another's word.
+[[nodiscard]] bool is_capture_of(std::string_view file_name, std::string_view bus, std::string_view ext);
 
 // "boot-up", "heartbeat lost" -> "heartbeat-lost": what a cause is in a file name.
 [[nodiscard]] std::string capture_file_word(std::string_view cause);
@@ -91,6 +109,11 @@ class CaptureWriter {
   std::vector<CaptureInfo> poll(std::int64_t now_ns);
 
   [[nodiscard]] std::vector<CaptureInfo> recent() const;  // newest last
+  // The text of capture `name`, one recent() lists (nothing outside the
+  // captures directory); a symbolic link or a file over kMaxServedBytes is
+  // refused. Any thread; reads the disk.
+  [[nodiscard]] Result<std::string> read(std::string_view name) const;
+  static constexpr std::uint64_t kMaxServedBytes = 1ull << 30;
   [[nodiscard]] std::size_t pending() const;
   [[nodiscard]] const CaptureOptions& options() const noexcept { return options_; }
   [[nodiscard]] const can::FrameRecorder& recorder() const noexcept { return recorder_; }
@@ -105,6 +128,10 @@ class CaptureWriter {
   // Deletes the bus's oldest captures until they and `room` more bytes fit
   // in the cap.
   void enforce_cap(std::uint64_t room);
+  // Writes the log and its sidecar, fsynced, under their final names.
+  [[nodiscard]] Error write_files(const std::string& name, const std::string& text, const std::string& sidecar);
+  // Names once each file of this bus's name that is not a regular file.
+  void warn_strangers();
 
   CaptureOptions options_;
   const can::FrameRecorder& recorder_;
@@ -112,6 +139,7 @@ class CaptureWriter {
   std::condition_variable wake_;
   std::deque<Pending> pending_;
   std::deque<CaptureInfo> recent_;
+  std::vector<std::string> strangers_;  // the writer thread's: named in a warning already
   bool stopping_ = false;
   std::thread thread_;
 };

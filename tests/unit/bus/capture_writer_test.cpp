@@ -78,6 +78,36 @@ TEST(CaptureFromName, TheNameGivesTheFaultTimeAndCause) {
   EXPECT_TRUE(odd.causes.empty());
 }
 
+// Issue 38 item 4: a name's year 9999 (or 0000) is beyond the 64-bit
+// nanoseconds since 1970 (1677..2262): the name alone, without overflow.
+TEST(CaptureFromName, Issue38_AYearBeyondTheClockGivesTheNameOnlyWithoutOverflow) {
+  for (const char* name : {"line1-99991231T235959.999Z-emcy.log", "line1-00000101T000000.000Z-emcy.log"}) {
+    const CaptureInfo c = capture_from_name(name, 6);
+    EXPECT_EQ(c.name, name);
+    EXPECT_EQ(c.fault_ns, 0) << name;
+  }
+  EXPECT_NE(capture_from_name("line1-22611231T235959.999Z-emcy.log", 6).fault_ns, 0);
+}
+
+// Issue 38 item 4: bus names are matched exactly. A capture of bus "a"
+// is "a-<stamp>-<word>.log"; bus "a-1"'s "a-1-<stamp>-..." is not one of
+// them, nor is anything but the stamp's digits after "<bus>-".
+TEST(IsCaptureOf, Issue38_BusNamesMatchExactly) {
+  EXPECT_TRUE(is_capture_of("a-20261128T015512.345Z-boot-up.log", "a", ".log"));
+  EXPECT_TRUE(is_capture_of("a-20261128T015512.345Z-boot-up.json", "a", ".json"));
+  EXPECT_FALSE(is_capture_of("a-20261128T015512.345Z-boot-up.json", "a", ".log"));
+  EXPECT_FALSE(is_capture_of("a-1-20261128T015512.345Z-boot-up.log", "a", ".log"));
+  EXPECT_TRUE(is_capture_of("a-1-20261128T015512.345Z-boot-up.log", "a-1", ".log"));
+  EXPECT_FALSE(is_capture_of("a-20261128T015512.345Z-boot-up.log", "a-1", ".log"));
+  EXPECT_FALSE(is_capture_of("A-20261128T015512.345Z-boot-up.log", "a", ".log"));
+  EXPECT_FALSE(is_capture_of("line_1-20261128T015512.345Z-emcy.log", "line-1", ".log"));
+  // A bus whose name holds a stamp: its files are still not the shorter bus's.
+  EXPECT_FALSE(is_capture_of("a-20261128T015512.345Z-20261128T015512.345Z-emcy.log", "a", ".log"));
+  EXPECT_FALSE(is_capture_of("a-20261128T015512.345Z-.log", "a", ".log"));
+  EXPECT_FALSE(is_capture_of("a-20261128T015512.345Z-x/y.log", "a", ".log"));
+  EXPECT_FALSE(is_capture_of("a-2026112xT015512.345Z-emcy.log", "a", ".log"));
+}
+
 TEST(CaptureFileWord, LowercaseWordsJoinedByDashes) {
   EXPECT_EQ(capture_file_word("heartbeat lost"), "heartbeat-lost");
   EXPECT_EQ(capture_file_word("Boot-up"), "boot-up");
@@ -152,6 +182,81 @@ TEST_F(CaptureWriterTest, OldestCapturesGoFirstToKeepTheCap) {
     if (e.path().filename().string().rfind("line1-", 0) == 0) total += e.file_size();
   EXPECT_LE(total, o.cap_bytes);
   EXPECT_TRUE(fs::exists(dir_ / "line2-20251128T031800.000Z-emcy.log"));
+}
+
+// Issue 38 item 4: bus "a"'s cap and listing never take bus "a-1"'s
+// captures (a prefix match counted, listed and deleted them).
+TEST_F(CaptureWriterTest, Issue38_ABusNeverListsNorDeletesTheCapturesOfABusWhoseNameExtendsIt) {
+  can::FrameRecorder rec(10000);
+  for (int i = 0; i < 1000; ++i) rec.record(frame_at(kT0 + std::int64_t{i} * 40'000'000, 0x181, {1, 2, 3, 4, 5, 6, 7, 8}));
+  CaptureOptions o = options();
+  o.bus = "a";
+  o.cap_bytes = 30'000;
+  const std::string other = "a-1-20251128T031800.000Z-emcy";
+  std::ofstream(dir_ / (other + ".log")) << std::string(20'000, 'x');
+  std::ofstream(dir_ / (other + ".json")) << "{}";
+  CaptureWriter w(o, rec);
+  for (int i = 0; i < 4; ++i) {
+    w.request("emcy", "enc1", kT0 + std::int64_t{20 + i * 3} * kSecond);
+    (void)w.poll(kT0 + 40 * kSecond);
+  }
+  const auto listed = w.recent();
+  ASSERT_EQ(listed.size(), 2u);  // as many as its own cap holds: the other bus's bytes are not counted
+  for (const auto& c : listed) EXPECT_EQ(c.name.rfind("a-2025", 0), 0u) << c.name;
+  EXPECT_TRUE(fs::exists(dir_ / (other + ".log")));
+  EXPECT_TRUE(fs::exists(dir_ / (other + ".json")));
+  EXPECT_EQ(w.read(other + ".log").error().kind, Errc::kNotFound);
+}
+
+// Issue 38 item 4: a symbolic link planted in the captures folder under a
+// capture's name is neither listed, nor served, nor counted or deleted by
+// the cap: the file it names is never read or touched.
+TEST_F(CaptureWriterTest, Issue38_ASymbolicLinkInTheFolderIsNeverListedServedOrFollowed) {
+  std::ofstream(dir_ / "secret") << "not a capture\n";
+  fs::create_symlink(dir_ / "secret", dir_ / "line1-20251128T031800.000Z-emcy.log");
+  can::FrameRecorder rec(10);
+  rec.record(frame_at(kT0, 0x70A, {0x00}));
+  CaptureOptions o = options();
+  o.cap_bytes = 1;  // every capture on disk would go
+  CaptureWriter w(o, rec);
+  EXPECT_TRUE(w.recent().empty());
+  EXPECT_EQ(w.read("line1-20251128T031800.000Z-emcy.log").error().kind, Errc::kNotFound);
+  w.request("boot-up", "enc1", kT0);
+  ASSERT_EQ(w.poll(kT0 + 5 * kSecond).size(), 1u);
+  EXPECT_TRUE(fs::is_symlink(dir_ / "line1-20251128T031800.000Z-emcy.log"));
+  EXPECT_EQ(slurp(dir_ / "secret"), "not a capture\n");
+  const auto listed = w.recent();
+  ASSERT_EQ(listed.size(), 1u);
+  EXPECT_EQ(listed[0].name, "line1-20251128T032000.000Z-boot-up.log");
+  const Result<std::string> text = w.read(listed[0].name);
+  ASSERT_TRUE(text.ok()) << text.error().to_string();
+  EXPECT_EQ(text.value(), "(1764300000.000000) vcan0 70A#00\n");
+}
+
+// Issue 38 item 4: a name planted where a capture goes (a link to a file
+// the daemon must not write, at the partial file's or the log's name) is
+// refused (O_EXCL; the rename never replaces): the capture is not written,
+// the file the link names is untouched, and nothing half-written stays.
+TEST_F(CaptureWriterTest, Issue38_ANamePlantedWhereACaptureGoesIsNeverWrittenThrough) {
+  std::ofstream(dir_ / "victim") << "precious\n";
+  can::FrameRecorder rec(10);
+  rec.record(frame_at(kT0, 0x70A, {0x00}));
+  CaptureWriter w(options(), rec);
+  const std::string name = w.request("boot-up", "enc1", kT0);
+  ASSERT_EQ(name, "line1-20251128T032000.000Z-boot-up.log");
+  fs::create_symlink(dir_ / "victim", dir_ / (name + ".part"));
+  EXPECT_TRUE(w.poll(kT0 + 5 * kSecond).empty());
+  EXPECT_EQ(slurp(dir_ / "victim"), "precious\n");
+  EXPECT_FALSE(fs::exists(dir_ / "line1-20251128T032000.000Z-boot-up.json"));
+
+  const std::string next = w.request("emcy", "enc1", kT0 + 10 * kSecond);
+  fs::create_symlink(dir_ / "victim", dir_ / next);
+  EXPECT_TRUE(w.poll(kT0 + 15 * kSecond).empty());
+  EXPECT_EQ(slurp(dir_ / "victim"), "precious\n");
+  EXPECT_TRUE(fs::is_symlink(dir_ / next));
+  EXPECT_FALSE(fs::exists(dir_ / (next + ".part")));
+  EXPECT_FALSE(fs::exists(dir_ / "line1-20251128T032010.000Z-emcy.json"));
+  EXPECT_TRUE(w.recent().empty());
 }
 
 TEST_F(CaptureWriterTest, StartRemovesThisBusesPartialFiles) {
