@@ -69,6 +69,7 @@ Result<std::vector<std::string>> ControlFacade::commission(std::string_view bus)
 Result<std::vector<std::string>> ControlFacade::capture_now(std::string_view bus) {
   const std::lock_guard lock(mutex_);
   std::vector<std::string> asked;
+  std::vector<std::string> refused;  // the budget of the hour used up (or the writer stuck)
   const auto now = std::chrono::duration_cast<std::chrono::nanoseconds>(
                        std::chrono::system_clock::now().time_since_epoch()).count();
   bool named = bus.empty();
@@ -78,11 +79,14 @@ Result<std::vector<std::string>> ControlFacade::capture_now(std::string_view bus
     named = true;
     gateway::CaptureWriter* w = recorders_ ? recorders_->captures(i) : nullptr;
     if (w == nullptr) continue;
-    w->request("operator", {}, now);
-    asked.push_back(b.name);
+    (w->request("operator", {}, now).empty() ? refused : asked).push_back(b.name);
   }
   const std::string where = bus.empty() ? std::string("every bus") : "bus \"" + std::string(bus) + "\"";
   if (!named) return Error(Errc::kNotFound, "unknown bus \"" + std::string(bus) + "\"");
+  if (asked.empty() && !refused.empty())
+    return Error(Errc::kUnavailable,
+                 "no capture: this hour's capture_budget_per_hour is used up, or the writer is 16 captures behind",
+                 where);
   if (asked.empty()) return Error(Errc::kUnavailable, "the flight recorder is off (recorder_seconds = 0)", where);
   sys::logger("gateway")->info("control socket: capture requested on {}", where);
   return asked;

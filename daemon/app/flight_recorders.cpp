@@ -16,8 +16,9 @@ void FlightRecorders::build(const config::Config& cfg) {
     o.bus = b.name;
     o.interface = b.interface;
     o.before = std::chrono::seconds(b.recorder_seconds);
-    o.after = std::chrono::seconds(b.capture_after_s);
+    o.after = std::chrono::milliseconds(b.capture_after_ms);
     o.cap_bytes = std::uint64_t{b.capture_cap_mib} << 20;
+    o.budget_per_hour = b.capture_budget_per_hour;
     bus.writer = std::make_unique<gateway::CaptureWriter>(std::move(o), *bus.recorder);
   }
 }

@@ -16,10 +16,10 @@ std::string bus_change(const config::Config& running, const config::Config& next
     // The flight recorder's ring is allocated at start, and its writer made then.
     const auto& a = running.buses[i];
     const auto& b = next.buses[i];
-    if (a.recorder_seconds != b.recorder_seconds || a.capture_after_s != b.capture_after_s ||
-        a.capture_cap_mib != b.capture_cap_mib)
+    if (a.recorder_seconds != b.recorder_seconds || a.capture_after_ms != b.capture_after_ms ||
+        a.capture_cap_mib != b.capture_cap_mib || a.capture_budget_per_hour != b.capture_budget_per_hour)
       return "bus " + a.name + ": the flight recorder's settings (recorder_seconds, capture_after_s, "
-             "capture_cap_mib) take a restart";
+             "capture_cap_mib, capture_budget_per_hour) take a restart";
   }
   return {};
 }

@@ -384,7 +384,8 @@ BusStatus BusManager::status() const {
     s.recorder = RecorderStatus{true,
                                 static_cast<std::uint32_t>(std::chrono::duration_cast<std::chrono::seconds>(c->options().before).count()),
                                 r.capacity(), r.memory_bytes(), r.recorded(),
-                                c->pending(), c->options().dir.string(), c->recent()};
+                                c->pending(), c->options().dir.string(), c->recent(),
+                                c->options().budget_per_hour, c->skipped_over_budget()};
   }
   if (impl_->channel) {
     const auto st = impl_->channel->stats();

@@ -200,7 +200,7 @@ std::string CaptureWriter::request(std::string cause, std::string device, std::i
     }
     // Faults come in time order, so a new window opens at most once per
     // `after`; more than this waiting means the writer is stuck (disk).
-    if (pending_.size() >= kMaxPending) return {};
+    if (pending_.size() >= kMaxPending || !take_budget_locked(fault_ns)) return {};
     Pending p;
     // Named now, so that whoever reports the fault can say which file holds it.
     p.info.name = capture_name(options_.bus, fault_ns, cause);
@@ -215,7 +215,46 @@ std::string CaptureWriter::request(std::string cause, std::string device, std::i
   return name;
 }
 
+bool CaptureWriter::take_budget_locked(std::int64_t now_ns) {
+  roll_budget_locked(now_ns);
+  if (!budget_.started) {
+    budget_.started = true;
+    budget_.hour_from_ns = now_ns;
+  }
+  if (budget_.made < options_.budget_per_hour) {
+    ++budget_.made;
+    return true;
+  }
+  ++budget_.skipped_total;
+  if (budget_.skipped++ == 0)
+    sys::logger("gateway")->warn(
+        "bus {}: capture skipped: {} captures in the hour from {} (capture_budget_per_hour); those skipped until "
+        "the hour ends are counted and logged then",
+        options_.bus, budget_.made, capture_utc_stamp(budget_.hour_from_ns));
+  return false;
+}
+
+void CaptureWriter::roll_budget_locked(std::int64_t now_ns) {
+  constexpr std::int64_t kHour = 3600LL * 1'000'000'000;
+  // A clock set back starts the hour again too.
+  if (!budget_.started || (now_ns >= budget_.hour_from_ns && now_ns - budget_.hour_from_ns < kHour)) return;
+  if (budget_.skipped > 0)
+    sys::logger("gateway")->warn("bus {}: {} capture(s) skipped in the hour from {}: capture_budget_per_hour = {}",
+                                 options_.bus, budget_.skipped, capture_utc_stamp(budget_.hour_from_ns),
+                                 options_.budget_per_hour);
+  budget_ = Budget{false, 0, 0, 0, budget_.skipped_total};
+}
+
+std::uint64_t CaptureWriter::skipped_over_budget() const {
+  std::lock_guard lock(mutex_);
+  return budget_.skipped_total;
+}
+
 std::vector<CaptureInfo> CaptureWriter::poll(std::int64_t now_ns) {
+  {
+    std::lock_guard lock(mutex_);
+    roll_budget_locked(now_ns);
+  }
   std::vector<CaptureInfo> written;
   for (;;) {
     Pending due;

@@ -24,6 +24,12 @@
 // the directory are fsynced before the capture is listed or returned as
 // written.
 //
+// The cap bounds the space, not the writes: a flash disk wears by what is
+// written. At most `budget_per_hour` captures are made in an hour (the hour
+// starts with its first capture); a fault that would open a window beyond
+// it makes no capture: it is counted (skipped_over_budget()), the first one
+// of the hour is logged, and when the hour is over one line gives the count.
+//
 // Threads: request(), recent() and pending() from any thread (a mutex, held
 // only to copy or append); start()/stop() from the owner; the writer thread
 // does the snapshot and the file I/O, never the caller. poll() is the
@@ -54,6 +60,7 @@ struct CaptureOptions {
   std::chrono::nanoseconds before{std::chrono::seconds(10)};
   std::chrono::nanoseconds after{std::chrono::seconds(2)};
   std::uint64_t cap_bytes = 64ull << 20;  // this bus's captures on disk, at most
+  std::uint32_t budget_per_hour = 60;     // captures written in an hour, at most (flash wear)
   std::size_t recent_kept = 32;           // captures recent() remembers
 };
 
@@ -101,7 +108,8 @@ class CaptureWriter {
 
   // A fault at `fault_ns` (wall clock, ns since the Unix epoch). Never blocks
   // on I/O; joins a pending capture whose window holds the fault. Returns
-  // the file the frames will be in (empty: none, the writer is stuck).
+  // the file the frames will be in (empty: none, the writer is stuck or the
+  // hour's budget is used up).
   std::string request(std::string cause, std::string device, std::int64_t fault_ns);
 
   // Writes every pending capture whose window closed by `now_ns`; returns
@@ -115,6 +123,8 @@ class CaptureWriter {
   [[nodiscard]] Result<std::string> read(std::string_view name) const;
   static constexpr std::uint64_t kMaxServedBytes = 1ull << 30;
   [[nodiscard]] std::size_t pending() const;
+  // Captures not made because the hour's budget was used up, since start.
+  [[nodiscard]] std::uint64_t skipped_over_budget() const;
   [[nodiscard]] const CaptureOptions& options() const noexcept { return options_; }
   [[nodiscard]] const can::FrameRecorder& recorder() const noexcept { return recorder_; }
 
@@ -132,6 +142,12 @@ class CaptureWriter {
   [[nodiscard]] Error write_files(const std::string& name, const std::string& text, const std::string& sidecar);
   // Names once each file of this bus's name that is not a regular file.
   void warn_strangers();
+  // With the mutex held: may a new window open at `now_ns` (one capture
+  // more this hour)? Counts and logs what the budget refuses.
+  [[nodiscard]] bool take_budget_locked(std::int64_t now_ns);
+  // With the mutex held: a new hour once the last one is over, its skips
+  // logged in one line.
+  void roll_budget_locked(std::int64_t now_ns);
 
   CaptureOptions options_;
   const can::FrameRecorder& recorder_;
@@ -140,6 +156,13 @@ class CaptureWriter {
   std::deque<Pending> pending_;
   std::deque<CaptureInfo> recent_;
   std::vector<std::string> strangers_;  // the writer thread's: named in a warning already
+  struct Budget {
+    bool started = false;       // an hour is counted (from its first capture)
+    std::int64_t hour_from_ns = 0;
+    std::uint32_t made = 0;     // captures this hour
+    std::uint32_t skipped = 0;  // refused this hour
+    std::uint64_t skipped_total = 0;
+  } budget_;
   bool stopping_ = false;
   std::thread thread_;
 };

@@ -126,6 +126,8 @@ struct RecorderStatus {
   std::size_t pending = 0;        // captures waiting for their window to close
   std::string dir;                // where the captures are
   std::vector<CaptureInfo> captures;  // on disk, oldest first
+  std::uint32_t budget_per_hour = 0;      // capture_budget_per_hour
+  std::uint64_t skipped_over_budget = 0;  // captures not made since start: the hour's budget was used up
 };
 
 struct BusStatus {

@@ -92,11 +92,14 @@ struct Bus {
   ForeignNmt foreign_nmt = ForeignNmt::restart;
   UnknownDevices unknown_devices = UnknownDevices::ignore;
   // Flight recorder: the last recorder_seconds of frames kept in memory (0 =
-  // off), written around each fault with capture_after_s after it; this
-  // bus's capture files take at most capture_cap_mib on disk.
+  // off), written around each fault with capture_after_s after it (0.5..60 s,
+  // kept in ms); this bus's capture files take at most capture_cap_mib on
+  // disk, and at most capture_budget_per_hour are written in an hour (the
+  // flash's wear; the cap bounds the space, not the writes).
   std::uint32_t recorder_seconds = 10;
-  std::uint32_t capture_after_s = 2;
+  std::uint32_t capture_after_ms = 2000;
   std::uint32_t capture_cap_mib = 64;
+  std::uint32_t capture_budget_per_hour = 60;
   SourceLocation where;  // the [[bus]] header
 };
 

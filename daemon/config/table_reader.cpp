@@ -138,6 +138,27 @@ std::optional<std::int64_t> TableReader::integer(std::string_view key, std::int6
   return x;
 }
 
+std::optional<double> TableReader::number(std::string_view key, double min, double max) {
+  const toml::node* n = find(key);
+  if (n == nullptr) return std::nullopt;
+  double x = 0;
+  if (const auto* i = n->as_integer()) {
+    x = static_cast<double>(i->get());
+  } else if (const auto* f = n->as_floating_point()) {
+    x = f->get();
+  } else {
+    wrong_type(*n, path(key), "a number");
+    return std::nullopt;
+  }
+  if (!(x >= min && x <= max)) {  // NaN too
+    char text[96];
+    std::snprintf(text, sizeof text, " %g is out of range (allowed: %g..%g)", x, min, max);
+    error(*n, path(key) + text);
+    return std::nullopt;
+  }
+  return x;
+}
+
 std::optional<std::int64_t> TableReader::integer_in(std::string_view key, std::initializer_list<std::int64_t> allowed) {
   const auto* v = typed<std::int64_t>(*this, key, "an integer");
   if (v == nullptr) return std::nullopt;

@@ -72,6 +72,8 @@ class TableReader {
   [[nodiscard]] std::optional<std::int64_t> integer(std::string_view key, std::int64_t min, std::int64_t max);
   [[nodiscard]] std::optional<std::int64_t> integer_in(std::string_view key,
                                                        std::initializer_list<std::int64_t> allowed);
+  // An integer or a float (2, 0.5), within [min, max].
+  [[nodiscard]] std::optional<double> number(std::string_view key, double min, double max);
   [[nodiscard]] std::optional<std::string> string(std::string_view key);
   [[nodiscard]] std::optional<bool> boolean(std::string_view key);
   [[nodiscard]] const toml::table* subtable(std::string_view key);

@@ -267,6 +267,8 @@ void write_recorder(JsonWriter& w, const RecorderStatus& r) {
   w.field("memory_bytes", r.memory_bytes);
   w.field("recorded_frames", r.recorded);
   w.field("pending_captures", std::uint64_t{r.pending});
+  w.field("budget_per_hour", std::uint64_t{r.budget_per_hour});
+  w.field("skipped_over_budget", r.skipped_over_budget);
   w.field("dir", r.dir);
   w.key("captures");
   w.begin_array();

@@ -47,7 +47,8 @@ TEST(ReloadRules, TheFlightRecorderKeepsItsStartSettings) {
   Config next = running();
   next.buses[0].recorder_seconds = 30;
   EXPECT_EQ(reload_refusal(running(), next),
-            "bus line1: the flight recorder's settings (recorder_seconds, capture_after_s, capture_cap_mib) take a "
+            "bus line1: the flight recorder's settings (recorder_seconds, capture_after_s, capture_cap_mib, "
+            "capture_budget_per_hour) take a "
             "restart");
   next = running();
   next.buses[0].capture_cap_mib = 1;

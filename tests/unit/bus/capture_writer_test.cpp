@@ -6,6 +6,9 @@
 #include "bus/capture_writer.hpp"
 
 #include <gtest/gtest.h>
+#include <spdlog/sinks/ringbuffer_sink.h>
+
+#include "sys/logging.hpp"
 
 #include <filesystem>
 #include <fstream>
@@ -31,6 +34,23 @@ std::string slurp(const fs::path& p) {
   s << in.rdbuf();
   return s.str();
 }
+
+// The "gateway" logger's lines while it lives.
+class GatewayLog {
+ public:
+  GatewayLog() { sys::logger("gateway")->sinks().push_back(sink_); }
+  ~GatewayLog() { std::erase(sys::logger("gateway")->sinks(), sink_); }
+  GatewayLog(const GatewayLog&) = delete;
+  GatewayLog& operator=(const GatewayLog&) = delete;
+  [[nodiscard]] std::size_t count(const std::string& text) const {
+    const auto lines = sink_->last_formatted();
+    return static_cast<std::size_t>(
+        std::count_if(lines.begin(), lines.end(), [&](const std::string& l) { return l.find(text) != std::string::npos; }));
+  }
+
+ private:
+  std::shared_ptr<spdlog::sinks::ringbuffer_sink_mt> sink_ = std::make_shared<spdlog::sinks::ringbuffer_sink_mt>(64);
+};
 
 class CaptureWriterTest : public ::testing::Test {
  protected:
@@ -257,6 +277,35 @@ TEST_F(CaptureWriterTest, Issue38_ANamePlantedWhereACaptureGoesIsNeverWrittenThr
   EXPECT_FALSE(fs::exists(dir_ / (next + ".part")));
   EXPECT_FALSE(fs::exists(dir_ / "line1-20251128T032010.000Z-emcy.json"));
   EXPECT_TRUE(w.recent().empty());
+}
+
+// Issue 38 item 4: the cap bounds the space, the budget the writes (flash
+// wear). Beyond capture_budget_per_hour a fault opens no capture: it is
+// counted, the first skip of the hour is logged, and once the hour is over
+// one line gives the hour's count; the next hour has its budget again.
+TEST_F(CaptureWriterTest, Issue38_BeyondTheHoursBudgetACaptureIsSkippedCountedAndLoggedOnce) {
+  const GatewayLog log;
+  can::FrameRecorder rec(10);
+  CaptureOptions o = options();
+  o.after = std::chrono::milliseconds(500);
+  o.budget_per_hour = 3;
+  CaptureWriter w(o, rec);
+  std::size_t made = 0;
+  for (int i = 0; i < 10; ++i) made += w.request("emcy", "enc1", kT0 + std::int64_t{i} * kSecond).empty() ? 0u : 1u;
+  EXPECT_EQ(made, 3u);
+  EXPECT_EQ(w.pending(), 3u);
+  EXPECT_EQ(w.skipped_over_budget(), 7u);
+  // A fault inside a window already open costs nothing.
+  EXPECT_FALSE(w.request("emcy", "enc2", kT0 + 2 * kSecond + 100'000'000).empty());
+  EXPECT_EQ(w.poll(kT0 + 20 * kSecond).size(), 3u);
+  EXPECT_EQ(log.count("bus line1: capture skipped: 3 captures in the hour from 20251128T032000.000Z"), 1u);
+  EXPECT_EQ(log.count("capture(s) skipped in the hour"), 0u);
+  (void)w.poll(kT0 + 3600 * kSecond);  // the hour is over
+  EXPECT_EQ(log.count("bus line1: 7 capture(s) skipped in the hour from 20251128T032000.000Z: "
+                      "capture_budget_per_hour = 3"),
+            1u);
+  EXPECT_FALSE(w.request("emcy", "enc1", kT0 + 3601 * kSecond).empty());
+  EXPECT_EQ(w.skipped_over_budget(), 7u);
 }
 
 TEST_F(CaptureWriterTest, StartRemovesThisBusesPartialFiles) {
