@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <functional>
 #include <cerrno>
 
 namespace cobridge::gateway {
@@ -241,9 +242,7 @@ void ControlServer::answer(Client& c, std::string_view line, TimePoint now) {
   } else if (req.kind == ControlRequest::Kind::commission) {
     reply = commission(c, req.bus);
   } else if (req.kind == ControlRequest::Kind::capture_now) {
-    const Result<std::vector<std::string>> r = handler_.capture_now(req.bus);
-    reply = r.ok() ? commission_answer(r.value(), "written once the window closes (capture_after_s)")
-                   : error_answer(r.error());
+    reply = capture_now(c, req.bus);
   } else if (req.kind == ControlRequest::Kind::capture_get) {
     const Result<std::string> text = handler_.read_capture(req.name);
     reply = !text.ok() ? error_answer(text.error())
@@ -268,17 +267,30 @@ std::string ControlServer::write_refusal(const Client& c) const {
 // Commissioning reassigns node-IDs (LSS): a bus write like any other, under
 // the same policy, logged with its caller.
 std::string ControlServer::commission(const Client& c, const std::string& bus) {
+  return policed(c, "commission", bus, [&] { return handler_.commission(bus); }, {});
+}
+
+// A capture writes the disk (flash wear) and its file holds every frame of
+// the bus: under the write policy too, logged with its caller (issue 38).
+std::string ControlServer::capture_now(const Client& c, const std::string& bus) {
+  return policed(c, "capture now", bus, [&] { return handler_.capture_now(bus); },
+                 "written once the window closes (capture_after_s)");
+}
+
+std::string ControlServer::policed(const Client& c, std::string_view what, const std::string& bus,
+                                   const std::function<Result<std::vector<std::string>>()>& act,
+                                   const std::string& note) {
   const auto log = sys::logger("gateway");
   const std::string caller = c.peer.to_string() + " (control socket)";
   const std::string where = bus.empty() ? std::string("every bus") : "bus '" + bus + "'";
   if (std::string refusal = write_refusal(c); !refusal.empty()) {
-    log->warn("control socket: commission of {} refused to {}: {}", where, caller, refusal);
+    log->warn("control socket: {} of {} refused to {}: {}", what, where, caller, refusal);
     return error_answer(Error(Errc::kPermissionDenied, refusal, where));
   }
-  const Result<std::vector<std::string>> buses = handler_.commission(bus);
+  const Result<std::vector<std::string>> buses = act();
   if (!buses.ok()) return error_answer(buses.error());
-  log->info("control socket: commission of {} by {}", where, caller);
-  return commission_answer(buses.value());
+  log->info("control socket: {} of {} by {}", what, where, caller);
+  return commission_answer(buses.value(), note);
 }
 
 void ControlServer::submit(Client& c, ControlRequest request, TimePoint now) {

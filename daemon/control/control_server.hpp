@@ -9,6 +9,7 @@
 //   status             -> {"gateway": ..., "buses": [...], ...}  (StatusReport)
 //   commission [BUS]   -> {"ok": true, "buses": [...]}   (every bus when BUS is left out)
 //   capture-now [BUS]  -> {"ok": true, "buses": [...]}   (flight recorder; every bus when BUS is left out)
+//                         (commission and capture-now are writes: see below)
 //   capture-get NAME   -> {"ok": true, "name": ..., "text": "<the candump log>"}
 //   sdo-read, sdo-write, nmt, lss-set-node-id (control_request.hpp)
 //                      -> {"ok": true, ...}  (control_answer.hpp), answered when
@@ -17,8 +18,8 @@
 //
 // Clients' commands go to a RemoteTarget (the daemon's BusRegistry, which
 // app/ makes and hands to the buses and to this server): the daemon stays the one master of its buses.
-// Writes (sdo-write, nmt, lss-set-node-id) are refused unless [control]
-// writes_enabled is set and the caller (SO_PEERCRED) is root, the daemon's
+// Writes (sdo-write, nmt, lss-set-node-id, commission, capture-now) are
+// refused unless [control] writes_enabled is set and the caller (SO_PEERCRED) is root, the daemon's
 // own user or a member of [control] write_group (a caller the kernel cannot
 // name is none of them: remote/peer_credentials.hpp); each write is logged
 // with the caller's uid and pid. While a client's command runs, that client's
@@ -66,6 +67,7 @@
 #include <chrono>
 #include <cstddef>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -146,6 +148,12 @@ class ControlServer {
   [[nodiscard]] std::string write_refusal(const Client& c) const;
   // `commission [bus]`: a write (node-IDs change), checked and logged with the caller.
   std::string commission(const Client& c, const std::string& bus);
+  // `capture-now [bus]`: a write too (the disk), checked and logged with the caller.
+  std::string capture_now(const Client& c, const std::string& bus);
+  // `act` when the write policy lets `c` write, its buses as the answer
+  // (with `note`); refused (permission_denied) and logged otherwise.
+  std::string policed(const Client& c, std::string_view what, const std::string& bus,
+                      const std::function<Result<std::vector<std::string>>()>& act, const std::string& note);
   // A client's SDO/NMT/LSS command: checked, logged if a write, queued.
   void submit(Client& c, ControlRequest request, canopen::TimePoint now);
   // Takes the results that came back from the buses: each client is free

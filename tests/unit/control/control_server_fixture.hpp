@@ -43,11 +43,17 @@ class FakeHandler : public ControlHandler {
     if (!bus.empty() && bus != "line1") return Error(Errc::kNotFound, "unknown bus \"" + std::string(bus) + "\"");
     return std::vector<std::string>{"line1"};
   }
+  Result<std::vector<std::string>> capture_now(std::string_view bus) override {
+    std::lock_guard lock(mutex);
+    captured.emplace_back(bus);
+    return std::vector<std::string>{"line1"};
+  }
 
   std::mutex mutex;
   StatusReport report;
   int status_calls = 0;
   std::vector<std::string> commissioned;
+  std::vector<std::string> captured;
 };
 
 // Runs the server the way cobridged's main loop does (app/daemon.cpp serve()).

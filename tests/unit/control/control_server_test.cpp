@@ -165,6 +165,39 @@ TEST(ControlServer, CommissionIsUnderTheWritePolicy) {
   EXPECT_EQ(h.commissioned, (std::vector<std::string>{"line1"}));
 }
 
+// Issue 38 item 3: `capture-now` writes the disk and a file of every frame
+// of the bus: under the write policy like `commission`. Refused
+// (permission_denied, the handler never called) while writes are disabled;
+// taken once they are enabled, with the capture's note in the answer.
+TEST(ControlServer, CaptureNowIsUnderTheWritePolicy) {
+  FakeHandler h;
+  HeldCommands bus;
+  ControlServerOptions o = fast_options();
+  o.remote = &bus;
+  ServerLoop loop(h, o);
+  Client c(loop.path());
+  c.send("capture-now line1\n");  // no configuration at all
+  EXPECT_NE(c.line().find("\"code\":\"permission_denied\",\"where\":\"bus 'line1'\""), std::string::npos);
+  config::RemoteAccess closed = writes_open();
+  closed.control.writes_enabled = false;
+  bus.set_access(closed);
+  c.send("capture-now\n");
+  const std::string refused = c.line();
+  EXPECT_NE(refused.find("writes_enabled = false"), std::string::npos) << refused;
+  EXPECT_NE(refused.find("\"where\":\"every bus\""), std::string::npos) << refused;
+  {
+    std::lock_guard lock(h.mutex);
+    EXPECT_TRUE(h.captured.empty());
+  }
+  bus.set_access(writes_open());
+  c.send("capture-now line1\n");
+  const std::string taken = c.line();
+  EXPECT_NE(taken.find("\"ok\":true,\"buses\":[\"line1\"]"), std::string::npos) << taken;
+  EXPECT_NE(taken.find("capture_after_s"), std::string::npos) << taken;
+  std::lock_guard lock(h.mutex);
+  EXPECT_EQ(h.captured, (std::vector<std::string>{"line1"}));
+}
+
 // Protocol rule: a client trickling one byte at a time cannot hold the
 // daemon up: others are answered meanwhile, and the trickler is cut off once
 // its line is not complete within the client timeout.
