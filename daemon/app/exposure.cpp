@@ -2,6 +2,8 @@
 
 #include "web/host_check.hpp"
 
+#include <cobridge/ip_allow_list.hpp>
+
 #include <arpa/inet.h>
 #include <sys/stat.h>
 
@@ -36,9 +38,35 @@ void web_exposure(const config::WebSettings& w, std::vector<std::string>& out) {
                   " is readable or writable by group or others (mode " + mode_text(st.st_mode) + "): chmod 600");
 }
 
+// Does a write_allow list take this host's own loopback clients (127.0.0.1
+// or ::1)? Then every local account writes around write_group
+// (IpAllowList::allows_writer): said even for a loopback listener.
+bool takes_local_writers(const std::vector<std::string>& cidrs) {
+  IpAllowList list;
+  for (const auto& c : cidrs) (void)list.add(c);
+  if (list.empty()) return false;
+  sockaddr_in6 v6{};
+  v6.sin6_family = AF_INET6;
+  v6.sin6_addr = in6addr_loopback;
+  return list.contains_v4(INADDR_LOOPBACK) || list.contains(reinterpret_cast<const sockaddr*>(&v6));
+}
+
+constexpr const char* kNoWriter =
+    " with writes_enabled on the loopback address, and write_allow does not list it: every write is refused "
+    "(a loopback client writes only when write_allow lists it, e.g. [\"127.0.0.1/32\"])";
+
+constexpr const char* kLocalWriters =
+    " takes writes from this host's loopback address (write_allow lists it): every local account writes to the "
+    "devices, around write_group";
+
 void ascii_exposure(const config::AsciiGatewaySettings& a, std::vector<std::string>& out) {
-  if (!a.enabled || a.tcp_port == 0 || is_loopback(a.bind)) return;
+  if (!a.enabled || a.tcp_port == 0) return;
   const std::string here = a.where + ": [ascii_gateway] listens on " + a.bind + ":" + std::to_string(a.tcp_port);
+  if (a.writes_enabled && takes_local_writers(a.write_allow)) out.push_back(here + kLocalWriters);
+  if (is_loopback(a.bind)) {
+    if (a.writes_enabled && !takes_local_writers(a.write_allow)) out.push_back(here + kNoWriter);
+    return;
+  }
   out.push_back(here + " (non-loopback); CiA 309-3 has no authentication: whoever reaches the port reads any "
                        "object of any device");
   if (a.writes_enabled && a.write_allow.empty())
@@ -55,10 +83,19 @@ void output_exposure(const config::Output& o, std::vector<std::string>& out) {
     return;
   }
   const std::optional<std::string> bind = t["bind"].value<std::string>();
-  if (!bind || is_loopback(*bind)) return;
-  const std::string here = o.where.to_string() + ": [outputs." + o.name + "] listens on " + *bind;
-  out.push_back(here + " (non-loopback) without authentication: whoever reaches it reads every value");
   const toml::array* allow = t["write_allow"].as_array();
+  const std::string here = o.where.to_string() + ": [outputs." + o.name + "] listens on " + bind.value_or("?");
+  const bool writes = bind && t["writes_enabled"].value_or(false);
+  std::vector<std::string> cidrs;
+  if (allow != nullptr)
+    for (const auto& e : *allow) cidrs.push_back(e.value_or(std::string()));
+  if (writes && takes_local_writers(cidrs)) out.push_back(here + kLocalWriters);
+  if (!bind) return;
+  if (is_loopback(*bind)) {
+    if (writes && !takes_local_writers(cidrs)) out.push_back(here + kNoWriter);
+    return;
+  }
+  out.push_back(here + " (non-loopback) without authentication: whoever reaches it reads every value");
   if (t["writes_enabled"].value_or(false) && (allow == nullptr || allow->empty()))
     out.push_back(here + " with writes_enabled and no write_allow: whoever reaches it presets, resets and stores "
                          "encoders");

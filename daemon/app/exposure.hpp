@@ -7,6 +7,8 @@
 //     output's `bind`, which have no authentication at all);
 //   - writes reachable from the network without an allow list (309-3 and an
 //     output with writes_enabled and no write_allow);
+//   - writes taken from this host's loopback address (a write_allow that
+//     lists it): every local account then writes around write_group;
 //   - a TLS private key readable by group or others.
 // Outputs are read by convention (`bind`, `writes_enabled`, `write_allow` in
 // their table), without loading the plugin.

@@ -303,9 +303,18 @@ void TcpServer::accept_all() noexcept {
     connected_.store(open_, std::memory_order_relaxed);
     accepted_.fetch_add(1, std::memory_order_relaxed);
     c.peer = address_text(ss);
-    c.may_write = config_.write_allow.contains(reinterpret_cast<const sockaddr*>(&ss));
-    log_(COBRIDGE_LOG_DEBUG, "client " + c.peer + " connected");
+    c.may_write = config_.write_allow.allows_writer(reinterpret_cast<const sockaddr*>(&ss));
+    log_(COBRIDGE_LOG_DEBUG, "client " + c.peer + " connected" + read_only_note(c, ss));
   }
+}
+
+// Why a connected client's writes will be refused, for the log ("" when
+// they will not be).
+std::string TcpServer::read_only_note(const Connection& c, const sockaddr_storage& ss) const {
+  if (!policy_.writes_enabled || c.may_write) return {};
+  return IpAllowList::is_loopback(reinterpret_cast<const sockaddr*>(&ss))
+             ? ", read-only: a loopback client writes only when write_allow lists it"
+             : ", read-only: not in write_allow";
 }
 
 void TcpServer::close_connection(std::uint32_t index) noexcept {

@@ -97,6 +97,7 @@ class TcpServer {
   bool process(Connection& c) noexcept;  // false: connection closed
   bool flush(Connection& c) noexcept;    // false: connection closed
   void update_interest(Connection& c, std::uint32_t index) noexcept;
+  [[nodiscard]] std::string read_only_note(const Connection& c, const sockaddr_storage& ss) const;
   void close_connection(std::uint32_t index) noexcept;
   void sweep_idle(std::uint64_t now_ns) noexcept;
   [[nodiscard]] bool sweeping() const noexcept;

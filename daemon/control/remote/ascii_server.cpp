@@ -32,6 +32,16 @@ Error sys_error(int err, const std::string& what, const std::string& where, Errc
   return Error(kind, what + ": " + ec.message(), where, ec);
 }
 
+// Why a client's write was refused: a Unix-socket client is outside
+// write_group; a TCP one outside write_allow, and a loopback one while
+// write_allow is empty (IpAllowList::allows_writer).
+std::string refusal_reason(const std::string& who, bool allow_list_empty) {
+  if (who.rfind("tcp ", 0) != 0) return "not in write_group";
+  if (allow_list_empty && who.rfind("tcp 127.", 0) == 0)
+    return "a loopback client writes only when write_allow lists it";
+  return "not in write_allow";
+}
+
 }  // namespace
 
 AsciiServer::AsciiServer(RemoteTarget& remote, AsciiServerOptions options) : remote_(remote), options_(options) {}
@@ -158,7 +168,7 @@ void AsciiServer::accept_from(int listen_fd, bool tcp, TimePoint now) {
       char a[INET_ADDRSTRLEN] = "?";
       ::inet_ntop(AF_INET, &peer.sin_addr, a, sizeof a);
       c.who = std::string("tcp ") + a + ":" + std::to_string(ntohs(peer.sin_port));
-      c.may_write = options_.write_allow.contains_v4(ntohl(peer.sin_addr.s_addr));  // the listener is IPv4
+      c.may_write = options_.write_allow.allows_writer_v4(ntohl(peer.sin_addr.s_addr));  // the listener is IPv4
     } else {
       const PeerCredentials creds = peer_credentials(fd);
       c.who = creds.to_string();
@@ -230,8 +240,8 @@ std::string AsciiServer::run(Client& c, AsciiRequest r) {
   if (cmd.is_write()) {
     if (!options_.writes_enabled) return ascii_error(seq, AsciiError::not_supported);
     if (!c.may_write) {
-      sys::logger("gateway")->warn("ascii gateway: {} on net {} node {} refused to {}: not in {}", to_string(cmd.op), net,
-                                   cmd.node, cmd.caller, c.who.rfind("tcp ", 0) == 0 ? "write_allow" : "write_group");
+      sys::logger("gateway")->warn("ascii gateway: {} on net {} node {} refused to {}: {}", to_string(cmd.op), net,
+                                   cmd.node, cmd.caller, refusal_reason(c.who, options_.write_allow.empty()));
       return ascii_error(seq, AsciiError::not_supported);
     }
     sys::logger("gateway")->info("ascii gateway: {} on net {} node {} by {}", to_string(cmd.op), net, cmd.node, cmd.caller);

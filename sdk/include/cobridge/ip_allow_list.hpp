@@ -32,6 +32,16 @@ class IpAllowList {
   [[nodiscard]] bool contains(const sockaddr* addr) const noexcept;
   // IPv4 address in host byte order.
   [[nodiscard]] bool contains_v4(std::uint32_t addr) const noexcept;
+  // A write_allow list's verdict on a client: as contains(), except that a
+  // client on the loopback address (127.0.0.0/8, ::1, v4-mapped 127.x) is
+  // allowed only when the list is not empty and holds it. Any account of the
+  // gateway's own host can connect to the loopback address, so an empty list
+  // ("every client") would let it write around the Unix sockets'
+  // write_group; taking local writers is an explicit choice.
+  [[nodiscard]] bool allows_writer(const sockaddr* addr) const noexcept;
+  [[nodiscard]] bool allows_writer_v4(std::uint32_t addr) const noexcept;
+  // Is the address a loopback one (see allows_writer)?
+  [[nodiscard]] static bool is_loopback(const sockaddr* addr) noexcept;
 
  private:
   struct Net {
@@ -114,6 +124,33 @@ inline bool IpAllowList::contains(const sockaddr* addr) const noexcept {
     }
   }
   return false;
+}
+
+inline bool IpAllowList::allows_writer_v4(std::uint32_t addr) const noexcept {
+  if ((addr >> 24) == 127 && nets_.empty()) return false;
+  return contains_v4(addr);
+}
+
+inline bool IpAllowList::is_loopback(const sockaddr* addr) noexcept {
+  if (addr == nullptr) return false;
+  if (addr->sa_family == AF_INET) {
+    sockaddr_in in{};
+    std::memcpy(&in, addr, sizeof in);
+    return (ntohl(in.sin_addr.s_addr) >> 24) == 127;
+  }
+  if (addr->sa_family != AF_INET6) return false;
+  sockaddr_in6 in6{};
+  std::memcpy(&in6, addr, sizeof in6);
+  const std::uint8_t* b = in6.sin6_addr.s6_addr;
+  static constexpr std::uint8_t kMapped[12] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0xFF, 0xFF};
+  if (std::memcmp(b, kMapped, sizeof kMapped) == 0) return b[12] == 127;
+  static constexpr std::uint8_t kLoop6[16] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1};
+  return std::memcmp(b, kLoop6, sizeof kLoop6) == 0;
+}
+
+inline bool IpAllowList::allows_writer(const sockaddr* addr) const noexcept {
+  if (nets_.empty() && is_loopback(addr)) return false;
+  return contains(addr);
 }
 
 }  // namespace cobridge

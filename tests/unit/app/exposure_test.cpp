@@ -39,9 +39,35 @@ TEST(Exposure, LoopbackIsQuiet) {
   EXPECT_FALSE(is_loopback("0.0.0.0"));
   EXPECT_FALSE(is_loopback("::"));
   EXPECT_FALSE(is_loopback("10.1.2.3"));
-  EXPECT_THAT(warnings_of("[web]\n[ascii_gateway]\ntcp_port = 60000\n[outputs.modbus]\nbind = \"127.0.0.1\"\n"
-                          "writes_enabled = true\n"),
+  EXPECT_THAT(warnings_of("[web]\n[ascii_gateway]\ntcp_port = 60000\n[outputs.modbus]\nbind = \"127.0.0.1\"\n"),
               IsEmpty());
+}
+
+// Issue 38 item 3: any account of the gateway's host reaches a loopback
+// listener, so a TCP client on 127.0.0.1 or ::1 writes only when write_allow
+// lists the loopback address (IpAllowList::allows_writer). Both sides of
+// that choice are said: writes enabled on a loopback listener nobody may
+// write to, and a write_allow that takes local writers (around write_group).
+TEST(Exposure, Issue38_LoopbackWritersAreAnExplicitChoiceAndSaidSo) {
+  const std::string modbus = "[outputs.modbus]\nbind = \"127.0.0.1\"\nwrites_enabled = true\n";
+  EXPECT_THAT(warnings_of(modbus), ElementsAre(HasSubstr("plant.toml:5:1: [outputs.modbus] listens on 127.0.0.1 with "
+                                                         "writes_enabled on the loopback address, and write_allow "
+                                                         "does not list it: every write is refused")));
+  EXPECT_THAT(warnings_of(modbus + "write_allow = [\"127.0.0.1/32\"]\n"),
+              ElementsAre(HasSubstr("takes writes from this host's loopback address (write_allow lists it): every "
+                                    "local account writes to the devices, around write_group")));
+  EXPECT_THAT(warnings_of(modbus + "write_allow = [\"::1\"]\n"), ElementsAre(HasSubstr("around write_group")));
+  const std::string ascii = "[ascii_gateway]\ntcp_port = 60000\nwrites_enabled = true\nwrite_group = \"\"\n";
+  EXPECT_THAT(warnings_of(ascii), ElementsAre(HasSubstr("[ascii_gateway] listens on 127.0.0.1:60000 with "
+                                                        "writes_enabled on the loopback address")));
+  EXPECT_THAT(warnings_of(ascii + "write_allow = [\"127.0.0.0/8\"]\n"), ElementsAre(HasSubstr("around write_group")));
+  // A network listener whose write_allow holds everything takes local writers too.
+  EXPECT_THAT(warnings_of("[outputs.modbus]\nbind = \"0.0.0.0\"\nwrites_enabled = true\n"
+                          "write_allow = [\"0.0.0.0/0\"]\n"),
+              ElementsAre(HasSubstr("around write_group"), HasSubstr("(non-loopback) without authentication")));
+  EXPECT_THAT(warnings_of("[outputs.modbus]\nbind = \"0.0.0.0\"\nwrites_enabled = true\n"
+                          "write_allow = [\"10.1.2.50/32\"]\n"),
+              ElementsAre(HasSubstr("(non-loopback) without authentication")));
 }
 
 TEST(Exposure, AWebPageOnTheNetworkWithoutTlsOrPasswordsIsNamedAtItsSection) {

@@ -9,6 +9,8 @@
 
 #include <gtest/gtest.h>
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
 #include <poll.h>
 #include <sys/socket.h>
 #include <sys/un.h>
@@ -220,6 +222,51 @@ TEST(AsciiServer, EveryAnswerEndsWithCrLfAndCrLfRequestsAreServed) {
   ASSERT_TRUE(g.bus.finish(abort));
   g.turn();
   EXPECT_EQ(read_line(g.fd, 500), "[7] ERROR: 0x06020000");
+}
+
+// Issue 38 item 3: any account of the gateway's host reaches 127.0.0.1,
+// around the Unix socket's write_group, so a TCP client on the loopback
+// address writes only when write_allow lists it; with an empty write_allow
+// ("every client") its write is refused (CiA 309-3 ERROR: 100) and never
+// reaches the bus, while a listed one's goes to the bus.
+TEST(AsciiServer, Issue38_ALoopbackTcpClientWritesOnlyWhenWriteAllowListsIt) {
+  for (const bool listed : {false, true}) {
+    SCOPED_TRACE(listed ? "write_allow = [127.0.0.1/32]" : "write_allow = []");
+    HeldCommands bus;
+    AsciiServerOptions options;
+    options.writes_enabled = true;
+    if (listed) {
+      ASSERT_TRUE(options.write_allow.add("127.0.0.1/32"));
+    }
+    AsciiServer server(bus, options);
+    std::uint16_t port = 0;
+    for (int i = 0; i < 50 && port == 0; ++i) {
+      const auto p = static_cast<std::uint16_t>(42000 + (::getpid() * 31 + i * 7919) % 20000);
+      if (!server.open_tcp("127.0.0.1", p)) port = p;
+    }
+    ASSERT_NE(port, 0);
+    const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_port = htons(port);
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    ASSERT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+    const std::string write = "[1] 1 20 w 0x1017 0 u16 100\n";
+    ASSERT_EQ(::send(fd, write.data(), write.size(), 0), static_cast<ssize_t>(write.size()));
+    std::string answer = "<none>";
+    for (int i = 0; i < 200 && bus.held() == 0; ++i) {
+      (void)server.process(std::chrono::steady_clock::now());
+      if (!listed && (answer = read_line(fd, 5)) != "<timeout>") break;
+    }
+    if (listed) {
+      EXPECT_EQ(bus.held(), 1u) << "a listed loopback client's write did not reach the bus";
+    } else {
+      EXPECT_EQ(answer, "[1] ERROR: 100");
+      EXPECT_EQ(bus.held(), 0u) << "a refused write reached the bus";
+    }
+    ::close(fd);
+    server.close();
+  }
 }
 
 // A connection beyond max_clients is told why before it is closed, in the

@@ -301,7 +301,9 @@ def main():
     devices[1]["on_config_drift"] = "keep"
     path = os.path.join(ws.run, "ascii.sock")
     extra = '[outputs.modbus]\nbind = "127.0.0.1"\nport = 1502\n'
-    extra += "[ascii_gateway]\nsocket = %s\ntcp_port = %d\nwrites_enabled = true\nwrite_group = \"root\"\n" % (
+    # The cocomm-like client writes over TCP from 127.0.0.1: listed (issue 38).
+    extra += "[ascii_gateway]\nsocket = %s\ntcp_port = %d\nwrites_enabled = true\nwrite_group = \"root\"\n" \
+             "write_allow = [\"127.0.0.1/32\"]\n" % (
         e2e.toml_value(path), TCP_PORT)
     config = e2e.write_config(ws, buses, devices, extra=extra)
     daemon = e2e.Daemon(args.daemon, config, ws, extra_args=["--plugin-dir", args.plugins])

@@ -322,7 +322,8 @@ class Writes(HostCase):
     +31 status) hand preset / NMT reset / store to the host (plugin ABI 2
     submit_command) and show the outcome; everything else stays read-only
     (MBAP §6.6 Write Single Register, §6.12 Write Multiple Registers, §7)."""
-    CONFIG = "writes_enabled = true\n"
+    # This test's client is on the loopback address: listed (issue 38).
+    CONFIG = 'writes_enabled = true\nwrite_allow = ["127.0.0.1/32"]\n'
     EXTRA = ("--offline", "3")
 
     def exchange(self, pdu, tid=9):
@@ -728,8 +729,33 @@ class WriteAllow(HostCase):
         self.assertFalse([l for l in self.host.log if l.startswith("COMMAND")], "a refused write reached the host")
 
 
+class LoopbackNotListed(HostCase):
+    """Issue 38 item 3: any account of the gateway's host reaches 127.0.0.1,
+    around the Unix sockets' write_group, so with writes_enabled and an empty
+    write_allow (every network client) a loopback client still reads but its
+    writes answer exception 0x01 (MBAP §7) and are logged as refused."""
+    CONFIG = 'writes_enabled = true\n'
+
+    def test_a_loopback_client_may_not_write_unless_listed(self):
+        base = DEVICE_BASE + 1 * STRIDE
+        with connect(self.host.port) as s:
+            s.settimeout(5)
+            s.sendall(frame(0x44, 1, struct.pack(">BHHB", 0x10, base + 28, 2, 4) + struct.pack(">HH", 0, 100)))
+            r = recv_frame(s)
+            self.assertEqual(r[7:9], bytes([0x90, 0x01]), r.hex())
+            s.sendall(read_req(0x45, base, 2))
+            r = recv_frame(s)
+            self.assertEqual(r[7], 0x03, r.hex())
+            here = "127.0.0.1:%d" % s.getsockname()[1]
+        deadline = time.monotonic() + 3
+        while time.monotonic() < deadline and not any(here in l and "refused, exception 0x01" in l for l in self.host.log):
+            time.sleep(0.02)
+        self.assertTrue(any(here in l and "refused, exception 0x01" in l for l in self.host.log), self.host.log[-5:])
+        self.assertFalse([l for l in self.host.log if l.startswith("COMMAND")], "a refused write reached the host")
+
+
 class WriteAllowLoopback(HostCase):
-    """A client inside write_allow writes."""
+    """A client inside write_allow writes (a loopback one: listed explicitly)."""
     CONFIG = 'writes_enabled = true\nwrite_allow = ["127.0.0.1/32"]\n'
 
     def test_a_client_inside_write_allow_writes(self):

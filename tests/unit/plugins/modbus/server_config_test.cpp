@@ -109,5 +109,50 @@ TEST(ModbusConfig, AllowListMatchesV4MappedAddresses) {
   EXPECT_FALSE(a.contains(reinterpret_cast<const sockaddr*>(&in6)));
 }
 
+// Issue 38 item 3: a client on the loopback address (127.0.0.0/8, ::1,
+// ::ffff:127.x) writes only when write_allow is not empty and holds it: any
+// account of the gateway's host reaches 127.0.0.1, around write_group.
+// Other clients: as contains(), an empty list takes everyone.
+TEST(ModbusConfig, Issue38_LoopbackWritersOnlyWhenWriteAllowListsThem) {
+  // As accept() fills them: a sockaddr_storage of either family.
+  auto v4 = [](const char* text) {
+    sockaddr_storage ss{};
+    auto* in = reinterpret_cast<sockaddr_in*>(&ss);
+    in->sin_family = AF_INET;
+    EXPECT_EQ(inet_pton(AF_INET, text, &in->sin_addr), 1);
+    return ss;
+  };
+  auto v6 = [](const char* text) {
+    sockaddr_storage ss{};
+    auto* in6 = reinterpret_cast<sockaddr_in6*>(&ss);
+    in6->sin6_family = AF_INET6;
+    EXPECT_EQ(inet_pton(AF_INET6, text, &in6->sin6_addr), 1);
+    return ss;
+  };
+  const sockaddr_storage local = v4("127.0.0.1"), other_local = v4("127.1.2.3"), remote = v4("10.1.2.50");
+  const sockaddr_storage local6 = v6("::1"), mapped = v6("::ffff:127.0.0.1"), remote6 = v6("fd00::5");
+  auto sa = [](const auto& a) { return reinterpret_cast<const sockaddr*>(&a); };
+  cobridge::IpAllowList empty;
+  EXPECT_FALSE(empty.allows_writer(sa(local)));
+  EXPECT_FALSE(empty.allows_writer(sa(other_local)));
+  EXPECT_FALSE(empty.allows_writer(sa(local6)));
+  EXPECT_FALSE(empty.allows_writer(sa(mapped)));
+  EXPECT_FALSE(empty.allows_writer_v4(0x7F000001u));
+  EXPECT_TRUE(empty.allows_writer(sa(remote)));
+  EXPECT_TRUE(empty.allows_writer(sa(remote6)));
+  EXPECT_TRUE(empty.allows_writer_v4(0x0A010232u));
+  EXPECT_TRUE(empty.contains(sa(local)));  // reading is not writing
+  cobridge::IpAllowList listed;
+  ASSERT_TRUE(listed.add("127.0.0.1/32"));
+  EXPECT_TRUE(listed.allows_writer(sa(local)));
+  EXPECT_TRUE(listed.allows_writer(sa(mapped)));
+  EXPECT_TRUE(listed.allows_writer_v4(0x7F000001u));
+  EXPECT_FALSE(listed.allows_writer(sa(other_local)));
+  EXPECT_FALSE(listed.allows_writer(sa(local6)));
+  EXPECT_FALSE(listed.allows_writer(sa(remote)));
+  EXPECT_TRUE(cobridge::IpAllowList::is_loopback(sa(local6)));
+  EXPECT_FALSE(cobridge::IpAllowList::is_loopback(sa(remote6)));
+}
+
 }  // namespace
 }  // namespace cobridge::modbus
