@@ -29,6 +29,7 @@
 #include <string_view>
 #include <vector>
 
+#include "fuzz_dir.hpp"
 #include "bus/state_store.hpp"
 
 using namespace cobridge;
@@ -37,15 +38,6 @@ using gateway::StateStore;
 using gateway::StateStoreErrc;
 
 namespace {
-
-// A fresh directory per input, under /dev/shm when there is one: the store
-// fsyncs its files and directory, and a disk would cost milliseconds each.
-std::filesystem::path fresh_dir() {
-  const std::filesystem::path base = std::filesystem::exists("/dev/shm") ? "/dev/shm" : "/tmp";
-  std::string name = (base / "cobridge-state-fuzz-XXXXXX").string();
-  if (::mkdtemp(name.data()) == nullptr) std::abort();
-  return name;
-}
 
 std::string read_all(const std::filesystem::path& p) {
   std::ifstream in(p, std::ios::binary);
@@ -139,7 +131,7 @@ void check_round_trip(const std::filesystem::path& dir, StateStore& store, std::
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string_view input(reinterpret_cast<const char*>(data), size);
-  const std::filesystem::path dir = fresh_dir();
+  const std::filesystem::path dir = fuzz::fresh_dir("state");
   {
     std::ofstream file(dir / StateStore::kFileName, std::ios::binary);
     file.write(input.data(), static_cast<std::streamsize>(input.size()));

@@ -23,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "fuzz_dir.hpp"
 #include "bus/timeline_journal.hpp"
 
 using namespace cobridge;
@@ -31,16 +32,6 @@ using gateway::TimelineJournal;
 using Timelines = std::map<std::string, std::vector<TimelineEvent>>;
 
 namespace {
-
-// A fresh directory per input, under /dev/shm when there is one: the
-// journal syncs its files and directory, and a disk would make every input
-// cost milliseconds.
-std::filesystem::path fresh_dir() {
-  const std::filesystem::path base = std::filesystem::exists("/dev/shm") ? "/dev/shm" : "/tmp";
-  std::string name = (base / "cobridge-timeline-fuzz-XXXXXX").string();
-  if (::mkdtemp(name.data()) == nullptr) std::abort();
-  return name;
-}
 
 bool well_formed(const TimelineEvent& e) {
   const auto zero = std::chrono::system_clock::time_point{};
@@ -96,7 +87,7 @@ void check_rewrite(const std::filesystem::path& dir, const Timelines& loaded) {
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  const std::filesystem::path dir = fresh_dir();
+  const std::filesystem::path dir = fuzz::fresh_dir("timeline");
   TimelineJournal journal(dir, "fuzz");
   std::filesystem::create_directories(journal.path().parent_path());
   {

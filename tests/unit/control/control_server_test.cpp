@@ -133,65 +133,55 @@ TEST(ControlServer, CommissionReachesTheHandlerAndErrorsAreJson) {
   EXPECT_EQ(h.commissioned, (std::vector<std::string>{"", "line1", "nosuch"}));
 }
 
-// `commission` reassigns node-IDs, a bus write: with
-// [control] writes_enabled off, or a caller outside write_group, it is
-// refused (permission_denied) and the handler never called.
-TEST(ControlServer, CommissionIsUnderTheWritePolicy) {
-  FakeHandler h;
+// A control-socket write that is no bus command (`commission`, `capture-now`)
+// under the write policy: refused (permission_denied, where = the bus or
+// "every bus") with no configuration at all, with [control] writes_enabled
+// off, and (when not run as root) for a caller outside write_group; then,
+// with writes open, the answer to `VERB line1`.
+std::string answer_under_the_write_policy(FakeHandler& h, const std::string& verb) {
   HeldCommands bus;
   ControlServerOptions o = fast_options();
   o.remote = &bus;
   ServerLoop loop(h, o);
   Client c(loop.path());
-  c.send("commission\n");  // no configuration at all
-  EXPECT_NE(c.line().find("\"code\":\"permission_denied\",\"where\":\"every bus\""), std::string::npos);
+  c.send(verb + " line1\n");  // no configuration at all
+  EXPECT_NE(c.line().find("\"code\":\"permission_denied\",\"where\":\"bus 'line1'\""), std::string::npos);
   config::RemoteAccess closed = writes_open();
   closed.control.writes_enabled = false;
   bus.set_access(closed);
-  c.send("commission line1\n");
-  EXPECT_NE(c.line().find("writes_enabled = false"), std::string::npos);
+  c.send(verb + "\n");
+  const std::string refused = c.line();
+  EXPECT_NE(refused.find("writes_enabled = false"), std::string::npos) << refused;
+  EXPECT_NE(refused.find("\"where\":\"every bus\""), std::string::npos) << refused;
   if (::geteuid() != 0) {
     // As a caller that is neither root nor the daemon's user: a group nobody is in.
     config::RemoteAccess grouped = writes_open();
     grouped.control.write_group = "cobridge-test-nosuch-group";
     bus.set_access(grouped);
-    c.send("commission line1\n");
+    c.send(verb + " line1\n");
     EXPECT_NE(c.line().find("permission_denied"), std::string::npos);
   }
   bus.set_access(writes_open());
-  c.send("commission line1\n");
-  EXPECT_EQ(c.line(), "{\"ok\":true,\"buses\":[\"line1\"]}");
+  c.send(verb + " line1\n");
+  return c.line();
+}
+
+// `commission` reassigns node-IDs, a bus write: refused under the write
+// policy and the handler never called then.
+TEST(ControlServer, CommissionIsUnderTheWritePolicy) {
+  FakeHandler h;
+  EXPECT_EQ(answer_under_the_write_policy(h, "commission"), "{\"ok\":true,\"buses\":[\"line1\"]}");
   std::lock_guard lock(h.mutex);
   EXPECT_EQ(h.commissioned, (std::vector<std::string>{"line1"}));
 }
 
 // Issue 38 item 3: `capture-now` writes the disk and a file of every frame
-// of the bus: under the write policy like `commission`. Refused
-// (permission_denied, the handler never called) while writes are disabled;
-// taken once they are enabled, with the capture's note in the answer.
+// of the bus: under the write policy like `commission`, the handler never
+// called while refused; taken once writes are open, with the capture's note
+// in the answer.
 TEST(ControlServer, CaptureNowIsUnderTheWritePolicy) {
   FakeHandler h;
-  HeldCommands bus;
-  ControlServerOptions o = fast_options();
-  o.remote = &bus;
-  ServerLoop loop(h, o);
-  Client c(loop.path());
-  c.send("capture-now line1\n");  // no configuration at all
-  EXPECT_NE(c.line().find("\"code\":\"permission_denied\",\"where\":\"bus 'line1'\""), std::string::npos);
-  config::RemoteAccess closed = writes_open();
-  closed.control.writes_enabled = false;
-  bus.set_access(closed);
-  c.send("capture-now\n");
-  const std::string refused = c.line();
-  EXPECT_NE(refused.find("writes_enabled = false"), std::string::npos) << refused;
-  EXPECT_NE(refused.find("\"where\":\"every bus\""), std::string::npos) << refused;
-  {
-    std::lock_guard lock(h.mutex);
-    EXPECT_TRUE(h.captured.empty());
-  }
-  bus.set_access(writes_open());
-  c.send("capture-now line1\n");
-  const std::string taken = c.line();
+  const std::string taken = answer_under_the_write_policy(h, "capture-now");
   EXPECT_NE(taken.find("\"ok\":true,\"buses\":[\"line1\"]"), std::string::npos) << taken;
   EXPECT_NE(taken.find("capture_after_s"), std::string::npos) << taken;
   std::lock_guard lock(h.mutex);

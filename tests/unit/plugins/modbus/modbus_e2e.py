@@ -705,6 +705,27 @@ class ConcurrentClients(HostCase):
         self.assert_serving()
 
 
+def assert_write_refused(case, tid):
+    """A command write (preset, +28) answers exception 0x01, a read on the same
+    connection is still answered, the refusal is logged with the client's
+    address and port, and nothing reached the host (MBAP §7)."""
+    base = DEVICE_BASE + 1 * STRIDE
+    with connect(case.host.port) as s:
+        s.settimeout(5)
+        s.sendall(frame(tid, 1, struct.pack(">BHHB", 0x10, base + 28, 2, 4) + struct.pack(">HH", 0, 100)))
+        r = recv_frame(s)
+        case.assertEqual(r[7:9], bytes([0x90, 0x01]), r.hex())
+        s.sendall(read_req(tid + 1, base, 2))
+        r = recv_frame(s)
+        case.assertEqual(r[7], 0x03, r.hex())
+        here = "127.0.0.1:%d" % s.getsockname()[1]
+    deadline = time.monotonic() + 3
+    while time.monotonic() < deadline and not any(here in l and "refused, exception 0x01" in l for l in case.host.log):
+        time.sleep(0.02)
+    case.assertTrue(any(here in l and "refused, exception 0x01" in l for l in case.host.log), case.host.log[-5:])
+    case.assertFalse([l for l in case.host.log if l.startswith("COMMAND")], "a refused write reached the host")
+
+
 class WriteAllow(HostCase):
     """With writes_enabled, only clients inside write_allow
     write; the others still read, and their writes answer exception 0x01
@@ -712,21 +733,7 @@ class WriteAllow(HostCase):
     CONFIG = 'writes_enabled = true\nwrite_allow = ["10.0.0.0/8"]\n'
 
     def test_a_client_outside_write_allow_reads_but_may_not_write(self):
-        base = DEVICE_BASE + 1 * STRIDE
-        with connect(self.host.port) as s:
-            s.settimeout(5)
-            s.sendall(frame(0x41, 1, struct.pack(">BHHB", 0x10, base + 28, 2, 4) + struct.pack(">HH", 0, 100)))
-            r = recv_frame(s)
-            self.assertEqual(r[7:9], bytes([0x90, 0x01]), r.hex())
-            s.sendall(read_req(0x42, base, 2))
-            r = recv_frame(s)
-            self.assertEqual(r[7], 0x03, r.hex())
-            here = "127.0.0.1:%d" % s.getsockname()[1]
-        deadline = time.monotonic() + 3
-        while time.monotonic() < deadline and not any(here in l and "refused, exception 0x01" in l for l in self.host.log):
-            time.sleep(0.02)
-        self.assertTrue(any(here in l and "refused, exception 0x01" in l for l in self.host.log), self.host.log[-5:])
-        self.assertFalse([l for l in self.host.log if l.startswith("COMMAND")], "a refused write reached the host")
+        assert_write_refused(self, 0x41)
 
 
 class LoopbackNotListed(HostCase):
@@ -737,21 +744,7 @@ class LoopbackNotListed(HostCase):
     CONFIG = 'writes_enabled = true\n'
 
     def test_a_loopback_client_may_not_write_unless_listed(self):
-        base = DEVICE_BASE + 1 * STRIDE
-        with connect(self.host.port) as s:
-            s.settimeout(5)
-            s.sendall(frame(0x44, 1, struct.pack(">BHHB", 0x10, base + 28, 2, 4) + struct.pack(">HH", 0, 100)))
-            r = recv_frame(s)
-            self.assertEqual(r[7:9], bytes([0x90, 0x01]), r.hex())
-            s.sendall(read_req(0x45, base, 2))
-            r = recv_frame(s)
-            self.assertEqual(r[7], 0x03, r.hex())
-            here = "127.0.0.1:%d" % s.getsockname()[1]
-        deadline = time.monotonic() + 3
-        while time.monotonic() < deadline and not any(here in l and "refused, exception 0x01" in l for l in self.host.log):
-            time.sleep(0.02)
-        self.assertTrue(any(here in l and "refused, exception 0x01" in l for l in self.host.log), self.host.log[-5:])
-        self.assertFalse([l for l in self.host.log if l.startswith("COMMAND")], "a refused write reached the host")
+        assert_write_refused(self, 0x44)
 
 
 class WriteAllowLoopback(HostCase):
