@@ -92,6 +92,21 @@ Result<std::vector<std::string>> ControlFacade::capture_now(std::string_view bus
   return asked;
 }
 
+Result<std::vector<std::string>> ControlFacade::acknowledge(std::string_view device, const std::string& caller) {
+  const std::lock_guard lock(mutex_);
+  const auto statuses = buses_.statuses();
+  for (std::size_t i = 0; i < statuses.size() && i < buses_.size(); ++i) {
+    for (const auto& d : statuses[i].devices) {
+      if (d.name != device) continue;
+      if (gateway::contested_count(d) == 0)
+        return Error(Errc::kInvalidArgument, "nothing of its configuration is contested", "device "" + d.name + """);
+      buses_[i].acknowledge_contested(d.name, caller);
+      return std::vector<std::string>{statuses[i].name};
+    }
+  }
+  return Error(Errc::kNotFound, "unknown device "" + std::string(device) + "" (cobridge status lists them)");
+}
+
 Result<std::string> ControlFacade::read_capture(std::string_view name) {
   const std::lock_guard lock(mutex_);
   for (std::size_t i = 0; i < config_->buses.size(); ++i) {

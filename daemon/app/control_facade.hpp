@@ -39,6 +39,7 @@ class ControlFacade final : public gateway::ControlHandler {
   Result<std::vector<std::string>> commission(std::string_view bus) override;
   Result<std::vector<std::string>> capture_now(std::string_view bus) override;
   [[nodiscard]] Result<std::string> read_capture(std::string_view name) override;
+  Result<std::vector<std::string>> acknowledge(std::string_view device, const std::string& caller) override;
 
  private:
   const config::Config* config_;

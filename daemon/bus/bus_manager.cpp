@@ -263,15 +263,18 @@ void BusManager::Impl::take_commands(TimePoint now) {
   std::optional<config::Config> reload_config;
   std::deque<DeviceCommand> commands;
   std::deque<std::pair<RemoteCommand, std::shared_ptr<RemoteReplies>>> clients;
+  std::vector<std::pair<std::string, std::string>> acks;
   {
     const std::lock_guard lock(mutex);
     commission = std::exchange(commission_requested, false);
+    acks.swap(pending_acks);
     reload_config = std::exchange(pending_reload, std::nullopt);
     commands.swap(pending_commands);
     clients.swap(pending_remote);
   }
   for (auto& [c, to] : clients) remote->add(std::move(c), std::move(to), now);
   if (commission) discovery->request_commission();
+  for (const auto& [device, caller] : acks) acknowledge_contested(device, caller, now);
   if (reload_config) apply_reload(std::move(*reload_config), now);
   for (auto& c : commands) start_command(std::move(c), now);
 }
@@ -403,6 +406,14 @@ void BusManager::request_commission() {
   {
     const std::lock_guard lock(impl_->mutex);
     impl_->commission_requested = true;
+  }
+  impl_->wake();
+}
+
+void BusManager::acknowledge_contested(std::string device, std::string caller) {
+  {
+    const std::lock_guard lock(impl_->mutex);
+    if (impl_->pending_acks.size() < kMaxQueuedCommands) impl_->pending_acks.emplace_back(std::move(device), std::move(caller));
   }
   impl_->wake();
 }

@@ -105,6 +105,11 @@ class BusManager {
 
   // `cobridge commission`: resolve clashes / assign now, whatever the policy.
   void request_commission();
+  // `cobridge acknowledge DEVICE`: the device's contested objects
+  // (bus/restore_guard.hpp) may be written again; `caller` goes on its
+  // timeline. Queued for the control thread; a device without contested
+  // objects is left as it is. Never blocks.
+  void acknowledge_contested(std::string device, std::string caller);
   // SIGHUP: new device settings without closing the bus.
   void reload(const config::Config& config);
 

@@ -2,6 +2,8 @@
 // the plugins' commands run as plans. Control thread only.
 #include "bus/bus_manager_impl.hpp"
 
+#include <algorithm>
+
 namespace cobridge::gateway {
 
 bool BusManager::Impl::start_configurations(TimePoint now) {
@@ -48,8 +50,15 @@ canopen::SdoClient& BusManager::Impl::sdo_of(Managed& m) {
 
 bool BusManager::Impl::begin_configuration(Managed& m, TimePoint now) {
   // A client's value may be stored in the device: only the full plan sees
-  // every configured object again.
-  if (!m.st.drift.empty()) m.force_full = true;
+  // every configured object again (a contested one is left alone).
+  if (std::any_of(m.st.drift.begin(), m.st.drift.end(), [](const DriftRecord& r) { return !r.contested; }))
+    m.force_full = true;
+  if (m.started && m.force_full) {
+    // A restore after its backoff: the device was watched until now, and
+    // the plan passes through pre-operational (not a foreign master's doing).
+    m.started = false;
+    supervisor.listen(m.st.node_id, m.profile->family);
+  }
   if (!m.plan || m.plan->node_id != m.st.node_id || m.force_full) {
     auto result = make_config_plan(m.cfg, *m.description, *m.profile, m.st.node_id);
     if (!result.ok()) {
@@ -77,11 +86,14 @@ bool BusManager::Impl::begin_configuration(Managed& m, TimePoint now) {
   const bool volatile_parts = !m.profile->cams_stored && !m.cfg.cams.empty();
   m.quick = !m.force_full && previous && previous->fingerprint == m.plan->fingerprint && !volatile_parts;
   ConfigPlan run_plan = m.quick ? quick_plan(*m.plan) : *m.plan;
-  if (m.force_full && m.plan->store_policy == config::StorePolicy::on_change) {
+  leave_contested(m, run_plan);
+  if (m.store_all && m.plan->store_policy == config::StorePolicy::on_change) {
     // The quick check already put some values back, so "changed" would
-    // miss them: store everything the plan names.
+    // miss them: store everything the plan names. A restore stores what
+    // it changed only (the store wears the device's memory).
     run_plan.store_policy = config::StorePolicy::always;
   }
+  m.store_all = false;
   // The start is ours (finish_configuration): the hot path learns the
   // mapping first, so the first TPDO after the start is decoded.
   ro.start_node = false;
@@ -150,6 +162,7 @@ void BusManager::Impl::finish_configuration(Managed& m, TimePoint now) {
     log->info("bus {}: device {}: key objects differed from the stored configuration; full plan", bus.name,
               m.st.name);
     m.force_full = true;
+    m.store_all = true;
     m.want_configure = true;
     m.not_before = now;
     --m.attempts;
@@ -164,6 +177,7 @@ void BusManager::Impl::finish_configuration(Managed& m, TimePoint now) {
   remember_assignment(m, m.plan->fingerprint);
   if (!announce_and_start(m, now)) return;
   mark_operational(m, outcome, now, ms);
+  restore_left_drift(m, now);
 }
 
 // Retries after a short delay, or after a long one once the attempts are

@@ -1,14 +1,17 @@
-// BusManager::Impl: configuration drift (issue 29 item 4). A client's
-// confirmed write (CLI / control socket, CiA 309-3, a plugin's preset, or
-// another SDO client on the bus, canopen/sdo_observer.hpp) of
-// an object the device's plan sets, to another value, is recorded on the
-// device (status "configuration differs"), put on its timeline and logged
-// once; then, per the device's on_config_drift, the full plan runs again at
-// once (restore) or the operator's value stays until the next plan runs
-// (keep). Control thread only.
+// BusManager::Impl: configuration drift. A client's confirmed write (CLI /
+// control socket, CiA 309-3, a plugin's preset, or another SDO client on the
+// bus, canopen/sdo_observer.hpp) of an object the device's plan sets, to
+// another value, is recorded on the device (status "configuration differs"),
+// put on its timeline and logged once; then, per the device's
+// on_config_drift, the full plan runs again (restore) or the operator's value
+// stays until the next plan runs (keep). Restores go through the device's
+// RestoreGuard (bus/restore_guard.hpp): a writer that keeps changing an
+// object meets three restores, then the object is contested and left alone
+// until an operator acknowledges it. Control thread only.
 #include "bus/bus_manager_impl.hpp"
 #include "bus/config_drift.hpp"
 
+#include <algorithm>
 #include <array>
 #include <span>
 
@@ -30,8 +33,20 @@ void BusManager::Impl::on_foreign_write(const canopen::ObservedWrite& w, TimePoi
 void BusManager::Impl::note_client_write(Managed& m, std::uint16_t index, std::uint8_t sub,
                                          std::span<const std::uint8_t> bytes, const std::string& writer,
                                          TimePoint now) {
+  note_drift(m, index, sub, bytes, writer, now);
+  // After the consumer followed a written time (note_drift), as it now is.
+  if (index == 0x1017 && sub == 0) supervisor.producer_time_written(m.st.node_id, now);
+}
+
+void BusManager::Impl::note_drift(Managed& m, std::uint16_t index, std::uint8_t sub,
+                                  std::span<const std::uint8_t> bytes, const std::string& writer, TimePoint now) {
   if (!m.plan || standby()) return;
   const DriftCheck check = check_write(*m.plan, index, sub, bytes, writer, wall_now());
+  if (!check.configured || repeats_open_record(m.st.drift, check)) return;  // nothing new: no line per repeat
+  if (DriftRecord* open = open_record(m.st.drift, index, sub); open != nullptr && open->contested) {
+    note_contested_write(m, *open, check.record);
+    return;
+  }
   const DriftChange change = apply_check(m.st.drift, check);
   if (change == DriftChange::none) return;
   dirty = true;
@@ -51,7 +66,7 @@ void BusManager::Impl::note_client_write(Managed& m, std::uint16_t index, std::u
   add_event(m, TimelineKind::drift, text);
   notify(m);
   if (restore) {
-    restore_configuration(m, now);
+    request_restore(m, index, sub, now);
   } else {
     follow_written_heartbeat(m, check.record);
   }
@@ -68,17 +83,71 @@ void BusManager::Impl::note_command_writes(Managed& m, const ConfigPlan& command
   }
 }
 
+void BusManager::Impl::request_restore(Managed& m, std::uint16_t index, std::uint8_t sub, TimePoint now) {
+  DriftRecord* r = open_record(m.st.drift, index, sub);
+  if (r == nullptr) return;
+  if (m.runner && !m.command) {
+    const std::uint32_t key = (std::uint32_t{index} << 8U) | sub;
+    if (std::find(m.drift_mid_plan.begin(), m.drift_mid_plan.end(), key) == m.drift_mid_plan.end())
+      m.drift_mid_plan.push_back(key);
+    return;
+  }
+  if (m.want_configure && m.force_full && !m.restore_guard.contested(index, sub)) return;  // one on its way
+  const RestoreGuard::Decision d = m.restore_guard.on_drift(index, sub, now);
+  r->restores = d.restores;
+  if (d.verdict == RestoreGuard::Verdict::restore) {
+    // While the restore waits out its backoff the device runs with the
+    // client's value: supervised as it now is, not declared lost for it.
+    if (d.not_before > now) follow_written_heartbeat(m, *r);
+    restore_configuration(m, now, d.not_before);
+    return;
+  }
+  r->contested = true;
+  if (d.verdict == RestoreGuard::Verdict::contested) mark_contested(m, *r);
+  // The device runs with the client's value now: supervise what it does.
+  follow_written_heartbeat(m, *r);
+}
+
+// A contested object stays so until an operator acknowledges, whatever is
+// written to it meanwhile (even the configured value: the other writer may
+// change it again at once).
+void BusManager::Impl::note_contested_write(Managed& m, DriftRecord& open, const DriftRecord& now_written) {
+  open.value = now_written.value;
+  open.writer = now_written.writer;
+  open.at = now_written.at;
+  const std::string text = "contested " + open.object + " written to " + number_text(open.value) + " by " +
+                           open.writer + "; left as it is until acknowledged";
+  log->info("bus {}: device {}: {}", bus.name, m.st.name, text);
+  add_event(m, TimelineKind::drift, text);
+  dirty = true;
+  follow_written_heartbeat(m, open);
+}
+
+void BusManager::Impl::mark_contested(Managed& m, const DriftRecord& r) {
+  const std::string text = r.object + (r.name.empty() ? "" : " (" + r.name + ")") + " contested: " + r.writer +
+                           " set it to " + number_text(r.value) + " again after " +
+                           std::to_string(RestoreLimits::kMaxRestores) +
+                           " restores within 10 minutes; the gateway writes and stores it no more until an "
+                           "operator acknowledges (cobridge acknowledge " + m.st.name + ")";
+  log->warn("bus {}: device {}: {}", bus.name, m.st.name, text);
+  add_event(m, TimelineKind::drift, text);
+  dirty = true;
+  notify(m);
+}
+
 // The full plan, as after a boot-up: it rewrites what differs, verifies and
-// stores; mark_operational() clears the drift when it succeeds.
+// stores what changed; mark_operational() clears the drift when it succeeds.
 // A device a client stopped (operator_hold) is not started by a restore:
-// the restore waits for the client's NMT start (on_nmt_sent).
-void BusManager::Impl::restore_configuration(Managed& m, TimePoint now) {
-  if (m.runner || m.description == nullptr || !m.profile) return;  // a plan is on its way anyway
+// the restore waits for the client's NMT start (on_nmt_sent). A command
+// running on the device finishes first (start_configurations waits for it).
+void BusManager::Impl::restore_configuration(Managed& m, TimePoint now, TimePoint when) {
+  if ((m.runner && !m.command) || m.description == nullptr || !m.profile) return;  // a plan is on its way
   if (m.operator_hold) return;
   m.force_full = true;
   m.want_configure = true;
   m.attempts = 0;
-  m.not_before = now;
+  m.not_before = when;
+  if (when > now) return;  // begin_configuration stops the watch when the plan starts
   // The plan passes through pre-operational: not a foreign NMT master's doing.
   m.started = false;
   supervisor.listen(m.st.node_id, m.profile->family);
@@ -101,14 +170,57 @@ void BusManager::Impl::follow_written_heartbeat(Managed& m, const DriftRecord& r
   }
 }
 
-// A plan that succeeded wrote every configured value: no drift is left.
 void BusManager::Impl::clear_drift(Managed& m) {
-  if (m.st.drift.empty()) return;
+  std::vector<DriftRecord> left;
   std::string objects;
-  for (const auto& r : m.st.drift) objects += (objects.empty() ? "" : ", ") + r.object;
-  m.st.drift.clear();
+  for (auto& r : m.st.drift) {
+    const std::uint32_t key = (std::uint32_t{r.index} << 8U) | r.sub;
+    const bool mid_plan = std::find(m.drift_mid_plan.begin(), m.drift_mid_plan.end(), key) != m.drift_mid_plan.end();
+    if (r.contested || mid_plan) {
+      left.push_back(std::move(r));
+    } else {
+      objects += (objects.empty() ? "" : ", ") + r.object;
+    }
+  }
+  m.st.drift = std::move(left);
+  if (objects.empty()) return;
   log->info("bus {}: device {}: configuration restored ({})", bus.name, m.st.name, objects);
   add_event(m, TimelineKind::drift, "restored the configuration of " + objects);
+}
+
+void BusManager::Impl::restore_left_drift(Managed& m, TimePoint now) {
+  m.drift_mid_plan.clear();
+  if (m.cfg.on_config_drift != config::DriftPolicy::restore) return;
+  for (const auto& r : std::vector<DriftRecord>(m.st.drift)) {
+    if (!r.contested) request_restore(m, r.index, r.sub, now);
+  }
+}
+
+void BusManager::Impl::leave_contested(const Managed& m, ConfigPlan& plan) const {
+  if (!m.restore_guard.any_contested()) return;
+  std::erase_if(plan.steps, [&](const PlanStep& step) {
+    return step.kind == StepKind::write && m.restore_guard.contested(step.write.index, step.write.sub);
+  });
+}
+
+void BusManager::Impl::acknowledge_contested(const std::string& device, const std::string& caller, TimePoint now) {
+  Managed* m = find_device(device);
+  if (m == nullptr || m->restore_guard.acknowledge() == 0) return;
+  std::string objects;
+  for (auto& r : m->st.drift) {
+    if (!r.contested) continue;
+    objects += (objects.empty() ? "" : ", ") + r.object;
+    r.contested = false;
+    r.restores = 0;
+  }
+  const std::string text = "contested configuration acknowledged by " + caller + " (" + objects + ")" +
+                           (m->cfg.on_config_drift == config::DriftPolicy::restore ? "; restoring it" : "");
+  log->info("bus {}: device {}: {}", bus.name, m->st.name, text);
+  add_event(*m, TimelineKind::drift, text);
+  dirty = true;
+  notify(*m);
+  // The operator's restore: not counted against the next contest.
+  if (m->cfg.on_config_drift == config::DriftPolicy::restore) restore_configuration(*m, now, now);
 }
 
 }  // namespace cobridge::gateway

@@ -31,6 +31,7 @@
 #include "bus/discovery.hpp"
 #include "bus/identity_reader.hpp"
 #include "bus/log_budget.hpp"
+#include "bus/restore_guard.hpp"
 #include "bus/plan_runner.hpp"
 #include "bus/remote/remote_executor.hpp"
 #include "bus/remote/remote_target.hpp"
@@ -95,6 +96,7 @@ struct BusManager::Impl final : RemoteGate {
     TimePoint preop_expected_until{};      // see kCommandSettle
     bool quick = false;       // the running plan is the fingerprint check
     bool force_full = false;  // the next run is the full plan
+    bool store_all = false;   // ... and stores all it names: the quick check already wrote some
     bool want_configure = false;  // waiting for a runner slot
     bool started = false;         // NMT start sent after a successful plan
     bool followed = false;        // standby: its decode plan is announced to the outputs
@@ -106,6 +108,11 @@ struct BusManager::Impl final : RemoteGate {
     TimePoint configure_started{};
     TimePoint boot_up_at = kNever;  // last boot-up, to report how long the way back took
     LogBudget emcy_log;             // EMCY log lines (the outputs get every EMCY)
+    RestoreGuard restore_guard;     // drift restores per object: backoff, contested
+    // Drifted objects (index << 8 | sub) a client wrote while a plan ran:
+    // that plan may have written them before the client did, so they stay
+    // open after it and get a restore of their own.
+    std::vector<std::uint32_t> drift_mid_plan;
     // Buses without discovery: the identity check before configuring.
     std::unique_ptr<IdentityReader> ident;
     bool ident_wanted = false;
@@ -275,13 +282,30 @@ struct BusManager::Impl final : RemoteGate {
   // to another value; a write of the configured value closes its record.
   void note_client_write(Managed& m, std::uint16_t index, std::uint8_t sub, std::span<const std::uint8_t> bytes,
                          const std::string& writer, TimePoint now);
+  // The drift part of note_client_write.
+  void note_drift(Managed& m, std::uint16_t index, std::uint8_t sub, std::span<const std::uint8_t> bytes,
+                  const std::string& writer, TimePoint now);
   // A write another SDO client made on the bus (seen by sdo_observer).
   void on_foreign_write(const canopen::ObservedWrite& w, TimePoint now);
   // Drift of an object a plugin's command wrote (its runner's plan).
   void note_command_writes(Managed& m, const ConfigPlan& command_plan, const DeviceCommand& cmd, TimePoint now);
-  void restore_configuration(Managed& m, TimePoint now);
+  // Asks the device's RestoreGuard: restores after its backoff, or marks
+  // the object contested; a drift seen while a plan runs waits for its end.
+  void request_restore(Managed& m, std::uint16_t index, std::uint8_t sub, TimePoint now);
+  void mark_contested(Managed& m, const DriftRecord& r);
+  void note_contested_write(Managed& m, DriftRecord& open, const DriftRecord& now_written);
+  // The full plan at `when` (after a backoff, or now).
+  void restore_configuration(Managed& m, TimePoint now, TimePoint when);
   void follow_written_heartbeat(Managed& m, const DriftRecord& r);
+  // After a successful plan: the drift it put right is closed; contested
+  // objects and those written while it ran stay open.
   void clear_drift(Managed& m);
+  // Then restores what stayed open and is not contested.
+  void restore_left_drift(Managed& m, TimePoint now);
+  // Write steps of contested objects taken out of a plan about to run.
+  void leave_contested(const Managed& m, ConfigPlan& plan) const;
+  // `cobridge acknowledge DEVICE`: contested objects may be written again.
+  void acknowledge_contested(const std::string& device, const std::string& caller, TimePoint now);
 
   // ---- status ------------------------------------------------------------------
 
@@ -408,6 +432,7 @@ struct BusManager::Impl final : RemoteGate {
   mutable std::mutex mutex;
   BusStatus published;
   bool commission_requested = false;
+  std::vector<std::pair<std::string, std::string>> pending_acks;  // (device, caller)
   std::optional<config::Config> pending_reload;
   std::deque<DeviceCommand> pending_commands;
   std::deque<std::pair<RemoteCommand, std::shared_ptr<RemoteReplies>>> pending_remote;

@@ -131,4 +131,18 @@ DriftChange apply_check(std::vector<DriftRecord>& open, const DriftCheck& check)
   return DriftChange::opened;
 }
 
+DriftRecord* open_record(std::vector<DriftRecord>& open, std::uint16_t index, std::uint8_t sub) {
+  const auto it = std::find_if(open.begin(), open.end(),
+                               [&](const DriftRecord& r) { return r.index == index && r.sub == sub; });
+  return it == open.end() ? nullptr : &*it;
+}
+
+bool repeats_open_record(const std::vector<DriftRecord>& open, const DriftCheck& check) {
+  if (!check.configured) return false;
+  return std::any_of(open.begin(), open.end(), [&](const DriftRecord& r) {
+    return r.index == check.record.index && r.sub == check.record.sub && r.value == check.record.value &&
+           r.writer == check.record.writer;
+  });
+}
+
 }  // namespace cobridge::gateway

@@ -69,5 +69,10 @@ enum class DriftChange : std::uint8_t {
 };
 // Updates `open` (one record per object, most recent last) with `check`.
 DriftChange apply_check(std::vector<DriftRecord>& open, const DriftCheck& check);
+// The open record of index:sub, if any.
+[[nodiscard]] DriftRecord* open_record(std::vector<DriftRecord>& open, std::uint16_t index, std::uint8_t sub);
+// `check` is the same value by the same writer as an open record: nothing
+// new (a writer that keeps writing its value gets one record, one line).
+[[nodiscard]] bool repeats_open_record(const std::vector<DriftRecord>& open, const DriftCheck& check);
 
 }  // namespace cobridge::gateway

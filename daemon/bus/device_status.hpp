@@ -73,6 +73,11 @@ struct DriftRecord {
   std::uint32_t value = 0;         // as the client wrote it
   std::string writer;              // "uid 0 pid 42 (control socket)", "309-3 10.0.0.5:4711", "plugin modbus"
   WallTime at{};
+  // Restores of this object within the last 10 minutes (bus/restore_guard.hpp).
+  unsigned restores = 0;
+  // Written back 3 times and changed again: the gateway writes and stores it
+  // no more until an operator acknowledges (`cobridge acknowledge DEVICE`).
+  bool contested = false;
 };
 
 struct DeviceStatus {
@@ -104,6 +109,13 @@ struct DeviceStatus {
   std::vector<DriftRecord> drift;
   LiveValues values;
 };
+
+// Its drift records the gateway no longer writes back (DriftRecord::contested).
+[[nodiscard]] inline std::size_t contested_count(const DeviceStatus& d) {
+  std::size_t n = 0;
+  for (const auto& r : d.drift) n += r.contested ? 1U : 0U;
+  return n;
+}
 
 // How long a commissioning or configuration step took (reported by status).
 struct StepTiming {

@@ -78,6 +78,16 @@ bool Supervisor::follow_producer_time(std::uint8_t node, std::chrono::millisecon
   return true;
 }
 
+void Supervisor::producer_time_written(std::uint8_t node, canopen::TimePoint at) noexcept {
+  if (!canopen::cob::valid_node_id(node)) return;
+  heartbeat_.restart_period(node, at);
+  // Not heard since its start: the first heartbeat is due a consumer time
+  // after the write, not after the start.
+  Node& n = nodes_[node];
+  if (n.watched && n.first_deadline != canopen::kNever && n.supervision.mode == Supervision::Mode::heartbeat)
+    n.first_deadline = std::max(n.first_deadline, at + consumer_time_for(n.supervision.producer_time));
+}
+
 void Supervisor::listen(std::uint8_t node, const device::families::Family* family) {
   if (!canopen::cob::valid_node_id(node)) return;
   Node& n = nodes_[node];

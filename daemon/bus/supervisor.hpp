@@ -85,6 +85,11 @@ class Supervisor {
   // the device sends none: no longer watched by heartbeat). Only a node
   // watched by heartbeat; returns whether it was.
   bool follow_producer_time(std::uint8_t node, std::chrono::milliseconds producer_time) noexcept;
+  // A client's write of 0x1017 was confirmed at `at`: the producer starts
+  // its period over (canopen::HeartbeatConsumer::restart_period); so does
+  // the wait for the first heartbeat after a start. Call it after
+  // follow_producer_time when the gateway follows the written time.
+  void producer_time_written(std::uint8_t node, canopen::TimePoint at) noexcept;
   [[nodiscard]] bool watching(std::uint8_t node) const noexcept;
   [[nodiscard]] bool online(std::uint8_t node) const noexcept;
   // The NMT state its last heartbeat / guarding reply reported (boot_up: none yet).

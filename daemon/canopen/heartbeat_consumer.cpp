@@ -19,6 +19,12 @@ bool HeartbeatConsumer::configure(uint8_t node, Duration consumer_time) noexcept
   return true;
 }
 
+void HeartbeatConsumer::restart_period(uint8_t node, TimePoint at) noexcept {
+  if (!cob::valid_node_id(node)) return;
+  NodeStatus& n = nodes_[node];
+  if (n.configured && n.armed && !n.timed_out && at > n.last_seen) n.last_seen = at;
+}
+
 void HeartbeatConsumer::remove(uint8_t node) noexcept {
   if (cob::valid_node_id(node)) nodes_[node] = NodeStatus{};
 }

@@ -72,6 +72,12 @@ class HeartbeatConsumer {
   // as 0 does in 0x1016. Returns false for node-IDs outside 1..127.
   bool configure(uint8_t node, Duration consumer_time) noexcept;
   void remove(uint8_t node) noexcept;
+  // The node confirmed a write of its producer heartbeat time (0x1017) at
+  // `at`: a producer starts its period over with the new time, so one gap
+  // of up to a period plus the time since its last heartbeat is no loss.
+  // The deadline of an armed consumer that has not timed out counts from
+  // `at` (the confirmation is itself a sign of life).
+  void restart_period(uint8_t node, TimePoint at) noexcept;
 
   // Feed every received frame. Returns true if it was a boot-up or heartbeat
   // of a monitored node.

@@ -1,6 +1,7 @@
 // cobridge: the command-line tool. Wires CLI11 subcommands to the command
 // modules; all work is in scan_command, sdo_command, nmt_command, lss_command,
 // status_command.
+#include "cli/acknowledge_command.hpp"
 #include "cli/capture_command.hpp"
 #include "cli/lss_command.hpp"
 #include "cli/modbus_map_command.hpp"
@@ -33,6 +34,8 @@ struct Commands {
   ModbusMapOptions modbus_map_o;
   CaptureOptions capture_o;
   WhyOptions why_o;
+  AcknowledgeOptions acknowledge_o;
+  CLI::App* acknowledge_c = nullptr;
   CLI::App* why_c = nullptr;
   CLI::App* scan_c = nullptr;
   CLI::App* sdo_r = nullptr;
@@ -152,6 +155,15 @@ void add_why(CLI::App& app, Commands& k) {
   c->add_flag("--json", o.json, "machine-readable output");
 }
 
+void add_acknowledge(CLI::App& app, Commands& k) {
+  auto& o = k.acknowledge_o;
+  auto* c = k.acknowledge_c = app.add_subcommand(
+      "acknowledge", "let the daemon write a device's contested configuration again (after another writer kept changing it)");
+  c->add_option("device", o.device, "the device's name")->required();
+  c->add_option("--control", o.control, "daemon control socket")->capture_default_str();
+  c->add_flag("--json", o.json, "the daemon's JSON answer, unchanged");
+}
+
 void add_output_commands(CLI::App& app, Commands& k) {
   auto& watch_o = k.watch_o;
   auto& modbus_map_o = k.modbus_map_o;
@@ -184,6 +196,7 @@ int run(const Commands& k) {
   if (*k.modbus_map_c) return modbus_map(k.modbus_map_o);
   if (*k.capture_c) return capture(k.capture_o);
   if (*k.why_c) return why(k.why_o);
+  if (*k.acknowledge_c) return acknowledge(k.acknowledge_o);
   return 2;
 }
 
@@ -202,6 +215,7 @@ int main(int argc, char** argv) {
   add_output_commands(app, k);
   add_capture(app, k);
   add_why(app, k);
+  add_acknowledge(app, k);
   CLI11_PARSE(app, argc, argv);
   // The commands print their own errors; the layers' log lines are for -v.
   // (setup_logging: loggers made later take this level too, not only those made so far.)

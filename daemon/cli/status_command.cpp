@@ -85,11 +85,15 @@ void print_devices(const std::vector<Json>& buses) {
                        d["identity"]["serial"].str(), d["state"].str(), d["online"].boolean ? "yes" : "no",
                        short_time(d["since"]), last_emcy});
       std::string notes = d["last_error"].str("");
-      // Issue 29: a client set configured objects to other values.
+      // A client set configured objects to other values; contested ones
+      // wait for `cobridge acknowledge`.
       if (d["config_differs"].boolean) {
         std::string objects;
-        for (const auto& r : d["drift"].items) objects += (objects.empty() ? "" : "; ") + r["text"].str("");
+        for (const auto& r : d["drift"].items)
+          objects += (objects.empty() ? "" : "; ") + r["text"].str("") + (r["contested"].boolean ? " CONTESTED" : "");
         notes += std::string(notes.empty() ? "" : "\n    ") + "configuration differs: " + objects;
+        if (d["config_contested"].boolean)
+          notes += "\n    contested: not written back until `cobridge acknowledge " + d["name"].str() + "`";
       }
       errors.push_back(std::move(notes));
     }

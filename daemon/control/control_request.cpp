@@ -11,7 +11,7 @@ namespace {
 
 constexpr const char* kCommands =
     "commands: status, commission [BUS], sdo-read, sdo-write, nmt, lss-set-node-id, capture-now [BUS], "
-    "capture-get NAME";
+    "capture-get NAME, acknowledge DEVICE";
 
 // At most 40 bytes of what the client sent, non-printable bytes as '?'.
 std::string quoted_input(std::string_view s) {
@@ -155,6 +155,13 @@ ControlRequest parse_control_request(std::string_view line) {
     return r;
   }
   if (w[0] == "capture-now" || w[0] == "capture-get") return parse_capture(w);
+  if (w[0] == "acknowledge") {
+    if (w.size() != 2) return invalid("usage: acknowledge DEVICE");
+    ControlRequest r;
+    r.kind = ControlRequest::Kind::acknowledge;
+    r.name = std::string(w[1]);
+    return r;
+  }
   if (w[0] == "sdo-read") return parse_sdo(w, false);
   if (w[0] == "sdo-write") return parse_sdo(w, true);
   if (w[0] == "nmt") return parse_nmt(w);

@@ -10,6 +10,7 @@
 //   lss-set-node-id BUS VENDOR PRODUCT REVISION SERIAL NODE store|no-store [TIMEOUT_MS]
 //   capture-now [BUS]                                  (a flight-recorder capture, cause "operator")
 //   capture-get NAME                                   (a capture file's text)
+//   acknowledge DEVICE                                 (its contested configuration may be written again)
 //
 // BUS is a bus name or its interface. `cobridge sdo|nmt|lss` send these
 // while a daemon owns the bus.
@@ -26,9 +27,9 @@
 namespace cobridge::gateway {
 
 struct ControlRequest {
-  enum class Kind { invalid, status, commission, remote, capture_now, capture_get } kind = Kind::invalid;
+  enum class Kind { invalid, status, commission, remote, capture_now, capture_get, acknowledge } kind = Kind::invalid;
   std::string bus;        // commission, capture_now: the bus (empty = every bus); remote: bus name or interface
-  std::string name;       // capture_get: the capture's file name
+  std::string name;       // capture_get: the capture's file name; acknowledge: the device
   RemoteCommand command;  // remote: what to run (tag and caller left for the server)
   Error error;            // invalid: kInvalidArgument with what is wrong, printable ASCII only
 };

@@ -24,6 +24,8 @@ namespace {
 using canopen::kNever;
 using canopen::TimePoint;
 
+std::string bus_where(const std::string& bus) { return bus.empty() ? std::string("every bus") : "bus '" + bus + "'"; }
+
 }  // namespace
 
 ControlServer::ControlServer(ControlHandler& handler, ControlServerOptions options)
@@ -243,6 +245,8 @@ void ControlServer::answer(Client& c, std::string_view line, TimePoint now) {
     reply = commission(c, req.bus);
   } else if (req.kind == ControlRequest::Kind::capture_now) {
     reply = capture_now(c, req.bus);
+  } else if (req.kind == ControlRequest::Kind::acknowledge) {
+    reply = acknowledge(c, req.name);
   } else if (req.kind == ControlRequest::Kind::capture_get) {
     const Result<std::string> text = handler_.read_capture(req.name);
     reply = !text.ok() ? error_answer(text.error())
@@ -267,22 +271,30 @@ std::string ControlServer::write_refusal(const Client& c) const {
 // Commissioning reassigns node-IDs (LSS): a bus write like any other, under
 // the same policy, logged with its caller.
 std::string ControlServer::commission(const Client& c, const std::string& bus) {
-  return policed(c, "commission", bus, [&] { return handler_.commission(bus); }, {});
+  return policed(c, "commission", bus_where(bus), [&] { return handler_.commission(bus); }, {});
 }
 
 // A capture writes the disk (flash wear) and its file holds every frame of
 // the bus: under the write policy too, logged with its caller (issue 38).
 std::string ControlServer::capture_now(const Client& c, const std::string& bus) {
-  return policed(c, "capture now", bus, [&] { return handler_.capture_now(bus); },
+  return policed(c, "capture now", bus_where(bus), [&] { return handler_.capture_now(bus); },
                  "written once the window closes (capture_after_s)");
 }
 
-std::string ControlServer::policed(const Client& c, std::string_view what, const std::string& bus,
+// A contested object is one the gateway stopped writing back to: writing it
+// again is the operator's decision, under the write policy, logged with the
+// caller (who also goes on the device's timeline).
+std::string ControlServer::acknowledge(const Client& c, const std::string& device) {
+  const std::string caller = c.peer.to_string() + " (control socket)";
+  return policed(c, "acknowledge", "device '" + device + "'", [&] { return handler_.acknowledge(device, caller); },
+                 "its contested configuration may be written again");
+}
+
+std::string ControlServer::policed(const Client& c, std::string_view what, const std::string& where,
                                    const std::function<Result<std::vector<std::string>>()>& act,
                                    const std::string& note) {
   const auto log = sys::logger("gateway");
   const std::string caller = c.peer.to_string() + " (control socket)";
-  const std::string where = bus.empty() ? std::string("every bus") : "bus '" + bus + "'";
   if (std::string refusal = write_refusal(c); !refusal.empty()) {
     log->warn("control socket: {} of {} refused to {}: {}", what, where, caller, refusal);
     return error_answer(Error(Errc::kPermissionDenied, refusal, where));

@@ -11,6 +11,8 @@
 //   capture-now [BUS]  -> {"ok": true, "buses": [...]}   (flight recorder; every bus when BUS is left out)
 //                         (commission and capture-now are writes: see below)
 //   capture-get NAME   -> {"ok": true, "name": ..., "text": "<the candump log>"}
+//   acknowledge DEVICE -> {"ok": true, "buses": [...]}   (its contested configuration
+//                         may be written again: a write, see below)
 //   sdo-read, sdo-write, nmt, lss-set-node-id (control_request.hpp)
 //                      -> {"ok": true, ...}  (control_answer.hpp), answered when
 //                         the bus's control thread has run the command
@@ -18,7 +20,7 @@
 //
 // Clients' commands go to a RemoteTarget (the daemon's BusRegistry, which
 // app/ makes and hands to the buses and to this server): the daemon stays the one master of its buses.
-// Writes (sdo-write, nmt, lss-set-node-id, commission, capture-now) are
+// Writes (sdo-write, nmt, lss-set-node-id, commission, capture-now, acknowledge) are
 // refused unless [control] writes_enabled is set and the caller (SO_PEERCRED) is root, the daemon's
 // own user or a member of [control] write_group (a caller the kernel cannot
 // name is none of them: remote/peer_credentials.hpp); each write is logged
@@ -90,6 +92,12 @@ class ControlHandler {
   virtual Result<std::vector<std::string>> capture_now(std::string_view /*bus*/) {
     return Error(Errc::kUnsupported, "no flight recorder");
   }
+  // Drift restore: `device`'s contested objects (bus/restore_guard.hpp) may
+  // be written again; `caller` goes on its timeline. The device's bus, or
+  // kNotFound (no such device) / kInvalidArgument (nothing contested).
+  virtual Result<std::vector<std::string>> acknowledge(std::string_view /*device*/, const std::string& /*caller*/) {
+    return Error(Errc::kUnsupported, "no drift restore");
+  }
   // The text of the capture file `name` (as the status lists it).
   [[nodiscard]] virtual Result<std::string> read_capture(std::string_view /*name*/) {
     return Error(Errc::kUnsupported, "no flight recorder");
@@ -152,7 +160,9 @@ class ControlServer {
   std::string capture_now(const Client& c, const std::string& bus);
   // `act` when the write policy lets `c` write, its buses as the answer
   // (with `note`); refused (permission_denied) and logged otherwise.
-  std::string policed(const Client& c, std::string_view what, const std::string& bus,
+  // `acknowledge DEVICE`: a write (the configuration is written again).
+  std::string acknowledge(const Client& c, const std::string& device);
+  std::string policed(const Client& c, std::string_view what, const std::string& where,
                       const std::function<Result<std::vector<std::string>>()>& act, const std::string& note);
   // A client's SDO/NMT/LSS command: checked, logged if a write, queued.
   void submit(Client& c, ControlRequest request, canopen::TimePoint now);

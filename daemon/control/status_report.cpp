@@ -134,9 +134,11 @@ void write_timeline(JsonWriter& w, const DeviceStatus& d) {
   w.end_array();
 }
 
-// Issue 29 item 4: the objects a client set away from the configuration.
+// The objects a client set away from the configuration; the contested ones
+// the gateway no longer writes back (bus/restore_guard.hpp).
 void write_drift(JsonWriter& w, const DeviceStatus& d) {
   w.field("config_differs", !d.drift.empty());
+  w.field("config_contested", contested_count(d) > 0);
   w.key("drift");
   w.begin_array();
   for (const auto& r : d.drift) {
@@ -149,6 +151,8 @@ void write_drift(JsonWriter& w, const DeviceStatus& d) {
     w.key("at");
     w.time(r.at);
     w.field("text", drift_text(r));
+    w.field("restores", std::uint64_t{r.restores});
+    w.field("contested", r.contested);
     w.end_object();
   }
   w.end_array();

@@ -278,6 +278,10 @@ void device_families(Writer& w, const gateway::StatusReport& report) {
   }
   per_device("cobridge_device_config_differs", "gauge", "1 while a client left a configured object at another value.",
              [](const DeviceStatus& d, double& v) { v = d.drift.empty() ? 0 : 1; return true; });
+  per_device("cobridge_device_config_contested", "gauge",
+             "1 while a configured object is contested: written back 3 times within 10 minutes and changed again; "
+             "not written until acknowledged.",
+             [](const DeviceStatus& d, double& v) { v = contested_count(d) > 0 ? 1 : 0; return true; });
   per_device("cobridge_device_boot_ups_total", "counter", "Boot-up messages seen from the device.",
              [](const DeviceStatus& d, double& v) { v = d.boot_ups; return true; });
   per_device("cobridge_device_configurations_total", "counter", "Configuration plans run on the device (with writes).",

@@ -125,5 +125,23 @@ TEST(ConfigDrift, OpenRecordsFollowTheWrites) {
   EXPECT_EQ(apply_check(open, check_write(plan(), 0x1017, 0, b100, "d", kAt)), DriftChange::none);
 }
 
+// A writer that keeps writing its value (a PLC every second) is one record
+// and one log line, not one per write; another value or writer is news.
+TEST(ConfigDrift, TheSameWriteAgainRepeatsItsOpenRecord) {
+  std::vector<DriftRecord> open;
+  auto b200 = u16(200);
+  auto b300 = u16(300);
+  const DriftCheck first = check_write(plan(), 0x1017, 0, b200, "plc", kAt);
+  EXPECT_FALSE(repeats_open_record(open, first));
+  (void)apply_check(open, first);
+  EXPECT_TRUE(repeats_open_record(open, check_write(plan(), 0x1017, 0, b200, "plc", kAt)));
+  EXPECT_FALSE(repeats_open_record(open, check_write(plan(), 0x1017, 0, b300, "plc", kAt)));
+  EXPECT_FALSE(repeats_open_record(open, check_write(plan(), 0x1017, 0, b200, "cli", kAt)));
+  EXPECT_FALSE(repeats_open_record(open, check_write(plan(), 0x6003, 0, b200, "plc", kAt))) << "not configured";
+  ASSERT_NE(open_record(open, 0x1017, 0), nullptr);
+  EXPECT_EQ(open_record(open, 0x1017, 0)->value, 200u);
+  EXPECT_EQ(open_record(open, 0x1017, 1), nullptr);
+}
+
 }  // namespace
 }  // namespace cobridge::gateway

@@ -75,6 +75,24 @@ TEST_F(HeartbeatConsumerTest, CiA301_7_2_8_3_2_2_HeartbeatRestartsTheTimer) {
   EXPECT_EQ(events.size(), 1u);  // same state: no second state_changed
 }
 
+// CiA 301 §7.4.8.3 (0x1017): a producer whose time is written starts its
+// period over; the confirmed write counts the deadline from there, but
+// never revives a consumer that has timed out or was never armed.
+TEST_F(HeartbeatConsumerTest, CiA301_7_4_8_3_WrittenProducerTimeRestartsThePeriod) {
+  ASSERT_TRUE(hb.configure(5, 100ms));
+  hb.restart_period(5, at(50));
+  EXPECT_EQ(hb.process(at(1000)), kNever) << "not armed: no heartbeat yet";
+  (void)hb.on_frame(Frame::make(0x705, {0x05}), at(0));
+  hb.restart_period(5, at(80));
+  EXPECT_EQ(hb.process(at(150)), at(180));
+  EXPECT_TRUE(events.empty() || events.back().kind != Kind::timeout);
+  (void)hb.process(at(180));
+  ASSERT_FALSE(events.empty());
+  EXPECT_EQ(events.back().kind, Kind::timeout);
+  hb.restart_period(5, at(200));
+  EXPECT_TRUE(hb.status(5).timed_out) << "a write does not stand in for a heartbeat after a loss";
+}
+
 TEST_F(HeartbeatConsumerTest, CiA301_7_2_8_3_2_2_RecoveredAfterTimeout) {
   ASSERT_TRUE(hb.configure(5, 100ms));
   (void)hb.on_frame(Frame::make(0x705, {0x05}), at(0));

@@ -48,12 +48,18 @@ class FakeHandler : public ControlHandler {
     captured.emplace_back(bus);
     return std::vector<std::string>{"line1"};
   }
+  Result<std::vector<std::string>> acknowledge(std::string_view device, const std::string& caller) override {
+    std::lock_guard lock(mutex);
+    acknowledged.emplace_back(std::string(device) + " by " + caller);
+    return std::vector<std::string>{"line1"};
+  }
 
   std::mutex mutex;
   StatusReport report;
   int status_calls = 0;
   std::vector<std::string> commissioned;
   std::vector<std::string> captured;
+  std::vector<std::string> acknowledged;
 };
 
 // Runs the server the way cobridged's main loop does (app/daemon.cpp serve()).

@@ -188,6 +188,39 @@ TEST(ControlServer, CaptureNowIsUnderTheWritePolicy) {
   EXPECT_EQ(h.captured, (std::vector<std::string>{"line1"}));
 }
 
+// `acknowledge DEVICE` lets the gateway write a contested configuration
+// again (bus/restore_guard.hpp): a write like `commission`, refused with
+// writes closed (the handler never called), taken once they are open, and
+// the caller handed on for the device's timeline.
+TEST(ControlServer, AcknowledgeIsUnderTheWritePolicy) {
+  FakeHandler h;
+  HeldCommands bus;
+  ControlServerOptions o = fast_options();
+  o.remote = &bus;
+  ServerLoop loop(h, o);
+  Client c(loop.path());
+  config::RemoteAccess closed = writes_open();
+  closed.control.writes_enabled = false;
+  bus.set_access(closed);
+  c.send("acknowledge rot-a\n");
+  const std::string refused = c.line();
+  EXPECT_NE(refused.find("\"code\":\"permission_denied\",\"where\":\"device 'rot-a'\""), std::string::npos) << refused;
+  {
+    std::lock_guard lock(h.mutex);
+    EXPECT_TRUE(h.acknowledged.empty());
+  }
+  bus.set_access(writes_open());
+  c.send("acknowledge\n");
+  EXPECT_NE(c.line().find("usage: acknowledge DEVICE"), std::string::npos);
+  c.send("acknowledge rot-a\n");
+  const std::string taken = c.line();
+  EXPECT_NE(taken.find("\"ok\":true,\"buses\":[\"line1\"]"), std::string::npos) << taken;
+  std::lock_guard lock(h.mutex);
+  ASSERT_EQ(h.acknowledged.size(), 1u);
+  EXPECT_EQ(h.acknowledged[0].rfind("rot-a by uid ", 0), 0u) << h.acknowledged[0];
+  EXPECT_NE(h.acknowledged[0].find("(control socket)"), std::string::npos) << h.acknowledged[0];
+}
+
 // Protocol rule: a client trickling one byte at a time cannot hold the
 // daemon up: others are answered meanwhile, and the trickler is cut off once
 // its line is not complete within the client timeout.

@@ -2,6 +2,7 @@
 differs"): a client writes an object the configuration sets. The object is
 the producer heartbeat time, 0x1017 (CiA 301 §7.4.8.3), configured 100 ms.
 
+ (d) comes first (see below); then
  (a) rot-a, on_config_drift default ("restore"): a CiA 309-3 client on the
      gateway's TCP port (requests "[<seq>] <net> <node> w <index> <sub>
      <type> <value>", as CANopenNode's cocomm sends them) writes 9029. The
@@ -25,8 +26,19 @@ the producer heartbeat time, 0x1017 (CiA 301 §7.4.8.3), configured 100 ms.
      gateway, writes 0x1017 = 9029 with an expedited SDO download; the
      gateway sees the request and the device's confirmation from the side
      (canopen/sdo_observer.hpp): drift named for "an SDO client on the
-     bus", restored at once, 0x1017 reads 100.
+     bus", restored, 0x1017 reads 100. It is rot-a's second restore of
+     0x1017 within 10 minutes: on the bus it comes 5 s after the write (the
+     backoff of bus/restore_guard.hpp), not at once.
+ (d) rot-a, a writer that fights (another master or a PLC setting 0x1017 =
+     200 every second, bus/restore_guard.hpp): counted on the bus, the
+     gateway writes 0x1017 back exactly 3 times, then the object is
+     contested (status, `cobridge status`, /metrics, the timeline naming the
+     writer) and the gateway sends the device nothing more (no SDO, no NMT)
+     while the writer goes on; the device stays online (its heartbeat is
+     supervised at the writer's 200 ms). `cobridge acknowledge rot-a` then
+     restores it once: 0x1017 reads 100, nothing differs.
 """
+import threading
 import socket
 import struct
 import sys
@@ -60,8 +72,8 @@ def device(daemon, name):
     return daemon.devices()[name]
 
 
-def events(dev, kind):
-    return [e["text"] for e in dev["timeline"] if e["kind"] == kind]
+def events(dev, kind, since=0.0):
+    return [e["text"] for e in dev["timeline"] if e["kind"] == kind and e2e.iso_to_epoch(e["at"]) >= since - 0.05]
 
 
 def offline_events(dev, since):
@@ -86,11 +98,11 @@ def restore_case(report, daemon, listener):
     while time.time() < end:
         d = device(daemon, "rot-a")
         seen_differs = seen_differs or d["config_differs"]
-        if any("restored" in t for t in events(d, "drift")) and not d["config_differs"]:
+        if any("restored" in t for t in events(d, "drift", t0)) and not d["config_differs"]:
             break
         time.sleep(0.01)
-    drift = events(d, "drift")
-    first = drift[0] if drift else ""
+    drift = events(d, "drift", t0)
+    first = next((t for t in drift if "set to" in t), "")
     report.check(all(w in first for w in ("0x1017:00", "set to 9029", "configured 100", "CiA 309-3 gateway")),
                  "timeline: the drift event names the object, 9029, configured 100 and the 309-3 writer", first)
     report.check(len(drift) >= 2 and "restored the configuration of 0x1017:00" in drift[-1],
@@ -204,7 +216,7 @@ def foreign_tool_case(report, daemon, listener):
         tool.close()
     confirmed = listener.wait_for(lambda i, d: i == 0x580 + ROT[1] and d[:4] == b"\x60\x17\x10\x00", 2, since=t0)
     report.check(confirmed is not None, "the device confirmed the tool's write of 0x1017")
-    drift, end = [], time.time() + 10
+    drift, end = [], time.time() + 12
     while time.time() < end:
         d = device(daemon, "rot-a")
         drift = [e["text"] for e in d["timeline"] if e["kind"] == "drift" and e2e.iso_to_epoch(e["at"]) >= t0 - 0.05]
@@ -214,10 +226,115 @@ def foreign_tool_case(report, daemon, listener):
     first = drift[0] if drift else ""
     report.check(all(w in first for w in ("0x1017:00", "set to 9029", "configured 100", "an SDO client on the bus")),
                  "timeline: a write by another SDO client on the bus is drift too, its writer named so", first)
-    report.check(any("restored the configuration of 0x1017:00" in t for t in drift) and not d["config_differs"],
-                 "the other client's write is restored at once (on_config_drift default restore)", repr(drift))
+    back = gateway_writes(listener, ROT[1], 100, t0)
+    delay = back[0][0] - confirmed[0] if back and confirmed else None
+    report.check(any("restored the configuration of 0x1017:00" in t for t in drift) and not d["config_differs"]
+                 and delay is not None and 5.0 <= delay < 6.5,
+                 "the other client's write is restored, as the second restore within 10 minutes 5 s after it (bus)",
+                 "%s s; %r" % ("%.2f" % delay if delay is not None else None, drift))
     answer = ask_309("[3] 1 %d r 0x1017 0 u16" % ROT[1])
     report.check(answer == "[3] 100", "0x1017 reads 100 again after the other client's write", answer)
+
+
+def gateway_writes(listener, node, value, since, until=None):
+    """Expedited SDO download requests (CiA 301 §7.2.4.3.3: ccs 1, byte 0 & 0xE0 == 0x20)
+    of 0x1017:00 = `value` to `node` seen on the bus: the writer sends 200, the gateway 100."""
+    want = bytes([0x17, 0x10, 0x00, value & 0xFF, value >> 8])
+    return [f for f in listener.snapshot(since) if (until is None or f[0] < until) and f[1] == 0x600 + node
+            and len(f[2]) >= 6 and f[2][0] & 0xE0 == 0x20 and f[2][1:6] == want]
+
+
+def gateway_frames_to(listener, node, since, until):
+    """NMT commands to `node` (or all nodes, CiA 301 §7.2.8.3.1) and SDO requests other than the writer's."""
+    return [f for f in listener.snapshot(since) if f[0] < until and
+            ((f[1] == 0 and len(f[2]) == 2 and f[2][1] in (0, node)) or
+             (f[1] == 0x600 + node and f[2][1:6] != bytes([0x17, 0x10, 0x00, 200, 0])))]
+
+
+class FightingWriter:
+    """Another SDO client on its own adapter setting rot-a's 0x1017 to 200 every second."""
+
+    def __init__(self, node):
+        self.node, self.stop, self.sent = node, threading.Event(), 0
+        self.thread = threading.Thread(target=self._run, daemon=True)
+
+    def _run(self):
+        tool = socket.socket(socket.AF_CAN, socket.SOCK_RAW, socket.CAN_RAW)
+        tool.bind(("vcan0",))
+        frame = struct.pack("=IB3x8s", 0x600 + self.node, 8, bytes([0x2B, 0x17, 0x10, 0x00, 200, 0, 0, 0]))
+        try:
+            while not self.stop.is_set():
+                tool.send(frame)
+                self.sent += 1
+                self.stop.wait(1.0)
+        finally:
+            tool.close()
+
+    def __enter__(self):
+        self.thread.start()
+        return self
+
+    def __exit__(self, *exc):
+        self.stop.set()
+        self.thread.join(5)
+
+
+def contest_case(report, args, ws, daemon, listener):
+    ctl = ["--control", ws.control]
+    node = ROT[1]
+    t0 = time.time()
+    with FightingWriter(node) as writer:
+        contested = None
+        end = time.time() + 45
+        while time.time() < end and contested is None:
+            recs = [r for r in device(daemon, "rot-a")["drift"] if r["object"] == "0x1017:00" and r["contested"]]
+            contested = recs[0] if recs else None
+            time.sleep(0.1)
+        took = time.time() - t0
+        report.check(contested is not None and contested["restores"] == 3
+                     and contested["writer"].startswith("an SDO client on the bus") and contested["value"] == 200,
+                     "a writer setting 0x1017 = 200 every second: 0x1017 contested after 3 restores",
+                     "%.1f s, %d writes: %r" % (took, writer.sent, contested))
+        t_contested = time.time()
+        writes = gateway_writes(listener, node, 100, t0)
+        # One restore is one plan; a plan whose SDO transfer met the writer's on the
+        # same server channel (abort 0x05040001) is tried again 0.5 s later: the
+        # same restore, so writes less than 2 s apart count once.
+        restores = [w for i, w in enumerate(writes) if i == 0 or w[0] - writes[i - 1][0] >= 2.0]
+        report.check(len(restores) == 3 and len(writes) <= 3 * 3,
+                     "counted on the bus: the gateway wrote 0x1017 = 100 in exactly 3 restores",
+                     "writes at %s s" % ["%.1f" % (f[0] - t0) for f in writes])
+        d = device(daemon, "rot-a")
+        texts = [t for t in events(d, "drift") if "contested" in t]
+        report.check(len(texts) == 1 and "an SDO client on the bus" in texts[0] and "cobridge acknowledge rot-a" in texts[0],
+                     "timeline: contested, naming the writer and the way out", texts[0] if texts else repr(events(d, "drift")))
+        rc, out, _ = e2e.run_cli(args.cli, "status", *ctl)
+        report.check(d["config_contested"] and "CONTESTED" in out and metric("cobridge_device_config_contested", "rot-a") == 1.0
+                     and metric("cobridge_device_config_contested", "mt-a") == 0.0,
+                     "status, `cobridge status` and /metrics say contested (rot-a only)")
+        time.sleep(8.0)  # the writer keeps writing: the gateway must keep still
+        t_end = time.time()
+        quiet = gateway_frames_to(listener, node, t_contested, t_end)
+        report.check(not quiet, "contested: for 8 s of the writer's writes the gateway sent rot-a no SDO and no NMT",
+                     repr([(round(f[0] - t_contested, 2), hex(f[1]), f[2].hex()) for f in quiet[:5]]))
+        d = device(daemon, "rot-a")
+        report.check(d["state"] == "operational" and d["online"] and not offline_events(d, t_contested),
+                     "contested: rot-a stayed operational and online (its 200 ms heartbeat followed)",
+                     "%s; before: %r" % (d["state"], offline_events(d, t0)))
+    answer = ask_309("[4] 1 %d r 0x1017 0 u16" % node)
+    report.check(answer == "[4] 200", "the writer's 200 stands while contested (309-3 read)", answer)
+    t_ack = time.time()
+    rc, out, err = e2e.run_cli(args.cli, "acknowledge", "rot-a", *ctl)
+    report.check(rc == 0, "cobridge acknowledge rot-a", out.strip() + err.strip())
+    _, took = daemon.wait_until(lambda s: any(d["name"] == "rot-a" and not d["config_differs"]
+                                              and d["state"] == "operational" for b in s["buses"]
+                                              for d in b["devices"]), 10, interval=0.05)
+    answer = ask_309("[5] 1 %d r 0x1017 0 u16" % node)
+    d = device(daemon, "rot-a")
+    report.check(took is not None and answer == "[5] 100" and len(gateway_writes(listener, node, 100, t_ack)) == 1
+                 and any("acknowledged by" in t for t in events(d, "drift")),
+                 "acknowledged: restored once, 0x1017 reads 100, nothing differs",
+                 "%s, %d writes, %s" % (answer, len(gateway_writes(listener, node, 100, t_ack)), took))
 
 
 def main():
@@ -244,6 +361,9 @@ def main():
         report.check(daemon.wait_socket(), "control socket up")
         _, took = daemon.wait_until(e2e.all_operational(["rot-a", "mt-a"]), 30, interval=0.1)
         if report.check(took is not None, "both devices operational"):
+            # First: rot-a's restores within 10 minutes count towards the contest
+            # (bus/restore_guard.hpp); the acknowledgement starts them over.
+            contest_case(report, args, ws, daemon, listener)
             restore_case(report, daemon, listener)
             foreign_tool_case(report, daemon, listener)
             keep_case(report, args, ws, daemon, sim)
