@@ -13,8 +13,8 @@ void BusManager::Impl::dispatch(const can::Frame& frame, TimePoint now) {
   // followed, to see what it writes; the responses go on to our clients too.
   const std::optional<canopen::ObservedWrite> written = sdo_observer.on_frame(frame, now);
   if (written) on_foreign_write(*written, now);
+  if (standby()) listen_as_standby(frame, now);
   if (frame.id > canopen::cob::kSdoRxBase && frame.id <= canopen::cob::kSdoRxBase + 127) return;
-  if (standby()) listen_as_standby(frame);
   // While a client's LSS command runs, its answers are not discovery's.
   if (frame.id != canopen::cob::kLssSlaveToMaster || !remote->lss_session(now)) discovery->on_frame(frame, now);
   remote->on_frame(frame, now);

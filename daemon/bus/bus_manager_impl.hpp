@@ -409,9 +409,19 @@ struct BusManager::Impl final : RemoteGate {
   [[nodiscard]] TimePoint run_standby(TimePoint now, TimePoint next);
   // Standby (bus_manager_standby.cpp).
   std::array<canopen::LssAddress, 128> heard_identity{};  // per node, from the master's 0x1018 reads
-  void listen_as_standby(const can::Frame& frame);
+  // Per node: the 0x1018 sub-index of the upload the standby saw requested
+  // (0 = none) and when; only its response within the SDO timeout counts.
+  struct AskedIdentity {
+    std::uint8_t sub = 0;
+    TimePoint at{};
+  };
+  std::array<AskedIdentity, 128> asked_identity{};
+  void listen_as_standby(const can::Frame& frame, TimePoint now);
   void note_heartbeat(const can::Frame& frame);
-  void note_identity(const can::Frame& frame);
+  void note_identity_request(const can::Frame& frame, TimePoint now);
+  void note_identity(const can::Frame& frame, TimePoint now);
+  // The status a standby shows of `m`: what the bus says (bus_manager_standby.cpp).
+  [[nodiscard]] DeviceStatus as_the_bus_says(const Managed& m) const;
   void follow_heard_devices();
   void remember_followed(const Managed& m, const std::string& fingerprint);
   [[nodiscard]] bool describe_from_config(Managed& m);

@@ -8,8 +8,13 @@
 //     master's expedited SDO uploads of the identity object 0x1018 (CiA 301
 //     7.5.2.36; sub 1 vendor, 2 product, 3 revision, 4 serial) name the node
 //     in their COB-ID, so a device the master commissioned with LSS is
-//     known here by its serial without any request;
-//   - which devices are in operation (their heartbeat, CiA 301 7.2.8.3.2).
+//     known here by its serial without any request of its own. Only the
+//     response to an upload request seen on the bus, within the SDO timeout,
+//     counts: a response nobody asked for (any node can send one) is not
+//     written into this gateway's state file;
+//   - which devices are in operation (their heartbeat, CiA 301 7.2.8.3.2):
+//     its status shows such a device operational (configured by the master)
+//     rather than the state its own control thread left it in.
 // A device heard in operation is announced to the outputs with the mapping
 // its plan sets, and remembered in this gateway's state store with the
 // plan's fingerprint, as the master remembered it: a takeover starts from
@@ -50,12 +55,14 @@ const device::DeviceDescription* description_of_family(const device::DeviceCatal
 
 }  // namespace
 
-void BusManager::Impl::listen_as_standby(const can::Frame& frame) {
+void BusManager::Impl::listen_as_standby(const can::Frame& frame, TimePoint now) {
   if (frame.is_extended() || frame.is_rtr()) return;
   if (frame.id > canopen::cob::kNmtErrorControlBase && frame.id <= canopen::cob::kNmtErrorControlBase + 127) {
     note_heartbeat(frame);
   } else if (frame.id > kSdoResponseBase && frame.id <= kSdoResponseBase + 127) {
-    note_identity(frame);
+    note_identity(frame, now);
+  } else if (frame.id > canopen::cob::kSdoRxBase && frame.id <= canopen::cob::kSdoRxBase + 127) {
+    note_identity_request(frame, now);
   }
 }
 
@@ -63,16 +70,31 @@ void BusManager::Impl::note_heartbeat(const can::Frame& frame) {
   if (frame.len != 1) return;
   const auto node = static_cast<std::uint8_t>(frame.id - canopen::cob::kNmtErrorControlBase);
   if (Managed* m = find_configured_node(node)) {
-    m->heard_operational = (frame.data[0] & 0x7F) == static_cast<std::uint8_t>(canopen::NmtState::operational);
+    const bool operational =
+        (frame.data[0] & 0x7F) == static_cast<std::uint8_t>(canopen::NmtState::operational);
+    if (m->heard_operational != operational) dirty = true;  // the status shows it
+    m->heard_operational = operational;
   }
 }
 
-void BusManager::Impl::note_identity(const can::Frame& frame) {
+// An upload initiate request (CiA 301 7.2.4.3.2: ccs 2, byte 0 = 0x40) of
+// 0x1018 sub 1..4.
+void BusManager::Impl::note_identity_request(const can::Frame& frame, TimePoint now) {
+  if (frame.len != 8 || frame.data[0] != 0x40) return;
+  const auto index = static_cast<std::uint16_t>(frame.data[1] | frame.data[2] << 8);
+  const std::uint8_t sub = frame.data[3];
+  const auto node = static_cast<std::uint8_t>(frame.id - canopen::cob::kSdoRxBase);
+  asked_identity[node] = index == kIdentityObject && sub >= 1 && sub <= 4 ? AskedIdentity{sub, now} : AskedIdentity{};
+}
+
+void BusManager::Impl::note_identity(const can::Frame& frame, TimePoint now) {
   if (!expedited_upload_response(frame)) return;
   const auto index = static_cast<std::uint16_t>(frame.data[1] | frame.data[2] << 8);
   const std::uint8_t sub = frame.data[3];
   if (index != kIdentityObject || sub < 1 || sub > 4) return;
   const auto node = static_cast<std::uint8_t>(frame.id - kSdoResponseBase);
+  const AskedIdentity asked = std::exchange(asked_identity[node], AskedIdentity{});
+  if (asked.sub != sub || now - asked.at > milliseconds(bus.sdo_timeout_ms)) return;  // nobody asked
   canopen::LssAddress& id = heard_identity[node];
   const std::uint32_t v = le32(&frame.data[4]);
   (sub == 1 ? id.vendor : sub == 2 ? id.product : sub == 3 ? id.revision : id.serial) = v;
@@ -115,6 +137,15 @@ void BusManager::Impl::follow_heard_devices() {
 // applying them): the same record the master keeps.
 void BusManager::Impl::remember_followed(const Managed& m, const std::string& fingerprint) {
   if (m.st.identity.serial != 0) remember_assignment(m, fingerprint);
+}
+
+DeviceStatus BusManager::Impl::as_the_bus_says(const Managed& m) const {
+  DeviceStatus s = m.st;
+  if (m.in_config && m.followed && m.heard_operational) {
+    s.state = DeviceState::operational;
+    s.nmt = canopen::NmtState::operational;
+  }
+  return s;
 }
 
 // The description from the identity heard or configured (vendor and
