@@ -20,6 +20,8 @@ Runs inside UML:
 """
 import os
 import signal
+import socket
+import struct
 import time
 
 import e2e
@@ -42,6 +44,27 @@ def config(ws, node):
 
 def nodes(daemon):
     return {d["name"]: d["node_id"] for d in daemon.status()["buses"][0]["devices"]}
+
+
+def states(daemon):
+    return {d["name"]: d["state"] for d in daemon.status()["buses"][0]["devices"]}
+
+
+def unasked_identity(report, b, ws, given):
+    """A stranger's expedited upload response (CiA 301 7.2.4.3.3: 43 18 10 04 + serial) naming
+    rot-a's serial at node 77, with no request before it: the standby learns nothing from it."""
+    forged = socket.socket(socket.AF_CAN, socket.SOCK_RAW, socket.CAN_RAW)
+    try:
+        forged.bind(("vcan0",))
+        forged.send(struct.pack("=IB3x8s", 0x580 + 77, 8, bytes([0x43, 0x18, 0x10, 0x04]) + struct.pack("<I", 1001)))
+    finally:
+        forged.close()
+    time.sleep(1.0)  # a standby that believed it would have moved rot-a by now (the next loop turn)
+    path = os.path.join(ws["b"].state, "assignments.state")
+    state = open(path).read() if os.path.exists(path) else ""
+    report.check(nodes(b) == given and "node=77" not in state,
+                 "an upload response nobody asked for (rot-a's serial at node 77) teaches the standby nothing",
+                 "%s; state file has node=77: %s" % (nodes(b), "node=77" in state))
 
 
 class Scene:
@@ -112,6 +135,9 @@ def main():
         state = open(path).read() if os.path.exists(path) else ""
         remembered = all(("node=%d " % n) in state + " " or ("node=%d\n" % n) in state for n in given.values())
         report.check(remembered, "the standby's state file holds them", state[:300])
+        report.check(all(v == "operational" for v in states(b).values()),
+                     "the standby's status shows the devices operational, as their heartbeats say", str(states(b)))
+        unasked_identity(report, b, ws, given)
 
         os.kill(a.pid, signal.SIGKILL)
         a.proc.wait(5)
