@@ -85,15 +85,7 @@ bool BusManager::Impl::begin_configuration(Managed& m, TimePoint now) {
   const auto previous = state.find(bus.name, m.st.identity.vendor, m.st.identity.product, m.st.identity.serial);
   const bool volatile_parts = !m.profile->cams_stored && !m.cfg.cams.empty();
   m.quick = !m.force_full && previous && previous->fingerprint == m.plan->fingerprint && !volatile_parts;
-  ConfigPlan run_plan = m.quick ? quick_plan(*m.plan) : *m.plan;
-  leave_contested(m, run_plan);
-  if (m.store_all && m.plan->store_policy == config::StorePolicy::on_change) {
-    // The quick check already put some values back, so "changed" would
-    // miss them: store everything the plan names. A restore stores what
-    // it changed only (the store wears the device's memory).
-    run_plan.store_policy = config::StorePolicy::always;
-  }
-  m.store_all = false;
+  ConfigPlan run_plan = plan_to_run(m);
   // The start is ours (finish_configuration): the hot path learns the
   // mapping first, so the first TPDO after the start is decoded.
   ro.start_node = false;
@@ -110,6 +102,19 @@ bool BusManager::Impl::begin_configuration(Managed& m, TimePoint now) {
     return false;
   }
   return true;
+}
+
+ConfigPlan BusManager::Impl::plan_to_run(Managed& m) {
+  ConfigPlan run_plan = m.quick ? quick_plan(*m.plan) : *m.plan;
+  leave_contested(m, run_plan);
+  if (m.store_all && m.plan->store_policy == config::StorePolicy::on_change) {
+    // The quick check already put some values back, so "changed" would
+    // miss them: store everything the plan names. A restore stores what
+    // it changed only (the store wears the device's memory).
+    run_plan.store_policy = config::StorePolicy::always;
+  }
+  m.store_all = false;
+  return run_plan;
 }
 
 ConfigPlan BusManager::Impl::quick_plan(const ConfigPlan& full) {

@@ -215,6 +215,9 @@ struct BusManager::Impl final : RemoteGate {
   // configuration": supervision and the PDO mappings, read (and compared)
   // between pre-operational and nothing else. No store step.
   static ConfigPlan quick_plan(const ConfigPlan& full);
+  // What this run executes: the quick check or the full plan, less the
+  // contested objects' writes, storing all it names after a failed quick check.
+  ConfigPlan plan_to_run(Managed& m);
   Supervision supervision_for(const Managed& m) const;
   void finish_configuration(Managed& m, TimePoint now);
   void configuration_failed(Managed& m, const PlanRunResult& outcome, TimePoint now);

@@ -253,41 +253,25 @@ void arrival_families(Writer& w, const gateway::StatusReport& report) {
   }
 }
 
-// Per device: liveness, state, counters and the last values.
-void device_families(Writer& w, const gateway::StatusReport& report) {
-  auto per_device = [&](std::string_view name, std::string_view type, std::string_view help,
-                        const std::function<bool(const DeviceStatus&, double&)>& get) {
-    w.family(name, type, help);
-    for (const auto& b : report.buses) {
-      for (const auto& d : b.devices) {
-        double v = 0;
-        if (get(d, v)) w.sample({{"bus", b.name}, {"node", node_label(d)}, {"name", d.name}}, v);
-      }
-    }
-  };
-  per_device("cobridge_device_up", "gauge", "1 while the device's heartbeat (or guarding) is heard.",
-             [](const DeviceStatus& d, double& v) { v = d.online ? 1 : 0; return true; });
-  w.family("cobridge_device_state", "gauge", "The device's state in the gateway (1 for the current state).");
+using DeviceValue = std::function<bool(const DeviceStatus&, double&)>;
+
+// One family with a sample per device for which `get` gives a value.
+void device_family(Writer& w, const gateway::StatusReport& report, std::string_view name, std::string_view type,
+                   std::string_view help, const DeviceValue& get) {
+  w.family(name, type, help);
   for (const auto& b : report.buses) {
     for (const auto& d : b.devices) {
-      const std::string node = node_label(d);
-      for (const DeviceState s : kStates)
-        w.sample({{"bus", b.name}, {"node", node}, {"name", d.name}, {"state", gateway::to_string(s)}},
-                 d.state == s ? 1 : 0);
+      double v = 0;
+      if (get(d, v)) w.sample({{"bus", b.name}, {"node", node_label(d)}, {"name", d.name}}, v);
     }
   }
-  per_device("cobridge_device_config_differs", "gauge", "1 while a client left a configured object at another value.",
-             [](const DeviceStatus& d, double& v) { v = d.drift.empty() ? 0 : 1; return true; });
-  per_device("cobridge_device_config_contested", "gauge",
-             "1 while a configured object is contested: written back 3 times within 10 minutes and changed again; "
-             "not written until acknowledged.",
-             [](const DeviceStatus& d, double& v) { v = contested_count(d) > 0 ? 1 : 0; return true; });
-  per_device("cobridge_device_boot_ups_total", "counter", "Boot-up messages seen from the device.",
-             [](const DeviceStatus& d, double& v) { v = d.boot_ups; return true; });
-  per_device("cobridge_device_configurations_total", "counter", "Configuration plans run on the device (with writes).",
-             [](const DeviceStatus& d, double& v) { v = d.configurations; return true; });
-  per_device("cobridge_device_emcy_total", "counter", "Emergency messages received from the device.",
-             [](const DeviceStatus& d, double& v) { v = d.emcy_count; return true; });
+}
+
+// Per device: the last values and their ages.
+void value_families(Writer& w, const gateway::StatusReport& report) {
+  auto per_device = [&](std::string_view name, std::string_view type, std::string_view help, const DeviceValue& get) {
+    device_family(w, report, name, type, help, get);
+  };
   per_device("cobridge_heartbeat_age_seconds", "gauge", "Time since the device's last heartbeat.",
              [](const DeviceStatus& d, double& v) {
                v = d.values.heartbeat_age_s;
@@ -316,6 +300,37 @@ void device_families(Writer& w, const gateway::StatusReport& report) {
                v = d.values.speed;
                return d.values.present && d.values.has_speed;
              });
+}
+
+// Per device: liveness, state, counters, then the last values.
+void device_families(Writer& w, const gateway::StatusReport& report) {
+  auto per_device = [&](std::string_view name, std::string_view type, std::string_view help, const DeviceValue& get) {
+    device_family(w, report, name, type, help, get);
+  };
+  per_device("cobridge_device_up", "gauge", "1 while the device's heartbeat (or guarding) is heard.",
+             [](const DeviceStatus& d, double& v) { v = d.online ? 1 : 0; return true; });
+  w.family("cobridge_device_state", "gauge", "The device's state in the gateway (1 for the current state).");
+  for (const auto& b : report.buses) {
+    for (const auto& d : b.devices) {
+      const std::string node = node_label(d);
+      for (const DeviceState s : kStates)
+        w.sample({{"bus", b.name}, {"node", node}, {"name", d.name}, {"state", gateway::to_string(s)}},
+                 d.state == s ? 1 : 0);
+    }
+  }
+  per_device("cobridge_device_config_differs", "gauge", "1 while a client left a configured object at another value.",
+             [](const DeviceStatus& d, double& v) { v = d.drift.empty() ? 0 : 1; return true; });
+  per_device("cobridge_device_config_contested", "gauge",
+             "1 while a configured object is contested: written back 3 times within 10 minutes and changed again; "
+             "not written until acknowledged.",
+             [](const DeviceStatus& d, double& v) { v = contested_count(d) > 0 ? 1 : 0; return true; });
+  per_device("cobridge_device_boot_ups_total", "counter", "Boot-up messages seen from the device.",
+             [](const DeviceStatus& d, double& v) { v = d.boot_ups; return true; });
+  per_device("cobridge_device_configurations_total", "counter", "Configuration plans run on the device (with writes).",
+             [](const DeviceStatus& d, double& v) { v = d.configurations; return true; });
+  per_device("cobridge_device_emcy_total", "counter", "Emergency messages received from the device.",
+             [](const DeviceStatus& d, double& v) { v = d.emcy_count; return true; });
+  value_families(w, report);
   arrival_families(w, report);
 }
 
