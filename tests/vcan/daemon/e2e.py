@@ -547,6 +547,30 @@ def run_cli(cli, *args, timeout=10):
     return r.returncode, r.stdout, r.stderr
 
 
+def sh(*cmd):
+    """A set-up command (ip, cangw); its stdout. Raises with its stderr when it fails."""
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    if r.returncode != 0:
+        raise RuntimeError("%s: %s" % (" ".join(cmd), r.stderr.strip()))
+    return r.stdout
+
+
+def cli_via_daemon(cli, iface, timeout=5.0):
+    """Waits until `cobridge sdo read` on `iface` goes through a daemon (its beacon) rather
+    than the bus; returns the last answer's "via" and output."""
+    via, out = None, ""
+    end = time.time() + timeout
+    while time.time() < end and via != "daemon":
+        rc, out, _ = run_cli(cli, "sdo", "read", "-i", iface, "-n", "20", "1000:0", "--json")
+        try:
+            via = json.loads(out).get("via") if rc == 0 else None
+        except ValueError:
+            via = None
+        if via != "daemon":
+            time.sleep(0.2)
+    return via, out
+
+
 def iso_to_epoch(text):
     """'2024-05-01T12:00:00.123Z' -> seconds since the epoch."""
     import calendar
