@@ -75,7 +75,10 @@ class Candump:
         self.path = path
         self.out = open(path, "w")
         spec = iface + (",0:0,#FFFFFFFF" if errors else "")
-        cmd = ["candump", "-L", spec] if log else ["candump", "-x", "-t", "a", spec]
+        # -d: a frame the kernel dropped for candump (socket buffer full) is reported on a line of
+        # its own (dropped()); -r: 4 MiB of socket buffer (root: beyond rmem_max), as CanListener.
+        opts = ["-d", "-r", str(4 << 20)]
+        cmd = ["candump"] + opts + (["-L", spec] if log else ["-x", "-t", "a", spec])
         if netns:
             cmd = ["ip", "netns", "exec", netns] + cmd
         self.proc = subprocess.Popen(cmd, stdout=self.out, stderr=subprocess.DEVNULL)
@@ -90,6 +93,12 @@ class Candump:
                 if fr and t0 <= fr[0] <= t1:
                     out.append(fr)
         return out
+
+    def dropped(self):
+        """candump's reports of frames the kernel dropped before it read them (-d)."""
+        self.out.flush()
+        with open(self.path) as f:
+            return [l.strip() for l in f if "DROPCOUNT" in l]
 
     def sent(self, t0=0.0, t1=float("inf")):
         """(time, can_id, data) of every frame sent from this side of the interface (TX)."""
