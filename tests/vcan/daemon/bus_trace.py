@@ -132,6 +132,20 @@ def sdo_downloads(frames, nodes):
     return out
 
 
+def download_target(frame):
+    """(index, subindex, value) of an initiate download request (CiA 301 §7.2.4.3.3: index
+    little-endian in bytes 1..2, subindex in byte 3; expedited (e, bit 1) with its size
+    indicated (s, bit 0) by n (bits 3..2), the bytes 4..7 that hold no data; value None when
+    not expedited)."""
+    data = frame[-1]
+    index, sub = data[1] | data[2] << 8, data[3]
+    value = None
+    if data[0] >> 5 == 1 and data[0] & 0x02:
+        size = 4 - (data[0] >> 2 & 0x03) if data[0] & 0x01 else 4
+        value = int.from_bytes(data[4:4 + size], "little")
+    return index, sub, value
+
+
 def describe_downloads(downloads, n=4):
     """'0x60A 2B17100064000000 at 12.345, ...' for a check's detail."""
     return ", ".join("0x%03X %s at %.3f" % (f[-2], f[-1].hex().upper(), f[0]) for f in downloads[:n])

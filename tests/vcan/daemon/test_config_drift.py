@@ -20,7 +20,8 @@ the producer heartbeat time, 0x1017 (CiA 301 §7.4.8.3), configured 100 ms.
      it (pre-operational, 0x1010:01 "save"), and after a power cycle of
      the device the configuration is applied again: drift cleared, 0x1017
      reads 100, and the timeline names what the device came back with
-     (0x1017 read 0x000003E8, configured 0x00000064).
+     (0x1017 read 0x000003E8, configured 0x00000064). Until that power
+     cycle the bus carries no download of 0x1017 = 100 to mt-a.
  (c) rot-a again: a service tool on its own CAN adapter, not through the
      gateway, writes 0x1017 = 9029 with an expedited SDO download; the
      gateway sees the request and the device's confirmation from the side
@@ -33,6 +34,7 @@ import sys
 import time
 import urllib.request
 
+import bus_trace
 import e2e
 
 ROT, MT = (1001, 10), (2001, 20)
@@ -77,6 +79,21 @@ def heartbeat_gap(listener, node, since):
     return max(b - a for a, b in zip([since] + times, times + [time.time()]))
 
 
+def check_restore_on_bus(report, listener, node, t0, what):
+    """The restore as the bus shows it, whatever the daemon logs: after t0 the SDO download
+    requests to `node` (CiA 301 §7.2.4.3.3) hold the configured 0x1017:00 = 100 after the
+    client's value, and write nothing but 0x1017 and the store object 0x1010 (CiA 301 §7.5.2.13)."""
+    downloads = bus_trace.sdo_downloads(listener.snapshot(t0), {node})
+    targets = [bus_trace.download_target(f) for f in downloads]
+    client = next((k for k, t in enumerate(targets) if t == (0x1017, 0, 9029)), None)
+    restored = [t for t in targets[(client or 0) + 1:] if t == (0x1017, 0, 100)]
+    other = [t for t in targets if t[0] not in (0x1017, 0x1010)]
+    report.check(client is not None and len(restored) == 1 and not other,
+                 "%s: on the bus, the client's 0x1017 = 9029, then one download of 0x1017 = 100 (the restore), "
+                 "nothing but 0x1017 and 0x1010 written" % what,
+                 "%d downloads: %s" % (len(downloads), ["%04X:%02X=%s" % t for t in targets]))
+
+
 def restore_case(report, daemon, listener):
     t0 = time.time()
     answer = ask_309("[1] 1 %d w 0x1017 0 u16 9029" % ROT[1])
@@ -99,7 +116,8 @@ def restore_case(report, daemon, listener):
                  "differs seen while restoring: %s" % seen_differs)
     answer = ask_309("[2] 1 %d r 0x1017 0 u16" % ROT[1])
     report.check(answer == "[2] 100", "0x1017 reads 100 again (309-3 read)", answer)
-    time.sleep(1.0)
+    check_restore_on_bus(report, listener, ROT[1], t0, "309-3 write")
+    time.sleep(1.0)  # a second more of rot-a's heartbeat observed: a window, not a wait
     d = device(daemon, "rot-a")
     gap = heartbeat_gap(listener, ROT[1], t0)
     report.check(d["state"] == "operational" and d["online"] and not offline_events(d, t0)
@@ -135,8 +153,9 @@ def modbus_preset(report, daemon):
                  repr(list(recs.values())))
 
 
-def keep_case(report, args, ws, daemon, sim):
+def keep_case(report, args, ws, daemon, sim, listener):
     ctl = ["--control", ws.control]
+    t_write = time.time()
     rc, out, err = e2e.run_cli(args.cli, "sdo", "write", "-i", "vcan0", "-n", str(MT[1]), "1017:0", "1000",
                                "--size", "2", *ctl)
     report.check(rc == 0, "cobridge sdo write 0x1017 = 1000 on mt-a through the daemon", out.strip() + err.strip())
@@ -147,7 +166,7 @@ def keep_case(report, args, ws, daemon, sim):
     report.check(took is not None and rec.get("object") == "0x1017:00" and rec.get("configured") == 100
                  and rec.get("value") == 1000 and "control socket" in rec.get("writer", ""),
                  "status: config_differs, drift names 0x1017:00, 100, 1000 and the CLI writer", repr(rec))
-    time.sleep(3.5)  # several 1000 ms heartbeat periods, beyond the 100 ms consumer time
+    time.sleep(3.5)  # several 1000 ms heartbeat periods, beyond the 100 ms consumer time: a window
     d = device(daemon, "mt-a")
     rc, out, _ = e2e.run_cli(args.cli, "status", *ctl)
     report.check(d["config_differs"] and "configuration differs: 0x1017:00" in out,
@@ -172,6 +191,10 @@ def keep_case(report, args, ws, daemon, sim):
                                str(0x65766173), "--size", "4", *ctl)
     report.check(rc == 0, "cobridge sdo write 0x1010:01 = \"save\" on mt-a (the operator stores it)",
                  out.strip() + err.strip())
+    kept = [bus_trace.download_target(f) for f in bus_trace.sdo_downloads(listener.snapshot(t_write), {MT[1]})]
+    report.check((0x1017, 0, 1000) in kept and (0x1017, 0, 100) not in kept,
+                 "keep: on the bus, the CLI's 0x1017 = 1000 to mt-a and no download of the configured 100 after it",
+                 str(["%04X:%02X=%s" % t for t in kept]))
     sim.command("power-cycle %d" % MT[0])
     st, took = daemon.wait_until(lambda s: any(d["name"] == "mt-a" and not d["config_differs"]
                                                and d["state"] == "operational" and d["online"]
@@ -218,6 +241,7 @@ def foreign_tool_case(report, daemon, listener):
                  "the other client's write is restored at once (on_config_drift default restore)", repr(drift))
     answer = ask_309("[3] 1 %d r 0x1017 0 u16" % ROT[1])
     report.check(answer == "[3] 100", "0x1017 reads 100 again after the other client's write", answer)
+    check_restore_on_bus(report, listener, ROT[1], t0, "the other client's write")
 
 
 def main():
@@ -246,7 +270,7 @@ def main():
         if report.check(took is not None, "both devices operational"):
             restore_case(report, daemon, listener)
             foreign_tool_case(report, daemon, listener)
-            keep_case(report, args, ws, daemon, sim)
+            keep_case(report, args, ws, daemon, sim, listener)
         else:
             print(daemon.tail(60))
         e2e.check_clean_exit(report, daemon, tail=60)
