@@ -106,8 +106,12 @@ class Candump:
 
     def wait_past(self, t, timeout=5.0):
         """Waits until candump has written a frame stamped after `t` (the bus's periodic
-        heartbeats come every 100 ms), so that a window ending at `t` is whole."""
-        wait_until(lambda: self.frames(t), timeout, "candump on %s to pass %.3f" % (self.path, t), interval=0.05)
+        heartbeats come every 100 ms), so that a window ending at `t` is whole; False when none
+        came within `timeout` (a bus quiet since: the window is whole too)."""
+        try:
+            return bool(wait_until(lambda: self.frames(t), timeout, "candump past %.3f" % t, interval=0.05))
+        except TimeoutError:
+            return False
 
     def close(self):
         if self.proc.poll() is None:
@@ -183,14 +187,18 @@ def read_log(path):
     return out
 
 
-def compare_capture(capture, independent, tolerance):
+def compare_capture(capture, independent, tolerance, window_end=None):
     """A capture (frames of its file) against the independent trace: the trace's frames
-    stamped from the capture's first to its last frame (widened by `tolerance`) must be the
-    capture's frames, same ids and data in the same order, each stamp within `tolerance`
-    seconds. Returns (ok, detail)."""
+    stamped from the capture's first frame to its last, or to `window_end` (the end of the
+    window the capture is for, its fault + capture_after_s: a capture cut short fails too),
+    must be the capture's frames, same ids and data in the same order, each stamp within
+    `tolerance` seconds. Returns (ok, detail)."""
     if not capture:
         return False, "the capture holds no frame"
     t0, t1 = capture[0][0], capture[-1][0]
+    if window_end is not None:
+        # Stamps are whole microseconds: a frame in the window's last one may fall either side.
+        t1 = max(t1, window_end - 1e-6)
     # The trace's frames that match the capture's first and last ones bound the same seconds.
     window = [f for f in independent if t0 - tolerance <= f[0] <= t1 + tolerance]
     start = next((i for i, f in enumerate(window) if f[1:] == capture[0][1:] and abs(f[0] - t0) <= tolerance), None)

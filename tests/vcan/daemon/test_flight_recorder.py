@@ -70,18 +70,21 @@ STORM_MAX_S = 60.0  # the storm goes on until the cap has deleted a capture, at 
 CAPTURE_STAMP_TOLERANCE = 2e-6  # one microsecond of print resolution, and the float's rounding
 
 
-def check_against_candump(report, trace, path, what):
-    """The capture at `path` is the independent candump's frames of the same seconds."""
+def check_against_candump(report, trace, path, what, after=AFTER):
+    """The capture at `path` is the independent candump's frames of the same seconds: from its
+    first frame (the ring may have started after its window's start) to the end of its window,
+    the first fault (the sidecar's fault_ns) + capture_after_s."""
     if path is None:
         return
     try:
         frames = bus_trace.read_log(path)
+        with open(path[:-4] + ".json") as f:
+            window_end = json.load(f)["fault_ns"] / 1e9 + after
     except FileNotFoundError:  # deleted by the cap meanwhile (the EMCY storm)
         return
-    if frames:
-        trace.wait_past(frames[-1][0])
+    trace.wait_past(window_end)
     ok, detail = bus_trace.compare_capture(frames, [(t, i, d) for t, _, i, d in trace.frames()],
-                                           CAPTURE_STAMP_TOLERANCE)
+                                           CAPTURE_STAMP_TOLERANCE, window_end)
     drops = trace.dropped()
     report.check(ok and not drops, "the %s capture is the independent candump of its seconds, frame by frame" % what,
                  "%s: %s%s" % (os.path.basename(path), detail, ("; candump: " + drops[0]) if drops else ""))
