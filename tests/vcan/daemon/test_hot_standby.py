@@ -243,8 +243,8 @@ def check_dds(report, ws, kills, rebooting):
 
 
 def one_takeover(pair, listener, master, standby, i, no_wait=False):
-    """Kills the master (at a random moment within 1 s, or at once); returns (kill time, takeover
-    seconds or None). The takeover is read from the traces alone: from the dead master's last
+    """Kills the master (at a random moment within 1 s, or at once); returns (kill time, the time of
+    its last frame, takeover seconds or None). The takeover is read from the traces alone: from the dead master's last
     frame (the last its end's candump -x marks TX) to the survivor's first heartbeat saying master
     (05h) on vcan0, the devices' side of the bus."""
     if not no_wait:
@@ -253,12 +253,13 @@ def one_takeover(pair, listener, master, standby, i, no_wait=False):
     t_kill = time.time()
     seen = listener.wait_for(bus_trace.master_heartbeat(NODE[standby]), 5, since=t_kill)
     pair.sent_by[master].wait_past(t_kill)  # its end still carries the others' frames (RX)
-    took = bus_trace.takeover(pair.sent_by[master].sent(0, t_kill), listener.snapshot(t_kill - 5.0), NODE[standby])
+    dead_sent = pair.sent_by[master].sent(0, t_kill)
+    took = bus_trace.takeover(dead_sent, listener.snapshot(t_kill - 5.0), NODE[standby])
     if seen is None:
         took = None
     print("FIGURE takeover %d: %s" % (i, "%.3f s from the master's last frame to the survivor's first 05h heartbeat"
                                       % took if took is not None else "no 05h heartbeat of the survivor"))
-    return t_kill, took
+    return t_kill, max((t for t, _, _ in dead_sent), default=t_kill), took
 
 
 def check_join(report, pair, k, master, t_start, what):
@@ -276,11 +277,26 @@ def check_join(report, pair, k, master, t_start, what):
     if asked and answer:
         print("FIGURE %s: the master's answer (0x71) %.1f ms after the request (0x73)" % (
             what, (answer[0] - asked[0]) * 1e3))
-    report.check(r is not None and r["cause"] == "an active master answered" and asked and answer and not fights,
-                 "%s: standby, no election (cause '%s'; on the bus: its 0x73 answered by the master's 0x71, "
-                 "no 0x71/0x72/0x76 of its own)" % (what, r["cause"] if r else None),
-                 "role %s; frames of its own %s" % (r, ["%03X" % cid for _, cid, _ in mine[:12]]))
+    if not report.check(r is not None and r["cause"] == "an active master answered" and asked and answer
+                        and not fights,
+                        "%s: standby, no election (cause '%s'; on the bus: its 0x73 answered by the master's 0x71, "
+                        "no 0x71/0x72/0x76 of its own)" % (what, r["cause"] if r else None),
+                        "role %s; frames of its own %s" % (r, ["%.3f %03X" % (t - t_start, cid) for t, cid, _ in mine[:12]])):
+        print(pair.daemon[k].tail(30))
     return r, t_standby
+
+
+def master_silences(pair, master, frames):
+    """For each of `frames` (a standby's own), the master's heartbeat silence before it, read from
+    the master's end: the time since its last heartbeat before the frame, and until its next."""
+    hb = [t for t, cid, _ in pair.sent_by[master].sent() if cid == HB + NODE[master]]
+    out = []
+    for t, cid, _ in frames:
+        before = max((h for h in hb if h <= t), default=None)
+        after = min((h for h in hb if h > t), default=None)
+        out.append("%03X at %.3f: master's heartbeat %s ms before, next %s ms after" % (
+            cid, t, "%.0f" % ((t - before) * 1e3) if before else "-", "%.0f" % ((after - t) * 1e3) if after else "-"))
+    return out
 
 
 def check_only_heartbeat(report, pair, k, t0, t1, what):
@@ -290,9 +306,10 @@ def check_only_heartbeat(report, pair, k, t0, t1, what):
     pair.sent_by[k].wait_past(t1)
     sent = pair.sent_by[k].sent(t0, t1)
     other = bus_trace.not_heartbeat(sent, NODE[k], bus_trace.STATE_PRE_OPERATIONAL)
-    report.check(sent and not other, "%s sends nothing but its heartbeat (7Fh): %d frames of its own in %.1f s, "
-                 "%d others" % (what, len(sent), t1 - t0, len(other)),
-                 " ".join("%03X#%s" % (cid, d.hex()) for _, cid, d in other[:8]))
+    if not report.check(sent and not other, "%s sends nothing but its heartbeat (7Fh): %d frames of its own in "
+                        "%.1f s, %d others" % (what, len(sent), t1 - t0, len(other)),
+                        " ".join("%03X#%s" % (cid, d.hex()) for _, cid, d in other[:8])):
+        print("\n".join(master_silences(pair, "a" if k == "b" else "b", other)))
 
 
 def main():
@@ -327,7 +344,7 @@ def main():
                      "cobridge status (text) shows b's role and its master", " | ".join(out.splitlines()[:4]))
         # A request the standby would have to send on the bus (on its own control socket: the CLI
         # itself goes to the daemon that holds the bus's beacon) is refused, naming the master.
-        answer = b.request("sdo-read vcan0 20 1000 0 500", timeout=15)
+        answer = b.request("sdo-read %s 20 1000 0 500" % IFACE["b"], timeout=15)
         text = str(answer.get("error", ""))
         report.check(answer.get("ok") is False and "standby" in text and "120" in text,
                      "an SDO read sent to the standby is refused, naming the master", str(answer)[:300])
@@ -367,6 +384,7 @@ def main():
                                                               and e.get("valid")} >= set(NODE.values()), 10),
                          "DDS: the subscriber sees both gateways' GatewayStatus")
         master, standby = "a", "b"
+        standby_since = t_b_standby
         takeovers = []
         rebooting = []  # (kill time, node) of a device rebooting at a kill
         survivor_worst = []  # the survivor's worst Modbus data age around each kill
@@ -392,8 +410,12 @@ def main():
                 report.check(pair.daemon[master].wait_log("mt-a (node 20) rebooted", since=off, timeout=5),
                              "kill 2: the master sees mt-a's boot-up and starts configuring it")
                 rebooting.append((time.time(), 20))
-            t_kill, took = one_takeover(pair, listener, master, standby, i, no_wait=mid_config is not None)
+            t_kill, t_last, took = one_takeover(pair, listener, master, standby, i, no_wait=mid_config is not None)
             takeovers.append(took)
+            # The standby, from its standing by to the master's last frame (it cannot know of the death
+            # before): nothing but its heartbeat, through the kill in mid-configuration too.
+            check_only_heartbeat(report, pair, standby, standby_since, t_last,
+                                 "kill %d: the standby (%s), up to the master's last frame," % (i, standby))
             if poller:
                 worst, n = poller.worst(standby, t_before, time.time() + 1.0)
                 mine = [(t, a, q, nd) for t, g, a, q, nd in poller.seqs if g == standby and t >= t_before - 1.0]
@@ -439,7 +461,8 @@ def main():
             t_return = time.time()
             returned = pair.start(master)
             returned.wait_socket()
-            check_join(report, pair, master, standby, t_return, "kill %d: %s back on its state directory" % (i, master))
+            _, standby_since = check_join(report, pair, master, standby, t_return,
+                                          "kill %d: %s back on its state directory" % (i, master))
             rs = redundancy(survivor)
             report.check(rs["role"] == "master" and rs["since"] == since,
                          "kill %d: the master unchanged by %s's return" % (i, master), str(rs))
