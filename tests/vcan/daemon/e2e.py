@@ -555,13 +555,13 @@ def sh(*cmd):
     return r.stdout
 
 
-def cli_via_daemon(cli, iface, timeout=5.0):
-    """Waits until `cobridge sdo read` on `iface` goes through a daemon (its beacon) rather
-    than the bus; returns the last answer's "via" and output."""
+def cli_via_daemon(cli, iface, node, timeout=5.0):
+    """Waits until `cobridge sdo read` of node's 0x1000 on `iface` goes through a daemon (its
+    beacon) rather than the bus; returns the last answer's "via" and output."""
     via, out = None, ""
     end = time.time() + timeout
     while time.time() < end and via != "daemon":
-        rc, out, _ = run_cli(cli, "sdo", "read", "-i", iface, "-n", "20", "1000:0", "--json")
+        rc, out, _ = run_cli(cli, "sdo", "read", "-i", iface, "-n", str(node), "1000:0", "--json")
         try:
             via = json.loads(out).get("via") if rc == 0 else None
         except ValueError:

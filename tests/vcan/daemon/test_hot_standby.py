@@ -454,7 +454,7 @@ def main():
             if i == 1:
                 # The CLI on the survivor's end finds it by its beacon (the beacon handed over between
                 # the two on one interface: test_hot_standby_fresh).
-                via, out = e2e.cli_via_daemon(args.cli, IFACE[standby])
+                via, out = e2e.cli_via_daemon(args.cli, IFACE[standby], 20)
                 report.check(via == "daemon", "kill 1: the CLI reaches the survivor (via the daemon, not the bus)",
                              out.strip()[:200])
             since = redundancy(survivor)["since"]

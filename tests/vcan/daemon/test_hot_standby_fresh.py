@@ -131,7 +131,7 @@ def main():
                      "and writes no configuration (0 SDO download requests to the devices on the bus)",
                      "%d: %s" % (len(writes), bus_trace.describe_downloads(writes)))
         # The CLI finds the bus's daemon by its beacon: the survivor's, once the dead one's is gone.
-        via, out = e2e.cli_via_daemon(args.cli, "vcan0")
+        via, out = e2e.cli_via_daemon(args.cli, "vcan0", min(given.values()))
         report.check(via == "daemon", "after the kill: the CLI reaches the survivor (via the daemon, not the bus)",
                      out.strip()[:200])
     finally:
