@@ -239,6 +239,18 @@ class CanListener(_SocketReader):
             time.sleep(min(0.05, max(0.0, last + quiet - now)))
         return None
 
+    def wait_past(self, t, timeout=5.0):
+        """Waits until a frame stamped after `t` is in (the devices' heartbeats come every 100 ms),
+        so that a window ending at `t` is whole: this thread reads behind the kernel under load.
+        False when none came within `timeout` (a bus quiet since then)."""
+        end = time.time() + timeout
+        while time.time() < end:
+            with self.lock:
+                if self.frames and self.frames[-1][0] > t:
+                    return True
+            time.sleep(0.01)
+        return False
+
     def wait_for(self, pred, timeout, since=0.0):
         """The first frame after `since` for which pred(can_id, data) holds, or None."""
         end = time.time() + timeout

@@ -83,6 +83,7 @@ def check_restore_on_bus(report, listener, node, t0, what):
     """The restore as the bus shows it, whatever the daemon logs: after t0 the SDO download
     requests to `node` (CiA 301 §7.2.4.3.3) hold the configured 0x1017:00 = 100 after the
     client's value, and write nothing but 0x1017 and the store object 0x1010 (CiA 301 §7.5.2.13)."""
+    listener.wait_past(time.time())
     downloads = bus_trace.sdo_downloads(listener.snapshot(t0), {node})
     targets = [bus_trace.download_target(f) for f in downloads]
     client = next((k for k, t in enumerate(targets) if t == (0x1017, 0, 9029)), None)
@@ -191,6 +192,7 @@ def keep_case(report, args, ws, daemon, sim, listener):
                                str(0x65766173), "--size", "4", *ctl)
     report.check(rc == 0, "cobridge sdo write 0x1010:01 = \"save\" on mt-a (the operator stores it)",
                  out.strip() + err.strip())
+    listener.wait_past(time.time())
     kept = [bus_trace.download_target(f) for f in bus_trace.sdo_downloads(listener.snapshot(t_write), {MT[1]})]
     report.check((0x1017, 0, 1000) in kept and (0x1017, 0, 100) not in kept,
                  "keep: on the bus, the CLI's 0x1017 = 1000 to mt-a and no download of the configured 100 after it",

@@ -431,6 +431,7 @@ def main():
             # Writes counted on the bus, whoever logs them: SDO download requests to the configured devices
             # since the kill (the one rebooted mid-configuration aside: the dead master had not finished).
             healthy = CONFIGURED - ({20} if mid_config else set())
+            listener.wait_past(time.time())
             writes = bus_trace.sdo_downloads(listener.snapshot(t_kill), healthy)
             report.check(back is not None and not writes,
                          "kill %d%s: the new master (%s) has every device operational, 0 SDO download requests to "
@@ -461,6 +462,7 @@ def main():
             t_return = time.time()
             returned = pair.start(master)
             returned.wait_socket()
+
             _, standby_since = check_join(report, pair, master, standby, t_return,
                                           "kill %d: %s back on its state directory" % (i, master))
             rs = redundancy(survivor)

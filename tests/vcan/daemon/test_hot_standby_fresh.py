@@ -126,6 +126,7 @@ def main():
         frames = listener.snapshot(t_kill)
         lss = [d.hex() for t, cid, d in frames if cid == LSS_MASTER and d[0] in COMMISSIONING_CS]
         report.check(not lss, "the new master commissions nothing (no LSS configure/switch-selective)", str(lss[:5]))
+        listener.wait_past(time.time())
         writes = bus_trace.sdo_downloads(listener.snapshot(t_kill), set(given.values()))
         report.check(back is not None and not writes,
                      "and writes no configuration (0 SDO download requests to the devices on the bus)",

@@ -103,6 +103,7 @@ def main():
         t_b_master = e2e.iso_to_epoch(rb["since"]) if rb else time.time()
         _, ok = b.wait_until(e2e.all_operational(NAMES), 20, interval=0.05)
         # Counted on the bus: SDO download requests to rot-a (mt-a rebooted on purpose) since b took the role.
+        listener.wait_past(time.time())
         writes = bus_trace.sdo_downloads(listener.snapshot(t_b_master - 0.1), {DEVICES[0][4]})
         report.check(ok is not None and not writes,
                      "every device operational under b; 0 SDO download requests to rot-a on the bus",
