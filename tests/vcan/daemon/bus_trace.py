@@ -187,24 +187,30 @@ def read_log(path):
     return out
 
 
-def compare_capture(capture, independent, tolerance, window_end=None):
+def compare_capture(capture, independent, tolerance, window=None, tail_allowance=0.0):
     """A capture (frames of its file) against the independent trace: the trace's frames
-    stamped from the capture's first frame to its last, or to `window_end` (the end of the
-    window the capture is for, its fault + capture_after_s: a capture cut short fails too),
+    stamped from the capture's first frame to its last, or over `window` (start, end): the
+    seconds the capture is for, so that a capture missing frames at either edge fails too,
     must be the capture's frames, same ids and data in the same order, each stamp within
-    `tolerance` seconds. Returns (ok, detail)."""
+    `tolerance` seconds. tail_allowance: the capture may end short of the window by frames
+    of its last that many seconds (counted in the detail). Returns (ok, detail)."""
     if not capture:
         return False, "the capture holds no frame"
     t0, t1 = capture[0][0], capture[-1][0]
-    if window_end is not None:
-        # Stamps are whole microseconds: a frame in the window's last one may fall either side.
-        t1 = max(t1, window_end - 1e-6)
+    short = 0
+    if window is not None:
+        # Stamps are whole microseconds: a frame in the window's first or last one may fall
+        # either side of its edge.
+        t0 = min(t0, window[0] + 1e-6)
+        short = len([f for f in independent if max(t1, window[1] - 1e-6 - tail_allowance) < f[0] <= window[1] - 1e-6])
+        t1 = max(t1, window[1] - 1e-6 - tail_allowance)
     # The trace's frames that match the capture's first and last ones bound the same seconds.
     window = [f for f in independent if t0 - tolerance <= f[0] <= t1 + tolerance]
-    start = next((i for i, f in enumerate(window) if f[1:] == capture[0][1:] and abs(f[0] - t0) <= tolerance), None)
+    c0 = capture[0][0]
+    start = next((i for i, f in enumerate(window) if f[1:] == capture[0][1:] and abs(f[0] - c0) <= tolerance), None)
     if start is None:
         return False, "the capture's first frame %03X#%s at %.6f is not in the candump" % (
-            capture[0][1], capture[0][2].hex(), t0)
+            capture[0][1], capture[0][2].hex(), c0)
     same = window[start:start + len(capture)]
     worst = 0.0
     for k, (c, f) in enumerate(zip(capture, same)):
@@ -217,10 +223,13 @@ def compare_capture(capture, independent, tolerance, window_end=None):
     before = [f for f in window[:start] if f[0] >= t0]
     after = [f for f in window[start + len(capture):] if f[0] <= t1]
     if before:
-        return False, "the candump holds %d frames more before the capture's first in its first stamp" % len(before)
+        return False, "the candump holds %d frames more before the capture's first (from %.6f), first %03X#%s at %.6f" % (
+            len(before), t0, before[0][1], before[0][2].hex(), before[0][0])
     if after:
         return False, "the candump holds %d frames more in the capture's seconds, first %03X#%s at %.6f" % (
             len(after), after[0][1], after[0][2].hex(), after[0][0])
     if worst > tolerance:
         return False, "a stamp differs by %.6f s (tolerance %.6f s)" % (worst, tolerance)
-    return True, "%d frames, same order, stamps within %.6f s (worst %.6f s)" % (len(capture), tolerance, worst)
+    return True, "%d frames, same order, stamps within %.6f s (worst %.6f s)%s" % (
+        len(capture), tolerance, worst, "; %d frames of the window's last %.0f ms not in it (allowed)" % (
+            short, tail_allowance * 1e3) if short else "")
