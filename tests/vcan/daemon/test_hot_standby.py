@@ -12,7 +12,9 @@ every frame on the bus (kernel receive stamps):
     heartbeats say so (05h master, 7Fh standby);
   * the standby sends nothing but its heartbeat (7Fh): every frame its
     candump -x marks TX, exactly, while a CLI request and a Modbus preset
-    are refused;
+    are refused and until each kill; the one exception the traces explain
+    is a negotiation request (0x72) after the master's own heartbeat was
+    silent for 1.5 periods (printed);
   * the master is killed (SIGKILL: its frames stop) KILLS times, at random
     moments; each time the survivor's first heartbeat saying master (05h)
     is on the bus within 1 s of the dead one's last frame, both taken from
