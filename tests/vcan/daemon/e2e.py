@@ -239,6 +239,18 @@ class CanListener(_SocketReader):
             time.sleep(min(0.05, max(0.0, last + quiet - now)))
         return None
 
+    def wait_past(self, t, timeout=5.0):
+        """Waits until a frame stamped after `t` is in (the devices' heartbeats come every 100 ms),
+        so that a window ending at `t` is whole: this thread reads behind the kernel under load.
+        False when none came within `timeout` (a bus quiet since then)."""
+        end = time.time() + timeout
+        while time.time() < end:
+            with self.lock:
+                if self.frames and self.frames[-1][0] > t:
+                    return True
+            time.sleep(0.01)
+        return False
+
     def wait_for(self, pred, timeout, since=0.0):
         """The first frame after `since` for which pred(can_id, data) holds, or None."""
         end = time.time() + timeout
@@ -545,6 +557,30 @@ def all_operational(expected_names):
 def run_cli(cli, *args, timeout=10):
     r = subprocess.run([cli] + list(args), capture_output=True, text=True, timeout=timeout)
     return r.returncode, r.stdout, r.stderr
+
+
+def sh(*cmd):
+    """A set-up command (ip, cangw); its stdout. Raises with its stderr when it fails."""
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    if r.returncode != 0:
+        raise RuntimeError("%s: %s" % (" ".join(cmd), r.stderr.strip()))
+    return r.stdout
+
+
+def cli_via_daemon(cli, iface, node, timeout=5.0):
+    """Waits until `cobridge sdo read` of node's 0x1000 on `iface` goes through a daemon (its
+    beacon) rather than the bus; returns the last answer's "via" and output."""
+    via, out = None, ""
+    end = time.time() + timeout
+    while time.time() < end and via != "daemon":
+        rc, out, _ = run_cli(cli, "sdo", "read", "-i", iface, "-n", str(node), "1000:0", "--json")
+        try:
+            via = json.loads(out).get("via") if rc == 0 else None
+        except ValueError:
+            via = None
+        if via != "daemon":
+            time.sleep(0.2)
+    return via, out
 
 
 def iso_to_epoch(text):

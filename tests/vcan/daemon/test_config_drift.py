@@ -21,7 +21,8 @@ the producer heartbeat time, 0x1017 (CiA 301 §7.4.8.3), configured 100 ms.
      it (pre-operational, 0x1010:01 "save"), and after a power cycle of
      the device the configuration is applied again: drift cleared, 0x1017
      reads 100, and the timeline names what the device came back with
-     (0x1017 read 0x000003E8, configured 0x00000064).
+     (0x1017 read 0x000003E8, configured 0x00000064). Until that power
+     cycle the bus carries no download of 0x1017 = 100 to mt-a.
  (c) rot-a again: a service tool on its own CAN adapter, not through the
      gateway, writes 0x1017 = 9029 with an expedited SDO download; the
      gateway sees the request and the device's confirmation from the side
@@ -45,6 +46,7 @@ import sys
 import time
 import urllib.request
 
+import bus_trace
 import e2e
 
 ROT, MT = (1001, 10), (2001, 20)
@@ -89,6 +91,22 @@ def heartbeat_gap(listener, node, since):
     return max(b - a for a, b in zip([since] + times, times + [time.time()]))
 
 
+def check_restore_on_bus(report, listener, node, t0, what):
+    """The restore as the bus shows it, whatever the daemon logs: after t0 the SDO download
+    requests to `node` (CiA 301 §7.2.4.3.3) hold the configured 0x1017:00 = 100 after the
+    client's value, and write nothing but 0x1017 and the store object 0x1010 (CiA 301 §7.5.2.13)."""
+    listener.wait_past(time.time())
+    downloads = bus_trace.sdo_downloads(listener.snapshot(t0), {node})
+    targets = [bus_trace.download_target(f) for f in downloads]
+    client = next((k for k, t in enumerate(targets) if t == (0x1017, 0, 9029)), None)
+    restored = [t for t in targets[(client or 0) + 1:] if t == (0x1017, 0, 100)]
+    other = [t for t in targets if t[0] not in (0x1017, 0x1010)]
+    report.check(client is not None and len(restored) == 1 and not other,
+                 "%s: on the bus, the client's 0x1017 = 9029, then one download of 0x1017 = 100 (the restore), "
+                 "nothing but 0x1017 and 0x1010 written" % what,
+                 "%d downloads: %s" % (len(downloads), ["%04X:%02X=%s" % t for t in targets]))
+
+
 def restore_case(report, daemon, listener):
     t0 = time.time()
     answer = ask_309("[1] 1 %d w 0x1017 0 u16 9029" % ROT[1])
@@ -111,7 +129,8 @@ def restore_case(report, daemon, listener):
                  "differs seen while restoring: %s" % seen_differs)
     answer = ask_309("[2] 1 %d r 0x1017 0 u16" % ROT[1])
     report.check(answer == "[2] 100", "0x1017 reads 100 again (309-3 read)", answer)
-    time.sleep(1.0)
+    check_restore_on_bus(report, listener, ROT[1], t0, "309-3 write")
+    time.sleep(1.0)  # a second more of rot-a's heartbeat observed: a window, not a wait
     d = device(daemon, "rot-a")
     gap = heartbeat_gap(listener, ROT[1], t0)
     report.check(d["state"] == "operational" and d["online"] and not offline_events(d, t0)
@@ -147,8 +166,9 @@ def modbus_preset(report, daemon):
                  repr(list(recs.values())))
 
 
-def keep_case(report, args, ws, daemon, sim):
+def keep_case(report, args, ws, daemon, sim, listener):
     ctl = ["--control", ws.control]
+    t_write = time.time()
     rc, out, err = e2e.run_cli(args.cli, "sdo", "write", "-i", "vcan0", "-n", str(MT[1]), "1017:0", "1000",
                                "--size", "2", *ctl)
     report.check(rc == 0, "cobridge sdo write 0x1017 = 1000 on mt-a through the daemon", out.strip() + err.strip())
@@ -159,7 +179,7 @@ def keep_case(report, args, ws, daemon, sim):
     report.check(took is not None and rec.get("object") == "0x1017:00" and rec.get("configured") == 100
                  and rec.get("value") == 1000 and "control socket" in rec.get("writer", ""),
                  "status: config_differs, drift names 0x1017:00, 100, 1000 and the CLI writer", repr(rec))
-    time.sleep(3.5)  # several 1000 ms heartbeat periods, beyond the 100 ms consumer time
+    time.sleep(3.5)  # several 1000 ms heartbeat periods, beyond the 100 ms consumer time: a window
     d = device(daemon, "mt-a")
     rc, out, _ = e2e.run_cli(args.cli, "status", *ctl)
     report.check(d["config_differs"] and "configuration differs: 0x1017:00" in out,
@@ -184,6 +204,11 @@ def keep_case(report, args, ws, daemon, sim):
                                str(0x65766173), "--size", "4", *ctl)
     report.check(rc == 0, "cobridge sdo write 0x1010:01 = \"save\" on mt-a (the operator stores it)",
                  out.strip() + err.strip())
+    listener.wait_past(time.time())
+    kept = [bus_trace.download_target(f) for f in bus_trace.sdo_downloads(listener.snapshot(t_write), {MT[1]})]
+    report.check((0x1017, 0, 1000) in kept and (0x1017, 0, 100) not in kept,
+                 "keep: on the bus, the CLI's 0x1017 = 1000 to mt-a and no download of the configured 100 after it",
+                 str(["%04X:%02X=%s" % t for t in kept]))
     sim.command("power-cycle %d" % MT[0])
     st, took = daemon.wait_until(lambda s: any(d["name"] == "mt-a" and not d["config_differs"]
                                                and d["state"] == "operational" and d["online"]
@@ -234,14 +259,14 @@ def foreign_tool_case(report, daemon, listener):
                  "%s s; %r" % ("%.2f" % delay if delay is not None else None, drift))
     answer = ask_309("[3] 1 %d r 0x1017 0 u16" % ROT[1])
     report.check(answer == "[3] 100", "0x1017 reads 100 again after the other client's write", answer)
+    check_restore_on_bus(report, listener, ROT[1], t0, "the other client's write")
 
 
 def gateway_writes(listener, node, value, since, until=None):
-    """Expedited SDO download requests (CiA 301 §7.2.4.3.3: ccs 1, byte 0 & 0xE0 == 0x20)
-    of 0x1017:00 = `value` to `node` seen on the bus: the writer sends 200, the gateway 100."""
-    want = bytes([0x17, 0x10, 0x00, value & 0xFF, value >> 8])
-    return [f for f in listener.snapshot(since) if (until is None or f[0] < until) and f[1] == 0x600 + node
-            and len(f[2]) >= 6 and f[2][0] & 0xE0 == 0x20 and f[2][1:6] == want]
+    """The downloads of 0x1017:00 = `value` to `node` on the bus (bus_trace.sdo_downloads): the
+    writer sends 200, the gateway 100."""
+    frames = [f for f in listener.snapshot(since) if until is None or f[0] < until]
+    return [f for f in bus_trace.sdo_downloads(frames, {node}) if bus_trace.download_target(f) == (0x1017, 0, value)]
 
 
 def gateway_frames_to(listener, node, since, until):
@@ -296,6 +321,7 @@ def contest_case(report, args, ws, daemon, listener):
                      "a writer setting 0x1017 = 200 every second: 0x1017 contested after 3 restores",
                      "%.1f s, %d writes: %r" % (took, writer.sent, contested))
         t_contested = time.time()
+        listener.wait_past(time.time())
         writes = gateway_writes(listener, node, 100, t0)
         # One restore is one plan; a plan whose SDO transfer met the writer's on the
         # same server channel (abort 0x05040001) is tried again 0.5 s later: the
@@ -314,6 +340,7 @@ def contest_case(report, args, ws, daemon, listener):
                      "status, `cobridge status` and /metrics say contested (rot-a only)")
         time.sleep(8.0)  # the writer keeps writing: the gateway must keep still
         t_end = time.time()
+        listener.wait_past(t_end)
         quiet = gateway_frames_to(listener, node, t_contested, t_end)
         report.check(not quiet, "contested: for 8 s of the writer's writes the gateway sent rot-a no SDO and no NMT",
                      repr([(round(f[0] - t_contested, 2), hex(f[1]), f[2].hex()) for f in quiet[:5]]))
@@ -330,6 +357,7 @@ def contest_case(report, args, ws, daemon, listener):
                                               and d["state"] == "operational" for b in s["buses"]
                                               for d in b["devices"]), 10, interval=0.05)
     answer = ask_309("[5] 1 %d r 0x1017 0 u16" % node)
+    listener.wait_past(time.time())
     d = device(daemon, "rot-a")
     report.check(took is not None and answer == "[5] 100" and len(gateway_writes(listener, node, 100, t_ack)) == 1
                  and any("acknowledged by" in t for t in events(d, "drift")),
@@ -366,7 +394,7 @@ def main():
             contest_case(report, args, ws, daemon, listener)
             restore_case(report, daemon, listener)
             foreign_tool_case(report, daemon, listener)
-            keep_case(report, args, ws, daemon, sim)
+            keep_case(report, args, ws, daemon, sim, listener)
         else:
             print(daemon.tail(60))
         e2e.check_clean_exit(report, daemon, tail=60)

