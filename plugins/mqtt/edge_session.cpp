@@ -221,7 +221,12 @@ void EdgeSession::on_sample(const cobridge_sample& s, std::uint64_t now_ms) {
   }
   const bool was_born = d.born;
   track_status(d, s, now_ms);
-  if (!live() || !node_born_ || d.heard == Heard::kOffline) return;
+  if (!live() || !node_born_) {
+    // Not published: no store-and-forward yet (docs/mqtt.md "Not done yet").
+    if (n != 0) counters_.drops.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  if (d.heard == Heard::kOffline) return;
   if (!d.born) {
     publish_dbirth(d, now_ms);  // holds this sample's values
     return;

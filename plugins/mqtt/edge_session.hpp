@@ -49,7 +49,7 @@ struct SessionCounters {
   std::atomic<std::uint64_t> deaths{0};    // DDEATH
   std::atomic<std::uint64_t> messages{0};  // every message handed over
   std::atomic<std::uint64_t> bytes{0};     // their payload bytes
-  std::atomic<std::uint64_t> drops{0};     // refused by the client, too big, or held back
+  std::atomic<std::uint64_t> drops{0};     // refused by the client, too big, or samples taken while not publishing
 };
 
 // "spBv1.0/<group>/<type>/<edge>[/<device>]" (spec 4.1.1).
