@@ -1,5 +1,6 @@
 #include "edge_session.hpp"
 
+#include <chrono>
 #include <cmath>
 #include <cstdlib>
 
@@ -21,6 +22,12 @@ std::string device_id_of(const DeviceRecord& r) {
 std::uint64_t ns_to_ms(std::uint64_t ns) noexcept { return ns / 1'000'000u; }
 
 }  // namespace
+
+std::uint64_t wall_ms() noexcept {
+  return static_cast<std::uint64_t>(
+      std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
+          .count());
+}
 
 std::string sparkplug_topic(const std::string& group, const char* type, const std::string& edge,
                             const std::string& device) {

@@ -52,6 +52,10 @@ struct SessionCounters {
   std::atomic<std::uint64_t> drops{0};     // refused by the client, too big, or samples taken while not publishing
 };
 
+// The session's clock: wall time in ms since the Unix epoch (Sparkplug
+// timestamps are UTC ms, spec 6.4.2). Any thread.
+[[nodiscard]] std::uint64_t wall_ms() noexcept;
+
 // "spBv1.0/<group>/<type>/<edge>[/<device>]" (spec 4.1.1).
 [[nodiscard]] std::string sparkplug_topic(const std::string& group, const char* type, const std::string& edge,
                                           const std::string& device = {});

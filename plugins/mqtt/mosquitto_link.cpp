@@ -12,12 +12,6 @@
 namespace cobridge::mqtt {
 namespace {
 
-std::uint64_t wall_ms() noexcept {
-  return static_cast<std::uint64_t>(
-      std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
-          .count());
-}
-
 // mosquitto_lib_init once per process, before the first client (the daemon
 // may load the plugin more than once over reloads).
 void lib_init_once() {

@@ -30,12 +30,6 @@
 namespace cobridge::mqtt {
 namespace {
 
-std::uint64_t wall_ms() noexcept {
-  return static_cast<std::uint64_t>(
-      std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
-          .count());
-}
-
 class LinkPublisher final : public Publisher {
  public:
   explicit LinkPublisher(MosquittoLink& link) : link_(link) {}
