@@ -75,6 +75,7 @@ plugin::Error MosquittoLink::start() {
   mosquitto_connect_callback_set(mosq_, &MosquittoLink::on_connect);
   mosquitto_disconnect_callback_set(mosq_, &MosquittoLink::on_disconnect);
   mosquitto_message_callback_set(mosq_, &MosquittoLink::on_message);
+  mosquitto_publish_callback_set(mosq_, &MosquittoLink::on_publish);
   mosquitto_reconnect_delay_set(mosq_, 1, 30, true);
   int rc = MOSQ_ERR_SUCCESS;
   if (!config_.username.empty()) {
@@ -117,8 +118,18 @@ void MosquittoLink::stop() {
 
 bool MosquittoLink::publish(const std::string& topic, std::span<const std::uint8_t> payload) {
   if (!connected_.load(std::memory_order_acquire)) return false;
-  return mosquitto_publish(mosq_, nullptr, topic.c_str(), static_cast<int>(payload.size()), payload.data(), 0,
-                           false) == MOSQ_ERR_SUCCESS;
+  const std::uint64_t handed = handed_.load(std::memory_order_relaxed);
+  const std::uint64_t written = written_.load(std::memory_order_acquire);
+  if (handed > written && handed - written >= kMaxQueued) return false;
+  if (mosquitto_publish(mosq_, nullptr, topic.c_str(), static_cast<int>(payload.size()), payload.data(), 0, false) !=
+      MOSQ_ERR_SUCCESS)
+    return false;
+  handed_.store(handed + 1, std::memory_order_release);
+  return true;
+}
+
+void MosquittoLink::on_publish(struct mosquitto*, void* self, int) {
+  static_cast<MosquittoLink*>(self)->written_.fetch_add(1, std::memory_order_acq_rel);
 }
 
 MosquittoLink::State MosquittoLink::state() const noexcept {
@@ -137,6 +148,8 @@ void MosquittoLink::on_connect(struct mosquitto* m, void* self, int rc) {
     return;
   }
   l->refused_logged_ = false;
+  // libmosquitto dropped what a lost session had queued: nothing waits now.
+  l->written_.store(l->handed_.load(std::memory_order_acquire), std::memory_order_release);
   (void)mosquitto_subscribe(m, nullptr, l->ncmd_topic_.c_str(), 1);
   if (!l->state_topic_.empty()) (void)mosquitto_subscribe(m, nullptr, l->state_topic_.c_str(), 1);
   l->connected_.store(true, std::memory_order_release);

@@ -8,7 +8,10 @@
 //     NBIRTH that follows names the will that the broker holds;
 //   - reconnects with exponential backoff (1 s doubling to 30 s);
 //   - NCMD (Node Control/Rebirth) and the primary host's STATE, subscribed
-//     at each connect and turned into flags the publisher thread polls.
+//     at each connect and turned into flags the publisher thread polls;
+//   - a bound on what waits in libmosquitto's own queue (it has none for
+//     QoS 0): a broker or network slower than the encoders makes publish()
+//     refuse, counted as a drop, instead of growing the daemon's memory.
 //
 // Thread contract: start/stop on the daemon's control thread; publish() and
 // the poll functions from the plugin's publisher thread; the callbacks run
@@ -56,7 +59,11 @@ class MosquittoLink {
   // disconnects and joins the client thread.
   void stop();
 
-  // QoS 0, not retained. False when not connected or the client refused it.
+  // Messages handed to libmosquitto and not yet written to the socket, at most.
+  static constexpr std::uint64_t kMaxQueued = 4096;
+
+  // QoS 0, not retained. False when not connected, kMaxQueued are waiting,
+  // or the client refused it.
   [[nodiscard]] bool publish(const std::string& topic, std::span<const std::uint8_t> payload);
 
   [[nodiscard]] State state() const noexcept;
@@ -70,6 +77,7 @@ class MosquittoLink {
   static void on_connect(struct mosquitto* m, void* self, int rc);
   static void on_disconnect(struct mosquitto* m, void* self, int rc);
   static void on_message(struct mosquitto* m, void* self, const struct mosquitto_message* msg);
+  static void on_publish(struct mosquitto* m, void* self, int mid);
 
   void set_will();
   void handle_ncmd(const void* payload, int len);
@@ -87,6 +95,8 @@ class MosquittoLink {
   std::atomic<std::uint8_t> bd_seq_{0};
   std::atomic<bool> rebirth_{false};
   std::atomic<int> primary_{-1};
+  std::atomic<std::uint64_t> handed_{0};   // publisher thread
+  std::atomic<std::uint64_t> written_{0};  // client thread (on_publish: QoS 0 written out)
   bool refused_logged_ = false;  // client thread only
 };
 
