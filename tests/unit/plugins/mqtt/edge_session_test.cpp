@@ -180,7 +180,7 @@ TEST_F(EdgeSessionTest, Spec643_SeqWrapsAt256AndRestartsWithNbirth) {
   EdgeSession s = make();
   s.on_device(device(0, "enc"), 100);
   s.set_link(true, 0, 200);
-  for (int i = 1; i <= 600; ++i) s.on_sample(tpdo(0, i, 1'000'000ull * static_cast<std::uint64_t>(i)), 300);
+  for (int i = 1; i <= 600; ++i) s.on_sample(tpdo(0, i, std::uint64_t{1'000'000} * static_cast<std::uint64_t>(i)), 300);
   std::uint64_t expect = 0;
   for (const Message& m : pub.sent) {
     ASSERT_TRUE(m.p->has_seq);
