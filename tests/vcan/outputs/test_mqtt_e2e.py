@@ -64,7 +64,7 @@ class Broker:
     def __init__(self, ws):
         conf = ws.path("mosquitto.conf")
         with open(conf, "w") as f:
-            f.write("listener %d 127.0.0.1\nallow_anonymous true\npersistence false\n" % PORT)
+            f.write("listener %d 127.0.0.1\nallow_anonymous true\npersistence false\nset_tcp_nodelay true\n" % PORT)
         self.log = open(ws.path("mosquitto.log"), "w")
         self.proc = subprocess.Popen(["/usr/sbin/mosquitto", "-c", conf], stdout=self.log, stderr=subprocess.STDOUT)
 
