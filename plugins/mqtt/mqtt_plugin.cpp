@@ -165,12 +165,7 @@ std::size_t mqtt_stats(void* self, cobridge_stat* out, std::size_t max) {
       {"mqtt_drops", "Messages not sent (broker away, client refused) and samples lost to a full queue.",
        COBRIDGE_STAT_COUNTER, 0, load(c.drops) + p->ring_drops.load(std::memory_order_relaxed)},
   };
-  std::size_t n = 0;
-  for (const auto& f : figures) {
-    if (n == max) break;
-    out[n++] = f;
-  }
-  return n;
+  return plugin::copy_stats(figures, out, max);
 }
 
 constexpr cobridge_plugin_ops kOps = {
