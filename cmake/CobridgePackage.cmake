@@ -1,6 +1,7 @@
 # The Debian package: `cpack -G DEB` in a build tree (scripts/package makes a
 # distribution build and calls it) -> cobridge_<version>_<arch>.deb.
-# Depends are computed by dpkg-shlibdeps from the binaries and plugins; the
+# Depends are computed by dpkg-shlibdeps from the binaries and plugins (the
+# MQTT plugin brings libmosquitto1 and libprotobuf-c1 that way); the
 # maintainer scripts and conffiles are packaging/deb/.
 set(CPACK_GENERATOR DEB)
 set(CPACK_PACKAGE_NAME cobridge)
@@ -16,7 +17,8 @@ Cyclone DDS and in Modbus TCP registers.
 
 The package holds the daemon (a systemd Type=notify service running as
 user cobridge), the command-line tool cobridge, the simulator cobridge-sim,
-the DDS and Modbus output plugins, the device descriptions (EDS), the
+the DDS and Modbus output plugins, a Sparkplug B over MQTT output plugin
+(first slice, docs/mqtt.md), the device descriptions (EDS), the
 IDL of the DDS topics, and the plugin SDK (cobridge/plugin.h, cobridge/emcy.h,
 libcobridge_sdk.a and its CMake package cobridge-sdk) for out-of-tree plugins.")
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)  # cobridge_<version>_<arch>.deb

@@ -1,9 +1,11 @@
 // Reporting to the daemon from a plugin: log lines through the host API's
 // log callback, the error text create() hands back in the caller's buffer
-// (cobridge/plugin.h), and the frame of create() itself. Shared by the output
+// (cobridge/plugin.h), the figures of the stats operation, and the frame of
+// create() itself. Shared by the output
 // plugins so that each reports the same way.
 //
-// Thread: the control thread (create/start/stop/destroy) and the plugin's own
+// Thread: the control thread (create/start/stop/destroy), the control plane
+// (copy_stats, from the stats operation) and the plugin's own
 // threads; the host's log callback is thread-safe. Not for the hot path: the
 // message is a std::string.
 #pragma once
@@ -31,6 +33,18 @@ inline void copy_error(char* err, std::size_t err_len, const std::string& msg) n
   const std::size_t n = msg.size() < err_len - 1 ? msg.size() : err_len - 1;
   std::memcpy(err, msg.data(), n);
   err[n] = '\0';
+}
+
+// An ABI 3 stats operation's answer: copies the plugin's figures into the
+// host's array, at most `max`; returns how many. Allocation-free.
+template <std::size_t N>
+inline std::size_t copy_stats(const cobridge_stat (&figures)[N], cobridge_stat* out, std::size_t max) noexcept {
+  std::size_t n = 0;
+  for (const auto& f : figures) {
+    if (n == max) break;
+    out[n++] = f;
+  }
+  return n;
 }
 
 // The frame of a plugin's cobridge_plugin_create: checks the arguments,

@@ -528,12 +528,7 @@ std::size_t dds_stats(void* self, cobridge_stat* out, std::size_t max) {
        "EncoderSamples the dispatcher handed to the writer thread (reliable history full, or dispatcher behind).",
        COBRIDGE_STAT_COUNTER, 0, inst->direct ? inst->direct->spilled() : 0},
   };
-  std::size_t n = 0;
-  for (const auto& f : figures) {
-    if (n == max) break;
-    out[n++] = f;
-  }
-  return n;
+  return plugin::copy_stats(figures, out, max);
 }
 
 // ABI 4: a gateway of a hot-standby pair writes with EXCLUSIVE ownership.

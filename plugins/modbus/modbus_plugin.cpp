@@ -153,12 +153,7 @@ std::size_t modbus_stats(void* self, cobridge_stat* out, std::size_t max) {
       {"modbus_requests", "Modbus requests answered.", COBRIDGE_STAT_COUNTER, 0, s.requests},
       {"modbus_exceptions", "Modbus exception responses sent.", COBRIDGE_STAT_COUNTER, 0, s.exceptions},
   };
-  std::size_t n = 0;
-  for (const auto& f : figures) {
-    if (n == max) break;
-    out[n++] = f;
-  }
-  return n;
+  return plugin::copy_stats(figures, out, max);
 }
 
 constexpr cobridge_plugin_ops kOps = {

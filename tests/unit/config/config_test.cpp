@@ -237,10 +237,12 @@ TEST(ConfigExample, KeepsOutputSectionsOpaque) {
   const LoadResult r = load(kExample);
   ASSERT_TRUE(r.ok());
   const Config& c = r.config();
-  ASSERT_EQ(c.outputs.size(), 3U);
+  ASSERT_EQ(c.outputs.size(), 4U);
   EXPECT_EQ(c.outputs[0].name, "dds");  // file order
   EXPECT_EQ(c.outputs[1].name, "modbus");
-  EXPECT_EQ(c.outputs[2].name, "jsontap");
+  EXPECT_EQ(c.outputs[2].name, "mqtt");
+  EXPECT_FALSE(c.outputs[2].enabled);  // the Sparkplug output is shown, off by default
+  EXPECT_EQ(c.outputs[3].name, "jsontap");
   const Output* dds = c.find_output("dds");
   EXPECT_TRUE(dds->enabled);
   EXPECT_TRUE(dds->plugin.empty());

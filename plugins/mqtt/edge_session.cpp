@@ -1,0 +1,244 @@
+#include "edge_session.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+
+namespace cobridge::mqtt {
+namespace {
+
+// A DBIRTH of 21 metrics with short strings is < 2 KiB; 16 KiB leaves room
+// for long names and units without a second allocation.
+constexpr std::size_t kBufferBytes = 16 * 1024;
+
+// Sparkplug device ids may not hold '/', '+' or '#' (spec 4.1.1): replaced.
+std::string device_id_of(const DeviceRecord& r) {
+  std::string id = r.name[0] != '\0' ? std::string(r.name) : "node" + std::to_string(r.node_id);
+  for (char& c : id)
+    if (c == '/' || c == '+' || c == '#') c = '_';
+  return id;
+}
+
+std::uint64_t ns_to_ms(std::uint64_t ns) noexcept { return ns / 1'000'000u; }
+
+}  // namespace
+
+std::uint64_t wall_ms() noexcept {
+  return static_cast<std::uint64_t>(
+      std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
+          .count());
+}
+
+std::string sparkplug_topic(const std::string& group, const char* type, const std::string& edge,
+                            const std::string& device) {
+  std::string t = "spBv1.0/" + group + "/" + type + "/" + edge;
+  if (!device.empty()) t += "/" + device;
+  return t;
+}
+
+std::size_t encode_ndeath(PayloadBuilder& b, std::uint8_t bd_seq, std::uint64_t now_ms,
+                          std::span<std::uint8_t> out) noexcept {
+  b.begin(now_ms, std::nullopt);
+  if (!b.add_scalar(kBdSeqName, 0, now_ms, DataType::kInt64, Scalar{bd_seq, 0.0})) return 0;
+  return b.pack(out);
+}
+
+EdgeSession::EdgeSession(Ids ids, const std::array<double, 16>& deadband, Publisher& out)
+    : ids_(std::move(ids)), deadband_(deadband), out_(out), buffer_(kBufferBytes) {
+  nbirth_topic_ = sparkplug_topic(ids_.group_id, "NBIRTH", ids_.edge_node_id);
+}
+
+void EdgeSession::set_link(bool up, std::uint8_t bd_seq, std::uint64_t now_ms) {
+  link_up_ = up;
+  bd_seq_ = bd_seq;
+  node_born_ = false;  // a new MQTT session is a new Sparkplug session: births again
+  for (Device& d : devices_) d.born = false;
+  update_liveness(now_ms);
+}
+
+void EdgeSession::set_primary_online(bool online, std::uint64_t now_ms) {
+  if (online == primary_online_) return;
+  primary_online_ = online;
+  update_liveness(now_ms);
+}
+
+void EdgeSession::rebirth(std::uint64_t now_ms) {
+  if (!live()) return;
+  births(now_ms);
+}
+
+// Births when publishing becomes allowed; everything unborn when it stops
+// (so that the next allowed moment starts with NBIRTH again).
+void EdgeSession::update_liveness(std::uint64_t now_ms) {
+  if (live()) {
+    if (!node_born_) births(now_ms);
+    return;
+  }
+  node_born_ = false;
+  for (Device& d : devices_) d.born = false;
+}
+
+void EdgeSession::births(std::uint64_t now_ms) {
+  seq_ = 0;
+  publish_nbirth(now_ms);
+  node_born_ = true;
+  for (Device& d : devices_)
+    if (d.known && d.heard != Heard::kOffline) publish_dbirth(d, now_ms);
+}
+
+void EdgeSession::send(const std::string& topic, bool birth) {
+  const std::size_t n = builder_.pack(buffer_);
+  if (n == 0 || !out_.publish(topic, std::span<const std::uint8_t>(buffer_.data(), n))) {
+    counters_.drops.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  counters_.messages.fetch_add(1, std::memory_order_relaxed);
+  counters_.bytes.fetch_add(n, std::memory_order_relaxed);
+  if (birth) counters_.births.fetch_add(1, std::memory_order_relaxed);
+}
+
+void EdgeSession::publish_nbirth(std::uint64_t now_ms) {
+  builder_.begin(now_ms, next_seq());
+  (void)builder_.add_scalar(kBdSeqName, 0, now_ms, DataType::kInt64, Scalar{bd_seq_, 0.0});
+  (void)builder_.add_scalar(kRebirthName, kRebirthAlias, now_ms, DataType::kBoolean, Scalar{0, 0.0});
+  send(nbirth_topic_, true);
+}
+
+void EdgeSession::add_identity(const Device& d, std::uint64_t now_ms) {
+  const DeviceRecord& r = d.info;
+  for (const MetricDef& m : identity_metrics()) {
+    const std::uint64_t alias = device_alias(r.device_index, m.id);
+    std::int64_t v = 0;
+    const char* text = nullptr;
+    switch (m.id) {
+      case DeviceMetric::kVendorId: v = r.vendor_id; break;
+      case DeviceMetric::kProductCode: v = r.product_code; break;
+      case DeviceMetric::kRevision: v = r.revision; break;
+      case DeviceMetric::kSerial: v = r.serial; break;
+      case DeviceMetric::kNodeId: v = r.node_id; break;
+      case DeviceMetric::kModel: text = r.model; break;
+      case DeviceMetric::kFamily: text = r.family; break;
+      default: text = r.bus_name; break;
+    }
+    if (m.type == DataType::kString) {
+      (void)builder_.add_string(m.name, alias, now_ms, m.type, text);
+    } else {
+      (void)builder_.add_scalar(m.name, alias, now_ms, m.type, Scalar{v, 0.0});
+    }
+  }
+}
+
+void EdgeSession::publish_dbirth(Device& d, std::uint64_t now_ms) {
+  builder_.begin(now_ms, next_seq());
+  for (const MetricDef& m : process_metrics()) {
+    const std::size_t k = process_index(m.id);
+    const std::uint64_t alias = device_alias(d.info.device_index, m.id);
+    // Every metric DDATA may carry is in the DBIRTH (spec 6.4.x,
+    // tck-id-payloads-dbirth-*): a value not heard yet is sent as null.
+    const bool ok = d.has_last[k] ? builder_.add_scalar(m.name, alias, d.last_ms[k], m.type, d.last[k])
+                                  : builder_.add_null(m.name, alias, now_ms, m.type);
+    const char* unit = m.unit[0] == '*' ? d.info.position_unit : m.unit;
+    if (ok && unit[0] != '\0') (void)builder_.add_property("engUnit", unit);
+    d.sent[k] = d.last[k];
+    d.has_sent[k] = d.has_last[k];
+  }
+  add_identity(d, now_ms);
+  send(d.dbirth, true);
+  d.born = true;
+}
+
+void EdgeSession::publish_ddeath(Device& d, std::uint64_t now_ms) {
+  builder_.begin(now_ms, next_seq());
+  send(d.ddeath, false);
+  counters_.deaths.fetch_add(1, std::memory_order_relaxed);
+  d.born = false;
+}
+
+void EdgeSession::on_device(const DeviceRecord& r, std::uint64_t now_ms) {
+  if (r.device_index >= devices_.size()) devices_.resize(r.device_index + 1u);
+  Device& d = devices_[r.device_index];
+  if (r.change == COBRIDGE_DEVICE_REMOVED) {
+    if (d.born && live()) publish_ddeath(d, now_ms);
+    d = Device{};
+    return;
+  }
+  const bool renamed = !d.known || std::string_view(d.info.name) != std::string_view(r.name);
+  if (renamed && d.born && live()) publish_ddeath(d, now_ms);  // the old device id dies
+  d.known = true;
+  d.info = r;
+  if (renamed) {
+    d.device_id = device_id_of(r);
+    d.dbirth = sparkplug_topic(ids_.group_id, "DBIRTH", ids_.edge_node_id, d.device_id);
+    d.ddata = sparkplug_topic(ids_.group_id, "DDATA", ids_.edge_node_id, d.device_id);
+    d.ddeath = sparkplug_topic(ids_.group_id, "DDEATH", ids_.edge_node_id, d.device_id);
+  }
+  // A changed identity is told by a new DBIRTH (spec: metrics' properties only change with a birth).
+  if (live() && node_born_ && d.heard != Heard::kOffline) publish_dbirth(d, now_ms);
+}
+
+// The gateway's supervision decides life and death (STATUS samples); a
+// device never told about is taken as alive by its first frame.
+void EdgeSession::track_status(Device& d, const cobridge_sample& s, std::uint64_t now_ms) {
+  if (s.kind == COBRIDGE_SAMPLE_STATUS && (s.valid & COBRIDGE_VALID_STATUS) != 0) {
+    d.heard = s.online != 0 ? Heard::kOnline : Heard::kOffline;
+    if (d.heard == Heard::kOffline && d.born && live()) publish_ddeath(d, now_ms);
+  } else if (d.heard == Heard::kUnknown && s.kind != COBRIDGE_SAMPLE_COMMAND) {
+    d.heard = Heard::kOnline;
+  }
+}
+
+bool EdgeSession::worth_sending(const Device& d, const Reading& r) const noexcept {
+  const std::size_t k = process_index(r.id);
+  if (!d.has_sent[k]) return true;
+  const MetricDef* m = find_metric(r.id);
+  const bool real = m->type == DataType::kFloat || m->type == DataType::kDouble;
+  const double diff = real ? std::fabs(r.value.d - d.sent[k].d)
+                           : std::fabs(static_cast<double>(r.value.i - d.sent[k].i));
+  return diff > 0.0 && diff >= deadband_[k];
+}
+
+void EdgeSession::publish_ddata(Device& d, std::span<const Reading> readings, std::uint64_t ts_ms) {
+  builder_.begin(ts_ms, std::nullopt);  // seq taken only if something is sent
+  for (const Reading& r : readings) {
+    if (!worth_sending(d, r)) continue;
+    const MetricDef* m = find_metric(r.id);
+    // By alias only (spec 6.4.4: the name may be left out once the birth gave the alias).
+    if (!builder_.add_scalar(nullptr, device_alias(d.info.device_index, r.id), ts_ms, m->type, r.value)) break;
+    const std::size_t k = process_index(r.id);
+    d.sent[k] = r.value;
+    d.has_sent[k] = true;
+  }
+  if (builder_.metric_count() == 0) return;
+  builder_.set_seq(next_seq());
+  send(d.ddata, false);
+}
+
+void EdgeSession::on_sample(const cobridge_sample& s, std::uint64_t now_ms) {
+  if (s.device_index >= devices_.size()) return;
+  Device& d = devices_[s.device_index];
+  if (!d.known) return;
+  std::array<Reading, kProcess> readings{};
+  const std::size_t n = extract(s, readings);
+  const std::uint64_t ts_ms = ns_to_ms(s.rx_timestamp_ns);
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::size_t k = process_index(readings[i].id);
+    d.last[k] = readings[i].value;
+    d.last_ms[k] = ts_ms;
+    d.has_last[k] = true;
+  }
+  const bool was_born = d.born;
+  track_status(d, s, now_ms);
+  if (!live() || !node_born_) {
+    // Not published: no store-and-forward yet (docs/mqtt.md "Not done yet").
+    if (n != 0) counters_.drops.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  if (d.heard == Heard::kOffline) return;
+  if (!d.born) {
+    publish_dbirth(d, now_ms);  // holds this sample's values
+    return;
+  }
+  if (was_born && n != 0) publish_ddata(d, std::span<const Reading>(readings.data(), n), ts_ms);
+}
+
+}  // namespace cobridge::mqtt

@@ -1,0 +1,200 @@
+#include "mosquitto_link.hpp"
+
+#include "edge_session.hpp"
+
+#include <mosquitto.h>
+
+#include <array>
+#include <chrono>
+#include <cstring>
+#include <mutex>
+
+namespace cobridge::mqtt {
+namespace {
+
+// mosquitto_lib_init once per process, before the first client (the daemon
+// may load the plugin more than once over reloads).
+void lib_init_once() {
+  static std::once_flag once;
+  std::call_once(once, [] { mosquitto_lib_init(); });
+}
+
+std::string mosq_error(int rc) { return mosquitto_strerror(rc); }
+
+}  // namespace
+
+int parse_state_online(std::string_view json) noexcept {
+  const std::size_t key = json.find("\"online\"");
+  if (key == std::string_view::npos) return -1;
+  std::size_t i = key + 8;
+  while (i < json.size() && (json[i] == ' ' || json[i] == '\t' || json[i] == '\n' || json[i] == '\r')) ++i;
+  if (i >= json.size() || json[i] != ':') return -1;
+  ++i;
+  while (i < json.size() && (json[i] == ' ' || json[i] == '\t' || json[i] == '\n' || json[i] == '\r')) ++i;
+  const std::string_view rest = json.substr(i);
+  if (rest.starts_with("true")) return 1;
+  if (rest.starts_with("false")) return 0;
+  return -1;
+}
+
+bool ncmd_requests_rebirth(const std::uint8_t* data, std::size_t len) noexcept {
+  PbPayload* p = org__eclipse__tahu__protobuf__payload__unpack(nullptr, len, data);
+  if (p == nullptr) return false;
+  bool rebirth = false;
+  for (std::size_t i = 0; i < p->n_metrics; ++i) {
+    const PbMetric* m = p->metrics[i];
+    const bool named = (m->name != nullptr && std::strcmp(m->name, kRebirthName) == 0) ||
+                       (m->has_alias != 0 && m->alias == kRebirthAlias);
+    if (named && m->value_case == ORG__ECLIPSE__TAHU__PROTOBUF__PAYLOAD__METRIC__VALUE_BOOLEAN_VALUE &&
+        m->boolean_value != 0)
+      rebirth = true;
+  }
+  org__eclipse__tahu__protobuf__payload__free_unpacked(p, nullptr);
+  return rebirth;
+}
+
+MosquittoLink::MosquittoLink(const MqttConfig& config, LogFn log) : config_(config), log_(std::move(log)) {
+  ndeath_topic_ = sparkplug_topic(config_.group_id, "NDEATH", config_.edge_node_id);
+  ncmd_topic_ = sparkplug_topic(config_.group_id, "NCMD", config_.edge_node_id);
+  if (!config_.primary_host_id.empty()) state_topic_ = "spBv1.0/STATE/" + config_.primary_host_id;
+}
+
+MosquittoLink::~MosquittoLink() { stop(); }
+
+void MosquittoLink::set_will() {
+  std::array<std::uint8_t, 128> buf{};
+  const std::size_t n = encode_ndeath(will_builder_, bd_seq_.load(std::memory_order_relaxed), wall_ms(), buf);
+  const int rc = mosquitto_will_set(mosq_, ndeath_topic_.c_str(), static_cast<int>(n), buf.data(), 1, false);
+  if (rc != MOSQ_ERR_SUCCESS) log_(COBRIDGE_LOG_ERROR, "cannot set the NDEATH will: " + mosq_error(rc));
+}
+
+plugin::Error MosquittoLink::start() {
+  lib_init_once();
+  mosq_ = mosquitto_new(config_.client_id.c_str(), true, this);  // clean session (spec 5: tck-id-principles-persistence-clean-session-311)
+  if (mosq_ == nullptr) return {std::error_code(errno, std::generic_category()), "mosquitto_new failed"};
+  mosquitto_connect_callback_set(mosq_, &MosquittoLink::on_connect);
+  mosquitto_disconnect_callback_set(mosq_, &MosquittoLink::on_disconnect);
+  mosquitto_message_callback_set(mosq_, &MosquittoLink::on_message);
+  mosquitto_publish_callback_set(mosq_, &MosquittoLink::on_publish);
+  mosquitto_reconnect_delay_set(mosq_, 1, 30, true);
+  // Small messages one after another: without it Nagle's algorithm held
+  // each DBIRTH behind the NBIRTH's unacknowledged segment for ~40 ms.
+  (void)mosquitto_int_option(mosq_, MOSQ_OPT_TCP_NODELAY, 1);
+  int rc = MOSQ_ERR_SUCCESS;
+  if (!config_.username.empty()) {
+    rc = mosquitto_username_pw_set(mosq_, config_.username.c_str(),
+                                   config_.password.empty() ? nullptr : config_.password.c_str());
+    if (rc != MOSQ_ERR_SUCCESS) return {std::error_code(rc, std::generic_category()), "username: " + mosq_error(rc)};
+  }
+  if (config_.tls()) {
+    rc = mosquitto_tls_set(mosq_, config_.ca_file.c_str(), nullptr,
+                           config_.cert_file.empty() ? nullptr : config_.cert_file.c_str(),
+                           config_.key_file.empty() ? nullptr : config_.key_file.c_str(), nullptr);
+    if (rc != MOSQ_ERR_SUCCESS) return {std::error_code(rc, std::generic_category()), "TLS: " + mosq_error(rc)};
+  }
+  set_will();
+  rc = mosquitto_connect_async(mosq_, config_.host.c_str(), config_.port, static_cast<int>(config_.keepalive_s));
+  if (rc != MOSQ_ERR_SUCCESS)  // retried by the client thread with backoff
+    log_(COBRIDGE_LOG_WARN, "MQTT broker " + config_.host + ":" + std::to_string(config_.port) +
+                                " not reached yet (" + mosq_error(rc) + "); retrying");
+  rc = mosquitto_loop_start(mosq_);
+  if (rc != MOSQ_ERR_SUCCESS) return {std::error_code(rc, std::generic_category()), "loop: " + mosq_error(rc)};
+  loop_started_ = true;
+  return {};
+}
+
+void MosquittoLink::stop() {
+  if (mosq_ == nullptr) return;
+  if (connected_.load(std::memory_order_acquire)) {
+    PayloadBuilder builder;  // the client thread may be in set_will() with will_builder_ now
+    std::array<std::uint8_t, 128> buf{};
+    const std::size_t n = encode_ndeath(builder, bd_seq_.load(std::memory_order_relaxed), wall_ms(), buf);
+    (void)mosquitto_publish(mosq_, nullptr, ndeath_topic_.c_str(), static_cast<int>(n), buf.data(), 0, false);
+  }
+  mosquitto_disconnect(mosq_);
+  if (loop_started_) mosquitto_loop_stop(mosq_, false);
+  loop_started_ = false;
+  mosquitto_destroy(mosq_);
+  mosq_ = nullptr;
+  connected_.store(false, std::memory_order_release);
+}
+
+bool MosquittoLink::publish(const std::string& topic, std::span<const std::uint8_t> payload) {
+  if (!connected_.load(std::memory_order_acquire)) return false;
+  const std::uint64_t handed = handed_.load(std::memory_order_relaxed);
+  const std::uint64_t written = written_.load(std::memory_order_acquire);
+  if (handed > written && handed - written >= kMaxQueued) return false;
+  if (mosquitto_publish(mosq_, nullptr, topic.c_str(), static_cast<int>(payload.size()), payload.data(), 0, false) !=
+      MOSQ_ERR_SUCCESS)
+    return false;
+  handed_.store(handed + 1, std::memory_order_release);
+  return true;
+}
+
+void MosquittoLink::on_publish(struct mosquitto*, void* self, int) {
+  static_cast<MosquittoLink*>(self)->written_.fetch_add(1, std::memory_order_acq_rel);
+}
+
+MosquittoLink::State MosquittoLink::state() const noexcept {
+  State s;
+  s.generation = generation_.load(std::memory_order_acquire);
+  s.connected = connected_.load(std::memory_order_acquire);
+  s.bd_seq = bd_seq_.load(std::memory_order_acquire);
+  return s;
+}
+
+void MosquittoLink::on_connect(struct mosquitto* m, void* self, int rc) {
+  auto* l = static_cast<MosquittoLink*>(self);
+  if (rc != 0) {
+    if (!l->refused_logged_) l->log_(COBRIDGE_LOG_ERROR, std::string("MQTT broker refused the connection: ") + mosquitto_connack_string(rc));
+    l->refused_logged_ = true;
+    return;
+  }
+  l->refused_logged_ = false;
+  // libmosquitto dropped what a lost session had queued: nothing waits now.
+  l->written_.store(l->handed_.load(std::memory_order_acquire), std::memory_order_release);
+  (void)mosquitto_subscribe(m, nullptr, l->ncmd_topic_.c_str(), 1);
+  if (!l->state_topic_.empty()) (void)mosquitto_subscribe(m, nullptr, l->state_topic_.c_str(), 1);
+  l->connected_.store(true, std::memory_order_release);
+  l->generation_.fetch_add(1, std::memory_order_acq_rel);
+  l->log_(COBRIDGE_LOG_INFO, "MQTT connected to " + l->config_.host + ":" + std::to_string(l->config_.port) +
+                                 " as edge node " + l->config_.group_id + "/" + l->config_.edge_node_id +
+                                 " (bdSeq " + std::to_string(l->bd_seq_.load()) + ")");
+}
+
+// The session is gone: the broker has published (or will publish) the
+// will with this bdSeq, so the next CONNECT carries the next one.
+void MosquittoLink::on_disconnect(struct mosquitto*, void* self, int rc) {
+  auto* l = static_cast<MosquittoLink*>(self);
+  const bool was = l->connected_.exchange(false, std::memory_order_acq_rel);
+  l->bd_seq_.store(static_cast<std::uint8_t>(l->bd_seq_.load(std::memory_order_relaxed) + 1u),
+                   std::memory_order_release);
+  l->primary_.store(-1, std::memory_order_release);  // heard again (retained) after the reconnect
+  if (was) l->generation_.fetch_add(1, std::memory_order_acq_rel);
+  if (rc != 0) {
+    if (was) l->log_(COBRIDGE_LOG_WARN, "MQTT connection lost (" + mosq_error(rc) + "); reconnecting");
+    l->set_will();
+  }
+}
+
+void MosquittoLink::on_message(struct mosquitto*, void* self, const struct mosquitto_message* msg) {
+  auto* l = static_cast<MosquittoLink*>(self);
+  if (msg == nullptr || msg->topic == nullptr) return;
+  if (l->ncmd_topic_ == msg->topic) {
+    l->handle_ncmd(msg->payload, msg->payloadlen);
+  } else if (!l->state_topic_.empty() && l->state_topic_ == msg->topic) {
+    const std::string_view text(static_cast<const char*>(msg->payload), static_cast<std::size_t>(msg->payloadlen));
+    const int online = parse_state_online(text);
+    if (online >= 0) l->primary_.store(online, std::memory_order_release);
+  }
+}
+
+void MosquittoLink::handle_ncmd(const void* payload, int len) {
+  if (len <= 0) return;
+  if (ncmd_requests_rebirth(static_cast<const std::uint8_t*>(payload), static_cast<std::size_t>(len))) {
+    log_(COBRIDGE_LOG_INFO, "NCMD Node Control/Rebirth: publishing NBIRTH and every DBIRTH again");
+    rebirth_.store(true, std::memory_order_release);
+  }
+}
+
+}  // namespace cobridge::mqtt

@@ -1,0 +1,112 @@
+// MosquittoLink: the plugin's MQTT client on libmosquitto, in its threaded
+// mode (mosquitto_loop_start: libmosquitto's own thread runs the socket,
+// keepalive and reconnects). It owns what the MQTT session must carry for
+// Sparkplug:
+//   - the will: NDEATH with the current bdSeq, QoS 1, not retained
+//     (spec 5: tck-id-topics-ndeath-will-message-*), set before every CONNECT;
+//   - bdSeq: +1 (mod 256) for each new CONNECT after a lost session, so the
+//     NBIRTH that follows names the will that the broker holds;
+//   - reconnects with exponential backoff (1 s doubling to 30 s);
+//   - NCMD (Node Control/Rebirth) and the primary host's STATE, subscribed
+//     at each connect and turned into flags the publisher thread polls;
+//   - a bound on what waits in libmosquitto's own queue (it has none for
+//     QoS 0): a broker or network slower than the encoders makes publish()
+//     refuse, counted as a drop, instead of growing the daemon's memory.
+//
+// Thread contract: start/stop on the daemon's control thread; publish() and
+// the poll functions from the plugin's publisher thread; the callbacks run
+// on libmosquitto's thread and only touch atomics, the will and the log.
+#pragma once
+
+#include "mqtt_config.hpp"
+#include "sparkplug_payload.hpp"
+
+#include <cobridge/plugin_error.hpp>
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <span>
+#include <string>
+
+struct mosquitto;
+struct mosquitto_message;
+
+namespace cobridge::mqtt {
+
+class MosquittoLink {
+ public:
+  using LogFn = std::function<void(int level, const std::string& msg)>;
+
+  // What the publisher thread reads: a generation that changes with every
+  // session gained or lost, whether the session is up, and its bdSeq.
+  struct State {
+    std::uint64_t generation = 0;
+    bool connected = false;
+    std::uint8_t bd_seq = 0;
+  };
+
+  MosquittoLink(const MqttConfig& config, LogFn log);
+  ~MosquittoLink();
+  MosquittoLink(const MosquittoLink&) = delete;
+  MosquittoLink& operator=(const MosquittoLink&) = delete;
+
+  // Creates the client, sets credentials, TLS and the will, starts the
+  // connect (asynchronously: a broker that is away is retried, not fatal).
+  [[nodiscard]] plugin::Error start();
+  // Publishes NDEATH itself (an intentional disconnect, spec 5:
+  // tck-id-operational-behavior-edge-node-intentional-disconnect-ndeath),
+  // disconnects and joins the client thread.
+  void stop();
+
+  // Messages handed to libmosquitto and not yet written to the socket, at most.
+  static constexpr std::uint64_t kMaxQueued = 4096;
+
+  // QoS 0, not retained. False when not connected, kMaxQueued are waiting,
+  // or the client refused it.
+  [[nodiscard]] bool publish(const std::string& topic, std::span<const std::uint8_t> payload);
+
+  [[nodiscard]] State state() const noexcept;
+  // True once per NCMD Node Control/Rebirth = true received.
+  [[nodiscard]] bool take_rebirth() noexcept { return rebirth_.exchange(false, std::memory_order_acq_rel); }
+  // The primary host's last STATE: -1 none heard, 0 offline, 1 online.
+  [[nodiscard]] int primary_state() const noexcept { return primary_.load(std::memory_order_acquire); }
+  [[nodiscard]] bool connected() const noexcept { return connected_.load(std::memory_order_acquire); }
+
+ private:
+  static void on_connect(struct mosquitto* m, void* self, int rc);
+  static void on_disconnect(struct mosquitto* m, void* self, int rc);
+  static void on_message(struct mosquitto* m, void* self, const struct mosquitto_message* msg);
+  static void on_publish(struct mosquitto* m, void* self, int mid);
+
+  void set_will();
+  void handle_ncmd(const void* payload, int len);
+
+  const MqttConfig& config_;
+  LogFn log_;
+  struct mosquitto* mosq_ = nullptr;
+  bool loop_started_ = false;
+  std::string ndeath_topic_;
+  std::string ncmd_topic_;
+  std::string state_topic_;
+  PayloadBuilder will_builder_;  // client thread (callbacks) and start/stop, never at once
+  std::atomic<std::uint64_t> generation_{0};
+  std::atomic<bool> connected_{false};
+  std::atomic<std::uint8_t> bd_seq_{0};
+  std::atomic<bool> rebirth_{false};
+  std::atomic<int> primary_{-1};
+  std::atomic<std::uint64_t> handed_{0};   // publisher thread
+  std::atomic<std::uint64_t> written_{0};  // client thread (on_publish: QoS 0 written out)
+  bool refused_logged_ = false;  // client thread only
+};
+
+// The "online" member of a Sparkplug 3.0 STATE payload ({"online": true,
+// "timestamp": ...}, spec 5: tck-id-host-topic-phid-birth-payload): 1, 0, or
+// -1 when the text holds no boolean "online".
+[[nodiscard]] int parse_state_online(std::string_view json) noexcept;
+
+// Whether an NCMD payload asks for a rebirth: a metric named Node
+// Control/Rebirth (or its alias) with boolean true (spec 6.4.x NCMD).
+[[nodiscard]] bool ncmd_requests_rebirth(const std::uint8_t* data, std::size_t len) noexcept;
+
+}  // namespace cobridge::mqtt

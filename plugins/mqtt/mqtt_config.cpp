@@ -1,0 +1,168 @@
+#include "mqtt_config.hpp"
+
+#include "sparkplug_metrics.hpp"
+
+#include <toml++/toml.h>
+
+#include <sys/stat.h>
+
+#include <cerrno>
+#include <cstring>
+#include <fstream>
+#include <optional>
+
+namespace cobridge::mqtt {
+namespace {
+
+using plugin::ConfigErrc;
+
+plugin::Error fail(ConfigErrc code, const std::string& key, const std::string& why) {
+  return {code, "config: '" + key + "' " + why, key};
+}
+
+plugin::Error get_string(const toml::node& node, const std::string& key, std::string& out) {
+  const auto* s = node.as_string();
+  if (s == nullptr) return fail(ConfigErrc::kWrongType, key, "must be a string");
+  if (s->get().empty()) return fail(ConfigErrc::kOutOfRange, key, "is empty");
+  out = s->get();
+  return {};
+}
+
+plugin::Error get_int(const toml::node& node, const std::string& key, std::int64_t lo, std::int64_t hi,
+                      std::int64_t& out) {
+  const auto* v = node.as_integer();
+  if (v == nullptr) return fail(ConfigErrc::kWrongType, key, "must be an integer");
+  if (v->get() < lo || v->get() > hi)
+    return fail(ConfigErrc::kOutOfRange, key,
+                "= " + std::to_string(v->get()) + " is outside " + std::to_string(lo) + ".." + std::to_string(hi));
+  out = v->get();
+  return {};
+}
+
+plugin::Error get_id(const toml::node& node, const std::string& key, std::string& out) {
+  if (plugin::Error e = get_string(node, key, out)) return e;
+  if (!valid_sparkplug_id(out)) return fail(ConfigErrc::kOutOfRange, key, "may not contain '/', '+' or '#'");
+  return {};
+}
+
+// A file named by a key must exist and be readable now (checked at load,
+// not at the first connect).
+plugin::Error get_file(const toml::node& node, const std::string& key, std::string& out) {
+  if (plugin::Error e = get_string(node, key, out)) return e;
+  struct stat st {};
+  if (::stat(out.c_str(), &st) != 0)
+    return fail(ConfigErrc::kBadFile, key, "= \"" + out + "\": " + std::strerror(errno));
+  if (!S_ISREG(st.st_mode)) return fail(ConfigErrc::kBadFile, key, "= \"" + out + "\" is not a regular file");
+  return {};
+}
+
+// The password file: owner-only (no group/other bits), its first line.
+plugin::Error read_password(const std::string& path, std::string& out) {
+  const std::string key = "password_file";
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0)
+    return fail(ConfigErrc::kBadFile, key, "= \"" + path + "\": " + std::strerror(errno));
+  if ((st.st_mode & 077) != 0) {
+    char mode[8];
+    std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(st.st_mode & 07777));
+    return fail(ConfigErrc::kBadFile, key,
+                "= \"" + path + "\" has mode " + mode + ": it must be readable by its owner only (chmod 600)");
+  }
+  std::ifstream in(path);
+  if (!in) return fail(ConfigErrc::kBadFile, key, "= \"" + path + "\" cannot be read");
+  std::getline(in, out);
+  if (!out.empty() && out.back() == '\r') out.pop_back();
+  if (out.empty()) return fail(ConfigErrc::kBadFile, key, "= \"" + path + "\" holds no password on its first line");
+  return {};
+}
+
+plugin::Error parse_deadband(const toml::node& node, MqttConfig& c) {
+  const auto* t = node.as_table();
+  if (t == nullptr) return fail(ConfigErrc::kWrongType, "deadband", "must be a table of metric name = number");
+  for (const auto& [k, v] : *t) {
+    const std::string name(k.str());
+    const std::string key = "deadband." + name;
+    const MetricDef* def = nullptr;
+    for (const auto& d : process_metrics())
+      if (name == d.name) def = &d;
+    if (def == nullptr) return fail(ConfigErrc::kUnknownKey, key, "names no metric (see docs/mqtt.md, metric table)");
+    const std::optional<double> value = v.value<double>();
+    if (!value || *value < 0.0) return fail(ConfigErrc::kOutOfRange, key, "must be a number >= 0");
+    c.deadband[process_index(def->id)] = *value;
+  }
+  return {};
+}
+
+plugin::Error apply_key(const std::string& k, const toml::node& node, MqttConfig& c, std::string& password_file) {
+  std::int64_t n = 0;
+  if (k == "host") return get_string(node, k, c.host);
+  if (k == "client_id") return get_string(node, k, c.client_id);
+  if (k == "group_id") return get_id(node, k, c.group_id);
+  if (k == "edge_node_id") return get_id(node, k, c.edge_node_id);
+  if (k == "primary_host_id") return get_id(node, k, c.primary_host_id);
+  if (k == "username") return get_string(node, k, c.username);
+  if (k == "password_file") return get_string(node, k, password_file);
+  if (k == "ca_file") return get_file(node, k, c.ca_file);
+  if (k == "cert_file") return get_file(node, k, c.cert_file);
+  if (k == "key_file") return get_file(node, k, c.key_file);
+  if (k == "deadband") return parse_deadband(node, c);
+  if (k == "password") return fail(ConfigErrc::kUnknownKey, k, "is not taken: put the password in password_file (mode 0600)");
+  plugin::Error e;
+  if (k == "port") {
+    if (!(e = get_int(node, k, 1, 65535, n))) c.port = static_cast<std::uint16_t>(n);
+  } else if (k == "keepalive_s") {
+    if (!(e = get_int(node, k, 5, 65535, n))) c.keepalive_s = static_cast<std::uint32_t>(n);
+  } else if (k == "queue_depth") {
+    if (!(e = get_int(node, k, 64, 1 << 20, n))) c.queue_depth = static_cast<std::uint32_t>(n);
+  } else {
+    e = fail(ConfigErrc::kUnknownKey, k,
+             "is not a key of [outputs.mqtt] (host, port, client_id, group_id, edge_node_id, keepalive_s, username, "
+             "password_file, ca_file, cert_file, key_file, primary_host_id, queue_depth, deadband)");
+  }
+  return e;
+}
+
+// Keys that only make sense together.
+plugin::Error check_combinations(const MqttConfig& c, const std::string& password_file) {
+  if (!password_file.empty() && c.username.empty())
+    return fail(ConfigErrc::kMissingKey, "username", "is required with password_file");
+  if (c.cert_file.empty() != c.key_file.empty())
+    return fail(ConfigErrc::kMissingKey, c.cert_file.empty() ? "cert_file" : "key_file",
+                "is required with " + std::string(c.cert_file.empty() ? "key_file" : "cert_file"));
+  if (!c.cert_file.empty() && c.ca_file.empty())
+    return fail(ConfigErrc::kMissingKey, "ca_file", "is required with cert_file and key_file (TLS)");
+  if (c.edge_node_id.empty())
+    return fail(ConfigErrc::kMissingKey, "edge_node_id", "is required (the gateway id is not a valid Sparkplug id)");
+  return {};
+}
+
+}  // namespace
+
+bool valid_sparkplug_id(std::string_view id) noexcept {
+  return !id.empty() && id.find_first_of("/+#") == std::string_view::npos;
+}
+
+plugin::Error parse_config(std::string_view text, std::string_view gateway_id, MqttConfig& out) {
+  toml::table table;
+  try {
+    table = toml::parse(text, std::string_view("mqtt"));
+  } catch (const toml::parse_error& e) {
+    return {ConfigErrc::kSyntax,
+            "config: " + std::string(e.description()) + " at line " + std::to_string(e.source().begin.line)};
+  }
+  MqttConfig c;
+  if (valid_sparkplug_id(gateway_id)) c.edge_node_id = std::string(gateway_id);
+  std::string password_file;
+  plugin::Error error;
+  table.for_each([&](const toml::key& key, const auto& value) {
+    if (!error) error = apply_key(std::string(key.str()), value, c, password_file);
+  });
+  if (!error) error = check_combinations(c, password_file);
+  if (!error && !password_file.empty()) error = read_password(password_file, c.password);
+  if (error) return error;
+  if (c.client_id.empty()) c.client_id = "cobridge-" + c.edge_node_id;
+  out = std::move(c);
+  return {};
+}
+
+}  // namespace cobridge::mqtt

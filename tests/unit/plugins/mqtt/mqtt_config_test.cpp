@@ -1,0 +1,120 @@
+// [outputs.mqtt] parsing (docs/mqtt.md "Configuration"): defaults, every
+// refusal names its key and reason, the password only from a 0600 file.
+#include "mqtt_config.hpp"
+
+#include <gtest/gtest.h>
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <fstream>
+#include <string>
+
+namespace cobridge::mqtt {
+namespace {
+
+using plugin::ConfigErrc;
+
+std::string temp_file(const std::string& text, mode_t mode) {
+  char path[] = "/tmp/cobridge-mqtt-test-XXXXXX";
+  const int fd = ::mkstemp(path);
+  EXPECT_GE(fd, 0);
+  ::close(fd);
+  std::ofstream(path) << text;
+  ::chmod(path, mode);
+  return path;
+}
+
+plugin::Error parse(const std::string& text, MqttConfig& c) { return parse_config(text, "gw-1", c); }
+
+TEST(MqttConfig, Defaults) {
+  MqttConfig c;
+  ASSERT_FALSE(parse("", c));
+  EXPECT_EQ(c.host, "127.0.0.1");
+  EXPECT_EQ(c.port, 1883);
+  EXPECT_EQ(c.group_id, "cobridge");
+  EXPECT_EQ(c.edge_node_id, "gw-1");  // the gateway id
+  EXPECT_EQ(c.client_id, "cobridge-gw-1");
+  EXPECT_EQ(c.keepalive_s, 30u);
+  EXPECT_FALSE(c.tls());
+  EXPECT_TRUE(c.primary_host_id.empty());
+}
+
+TEST(MqttConfig, GoodFullTable) {
+  const std::string pw = temp_file("s3cret\n", 0600);
+  MqttConfig c;
+  const plugin::Error e = parse("host = \"broker\"\nport = 8883\nclient_id = \"c\"\ngroup_id = \"g\"\n"
+                                "edge_node_id = \"e\"\nkeepalive_s = 10\nusername = \"u\"\npassword_file = \"" +
+                                    pw + "\"\nprimary_host_id = \"scada\"\n[deadband]\nPosition = 4\nSpeed = 0.5\n",
+                                c);
+  ASSERT_FALSE(e) << e.message;
+  EXPECT_EQ(c.password, "s3cret");
+  EXPECT_EQ(c.primary_host_id, "scada");
+  EXPECT_EQ(c.deadband[0], 4.0);
+  EXPECT_EQ(c.deadband[2], 0.5);
+  ::unlink(pw.c_str());
+}
+
+TEST(MqttConfig, BadPasswordFileOpenToOthersRefused) {
+  const std::string pw = temp_file("x\n", 0644);
+  MqttConfig c;
+  const plugin::Error e = parse("username = \"u\"\npassword_file = \"" + pw + "\"\n", c);
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e.code, make_error_code(ConfigErrc::kBadFile));
+  EXPECT_NE(e.message.find("'password_file'"), std::string::npos) << e.message;
+  EXPECT_NE(e.message.find("0644"), std::string::npos) << e.message;
+  ::unlink(pw.c_str());
+}
+
+TEST(MqttConfig, BadPlainPasswordRefused) {
+  MqttConfig c;
+  const plugin::Error e = parse("username = \"u\"\npassword = \"x\"\n", c);
+  ASSERT_TRUE(e);
+  EXPECT_NE(e.message.find("password_file"), std::string::npos) << e.message;
+}
+
+struct BadCase {
+  const char* toml;
+  ConfigErrc code;
+  const char* key;
+};
+
+TEST(MqttConfig, BadValuesNameTheirKey) {
+  const BadCase cases[] = {
+      {"hots = \"x\"\n", ConfigErrc::kUnknownKey, "'hots'"},
+      {"port = 0\n", ConfigErrc::kOutOfRange, "'port'"},
+      {"port = \"1883\"\n", ConfigErrc::kWrongType, "'port'"},
+      {"keepalive_s = 2\n", ConfigErrc::kOutOfRange, "'keepalive_s'"},
+      {"group_id = \"a/b\"\n", ConfigErrc::kOutOfRange, "'group_id'"},
+      {"edge_node_id = \"e#\"\n", ConfigErrc::kOutOfRange, "'edge_node_id'"},
+      {"password_file = \"/nonexistent\"\n", ConfigErrc::kMissingKey, "'username'"},
+      {"username = \"u\"\npassword_file = \"/nonexistent\"\n", ConfigErrc::kBadFile, "'password_file'"},
+      {"ca_file = \"/nonexistent/ca.pem\"\n", ConfigErrc::kBadFile, "'ca_file'"},
+      {"[deadband]\nPositon = 1\n", ConfigErrc::kUnknownKey, "'deadband.Positon'"},
+      {"[deadband]\nPosition = -1\n", ConfigErrc::kOutOfRange, "'deadband.Position'"},
+      {"host = \n", ConfigErrc::kSyntax, "config:"},
+  };
+  for (const BadCase& bc : cases) {
+    MqttConfig c;
+    const plugin::Error e = parse(bc.toml, c);
+    ASSERT_TRUE(e) << bc.toml;
+    EXPECT_EQ(e.code, make_error_code(bc.code)) << bc.toml << " -> " << e.message;
+    EXPECT_NE(e.message.find(bc.key), std::string::npos) << e.message;
+  }
+}
+
+TEST(MqttConfig, BadTlsHalfPairRefused) {
+  const std::string cert = temp_file("pem", 0644);
+  MqttConfig c;
+  plugin::Error e = parse("ca_file = \"" + cert + "\"\ncert_file = \"" + cert + "\"\n", c);
+  ASSERT_TRUE(e);
+  EXPECT_NE(e.message.find("'key_file'"), std::string::npos) << e.message;
+  e = parse("cert_file = \"" + cert + "\"\nkey_file = \"" + cert + "\"\n", c);
+  ASSERT_TRUE(e);
+  EXPECT_NE(e.message.find("'ca_file'"), std::string::npos) << e.message;
+  ::unlink(cert.c_str());
+}
+
+}  // namespace
+}  // namespace cobridge::mqtt
