@@ -60,6 +60,9 @@ Error Daemon::start() {
   // A file that cannot be read is set aside and holds every assignment
   // (gateway::StateStore); the daemon runs on, and says so here and in status.
   if (const Error e = state_->load()) log->error("state file {}", e.to_string());
+  // The bus threads never wait for the disk: their heartbeat and LSS steps
+  // are timed (bus/state_store.hpp).
+  state_->start_writer();
 
   // Made here, started below once the control socket is ours; the control
   // socket's status reads its hot-path counters.
@@ -241,6 +244,7 @@ void Daemon::stop() {
   // path), then the hot path and the plugins, then the control socket.
   for (std::size_t i = 0; i < buses_.size(); ++i) outputs_->set_command_target(i, nullptr);
   buses_.stop();
+  state_->stop_writer();  // what the buses remembered last, on disk
   outputs_->stop();
   recorders_.stop();
   control_->close();

@@ -8,6 +8,14 @@
 // discovery probes the configured node-IDs and each device's plan reads
 // first and writes only what differs, so a device the other gateway
 // configured is not written again, and no device is reset.
+//
+// A stranger's frames (issue 38): the election takes claims only from
+// node-IDs that can be a gateway's, so the manager tells it which cannot
+// (election_excluded: the configured devices, the devices known on the bus,
+// the written node pool), every turn, so that a reload or a device given a
+// node-ID counts at once. Role changes are logged within a budget (a storm
+// of forged election frames must not bury the journal) with a count of what
+// was left out.
 #include "bus/bus_manager_impl.hpp"
 
 namespace cobridge::gateway {
@@ -30,6 +38,7 @@ void BusManager::Impl::start_election(TimePoint now) {
   c.preempt = r.preempt;
   c.hold = r.hold;
   election.emplace(c);
+  election->set_excluded(election_excluded());
   election->set_callback([this](const canopen::ElectionEvent& e) { on_election(e); });
   log->info("bus {}: hot standby as node {} (priority {}): asking for the active master", bus.name, r.node_id,
             r.priority);
@@ -44,15 +53,35 @@ bool BusManager::Impl::election_frame(const can::Frame& frame, TimePoint now) {
   return election->owns(frame);
 }
 
+// No device's node-ID, nor one the bus may give a device, is a gateway's.
+// The default pool (1..127 less ours) is left out: it holds the other
+// gateway's node-ID too (docs/operations.md "Hot standby").
+canopen::NodeSet BusManager::Impl::election_excluded() const {
+  canopen::NodeSet s;
+  for (const auto& m : devices) {
+    if (m.st.node_id != 0) s.set(m.st.node_id);
+    if (m.in_config && m.cfg.node_id) s.set(*m.cfg.node_id);
+  }
+  if (!bus.node_pool_default) {
+    for (const std::uint8_t n : bus.node_pool) s.set(n);
+  }
+  if (config.redundancy) s.reset(config.redundancy->node_id);
+  return s;
+}
+
+void BusManager::Impl::update_election_exclusions() {
+  const canopen::NodeSet now_excluded = election_excluded();
+  if (now_excluded != election->excluded()) election->set_excluded(now_excluded);
+}
+
 void BusManager::Impl::on_election(const canopen::ElectionEvent& e) {
   using canopen::MasterRole;
   election_at = wall_now();
   dirty = true;
-  const std::string_view cause = canopen::to_string(e.cause);
   tell_outputs(e);
+  log_role(e);
   switch (e.role) {
     case MasterRole::master:
-      log->warn("bus {}: this gateway is the bus's master now ({})", bus.name, cause);
       if (!discovery_started && channel->is_open()) {
         discovery->start(e.time);
         discovery_started = true;
@@ -60,19 +89,61 @@ void BusManager::Impl::on_election(const canopen::ElectionEvent& e) {
       check_configured_nodes(e.time);
       break;
     case MasterRole::standby:
-      log->warn("bus {}: standby; the master is node {} ({})", bus.name, e.master_node, cause);
       if (e.previous == MasterRole::master) {
         runners_abort();
         remote->abort_all("this gateway is standby now");
       }
       break;
     case MasterRole::negotiating:
-      log->info("bus {}: negotiating the master role ({})", bus.name, cause);
-      break;
     case MasterRole::starting:
     case MasterRole::claiming:
       break;
   }
+}
+
+void BusManager::Impl::log_role(const canopen::ElectionEvent& e) {
+  using canopen::MasterRole;
+  if (e.role == MasterRole::starting || e.role == MasterRole::claiming) return;
+  if (!role_log.allow(e.time)) return;  // counted; report_suppressed_roles() says how many
+  const std::string_view cause = canopen::to_string(e.cause);
+  if (e.role == MasterRole::master) {
+    log->warn("bus {}: this gateway is the bus's master now ({})", bus.name, cause);
+  } else if (e.role == MasterRole::standby) {
+    log->warn("bus {}: standby; the master is node {} ({})", bus.name, e.master_node, cause);
+  } else {
+    log->info("bus {}: negotiating the master role ({})", bus.name, cause);
+  }
+}
+
+void BusManager::Impl::report_suppressed_roles(TimePoint now) {
+  const std::uint32_t n = role_log.take_suppressed(now);
+  if (n == 0 || !election) return;
+  log->warn("bus {}: {} more role changes not logged in the last {} s; now {} (master node {}, last cause: {})",
+            bus.name, n, std::chrono::duration_cast<std::chrono::seconds>(kRoleLogWindow).count(),
+            canopen::to_string(election->role()), election->master_node(),
+            canopen::to_string(election->last_event().cause));
+}
+
+// Election frames that moved nothing (a stranger's, most likely): one line
+// per window with the counts, never one per frame (a 0x76 every 200 ms).
+TimePoint BusManager::Impl::report_ignored_election_frames(TimePoint now) {
+  if (!election) return kNever;
+  if (ignored_report_at == kNever) ignored_report_at = now + kRoleLogWindow;
+  if (now < ignored_report_at) return ignored_report_at;
+  const canopen::ElectionCounters& c = election->counters();
+  const canopen::ElectionCounters& was = ignored_reported;
+  if (c.claims_ignored != was.claims_ignored || c.forces_ignored != was.forces_ignored ||
+      c.forces_held != was.forces_held) {
+    log->warn("bus {}: in the last {} s the election ignored {} claims/announcements naming no plausible gateway, "
+              "{} forced negotiations (0x76) naming no live peer of higher rank, and held back {} from the peer "
+              "(one handover a minute at most)",
+              bus.name, std::chrono::duration_cast<std::chrono::seconds>(kRoleLogWindow).count(),
+              c.claims_ignored - was.claims_ignored, c.forces_ignored - was.forces_ignored,
+              c.forces_held - was.forces_held);
+  }
+  ignored_reported = c;
+  ignored_report_at = now + kRoleLogWindow;
+  return ignored_report_at;
 }
 
 void BusManager::Impl::tell_outputs(const canopen::ElectionEvent& e) {

@@ -38,7 +38,11 @@ TimePoint BusManager::Impl::run_components(TimePoint now) {
       return m.runner != nullptr || (m.want_configure && m.boot_up_at != kNever);
     });
     election->set_busy(configuring);
+    update_election_exclusions();
     next = std::min(next, election->process(now, *channel));
+    report_suppressed_roles(now);
+    next = std::min(next, role_log.report_due());
+    next = std::min(next, report_ignored_election_frames(now));
     if (standby()) return run_standby(now, next);
   }
   if (!remote->lss_session(now)) next = std::min(next, discovery->process(now));

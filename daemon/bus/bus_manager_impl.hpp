@@ -75,6 +75,9 @@ constexpr milliseconds kCommandSettle{500};
 // A re-plugged adapter is opened at most this long after it appears, so
 // its devices are configured again within 2 s of its return.
 constexpr milliseconds kReopenBackoffMax{500};
+// Role changes logged per window; more are counted and summed up in one line.
+constexpr std::uint32_t kRoleLogLines = 6;
+constexpr std::chrono::seconds kRoleLogWindow{60};
 
 inline WallTime wall_now() { return std::chrono::system_clock::now(); }
 
@@ -409,6 +412,15 @@ struct BusManager::Impl final : RemoteGate {
   [[nodiscard]] bool election_frame(const can::Frame& frame, TimePoint now);
   void on_election(const canopen::ElectionEvent& e);
   void tell_outputs(const canopen::ElectionEvent& e);
+  // The node-IDs that are no gateway's, for the election (issue 38).
+  [[nodiscard]] canopen::NodeSet election_excluded() const;
+  void update_election_exclusions();
+  LogBudget role_log{kRoleLogLines, kRoleLogWindow};
+  void log_role(const canopen::ElectionEvent& e);
+  void report_suppressed_roles(TimePoint now);
+  [[nodiscard]] TimePoint report_ignored_election_frames(TimePoint now);
+  canopen::ElectionCounters ignored_reported{};
+  TimePoint ignored_report_at = kNever;
   [[nodiscard]] TimePoint run_standby(TimePoint now, TimePoint next);
   // Standby (bus_manager_standby.cpp).
   std::array<canopen::LssAddress, 128> heard_identity{};  // per node, from the master's 0x1018 reads

@@ -4,6 +4,7 @@
 #include "base/number_text.hpp"
 #include "sys/atomic_file.hpp"
 #include "sys/guarded_file.hpp"
+#include "sys/logging.hpp"
 #include "sys/set_aside.hpp"
 
 #include <algorithm>
@@ -150,7 +151,72 @@ const std::error_category& state_store_category() noexcept {
 
 std::error_code make_error_code(StateStoreErrc e) noexcept { return {static_cast<int>(e), state_store_category()}; }
 
-StateStore::StateStore(std::filesystem::path dir) : dir_(std::move(dir)), path_(dir_ / kFileName) {}
+StateStore::StateStore(std::filesystem::path dir, FileWriter writer)
+    : dir_(std::move(dir)), path_(dir_ / kFileName), write_(std::move(writer)) {
+  if (!write_) write_ = sys::write_file_atomically;
+}
+
+StateStore::~StateStore() { stop_writer(); }
+
+void StateStore::start_writer() {
+  const std::lock_guard lock(mutex_);
+  if (writer_on_) return;
+  writer_on_ = true;
+  stop_ = false;
+  writer_ = std::thread([this] { run_writer(); });
+}
+
+void StateStore::stop_writer() {
+  {
+    const std::lock_guard lock(mutex_);
+    if (!writer_on_) return;
+    stop_ = true;
+  }
+  wake_.notify_all();
+  writer_.join();
+  const std::lock_guard lock(mutex_);
+  writer_on_ = false;
+}
+
+// The writer thread: the latest table, written outside the lock, so that
+// put() and the readers never wait for the disk.
+void StateStore::run_writer() {
+  auto log = sys::logger("gateway");
+  bool failing = false;
+  bool tried_at_stop = false;
+  std::unique_lock lock(mutex_);
+  for (;;) {
+    wake_.wait(lock, [this] { return unsaved_ || stop_; });
+    if (!unsaved_) return;  // stopping, nothing pending
+    // load() may set the file aside meanwhile: it takes file_mutex_ first,
+    // so the lock order is file_mutex_, then mutex_.
+    lock.unlock();
+    std::unique_lock file_lock(file_mutex_);
+    lock.lock();
+    if (!hold_.empty()) unsaved_ = false;  // holding: the file is the operator's
+    if (!unsaved_) continue;
+    const std::string text = text_locked();
+    unsaved_ = false;
+    lock.unlock();
+    const Error e = write_(path_, text);
+    file_lock.unlock();  // mutex_ is not held here, so the order stays file_mutex_ before mutex_
+    lock.lock();
+    if (!e) {
+      if (failing) log->info("state file {} written again", path_.string());
+      failing = false;
+      continue;
+    }
+    if (!failing) log->error("state file {}; trying again every {} s", e.to_string(), kRetryDelay.count() / 1000);
+    failing = true;
+    unsaved_ = true;
+    // Stopping: one more try at once (stop_writer() writes what is pending,
+    // also when the stop came while a failing write was in the disk).
+    if (stop_ && tried_at_stop) return;  // logged above
+    tried_at_stop = stop_;
+    if (stop_) continue;
+    wake_.wait_for(lock, kRetryDelay, [this] { return stop_; });
+  }
+}
 
 std::string StateStore::format_line(const Assignment& a) {
   std::string line = "bus=" + escape_field(a.bus);
@@ -188,6 +254,7 @@ Result<Assignment> StateStore::parse_line(std::string_view line) {
 }
 
 Error StateStore::load() {
+  const std::lock_guard file_lock(file_mutex_);  // no write of the writer thread meanwhile
   const Result<sys::FileText> file = sys::read_file_bounded(path_, kMaxFileBytes);
   if (!file.ok() && file.error().kind == Errc::kNotFound) return load_missing();
   if (!file.ok()) {
@@ -223,6 +290,7 @@ Error StateStore::load_missing() {
     hold_.clear();
     return {};
   }
+  unsaved_ = false;
   const std::string decide = "no node-ID is assigned until an operator decides (" + std::string(kDecision) + ")";
   hold_ = "state file " + path_.string() + " is missing and " + copies.back().string() +
           " was set aside because it could not be read; " + decide;
@@ -240,6 +308,7 @@ Error StateStore::set_aside_and_hold(Error problem) {
   problem.message += "\n" + now_where + "; " + decide;
   const std::lock_guard lock(mutex_);
   items_.clear();
+  unsaved_ = false;
   hold_ = "state file " + path_.string() + " could not be read (" + reason + "); " + now_where + "; " + decide;
   return problem;
 }
@@ -304,16 +373,25 @@ Error StateStore::erase(const std::string& bus, std::uint32_t vendor, std::uint3
   return {};
 }
 
-Error StateStore::save_locked() {
-  // Holding: the place of the file that could not be read stays empty
-  // until the operator fills it (the memory alone has the change).
-  if (!hold_.empty()) return {};
+std::string StateStore::text_locked() const {
   std::string text = "# cobridge node-ID assignments and configuration fingerprints; written by cobridged\n";
   for (const auto& a : items_) {
     text += format_line(a);
     text += '\n';
   }
-  return sys::write_file_atomically(path_, text);
+  return text;
+}
+
+Error StateStore::save_locked() {
+  // Holding: the place of the file that could not be read stays empty
+  // until the operator fills it (the memory alone has the change).
+  if (!hold_.empty()) return {};
+  if (writer_on_) {
+    unsaved_ = true;
+    wake_.notify_one();
+    return {};
+  }
+  return write_(path_, text_locked());
 }
 
 }  // namespace cobridge::gateway

@@ -32,6 +32,7 @@ std::string_view to_string(ElectionCause cause) noexcept {
     case ElectionCause::claimed: return "another gateway claimed the role first";
     case ElectionCause::better_claim: return "a gateway of higher rank claimed the role";
     case ElectionCause::preempted: return "a gateway of higher rank asked for the role back";
+    case ElectionCause::claim_unbacked: return "the gateway that claimed the role sent no master heartbeat";
   }
   return "?";
 }
@@ -39,7 +40,6 @@ std::string_view to_string(ElectionCause cause) noexcept {
 void MasterElection::start(TimePoint now, can::FrameSink& out) noexcept {
   role_ = MasterRole::starting;
   master_node_ = 0;
-  gateways_[config_.node_id & 0x7F] = true;
   (void)out.send(can::Frame::make(cob::kActiveMasterRequest, {}));
   (void)out.send(can::Frame::make(cob::kMasterResponse, {config_.priority, config_.node_id}));
   // The active master answers at once; a full heartbeat period covers its
@@ -64,11 +64,15 @@ void MasterElection::negotiate(ElectionCause cause, TimePoint now) noexcept {
   master_node_ = 0;
   master_seen_ = kNever;
   handover_pending_ = false;
+  backed_ = false;
   deadline_ = now + config_.priority * kPrioritySlot + config_.node_id * kNodeSlot;
   change(MasterRole::negotiating, cause, now);
 }
 
+// Every claim is preceded by this gateway's announcement, so that the others
+// know it as a gateway (and its priority) before they weigh the claim.
 void MasterElection::send_claim(can::FrameSink& out) noexcept {
+  (void)out.send(can::Frame::make(cob::kMasterResponse, {config_.priority, config_.node_id}));
   (void)out.send(can::Frame::make(cob::kMasterNodeId, {config_.priority, config_.node_id}));
 }
 
@@ -83,10 +87,12 @@ void MasterElection::claim(TimePoint now, can::FrameSink& out) noexcept {
   change(MasterRole::claiming, ElectionCause::no_master, now);
 }
 
+// Standby behind `node`, which is master only once its heartbeat says 05h
+// (backed_); master_seen_ gives it 1.5 periods to say so.
 void MasterElection::follow(uint8_t priority, uint8_t node, ElectionCause cause, TimePoint now) noexcept {
   if (role_ != MasterRole::standby || node != master_node_) {
-    standby_since_ = now;  // the hold time runs from here, for this master
-    preempt_sent_ = false;
+    next_preempt_ = now + config_.hold;  // the hold time runs from here, for this master
+    backed_ = false;
   }
   master_node_ = node;
   master_priority_ = priority;
@@ -96,7 +102,35 @@ void MasterElection::follow(uint8_t priority, uint8_t node, ElectionCause cause,
   change(MasterRole::standby, cause, now);
 }
 
+void MasterElection::on_claim_frame(const can::Frame& frame, TimePoint now, can::FrameSink& out) noexcept {
+  if (frame.len < 2) return;
+  const uint8_t priority = frame.data[0];
+  const uint8_t node = frame.data[1];
+  // A gateway claims with the priority it announced: a claim that says
+  // otherwise is not its own.
+  if (!peers_.plausible(priority, node) || !peers_.as_announced(priority, node)) {
+    ++counters_.claims_ignored;
+    return;
+  }
+  on_claim(priority, node, now, out);
+}
+
+// Two claims at once, or two masters after a healed split: the rank decides,
+// and the one that keeps the role says so again. Only a live gateway that
+// announced itself takes the role from us; another's claim is not answered
+// (no exchange of claims with a stranger).
+void MasterElection::on_claim_as_master(uint8_t priority, uint8_t node, TimePoint now, can::FrameSink& out) noexcept {
+  if (!live_peer(priority, node, now)) {
+    ++counters_.claims_ignored;
+  } else if (outranks_us(priority, node)) {
+    follow(priority, node, ElectionCause::better_claim, now);
+  } else {
+    send_claim(out);
+  }
+}
+
 void MasterElection::on_claim(uint8_t priority, uint8_t node, TimePoint now, can::FrameSink& out) noexcept {
+  const bool announced = peers_.announced(node);
   switch (role_) {
     case MasterRole::starting:
       follow(priority, node, ElectionCause::master_answered, now);
@@ -106,28 +140,67 @@ void MasterElection::on_claim(uint8_t priority, uint8_t node, TimePoint now, can
       break;
     case MasterRole::claiming:
     case MasterRole::master:
-      // Two claims at once, or two masters after a healed split: the rank
-      // decides, and the one that keeps the role says so again.
-      if (outranks_us(priority, node)) {
-        follow(priority, node, ElectionCause::better_claim, now);
-      } else {
-        send_claim(out);
-      }
+      on_claim_as_master(priority, node, now, out);
       break;
     case MasterRole::standby:
-      if (node == master_node_) {
-        master_seen_ = now;
-      } else {
-        follow(priority, node, ElectionCause::better_claim, now);
+      // The master's claims do not keep it alive (its heartbeat does), and
+      // another's claim does not replace a master whose heartbeat we hear,
+      // unless we only heard ours (it never announced itself) and this one
+      // did.
+      if (node != master_node_ && announced && !peers_.announced(master_node_)) {
+        follow(priority, node, ElectionCause::claimed, now);
       }
       break;
   }
 }
 
-void MasterElection::on_force(TimePoint now, can::FrameSink& out) noexcept {
-  if (role_ != MasterRole::master) return;
+void MasterElection::on_announce(const can::Frame& frame, TimePoint now) noexcept {
+  if (frame.len < 2 || !peers_.on_announce(frame.data[0], frame.data[1], now, master_timeout())) {
+    ++counters_.claims_ignored;
+  }
+}
+
+// A gateway's heartbeat (0x700 + node-ID): the followed master is alive
+// while it says 05h.
+bool MasterElection::on_heartbeat(const can::Frame& frame, TimePoint now) noexcept {
+  if (frame.id <= cob::kNmtErrorControlBase || frame.id > cob::kNmtErrorControlBase + 127 || frame.len < 1) {
+    return false;
+  }
+  const auto node = static_cast<uint8_t>(frame.id - cob::kNmtErrorControlBase);
+  if (node == config_.node_id) return false;
+  // Any node's: a gateway's claim may come before we know it as one (its
+  // announcement and claim together, after a healed bus split).
+  peers_.heard(node, now);
+  if (!is_gateway(node)) return false;
+  if (role_ == MasterRole::standby && node == master_node_ && (frame.data[0] & 0x7F) == kStateOperational) {
+    master_seen_ = now;
+    backed_ = true;
+  }
+  return true;
+}
+
+// Only a live peer of higher rank asks for the role (its preempt), and a
+// master hands it over at most once per hold-down (issue 38: a 0x76 storm
+// made 49 handovers in 20 s).
+void MasterElection::on_force(const can::Frame& frame, TimePoint now, can::FrameSink& out) noexcept {
+  if (role_ != MasterRole::master || handover_pending_) return;
+  const bool from_peer = frame.len >= 2 && live_peer(frame.data[0], frame.data[1], now) &&
+                         outranks_us(frame.data[0], frame.data[1]);
+  if (!from_peer) {
+    ++counters_.forces_ignored;
+    return;
+  }
+  if (last_handover_ != kNever && now - last_handover_ < kHandoverHoldDown) {
+    ++counters_.forces_held;
+    return;
+  }
   handover_pending_ = true;
   if (busy_) return;  // handed over by process() once idle
+  hand_over(now, out);
+}
+
+void MasterElection::hand_over(TimePoint now, can::FrameSink& out) noexcept {
+  last_handover_ = now;
   (void)out.send(can::Frame::make(cob::kFlyingMasterRequest, {}));
   negotiate(ElectionCause::preempted, now);
 }
@@ -136,26 +209,17 @@ bool MasterElection::owns(const can::Frame& frame) const noexcept {
   if (frame.is_extended() || frame.is_rtr()) return false;
   if (frame.id >= cob::kMasterNodeId && frame.id <= cob::kForceNegotiation) return true;
   return frame.id > cob::kNmtErrorControlBase && frame.id <= cob::kNmtErrorControlBase + 127 &&
-         gateways_[frame.id - cob::kNmtErrorControlBase];
-}
-
-uint8_t MasterElection::peer_node() const noexcept {
-  for (uint8_t n = 1; n < 128; ++n) {
-    if (gateways_[n] && n != config_.node_id) return n;
-  }
-  return 0;
+         is_gateway(static_cast<uint8_t>(frame.id - cob::kNmtErrorControlBase));
 }
 
 bool MasterElection::on_frame(const can::Frame& frame, TimePoint now, can::FrameSink& out) noexcept {
   if (frame.is_extended() || frame.is_rtr()) return false;
   switch (frame.id) {
     case cob::kMasterNodeId:
-      if (frame.len < 2 || frame.data[1] == config_.node_id || frame.data[1] > 127) return true;
-      gateways_[frame.data[1]] = true;
-      on_claim(frame.data[0], frame.data[1], now, out);
+      on_claim_frame(frame, now, out);
       return true;
     case cob::kMasterResponse:
-      if (frame.len >= 2 && frame.data[1] <= 127) gateways_[frame.data[1]] = true;
+      on_announce(frame, now);
       return true;
     case cob::kFlyingMasterRequest:
       if (role_ == MasterRole::master) {
@@ -168,16 +232,33 @@ bool MasterElection::on_frame(const can::Frame& frame, TimePoint now, can::Frame
       if (role_ == MasterRole::master) send_claim(out);
       return true;
     case cob::kForceNegotiation:
-      on_force(now, out);
+      on_force(frame, now, out);
       return true;
     default:
       break;
   }
-  if (role_ == MasterRole::standby && master_node_ != 0 && frame.id == cob::kNmtErrorControlBase + master_node_) {
-    master_seen_ = now;
-    return true;
+  return on_heartbeat(frame, now);
+}
+
+TimePoint MasterElection::step_master(TimePoint now, can::FrameSink& out) noexcept {
+  if (!handover_pending_ || busy_) return kNever;
+  hand_over(now, out);
+  return deadline_;
+}
+
+TimePoint MasterElection::step_standby(TimePoint now, can::FrameSink& out) noexcept {
+  if (now - master_seen_ >= master_timeout()) {
+    (void)out.send(can::Frame::make(cob::kFlyingMasterRequest, {}));
+    negotiate(backed_ ? ElectionCause::master_lost : ElectionCause::claim_unbacked, now);
+    return deadline_;
   }
-  return false;
+  const TimePoint lost_at = master_seen_ + master_timeout();
+  if (!config_.preempt || outranks_us(master_priority_, master_node_) || !backed_) return lost_at;
+  // Asked again every hold time: the master may hold the role down.
+  if (now < next_preempt_) return std::min(lost_at, next_preempt_);
+  (void)out.send(can::Frame::make(cob::kForceNegotiation, {config_.priority, config_.node_id}));
+  next_preempt_ = now + config_.hold;
+  return std::min(lost_at, next_preempt_);
 }
 
 TimePoint MasterElection::step_role(TimePoint now, can::FrameSink& out) noexcept {
@@ -200,29 +281,11 @@ TimePoint MasterElection::step_role(TimePoint now, can::FrameSink& out) noexcept
       send_heartbeat(out);  // the new state on the bus at once
       return kNever;
     case MasterRole::master:
-      if (handover_pending_ && !busy_) {
-        (void)out.send(can::Frame::make(cob::kFlyingMasterRequest, {}));
-        negotiate(ElectionCause::preempted, now);
-        return deadline_;
-      }
-      return kNever;
+      return step_master(now, out);
     case MasterRole::standby:
       break;
   }
-  if (now - master_seen_ >= master_timeout()) {
-    (void)out.send(can::Frame::make(cob::kFlyingMasterRequest, {}));
-    negotiate(ElectionCause::master_lost, now);
-    return deadline_;
-  }
-  if (config_.preempt && !preempt_sent_ && !outranks_us(master_priority_, master_node_)) {
-    if (now - standby_since_ >= config_.hold) {
-      (void)out.send(can::Frame::make(cob::kForceNegotiation, {}));
-      preempt_sent_ = true;
-    } else {
-      return std::min(master_seen_ + master_timeout(), standby_since_ + config_.hold);
-    }
-  }
-  return master_seen_ + master_timeout();
+  return step_standby(now, out);
 }
 
 TimePoint MasterElection::process(TimePoint now, can::FrameSink& out) noexcept {

@@ -9,8 +9,11 @@
 
 #include <unistd.h>
 
+#include <condition_variable>
 #include <filesystem>
 #include <fstream>
+#include <future>
+#include <mutex>
 #include <random>
 #include <sstream>
 #include <thread>
@@ -287,6 +290,137 @@ TEST_F(StateStoreTest, UnwritableDirectoryIsAnErrorNotACrash) {
   StateStore store(dir_ / "blocker");  // a file where the directory should be
   EXPECT_TRUE(store.put(sample(1, 5)));
   EXPECT_TRUE(store.on_bus("line1").empty());
+}
+
+// Issue 38: the bus control thread sends the heartbeat of a hot-standby
+// pair's master; it stopped for the two fsyncs of a state file write (over
+// 150 ms on a busy disk, longer than the standby waits for the master's
+// heartbeat). With the writer thread, put() returns while the disk is still
+// busy, every reader sees the new table at once, and the file gets the
+// latest table.
+class GatedDisk {
+ public:
+  // The FileWriter: waits until open() (or the first call fails when told to).
+  StateStore::FileWriter writer() {
+    return [this](const fs::path& path, const std::string& text) -> cobridge::Error {
+      std::unique_lock lock(mutex_);
+      ++calls_;
+      changed_.notify_all();
+      changed_.wait(lock, [this] { return open_; });
+      if (fail_first_ && calls_ == 1) return cobridge::Error(cobridge::Errc::kFailed, "disk full", path.string());
+      std::ofstream(path, std::ios::binary) << (garble_ ? std::string("\x01\xFF" "torn") : text);
+      return {};
+    };
+  }
+  void open() {
+    const std::lock_guard lock(mutex_);
+    open_ = true;
+    changed_.notify_all();
+  }
+  void fail_first() { fail_first_ = true; }
+  // Every write leaves bytes that do not read (a bad disk).
+  void garble() { garble_ = true; }
+  bool wait_calls(int n) {
+    std::unique_lock lock(mutex_);
+    return changed_.wait_for(lock, std::chrono::seconds(5), [&] { return calls_ >= n; });
+  }
+  int calls() {
+    const std::lock_guard lock(mutex_);
+    return calls_;
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  bool open_ = false;
+  bool fail_first_ = false;
+  bool garble_ = false;
+  int calls_ = 0;
+};
+
+TEST_F(StateStoreTest, Issue38_WithTheWriterThreadPutNeverWaitsForTheDisk) {
+  fs::create_directories(dir_);
+  GatedDisk disk;
+  StateStore store(dir_, disk.writer());
+  store.start_writer();
+  // A bus thread's puts while the disk is busy with the first write.
+  auto bus_thread = std::async(std::launch::async, [&store] {
+    for (std::uint32_t serial = 1; serial <= 20; ++serial) {
+      if (store.put(sample(serial, static_cast<std::uint8_t>(serial)))) return false;
+    }
+    return true;
+  });
+  ASSERT_TRUE(disk.wait_calls(1));  // a write is in the disk now, and stays there
+  const bool returned = bus_thread.wait_for(std::chrono::seconds(1)) == std::future_status::ready;
+  // (A put() still in the disk holds the table: not asked then.)
+  const std::size_t seen = returned ? store.on_bus("line1").size() : 0;
+  disk.open();
+  EXPECT_TRUE(bus_thread.get());
+  EXPECT_TRUE(returned) << "put() waited for the disk";
+  EXPECT_EQ(seen, 20U) << "readers see the table at once";
+  store.stop_writer();
+  EXPECT_LE(disk.calls(), 3) << "the changes made while the disk was busy are one write";
+  StateStore again(dir_);
+  ASSERT_FALSE(again.load());
+  EXPECT_EQ(again.on_bus("line1").size(), 20U);
+}
+
+TEST_F(StateStoreTest, Issue38_AFailedBackgroundWriteIsTriedAgain) {
+  fs::create_directories(dir_);
+  GatedDisk disk;
+  disk.fail_first();
+  disk.open();
+  StateStore store(dir_, disk.writer());
+  store.start_writer();
+  EXPECT_FALSE(store.put(sample(7, 9)));  // the failure is the writer thread's to log
+  ASSERT_TRUE(disk.wait_calls(1));
+  store.stop_writer();  // tries once more at once rather than a second later
+  EXPECT_EQ(disk.calls(), 2);
+  EXPECT_NE(read_file().find("node=9"), std::string::npos);
+}
+
+TEST_F(StateStoreTest, Issue38_TheDestructorWritesWhatIsPending) {
+  {
+    StateStore store(dir_);
+    store.start_writer();
+    ASSERT_FALSE(store.put(sample(3, 12)));
+  }
+  StateStore again(dir_);
+  ASSERT_FALSE(again.load());
+  ASSERT_EQ(again.on_bus("line1").size(), 1U);
+  EXPECT_EQ(again.on_bus("line1")[0].node_id, 12);
+}
+
+// Issue 38 items 1 and 4 together: the writer thread and the hold. A reload
+// (load()) waits for the write in the disk, so it reads what that write left;
+// when that cannot be read the file is set aside, and from then on nothing is
+// written (a put made meanwhile is dropped), so the state file's place stays
+// empty for the operator. Without the wait the reload would read no file and
+// start fresh, and the writes would go on.
+TEST_F(StateStoreTest, Issue38_AReloadWaitsForTheWriteInTheDiskAndAHoldStopsTheWriter) {
+  fs::create_directories(dir_);
+  GatedDisk disk;
+  disk.garble();
+  StateStore store(dir_, disk.writer());
+  ASSERT_FALSE(store.load());
+  store.start_writer();
+  ASSERT_FALSE(store.put(sample(1, 5)));
+  ASSERT_TRUE(disk.wait_calls(1));        // the first write is in the disk
+  ASSERT_FALSE(store.put(sample(2, 6)));  // pending behind it
+  auto reload = std::async(std::launch::async, [&store] { return store.load(); });
+  EXPECT_EQ(reload.wait_for(std::chrono::milliseconds(200)), std::future_status::timeout)
+      << "load() read the file while a write was in the disk";
+  disk.open();
+  const cobridge::Error e = reload.get();
+  EXPECT_EQ(e.code, make_error_code(StateStoreErrc::malformed_lines)) << e.to_string();
+  EXPECT_FALSE(store.hold().empty());
+  const int calls = disk.calls();
+  ASSERT_FALSE(store.put(sample(3, 7)));
+  store.stop_writer();
+  EXPECT_EQ(disk.calls(), calls) << "a write was made while the store held";
+  EXPECT_FALSE(fs::exists(dir_ / StateStore::kFileName));
+  ASSERT_EQ(aside_copies().size(), 1u);
+  EXPECT_EQ(read(aside_copies()[0]), "\x01\xFF" "torn");
 }
 
 }  // namespace
