@@ -251,7 +251,14 @@ void BusManager::Impl::wait(TimePoint now, TimePoint next) {
   const bool can = channel->fd() >= 0;
   if (can) poll_fds.push_back({channel->fd(), POLLIN, 0});
   const int r = ::poll(poll_fds.data(), poll_fds.size(), static_cast<int>(timeout.count()));
-  rx_ready = r < 0 || !can || poll_fds[1].revents != 0;
+  // A turn that poll ended for a deadline reads the socket all the same:
+  // under load the thread may run long after poll returned, and a heartbeat
+  // that came meanwhile must be dispatched before the election and
+  // supervision judge their timeouts at the turn's clock (a standby asked
+  // for a negotiation, 0x72, while the master's heartbeat sat unread). Only
+  // a client command's wake-up alone skips the empty read (issue 15's hop).
+  const bool woken_only = r > 0 && (poll_fds[0].revents & POLLIN) != 0 && (!can || poll_fds[1].revents == 0);
+  rx_ready = !woken_only || !can;
   if (r > 0 && (poll_fds[0].revents & POLLIN) != 0) {
     std::uint64_t v = 0;
     [[maybe_unused]] const auto n = ::read(wake_fd, &v, sizeof v);
