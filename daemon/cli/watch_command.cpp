@@ -196,6 +196,7 @@ std::string format_status(const cobridge_DeviceStatus& s, bool disposed, bool js
     json_field(out, "last_emcy_register", s.last_emcy_register);
     json_field(out, "last_emcy_ns", s.last_emcy_ns);
     json_field(out, "updated_ns", s.updated_ns);
+    json_field(out, "config_state", s.config_state);
     out += '}';
     return out;
   }
@@ -206,6 +207,8 @@ std::string format_status(const cobridge_DeviceStatus& s, bool disposed, bool js
                     who(s.gateway_id, s.bus, s.node_id, s.name) + "  STATUS " + (s.online ? "online" : "OFFLINE") +
                     " nmt=" + nmt_text(s.nmt_state);
   if (s.stale) out += " STALE";
+  if (s.config_state == cobridge_CONFIG_DIFFERS) out += " CONFIG-DIFFERS";
+  if (s.config_state == cobridge_CONFIG_CONTESTED) out += " CONFIG-CONTESTED";
   if (s.last_emcy_ns != 0) out += " last-emcy=" + hex(s.last_emcy_code, 4);
   if (s.model != nullptr && *s.model != '\0') out += std::string(" model=") + s.model;
   char id[64];

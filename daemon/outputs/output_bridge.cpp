@@ -18,6 +18,12 @@ std::int64_t realtime_ns() noexcept {
 
 std::uint8_t nmt_byte(canopen::NmtState s) noexcept { return static_cast<std::uint8_t>(s); }
 
+// plugin.h ABI 6: what the device's drift records say of its configuration.
+std::uint8_t config_state_of(const DeviceStatus& device) {
+  if (device.drift.empty()) return COBRIDGE_CONFIG_AS_CONFIGURED;
+  return contested_count(device) > 0 ? COBRIDGE_CONFIG_CONTESTED : COBRIDGE_CONFIG_DIFFERS;
+}
+
 }  // namespace
 
 OutputBridge::OutputBridge(const SharedConfig& config, std::size_t bus_index, const device::DeviceCatalog& catalog,
@@ -144,13 +150,19 @@ void OutputBridge::on_device_status(const DeviceStatus& device) {
   const auto index = device_index(device);
   if (!index) return;  // not published: see on_device_configured
   table_.publish_index(device.node_id, *index);
+  bool online_changed = false;
+  bool config_changed = false;
   {
     std::lock_guard lock(mutex_);
     auto it = online_.find(device.node_id);
-    if (it != online_.end() && it->second == device.online) return;  // no change for the outputs
+    online_changed = it == online_.end() || it->second != device.online;
     online_[device.node_id] = device.online;
+    std::uint8_t& config = config_states_[device.node_id];  // new: as configured
+    config_changed = config != config_state_of(device);
+    config = config_state_of(device);
   }
-  if (receiver_)
+  if (!online_changed && !config_changed) return;  // no change for the outputs
+  if (online_changed && receiver_)
     (void)receiver_->post_status(pipeline::StatusEvent{.node_id = device.node_id,
                                                        .online = device.online,
                                                        .nmt_state = nmt_byte(device.nmt),
@@ -167,6 +179,7 @@ void OutputBridge::forget_old_node(const DeviceStatus& device) {
       old = it->second;
       it->second = device.node_id;
       online_.erase(old);
+      config_states_.erase(old);
     }
   }
   // The device moved (commissioning, swap): frames at its old node-ID are no
@@ -212,6 +225,7 @@ void OutputBridge::announce(const DeviceStatus& device, std::uint8_t change) {
   info.product_code = device.identity.product;
   info.revision = device.identity.revision;
   info.serial = device.identity.serial;
+  info.config_state = config_state_of(device);
   const char* unit = position_unit(device);
   // plugin.h: on_device runs on the dispatcher thread, like on_samples. The
   // task owns copies of the strings the info points to.

@@ -81,6 +81,7 @@ class OutputBridge final : public BusObserver {
   std::mutex mutex_;
   DeviceIndexPool* unknown_indices_;
   std::map<std::uint8_t, bool> online_;  // last online state posted per node
+  std::map<std::uint8_t, std::uint8_t> config_states_;  // last cobridge_config_state announced per node
   std::map<std::string, std::uint8_t> node_of_;  // where each device was last seen
 };
 

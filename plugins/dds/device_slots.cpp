@@ -1,5 +1,6 @@
 #include "dds/device_slots.hpp"
 
+#include <cstddef>
 #include <cstring>
 
 namespace cobridge::dds {
@@ -52,6 +53,9 @@ DeviceSlot* DeviceSlots::apply(const cobridge_device_info& info) noexcept {
   slot->model.assign(info.model);
   slot->family.assign(info.family);
   slot->position_unit.assign(info.position_unit);
+  // A host older than ABI 6 says nothing of it: as configured.
+  const bool has_config_state = info.struct_size >= offsetof(cobridge_device_info, config_state) + 1;
+  slot->config_state = has_config_state ? info.config_state : std::uint8_t{COBRIDGE_CONFIG_AS_CONFIGURED};
   return slot;
 }
 

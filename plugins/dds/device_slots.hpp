@@ -75,6 +75,7 @@ struct DeviceSlot {
   FixedString<64> model;
   FixedString<48> family;
   FixedString<16> position_unit;
+  std::uint8_t config_state = COBRIDGE_CONFIG_AS_CONFIGURED;  // ABI 6 on_device
   DeviceState state;
   bool has_last_tpdo = false;
   cobridge_sample last_tpdo{};

@@ -112,6 +112,7 @@ void fill_device_status(cobridge_DeviceStatus& out, const DeviceSlot& slot, cons
   out.last_emcy_register = slot.state.last_emcy_register;
   out.last_emcy_ns = slot.state.last_emcy_ns;
   out.updated_ns = slot.state.updated_ns;
+  out.config_state = slot.config_state;
 }
 
 }  // namespace cobridge::dds

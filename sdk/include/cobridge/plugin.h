@@ -45,8 +45,9 @@ extern "C" {
  * stats operation (what the status page and /metrics show of an output);
  * 4 = hot standby (cobridge_host_api.redundancy_node, the optional on_role
  * operation and cobridge_role_info); 5 = bus health (the optional on_bus
- * operation and cobridge_bus_info). */
-#define COBRIDGE_PLUGIN_ABI_VERSION 5u
+ * operation and cobridge_bus_info); 6 = the configuration's state
+ * (cobridge_device_info.config_state). */
+#define COBRIDGE_PLUGIN_ABI_VERSION 6u
 
 /* Name of the exported entry point, for dlsym(). */
 #define COBRIDGE_PLUGIN_ENTRY "cobridge_plugin_create"
@@ -218,7 +219,18 @@ typedef struct cobridge_device_info {
   const char* model;         /* product name from the device description */
   const char* family;        /* device description family, e.g. "rotary" */
   const char* position_unit; /* unit of position_eng, e.g. "deg", "mm" */
+  /* ABI 6 (read it only when struct_size covers it): enum
+   * cobridge_config_state. A change of it comes as COBRIDGE_DEVICE_CHANGED. */
+  uint8_t config_state;
 } cobridge_device_info;
+
+/* ABI 6: whether the device carries its configuration. Values are frozen. */
+enum cobridge_config_state {
+  COBRIDGE_CONFIG_AS_CONFIGURED = 0, /* nothing a client wrote differs from the configuration */
+  COBRIDGE_CONFIG_DIFFERS = 1,       /* a client set a configured object to another value */
+  COBRIDGE_CONFIG_CONTESTED = 2      /* ... and kept setting it after 3 restores within 10 minutes:
+                                        the gateway writes it no more until an operator acknowledges */
+};
 
 /* ------------------------------------------------------------------------ */
 /* Commands (ABI 2): what a plugin may ask the daemon to do to a device     */

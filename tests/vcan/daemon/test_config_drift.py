@@ -39,10 +39,11 @@ the producer heartbeat time, 0x1017 (CiA 301 §7.4.8.3), configured 100 ms.
      supervised at the writer's 200 ms). `cobridge acknowledge rot-a` then
      restores it once: 0x1017 reads 100, nothing differs.
 """
-import threading
+import json
 import socket
 import struct
 import sys
+import threading
 import time
 import urllib.request
 
@@ -251,6 +252,7 @@ def foreign_tool_case(report, daemon, listener):
     first = drift[0] if drift else ""
     report.check(all(w in first for w in ("0x1017:00", "set to 9029", "configured 100", "an SDO client on the bus")),
                  "timeline: a write by another SDO client on the bus is drift too, its writer named so", first)
+    listener.wait_past(time.time())
     back = gateway_writes(listener, ROT[1], 100, t0)
     delay = back[0][0] - confirmed[0] if back and confirmed else None
     report.check(any("restored the configuration of 0x1017:00" in t for t in drift) and not d["config_differs"]
@@ -334,6 +336,14 @@ def contest_case(report, args, ws, daemon, listener):
         texts = [t for t in events(d, "drift") if "contested" in t]
         report.check(len(texts) == 1 and "an SDO client on the bus" in texts[0] and "cobridge acknowledge rot-a" in texts[0],
                      "timeline: contested, naming the writer and the way out", texts[0] if texts else repr(events(d, "drift")))
+        # DDS (plugin ABI 6): DeviceStatus is transient-local, so a late subscriber gets rot-a's
+        # current one, with config_state CONFIG_CONTESTED (2).
+        rc, watched, _ = e2e.run_cli(args.cli, "watch", "--json", "--timeout", "6", timeout=20)
+        statuses = [json.loads(l) for l in watched.splitlines() if '"topic":"DeviceStatus"' in l]
+        rot = [st for st in statuses if st.get("name") == "rot-a"]
+        report.check(rot and rot[-1].get("config_state") == 2
+                     and all(st.get("config_state") == 0 for st in statuses if st.get("name") == "mt-a"),
+                     "DDS DeviceStatus: rot-a config_state 2 (contested), mt-a 0", repr(rot[-1:] or statuses[:2]))
         rc, out, _ = e2e.run_cli(args.cli, "status", *ctl)
         report.check(d["config_contested"] and "CONTESTED" in out and metric("cobridge_device_config_contested", "rot-a") == 1.0
                      and metric("cobridge_device_config_contested", "mt-a") == 0.0,
@@ -380,7 +390,7 @@ def main():
                 "heartbeat_ms": 100, "preset": 0, "on_config_drift": "keep", "tpdo1": tpdo}]
     extra = ("[control]\nwrites_enabled = true\nwrite_group = \"\"\n"
              "[ascii_gateway]\ntcp_port = %d\nwrites_enabled = true\nwrite_group = \"\"\nwrite_allow = [\"127.0.0.1/32\"]\n"
-             "[web]\nport = %d\n"
+             "[web]\nport = %d\n[outputs.dds]\n"
              "[outputs.modbus]\nbind = \"127.0.0.1\"\nport = %d\nwrites_enabled = true\n"
              "write_allow = [\"127.0.0.1/32\"]\n" % (TCP_PORT, WEB_PORT, MODBUS_PORT))
     daemon = e2e.Daemon(args.daemon, e2e.write_config(ws, [bus], devices, extra=extra), ws,

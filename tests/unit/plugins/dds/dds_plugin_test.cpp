@@ -26,6 +26,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdlib>
+#include <cstddef>
 #include <cstring>
 #include <filesystem>
 #include <functional>
@@ -517,6 +518,33 @@ TEST(DdsPlugin, DocsDds_TopicPrefixNamesTheTopics) {
   ASSERT_EQ(got.size(), 1u);
   EXPECT_EQ(got[0].v.node_id, 3);
   EXPECT_EQ(got[0].device_name, "");  // never announced
+}
+
+// docs/dds.md "DeviceStatus" config_state (plugin.h ABI 6): a device
+// announced CHANGED with its configuration contested (a writer kept
+// changing an object after 3 restores) publishes DeviceStatus with
+// CONFIG_CONTESTED; an announcement of a host older than ABI 6 (shorter
+// struct_size) says as configured, whatever the bytes beyond it hold.
+TEST(DdsPlugin, DocsDds_ConfigStateReachesDeviceStatus) {
+  Reader status(&cobridge_DeviceStatus_desc, "DeviceStatus", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_TRANSIENT_LOCAL,
+                true);
+  Plugin p(base_config());
+  cobridge_device_info d = device(7, 0, 21, "fought over");
+  p.host.announce(d);
+  d.change = COBRIDGE_DEVICE_CHANGED;
+  d.config_state = COBRIDGE_CONFIG_CONTESTED;
+  p.host.announce(d);
+  std::vector<GotStatus> st;
+  status.take<cobridge_DeviceStatus>(2, [&](const cobridge_DeviceStatus& s) { st.push_back(copy_status(s)); });
+  ASSERT_EQ(st.size(), 2u);
+  EXPECT_EQ(st[0].v.config_state, cobridge_CONFIG_AS_CONFIGURED);
+  EXPECT_EQ(st[1].v.config_state, cobridge_CONFIG_CONTESTED);
+  d.struct_size = offsetof(cobridge_device_info, config_state);  // an ABI 5 host's announcement
+  p.host.announce(d);
+  st.clear();
+  status.take<cobridge_DeviceStatus>(1, [&](const cobridge_DeviceStatus& s) { st.push_back(copy_status(s)); });
+  ASSERT_EQ(st.size(), 1u);
+  EXPECT_EQ(st[0].v.config_state, cobridge_CONFIG_AS_CONFIGURED);
 }
 
 // A removed device (cobridge_device_info change REMOVED) disposes its
