@@ -87,7 +87,7 @@ void BusManager::Impl::request_restore(Managed& m, std::uint16_t index, std::uin
   DriftRecord* r = open_record(m.st.drift, index, sub);
   if (r == nullptr) return;
   if (m.runner && !m.command) {
-    const std::uint32_t key = (std::uint32_t{index} << 8U) | sub;
+    const std::uint32_t key = object_number(index, sub);
     if (std::find(m.drift_mid_plan.begin(), m.drift_mid_plan.end(), key) == m.drift_mid_plan.end())
       m.drift_mid_plan.push_back(key);
     return;
@@ -174,7 +174,7 @@ void BusManager::Impl::clear_drift(Managed& m) {
   std::vector<DriftRecord> left;
   std::string objects;
   for (auto& r : m.st.drift) {
-    const std::uint32_t key = (std::uint32_t{r.index} << 8U) | r.sub;
+    const std::uint32_t key = object_number(r.index, r.sub);
     const bool mid_plan = std::find(m.drift_mid_plan.begin(), m.drift_mid_plan.end(), key) != m.drift_mid_plan.end();
     if (r.contested || mid_plan) {
       left.push_back(std::move(r));

@@ -3,14 +3,8 @@
 #include <algorithm>
 
 namespace cobridge::gateway {
-namespace {
-
-std::uint32_t key_of(std::uint16_t index, std::uint8_t sub) { return (std::uint32_t{index} << 8U) | sub; }
-
-}  // namespace
-
 RestoreGuard::Decision RestoreGuard::on_drift(std::uint16_t index, std::uint8_t sub, canopen::TimePoint now) {
-  Object& o = object(key_of(index, sub));
+  Object& o = object(object_number(index, sub));
   Decision d;
   if (o.contested) {
     d.verdict = Verdict::held;
@@ -32,7 +26,7 @@ RestoreGuard::Decision RestoreGuard::on_drift(std::uint16_t index, std::uint8_t 
 }
 
 bool RestoreGuard::contested(std::uint16_t index, std::uint8_t sub) const {
-  const Object* o = find(key_of(index, sub));
+  const Object* o = find(object_number(index, sub));
   return o != nullptr && o->contested;
 }
 

@@ -24,6 +24,11 @@
 
 namespace cobridge::gateway {
 
+// One configured object, as a number: index << 8 | sub.
+[[nodiscard]] constexpr std::uint32_t object_number(std::uint16_t index, std::uint8_t sub) noexcept {
+  return (std::uint32_t{index} << 8U) | sub;
+}
+
 struct RestoreLimits {
   static constexpr unsigned kMaxRestores = 3;
   std::chrono::seconds window{600};
