@@ -36,7 +36,9 @@ the producer heartbeat time, 0x1017 (CiA 301 §7.4.8.3), configured 100 ms.
      contested (status, `cobridge status`, /metrics, the timeline naming the
      writer) and the gateway sends the device nothing more (no SDO, no NMT)
      while the writer goes on; the device stays online (its heartbeat is
-     supervised at the writer's 200 ms). `cobridge acknowledge rot-a` then
+     supervised at the writer's 200 ms: an offline is accepted only where
+     the bus shows its heartbeat missing for the consumer time, and then an
+     identity read of the device heard again is the one frame allowed). `cobridge acknowledge rot-a` then
      restores it once: 0x1017 reads 100, nothing differs.
 """
 import json
@@ -278,6 +280,30 @@ def gateway_frames_to(listener, node, since, until):
              (f[1] == 0x600 + node and f[2][1:6] != bytes([0x17, 0x10, 0x00, 200, 0])))]
 
 
+def is_identity_upload(frame):
+    """An SDO upload request of 0x1018 (CiA 301 §7.2.4.3.6: ccs 2, 40h): the identity read the
+    gateway makes when a device it lost is heard again (a swapped part is not taken for the old one)."""
+    return frame[2][0] == 0x40 and frame[2][1:3] == bytes([0x18, 0x10])
+
+
+def losses_the_bus_shows(dev, listener, node, since, consumer_s):
+    """Each offline event of `dev` after `since` against the bus: (event, silence before it on the
+    bus, whether that silence reached the consumer time). A gateway may say offline only when the
+    device's heartbeat (0x700 + node, kernel receive stamps) really stopped for the consumer time;
+    a host too loaded to run the simulator on time makes such silences, and reporting them is the
+    truth, not a fault."""
+    beats = [f[0] for f in listener.snapshot(since - 5.0) if f[1] == 0x700 + node]
+    out = []
+    for e in dev["timeline"]:
+        at = e2e.iso_to_epoch(e["at"])
+        if e["kind"] not in ("state", "heartbeat") or "offline" not in e["text"] or at < since:
+            continue
+        before = [t for t in beats if t <= at]
+        silence = at - before[-1] if before else None
+        out.append((e["text"], silence, silence is not None and silence >= consumer_s - 0.005))
+    return out
+
+
 class FightingWriter:
     """Another SDO client on its own adapter setting rot-a's 0x1017 to 200 every second."""
 
@@ -351,13 +377,20 @@ def contest_case(report, args, ws, daemon, listener):
         time.sleep(8.0)  # the writer keeps writing: the gateway must keep still
         t_end = time.time()
         listener.wait_past(t_end)
-        quiet = gateway_frames_to(listener, node, t_contested, t_end)
-        report.check(not quiet, "contested: for 8 s of the writer's writes the gateway sent rot-a no SDO and no NMT",
-                     repr([(round(f[0] - t_contested, 2), hex(f[1]), f[2].hex()) for f in quiet[:5]]))
         d = device(daemon, "rot-a")
-        report.check(d["state"] == "operational" and d["online"] and not offline_events(d, t_contested),
-                     "contested: rot-a stayed operational and online (its 200 ms heartbeat followed)",
-                     "%s; before: %r" % (d["state"], offline_events(d, t0)))
+        # Supervised at the writer's 200 ms: consumer time 1.5 x 200 + 50 ms (bus/supervisor.cpp).
+        losses = losses_the_bus_shows(d, listener, node, t_contested, 0.350)
+        sent = gateway_frames_to(listener, node, t_contested, t_end)
+        quiet = [f for f in sent if not (is_identity_upload(f) and losses and all(l[2] for l in losses))]
+        report.check(not quiet, "contested: for 8 s of the writer's writes the gateway sent rot-a no SDO and no NMT "
+                     "(an identity read after a heartbeat loss the bus shows excepted)",
+                     "%r; losses %r" % ([(round(f[0] - t_contested, 2), hex(f[1]), f[2].hex()) for f in quiet[:5]],
+                                        losses))
+        report.check(d["state"] == "operational" and d["online"] and all(l[2] for l in losses),
+                     "contested: rot-a operational and online, its 200 ms heartbeat followed (offline only "
+                     "where the bus shows 350 ms without its heartbeat)",
+                     "%s; offline events with the silence before each on the bus: %r"
+                     % (d["state"], [(l[0][:60], None if l[1] is None else round(l[1], 3)) for l in losses]))
     answer = ask_309("[4] 1 %d r 0x1017 0 u16" % node)
     report.check(answer == "[4] 200", "the writer's 200 stands while contested (309-3 read)", answer)
     t_ack = time.time()
