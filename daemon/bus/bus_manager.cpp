@@ -256,7 +256,8 @@ void BusManager::Impl::wait(TimePoint now, TimePoint next) {
   // that came meanwhile must be dispatched before the election and
   // supervision judge their timeouts at the turn's clock (a standby asked
   // for a negotiation, 0x72, while the master's heartbeat sat unread). Only
-  // a client command's wake-up alone skips the empty read (issue 15's hop).
+  // a client command's wake-up alone skips the empty read (the hop an SDO
+  // read through the daemon pays, docs/performance.md).
   const bool woken_only = r > 0 && (poll_fds[0].revents & POLLIN) != 0 && (!can || poll_fds[1].revents == 0);
   rx_ready = !woken_only || !can;
   if (r > 0 && (poll_fds[0].revents & POLLIN) != 0) {

@@ -9,7 +9,7 @@
 // first and writes only what differs, so a device the other gateway
 // configured is not written again, and no device is reset.
 //
-// A stranger's frames (issue 38): the election takes claims only from
+// A stranger's frames (docs/security.md "Raw CAN"): the election takes claims only from
 // node-IDs that can be a gateway's, so the manager tells it which cannot
 // (election_excluded: the configured devices, the devices known on the bus,
 // the written node pool), every turn, so that a reload or a device given a

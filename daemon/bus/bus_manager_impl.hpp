@@ -412,7 +412,7 @@ struct BusManager::Impl final : RemoteGate {
   [[nodiscard]] bool election_frame(const can::Frame& frame, TimePoint now);
   void on_election(const canopen::ElectionEvent& e);
   void tell_outputs(const canopen::ElectionEvent& e);
-  // The node-IDs that are no gateway's, for the election (issue 38).
+  // The node-IDs that are no gateway's, for the election (canopen/election_peers.hpp).
   [[nodiscard]] canopen::NodeSet election_excluded() const;
   void update_election_exclusions();
   LogBudget role_log{kRoleLogLines, kRoleLogWindow};

@@ -2,7 +2,7 @@
 // CiA 309-3 client, a plugin's command) wrote an object the device's
 // configuration plan sets, to a value other than the configured one. The
 // gateway then knows the device no longer carries its configuration even
-// though nothing failed (issue 29: a 309-3 write of 0x1017 from 100 to
+// though nothing failed (measured: a 309-3 write of 0x1017 from 100 to
 // 9029 ms went unnoticed until the heartbeat was missed).
 //
 // Pure functions over a ConfigPlan: which object a write touches, what the

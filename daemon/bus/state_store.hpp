@@ -30,7 +30,7 @@
 // writes the latest table (several changes coalesce into one write). A bus's
 // control thread then never waits for the disk: the two fsyncs of a write
 // took over 150 ms on a busy disk, longer than a standby waits for the
-// master's heartbeat (issue 38), and an LSS step's answer window is
+// master's heartbeat (canopen/master_election.hpp), and an LSS step's answer window is
 // milliseconds. A write that fails is logged once per run of failures and
 // tried again a second later with the table as it is then; stop_writer()
 // (and the destructor) writes what is pending, then joins.

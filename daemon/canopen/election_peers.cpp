@@ -5,12 +5,12 @@
 namespace cobridge::canopen {
 
 // One forged frame naming node 0, a device, or a priority CiA 302-2 does not
-// have must not move the master role (issue 38).
+// have must not move the master role (docs/security.md "Raw CAN").
 bool ElectionPeers::plausible(uint8_t priority, uint8_t node) const noexcept {
   return cob::valid_node_id(node) && node != own_ && priority <= kLowestPriority && !excluded_[node];
 }
 
-// Issue 38: a forged 0x74 giving the live peer a better priority, then a
+// Measured before this check: a forged 0x74 giving the live peer a better priority, then a
 // claim with it, took the role from the master.
 bool ElectionPeers::on_announce(uint8_t priority, uint8_t node, TimePoint now, Duration timeout) noexcept {
   if (!plausible(priority, node)) return false;

@@ -2,7 +2,7 @@
 // master election (canopen/master_election), and which of those are live.
 //
 // Any process may send any frame on a CAN bus, and a CAN frame does not say
-// who sent it (issue 38, docs/security.md "Raw CAN"). The election can only
+// who sent it (docs/security.md "Raw CAN"). The election can only
 // weigh what a frame names: a claim (0x71), an announcement (0x74) or a forced
 // negotiation (0x76) counts when the node-ID and priority it names could be a
 // gateway's (plausible: node-ID 1..127, not ours, priority 0..2 of CiA 302-2,

@@ -29,8 +29,8 @@
 // becomes master only after the settle time; until then, and as standby,
 // the owner sends nothing but these frames.
 //
-// What a stranger on the bus cannot do (issue 38; any process may send any
-// frame on a CAN bus, docs/security.md):
+// What a stranger on the bus cannot do (any process may send any frame on a
+// CAN bus, docs/security.md "Raw CAN"):
 //   * Claims (0x71) and announcements (0x74) count only from a plausible
 //     gateway (canopen/election_peers: node-ID 1..127, not ours, priority
 //     0..2, never an excluded node-ID: the bus's configured devices, the
@@ -112,7 +112,7 @@ enum class ElectionCause : uint8_t {
 };
 [[nodiscard]] std::string_view to_string(ElectionCause cause) noexcept;
 
-// Election frames that moved nothing, for the log and status (issue 38).
+// Election frames that moved nothing, for the log and status.
 struct ElectionCounters {
   uint32_t claims_ignored = 0;   // 0x71/0x74 naming no plausible gateway, or not as it announced
   uint32_t forces_ignored = 0;   // 0x76 naming no live peer gateway of higher rank

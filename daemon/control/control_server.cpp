@@ -275,7 +275,7 @@ std::string ControlServer::commission(const Client& c, const std::string& bus) {
 }
 
 // A capture writes the disk (flash wear) and its file holds every frame of
-// the bus: under the write policy too, logged with its caller (issue 38).
+// the bus: under the write policy too, logged with its caller (docs/security.md).
 std::string ControlServer::capture_now(const Client& c, const std::string& bus) {
   return policed(c, "capture now", bus_where(bus), [&] { return handler_.capture_now(bus); },
                  "written once the window closes (capture_after_s)");
