@@ -56,6 +56,7 @@ bool ncmd_requests_rebirth(const std::uint8_t* data, std::size_t len) noexcept {
 MosquittoLink::MosquittoLink(const MqttConfig& config, LogFn log) : config_(config), log_(std::move(log)) {
   ndeath_topic_ = sparkplug_topic(config_.group_id, "NDEATH", config_.edge_node_id);
   ncmd_topic_ = sparkplug_topic(config_.group_id, "NCMD", config_.edge_node_id);
+  dcmd_prefix_ = sparkplug_topic(config_.group_id, "DCMD", config_.edge_node_id) + "/";
   if (!config_.primary_host_id.empty()) state_topic_ = "spBv1.0/STATE/" + config_.primary_host_id;
 }
 
@@ -154,6 +155,7 @@ void MosquittoLink::on_connect(struct mosquitto* m, void* self, int rc) {
   // libmosquitto dropped what a lost session had queued: nothing waits now.
   l->written_.store(l->handed_.load(std::memory_order_acquire), std::memory_order_release);
   (void)mosquitto_subscribe(m, nullptr, l->ncmd_topic_.c_str(), 1);
+  (void)mosquitto_subscribe(m, nullptr, (l->dcmd_prefix_ + "+").c_str(), 1);
   if (!l->state_topic_.empty()) (void)mosquitto_subscribe(m, nullptr, l->state_topic_.c_str(), 1);
   l->connected_.store(true, std::memory_order_release);
   l->generation_.fetch_add(1, std::memory_order_acq_rel);
@@ -180,13 +182,23 @@ void MosquittoLink::on_disconnect(struct mosquitto*, void* self, int rc) {
 void MosquittoLink::on_message(struct mosquitto*, void* self, const struct mosquitto_message* msg) {
   auto* l = static_cast<MosquittoLink*>(self);
   if (msg == nullptr || msg->topic == nullptr) return;
-  if (l->ncmd_topic_ == msg->topic) {
+  const std::string_view topic(msg->topic);
+  if (l->ncmd_topic_ == topic) {
     l->handle_ncmd(msg->payload, msg->payloadlen);
+  } else if (topic.starts_with(l->dcmd_prefix_)) {
+    l->handle_dcmd(topic.substr(l->dcmd_prefix_.size()), msg->payload, msg->payloadlen);
   } else if (!l->state_topic_.empty() && l->state_topic_ == msg->topic) {
     const std::string_view text(static_cast<const char*>(msg->payload), static_cast<std::size_t>(msg->payloadlen));
     const int online = parse_state_online(text);
     if (online >= 0) l->primary_.store(online, std::memory_order_release);
   }
+}
+
+void MosquittoLink::handle_dcmd(std::string_view device_id, const void* payload, int len) {
+  const DcmdRequest r = parse_dcmd(device_id, static_cast<const std::uint8_t*>(payload),
+                                   len > 0 ? static_cast<std::size_t>(len) : 0u);
+  if (!dcmds_.try_push(r))
+    log_(COBRIDGE_LOG_WARN, "DCMD for device " + std::string(device_id) + " dropped: 64 DCMDs wait already");
 }
 
 void MosquittoLink::handle_ncmd(const void* payload, int len) {

@@ -9,6 +9,8 @@
 //   - reconnects with exponential backoff (1 s doubling to 30 s);
 //   - NCMD (Node Control/Rebirth) and the primary host's STATE, subscribed
 //     at each connect and turned into flags the publisher thread polls;
+//   - DCMD of every device (spBv1.0/<group>/DCMD/<edge>/+), decoded here and
+//     queued for the publisher thread (a full queue drops the DCMD, logged);
 //   - a bound on what waits in libmosquitto's own queue (it has none for
 //     QoS 0): a broker or network slower than the encoders makes publish()
 //     refuse, counted as a drop, instead of growing the daemon's memory.
@@ -18,10 +20,12 @@
 // on libmosquitto's thread and only touch atomics, the will and the log.
 #pragma once
 
+#include "dcmd_request.hpp"
 #include "mqtt_config.hpp"
 #include "sparkplug_payload.hpp"
 
 #include <cobridge/plugin_error.hpp>
+#include <cobridge/spsc_ring.hpp>
 
 #include <atomic>
 #include <cstdint>
@@ -72,6 +76,8 @@ class MosquittoLink {
   // The primary host's last STATE: -1 none heard, 0 offline, 1 online.
   [[nodiscard]] int primary_state() const noexcept { return primary_.load(std::memory_order_acquire); }
   [[nodiscard]] bool connected() const noexcept { return connected_.load(std::memory_order_acquire); }
+  // The next DCMD received, decoded (publisher thread).
+  [[nodiscard]] bool take_dcmd(DcmdRequest& out) noexcept { return dcmds_.try_pop(out); }
 
  private:
   static void on_connect(struct mosquitto* m, void* self, int rc);
@@ -81,6 +87,7 @@ class MosquittoLink {
 
   void set_will();
   void handle_ncmd(const void* payload, int len);
+  void handle_dcmd(std::string_view topic, const void* payload, int len);
 
   const MqttConfig& config_;
   LogFn log_;
@@ -89,6 +96,8 @@ class MosquittoLink {
   std::string ndeath_topic_;
   std::string ncmd_topic_;
   std::string state_topic_;
+  std::string dcmd_prefix_;  // "spBv1.0/<group>/DCMD/<edge>/"
+  SpscRing<DcmdRequest> dcmds_{64};  // client thread -> publisher thread
   PayloadBuilder will_builder_;  // client thread (callbacks) and start/stop, never at once
   std::atomic<std::uint64_t> generation_{0};
   std::atomic<bool> connected_{false};

@@ -93,6 +93,30 @@ plugin::Error parse_deadband(const toml::node& node, MqttConfig& c) {
   return {};
 }
 
+plugin::Error get_bool(const toml::node& node, const std::string& key, bool& out) {
+  const auto* b = node.as_boolean();
+  if (b == nullptr) return fail(ConfigErrc::kWrongType, key, "must be true or false");
+  out = b->get();
+  return {};
+}
+
+// write_allow: an array of "<device>", "<device>:<command>" or "*:<command>".
+plugin::Error parse_write_allow(const toml::node& node, std::vector<WriteRule>& out) {
+  const std::string key = "write_allow";
+  const auto* a = node.as_array();
+  if (a == nullptr) return fail(ConfigErrc::kWrongType, key, "must be an array of strings");
+  for (std::size_t i = 0; i < a->size(); ++i) {
+    const std::string at = key + "[" + std::to_string(i) + "]";
+    const auto* s = a->get(i)->as_string();
+    if (s == nullptr) return fail(ConfigErrc::kWrongType, at, "must be a string");
+    WriteRule rule;
+    const std::string why = parse_write_rule(s->get(), rule);
+    if (!why.empty()) return fail(ConfigErrc::kOutOfRange, at, "= \"" + s->get() + "\" " + why);
+    out.push_back(std::move(rule));
+  }
+  return {};
+}
+
 plugin::Error apply_key(const std::string& k, const toml::node& node, MqttConfig& c, std::string& password_file) {
   std::int64_t n = 0;
   if (k == "host") return get_string(node, k, c.host);
@@ -106,18 +130,25 @@ plugin::Error apply_key(const std::string& k, const toml::node& node, MqttConfig
   if (k == "cert_file") return get_file(node, k, c.cert_file);
   if (k == "key_file") return get_file(node, k, c.key_file);
   if (k == "deadband") return parse_deadband(node, c);
+  if (k == "writes_enabled") return get_bool(node, k, c.writes.enabled);
+  if (k == "write_allow") return parse_write_allow(node, c.writes.allow);
   if (k == "password") return fail(ConfigErrc::kUnknownKey, k, "is not taken: put the password in password_file (mode 0600)");
   plugin::Error e;
   if (k == "port") {
     if (!(e = get_int(node, k, 1, 65535, n))) c.port = static_cast<std::uint16_t>(n);
   } else if (k == "keepalive_s") {
     if (!(e = get_int(node, k, 5, 65535, n))) c.keepalive_s = static_cast<std::uint32_t>(n);
+  } else if (k == "store_seconds") {
+    if (!(e = get_int(node, k, 0, 3600, n))) c.store_seconds = static_cast<std::uint32_t>(n);
+  } else if (k == "store_rate") {
+    if (!(e = get_int(node, k, 1, 10000, n))) c.store_rate = static_cast<std::uint32_t>(n);
   } else if (k == "queue_depth") {
     if (!(e = get_int(node, k, 64, 1 << 20, n))) c.queue_depth = static_cast<std::uint32_t>(n);
   } else {
     e = fail(ConfigErrc::kUnknownKey, k,
              "is not a key of [outputs.mqtt] (host, port, client_id, group_id, edge_node_id, keepalive_s, username, "
-             "password_file, ca_file, cert_file, key_file, primary_host_id, queue_depth, deadband)");
+             "password_file, ca_file, cert_file, key_file, primary_host_id, queue_depth, store_seconds, store_rate, "
+             "writes_enabled, write_allow, deadband)");
   }
   return e;
 }

@@ -15,11 +15,20 @@
 //   cert_file, key_file = (absent)  TLS client certificate and key (both or neither; need ca_file)
 //   primary_host_id = (absent)      hold births and data until spBv1.0/STATE/<id> says online
 //   queue_depth     = 8192          samples buffered between the dispatcher and the publisher
+//   store_seconds   = 30            store and forward: DDATA kept per device while the
+//                                   broker is away, at most this old (0 = off)
+//   store_rate      = 50            ... and at most store_seconds x this many entries
+//                                   per device (preallocated; oldest dropped first)
+//   writes_enabled  = false         take DCMD commands (preset, NMT reset, store)
+//   write_allow     = []            which: device names, "<device>:<command>", "*:<command>"
+//                                   (write_policy.hpp); empty = every device and command
 //   [outputs.mqtt.deadband]         per metric name: a change smaller than this is not sent
 //     Position = 10                 (report by exception; absent = every change is sent)
 //
 // Thread contract: parsed on the daemon's control thread (plugin create).
 #pragma once
+
+#include "write_policy.hpp"
 
 #include <cobridge/plugin_error.hpp>
 
@@ -44,6 +53,9 @@ struct MqttConfig {
   std::string key_file;
   std::string primary_host_id;
   std::uint32_t queue_depth = 8192;
+  WritePolicy writes;
+  std::uint32_t store_seconds = 30;
+  std::uint32_t store_rate = 50;
   // Indexed by process_index(DeviceMetric); 0 = every change is sent.
   std::array<double, 16> deadband{};
 

@@ -7,9 +7,11 @@
 //     allocation, lock, syscall or log there.
 //   - publisher (ours): drains the rings, runs the EdgeSession (births,
 //     DDATA, DDEATH) and hands messages to libmosquitto; polls the link's
-//     flags (session gained/lost, rebirth, primary host). Sleeps 1 ms when idle.
+//     flags (session gained/lost, rebirth, primary host); takes DCMDs to the
+//     CommandDesk and publishes their results. Sleeps 1 ms when idle.
 //   - libmosquitto's client thread (MosquittoLink): socket, keepalive, reconnects.
 //   - control thread: create/start/stop/destroy; control plane: stats.
+#include "command_desk.hpp"
 #include "device_record.hpp"
 #include "edge_session.hpp"
 #include "mosquitto_link.hpp"
@@ -49,11 +51,38 @@ struct Plugin {
   std::unique_ptr<MosquittoLink> link;
   std::unique_ptr<LinkPublisher> publisher;
   std::unique_ptr<EdgeSession> session;
+  std::unique_ptr<CommandDesk> desk;
   std::thread worker;
   std::atomic<bool> running{false};
   std::atomic<std::uint64_t> ring_drops{0};  // dispatcher side
 
   void log(int level, const std::string& msg) const noexcept { plugin::host_log(host, level, msg); }
+
+  // host->submit_command exists from ABI 2 on.
+  [[nodiscard]] bool host_takes_commands() const noexcept {
+    return host->struct_size >= offsetof(cobridge_host_api, submit_command) + sizeof(host->submit_command) &&
+           host->submit_command != nullptr;
+  }
+
+  void make_desk() {
+    CommandDesk::Submit submit;
+    if (host_takes_commands()) submit = [h = host](const cobridge_command& c) { return h->submit_command(h->host, &c); };
+    desk = std::make_unique<CommandDesk>(config.writes, std::move(submit),
+                                         [this](int level, const std::string& m) { log(level, m); });
+  }
+
+  // DCMDs the link decoded: to the desk; a refusal is published at once.
+  bool take_commands() {
+    bool busy = false;
+    DcmdRequest r;
+    while (link->take_dcmd(r)) {
+      busy = true;
+      const int index = session->device_index_of(r.device_id);
+      const char* name = index >= 0 ? session->device_name(static_cast<std::uint16_t>(index)) : "";
+      if (auto result = desk->on_dcmd(r, index, name)) session->publish_result(*result, wall_ms());
+    }
+    return busy;
+  }
 
   void poll_link(std::uint64_t& generation, int& primary) {
     const MosquittoLink::State st = link->state();
@@ -81,8 +110,12 @@ struct Plugin {
     std::array<cobridge_sample, 256> batch;
     const std::size_t n = samples->pop_batch(batch);
     const std::uint64_t now = wall_ms();
-    for (std::size_t i = 0; i < n; ++i) session->on_sample(batch[i], now);
-    return busy || n != 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      session->on_sample(batch[i], now);
+      if (batch[i].kind == COBRIDGE_SAMPLE_COMMAND)
+        if (auto result = desk->on_sample(batch[i])) session->publish_result(*result, now);
+    }
+    return take_commands() || busy || n != 0;
   }
 
   void run() {
@@ -100,8 +133,14 @@ int mqtt_start(void* self) {
   try {
     p->link = std::make_unique<MosquittoLink>(p->config, [p](int level, const std::string& m) { p->log(level, m); });
     p->publisher = std::make_unique<LinkPublisher>(*p->link);
-    EdgeSession::Ids ids{p->config.group_id, p->config.edge_node_id, !p->config.primary_host_id.empty()};
+    EdgeSession::Ids ids{p->config.group_id, p->config.edge_node_id, !p->config.primary_host_id.empty(),
+                         std::size_t{p->config.store_seconds} * p->config.store_rate,
+                         std::uint64_t{p->config.store_seconds} * 1000u};
     p->session = std::make_unique<EdgeSession>(ids, p->config.deadband, *p->publisher);
+    p->make_desk();
+    if (p->config.writes.enabled && !p->host_takes_commands())
+      p->log(COBRIDGE_LOG_WARN, "writes_enabled = true, but this daemon (plugin ABI " +
+                                    std::to_string(p->host->abi_version) + ") takes no commands: DCMDs are refused");
     if (const plugin::Error e = p->link->start()) {
       p->log(COBRIDGE_LOG_ERROR, "cannot start the MQTT client: " + e.to_string());
       p->link.reset();
@@ -162,8 +201,14 @@ std::size_t mqtt_stats(void* self, cobridge_stat* out, std::size_t max) {
       {"mqtt_deaths", "Sparkplug DDEATH messages published.", COBRIDGE_STAT_COUNTER, 0, load(c.deaths)},
       {"mqtt_messages", "Sparkplug messages handed to the MQTT client.", COBRIDGE_STAT_COUNTER, 0, load(c.messages)},
       {"mqtt_bytes", "Payload bytes of those messages.", COBRIDGE_STAT_COUNTER, 0, load(c.bytes)},
-      {"mqtt_drops", "Messages not sent (broker away, client refused) and samples lost to a full queue.",
+      {"mqtt_drops", "Messages not sent (broker away without a store, client refused) and samples lost to a full queue.",
        COBRIDGE_STAT_COUNTER, 0, load(c.drops) + p->ring_drops.load(std::memory_order_relaxed)},
+      {"mqtt_stored", "DDATA entries stored while the broker was away (store and forward).", COBRIDGE_STAT_COUNTER,
+       0, load(c.stored)},
+      {"mqtt_store_drops", "Stored entries dropped, oldest first (store full or older than store_seconds).",
+       COBRIDGE_STAT_COUNTER, 0, load(c.store_drops)},
+      {"mqtt_replayed", "Stored entries sent as historical DDATA after the births.", COBRIDGE_STAT_COUNTER, 0,
+       load(c.replayed)},
   };
   return plugin::copy_stats(figures, out, max);
 }
