@@ -321,6 +321,7 @@ void EdgeSession::on_sample(const cobridge_sample& s, std::uint64_t now_ms) {
   track_status(d, s, now_ms);
   if (!live() || !node_born_) {
     // Not published now: kept for store and forward when a store is configured.
+    if (!active_) return;  // a standby: the master publishes these
     if (n != 0 && d.history.capacity() != 0 && d.heard != Heard::kOffline) {
       store(d, std::span<const Reading>(readings.data(), n), ts_ms);
     } else if (n != 0) {

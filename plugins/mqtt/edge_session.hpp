@@ -96,6 +96,9 @@ class EdgeSession {
   void set_primary_online(bool online, std::uint64_t now_ms);
   // NCMD Node Control/Rebirth = true.
   void rebirth(std::uint64_t now_ms);
+  // The standby of a hot-standby pair is not the edge node: it neither
+  // publishes (its link is down) nor stores what it would have published.
+  void set_active(bool active) noexcept { active_ = active; }
   void on_device(const DeviceRecord& record, std::uint64_t now_ms);
   void on_sample(const cobridge_sample& sample, std::uint64_t now_ms);
   // A command's outcome or refusal as the device's DDATA; not sent (counted
@@ -156,6 +159,7 @@ class EdgeSession {
   bool link_up_ = false;
   bool primary_online_ = false;
   bool node_born_ = false;
+  bool active_ = true;
   std::uint8_t bd_seq_ = 0;
   std::uint8_t seq_ = 0;
   SessionCounters counters_;

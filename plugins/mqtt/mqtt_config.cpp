@@ -56,6 +56,22 @@ plugin::Error get_file(const toml::node& node, const std::string& key, std::stri
   return {};
 }
 
+// bdseq_file: "" (in memory only) or a path whose folder exists now.
+plugin::Error get_bdseq_file(const toml::node& node, MqttConfig& c) {
+  const std::string key = "bdseq_file";
+  const auto* s = node.as_string();
+  if (s == nullptr) return fail(ConfigErrc::kWrongType, key, "must be a string (a file path, or \"\" for none)");
+  c.bdseq_file = s->get();
+  c.bdseq_file_set = true;
+  if (c.bdseq_file.empty()) return {};
+  const std::size_t slash = c.bdseq_file.rfind('/');
+  const std::string folder = slash == std::string::npos ? "." : (slash == 0 ? "/" : c.bdseq_file.substr(0, slash));
+  struct stat st {};
+  if (::stat(folder.c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
+    return fail(ConfigErrc::kBadFile, key, "= \"" + c.bdseq_file + "\": its folder " + folder + " does not exist");
+  return {};
+}
+
 // The password file: owner-only (no group/other bits), its first line.
 plugin::Error read_password(const std::string& path, std::string& out) {
   const std::string key = "password_file";
@@ -130,6 +146,7 @@ plugin::Error apply_key(const std::string& k, const toml::node& node, MqttConfig
   if (k == "cert_file") return get_file(node, k, c.cert_file);
   if (k == "key_file") return get_file(node, k, c.key_file);
   if (k == "deadband") return parse_deadband(node, c);
+  if (k == "bdseq_file") return get_bdseq_file(node, c);
   if (k == "writes_enabled") return get_bool(node, k, c.writes.enabled);
   if (k == "write_allow") return parse_write_allow(node, c.writes.allow);
   if (k == "password") return fail(ConfigErrc::kUnknownKey, k, "is not taken: put the password in password_file (mode 0600)");
@@ -148,7 +165,7 @@ plugin::Error apply_key(const std::string& k, const toml::node& node, MqttConfig
     e = fail(ConfigErrc::kUnknownKey, k,
              "is not a key of [outputs.mqtt] (host, port, client_id, group_id, edge_node_id, keepalive_s, username, "
              "password_file, ca_file, cert_file, key_file, primary_host_id, queue_depth, store_seconds, store_rate, "
-             "writes_enabled, write_allow, deadband)");
+             "bdseq_file, writes_enabled, write_allow, deadband)");
   }
   return e;
 }
@@ -192,6 +209,9 @@ plugin::Error parse_config(std::string_view text, std::string_view gateway_id, M
   if (!error && !password_file.empty()) error = read_password(password_file, c.password);
   if (error) return error;
   if (c.client_id.empty()) c.client_id = "cobridge-" + c.edge_node_id;
+  // The packaged state directory (StateDirectory=cobridge); another
+  // [gateway] state_dir needs bdseq_file set to match.
+  if (!c.bdseq_file_set) c.bdseq_file = "/var/lib/cobridge/mqtt-" + c.edge_node_id + ".bdseq";
   out = std::move(c);
   return {};
 }

@@ -19,6 +19,9 @@
 //                                   broker is away, at most this old (0 = off)
 //   store_rate      = 50            ... and at most store_seconds x this many entries
 //                                   per device (preallocated; oldest dropped first)
+//   bdseq_file      = "/var/lib/cobridge/mqtt-<edge_node_id>.bdseq"
+//                                   the last bdSeq used, kept across restarts
+//                                   (bdseq_file.hpp); "" = in memory only
 //   writes_enabled  = false         take DCMD commands (preset, NMT reset, store)
 //   write_allow     = []            which: device names, "<device>:<command>", "*:<command>"
 //                                   (write_policy.hpp); empty = every device and command
@@ -54,6 +57,8 @@ struct MqttConfig {
   std::string primary_host_id;
   std::uint32_t queue_depth = 8192;
   WritePolicy writes;
+  std::string bdseq_file;  // default filled from edge_node_id; "" = not persisted
+  bool bdseq_file_set = false;
   std::uint32_t store_seconds = 30;
   std::uint32_t store_rate = 50;
   // Indexed by process_index(DeviceMetric); 0 = every change is sent.

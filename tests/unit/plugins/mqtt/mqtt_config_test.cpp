@@ -41,6 +41,8 @@ TEST(MqttConfig, Defaults) {
   EXPECT_EQ(c.keepalive_s, 30u);
   EXPECT_FALSE(c.tls());
   EXPECT_TRUE(c.primary_host_id.empty());
+  EXPECT_EQ(c.bdseq_file, "/var/lib/cobridge/mqtt-gw-1.bdseq");
+  EXPECT_EQ(c.store_seconds, 30u);
   EXPECT_FALSE(c.writes.enabled);  // DCMD refused unless asked for
   EXPECT_TRUE(c.writes.allow.empty());
 }
@@ -112,6 +114,9 @@ TEST(MqttConfig, BadValuesNameTheirKey) {
       {"[deadband]\nPosition = -1\n", ConfigErrc::kOutOfRange, "'deadband.Position'"},
       {"host = \n", ConfigErrc::kSyntax, "config:"},
       {"writes_enabled = 1\n", ConfigErrc::kWrongType, "'writes_enabled'"},
+      {"bdseq_file = \"/nonexistent/dir/b\"\n", ConfigErrc::kBadFile, "'bdseq_file'"},
+      {"store_seconds = -1\n", ConfigErrc::kOutOfRange, "'store_seconds'"},
+      {"store_rate = 0\n", ConfigErrc::kOutOfRange, "'store_rate'"},
       {"write_allow = \"rot\"\n", ConfigErrc::kWrongType, "'write_allow'"},
       {"write_allow = [\"rot:reboot\"]\n", ConfigErrc::kOutOfRange, "'write_allow[0]'"},
       {"write_allow = [\"rot\", 3]\n", ConfigErrc::kWrongType, "'write_allow[1]'"},
