@@ -186,6 +186,20 @@ plugin::Error check_combinations(const MqttConfig& c, const std::string& passwor
 
 }  // namespace
 
+bool is_loopback_host(std::string_view host) noexcept {
+  if (host == "localhost" || host == "::1" || host == "[::1]") return true;
+  if (!host.starts_with("127.")) return false;
+  // 127.a.b.c with digits and dots only (a name like "127.example.com" is not loopback).
+  return host.find_first_not_of("0123456789.") == std::string_view::npos;
+}
+
+std::string plaintext_warning(const MqttConfig& c) {
+  if (c.tls() || is_loopback_host(c.host)) return {};
+  return "config: 'host' = \"" + c.host + "\" is not loopback and 'ca_file' is not set: the MQTT connection is "
+         "plaintext, so the broker credentials, the data and the DCMD commands travel readable on the network "
+         "(set ca_file for TLS)";
+}
+
 bool valid_sparkplug_id(std::string_view id) noexcept {
   return !id.empty() && id.find_first_of("/+#") == std::string_view::npos;
 }

@@ -72,6 +72,14 @@ struct MqttConfig {
 // error's message starts "config: " and names the key.
 [[nodiscard]] plugin::Error parse_config(std::string_view toml_text, std::string_view gateway_id, MqttConfig& out);
 
+// Whether `host` names this machine's loopback ("localhost", 127.0.0.0/8,
+// "::1"): a plaintext connection anywhere else sends the credentials and the
+// data readable on the network, which the plugin warns about at load.
+[[nodiscard]] bool is_loopback_host(std::string_view host) noexcept;
+
+// The warning for a plaintext broker outside loopback; "" when there is none.
+[[nodiscard]] std::string plaintext_warning(const MqttConfig& c);
+
 // Sparkplug ids (group, edge node, device) may not hold '/', '+' or '#'
 // (spec 4.1.1, tck-id-topic-structure-namespace-valid-*) and may not be empty.
 [[nodiscard]] bool valid_sparkplug_id(std::string_view id) noexcept;

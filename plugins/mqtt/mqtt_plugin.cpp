@@ -324,6 +324,9 @@ extern "C" COBRIDGE_PLUGIN_EXPORT int cobridge_plugin_create(const cobridge_host
         p->host = host;
         error = parse_config(config, host->gateway_id != nullptr ? host->gateway_id : "", p->config);
         if (error) return nullptr;
+        // A warning, not a refusal (a broker on a private segment may be
+        // plaintext by choice); logged at load, so --check-config shows it.
+        if (const std::string w = plaintext_warning(p->config); !w.empty()) p->log(COBRIDGE_LOG_WARN, w);
         if (host->abi_version >= 4 && host->struct_size >= offsetof(cobridge_host_api, redundancy_node) +
                                                               sizeof(host->redundancy_node))
           p->pair_node = host->redundancy_node;

@@ -47,6 +47,24 @@ TEST(MqttConfig, Defaults) {
   EXPECT_TRUE(c.writes.allow.empty());
 }
 
+TEST(MqttConfig, PlaintextBrokerOutsideLoopbackWarned) {
+  EXPECT_TRUE(is_loopback_host("127.0.0.1"));
+  EXPECT_TRUE(is_loopback_host("127.1.2.3"));
+  EXPECT_TRUE(is_loopback_host("localhost"));
+  EXPECT_TRUE(is_loopback_host("::1"));
+  EXPECT_FALSE(is_loopback_host("127.example.com"));
+  EXPECT_FALSE(is_loopback_host("10.0.0.5"));
+  EXPECT_FALSE(is_loopback_host("broker.plant"));
+  MqttConfig c;
+  ASSERT_FALSE(parse("host = \"10.0.0.5\"\n", c));
+  const std::string w = plaintext_warning(c);
+  EXPECT_NE(w.find("'host' = \"10.0.0.5\""), std::string::npos) << w;
+  EXPECT_NE(w.find("plaintext"), std::string::npos);
+  MqttConfig local;
+  ASSERT_FALSE(parse("", local));
+  EXPECT_EQ(plaintext_warning(local), "");
+}
+
 TEST(MqttConfig, GoodWriteAllow) {
   MqttConfig c;
   const plugin::Error e =
