@@ -84,6 +84,58 @@ void EdgeSession::births(std::uint64_t now_ms) {
   node_born_ = true;
   for (Device& d : devices_)
     if (d.known && d.heard != Heard::kOffline) publish_dbirth(d, now_ms);
+  // Store and forward: history after the births (a host learns the aliases first).
+  for (Device& d : devices_)
+    if (d.born) replay(d, now_ms);
+}
+
+// What changed beyond the deadband since the last sent (or stored) value
+// goes into the history, as DDATA would have carried it.
+void EdgeSession::store(Device& d, std::span<const Reading> readings, std::uint64_t ts_ms) {
+  std::array<Reading, kProcess> changed{};
+  std::size_t n = 0;
+  for (const Reading& r : readings) {
+    if (!worth_sending(d, r)) continue;
+    changed[n++] = r;
+    const std::size_t k = process_index(r.id);
+    d.sent[k] = r.value;
+    d.has_sent[k] = true;
+  }
+  if (n == 0) return;
+  const std::size_t dropped = d.history.push(ts_ms, std::span<const Reading>(changed.data(), n));
+  counters_.stored.fetch_add(1, std::memory_order_relaxed);
+  if (dropped != 0) counters_.store_drops.fetch_add(dropped, std::memory_order_relaxed);
+}
+
+void EdgeSession::flush_historical(Device& d) {
+  if (builder_.metric_count() == 0) return;
+  builder_.set_seq(next_seq());
+  send(d.ddata, false);
+}
+
+// The device's history as DDATA, oldest first, each metric with its frame's
+// time and is_historical (spec 5: store and forward); as many metrics per
+// message as fit.
+void EdgeSession::replay(Device& d, std::uint64_t now_ms) {
+  const std::size_t n = d.history.size();
+  if (n == 0) return;
+  builder_.begin(now_ms, std::nullopt);
+  for (std::size_t i = 0; i < n; ++i) {
+    const HistoryBuffer::Entry& e = d.history.at(i);
+    if (builder_.metric_count() + e.count > PayloadBuilder::kMaxMetrics) {
+      flush_historical(d);
+      builder_.begin(now_ms, std::nullopt);
+    }
+    for (std::size_t j = 0; j < e.count; ++j) {
+      const MetricDef* m = find_metric(e.ids[j]);
+      (void)builder_.add_scalar(nullptr, device_alias(d.info.device_index, e.ids[j]), e.ts_ms, m->type,
+                                e.values[j]);
+      builder_.mark_historical();
+    }
+  }
+  flush_historical(d);
+  counters_.replayed.fetch_add(n, std::memory_order_relaxed);
+  d.history.clear();
 }
 
 void EdgeSession::send(const std::string& topic, bool birth) {
@@ -128,6 +180,43 @@ void EdgeSession::add_identity(const Device& d, std::uint64_t now_ms) {
   }
 }
 
+// The command metrics a host may write (spec 6.4.x DCMD: only metrics the
+// DBIRTH declared): the writable ones with a neutral value, the outcome ones null.
+void EdgeSession::add_commands(const Device& d, std::uint64_t now_ms) {
+  for (const MetricDef& m : command_metrics()) {
+    const std::uint64_t alias = device_alias(d.info.device_index, m.id);
+    const bool ok = m.type == DataType::kBoolean ? builder_.add_scalar(m.name, alias, now_ms, m.type, Scalar{})
+                                                 : builder_.add_null(m.name, alias, now_ms, m.type);
+    if (ok && m.unit[0] != '\0') (void)builder_.add_property("engUnit", m.unit);
+  }
+}
+
+void EdgeSession::publish_result(const CommandResult& r, std::uint64_t now_ms) {
+  if (r.device_index >= devices_.size() || !devices_[r.device_index].born || !live() || !node_born_) {
+    counters_.drops.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  Device& d = devices_[r.device_index];
+  builder_.begin(now_ms, next_seq());
+  (void)builder_.add_string(nullptr, device_alias(r.device_index, DeviceMetric::kCmdClient), now_ms,
+                            DataType::kString, r.client.c_str());
+  (void)builder_.add_string(nullptr, device_alias(r.device_index, DeviceMetric::kCmdResult), now_ms,
+                            DataType::kString, r.text.c_str());
+  (void)builder_.add_scalar(nullptr, device_alias(r.device_index, DeviceMetric::kCmdResultCode), now_ms,
+                            DataType::kInt32, Scalar{r.code, 0.0});
+  send(d.ddata, false);
+}
+
+int EdgeSession::device_index_of(std::string_view id) const noexcept {
+  for (std::size_t i = 0; i < devices_.size(); ++i)
+    if (devices_[i].known && devices_[i].device_id == id) return static_cast<int>(i);
+  return -1;
+}
+
+const char* EdgeSession::device_name(std::uint16_t index) const noexcept {
+  return index < devices_.size() ? devices_[index].info.name : "";
+}
+
 void EdgeSession::publish_dbirth(Device& d, std::uint64_t now_ms) {
   builder_.begin(now_ms, next_seq());
   for (const MetricDef& m : process_metrics()) {
@@ -142,6 +231,7 @@ void EdgeSession::publish_dbirth(Device& d, std::uint64_t now_ms) {
     d.sent[k] = d.last[k];
     d.has_sent[k] = d.has_last[k];
   }
+  add_commands(d, now_ms);
   add_identity(d, now_ms);
   send(d.dbirth, true);
   d.born = true;
@@ -164,6 +254,7 @@ void EdgeSession::on_device(const DeviceRecord& r, std::uint64_t now_ms) {
   }
   const bool renamed = !d.known || std::string_view(d.info.name) != std::string_view(r.name);
   if (renamed && d.born && live()) publish_ddeath(d, now_ms);  // the old device id dies
+  if (!d.known) d.history.reset(ids_.store_capacity, ids_.store_window_ms);  // once: off the hot path
   d.known = true;
   d.info = r;
   if (renamed) {
@@ -229,13 +320,19 @@ void EdgeSession::on_sample(const cobridge_sample& s, std::uint64_t now_ms) {
   const bool was_born = d.born;
   track_status(d, s, now_ms);
   if (!live() || !node_born_) {
-    // Not published: no store-and-forward yet (docs/mqtt.md "Not done yet").
-    if (n != 0) counters_.drops.fetch_add(1, std::memory_order_relaxed);
+    // Not published now: kept for store and forward when a store is configured.
+    if (!active_) return;  // a standby: the master publishes these
+    if (n != 0 && d.history.capacity() != 0 && d.heard != Heard::kOffline) {
+      store(d, std::span<const Reading>(readings.data(), n), ts_ms);
+    } else if (n != 0) {
+      counters_.drops.fetch_add(1, std::memory_order_relaxed);
+    }
     return;
   }
   if (d.heard == Heard::kOffline) return;
   if (!d.born) {
     publish_dbirth(d, now_ms);  // holds this sample's values
+    replay(d, now_ms);          // what it had stored while the node could not publish
     return;
   }
   if (was_born && n != 0) publish_ddata(d, std::span<const Reading>(readings.data(), n), ts_ms);

@@ -11,7 +11,12 @@
 //   sample of a born device               -> DDATA by alias, only metrics that
 //        changed beyond their deadband, each stamped with the frame's receive time
 //   STATUS online=0 of a born device      -> DDEATH; STATUS online=1 -> DBIRTH
+//   sample while not publishing           -> the device's HistoryBuffer (store
+//        and forward); after the next births every device's history as DDATA
+//        with is_historical = true, oldest first, in seq like any DDATA
 //   rebirth()  (NCMD Node Control/Rebirth) -> NBIRTH + every DBIRTH again
+//   publish_result() (a DCMD's outcome)    -> DDATA of Command/Client,
+//        Command/Result, Command/Result Code (declared in every DBIRTH)
 // seq runs 0..255 over NBIRTH, DBIRTH, DDATA and DDEATH and restarts at 0
 // with each NBIRTH (spec 6.4.3: tck-id-payloads-sequence-num-*).
 //
@@ -19,7 +24,9 @@
 // counters are atomics, read from the daemon's control plane.
 #pragma once
 
+#include "command_desk.hpp"
 #include "device_record.hpp"
+#include "history_buffer.hpp"
 #include "sparkplug_metrics.hpp"
 #include "sparkplug_payload.hpp"
 
@@ -50,6 +57,9 @@ struct SessionCounters {
   std::atomic<std::uint64_t> messages{0};  // every message handed over
   std::atomic<std::uint64_t> bytes{0};     // their payload bytes
   std::atomic<std::uint64_t> drops{0};     // refused by the client, too big, or samples taken while not publishing
+  std::atomic<std::uint64_t> stored{0};        // DDATA entries kept while not publishing
+  std::atomic<std::uint64_t> store_drops{0};   // ... dropped again (store full or older than its window)
+  std::atomic<std::uint64_t> replayed{0};      // ... sent as historical DDATA
 };
 
 // The session's clock: wall time in ms since the Unix epoch (Sparkplug
@@ -71,6 +81,9 @@ class EdgeSession {
     std::string group_id;
     std::string edge_node_id;
     bool wait_for_primary = false;
+    // Store and forward: entries per device (0 = off) and their window.
+    std::size_t store_capacity = 0;
+    std::uint64_t store_window_ms = 0;
   };
 
   EdgeSession(Ids ids, const std::array<double, 16>& deadband, Publisher& out);
@@ -83,8 +96,19 @@ class EdgeSession {
   void set_primary_online(bool online, std::uint64_t now_ms);
   // NCMD Node Control/Rebirth = true.
   void rebirth(std::uint64_t now_ms);
+  // The standby of a hot-standby pair is not the edge node: it neither
+  // publishes (its link is down) nor stores what it would have published.
+  void set_active(bool active) noexcept { active_ = active; }
   void on_device(const DeviceRecord& record, std::uint64_t now_ms);
   void on_sample(const cobridge_sample& sample, std::uint64_t now_ms);
+  // A command's outcome or refusal as the device's DDATA; not sent (counted
+  // as a drop) while the device is not born.
+  void publish_result(const CommandResult& result, std::uint64_t now_ms);
+
+  // The index of the known device whose Sparkplug device id is `id`, -1 if none.
+  [[nodiscard]] int device_index_of(std::string_view id) const noexcept;
+  // Its configured name ("" for an unknown index).
+  [[nodiscard]] const char* device_name(std::uint16_t index) const noexcept;
 
   [[nodiscard]] bool live() const noexcept { return link_up_ && (!ids_.wait_for_primary || primary_online_); }
   [[nodiscard]] bool node_born() const noexcept { return node_born_; }
@@ -106,6 +130,7 @@ class EdgeSession {
     std::array<bool, kProcess> has_last{};
     std::array<Scalar, kProcess> sent{};
     std::array<bool, kProcess> has_sent{};
+    HistoryBuffer history;
   };
 
   void update_liveness(std::uint64_t now_ms);
@@ -113,9 +138,13 @@ class EdgeSession {
   void publish_nbirth(std::uint64_t now_ms);
   void publish_dbirth(Device& d, std::uint64_t now_ms);
   void add_identity(const Device& d, std::uint64_t now_ms);
+  void add_commands(const Device& d, std::uint64_t now_ms);
   void publish_ddeath(Device& d, std::uint64_t now_ms);
   void publish_ddata(Device& d, std::span<const Reading> readings, std::uint64_t ts_ms);
   void track_status(Device& d, const cobridge_sample& s, std::uint64_t now_ms);
+  void store(Device& d, std::span<const Reading> readings, std::uint64_t ts_ms);
+  void replay(Device& d, std::uint64_t now_ms);
+  void flush_historical(Device& d);
   [[nodiscard]] bool worth_sending(const Device& d, const Reading& r) const noexcept;
   void send(const std::string& topic, bool birth);
   std::uint8_t next_seq() noexcept { return seq_++; }  // wraps 255 -> 0
@@ -130,6 +159,7 @@ class EdgeSession {
   bool link_up_ = false;
   bool primary_online_ = false;
   bool node_born_ = false;
+  bool active_ = true;
   std::uint8_t bd_seq_ = 0;
   std::uint8_t seq_ = 0;
   SessionCounters counters_;

@@ -37,6 +37,20 @@ int parse_state_online(std::string_view json) noexcept {
   return -1;
 }
 
+int payload_bd_seq(const std::uint8_t* data, std::size_t len) noexcept {
+  PbPayload* p = org__eclipse__tahu__protobuf__payload__unpack(nullptr, len, data);
+  if (p == nullptr) return -1;
+  int bd = -1;
+  for (std::size_t i = 0; i < p->n_metrics; ++i) {
+    const PbMetric* m = p->metrics[i];
+    if (m->name != nullptr && std::strcmp(m->name, kBdSeqName) == 0 &&
+        m->value_case == ORG__ECLIPSE__TAHU__PROTOBUF__PAYLOAD__METRIC__VALUE_LONG_VALUE)
+      bd = static_cast<int>(m->long_value & 0xFFu);
+  }
+  org__eclipse__tahu__protobuf__payload__free_unpacked(p, nullptr);
+  return bd;
+}
+
 bool ncmd_requests_rebirth(const std::uint8_t* data, std::size_t len) noexcept {
   PbPayload* p = org__eclipse__tahu__protobuf__payload__unpack(nullptr, len, data);
   if (p == nullptr) return false;
@@ -53,9 +67,12 @@ bool ncmd_requests_rebirth(const std::uint8_t* data, std::size_t len) noexcept {
   return rebirth;
 }
 
-MosquittoLink::MosquittoLink(const MqttConfig& config, LogFn log) : config_(config), log_(std::move(log)) {
+MosquittoLink::MosquittoLink(const MqttConfig& config, BdSeqFile& bd_seq, LogFn log)
+    : config_(config), bd_file_(bd_seq), log_(std::move(log)) {
   ndeath_topic_ = sparkplug_topic(config_.group_id, "NDEATH", config_.edge_node_id);
   ncmd_topic_ = sparkplug_topic(config_.group_id, "NCMD", config_.edge_node_id);
+  nbirth_topic_ = sparkplug_topic(config_.group_id, "NBIRTH", config_.edge_node_id);
+  dcmd_prefix_ = sparkplug_topic(config_.group_id, "DCMD", config_.edge_node_id) + "/";
   if (!config_.primary_host_id.empty()) state_topic_ = "spBv1.0/STATE/" + config_.primary_host_id;
 }
 
@@ -68,10 +85,8 @@ void MosquittoLink::set_will() {
   if (rc != MOSQ_ERR_SUCCESS) log_(COBRIDGE_LOG_ERROR, "cannot set the NDEATH will: " + mosq_error(rc));
 }
 
-plugin::Error MosquittoLink::start() {
-  lib_init_once();
-  mosq_ = mosquitto_new(config_.client_id.c_str(), true, this);  // clean session (spec 5: tck-id-principles-persistence-clean-session-311)
-  if (mosq_ == nullptr) return {std::error_code(errno, std::generic_category()), "mosquitto_new failed"};
+// Callbacks, credentials and TLS of a new client.
+plugin::Error MosquittoLink::configure_client() {
   mosquitto_connect_callback_set(mosq_, &MosquittoLink::on_connect);
   mosquitto_disconnect_callback_set(mosq_, &MosquittoLink::on_disconnect);
   mosquitto_message_callback_set(mosq_, &MosquittoLink::on_message);
@@ -92,8 +107,23 @@ plugin::Error MosquittoLink::start() {
                            config_.key_file.empty() ? nullptr : config_.key_file.c_str(), nullptr);
     if (rc != MOSQ_ERR_SUCCESS) return {std::error_code(rc, std::generic_category()), "TLS: " + mosq_error(rc)};
   }
-  set_will();
-  rc = mosquitto_connect_async(mosq_, config_.host.c_str(), config_.port, static_cast<int>(config_.keepalive_s));
+  return {};
+}
+
+plugin::Error MosquittoLink::start(std::optional<std::uint8_t> after, Mode mode) {
+  lib_init_once();
+  mode_ = mode;
+  seen_bd_seq_.store(-1, std::memory_order_release);
+  seen_dead_.store(false, std::memory_order_release);
+  mosq_ = mosquitto_new(config_.client_id.c_str(), true, this);  // clean session (spec 5: tck-id-principles-persistence-clean-session-311)
+  if (mosq_ == nullptr) return {std::error_code(errno, std::generic_category()), "mosquitto_new failed"};
+  if (plugin::Error e = configure_client()) return e;
+  // An observer carries no will: its loss is no death of the edge node.
+  if (mode_ == Mode::kPublish) {
+    bd_seq_.store(bd_file_.next(after), std::memory_order_release);
+    set_will();
+  }
+  int rc = mosquitto_connect_async(mosq_, config_.host.c_str(), config_.port, static_cast<int>(config_.keepalive_s));
   if (rc != MOSQ_ERR_SUCCESS)  // retried by the client thread with backoff
     log_(COBRIDGE_LOG_WARN, "MQTT broker " + config_.host + ":" + std::to_string(config_.port) +
                                 " not reached yet (" + mosq_error(rc) + "); retrying");
@@ -105,7 +135,7 @@ plugin::Error MosquittoLink::start() {
 
 void MosquittoLink::stop() {
   if (mosq_ == nullptr) return;
-  if (connected_.load(std::memory_order_acquire)) {
+  if (mode_ == Mode::kPublish && connected_.load(std::memory_order_acquire)) {
     PayloadBuilder builder;  // the client thread may be in set_will() with will_builder_ now
     std::array<std::uint8_t, 128> buf{};
     const std::size_t n = encode_ndeath(builder, bd_seq_.load(std::memory_order_relaxed), wall_ms(), buf);
@@ -139,6 +169,7 @@ MosquittoLink::State MosquittoLink::state() const noexcept {
   State s;
   s.generation = generation_.load(std::memory_order_acquire);
   s.connected = connected_.load(std::memory_order_acquire);
+  s.observing = mode_ == Mode::kObserve;
   s.bd_seq = bd_seq_.load(std::memory_order_acquire);
   return s;
 }
@@ -153,40 +184,71 @@ void MosquittoLink::on_connect(struct mosquitto* m, void* self, int rc) {
   l->refused_logged_ = false;
   // libmosquitto dropped what a lost session had queued: nothing waits now.
   l->written_.store(l->handed_.load(std::memory_order_acquire), std::memory_order_release);
-  (void)mosquitto_subscribe(m, nullptr, l->ncmd_topic_.c_str(), 1);
-  if (!l->state_topic_.empty()) (void)mosquitto_subscribe(m, nullptr, l->state_topic_.c_str(), 1);
+  l->subscribe_all(m);
   l->connected_.store(true, std::memory_order_release);
   l->generation_.fetch_add(1, std::memory_order_acq_rel);
+  const std::string node = l->config_.group_id + "/" + l->config_.edge_node_id;
   l->log_(COBRIDGE_LOG_INFO, "MQTT connected to " + l->config_.host + ":" + std::to_string(l->config_.port) +
-                                 " as edge node " + l->config_.group_id + "/" + l->config_.edge_node_id +
-                                 " (bdSeq " + std::to_string(l->bd_seq_.load()) + ")");
+                                 (l->mode_ == Mode::kObserve
+                                      ? " as the standby of edge node " + node + " (publishing nothing)"
+                                      : " as edge node " + node + " (bdSeq " + std::to_string(l->bd_seq_.load()) + ")"));
 }
 
 // The session is gone: the broker has published (or will publish) the
 // will with this bdSeq, so the next CONNECT carries the next one.
+// A session subscribes to its commands; an observer to the edge node's births and deaths.
+void MosquittoLink::subscribe_all(struct mosquitto* m) {
+  if (mode_ == Mode::kObserve) {
+    (void)mosquitto_subscribe(m, nullptr, nbirth_topic_.c_str(), 0);
+    (void)mosquitto_subscribe(m, nullptr, ndeath_topic_.c_str(), 0);
+    return;
+  }
+  (void)mosquitto_subscribe(m, nullptr, ncmd_topic_.c_str(), 1);
+  (void)mosquitto_subscribe(m, nullptr, (dcmd_prefix_ + "+").c_str(), 1);
+  if (!state_topic_.empty()) (void)mosquitto_subscribe(m, nullptr, state_topic_.c_str(), 1);
+}
+
 void MosquittoLink::on_disconnect(struct mosquitto*, void* self, int rc) {
   auto* l = static_cast<MosquittoLink*>(self);
   const bool was = l->connected_.exchange(false, std::memory_order_acq_rel);
-  l->bd_seq_.store(static_cast<std::uint8_t>(l->bd_seq_.load(std::memory_order_relaxed) + 1u),
-                   std::memory_order_release);
+  if (rc != 0 && l->mode_ == Mode::kPublish)
+    l->bd_seq_.store(l->bd_file_.next(), std::memory_order_release);  // the next CONNECT's
   l->primary_.store(-1, std::memory_order_release);  // heard again (retained) after the reconnect
   if (was) l->generation_.fetch_add(1, std::memory_order_acq_rel);
   if (rc != 0) {
     if (was) l->log_(COBRIDGE_LOG_WARN, "MQTT connection lost (" + mosq_error(rc) + "); reconnecting");
-    l->set_will();
+    if (l->mode_ == Mode::kPublish) l->set_will();
   }
 }
 
 void MosquittoLink::on_message(struct mosquitto*, void* self, const struct mosquitto_message* msg) {
   auto* l = static_cast<MosquittoLink*>(self);
   if (msg == nullptr || msg->topic == nullptr) return;
-  if (l->ncmd_topic_ == msg->topic) {
+  const std::string_view topic(msg->topic);
+  if (l->mode_ == Mode::kObserve) {
+    if (topic != l->nbirth_topic_ && topic != l->ndeath_topic_) return;
+    const int bd = payload_bd_seq(static_cast<const std::uint8_t*>(msg->payload),
+                                  msg->payloadlen > 0 ? static_cast<std::size_t>(msg->payloadlen) : 0u);
+    if (bd >= 0) l->seen_bd_seq_.store(bd, std::memory_order_release);
+    l->seen_dead_.store(topic == l->ndeath_topic_, std::memory_order_release);
+    return;
+  }
+  if (l->ncmd_topic_ == topic) {
     l->handle_ncmd(msg->payload, msg->payloadlen);
+  } else if (topic.starts_with(l->dcmd_prefix_)) {
+    l->handle_dcmd(topic.substr(l->dcmd_prefix_.size()), msg->payload, msg->payloadlen);
   } else if (!l->state_topic_.empty() && l->state_topic_ == msg->topic) {
     const std::string_view text(static_cast<const char*>(msg->payload), static_cast<std::size_t>(msg->payloadlen));
     const int online = parse_state_online(text);
     if (online >= 0) l->primary_.store(online, std::memory_order_release);
   }
+}
+
+void MosquittoLink::handle_dcmd(std::string_view device_id, const void* payload, int len) {
+  const DcmdRequest r = parse_dcmd(device_id, static_cast<const std::uint8_t*>(payload),
+                                   len > 0 ? static_cast<std::size_t>(len) : 0u);
+  if (!dcmds_.try_push(r))
+    log_(COBRIDGE_LOG_WARN, "DCMD for device " + std::string(device_id) + " dropped: 64 DCMDs wait already");
 }
 
 void MosquittoLink::handle_ncmd(const void* payload, int len) {

@@ -4,11 +4,18 @@
 // Sparkplug:
 //   - the will: NDEATH with the current bdSeq, QoS 1, not retained
 //     (spec 5: tck-id-topics-ndeath-will-message-*), set before every CONNECT;
-//   - bdSeq: +1 (mod 256) for each new CONNECT after a lost session, so the
-//     NBIRTH that follows names the will that the broker holds;
+//   - bdSeq: the next of BdSeqFile (persisted) for each new CONNECT, the
+//     first one and every one after a lost session, so the NBIRTH that
+//     follows names the will that the broker holds;
 //   - reconnects with exponential backoff (1 s doubling to 30 s);
 //   - NCMD (Node Control/Rebirth) and the primary host's STATE, subscribed
 //     at each connect and turned into flags the publisher thread polls;
+//   - DCMD of every device (spBv1.0/<group>/DCMD/<edge>/+), decoded here and
+//     queued for the publisher thread (a full queue drops the DCMD, logged);
+//   - an observing mode for the standby of a hot-standby pair: connected
+//     with no will, publishing nothing, subscribed to the edge node's own
+//     NBIRTH and NDEATH only, to learn the bdSeq the master's session uses
+//     (so that a takeover's NBIRTH continues from it, spec 6.4.x bdSeq);
 //   - a bound on what waits in libmosquitto's own queue (it has none for
 //     QoS 0): a broker or network slower than the encoders makes publish()
 //     refuse, counted as a drop, instead of growing the daemon's memory.
@@ -18,10 +25,13 @@
 // on libmosquitto's thread and only touch atomics, the will and the log.
 #pragma once
 
+#include "bdseq_file.hpp"
+#include "dcmd_request.hpp"
 #include "mqtt_config.hpp"
 #include "sparkplug_payload.hpp"
 
 #include <cobridge/plugin_error.hpp>
+#include <cobridge/spsc_ring.hpp>
 
 #include <atomic>
 #include <cstdint>
@@ -43,17 +53,24 @@ class MosquittoLink {
   struct State {
     std::uint64_t generation = 0;
     bool connected = false;
+    bool observing = false;  // connected as a standby's observer: no Sparkplug session
     std::uint8_t bd_seq = 0;
   };
 
-  MosquittoLink(const MqttConfig& config, LogFn log);
+  enum class Mode : std::uint8_t {
+    kPublish,  // the edge node's session: the NDEATH will, births, data
+    kObserve,  // a standby: no will, no messages, the edge node's bdSeq heard
+  };
+
+  MosquittoLink(const MqttConfig& config, BdSeqFile& bd_seq, LogFn log);
   ~MosquittoLink();
   MosquittoLink(const MosquittoLink&) = delete;
   MosquittoLink& operator=(const MosquittoLink&) = delete;
 
   // Creates the client, sets credentials, TLS and the will, starts the
   // connect (asynchronously: a broker that is away is retried, not fatal).
-  [[nodiscard]] plugin::Error start();
+  // `after`: a bdSeq the pair's other gateway used last (the first CONNECT's follows it).
+  [[nodiscard]] plugin::Error start(std::optional<std::uint8_t> after = std::nullopt, Mode mode = Mode::kPublish);
   // Publishes NDEATH itself (an intentional disconnect, spec 5:
   // tck-id-operational-behavior-edge-node-intentional-disconnect-ndeath),
   // disconnects and joins the client thread.
@@ -72,6 +89,16 @@ class MosquittoLink {
   // The primary host's last STATE: -1 none heard, 0 offline, 1 online.
   [[nodiscard]] int primary_state() const noexcept { return primary_.load(std::memory_order_acquire); }
   [[nodiscard]] bool connected() const noexcept { return connected_.load(std::memory_order_acquire); }
+  // The bdSeq last seen in the edge node's NBIRTH or NDEATH while observing.
+  [[nodiscard]] std::optional<std::uint8_t> seen_bd_seq() const noexcept {
+    const int v = seen_bd_seq_.load(std::memory_order_acquire);
+    return v < 0 ? std::nullopt : std::optional<std::uint8_t>(static_cast<std::uint8_t>(v));
+  }
+  // Whether the last of them was an NDEATH (no session of the edge node alive).
+  [[nodiscard]] bool seen_dead() const noexcept { return seen_dead_.load(std::memory_order_acquire); }
+  [[nodiscard]] Mode mode() const noexcept { return mode_; }
+  // The next DCMD received, decoded (publisher thread).
+  [[nodiscard]] bool take_dcmd(DcmdRequest& out) noexcept { return dcmds_.try_pop(out); }
 
  private:
   static void on_connect(struct mosquitto* m, void* self, int rc);
@@ -81,14 +108,24 @@ class MosquittoLink {
 
   void set_will();
   void handle_ncmd(const void* payload, int len);
+  void handle_dcmd(std::string_view topic, const void* payload, int len);
+  void subscribe_all(struct mosquitto* m);
+  [[nodiscard]] plugin::Error configure_client();
 
   const MqttConfig& config_;
+  BdSeqFile& bd_file_;
   LogFn log_;
   struct mosquitto* mosq_ = nullptr;
   bool loop_started_ = false;
   std::string ndeath_topic_;
   std::string ncmd_topic_;
   std::string state_topic_;
+  std::string dcmd_prefix_;  // "spBv1.0/<group>/DCMD/<edge>/"
+  std::string nbirth_topic_;
+  Mode mode_ = Mode::kPublish;  // set by start() before the client thread runs
+  std::atomic<int> seen_bd_seq_{-1};
+  std::atomic<bool> seen_dead_{false};
+  SpscRing<DcmdRequest> dcmds_{64};  // client thread -> publisher thread
   PayloadBuilder will_builder_;  // client thread (callbacks) and start/stop, never at once
   std::atomic<std::uint64_t> generation_{0};
   std::atomic<bool> connected_{false};
@@ -104,6 +141,9 @@ class MosquittoLink {
 // "timestamp": ...}, spec 5: tck-id-host-topic-phid-birth-payload): 1, 0, or
 // -1 when the text holds no boolean "online".
 [[nodiscard]] int parse_state_online(std::string_view json) noexcept;
+
+// The bdSeq metric of an NBIRTH or NDEATH payload (spec 6.4.x bdSeq); -1 if none.
+[[nodiscard]] int payload_bd_seq(const std::uint8_t* data, std::size_t len) noexcept;
 
 // Whether an NCMD payload asks for a rebirth: a metric named Node
 // Control/Rebirth (or its alias) with boolean true (spec 6.4.x NCMD).

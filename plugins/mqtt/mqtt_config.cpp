@@ -56,6 +56,22 @@ plugin::Error get_file(const toml::node& node, const std::string& key, std::stri
   return {};
 }
 
+// bdseq_file: "" (in memory only) or a path whose folder exists now.
+plugin::Error get_bdseq_file(const toml::node& node, MqttConfig& c) {
+  const std::string key = "bdseq_file";
+  const auto* s = node.as_string();
+  if (s == nullptr) return fail(ConfigErrc::kWrongType, key, "must be a string (a file path, or \"\" for none)");
+  c.bdseq_file = s->get();
+  c.bdseq_file_set = true;
+  if (c.bdseq_file.empty()) return {};
+  const std::size_t slash = c.bdseq_file.rfind('/');
+  const std::string folder = slash == std::string::npos ? "." : (slash == 0 ? "/" : c.bdseq_file.substr(0, slash));
+  struct stat st {};
+  if (::stat(folder.c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
+    return fail(ConfigErrc::kBadFile, key, "= \"" + c.bdseq_file + "\": its folder " + folder + " does not exist");
+  return {};
+}
+
 // The password file: owner-only (no group/other bits), its first line.
 plugin::Error read_password(const std::string& path, std::string& out) {
   const std::string key = "password_file";
@@ -93,6 +109,30 @@ plugin::Error parse_deadband(const toml::node& node, MqttConfig& c) {
   return {};
 }
 
+plugin::Error get_bool(const toml::node& node, const std::string& key, bool& out) {
+  const auto* b = node.as_boolean();
+  if (b == nullptr) return fail(ConfigErrc::kWrongType, key, "must be true or false");
+  out = b->get();
+  return {};
+}
+
+// write_allow: an array of "<device>", "<device>:<command>" or "*:<command>".
+plugin::Error parse_write_allow(const toml::node& node, std::vector<WriteRule>& out) {
+  const std::string key = "write_allow";
+  const auto* a = node.as_array();
+  if (a == nullptr) return fail(ConfigErrc::kWrongType, key, "must be an array of strings");
+  for (std::size_t i = 0; i < a->size(); ++i) {
+    const std::string at = key + "[" + std::to_string(i) + "]";
+    const auto* s = a->get(i)->as_string();
+    if (s == nullptr) return fail(ConfigErrc::kWrongType, at, "must be a string");
+    WriteRule rule;
+    const std::string why = parse_write_rule(s->get(), rule);
+    if (!why.empty()) return fail(ConfigErrc::kOutOfRange, at, "= \"" + s->get() + "\" " + why);
+    out.push_back(std::move(rule));
+  }
+  return {};
+}
+
 plugin::Error apply_key(const std::string& k, const toml::node& node, MqttConfig& c, std::string& password_file) {
   std::int64_t n = 0;
   if (k == "host") return get_string(node, k, c.host);
@@ -106,18 +146,26 @@ plugin::Error apply_key(const std::string& k, const toml::node& node, MqttConfig
   if (k == "cert_file") return get_file(node, k, c.cert_file);
   if (k == "key_file") return get_file(node, k, c.key_file);
   if (k == "deadband") return parse_deadband(node, c);
+  if (k == "bdseq_file") return get_bdseq_file(node, c);
+  if (k == "writes_enabled") return get_bool(node, k, c.writes.enabled);
+  if (k == "write_allow") return parse_write_allow(node, c.writes.allow);
   if (k == "password") return fail(ConfigErrc::kUnknownKey, k, "is not taken: put the password in password_file (mode 0600)");
   plugin::Error e;
   if (k == "port") {
     if (!(e = get_int(node, k, 1, 65535, n))) c.port = static_cast<std::uint16_t>(n);
   } else if (k == "keepalive_s") {
     if (!(e = get_int(node, k, 5, 65535, n))) c.keepalive_s = static_cast<std::uint32_t>(n);
+  } else if (k == "store_seconds") {
+    if (!(e = get_int(node, k, 0, 3600, n))) c.store_seconds = static_cast<std::uint32_t>(n);
+  } else if (k == "store_rate") {
+    if (!(e = get_int(node, k, 1, 10000, n))) c.store_rate = static_cast<std::uint32_t>(n);
   } else if (k == "queue_depth") {
     if (!(e = get_int(node, k, 64, 1 << 20, n))) c.queue_depth = static_cast<std::uint32_t>(n);
   } else {
     e = fail(ConfigErrc::kUnknownKey, k,
              "is not a key of [outputs.mqtt] (host, port, client_id, group_id, edge_node_id, keepalive_s, username, "
-             "password_file, ca_file, cert_file, key_file, primary_host_id, queue_depth, deadband)");
+             "password_file, ca_file, cert_file, key_file, primary_host_id, queue_depth, store_seconds, store_rate, "
+             "bdseq_file, writes_enabled, write_allow, deadband)");
   }
   return e;
 }
@@ -137,6 +185,20 @@ plugin::Error check_combinations(const MqttConfig& c, const std::string& passwor
 }
 
 }  // namespace
+
+bool is_loopback_host(std::string_view host) noexcept {
+  if (host == "localhost" || host == "::1" || host == "[::1]") return true;
+  if (!host.starts_with("127.")) return false;
+  // 127.a.b.c with digits and dots only (a name like "127.example.com" is not loopback).
+  return host.find_first_not_of("0123456789.") == std::string_view::npos;
+}
+
+std::string plaintext_warning(const MqttConfig& c) {
+  if (c.tls() || is_loopback_host(c.host)) return {};
+  return "config: 'host' = \"" + c.host + "\" is not loopback and 'ca_file' is not set: the MQTT connection is "
+         "plaintext, so the broker credentials, the data and the DCMD commands travel readable on the network "
+         "(set ca_file for TLS)";
+}
 
 bool valid_sparkplug_id(std::string_view id) noexcept {
   return !id.empty() && id.find_first_of("/+#") == std::string_view::npos;
@@ -161,6 +223,9 @@ plugin::Error parse_config(std::string_view text, std::string_view gateway_id, M
   if (!error && !password_file.empty()) error = read_password(password_file, c.password);
   if (error) return error;
   if (c.client_id.empty()) c.client_id = "cobridge-" + c.edge_node_id;
+  // The packaged state directory (StateDirectory=cobridge); another
+  // [gateway] state_dir needs bdseq_file set to match.
+  if (!c.bdseq_file_set) c.bdseq_file = "/var/lib/cobridge/mqtt-" + c.edge_node_id + ".bdseq";
   out = std::move(c);
   return {};
 }

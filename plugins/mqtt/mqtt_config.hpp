@@ -15,11 +15,23 @@
 //   cert_file, key_file = (absent)  TLS client certificate and key (both or neither; need ca_file)
 //   primary_host_id = (absent)      hold births and data until spBv1.0/STATE/<id> says online
 //   queue_depth     = 8192          samples buffered between the dispatcher and the publisher
+//   store_seconds   = 30            store and forward: DDATA kept per device while the
+//                                   broker is away, at most this old (0 = off)
+//   store_rate      = 50            ... and at most store_seconds x this many entries
+//                                   per device (preallocated; oldest dropped first)
+//   bdseq_file      = "/var/lib/cobridge/mqtt-<edge_node_id>.bdseq"
+//                                   the last bdSeq used, kept across restarts
+//                                   (bdseq_file.hpp); "" = in memory only
+//   writes_enabled  = false         take DCMD commands (preset, NMT reset, store)
+//   write_allow     = []            which: device names, "<device>:<command>", "*:<command>"
+//                                   (write_policy.hpp); empty = every device and command
 //   [outputs.mqtt.deadband]         per metric name: a change smaller than this is not sent
 //     Position = 10                 (report by exception; absent = every change is sent)
 //
 // Thread contract: parsed on the daemon's control thread (plugin create).
 #pragma once
+
+#include "write_policy.hpp"
 
 #include <cobridge/plugin_error.hpp>
 
@@ -44,6 +56,11 @@ struct MqttConfig {
   std::string key_file;
   std::string primary_host_id;
   std::uint32_t queue_depth = 8192;
+  WritePolicy writes;
+  std::string bdseq_file;  // default filled from edge_node_id; "" = not persisted
+  bool bdseq_file_set = false;
+  std::uint32_t store_seconds = 30;
+  std::uint32_t store_rate = 50;
   // Indexed by process_index(DeviceMetric); 0 = every change is sent.
   std::array<double, 16> deadband{};
 
@@ -54,6 +71,14 @@ struct MqttConfig {
 // Fills `out` only on success. gateway_id: the default edge node id. The
 // error's message starts "config: " and names the key.
 [[nodiscard]] plugin::Error parse_config(std::string_view toml_text, std::string_view gateway_id, MqttConfig& out);
+
+// Whether `host` names this machine's loopback ("localhost", 127.0.0.0/8,
+// "::1"): a plaintext connection anywhere else sends the credentials and the
+// data readable on the network, which the plugin warns about at load.
+[[nodiscard]] bool is_loopback_host(std::string_view host) noexcept;
+
+// The warning for a plaintext broker outside loopback; "" when there is none.
+[[nodiscard]] std::string plaintext_warning(const MqttConfig& c);
 
 // Sparkplug ids (group, edge node, device) may not hold '/', '+' or '#'
 // (spec 4.1.1, tck-id-topic-structure-namespace-valid-*) and may not be empty.

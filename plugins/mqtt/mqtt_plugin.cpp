@@ -7,9 +7,19 @@
 //     allocation, lock, syscall or log there.
 //   - publisher (ours): drains the rings, runs the EdgeSession (births,
 //     DDATA, DDEATH) and hands messages to libmosquitto; polls the link's
-//     flags (session gained/lost, rebirth, primary host). Sleeps 1 ms when idle.
+//     flags (session gained/lost, rebirth, primary host); takes DCMDs to the
+//     CommandDesk and publishes their results. Sleeps 1 ms when idle.
 //   - libmosquitto's client thread (MosquittoLink): socket, keepalive, reconnects.
+//
+// A hot-standby pair is one edge node (ABI 4 on_role): only the gateway that
+// is master of a bus holds the Sparkplug session. on_role sets the wanted
+// role; the publisher thread follows it: becoming master, it ends its
+// observing connection and connects as the edge node (bdSeq following the
+// one it heard, births at once); losing the role while it runs, it publishes
+// NDEATH itself, disconnects (no will then) and observes again.
 //   - control thread: create/start/stop/destroy; control plane: stats.
+#include "bdseq_file.hpp"
+#include "command_desk.hpp"
 #include "device_record.hpp"
 #include "edge_session.hpp"
 #include "mosquitto_link.hpp"
@@ -24,6 +34,7 @@
 #include <atomic>
 #include <chrono>
 #include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 
@@ -46,21 +57,57 @@ struct Plugin {
   MqttConfig config;
   std::unique_ptr<SpscRing<cobridge_sample>> samples;
   std::unique_ptr<SpscRing<DeviceRecord>> devices;
+  std::unique_ptr<BdSeqFile> bd_seq;
   std::unique_ptr<MosquittoLink> link;
   std::unique_ptr<LinkPublisher> publisher;
   std::unique_ptr<EdgeSession> session;
+  std::unique_ptr<CommandDesk> desk;
   std::thread worker;
   std::atomic<bool> running{false};
   std::atomic<std::uint64_t> ring_drops{0};  // dispatcher side
+  // Hot standby: 0 = alone (always the edge node); else per bus roles
+  // (dispatcher thread only) and whether this gateway is master of one.
+  std::uint32_t pair_node = 0;
+  std::array<std::uint8_t, 256> roles{};
+  std::atomic<bool> want_master{false};
+  bool publishing = false;  // publisher thread: the link is the edge node's session
+  std::uint64_t takeover_deadline_ms = 0;  // publisher thread: waiting for the old master's NDEATH
+  std::atomic<bool> active{false};  // for stats
 
   void log(int level, const std::string& msg) const noexcept { plugin::host_log(host, level, msg); }
+
+  // host->submit_command exists from ABI 2 on.
+  [[nodiscard]] bool host_takes_commands() const noexcept {
+    return host->struct_size >= offsetof(cobridge_host_api, submit_command) + sizeof(host->submit_command) &&
+           host->submit_command != nullptr;
+  }
+
+  void make_desk() {
+    CommandDesk::Submit submit;
+    if (host_takes_commands()) submit = [h = host](const cobridge_command& c) { return h->submit_command(h->host, &c); };
+    desk = std::make_unique<CommandDesk>(config.writes, std::move(submit),
+                                         [this](int level, const std::string& m) { log(level, m); });
+  }
+
+  // DCMDs the link decoded: to the desk; a refusal is published at once.
+  bool take_commands() {
+    bool busy = false;
+    DcmdRequest r;
+    while (link->take_dcmd(r)) {
+      busy = true;
+      const int index = session->device_index_of(r.device_id);
+      const char* name = index >= 0 ? session->device_name(static_cast<std::uint16_t>(index)) : "";
+      if (auto result = desk->on_dcmd(r, index, name)) session->publish_result(*result, wall_ms());
+    }
+    return busy;
+  }
 
   void poll_link(std::uint64_t& generation, int& primary) {
     const MosquittoLink::State st = link->state();
     const std::uint64_t now = wall_ms();
     if (st.generation != generation) {
       generation = st.generation;
-      session->set_link(st.connected, st.bd_seq, now);
+      session->set_link(st.connected && !st.observing, st.bd_seq, now);
     }
     const int p = link->primary_state();
     if (p != primary) {
@@ -81,14 +128,62 @@ struct Plugin {
     std::array<cobridge_sample, 256> batch;
     const std::size_t n = samples->pop_batch(batch);
     const std::uint64_t now = wall_ms();
-    for (std::size_t i = 0; i < n; ++i) session->on_sample(batch[i], now);
-    return busy || n != 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      session->on_sample(batch[i], now);
+      if (batch[i].kind == COBRIDGE_SAMPLE_COMMAND)
+        if (auto result = desk->on_sample(batch[i])) session->publish_result(*result, now);
+    }
+    return take_commands() || busy || n != 0;
+  }
+
+  // A new master connects once the old master's NDEATH is heard (its will,
+  // or its own on losing the role), so that a host never sees two sessions
+  // alive; at most this long, for an old master cut off from the broker too.
+  static constexpr std::uint64_t kTakeoverWaitMs = 700;
+
+  // Whether a takeover must still wait for the old session's NDEATH.
+  bool await_old_death() {
+    if (!link->connected() || link->seen_dead()) {
+      takeover_deadline_ms = 0;
+      return false;
+    }
+    const std::uint64_t now = wall_ms();
+    if (takeover_deadline_ms == 0) takeover_deadline_ms = now + kTakeoverWaitMs;
+    if (now < takeover_deadline_ms) return true;
+    takeover_deadline_ms = 0;
+    log(COBRIDGE_LOG_WARN, "hot standby: no NDEATH of the previous master heard within " +
+                               std::to_string(kTakeoverWaitMs) + " ms; connecting as the edge node anyway");
+    return false;
+  }
+
+  // Publisher thread: the pair's role into the link's mode (see the file comment).
+  void follow_role() {
+    const bool want = want_master.load(std::memory_order_acquire);
+    if (pair_node == 0 || want == publishing) {
+      takeover_deadline_ms = 0;
+      return;
+    }
+    if (want && await_old_death()) return;
+    const std::optional<std::uint8_t> heard = link->seen_bd_seq();
+    link->stop();  // as the edge node: publishes NDEATH first (spec 5, intentional disconnect)
+    session->set_link(false, 0, wall_ms());
+    session->set_active(want);
+    publishing = want;
+    active.store(want, std::memory_order_release);
+    const plugin::Error e = want ? link->start(heard, MosquittoLink::Mode::kPublish)
+                                 : link->start(std::nullopt, MosquittoLink::Mode::kObserve);
+    log(e ? COBRIDGE_LOG_ERROR : COBRIDGE_LOG_INFO,
+        want ? "hot standby: master now, connecting as edge node " + config.edge_node_id +
+                   (heard ? " after the bdSeq " + std::to_string(*heard) + " it heard" : std::string())
+             : "hot standby: not master any more: NDEATH published, observing as the standby" +
+                   (e ? ": " + e.to_string() : std::string()));
   }
 
   void run() {
     std::uint64_t generation = 0;
     int primary = -1;
     while (running.load(std::memory_order_acquire)) {
+      follow_role();
       poll_link(generation, primary);
       if (!drain()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
     }
@@ -98,11 +193,25 @@ struct Plugin {
 int mqtt_start(void* self) {
   auto* p = static_cast<Plugin*>(self);
   try {
-    p->link = std::make_unique<MosquittoLink>(p->config, [p](int level, const std::string& m) { p->log(level, m); });
+    const auto log = [p](int level, const std::string& m) { p->log(level, m); };
+    p->bd_seq = std::make_unique<BdSeqFile>(p->config.bdseq_file, log);
+    p->bd_seq->load();
+    p->link = std::make_unique<MosquittoLink>(p->config, *p->bd_seq, log);
     p->publisher = std::make_unique<LinkPublisher>(*p->link);
-    EdgeSession::Ids ids{p->config.group_id, p->config.edge_node_id, !p->config.primary_host_id.empty()};
+    EdgeSession::Ids ids{p->config.group_id, p->config.edge_node_id, !p->config.primary_host_id.empty(),
+                         std::size_t{p->config.store_seconds} * p->config.store_rate,
+                         std::uint64_t{p->config.store_seconds} * 1000u};
     p->session = std::make_unique<EdgeSession>(ids, p->config.deadband, *p->publisher);
-    if (const plugin::Error e = p->link->start()) {
+    p->make_desk();
+    if (p->config.writes.enabled && !p->host_takes_commands())
+      p->log(COBRIDGE_LOG_WARN, "writes_enabled = true, but this daemon (plugin ABI " +
+                                    std::to_string(p->host->abi_version) + ") takes no commands: DCMDs are refused");
+    // A pair member starts as an observer and becomes the edge node when master.
+    p->publishing = p->pair_node == 0;
+    p->active.store(p->publishing, std::memory_order_release);
+    p->session->set_active(p->publishing);
+    if (const plugin::Error e = p->link->start(std::nullopt, p->publishing ? MosquittoLink::Mode::kPublish
+                                                                             : MosquittoLink::Mode::kObserve)) {
       p->log(COBRIDGE_LOG_ERROR, "cannot start the MQTT client: " + e.to_string());
       p->link.reset();
       return -1;
@@ -149,6 +258,17 @@ void mqtt_on_device(void* self, const cobridge_device_info* info) {
   if (!p->devices->try_push(from_info(*info))) p->ring_drops.fetch_add(1, std::memory_order_relaxed);
 }
 
+// ABI 4: a bus's role changed (hot standby). Dispatcher thread: records
+// it and sets a flag the publisher thread follows.
+void mqtt_on_role(void* self, const cobridge_role_info* info) {
+  auto* p = static_cast<Plugin*>(self);
+  if (info == nullptr || info->struct_size < offsetof(cobridge_role_info, role) + sizeof(info->role)) return;
+  p->roles[info->bus_index] = info->role;
+  bool master = false;
+  for (const std::uint8_t r : p->roles) master = master || r == COBRIDGE_ROLE_MASTER;
+  p->want_master.store(master, std::memory_order_release);
+}
+
 // ABI 3: control-plane thread; loads atomics only.
 std::size_t mqtt_stats(void* self, cobridge_stat* out, std::size_t max) {
   const auto* p = static_cast<const Plugin*>(self);
@@ -156,14 +276,22 @@ std::size_t mqtt_stats(void* self, cobridge_stat* out, std::size_t max) {
   const SessionCounters& c = p->session->counters();
   const auto load = [](const std::atomic<std::uint64_t>& a) { return a.load(std::memory_order_relaxed); };
   const cobridge_stat figures[] = {
-      {"mqtt_connected", "1 while the MQTT session to the broker is up.", COBRIDGE_STAT_GAUGE, 0,
+      {"mqtt_connected", "1 while the MQTT connection to the broker is up.", COBRIDGE_STAT_GAUGE, 0,
        p->link->connected() ? 1u : 0u},
+      {"mqtt_edge_node", "1 while this gateway is the Sparkplug edge node (0: the standby of a pair).",
+       COBRIDGE_STAT_GAUGE, 0, p->active.load(std::memory_order_acquire) ? 1u : 0u},
       {"mqtt_births", "Sparkplug NBIRTH and DBIRTH messages published.", COBRIDGE_STAT_COUNTER, 0, load(c.births)},
       {"mqtt_deaths", "Sparkplug DDEATH messages published.", COBRIDGE_STAT_COUNTER, 0, load(c.deaths)},
       {"mqtt_messages", "Sparkplug messages handed to the MQTT client.", COBRIDGE_STAT_COUNTER, 0, load(c.messages)},
       {"mqtt_bytes", "Payload bytes of those messages.", COBRIDGE_STAT_COUNTER, 0, load(c.bytes)},
-      {"mqtt_drops", "Messages not sent (broker away, client refused) and samples lost to a full queue.",
+      {"mqtt_drops", "Messages not sent (broker away without a store, client refused) and samples lost to a full queue.",
        COBRIDGE_STAT_COUNTER, 0, load(c.drops) + p->ring_drops.load(std::memory_order_relaxed)},
+      {"mqtt_stored", "DDATA entries stored while the broker was away (store and forward).", COBRIDGE_STAT_COUNTER,
+       0, load(c.stored)},
+      {"mqtt_store_drops", "Stored entries dropped, oldest first (store full or older than store_seconds).",
+       COBRIDGE_STAT_COUNTER, 0, load(c.store_drops)},
+      {"mqtt_replayed", "Stored entries sent as historical DDATA after the births.", COBRIDGE_STAT_COUNTER, 0,
+       load(c.replayed)},
   };
   return plugin::copy_stats(figures, out, max);
 }
@@ -178,7 +306,7 @@ constexpr cobridge_plugin_ops kOps = {
     &mqtt_on_samples,
     &mqtt_on_device,
     &mqtt_stats,
-    nullptr,  // on_role: the pair as one edge node is not done yet (docs/mqtt.md)
+    &mqtt_on_role,
     nullptr,  // on_bus: bus health is not published as Sparkplug metrics yet
 };
 
@@ -196,6 +324,16 @@ extern "C" COBRIDGE_PLUGIN_EXPORT int cobridge_plugin_create(const cobridge_host
         p->host = host;
         error = parse_config(config, host->gateway_id != nullptr ? host->gateway_id : "", p->config);
         if (error) return nullptr;
+        // A warning, not a refusal (a broker on a private segment may be
+        // plaintext by choice); logged at load, so --check-config shows it.
+        if (const std::string w = plaintext_warning(p->config); !w.empty()) p->log(COBRIDGE_LOG_WARN, w);
+        if (host->abi_version >= 4 && host->struct_size >= offsetof(cobridge_host_api, redundancy_node) +
+                                                              sizeof(host->redundancy_node))
+          p->pair_node = host->redundancy_node;
+        // Two gateways of a pair on one broker need two client ids (the
+        // broker would otherwise drop one for the other, MQTT 3.1.1 3.1.4).
+        if (p->pair_node != 0 && p->config.client_id == "cobridge-" + p->config.edge_node_id)
+          p->config.client_id += "-" + std::to_string(p->pair_node);
         p->samples = std::make_unique<cobridge::SpscRing<cobridge_sample>>(p->config.queue_depth);
         p->devices = std::make_unique<cobridge::SpscRing<DeviceRecord>>(256);
         return p.release();

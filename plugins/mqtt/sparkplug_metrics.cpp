@@ -24,6 +24,15 @@ constexpr std::array<MetricDef, 13> kProcess = {{
     {M::kEmcyRegister, "EMCY/Error Register", T::kUInt8, "", "EMCY frame byte 2 (0x1001)"},
 }};
 
+constexpr std::array<MetricDef, 6> kCommand = {{
+    {M::kCmdPreset, "Command/Preset", T::kInt64, "counts", "DCMD: preset the position (0x6003 / 0x6010)"},
+    {M::kCmdNmtReset, "Command/NMT Reset", T::kBoolean, "", "DCMD: true = NMT reset node (CiA 301 7.2.8.3.1.1)"},
+    {M::kCmdStore, "Command/Store", T::kBoolean, "", "DCMD: true = store parameters (0x1010)"},
+    {M::kCmdClient, "Command/Client", T::kString, "", "DCMD: who sends it (required); DDATA: who asked"},
+    {M::kCmdResult, "Command/Result", T::kString, "", "DDATA: a command's outcome or refusal, in words"},
+    {M::kCmdResultCode, "Command/Result Code", T::kInt32, "", "DDATA: 0 done, 1..8 daemon status, 16.. refusal"},
+}};
+
 constexpr std::array<MetricDef, 8> kIdentity = {{
     {M::kVendorId, "Properties/Vendor ID", T::kUInt32, "", "0x1018/1"},
     {M::kProductCode, "Properties/Product Code", T::kUInt32, "", "0x1018/2"},
@@ -38,10 +47,13 @@ constexpr std::array<MetricDef, 8> kIdentity = {{
 }  // namespace
 
 std::span<const MetricDef> process_metrics() noexcept { return kProcess; }
+std::span<const MetricDef> command_metrics() noexcept { return kCommand; }
 std::span<const MetricDef> identity_metrics() noexcept { return kIdentity; }
 
 const MetricDef* find_metric(DeviceMetric id) noexcept {
   for (const auto& d : kProcess)
+    if (d.id == id) return &d;
+  for (const auto& d : kCommand)
     if (d.id == id) return &d;
   for (const auto& d : kIdentity)
     if (d.id == id) return &d;

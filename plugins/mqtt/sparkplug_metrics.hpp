@@ -54,6 +54,14 @@ enum class DeviceMetric : std::uint8_t {
   kStale = 11,
   kEmcyCode = 12,
   kEmcyRegister = 13,
+  // Commands (spec 6.4.x DCMD: a host writes a metric its DBIRTH declared);
+  // DBIRTH declares them, DCMD writes 16..19, DDATA reports 19..21.
+  kCmdPreset = 16,
+  kCmdNmtReset = 17,
+  kCmdStore = 18,
+  kCmdClient = 19,
+  kCmdResult = 20,
+  kCmdResultCode = 21,
   // Identity, DBIRTH only (never in DDATA).
   kVendorId = 32,
   kProductCode = 33,
@@ -91,6 +99,8 @@ struct Reading {
 
 // The process metrics (DBIRTH and DDATA), in alias order.
 [[nodiscard]] std::span<const MetricDef> process_metrics() noexcept;
+// The command metrics (DBIRTH, DCMD and the DDATA of a command's outcome), in alias order.
+[[nodiscard]] std::span<const MetricDef> command_metrics() noexcept;
 // The identity metrics (DBIRTH only), in alias order.
 [[nodiscard]] std::span<const MetricDef> identity_metrics() noexcept;
 // The definition of one metric; nullptr for an unknown id.

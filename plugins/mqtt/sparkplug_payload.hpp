@@ -52,6 +52,13 @@ class PayloadBuilder {
   // A string property (e.g. engUnit, spec 6.4.7) of the last metric added.
   [[nodiscard]] bool add_property(const char* key, const char* value) noexcept;
 
+  // Marks the last metric added as historical (spec 6.4.x Metric
+  // is_historical: store and forward, tck-id-operational-behavior-data-*).
+  void mark_historical() noexcept {
+    if (payload_.n_metrics == 0) return;
+    metrics_[payload_.n_metrics - 1].has_is_historical = 1;
+    metrics_[payload_.n_metrics - 1].is_historical = 1;
+  }
   // Sets the seq after the metrics (DDATA takes one only when it has any).
   void set_seq(std::uint8_t seq) noexcept {
     payload_.has_seq = 1;

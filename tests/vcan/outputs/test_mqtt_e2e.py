@@ -342,7 +342,7 @@ def main():
                     "tpdo1": {"mapping": mp, "transmission": 254, "event_timer_ms": 20}}
                    for (name, m, _, s, n, mp, _) in DEVICES]
         extra = ('[outputs.mqtt]\nhost = "127.0.0.1"\nport = %d\ngroup_id = "%s"\nedge_node_id = "%s"\n'
-                 'keepalive_s = %d\n' % (PORT, GROUP, EDGE, KEEPALIVE))
+                 'keepalive_s = %d\nbdseq_file = "%s"\n' % (PORT, GROUP, EDGE, KEEPALIVE, ws.path("mqtt.bdseq")))
         daemon = e2e.Daemon(args.daemon, e2e.write_config(ws, [bus], devices, extra=extra), ws,
                             extra_args=("--plugin-dir", args.plugins))
         report.check(daemon.wait_socket(), "control socket up")

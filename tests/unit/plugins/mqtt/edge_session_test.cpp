@@ -129,7 +129,7 @@ TEST_F(EdgeSessionTest, Spec6_DbirthHasEveryMetricAliasDatatypeAndIdentity) {
   s.set_link(true, 1, 400);                      // new session: DBIRTH holds the last value
   const PbPayload* db = pub.sent.back().p;
   ASSERT_EQ(pub.sent.back().topic, "spBv1.0/plant/DBIRTH/gw1/enc");
-  EXPECT_EQ(db->n_metrics, process_metrics().size() + identity_metrics().size());
+  EXPECT_EQ(db->n_metrics, process_metrics().size() + command_metrics().size() + identity_metrics().size());
   for (const MetricDef& m : process_metrics()) {
     const PbMetric* pm = metric(db, m.name);
     ASSERT_NE(pm, nullptr) << m.name;
@@ -148,11 +148,50 @@ TEST_F(EdgeSessionTest, Spec6_DbirthHasEveryMetricAliasDatatypeAndIdentity) {
   EXPECT_STREQ(metric(db, "Properties/Model")->string_value, "RFC-4800");
 }
 
+// Spec 6.4.x DCMD: a host writes only metrics the DBIRTH declared, so the
+// commands are in it (writable ones false / null) with their aliases.
+TEST_F(EdgeSessionTest, Spec6_DbirthDeclaresTheCommandMetrics) {
+  EdgeSession s = make();
+  s.on_device(device(1, "enc"), 100);
+  s.set_link(true, 0, 200);
+  const PbPayload* db = pub.sent.back().p;
+  for (const MetricDef& m : command_metrics()) {
+    const PbMetric* pm = metric(db, m.name);
+    ASSERT_NE(pm, nullptr) << m.name;
+    EXPECT_EQ(pm->alias, device_alias(1, m.id)) << m.name;
+    EXPECT_EQ(pm->datatype, static_cast<std::uint32_t>(m.type)) << m.name;
+  }
+  EXPECT_FALSE(metric(db, "Command/Store")->boolean_value);
+  EXPECT_TRUE(metric(db, "Command/Result")->is_null);
+}
+
+// A command's outcome comes back as the device's DDATA (by alias), in seq.
+TEST_F(EdgeSessionTest, Spec6_CommandResultAsDdata) {
+  EdgeSession s = make();
+  s.on_device(device(0, "enc"), 100);
+  s.set_link(true, 0, 200);
+  EXPECT_EQ(s.device_index_of("enc"), 0);
+  EXPECT_EQ(s.device_index_of("nope"), -1);
+  s.publish_result(CommandResult{0, "scada-1", "refused: writes are disabled", 16}, 300);
+  const Message& m = pub.sent.back();
+  EXPECT_EQ(m.topic, "spBv1.0/plant/DDATA/gw1/enc");
+  EXPECT_EQ(m.p->seq, 2u);
+  ASSERT_EQ(m.p->n_metrics, 3u);
+  EXPECT_EQ(m.p->metrics[0]->alias, device_alias(0, DeviceMetric::kCmdClient));
+  EXPECT_STREQ(m.p->metrics[0]->string_value, "scada-1");
+  EXPECT_STREQ(m.p->metrics[1]->string_value, "refused: writes are disabled");
+  EXPECT_EQ(m.p->metrics[2]->int_value, 16u);
+  s.set_link(false, 1, 400);
+  s.publish_result(CommandResult{0, "c", "done", 0}, 500);  // no session: counted, not sent
+  EXPECT_EQ(pub.sent.size(), 3u);
+}
+
 // Spec 6.4.4: aliases unique across the edge node (tck-id-payloads-alias-uniqueness).
 TEST(SparkplugMetrics, Spec644_AliasesUniqueAcrossTheEdgeNode) {
   std::set<std::uint64_t> seen = {kRebirthAlias};
   for (std::uint16_t dev = 0; dev < 300; ++dev) {
     for (const MetricDef& m : process_metrics()) EXPECT_TRUE(seen.insert(device_alias(dev, m.id)).second);
+    for (const MetricDef& m : command_metrics()) EXPECT_TRUE(seen.insert(device_alias(dev, m.id)).second);
     for (const MetricDef& m : identity_metrics()) EXPECT_TRUE(seen.insert(device_alias(dev, m.id)).second);
   }
 }
@@ -256,6 +295,60 @@ TEST_F(EdgeSessionTest, Spec5_ReconnectBirthsWithNewBdSeq) {
   s.set_link(true, 1, 300);
   ASSERT_EQ(pub.sent.size(), 2u);
   EXPECT_EQ(metric(pub.sent[1].p, "bdSeq")->long_value, 1u);
+}
+
+// Store and forward (spec 5, tck-id-operational-behavior-data-*): DDATA taken
+// while the broker is away comes after the new NBIRTH and DBIRTH, with
+// is_historical, oldest first, each stamped with its frame's time, in seq.
+TEST_F(EdgeSessionTest, Spec5_StoreAndForwardAfterTheBirthsHistoricalInOrder) {
+  EdgeSession s({"plant", "gw1", false, 100, 100'000}, deadband_, pub);
+  s.on_device(device(0, "enc"), 100);
+  s.set_link(true, 0, 200);
+  s.on_sample(tpdo(0, 1, 1'000'000'000), 300);  // live DDATA
+  s.set_link(false, 1, 400);
+  for (int i = 2; i <= 80; ++i)  // 79 positions while away
+    s.on_sample(tpdo(0, i, static_cast<std::uint64_t>(i) * 1'000'000'000), 500);
+  s.on_sample(tpdo(0, 80, 81'000'000'000), 500);  // unchanged: not stored (report by exception)
+  EXPECT_EQ(s.counters().stored.load(), 79u);
+  const std::size_t n = pub.sent.size();
+  s.set_link(true, 1, 90'000);
+  ASSERT_GE(pub.sent.size(), n + 4);
+  EXPECT_EQ(pub.sent[n].topic, "spBv1.0/plant/NBIRTH/gw1");
+  EXPECT_EQ(pub.sent[n + 1].topic, "spBv1.0/plant/DBIRTH/gw1/enc");
+  std::vector<std::pair<std::uint64_t, std::uint64_t>> history;  // (timestamp, position)
+  std::uint64_t seq = pub.sent[n + 1].p->seq;
+  for (std::size_t i = n + 2; i < pub.sent.size(); ++i) {
+    const Message& m = pub.sent[i];
+    ASSERT_EQ(m.topic, "spBv1.0/plant/DDATA/gw1/enc");
+    EXPECT_EQ(m.p->seq, ++seq);
+    for (std::size_t j = 0; j < m.p->n_metrics; ++j) {
+      const PbMetric* pm = m.p->metrics[j];
+      EXPECT_TRUE(pm->has_is_historical && pm->is_historical);
+      if (pm->alias == device_alias(0, DeviceMetric::kPosition)) history.emplace_back(pm->timestamp, pm->long_value);
+    }
+  }
+  ASSERT_EQ(history.size(), 79u);
+  for (std::size_t i = 0; i < history.size(); ++i) {
+    EXPECT_EQ(history[i].second, i + 2);
+    EXPECT_EQ(history[i].first, (i + 2) * 1000);  // the frame's receive time in ms
+  }
+  EXPECT_EQ(s.counters().replayed.load(), 79u);
+  s.on_sample(tpdo(0, 99, 91'000'000'000), 91'000);  // live again: not historical
+  EXPECT_FALSE(pub.sent.back().p->metrics[0]->has_is_historical);
+}
+
+// A full store drops its oldest entries and counts them.
+TEST_F(EdgeSessionTest, StoreFullDropsOldestCounted) {
+  EdgeSession s({"plant", "gw1", false, 10, 0}, deadband_, pub);
+  s.on_device(device(0, "enc"), 100);
+  for (int i = 1; i <= 25; ++i) s.on_sample(tpdo(0, i, static_cast<std::uint64_t>(i) * 1'000'000), 200);
+  EXPECT_EQ(s.counters().store_drops.load(), 15u);
+  s.set_link(true, 0, 300);
+  const PbMetric* first = nullptr;
+  for (const Message& m : pub.sent)
+    if (m.topic.find("DDATA") != std::string::npos && first == nullptr) first = m.p->metrics[0];
+  ASSERT_NE(first, nullptr);
+  EXPECT_EQ(first->long_value, 16u);  // 1..15 dropped, oldest first
 }
 
 TEST_F(EdgeSessionTest, DropsCountedWhenTheClientRefuses) {

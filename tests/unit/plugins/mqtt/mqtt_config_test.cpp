@@ -2,6 +2,8 @@
 // refusal names its key and reason, the password only from a 0600 file.
 #include "mqtt_config.hpp"
 
+#include <cobridge/plugin.h>
+
 #include <gtest/gtest.h>
 
 #include <sys/stat.h>
@@ -39,6 +41,41 @@ TEST(MqttConfig, Defaults) {
   EXPECT_EQ(c.keepalive_s, 30u);
   EXPECT_FALSE(c.tls());
   EXPECT_TRUE(c.primary_host_id.empty());
+  EXPECT_EQ(c.bdseq_file, "/var/lib/cobridge/mqtt-gw-1.bdseq");
+  EXPECT_EQ(c.store_seconds, 30u);
+  EXPECT_FALSE(c.writes.enabled);  // DCMD refused unless asked for
+  EXPECT_TRUE(c.writes.allow.empty());
+}
+
+TEST(MqttConfig, PlaintextBrokerOutsideLoopbackWarned) {
+  EXPECT_TRUE(is_loopback_host("127.0.0.1"));
+  EXPECT_TRUE(is_loopback_host("127.1.2.3"));
+  EXPECT_TRUE(is_loopback_host("localhost"));
+  EXPECT_TRUE(is_loopback_host("::1"));
+  EXPECT_FALSE(is_loopback_host("127.example.com"));
+  EXPECT_FALSE(is_loopback_host("10.0.0.5"));
+  EXPECT_FALSE(is_loopback_host("broker.plant"));
+  MqttConfig c;
+  ASSERT_FALSE(parse("host = \"10.0.0.5\"\n", c));
+  const std::string w = plaintext_warning(c);
+  EXPECT_NE(w.find("'host' = \"10.0.0.5\""), std::string::npos) << w;
+  EXPECT_NE(w.find("plaintext"), std::string::npos);
+  MqttConfig local;
+  ASSERT_FALSE(parse("", local));
+  EXPECT_EQ(plaintext_warning(local), "");
+}
+
+TEST(MqttConfig, GoodWriteAllow) {
+  MqttConfig c;
+  const plugin::Error e =
+      parse("writes_enabled = true\nwrite_allow = [\"rot\", \"mt:preset\", \"*:store\"]\n", c);
+  ASSERT_FALSE(e) << e.message;
+  EXPECT_TRUE(c.writes.enabled);
+  ASSERT_EQ(c.writes.allow.size(), 3u);
+  EXPECT_EQ(c.writes.allow[1].device, "mt");
+  EXPECT_EQ(c.writes.allow[1].kind, COBRIDGE_COMMAND_PRESET);
+  EXPECT_EQ(c.writes.allow[2].device, "*");
+  EXPECT_EQ(c.writes.allow[2].kind, COBRIDGE_COMMAND_STORE);
 }
 
 TEST(MqttConfig, GoodFullTable) {
@@ -94,6 +131,15 @@ TEST(MqttConfig, BadValuesNameTheirKey) {
       {"[deadband]\nPositon = 1\n", ConfigErrc::kUnknownKey, "'deadband.Positon'"},
       {"[deadband]\nPosition = -1\n", ConfigErrc::kOutOfRange, "'deadband.Position'"},
       {"host = \n", ConfigErrc::kSyntax, "config:"},
+      {"writes_enabled = 1\n", ConfigErrc::kWrongType, "'writes_enabled'"},
+      {"bdseq_file = \"/nonexistent/dir/b\"\n", ConfigErrc::kBadFile, "'bdseq_file'"},
+      {"store_seconds = -1\n", ConfigErrc::kOutOfRange, "'store_seconds'"},
+      {"store_rate = 0\n", ConfigErrc::kOutOfRange, "'store_rate'"},
+      {"write_allow = \"rot\"\n", ConfigErrc::kWrongType, "'write_allow'"},
+      {"write_allow = [\"rot:reboot\"]\n", ConfigErrc::kOutOfRange, "'write_allow[0]'"},
+      {"write_allow = [\"rot\", 3]\n", ConfigErrc::kWrongType, "'write_allow[1]'"},
+      {"write_allow = [\":store\"]\n", ConfigErrc::kOutOfRange, "'write_allow[0]'"},
+      {"write_allow = [\"*\"]\n", ConfigErrc::kOutOfRange, "'write_allow[0]'"},
   };
   for (const BadCase& bc : cases) {
     MqttConfig c;

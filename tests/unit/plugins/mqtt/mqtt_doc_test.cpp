@@ -45,7 +45,7 @@ TEST(MqttDoc, MetricTableMatchesTheCatalogue) {
   while (std::getline(in, line))
     if (std::regex_search(line, m, row)) doc[std::stoi(m[1])] = {m[2], m[3]};
   std::size_t n = 0;
-  for (const auto defs : {process_metrics(), identity_metrics()}) {
+  for (const auto defs : {process_metrics(), command_metrics(), identity_metrics()}) {
     for (const MetricDef& d : defs) {
       ++n;
       const auto it = doc.find(static_cast<int>(d.id));
