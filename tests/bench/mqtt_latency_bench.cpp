@@ -847,6 +847,12 @@ void print_figures(unsigned rate, RunResult& plugin, RunResult& bare) {
               bare.missing(), bare.tally.out_of_order, bare.sent);
   std::printf("FIGURE mqtt rate=%u delivered plugin=%.0f bare=%.0f samples/s\n", rate, plugin.delivered_rate(),
               bare.delivered_rate());
+  const auto cores = [](const RunResult& r, double cpu_s) { return r.wall_s > 0 ? cpu_s / r.wall_s : 0.0; };
+  std::printf("FIGURE mqtt rate=%u cpu cores plugin broker=%.2f subscriber=%.2f gateway=%.2f | bare broker=%.2f "
+              "subscriber=%.2f gateway=%.2f\n",
+              rate, cores(plugin, plugin.cpu_broker_s), cores(plugin, plugin.cpu_subscriber_s),
+              cores(plugin, plugin.cpu_gateway_s), cores(bare, bare.cpu_broker_s), cores(bare, bare.cpu_subscriber_s),
+              cores(bare, bare.cpu_gateway_s));
   const Figures call = figures(plugin.cost);
   std::printf("FIGURE mqtt rate=%u allocations feeding thread=%llu whole process=%llu in %" PRIu64
               " samples | bare feeding thread=%llu | on_samples per sample p50=%.2f p99=%.2f us\n",
