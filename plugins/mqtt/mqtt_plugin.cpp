@@ -8,7 +8,8 @@
 //   - publisher (ours): drains the rings, runs the EdgeSession (births,
 //     DDATA, DDEATH) and hands messages to libmosquitto; polls the link's
 //     flags (session gained/lost, rebirth, primary host); takes DCMDs to the
-//     CommandDesk and publishes their results. Sleeps 1 ms when idle.
+//     CommandDesk and publishes their results. Idle, it waits on a Doorbell
+//     the dispatcher rings (at most 1 ms: the link's flags are polled).
 //   - libmosquitto's client thread (MosquittoLink): socket, keepalive, reconnects.
 //
 // A hot-standby pair is one edge node (ABI 4 on_role): only the gateway that
@@ -21,6 +22,7 @@
 #include "bdseq_file.hpp"
 #include "command_desk.hpp"
 #include "device_record.hpp"
+#include "doorbell.hpp"
 #include "edge_session.hpp"
 #include "mosquitto_link.hpp"
 #include "mqtt_config.hpp"
@@ -65,6 +67,7 @@ struct Plugin {
   std::thread worker;
   std::atomic<bool> running{false};
   std::atomic<std::uint64_t> ring_drops{0};  // dispatcher side
+  Doorbell bell;  // the dispatcher rings it after queueing; the publisher waits on it
   // Hot standby: 0 = alone (always the edge node); else per bus roles
   // (dispatcher thread only) and whether this gateway is master of one.
   std::uint32_t pair_node = 0;
@@ -185,7 +188,9 @@ struct Plugin {
     while (running.load(std::memory_order_acquire)) {
       follow_role();
       poll_link(generation, primary);
-      if (!drain()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      if (!drain())
+        bell.wait(std::chrono::milliseconds(1),
+                  [this] { return samples->size_approx() != 0 || devices->size_approx() != 0; });
     }
   }
 };
@@ -250,12 +255,14 @@ void mqtt_on_samples(void* self, const cobridge_sample* samples, std::size_t cou
   auto* p = static_cast<Plugin*>(self);
   for (std::size_t i = 0; i < count; ++i)
     if (!p->samples->try_push(samples[i])) p->ring_drops.fetch_add(1, std::memory_order_relaxed);
+  if (count != 0) p->bell.ring();
 }
 
 void mqtt_on_device(void* self, const cobridge_device_info* info) {
   auto* p = static_cast<Plugin*>(self);
   if (info == nullptr || info->struct_size < offsetof(cobridge_device_info, serial) + sizeof(info->serial)) return;
   if (!p->devices->try_push(from_info(*info))) p->ring_drops.fetch_add(1, std::memory_order_relaxed);
+  p->bell.ring();
 }
 
 // ABI 4: a bus's role changed (hot standby). Dispatcher thread: records

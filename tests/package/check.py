@@ -140,6 +140,27 @@ def journal(*args):
     return out
 
 
+def mqtt_figures():
+    outs = [o for o in status().get("outputs", []) if o.get("type") == "mqtt"]
+    return outs[0] if outs else None
+
+
+def check_mqtt():
+    # The broker may have started after the daemon: the plugin reconnects.
+    out, took = wait(lambda: (mqtt_figures() or {}).get("figures", {}).get("mqtt_connected") == 1 or None, 30)
+    o = mqtt_figures()
+    check(took is not None, "Sparkplug B: the mqtt plugin loaded and connected to the root's Mosquitto",
+          repr(o)[:300])
+    # Both encoders move in the simulator, and each change is a DDATA (report by
+    # exception): a few hundred messages hold both devices'.
+    rc, out, err = sh("mosquitto_sub", "-h", "127.0.0.1", "-t", "spBv1.0/package-test/#", "-F", "%t",
+                      "-C", "300", "-W", "20", timeout=40)
+    topics = out.split()
+    want = {"spBv1.0/package-test/DDATA/gw1/%s" % n for n in DEVICES}
+    check(rc == 0 and want <= set(topics), "Sparkplug B: mosquitto_sub receives DDATA of both encoders",
+          "rc %d, %d messages, topics %r %s" % (rc, len(topics), sorted(set(topics)), err.strip()[:200]))
+
+
 def main():
     # ---- Type=notify: active means READY=1 was received
     p, took = wait(lambda: show("ActiveState")["ActiveState"] == "active" or None, 120)
@@ -203,6 +224,11 @@ def main():
     lines = [l for l in out.splitlines() if l.strip()]
     check(rc == 0 and len(lines) >= 4 and any("pos=" in l for l in lines),
           "DDS: cobridge watch receives samples", (lines[:2] if lines else err.strip()[:200]).__repr__())
+
+    # ---- values flow to MQTT (Sparkplug B, docs/mqtt.md): the shipped plugin
+    # loads in a clean root with the dependencies the package declares, and a
+    # stock client of the site's broker (mosquitto_sub) receives its messages.
+    check_mqtt()
 
     # ---- reload keeps the PID and applies the change
     st = status()
