@@ -575,8 +575,10 @@ class PluginPublisher {
   static std::uint64_t births() { return kDevices; }
 
   bool start() {
+    // bdSeq in the temporary folder (its default is the daemon's /var/lib/cobridge).
+    const std::string bdseq = (std::filesystem::temp_directory_path() / "cobridge-mqtt-bench.bdseq").string();
     const std::string config = "host = \"127.0.0.1\"\nport = " + std::to_string(port_) + "\ngroup_id = \"" +
-                               kGroup + "\"\nedge_node_id = \"" + kEdge + "\"\n";
+                               kGroup + "\"\nedge_node_id = \"" + kEdge + "\"\nbdseq_file = \"" + bdseq + "\"\n";
     if (const Error err = host_.load({"mqtt", "mqtt", COBRIDGE_MQTT_PLUGIN_FILE, config})) {
       std::fprintf(stderr, "load failed: %s\n", err.message.c_str());
       return false;
