@@ -17,25 +17,24 @@ std::uint32_t* word(std::atomic<std::uint32_t>& a) noexcept { return reinterpret
 }  // namespace
 
 void Doorbell::ring() noexcept {
-  std::atomic_thread_fence(std::memory_order_seq_cst);  // the push before the look at the flag
-  if (!sleeping_.load(std::memory_order_relaxed)) return;
-  count_.fetch_add(1, std::memory_order_release);
+  // An RMW, not a load: if it comes after the sleeper's fetch_or it sees the
+  // flag; if before, the sleeper's fetch_or reads from it and so sees the push.
+  const std::uint32_t prev = word_.fetch_add(kOneRing, std::memory_order_acq_rel);
+  if ((prev & kSleeping) == 0) return;
   wakes_.fetch_add(1, std::memory_order_relaxed);
-  ::syscall(SYS_futex, word(count_), FUTEX_WAKE_PRIVATE, 1, nullptr, nullptr, 0);
+  ::syscall(SYS_futex, word(word_), FUTEX_WAKE_PRIVATE, 1, nullptr, nullptr, 0);
 }
 
 void Doorbell::wait(std::chrono::microseconds timeout, const std::function<bool()>& has_work) noexcept {
-  const std::uint32_t seen = count_.load(std::memory_order_acquire);
-  sleeping_.store(true, std::memory_order_relaxed);
-  std::atomic_thread_fence(std::memory_order_seq_cst);  // the flag before the look at the queues
+  const std::uint32_t seen = word_.fetch_or(kSleeping, std::memory_order_acq_rel) | kSleeping;
   if (!has_work()) {
     const auto s = std::chrono::duration_cast<std::chrono::seconds>(timeout);
     const timespec ts{static_cast<time_t>(s.count()),
                       static_cast<long>(std::chrono::duration_cast<std::chrono::nanoseconds>(timeout - s).count())};
-    // Returns at a ring (count moved: EAGAIN or a wake), at the timeout, or on a signal.
-    ::syscall(SYS_futex, word(count_), FUTEX_WAIT_PRIVATE, seen, &ts, nullptr, 0);
+    // Returns at a ring (the word moved: EAGAIN or a wake), at the timeout, or on a signal.
+    ::syscall(SYS_futex, word(word_), FUTEX_WAIT_PRIVATE, seen, &ts, nullptr, 0);
   }
-  sleeping_.store(false, std::memory_order_relaxed);
+  word_.fetch_and(~kSleeping, std::memory_order_relaxed);
 }
 
 }  // namespace cobridge::mqtt

@@ -7,12 +7,16 @@
 // so often (role, session, commands from libmosquitto's thread), so its wait
 // keeps a timeout; a ring() ends the wait at once.
 //
-// The pattern is an event count: the sleeper says it is about to sleep
-// (sleeping_ = true), looks at its queues once more, and sleeps on the
-// count only if they are still empty; the ringer pushes, then rings, and
-// calls the kernel (a futex wake) only when it sees the sleeper's flag. The
-// two sequentially consistent fences order "push, read flag" against "set
-// flag, read queues", so a push is never missed for the whole timeout.
+// The pattern is an event count on one word: bit 0 says the sleeper is
+// about to sleep, the rest counts rings. The sleeper sets the bit
+// (fetch_or), looks at its queues once more, and sleeps on the word only if
+// they are still empty; the ringer pushes, then adds a ring (fetch_add) and
+// calls the kernel (a futex wake) only when the bit was set. Both are
+// read-modify-writes of the same word, so one comes first: a ring after the
+// fetch_or sees the bit (and moves the word, so a sleep not yet begun
+// returns at once); a ring before it is read by the fetch_or, which then
+// sees the push. No push is missed for the whole timeout, and no fence is
+// needed (TSan does not model fences).
 //
 // Thread contract: ring() from one producer thread (the dispatcher: no
 // lock, no allocation; a system call only while the consumer sleeps);
@@ -37,8 +41,9 @@ class Doorbell {
   [[nodiscard]] std::uint64_t wakes() const noexcept { return wakes_.load(std::memory_order_relaxed); }
 
  private:
-  std::atomic<std::uint32_t> count_{0};  // the futex word
-  std::atomic<bool> sleeping_{false};
+  static constexpr std::uint32_t kSleeping = 1;  // bit 0
+  static constexpr std::uint32_t kOneRing = 2;   // the count above it
+  std::atomic<std::uint32_t> word_{0};  // the futex word
   std::atomic<std::uint64_t> wakes_{0};
 };
 
