@@ -44,6 +44,8 @@
 //                                   [placement = shared|pinned]
 // pinned: the subscriber on the last CPU, the gateway side on CPU 0.
 // CYCLONEDDS_URI, if unset, is pinned to the loopback interface.
+#include "bench_devices.hpp"
+#include "bench_time.hpp"
 #include "alloc_counter.hpp"
 #include "pipeline/plugin_host.hpp"
 #include "pipeline/sample.hpp"
@@ -74,35 +76,12 @@ using namespace cobridge;
 
 namespace {
 
+using namespace cobridge::bench;  // bench_time.hpp: clocks and percentiles
+
 constexpr std::uint32_t kStop = 0xFFFFFFFFu;  // sequence_number of the ping that ends the child
 constexpr std::size_t kTake = 256;
 
-std::uint64_t realtime_ns() {
-  timespec ts{};
-  clock_gettime(CLOCK_REALTIME, &ts);
-  return static_cast<std::uint64_t>(ts.tv_sec) * 1000000000ull + static_cast<std::uint64_t>(ts.tv_nsec);
-}
-std::uint64_t mono_ns() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::uint64_t>(ts.tv_sec) * 1000000000ull + static_cast<std::uint64_t>(ts.tv_nsec);
-}
 
-struct Figures {
-  std::uint64_t count = 0, p50 = 0, p99 = 0, p999 = 0, max = 0;
-};
-Figures figures(std::vector<std::uint64_t>& v) {
-  Figures f;
-  f.count = v.size();
-  if (v.empty()) return f;
-  std::sort(v.begin(), v.end());
-  auto at = [&](double q) { return v[std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())))]; };
-  f.p50 = at(0.50);
-  f.p99 = at(0.99);
-  f.p999 = at(0.999);
-  f.max = v.back();
-  return f;
-}
 double ratio(std::uint64_t a, std::uint64_t b) { return b != 0 ? static_cast<double>(a) / static_cast<double>(b) : 0.0; }
 void print(const char* what, const Figures& f) {
   std::printf("  %-44s n=%-8" PRIu64 " p50=%7.1f us  p99=%7.1f us  p99.9=%7.1f us  max=%8.1f us\n", what, f.count,
@@ -276,10 +255,6 @@ struct Feeder {
   }
 };
 
-void sleep_until_mono(std::uint64_t t_ns) {
-  const timespec ts{static_cast<time_t>(t_ns / 1000000000ull), static_cast<long>(t_ns % 1000000000ull)};
-  clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
-}
 
 // The spread feed's clock: sample k is due at start + k / rate and carries
 // the receive time real0 + k / rate. On each wake-up, take(first, n, rx_ns)
@@ -318,18 +293,7 @@ Figures plugin_run(const char* label, Feed feed, const std::string& config, doub
     return {};
   }
   if (!host.start_all().empty()) return {};
-  for (unsigned d = 0; d < kDevices; ++d) {
-    cobridge_device_info info{};
-    info.struct_size = sizeof info;
-    info.device_index = static_cast<std::uint16_t>(d);
-    info.bus_index = static_cast<std::uint8_t>(d / 8);
-    info.node_id = static_cast<std::uint8_t>(1 + d % 8);
-    info.change = COBRIDGE_DEVICE_ADDED;
-    const std::string name = "axis " + std::to_string(d);
-    info.name = name.c_str();
-    info.bus_name = info.model = info.family = info.position_unit = "";
-    host.announce(info);
-  }
+  announce_devices(host, kDevices, [](unsigned d) { return "axis " + std::to_string(d); });
   usleep(500000);  // let discovery of the plugin's writers settle
 
   Feeder feeder;

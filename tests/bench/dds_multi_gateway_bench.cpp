@@ -15,6 +15,7 @@
 //
 // Usage: cobridge_bench_dds_multi_gateway [seconds = 10] [reliable|best-effort]
 //                                         [auto|writer-thread|dispatcher]
+#include "bench_time.hpp"
 #include "pipeline/plugin_host.hpp"
 #include "pipeline/sample.hpp"
 
@@ -40,18 +41,11 @@ using namespace cobridge;
 
 namespace {
 
+using namespace cobridge::bench;  // bench_time.hpp: clocks and percentiles
+
 constexpr unsigned kGateways = 2, kDevices = 4;
 constexpr std::uint32_t kTake = 256;
 
-std::uint64_t mono_ns() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::uint64_t>(ts.tv_sec) * 1000000000ull + static_cast<std::uint64_t>(ts.tv_nsec);
-}
-void sleep_until_mono(std::uint64_t t_ns) {
-  const timespec ts{static_cast<time_t>(t_ns / 1000000000ull), static_cast<long>(t_ns % 1000000000ull)};
-  clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
-}
 
 struct Count {
   std::uint64_t samples = 0, gaps = 0, lost = 0;

@@ -48,6 +48,8 @@
 // Usage: cobridge_bench_mqtt_latency [seconds per publisher and rate = 10]
 //                                    [rate,rate... = 32000,1000] [slices = 5]
 // Lines starting "FIGURE mqtt" are what scripts/bench reads.
+#include "bench_devices.hpp"
+#include "bench_time.hpp"
 #include "alloc_counter.hpp"
 #include "pipeline/plugin_host.hpp"
 #include "pipeline/sample.hpp"
@@ -83,6 +85,8 @@ using namespace cobridge;
 
 namespace {
 
+using namespace cobridge::bench;  // bench_time.hpp: clocks and percentiles
+
 constexpr unsigned kDevices = 32;
 constexpr const char* kGroup = "bench";
 constexpr const char* kEdge = "bench-gw";
@@ -90,36 +94,7 @@ constexpr const char* kEdge = "bench-gw";
 constexpr std::uint64_t kPositionId = 1, kSpeedId = 3;
 constexpr std::uint32_t kInt32 = 3, kInt64 = 4;  // Sparkplug datatypes (spec 6.4.16)
 
-std::uint64_t realtime_ns() {
-  timespec ts{};
-  clock_gettime(CLOCK_REALTIME, &ts);
-  return static_cast<std::uint64_t>(ts.tv_sec) * 1000000000ull + static_cast<std::uint64_t>(ts.tv_nsec);
-}
-std::uint64_t mono_ns() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::uint64_t>(ts.tv_sec) * 1000000000ull + static_cast<std::uint64_t>(ts.tv_nsec);
-}
-void sleep_until_mono(std::uint64_t t_ns) {
-  const timespec ts{static_cast<time_t>(t_ns / 1000000000ull), static_cast<long>(t_ns % 1000000000ull)};
-  clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
-}
 
-struct Figures {
-  std::uint64_t count = 0, p50 = 0, p99 = 0, p999 = 0, max = 0;
-};
-Figures figures(std::vector<std::uint64_t>& v) {
-  Figures f;
-  f.count = v.size();
-  if (v.empty()) return f;
-  std::sort(v.begin(), v.end());
-  auto at = [&](double q) { return v[std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())))]; };
-  f.p50 = at(0.50);
-  f.p99 = at(0.99);
-  f.p999 = at(0.999);
-  f.max = v.back();
-  return f;
-}
 double us(std::uint64_t ns) { return static_cast<double>(ns) / 1e3; }
 void print(const char* what, const Figures& f) {
   std::printf("  %-42s n=%-8" PRIu64 " p50=%8.1f us  p99=%8.1f us  p99.9=%8.1f us  max=%9.1f us\n", what, f.count,
@@ -584,18 +559,7 @@ class PluginPublisher {
       return false;
     }
     if (!host_.start_all().empty()) return false;
-    for (unsigned d = 0; d < kDevices; ++d) {
-      cobridge_device_info info{};
-      info.struct_size = sizeof info;
-      info.device_index = static_cast<std::uint16_t>(d);
-      info.bus_index = static_cast<std::uint8_t>(d / 8);
-      info.node_id = static_cast<std::uint8_t>(1 + d % 8);
-      info.change = COBRIDGE_DEVICE_ADDED;
-      const std::string name = device_name(d);
-      info.name = name.c_str();
-      info.bus_name = info.model = info.family = info.position_unit = "";
-      host_.announce(info);
-    }
+    announce_devices(host_, kDevices, [](unsigned d) { return device_name(d); });
     return true;
   }
   void prepare(const Schedule& s) { cost_.reserve(s.total); }
