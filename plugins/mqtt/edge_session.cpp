@@ -49,6 +49,7 @@ EdgeSession::EdgeSession(Ids ids, const std::array<double, 16>& deadband, Publis
 }
 
 void EdgeSession::set_link(bool up, std::uint8_t bd_seq, std::uint64_t now_ms) {
+  flush();  // the old session's last DDATA (on a lost link: counted as drops)
   link_up_ = up;
   bd_seq_ = bd_seq;
   node_born_ = false;  // a new MQTT session is a new Sparkplug session: births again
@@ -58,12 +59,14 @@ void EdgeSession::set_link(bool up, std::uint8_t bd_seq, std::uint64_t now_ms) {
 
 void EdgeSession::set_primary_online(bool online, std::uint64_t now_ms) {
   if (online == primary_online_) return;
+  flush();
   primary_online_ = online;
   update_liveness(now_ms);
 }
 
 void EdgeSession::rebirth(std::uint64_t now_ms) {
   if (!live()) return;
+  flush();
   births(now_ms);
 }
 
@@ -89,51 +92,84 @@ void EdgeSession::births(std::uint64_t now_ms) {
     if (d.born) replay(d, now_ms);
 }
 
-// What changed beyond the deadband since the last sent (or stored) value
-// goes into the history, as DDATA would have carried it.
-void EdgeSession::store(Device& d, std::span<const Reading> readings, std::uint64_t ts_ms) {
-  std::array<Reading, kProcess> changed{};
+// What changed beyond the deadband since the last sent (or stored or
+// batched) value: into `out`, and taken as sent.
+std::size_t EdgeSession::take_changed(Device& d, std::span<const Reading> readings,
+                                      std::span<Reading, kProcess> out) noexcept {
   std::size_t n = 0;
   for (const Reading& r : readings) {
-    if (!worth_sending(d, r)) continue;
-    changed[n++] = r;
+    if (n == out.size() || !worth_sending(d, r)) continue;
+    out[n++] = r;
     const std::size_t k = process_index(r.id);
     d.sent[k] = r.value;
     d.has_sent[k] = true;
   }
+  return n;
+}
+
+// What DDATA would have carried goes into the history.
+void EdgeSession::store(Device& d, std::span<const Reading> readings, std::uint64_t ts_ms) {
+  std::array<Reading, kProcess> changed{};
+  const std::size_t n = take_changed(d, readings, changed);
   if (n == 0) return;
   const std::size_t dropped = d.history.push(ts_ms, std::span<const Reading>(changed.data(), n));
   counters_.stored.fetch_add(1, std::memory_order_relaxed);
   if (dropped != 0) counters_.store_drops.fetch_add(dropped, std::memory_order_relaxed);
 }
 
-void EdgeSession::flush_historical(Device& d) {
+// What DDATA would carry now waits in the device's batch for flush(); a
+// full batch goes out first.
+void EdgeSession::queue_ddata(Device& d, std::span<const Reading> readings, std::uint64_t ts_ms) {
+  std::array<Reading, kProcess> changed{};
+  const std::size_t n = take_changed(d, readings, changed);
+  if (n == 0) return;
+  if (d.batch.size() == d.batch.capacity()) flush_device(d);
+  if (d.batch.size() == 0) ++batched_devices_;
+  (void)d.batch.push(ts_ms, std::span<const Reading>(changed.data(), n));
+}
+
+void EdgeSession::flush_device(Device& d) {
+  if (d.batch.size() == 0) return;
+  --batched_devices_;
+  publish_entries(d, d.batch, false, d.batch.at(d.batch.size() - 1).ts_ms);
+  d.batch.clear();
+}
+
+void EdgeSession::flush() {
+  for (std::size_t i = 0; i < devices_.size() && batched_devices_ != 0; ++i) flush_device(devices_[i]);
+}
+
+void EdgeSession::flush_entries(Device& d) {
   if (builder_.metric_count() == 0) return;
   builder_.set_seq(next_seq());
   send(d.ddata, false);
 }
 
-// The device's history as DDATA, oldest first, each metric with its frame's
-// time and is_historical (spec 5: store and forward); as many metrics per
-// message as fit.
-void EdgeSession::replay(Device& d, std::uint64_t now_ms) {
-  const std::size_t n = d.history.size();
-  if (n == 0) return;
-  builder_.begin(now_ms, std::nullopt);
-  for (std::size_t i = 0; i < n; ++i) {
-    const HistoryBuffer::Entry& e = d.history.at(i);
+// Entries as DDATA, oldest first, each metric with its frame's time (and
+// is_historical for the history: spec 5, store and forward); as many
+// metrics per message as fit.
+void EdgeSession::publish_entries(Device& d, const HistoryBuffer& entries, bool historical, std::uint64_t payload_ms) {
+  builder_.begin(payload_ms, std::nullopt);
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    const HistoryBuffer::Entry& e = entries.at(i);
     if (builder_.metric_count() + e.count > PayloadBuilder::kMaxMetrics) {
-      flush_historical(d);
-      builder_.begin(now_ms, std::nullopt);
+      flush_entries(d);
+      builder_.begin(payload_ms, std::nullopt);
     }
     for (std::size_t j = 0; j < e.count; ++j) {
       const MetricDef* m = find_metric(e.ids[j]);
       (void)builder_.add_scalar(nullptr, device_alias(d.info.device_index, e.ids[j]), e.ts_ms, m->type,
                                 e.values[j]);
-      builder_.mark_historical();
+      if (historical) builder_.mark_historical();
     }
   }
-  flush_historical(d);
+  flush_entries(d);
+}
+
+void EdgeSession::replay(Device& d, std::uint64_t now_ms) {
+  const std::size_t n = d.history.size();
+  if (n == 0) return;
+  publish_entries(d, d.history, true, now_ms);
   counters_.replayed.fetch_add(n, std::memory_order_relaxed);
   d.history.clear();
 }
@@ -197,6 +233,7 @@ void EdgeSession::publish_result(const CommandResult& r, std::uint64_t now_ms) {
     return;
   }
   Device& d = devices_[r.device_index];
+  flush_device(d);
   builder_.begin(now_ms, next_seq());
   (void)builder_.add_string(nullptr, device_alias(r.device_index, DeviceMetric::kCmdClient), now_ms,
                             DataType::kString, r.client.c_str());
@@ -218,6 +255,7 @@ const char* EdgeSession::device_name(std::uint16_t index) const noexcept {
 }
 
 void EdgeSession::publish_dbirth(Device& d, std::uint64_t now_ms) {
+  flush_device(d);  // its DDATA before its birth, in seq
   builder_.begin(now_ms, next_seq());
   for (const MetricDef& m : process_metrics()) {
     const std::size_t k = process_index(m.id);
@@ -238,6 +276,7 @@ void EdgeSession::publish_dbirth(Device& d, std::uint64_t now_ms) {
 }
 
 void EdgeSession::publish_ddeath(Device& d, std::uint64_t now_ms) {
+  flush_device(d);  // its last DDATA before its death
   builder_.begin(now_ms, next_seq());
   send(d.ddeath, false);
   counters_.deaths.fetch_add(1, std::memory_order_relaxed);
@@ -249,12 +288,16 @@ void EdgeSession::on_device(const DeviceRecord& r, std::uint64_t now_ms) {
   Device& d = devices_[r.device_index];
   if (r.change == COBRIDGE_DEVICE_REMOVED) {
     if (d.born && live()) publish_ddeath(d, now_ms);
+    if (d.batch.size() != 0) --batched_devices_;
     d = Device{};
     return;
   }
   const bool renamed = !d.known || std::string_view(d.info.name) != std::string_view(r.name);
   if (renamed && d.born && live()) publish_ddeath(d, now_ms);  // the old device id dies
-  if (!d.known) d.history.reset(ids_.store_capacity, ids_.store_window_ms);  // once: off the hot path
+  if (!d.known) {  // once: off the hot path
+    d.history.reset(ids_.store_capacity, ids_.store_window_ms);
+    d.batch.reset(ids_.batch_samples, 0);
+  }
   d.known = true;
   d.info = r;
   if (renamed) {
@@ -335,7 +378,12 @@ void EdgeSession::on_sample(const cobridge_sample& s, std::uint64_t now_ms) {
     replay(d, now_ms);          // what it had stored while the node could not publish
     return;
   }
-  if (was_born && n != 0) publish_ddata(d, std::span<const Reading>(readings.data(), n), ts_ms);
+  if (!was_born || n == 0) return;
+  if (d.batch.capacity() != 0) {
+    queue_ddata(d, std::span<const Reading>(readings.data(), n), ts_ms);
+  } else {
+    publish_ddata(d, std::span<const Reading>(readings.data(), n), ts_ms);
+  }
 }
 
 }  // namespace cobridge::mqtt

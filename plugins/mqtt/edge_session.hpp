@@ -84,6 +84,9 @@ class EdgeSession {
     // Store and forward: entries per device (0 = off) and their window.
     std::size_t store_capacity = 0;
     std::uint64_t store_window_ms = 0;
+    // Batching: on_sample() queues a device's DDATA (at most this many
+    // samples) until flush(); 0 = each sample's DDATA at once.
+    std::size_t batch_samples = 0;
   };
 
   EdgeSession(Ids ids, const std::array<double, 16>& deadband, Publisher& out);
@@ -101,6 +104,12 @@ class EdgeSession {
   void set_active(bool active) noexcept { active_ = active; }
   void on_device(const DeviceRecord& record, std::uint64_t now_ms);
   void on_sample(const cobridge_sample& sample, std::uint64_t now_ms);
+  // Publishes the DDATA batched since the last flush(): one message per
+  // device (more if it holds over PayloadBuilder::kMaxMetrics metrics), each
+  // metric with its own frame's time. The publisher calls it after each pass
+  // over its queue, so a lone sample waits for nothing and a burst that
+  // queued while it published goes out in few messages.
+  void flush();
   // A command's outcome or refusal as the device's DDATA; not sent (counted
   // as a drop) while the device is not born.
   void publish_result(const CommandResult& result, std::uint64_t now_ms);
@@ -131,6 +140,7 @@ class EdgeSession {
     std::array<Scalar, kProcess> sent{};
     std::array<bool, kProcess> has_sent{};
     HistoryBuffer history;
+    HistoryBuffer batch;  // DDATA not yet flushed (Ids::batch_samples)
   };
 
   void update_liveness(std::uint64_t now_ms);
@@ -143,8 +153,12 @@ class EdgeSession {
   void publish_ddata(Device& d, std::span<const Reading> readings, std::uint64_t ts_ms);
   void track_status(Device& d, const cobridge_sample& s, std::uint64_t now_ms);
   void store(Device& d, std::span<const Reading> readings, std::uint64_t ts_ms);
+  std::size_t take_changed(Device& d, std::span<const Reading> readings, std::span<Reading, kProcess> out) noexcept;
+  void queue_ddata(Device& d, std::span<const Reading> readings, std::uint64_t ts_ms);
+  void flush_device(Device& d);
+  void publish_entries(Device& d, const HistoryBuffer& entries, bool historical, std::uint64_t payload_ms);
   void replay(Device& d, std::uint64_t now_ms);
-  void flush_historical(Device& d);
+  void flush_entries(Device& d);
   [[nodiscard]] bool worth_sending(const Device& d, const Reading& r) const noexcept;
   void send(const std::string& topic, bool birth);
   std::uint8_t next_seq() noexcept { return seq_++; }  // wraps 255 -> 0
@@ -162,6 +176,7 @@ class EdgeSession {
   bool active_ = true;
   std::uint8_t bd_seq_ = 0;
   std::uint8_t seq_ = 0;
+  std::size_t batched_devices_ = 0;  // devices whose batch is not empty
   SessionCounters counters_;
 };
 

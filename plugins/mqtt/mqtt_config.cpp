@@ -159,12 +159,15 @@ plugin::Error apply_key(const std::string& k, const toml::node& node, MqttConfig
     if (!(e = get_int(node, k, 0, 3600, n))) c.store_seconds = static_cast<std::uint32_t>(n);
   } else if (k == "store_rate") {
     if (!(e = get_int(node, k, 1, 10000, n))) c.store_rate = static_cast<std::uint32_t>(n);
+  } else if (k == "batch_samples") {
+    if (!(e = get_int(node, k, 0, 1024, n))) c.batch_samples = static_cast<std::uint32_t>(n);
   } else if (k == "queue_depth") {
     if (!(e = get_int(node, k, 64, 1 << 20, n))) c.queue_depth = static_cast<std::uint32_t>(n);
   } else {
     e = fail(ConfigErrc::kUnknownKey, k,
              "is not a key of [outputs.mqtt] (host, port, client_id, group_id, edge_node_id, keepalive_s, username, "
-             "password_file, ca_file, cert_file, key_file, primary_host_id, queue_depth, store_seconds, store_rate, "
+             "password_file, ca_file, cert_file, key_file, primary_host_id, queue_depth, batch_samples, store_seconds, "
+             "store_rate, "
              "bdseq_file, writes_enabled, write_allow, deadband)");
   }
   return e;

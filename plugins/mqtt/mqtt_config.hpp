@@ -15,6 +15,10 @@
 //   cert_file, key_file = (absent)  TLS client certificate and key (both or neither; need ca_file)
 //   primary_host_id = (absent)      hold births and data until spBv1.0/STATE/<id> says online
 //   queue_depth     = 8192          samples buffered between the dispatcher and the publisher
+//   batch_samples   = 32            DDATA of one device batched within one pass of the
+//                                   publisher (what queued while it published): at most
+//                                   this many samples per device and message; 0 = one
+//                                   DDATA per sample
 //   store_seconds   = 30            store and forward: DDATA kept per device while the
 //                                   broker is away, at most this old (0 = off)
 //   store_rate      = 50            ... and at most store_seconds x this many entries
@@ -56,6 +60,7 @@ struct MqttConfig {
   std::string key_file;
   std::string primary_host_id;
   std::uint32_t queue_depth = 8192;
+  std::uint32_t batch_samples = 32;
   WritePolicy writes;
   std::string bdseq_file;  // default filled from edge_node_id; "" = not persisted
   bool bdseq_file_set = false;

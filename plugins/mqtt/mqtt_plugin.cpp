@@ -139,6 +139,7 @@ struct Plugin {
       if (batch[i].kind == COBRIDGE_SAMPLE_COMMAND)
         if (auto result = desk->on_sample(batch[i])) session->publish_result(*result, now);
     }
+    session->flush();  // the pass's DDATA, one message per device
     return take_commands() || busy || n != 0;
   }
 
@@ -208,7 +209,7 @@ int mqtt_start(void* self) {
     p->publisher = std::make_unique<LinkPublisher>(*p->link);
     EdgeSession::Ids ids{p->config.group_id, p->config.edge_node_id, !p->config.primary_host_id.empty(),
                          std::size_t{p->config.store_seconds} * p->config.store_rate,
-                         std::uint64_t{p->config.store_seconds} * 1000u};
+                         std::uint64_t{p->config.store_seconds} * 1000u, p->config.batch_samples};
     p->session = std::make_unique<EdgeSession>(ids, p->config.deadband, *p->publisher);
     p->make_desk();
     if (p->config.writes.enabled && !p->host_takes_commands())

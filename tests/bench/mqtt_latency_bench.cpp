@@ -189,22 +189,31 @@ bool position_of(WireReader m, unsigned& device, std::uint64_t& value) {
   return true;
 }
 
-// The Position metric of a DDATA payload: its device (from the alias) and value.
-bool find_position(const std::uint8_t* data, std::size_t len, unsigned& device, std::uint64_t& value) {
+// Every Position metric of a DDATA payload (one per sample; a batched
+// DDATA holds several): its device (from the alias) and value, to `each`.
+// Returns how many; -1 for a payload that does not parse.
+template <typename Each>
+int for_each_position(const std::uint8_t* data, std::size_t len, Each&& each) {
   WireReader r{data, data + len};
   std::uint64_t key = 0, n = 0;
+  int found = 0;
   while (r.p < r.end) {
-    if (!r.varint(key)) return false;
+    if (!r.varint(key)) return -1;
     if (key != 0x12) {
-      if (!r.skip(key & 7u)) return false;
+      if (!r.skip(key & 7u)) return -1;
       continue;
     }
-    if (!r.varint(n) || n > static_cast<std::uint64_t>(r.end - r.p)) return false;
+    if (!r.varint(n) || n > static_cast<std::uint64_t>(r.end - r.p)) return -1;
     const WireReader metric{r.p, r.p + n};
     r.p += n;
-    if (position_of(metric, device, value)) return true;
+    unsigned device = 0;
+    std::uint64_t value = 0;
+    if (position_of(metric, device, value)) {
+      each(device, value);
+      ++found;
+    }
   }
-  return false;
+  return found;
 }
 
 // CPU time (user + system) a process has used, in s (/proc/<pid>/stat
@@ -354,14 +363,21 @@ class Subscriber {
       ++tally_.births;
       return;
     }
-    unsigned d = 0;
-    std::uint64_t k = 0;
-    if (!live_ || topic.find("/DDATA/") == std::string_view::npos || !find_position(data, len, d, k) ||
-        k >= seen_.size() || d != k % kDevices) {
+    if (!live_ || topic.find("/DDATA/") == std::string_view::npos) {
       ++tally_.other;
       return;
     }
     tally_.ddata_bytes = len;
+    const int found = for_each_position(data, len, [&](unsigned d, std::uint64_t k) { take(now, d, k); });
+    if (found <= 0) ++tally_.other;
+  }
+
+  // One position: sample k of device d, arrived at `now`.
+  void take(std::uint64_t now, unsigned d, std::uint64_t k) {
+    if (k >= seen_.size() || d != k % kDevices) {
+      ++tally_.other;
+      return;
+    }
     if (seen_[k] != 0) {
       ++tally_.duplicates;
       return;

@@ -337,6 +337,56 @@ TEST_F(EdgeSessionTest, Spec5_StoreAndForwardAfterTheBirthsHistoricalInOrder) {
   EXPECT_FALSE(pub.sent.back().p->metrics[0]->has_is_historical);
 }
 
+// Batching (batch_samples): the DDATA of one pass over the queue go out as
+// one message per device at flush(), every metric with its own frame's time
+// (spec 6.4.x: a metric's timestamp is its own), no is_historical, one seq.
+TEST_F(EdgeSessionTest, Spec6_4_BatchedDdataOneMessagePerDeviceEachMetricWithItsFramesTime) {
+  EdgeSession s({"plant", "gw1", false, 0, 0, 32}, deadband_, pub);
+  s.on_device(device(0, "a"), 100);
+  s.on_device(device(1, "b"), 100);
+  s.set_link(true, 0, 200);
+  const std::size_t n = pub.sent.size();
+  for (int i = 1; i <= 5; ++i) {
+    s.on_sample(tpdo(0, i, static_cast<std::uint64_t>(i) * 1'000'000), 300);
+    s.on_sample(tpdo(1, 100 + i, static_cast<std::uint64_t>(i) * 1'000'000 + 500'000), 300);
+  }
+  EXPECT_EQ(pub.sent.size(), n) << "nothing before flush()";
+  s.flush();
+  ASSERT_EQ(pub.topics(n), (std::vector<std::string>{"spBv1.0/plant/DDATA/gw1/a", "spBv1.0/plant/DDATA/gw1/b"}));
+  const PbPayload* a = pub.sent[n].p;
+  EXPECT_EQ(a->seq, pub.sent[n - 1].p->seq + 1);
+  EXPECT_EQ(pub.sent[n + 1].p->seq, a->seq + 1);
+  std::vector<std::pair<std::uint64_t, std::int64_t>> got;
+  for (std::size_t j = 0; j < a->n_metrics; ++j) {
+    EXPECT_FALSE(a->metrics[j]->has_is_historical);
+    if (a->metrics[j]->alias == device_alias(0, DeviceMetric::kPosition))
+      got.emplace_back(a->metrics[j]->timestamp, static_cast<std::int64_t>(a->metrics[j]->long_value));
+  }
+  EXPECT_EQ(got, (std::vector<std::pair<std::uint64_t, std::int64_t>>{{1, 1}, {2, 2}, {3, 3}, {4, 4}, {5, 5}}));
+  s.flush();
+  EXPECT_EQ(pub.sent.size(), n + 2) << "a second flush has nothing to send";
+}
+
+// A device's batched DDATA precede its DDEATH (spec 5: DDATA of a dead
+// device would be out of order), and a full batch is sent before it grows.
+TEST_F(EdgeSessionTest, Spec5_BatchGoesOutBeforeTheDeathAndWhenFull) {
+  EdgeSession s({"plant", "gw1", false, 0, 0, 2}, deadband_, pub);
+  s.on_device(device(0, "a"), 100);
+  s.set_link(true, 0, 200);
+  const std::size_t n = pub.sent.size();
+  s.on_sample(tpdo(0, 1, 1'000'000), 300);
+  s.on_sample(tpdo(0, 2, 2'000'000), 300);
+  EXPECT_EQ(pub.sent.size(), n);
+  s.on_sample(tpdo(0, 3, 3'000'000), 300);  // the batch of 2 is full: it goes first
+  ASSERT_EQ(pub.sent.size(), n + 1);
+  EXPECT_EQ(pub.sent[n].p->n_metrics, 4u);  // 2 samples x (Position, position in units)
+  s.on_sample(status(0, false), 400);
+  EXPECT_EQ(pub.topics(n), (std::vector<std::string>{"spBv1.0/plant/DDATA/gw1/a", "spBv1.0/plant/DDATA/gw1/a",
+                                                     "spBv1.0/plant/DDEATH/gw1/a"}));
+  s.flush();
+  EXPECT_EQ(pub.sent.size(), n + 3);
+}
+
 // A full store drops its oldest entries and counts them.
 TEST_F(EdgeSessionTest, StoreFullDropsOldestCounted) {
   EdgeSession s({"plant", "gw1", false, 10, 0}, deadband_, pub);
