@@ -1,6 +1,7 @@
 // The benches' devices as a plugin sees them: `count` devices, eight per bus
 // at node-IDs 1..8, announced ADDED through the plugin host (ABI on_device).
-// The bench's own thread, before it feeds samples.
+// The bench's own thread, before it feeds samples. A template on the host
+// (pipeline::PluginHost): this folder's own library links no layer.
 #pragma once
 
 #include <cobridge/plugin.h>
@@ -9,12 +10,10 @@
 #include <functional>
 #include <string>
 
-#include "pipeline/plugin_host.hpp"
-
 namespace cobridge::bench {
 
-inline void announce_devices(pipeline::PluginHost& host, unsigned count,
-                             const std::function<std::string(unsigned)>& name_of) {
+template <typename Host>
+void announce_devices(Host& host, unsigned count, const std::function<std::string(unsigned)>& name_of) {
   for (unsigned d = 0; d < count; ++d) {
     cobridge_device_info info{};
     info.struct_size = sizeof info;
