@@ -13,7 +13,12 @@ namespace cobridge::gateway {
 
 BusManager::Impl::Impl(const config::Config& config_in, std::size_t index, const device::DeviceCatalog& catalog_in,
      StateStore& state_in, BusManagerOptions options_in)
-    : config(config_in), bus_index(index), catalog(catalog_in), state(state_in), options(options_in) {
+    : config(config_in),
+      bus_index(index),
+      catalog(catalog_in),
+      state(state_in),
+      options(options_in),
+      clock(options_in.clock != nullptr ? *options_in.clock : system_bus_clock()) {
   bus = config.buses.at(bus_index);
   log = sys::logger("gateway");
   build_devices();
@@ -68,18 +73,19 @@ BusManager::Impl::~Impl() {
   if (wake_fd >= 0) ::close(wake_fd);
 }
 
-Error BusManager::Impl::start() {
+Error BusManager::Impl::open_port() {
   const std::string where = "bus " + bus.name;
-  if (wake_fd < 0)
-    return Error(Errc::kUnavailable, "no eventfd for the control thread", where,
-                 std::make_error_code(std::errc::too_many_files_open));
+  if (options.port != nullptr) {
+    channel = options.port;
+    return {};
+  }
   can::SocketCanConfig cc;
   cc.interface = bus.interface;
   cc.wait_for_interface = true;  // a missing adapter is reported and waited for
   cc.reopen_backoff_max = kReopenBackoffMax;
-  channel = std::make_unique<can::SocketCanChannel>(cc);
-  if (Error err = channel->open()) {
-    channel.reset();
+  socket = std::make_unique<can::SocketCanChannel>(cc);
+  if (Error err = socket->open()) {
+    socket.reset();
     err.where = err.where.empty() ? where : where + ": " + err.where;
     return err;
   }
@@ -92,12 +98,21 @@ Error BusManager::Impl::start() {
       {canopen::cob::kNmtErrorControlBase, 0x780, false},   // boot-up/heartbeat/guarding 0x700..0x77F
       {canopen::cob::kEmcyBase, 0x780, false},              // EMCY 0x081..0x0FF
   }};
-  if (Error ferr = channel->set_filters(kFilters)) {
-    channel.reset();
+  if (Error ferr = socket->set_filters(kFilters)) {
+    socket.reset();
     ferr.where = ferr.where.empty() ? where : where + ": " + ferr.where;
     return ferr;
   }
-  started_at = Clock::now();
+  channel = socket.get();
+  return {};
+}
+
+Error BusManager::Impl::start() {
+  if (wake_fd < 0)
+    return Error(Errc::kUnavailable, "no eventfd for the control thread", "bus " + bus.name,
+                 std::make_error_code(std::errc::too_many_files_open));
+  if (Error e = open_port()) return e;
+  started_at = steady_now();
   publish_all();
   stop_requested.store(false);
   running.store(true);
@@ -120,53 +135,59 @@ void BusManager::Impl::wake() noexcept {
 }
 
 void BusManager::Impl::run() {
-  start_components(Clock::now());
-  std::array<can::Frame, can::SocketCanChannel::kBatch> frames{};
+  start_components(steady_now());
   while (!stop_requested.load(std::memory_order_relaxed)) {
-    TimePoint now = Clock::now();
-    take_commands(now);
-    const bool lost = receive(frames, now);  // the interface went down in this turn
-    if (handle_bus_events(now) || lost) {
-      // A lost bus is news at once: status and the outputs hear of it
-      // before the channel's reopen attempt, whose bind to an interface the
-      // kernel is still deleting waits for the unregistration (2.5-3 s in
-      // UML, vcan_daemon_adapter_hotplug).
-      open_flag.store(channel->is_open());
-      (void)handle_outputs(now);
-      publish_if_dirty();
-    }
-    if (config.redundancy && !election && channel->is_open()) start_election(now);
-    if (!discovery_started && channel->is_open() && !standby()) {
-      // Not before: probes sent to a missing interface would mark every
-      // device absent; nor as standby, whose probes are the master's.
-      discovery->start(now);
-      discovery_started = true;
-      check_configured_nodes(now);
-    }
-    loop_alive.store(now.time_since_epoch().count(), std::memory_order_relaxed);
-
-    TimePoint next = run_components(now);
-    // Handling the components' output may have started new work (a plan,
-    // a reconfiguration): give it a turn at once rather than a poll later.
-    // That handling can take milliseconds (the state store's fsync of a
-    // node-ID just assigned): what the socket took in meanwhile is
-    // dispatched before a component judges its timeouts at the new time, or
-    // a Fastscan answer waiting there would count as silence. (LssMaster
-    // judges an answer by its kernel stamp: one that came in time is in
-    // time, however late the turn gets to it.)
-    while (handle_outputs(now)) {
-      now = Clock::now();
-      rx_ready = true;
-      if (receive(frames, now)) open_flag.store(channel->is_open());
-      next = run_components(now);
-    }
-    update_ready(now);
-    publish_if_dirty();
-    next = std::min(next, flush_timelines(now));
-
+    TimePoint now = steady_now();
+    const TimePoint next = turn(now);
     wait(now, next);
   }
-  (void)flush_timelines(Clock::now(), true);
+  finish_run();
+}
+
+TimePoint BusManager::Impl::turn(TimePoint& now) {
+  take_commands(now);
+  const bool lost = receive(rx_frames, now);  // the interface went down in this turn
+  if (handle_bus_events(now) || lost) {
+    // A lost bus is news at once: status and the outputs hear of it
+    // before the channel's reopen attempt, whose bind to an interface the
+    // kernel is still deleting waits for the unregistration (2.5-3 s in
+    // UML, vcan_daemon_adapter_hotplug).
+    open_flag.store(channel->is_open());
+    (void)handle_outputs(now);
+    publish_if_dirty();
+  }
+  if (config.redundancy && !election && channel->is_open()) start_election(now);
+  if (!discovery_started && channel->is_open() && !standby()) {
+    // Not before: probes sent to a missing interface would mark every
+    // device absent; nor as standby, whose probes are the master's.
+    discovery->start(now);
+    discovery_started = true;
+    check_configured_nodes(now);
+  }
+  loop_alive.store(now.time_since_epoch().count(), std::memory_order_relaxed);
+
+  TimePoint next = run_components(now);
+  // Handling the components' output may have started new work (a plan,
+  // a reconfiguration): give it a turn at once rather than a poll later.
+  // That handling can take milliseconds (the state store's fsync of a
+  // node-ID just assigned): what the socket took in meanwhile is
+  // dispatched before a component judges its timeouts at the new time, or
+  // a Fastscan answer waiting there would count as silence. (LssMaster
+  // judges an answer by its kernel stamp: one that came in time is in
+  // time, however late the turn gets to it.)
+  while (handle_outputs(now)) {
+    now = steady_now();
+    rx_ready = true;
+    if (receive(rx_frames, now)) open_flag.store(channel->is_open());
+    next = run_components(now);
+  }
+  update_ready(now);
+  publish_if_dirty();
+  return std::min(next, flush_timelines(now));
+}
+
+void BusManager::Impl::finish_run() {
+  (void)flush_timelines(steady_now(), true);
   sync.stop();
   runners_abort();
   remote->abort_all("the bus stopped");
@@ -351,7 +372,10 @@ BusManager::BusManager(const config::Config& config, std::size_t bus_index, cons
                        StateStore& state, BusManagerOptions options)
     : impl_(std::make_unique<Impl>(config, bus_index, catalog, state, options)) {}
 
-BusManager::~BusManager() { stop(); }
+BusManager::~BusManager() {
+  stop();
+  close();
+}
 
 Error BusManager::start() {
   if (impl_->thread.joinable())
@@ -369,10 +393,33 @@ void BusManager::stop() {
   impl_->stop();
 }
 
+Error BusManager::open() {
+  if (impl_->thread.joinable() || impl_->running.load())
+    return Error(Errc::kFailed, "already started", "bus " + impl_->bus.name,
+                 std::make_error_code(std::errc::device_or_resource_busy));
+  if (Error e = impl_->open_port()) return e;
+  impl_->started_at = impl_->steady_now();
+  impl_->publish_all();
+  impl_->running.store(true);
+  impl_->start_components(impl_->started_at);
+  return {};
+}
+
+canopen::TimePoint BusManager::turn(canopen::TimePoint now) {
+  impl_->rx_ready = true;  // no poll said otherwise
+  return impl_->turn(now);
+}
+
+void BusManager::close() {
+  if (impl_->thread.joinable() || !impl_->running.load()) return;
+  impl_->finish_run();
+  impl_->running.store(false);
+}
+
 bool BusManager::ready() const {
   if (impl_->ready_latched.load()) return true;
   // Also true when the thread is late to notice the timeout (or never ran).
-  return impl_->started_at != TimePoint{} && Clock::now() - impl_->started_at >= impl_->options.ready_timeout;
+  return impl_->started_at != TimePoint{} && impl_->steady_now() - impl_->started_at >= impl_->options.ready_timeout;
 }
 
 bool BusManager::serving() const {
@@ -380,7 +427,7 @@ bool BusManager::serving() const {
   // stop the watchdog, or systemd would restart the daemon and take the other
   // buses down with it. The loop turns at least every kMaxPollWait.
   const Clock::time_point last{Clock::duration{impl_->loop_alive.load(std::memory_order_relaxed)}};
-  return impl_->running.load() && Clock::now() - last < 3 * kMaxPollWait;
+  return impl_->running.load() && impl_->steady_now() - last < 3 * kMaxPollWait;
 }
 
 BusStatus BusManager::status() const {

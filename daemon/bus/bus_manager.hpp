@@ -17,12 +17,14 @@
 
 #include "config/config.hpp"
 #include "device/device_catalog.hpp"
+#include "bus/bus_clock.hpp"
 #include "bus/bus_health.hpp"
 #include "bus/device_command.hpp"
 #include "bus/device_status.hpp"
 #include "bus/remote/remote_command.hpp"
 #include "bus/remote/remote_replies.hpp"
 #include "bus/state_store.hpp"
+#include "can/bus_port.hpp"
 
 #include <memory>
 #include <system_error>
@@ -81,6 +83,12 @@ struct BusManagerOptions {
   // The bus's flight recorder captures: the control thread requests one
   // around each fault it sees. nullptr: recorder off.
   CaptureWriter* captures = nullptr;
+  // Unit tests: the bus to run on instead of a SocketCAN socket on the
+  // configured interface (can::VirtualBus::Port; the caller owns it), and
+  // the clock to read instead of the system's. With them, open() and
+  // turn() drive the bus without a thread, on the test's time.
+  can::BusPort* port = nullptr;
+  const BusClock* clock = nullptr;
 };
 
 class BusManager {
@@ -95,6 +103,16 @@ class BusManager {
   // logged: its where names the bus and the interface.
   Error start();
   void stop();
+
+  // Stepped use, without a thread (unit tests, options.port and .clock):
+  // open() instead of start(); then turn(now) whenever a frame came or the
+  // deadline it returned has passed: one turn of the control loop, frames
+  // read from the port, components run; close() ends it (as stop() does).
+  // The calls of other threads below work the same, the test being every
+  // thread. Never mixed with start().
+  Error open();
+  [[nodiscard]] canopen::TimePoint turn(canopen::TimePoint now);
+  void close();
 
   // True once every configured device is operational or has timed out
   // (ready_timeout), so the daemon can tell systemd READY=1.

@@ -324,7 +324,7 @@ void BusManager::Impl::drop_runner(Managed& m, const char* why) {
   if (m.command && m.runner && m.runner->finished()) {
     // Done before what ends it was seen (an NMT reset's own boot-up can
     // arrive in the same loop turn): the command's outcome stands.
-    finish_command(m, Clock::now());
+    finish_command(m, steady_now());
     return;
   }
   m.runner.reset();

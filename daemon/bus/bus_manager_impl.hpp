@@ -79,8 +79,6 @@ constexpr milliseconds kReopenBackoffMax{500};
 constexpr std::uint32_t kRoleLogLines = 6;
 constexpr std::chrono::seconds kRoleLogWindow{60};
 
-inline WallTime wall_now() { return std::chrono::system_clock::now(); }
-
 }  // namespace
 
 struct BusManager::Impl final : RemoteGate {
@@ -143,10 +141,20 @@ struct BusManager::Impl final : RemoteGate {
   // with stop() then writes into a live eventfd, never into a closed (and
   // possibly reused) descriptor.
   ~Impl();
+  // The port (a socket on the interface, or options.port) with its filters.
+  Error open_port();
   Error start();
   void stop();
   void wake() noexcept;
   void run();
+  // One turn of the control loop at `now`: commands, frames, components;
+  // returns the next deadline. `now` moves on when the turn reads the
+  // clock again (work it started gets a turn at once).
+  TimePoint turn(TimePoint& now);
+  // After the last turn: the journal flushed, the components ended.
+  void finish_run();
+  [[nodiscard]] TimePoint steady_now() const noexcept { return clock.now(); }
+  [[nodiscard]] WallTime wall_now() const noexcept { return clock.wall(); }
   void start_components(TimePoint now);
   // A new Discovery on the state store's memory as it is now (its
   // decisions and promises start over), started when the old one was, told
@@ -360,7 +368,11 @@ struct BusManager::Impl final : RemoteGate {
   BusManagerOptions options;
   std::shared_ptr<spdlog::logger> log;
 
-  std::unique_ptr<can::SocketCanChannel> channel;
+  const BusClock& clock;
+  // The bus: `socket` (SocketCAN on bus.interface), or options.port.
+  std::unique_ptr<can::SocketCanChannel> socket;
+  can::BusPort* channel = nullptr;
+  std::array<can::Frame, can::SocketCanChannel::kBatch> rx_frames{};
   std::unique_ptr<Discovery> discovery;
   // Why node-IDs must not be assigned (the state file could not be read;
   // StateStore::hold): the first of the bus's problems while not empty.

@@ -44,7 +44,7 @@ void BusManager::Impl::on_nmt_sent(canopen::NmtCommand command, std::uint8_t nod
     // A restore held back while the client had the device stopped.
     if (command == canopen::NmtCommand::start && !m.st.drift.empty() &&
         m.cfg.on_config_drift == config::DriftPolicy::restore)
-      restore_configuration(m, Clock::now(), Clock::now());
+      restore_configuration(m, steady_now(), steady_now());
   }
 }
 

@@ -33,8 +33,8 @@
 #include <vector>
 
 #include "can/bus_event.hpp"
+#include "can/bus_port.hpp"
 #include "can/frame.hpp"
-#include "can/frame_sink.hpp"
 
 namespace cobridge::can {
 
@@ -81,15 +81,6 @@ struct SocketCanConfig {
   bool deliver_error_frames = false;
 };
 
-struct ChannelStats {
-  uint64_t rx_frames = 0;          // data frames handed out by receive()
-  uint64_t tx_frames = 0;          // frames the kernel accepted
-  uint64_t tx_dropped = 0;         // send() returned false
-  uint64_t rx_overflow_drops = 0;  // frames the kernel dropped at our socket (SO_RXQ_OVFL)
-  uint64_t error_frames = 0;       // error frames received and decoded
-  uint64_t events_dropped = 0;     // bus events lost because nobody took them
-  uint64_t reopens = 0;            // successful reopens after the interface went down
-};
 
 // open() and set_filters() fail with the project's Error: where = the
 // interface name, message = the failing step and the errno text, code = the
@@ -104,10 +95,8 @@ constexpr std::size_t cmsg_align(std::size_t n) noexcept {
 constexpr std::size_t cmsg_space(std::size_t n) noexcept { return cmsg_align(sizeof(cmsghdr)) + cmsg_align(n); }
 }  // namespace detail
 
-class SocketCanChannel final : public FrameSink {
+class SocketCanChannel final : public BusPort {
  public:
-  using Clock = std::chrono::steady_clock;
-  using TimePoint = Clock::time_point;
 
   static constexpr std::size_t kBatch = 64;          // frames per recvmmsg call
   static constexpr std::size_t kEventCapacity = 64;  // events kept between take_events()
@@ -122,12 +111,12 @@ class SocketCanChannel final : public FrameSink {
   // is not a failure: the channel starts closed, reports InterfaceDown and
   // process() opens it once the interface is up.
   [[nodiscard]] Error open();
-  void close() noexcept;
+  void close() noexcept override;
 
-  [[nodiscard]] bool is_open() const noexcept { return fd_ >= 0; }
+  [[nodiscard]] bool is_open() const noexcept override { return fd_ >= 0; }
   // The socket for poll/epoll, -1 while closed. It changes across a reopen:
   // re-register it after InterfaceDown / InterfaceReopened events.
-  [[nodiscard]] int fd() const noexcept { return fd_; }
+  [[nodiscard]] int fd() const noexcept override { return fd_; }
   [[nodiscard]] const std::string& interface() const noexcept { return config_.interface; }
 
   // SocketCanConfig::deliver_error_frames, for an owner that learns after
@@ -142,7 +131,7 @@ class SocketCanChannel final : public FrameSink {
   // Reads up to out.size() data frames without blocking. Returns 0 only when
   // nothing is left to read (or the channel is closed). Error frames are
   // decoded into events instead; check take_events() after each call.
-  [[nodiscard]] std::size_t receive(std::span<Frame> out) noexcept;
+  [[nodiscard]] std::size_t receive(std::span<Frame> out) noexcept override;
 
   // FrameSink: waits at most config.tx_timeout when the kernel queue is full;
   // returns false (counted in tx_dropped) if the frame was not taken.
@@ -151,13 +140,13 @@ class SocketCanChannel final : public FrameSink {
   // Reopens a closed channel when its backoff has elapsed; checks the link
   // of an open one and refreshes rx_overflow_drops from SO_MEMINFO once per
   // link_check_period (not per call). Returns when it wants to be called again.
-  TimePoint process(TimePoint now);
+  TimePoint process(TimePoint now) override;
 
   // Events since the previous call, oldest first. The span stays valid until
   // the next take_events().
-  [[nodiscard]] std::span<const BusEvent> take_events() noexcept;
+  [[nodiscard]] std::span<const BusEvent> take_events() noexcept override;
 
-  [[nodiscard]] ChannelStats stats() const noexcept;
+  [[nodiscard]] ChannelStats stats() const noexcept override;
 
  private:
   struct Counter {

@@ -3,13 +3,40 @@
 namespace cobridge::can {
 
 bool VirtualBus::Port::send(const Frame& frame) noexcept {
-  if (send_blocked_) {
+  if (send_blocked_ || !open_) {
     ++tx_refused_;
+    ++stats_.tx_dropped;
     return false;
   }
   // The interface is noexcept; a test that runs out of memory may terminate.
   bus_->broadcast(*this, frame);
+  ++stats_.tx_frames;
   return true;
+}
+
+std::size_t VirtualBus::Port::receive(std::span<Frame> out) noexcept {
+  std::size_t n = 0;
+  while (open_ && n < out.size() && receive(out[n])) ++n;
+  stats_.rx_frames += n;
+  return n;
+}
+
+// The interface is noexcept; a test that runs out of memory may terminate.
+std::span<const BusEvent> VirtualBus::Port::take_events() noexcept {
+  taken_.clear();
+  taken_.swap(events_);
+  return taken_;
+}
+
+void VirtualBus::Port::add_event(const BusEvent& event) { events_.push_back(event); }
+
+void VirtualBus::Port::set_open(bool open) {
+  if (open == open_) return;
+  open_ = open;
+  BusEvent e;
+  e.kind = open ? BusEventKind::InterfaceReopened : BusEventKind::InterfaceDown;
+  add_event(e);
+  if (open) ++stats_.reopens;
 }
 
 bool VirtualBus::Port::receive(Frame& out) noexcept {
@@ -20,6 +47,7 @@ bool VirtualBus::Port::receive(Frame& out) noexcept {
 }
 
 void VirtualBus::Port::deliver(const Frame& frame) {
+  if (!open_) return;  // interface down: the frame never reaches the socket
   if (queue_.size() >= capacity_) {
     ++rx_dropped_;
     return;

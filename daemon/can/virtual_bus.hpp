@@ -1,6 +1,7 @@
 // can::VirtualBus: an in-process CAN bus for unit tests of the layers above.
 //
-// Every attached Port is a FrameSink. A frame sent on one port is queued at
+// Every attached Port is a BusPort (a FrameSink with receive, events and
+// counters), so a bus's controller runs on it as on a socket. A frame sent on one port is queued at
 // every other port, as on a real bus where a node does not receive its own
 // telegrams (SocketCAN's default, CAN_RAW_RECV_OWN_MSGS off). The bus keeps a
 // log of everything sent so tests can assert the exact frames on the wire.
@@ -14,14 +15,14 @@
 #include <memory>
 #include <vector>
 
+#include "can/bus_port.hpp"
 #include "can/frame.hpp"
-#include "can/frame_sink.hpp"
 
 namespace cobridge::can {
 
 class VirtualBus {
  public:
-  class Port final : public FrameSink {
+  class Port final : public BusPort {
    public:
     Port(const Port&) = delete;
     Port& operator=(const Port&) = delete;
@@ -32,6 +33,22 @@ class VirtualBus {
 
     // Takes the oldest frame queued at this port; false when none.
     [[nodiscard]] bool receive(Frame& out) noexcept;
+
+    // BusPort. Frames queued while the port is closed are kept; a closed
+    // port hands none out and sends none (a test's interface down).
+    [[nodiscard]] bool is_open() const noexcept override { return open_; }
+    [[nodiscard]] std::size_t receive(std::span<Frame> out) noexcept override;
+    TimePoint process(TimePoint /*now*/) override { return TimePoint::max(); }
+    [[nodiscard]] std::span<const BusEvent> take_events() noexcept override;
+    [[nodiscard]] ChannelStats stats() const noexcept override { return stats_; }
+    [[nodiscard]] int fd() const noexcept override { return -1; }
+    void close() noexcept override { open_ = false; }
+
+    // A test's bus events: queued for the next take_events(). Closing or
+    // opening the port queues InterfaceDown / InterfaceReopened, as the
+    // socket does when its interface goes and comes back.
+    void add_event(const BusEvent& event);
+    void set_open(bool open);
 
     [[nodiscard]] std::size_t pending() const noexcept { return queue_.size(); }
     // Sends refused while blocked, and frames lost because this port was full.
@@ -49,6 +66,10 @@ class VirtualBus {
     VirtualBus* bus_;
     std::size_t capacity_;
     std::deque<Frame> queue_;
+    std::vector<BusEvent> events_;
+    std::vector<BusEvent> taken_;
+    ChannelStats stats_;
+    bool open_ = true;
     bool send_blocked_ = false;
     uint64_t tx_refused_ = 0;
     uint64_t rx_dropped_ = 0;
