@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <iostream>
 #include <string>
 
 #include "canopen/cob_id.hpp"
@@ -29,6 +30,33 @@ std::size_t tpdo1_frames(can::VirtualBus& bus, std::uint8_t node, std::size_t fr
   const auto& log = bus.log();
   return static_cast<std::size_t>(std::count_if(log.begin() + static_cast<std::ptrdiff_t>(from), log.end(),
                                                 [&](const can::Frame& f) { return f.id == 0x180U + node; }));
+}
+
+// CiA 301 §7.2.4.3.3 expedited download of 2 bytes, as another client sends it.
+can::Frame sdo_write_u16(std::uint8_t node, std::uint16_t index, std::uint8_t sub, std::uint16_t value) {
+  can::Frame f;
+  f.id = 0x600U + node;
+  f.len = 8;
+  f.data = {0x2B, static_cast<std::uint8_t>(index), static_cast<std::uint8_t>(index >> 8), sub,
+            static_cast<std::uint8_t>(value), static_cast<std::uint8_t>(value >> 8), 0, 0};
+  return f;
+}
+
+bool is_download(const can::Frame& f, std::uint8_t node) {
+  return f.id == 0x600U + node && (f.data[0] & 0xE0) == 0x20;
+}
+
+std::size_t sdo_downloads(can::VirtualBus& bus, std::uint8_t node) {
+  const auto& log = bus.log();
+  return static_cast<std::size_t>(std::count_if(log.begin(), log.end(), [&](const can::Frame& f) { return is_download(f, node); }));
+}
+
+// Downloads of 0x1017 to `node` since frame `from`, whoever sent them.
+std::size_t heartbeat_writes(can::VirtualBus& bus, std::uint8_t node, std::size_t from) {
+  const auto& log = bus.log();
+  return static_cast<std::size_t>(std::count_if(log.begin() + static_cast<std::ptrdiff_t>(from), log.end(), [&](const can::Frame& f) {
+    return is_download(f, node) && f.data[1] == 0x17 && f.data[2] == 0x10;
+  }));
 }
 
 // CiA 305 Fastscan (E§6): two multiturns of the same model, both
@@ -126,6 +154,100 @@ TEST(BusManagerLine, Cia301_7_2_8_3_1_BootUpWhileOperationalReconfigured) {
   EXPECT_LT(*back, 2s);
   line.run_for(10ms);  // the NMT start on its way
   EXPECT_EQ(dev.nmt_state(), canopen::NmtState::operational);
+}
+
+// CiA 305 Fastscan at scale: 32 factory-fresh multiturns, all at FFh, each
+// found and given its configured node-ID, all operational.
+TEST(BusManagerLine, Cia305_ThirtyTwoFactoryFreshAtFFh) {
+  std::string devices;
+  for (int i = 0; i < 32; ++i)
+    devices += device_toml(("mt-" + std::to_string(i)).c_str(), "MC1-2800", static_cast<std::uint32_t>(5000 + i), 20 + i);
+  VirtualLine line(kBus, devices);
+  for (int i = 0; i < 32; ++i) line.add_device("MC1-2800", static_cast<std::uint32_t>(5000 + i), 0xFF);
+  line.start();
+  const auto took = line.run_until(VirtualLine::all_in(DeviceState::operational), 30s);
+  ASSERT_TRUE(took);
+  std::cout << "FIGURE 32 factory-fresh multiturns at FFh: all operational after " << took->count()
+            << " ms of bus time (500 us per frame)\n";
+  for (int i = 0; i < 32; ++i) EXPECT_EQ(line.device("mt-" + std::to_string(i))->node_id, 20 + i);
+}
+
+// A stranger (a serial the configuration does not name) at a free node-ID:
+// shown as unknown, never configured (no SDO download reaches it).
+TEST(BusManagerLine, UnknownSerialShownNeverConfigured) {
+  VirtualLine line(kBus, device_toml("mt-a", "MC1-2800", 2001, 20));
+  line.add_device("MC1-2800", 2001, 20);
+  line.add_device("MC1-2800", 9999, 30);
+  line.start();
+  ASSERT_TRUE(line.run_until(VirtualLine::is("mt-a", DeviceState::operational), 5s));
+  line.run_for(2s);
+  const BusStatus st = line.status();
+  const bool listed = std::any_of(st.devices.begin(), st.devices.end(), [](const DeviceStatus& d) {
+    return d.identity.serial == 9999 && d.node_id == 30;
+  });
+  EXPECT_TRUE(listed) << "the stranger is in the status";
+  EXPECT_EQ(sdo_downloads(line.bus(), 30), 0u) << "nothing written to the stranger";
+}
+
+// docs/configuration.md on_config_drift = "restore": another client's
+// write of a configured object (0x1017, CiA 301 §7.5.2.31) is put back.
+TEST(BusManagerLine, Cia301_DriftOfHeartbeatRestored) {
+  VirtualLine line(kBus, device_toml("mt-a", "MC1-2800", 2001, 20));
+  sim::SimDevice& dev = line.add_device("MC1-2800", 2001, 20);
+  can::VirtualBus::Port& other = line.bus().attach();
+  line.start();
+  ASSERT_TRUE(line.run_until(VirtualLine::all_in(DeviceState::operational), 5s));
+  const std::size_t mark = line.bus().log().size();
+  ASSERT_TRUE(other.send(sdo_write_u16(20, 0x1017, 0, 200)));
+  ASSERT_TRUE(line.run_until(
+      [&](const BusStatus&) { return dev.object_dictionary()->get_u16(0x1017, 0) == std::optional<std::uint16_t>(100); },
+      3s));
+  EXPECT_EQ(heartbeat_writes(line.bus(), 20, mark), 2u) << "the client's write, then the gateway's";
+  ASSERT_TRUE(line.run_until(VirtualLine::is("mt-a", DeviceState::operational), 3s));
+  EXPECT_TRUE(line.device("mt-a")->drift.empty()) << "restored: the record closed";
+}
+
+// The fighting writer: a client that sets 0x1017 to its own value every
+// 2 s for a minute meets at most 3 restores; then the object is contested
+// (status says so) and nothing more is written until an operator
+// acknowledges it.
+TEST(BusManagerLine, DriftFromAFightingWriterContestedAfterThreeRestores) {
+  VirtualLine line(kBus, device_toml("mt-a", "MC1-2800", 2001, 20));
+  sim::SimDevice& dev = line.add_device("MC1-2800", 2001, 20);
+  can::VirtualBus::Port& other = line.bus().attach();
+  line.start();
+  ASSERT_TRUE(line.run_until(VirtualLine::all_in(DeviceState::operational), 5s));
+  const std::size_t mark = line.bus().log().size();
+  unsigned writes = 0;
+  for (; writes < 30; ++writes) {
+    ASSERT_TRUE(other.send(sdo_write_u16(20, 0x1017, 0, 200)));
+    line.run_for(2s);
+  }
+  const std::size_t gateway_writes = heartbeat_writes(line.bus(), 20, mark) - writes;
+  EXPECT_LE(gateway_writes, 3u) << "restores of a fought-over object";
+  EXPECT_GE(gateway_writes, 1u) << "the first drift is restored";
+  const auto d = line.device("mt-a");
+  EXPECT_EQ(contested_count(*d), 1u);
+  EXPECT_EQ(dev.object_dictionary()->get_u16(0x1017, 0), std::optional<std::uint16_t>(200)) << "left to the writer";
+  line.manager().acknowledge_contested("mt-a", "unit test");
+  ASSERT_TRUE(line.run_until(
+      [&](const BusStatus&) { return dev.object_dictionary()->get_u16(0x1017, 0) == std::optional<std::uint16_t>(100); },
+      5s))
+      << "acknowledged: restored again";
+}
+
+// SIGHUP (docs/operations.md "Reload"): a changed heartbeat period is
+// written to the device without closing the bus.
+TEST(BusManagerLine, ReloadWritesTheChangedSetting) {
+  VirtualLine line(kBus, device_toml("mt-a", "MC1-2800", 2001, 20));
+  sim::SimDevice& dev = line.add_device("MC1-2800", 2001, 20);
+  line.start();
+  ASSERT_TRUE(line.run_until(VirtualLine::all_in(DeviceState::operational), 5s));
+  line.manager().reload(line.load(kBus, device_toml("mt-a", "MC1-2800", 2001, 20, 250)));
+  ASSERT_TRUE(line.run_until(
+      [&](const BusStatus&) { return dev.object_dictionary()->get_u16(0x1017, 0) == std::optional<std::uint16_t>(250); },
+      3s));
+  ASSERT_TRUE(line.run_until(VirtualLine::all_in(DeviceState::operational), 3s));
 }
 
 }  // namespace

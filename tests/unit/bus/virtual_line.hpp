@@ -75,12 +75,7 @@ class VirtualLine {
              ("cobridge-vline-" + std::to_string(::getpid()) + "-" + std::to_string(++instances_))) {
     std::filesystem::remove_all(dir_);
     std::filesystem::create_directories(dir_);
-    const std::string text = "[gateway]\nid = \"unit\"\nstate_dir = \"" + dir_.string() +
-                             "\"\n\n[[bus]]\nname = \"line1\"\ninterface = \"vline0\"\n" + bus_toml + "\n" +
-                             devices_toml;
-    auto loaded = config::load_string(text, "virtual_line.toml", dir_);
-    for (const auto& d : loaded.diagnostics()) ADD_FAILURE() << config::to_string(d);
-    if (loaded.ok()) config_ = std::move(loaded).config();
+    config_ = load(bus_toml, devices_toml);
     for (const auto& e : catalog_.load_directory(device::test::shipped_devices_dir())) ADD_FAILURE() << e.to_string();
     store_ = std::make_unique<StateStore>(dir_);
     EXPECT_FALSE(store_->load());
@@ -91,6 +86,16 @@ class VirtualLine {
   }
   VirtualLine(const VirtualLine&) = delete;
   VirtualLine& operator=(const VirtualLine&) = delete;
+
+  // The configuration of `bus_toml` and `devices_toml`, as the daemon loads it.
+  config::Config load(const std::string& bus_toml, const std::string& devices_toml) const {
+    const std::string text = "[gateway]\nid = \"unit\"\nstate_dir = \"" + dir_.string() +
+                             "\"\n\n[[bus]]\nname = \"line1\"\ninterface = \"vline0\"\n" + bus_toml + "\n" +
+                             devices_toml;
+    auto loaded = config::load_string(text, "virtual_line.toml", dir_);
+    for (const auto& d : loaded.diagnostics()) ADD_FAILURE() << config::to_string(d);
+    return loaded.ok() ? std::move(loaded).config() : config::Config{};
+  }
 
   // A simulated encoder of `model` (cobridge-sim's model table); node 0:
   // the model's factory node-ID, 0xFF: non-configured (CiA 305).
