@@ -69,32 +69,37 @@ class VirtualLine {
   // About a frame's time on the wire at 250 kbit/s (8 data bytes, stuffing).
   static constexpr auto kFrameTime = 500us;
 
-  // `bus_toml`: the [[bus]] table's keys; `devices_toml`: [[device]] tables.
-  VirtualLine(const std::string& bus_toml, const std::string& devices_toml)
+  // `bus_toml`: the [[bus]] table's keys; `devices_toml`: [[device]] tables;
+  // one gateway per entry of `gateways`, each the rest of its own
+  // configuration (a [redundancy] table for a hot-standby pair).
+  VirtualLine(const std::string& bus_toml, const std::string& devices_toml,
+              const std::vector<std::string>& gateways = {""})
       : dir_(std::filesystem::temp_directory_path() /
              ("cobridge-vline-" + std::to_string(::getpid()) + "-" + std::to_string(++instances_))) {
     std::filesystem::remove_all(dir_);
-    std::filesystem::create_directories(dir_);
-    config_ = load(bus_toml, devices_toml);
+    for (const auto& extra : gateways) {
+      auto g = std::make_unique<Gateway>(bus_.attach());
+      g->dir = dir_ / ("gateway-" + std::to_string(gateways_.size()));
+      std::filesystem::create_directories(g->dir);
+      g->extra = extra;
+      g->config = load(*g, bus_toml, devices_toml);
+      g->store = std::make_unique<StateStore>(g->dir);
+      EXPECT_FALSE(g->store->load());
+      gateways_.push_back(std::move(g));
+    }
     for (const auto& e : catalog_.load_directory(device::test::shipped_devices_dir())) ADD_FAILURE() << e.to_string();
-    store_ = std::make_unique<StateStore>(dir_);
-    EXPECT_FALSE(store_->load());
   }
   ~VirtualLine() {
-    manager_.reset();
+    for (auto& g : gateways_) g->manager.reset();
     std::filesystem::remove_all(dir_);
   }
   VirtualLine(const VirtualLine&) = delete;
   VirtualLine& operator=(const VirtualLine&) = delete;
 
-  // The configuration of `bus_toml` and `devices_toml`, as the daemon loads it.
-  config::Config load(const std::string& bus_toml, const std::string& devices_toml) const {
-    const std::string text = "[gateway]\nid = \"unit\"\nstate_dir = \"" + dir_.string() +
-                             "\"\n\n[[bus]]\nname = \"line1\"\ninterface = \"vline0\"\n" + bus_toml + "\n" +
-                             devices_toml;
-    auto loaded = config::load_string(text, "virtual_line.toml", dir_);
-    for (const auto& d : loaded.diagnostics()) ADD_FAILURE() << config::to_string(d);
-    return loaded.ok() ? std::move(loaded).config() : config::Config{};
+  // Gateway `g`'s configuration with `bus_toml` and `devices_toml`, as the
+  // daemon loads it (for a reload).
+  config::Config load(const std::string& bus_toml, const std::string& devices_toml, std::size_t g = 0) const {
+    return load(*gateways_.at(g), bus_toml, devices_toml);
   }
 
   // A simulated encoder of `model` (cobridge-sim's model table); node 0:
@@ -111,17 +116,30 @@ class VirtualLine {
     return *devices_.back().device;
   }
 
-  // Devices on, then the controller's port opened.
+  // Devices on, then every gateway's controller opened.
   void start() {
     for (auto& d : devices_) EXPECT_FALSE(d.device->power_on(clock_.now()));
+    for (std::size_t i = 0; i < gateways_.size(); ++i) start_gateway(i);
+  }
+  // Gateway `g` (again, after stop_gateway): a new controller on its port.
+  void start_gateway(std::size_t g) {
+    Gateway& gw = *gateways_.at(g);
     BusManagerOptions o;
-    o.observer = &observer;
-    o.port = &gateway_;
+    o.observer = &gw.observer;
+    o.port = &gw.port;
     o.clock = &clock_;
     o.ready_timeout = 10s;
-    manager_ = std::make_unique<BusManager>(config_, 0, catalog_, *store_, o);
-    ASSERT_FALSE(manager_->open());
-    next_ = clock_.now();
+    gw.port.set_open(true);
+    (void)gw.port.take_events();
+    gw.manager = std::make_unique<BusManager>(gw.config, 0, catalog_, *gw.store, o);
+    ASSERT_FALSE(gw.manager->open());
+    gw.next = clock_.now();
+  }
+  // Gateway `g` gone at once (a kill, a power cut): it says nothing more.
+  void stop_gateway(std::size_t g) {
+    Gateway& gw = *gateways_.at(g);
+    gw.port.set_open(false);
+    gw.manager.reset();
   }
 
   // Runs until `done(status)` holds, at most `limit` of bus time; returns
@@ -131,7 +149,7 @@ class VirtualLine {
     const TimePoint from = clock_.now();
     while (clock_.now() - from <= limit) {
       step();
-      if (done(manager_->status()))
+      if (done(status(running_gateway())))
         return std::chrono::duration_cast<std::chrono::milliseconds>(clock_.now() - from);
     }
     return std::nullopt;
@@ -140,16 +158,29 @@ class VirtualLine {
     (void)run_until([](const BusStatus&) { return false; }, d);
   }
 
-  [[nodiscard]] BusStatus status() const { return manager_->status(); }
-  [[nodiscard]] std::optional<DeviceStatus> device(const std::string& name) const {
-    for (const auto& d : status().devices)
+  // The first gateway that runs (run_until's status).
+  [[nodiscard]] std::size_t running_gateway() const {
+    for (std::size_t g = 0; g < gateways_.size(); ++g)
+      if (gateways_[g]->manager) return g;
+    return 0;
+  }
+  // A stopped gateway's status is empty.
+  [[nodiscard]] BusStatus status(std::size_t g = 0) const {
+    const Gateway& gw = *gateways_.at(g);
+    return gw.manager ? gw.manager->status() : BusStatus{};
+  }
+  [[nodiscard]] std::optional<DeviceStatus> device(const std::string& name, std::size_t g = 0) const {
+    for (const auto& d : status(g).devices)
       if (d.name == name) return d;
     return std::nullopt;
   }
   [[nodiscard]] TimePoint now() const { return clock_.now(); }
-  [[nodiscard]] BusManager& manager() { return *manager_; }
+  [[nodiscard]] BusManager& manager(std::size_t g = 0) { return *gateways_.at(g)->manager; }
   [[nodiscard]] can::VirtualBus& bus() { return bus_; }
-  [[nodiscard]] StateStore& store() { return *store_; }
+  // Every frame on the bus with the time it was there (the tap's).
+  [[nodiscard]] const std::vector<std::pair<TimePoint, can::Frame>>& heard() const { return heard_; }
+  [[nodiscard]] StateStore& store(std::size_t g = 0) { return *gateways_.at(g)->store; }
+  [[nodiscard]] RecordingObserver& observer(std::size_t g = 0) { return gateways_.at(g)->observer; }
 
   static std::function<bool(const BusStatus&)> all_in(DeviceState s) {
     return [s](const BusStatus& st) {
@@ -166,9 +197,28 @@ class VirtualLine {
     };
   }
 
-  RecordingObserver observer;
-
  private:
+  struct Gateway {
+    explicit Gateway(can::VirtualBus::Port& p) : port(p) {}
+    can::VirtualBus::Port& port;
+    std::filesystem::path dir;
+    std::string extra;
+    config::Config config;
+    std::unique_ptr<StateStore> store;
+    RecordingObserver observer;
+    std::unique_ptr<BusManager> manager;  // null while stopped
+    TimePoint next{};
+  };
+
+  config::Config load(const Gateway& g, const std::string& bus_toml, const std::string& devices_toml) const {
+    const std::string text = "[gateway]\nid = \"unit\"\nstate_dir = \"" + g.dir.string() +
+                             "\"\n\n[[bus]]\nname = \"line1\"\ninterface = \"vline0\"\n" + bus_toml + "\n" +
+                             devices_toml + "\n" + g.extra;
+    auto loaded = config::load_string(text, "virtual_line.toml", g.dir);
+    for (const auto& d : loaded.diagnostics()) ADD_FAILURE() << config::to_string(d);
+    return loaded.ok() ? std::move(loaded).config() : config::Config{};
+  }
+
   struct Encoder {
     can::VirtualBus::Port* port;
     std::unique_ptr<sim::SimDevice> device;
@@ -187,8 +237,10 @@ class VirtualLine {
   // takes its turn; time moves one frame when frames are under way, else
   // to the earliest deadline.
   void step() {
+    can::Frame heard;
+    while (tap_.receive(heard)) heard_.push_back({clock_.now(), heard});
     bool moved = false;
-    TimePoint next = next_;
+    TimePoint next = canopen::kNever;
     for (auto& d : devices_) {
       can::Frame f;
       while (d.port->receive(f)) {
@@ -197,12 +249,16 @@ class VirtualLine {
       }
       next = std::min(next, d.device->process(clock_.now()));
     }
-    if (clock_.now() >= next_ || gateway_.pending() > 0) {
-      next_ = manager_->turn(clock_.now());
-      moved = true;
+    bool pending = false;
+    for (auto& g : gateways_) {
+      if (!g->manager) continue;
+      if (clock_.now() >= g->next || g->port.pending() > 0) {
+        g->next = g->manager->turn(clock_.now());
+        moved = true;
+      }
+      next = std::min(next, g->next);
+      pending = pending || g->port.pending() > 0;
     }
-    next = std::min(next, next_);
-    bool pending = gateway_.pending() > 0;
     for (const auto& d : devices_) pending = pending || d.port->pending() > 0;
     const TimePoint t = clock_.now();
     clock_.set(pending || moved ? t + kFrameTime : std::max(next, t + kFrameTime));
@@ -210,16 +266,16 @@ class VirtualLine {
 
   static inline int instances_ = 0;
   std::filesystem::path dir_;
-  config::Config config_;
   device::DeviceCatalog catalog_;
-  std::unique_ptr<StateStore> store_;
   FakeBusClock clock_;
   can::VirtualBus bus_;
-  can::VirtualBus::Port& gateway_ = bus_.attach();
+  // A listener of its own, as candump beside the gateways: what was on the
+  // bus and when, independent of what any gateway says.
+  can::VirtualBus::Port& tap_ = bus_.attach();
+  std::vector<std::pair<TimePoint, can::Frame>> heard_;
+  std::vector<std::unique_ptr<Gateway>> gateways_;
   std::vector<std::unique_ptr<device::DeviceDescription>> descriptions_;
   std::vector<Encoder> devices_;
-  std::unique_ptr<BusManager> manager_;
-  TimePoint next_{};
 };
 
 }  // namespace cobridge::gateway::test
