@@ -50,7 +50,12 @@ void IdentityProbe::on_error_control(const can::Frame& f, TimePoint now, bool ma
   const auto n = static_cast<std::uint8_t>(f.id - canopen::cob::kNmtErrorControlBase);
   if (f.data[0] != 0) return;  // heartbeat / guarding: the bus manager's
   NodeState& st = state_[n];
-  if (st.last_bootup != TimePoint::min() && now - st.last_bootup < opt_.bootup_clash_window && may_clash)
+  // A boot-up in place of the answer to this round's request is the asked
+  // device rebooting (it lost the request): a second device at the node
+  // would not have kept the first from answering.
+  const bool instead_of_answer = round_.active && round_.in[n] && !round_.answered[n];
+  if (st.last_bootup != TimePoint::min() && now - st.last_bootup < opt_.bootup_clash_window && may_clash &&
+      !instead_of_answer)
     st.bootup_clash = true;
   st.last_bootup = now;
   bootups_.set(n);

@@ -12,7 +12,8 @@
 // nodes that answered go on to the next), so that several answers to one
 // request are seen: two different answers = two devices on one node-ID (a
 // clash). Two boot-ups from one node-ID within `bootup_clash_window` are a
-// clash too, unless discovery caused them (a reset it sent). A round ends
+// clash too, unless discovery caused them (a reset it sent) or the second
+// came in place of the answer to a request (the asked device rebooted). A round ends
 // `probe_settle` after the last answer once every addressed node answered (a
 // second device's answer must have a chance to arrive), at the latest after
 // the SDO timeout. What a finished round found goes into the BusPicture and

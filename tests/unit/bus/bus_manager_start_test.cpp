@@ -12,31 +12,10 @@
 #include "bus/bus_manager.hpp"
 #include "bus/state_store.hpp"
 #include "sys/logging.hpp"
+#include "unit/bus/virtual_line.hpp"
 
 namespace cobridge::gateway {
 namespace {
-
-// Adds a capturing sink to the loggers of the layers a bus start goes
-// through, and takes it away again.
-class LogCapture {
- public:
-  LogCapture() {
-    for (const char* m : kModules) sys::logger(m)->sinks().push_back(sink_);
-  }
-  ~LogCapture() {
-    for (const char* m : kModules) {
-      auto& sinks = sys::logger(m)->sinks();
-      std::erase(sinks, sink_);
-    }
-  }
-  LogCapture(const LogCapture&) = delete;
-  LogCapture& operator=(const LogCapture&) = delete;
-  [[nodiscard]] std::vector<std::string> lines() const { return sink_->last_formatted(); }
-
- private:
-  static constexpr const char* kModules[] = {"can", "canopen", "gateway"};
-  std::shared_ptr<spdlog::sinks::ringbuffer_sink_mt> sink_ = std::make_shared<spdlog::sinks::ringbuffer_sink_mt>(64);
-};
 
 TEST(BusManagerStart, OpenFailureIsReturnedWithItsWhereAndLoggedByNobodyBelow) {
   const auto dir = std::filesystem::temp_directory_path() / ("cobridge-bm-start-" + std::to_string(::getpid()));
@@ -51,7 +30,7 @@ TEST(BusManagerStart, OpenFailureIsReturnedWithItsWhereAndLoggedByNobodyBelow) {
   Error e;
   std::vector<std::string> logged;
   {
-    const LogCapture capture;
+    const test::LogCapture capture;
     BusManager manager(cfg, 0, catalog, store);
     e = manager.start();
     logged = capture.lines();

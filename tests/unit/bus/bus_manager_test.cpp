@@ -127,6 +127,34 @@ TEST(BusManagerLine, E8_2_PowerCycleMidPlanEndsConfigured) {
   EXPECT_GE(line.device("mt-a")->boot_ups, 1u) << "the reboot was seen";
 }
 
+// A reboot while discovery reads the identity (0x1018, CiA 301 §7.5.2.35)
+// is one device rebooting, not two devices at one node-ID: no clash is
+// reported, and the device ends operational.
+TEST(BusManagerLine, RebootDuringTheIdentityReadIsNoClash) {
+  for (std::uint32_t nth = 1; nth <= 4; ++nth) {
+    const LogCapture log;
+    VirtualLine line(kBus, device_toml("mt-a", "MC1-2800", 2001, 20));
+    sim::SimDevice& dev = line.add_device("MC1-2800", 2001, 20);
+    dev.reboot_on_sdo(nth);
+    line.start();
+    ASSERT_TRUE(line.run_until(VirtualLine::all_in(DeviceState::operational), 10s)) << "reboot on request " << nth;
+    EXPECT_EQ(log.count("devices answer at node"), 0u) << "reboot on request " << nth;
+  }
+}
+
+// An SDO request the device leaves unanswered (CiA 301 §7.2.4.3.17 abort
+// 0x05040000, SDO protocol timed out): the run fails, is tried again, and
+// the device ends operational.
+TEST(BusManagerLine, Cia301_SdoTimeoutRetriedThenOperational) {
+  VirtualLine line(kBus, device_toml("mt-a", "MC1-2800", 2001, 20));
+  sim::SimDevice& dev = line.add_device("MC1-2800", 2001, 20);
+  dev.ignore_sdo(0x1017, 1);
+  line.start();
+  ASSERT_TRUE(line.run_until(VirtualLine::all_in(DeviceState::operational), 10s))
+      << to_string(line.device("mt-a")->state) << ": " << line.device("mt-a")->last_error;
+  EXPECT_EQ(dev.object_dictionary()->get_u16(0x1017, 0), std::optional<std::uint16_t>(100));
+}
+
 // CiA 301 §7.2.4.3.17 SDO abort during the plan: the run fails, is tried
 // again after its delay, and the device ends operational.
 TEST(BusManagerLine, Cia301_7_2_4_3_17_SdoAbortRetriedThenOperational) {

@@ -11,7 +11,9 @@
 #pragma once
 
 #include <gtest/gtest.h>
+#include <spdlog/sinks/ringbuffer_sink.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <functional>
@@ -28,6 +30,7 @@
 #include "device/device_catalog.hpp"
 #include "device/eds.hpp"
 #include "device/sim_device.hpp"
+#include "sys/logging.hpp"
 #include "unit/device/source_paths.hpp"
 
 namespace cobridge::gateway::test {
@@ -46,6 +49,30 @@ class FakeBusClock final : public BusClock {
 
  private:
   TimePoint now_{std::chrono::seconds{1000}};
+};
+
+// Adds a capturing sink to the loggers of the layers a bus goes through,
+// and takes it away again: what a bus logged, for the assertions.
+class LogCapture {
+ public:
+  LogCapture() {
+    for (const char* m : kModules) sys::logger(m)->sinks().push_back(sink_);
+  }
+  ~LogCapture() {
+    for (const char* m : kModules) std::erase(sys::logger(m)->sinks(), sink_);
+  }
+  LogCapture(const LogCapture&) = delete;
+  LogCapture& operator=(const LogCapture&) = delete;
+  [[nodiscard]] std::vector<std::string> lines() const { return sink_->last_formatted(); }
+  [[nodiscard]] std::size_t count(const std::string& part) const {
+    const auto all = lines();
+    return static_cast<std::size_t>(
+        std::count_if(all.begin(), all.end(), [&](const std::string& l) { return l.find(part) != std::string::npos; }));
+  }
+
+ private:
+  static constexpr const char* kModules[] = {"can", "canopen", "gateway"};
+  std::shared_ptr<spdlog::sinks::ringbuffer_sink_mt> sink_ = std::make_shared<spdlog::sinks::ringbuffer_sink_mt>(1024);
 };
 
 // What the observer was told, for the assertions.
