@@ -12,7 +12,8 @@ the daemons' status:
     claim with priority 7 (071#0778): the bus has a master heartbeat (05h
     from 0x778 or 0x779) within 1 s of the forged frame and never goes 1 s
     without one;
-  * a 0x76 storm (every 200 ms for 65 s; bare, naming a, the standby of
+  * a 0x76 storm (every 200 ms for 20 s; the minute of it, with the log's
+    one line a minute, is the unit scenario tests/unit/bus/bus_manager_pair_test.cpp; bare, naming a, the standby of
     higher rank, as its preempt would, and naming b), with b master: one
     handover to a (the peer of higher rank, once), then nothing; at most
     2 role changes in any 60 s (a role change: a gateway's heartbeat turning
@@ -44,7 +45,7 @@ HB = 0x700
 CYCLED = 20  # mt-a's node-ID, power-cycled in every phase
 MASTER_BOUND_S = 1.0
 DEVICE_BOUND_S = 5.0
-STORM_S = 65.0
+STORM_S = 20.0
 STORM_PERIOD_S = 0.2
 # The storm's frames in turn: CiA 302-2's bare 0x76, one naming a (its
 # preempt's payload: priority 0, node 120) and one naming b.
@@ -177,7 +178,7 @@ def ignored_lines(daemons, offsets):
 
 def storm(report, listener, forger, sim, daemons):
     """0x76 every 200 ms for STORM_S (on a thread of its own), mt-a power-cycled 0.3 s in (while the
-    handover the second frame asks for runs) and 30 s in."""
+    handover the second frame asks for runs) and 10 s in."""
     offsets = {k: os.path.getsize(d.log_path) for k, d in daemons.items()}
     t0 = time.time()
     count = int(STORM_S / STORM_PERIOD_S)
@@ -189,7 +190,7 @@ def storm(report, listener, forger, sim, daemons):
 
     sender = threading.Thread(target=send_all)
     sender.start()
-    for at in (0.3, 30.0):
+    for at in (0.3, 10.0):
         time.sleep(max(0.0, t0 + at - time.time()))
         power_cycle(sim, listener, report, "0x76 storm, %.1f s in" % at)
     sender.join()
@@ -211,13 +212,14 @@ def storm(report, listener, forger, sim, daemons):
     if not report.check_bound(longest <= MASTER_BOUND_S, "0x76 storm: never 1 s without a master heartbeat",
                               "%.3f s" % longest) or worst > 2:
         dump([f for f in frames if f[1] != 0x76], t0, t1)
-    # Each gateway's minute window ends within the 65 s: one line each, with counts, never one per frame.
+    # A minute's window may not end within the 20 s: at most one line each, never one per frame (the
+    # whole minute, one line each with counts, is the unit scenario BusManagerPair.Cia302_2_StormOf0x76...).
     lines = ignored_lines(daemons, offsets)
     for k, ls in lines.items():
         print("FIGURE 0x76 storm: %s's log: %d line(s) on ignored election frames%s" % (
             k, len(ls), (": " + ls[-1][ls[-1].find("in the last"):]) if ls else ""))
-    report.check(all(1 <= len(ls) <= 2 for ls in lines.values()),
-                 "0x76 storm: each gateway logs the ignored frames in one line a minute, with counts",
+    report.check(all(len(ls) <= 1 for ls in lines.values()),
+                 "0x76 storm: each gateway logs the ignored frames at most once a minute, never per frame",
                  str({k: len(v) for k, v in lines.items()}))
 
 
