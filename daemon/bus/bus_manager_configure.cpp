@@ -296,7 +296,10 @@ bool BusManager::Impl::announce_and_start(Managed& m, TimePoint now) {
     announced.nmt = canopen::NmtState::operational;
     options.observer->on_device_configured(announced, tpdo1, tpdo2);
   }
-  if (channel->send(canopen::make_nmt(canopen::NmtCommand::start, m.st.node_id))) return true;
+  if (channel->send(canopen::make_nmt(canopen::NmtCommand::start, m.st.node_id))) {
+    m.start_sent_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(wall_now().time_since_epoch()).count();
+    return true;
+  }
   m.st.last_error = "NMT start could not be sent";
   m.want_configure = true;
   m.not_before = now + kConfigureRetryDelay;

@@ -218,7 +218,7 @@ void BusManager::Impl::on_supervisor_change(const Supervisor::Change& c, TimePoi
       on_sign_of_life(*m, now);
       break;
     case Supervisor::ChangeKind::nmt_state:
-      on_nmt_state(*m, c.nmt, now);
+      on_nmt_state(*m, c.nmt, c.frame_ns, now);
       break;
     case Supervisor::ChangeKind::emcy:
       if (emcy_log_allowed(*m, now)) log->warn("bus {}: device {} (node {}): {}", bus.name, m->st.name, c.node, c.emcy_text);
@@ -256,8 +256,14 @@ void BusManager::Impl::note_supervision(Managed& m, const Supervisor::Change& c,
   }
 }
 
-void BusManager::Impl::on_nmt_state(Managed& m, canopen::NmtState nmt, TimePoint now) {
-  if (!m.started || m.runner || now < m.preop_expected_until) return;
+void BusManager::Impl::on_nmt_state(Managed& m, canopen::NmtState nmt, std::int64_t frame_ns, TimePoint now) {
+  if (!m.started || m.runner) return;
+  if (nmt != canopen::NmtState::operational && told_before_start(m, frame_ns, now)) {
+    // Sent before the device took our NMT start, read after it: no news.
+    // Forgotten, so that the same state heard later is news.
+    supervisor.forget_nmt(m.st.node_id);
+    return;
+  }
   if (m.operator_hold && nmt != canopen::NmtState::operational) {
     set_state(m, DeviceState::stopped);  // a client's NMT command: left as asked
     return;
@@ -302,6 +308,15 @@ void BusManager::Impl::on_nmt_state(Managed& m, canopen::NmtState nmt, TimePoint
   m.not_before = now;
   supervisor.listen(m.st.node_id, m.profile ? m.profile->family : nullptr);
   set_state(m, DeviceState::identified);
+}
+
+// By the frame's kernel stamp where it has one: sent before our start
+// reached the device and was acted on (kStartReaction); a frame without a
+// stamp within the settle after a command (kCommandSettle).
+bool BusManager::Impl::told_before_start(const Managed& m, std::int64_t frame_ns, TimePoint now) const {
+  if (now < m.preop_expected_until) return true;
+  if (frame_ns == 0 || m.start_sent_ns == 0) return false;
+  return frame_ns < m.start_sent_ns + std::chrono::duration_cast<std::chrono::nanoseconds>(kStartReaction).count();
 }
 
 void BusManager::Impl::report_suppressed_emcy(TimePoint now) {

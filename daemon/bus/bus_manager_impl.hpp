@@ -72,6 +72,10 @@ constexpr std::size_t kMaxRemoteCommands = 256;   // client commands per bus, qu
 // After a command that passed through pre-operational, a heartbeat sent
 // before the device got NMT start may still arrive: not a surprise reset.
 constexpr milliseconds kCommandSettle{500};
+// After a plan's NMT start: a heartbeat stamped by the kernel before the
+// start was sent plus this (the frame on the wire, the device acting on it)
+// tells the state before the start, whenever a loaded gateway reads it.
+constexpr milliseconds kStartReaction{50};
 // A re-plugged adapter is opened at most this long after it appears, so
 // its devices are configured again within 2 s of its return.
 constexpr milliseconds kReopenBackoffMax{500};
@@ -95,6 +99,7 @@ struct BusManager::Impl final : RemoteGate {
     std::unique_ptr<PlanRunner> runner;
     std::optional<DeviceCommand> command;  // the runner runs this command, not the configuration
     TimePoint preop_expected_until{};      // see kCommandSettle
+    std::int64_t start_sent_ns = 0;        // realtime of our last NMT start (kStartReaction)
     bool quick = false;       // the running plan is the fingerprint check
     bool force_full = false;  // the next run is the full plan
     bool store_all = false;   // ... and stores all it names: the quick check already wrote some
@@ -267,7 +272,10 @@ struct BusManager::Impl final : RemoteGate {
   // §7.2.8.3.2): the status follows it, and a device another NMT master
   // stopped or sent to pre-operational is started again (policy restart) or
   // left as that master wants it (policy respect); either way it is logged.
-  void on_nmt_state(Managed& m, canopen::NmtState nmt, TimePoint now);
+  void on_nmt_state(Managed& m, canopen::NmtState nmt, std::int64_t frame_ns, TimePoint now);
+  // A heartbeat state that tells what the device was before our last NMT
+  // start (or a command's), not what it is now.
+  [[nodiscard]] bool told_before_start(const Managed& m, std::int64_t frame_ns, TimePoint now) const;
 
   bool emcy_log_allowed(Managed& m, TimePoint now) { return m.emcy_log.allow(now); }
 

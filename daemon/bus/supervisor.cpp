@@ -88,6 +88,10 @@ void Supervisor::producer_time_written(std::uint8_t node, canopen::TimePoint at)
     n.first_deadline = std::max(n.first_deadline, at + consumer_time_for(n.supervision.producer_time));
 }
 
+void Supervisor::forget_nmt(std::uint8_t node) noexcept {
+  if (canopen::cob::valid_node_id(node)) nodes_[node].nmt = canopen::NmtState::boot_up;
+}
+
 void Supervisor::listen(std::uint8_t node, const device::families::Family* family) {
   if (!canopen::cob::valid_node_id(node)) return;
   Node& n = nodes_[node];
@@ -171,6 +175,7 @@ void Supervisor::on_alive(std::uint8_t node, canopen::NmtState state, TimePoint 
     c.node = node;
     c.at = at;
     c.nmt = state;
+    c.frame_ns = n.last_frame_ns;
     push(std::move(c));
   }
 }
@@ -255,6 +260,7 @@ bool Supervisor::on_error_control(const can::Frame& frame, std::uint8_t node, Ti
     return true;
   }
   if (!n.watched) return true;
+  n.last_frame_ns = frame.timestamp_ns;
   if (n.supervision.mode == Supervision::Mode::guarding) {
     guard_.on_frame(frame, now);
   } else if (n.supervision.mode == Supervision::Mode::heartbeat) {

@@ -61,6 +61,7 @@ class Supervisor {
     std::uint8_t node = 0;
     canopen::TimePoint at{};
     canopen::NmtState nmt = canopen::NmtState::boot_up;  // state known at that time
+    std::int64_t frame_ns = 0;  // nmt_state: the kernel stamp of the frame that told it (0: none)
     std::string reason;                                   // offline / rebooted / online (the gap)
     std::uint16_t emcy_code = 0;                          // emcy
     std::string emcy_text;                                // emcy: describe(family, emcy)
@@ -94,6 +95,10 @@ class Supervisor {
   [[nodiscard]] bool online(std::uint8_t node) const noexcept;
   // The NMT state its last heartbeat / guarding reply reported (boot_up: none yet).
   [[nodiscard]] canopen::NmtState nmt(std::uint8_t node) const noexcept;
+  // The NMT state heard last is set aside as no news (a heartbeat the
+  // device sent before it took an NMT command, read after it): the next
+  // heartbeat or guarding reply reports its state as a change again.
+  void forget_nmt(std::uint8_t node) noexcept;
 
   // Feed every frame on 0x081..0x0FF and 0x701..0x77F. Returns true when it
   // concerned a node this supervisor knows.
@@ -123,6 +128,7 @@ class Supervisor {
     bool heard = false;       // a heartbeat / guarding reply since watch()
     canopen::TimePoint first_deadline = canopen::kNever;  // "never heard" check
     canopen::NmtState nmt = canopen::NmtState::boot_up;
+    std::int64_t last_frame_ns = 0;  // the kernel stamp of its last heartbeat / guarding reply
     canopen::TimePoint silent_since = canopen::kNever;  // its last heartbeat before a loss
   };
 

@@ -60,7 +60,9 @@ VirtualBus::Port& VirtualBus::attach(std::size_t capacity) {
   return *ports_.back();
 }
 
-void VirtualBus::broadcast(const Port& from, const Frame& frame) {
+void VirtualBus::broadcast(const Port& from, const Frame& sent) {
+  Frame frame = sent;
+  if (stamp_) frame.timestamp_ns = stamp_();
   log_.push_back(frame);
   for (const auto& p : ports_)
     if (p.get() != &from) p->deliver(frame);

@@ -12,6 +12,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -87,6 +88,10 @@ class VirtualBus {
   Port& attach(std::size_t capacity = kUnbounded);
 
   [[nodiscard]] std::size_t port_count() const noexcept { return ports_.size(); }
+  // Frames sent from now on carry this time (ns, as a kernel's receive
+  // stamp; a test's fake clock); unset: they keep the sender's.
+  void stamp_with(std::function<int64_t()> now_ns) { stamp_ = std::move(now_ns); }
+
   // Every frame sent on the bus, in order.
   [[nodiscard]] const std::vector<Frame>& log() const noexcept { return log_; }
   void clear_log() noexcept { log_.clear(); }
@@ -96,6 +101,7 @@ class VirtualBus {
 
   std::vector<std::unique_ptr<Port>> ports_;
   std::vector<Frame> log_;
+  std::function<int64_t()> stamp_;
 };
 
 }  // namespace cobridge::can

@@ -42,6 +42,23 @@ can::Frame sdo_write_u16(std::uint8_t node, std::uint16_t index, std::uint8_t su
   return f;
 }
 
+can::Frame heartbeat(std::uint8_t node, std::uint8_t state) {
+  can::Frame f;
+  f.id = 0x700U + node;
+  f.len = 1;
+  f.data[0] = state;
+  return f;
+}
+
+can::Frame nmt(std::uint8_t command, std::uint8_t node) {
+  can::Frame f;
+  f.id = 0;
+  f.len = 2;
+  f.data[0] = command;
+  f.data[1] = node;
+  return f;
+}
+
 bool is_download(const can::Frame& f, std::uint8_t node) {
   return f.id == 0x600U + node && (f.data[0] & 0xE0) == 0x20;
 }
@@ -166,6 +183,29 @@ TEST(BusManagerLine, Cia301_7_2_4_3_17_SdoAbortRetriedThenOperational) {
       << to_string(line.device("mt-a")->state) << ": " << line.device("mt-a")->last_error;
   ASSERT_NE(dev.object_dictionary(), nullptr);
   EXPECT_EQ(dev.object_dictionary()->get_u16(0x1017, 0), std::optional<std::uint16_t>(100));
+}
+
+// A heartbeat the device sent before it took the NMT start (CiA 301
+// §7.2.8.3.2.2: state 7Fh) read after the start was sent (a loaded
+// gateway's socket held it): stale, not a device put back to
+// pre-operational; no reconfiguration. The same state heard after the
+// settle is news: the device is started again.
+TEST(BusManagerLine, Cia301_StaleHeartbeatAfterTheStartIsNoReconfiguration) {
+  const LogCapture log;
+  VirtualLine line(kBus, device_toml("mt-a", "MC1-2800", 2001, 20));
+  sim::SimDevice& dev = line.add_device("MC1-2800", 2001, 20);
+  can::VirtualBus::Port& late = line.bus().attach();
+  line.start();
+  ASSERT_TRUE(line.run_until(VirtualLine::all_in(DeviceState::operational), 5s));
+  ASSERT_TRUE(late.send(heartbeat(20, 0x7F)));  // the one sent before the start, read now
+  line.run_for(2s);
+  EXPECT_EQ(log.count("pre-operational again"), 0u);
+  EXPECT_EQ(line.device("mt-a")->state, DeviceState::operational);
+  // Really put back (another master's NMT enter pre-operational): started again.
+  ASSERT_TRUE(late.send(nmt(0x80, 20)));
+  ASSERT_TRUE(line.run_until([&](const BusStatus&) { return log.count("pre-operational again") == 1; }, 2s));
+  ASSERT_TRUE(line.run_until(
+      [&](const BusStatus&) { return dev.nmt_state() == canopen::NmtState::operational; }, 3s));
 }
 
 // A device power-cycled while operational (boot-up, CiA 301 §7.2.8.3.1):

@@ -104,6 +104,9 @@ class VirtualLine {
       : dir_(std::filesystem::temp_directory_path() /
              ("cobridge-vline-" + std::to_string(::getpid()) + "-" + std::to_string(++instances_))) {
     std::filesystem::remove_all(dir_);
+    bus_.stamp_with([this] {
+      return std::chrono::duration_cast<std::chrono::nanoseconds>(clock_.wall().time_since_epoch()).count();
+    });
     for (const auto& extra : gateways) {
       auto g = std::make_unique<Gateway>(bus_.attach());
       g->dir = dir_ / ("gateway-" + std::to_string(gateways_.size()));
