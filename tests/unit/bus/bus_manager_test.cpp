@@ -76,6 +76,35 @@ std::size_t heartbeat_writes(can::VirtualBus& bus, std::uint8_t node, std::size_
   }));
 }
 
+// One multiturn (E) configured as mt-a at node 20, another SDO client's
+// port beside it; most scenarios start from here.
+struct OneMultiturn {
+  explicit OneMultiturn(int heartbeat_ms = 100)
+      : line(kBus, device_toml("mt-a", "MC1-2800", 2001, 20, heartbeat_ms)),
+        dev(line.add_device("MC1-2800", 2001, 20)),
+        other(line.bus().attach()) {}
+  // Started; true once mt-a is operational (within `limit` of bus time).
+  bool operational(std::chrono::milliseconds limit = 5s) {
+    line.start();
+    return line.run_until(VirtualLine::all_in(DeviceState::operational), limit).has_value();
+  }
+  [[nodiscard]] std::string why() const {
+    const auto d = line.device("mt-a");
+    return std::string(to_string(d->state)) + ": " + d->last_error;
+  }
+  // True once the device's own 0x1017 holds `ms` (within `limit`).
+  bool heartbeat_becomes(std::uint16_t ms, std::chrono::milliseconds limit) {
+    return line
+        .run_until([&](const BusStatus&) { return dev.object_dictionary()->get_u16(0x1017, 0) == std::optional(ms); },
+                   limit)
+        .has_value();
+  }
+
+  VirtualLine line;
+  sim::SimDevice& dev;
+  can::VirtualBus::Port& other;
+};
+
 // CiA 305 Fastscan (E§6): two multiturns of the same model, both
 // non-configured (FFh), get the node-IDs their serials are configured with,
 // remembered in the state file; then their TPDOs flow.
@@ -112,36 +141,32 @@ TEST(BusManagerLine, J1_2_2_TwoRotaryClashingAt127Resolved) {
 // offline within its consumer time (status says so), and once it talks
 // again it is checked and operational, its values flowing.
 TEST(BusManagerLine, Cia301_7_2_8_3_HeartbeatLostThenBack) {
-  VirtualLine line(kBus, device_toml("mt-a", "MC1-2800", 2001, 20));
-  sim::SimDevice& dev = line.add_device("MC1-2800", 2001, 20);
-  line.start();
-  ASSERT_TRUE(line.run_until(VirtualLine::all_in(DeviceState::operational), 5s));
-  dev.set_silent(true);
-  const auto lost = line.run_until(VirtualLine::is("mt-a", DeviceState::offline), 2s);
-  ASSERT_TRUE(lost) << "still " << to_string(line.device("mt-a")->state);
+  OneMultiturn t;
+  ASSERT_TRUE(t.operational());
+  t.dev.set_silent(true);
+  const auto lost = t.line.run_until(VirtualLine::is("mt-a", DeviceState::offline), 2s);
+  ASSERT_TRUE(lost) << "still " << t.why();
   EXPECT_LE(*lost, 500ms) << "consumer time of a 100 ms heartbeat";
-  EXPECT_FALSE(line.device("mt-a")->online);
-  dev.set_silent(false);
-  ASSERT_TRUE(line.run_until(VirtualLine::is("mt-a", DeviceState::operational), 3s));
-  const std::size_t mark = line.bus().log().size();
-  line.run_for(500ms);
-  EXPECT_GE(tpdo1_frames(line.bus(), 20, mark), 3u);
+  EXPECT_FALSE(t.line.device("mt-a")->online);
+  t.dev.set_silent(false);
+  ASSERT_TRUE(t.line.run_until(VirtualLine::is("mt-a", DeviceState::operational), 3s));
+  const std::size_t mark = t.line.bus().log().size();
+  t.line.run_for(500ms);
+  EXPECT_GE(tpdo1_frames(t.line.bus(), 20, mark), 3u);
 }
 
 // A device that reboots in the middle of its configuration (boot-up mid
 // plan, E§8.2): the plan that was running is dropped, the device is
 // configured again from the start and ends operational.
 TEST(BusManagerLine, E8_2_PowerCycleMidPlanEndsConfigured) {
-  VirtualLine line(kBus, device_toml("mt-a", "MC1-2800", 2001, 20));
-  sim::SimDevice& dev = line.add_device("MC1-2800", 2001, 20);
-  line.start();
-  ASSERT_TRUE(line.run_until(VirtualLine::is("mt-a", DeviceState::configuring), 2s));
-  dev.reboot_on_sdo(3);  // the plan's third request from now
-  ASSERT_TRUE(line.run_until(VirtualLine::all_in(DeviceState::operational), 10s))
-      << to_string(line.device("mt-a")->state) << ": " << line.device("mt-a")->last_error;
-  line.run_for(10ms);  // the NMT start on its way
-  EXPECT_EQ(dev.nmt_state(), canopen::NmtState::operational);
-  EXPECT_GE(line.device("mt-a")->boot_ups, 1u) << "the reboot was seen";
+  OneMultiturn t;
+  t.line.start();
+  ASSERT_TRUE(t.line.run_until(VirtualLine::is("mt-a", DeviceState::configuring), 2s));
+  t.dev.reboot_on_sdo(3);  // the plan's third request from now
+  ASSERT_TRUE(t.line.run_until(VirtualLine::all_in(DeviceState::operational), 10s)) << t.why();
+  t.line.run_for(10ms);  // the NMT start on its way
+  EXPECT_EQ(t.dev.nmt_state(), canopen::NmtState::operational);
+  EXPECT_GE(t.line.device("mt-a")->boot_ups, 1u) << "the reboot was seen";
 }
 
 // A reboot while discovery reads the identity (0x1018, CiA 301 §7.5.2.35)
@@ -150,11 +175,9 @@ TEST(BusManagerLine, E8_2_PowerCycleMidPlanEndsConfigured) {
 TEST(BusManagerLine, RebootDuringTheIdentityReadIsNoClash) {
   for (std::uint32_t nth = 1; nth <= 4; ++nth) {
     const LogCapture log;
-    VirtualLine line(kBus, device_toml("mt-a", "MC1-2800", 2001, 20));
-    sim::SimDevice& dev = line.add_device("MC1-2800", 2001, 20);
-    dev.reboot_on_sdo(nth);
-    line.start();
-    ASSERT_TRUE(line.run_until(VirtualLine::all_in(DeviceState::operational), 10s)) << "reboot on request " << nth;
+    OneMultiturn t;
+    t.dev.reboot_on_sdo(nth);
+    ASSERT_TRUE(t.operational(10s)) << "reboot on request " << nth;
     EXPECT_EQ(log.count("devices answer at node"), 0u) << "reboot on request " << nth;
   }
 }
@@ -163,26 +186,19 @@ TEST(BusManagerLine, RebootDuringTheIdentityReadIsNoClash) {
 // 0x05040000, SDO protocol timed out): the run fails, is tried again, and
 // the device ends operational.
 TEST(BusManagerLine, Cia301_SdoTimeoutRetriedThenOperational) {
-  VirtualLine line(kBus, device_toml("mt-a", "MC1-2800", 2001, 20));
-  sim::SimDevice& dev = line.add_device("MC1-2800", 2001, 20);
-  dev.ignore_sdo(0x1017, 1);
-  line.start();
-  ASSERT_TRUE(line.run_until(VirtualLine::all_in(DeviceState::operational), 10s))
-      << to_string(line.device("mt-a")->state) << ": " << line.device("mt-a")->last_error;
-  EXPECT_EQ(dev.object_dictionary()->get_u16(0x1017, 0), std::optional<std::uint16_t>(100));
+  OneMultiturn t;
+  t.dev.ignore_sdo(0x1017, 1);
+  ASSERT_TRUE(t.operational(10s)) << t.why();
+  EXPECT_EQ(t.dev.object_dictionary()->get_u16(0x1017, 0), std::optional<std::uint16_t>(100));
 }
 
 // CiA 301 §7.2.4.3.17 SDO abort during the plan: the run fails, is tried
 // again after its delay, and the device ends operational.
 TEST(BusManagerLine, Cia301_7_2_4_3_17_SdoAbortRetriedThenOperational) {
-  VirtualLine line(kBus, device_toml("mt-a", "MC1-2800", 2001, 20));
-  sim::SimDevice& dev = line.add_device("MC1-2800", 2001, 20);
-  dev.abort_sdo(0x1017, 0x08000020);  // data cannot be stored
-  line.start();
-  ASSERT_TRUE(line.run_until(VirtualLine::all_in(DeviceState::operational), 10s))
-      << to_string(line.device("mt-a")->state) << ": " << line.device("mt-a")->last_error;
-  ASSERT_NE(dev.object_dictionary(), nullptr);
-  EXPECT_EQ(dev.object_dictionary()->get_u16(0x1017, 0), std::optional<std::uint16_t>(100));
+  OneMultiturn t;
+  t.dev.abort_sdo(0x1017, 0x08000020);  // data cannot be stored
+  ASSERT_TRUE(t.operational(10s)) << t.why();
+  EXPECT_EQ(t.dev.object_dictionary()->get_u16(0x1017, 0), std::optional<std::uint16_t>(100));
 }
 
 // A heartbeat the device sent before it took the NMT start (CiA 301
@@ -192,36 +208,31 @@ TEST(BusManagerLine, Cia301_7_2_4_3_17_SdoAbortRetriedThenOperational) {
 // settle is news: the device is started again.
 TEST(BusManagerLine, Cia301_StaleHeartbeatAfterTheStartIsNoReconfiguration) {
   const LogCapture log;
-  VirtualLine line(kBus, device_toml("mt-a", "MC1-2800", 2001, 20));
-  sim::SimDevice& dev = line.add_device("MC1-2800", 2001, 20);
-  can::VirtualBus::Port& late = line.bus().attach();
-  line.start();
-  ASSERT_TRUE(line.run_until(VirtualLine::all_in(DeviceState::operational), 5s));
-  ASSERT_TRUE(late.send(heartbeat(20, 0x7F)));  // the one sent before the start, read now
-  line.run_for(2s);
+  OneMultiturn t;
+  ASSERT_TRUE(t.operational());
+  ASSERT_TRUE(t.other.send(heartbeat(20, 0x7F)));  // the one sent before the start, read now
+  t.line.run_for(2s);
   EXPECT_EQ(log.count("pre-operational again"), 0u);
-  EXPECT_EQ(line.device("mt-a")->state, DeviceState::operational);
+  EXPECT_EQ(t.line.device("mt-a")->state, DeviceState::operational);
   // Really put back (another master's NMT enter pre-operational): started again.
-  ASSERT_TRUE(late.send(nmt(0x80, 20)));
-  ASSERT_TRUE(line.run_until([&](const BusStatus&) { return log.count("pre-operational again") == 1; }, 2s));
-  ASSERT_TRUE(line.run_until(
-      [&](const BusStatus&) { return dev.nmt_state() == canopen::NmtState::operational; }, 3s));
+  ASSERT_TRUE(t.other.send(nmt(0x80, 20)));
+  ASSERT_TRUE(t.line.run_until([&](const BusStatus&) { return log.count("pre-operational again") == 1; }, 2s));
+  ASSERT_TRUE(t.line.run_until(
+      [&](const BusStatus&) { return t.dev.nmt_state() == canopen::NmtState::operational; }, 3s));
 }
 
 // A device power-cycled while operational (boot-up, CiA 301 §7.2.8.3.1):
 // configured again and operational; the way back is bounded.
 TEST(BusManagerLine, Cia301_7_2_8_3_1_BootUpWhileOperationalReconfigured) {
-  VirtualLine line(kBus, device_toml("mt-a", "MC1-2800", 2001, 20));
-  sim::SimDevice& dev = line.add_device("MC1-2800", 2001, 20);
-  line.start();
-  ASSERT_TRUE(line.run_until(VirtualLine::all_in(DeviceState::operational), 5s));
-  ASSERT_FALSE(dev.power_cycle(line.now()));
-  line.run_for(5ms);
-  const auto back = line.run_until(VirtualLine::is("mt-a", DeviceState::operational), 5s);
+  OneMultiturn t;
+  ASSERT_TRUE(t.operational());
+  ASSERT_FALSE(t.dev.power_cycle(t.line.now()));
+  t.line.run_for(5ms);
+  const auto back = t.line.run_until(VirtualLine::is("mt-a", DeviceState::operational), 5s);
   ASSERT_TRUE(back);
   EXPECT_LT(*back, 2s);
-  line.run_for(10ms);  // the NMT start on its way
-  EXPECT_EQ(dev.nmt_state(), canopen::NmtState::operational);
+  t.line.run_for(10ms);  // the NMT start on its way
+  EXPECT_EQ(t.dev.nmt_state(), canopen::NmtState::operational);
 }
 
 // CiA 305 Fastscan at scale: 32 factory-fresh multiturns, all at FFh, each
@@ -260,19 +271,14 @@ TEST(BusManagerLine, UnknownSerialShownNeverConfigured) {
 // docs/configuration.md on_config_drift = "restore": another client's
 // write of a configured object (0x1017, CiA 301 §7.5.2.31) is put back.
 TEST(BusManagerLine, Cia301_DriftOfHeartbeatRestored) {
-  VirtualLine line(kBus, device_toml("mt-a", "MC1-2800", 2001, 20));
-  sim::SimDevice& dev = line.add_device("MC1-2800", 2001, 20);
-  can::VirtualBus::Port& other = line.bus().attach();
-  line.start();
-  ASSERT_TRUE(line.run_until(VirtualLine::all_in(DeviceState::operational), 5s));
-  const std::size_t mark = line.bus().log().size();
-  ASSERT_TRUE(other.send(sdo_write_u16(20, 0x1017, 0, 200)));
-  ASSERT_TRUE(line.run_until(
-      [&](const BusStatus&) { return dev.object_dictionary()->get_u16(0x1017, 0) == std::optional<std::uint16_t>(100); },
-      3s));
-  EXPECT_EQ(heartbeat_writes(line.bus(), 20, mark), 2u) << "the client's write, then the gateway's";
-  ASSERT_TRUE(line.run_until(VirtualLine::is("mt-a", DeviceState::operational), 3s));
-  EXPECT_TRUE(line.device("mt-a")->drift.empty()) << "restored: the record closed";
+  OneMultiturn t;
+  ASSERT_TRUE(t.operational());
+  const std::size_t mark = t.line.bus().log().size();
+  ASSERT_TRUE(t.other.send(sdo_write_u16(20, 0x1017, 0, 200)));
+  ASSERT_TRUE(t.heartbeat_becomes(100, 3s));
+  EXPECT_EQ(heartbeat_writes(t.line.bus(), 20, mark), 2u) << "the client's write, then the gateway's";
+  ASSERT_TRUE(t.line.run_until(VirtualLine::is("mt-a", DeviceState::operational), 3s));
+  EXPECT_TRUE(t.line.device("mt-a")->drift.empty()) << "restored: the record closed";
 }
 
 // The fighting writer: a client that sets 0x1017 to its own value every
@@ -280,42 +286,31 @@ TEST(BusManagerLine, Cia301_DriftOfHeartbeatRestored) {
 // (status says so) and nothing more is written until an operator
 // acknowledges it.
 TEST(BusManagerLine, DriftFromAFightingWriterContestedAfterThreeRestores) {
-  VirtualLine line(kBus, device_toml("mt-a", "MC1-2800", 2001, 20));
-  sim::SimDevice& dev = line.add_device("MC1-2800", 2001, 20);
-  can::VirtualBus::Port& other = line.bus().attach();
-  line.start();
-  ASSERT_TRUE(line.run_until(VirtualLine::all_in(DeviceState::operational), 5s));
-  const std::size_t mark = line.bus().log().size();
+  OneMultiturn t;
+  ASSERT_TRUE(t.operational());
+  const std::size_t mark = t.line.bus().log().size();
   unsigned writes = 0;
   for (; writes < 30; ++writes) {
-    ASSERT_TRUE(other.send(sdo_write_u16(20, 0x1017, 0, 200)));
-    line.run_for(2s);
+    ASSERT_TRUE(t.other.send(sdo_write_u16(20, 0x1017, 0, 200)));
+    t.line.run_for(2s);
   }
-  const std::size_t gateway_writes = heartbeat_writes(line.bus(), 20, mark) - writes;
+  const std::size_t gateway_writes = heartbeat_writes(t.line.bus(), 20, mark) - writes;
   EXPECT_LE(gateway_writes, 3u) << "restores of a fought-over object";
   EXPECT_GE(gateway_writes, 1u) << "the first drift is restored";
-  const auto d = line.device("mt-a");
-  EXPECT_EQ(contested_count(*d), 1u);
-  EXPECT_EQ(dev.object_dictionary()->get_u16(0x1017, 0), std::optional<std::uint16_t>(200)) << "left to the writer";
-  line.manager().acknowledge_contested("mt-a", "unit test");
-  ASSERT_TRUE(line.run_until(
-      [&](const BusStatus&) { return dev.object_dictionary()->get_u16(0x1017, 0) == std::optional<std::uint16_t>(100); },
-      5s))
-      << "acknowledged: restored again";
+  EXPECT_EQ(contested_count(*t.line.device("mt-a")), 1u);
+  EXPECT_EQ(t.dev.object_dictionary()->get_u16(0x1017, 0), std::optional<std::uint16_t>(200)) << "left to the writer";
+  t.line.manager().acknowledge_contested("mt-a", "unit test");
+  EXPECT_TRUE(t.heartbeat_becomes(100, 5s)) << "acknowledged: restored again";
 }
 
 // SIGHUP (docs/operations.md "Reload"): a changed heartbeat period is
 // written to the device without closing the bus.
 TEST(BusManagerLine, ReloadWritesTheChangedSetting) {
-  VirtualLine line(kBus, device_toml("mt-a", "MC1-2800", 2001, 20));
-  sim::SimDevice& dev = line.add_device("MC1-2800", 2001, 20);
-  line.start();
-  ASSERT_TRUE(line.run_until(VirtualLine::all_in(DeviceState::operational), 5s));
-  line.manager().reload(line.load(kBus, device_toml("mt-a", "MC1-2800", 2001, 20, 250)));
-  ASSERT_TRUE(line.run_until(
-      [&](const BusStatus&) { return dev.object_dictionary()->get_u16(0x1017, 0) == std::optional<std::uint16_t>(250); },
-      3s));
-  ASSERT_TRUE(line.run_until(VirtualLine::all_in(DeviceState::operational), 3s));
+  OneMultiturn t;
+  ASSERT_TRUE(t.operational());
+  t.line.manager().reload(t.line.load(kBus, device_toml("mt-a", "MC1-2800", 2001, 20, 250)));
+  ASSERT_TRUE(t.heartbeat_becomes(250, 3s));
+  ASSERT_TRUE(t.line.run_until(VirtualLine::all_in(DeviceState::operational), 3s));
 }
 
 }  // namespace
