@@ -310,12 +310,13 @@ void BusManager::Impl::on_nmt_state(Managed& m, canopen::NmtState nmt, std::int6
   set_state(m, DeviceState::identified);
 }
 
-// By the frame's kernel stamp where it has one: sent before our start
-// reached the device and was acted on (kStartReaction); a frame without a
-// stamp within the settle after a command (kCommandSettle).
+// By the frame's kernel stamp where it has one, within kStartStaleWindow
+// of our start: sent before the start reached the device and was acted on
+// (kStartReaction); a frame without a stamp within the settle after a
+// command (kCommandSettle).
 bool BusManager::Impl::told_before_start(const Managed& m, std::int64_t frame_ns, TimePoint now) const {
   if (now < m.preop_expected_until) return true;
-  if (frame_ns == 0 || m.start_sent_ns == 0) return false;
+  if (frame_ns == 0 || m.start_sent_ns == 0 || now - m.start_sent_at > kStartStaleWindow) return false;
   return frame_ns < m.start_sent_ns + std::chrono::duration_cast<std::chrono::nanoseconds>(kStartReaction).count();
 }
 

@@ -76,6 +76,10 @@ constexpr milliseconds kCommandSettle{500};
 // start was sent plus this (the frame on the wire, the device acting on it)
 // tells the state before the start, whenever a loaded gateway reads it.
 constexpr milliseconds kStartReaction{50};
+// ... judged so only this long after the start: a heartbeat read later is
+// no longer one the gateway was slow to read, and a wall clock stepped back
+// (NTP) in between cannot hide a device put back to pre-operational.
+constexpr milliseconds kStartStaleWindow{1000};
 // A re-plugged adapter is opened at most this long after it appears, so
 // its devices are configured again within 2 s of its return.
 constexpr milliseconds kReopenBackoffMax{500};
@@ -100,6 +104,7 @@ struct BusManager::Impl final : RemoteGate {
     std::optional<DeviceCommand> command;  // the runner runs this command, not the configuration
     TimePoint preop_expected_until{};      // see kCommandSettle
     std::int64_t start_sent_ns = 0;        // realtime of our last NMT start (kStartReaction)
+    TimePoint start_sent_at{};             // ... and steady time (kStartStaleWindow)
     bool quick = false;       // the running plan is the fingerprint check
     bool force_full = false;  // the next run is the full plan
     bool store_all = false;   // ... and stores all it names: the quick check already wrote some

@@ -221,6 +221,22 @@ TEST(BusManagerLine, Cia301_StaleHeartbeatAfterTheStartIsNoReconfiguration) {
       [&](const BusStatus&) { return t.dev.nmt_state() == canopen::NmtState::operational; }, 3s));
 }
 
+// The wall clock stepped back an hour (NTP) after the start: a device put
+// back to pre-operational a few seconds later is still news, its heartbeat
+// stamps earlier than the start notwithstanding.
+TEST(BusManagerLine, Cia301_PreOperationalAfterAWallClockStepIsNews) {
+  const LogCapture log;
+  OneMultiturn t;
+  ASSERT_TRUE(t.operational());
+  t.line.run_for(3s);  // every start made
+  t.line.step_wall_clock(-3600s);
+  t.line.run_for(2s);
+  ASSERT_TRUE(t.other.send(nmt(0x80, 20)));
+  ASSERT_TRUE(t.line.run_until([&](const BusStatus&) { return log.count("pre-operational again") == 1; }, 2s));
+  ASSERT_TRUE(t.line.run_until(
+      [&](const BusStatus&) { return t.dev.nmt_state() == canopen::NmtState::operational; }, 3s));
+}
+
 // A device power-cycled while operational (boot-up, CiA 301 §7.2.8.3.1):
 // configured again and operational; the way back is bounded.
 TEST(BusManagerLine, Cia301_7_2_8_3_1_BootUpWhileOperationalReconfigured) {

@@ -42,13 +42,16 @@ class FakeBusClock final : public BusClock {
  public:
   TimePoint now() const noexcept override { return now_; }
   WallTime wall() const noexcept override {
-    return WallTime{std::chrono::seconds{1'800'000'000}} +
+    return WallTime{std::chrono::seconds{1'800'000'000}} + step_ +
            std::chrono::duration_cast<WallTime::duration>(now_ - TimePoint{});
   }
   void set(TimePoint t) noexcept { now_ = t; }
+  // The wall clock stepped (NTP), the steady one not.
+  void step_wall(std::chrono::seconds by) noexcept { step_ += by; }
 
  private:
   TimePoint now_{std::chrono::seconds{1000}};
+  std::chrono::seconds step_{0};
 };
 
 // Adds a capturing sink to the loggers of the layers a bus goes through,
@@ -205,6 +208,7 @@ class VirtualLine {
     return std::nullopt;
   }
   [[nodiscard]] TimePoint now() const { return clock_.now(); }
+  void step_wall_clock(std::chrono::seconds by) { clock_.step_wall(by); }
   [[nodiscard]] BusManager& manager(std::size_t g = 0) { return *gateways_.at(g)->manager; }
   [[nodiscard]] can::VirtualBus& bus() { return bus_; }
   // Every frame on the bus with the time it was there (the tap's).
