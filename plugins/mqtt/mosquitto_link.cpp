@@ -4,6 +4,7 @@
 
 #include <mosquitto.h>
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cstring>
@@ -123,14 +124,35 @@ plugin::Error MosquittoLink::start(std::optional<std::uint8_t> after, Mode mode)
     bd_seq_.store(bd_file_.next(after), std::memory_order_release);
     set_will();
   }
-  int rc = mosquitto_connect_async(mosq_, config_.host.c_str(), config_.port, static_cast<int>(config_.keepalive_s));
-  if (rc != MOSQ_ERR_SUCCESS)  // retried by the client thread with backoff
+  const int rc = connect_and_loop();
+  if (rc == MOSQ_ERR_NOMEM) return {std::error_code(ENOMEM, std::generic_category()), "loop: " + mosq_error(rc)};
+  if (rc != MOSQ_ERR_SUCCESS) {
+    retry_delay_ = std::chrono::seconds(1);
+    retry_at_ = std::chrono::steady_clock::now() + retry_delay_;
     log_(COBRIDGE_LOG_WARN, "MQTT broker " + config_.host + ":" + std::to_string(config_.port) +
-                                " not reached yet (" + mosq_error(rc) + "); retrying");
-  rc = mosquitto_loop_start(mosq_);
-  if (rc != MOSQ_ERR_SUCCESS) return {std::error_code(rc, std::generic_category()), "loop: " + mosq_error(rc)};
-  loop_started_ = true;
+                                " not reached yet (" + mosq_error(rc) + "); retrying every 1 s to 30 s");
+  }
   return {};
+}
+
+// The CONNECT, then libmosquitto's thread once it has started: that thread
+// reconnects a session that ends, but not a first CONNECT that never began.
+int MosquittoLink::connect_and_loop() {
+  int rc = mosquitto_connect_async(mosq_, config_.host.c_str(), config_.port, static_cast<int>(config_.keepalive_s));
+  if (rc != MOSQ_ERR_SUCCESS) return rc;
+  rc = mosquitto_loop_start(mosq_);
+  if (rc != MOSQ_ERR_SUCCESS) return MOSQ_ERR_NOMEM;  // no thread: nothing a retry mends
+  loop_started_ = true;
+  return MOSQ_ERR_SUCCESS;
+}
+
+void MosquittoLink::retry_connect(std::chrono::steady_clock::time_point now) {
+  if (!awaiting_first_connect() || now < retry_at_) return;
+  const int rc = connect_and_loop();
+  if (rc == MOSQ_ERR_SUCCESS) return;
+  retry_delay_ = std::min(retry_delay_ * 2, std::chrono::seconds(30));
+  retry_at_ = now + retry_delay_;
+  if (rc == MOSQ_ERR_NOMEM) log_(COBRIDGE_LOG_ERROR, "MQTT client thread not started: " + mosq_error(rc));
 }
 
 void MosquittoLink::stop() {

@@ -7,7 +7,11 @@
 //   - bdSeq: the next of BdSeqFile (persisted) for each new CONNECT, the
 //     first one and every one after a lost session, so the NBIRTH that
 //     follows names the will that the broker holds;
-//   - reconnects with exponential backoff (1 s doubling to 30 s);
+//   - reconnects with exponential backoff (1 s doubling to 30 s); a first
+//     CONNECT that fails at once (broker not up yet, name not resolvable
+//     yet: a plant's boot order) is retried by retry_connect(), because
+//     libmosquitto's thread waits for a first connect for ever and never
+//     retries it (found when the package test's broker started late);
 //   - NCMD (Node Control/Rebirth) and the primary host's STATE, subscribed
 //     at each connect and turned into flags the publisher thread polls;
 //   - DCMD of every device (spBv1.0/<group>/DCMD/<edge>/+), decoded here and
@@ -34,6 +38,7 @@
 #include <cobridge/spsc_ring.hpp>
 
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <span>
@@ -76,6 +81,14 @@ class MosquittoLink {
   // disconnects and joins the client thread.
   void stop();
 
+  // Publisher thread, each pass: while the first CONNECT has not started
+  // (it failed at once), tries it again when due (1 s, doubling to 30 s)
+  // and on success starts libmosquitto's thread, which reconnects from
+  // then on. Nothing to do otherwise.
+  void retry_connect(std::chrono::steady_clock::time_point now);
+  // Whether a first CONNECT waits for retry_connect() (tests, stats).
+  [[nodiscard]] bool awaiting_first_connect() const noexcept { return mosq_ != nullptr && !loop_started_; }
+
   // Messages handed to libmosquitto and not yet written to the socket, at most.
   static constexpr std::uint64_t kMaxQueued = 4096;
 
@@ -111,12 +124,16 @@ class MosquittoLink {
   void handle_dcmd(std::string_view topic, const void* payload, int len);
   void subscribe_all(struct mosquitto* m);
   [[nodiscard]] plugin::Error configure_client();
+  [[nodiscard]] int connect_and_loop();
 
   const MqttConfig& config_;
   BdSeqFile& bd_file_;
   LogFn log_;
   struct mosquitto* mosq_ = nullptr;
   bool loop_started_ = false;
+  // The first CONNECT's retry (start/stop/retry_connect: never at once).
+  std::chrono::steady_clock::time_point retry_at_{};
+  std::chrono::seconds retry_delay_{1};
   std::string ndeath_topic_;
   std::string ncmd_topic_;
   std::string state_topic_;

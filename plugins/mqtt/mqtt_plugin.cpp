@@ -13,7 +13,8 @@
 //     flags (session gained/lost, rebirth, primary host); takes DCMDs to the
 //     CommandDesk and publishes their results. Idle, it waits on a Doorbell
 //     the dispatcher rings (at most 1 ms: the link's flags are polled).
-//   - libmosquitto's client thread (MosquittoLink): socket, keepalive, reconnects.
+//   - libmosquitto's client thread (MosquittoLink): socket, keepalive, reconnects
+//     (a first CONNECT that failed at once: retried by the publisher thread).
 //
 // A hot-standby pair is one edge node (ABI 4 on_role): only the gateway that
 // is master of a bus holds the Sparkplug session. on_role sets the wanted
@@ -109,6 +110,7 @@ struct Plugin {
   }
 
   void poll_link(std::uint64_t& generation, int& primary) {
+    link->retry_connect(std::chrono::steady_clock::now());
     const MosquittoLink::State st = link->state();
     const std::uint64_t now = wall_ms();
     if (st.generation != generation) {

@@ -146,11 +146,15 @@ def mqtt_figures():
 
 
 def check_mqtt():
-    # The broker may have started after the daemon: the plugin reconnects.
+    # The broker starts 2 s after the daemon's READY (configure-root): the
+    # plugin's first CONNECT failed and is retried (1 s doubling to 30 s).
     out, took = wait(lambda: (mqtt_figures() or {}).get("figures", {}).get("mqtt_connected") == 1 or None, 30)
     o = mqtt_figures()
     check(took is not None, "Sparkplug B: the mqtt plugin loaded and connected to the root's Mosquitto",
           repr(o)[:300])
+    late = [l for l in journal("-o", "cat").splitlines() if "not reached yet" in l]
+    check(len(late) >= 1, "Sparkplug B: the broker came up after the daemon (first CONNECT retried)",
+          repr(late[:1]))
     # Both encoders move in the simulator, and each change is a DDATA (report by
     # exception): a few hundred messages hold both devices'.
     rc, out, err = sh("mosquitto_sub", "-h", "127.0.0.1", "-t", "spBv1.0/package-test/#", "-F", "%t",
