@@ -4,7 +4,6 @@ namespace cobridge::can {
 
 bool VirtualBus::Port::send(const Frame& frame) noexcept {
   if (send_blocked_ || !open_) {
-    ++tx_refused_;
     ++stats_.tx_dropped;
     return false;
   }

@@ -52,8 +52,9 @@ class VirtualBus {
     void set_open(bool open);
 
     [[nodiscard]] std::size_t pending() const noexcept { return queue_.size(); }
-    // Sends refused while blocked, and frames lost because this port was full.
-    [[nodiscard]] uint64_t tx_refused() const noexcept { return tx_refused_; }
+    // Sends refused while blocked or closed (the stats' tx_dropped), and frames
+    // lost because this port was full.
+    [[nodiscard]] uint64_t tx_refused() const noexcept { return stats_.tx_dropped; }
     [[nodiscard]] uint64_t rx_dropped() const noexcept { return rx_dropped_; }
 
     void set_send_blocked(bool blocked) noexcept { send_blocked_ = blocked; }
@@ -72,7 +73,6 @@ class VirtualBus {
     ChannelStats stats_;
     bool open_ = true;
     bool send_blocked_ = false;
-    uint64_t tx_refused_ = 0;
     uint64_t rx_dropped_ = 0;
   };
 

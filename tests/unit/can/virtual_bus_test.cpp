@@ -57,6 +57,7 @@ TEST(VirtualBus, BlockedPortRefusesAndCounts) {
   a.set_send_blocked(true);
   EXPECT_FALSE(a.send(Frame::make(0x80, {})));
   EXPECT_EQ(a.tx_refused(), 1u);
+  EXPECT_EQ(a.stats().tx_dropped, 1u);  // one count, both names
   EXPECT_EQ(b.pending(), 0u);
   EXPECT_TRUE(bus.log().empty());
   a.set_send_blocked(false);
