@@ -1,4 +1,4 @@
-# Build speed (issue 24): CI builds the tree three times on two cores.
+# Build speed: CI builds the tree three times on two cores.
 #
 # COBRIDGE_UNITY: libraries compile as unity batches (CMake UNITY_BUILD), so
 #   the heavy headers (spdlog, fmt, toml++, the standard library) are parsed

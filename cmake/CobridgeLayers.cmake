@@ -1,4 +1,4 @@
-# The walls between the daemon's layers (issue 13).
+# The walls between the daemon's layers.
 #
 # Every layer's headers are included by their layer name ("canopen/sdo_client.hpp").
 # Exporting daemon/ itself would let any target include any layer. Instead each

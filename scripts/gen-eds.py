@@ -513,7 +513,7 @@ Errata decisions (E as printed -> this file):
 - 0x1A00/1, 0x1A01/1 default 0x60200120 maps 0x6020, which E does not define: kept as printed,
   and 0x6020 is defined here (ARRAY, sub 1 INTEGER32 ro, PDO-mappable) as the alias of the position
   0x6004 the device answers it as, so that a master importing this file decodes the default TPDOs
-  (CiA 301 §7.4.8.1: a mapping entry names an object of the dictionary; issue 16).
+  (CiA 301 §7.4.8.1: a mapping entry names an object of the dictionary).
 - 0x6000 printed Unsigned8 with default 0x0000: kept UNSIGNED8 as printed; note that J and F use
   UNSIGNED16 and E§5.3 inverts the scaling bit.
 - 0x6313/1 row named "CAM 1 high limit" and the 0x6320 row has no name: named by function.

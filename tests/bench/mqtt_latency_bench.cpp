@@ -1,5 +1,5 @@
 // MQTT (Sparkplug B) latency and loss bench (prints figures; not a test).
-// Targets (issue 39, "Bounds"): from a CAN sample's receive time to a
+// Targets (docs/mqtt.md, performance): from a CAN sample's receive time to a
 // subscriber's callback through a real broker on loopback, p99 <= 1.2x a
 // bare libmosquitto publisher of the same payloads in the same run; 32
 // devices at 1 kHz (32 000 samples/s) without loss; 0 heap allocations per

@@ -1,5 +1,5 @@
 // Fuzz target: the master election (daemon/canopen/master_election.*,
-// election_peers.*) against a stranger's frames, as issue 38 asks: "a
+// election_peers.*) against a stranger's frames, as asked: "a
 // sequence of frames against two elections: never two masters, never none
 // for long". Two gateways (nodes 120 and 121) and two devices (nodes 10 and
 // 20, heartbeat 05h every 100 ms, excluded as gateways) run on a simulated

@@ -1,5 +1,5 @@
 // Fuzz target: the state store's reader and writer (daemon/bus/state_store.*,
-// issue 38 item 4: "a state file that cannot be read is kept, never
+// "a state file that cannot be read is kept, never
 // overwritten"). The bytes are assignments.state in a fresh directory; the
 // store loads it. Invariants (abort on violation), as state_store.hpp
 // promises:

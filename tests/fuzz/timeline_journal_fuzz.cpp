@@ -1,5 +1,5 @@
 // Fuzz target: the timeline journal's reader (daemon/bus/timeline_journal.*,
-// issue 38 item 4: reads bounded, at=/last= after 2262 refused without
+// Reads bounded, at=/last= after 2262 refused without
 // overflow). The bytes are a journal file's content; load() reads it back.
 // Invariants (abort on violation), as timeline_journal.hpp promises:
 //   * a regular file never fails to read: load() gives no error or

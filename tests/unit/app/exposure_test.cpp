@@ -43,7 +43,7 @@ TEST(Exposure, LoopbackIsQuiet) {
               IsEmpty());
 }
 
-// Issue 38 item 3: any account of the gateway's host reaches a loopback
+// Any account of the gateway's host reaches a loopback
 // listener, so a TCP client on 127.0.0.1 or ::1 writes only when write_allow
 // lists the loopback address (IpAllowList::allows_writer). Both sides of
 // that choice are said: writes enabled on a loopback listener nobody may

@@ -98,7 +98,7 @@ TEST(CaptureFromName, TheNameGivesTheFaultTimeAndCause) {
   EXPECT_TRUE(odd.causes.empty());
 }
 
-// Issue 38 item 4: a name's year 9999 (or 0000) is beyond the 64-bit
+// A name's year 9999 (or 0000) is beyond the 64-bit
 // nanoseconds since 1970 (1677..2262): the name alone, without overflow.
 TEST(CaptureFromName, Issue38_AYearBeyondTheClockGivesTheNameOnlyWithoutOverflow) {
   for (const char* name : {"line1-99991231T235959.999Z-emcy.log", "line1-00000101T000000.000Z-emcy.log"}) {
@@ -109,7 +109,7 @@ TEST(CaptureFromName, Issue38_AYearBeyondTheClockGivesTheNameOnlyWithoutOverflow
   EXPECT_NE(capture_from_name("line1-22611231T235959.999Z-emcy.log", 6).fault_ns, 0);
 }
 
-// Issue 38 item 4: bus names are matched exactly. A capture of bus "a"
+// Bus names are matched exactly. A capture of bus "a"
 // is "a-<stamp>-<word>.log"; bus "a-1"'s "a-1-<stamp>-..." is not one of
 // them, nor is anything but the stamp's digits after "<bus>-".
 TEST(IsCaptureOf, Issue38_BusNamesMatchExactly) {
@@ -204,7 +204,7 @@ TEST_F(CaptureWriterTest, OldestCapturesGoFirstToKeepTheCap) {
   EXPECT_TRUE(fs::exists(dir_ / "line2-20251128T031800.000Z-emcy.log"));
 }
 
-// Issue 38 item 4: bus "a"'s cap and listing never take bus "a-1"'s
+// Bus "a"'s cap and listing never take bus "a-1"'s
 // captures (a prefix match counted, listed and deleted them).
 TEST_F(CaptureWriterTest, Issue38_ABusNeverListsNorDeletesTheCapturesOfABusWhoseNameExtendsIt) {
   can::FrameRecorder rec(10000);
@@ -228,7 +228,7 @@ TEST_F(CaptureWriterTest, Issue38_ABusNeverListsNorDeletesTheCapturesOfABusWhose
   EXPECT_EQ(w.read(other + ".log").error().kind, Errc::kNotFound);
 }
 
-// Issue 38 item 4: a symbolic link planted in the captures folder under a
+// A symbolic link planted in the captures folder under a
 // capture's name is neither listed, nor served, nor counted or deleted by
 // the cap: the file it names is never read or touched.
 TEST_F(CaptureWriterTest, Issue38_ASymbolicLinkInTheFolderIsNeverListedServedOrFollowed) {
@@ -253,7 +253,7 @@ TEST_F(CaptureWriterTest, Issue38_ASymbolicLinkInTheFolderIsNeverListedServedOrF
   EXPECT_EQ(text.value(), "(1764300000.000000) vcan0 70A#00\n");
 }
 
-// Issue 38 item 4: a name planted where a capture goes (a link to a file
+// A name planted where a capture goes (a link to a file
 // the daemon must not write, at the partial file's or the log's name) is
 // refused (O_EXCL; the rename never replaces): the capture is not written,
 // the file the link names is untouched, and nothing half-written stays.
@@ -279,7 +279,7 @@ TEST_F(CaptureWriterTest, Issue38_ANamePlantedWhereACaptureGoesIsNeverWrittenThr
   EXPECT_TRUE(w.recent().empty());
 }
 
-// Issue 38 item 4: the cap bounds the space, the budget the writes (flash
+// The cap bounds the space, the budget the writes (flash
 // wear). Beyond capture_budget_per_hour a fault opens no capture: it is
 // counted, the first skip of the hour is logged, and once the hour is over
 // one line gives the hour's count; the next hour has its budget again.

@@ -1,4 +1,4 @@
-// Configuration drift (issue 29 item 4): which client writes touch an object
+// Configuration drift: which client writes touch an object
 // the plan sets (CiA 301 §7.4.8.3 0x1017 producer heartbeat time, the TPDO
 // objects of §7.5.2.35-36), whether the value differs in the owned bits, and
 // what the open records of a device become.

@@ -684,7 +684,7 @@ TEST(DiscoveryTest, DeviceAtTargetIsOnlyIdentified_CiA301_7_2_8_3_3) {
   EXPECT_TRUE(ids[1].at_target);
 }
 
-// Issue 38 item 4: a state file that could not be read holds every
+// A state file that could not be read holds every
 // assignment (StateStore::hold): under policy automatic nothing is moved or
 // given a node-ID (no LSS at all, no NMT, no SDO download), also not after
 // `cobridge commission`; a device found at the node-ID its configuration

@@ -2,7 +2,7 @@
 // ("Assignments are kept in a state file, so a restart needs no new
 // scan"; "A configuration fingerprint lets an unchanged device come up
 // without being rewritten"); a file it cannot read is kept and holds every
-// assignment until an operator decides (issue 38 item 4).
+// assignment until an operator decides.
 #include "bus/state_store.hpp"
 
 #include <gtest/gtest.h>
@@ -121,7 +121,7 @@ TEST_F(StateStoreTest, PutReplacesTheSameDeviceAndEraseRemovesIt) {
   EXPECT_EQ(again.on_bus("line2").size(), 1U);
 }
 
-// Issue 38 item 4: a line that does not read makes the whole file
+// A line that does not read makes the whole file
 // untrusted: it is set aside (never written over), every problem named as
 // file:line (the first five, then a count), and the store holds.
 TEST_F(StateStoreTest, Issue38_ALineThatDoesNotReadSetsTheFileAsideAndHolds) {
@@ -166,7 +166,7 @@ TEST_F(StateStoreTest, Issue38_ALineThatDoesNotReadSetsTheFileAsideAndHolds) {
   EXPECT_NE(hold.find("no node-ID is assigned until an operator decides"), std::string::npos) << hold;
 }
 
-// Issue 38 item 4, as measured: 2 KiB of binary garbage in place of the
+// 2 KiB of binary garbage in place of the
 // state file. Its bytes stay on the disk (set aside), and while the store
 // holds no assignment writes the file: the set-aside copy is never replaced
 // and the state file's place stays empty for the operator's decision.
@@ -191,7 +191,7 @@ TEST_F(StateStoreTest, Issue38_BinaryGarbageIsKeptAndNeverOverwritten) {
   EXPECT_EQ(read(aside[0]), garbage);
 }
 
-// Issue 38 item 4: the hold outlives a restart. With no state file and a
+// The hold outlives a restart. With no state file and a
 // set-aside copy beside it the store holds again (a missing file is not a
 // fresh start then); a file that reads, the operator's decision (an empty
 // one: start without the memory), releases it, and the file is written again.
@@ -217,7 +217,7 @@ TEST_F(StateStoreTest, Issue38_TheHoldOutlivesARestartUntilAFileThatReadsIsPutBa
   EXPECT_EQ(aside_copies().size(), 1u);  // the copy is the operator's to remove
 }
 
-// Issue 38 item 4: unreadable is not only bad syntax: a symbolic link (the
+// Unreadable is not only bad syntax: a symbolic link (the
 // file it names is never read nor written) and a file larger than any state
 // file are set aside too.
 TEST_F(StateStoreTest, Issue38_ASymbolicLinkOrAnOversizedFileIsSetAside) {
@@ -292,7 +292,7 @@ TEST_F(StateStoreTest, UnwritableDirectoryIsAnErrorNotACrash) {
   EXPECT_TRUE(store.on_bus("line1").empty());
 }
 
-// Issue 38: the bus control thread sends the heartbeat of a hot-standby
+// The bus control thread sends the heartbeat of a hot-standby
 // pair's master; it stopped for the two fsyncs of a state file write (over
 // 150 ms on a busy disk, longer than the standby waits for the master's
 // heartbeat). With the writer thread, put() returns while the disk is still
@@ -391,7 +391,7 @@ TEST_F(StateStoreTest, Issue38_TheDestructorWritesWhatIsPending) {
   EXPECT_EQ(again.on_bus("line1")[0].node_id, 12);
 }
 
-// Issue 38 items 1 and 4 together: the writer thread and the hold. A reload
+// The writer thread and the hold. A reload
 // (load()) waits for the write in the disk, so it reads what that write left;
 // when that cannot be read the file is set aside, and from then on nothing is
 // written (a put made meanwhile is dropped), so the state file's place stays

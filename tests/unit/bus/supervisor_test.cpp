@@ -360,7 +360,7 @@ TEST_F(SupervisorTest, Cia301_7_2_8_3_2_2_BackPreOperationalAfterLossIsReported)
 namespace cobridge::gateway {
 namespace {
 
-// Issue 29 item 4, on_config_drift = "keep": a client set the producer
+// on_config_drift = "keep": a client set the producer
 // heartbeat time (CiA 301 §7.4.8.3, 0x1017) from 100 to 9029 ms; the
 // consumer follows it: 2 s of silence is no loss, 9029 ms x 1.5 + margin is.
 TEST_F(SupervisorTest, Issue29_ConsumerFollowsAProducerTimeTheGatewayKeeps) {

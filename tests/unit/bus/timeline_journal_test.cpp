@@ -141,7 +141,7 @@ TEST_F(TimelineJournalTest, NoTimelinesNeverCompactTheHistoryAway) {
   EXPECT_EQ(lines(j.path()), 500U);
 }
 
-// Issue 38 item 4: a symbolic link planted as the journal (to a file the
+// A symbolic link planted as the journal (to a file the
 // daemon must not read or write) is refused with an error naming it, and
 // never followed: nothing is read from the file it names, nothing appended.
 TEST_F(TimelineJournalTest, Issue38_ASymbolicLinkAsTheJournalIsRefusedNeverFollowed) {
@@ -168,7 +168,7 @@ TEST_F(TimelineJournalTest, Issue38_ASymbolicLinkAsTheJournalIsRefusedNeverFollo
   EXPECT_EQ(text.str(), victim_text);
 }
 
-// Issue 38 item 4: reads are bounded. A line over kMaxLineBytes is skipped
+// Reads are bounded. A line over kMaxLineBytes is skipped
 // and named with its size, not its content; of a file over kMaxLoadBytes
 // (16 MB logged a 9.3 MB warning line before) only the newest part is read,
 // the warning names the file and its size, and the next write rewrites the
@@ -214,7 +214,7 @@ TEST_F(TimelineJournalTest, Issue38_AnOverlongLineAndAnOversizedFileAreReadWithi
   EXPECT_LT(fs::file_size(file), 1000U);  // rewritten from memory
 }
 
-// Issue 38 item 4: an `at=` (or `last=`) after the year 2262 does not fit
+// An `at=` (or `last=`) after the year 2262 does not fit
 // the clock's 64-bit nanoseconds: the line is refused, without undefined
 // behaviour (UBSan reported the overflow before); the clock's last
 // millisecond still reads.

@@ -1,5 +1,5 @@
 // ElectionPeers: which node-IDs may be a gateway's in the master election,
-// and which are live (issue 38 item 1, "an election a stranger cannot
+// and which are live ("an election a stranger cannot
 // steer"; CiA 302-2 priorities 0..2, CiA 301 node-IDs 1..127).
 #include "canopen/election_peers.hpp"
 

@@ -210,7 +210,7 @@ TEST(MasterElection, EachNamesTheOtherAsItsPeer) {
   EXPECT_EQ(b.election.peer_node(), 20);
 }
 
-// ---- Issue 38: an election a stranger cannot steer -----------------------
+// ---- An election a stranger cannot steer -----------------------
 // Any process may send any frame on a CAN bus. One forged frame must not
 // leave the bus without a master, nor keep roles flapping.
 
@@ -449,7 +449,7 @@ TEST(MasterElection, Issue38_AStandbyBehindANodeThatNeverAnnouncedItselfFollowsA
   EXPECT_TRUE(a.election.is_master());
 }
 
-// ---- Issue 38: 0x76 and the hold-down --------------------------------------
+// ---- 0x76 and the hold-down --------------------------------------
 
 // When a gateway's heartbeat turned from 05h to another state or back, from
 // the frames it sent (a role change as the bus shows it).
@@ -608,7 +608,7 @@ TEST(MasterElection, Issue38_APreemptHeldDownIsAskedAgainAndHonouredAfterTheHold
   EXPECT_TRUE(again.election.is_master());
 }
 
-// Issue 38's storm: 0x76 every 200 ms for 3 minutes (bare, naming the peer
+// The storm measured on a bus: 0x76 every 200 ms for 3 minutes (bare, naming the peer
 // of higher rank, naming the master): at most 2 role changes (counted from
 // the heartbeats on the bus) in any minute, never two masters, never a
 // second without a master heartbeat. (Before: 1,497 role changes in 60 s.)

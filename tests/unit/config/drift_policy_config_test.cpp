@@ -1,5 +1,5 @@
-// [[device]] on_config_drift (docs/configuration.md "[[device]]"; issue 29
-// item 4): "restore" by default, "keep" taken, anything else an error at
+// [[device]] on_config_drift (docs/configuration.md "[[device]]"):
+// "restore" by default, "keep" taken, anything else an error at
 // the value's line naming the key and the allowed values.
 #include "config/load.hpp"
 #include "unit/config/one_bus_config.hpp"

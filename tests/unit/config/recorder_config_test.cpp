@@ -53,7 +53,7 @@ TEST(RecorderConfig, OutOfRangeValuesAreErrorsAtTheirLine) {
   EXPECT_NE(d[2].message.find("capture_cap_mib"), std::string::npos) << d[2].message;
 }
 
-// Issue 38 item 4: capture_after_s takes a fraction of a second, and at
+// `capture_after_s` takes a fraction of a second, and at
 // least 0.5 s: at 0 a storm of faults wrote up to 16 captures per 100 ms
 // (the cap bounds the space, not the flash's wear). A smaller value is an
 // error naming the key, the file and the line.
@@ -76,7 +76,7 @@ TEST(RecorderConfig, Issue38_CaptureAfterIsAtLeastHalfASecond) {
   EXPECT_NE(all(text).find("capture_after_s"), std::string::npos) << all(text);
 }
 
-// Issue 38 item 4: the captures' write budget per hour, 1..7200.
+// The captures' write budget per hour, 1..7200.
 TEST(RecorderConfig, Issue38_TheCaptureBudgetIsBounded) {
   for (const char* bad : {"0", "7201", "-1"}) {
     const auto r = load_string(kBase + "capture_budget_per_hour = " + bad + "\n", "t.toml", "/tmp");

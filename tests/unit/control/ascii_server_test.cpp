@@ -224,7 +224,7 @@ TEST(AsciiServer, EveryAnswerEndsWithCrLfAndCrLfRequestsAreServed) {
   EXPECT_EQ(read_line(g.fd, 500), "[7] ERROR: 0x06020000");
 }
 
-// Issue 38 item 3: any account of the gateway's host reaches 127.0.0.1,
+// Any account of the gateway's host reaches 127.0.0.1,
 // around the Unix socket's write_group, so a TCP client on the loopback
 // address writes only when write_allow lists it; with an empty write_allow
 // ("every client") its write is refused (CiA 309-3 ERROR: 100) and never

@@ -175,7 +175,7 @@ TEST(ControlServer, CommissionIsUnderTheWritePolicy) {
   EXPECT_EQ(h.commissioned, (std::vector<std::string>{"line1"}));
 }
 
-// Issue 38 item 3: `capture-now` writes the disk and a file of every frame
+// `capture-now` writes the disk and a file of every frame
 // of the bus: under the write policy like `commission`, the handler never
 // called while refused; taken once writes are open, with the capture's note
 // in the answer.

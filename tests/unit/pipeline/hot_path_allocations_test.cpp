@@ -122,7 +122,7 @@ TEST(HotPathAllocations, ZeroPerFrameThroughModbusAndTheJsonTap) {
   expect_no_allocations(host, false);
 }
 
-// Issue 39's bound: with the Sparkplug plugin loaded, nothing allocated on
+// The Sparkplug output's bound: with the Sparkplug plugin loaded, nothing allocated on
 // the RX and dispatcher threads (its publisher and MQTT threads are its own;
 // no broker here, so they only retry the connection).
 TEST(HotPathAllocations, ZeroPerFrameOnTheDispatcherWithSparkplug) {

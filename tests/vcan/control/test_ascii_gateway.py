@@ -301,7 +301,7 @@ def main():
     devices[1]["on_config_drift"] = "keep"
     path = os.path.join(ws.run, "ascii.sock")
     extra = '[outputs.modbus]\nbind = "127.0.0.1"\nport = 1502\n'
-    # The cocomm-like client writes over TCP from 127.0.0.1: listed (issue 38).
+    # The cocomm-like client writes over TCP from 127.0.0.1: listed.
     extra += "[ascii_gateway]\nsocket = %s\ntcp_port = %d\nwrites_enabled = true\nwrite_group = \"root\"\n" \
              "write_allow = [\"127.0.0.1/32\"]\n" % (
         e2e.toml_value(path), TCP_PORT)

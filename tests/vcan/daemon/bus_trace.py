@@ -1,5 +1,5 @@
 """What the end-to-end tests read from the bus itself, never from the daemon's
-own word (issue 38 item 6): traces recorded outside the daemon, with kernel
+own word: traces recorded outside the daemon, with kernel
 receive stamps, and the readings the tests take from them.
 
  * Candump: can-utils' candump on one interface (in a network namespace when

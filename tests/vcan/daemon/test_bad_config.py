@@ -58,8 +58,8 @@ def bad_state_file(report, args, ws, config):
     """docs/operations.md, "A state file that cannot be read": a state file
     with malformed lines is not a bad configuration: the daemon starts, and
     says once, at error level, naming the file and each line that does not
-    read (file:line: why), that it set the file aside (issue 38 item 4;
-    test_state_file.py follows the hold through)."""
+    read (file:line: why), that it set the file aside
+    (test_state_file.py follows the hold through)."""
     os.makedirs(ws.state, exist_ok=True)
     state = os.path.join(ws.state, "assignments.state")
     with open(state, "w") as f:

@@ -1,4 +1,4 @@
-"""Configuration drift (issue 29 item 4; docs/operations.md "Configuration
+"""Configuration drift (docs/operations.md "Configuration
 differs"): a client writes an object the configuration sets. The object is
 the producer heartbeat time, 0x1017 (CiA 301 §7.4.8.3), configured 100 ms.
 

@@ -518,7 +518,7 @@ def main():
            "recorder_seconds": 10, "capture_after_s": int(AFTER), "capture_cap_mib": 1}
     devices = [{"name": "rot-a", "bus": "line1", "serial": SERIAL, "model": "RFC-4800", "node_id": NODE,
                 "heartbeat_ms": 100, "tpdo1": {"mapping": ["position"], "transmission": "event", "event_timer_ms": 100}}]
-    # `capture now` is a write (issue 38 item 3): writes enabled for this
+    # `capture now` is a write: writes enabled for this
     # caller (root, the daemon's own user); the refusal is a unit test's
     # (ControlServer.CaptureNowIsUnderTheWritePolicy).
     config = e2e.write_config(ws, [bus], devices, extra="[control]\nwrites_enabled = true\nwrite_group = \"\"\n")

@@ -1,4 +1,4 @@
-"""Hot standby against a stranger on the bus (issue 38 item 1, "an election
+"""Hot standby against a stranger on the bus ("an election
 a stranger cannot steer"; CiA 302-2 flying master, docs/operations.md "Hot
 standby", docs/security.md "Raw CAN").
 

@@ -1,4 +1,4 @@
-"""Files that survive bad disks and bad actors (issue 38 item 4), end to end:
+"""Files that survive bad disks and bad actors, end to end:
 the daemon, the CLI and cobridge-sim on vcan0.
 
 The state file (docs/operations.md, "A state file that cannot be read"):

@@ -322,7 +322,7 @@ class Writes(HostCase):
     +31 status) hand preset / NMT reset / store to the host (plugin ABI 2
     submit_command) and show the outcome; everything else stays read-only
     (MBAP §6.6 Write Single Register, §6.12 Write Multiple Registers, §7)."""
-    # This test's client is on the loopback address: listed (issue 38).
+    # This test's client is on the loopback address: listed.
     CONFIG = 'writes_enabled = true\nwrite_allow = ["127.0.0.1/32"]\n'
     EXTRA = ("--offline", "3")
 
@@ -737,7 +737,7 @@ class WriteAllow(HostCase):
 
 
 class LoopbackNotListed(HostCase):
-    """Issue 38 item 3: any account of the gateway's host reaches 127.0.0.1,
+    """Any account of the gateway's host reaches 127.0.0.1,
     around the Unix sockets' write_group, so with writes_enabled and an empty
     write_allow (every network client) a loopback client still reads but its
     writes answer exception 0x01 (MBAP §7) and are logged as refused."""

@@ -109,7 +109,7 @@ TEST(ModbusConfig, AllowListMatchesV4MappedAddresses) {
   EXPECT_FALSE(a.contains(reinterpret_cast<const sockaddr*>(&in6)));
 }
 
-// Issue 38 item 3: a client on the loopback address (127.0.0.0/8, ::1,
+// A client on the loopback address (127.0.0.0/8, ::1,
 // ::ffff:127.x) writes only when write_allow is not empty and holds it: any
 // account of the gateway's host reaches 127.0.0.1, around write_group.
 // Other clients: as contains(), an empty list takes everyone.
