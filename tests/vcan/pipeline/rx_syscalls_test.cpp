@@ -195,7 +195,10 @@ TEST(RxSyscallsVcan, OnePollOneRecvmmsgAtMostOneWakePerBatchNoLockNoAllocation) 
   }
   // The counts from the RX thread's start to its end, read after the join:
   // exact, not a racy snapshot. Stopping it costs one wake-up of its own
-  // (poll ready, the wake-fd read, one empty recvmmsg).
+  // (poll ready, the wake-fd read, one empty recvmmsg) when the thread is
+  // asleep in poll, and none when it is still on its way back there and sees
+  // the flag first (seen on the QEMU bed's 2 vCPUs; UML's one CPU runs the
+  // thread back into poll first): `stop_wake` is 1 or 0.
   rx.stop();
   dispatcher.stop();
   ASSERT_TRUE(g_rx_seen.load()) << "the RX thread never read";
@@ -206,11 +209,12 @@ TEST(RxSyscallsVcan, OnePollOneRecvmmsgAtMostOneWakePerBatchNoLockNoAllocation) 
               static_cast<double>(d.clock_reads) / static_cast<double>(d.batches), d.mutex_locks, d.allocs);
   ASSERT_GE(d.batches, 100U);
   EXPECT_EQ(sink.delivered.load(), sent);
-  EXPECT_EQ(d.polls_ready, d.batches + 1) << "one poll wakes the thread for each batch (+ the stop)";
-  EXPECT_EQ(d.recvmmsg, d.batches + d.polls_timeout + 1)
+  const std::uint64_t stop_wake = d.reads;
+  EXPECT_LE(d.reads, 1U) << "the wake-fd read of the stop only: nobody posted status";
+  EXPECT_EQ(d.polls_ready, d.batches + stop_wake) << "one poll wakes the thread for each batch (+ the stop's)";
+  EXPECT_EQ(d.recvmmsg, d.batches + d.polls_timeout + stop_wake)
       << "one read per batch (+ one per idle stale check, + the stop's)";
   EXPECT_LE(d.writes, d.batches) << "at most one dispatcher wake-up per batch";
-  EXPECT_EQ(d.reads, 1U) << "the wake-fd read of the stop only: nobody posted status";
   EXPECT_EQ(d.mutex_locks, 0U) << "no lock on the hot path";
   EXPECT_EQ(d.allocs, 0U) << "no heap allocation on the hot path";
 }
