@@ -1,6 +1,7 @@
 #include "app/validation.hpp"
 
 #include "app/exposure.hpp"
+#include "base/number_text.hpp"
 
 #include "config/known_models.hpp"
 #include "config/load.hpp"
@@ -14,12 +15,6 @@
 
 namespace cobridge::app {
 namespace {
-
-std::string hex(std::uint32_t v) {
-  char buf[16];
-  std::snprintf(buf, sizeof buf, "0x%X", v);
-  return buf;
-}
 
 Error at(const config::SourceLocation& where, std::string message) {
   return config::to_error(config::Diagnostic{where.file, where.line, where.column, std::move(message)});

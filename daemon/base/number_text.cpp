@@ -1,6 +1,8 @@
 #include "base/number_text.hpp"
 
+#include <array>
 #include <charconv>
+#include <cstdio>
 
 namespace cobridge {
 
@@ -40,6 +42,29 @@ bool parse_hex_bytes(std::string_view text, std::size_t max_bytes, std::vector<s
     out.push_back(b);
   }
   return true;
+}
+
+std::string hex(std::uint64_t v, int digits) {
+  std::array<char, 24> buf{};
+  std::snprintf(buf.data(), buf.size(), "0x%0*llX", digits, static_cast<unsigned long long>(v));
+  return buf.data();
+}
+
+std::string hex_bytes(std::span<const std::uint8_t> data) {
+  static constexpr char kDigits[] = "0123456789ABCDEF";
+  std::string out;
+  out.reserve(data.size() * 2);
+  for (const std::uint8_t b : data) {
+    out += kDigits[b >> 4];
+    out += kDigits[b & 0xF];
+  }
+  return out;
+}
+
+std::string object_text(std::uint16_t index, std::uint8_t sub) {
+  std::string s = hex(index, 4);
+  if (sub != 0) s += "/" + std::to_string(sub);
+  return s;
 }
 
 }  // namespace cobridge

@@ -2,19 +2,9 @@
 // without discovery. Control thread only.
 #include "bus/bus_manager_impl.hpp"
 
-#include <cstdio>
+#include "base/number_text.hpp"
 
 namespace cobridge::gateway {
-
-namespace {
-
-std::string hex32(std::uint32_t v) {
-  char buf[16];
-  std::snprintf(buf, sizeof buf, "0x%X", v);
-  return buf;
-}
-
-}  // namespace
 
 void BusManager::Impl::check_configured_nodes(TimePoint now) {
   if (bus.discovery) return;
@@ -273,8 +263,8 @@ bool BusManager::Impl::resolve_description(Managed& m) {
     if (!c.empty()) d = c.front();
   }
   if (d == nullptr) {
-    m.st.last_error = "no device description for vendor " + hex32(id.vendor) + " product " + hex32(id.product) +
-                      " revision " + hex32(id.revision);
+    m.st.last_error = "no device description for vendor " + hex(id.vendor) + " product " + hex(id.product) +
+                      " revision " + hex(id.revision);
     log->error("bus {}: device {}: {}", bus.name, m.st.name, m.st.last_error);
     add_problem("device " + m.st.name + ": " + m.st.last_error, m.st.name);
     return false;

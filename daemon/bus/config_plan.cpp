@@ -14,18 +14,6 @@ namespace cobridge::gateway {
 
 namespace plan_detail {
 
-std::string hex(std::uint32_t v, int digits) {
-  std::array<char, 16> buf{};
-  std::snprintf(buf.data(), buf.size(), "0x%0*X", digits, v);
-  return buf.data();
-}
-
-std::string object_text(ObjectRef o) {
-  std::string s = hex(o.index, 4);
-  if (o.sub != 0) s += "/" + std::to_string(o.sub);
-  return s;
-}
-
 std::string signal_name(config::Signal s) {
   switch (s) {
     case config::Signal::position: return "position";

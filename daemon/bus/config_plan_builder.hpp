@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "base/number_text.hpp"
 #include "bus/config_plan.hpp"
 
 namespace cobridge::gateway::plan_detail {
@@ -23,8 +24,8 @@ namespace cobridge::gateway::plan_detail {
 using device::DataType;
 using device::ObjectRef;
 
-[[nodiscard]] std::string hex(std::uint32_t v, int digits);
-[[nodiscard]] std::string object_text(ObjectRef o);
+using cobridge::hex;
+[[nodiscard]] inline std::string object_text(ObjectRef o) { return cobridge::object_text(o.index, o.sub); }
 [[nodiscard]] std::string signal_name(config::Signal s);
 
 // The bounds of an integer type.

@@ -2,9 +2,9 @@
 
 #include <algorithm>
 #include <array>
-#include <cstdio>
 #include <utility>
 
+#include "base/number_text.hpp"
 #include "canopen/nmt.hpp"
 #include "canopen/sdo_abort.hpp"
 
@@ -40,18 +40,6 @@ Errc kind_of(PlanRunErrc code) noexcept {
     case PlanRunErrc::verify_mismatch: break;
   }
   return Errc::kFailed;
-}
-
-std::string hex(std::uint32_t v, int digits = 8) {
-  std::array<char, 16> buf{};
-  std::snprintf(buf.data(), buf.size(), "0x%0*X", digits, v);
-  return buf.data();
-}
-
-std::string object_text(std::uint16_t index, std::uint8_t sub) {
-  std::string s = hex(index, 4);
-  if (sub != 0) s += "/" + std::to_string(sub);
-  return s;
 }
 
 std::array<std::uint8_t, 4> little_endian(std::uint32_t v) noexcept {
@@ -310,8 +298,8 @@ void PlanRunner::on_write_answer(std::uint32_t value, canopen::TimePoint now) {
       return;
     }
     if (result_.differed.size() < PlanRunResult::kMaxDiffered) {
-      result_.differed.push_back(object_text(w.index, w.sub) + " read " + hex(current & w.owned()) + ", configured " +
-                                 hex(w.value & w.owned()));
+      result_.differed.push_back(object_text(w.index, w.sub) + " read " + hex(current & w.owned(), 8) + ", configured " +
+                                 hex(w.value & w.owned(), 8));
     }
     written_ = w.merged(current);
     phase_ = Phase::kWriteDownload;
@@ -333,7 +321,7 @@ void PlanRunner::on_write_answer(std::uint32_t value, canopen::TimePoint now) {
   const std::uint32_t read = value & w.size_mask();
   if (((read ^ written_) & w.owned()) != 0) {
     fail(PlanRunErrc::verify_mismatch,
-         where() + object_text(w.index, w.sub) + " written " + hex(written_) + " but read back " + hex(read), now);
+         where() + object_text(w.index, w.sub) + " written " + hex(written_, 8) + " but read back " + hex(read, 8), now);
     return;
   }
   next_write(now);
@@ -416,7 +404,7 @@ void PlanRunner::on_mapping_verify(std::uint32_t value, canopen::TimePoint now) 
     const std::uint32_t expected = s.mapping.empty() ? (cob_id_ | kPdoInvalid) : (cob_id_ & ~kPdoInvalid);
     if (value != expected) {
       fail(PlanRunErrc::verify_mismatch,
-           where() + object_text(s.comm_index, 1) + " written " + hex(expected) + " but read back " + hex(value), now);
+           where() + object_text(s.comm_index, 1) + " written " + hex(expected, 8) + " but read back " + hex(value, 8), now);
       return;
     }
     end_step(now);
@@ -435,7 +423,7 @@ void PlanRunner::on_mapping_verify(std::uint32_t value, canopen::TimePoint now) 
     if (value != s.mapping[entry_pos_]) {
       fail(PlanRunErrc::verify_mismatch,
            where() + object_text(s.map_index, static_cast<std::uint8_t>(entry_pos_ + 1)) + " written " +
-               hex(s.mapping[entry_pos_]) + " but read back " + hex(value),
+               hex(s.mapping[entry_pos_], 8) + " but read back " + hex(value, 8),
            now);
       return;
     }
@@ -474,7 +462,7 @@ void PlanRunner::on_failure(const canopen::SdoClient::Result& r, canopen::TimePo
                                         : "writing " + object_text(transfer_.index, transfer_.sub) + " = " +
                                               hex(transfer_.value, transfer_.size * 2);
   const std::uint32_t code = canopen::sdo_abort_wire_code(r.error);
-  std::string detail = "SDO abort " + hex(code) + " (" + std::string(canopen::sdo_abort_text(code)) + ")";
+  std::string detail = "SDO abort " + hex(code, 8) + " (" + std::string(canopen::sdo_abort_text(code)) + ")";
   if (timeout) {
     detail = "no answer after " + std::to_string(options_.sdo_retries + 1u) + " attempts (" + detail + ")";
   }

@@ -10,7 +10,6 @@
 #include <algorithm>
 #include <charconv>
 #include <chrono>
-#include <sstream>
 
 namespace cobridge::gateway {
 
@@ -29,12 +28,6 @@ class StateStoreCategory final : public std::error_category {
     return "unknown state store error";
   }
 };
-
-std::string hex(std::uint32_t v) {
-  std::ostringstream s;
-  s << "0x" << std::hex << std::uppercase << v;
-  return s.str();
-}
 
 // A line parse_line refuses; load() adds the file and line.
 Error refused(std::string why) { return Error(Errc::kInvalidArgument, std::move(why)); }

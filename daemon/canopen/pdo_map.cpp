@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <string>
 
+#include "base/number_text.hpp"
+
 namespace cobridge::canopen {
 
 namespace {
@@ -20,16 +22,6 @@ class PdoMapCategory final : public std::error_category {
     return "unknown PDO mapping error";
   }
 };
-
-std::string hex8(uint32_t v) {
-  static constexpr char kDigits[] = "0123456789ABCDEF";
-  std::string s = "0x00000000";
-  for (int i = 9; i >= 2; --i) {
-    s[static_cast<std::size_t>(i)] = kDigits[v & 0xF];
-    v >>= 4;
-  }
-  return s;
-}
 
 uint64_t load_le64(const std::array<uint8_t, 8>& d) noexcept {
   uint64_t w = 0;
@@ -82,7 +74,7 @@ struct PdoLayoutBuilder {
     unsigned offset = 0;
     for (std::size_t i = 0; i < entries.size(); ++i) {
       const PdoMapEntry e = PdoMapEntry::from_raw(entries[i]);
-      const std::string where = "entry " + std::to_string(i + 1) + " (" + hex8(entries[i]) + ")";
+      const std::string where = "entry " + std::to_string(i + 1) + " (" + hex(entries[i], 8) + ")";
       if (e.bits == 0) {
         r.error = PdoMapErrc::zero_length;
         r.message = where + ": length 0";

@@ -1,5 +1,6 @@
 #include "cli/status_command.hpp"
 
+#include "base/number_text.hpp"
 #include "cli/control_client.hpp"
 #include "cli/daemon_route.hpp"
 #include "cli/json_value.hpp"
@@ -32,12 +33,6 @@ std::string short_time(const Json& t) {
     s = s.substr(0, 19) + "Z";
   }
   return s;
-}
-
-std::string hex(long long v, int width) {
-  char buf[24];
-  std::snprintf(buf, sizeof buf, "0x%0*llX", width, v);
-  return buf;
 }
 
 // The gateway's line, then one per bus.
@@ -80,7 +75,7 @@ void print_devices(const std::vector<Json>& buses) {
     for (const auto& d : b["devices"].items) {
       const auto& emcy = d["last_emcy"];
       std::string last_emcy = "-";
-      if (!emcy.is_null()) last_emcy = hex(emcy["code"].integer(), 4) + " " + emcy["text"].str("");
+      if (!emcy.is_null()) last_emcy = hex(static_cast<std::uint16_t>(emcy["code"].integer()), 4) + " " + emcy["text"].str("");
       table.push_back({b["name"].str(), d["node_id"].str(), d["name"].str(), d["model"].str(),
                        d["identity"]["serial"].str(), d["state"].str(), d["online"].boolean ? "yes" : "no",
                        short_time(d["since"]), last_emcy});

@@ -1,6 +1,7 @@
 #include "cli/watch_command.hpp"
 
 #include "base/error.hpp"
+#include "base/number_text.hpp"
 
 #include "cobridge_idl/cobridge.h"
 
@@ -54,12 +55,6 @@ void json_double(std::string& out, const char* key, double value) {
   out += key;
   out += "\":";
   out += buf;
-}
-
-std::string hex(unsigned value, int digits) {
-  char buf[16];
-  std::snprintf(buf, sizeof buf, "0x%0*X", digits, value);
-  return buf;
 }
 
 // HH:MM:SS.uuuuuu local time of a Unix-epoch ns stamp.

@@ -7,6 +7,7 @@
 #include <map>
 #include <system_error>
 
+#include "base/number_text.hpp"
 #include "families/family_traits.hpp"
 
 namespace cobridge::config::detail {
@@ -163,17 +164,17 @@ void Loader::check_eds(TableReader& r, Device& d, const std::string& value) {
 
 void Loader::check_identity(TableReader& r, const Device& d, const KnownModel& model) {
   if (d.vendor && *d.vendor != model.vendor) {
-    r.error(*r.find("vendor"), "vendor " + hex32(*d.vendor) + " does not match model " + in_quotes(model.name) +
-                                   " (vendor " + hex32(model.vendor) + ")");
+    r.error(*r.find("vendor"), "vendor " + hex(*d.vendor, 8) + " does not match model " + in_quotes(model.name) +
+                                   " (vendor " + hex(model.vendor, 8) + ")");
   }
   if (d.product && !model.products.empty() &&
       std::find(model.products.begin(), model.products.end(), *d.product) == model.products.end()) {
     std::string codes;
     for (const auto p : model.products) {
       if (!codes.empty()) codes += ", ";
-      codes += hex32(p);
+      codes += hex(p, 8);
     }
-    r.error(*r.find("product"), "product " + hex32(*d.product) + " does not match model " + in_quotes(model.name) +
+    r.error(*r.find("product"), "product " + hex(*d.product, 8) + " does not match model " + in_quotes(model.name) +
                                     " (allowed: " + codes + ")");
   }
 }

@@ -77,12 +77,6 @@ std::string join(std::initializer_list<std::string_view> names) {
   return out;
 }
 
-std::string hex32(std::uint32_t v) {
-  char buf[16];
-  std::snprintf(buf, sizeof buf, "0x%08X", v);
-  return buf;
-}
-
 std::string in_quotes(std::string_view s) {
   std::string out = "\"";
   for (const char c : s) {

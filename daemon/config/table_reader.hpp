@@ -41,7 +41,6 @@ class DiagnosticSink {
 [[nodiscard]] std::string_view type_name(toml::node_type type) noexcept;
 // "a, b, c"
 [[nodiscard]] std::string join(std::initializer_list<std::string_view> names);
-[[nodiscard]] std::string hex32(std::uint32_t v);
 [[nodiscard]] std::string in_quotes(std::string_view s);
 
 template <class E>

@@ -2,6 +2,8 @@
 
 #include <cstdio>
 
+#include "base/number_text.hpp"
+
 namespace cobridge::gateway {
 namespace {
 
@@ -14,16 +16,6 @@ const char* nmt_name(canopen::NmtCommand c) {
     case canopen::NmtCommand::reset_comm: return "reset-comm";
   }
   return "?";
-}
-
-std::string hex(const std::vector<std::uint8_t>& data) {
-  std::string out;
-  char b[3];
-  for (const auto v : data) {
-    std::snprintf(b, sizeof b, "%02X", v);
-    out += b;
-  }
-  return out;
 }
 
 }  // namespace
@@ -54,7 +46,7 @@ std::string remote_answer(const ControlRequest& request, const RemoteResult& res
   switch (c.op) {
     case RemoteOp::sdo_upload: {
       out += ",\"index\":" + std::to_string(c.index) + ",\"sub\":" + std::to_string(c.sub);
-      out += ",\"size\":" + std::to_string(result.data.size()) + ",\"hex\":\"" + hex(result.data) + "\"";
+      out += ",\"size\":" + std::to_string(result.data.size()) + ",\"hex\":\"" + hex_bytes(result.data) + "\"";
       if (!result.data.empty() && result.data.size() <= 4) {
         std::uint32_t v = 0;
         for (std::size_t i = 0; i < result.data.size(); ++i) v |= std::uint32_t{result.data[i]} << (8 * i);

@@ -1,9 +1,9 @@
 #include "device/device_catalog.hpp"
 
+#include "base/number_text.hpp"
 #include "device/eds_check.hpp"
 
 #include <algorithm>
-#include <cstdio>
 #include <iterator>
 #include <map>
 #include <string>
@@ -12,12 +12,6 @@
 namespace cobridge::device {
 
 namespace {
-
-std::string hex8(std::uint32_t v) {
-  char buf[16];
-  std::snprintf(buf, sizeof buf, "0x%08X", v);
-  return buf;
-}
 
 std::string lower(std::string_view s) {
   std::string out(s);
@@ -98,8 +92,8 @@ std::vector<EdsError> DeviceCatalog::add_checked(DeviceDescription d) {
     const auto& oid = other->device_info;
     if (oid.vendor_number == id.vendor_number && oid.revision_number == id.revision_number &&
         lower(other->selection.variant) == lower(d.selection.variant) && products_overlap(*other, d)) {
-      std::string msg = "duplicate identity: vendor " + hex8(id.vendor_number) + " product " +
-                        hex8(id.product_number) + " revision " + hex8(id.revision_number);
+      std::string msg = "duplicate identity: vendor " + hex(id.vendor_number, 8) + " product " +
+                        hex(id.product_number, 8) + " revision " + hex(id.revision_number, 8);
       if (!d.selection.variant.empty()) msg += " variant '" + d.selection.variant + "'";
       msg += " is also described by " + other->source + "; " + d.source + " is not loaded";
       return {EdsError{d.source, 0, 0, EdsErrc::kDuplicateIdentity, std::move(msg)}};

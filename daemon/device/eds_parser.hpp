@@ -20,6 +20,7 @@
 #include <utility>
 #include <vector>
 
+#include "base/number_text.hpp"
 #include "device/eds.hpp"
 
 namespace cobridge::device::eds_detail {
@@ -47,7 +48,7 @@ inline constexpr std::array<std::pair<std::string_view, AccessType>, 6> kAccess{
 [[nodiscard]] bool is_space(char c) noexcept;
 [[nodiscard]] int hex_digit(char c) noexcept;  // -1 if not a hex digit
 [[nodiscard]] std::string_view trim(std::string_view s) noexcept;
-[[nodiscard]] std::string hex(std::uint64_t v, int digits);
+using cobridge::hex;  // base/number_text
 // An unsigned integer in CiA 306 notation: decimal, 0x hexadecimal or
 // leading-0 octal; no sign.
 [[nodiscard]] std::optional<std::uint64_t> parse_unsigned(std::string_view s, bool* is_decimal = nullptr) noexcept;

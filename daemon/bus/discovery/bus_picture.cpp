@@ -1,18 +1,12 @@
 // Texts about identities, shared by every part of discovery's events.
 #include "bus/discovery/bus_picture.hpp"
 
-#include <cstdio>
+#include "base/number_text.hpp"
 
 namespace cobridge::gateway::discovery {
 
-std::string hex32(std::uint32_t v) {
-  char b[16];
-  std::snprintf(b, sizeof b, "0x%08X", v);
-  return b;
-}
-
 std::string describe(const LssAddress& a) {
-  return "vendor " + hex32(a.vendor) + " product " + hex32(a.product) + " revision " + hex32(a.revision) +
+  return "vendor " + hex(a.vendor, 8) + " product " + hex(a.product, 8) + " revision " + hex(a.revision, 8) +
          " serial " + std::to_string(a.serial);
 }
 

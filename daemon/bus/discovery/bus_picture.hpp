@@ -61,6 +61,5 @@ using BusPicture = std::array<NodePicture, 128>;
 
 // "vendor 0x... product 0x... revision 0x... serial n", for event texts.
 [[nodiscard]] std::string describe(const LssAddress& a);
-[[nodiscard]] std::string hex32(std::uint32_t v);
 
 }  // namespace cobridge::gateway::discovery

@@ -3,6 +3,7 @@
 // clash_resolution.cpp, the meaning of LSS results in lss_outcomes.cpp.
 #include "bus/discovery/commissioning.hpp"
 
+#include "base/number_text.hpp"
 #include "canopen/cob_id.hpp"
 #include "canopen/nmt.hpp"
 #include "bus/discovery/lss_families.hpp"
@@ -420,8 +421,8 @@ void Commissioning::on_sdo_done(TimePoint now, std::error_code err) {
   report_.timing(t.index == kStoreObject ? "sdo-save" : "sdo-node-id", who(t.ctx), now - current_started_);
   if (err) {
     const bool timed_out = err == make_error_code(canopen::SdoAbort::kProtocolTimedOut);
-    const std::string abort = "abort " + hex32(static_cast<std::uint32_t>(err.value()));
-    const std::string why = "SDO write " + hex32(t.index).substr(6) + "/" + std::to_string(t.sub) + " failed (" +
+    const std::string abort = "abort " + hex(static_cast<std::uint32_t>(err.value()), 8);
+    const std::string why = "SDO write " + hex(t.index, 4).substr(2) + "/" + std::to_string(t.sub) + " failed (" +
                             (timed_out ? std::string("timeout") : abort) + ")";
     fail_current(why, !retry_later(t.ctx, why, now));
     return;

@@ -1,5 +1,6 @@
 #include "bus/remote/remote_executor.hpp"
 
+#include "base/number_text.hpp"
 #include "canopen/cob_id.hpp"
 #include "canopen/sdo_abort.hpp"
 #include "sys/logging.hpp"
@@ -25,12 +26,6 @@ constexpr milliseconds kWaitPoll{20};
 
 std::string where_of(const std::string& bus, std::uint8_t node) {
   return "bus '" + bus + "' node " + std::to_string(node);
-}
-
-std::string object_text(std::uint16_t index, std::uint8_t sub) {
-  char buf[16];
-  std::snprintf(buf, sizeof buf, "%04X:%u", index, sub);
-  return buf;
 }
 
 bool is_boot_up(const can::Frame& f, std::uint8_t node) {

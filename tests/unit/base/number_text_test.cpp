@@ -5,10 +5,15 @@
 
 #include <gtest/gtest.h>
 
+#include <vector>
+
 namespace {
 
 using cobridge::parse_hex_bytes;
 using cobridge::parse_signed;
+using cobridge::hex;
+using cobridge::hex_bytes;
+using cobridge::object_text;
 using cobridge::parse_unsigned;
 
 TEST(NumberText, DecimalAndPrefixedHexUpToTheLimit) {
@@ -74,6 +79,34 @@ TEST(NumberText, HexBytesArePairsWithinTheLimit) {
   }
   out.clear();
   EXPECT_FALSE(parse_hex_bytes("00112233", 3, out));  // 4 bytes > 3
+}
+
+// The printer beside the parser: what the daemon writes, the parser reads.
+TEST(NumberText, HexPadsToTheDigitsAskedAndReadsBack) {
+  EXPECT_EQ(hex(0x1A), "0x1A");
+  EXPECT_EQ(hex(0x1A, 4), "0x001A");
+  EXPECT_EQ(hex(0, 0), "0x0");
+  EXPECT_EQ(hex(0xFFFFFFFFu, 8), "0xFFFFFFFF");
+  EXPECT_EQ(hex(0x123456789ULL, 8), "0x123456789");  // never cut to the width
+  std::uint64_t back = 0;
+  ASSERT_TRUE(parse_unsigned(hex(0xBEEF, 8), 0xFFFFFFFFu, back));
+  EXPECT_EQ(back, 0xBEEFu);
+}
+
+TEST(NumberText, HexBytesArePairsParseHexBytesReads) {
+  const std::vector<std::uint8_t> bytes{0x0A, 0x1B, 0x00, 0xFF};
+  EXPECT_EQ(hex_bytes(bytes), "0A1B00FF");
+  EXPECT_EQ(hex_bytes({}), "");
+  std::vector<std::uint8_t> back;
+  ASSERT_TRUE(parse_hex_bytes(hex_bytes(bytes), 8, back));
+  EXPECT_EQ(back, bytes);
+}
+
+// CiA 301 §7.4.1: an object is an index and a sub-index.
+TEST(NumberText, Cia301_7_4_1_ObjectTextNamesSubIndexOnlyWhenNotZero) {
+  EXPECT_EQ(object_text(0x1017, 0), "0x1017");
+  EXPECT_EQ(object_text(0x1A00, 2), "0x1A00/2");
+  EXPECT_EQ(object_text(0x6000, 255), "0x6000/255");
 }
 
 }  // namespace
