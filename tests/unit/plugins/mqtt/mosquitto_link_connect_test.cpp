@@ -17,6 +17,7 @@
 
 #include <chrono>
 #include <filesystem>
+#include <mutex>
 #include <string>
 #include <thread>
 #include <vector>
@@ -101,10 +102,20 @@ class LateBroker : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir); }
 
+  // The log is called from libmosquitto's thread too (on_connect).
+  std::vector<std::string> lines() {
+    const std::lock_guard<std::mutex> hold(mutex);
+    return logged;
+  }
+
   fs::path dir;
   MqttConfig config;
+  std::mutex mutex;
   std::vector<std::string> logged;
-  MosquittoLink::LogFn log = [this](int, const std::string& m) { logged.push_back(m); };
+  MosquittoLink::LogFn log = [this](int, const std::string& m) {
+    const std::lock_guard<std::mutex> hold(mutex);
+    logged.push_back(m);
+  };
 };
 
 TEST_F(LateBroker, FirstConnectRetriedWithBackoffUntilTheBrokerIsUp) {
@@ -113,8 +124,9 @@ TEST_F(LateBroker, FirstConnectRetriedWithBackoffUntilTheBrokerIsUp) {
   MosquittoLink link(config, bd, log);
   ASSERT_FALSE(link.start());  // a broker away is no error
   EXPECT_TRUE(link.awaiting_first_connect());
-  ASSERT_EQ(logged.size(), 1u);
-  EXPECT_NE(logged[0].find("not reached yet"), std::string::npos) << logged[0];
+  const std::vector<std::string> first = lines();
+  ASSERT_EQ(first.size(), 1u);
+  EXPECT_NE(first[0].find("not reached yet"), std::string::npos) << first[0];
 
   // Due after 1 s: tried and refused again; the next try 2 s later.
   const Clock::time_point t0 = Clock::now();
@@ -142,7 +154,8 @@ TEST_F(LateBroker, BrokerUpAtStartNeedsNoRetry) {
   ASSERT_FALSE(link.start());
   EXPECT_FALSE(link.awaiting_first_connect());
   EXPECT_TRUE(wait_for([&] { return link.connected(); }, 5s));
-  EXPECT_TRUE(logged.empty() || logged[0].find("not reached") == std::string::npos);
+  const std::vector<std::string> said = lines();
+  EXPECT_TRUE(said.empty() || said[0].find("not reached") == std::string::npos);
 }
 
 }  // namespace
