@@ -57,12 +57,23 @@ std::string capture_json_list(const std::vector<std::string>& items) {
   return out + "]";
 }
 
+// [{"line":K,"dropped":N},...]: the gaps the kernel's drops left.
+std::string capture_json_gaps(const std::vector<std::pair<std::size_t, std::uint32_t>>& gaps) {
+  std::string out = "[";
+  for (std::size_t i = 0; i < gaps.size(); ++i) {
+    if (i) out += ',';
+    out += "{\"line\":" + std::to_string(gaps[i].first) + ",\"dropped\":" + std::to_string(gaps[i].second) + "}";
+  }
+  return out + "]";
+}
+
 std::string capture_sidecar(const CaptureOptions& o, const CaptureInfo& c) {
   return "{\"bus\":" + json_quote(o.bus) + ",\"interface\":" + json_quote(o.interface) +
          ",\"name\":" + json_quote(c.name) + ",\"causes\":" + capture_json_list(c.causes) +
          ",\"devices\":" + capture_json_list(c.devices) + ",\"fault_ns\":" + std::to_string(c.fault_ns) +
          ",\"fault_utc\":" + json_quote(capture_utc_stamp(c.fault_ns)) + ",\"frames\":" + std::to_string(c.frames) +
-         ",\"skipped\":" + std::to_string(c.skipped) + ",\"bytes\":" + std::to_string(c.bytes) + "}\n";
+         ",\"skipped\":" + std::to_string(c.skipped) + ",\"kernel_drops\":" + std::to_string(c.kernel_drops) +
+         ",\"gaps\":" + capture_json_gaps(c.gaps) + ",\"bytes\":" + std::to_string(c.bytes) + "}\n";
 }
 
 }  // namespace
@@ -269,6 +280,10 @@ std::vector<CaptureInfo> CaptureWriter::poll(std::int64_t now_ns) {
       sys::logger("gateway")->warn("bus {}: capture not written: {}", options_.bus, e.to_string());
       continue;
     }
+    if (due.info.kernel_drops != 0)
+      sys::logger("gateway")->warn("bus {}: capture {} has {} gaps: the kernel dropped {} frames at the full receive "
+                                   "queue (each gap's line and size in its sidecar)",
+                                   options_.bus, due.info.name, due.info.gaps.size(), due.info.kernel_drops);
     {
       std::lock_guard lock(mutex_);
       recent_.push_back(due.info);
@@ -280,7 +295,14 @@ std::vector<CaptureInfo> CaptureWriter::poll(std::int64_t now_ns) {
 }
 
 Error CaptureWriter::write(CaptureInfo& info, std::int64_t window_end_ns) {
-  const can::RecorderWindow window = recorder_.snapshot(info.fault_ns - options_.before.count(), window_end_ns);
+  can::RecorderWindow window = recorder_.snapshot(info.fault_ns - options_.before.count(), window_end_ns);
+  // Bus time order, not the socket's receive order: on a machine with more
+  // than one CPU two frames can reach the socket in the other order than
+  // their kernel stamps (the daemon's own request looped back on the
+  // sending CPU beside a device's answer received on another), and
+  // canplayer replays by the stamps' differences.
+  std::stable_sort(window.frames.begin(), window.frames.end(),
+                   [](const can::Frame& a, const can::Frame& b) { return a.timestamp_ns < b.timestamp_ns; });
   if (info.name.empty()) info.name = capture_name(options_.bus, info.fault_ns, info.causes.front());
   info.frames = window.frames.size();
   info.skipped = window.skipped;
@@ -288,7 +310,15 @@ Error CaptureWriter::write(CaptureInfo& info, std::int64_t window_end_ns) {
   // is written, so the cap holds at every moment, not only after a write.
   std::string text;
   text.reserve(window.frames.size() * (28 + options_.interface.size()));
-  for (const can::Frame& f : window.frames) text += candump_line(f, options_.interface);
+  info.gaps.clear();
+  info.kernel_drops = 0;
+  for (std::size_t i = 0; i < window.frames.size(); ++i) {
+    const can::Frame& f = window.frames[i];
+    text += candump_line(f, options_.interface);
+    if (f.dropped_before == 0) continue;  // before line 1: lost at most there, maybe before the window
+    info.gaps.emplace_back(i + 1, f.dropped_before);
+    info.kernel_drops += f.dropped_before;
+  }
   info.bytes = text.size();
   const std::string sidecar = capture_sidecar(options_, info);
   enforce_cap(text.size() + sidecar.size());

@@ -5,7 +5,7 @@
 // A fault is requested with its wall-clock time; once `after` has passed
 // since it, the writer takes the recorder's frames of [fault - before,
 // fault + after] and writes <dir>/<bus>-<UTC time>-<cause>.log, one line per
-// frame in `candump -l` form, "(SECONDS.MICROSECONDS) IFACE ID#DATA", with a
+// frame in the order of their kernel stamps, in `candump -l` form, "(SECONDS.MICROSECONDS) IFACE ID#DATA", with a
 // sidecar <name>.json (bus, causes, devices, fault time, frames, bytes).
 // candump logs have no comment lines, hence the sidecar. A fault inside the
 // window of a capture still pending joins it (one file, every cause in the
@@ -49,6 +49,7 @@
 #include <string>
 #include <string_view>
 #include <thread>
+#include <utility>
 #include <vector>
 
 namespace cobridge::gateway {
@@ -72,6 +73,12 @@ struct CaptureInfo {
   std::int64_t fault_ns = 0;         // the first fault's wall-clock time
   std::size_t frames = 0;
   std::size_t skipped = 0;           // slots overwritten while copied (none expected)
+  // Where the file has gaps: frames the kernel dropped at the RX socket's
+  // full queue (can::Frame::dropped_before), as (line of the frame after
+  // the gap, 1-based; frames dropped). A replay or a comparison with
+  // another trace knows exactly what is missing and where.
+  std::vector<std::pair<std::size_t, std::uint32_t>> gaps;
+  std::uint64_t kernel_drops = 0;    // the sum of the gaps
   std::uint64_t bytes = 0;           // the .log file's size
 };
 

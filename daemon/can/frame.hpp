@@ -23,7 +23,11 @@ struct Frame {
   uint32_t id = 0;     // identifier without flag bits (11 or 29 bits)
   uint8_t len = 0;     // data length 0..8
   uint8_t flags = 0;   // kFlag* bits
-  uint8_t reserved[2] = {0, 0};
+  // Frames the kernel dropped at the receiving socket's full queue right
+  // before this one (SO_RXQ_OVFL; saturates at 65535; 0 for frames built
+  // here). Not part of the telegram: equality ignores it. It lets a
+  // recording say where it has a gap instead of hiding one.
+  uint16_t dropped_before = 0;
   std::array<uint8_t, 8> data{};
   int64_t timestamp_ns = 0;  // kernel receive time, ns since the Unix epoch
 
@@ -52,7 +56,8 @@ struct Frame {
     return f;
   }
 
-  // Equality ignores the timestamp: two frames are the same telegram.
+  // Equality ignores the timestamp and dropped_before: two frames are the
+  // same telegram.
   friend constexpr bool operator==(const Frame& a, const Frame& b) noexcept {
     if (a.id != b.id || a.len != b.len || a.flags != b.flags) return false;
     for (uint8_t i = 0; i < a.len && i < 8; ++i)

@@ -272,6 +272,8 @@ SocketCanChannel::OpenOutcome SocketCanChannel::open_socket() {
 
   fd_ = fd;
   drops_this_socket_ = 0;
+  marked_drops_ = 0;  // a new socket's kernel count starts at 0
+  unmarked_drops_ = 0;
   return {};
 }
 
@@ -329,6 +331,7 @@ std::size_t SocketCanChannel::receive(std::span<Frame> out) noexcept {
     for (std::size_t i = 0; i < n; ++i) {
       if (rx_msgs_[i].msg_len != sizeof(can_frame)) continue;  // not a classic frame
       int64_t ts = 0;
+      uint32_t drops_total = 0;
       for_each_cmsg(rx_msgs_[i].msg_hdr, [&](int level, int type, const unsigned char* data, std::size_t len) {
         if (level != SOL_SOCKET) return;
         if (type == SCM_TIMESTAMPNS && len >= sizeof(timespec)) {
@@ -336,12 +339,12 @@ std::size_t SocketCanChannel::receive(std::span<Frame> out) noexcept {
           std::memcpy(&t, data, sizeof t);
           ts = static_cast<int64_t>(t.tv_sec) * 1'000'000'000 + t.tv_nsec;
         } else if (type == SO_RXQ_OVFL && len >= sizeof(uint32_t)) {
-          uint32_t total = 0;
-          std::memcpy(&total, data, sizeof total);
-          note_overflow_total(total);
+          std::memcpy(&drops_total, data, sizeof drops_total);
+          note_overflow_total(drops_total);
         }
       });
-      const Frame f = from_linux(rx_frames_[i], ts);
+      Frame f = from_linux(rx_frames_[i], ts);
+      mark_drops_before(f, drops_total);
       if (f.is_error()) {
         std::array<BusEvent, kMaxEventsPerErrorFrame> ev{};
         const std::size_t m = decode_error_frame(f, ev);
@@ -502,6 +505,21 @@ void SocketCanChannel::note_overflow_total(uint32_t total) noexcept {
   if (total <= drops_this_socket_) return;
   drops_this_socket_ = total;
   overflow_.set(drops_closed_sockets_ + drops_this_socket_);
+}
+
+void SocketCanChannel::mark_drops_before(Frame& f, uint32_t total) noexcept {
+  // The kernel stamps each queued frame with the socket's drop count at
+  // its arrival (absent while it is 0), so a count above the previous
+  // frame's means frames were lost between the two. A frame filtered out
+  // below (error frames not delivered) passes its mark on to the next.
+  if (total > marked_drops_) {
+    unmarked_drops_ += total - marked_drops_;
+    marked_drops_ = total;
+  }
+  if (unmarked_drops_ == 0) return;
+  if (!config_.deliver_error_frames && f.is_error()) return;
+  f.dropped_before = static_cast<uint16_t>(std::min<uint64_t>(unmarked_drops_, 0xFFFF));
+  unmarked_drops_ = 0;
 }
 
 void SocketCanChannel::refresh_overflow_from_meminfo() noexcept {

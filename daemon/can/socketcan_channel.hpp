@@ -175,6 +175,7 @@ class SocketCanChannel final : public BusPort {
   void push_event(const BusEvent& event) noexcept;
   void push_interface_event(BusEventKind kind) noexcept;
   void note_overflow_total(uint32_t total) noexcept;
+  void mark_drops_before(Frame& f, uint32_t total) noexcept;
   void refresh_overflow_from_meminfo() noexcept;
   [[nodiscard]] bool wait_writable(int err, Clock::time_point deadline) noexcept;
 
@@ -192,6 +193,10 @@ class SocketCanChannel final : public BusPort {
   // Drops are cumulative per socket; a new socket starts at zero again.
   uint64_t drops_closed_sockets_ = 0;
   uint64_t drops_this_socket_ = 0;
+  // The drop count of the last frame read (its SO_RXQ_OVFL), and drops not
+  // yet marked on a delivered frame (Frame::dropped_before). RX thread.
+  uint32_t marked_drops_ = 0;
+  uint64_t unmarked_drops_ = 0;
 
   // Set on the hot path, logged by process(): receive()/send() stay silent.
   int down_errno_to_log_ = 0;

@@ -157,6 +157,50 @@ TEST_F(CaptureWriterTest, WritesTheWindowAroundTheFaultOnceItCloses) {
   EXPECT_FALSE(fs::exists(dir_ / (c.name + ".part")));
 }
 
+// Two CPUs can hand the socket two frames in the other order than their kernel stamps
+// (a looped-back request beside an answer): the file is in stamp order, as canplayer replays.
+TEST_F(CaptureWriterTest, TheFileIsInKernelStampOrder) {
+  can::FrameRecorder rec(100);
+  rec.record(frame_at(kT0 + 10 * kSecond, 0x714, {0x05}));
+  rec.record(frame_at(kT0 + 10 * kSecond + 12'000, 0x7E5, {0x4C}));  // received first
+  rec.record(frame_at(kT0 + 10 * kSecond + 5'000, 0x194, {0x00}));    // stamped earlier
+  rec.record(frame_at(kT0 + 10 * kSecond + 12'000, 0x7E4, {0x50}));  // the same stamp: receive order kept
+  CaptureWriter w(options(), rec);
+  w.request("operator", "", kT0 + 10 * kSecond);
+  const auto written = w.poll(kT0 + 13 * kSecond);
+  ASSERT_EQ(written.size(), 1u);
+  EXPECT_EQ(slurp(dir_ / written[0].name),
+            "(1764300010.000000) vcan0 714#05\n(1764300010.000005) vcan0 194#00\n"
+            "(1764300010.000012) vcan0 7E5#4C\n(1764300010.000012) vcan0 7E4#50\n");
+}
+
+// Frames the kernel dropped at the RX socket (Frame::dropped_before) are not in the
+// file: the sidecar says where each gap is and how many frames it lost.
+TEST_F(CaptureWriterTest, KernelDropsAreDeclaredAsGapsInTheSidecar) {
+  can::FrameRecorder rec(1000);
+  for (int i = 0; i < 30; ++i) {
+    can::Frame f = frame_at(kT0 + std::int64_t{i} * kSecond, 0x181, {static_cast<std::uint8_t>(i)});
+    if (i == 8) f.dropped_before = 3;
+    if (i == 12) f.dropped_before = 70000 & 0xFFFF;
+    if (i == 25) f.dropped_before = 9;  // outside the window
+    rec.record(f);
+  }
+  GatewayLog log;
+  CaptureWriter w(options(), rec);
+  w.request("emcy", "enc1", kT0 + 15 * kSecond);
+  const auto written = w.poll(kT0 + 17 * kSecond);
+  ASSERT_EQ(written.size(), 1u);
+  const CaptureInfo& c = written[0];
+  // The window holds frames 5..17: frame 8 is line 4, frame 12 line 8.
+  const std::vector<std::pair<std::size_t, std::uint32_t>> want{{4, 3}, {8, 70000 & 0xFFFF}};
+  EXPECT_EQ(c.gaps, want);
+  EXPECT_EQ(c.kernel_drops, 3u + (70000 & 0xFFFF));
+  const std::string side = slurp(dir_ / "line1-20251128T032015.000Z-emcy.json");
+  EXPECT_NE(side.find("\"kernel_drops\":4467,\"gaps\":[{\"line\":4,\"dropped\":3},{\"line\":8,\"dropped\":4464}]"),
+            std::string::npos) << side;
+  EXPECT_EQ(log.count("has 2 gaps: the kernel dropped 4467 frames"), 1u);
+}
+
 TEST_F(CaptureWriterTest, FaultsInsideAPendingWindowJoinIt) {
   can::FrameRecorder rec(100);
   rec.record(frame_at(kT0, 0x81, {0x10, 0x00}));

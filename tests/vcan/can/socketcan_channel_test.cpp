@@ -191,6 +191,8 @@ TEST_F(SocketCanVcan, SocketRcvbuf_AskedQueueGrantedBeyondRmemMax) {
   EXPECT_GE(granted, kAsked) << "the kernel reports twice the size granted";
 }
 
+// SO_RXQ_OVFL (socket(7)): the drop count rides on each frame queued after a drop; the
+// channel turns it into Frame::dropped_before, the gap's size at its place.
 TEST_F(SocketCanVcan, SocketRxqOvfl_BurstIsFullyAccountedFor) {
   constexpr uint32_t kBurst = 100'000;
   constexpr uint32_t kBurstId = 0x123;
@@ -206,6 +208,8 @@ TEST_F(SocketCanVcan, SocketRxqOvfl_BurstIsFullyAccountedFor) {
   uint64_t received = 0;
   uint64_t out_of_order = 0;
   uint64_t error_events = 0;
+  uint64_t marked = 0;          // the sum of Frame::dropped_before over the burst's frames
+  uint64_t misplaced_marks = 0; // frames whose mark is not the gap in the sequence before them
   std::thread receiver([&] {
     // This thread owns rx until it is joined.
     std::array<Frame, 256> buf{};
@@ -219,6 +223,10 @@ TEST_F(SocketCanVcan, SocketRxqOvfl_BurstIsFullyAccountedFor) {
         uint32_t seq = 0;
         std::memcpy(&seq, buf[i].data.data(), sizeof seq);
         if (!first && seq <= last_seq) ++out_of_order;
+        // The mark says exactly how many frames the kernel dropped before this one.
+        const uint32_t gap = first ? seq : seq - last_seq - 1;
+        if (buf[i].dropped_before != gap) ++misplaced_marks;
+        marked += buf[i].dropped_before;
         first = false;
         last_seq = seq;
         ++received;
@@ -275,6 +283,9 @@ TEST_F(SocketCanVcan, SocketRxqOvfl_BurstIsFullyAccountedFor) {
                         : "no overflow happened; every frame was received");
   EXPECT_EQ(sent, received + drops) << "sent=" << sent << " received=" << received << " drops=" << drops;
   EXPECT_EQ(drops_cmsg, drops);
+  // Each loss is marked on the frame after it (the sentinel carries the burst's tail).
+  EXPECT_EQ(misplaced_marks, 0u);
+  EXPECT_EQ(marked + sentinel[0].dropped_before, drops);
   EXPECT_EQ(out_of_order, 0u);
   EXPECT_EQ(error_events, 0u);
   EXPECT_EQ(rx->stats().rx_frames, received + 1);

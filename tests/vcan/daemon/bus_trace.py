@@ -187,15 +187,29 @@ def read_log(path):
     return out
 
 
-def compare_capture(capture, independent, tolerance, window=None, tail_allowance=0.0):
+def compare_capture(capture, independent, tolerance, window=None, tail_allowance=0.0, gaps=None):
     """A capture (frames of its file) against the independent trace: the trace's frames
     stamped from the capture's first frame to its last, or over `window` (start, end): the
     seconds the capture is for, so that a capture missing frames at either edge fails too,
     must be the capture's frames, same ids and data in the same order, each stamp within
-    `tolerance` seconds. tail_allowance: the capture may end short of the window by frames
-    of its last that many seconds (counted in the detail). Returns (ok, detail)."""
+    `tolerance` seconds; the capture is in stamp order (the candump need not be: it is sorted).
+    tail_allowance: the capture may end short of the window by frames
+    of its last that many seconds (counted in the detail). gaps: {line: frames} from the
+    capture's sidecar, the frames the kernel dropped at the daemon's socket before that line
+    (1-based): exactly that many of the trace's frames are missing there (before line 1: at
+    most that many, the rest of the drop may lie before the window), and nowhere else.
+    Returns (ok, detail)."""
     if not capture:
         return False, "the capture holds no frame"
+    back = next((k for k in range(1, len(capture)) if capture[k][0] < capture[k - 1][0]), None)
+    if back is not None:
+        return False, "the capture is not in stamp order: line %d at %.6f after %.6f" % (
+            back + 1, capture[back][0], capture[back - 1][0])
+    # Both in bus time order: two CPUs may hand two sockets the same frames in different orders;
+    # frames of one stamp (whole microseconds) in the order of their content.
+    capture = sorted(capture, key=lambda f: (f[0], f[1], f[2]))
+    independent = sorted(independent, key=lambda f: (f[0], f[1], f[2]))
+    gaps = gaps or {}
     t0, t1 = capture[0][0], capture[-1][0]
     short = 0
     if window is not None:
@@ -211,25 +225,33 @@ def compare_capture(capture, independent, tolerance, window=None, tail_allowance
     if start is None:
         return False, "the capture's first frame %03X#%s at %.6f is not in the candump" % (
             capture[0][1], capture[0][2].hex(), c0)
-    same = window[start:start + len(capture)]
-    worst = 0.0
-    for k, (c, f) in enumerate(zip(capture, same)):
-        if c[1:] != f[1:]:
-            return False, "frame %d of %d differs: capture %03X#%s at %.6f, candump %03X#%s at %.6f" % (
-                k + 1, len(capture), c[1], c[2].hex(), c[0], f[1], f[2].hex(), f[0])
-        worst = max(worst, abs(c[0] - f[0]))
-    if len(same) < len(capture):
-        return False, "the candump holds %d of the capture's %d frames" % (len(same), len(capture))
     before = [f for f in window[:start] if f[0] >= t0]
-    after = [f for f in window[start + len(capture):] if f[0] <= t1]
-    if before:
+    if len(before) > gaps.get(1, 0):
         return False, "the candump holds %d frames more before the capture's first (from %.6f), first %03X#%s at %.6f" % (
             len(before), t0, before[0][1], before[0][2].hex(), before[0][0])
+    j, worst, declared = start, 0.0, len(before)
+    for k, c in enumerate(capture):
+        if k > 0 and k + 1 in gaps:  # the frames the kernel dropped before this line
+            j += gaps[k + 1]
+            declared += gaps[k + 1]
+        f = window[j] if j < len(window) else None
+        if f is None:
+            return False, "the candump holds %d of the capture's %d frames" % (k, len(capture))
+        if c[1:] != f[1:]:
+            return False, "frame %d of %d differs: capture %03X#%s at %.6f, candump %03X#%s at %.6f%s" % (
+                k + 1, len(capture), c[1], c[2].hex(), c[0], f[1], f[2].hex(), f[0],
+                " (after a declared gap of %d)" % gaps[k + 1] if k + 1 in gaps else "")
+        worst = max(worst, abs(c[0] - f[0]))
+        j += 1
+    after = [f for f in window[j:] if f[0] <= t1]
     if after:
         return False, "the candump holds %d frames more in the capture's seconds, first %03X#%s at %.6f" % (
             len(after), after[0][1], after[0][2].hex(), after[0][0])
     if worst > tolerance:
         return False, "a stamp differs by %.6f s (tolerance %.6f s)" % (worst, tolerance)
-    return True, "%d frames, same order, stamps within %.6f s (worst %.6f s)%s" % (
+    return True, "%d frames, same order, stamps within %.6f s (worst %.6f s)%s%s" % (
         len(capture), tolerance, worst, "; %d frames of the window's last %.0f ms not in it (allowed)" % (
-            short, tail_allowance * 1e3) if short else "")
+            short, tail_allowance * 1e3) if short else "",
+        "; %d frames the kernel dropped at the daemon's socket, each where the sidecar says" % declared
+        if declared else "")
+

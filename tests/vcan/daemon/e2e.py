@@ -9,6 +9,7 @@ is 1 when any check failed.
 import argparse
 import contextlib
 import errno
+import faulthandler
 import json
 import os
 import shutil
@@ -25,8 +26,17 @@ SOURCE_DIR = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "..",
 DEVICES_DIR = os.path.join(SOURCE_DIR, "config", "devices")
 
 
+def arm_stack_dump(margin=20.0):
+    """A test that hangs says where: `margin` seconds before the guest is killed
+    (COBRIDGE_GUEST_DEADLINE, tests/vcan/run-in-vcan) every thread's stack goes to stderr."""
+    deadline = os.environ.get("COBRIDGE_GUEST_DEADLINE", "")
+    if deadline.isdigit():
+        faulthandler.dump_traceback_later(max(1.0, int(deadline) - time.time() - margin), exit=False)
+
+
 def parse_args(extra=None):
     """The common arguments; extra(parser) adds a test's own."""
+    arm_stack_dump()
     p = argparse.ArgumentParser()
     p.add_argument("--daemon", required=True)
     p.add_argument("--cli", required=True)

@@ -101,15 +101,17 @@ def check_against_candump(report, trace, path, what, opened, before=RECORDER_S, 
     try:
         frames = bus_trace.read_log(path)
         with open(path[:-4] + ".json") as f:
-            fault = json.load(f)["fault_ns"] / 1e9
+            side = json.load(f)
     except FileNotFoundError:  # deleted by the cap meanwhile (the EMCY storm)
         return
+    fault = side["fault_ns"] / 1e9
+    gaps = {g["line"]: g["dropped"] for g in side["gaps"]}
     window = (max(fault - before, opened or 0.0), fault + after)
     trace.wait_past(window[1])
     ok, detail = bus_trace.compare_capture(frames, [(t, i, d) for t, _, i, d in trace.frames()],
-                                           CAPTURE_STAMP_TOLERANCE, window, CAPTURE_TAIL_ALLOWANCE)
-    if "(allowed)" in detail:
-        print("FIGURE capture %s ends short of its window: %s" % (os.path.basename(path), detail))
+                                           CAPTURE_STAMP_TOLERANCE, window, CAPTURE_TAIL_ALLOWANCE, gaps)
+    if "(allowed)" in detail or gaps:
+        print("FIGURE capture %s: %s (sidecar: kernel_drops %d)" % (os.path.basename(path), detail, side["kernel_drops"]))
     drops = trace.dropped()
     report.check(ok and not drops, "the %s capture is the independent candump of its seconds, frame by frame" % what,
                  "%s: %s%s" % (os.path.basename(path), detail, ("; candump: " + drops[0]) if drops else ""))
