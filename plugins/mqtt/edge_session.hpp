@@ -87,6 +87,8 @@ class EdgeSession {
     // Batching: on_sample() queues a device's DDATA (at most this many
     // samples) until flush(); 0 = each sample's DDATA at once.
     std::size_t batch_samples = 0;
+    // The process metrics of each device ([outputs.mqtt.metrics]).
+    MetricSets metrics{};
   };
 
   EdgeSession(Ids ids, const std::array<double, 16>& deadband, Publisher& out);
@@ -141,6 +143,7 @@ class EdgeSession {
     std::array<bool, kProcess> has_sent{};
     HistoryBuffer history;
     HistoryBuffer batch;  // DDATA not yet flushed (Ids::batch_samples)
+    std::uint32_t metrics = MetricSets::kAll;  // bit process_index(id): published (Ids::metrics)
   };
 
   void update_liveness(std::uint64_t now_ms);

@@ -24,18 +24,38 @@ std::string mosq_error(int rc) { return mosquitto_strerror(rc); }
 
 }  // namespace
 
-int parse_state_online(std::string_view json) noexcept {
-  const std::size_t key = json.find("\"online\"");
-  if (key == std::string_view::npos) return -1;
-  std::size_t i = key + 8;
-  while (i < json.size() && (json[i] == ' ' || json[i] == '\t' || json[i] == '\n' || json[i] == '\r')) ++i;
-  if (i >= json.size() || json[i] != ':') return -1;
+namespace {
+
+// What follows `"key":` in a flat JSON object (blanks skipped); empty when absent.
+std::string_view json_member(std::string_view json, std::string_view quoted_key) noexcept {
+  const auto blank = [&](std::size_t i) {
+    return i < json.size() && (json[i] == ' ' || json[i] == '\t' || json[i] == '\n' || json[i] == '\r');
+  };
+  const std::size_t key = json.find(quoted_key);
+  if (key == std::string_view::npos) return {};
+  std::size_t i = key + quoted_key.size();
+  while (blank(i)) ++i;
+  if (i >= json.size() || json[i] != ':') return {};
   ++i;
-  while (i < json.size() && (json[i] == ' ' || json[i] == '\t' || json[i] == '\n' || json[i] == '\r')) ++i;
-  const std::string_view rest = json.substr(i);
+  while (blank(i)) ++i;
+  return json.substr(i);
+}
+
+}  // namespace
+
+int parse_state_online(std::string_view json) noexcept {
+  const std::string_view rest = json_member(json, "\"online\"");
   if (rest.starts_with("true")) return 1;
   if (rest.starts_with("false")) return 0;
   return -1;
+}
+
+std::int64_t parse_state_timestamp(std::string_view json) noexcept {
+  const std::string_view rest = json_member(json, "\"timestamp\"");
+  std::int64_t v = 0;
+  std::size_t i = 0;
+  for (; i < rest.size() && i < 18 && rest[i] >= '0' && rest[i] <= '9'; ++i) v = v * 10 + (rest[i] - '0');
+  return i == 0 ? -1 : v;
 }
 
 int payload_bd_seq(const std::uint8_t* data, std::size_t len) noexcept {
@@ -260,9 +280,8 @@ void MosquittoLink::on_message(struct mosquitto*, void* self, const struct mosqu
   } else if (topic.starts_with(l->dcmd_prefix_)) {
     l->handle_dcmd(topic.substr(l->dcmd_prefix_.size()), msg->payload, msg->payloadlen);
   } else if (!l->state_topic_.empty() && l->state_topic_ == msg->topic) {
-    const std::string_view text(static_cast<const char*>(msg->payload), static_cast<std::size_t>(msg->payloadlen));
-    const int online = parse_state_online(text);
-    if (online >= 0) l->primary_.store(online, std::memory_order_release);
+    l->handle_state(std::string_view(static_cast<const char*>(msg->payload),
+                                     msg->payloadlen > 0 ? static_cast<std::size_t>(msg->payloadlen) : 0u));
   }
 }
 
@@ -271,6 +290,23 @@ void MosquittoLink::handle_dcmd(std::string_view device_id, const void* payload,
                                    len > 0 ? static_cast<std::size_t>(len) : 0u);
   if (!dcmds_.try_push(r))
     log_(COBRIDGE_LOG_WARN, "DCMD for device " + std::string(device_id) + " dropped: 64 DCMDs wait already");
+}
+
+void MosquittoLink::handle_state(std::string_view text) {
+  const int online = parse_state_online(text);
+  if (online < 0) {
+    log_(COBRIDGE_LOG_WARN, "STATE of primary host " + config_.primary_host_id + " ignored: no boolean \"online\"");
+    return;
+  }
+  const std::int64_t stamp = parse_state_timestamp(text);
+  if (stamp >= 0 && stamp < state_stamp_) {
+    log_(COBRIDGE_LOG_INFO, "STATE of primary host " + config_.primary_host_id + " ignored: its timestamp " +
+                                std::to_string(stamp) + " is older than the last one heard (" +
+                                std::to_string(state_stamp_) + ")");
+    return;
+  }
+  if (stamp >= 0) state_stamp_ = stamp;
+  primary_.store(online, std::memory_order_release);
 }
 
 void MosquittoLink::handle_ncmd(const void* payload, int len) {

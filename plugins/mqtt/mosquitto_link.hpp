@@ -121,6 +121,7 @@ class MosquittoLink {
 
   void set_will();
   void handle_ncmd(const void* payload, int len);
+  void handle_state(std::string_view text);
   void handle_dcmd(std::string_view topic, const void* payload, int len);
   void subscribe_all(struct mosquitto* m);
   [[nodiscard]] plugin::Error configure_client();
@@ -149,6 +150,7 @@ class MosquittoLink {
   std::atomic<std::uint8_t> bd_seq_{0};
   std::atomic<bool> rebirth_{false};
   std::atomic<int> primary_{-1};
+  std::int64_t state_stamp_ = -1;  // the newest STATE's timestamp (callbacks; kept across sessions)
   std::atomic<std::uint64_t> handed_{0};   // publisher thread
   std::atomic<std::uint64_t> written_{0};  // client thread (on_publish: QoS 0 written out)
   bool refused_logged_ = false;  // client thread only
@@ -158,6 +160,10 @@ class MosquittoLink {
 // "timestamp": ...}, spec 5: tck-id-host-topic-phid-birth-payload): 1, 0, or
 // -1 when the text holds no boolean "online".
 [[nodiscard]] int parse_state_online(std::string_view json) noexcept;
+// Its "timestamp" member (ms since the epoch), or -1 when it holds none: a
+// STATE older than the last one heard is stale (a late retained message or
+// a host's previous session) and is not followed.
+[[nodiscard]] std::int64_t parse_state_timestamp(std::string_view json) noexcept;
 
 // The bdSeq metric of an NBIRTH or NDEATH payload (spec 6.4.x bdSeq); -1 if none.
 [[nodiscard]] int payload_bd_seq(const std::uint8_t* data, std::size_t len) noexcept;

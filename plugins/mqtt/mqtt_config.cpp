@@ -109,6 +109,33 @@ plugin::Error parse_deadband(const toml::node& node, MqttConfig& c) {
   return {};
 }
 
+// metrics: a table of device name (or "*") = array of process metric names.
+plugin::Error parse_metric_sets(const toml::node& node, MetricSets& out) {
+  const auto* t = node.as_table();
+  if (t == nullptr)
+    return fail(ConfigErrc::kWrongType, "metrics", "must be a table of device name (or \"*\") = [metric names]");
+  for (const auto& [k, v] : *t) {
+    const std::string key = "metrics." + std::string(k.str());
+    const auto* a = v.as_array();
+    if (a == nullptr || a->empty())
+      return fail(ConfigErrc::kWrongType, key, "must be a non-empty array of metric names");
+    std::uint32_t mask = 0;
+    for (std::size_t i = 0; i < a->size(); ++i) {
+      const std::string at = key + "[" + std::to_string(i) + "]";
+      const auto* name = a->get(i)->as_string();
+      if (name == nullptr) return fail(ConfigErrc::kWrongType, at, "must be a string");
+      const MetricDef* def = nullptr;
+      for (const auto& d : process_metrics())
+        if (name->get() == d.name) def = &d;
+      if (def == nullptr)
+        return fail(ConfigErrc::kUnknownKey, at, "= \"" + name->get() + "\" names no process metric (see docs/mqtt.md, metric table)");
+      mask |= 1u << process_index(def->id);
+    }
+    out.sets.emplace_back(std::string(k.str()), mask);
+  }
+  return {};
+}
+
 plugin::Error get_bool(const toml::node& node, const std::string& key, bool& out) {
   const auto* b = node.as_boolean();
   if (b == nullptr) return fail(ConfigErrc::kWrongType, key, "must be true or false");
@@ -146,6 +173,7 @@ plugin::Error apply_key(const std::string& k, const toml::node& node, MqttConfig
   if (k == "cert_file") return get_file(node, k, c.cert_file);
   if (k == "key_file") return get_file(node, k, c.key_file);
   if (k == "deadband") return parse_deadband(node, c);
+  if (k == "metrics") return parse_metric_sets(node, c.metrics);
   if (k == "bdseq_file") return get_bdseq_file(node, c);
   if (k == "writes_enabled") return get_bool(node, k, c.writes.enabled);
   if (k == "write_allow") return parse_write_allow(node, c.writes.allow);
@@ -168,7 +196,7 @@ plugin::Error apply_key(const std::string& k, const toml::node& node, MqttConfig
              "is not a key of [outputs.mqtt] (host, port, client_id, group_id, edge_node_id, keepalive_s, username, "
              "password_file, ca_file, cert_file, key_file, primary_host_id, queue_depth, batch_samples, store_seconds, "
              "store_rate, "
-             "bdseq_file, writes_enabled, write_allow, deadband)");
+             "bdseq_file, writes_enabled, write_allow, deadband, metrics)");
   }
   return e;
 }

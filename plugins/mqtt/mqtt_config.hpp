@@ -31,10 +31,14 @@
 //                                   (write_policy.hpp); empty = every device and command
 //   [outputs.mqtt.deadband]         per metric name: a change smaller than this is not sent
 //     Position = 10                 (report by exception; absent = every change is sent)
+//   [outputs.mqtt.metrics]          per device name, or "*" for every device not named:
+//     "*" = ["Position", "Stale"]   the process metrics it publishes (DBIRTH, DDATA,
+//     rot-a = ["Position", "Speed"] history); absent = all (docs/mqtt.md, metric table)
 //
 // Thread contract: parsed on the daemon's control thread (plugin create).
 #pragma once
 
+#include "sparkplug_metrics.hpp"
 #include "write_policy.hpp"
 
 #include <cobridge/plugin_error.hpp>
@@ -68,6 +72,7 @@ struct MqttConfig {
   std::uint32_t store_rate = 50;
   // Indexed by process_index(DeviceMetric); 0 = every change is sent.
   std::array<double, 16> deadband{};
+  MetricSets metrics;
 
   MqttConfig() { deadband.fill(0.0); }
   [[nodiscard]] bool tls() const noexcept { return !ca_file.empty(); }

@@ -119,10 +119,30 @@ struct Plugin {
     }
     const int p = link->primary_state();
     if (p != primary) {
+      const bool went_offline = primary == 1 && p == 0;
       primary = p;
+      if (went_offline && publishing) return restart_for_primary(generation, primary);
       session->set_primary_online(p == 1, now);
     }
     if (link->take_rebirth()) session->rebirth(now);
+  }
+
+  // The primary host went offline (its STATE, newer than the last): the edge
+  // node ends its session (NDEATH published, disconnect) and connects again
+  // with the next bdSeq, then waits for STATE online before its births
+  // (Sparkplug 3.0, 5: tck-id-operational-behavior-primary-application-state-
+  // with-multiple-servers-walk; with one server configured the next server
+  // is the same). Data meanwhile goes to the store-and-forward buffers.
+  void restart_for_primary(std::uint64_t& generation, int& primary) {
+    link->stop();
+    session->set_primary_online(false, wall_ms());  // births wait for its next online
+    session->set_link(false, 0, wall_ms());
+    const plugin::Error e = link->start(std::nullopt, MosquittoLink::Mode::kPublish);
+    generation = link->state().generation;
+    primary = -1;
+    log(e ? COBRIDGE_LOG_ERROR : COBRIDGE_LOG_WARN,
+        "primary host " + config.primary_host_id + " offline (STATE): NDEATH published and the session ended; "
+        "reconnecting to wait for it" + (e ? ": " + e.to_string() : std::string()));
   }
 
   // One pass: returns whether anything was done (else the thread naps).
@@ -211,7 +231,8 @@ int mqtt_start(void* self) {
     p->publisher = std::make_unique<LinkPublisher>(*p->link);
     EdgeSession::Ids ids{p->config.group_id, p->config.edge_node_id, !p->config.primary_host_id.empty(),
                          std::size_t{p->config.store_seconds} * p->config.store_rate,
-                         std::uint64_t{p->config.store_seconds} * 1000u, p->config.batch_samples};
+                         std::uint64_t{p->config.store_seconds} * 1000u, p->config.batch_samples,
+                         p->config.metrics};
     p->session = std::make_unique<EdgeSession>(ids, p->config.deadband, *p->publisher);
     p->make_desk();
     if (p->config.writes.enabled && !p->host_takes_commands())

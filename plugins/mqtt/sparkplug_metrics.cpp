@@ -62,6 +62,15 @@ const MetricDef* find_metric(DeviceMetric id) noexcept {
 
 std::size_t process_index(DeviceMetric id) noexcept { return static_cast<std::size_t>(id) - 1u; }
 
+std::uint32_t MetricSets::for_device(std::string_view name) const noexcept {
+  std::uint32_t any = kAll;
+  for (const auto& [device, mask] : sets) {
+    if (device == name) return mask;
+    if (device == "*") any = mask;
+  }
+  return any;
+}
+
 namespace {
 
 // Appends one reading when there is room.

@@ -17,6 +17,10 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
 
 namespace cobridge::mqtt {
 
@@ -107,6 +111,18 @@ struct Reading {
 [[nodiscard]] const MetricDef* find_metric(DeviceMetric id) noexcept;
 // Position of a process metric in process_metrics(), for per-metric state.
 [[nodiscard]] std::size_t process_index(DeviceMetric id) noexcept;
+
+// Which process metrics each device publishes ([outputs.mqtt.metrics]): per
+// device name, or "*" for every device not named, a mask with bit
+// process_index(id) set for each metric its DBIRTH declares and its DDATA
+// and history carry. No entry for a device and no "*": every metric.
+// Commands and identity are always declared.
+struct MetricSets {
+  static constexpr std::uint32_t kAll = 0xFFFFFFFFu;
+  std::vector<std::pair<std::string, std::uint32_t>> sets;
+
+  [[nodiscard]] std::uint32_t for_device(std::string_view name) const noexcept;
+};
 
 // The alias of a device metric (see the file comment).
 [[nodiscard]] constexpr std::uint64_t device_alias(std::uint16_t device_index, DeviceMetric id) noexcept {

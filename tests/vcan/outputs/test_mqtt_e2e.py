@@ -10,8 +10,9 @@ cobridge-sim (three encoders, TPDO1 every 20 ms, --truth)
 
 Asserts (Eclipse Sparkplug 3.0):
 * NBIRTH first (seq 0, bdSeq, Node Control/Rebirth), then a DBIRTH per
-  device with every metric (name, alias, datatype) and its identity
-  (serial = the simulator's);
+  device with every metric of its set (name, alias, datatype; ifm's set from
+  [outputs.mqtt.metrics], exactly those) and its identity (serial = the
+  simulator's);
 * seq unbroken mod 256 over NBIRTH/DBIRTH/DDATA/DDEATH, 0 at each NBIRTH;
 * DDATA positions equal the simulator's truth, in order, none lost, each
   stamped with its frame's receive time;
@@ -47,6 +48,8 @@ DEVICES = [("rot", "RFC-4800", "RFC-4800", 101, 10, ["position", "speed"], "cons
 MOVING = ("rot", "mt")
 PROCESS_METRICS = ["Position", "Position/Engineering", "Speed", "CAM State", "Work Area State", "Alarms", "Warnings",
                    "Temperature", "Supply Voltage", "NMT State", "Stale", "EMCY/Error Code", "EMCY/Error Register"]
+# [outputs.mqtt.metrics]: ifm publishes only these; the others every process metric.
+METRIC_SETS = {"ifm": ["Position", "NMT State", "Stale"]}
 
 
 def compile_proto(ws, source_dir):
@@ -185,8 +188,11 @@ def check_births(report, sub, since):
             continue
         p = sub.all()[j][2]
         names = {m.name: m for m in p.metrics}
-        missing = [n for n in PROCESS_METRICS if n not in names]
-        report.check(not missing, "%s: DBIRTH has every process metric" % name, "missing %s" % missing)
+        wanted = METRIC_SETS.get(name, PROCESS_METRICS)
+        missing = [n for n in wanted if n not in names]
+        extra = [n for n in PROCESS_METRICS if n in names and n not in wanted]
+        report.check(not missing and not extra, "%s: DBIRTH has every process metric of its set (%s)" % (
+            name, "all" if wanted is PROCESS_METRICS else ", ".join(wanted)), "missing %s, extra %s" % (missing, extra))
         report.check(all(m.alias != 0 and m.datatype != 0 for m in p.metrics), "%s: every metric has alias and datatype" % name)
         sn = names.get("Properties/Serial Number")
         report.check(sn is not None and sn.int_value == serial, "%s: identity serial = the simulator's %d" % (name, serial),
@@ -343,6 +349,8 @@ def main():
                    for (name, m, _, s, n, mp, _) in DEVICES]
         extra = ('[outputs.mqtt]\nhost = "127.0.0.1"\nport = %d\ngroup_id = "%s"\nedge_node_id = "%s"\n'
                  'keepalive_s = %d\nbdseq_file = "%s"\n' % (PORT, GROUP, EDGE, KEEPALIVE, ws.path("mqtt.bdseq")))
+        extra += "[outputs.mqtt.metrics]\n" + "".join(
+            '%s = [%s]\n' % (d, ", ".join('"%s"' % m for m in ms)) for d, ms in METRIC_SETS.items())
         daemon = e2e.Daemon(args.daemon, e2e.write_config(ws, [bus], devices, extra=extra), ws,
                             extra_args=("--plugin-dir", args.plugins))
         report.check(daemon.wait_socket(), "control socket up")

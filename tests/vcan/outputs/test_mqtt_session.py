@@ -22,7 +22,14 @@ Asserts (Eclipse Sparkplug 3.0):
 * daemon restart (SIGTERM): NDEATH of the old session, then NBIRTH with a
   larger bdSeq (the persisted one + 1), the bdseq file holding it;
 * with writes_enabled = false: a DCMD preset is refused (Result Code 16)
-  and the simulator's position stays.
+  and the simulator's position stays;
+* primary host (primary_host_id, 3.0 STATE, retained JSON): while its STATE
+  says offline no birth; online -> NBIRTH and DBIRTHs; an offline STATE
+  older than the last one heard is ignored (its timestamp); a newer one ->
+  NDEATH of the session (same bdSeq) and no message while offline; online
+  again -> NBIRTH with the next bdSeq, the DBIRTHs, then what was taken
+  meanwhile as historical DDATA (spec 5: the edge node terminates its
+  session when the primary host goes offline, births wait for online).
 """
 import os
 import subprocess
@@ -199,7 +206,71 @@ def check_broker_restart(report, sub, broker, truth_path, bd_before):
     return bd
 
 
-def daemon_config(ws, writes, file_name):
+HOST = "scada"
+
+
+def publish_state(sub, online, stamp):
+    """The primary host's STATE as a 3.0 host publishes it: retained, QoS 1, JSON."""
+    sub.c.publish("spBv1.0/STATE/" + HOST, '{"online": %s, "timestamp": %d}' % ("true" if online else "false", stamp),
+                  qos=1, retain=True)
+
+
+def node_messages(sub, since):
+    return [(t, p) for _, t, p in sub.all()[since:] if t.startswith("spBv1.0/%s/" % mq.GROUP)]
+
+
+def check_primary_host(report, args, ws, sub, daemon, truth_path):
+    """The primary host's STATE rules the session (see the module's docstring)."""
+    n0 = len(sub.all())
+    daemon.stop()
+    sub.wait_for(lambda t, p: t == mq.topic("NDEATH"), 10, n0)
+    stamp = int(time.time() * 1000)
+    publish_state(sub, False, stamp)
+    daemon, ok = start_daemon(args, ws, daemon_config(ws, False, "primary.toml", primary=True), "daemon-3.log")
+    report.check(ok, "daemon with primary_host_id started, devices operational")
+    n1 = len(sub.all())
+    time.sleep(3.0)
+    report.check(not node_messages(sub, n1), "primary host offline (STATE): no NBIRTH or any message in 3 s",
+                 str([t for t, _ in node_messages(sub, n1)][:5]))
+    publish_state(sub, True, stamp + 1)
+    i = sub.wait_for(lambda t, p: t == mq.topic("NBIRTH"), 10, n1)
+    d = sub.wait_for(lambda t, p: t == mq.topic("DBIRTH", "rot"), 10, i or n1)
+    report.check(i is not None and d is not None, "STATE online: NBIRTH and the DBIRTHs")
+    bd = mq.metric(sub.all()[i][2], "bdSeq").long_value if i is not None else None
+    n2 = len(sub.all())
+    publish_state(sub, False, stamp)  # older than the last: a stale retained message
+    time.sleep(2.0)
+    report.check(sub.wait_for(lambda t, p: t == mq.topic("NDEATH"), 0.1, n2) is None
+                 and daemon.wait_log("is older than the last one heard", timeout=1),
+                 "an offline STATE older than the last one heard is ignored (no NDEATH; logged)")
+    n3 = len(sub.all())
+    t_off = time.time()
+    publish_state(sub, False, stamp + 2)
+    k = sub.wait_for(lambda t, p: t == mq.topic("NDEATH"), 5, n3)
+    report.check(k is not None and mq.metric(sub.all()[k][2], "bdSeq").long_value == bd,
+                 "primary host offline: NDEATH of the session (bdSeq %s) within %.1f s" % (
+                     bd, (sub.all()[k][0] - t_off) if k is not None else -1))
+    time.sleep(3.0)
+    held = [t for t, _ in node_messages(sub, (k or n3) + 1)]
+    report.check(not held, "no message while the primary host is offline", str(held[:5]))
+    n4 = len(sub.all())
+    publish_state(sub, True, stamp + 3)
+    j = sub.wait_for(lambda t, p: t == mq.topic("NBIRTH"), 10, n4)
+    bd2 = mq.metric(sub.all()[j][2], "bdSeq").long_value if j is not None else None
+    report.check(bd is not None and bd2 == (bd + 1) % 256,
+                 "online again: NBIRTH of a new session, the next bdSeq (%s -> %s)" % (bd, bd2))
+    d2 = sub.wait_for(lambda t, p: t == mq.topic("DBIRTH", "rot"), 10, j or n4)
+    time.sleep(1.5)
+    alias = {m.name: m.alias for m in sub.all()[d2][2].metrics} if d2 is not None else {}
+    run = historical_run(sub, j or n4, alias.get("Position"))
+    hist = [ts for ts, _, h in run if h]
+    report.check(len(hist) > 20 and hist == sorted(hist) and hist[0] >= t_off * 1e3 - 1000,
+                 "what was taken while the host was offline follows as historical DDATA, in order (%d positions)"
+                 % len(hist))
+    return daemon
+
+
+def daemon_config(ws, writes, file_name, primary=False):
     bus = {"name": "line1", "interface": "vcan0", "lss_timeout_ms": 30, "sdo_timeout_ms": 200}
     devices = [{"name": name, "bus": "line1", "serial": s, "model": m, "node_id": n, "heartbeat_ms": 100,
                 "tpdo1": {"mapping": mp, "transmission": 254, "event_timer_ms": 20}}
@@ -207,6 +278,8 @@ def daemon_config(ws, writes, file_name):
     extra = ('[outputs.mqtt]\nhost = "127.0.0.1"\nport = %d\ngroup_id = "%s"\nedge_node_id = "%s"\nkeepalive_s = 5\n'
              'bdseq_file = "%s"\nwrites_enabled = %s\nwrite_allow = ["ifm"]\n'
              % (mq.PORT, mq.GROUP, mq.EDGE, ws.path("mqtt.bdseq"), "true" if writes else "false"))
+    if primary:
+        extra += 'primary_host_id = "%s"\n' % HOST
     return e2e.write_config(ws, [bus], devices, file_name=file_name, extra=extra)
 
 
@@ -273,6 +346,7 @@ def main():
                      "status: mqtt_replayed > 50, mqtt_store_drops 0", str(fig))
         if bd1 is not None:
             daemon = check_restart(report, args, ws, sub, pb, daemon, bd1, truth_path)
+            daemon = check_primary_host(report, args, ws, sub, daemon, truth_path)
         if report.failed:
             print(daemon.tail(40))
     finally:

@@ -233,6 +233,30 @@ TEST_F(EdgeSessionTest, Spec643_SeqWrapsAt256AndRestartsWithNbirth) {
   EXPECT_EQ(nb->p->seq, 0u);
 }
 
+// [outputs.mqtt.metrics]: a device's DBIRTH declares only its metric set (commands and
+// identity always), and its DDATA carry only those.
+TEST_F(EdgeSessionTest, Spec6_MetricSetPerDeviceInDbirthAndDdata) {
+  EdgeSession::Ids ids{"plant", "gw1", false};
+  ids.metrics.sets = {{"enc-a", 1u << process_index(DeviceMetric::kPositionEng)}};
+  EdgeSession s(ids, deadband_, pub);
+  s.on_device(device(0, "enc-a"), 100);
+  s.on_device(device(1, "enc-b"), 100);
+  s.set_link(true, 0, 200);
+  const PbPayload* a = pub.sent[1].p;
+  ASSERT_EQ(pub.sent[1].topic, "spBv1.0/plant/DBIRTH/gw1/enc-a");
+  EXPECT_EQ(a->n_metrics, 1 + command_metrics().size() + identity_metrics().size());
+  EXPECT_NE(metric(a, "Position/Engineering"), nullptr);
+  EXPECT_EQ(metric(a, "Position"), nullptr);
+  EXPECT_NE(metric(a, "Properties/Serial Number"), nullptr);
+  EXPECT_EQ(pub.sent[2].p->n_metrics, process_metrics().size() + command_metrics().size() + identity_metrics().size());
+  s.on_sample(tpdo(0, 42, 1'000'000), 300);
+  ASSERT_EQ(pub.sent.back().topic, "spBv1.0/plant/DDATA/gw1/enc-a");
+  ASSERT_EQ(pub.sent.back().p->n_metrics, 1u);
+  EXPECT_EQ(pub.sent.back().p->metrics[0]->alias, device_alias(0, DeviceMetric::kPositionEng));
+  s.on_sample(tpdo(1, 42, 1'000'000), 300);
+  EXPECT_EQ(pub.sent.back().p->n_metrics, 2u);  // enc-b: Position and Position/Engineering
+}
+
 // Report by exception: unchanged values are not sent; a deadband holds
 // back changes smaller than it.
 TEST_F(EdgeSessionTest, ReportByExceptionAndDeadband) {

@@ -17,6 +17,15 @@ TEST(StatePayload, Spec5_OnlineMemberOfTheJsonPayload) {
   EXPECT_EQ(parse_state_online(R"({"online": "yes"})"), -1);
 }
 
+// A STATE older than the last one heard is not followed: its timestamp says which is newer.
+TEST(StatePayload, Spec5_TimestampMemberOfTheJsonPayload) {
+  EXPECT_EQ(parse_state_timestamp(R"({"online": true, "timestamp": 1668114759262})"), 1668114759262);
+  EXPECT_EQ(parse_state_timestamp(R"({"timestamp" :7,"online":false})"), 7);
+  EXPECT_EQ(parse_state_timestamp(R"({"online": true})"), -1);
+  EXPECT_EQ(parse_state_timestamp(R"({"online": true, "timestamp": "soon"})"), -1);
+  EXPECT_EQ(parse_state_timestamp(R"({"online": true, "timestamp": -5})"), -1);
+}
+
 std::size_t ncmd(std::array<std::uint8_t, 256>& buf, const char* name, std::uint64_t alias, bool value) {
   PayloadBuilder b;
   b.begin(1, std::uint8_t{0});

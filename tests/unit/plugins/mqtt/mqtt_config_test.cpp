@@ -117,6 +117,20 @@ struct BadCase {
   const char* key;
 };
 
+// Per device (or "*", every device not named) the process metrics it publishes.
+TEST(MqttConfig, MetricSetsPerDeviceWithADefault) {
+  MqttConfig c;
+  ASSERT_FALSE(parse_config("[metrics]\n\"*\" = [\"Position\", \"Stale\"]\nrot-a = [\"Speed\"]\n", "gw", c));
+  const std::uint32_t position = 1u << process_index(DeviceMetric::kPosition);
+  const std::uint32_t stale = 1u << process_index(DeviceMetric::kStale);
+  const std::uint32_t speed = 1u << process_index(DeviceMetric::kSpeed);
+  EXPECT_EQ(c.metrics.for_device("rot-a"), speed);
+  EXPECT_EQ(c.metrics.for_device("mt-b"), position | stale);
+  MqttConfig none;
+  ASSERT_FALSE(parse_config("[metrics]\nrot-a = [\"Speed\"]\n", "gw", none));
+  EXPECT_EQ(none.metrics.for_device("mt-b"), MetricSets::kAll);  // no "*": every metric
+}
+
 TEST(MqttConfig, BadValuesNameTheirKey) {
   const BadCase cases[] = {
       {"hots = \"x\"\n", ConfigErrc::kUnknownKey, "'hots'"},
@@ -130,6 +144,11 @@ TEST(MqttConfig, BadValuesNameTheirKey) {
       {"ca_file = \"/nonexistent/ca.pem\"\n", ConfigErrc::kBadFile, "'ca_file'"},
       {"[deadband]\nPositon = 1\n", ConfigErrc::kUnknownKey, "'deadband.Positon'"},
       {"[deadband]\nPosition = -1\n", ConfigErrc::kOutOfRange, "'deadband.Position'"},
+      {"metrics = [\"Position\"]\n", ConfigErrc::kWrongType, "'metrics'"},
+      {"[metrics]\nrot = \"Position\"\n", ConfigErrc::kWrongType, "'metrics.rot'"},
+      {"[metrics]\nrot = []\n", ConfigErrc::kWrongType, "'metrics.rot'"},
+      {"[metrics]\nrot = [\"Position\", \"Posiiton\"]\n", ConfigErrc::kUnknownKey, "'metrics.rot[1]'"},
+      {"[metrics]\n\"*\" = [1]\n", ConfigErrc::kWrongType, "'metrics.*[0]'"},
       {"host = \n", ConfigErrc::kSyntax, "config:"},
       {"writes_enabled = 1\n", ConfigErrc::kWrongType, "'writes_enabled'"},
       {"bdseq_file = \"/nonexistent/dir/b\"\n", ConfigErrc::kBadFile, "'bdseq_file'"},
