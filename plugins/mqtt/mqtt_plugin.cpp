@@ -79,6 +79,9 @@ struct Plugin {
   std::atomic<bool> want_master{false};
   bool publishing = false;  // publisher thread: the link is the edge node's session
   std::uint64_t takeover_deadline_ms = 0;  // publisher thread: waiting for the old master's NDEATH
+  // Publisher thread: when the session ended for the primary host connects
+  // again (0: no such reconnect pending). See restart_for_primary().
+  std::uint64_t reconnect_at_ms = 0;
   std::atomic<bool> active{false};  // for stats
 
   void log(int level, const std::string& msg) const noexcept { plugin::host_log(host, level, msg); }
@@ -133,16 +136,29 @@ struct Plugin {
   // (Sparkplug 3.0, 5: tck-id-operational-behavior-primary-application-state-
   // with-multiple-servers-walk; with one server configured the next server
   // is the same). Data meanwhile goes to the store-and-forward buffers.
+  // The new CONNECT waits kReconnectAfterMs: with the same client id, one
+  // that reached the broker before the old connection's DISCONNECT would
+  // take that session over, and the broker would publish its will, a
+  // second NDEATH (seen in 2 of 6 runs of vcan_outputs_mqtt_session
+  // without the wait). Births wait for the host anyway.
+  static constexpr std::uint64_t kReconnectAfterMs = 500;
   void restart_for_primary(std::uint64_t& generation, int& primary) {
     link->stop();
     session->set_primary_online(false, wall_ms());  // births wait for its next online
     session->set_link(false, 0, wall_ms());
-    const plugin::Error e = link->start(std::nullopt, MosquittoLink::Mode::kPublish);
     generation = link->state().generation;
     primary = -1;
-    log(e ? COBRIDGE_LOG_ERROR : COBRIDGE_LOG_WARN,
-        "primary host " + config.primary_host_id + " offline (STATE): NDEATH published and the session ended; "
-        "reconnecting to wait for it" + (e ? ": " + e.to_string() : std::string()));
+    reconnect_at_ms = wall_ms() + kReconnectAfterMs;
+    log(COBRIDGE_LOG_WARN, "primary host " + config.primary_host_id +
+                               " offline (STATE): NDEATH published and the session ended; reconnecting to wait for it");
+  }
+
+  // Publisher thread, each pass: the reconnect restart_for_primary() scheduled.
+  void reconnect_when_due() {
+    if (reconnect_at_ms == 0 || wall_ms() < reconnect_at_ms) return;
+    reconnect_at_ms = 0;
+    if (const plugin::Error e = link->start(std::nullopt, MosquittoLink::Mode::kPublish))
+      log(COBRIDGE_LOG_ERROR, "cannot start the MQTT client again: " + e.to_string());
   }
 
   // One pass: returns whether anything was done (else the thread naps).
@@ -194,6 +210,7 @@ struct Plugin {
     }
     if (want && await_old_death()) return;
     const std::optional<std::uint8_t> heard = link->seen_bd_seq();
+    reconnect_at_ms = 0;  // the role's start below replaces a pending reconnect
     link->stop();  // as the edge node: publishes NDEATH first (spec 5, intentional disconnect)
     session->set_link(false, 0, wall_ms());
     session->set_active(want);
@@ -213,6 +230,7 @@ struct Plugin {
     int primary = -1;
     while (running.load(std::memory_order_acquire)) {
       follow_role();
+      reconnect_when_due();
       poll_link(generation, primary);
       if (!drain())
         bell.wait(std::chrono::milliseconds(1),

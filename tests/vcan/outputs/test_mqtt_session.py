@@ -251,7 +251,8 @@ def check_primary_host(report, args, ws, sub, daemon, truth_path):
                  "primary host offline: NDEATH of the session (bdSeq %s) within %.1f s" % (
                      bd, (sub.all()[k][0] - t_off) if k is not None else -1))
     time.sleep(3.0)
-    held = [t for t, _ in node_messages(sub, (k or n3) + 1)]
+    held = ["%s (bdSeq %s)" % (t, mq.metric(p, "bdSeq").long_value if p is not None and mq.metric(p, "bdSeq") else "-")
+            for t, p in node_messages(sub, (k or n3) + 1)]
     report.check(not held, "no message while the primary host is offline", str(held[:5]))
     n4 = len(sub.all())
     publish_state(sub, True, stamp + 3)
