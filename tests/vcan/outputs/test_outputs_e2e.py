@@ -383,7 +383,11 @@ def run(a, work):
                   f"since the device's last frame: median {excess[len(excess) // 2]:.1f} ms, "
                   f"p95 {p95 if p95 is not None else float('nan'):.1f} ms, max {excess[-1] if excess else 0:.1f} ms "
                   f"(1 ms updates; limits: median 10 ms, p95 50 ms in UML)")
-            check(all(r[3] == 1 for r in good), f"{name}: Modbus online=1 while sending")
+            # Online is the heartbeat consumer's verdict (consumer time 200 ms): a time bound too. Under
+            # ASan on the QEMU bed the simulator sent 21 of its 1000 TPDOs a second and one read of 23
+            # said offline (forced-QEMU .ci/run, 2026-11-30); judged in the default build on both beds.
+            offline = sum(1 for r in good if r[3] != 1)
+            check_bound(offline == 0, f"{name}: Modbus online=1 while sending ({offline} of {len(good)} reads offline)")
     off = [s for s in dds_status if s.get("node_id") == 13 and not s.get("online", True)]
     check(bool(off), "DDS DeviceStatus shows the silenced device offline")
     stale = [x for x in dds.get(13, []) if x[3]]
