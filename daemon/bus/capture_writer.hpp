@@ -5,7 +5,8 @@
 // A fault is requested with its wall-clock time; once `after` has passed
 // since it, the writer takes the recorder's frames of [fault - before,
 // fault + after] and writes <dir>/<bus>-<UTC time>-<cause>.log, one line per
-// frame in the order of their kernel stamps, in `candump -l` form, "(SECONDS.MICROSECONDS) IFACE ID#DATA", with a
+// frame in the order of their kernel stamps, in `candump -l` form,
+// "(SECONDS.MICROSECONDS) IFACE ID#DATA", with a
 // sidecar <name>.json (bus, causes, devices, fault time, frames, bytes).
 // candump logs have no comment lines, hence the sidecar. A fault inside the
 // window of a capture still pending joins it (one file, every cause in the

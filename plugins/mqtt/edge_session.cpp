@@ -259,7 +259,7 @@ void EdgeSession::publish_dbirth(Device& d, std::uint64_t now_ms) {
   builder_.begin(now_ms, next_seq());
   for (const MetricDef& m : process_metrics()) {
     const std::size_t k = process_index(m.id);
-    if ((d.metrics >> k & 1u) == 0) continue;  // not in the device's metric set
+    if (!in_metric_set(d, k)) continue;
     const std::uint64_t alias = device_alias(d.info.device_index, m.id);
     // Every metric DDATA may carry is in the DBIRTH (spec 6.4.x,
     // tck-id-payloads-dbirth-*): a value not heard yet is sent as null.
@@ -325,7 +325,7 @@ void EdgeSession::track_status(Device& d, const cobridge_sample& s, std::uint64_
 
 bool EdgeSession::worth_sending(const Device& d, const Reading& r) const noexcept {
   const std::size_t k = process_index(r.id);
-  if ((d.metrics >> k & 1u) == 0) return false;  // not in the device's metric set
+  if (!in_metric_set(d, k)) return false;
   if (!d.has_sent[k]) return true;
   const MetricDef* m = find_metric(r.id);
   const bool real = m->type == DataType::kFloat || m->type == DataType::kDouble;

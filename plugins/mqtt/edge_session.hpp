@@ -146,6 +146,8 @@ class EdgeSession {
     std::uint32_t metrics = MetricSets::kAll;  // bit process_index(id): published (Ids::metrics)
   };
 
+  // Whether process metric k (process_index) is in the device's metric set.
+  [[nodiscard]] static bool in_metric_set(const Device& d, std::size_t k) noexcept { return (d.metrics >> k & 1u) != 0; }
   void update_liveness(std::uint64_t now_ms);
   void births(std::uint64_t now_ms);
   void publish_nbirth(std::uint64_t now_ms);
