@@ -299,6 +299,7 @@ bool BusManager::Impl::announce_and_start(Managed& m, TimePoint now) {
   if (channel->send(canopen::make_nmt(canopen::NmtCommand::start, m.st.node_id))) {
     m.start_sent_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(wall_now().time_since_epoch()).count();
     m.start_sent_at = now;
+    m.start_resends = 0;
     return true;
   }
   m.st.last_error = "NMT start could not be sent";

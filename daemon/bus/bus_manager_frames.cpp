@@ -299,6 +299,7 @@ void BusManager::Impl::on_nmt_state(Managed& m, canopen::NmtState nmt, std::int6
     set_state(m, DeviceState::stopped);
     return;
   }
+  if (resend_start(m, now)) return;
   // Someone (or a reset we missed) put it back: check, configure and start again.
   log->warn("bus {}: device {} (node {}) is pre-operational again; reconfiguring", bus.name, m.st.name,
             m.st.node_id);
@@ -318,6 +319,22 @@ bool BusManager::Impl::told_before_start(const Managed& m, std::int64_t frame_ns
   if (now < m.preop_expected_until) return true;
   if (frame_ns == 0 || m.start_sent_ns == 0 || now - m.start_sent_at > kStartStaleWindow) return false;
   return frame_ns < m.start_sent_ns + std::chrono::duration_cast<std::chrono::nanoseconds>(kStartReaction).count();
+}
+
+// See kStartResends. Forgotten by the supervisor, so that the same state
+// heard again is news: after the window, the whole plan.
+bool BusManager::Impl::resend_start(Managed& m, TimePoint now) {
+  if (m.start_sent_ns == 0 || now - m.start_sent_at > kStartStaleWindow || m.start_resends >= kStartResends)
+    return false;
+  ++m.start_resends;
+  supervisor.forget_nmt(m.st.node_id);
+  log->warn("bus {}: device {} (node {}) still pre-operational {} ms after the NMT start; start sent again ({} of {})",
+            bus.name, m.st.name, m.st.node_id,
+            std::chrono::duration_cast<std::chrono::milliseconds>(now - m.start_sent_at).count(), m.start_resends,
+            kStartResends);
+  if (!channel->send(canopen::make_nmt(canopen::NmtCommand::start, m.st.node_id)))
+    log->error("bus {}: device {}: NMT start could not be sent", bus.name, m.st.name);
+  return true;
 }
 
 void BusManager::Impl::report_suppressed_emcy(TimePoint now) {

@@ -80,6 +80,12 @@ constexpr milliseconds kStartReaction{50};
 // no longer one the gateway was slow to read, and a wall clock stepped back
 // (NTP) in between cannot hide a device put back to pre-operational.
 constexpr milliseconds kStartStaleWindow{1000};
+// Pre-operational heard within that window but after kStartReaction: a device
+// slow to act on the start (its heartbeat producer ahead of its NMT state
+// machine) or one that missed it. Its configuration was verified and stored
+// just before, so the start is sent again, at most this often, instead of
+// the whole plan: a plan per late heartbeat never ends on a slow device.
+constexpr unsigned kStartResends = 3;
 // A re-plugged adapter is opened at most this long after it appears, so
 // its devices are configured again within 2 s of its return.
 constexpr milliseconds kReopenBackoffMax{500};
@@ -105,6 +111,7 @@ struct BusManager::Impl final : RemoteGate {
     TimePoint preop_expected_until{};      // see kCommandSettle
     std::int64_t start_sent_ns = 0;        // realtime of our last NMT start (kStartReaction)
     TimePoint start_sent_at{};             // ... and steady time (kStartStaleWindow)
+    unsigned start_resends = 0;            // since that start (kStartResends)
     bool quick = false;       // the running plan is the fingerprint check
     bool force_full = false;  // the next run is the full plan
     bool store_all = false;   // ... and stores all it names: the quick check already wrote some
@@ -281,6 +288,7 @@ struct BusManager::Impl final : RemoteGate {
   // A heartbeat state that tells what the device was before our last NMT
   // start (or a command's), not what it is now.
   [[nodiscard]] bool told_before_start(const Managed& m, std::int64_t frame_ns, TimePoint now) const;
+  bool resend_start(Managed& m, TimePoint now);
 
   bool emcy_log_allowed(Managed& m, TimePoint now) { return m.emcy_log.allow(now); }
 

@@ -89,7 +89,12 @@ void Supervisor::producer_time_written(std::uint8_t node, canopen::TimePoint at)
 }
 
 void Supervisor::forget_nmt(std::uint8_t node) noexcept {
-  if (canopen::cob::valid_node_id(node)) nodes_[node].nmt = canopen::NmtState::boot_up;
+  if (!canopen::cob::valid_node_id(node)) return;
+  nodes_[node].nmt = canopen::NmtState::boot_up;
+  // The consumers report changes of their own record: forgotten there too,
+  // or the same state heard again would be no change at all.
+  heartbeat_.forget_state(node);
+  guard_.forget_state(node);
 }
 
 void Supervisor::listen(std::uint8_t node, const device::families::Family* family) {

@@ -29,6 +29,10 @@ void HeartbeatConsumer::remove(uint8_t node) noexcept {
   if (cob::valid_node_id(node)) nodes_[node] = NodeStatus{};
 }
 
+void HeartbeatConsumer::forget_state(uint8_t node) noexcept {
+  if (cob::valid_node_id(node)) nodes_[node].state_known = false;
+}
+
 HeartbeatConsumer::NodeStatus HeartbeatConsumer::status(uint8_t node) const noexcept {
   if (!cob::valid_node_id(node)) return NodeStatus{};
   return nodes_[node];

@@ -72,6 +72,10 @@ class HeartbeatConsumer {
   // as 0 does in 0x1016. Returns false for node-IDs outside 1..127.
   bool configure(uint8_t node, Duration consumer_time) noexcept;
   void remove(uint8_t node) noexcept;
+  // The node's next state is reported as a change (state_changed with
+  // previous_known false) even when it equals the last one: the master
+  // discounted that one and needs to hear whether it persists.
+  void forget_state(uint8_t node) noexcept;
   // The node confirmed a write of its producer heartbeat time (0x1017) at
   // `at`: a producer starts its period over with the new time, so one gap
   // of up to a period plus the time since its last heartbeat is no loss.

@@ -27,6 +27,10 @@ void NodeGuardMaster::remove(uint8_t node) noexcept {
   if (cob::valid_node_id(node)) nodes_[node] = NodeStatus{};
 }
 
+void NodeGuardMaster::forget_state(uint8_t node) noexcept {
+  if (cob::valid_node_id(node)) nodes_[node].state_known = false;
+}
+
 NodeGuardMaster::NodeStatus NodeGuardMaster::status(uint8_t node) const noexcept {
   if (!cob::valid_node_id(node)) return NodeStatus{};
   return nodes_[node];

@@ -72,6 +72,10 @@ class NodeGuardMaster {
   bool configure(uint8_t node, Duration guard_time, uint8_t life_time_factor,
                  TimePoint now) noexcept;
   void remove(uint8_t node) noexcept;
+  // The node's next state is reported as a change (state_changed with
+  // previous_known false) even when it equals the last one: the master
+  // discounted that one and needs to hear whether it persists.
+  void forget_state(uint8_t node) noexcept;
 
   // Feed every received frame; true if it was a reply or boot-up of a guarded node.
   bool on_frame(const can::Frame& frame, TimePoint now) noexcept;

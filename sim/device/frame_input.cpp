@@ -83,6 +83,12 @@ bool SimDevice::Impl::sdo_fault_injected(const can::Frame& frame) noexcept {
 }
 
 void SimDevice::Impl::on_nmt_frame(const can::Frame& frame, TimePoint now) {
+  const bool start = frame.len >= 2 && frame.data[0] == static_cast<std::uint8_t>(canopen::NmtCommand::start) &&
+                     (frame.data[1] == 0 || frame.data[1] == active_node);
+  if (start && ignore_nmt_starts != 0) {
+    --ignore_nmt_starts;
+    return;
+  }
   const canopen::NmtTransition t = nmt.on_frame(frame, active_node);
   switch (t.outcome) {
     case canopen::NmtOutcome::reset_node: reset_node(now); break;

@@ -86,6 +86,7 @@ void SimDevice::Impl::power_off() noexcept {
   powered = false;
   abort_sdo_index = 0;  // injected SDO faults do not survive the power
   ignore_sdo_index = 0;
+  ignore_nmt_starts = 0;
   late_lss.clear();
   lss.reset();
   sdo.reset();

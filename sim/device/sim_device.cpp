@@ -128,6 +128,7 @@ void SimDevice::ignore_sdo(std::uint16_t index, std::uint32_t n) noexcept {
   impl_->ignore_sdo_index = n == 0 ? 0 : index;
   impl_->ignore_sdo_left = n;
 }
+void SimDevice::ignore_nmt_start(std::uint32_t n) noexcept { impl_->ignore_nmt_starts = n; }
 bool SimDevice::powered() const noexcept { return impl_->powered; }
 void SimDevice::on_frame(const can::Frame& frame, TimePoint now) { impl_->on_frame(frame, now); }
 TimePoint SimDevice::process(TimePoint now) { return impl_->process(now); }

@@ -162,6 +162,10 @@ class SimDevice {
   // Leaves the next `n` SDO initiate requests for `index` unanswered (lost,
   // as far as the master can tell: an SDO timeout). 0 cancels; a reboot clears it.
   void ignore_sdo(std::uint16_t index, std::uint32_t n) noexcept;
+  // Leaves the next `n` NMT start commands (CiA 301 §7.2.8.3.1) unacted: a
+  // device that missed or is slow to act on a master's start, its heartbeat
+  // still saying pre-operational. 0 cancels; a reboot clears it.
+  void ignore_nmt_start(std::uint32_t n) noexcept;
   [[nodiscard]] bool powered() const noexcept;
 
   void on_frame(const can::Frame& frame, TimePoint now);

@@ -101,6 +101,7 @@ struct SimDevice::Impl {
   std::uint32_t abort_sdo_code = 0;
   std::uint16_t ignore_sdo_index = 0;  // see SimDevice::ignore_sdo (0: none)
   std::uint32_t ignore_sdo_left = 0;
+  std::uint32_t ignore_nmt_starts = 0;  // see SimDevice::ignore_nmt_start
   NvContents nv_data;
   std::unique_ptr<canopen::ObjectDictionary> od;
   std::unique_ptr<canopen::SdoServer> sdo;

@@ -221,6 +221,39 @@ TEST(BusManagerLine, Cia301_StaleHeartbeatAfterTheStartIsNoReconfiguration) {
       [&](const BusStatus&) { return t.dev.nmt_state() == canopen::NmtState::operational; }, 3s));
 }
 
+// A device that does not act on the plan's NMT start (CiA 301 §7.2.8.3.1;
+// missed, or slow: the simulator under a sanitizer on a loaded guest), its
+// heartbeats still saying pre-operational: the start is sent again, not the
+// whole plan (which, started anew per late heartbeat, never ended there).
+TEST(BusManagerLine, Cia301_StartNotActedOnIsSentAgainNotReplanned) {
+  const LogCapture log;
+  OneMultiturn t;
+  t.dev.ignore_nmt_start(2);
+  t.line.start();
+  ASSERT_TRUE(t.line.run_until([&](const BusStatus&) { return t.dev.nmt_state() == canopen::NmtState::operational; },
+                               5s)) << t.why();
+  EXPECT_EQ(log.count("start sent again"), 2u);
+  EXPECT_EQ(log.count("pre-operational again"), 0u);
+  const std::size_t downloads = sdo_downloads(t.line.bus(), 20);
+  t.line.run_for(2s);
+  EXPECT_EQ(t.line.device("mt-a")->state, DeviceState::operational) << t.why();
+  EXPECT_EQ(sdo_downloads(t.line.bus(), 20), downloads);
+}
+
+// One that keeps ignoring it past the resends: the whole plan after all,
+// then operational (a device that missed a reset's boot-up looks so too).
+TEST(BusManagerLine, Cia301_StartIgnoredPastTheResendsIsReplanned) {
+  const LogCapture log;
+  OneMultiturn t;
+  t.dev.ignore_nmt_start(4);
+  t.line.start();
+  ASSERT_TRUE(t.line.run_until([&](const BusStatus&) { return t.dev.nmt_state() == canopen::NmtState::operational; },
+                               10s)) << t.why();
+  EXPECT_EQ(log.count("start sent again"), 3u);
+  EXPECT_GE(log.count("pre-operational again"), 1u);
+  EXPECT_TRUE(t.line.run_until(VirtualLine::all_in(DeviceState::operational), 2s).has_value()) << t.why();
+}
+
 // The wall clock stepped back an hour (NTP) after the start: a device put
 // back to pre-operational a few seconds later is still news, its heartbeat
 // stamps earlier than the start notwithstanding.

@@ -116,6 +116,20 @@ TEST_F(HeartbeatConsumerTest, CiA301_7_2_8_3_2_2_StateChange) {
   EXPECT_EQ(events[1].state, NmtState::pre_operational);
 }
 
+// A state the master discounted (forget_state): the same state heard again
+// is reported, so the master learns that it persists; later ones are not.
+TEST_F(HeartbeatConsumerTest, CiA301_7_2_8_3_2_2_ForgottenStateIsReportedAgain) {
+  ASSERT_TRUE(hb.configure(5, 100ms));
+  (void)hb.on_frame(Frame::make(0x705, {0x7F}), at(0));
+  hb.forget_state(5);
+  (void)hb.on_frame(Frame::make(0x705, {0x7F}), at(100));
+  (void)hb.on_frame(Frame::make(0x705, {0x7F}), at(200));
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_EQ(events[1].kind, Kind::state_changed);
+  EXPECT_FALSE(events[1].previous_known);
+  EXPECT_EQ(events[1].state, NmtState::pre_operational);
+}
+
 // CiA 301 §7.2.8.3.3: a boot-up is reported; monitoring waits for the next heartbeat.
 TEST_F(HeartbeatConsumerTest, CiA301_7_2_8_3_3_BootUpDisarms) {
   ASSERT_TRUE(hb.configure(5, 100ms));

@@ -124,6 +124,18 @@ TEST_F(NodeGuardMasterTest, CiA301_7_2_8_3_2_1_StateChangeReported) {
   EXPECT_EQ(events.back().state, NmtState::stopped);
 }
 
+// A state the master discounted (forget_state) is reported once more when
+// the next reply repeats it.
+TEST_F(NodeGuardMasterTest, CiA301_7_2_8_3_2_1_ForgottenStateIsReportedAgain) {
+  ASSERT_TRUE(master.configure(7, 100ms, 3, at(0)));
+  (void)master.on_frame(make_guard_reply(7, NmtState::pre_operational, false), at(0));
+  master.forget_state(7);
+  (void)master.on_frame(make_guard_reply(7, NmtState::pre_operational, true), at(100));
+  (void)master.on_frame(make_guard_reply(7, NmtState::pre_operational, false), at(200));
+  EXPECT_EQ(kinds(), (std::vector<Kind>{Kind::state_changed, Kind::state_changed}));
+  EXPECT_FALSE(events.back().previous_known);
+}
+
 // J§1.3.1 0x100C / 0x100D: 0 disables guarding.
 TEST_F(NodeGuardMasterTest, J1_3_1_ZeroGuardTimeOrFactorDisables) {
   ASSERT_TRUE(master.configure(7, 0ms, 3, at(0)));

@@ -18,6 +18,11 @@ Asserts (Eclipse Sparkplug 3.0, the pair as one edge node):
   `since`);
 * b killed: the broker's will NDEATH (b's bdSeq), then a's NBIRTH (the next
   bdSeq) and every DBIRTH within 1 s of a becoming master;
+* the primary host offline (its STATE, Sparkplug 3.0 5: both gateways name
+  it in primary_host_id): the master (a) ends its session (NDEATH); b,
+  restarted, takes the role while the host is still offline and publishes
+  no NBIRTH until the host's STATE says online again, then its NBIRTH and
+  every DBIRTH, one session alive;
 * over the whole run a host never sees two sessions alive at once: every
   NBIRTH comes when no session is alive (the last NBIRTH's bdSeq had its
   NDEATH), and the seq of each session is unbroken (no message of an old
@@ -43,6 +48,13 @@ DEVICES = [("rot", "RFC-4800", "RFC-4800", 1001, 10, "constant:0.2"), ("mt", "MC
 NAMES = [d[0] for d in DEVICES]
 NODE = {"a": 120, "b": 121}
 HOLD_S = 2
+HOST = "scada"  # the primary host application (Sparkplug 3.0 5), played by the subscriber
+
+
+def publish_state(sub, online, stamp):
+    """The primary host's STATE as a 3.0 host publishes it: retained, QoS 1, JSON."""
+    sub.c.publish("spBv1.0/STATE/" + HOST, '{"online": %s, "timestamp": %d}' % ("true" if online else "false", stamp),
+                  qos=1, retain=True)
 
 
 def config(ws, k, extra):
@@ -51,7 +63,7 @@ def config(ws, k, extra):
                 "tpdo1": {"mapping": ["position"], "transmission": 254, "event_timer_ms": 100}}
                for (n, m, _, s, nid, _mo) in DEVICES]
     mqtt = ('[outputs.mqtt]\nhost = "127.0.0.1"\nport = %d\ngroup_id = "%s"\nedge_node_id = "%s"\nkeepalive_s = 5\n'
-            'bdseq_file = "%s"\n' % (mq.PORT, mq.GROUP, mq.EDGE, ws.path("mqtt.bdseq")))
+            'bdseq_file = "%s"\nprimary_host_id = "%s"\n' % (mq.PORT, mq.GROUP, mq.EDGE, ws.path("mqtt.bdseq"), HOST))
     return e2e.write_config(ws, [bus], devices,
                             extra='[redundancy]\nmode = "hot-standby"\nnode_id = %d\n%s%s' % (NODE[k], extra, mqtt))
 
@@ -126,6 +138,37 @@ def check_takeover(report, sub, since, what, old_bd, t_master):
     return ev[1][1] if len(ev) >= 2 else None
 
 
+def node_messages(sub, since):
+    return [(t, p) for _, t, p in sub.all()[since:] if t.startswith("spBv1.0/%s/" % mq.GROUP)]
+
+
+def check_takeover_host_offline(report, args, ws, cfg, sub, a, extra):
+    """The primary host goes offline; b (restarted) takes the role meanwhile
+    and holds its births until the host is online again. Returns b."""
+    n0 = len(sub.all())
+    publish_state(sub, False, int(time.time() * 1000))
+    k = sub.wait_for(lambda t, p: t == mq.topic("NDEATH"), 5, n0)
+    report.check(k is not None, "primary host offline: the master (a) publishes NDEATH")
+    b = e2e.Daemon(args.daemon, cfg["b"], ws["b"], log_name="daemon-b2.log", extra_args=extra)
+    rb = wait_role(b, "master", HOLD_S + 15) if b.wait_socket() else None
+    if not report.check(rb is not None and wait_role(a, "standby", 5) is not None,
+                        "b, restarted, takes the role while the host is offline", str(rb)):
+        return b
+    n1 = len(sub.all())
+    time.sleep(2.0)
+    births = [t for t, _ in node_messages(sub, (k or n0) + 1) if "BIRTH" in t]
+    report.check(not births, "host offline: no NBIRTH or DBIRTH of either gateway, b master for 2 s", str(births[:4]))
+    t_online = time.time()
+    publish_state(sub, True, int(t_online * 1000))
+    i = sub.wait_for(lambda t, p: t == mq.topic("NBIRTH"), 10, n1)
+    report.check(i is not None and all(sub.wait_for(lambda t, p, n=n: t == mq.topic("DBIRTH", n), 10, i) is not None
+                                       for n in NAMES),
+                 "host online again: b's NBIRTH and every DBIRTH (%.1f s after the STATE)" % (
+                     (sub.all()[i][0] - t_online) if i is not None else -1))
+    report.check(b.wait_log("connecting as edge node", timeout=1), "b's log: it connected as the edge node")
+    return b
+
+
 def check_never_two_alive(report, sub):
     alive, bad = None, []
     for i, _, kind, bd in node_events(sub):
@@ -167,6 +210,7 @@ def main():
     extra = ("--plugin-dir", args.plugins)
     try:
         report.check(sub.connect(), "subscriber connected")
+        publish_state(sub, True, int(time.time() * 1000))
         a = daemons["a"] = e2e.Daemon(args.daemon, cfg["a"], ws["a"], extra_args=extra)
         report.check(a.wait_socket() and wait_role(a, "master", 30) is not None, "a (priority 1) alone: master")
         i = sub.wait_for(lambda t, p: t == mq.topic("DBIRTH", "ifm"), 30)
@@ -197,10 +241,13 @@ def main():
         if report.check(ra is not None and bd_b is not None, "b killed: a is master again", str(ra)):
             print("info b killed: a master %.0f ms after the kill" % ((e2e.iso_to_epoch(ra["since"]) - t_kill) * 1e3))
             check_takeover(report, sub, n_kill, "b killed", bd_b, e2e.iso_to_epoch(ra["since"]))
+            time.sleep(1.0)
+            daemons["b"] = check_takeover_host_offline(report, args, ws, cfg, sub, a, extra)
         time.sleep(1.0)
         check_never_two_alive(report, sub)
         if report.failed:
-            print(a.tail(30))
+            for d in daemons.values():
+                print(d.tail(30))
     finally:
         sub.close()
         e2e.shut_down_pair(list(daemons.values()), [sim, broker], list(ws.values()))
