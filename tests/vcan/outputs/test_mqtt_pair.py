@@ -20,9 +20,9 @@ Asserts (Eclipse Sparkplug 3.0, the pair as one edge node):
   bdSeq) and every DBIRTH within 1 s of a becoming master;
 * the primary host offline (its STATE, Sparkplug 3.0 5: both gateways name
   it in primary_host_id): the master (a) ends its session (NDEATH); b,
-  restarted, takes the role while the host is still offline and publishes
-  no NBIRTH until the host's STATE says online again, then its NBIRTH and
-  every DBIRTH, one session alive;
+  restarted as standby, takes the role when a is killed while the host is
+  still offline, and publishes no NBIRTH until the host's STATE says online
+  again, then its NBIRTH and every DBIRTH, one session alive;
 * over the whole run a host never sees two sessions alive at once: every
   NBIRTH comes when no session is alive (the last NBIRTH's bdSeq had its
   NDEATH), and the seq of each session is unbroken (no message of an old
@@ -142,22 +142,28 @@ def node_messages(sub, since):
     return [(t, p) for _, t, p in sub.all()[since:] if t.startswith("spBv1.0/%s/" % mq.GROUP)]
 
 
-def check_takeover_host_offline(report, args, ws, cfg, sub, a, extra):
-    """The primary host goes offline; b (restarted) takes the role meanwhile
-    and holds its births until the host is online again. Returns b."""
+def check_takeover_host_offline(report, args, ws, sub, a, extra):
+    """The primary host goes offline; b (restarted, without preempt: a
+    handover is held down for a minute after the last) stands by, a is
+    killed, and b, master now, holds its births until the host is online
+    again. Returns b."""
     n0 = len(sub.all())
     publish_state(sub, False, int(time.time() * 1000))
     k = sub.wait_for(lambda t, p: t == mq.topic("NDEATH"), 5, n0)
     report.check(k is not None, "primary host offline: the master (a) publishes NDEATH")
-    b = e2e.Daemon(args.daemon, cfg["b"], ws["b"], log_name="daemon-b2.log", extra_args=extra)
-    rb = wait_role(b, "master", HOLD_S + 15) if b.wait_socket() else None
-    if not report.check(rb is not None and wait_role(a, "standby", 5) is not None,
-                        "b, restarted, takes the role while the host is offline", str(rb)):
+    b = e2e.Daemon(args.daemon, config(ws["b"], "b", "priority = 0\n"), ws["b"], log_name="daemon-b2.log",
+                   extra_args=extra)
+    if not report.check(b.wait_socket() and wait_role(b, "standby", 10) is not None, "b restarted: standby"):
         return b
-    n1 = len(sub.all())
+    os.kill(a.pid, signal.SIGKILL)
+    a.proc.wait(5)
+    rb = wait_role(b, "master", 10)
+    if not report.check(rb is not None, "a killed while the host is offline: b is master", str(rb)):
+        return b
     time.sleep(2.0)
     births = [t for t, _ in node_messages(sub, (k or n0) + 1) if "BIRTH" in t]
     report.check(not births, "host offline: no NBIRTH or DBIRTH of either gateway, b master for 2 s", str(births[:4]))
+    n1 = len(sub.all())
     t_online = time.time()
     publish_state(sub, True, int(t_online * 1000))
     i = sub.wait_for(lambda t, p: t == mq.topic("NBIRTH"), 10, n1)
@@ -242,7 +248,7 @@ def main():
             print("info b killed: a master %.0f ms after the kill" % ((e2e.iso_to_epoch(ra["since"]) - t_kill) * 1e3))
             check_takeover(report, sub, n_kill, "b killed", bd_b, e2e.iso_to_epoch(ra["since"]))
             time.sleep(1.0)
-            daemons["b"] = check_takeover_host_offline(report, args, ws, cfg, sub, a, extra)
+            daemons["b"] = check_takeover_host_offline(report, args, ws, sub, a, extra)
         time.sleep(1.0)
         check_never_two_alive(report, sub)
         if report.failed:
