@@ -221,6 +221,16 @@ TEST(BusManagerLine, Cia301_StaleHeartbeatAfterTheStartIsNoReconfiguration) {
       [&](const BusStatus&) { return t.dev.nmt_state() == canopen::NmtState::operational; }, 3s));
 }
 
+// Started with the device leaving its first `ignored` NMT starts unacted;
+// true once the device itself is operational within `limit`.
+bool device_started_despite(OneMultiturn& t, std::uint32_t ignored, std::chrono::milliseconds limit) {
+  t.dev.ignore_nmt_start(ignored);
+  t.line.start();
+  return t.line
+      .run_until([&](const BusStatus&) { return t.dev.nmt_state() == canopen::NmtState::operational; }, limit)
+      .has_value();
+}
+
 // A device that does not act on the plan's NMT start (CiA 301 §7.2.8.3.1;
 // missed, or slow: the simulator under a sanitizer on a loaded guest), its
 // heartbeats still saying pre-operational: the start is sent again, not the
@@ -228,10 +238,7 @@ TEST(BusManagerLine, Cia301_StaleHeartbeatAfterTheStartIsNoReconfiguration) {
 TEST(BusManagerLine, Cia301_StartNotActedOnIsSentAgainNotReplanned) {
   const LogCapture log;
   OneMultiturn t;
-  t.dev.ignore_nmt_start(2);
-  t.line.start();
-  ASSERT_TRUE(t.line.run_until([&](const BusStatus&) { return t.dev.nmt_state() == canopen::NmtState::operational; },
-                               5s)) << t.why();
+  ASSERT_TRUE(device_started_despite(t, 2, 5s)) << t.why();
   EXPECT_EQ(log.count("start sent again"), 2u);
   EXPECT_EQ(log.count("pre-operational again"), 0u);
   const std::size_t downloads = sdo_downloads(t.line.bus(), 20);
@@ -245,10 +252,7 @@ TEST(BusManagerLine, Cia301_StartNotActedOnIsSentAgainNotReplanned) {
 TEST(BusManagerLine, Cia301_StartIgnoredPastTheResendsIsReplanned) {
   const LogCapture log;
   OneMultiturn t;
-  t.dev.ignore_nmt_start(4);
-  t.line.start();
-  ASSERT_TRUE(t.line.run_until([&](const BusStatus&) { return t.dev.nmt_state() == canopen::NmtState::operational; },
-                               10s)) << t.why();
+  ASSERT_TRUE(device_started_despite(t, 4, 10s)) << t.why();
   EXPECT_EQ(log.count("start sent again"), 3u);
   EXPECT_GE(log.count("pre-operational again"), 1u);
   EXPECT_TRUE(t.line.run_until(VirtualLine::all_in(DeviceState::operational), 2s).has_value()) << t.why();
