@@ -83,6 +83,7 @@ Error BusManager::Impl::open_port() {
   cc.interface = bus.interface;
   cc.wait_for_interface = true;  // a missing adapter is reported and waited for
   cc.reopen_backoff_max = kReopenBackoffMax;
+  cc.receive_buffer_bytes = kControlReceiveBuffer;
   socket = std::make_unique<can::SocketCanChannel>(cc);
   if (Error err = socket->open()) {
     socket.reset();

@@ -96,6 +96,7 @@ bool BusManager::Impl::handle_outputs(TimePoint now) {
   start_identity_reads(now);
   if (start_configurations(now)) more = true;
   report_suppressed_emcy(now);
+  report_control_drops(now);
   return more;
 }
 
@@ -343,6 +344,18 @@ void BusManager::Impl::report_suppressed_emcy(TimePoint now) {
       log->warn("bus {}: device {} (node {}): {} more EMCY not logged (last: {}); every one reached the outputs",
                 bus.name, m.st.name, m.st.node_id, n, m.st.last_emcy_text);
   }
+}
+
+void BusManager::Impl::report_control_drops(TimePoint now) {
+  if (now < control_drops_report_at) return;
+  const std::uint64_t total = channel->stats().rx_overflow_drops;
+  if (total <= control_drops_reported) return;
+  log->warn("bus {}: the kernel dropped {} frames at the control thread's full receive queue ({} since start): "
+            "EMCY, heartbeats or SDO answers among them went unseen by supervision and the log; the outputs "
+            "read their own socket",
+            bus.name, total - control_drops_reported, total);
+  control_drops_reported = total;
+  control_drops_report_at = now + kControlDropReportPeriod;
 }
 
 }  // namespace cobridge::gateway

@@ -89,6 +89,12 @@ constexpr unsigned kStartResends = 3;
 // A re-plugged adapter is opened at most this long after it appears, so
 // its devices are configured again within 2 s of its return.
 constexpr milliseconds kReopenBackoffMax{500};
+// The control socket's receive queue carries the control plane over a
+// stall of its thread (a loaded host, an EMCY storm at 1 500 frames/s): the
+// kernel's default holds some 300 frames, 200 ms of such a storm.
+constexpr int kControlReceiveBuffer = 1 << 20;
+// Frames the kernel dropped there are logged at most this often, summed up.
+constexpr milliseconds kControlDropReportPeriod{1000};
 // Role changes logged per window; more are counted and summed up in one line.
 constexpr std::uint32_t kRoleLogLines = 6;
 constexpr std::chrono::seconds kRoleLogWindow{60};
@@ -293,6 +299,12 @@ struct BusManager::Impl final : RemoteGate {
   bool emcy_log_allowed(Managed& m, TimePoint now) { return m.emcy_log.allow(now); }
 
   void report_suppressed_emcy(TimePoint now);
+  // Frames lost at the control socket's full receive queue (SO_RXQ_OVFL):
+  // EMCY, heartbeats and SDO answers this thread never saw, so the log and
+  // supervision must say so (the outputs read the hot path's own socket).
+  void report_control_drops(TimePoint now);
+  std::uint64_t control_drops_reported = 0;
+  TimePoint control_drops_report_at{};
 
   // ---- commands from other threads ------------------------------------------
 

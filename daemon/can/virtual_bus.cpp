@@ -49,6 +49,7 @@ void VirtualBus::Port::deliver(const Frame& frame) {
   if (!open_) return;  // interface down: the frame never reaches the socket
   if (queue_.size() >= capacity_) {
     ++rx_dropped_;
+    ++stats_.rx_overflow_drops;  // as a socket's SO_RXQ_OVFL counts them
     return;
   }
   queue_.push_back(frame);

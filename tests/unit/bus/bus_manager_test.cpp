@@ -356,6 +356,41 @@ TEST(BusManagerLine, DriftFromAFightingWriterContestedAfterThreeRestores) {
   EXPECT_TRUE(t.heartbeat_becomes(100, 5s)) << "acknowledged: restored again";
 }
 
+// An EMCY storm (CiA 301 §7.2.7) faster than the control thread reads:
+// the frames its full receive queue lost are logged with their count (the
+// status's rx_overflow_drops), so the log's EMCY count plus that covers
+// every EMCY sent; the device stays operational.
+TEST(BusManagerLine, Cia301_7_2_7_EmcyStormPastTheReceiveQueueIsDeclared) {
+  LogCapture logs;
+  VirtualLine line(kBus, device_toml("mt-a", "MC1-2800", 2001, 20), {""}, 64);
+  line.add_device("MC1-2800", 2001, 20);
+  auto& storm = line.bus().attach();
+  line.start();
+  ASSERT_TRUE(line.run_until(VirtualLine::all_in(DeviceState::operational), 5s));
+  constexpr unsigned kSent = 500;
+  for (unsigned i = 0; i < kSent; ++i) {
+    can::Frame f;
+    f.id = 0x080U + 20;
+    f.len = 8;
+    f.data = {static_cast<std::uint8_t>(i), 0x10, 0x01, 0, 0, 0, 0, 0};
+    ASSERT_TRUE(storm.send(f));
+  }
+  line.run_for(12s);  // the EMCY log budget's window (10 s) ends: its summary
+  const std::uint64_t drops = line.status().rx_overflow_drops;
+  EXPECT_GE(drops, kSent - 64);
+  EXPECT_EQ(logs.count("dropped " + std::to_string(drops) + " frames at the control thread's full receive queue"), 1u);
+  std::size_t logged = 0;
+  std::uint64_t summed = 0;
+  for (const auto& l : logs.lines()) {
+    if (const auto at = l.find("): "); at != std::string::npos && l.find("more EMCY not logged") != std::string::npos)
+      summed += std::stoull(l.substr(at + 3));
+    else if (l.find("device mt-a (node 20): ") != std::string::npos)
+      ++logged;
+  }
+  EXPECT_GE(logged + summed + drops, kSent) << logged << " logged, " << summed << " summed up";
+  EXPECT_EQ(line.device("mt-a")->state, DeviceState::operational);
+}
+
 // SIGHUP (docs/operations.md "Reload"): a changed heartbeat period is
 // written to the device without closing the bus.
 TEST(BusManagerLine, ReloadWritesTheChangedSetting) {

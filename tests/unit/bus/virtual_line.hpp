@@ -102,8 +102,11 @@ class VirtualLine {
   // `bus_toml`: the [[bus]] table's keys; `devices_toml`: [[device]] tables;
   // one gateway per entry of `gateways`, each the rest of its own
   // configuration (a [redundancy] table for a hot-standby pair).
+  // `gateway_port_capacity`: frames a gateway's port holds before it drops
+  // them (a socket's receive queue; counted as its SO_RXQ_OVFL).
   VirtualLine(const std::string& bus_toml, const std::string& devices_toml,
-              const std::vector<std::string>& gateways = {""})
+              const std::vector<std::string>& gateways = {""},
+              std::size_t gateway_port_capacity = can::VirtualBus::kUnbounded)
       : dir_(std::filesystem::temp_directory_path() /
              ("cobridge-vline-" + std::to_string(::getpid()) + "-" + std::to_string(++instances_))) {
     std::filesystem::remove_all(dir_);
@@ -111,7 +114,7 @@ class VirtualLine {
       return std::chrono::duration_cast<std::chrono::nanoseconds>(clock_.wall().time_since_epoch()).count();
     });
     for (const auto& extra : gateways) {
-      auto g = std::make_unique<Gateway>(bus_.attach());
+      auto g = std::make_unique<Gateway>(bus_.attach(gateway_port_capacity));
       g->dir = dir_ / ("gateway-" + std::to_string(gateways_.size()));
       std::filesystem::create_directories(g->dir);
       g->extra = extra;
