@@ -5,15 +5,15 @@
 
 namespace cobridge::app {
 
-void BusSet::build(const config::Config& cfg, const device::DeviceCatalog& catalog, gateway::StateStore& state,
-                   gateway::OutputPipeline& outputs, gateway::BusRegistry& registry,
+void BusSet::build(const config::Config& cfg, const device::DeviceCatalog& catalog, bus::StateStore& state,
+                   outputs::OutputPipeline& outputs, bus::BusRegistry& registry,
                    const FlightRecorders* recorders) {
   for (std::size_t i = 0; i < cfg.buses.size(); ++i) {
-    gateway::BusManagerOptions options;
+    bus::BusManagerOptions options;
     options.observer = outputs.observer(i);
     options.registry = &registry;
     options.captures = recorders ? recorders->captures(i) : nullptr;
-    buses_.push_back(std::make_unique<gateway::BusManager>(cfg, i, catalog, state, options));
+    buses_.push_back(std::make_unique<bus::BusManager>(cfg, i, catalog, state, options));
     outputs.set_command_target(i, buses_.back().get());
   }
 }
@@ -47,8 +47,8 @@ bool BusSet::serving() const {
   return std::all_of(buses_.begin(), buses_.end(), [](const auto& b) { return b->serving(); });
 }
 
-std::vector<gateway::BusStatus> BusSet::statuses() const {
-  std::vector<gateway::BusStatus> out;
+std::vector<bus::BusStatus> BusSet::statuses() const {
+  std::vector<bus::BusStatus> out;
   for (const auto& b : buses_) out.push_back(b->status());
   return out;
 }

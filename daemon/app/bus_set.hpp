@@ -1,4 +1,4 @@
-// The daemon's buses: one gateway::BusManager per [[bus]] table, built with
+// The daemon's buses: one bus::BusManager per [[bus]] table, built with
 // the output pipeline as observer and command target. Each BusManager owns
 // its control thread; the set starts them in configuration order and stops
 // them together.
@@ -27,8 +27,8 @@ class BusSet {
  public:
   // One BusManager per bus, connected to `outputs` (which must outlive them).
   // Each bus is put in `registry` while it runs (clients' commands find it there).
-  void build(const config::Config& cfg, const device::DeviceCatalog& catalog, gateway::StateStore& state,
-             gateway::OutputPipeline& outputs, gateway::BusRegistry& registry,
+  void build(const config::Config& cfg, const device::DeviceCatalog& catalog, bus::StateStore& state,
+             outputs::OutputPipeline& outputs, bus::BusRegistry& registry,
              const FlightRecorders* recorders = nullptr);
 
   // Starts every bus; on the first failure stops those started and returns
@@ -43,11 +43,11 @@ class BusSet {
   [[nodiscard]] bool ready() const;    // every bus commissioned and configured
   [[nodiscard]] bool serving() const;  // every bus's control thread alive
   [[nodiscard]] std::size_t size() const noexcept { return buses_.size(); }
-  [[nodiscard]] gateway::BusManager& operator[](std::size_t i) { return *buses_[i]; }
-  [[nodiscard]] std::vector<gateway::BusStatus> statuses() const;
+  [[nodiscard]] bus::BusManager& operator[](std::size_t i) { return *buses_[i]; }
+  [[nodiscard]] std::vector<bus::BusStatus> statuses() const;
 
  private:
-  std::vector<std::unique_ptr<gateway::BusManager>> buses_;
+  std::vector<std::unique_ptr<bus::BusManager>> buses_;
 };
 
 }  // namespace cobridge::app

@@ -13,7 +13,7 @@ int check_config(const std::filesystem::path& file, const std::filesystem::path&
   if (v.config) {
     // What the daemon would refuse at start: an output it cannot load or
     // whose settings the plugin rejects.
-    v.errors = gateway::check_outputs(*v.config, plugin_dir);
+    v.errors = outputs::check_outputs(*v.config, plugin_dir);
     if (v.config->web) {
       for (auto& e : web::check_web_settings(*v.config->web)) v.errors.push_back(std::move(e));
     }

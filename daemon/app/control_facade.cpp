@@ -8,9 +8,9 @@
 
 namespace cobridge::app {
 
-ControlFacade::ControlFacade(const config::Config& cfg, BusSet& buses, const gateway::OutputPipeline& outputs,
+ControlFacade::ControlFacade(const config::Config& cfg, BusSet& buses, const outputs::OutputPipeline& outputs,
                              std::string version, const FlightRecorders* recorders,
-                             const gateway::StateStore* state)
+                             const bus::StateStore* state)
     : config_(&cfg), buses_(buses), outputs_(outputs), version_(std::move(version)), recorders_(recorders),
       state_(state), started_(std::chrono::system_clock::now()) {}
 
@@ -24,9 +24,9 @@ void ControlFacade::set_ready() {
   ready_ = true;
 }
 
-gateway::StatusReport ControlFacade::status() {
+control::StatusReport ControlFacade::status() {
   const std::lock_guard lock(mutex_);
-  gateway::StatusReport r;
+  control::StatusReport r;
   r.gateway_id = config_->gateway.id;
   r.version = version_;
   r.pid = static_cast<long>(::getpid());
@@ -36,7 +36,7 @@ gateway::StatusReport ControlFacade::status() {
   const auto now = std::chrono::steady_clock::now();
   const auto wall = std::chrono::system_clock::now();
   for (std::size_t i = 0; i < buses_.size(); ++i) {
-    gateway::BusStatus s = buses_[i].status();
+    bus::BusStatus s = buses_[i].status();
     outputs_.add_live_status(i, s, now, wall);
     r.buses.push_back(std::move(s));
   }
@@ -77,7 +77,7 @@ Result<std::vector<std::string>> ControlFacade::capture_now(std::string_view bus
     const auto& b = config_->buses[i];
     if (!bus.empty() && b.name != bus && b.interface != bus) continue;
     named = true;
-    gateway::CaptureWriter* w = recorders_ ? recorders_->captures(i) : nullptr;
+    bus::CaptureWriter* w = recorders_ ? recorders_->captures(i) : nullptr;
     if (w == nullptr) continue;
     (w->request("operator", {}, now).empty() ? refused : asked).push_back(b.name);
   }
@@ -98,7 +98,7 @@ Result<std::vector<std::string>> ControlFacade::acknowledge(std::string_view dev
   for (std::size_t i = 0; i < statuses.size() && i < buses_.size(); ++i) {
     for (const auto& d : statuses[i].devices) {
       if (d.name != device) continue;
-      if (gateway::contested_count(d) == 0)
+      if (bus::contested_count(d) == 0)
         return Error(Errc::kInvalidArgument, "nothing of its configuration is contested", "device "" + d.name + """);
       buses_[i].acknowledge_contested(d.name, caller);
       return std::vector<std::string>{statuses[i].name};
@@ -110,7 +110,7 @@ Result<std::vector<std::string>> ControlFacade::acknowledge(std::string_view dev
 Result<std::string> ControlFacade::read_capture(std::string_view name) {
   const std::lock_guard lock(mutex_);
   for (std::size_t i = 0; i < config_->buses.size(); ++i) {
-    const gateway::CaptureWriter* w = recorders_ ? recorders_->captures(i) : nullptr;
+    const bus::CaptureWriter* w = recorders_ ? recorders_->captures(i) : nullptr;
     if (w == nullptr) continue;
     // Only a name the writer lists: nothing outside the captures directory.
     Result<std::string> text = w->read(name);

@@ -24,18 +24,18 @@
 
 namespace cobridge::app {
 
-class ControlFacade final : public gateway::ControlHandler {
+class ControlFacade final : public control::ControlHandler {
  public:
   // `state`: the node-ID memory, whose hold refuses commissioning (may be null).
-  ControlFacade(const config::Config& cfg, BusSet& buses, const gateway::OutputPipeline& outputs,
+  ControlFacade(const config::Config& cfg, BusSet& buses, const outputs::OutputPipeline& outputs,
                 std::string version, const FlightRecorders* recorders = nullptr,
-                const gateway::StateStore* state = nullptr);
+                const bus::StateStore* state = nullptr);
 
   // After an accepted reload: `cfg` must outlive the next set_config().
   void set_config(const config::Config& cfg);
   void set_ready();
 
-  gateway::StatusReport status() override;
+  control::StatusReport status() override;
   Result<std::vector<std::string>> commission(std::string_view bus) override;
   Result<std::vector<std::string>> capture_now(std::string_view bus) override;
   [[nodiscard]] Result<std::string> read_capture(std::string_view name) override;
@@ -44,10 +44,10 @@ class ControlFacade final : public gateway::ControlHandler {
  private:
   const config::Config* config_;
   BusSet& buses_;
-  const gateway::OutputPipeline& outputs_;
+  const outputs::OutputPipeline& outputs_;
   std::string version_;
   const FlightRecorders* recorders_;
-  const gateway::StateStore* state_;
+  const bus::StateStore* state_;
   std::chrono::system_clock::time_point started_;
   bool ready_ = false;
   std::mutex mutex_;

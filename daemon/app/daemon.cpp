@@ -58,7 +58,7 @@ Error Daemon::start() {
   notifier_.emplace();
   state_.emplace(cfg_->gateway.state_dir);
   // A file that cannot be read is set aside and holds every assignment
-  // (gateway::StateStore); the daemon runs on, and says so here and in status.
+  // (bus::StateStore); the daemon runs on, and says so here and in status.
   if (const Error e = state_->load()) log->error("state file {}", e.to_string());
   // The bus threads never wait for the disk: their heartbeat and LSS steps
   // are timed (bus/state_store.hpp).
@@ -70,7 +70,7 @@ Error Daemon::start() {
   facade_.emplace(*cfg_, buses_, *outputs_, options_.version, &recorders_, &*state_);
   // The control socket first: a second daemon started by mistake stops here,
   // before it touches a bus the first one serves.
-  gateway::ControlServerOptions control_options;
+  control::ControlServerOptions control_options;
   control_options.remote = &registry_;
   control_.emplace(*facade_, control_options);
   if (const Error e = control_->open(cfg_->gateway.control_socket)) {
@@ -252,7 +252,7 @@ void Daemon::stop() {
   log->info("stopped in {} ms", std::chrono::duration_cast<milliseconds>(Clock::now() - t0).count());
 }
 
-// A held state file (it could not be read, gateway::StateStore) is read
+// A held state file (it could not be read, bus::StateStore) is read
 // again at every reload: the operator's decision is a file that reads
 // (docs/operations.md, "A state file that cannot be read"). True when the
 // hold changed (released, or another file set aside).

@@ -84,13 +84,13 @@ class Daemon {
   std::unique_ptr<config::Config> cfg_;
   std::unique_ptr<device::DeviceCatalog> catalog_;
   std::optional<sys::Notifier> notifier_;
-  std::optional<gateway::StateStore> state_;
-  gateway::BusRegistry registry_;  // the buses clients' commands may reach; outlives them
+  std::optional<bus::StateStore> state_;
+  bus::BusRegistry registry_;  // the buses clients' commands may reach; outlives them
   FlightRecorders recorders_;  // outlives the receivers and buses that use it
   BusSet buses_;
-  std::optional<gateway::OutputPipeline> outputs_;
+  std::optional<outputs::OutputPipeline> outputs_;
   std::optional<ControlFacade> facade_;
-  std::optional<gateway::ControlServer> control_;
+  std::optional<control::ControlServer> control_;
   std::vector<sys::BusBeacon> beacons_;  // one per bus, closed when another daemon holds it (sys/bus_beacon.hpp)
   std::chrono::steady_clock::time_point next_beacon_try_{};
   std::optional<web::WebServer> web_;

@@ -11,7 +11,7 @@ void FlightRecorders::build(const config::Config& cfg) {
     Bus& bus = buses_[i];
     bus.recorder = std::make_unique<can::FrameRecorder>(
         can::FrameRecorder::capacity_for(b.bitrate_kbit, b.recorder_seconds));
-    gateway::CaptureOptions o;
+    bus::CaptureOptions o;
     o.dir = cfg.gateway.state_dir / "captures";
     o.bus = b.name;
     o.interface = b.interface;
@@ -19,7 +19,7 @@ void FlightRecorders::build(const config::Config& cfg) {
     o.after = std::chrono::milliseconds(b.capture_after_ms);
     o.cap_bytes = std::uint64_t{b.capture_cap_mib} << 20;
     o.budget_per_hour = b.capture_budget_per_hour;
-    bus.writer = std::make_unique<gateway::CaptureWriter>(std::move(o), *bus.recorder);
+    bus.writer = std::make_unique<bus::CaptureWriter>(std::move(o), *bus.recorder);
   }
 }
 
@@ -44,7 +44,7 @@ can::FrameRecorder* FlightRecorders::recorder(std::size_t bus) const {
   return bus < buses_.size() ? buses_[bus].recorder.get() : nullptr;
 }
 
-gateway::CaptureWriter* FlightRecorders::captures(std::size_t bus) const {
+bus::CaptureWriter* FlightRecorders::captures(std::size_t bus) const {
   return bus < buses_.size() ? buses_[bus].writer.get() : nullptr;
 }
 

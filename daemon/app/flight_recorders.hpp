@@ -1,6 +1,6 @@
 // The daemon's flight recorders: per bus with recorder_seconds > 0, the
 // frame ring its RX thread fills (can::FrameRecorder) and the writer of the
-// captures around its faults (gateway::CaptureWriter), in
+// captures around its faults (bus::CaptureWriter), in
 // <state_dir>/captures.
 //
 // Thread: build(), start() and stop() on the main thread; recorder() and
@@ -30,12 +30,12 @@ class FlightRecorders {
   void stop();
 
   [[nodiscard]] can::FrameRecorder* recorder(std::size_t bus) const;
-  [[nodiscard]] gateway::CaptureWriter* captures(std::size_t bus) const;
+  [[nodiscard]] bus::CaptureWriter* captures(std::size_t bus) const;
 
  private:
   struct Bus {
     std::unique_ptr<can::FrameRecorder> recorder;
-    std::unique_ptr<gateway::CaptureWriter> writer;
+    std::unique_ptr<bus::CaptureWriter> writer;
   };
   std::vector<Bus> buses_;
 };

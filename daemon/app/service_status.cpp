@@ -41,7 +41,7 @@ void ServiceStatus::check_ready_and_status() {
     (void)notifier_.ready();
     log->info("ready");
   }
-  const std::string text = gateway::summary(buses_.statuses()) + reload_note_;
+  const std::string text = control::summary(buses_.statuses()) + reload_note_;
   if (text != last_status_) {
     (void)notifier_.status(text);
     if (ready_) log->info("{}", text);

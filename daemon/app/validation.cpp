@@ -67,7 +67,7 @@ void check_model_device(const config::Config& cfg, const config::Device& d, cons
                         std::vector<Error>& errors) {
   const config::KnownModel* km = config::find_model(d.model);
   if (km == nullptr) return;  // the config loader has reported it
-  const std::string_view family = device::families::family(km->family).name;  // EDS [Cobridge] Family
+  const std::string_view family = families::family(km->family).name;  // EDS [Cobridge] Family
   const std::string variant = d.channels ? std::to_string(*d.channels) + "ch" : "";
   bool found = false;
   for (const auto* x : catalog.all()) {

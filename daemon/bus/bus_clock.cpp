@@ -1,6 +1,6 @@
 #include "bus/bus_clock.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 namespace {
 
@@ -17,4 +17,4 @@ const BusClock& system_bus_clock() noexcept {
   return clock;
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -10,7 +10,7 @@
 #include "bus/device_status.hpp"
 #include "canopen/clock.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 class BusClock {
  public:
@@ -22,4 +22,4 @@ class BusClock {
 // std::chrono::steady_clock and system_clock.
 [[nodiscard]] const BusClock& system_bus_clock() noexcept;
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -1,6 +1,6 @@
 #include "bus/bus_health.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 namespace {
 
 bool transition(const BusHealth& a, const BusHealth& b) noexcept {
@@ -35,4 +35,4 @@ bool BusHealthGate::due(const BusHealth& health, canopen::TimePoint now) {
   return true;
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -18,7 +18,7 @@
 #include <cstdint>
 #include <optional>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 struct BusHealth {
   bool open = false;
@@ -42,4 +42,4 @@ class BusHealthGate {
   bool held_ = false;
 };
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

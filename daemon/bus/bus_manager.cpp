@@ -9,7 +9,7 @@
 
 #include <cerrno>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 BusManager::Impl::Impl(const config::Config& config_in, std::size_t index, const device::DeviceCatalog& catalog_in,
      StateStore& state_in, BusManagerOptions options_in)
@@ -505,4 +505,4 @@ void BusManager::reload(const config::Config& config) {
   impl_->wake();
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -30,7 +30,7 @@
 #include <system_error>
 #include <vector>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 // Told about devices as they are configured and change state, so the hot
 // path can decode their PDOs and the plugins can publish status.
@@ -149,4 +149,4 @@ class BusManager {
   std::unique_ptr<Impl> impl_;
 };
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -4,7 +4,7 @@
 
 #include <algorithm>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 bool BusManager::Impl::start_configurations(TimePoint now) {
   if (discovery->commissioning()) return false;  // LSS/NMT resets under way: no SDO now
@@ -421,4 +421,4 @@ void BusManager::Impl::finish_command(Managed& m, TimePoint now) {
   report_command(m, cmd, out);
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -4,7 +4,7 @@
 
 #include "base/number_text.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 void BusManager::Impl::check_configured_nodes(TimePoint now) {
   if (bus.discovery) return;
@@ -282,4 +282,4 @@ bool BusManager::Impl::resolve_description(Managed& m) {
   return true;
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

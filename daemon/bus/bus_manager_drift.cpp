@@ -15,7 +15,7 @@
 #include <array>
 #include <span>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 void BusManager::Impl::on_sdo_written(const RemoteCommand& c, TimePoint now) {
   for (auto& m : devices) {
@@ -223,4 +223,4 @@ void BusManager::Impl::acknowledge_contested(const std::string& device, const st
   if (m->cfg.on_config_drift == config::DriftPolicy::restore) restore_configuration(*m, now, now);
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

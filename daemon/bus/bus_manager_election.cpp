@@ -18,7 +18,7 @@
 // was left out.
 #include "bus/bus_manager_impl.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 bool BusManager::Impl::MasterGate::send(const can::Frame& frame) noexcept {
   if (impl.standby()) {
@@ -181,4 +181,4 @@ void BusManager::Impl::describe_role(BusStatus& s) const {
   s.election_at = election_at;
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

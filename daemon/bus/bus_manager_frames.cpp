@@ -5,7 +5,7 @@
 
 #include "bus/capture_writer.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 void BusManager::Impl::dispatch(const can::Frame& frame, TimePoint now) {
   if (election_frame(frame, now)) return;  // a gateway's, not a device's
@@ -358,4 +358,4 @@ void BusManager::Impl::report_control_drops(TimePoint now) {
   control_drops_report_at = now + kControlDropReportPeriod;
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -6,7 +6,7 @@
 // Control thread only.
 #include "bus/bus_manager_impl.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 namespace {
 // A netlink round trip per second and bus: cheap, and a counter or a
@@ -74,4 +74,4 @@ void BusManager::Impl::tell_health(TimePoint now) {
   if (health_gate.due(h, now)) options.observer->on_bus_health(h);
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -49,7 +49,7 @@
 #include <optional>
 #include <thread>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 namespace {
 
@@ -508,4 +508,4 @@ struct BusManager::Impl final : RemoteGate {
   std::deque<std::pair<RemoteCommand, std::shared_ptr<RemoteReplies>>> pending_remote;
 };
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

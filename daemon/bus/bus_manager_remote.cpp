@@ -4,7 +4,7 @@
 
 #include <utility>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 bool BusManager::Impl::node_free(std::uint8_t node) const {
   if (discovery->commissioning() || !channel->is_open()) return false;
@@ -61,4 +61,4 @@ void BusManager::Impl::on_lss_node_id(const canopen::LssAddress& device, std::ui
     log->error("bus {}: state file {}", bus.name, err.to_string());
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -24,7 +24,7 @@
 #include "config/known_models.hpp"
 #include "families/family.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 namespace {
 
 constexpr std::uint32_t kSdoResponseBase = 0x580;
@@ -48,7 +48,7 @@ const device::DeviceDescription* description_of_family(const device::DeviceCatal
   for (const auto* d : catalog.all()) {
     if (d->device_info.vendor_number != known.vendor) continue;
     const auto profile = device::family_profile_for(*d);
-    if (profile && profile->family == &device::families::family(known.family)) return d;
+    if (profile && profile->family == &families::family(known.family)) return d;
   }
   return nullptr;
 }
@@ -170,4 +170,4 @@ bool BusManager::Impl::describe_from_config(Managed& m) {
   return true;
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -2,7 +2,7 @@
 // status published to other threads. Control thread only.
 #include "bus/bus_manager_impl.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 namespace {
 
@@ -91,4 +91,4 @@ void BusManager::Impl::publish_all() {
   published = std::move(s);
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -4,7 +4,7 @@
 // the disk writes run on the journal's own thread.
 #include "bus/bus_manager_impl.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 void BusManager::Impl::add_event(Managed& m, TimelineKind kind, std::string text, std::string capture) {
   m.st.timeline.add(TimelineEvent{wall_now(), kind, std::move(text), std::move(capture)});
@@ -44,4 +44,4 @@ TimePoint BusManager::Impl::flush_timelines(TimePoint now, bool force) {
   return kNever;
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

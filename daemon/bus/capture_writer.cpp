@@ -8,7 +8,7 @@
 #include <ctime>
 #include <system_error>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 namespace {
 
 constexpr std::uint32_t kCanErrFlag = 0x20000000u;  // linux/can.h CAN_ERR_FLAG
@@ -477,4 +477,4 @@ void CaptureWriter::run() {
   }
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -53,7 +53,7 @@
 #include <utility>
 #include <vector>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 struct CaptureOptions {
   std::filesystem::path dir;   // <state_dir>/captures
@@ -175,4 +175,4 @@ class CaptureWriter {
   std::thread thread_;
 };
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

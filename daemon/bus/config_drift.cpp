@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 namespace {
 
 // CiA 301 §7.5.2.35: TPDO COB-ID bit 31 set = the PDO does not exist.
@@ -145,4 +145,4 @@ bool repeats_open_record(const std::vector<DriftRecord>& open, const DriftCheck&
   });
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -27,7 +27,7 @@
 #include <string>
 #include <vector>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 // What the plan wants in one object.
 struct ConfiguredObject {
@@ -75,4 +75,4 @@ DriftChange apply_check(std::vector<DriftRecord>& open, const DriftCheck& check)
 // new (a writer that keeps writing its value gets one record, one line).
 [[nodiscard]] bool repeats_open_record(const std::vector<DriftRecord>& open, const DriftCheck& check);
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

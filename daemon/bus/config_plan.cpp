@@ -10,7 +10,7 @@
 
 #include "bus/config_plan_builder.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 namespace plan_detail {
 
@@ -299,4 +299,4 @@ ConfigPlanResult make_config_plan(const config::Device& device, const device::De
   return plan_detail::Builder(device, description, profile, node_id).build();
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -40,7 +40,7 @@
 #include "device/family_profile.hpp"
 #include "bus/device_command.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 // Which 0x1010 group a written value belongs to (bits, may be combined).
 enum class StoreGroup : std::uint8_t { communication = 0x01, application = 0x02, node_id = 0x04 };
@@ -99,7 +99,7 @@ struct PlanStep {
 struct ConfigPlan {
   std::string device;
   std::uint8_t node_id = 0;
-  const device::families::Family* family = nullptr;
+  const families::Family* family = nullptr;
   config::StorePolicy store_policy = config::StorePolicy::on_change;
   std::vector<PlanStep> steps;
   // How the device is supervised after the plan (before any fallback).
@@ -164,4 +164,4 @@ struct ConfigPlanResult {
                                     std::uint64_t seed = 0xcbf29ce484222325ull) noexcept;
 [[nodiscard]] std::string fingerprint_text(std::uint64_t value);
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

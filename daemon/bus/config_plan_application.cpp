@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <utility>
 
-namespace cobridge::gateway::plan_detail {
+namespace cobridge::bus::plan_detail {
 
 [[nodiscard]] bool Builder::scaling_requested() const {
   return dev_.scaling && (dev_.scaling->units_per_rev || dev_.scaling->total_range);
@@ -131,4 +131,4 @@ void Builder::filters() {
   }
 }
 
-}  // namespace cobridge::gateway::plan_detail
+}  // namespace cobridge::bus::plan_detail

@@ -19,7 +19,7 @@
 #include "base/number_text.hpp"
 #include "bus/config_plan.hpp"
 
-namespace cobridge::gateway::plan_detail {
+namespace cobridge::bus::plan_detail {
 
 using device::DataType;
 using device::ObjectRef;
@@ -90,4 +90,4 @@ class Builder {
   std::vector<PlanError> errors_;
 };
 
-}  // namespace cobridge::gateway::plan_detail
+}  // namespace cobridge::bus::plan_detail

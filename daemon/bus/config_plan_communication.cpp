@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <utility>
 
-namespace cobridge::gateway::plan_detail {
+namespace cobridge::bus::plan_detail {
 
 void Builder::tpdo(std::uint8_t n, const std::optional<config::TpdoSettings>& settings) {
   if (!settings) return;
@@ -226,4 +226,4 @@ void Builder::fingerprint() {
   plan_.fingerprint = fingerprint_text(h);
 }
 
-}  // namespace cobridge::gateway::plan_detail
+}  // namespace cobridge::bus::plan_detail

@@ -2,7 +2,7 @@
 
 #include <cobridge/plugin.h>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 static_assert(static_cast<int>(CommandKind::preset) == COBRIDGE_COMMAND_PRESET);
 static_assert(static_cast<int>(CommandKind::nmt_reset) == COBRIDGE_COMMAND_NMT_RESET);
@@ -50,4 +50,4 @@ const char* to_string(CommandStatus status) noexcept {
   return "?";
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -13,7 +13,7 @@
 #include <optional>
 #include <string>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 // Values are plugin.h's enum cobridge_command_kind (checked in the .cpp).
 enum class CommandKind : std::uint8_t { preset = 1, nmt_reset = 2, store = 3 };
@@ -50,4 +50,4 @@ struct CommandOutcome {
 [[nodiscard]] const char* to_string(CommandKind kind) noexcept;
 [[nodiscard]] const char* to_string(CommandStatus status) noexcept;
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

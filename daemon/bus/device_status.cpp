@@ -1,6 +1,6 @@
 #include "bus/device_status.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 const char* to_string(DeviceState s) noexcept {
   switch (s) {
@@ -16,4 +16,4 @@ const char* to_string(DeviceState s) noexcept {
   return "?";
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

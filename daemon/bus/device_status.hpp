@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 // A device's place in the gateway's life cycle.
 enum class DeviceState : std::uint8_t {
@@ -174,4 +174,4 @@ struct BusStatus {
   RecorderStatus recorder;
 };
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

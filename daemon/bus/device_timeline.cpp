@@ -1,6 +1,6 @@
 #include "bus/device_timeline.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 const char* to_string(TimelineKind k) noexcept {
   switch (k) {
@@ -65,4 +65,4 @@ const std::vector<TimelineEvent>& DeviceTimeline::events() const noexcept {
   return events_ ? *events_ : kNone;
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

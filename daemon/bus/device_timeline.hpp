@@ -14,7 +14,7 @@
 #include <string_view>
 #include <vector>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 // What kind of event: the page colours by it and `cobridge why` groups by it.
 enum class TimelineKind : std::uint8_t {
@@ -77,4 +77,4 @@ class DeviceTimeline {
 // EMCY after an EMCY) and began less than kTimelineRepeatWindow before.
 void append_event(std::vector<TimelineEvent>& timeline, TimelineEvent e);
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -19,7 +19,7 @@
 #include <bitset>
 #include <utility>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 using canopen::Duration;
 using canopen::kNever;
@@ -483,4 +483,4 @@ std::vector<Discovery::NodeView> Discovery::nodes() const {
   return out;
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -50,7 +50,7 @@
 #include <system_error>
 #include <vector>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 enum class DiscoveryEventKind : std::uint8_t {
   identified,      // a device answered the probe at node_id (identity known)
@@ -174,4 +174,4 @@ class Discovery {
   std::unique_ptr<Impl> impl_;
 };
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -4,7 +4,7 @@
 
 #include "config/known_models.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 namespace {
 
 using canopen::FastscanPlan;
@@ -64,4 +64,4 @@ FastscanPlan make_fastscan_plan(const FastscanKnowledge& k) {
   return plan;
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

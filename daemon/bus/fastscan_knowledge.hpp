@@ -28,7 +28,7 @@
 #include "config/config.hpp"
 #include "bus/state_store.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 struct FastscanKnowledge {
   std::vector<canopen::LssAddress> known;       // whole identities, tried first
@@ -43,4 +43,4 @@ struct FastscanKnowledge {
 
 [[nodiscard]] canopen::FastscanPlan make_fastscan_plan(const FastscanKnowledge& k);
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -1,6 +1,6 @@
 #include "bus/identity_reader.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 namespace {
 constexpr std::uint16_t kIdentity = 0x1018;
@@ -82,4 +82,4 @@ void IdentityReader::collect(canopen::TimePoint now) {
   next(now);
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

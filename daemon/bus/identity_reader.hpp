@@ -20,7 +20,7 @@
 #include "canopen/lss.hpp"
 #include "canopen/sdo_client.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 class IdentityReader {
  public:
@@ -58,4 +58,4 @@ class IdentityReader {
   std::error_code error_;
 };
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -1,6 +1,6 @@
 #include "bus/log_budget.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 bool LogBudget::allow(canopen::TimePoint now) noexcept {
   if (used_ == 0 || now - window_start_ >= window_) {
@@ -33,4 +33,4 @@ canopen::TimePoint LogBudget::report_due() const noexcept {
   return suppressed_ == 0 ? canopen::kNever : window_start_ + window_;
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -13,7 +13,7 @@
 
 #include "canopen/clock.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 class LogBudget {
  public:
@@ -36,4 +36,4 @@ class LogBudget {
   std::uint32_t suppressed_ = 0;
 };
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -8,7 +8,7 @@
 #include "canopen/nmt.hpp"
 #include "canopen/sdo_abort.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 namespace {
 
@@ -489,4 +489,4 @@ std::string PlanRunner::where() const {
   return "device '" + plan_.device + "': " + label + ": ";
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

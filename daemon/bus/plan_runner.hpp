@@ -37,7 +37,7 @@
 #include "canopen/sdo_client.hpp"
 #include "bus/config_plan.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 enum class PlanRunErrc {
   sdo_abort = 1,     // the device refused a read or write (SDO abort; see sdo_error)
@@ -195,7 +195,7 @@ class PlanRunner {
   std::size_t store_pos_ = 0;
 };
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus
 
 template <>
-struct std::is_error_code_enum<cobridge::gateway::PlanRunErrc> : std::true_type {};
+struct std::is_error_code_enum<cobridge::bus::PlanRunErrc> : std::true_type {};

@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 RestoreGuard::Decision RestoreGuard::on_drift(std::uint16_t index, std::uint8_t sub, canopen::TimePoint now) {
   Object& o = object(object_number(index, sub));
   Decision d;
@@ -56,4 +56,4 @@ const RestoreGuard::Object* RestoreGuard::find(std::uint32_t key) const {
   return nullptr;
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

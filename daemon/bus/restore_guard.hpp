@@ -22,7 +22,7 @@
 
 #include "canopen/clock.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 // One configured object, as a number: index << 8 | sub.
 [[nodiscard]] constexpr std::uint32_t object_number(std::uint16_t index, std::uint8_t sub) noexcept {
@@ -77,4 +77,4 @@ class RestoreGuard {
   std::vector<Object> objects_;  // the few objects a plan sets: a vector, searched
 };
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -11,7 +11,7 @@
 #include <charconv>
 #include <chrono>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 namespace {
 
@@ -387,4 +387,4 @@ Error StateStore::save_locked() {
   return write_(path_, text_locked());
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

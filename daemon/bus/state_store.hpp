@@ -56,7 +56,7 @@
 #include <thread>
 #include <vector>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 struct Assignment {
   std::string bus;
@@ -161,7 +161,7 @@ class StateStore {
   std::mutex file_mutex_;
 };
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus
 
 template <>
-struct std::is_error_code_enum<cobridge::gateway::StateStoreErrc> : std::true_type {};
+struct std::is_error_code_enum<cobridge::bus::StateStoreErrc> : std::true_type {};

@@ -5,7 +5,7 @@
 
 #include <algorithm>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 using canopen::TimePoint;
 
@@ -28,7 +28,7 @@ Supervisor::Supervisor() {
   changes_.reserve(32);
 }
 
-void Supervisor::watch(std::uint8_t node, const device::families::Family* family, const Supervision& supervision,
+void Supervisor::watch(std::uint8_t node, const families::Family* family, const Supervision& supervision,
                        TimePoint now) {
   if (!canopen::cob::valid_node_id(node)) return;
   Node& n = nodes_[node];
@@ -97,7 +97,7 @@ void Supervisor::forget_nmt(std::uint8_t node) noexcept {
   guard_.forget_state(node);
 }
 
-void Supervisor::listen(std::uint8_t node, const device::families::Family* family) {
+void Supervisor::listen(std::uint8_t node, const families::Family* family) {
   if (!canopen::cob::valid_node_id(node)) return;
   Node& n = nodes_[node];
   heartbeat_.remove(node);
@@ -367,4 +367,4 @@ void apply(const Supervisor::Change& change, DeviceStatus& device, WallTime wall
   }
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -31,7 +31,7 @@
 #include <string>
 #include <vector>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 // How a device is watched, from its configuration.
 struct Supervision {
@@ -74,11 +74,11 @@ class Supervisor {
 
   // Start watching `node` (after it was configured and started, at `now`).
   // Replaces an earlier watch of the node.
-  void watch(std::uint8_t node, const device::families::Family* family, const Supervision& supervision,
+  void watch(std::uint8_t node, const families::Family* family, const Supervision& supervision,
              canopen::TimePoint now);
   // EMCY and boot-up only (a device being configured: its heartbeat may not
   // run yet). watch() later upgrades it.
-  void listen(std::uint8_t node, const device::families::Family* family);
+  void listen(std::uint8_t node, const families::Family* family);
   void unwatch(std::uint8_t node) noexcept;
   // A client changed the device's heartbeat producer time (0x1017, CiA 301
   // §7.4.8.3) and the gateway keeps it (on_config_drift = "keep"): the
@@ -122,7 +122,7 @@ class Supervisor {
   struct Node {
     bool known = false;       // listen() or watch()
     bool watched = false;     // supervision running
-    const device::families::Family* family = nullptr;  // nullptr: no family known, CiA 301 texts
+    const families::Family* family = nullptr;  // nullptr: no family known, CiA 301 texts
     Supervision supervision;
     bool online = false;
     bool heard = false;       // a heartbeat / guarding reply since watch()
@@ -151,4 +151,4 @@ class Supervisor {
 // the wall-clock time of the change (for DeviceStatus::since).
 void apply(const Supervisor::Change& change, DeviceStatus& device, WallTime wall);
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

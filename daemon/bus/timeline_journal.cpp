@@ -8,7 +8,7 @@
 #include <algorithm>
 #include <cstdint>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 namespace {
 
@@ -236,4 +236,4 @@ Error TimelineJournal::compact(const Devices& devices) {
   return {};
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -42,7 +42,7 @@
 #include <utility>
 #include <vector>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 class TimelineJournal {
  public:
@@ -114,4 +114,4 @@ class TimelineJournal {
   bool unsynced_ = false;      // appended without fdatasync since the last sync
 };
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -4,7 +4,7 @@
 
 #include <utility>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 TimelineJournalThread::TimelineJournalThread(TimelineJournal journal, std::string bus)
     : journal_(std::move(journal)), bus_(std::move(bus)), thread_([this] { run(); }) {}
@@ -68,4 +68,4 @@ void TimelineJournalThread::write(TimelineJournal::Queue events, const TimelineJ
   failing_ = static_cast<bool>(err);
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -24,7 +24,7 @@
 #include <string>
 #include <thread>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 class TimelineJournalThread {
  public:
@@ -59,4 +59,4 @@ class TimelineJournalThread {
   std::thread thread_;
 };
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -8,7 +8,7 @@
 namespace cobridge::config {
 namespace {
 
-namespace fam = device::families;
+namespace fam = cobridge::families;
 
 std::vector<KnownModel> build_table() {
   std::vector<KnownModel> out;

@@ -18,7 +18,7 @@ namespace cobridge::config {
 
 struct KnownModel {
   std::string_view name;
-  device::families::FamilyId family;  // the family's module: families::family(id)
+  families::FamilyId family;  // the family's module: families::family(id)
   std::uint32_t vendor;
   // Product codes (0x1018/2) the model may report; empty = not checkable
   // (ifm prints an ambiguous product code, F§7.3).

@@ -185,7 +185,7 @@ void Loader::read_preset(TableReader& r, Device& d, const KnownModel* model) {
   std::int64_t min = kI32Min;
   std::int64_t max = kU32;
   if (model != nullptr) {
-    if (device::families::traits(model->family).preset_signed) {
+    if (families::traits(model->family).preset_signed) {
       max = kI32Max;
     } else {
       min = 0;

@@ -4,7 +4,7 @@
 
 #include "base/number_text.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::control {
 namespace {
 
 const char* nmt_name(canopen::NmtCommand c) {
@@ -38,13 +38,13 @@ std::string commission_answer(const std::vector<std::string>& buses, const std::
   return out + "}";
 }
 
-std::string remote_answer(const ControlRequest& request, const RemoteResult& result) {
+std::string remote_answer(const ControlRequest& request, const bus::RemoteResult& result) {
   if (result.error) return error_answer(result.error, result.abort_code);
-  const RemoteCommand& c = request.command;
+  const bus::RemoteCommand& c = request.command;
   std::string out = "{\"ok\":true,\"via\":\"daemon\",\"bus\":" + json_quote(request.bus) + ",\"node\":" +
                     std::to_string(c.node);
   switch (c.op) {
-    case RemoteOp::sdo_upload: {
+    case bus::RemoteOp::sdo_upload: {
       out += ",\"index\":" + std::to_string(c.index) + ",\"sub\":" + std::to_string(c.sub);
       out += ",\"size\":" + std::to_string(result.data.size()) + ",\"hex\":\"" + hex_bytes(result.data) + "\"";
       if (!result.data.empty() && result.data.size() <= 4) {
@@ -54,19 +54,19 @@ std::string remote_answer(const ControlRequest& request, const RemoteResult& res
       }
       break;
     }
-    case RemoteOp::sdo_download:
+    case bus::RemoteOp::sdo_download:
       out += ",\"index\":" + std::to_string(c.index) + ",\"sub\":" + std::to_string(c.sub);
       out += ",\"size\":" + std::to_string(c.data.size());
       break;
-    case RemoteOp::nmt:
+    case bus::RemoteOp::nmt:
       out += ",\"command\":\"" + std::string(nmt_name(c.nmt)) + "\"";
       break;
-    case RemoteOp::lss: {
+    case bus::RemoteOp::lss: {
       std::uint32_t serial = 0;
       bool stored = false;
       for (const auto& s : c.lss_steps) {
-        if (s.kind == LssStep::Kind::switch_selective) serial = s.address.serial;
-        if (s.kind == LssStep::Kind::store) stored = true;
+        if (s.kind == bus::LssStep::Kind::switch_selective) serial = s.address.serial;
+        if (s.kind == bus::LssStep::Kind::store) stored = true;
       }
       out += ",\"serial\":" + std::to_string(serial) + ",\"stored\":" + (stored ? "true" : "false");
       break;
@@ -75,4 +75,4 @@ std::string remote_answer(const ControlRequest& request, const RemoteResult& res
   return out + "}";
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::control

@@ -5,7 +5,7 @@
 #include <charconv>
 #include <vector>
 
-namespace cobridge::gateway {
+namespace cobridge::control {
 
 namespace {
 
@@ -59,7 +59,7 @@ ControlRequest parse_sdo(const std::vector<std::string_view>& w, bool write) {
   if (!parse_unsigned(w[3], 0xFFFF, index, true)) return invalid("index \"" + quoted_input(w[3]) + "\" (hex 0..FFFF)");
   if (!parse_unsigned(w[4], 0xFF, sub)) return invalid("sub-index \"" + quoted_input(w[4]) + "\" (0..255)");
   ControlRequest r;
-  r.command.op = write ? RemoteOp::sdo_download : RemoteOp::sdo_upload;
+  r.command.op = write ? bus::RemoteOp::sdo_download : bus::RemoteOp::sdo_upload;
   if (write && !parse_hex_bytes(w[5], 1024, r.command.data))
     return invalid("data \"" + quoted_input(w[5]) + "\" (1..1024 bytes as hex digit pairs)");
   if (w.size() == fixed + 1 && (!parse_unsigned(w[fixed], 60000, timeout) || timeout < 10))
@@ -89,7 +89,7 @@ ControlRequest parse_nmt(const std::vector<std::string_view>& w) {
   if (!parse_unsigned(w[3], 127, node)) return invalid("node \"" + quoted_input(w[3]) + "\" (allowed: 0..127)");
   r.kind = ControlRequest::Kind::remote;
   r.bus = std::string(w[1]);
-  r.command.op = RemoteOp::nmt;
+  r.command.op = bus::RemoteOp::nmt;
   r.command.node = static_cast<std::uint8_t>(node);
   return r;
 }
@@ -109,14 +109,14 @@ ControlRequest parse_lss_set(const std::vector<std::string_view>& w) {
   ControlRequest r;
   r.kind = ControlRequest::Kind::remote;
   r.bus = std::string(w[1]);
-  r.command.op = RemoteOp::lss;
+  r.command.op = bus::RemoteOp::lss;
   const canopen::LssAddress a{static_cast<std::uint32_t>(f[0]), static_cast<std::uint32_t>(f[1]),
                               static_cast<std::uint32_t>(f[2]), static_cast<std::uint32_t>(f[3])};
   auto& s = r.command.lss_steps;
-  s.push_back({LssStep::Kind::switch_selective, a, 0});
-  s.push_back({LssStep::Kind::set_node_id, {}, static_cast<std::uint32_t>(node)});
-  if (w[7] == "store") s.push_back({LssStep::Kind::store, {}, 0});
-  s.push_back({LssStep::Kind::switch_global, {}, 0});
+  s.push_back({bus::LssStep::Kind::switch_selective, a, 0});
+  s.push_back({bus::LssStep::Kind::set_node_id, {}, static_cast<std::uint32_t>(node)});
+  if (w[7] == "store") s.push_back({bus::LssStep::Kind::store, {}, 0});
+  s.push_back({bus::LssStep::Kind::switch_global, {}, 0});
   r.command.node = static_cast<std::uint8_t>(node);
   r.command.deadline = std::chrono::milliseconds(10000 + timeout * 8);
   return r;
@@ -169,4 +169,4 @@ ControlRequest parse_control_request(std::string_view line) {
   return invalid("unknown command \"" + quoted_input(w[0]) + "\" (" + kCommands + ")");
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::control

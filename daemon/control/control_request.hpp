@@ -24,16 +24,16 @@
 #include <string>
 #include <string_view>
 
-namespace cobridge::gateway {
+namespace cobridge::control {
 
 struct ControlRequest {
   enum class Kind { invalid, status, commission, remote, capture_now, capture_get, acknowledge } kind = Kind::invalid;
   std::string bus;        // commission, capture_now: the bus (empty = every bus); remote: bus name or interface
   std::string name;       // capture_get: the capture's file name; acknowledge: the device
-  RemoteCommand command;  // remote: what to run (tag and caller left for the server)
+  bus::RemoteCommand command;  // remote: what to run (tag and caller left for the server)
   Error error;            // invalid: kInvalidArgument with what is wrong, printable ASCII only
 };
 
 [[nodiscard]] ControlRequest parse_control_request(std::string_view line);
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::control

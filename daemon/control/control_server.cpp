@@ -18,7 +18,7 @@
 #include <functional>
 #include <cerrno>
 
-namespace cobridge::gateway {
+namespace cobridge::control {
 namespace {
 
 using canopen::kNever;
@@ -31,7 +31,7 @@ std::string bus_where(const std::string& bus) { return bus.empty() ? std::string
 ControlServer::ControlServer(ControlHandler& handler, ControlServerOptions options)
     : handler_(handler),
       options_(options),
-      remote_(options.remote != nullptr ? *options.remote : static_cast<RemoteTarget&>(no_buses_)) {}
+      remote_(options.remote != nullptr ? *options.remote : static_cast<bus::RemoteTarget&>(no_buses_)) {}
 
 ControlServer::~ControlServer() { close(); }
 
@@ -306,7 +306,7 @@ std::string ControlServer::policed(const Client& c, std::string_view what, const
 }
 
 void ControlServer::submit(Client& c, ControlRequest request, TimePoint now) {
-  RemoteCommand& cmd = request.command;
+  bus::RemoteCommand& cmd = request.command;
   cmd.caller = c.peer.to_string() + " (control socket)";
   if (cmd.is_write()) {
     const auto log = sys::logger("gateway");
@@ -347,4 +347,4 @@ void ControlServer::drop(Client& c) {
   c.fd = -1;
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::control

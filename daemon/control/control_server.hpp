@@ -76,7 +76,7 @@
 #include <system_error>
 #include <vector>
 
-namespace cobridge::gateway {
+namespace cobridge::control {
 
 // What the control socket asks of the daemon. Implemented by main over the
 // bus managers, by a fake in the tests.
@@ -108,7 +108,7 @@ struct ControlServerOptions {
   std::chrono::milliseconds client_timeout{2000};
   std::size_t max_line = 256;
   std::size_t max_clients = 16;
-  RemoteTarget* remote = nullptr;  // nullptr: no bus takes client commands
+  bus::RemoteTarget* remote = nullptr;  // nullptr: no bus takes client commands
 };
 
 class ControlServer {
@@ -175,10 +175,10 @@ class ControlServer {
   void drop(Client& c);
 
   ControlHandler& handler_;
-  BusRegistry no_buses_;  // the target when the options name none
+  bus::BusRegistry no_buses_;  // the target when the options name none
   ControlServerOptions options_;
-  RemoteTarget& remote_;
-  std::shared_ptr<RemoteReplies> replies_ = std::make_shared<RemoteReplies>();
+  bus::RemoteTarget& remote_;
+  std::shared_ptr<bus::RemoteReplies> replies_ = std::make_shared<bus::RemoteReplies>();
   std::uint64_t next_tag_ = 1;
   bool ascii_tried_ = false;
   std::unique_ptr<AsciiServer> ascii_;
@@ -191,4 +191,4 @@ class ControlServer {
   PollSlot replies_slot_;
 };
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::control

@@ -11,7 +11,7 @@
 #include <cerrno>
 #include <system_error>
 
-namespace cobridge::gateway {
+namespace cobridge::control {
 
 void LineConnection::read(std::size_t max_line) {
   std::array<char, 1024> buf{};
@@ -85,4 +85,4 @@ void refuse_connection(int fd, std::string_view line) {
   ::close(fd);
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::control

@@ -19,7 +19,7 @@
 #include <string_view>
 #include <vector>
 
-namespace cobridge::gateway {
+namespace cobridge::control {
 
 struct LineConnection {
   int fd = -1;
@@ -54,4 +54,4 @@ struct LineConnection {
 // one short line) and closes it.
 void refuse_connection(int fd, std::string_view line);
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::control

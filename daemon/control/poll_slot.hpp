@@ -18,7 +18,7 @@
 #include <limits>
 #include <vector>
 
-namespace cobridge::gateway {
+namespace cobridge::control {
 
 class PollSlot {
  public:
@@ -52,4 +52,4 @@ class PollSlot {
   bool ready_ = true;
 };
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::control

@@ -8,7 +8,7 @@
 #include <cstdio>
 #include <ctime>
 
-namespace cobridge::gateway {
+namespace cobridge::control {
 namespace {
 
 // A JSON text built by appending; the status document is flat enough that a
@@ -38,8 +38,8 @@ class JsonWriter {
     first_ = false;
   }
   void null() { value_prefix(); out_ += "null"; first_ = false; }
-  void time(WallTime t) {
-    if (t == WallTime{}) {
+  void time(bus::WallTime t) {
+    if (t == bus::WallTime{}) {
       null();
       return;
     }
@@ -52,7 +52,7 @@ class JsonWriter {
   }
   std::string take() { return std::move(out_); }
 
-  static std::string iso8601(WallTime t) {
+  static std::string iso8601(bus::WallTime t) {
     const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(t.time_since_epoch()).count();
     const std::time_t secs = static_cast<std::time_t>(ms / 1000);
     std::tm tm{};
@@ -76,7 +76,7 @@ class JsonWriter {
 };
 
 
-void write_identity(JsonWriter& w, const DeviceStatus& d) {
+void write_identity(JsonWriter& w, const bus::DeviceStatus& d) {
   w.key("identity");
   w.begin_object();
   w.field("vendor", std::uint64_t{d.identity.vendor});
@@ -87,7 +87,7 @@ void write_identity(JsonWriter& w, const DeviceStatus& d) {
 }
 
 // The last EMCY (null when there has been none) and the recent ones.
-void write_emcy(JsonWriter& w, const DeviceStatus& d) {
+void write_emcy(JsonWriter& w, const bus::DeviceStatus& d) {
   w.key("last_emcy");
   if (d.emcy_count == 0 && d.last_emcy_code == 0 && d.last_emcy_text.empty()) {
     w.null();
@@ -99,7 +99,7 @@ void write_emcy(JsonWriter& w, const DeviceStatus& d) {
   }
 }
 
-void write_emcy_history(JsonWriter& w, const DeviceStatus& d) {
+void write_emcy_history(JsonWriter& w, const bus::DeviceStatus& d) {
   w.key("emcy_history");
   w.begin_array();
   for (const auto& e : d.emcy_history) {
@@ -115,7 +115,7 @@ void write_emcy_history(JsonWriter& w, const DeviceStatus& d) {
 
 // The device's timeline (bus/device_timeline.hpp), oldest first: what
 // `cobridge why` and the page's timeline read.
-void write_timeline(JsonWriter& w, const DeviceStatus& d) {
+void write_timeline(JsonWriter& w, const bus::DeviceStatus& d) {
   w.key("timeline");
   w.begin_array();
   for (const auto& e : d.timeline) {
@@ -136,9 +136,9 @@ void write_timeline(JsonWriter& w, const DeviceStatus& d) {
 
 // The objects a client set away from the configuration; the contested ones
 // the gateway no longer writes back (bus/restore_guard.hpp).
-void write_drift(JsonWriter& w, const DeviceStatus& d) {
+void write_drift(JsonWriter& w, const bus::DeviceStatus& d) {
   w.field("config_differs", !d.drift.empty());
-  w.field("config_contested", contested_count(d) > 0);
+  w.field("config_contested", bus::contested_count(d) > 0);
   w.key("drift");
   w.begin_array();
   for (const auto& r : d.drift) {
@@ -150,7 +150,7 @@ void write_drift(JsonWriter& w, const DeviceStatus& d) {
     w.field("writer", r.writer);
     w.key("at");
     w.time(r.at);
-    w.field("text", drift_text(r));
+    w.field("text", bus::drift_text(r));
     w.field("restores", std::uint64_t{r.restores});
     w.field("contested", r.contested);
     w.end_object();
@@ -159,7 +159,7 @@ void write_drift(JsonWriter& w, const DeviceStatus& d) {
 }
 
 // The latest values (null before the first) and the heartbeat's age.
-void write_values(JsonWriter& w, const LiveValues& v) {
+void write_values(JsonWriter& w, const bus::LiveValues& v) {
   w.key("values");
   if (!v.present) {
     w.null();
@@ -184,7 +184,7 @@ void write_values(JsonWriter& w, const LiveValues& v) {
     w.value(v.heartbeat_age_s);
 }
 
-void write_device(JsonWriter& w, const DeviceStatus& d) {
+void write_device(JsonWriter& w, const bus::DeviceStatus& d) {
   w.begin_object();
   w.field("name", d.name);
   w.field("bus", d.bus);
@@ -218,7 +218,7 @@ void write_device(JsonWriter& w, const DeviceStatus& d) {
 }
 
 // [redundancy]: the role of this gateway on the bus and why.
-void write_redundancy(JsonWriter& w, const BusStatus& b) {
+void write_redundancy(JsonWriter& w, const bus::BusStatus& b) {
   w.key("redundancy");
   w.begin_object();
   w.field("role", b.role);
@@ -259,7 +259,7 @@ void write_strings(JsonWriter& w, std::string_view key, const std::vector<std::s
 }
 
 // The flight recorder: its ring and the captures on disk (null when off).
-void write_recorder(JsonWriter& w, const RecorderStatus& r) {
+void write_recorder(JsonWriter& w, const bus::RecorderStatus& r) {
   w.key("recorder");
   if (!r.on) {
     w.null();
@@ -282,7 +282,7 @@ void write_recorder(JsonWriter& w, const RecorderStatus& r) {
     write_strings(w, "causes", c.causes);
     write_strings(w, "devices", c.devices);
     w.key("at");
-    w.time(c.fault_ns == 0 ? WallTime{} : WallTime{std::chrono::duration_cast<WallTime::duration>(std::chrono::nanoseconds(c.fault_ns))});
+    w.time(c.fault_ns == 0 ? bus::WallTime{} : bus::WallTime{std::chrono::duration_cast<bus::WallTime::duration>(std::chrono::nanoseconds(c.fault_ns))});
     w.field("frames", std::uint64_t{c.frames});
     w.field("bytes", c.bytes);
     w.end_object();
@@ -291,7 +291,7 @@ void write_recorder(JsonWriter& w, const RecorderStatus& r) {
   w.end_object();
 }
 
-void write_bus(JsonWriter& w, const BusStatus& b) {
+void write_bus(JsonWriter& w, const bus::BusStatus& b) {
   w.begin_object();
   w.field("name", b.name);
   w.field("interface", b.interface);
@@ -379,7 +379,7 @@ std::string to_json(const StatusReport& report) {
   for (const auto& b : report.buses) {
     for (const auto& d : b.devices) {
       ++total;
-      if (d.state == DeviceState::operational) ++operational;
+      if (d.state == bus::DeviceState::operational) ++operational;
     }
   }
   w.field("devices_total", total);
@@ -394,7 +394,7 @@ std::string to_json(const StatusReport& report) {
   return w.take();
 }
 
-std::string summary(const std::vector<BusStatus>& buses) {
+std::string summary(const std::vector<bus::BusStatus>& buses) {
   std::size_t total = 0;
   std::size_t operational = 0;
   std::size_t open = 0;
@@ -404,7 +404,7 @@ std::string summary(const std::vector<BusStatus>& buses) {
     if (!b.open) closed += (closed.empty() ? "" : ", ") + b.name + " (" + b.interface + ")";
     for (const auto& d : b.devices) {
       ++total;
-      if (d.state == DeviceState::operational) ++operational;
+      if (d.state == bus::DeviceState::operational) ++operational;
     }
   }
   std::string s = std::to_string(buses.size()) + (buses.size() == 1 ? " bus" : " buses");
@@ -413,4 +413,4 @@ std::string summary(const std::vector<BusStatus>& buses) {
   return s;
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::control

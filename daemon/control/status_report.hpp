@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-namespace cobridge::gateway {
+namespace cobridge::control {
 
 // Everything `cobridge status` shows: the daemon, then each bus.
 struct StatusReport {
@@ -21,15 +21,15 @@ struct StatusReport {
   std::string version;
   long pid = 0;
   bool ready = false;  // READY=1 has been told (all known devices configured or timed out)
-  WallTime started{};
+  bus::WallTime started{};
   std::string config_file;
-  std::vector<BusStatus> buses;
+  std::vector<bus::BusStatus> buses;
   std::vector<pipeline::OutputStats> outputs;  // each output plugin's own figures
 };
 
 // The `status` answer: the report as one line of JSON (no newline).
 [[nodiscard]] std::string to_json(const StatusReport& report);
 // "2 buses, 5/6 devices operational" (sd_notify STATUS=, log lines).
-[[nodiscard]] std::string summary(const std::vector<BusStatus>& buses);
+[[nodiscard]] std::string summary(const std::vector<bus::BusStatus>& buses);
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::control

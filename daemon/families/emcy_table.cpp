@@ -1,7 +1,7 @@
 // A family's EMCY table: see emcy_table.hpp.
 #include "families/emcy_table.hpp"
 
-namespace cobridge::device::families {
+namespace cobridge::families {
 
 namespace {
 bool byte_matches(std::int16_t want, std::uint8_t got) noexcept { return want == kAnyByte || want == got; }
@@ -27,4 +27,4 @@ std::string_view EmcyTable::error_position_meaning(std::int32_t position) const 
   return {};
 }
 
-}  // namespace cobridge::device::families
+}  // namespace cobridge::families

@@ -18,7 +18,7 @@
 #include <span>
 #include <string_view>
 
-namespace cobridge::device::families {
+namespace cobridge::families {
 
 // E§9.1 "Level" (0x2104 filters EMCY by it); the other manuals define none.
 enum class EmcyLevel : std::uint8_t { unspecified, info, warn, error, hard };
@@ -78,4 +78,4 @@ struct EmcyTable {
   [[nodiscard]] std::string_view error_position_meaning(std::int32_t position) const noexcept;
 };
 
-}  // namespace cobridge::device::families
+}  // namespace cobridge::families

@@ -9,7 +9,7 @@
 #include "families/novotechnik_multiturn.hpp"
 #include "families/novotechnik_rotary.hpp"
 
-namespace cobridge::device::families {
+namespace cobridge::families {
 
 namespace {
 // A fourth family is one more entry here (docs/adding-a-device.md).
@@ -93,4 +93,4 @@ std::string cite_manuals(std::string_view text) {
   return out;
 }
 
-}  // namespace cobridge::device::families
+}  // namespace cobridge::families

@@ -19,7 +19,7 @@
 
 #include "families/emcy_table.hpp"
 
-namespace cobridge::device::families {
+namespace cobridge::families {
 
 // The one identity of a family, for code that branches on it (a switch
 // without `default`, so that -Wswitch names every place a new family must be
@@ -119,4 +119,4 @@ struct ModelRef {
 // By exact model name; {nullptr, nullptr} if unknown.
 [[nodiscard]] ModelRef find_model(std::string_view name) noexcept;
 
-}  // namespace cobridge::device::families
+}  // namespace cobridge::families

@@ -15,7 +15,7 @@
 #include "families/novotechnik_rotary.hpp"
 #include "families/traits.hpp"
 
-namespace cobridge::device::families {
+namespace cobridge::families {
 
 inline constexpr std::size_t kNotAFamily = std::numeric_limits<std::size_t>::max();
 
@@ -53,4 +53,4 @@ static_assert(traits_table_is_complete(), "kFamilyTraits: one entry per FamilyId
 
 [[nodiscard]] constexpr const FamilyTraits& traits(FamilyId id) noexcept { return kFamilyTraits[family_index(id)]; }
 
-}  // namespace cobridge::device::families
+}  // namespace cobridge::families

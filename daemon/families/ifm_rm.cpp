@@ -3,7 +3,7 @@
 
 #include <array>
 
-namespace cobridge::device::families {
+namespace cobridge::families {
 
 namespace {
 
@@ -56,4 +56,4 @@ const Family kIfmRm{
     .emcy = nullptr,               // F§4: no EMCY code table
 };
 
-}  // namespace cobridge::device::families
+}  // namespace cobridge::families

@@ -17,7 +17,7 @@
 #include "families/family.hpp"
 #include "families/traits.hpp"
 
-namespace cobridge::device::families {
+namespace cobridge::families {
 
 inline constexpr std::uint32_t kIfmVendor = 0x0069666D;  // "ifm", F§7.3 0x1018/1
 // F§7.3 prints 0x1018/2 as "0x43 0x41"; read like 'save' (high byte first) it
@@ -63,4 +63,4 @@ inline constexpr FamilyTraits kIfmRmTraits{
     .lss_bit_timings = 0x00DF,                            // F§7.4 less 100 kbit/s: 1000 .. 20
 };
 
-}  // namespace cobridge::device::families
+}  // namespace cobridge::families

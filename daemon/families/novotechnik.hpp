@@ -11,7 +11,7 @@
 
 #include "families/family.hpp"
 
-namespace cobridge::device::families {
+namespace cobridge::families {
 
 inline constexpr std::uint32_t kNovotechnikVendor = 0x00000182;  // J§1.2.1, E§4.1 0x1018/1
 // Bit rates of the ordering codes (J§1.2.2, E§3.1), written in kbit/s to
@@ -71,4 +71,4 @@ struct NovotechnikFamily {
   return out;
 }
 
-}  // namespace cobridge::device::families
+}  // namespace cobridge::families

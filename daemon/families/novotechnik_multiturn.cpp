@@ -5,7 +5,7 @@
 
 #include "families/novotechnik.hpp"
 
-namespace cobridge::device::families {
+namespace cobridge::families {
 
 namespace {
 
@@ -134,4 +134,4 @@ EmcyDetailBytes multiturn_cam_emcy_bytes(std::uint8_t changed, std::uint8_t stat
 
 EmcyDetailBytes multiturn_work_area_emcy_bytes(std::uint8_t state) noexcept { return {0, 0, 0, 0, state}; }
 
-}  // namespace cobridge::device::families
+}  // namespace cobridge::families

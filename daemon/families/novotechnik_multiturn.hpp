@@ -18,7 +18,7 @@
 #include "families/family.hpp"
 #include "families/traits.hpp"
 
-namespace cobridge::device::families {
+namespace cobridge::families {
 
 // E§4.1: the product code of every model since V03.
 inline constexpr std::uint32_t kMultiturnProduct = 0x0BB8;
@@ -73,4 +73,4 @@ inline constexpr FamilyTraits kNovotechnikMultiturnTraits{
     .lss_bit_timings = 0x005F,                              // E§6.2: 1000, 800, 500, 250, 125, 50
 };
 
-}  // namespace cobridge::device::families
+}  // namespace cobridge::families

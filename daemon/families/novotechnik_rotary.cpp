@@ -5,7 +5,7 @@
 
 #include "families/novotechnik.hpp"
 
-namespace cobridge::device::families {
+namespace cobridge::families {
 
 namespace {
 
@@ -104,4 +104,4 @@ EmcyDetailBytes rotary_work_area_emcy_bytes(std::uint16_t channel, std::uint8_t 
   return {static_cast<std::uint8_t>(channel & 0xFF), static_cast<std::uint8_t>(channel >> 8), 0, 0, state};
 }
 
-}  // namespace cobridge::device::families
+}  // namespace cobridge::families

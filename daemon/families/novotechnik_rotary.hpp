@@ -19,7 +19,7 @@
 #include "families/family.hpp"
 #include "families/traits.hpp"
 
-namespace cobridge::device::families {
+namespace cobridge::families {
 
 // J§1.2.1 product codes (0x1018/2).
 inline constexpr std::uint32_t kRfc4800Product = 0x0BE0;
@@ -77,4 +77,4 @@ inline constexpr FamilyTraits kNovotechnikRotaryTraits{
     .lss_bit_timings = 0x005F,                             // J§1.5.2: 1000, 800, 500, 250, 125, 50
 };
 
-}  // namespace cobridge::device::families
+}  // namespace cobridge::families

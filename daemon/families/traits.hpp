@@ -18,7 +18,7 @@
 
 #include "families/family.hpp"
 
-namespace cobridge::device::families {
+namespace cobridge::families {
 
 // An object that exists once per position channel (sub-index = channel, 1..2)
 // or once per device (sub-index 0).
@@ -111,4 +111,4 @@ struct FamilyTraits {
   std::uint16_t lss_bit_timings;
 };
 
-}  // namespace cobridge::device::families
+}  // namespace cobridge::families

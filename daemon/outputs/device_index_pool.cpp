@@ -1,6 +1,6 @@
 #include "outputs/device_index_pool.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::outputs {
 
 std::optional<std::uint16_t> DeviceIndexPool::acquire(const std::string& key) {
   const std::lock_guard lock(mutex_);
@@ -31,4 +31,4 @@ std::size_t DeviceIndexPool::in_use() const {
   return taken_.size();
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::outputs

@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-namespace cobridge::gateway {
+namespace cobridge::outputs {
 
 class DeviceIndexPool {
  public:
@@ -35,4 +35,4 @@ class DeviceIndexPool {
   std::uint16_t next_ = kFirst;
 };
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::outputs

@@ -7,7 +7,7 @@
 #include <ctime>
 #include <memory>
 
-namespace cobridge::gateway {
+namespace cobridge::outputs {
 namespace {
 
 std::int64_t realtime_ns() noexcept {
@@ -19,9 +19,9 @@ std::int64_t realtime_ns() noexcept {
 std::uint8_t nmt_byte(canopen::NmtState s) noexcept { return static_cast<std::uint8_t>(s); }
 
 // plugin.h ABI 6: what the device's drift records say of its configuration.
-std::uint8_t config_state_of(const DeviceStatus& device) {
+std::uint8_t config_state_of(const bus::DeviceStatus& device) {
   if (device.drift.empty()) return COBRIDGE_CONFIG_AS_CONFIGURED;
-  return contested_count(device) > 0 ? COBRIDGE_CONFIG_CONTESTED : COBRIDGE_CONFIG_DIFFERS;
+  return bus::contested_count(device) > 0 ? COBRIDGE_CONFIG_CONTESTED : COBRIDGE_CONFIG_DIFFERS;
 }
 
 }  // namespace
@@ -38,7 +38,7 @@ OutputBridge::OutputBridge(const SharedConfig& config, std::size_t bus_index, co
       dispatcher_(dispatcher),
       unknown_indices_(unknown_indices) {}
 
-std::optional<std::uint16_t> OutputBridge::device_index(const DeviceStatus& device) {
+std::optional<std::uint16_t> OutputBridge::device_index(const bus::DeviceStatus& device) {
   const auto cfg = config_.get();
   for (std::size_t i = 0; i < cfg->devices.size() && i < DeviceIndexPool::kFirst; ++i)
     if (cfg->devices[i].name == device.name) return static_cast<std::uint16_t>(i);
@@ -46,7 +46,7 @@ std::optional<std::uint16_t> OutputBridge::device_index(const DeviceStatus& devi
   return unknown_indices_->acquire(std::to_string(bus_index_) + "/" + device.name);
 }
 
-void OutputBridge::on_device_removed(const DeviceStatus& device) {
+void OutputBridge::on_device_removed(const bus::DeviceStatus& device) {
   if (unknown_indices_ != nullptr) unknown_indices_->release(std::to_string(bus_index_) + "/" + device.name);
   {
     std::lock_guard lock(mutex_);
@@ -56,7 +56,7 @@ void OutputBridge::on_device_removed(const DeviceStatus& device) {
   if (device.node_id != 0) table_.remove(device.node_id);
 }
 
-pipeline::DecodePlan OutputBridge::make_plan(const DeviceStatus& device, const std::vector<std::uint32_t>& tpdo1,
+pipeline::DecodePlan OutputBridge::make_plan(const bus::DeviceStatus& device, const std::vector<std::uint32_t>& tpdo1,
                                              const std::vector<std::uint32_t>& tpdo2, Error* error) const {
   pipeline::DecodePlan plan;
   plan.node_id = device.node_id;
@@ -108,7 +108,7 @@ pipeline::DecodePlan OutputBridge::make_plan(const DeviceStatus& device, const s
   return plan;
 }
 
-double OutputBridge::units_per_rev(const config::Config& config, const DeviceStatus& device,
+double OutputBridge::units_per_rev(const config::Config& config, const bus::DeviceStatus& device,
                                    const device::DeviceDescription* desc) const {
   const config::Device* cfg = config.find_device(device.name);
   if (cfg && cfg->scaling && cfg->scaling->units_per_rev) return static_cast<double>(*cfg->scaling->units_per_rev);
@@ -121,7 +121,7 @@ double OutputBridge::units_per_rev(const config::Config& config, const DeviceSta
   return 0;
 }
 
-void OutputBridge::on_device_configured(const DeviceStatus& device, const std::vector<std::uint32_t>& tpdo1_mapping,
+void OutputBridge::on_device_configured(const bus::DeviceStatus& device, const std::vector<std::uint32_t>& tpdo1_mapping,
                                         const std::vector<std::uint32_t>& tpdo2_mapping) {
   Error error;
   pipeline::DecodePlan plan = make_plan(device, tpdo1_mapping, tpdo2_mapping, &error);
@@ -142,7 +142,7 @@ void OutputBridge::on_device_configured(const DeviceStatus& device, const std::v
   announce(device, COBRIDGE_DEVICE_ADDED);
 }
 
-void OutputBridge::on_device_status(const DeviceStatus& device) {
+void OutputBridge::on_device_status(const bus::DeviceStatus& device) {
   if (device.node_id == 0) return;
   // Known at this node from now on: its heartbeats, EMCY and status carry
   // its own index, never a default one.
@@ -170,7 +170,7 @@ void OutputBridge::on_device_status(const DeviceStatus& device) {
   announce(device, COBRIDGE_DEVICE_CHANGED);
 }
 
-void OutputBridge::forget_old_node(const DeviceStatus& device) {
+void OutputBridge::forget_old_node(const bus::DeviceStatus& device) {
   std::uint8_t old = 0;
   {
     std::lock_guard lock(mutex_);
@@ -187,8 +187,8 @@ void OutputBridge::forget_old_node(const DeviceStatus& device) {
   if (old != 0) table_.remove(old);
 }
 
-void OutputBridge::on_command_done(const DeviceStatus& device, const DeviceCommand& command,
-                                   const CommandOutcome& outcome) {
+void OutputBridge::on_command_done(const bus::DeviceStatus& device, const bus::DeviceCommand& command,
+                                   const bus::CommandOutcome& outcome) {
   // Through the RX thread like every sample of the device (one producer,
   // one sequence); a device without a node-ID has no samples at all.
   if (receiver_ == nullptr || device.node_id == 0) return;
@@ -203,13 +203,13 @@ void OutputBridge::on_command_done(const DeviceStatus& device, const DeviceComma
   (void)receiver_->post_status(e);
 }
 
-const char* OutputBridge::position_unit(const DeviceStatus& device) const {
+const char* OutputBridge::position_unit(const bus::DeviceStatus& device) const {
   const auto cfg = config_.get();
   const auto candidates = catalog_.candidates(device.identity.vendor, device.identity.product);
   return units_per_rev(*cfg, device, candidates.empty() ? nullptr : candidates.front()) > 0 ? "deg" : "counts";
 }
 
-void OutputBridge::announce(const DeviceStatus& device, std::uint8_t change) {
+void OutputBridge::announce(const bus::DeviceStatus& device, std::uint8_t change) {
   if (!host_ || !dispatcher_) return;
   const auto cfg = config_.get();
   const std::string bus = bus_index_ < cfg->buses.size() ? cfg->buses[bus_index_].name : std::string();
@@ -242,14 +242,14 @@ void OutputBridge::announce(const DeviceStatus& device, std::uint8_t change) {
   });
 }
 
-void OutputBridge::on_role_changed(const BusRole& role) {
+void OutputBridge::on_role_changed(const bus::BusRole& role) {
   if (!host_ || !dispatcher_) return;
   const auto cfg = config_.get();
   cobridge_role_info info{};
   info.struct_size = sizeof info;
   info.bus_index = static_cast<std::uint8_t>(bus_index_);
-  info.role = role.kind == BusRole::Kind::master    ? COBRIDGE_ROLE_MASTER
-              : role.kind == BusRole::Kind::standby ? COBRIDGE_ROLE_STANDBY
+  info.role = role.kind == bus::BusRole::Kind::master    ? COBRIDGE_ROLE_MASTER
+              : role.kind == bus::BusRole::Kind::standby ? COBRIDGE_ROLE_STANDBY
                                                     : COBRIDGE_ROLE_UNDECIDED;
   info.own_node = role.own_node;
   info.master_node = role.master_node;
@@ -267,7 +267,7 @@ void OutputBridge::on_role_changed(const BusRole& role) {
   });
 }
 
-cobridge_bus_info to_bus_info(const BusHealth& health, std::size_t bus_index) {
+cobridge_bus_info to_bus_info(const bus::BusHealth& health, std::size_t bus_index) {
   const can::ControllerHealth& c = health.controller;
   cobridge_bus_info info{};
   info.struct_size = sizeof info;
@@ -297,7 +297,7 @@ static_assert(static_cast<int>(can::HealthSource::none) == COBRIDGE_SOURCE_NONE)
 static_assert(static_cast<int>(can::HealthSource::error_frames) == COBRIDGE_SOURCE_ERROR_FRAMES);
 static_assert(static_cast<int>(can::HealthSource::netlink) == COBRIDGE_SOURCE_NETLINK);
 
-void OutputBridge::on_bus_health(const BusHealth& health) {
+void OutputBridge::on_bus_health(const bus::BusHealth& health) {
   if (!host_ || !dispatcher_) return;
   const auto cfg = config_.get();
   cobridge_bus_info info = to_bus_info(health, bus_index_);
@@ -311,4 +311,4 @@ void OutputBridge::on_bus_health(const BusHealth& health) {
   });
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::outputs

@@ -27,14 +27,14 @@
 #include <mutex>
 #include <string>
 
-namespace cobridge::gateway {
+namespace cobridge::outputs {
 
 // A bus's health in the plugin ABI's terms (plugin.h ABI 5 cobridge_bus_info;
 // bus_name left null: the caller points it at storage that outlives the call).
 // Pure; exposed for tests.
-[[nodiscard]] cobridge_bus_info to_bus_info(const BusHealth& health, std::size_t bus_index);
+[[nodiscard]] cobridge_bus_info to_bus_info(const bus::BusHealth& health, std::size_t bus_index);
 
-class OutputBridge final : public BusObserver {
+class OutputBridge final : public bus::BusObserver {
  public:
   // `host`/`dispatcher` may be nullptr (no plugins); device announcements run
   // on the dispatcher thread. Everything passed must outlive the bridge.
@@ -42,34 +42,34 @@ class OutputBridge final : public BusObserver {
                pipeline::DeviceTable& table, pipeline::BusReceiver* receiver, pipeline::PluginHost* host,
                pipeline::Dispatcher* dispatcher, DeviceIndexPool* unknown_indices = nullptr);
 
-  void on_device_configured(const DeviceStatus& device, const std::vector<std::uint32_t>& tpdo1_mapping,
+  void on_device_configured(const bus::DeviceStatus& device, const std::vector<std::uint32_t>& tpdo1_mapping,
                             const std::vector<std::uint32_t>& tpdo2_mapping) override;
-  void on_device_status(const DeviceStatus& device) override;
-  void on_command_done(const DeviceStatus& device, const DeviceCommand& command,
-                       const CommandOutcome& outcome) override;
-  void on_device_removed(const DeviceStatus& device) override;
-  void on_role_changed(const BusRole& role) override;
-  void on_bus_health(const BusHealth& health) override;
+  void on_device_status(const bus::DeviceStatus& device) override;
+  void on_command_done(const bus::DeviceStatus& device, const bus::DeviceCommand& command,
+                       const bus::CommandOutcome& outcome) override;
+  void on_device_removed(const bus::DeviceStatus& device) override;
+  void on_role_changed(const bus::BusRole& role) override;
+  void on_bus_health(const bus::BusHealth& health) override;
 
   // The plan that would be published (exposed for tests); an inactive plan
   // when the mapping cannot be decoded, `error` (if given) then says why
   // (where = the device).
-  [[nodiscard]] pipeline::DecodePlan make_plan(const DeviceStatus& device, const std::vector<std::uint32_t>& tpdo1,
+  [[nodiscard]] pipeline::DecodePlan make_plan(const bus::DeviceStatus& device, const std::vector<std::uint32_t>& tpdo1,
                                                const std::vector<std::uint32_t>& tpdo2, Error* error) const;
   // The gateway-wide device index: the position in the configuration, or
   // one of DeviceIndexPool's for a device the configuration does not name;
   // none when that pool is used up (the device is then not published).
-  [[nodiscard]] std::optional<std::uint16_t> device_index(const DeviceStatus& device);
+  [[nodiscard]] std::optional<std::uint16_t> device_index(const bus::DeviceStatus& device);
   // The unit of the device's position_eng as the plugins are told it: "deg"
   // when the measuring units per revolution are known, else "counts". Any thread.
-  [[nodiscard]] const char* position_unit(const DeviceStatus& device) const;
+  [[nodiscard]] const char* position_unit(const bus::DeviceStatus& device) const;
 
  private:
   // Measuring units per revolution, or 0 when unknown (then position_eng is in counts).
-  double units_per_rev(const config::Config& cfg, const DeviceStatus& device,
+  double units_per_rev(const config::Config& cfg, const bus::DeviceStatus& device,
                        const device::DeviceDescription* desc) const;
-  void announce(const DeviceStatus& device, std::uint8_t change);
-  void forget_old_node(const DeviceStatus& device);
+  void announce(const bus::DeviceStatus& device, std::uint8_t change);
+  void forget_old_node(const bus::DeviceStatus& device);
 
   const SharedConfig& config_;  // a reload replaces it; every callback takes a snapshot
   std::size_t bus_index_;
@@ -85,4 +85,4 @@ class OutputBridge final : public BusObserver {
   std::map<std::string, std::uint8_t> node_of_;  // where each device was last seen
 };
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::outputs

@@ -2,7 +2,7 @@
 
 #include "sys/logging.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::outputs {
 namespace {
 
 pipeline::PluginHost::Options host_options(const config::Config& config, std::filesystem::path dir,
@@ -114,22 +114,22 @@ void OutputPipeline::stop() {
   host_.stop_all();
 }
 
-void OutputPipeline::set_command_target(std::size_t bus_index, BusManager* target) noexcept {
+void OutputPipeline::set_command_target(std::size_t bus_index, bus::BusManager* target) noexcept {
   if (bus_index < command_targets_.size()) command_targets_[bus_index].store(target, std::memory_order_release);
 }
 
 int OutputPipeline::submit(std::string_view instance, const cobridge_command& command) const {
-  const auto kind = command_kind(command.kind);
+  const auto kind = bus::command_kind(command.kind);
   if (!kind) return COBRIDGE_COMMAND_UNSUPPORTED;
   // device_index is the device's position in the configuration (OutputBridge::device_index).
   const auto config = config_.get();
   if (command.device_index >= config->devices.size()) return COBRIDGE_COMMAND_UNKNOWN_DEVICE;
   const config::Device& device = config->devices[command.device_index];
   if (device.bus_index >= command_targets_.size()) return COBRIDGE_COMMAND_UNKNOWN_DEVICE;
-  BusManager* target = command_targets_[device.bus_index].load(std::memory_order_acquire);
+  bus::BusManager* target = command_targets_[device.bus_index].load(std::memory_order_acquire);
   if (target == nullptr) return COBRIDGE_COMMAND_OFFLINE;
   return static_cast<int>(
-      target->submit(DeviceCommand{device.name, *kind, command.value, command.tag, "plugin " + std::string(instance)}));
+      target->submit(bus::DeviceCommand{device.name, *kind, command.value, command.tag, "plugin " + std::string(instance)}));
 }
 
 std::string OutputPipeline::reload(const config::Config& next) {
@@ -147,7 +147,7 @@ std::string OutputPipeline::reload(const config::Config& next) {
   return {};
 }
 
-BusObserver* OutputPipeline::observer(std::size_t bus_index) {
+bus::BusObserver* OutputPipeline::observer(std::size_t bus_index) {
   return bus_index < buses_.size() ? buses_[bus_index]->bridge.get() : nullptr;
 }
 
@@ -155,8 +155,8 @@ pipeline::ReceiverStats OutputPipeline::receiver_stats(std::size_t bus_index) co
   return bus_index < buses_.size() ? buses_[bus_index]->receiver->stats() : pipeline::ReceiverStats{};
 }
 
-void OutputPipeline::add_live_status(std::size_t bus_index, BusStatus& status, std::chrono::steady_clock::time_point now,
-                                     WallTime wall_now) const {
+void OutputPipeline::add_live_status(std::size_t bus_index, bus::BusStatus& status, std::chrono::steady_clock::time_point now,
+                                     bus::WallTime wall_now) const {
   if (bus_index >= buses_.size()) return;
   const Bus& bus = *buses_[bus_index];
   const pipeline::ReceiverStats hot = bus.receiver->stats();
@@ -177,10 +177,10 @@ void OutputPipeline::add_live_status(std::size_t bus_index, BusStatus& status, s
     if (mono != 0) return mono <= mono_ns ? static_cast<double>(mono_ns - mono) / 1e9 : 0.0;
     return wall <= wall_ns ? static_cast<double>(wall_ns - wall) / 1e9 : 0.0;
   };
-  for (DeviceStatus& d : status.devices) {
+  for (bus::DeviceStatus& d : status.devices) {
     if (d.node_id == 0) continue;
     const pipeline::LastValue v = last_values_.read(bus_index, d.node_id);
-    LiveValues& out = d.values;
+    bus::LiveValues& out = d.values;
     if (v.heartbeat_wall_ns != 0) out.heartbeat_age_s = age(v.heartbeat_monotonic_ns, v.heartbeat_wall_ns);
     out.heartbeat_intervals = arrivals_.read(bus_index, d.node_id, pipeline::ArrivalKind::heartbeat);
     out.tpdo_intervals = arrivals_.read(bus_index, d.node_id, pipeline::ArrivalKind::tpdo);
@@ -193,9 +193,9 @@ void OutputPipeline::add_live_status(std::size_t bus_index, BusStatus& status, s
     out.unit = bus.bridge->position_unit(d);
     out.speed = v.speed;
     out.age_s = age(v.value_monotonic_ns, v.value_wall_ns);
-    out.at = WallTime(std::chrono::duration_cast<WallTime::duration>(std::chrono::nanoseconds(v.value_wall_ns)));
+    out.at = bus::WallTime(std::chrono::duration_cast<bus::WallTime::duration>(std::chrono::nanoseconds(v.value_wall_ns)));
     out.stale = v.status_known != 0 && v.stale != 0;
   }
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::outputs

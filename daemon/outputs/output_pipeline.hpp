@@ -35,7 +35,7 @@
 #include <string>
 #include <vector>
 
-namespace cobridge::gateway {
+namespace cobridge::outputs {
 
 // The plugins the configuration enables, as the plugin host loads them.
 [[nodiscard]] std::vector<pipeline::PluginSpec> plugin_specs(const config::Config& config);
@@ -86,10 +86,10 @@ class OutputPipeline {
   // (the caller refuses [outputs.*] changes). Main thread.
   [[nodiscard]] std::string reload(const config::Config& next);
 
-  [[nodiscard]] BusObserver* observer(std::size_t bus_index);
+  [[nodiscard]] bus::BusObserver* observer(std::size_t bus_index);
   // Where commands for the devices of bus `bus_index` go; nullptr = nowhere
   // (they are refused as offline).
-  void set_command_target(std::size_t bus_index, BusManager* target) noexcept;
+  void set_command_target(std::size_t bus_index, bus::BusManager* target) noexcept;
   [[nodiscard]] std::size_t plugins_running() const noexcept { return host_.loaded_count(); }
   // Any thread: each output's own figures (Modbus clients, DDS writers, ...).
   [[nodiscard]] std::vector<pipeline::OutputStats> output_stats() const { return host_.stats(); }
@@ -97,8 +97,8 @@ class OutputPipeline {
   // Adds what the hot path knows to a bus manager's status: its counters and
   // each device's last values, heartbeat age and stale flag (ages against
   // `now`). Any thread; reads atomics only, never waits for the hot path.
-  void add_live_status(std::size_t bus_index, BusStatus& status, std::chrono::steady_clock::time_point now,
-                       WallTime wall_now) const;
+  void add_live_status(std::size_t bus_index, bus::BusStatus& status, std::chrono::steady_clock::time_point now,
+                       bus::WallTime wall_now) const;
 
  private:
   // The plugins first, then the last-value table the status reads.
@@ -128,7 +128,7 @@ class OutputPipeline {
 
   SharedConfig config_;
   DeviceIndexPool unknown_indices_;  // shared by every bus's bridge
-  std::vector<std::atomic<BusManager*>> command_targets_;
+  std::vector<std::atomic<bus::BusManager*>> command_targets_;
   pipeline::PluginHost host_;
   pipeline::LastValues last_values_;
   pipeline::ArrivalHistograms arrivals_;
@@ -138,4 +138,4 @@ class OutputPipeline {
   bool started_ = false;
 };
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::outputs

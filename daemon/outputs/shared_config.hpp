@@ -12,7 +12,7 @@
 
 #include "config/config.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::outputs {
 
 class SharedConfig {
  public:
@@ -33,4 +33,4 @@ class SharedConfig {
   std::shared_ptr<const config::Config> current_;
 };
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::outputs

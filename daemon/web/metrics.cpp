@@ -11,9 +11,9 @@
 namespace cobridge::web {
 namespace {
 
-using gateway::BusStatus;
-using gateway::DeviceState;
-using gateway::DeviceStatus;
+using bus::BusStatus;
+using bus::DeviceState;
+using bus::DeviceStatus;
 
 constexpr std::array kStates{DeviceState::expected,    DeviceState::identified, DeviceState::commissioning,
                              DeviceState::configuring, DeviceState::operational, DeviceState::offline,
@@ -139,7 +139,7 @@ void output_families(Writer& w, const std::vector<pipeline::OutputStats>& output
 
 std::string node_label(const DeviceStatus& d) { return d.node_id == 0 ? std::string() : std::to_string(d.node_id); }
 
-void gateway_families(Writer& w, const gateway::StatusReport& report) {
+void gateway_families(Writer& w, const control::StatusReport& report) {
   w.family("cobridge_info", "gauge", "The gateway's identity (value 1).");
   w.sample({{"gateway", report.gateway_id}, {"version", report.version}}, 1);
   w.family("cobridge_ready", "gauge", "1 once every known device was configured or timed out (sd_notify READY=1).");
@@ -150,7 +150,7 @@ void gateway_families(Writer& w, const gateway::StatusReport& report) {
 
 // The CAN controller's fault confinement state (1 for the present one),
 // its error counters and restarts, from the bus's error frames.
-void controller_families(Writer& w, const gateway::StatusReport& report) {
+void controller_families(Writer& w, const control::StatusReport& report) {
   using can::ControllerState;
   w.family("cobridge_bus_controller_state", "gauge",
            "1 for the CAN controller's present state (unknown: no error frame or netlink state yet; error-active, "
@@ -174,7 +174,7 @@ void controller_families(Writer& w, const gateway::StatusReport& report) {
 
 // Per bus: the interface, the two sockets' counters (docs/architecture.md)
 // and what the hot path counted instead of publishing.
-void bus_families(Writer& w, const gateway::StatusReport& report) {
+void bus_families(Writer& w, const control::StatusReport& report) {
   auto per_bus = [&](std::string_view name, std::string_view type, std::string_view help,
                      const std::function<double(const BusStatus&)>& get) {
     w.family(name, type, help);
@@ -235,7 +235,7 @@ void bus_families(Writer& w, const gateway::StatusReport& report) {
 
 // Per device: how regularly its heartbeats and TPDOs arrive (a device
 // drifting towards its heartbeat consumer time shows before it is lost).
-void arrival_families(Writer& w, const gateway::StatusReport& report) {
+void arrival_families(Writer& w, const control::StatusReport& report) {
   w.family("cobridge_heartbeat_interval_seconds", "histogram",
            "Time between two heartbeats of the device, as the outputs received them.");
   for (const auto& b : report.buses) {
@@ -256,7 +256,7 @@ void arrival_families(Writer& w, const gateway::StatusReport& report) {
 using DeviceValue = std::function<bool(const DeviceStatus&, double&)>;
 
 // One family with a sample per device for which `get` gives a value.
-void device_family(Writer& w, const gateway::StatusReport& report, std::string_view name, std::string_view type,
+void device_family(Writer& w, const control::StatusReport& report, std::string_view name, std::string_view type,
                    std::string_view help, const DeviceValue& get) {
   w.family(name, type, help);
   for (const auto& b : report.buses) {
@@ -268,7 +268,7 @@ void device_family(Writer& w, const gateway::StatusReport& report, std::string_v
 }
 
 // Per device: the last values and their ages.
-void value_families(Writer& w, const gateway::StatusReport& report) {
+void value_families(Writer& w, const control::StatusReport& report) {
   auto per_device = [&](std::string_view name, std::string_view type, std::string_view help, const DeviceValue& get) {
     device_family(w, report, name, type, help, get);
   };
@@ -303,7 +303,7 @@ void value_families(Writer& w, const gateway::StatusReport& report) {
 }
 
 // Per device: liveness, state, counters, then the last values.
-void device_families(Writer& w, const gateway::StatusReport& report) {
+void device_families(Writer& w, const control::StatusReport& report) {
   auto per_device = [&](std::string_view name, std::string_view type, std::string_view help, const DeviceValue& get) {
     device_family(w, report, name, type, help, get);
   };
@@ -314,7 +314,7 @@ void device_families(Writer& w, const gateway::StatusReport& report) {
     for (const auto& d : b.devices) {
       const std::string node = node_label(d);
       for (const DeviceState s : kStates)
-        w.sample({{"bus", b.name}, {"node", node}, {"name", d.name}, {"state", gateway::to_string(s)}},
+        w.sample({{"bus", b.name}, {"node", node}, {"name", d.name}, {"state", bus::to_string(s)}},
                  d.state == s ? 1 : 0);
     }
   }
@@ -336,7 +336,7 @@ void device_families(Writer& w, const gateway::StatusReport& report) {
 
 }  // namespace
 
-std::string render_metrics(const gateway::StatusReport& report) {
+std::string render_metrics(const control::StatusReport& report) {
   Writer w;
   gateway_families(w, report);
   bus_families(w, report);

@@ -12,6 +12,6 @@
 
 namespace cobridge::web {
 
-[[nodiscard]] std::string render_metrics(const gateway::StatusReport& report);
+[[nodiscard]] std::string render_metrics(const control::StatusReport& report);
 
 }  // namespace cobridge::web

@@ -237,7 +237,7 @@ WebServer::Snapshot& WebServer::snapshot() {
   const auto now = std::chrono::steady_clock::now();
   if (snap_.taken == std::chrono::steady_clock::time_point{} || now - snap_.taken >= refresh_) {
     snap_.report = source_();
-    snap_.json = gateway::to_json(snap_.report);
+    snap_.json = control::to_json(snap_.report);
     snap_.json += '\n';
     snap_.have_metrics = false;
     snap_.taken = now;

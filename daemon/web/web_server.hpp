@@ -77,7 +77,7 @@ struct HttpRequest {
 
 class WebServer {
  public:
-  using StatusSource = std::function<gateway::StatusReport()>;
+  using StatusSource = std::function<control::StatusReport()>;
   // The text of a flight recorder capture by its file name (as the status
   // lists it); unset: none are served.
   using CaptureSource = std::function<Result<std::string>(std::string_view name)>;
@@ -115,7 +115,7 @@ class WebServer {
     std::string json;
     std::string metrics;
     bool have_metrics = false;
-    gateway::StatusReport report;
+    control::StatusReport report;
   };
   // The current status, rebuilt when older than refresh_; under mutex_.
   Snapshot& snapshot();

@@ -13,7 +13,7 @@
 
 namespace {
 
-namespace fam = cobridge::device::families;
+namespace fam = cobridge::families;
 using fam::EmcyLevel;
 
 static_assert(static_cast<int>(EmcyLevel::info) == COBRIDGE_EMCY_LEVEL_INFO &&

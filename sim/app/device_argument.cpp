@@ -73,7 +73,7 @@ KeyResult identity_key(DeviceArgument& arg, const ModelInfo& model, std::string_
     }
   } else if (key == "channels") {
     const auto v = parse_unsigned(value, 0xFF);
-    if (!device::families::traits(model.family).channel_count_in_eds) {
+    if (!families::traits(model.family).channel_count_in_eds) {
       if (!v || *v != 1) return std::string("channels: only the rotary series (J) has a 2-channel variant; allowed: 1");
     } else if (!v || (*v != 1 && *v != 2)) {
       return "channels must be 1 or 2, got " + quoted(value);
@@ -130,7 +130,7 @@ KeyResult lss_key(DeviceArgument& arg, std::string_view key, std::string_view va
 KeyResult option_key(DeviceArgument& arg, const ModelInfo& model, std::string_view key, std::string_view value) {
   if (key == "segmented") return on_off(key, value, arg.spec.segmented_sdo);
   if (key == "c6") {
-    if (!device::families::traits(model.family).tpdo2_needs_variant)
+    if (!families::traits(model.family).tpdo2_needs_variant)
       return std::string("c6 applies to ifm models only (F§7.3 TPDO2)");
     return on_off(key, value, arg.spec.ifm_c6);
   }

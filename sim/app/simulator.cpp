@@ -25,7 +25,7 @@ std::int64_t realtime_ns() noexcept {
 }
 
 std::string_view variant_of(const DeviceSpec& spec) {
-  if (!device::families::traits(spec.model->family).channel_count_in_eds) return {};  // J§1.3.2
+  if (!families::traits(spec.model->family).channel_count_in_eds) return {};  // J§1.3.2
   return spec.channels == 2 ? "2ch" : "1ch";
 }
 

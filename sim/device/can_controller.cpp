@@ -100,15 +100,15 @@ void SimDevice::Impl::send_can_emcy(std::uint16_t code) {
   switch (family) {
     case FamilyId::novotechnik_rotary:
       // J§1.8.1: register byte 1, bytes 3-7 zero.
-      send_emcy(canopen::Emcy{code, 1, {0, 0, 0, 0, 0}}, device::families::EmcyLevel::unspecified);
+      send_emcy(canopen::Emcy{code, 1, {0, 0, 0, 0, 0}}, families::EmcyLevel::unspecified);
       return;
     case FamilyId::novotechnik_multiturn:
       // E§9.1: byte 2 is 0 in both rows, level Hard (never filtered by 0x2104).
-      send_emcy(canopen::Emcy{code, 0, {0, 0, 0, 0, 0}}, device::families::EmcyLevel::hard);
+      send_emcy(canopen::Emcy{code, 0, {0, 0, 0, 0, 0}}, families::EmcyLevel::hard);
       return;
     case FamilyId::ifm_rm:
       // (ext) CiA 301 code with the device's error register (F§4).
-      send_emcy(canopen::Emcy{code, emcy.error_register(), {0, 0, 0, 0, 0}}, device::families::EmcyLevel::unspecified);
+      send_emcy(canopen::Emcy{code, emcy.error_register(), {0, 0, 0, 0, 0}}, families::EmcyLevel::unspecified);
       return;
   }
 }

@@ -13,8 +13,8 @@ constexpr std::uint16_t kErrorField = 0x1003;
 constexpr std::uint16_t kEmcyBehaviour = 0x2104;  // multiturn only (E§4.3)
 constexpr std::uint8_t kHistoryDepth = 10;
 
-bool suppressed(std::uint8_t filter, device::families::EmcyLevel level) noexcept {
-  using device::families::EmcyLevel;
+bool suppressed(std::uint8_t filter, families::EmcyLevel level) noexcept {
+  using families::EmcyLevel;
   switch (level) {
     case EmcyLevel::info: return filter >= 1;
     case EmcyLevel::warn: return filter >= 2;
@@ -44,7 +44,7 @@ void EmcyProducer::set_error_register(std::uint8_t bits) noexcept {
   if (od_ != nullptr) (void)od_->set_u8(kErrorRegister, 0, bits);
 }
 
-bool EmcyProducer::send(const canopen::Emcy& emcy, device::families::EmcyLevel level, TimePoint now) noexcept {
+bool EmcyProducer::send(const canopen::Emcy& emcy, families::EmcyLevel level, TimePoint now) noexcept {
   if (od_ == nullptr) return false;
   if (od_->contains(kEmcyBehaviour, 0) && suppressed(od_->get_u8(kEmcyBehaviour, 0).value_or(0), level))
     return false;

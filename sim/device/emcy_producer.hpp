@@ -36,7 +36,7 @@ class EmcyProducer {
 
   // Filtered by level (0x2104), queued behind the inhibit time (0x1015).
   // Returns false when filtered or dropped.
-  bool send(const canopen::Emcy& emcy, device::families::EmcyLevel level, TimePoint now) noexcept;
+  bool send(const canopen::Emcy& emcy, families::EmcyLevel level, TimePoint now) noexcept;
   [[nodiscard]] TimePoint process(TimePoint now) noexcept;
   void reset() noexcept;
 

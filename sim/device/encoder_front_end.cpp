@@ -25,7 +25,7 @@ void EncoderFrontEnd::set_family(FamilyId family, Resolution physical) noexcept 
   physical_ = physical;
   for (Channel& c : channels_) {
     c.pipeline.emplace(PositionSettings::defaults(family, physical));
-    c.cams = CamBank(device::families::family(family).models.front().cams_per_channel);  // J§1.2.3, E§3.4, F§7.5
+    c.cams = CamBank(families::family(family).models.front().cams_per_channel);  // J§1.2.3, E§3.4, F§7.5
     c.work_area.emplace(rule_for(family));
   }
 }

@@ -57,12 +57,12 @@ void SimDevice::Impl::configure_encoder() {
     c.work_area.low = get_int(0x6401, s);
     c.work_area.high = get_int(0x6402, s);
     switch (traits.work_area_range) {
-      case device::families::WorkAreaRange::preset_to_length:
+      case families::WorkAreaRange::preset_to_length:
         // J§1.4.6.1: bit 0 for "position <= preset or >= sensor length".
         c.work_area.range_min = get_int(traits.preset.index, traits.preset.sub(s));
         c.work_area.range_max = c.total != 0 ? c.total : 0x4000;
         break;
-      case device::families::WorkAreaRange::cia406_limits:
+      case families::WorkAreaRange::cia406_limits:
         c.work_area.range_min = get_int(0x650A, 2);
         c.work_area.range_max = get_int(0x650A, 3);
         break;

@@ -18,7 +18,7 @@ namespace cobridge::sim {
 namespace {
 
 using canopen::Emcy;
-using device::families::EmcyLevel;
+using families::EmcyLevel;
 
 // RM9000: 12-bit single-turn x 12-bit multiturn, the 2^24 total of the
 // 0x2102 default (F§7.4); RM8000 single-turn.

@@ -20,7 +20,7 @@ namespace cobridge::sim {
 namespace {
 
 using canopen::Emcy;
-using device::families::EmcyLevel;
+using families::EmcyLevel;
 
 constexpr std::int16_t kNominalTemperature = 350;  // 35.0 degC internal
 constexpr std::uint16_t kNominalVoltage = 240;     // 24.0 V
@@ -167,11 +167,11 @@ void SimDevice::Impl::multiturn_publish(ChannelSample& s, const ChannelSample& b
   // Injected range errors force the E§9.1 values; a measurement / hardware
   // error comes from the pipeline (0x7FFFFFFC) like the range of the motion.
   if (!s.error_value && over_range_latched) {
-    s.position_bits = static_cast<std::uint32_t>(device::families::kMultiturnOverflowPosition);
+    s.position_bits = static_cast<std::uint32_t>(families::kMultiturnOverflowPosition);
     s.speed = 0;
     s.error_value = true;
   } else if (!s.error_value && under_range_latched) {
-    s.position_bits = static_cast<std::uint32_t>(device::families::kMultiturnUnderflowPosition);
+    s.position_bits = static_cast<std::uint32_t>(families::kMultiturnUnderflowPosition);
     s.speed = 0;
     s.error_value = true;
   }
@@ -210,12 +210,12 @@ void SimDevice::Impl::multiturn_publish(ChannelSample& s, const ChannelSample& b
     }
   }
   if (s.cams != before.cams)
-    send_emcy(Emcy{device::families::kNovotechnikCamEmcy, 1,
-                   device::families::multiturn_cam_emcy_bytes(static_cast<std::uint8_t>(s.cams ^ before.cams), s.cams)},
+    send_emcy(Emcy{families::kNovotechnikCamEmcy, 1,
+                   families::multiturn_cam_emcy_bytes(static_cast<std::uint8_t>(s.cams ^ before.cams), s.cams)},
               EmcyLevel::warn);
   if (s.work_area != before.work_area)
-    send_emcy(Emcy{device::families::kNovotechnikWorkAreaEmcy, 1,
-                   device::families::multiturn_work_area_emcy_bytes(s.work_area)},
+    send_emcy(Emcy{families::kNovotechnikWorkAreaEmcy, 1,
+                   families::multiturn_work_area_emcy_bytes(s.work_area)},
               EmcyLevel::warn);
 }
 

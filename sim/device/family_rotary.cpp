@@ -13,7 +13,7 @@
 
 namespace cobridge::sim {
 
-namespace fam = device::families;
+namespace fam = cobridge::families;
 
 namespace {
 

@@ -24,7 +24,7 @@ std::optional<std::uint8_t> lss_index_for_kbit(std::uint16_t kbit) noexcept {
 }
 
 std::uint16_t ifm_kbit(std::uint8_t index) noexcept {
-  const auto& rates = device::families::kIfmBitRates;  // F§7.4 0x3001
+  const auto& rates = families::kIfmBitRates;  // F§7.4 0x3001
   return index < rates.size() ? rates[index] : 0;
 }
 
@@ -36,25 +36,25 @@ std::optional<std::uint8_t> ifm_index_for_kbit(std::uint16_t kbit) noexcept {
 
 // The node-ID object's value for `node` and back (F§7.4: ifm holds node-ID - 1,
 // keeping FFh, unconfigured, as FFh; Novotechnik the node-ID itself).
-std::uint8_t node_value(const device::families::Addressing& a, std::uint8_t node) noexcept {
+std::uint8_t node_value(const families::Addressing& a, std::uint8_t node) noexcept {
   return node == cob::kNodeIdUnconfigured ? node : static_cast<std::uint8_t>(node - a.node_id_offset);
 }
 
-std::uint8_t node_of_value(const device::families::Addressing& a, std::uint64_t raw) noexcept {
+std::uint8_t node_of_value(const families::Addressing& a, std::uint64_t raw) noexcept {
   if (a.node_id_offset == 0) return static_cast<std::uint8_t>(raw);
   return raw >= 0x7F ? cob::kNodeIdUnconfigured : static_cast<std::uint8_t>(raw + a.node_id_offset);
 }
 
 // The bit-rate object's value for `kbit` (F§7.4 0x3001: an index into the
 // family's table; J§1.3.3, E§4.3 0x2001: kbit/s), and back.
-std::optional<std::uint64_t> bitrate_value(const device::families::Addressing& a, std::uint16_t kbit) noexcept {
+std::optional<std::uint64_t> bitrate_value(const families::Addressing& a, std::uint16_t kbit) noexcept {
   if (!a.bitrate_is_table_index) return kbit;
   for (std::size_t i = 0; i < a.bitrates.size(); ++i)
     if (a.bitrates[i] == kbit) return i;
   return std::nullopt;
 }
 
-std::uint16_t kbit_of_value(const device::families::Addressing& a, std::uint64_t raw) noexcept {
+std::uint16_t kbit_of_value(const families::Addressing& a, std::uint64_t raw) noexcept {
   if (!a.bitrate_is_table_index) return static_cast<std::uint16_t>(raw);
   return raw < a.bitrates.size() ? a.bitrates[raw] : 0;
 }
@@ -68,7 +68,7 @@ canopen::LssSlaveFeatures lss_features(const DeviceSpec& spec, FamilyId family) 
   if (!spec.lss_fastscan) f.fastscan = false;
   f.node_id_assignment = spec.assign;
   f.lose_node_id_requests = spec.lose_configure;
-  f.bit_timings = device::families::traits(family).lss_bit_timings;
+  f.bit_timings = families::traits(family).lss_bit_timings;
   return f;
 }
 

@@ -154,7 +154,7 @@ void SimDevice::Impl::reset_node(TimePoint now) {
   ifm_defaults_pending = false;
   load_parameters([](const device::ObjectDesc&) { return true; }, image);
   const auto& addressing = family_facts(family).addressing;
-  const bool stored_first = traits.address_activation == device::families::AddressActivation::stored_first;
+  const bool stored_first = traits.address_activation == families::AddressActivation::stored_first;
   if (!stored_first || !nv_data.params.get(addressing.node_id_index, 0)) {
     pending_node = node;
     pending_kbit = kbit;

@@ -74,7 +74,7 @@ void SimDevice::Impl::after_write(std::uint16_t index, std::uint8_t sub) {
     case kNmtStartup: nmt.set_autostart((od->get_u32(kNmtStartup, 0).value_or(0) & kAutostartBit) != 0); return;
     default: break;
   }
-  if (is_address_object(index) && traits.address_activation == device::families::AddressActivation::last_written) {
+  if (is_address_object(index) && traits.address_activation == families::AddressActivation::last_written) {
     // J§1.3.3, E§4.3: the written node-ID / bit rate is pending until a reset.
     pending_node = node_from_od();
     pending_kbit = kbit_from_od();

@@ -29,7 +29,7 @@ SimDevice::Impl::Impl(DeviceSpec spec_in, const device::DeviceDescription& descr
     : spec(std::move(spec_in)),
       model(*spec.model),
       family(spec.model->family),
-      traits(device::families::traits(spec.model->family)),
+      traits(families::traits(spec.model->family)),
       desc(description),
       bus(sink),
       nv_file(state_dir.empty() ? std::filesystem::path{}
@@ -103,7 +103,7 @@ void SimDevice::Impl::emit_truth(const can::Frame& frame, TruthRecord::Kind kind
   truth(r);
 }
 
-void SimDevice::Impl::send_emcy(const canopen::Emcy& e, device::families::EmcyLevel level) noexcept {
+void SimDevice::Impl::send_emcy(const canopen::Emcy& e, families::EmcyLevel level) noexcept {
   if (!nmt.allows(canopen::NmtService::emcy)) return;
   (void)emcy.send(e, level, now_cache);
 }

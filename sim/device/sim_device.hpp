@@ -41,7 +41,7 @@ namespace cobridge::sim {
 
 using canopen::TimePoint;
 
-using device::families::FamilyId;
+using families::FamilyId;
 
 // One row of the model table (sim_models.cpp): what `--device MODEL` means.
 struct ModelInfo {
@@ -59,7 +59,7 @@ struct ModelInfo {
 [[nodiscard]] const ModelInfo* find_model(std::string_view name) noexcept;
 [[nodiscard]] std::string_view family_name(FamilyId f) noexcept;
 // The family's facts (daemon/families): identity, bit rates, quirks.
-[[nodiscard]] const device::families::Family& family_facts(FamilyId f) noexcept;
+[[nodiscard]] const families::Family& family_facts(FamilyId f) noexcept;
 // The whole table, for `--list-models` and the tests.
 [[nodiscard]] std::span<const ModelInfo> all_models() noexcept;
 

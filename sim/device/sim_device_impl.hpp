@@ -81,7 +81,7 @@ struct SimDevice::Impl {
   DeviceSpec spec;
   const ModelInfo& model;
   FamilyId family;
-  const device::families::FamilyTraits& traits;  // what differs by family (families/traits.hpp)
+  const families::FamilyTraits& traits;  // what differs by family (families/traits.hpp)
   const device::DeviceDescription& desc;
   can::FrameSink& bus;
   std::filesystem::path nv_file;
@@ -198,7 +198,7 @@ struct SimDevice::Impl {
   void configure_guard();
   void restart_heartbeat(TimePoint now);
   void refresh_status() noexcept;
-  void send_emcy(const canopen::Emcy& e, device::families::EmcyLevel level) noexcept;
+  void send_emcy(const canopen::Emcy& e, families::EmcyLevel level) noexcept;
 
   Error build_od();
   void install_hooks();
@@ -299,13 +299,13 @@ std::uint32_t set_raw(canopen::ObjectDictionary& od, std::uint16_t index, std::u
 
 // The node-ID object's value for `node` and back (F§7.4: ifm holds node-ID - 1,
 // keeping FFh, unconfigured, as FFh; Novotechnik the node-ID itself).
-[[nodiscard]] std::uint8_t node_value(const device::families::Addressing& a, std::uint8_t node) noexcept;
-[[nodiscard]] std::uint8_t node_of_value(const device::families::Addressing& a, std::uint64_t raw) noexcept;
+[[nodiscard]] std::uint8_t node_value(const families::Addressing& a, std::uint8_t node) noexcept;
+[[nodiscard]] std::uint8_t node_of_value(const families::Addressing& a, std::uint64_t raw) noexcept;
 // The bit-rate object's value for `kbit` (F§7.4 0x3001: an index into the
 // family's table; J§1.3.3, E§4.3 0x2001: kbit/s), and back.
-[[nodiscard]] std::optional<std::uint64_t> bitrate_value(const device::families::Addressing& a,
+[[nodiscard]] std::optional<std::uint64_t> bitrate_value(const families::Addressing& a,
                                                          std::uint16_t kbit) noexcept;
-[[nodiscard]] std::uint16_t kbit_of_value(const device::families::Addressing& a, std::uint64_t raw) noexcept;
+[[nodiscard]] std::uint16_t kbit_of_value(const families::Addressing& a, std::uint64_t raw) noexcept;
 // The LSS services the device answers (DeviceSpec::lss over the family's own).
 [[nodiscard]] canopen::LssSlaveFeatures lss_features(const DeviceSpec& spec, FamilyId family);
 

@@ -15,7 +15,7 @@ namespace cobridge::sim {
 
 namespace {
 
-namespace fam = device::families;
+namespace fam = cobridge::families;
 
 ModelInfo model_info(const fam::Family& f, const fam::Model& m, std::string_view name, std::uint32_t product) {
   return ModelInfo{name, f.id, f.vendor, product, f.factory_node_id, m.legacy_rsx_rfx, m.eds_stem,

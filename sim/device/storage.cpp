@@ -66,6 +66,6 @@ Coverage store_coverage(FamilyId family, bool legacy, std::uint8_t store_sub, st
   }
 }
 
-std::uint8_t store_sub_count(FamilyId family) noexcept { return device::families::traits(family).store_subs; }
+std::uint8_t store_sub_count(FamilyId family) noexcept { return families::traits(family).store_subs; }
 
 }  // namespace cobridge::sim

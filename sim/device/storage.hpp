@@ -20,10 +20,10 @@
 
 namespace cobridge::sim {
 
-inline constexpr std::uint32_t kSignatureSave = device::families::kSaveSignature;  // "save"
+inline constexpr std::uint32_t kSignatureSave = families::kSaveSignature;  // "save"
 inline constexpr std::uint32_t kSignatureLoad = 0x64616F6C;  // "load"
 inline constexpr std::uint32_t kSignatureKill = 0x6C6C696B;  // "kill" (J§1.10 V11, E§11)
-inline constexpr std::uint32_t kIfmSaveWithReset = device::families::kIfmSaveWithResetCode;  // F§6.3.4, 0x2300
+inline constexpr std::uint32_t kIfmSaveWithReset = families::kIfmSaveWithResetCode;  // F§6.3.4, 0x2300
 
 enum class Coverage : std::uint8_t { none, value, default_value };
 

@@ -54,11 +54,11 @@ std::uint32_t SimDevice::Impl::save(std::uint8_t store_sub) {
 
 std::uint32_t SimDevice::Impl::load(std::uint8_t store_sub) {
   switch (traits.load) {
-    case device::families::LoadAction::factory_after_reset:
+    case families::LoadAction::factory_after_reset:
       // F§6.3.5: factory settings, active only after a reset; EEPROM untouched.
       ifm_defaults_pending = true;
       return 0;
-    case device::families::LoadAction::revert_to_stored: break;  // J§1.10, E§11
+    case families::LoadAction::revert_to_stored: break;  // J§1.10, E§11
   }
   const NvImage& image = nv_data.params;
   load_parameters(

@@ -13,7 +13,7 @@
 namespace cobridge::sim {
 namespace {
 
-namespace fam = device::families;
+namespace fam = cobridge::families;
 
 // An error position as the position object's raw bits.
 constexpr std::uint32_t as_bits(std::int32_t position) noexcept { return static_cast<std::uint32_t>(position); }

@@ -30,7 +30,7 @@
 namespace cobridge::sim {
 
 // The family identity of daemon/families (the simulator's device library uses it too).
-using device::families::FamilyId;
+using families::FamilyId;
 
 struct Resolution {
   std::uint32_t steps_per_rev = 0;  // 0x6501

@@ -99,7 +99,7 @@ Latency measure(std::uint16_t port, const std::string& path, int requests) {
 }
 
 // The sink the daemon's dispatcher feeds, minus the plugins: the record the
-// web service reads (gateway::OutputPipeline's HostSink does the same).
+// web service reads (outputs::OutputPipeline's HostSink does the same).
 class LastValuesSink : public pipeline::SampleSink {
  public:
   explicit LastValuesSink(pipeline::LastValues& last) : last_(last) {}
@@ -174,7 +174,7 @@ struct HotPath {
 // hot path's latest values read through LastValues (as the daemon's status()).
 web::WebServer::StatusSource status_source(const pipeline::LastValues& last) {
   return [&last] {
-    gateway::StatusReport r = web::test::sample_report(kBuses, kDevices);
+    control::StatusReport r = web::test::sample_report(kBuses, kDevices);
     for (std::size_t b = 0; b < r.buses.size(); ++b)
       for (auto& d : r.buses[b].devices) {
         const pipeline::LastValue v = last.read(b, d.node_id);

@@ -19,10 +19,10 @@
 
 namespace {
 
-using cobridge::gateway::AsciiError;
-using cobridge::gateway::AsciiRequest;
-using cobridge::gateway::AsciiType;
-using cobridge::gateway::parse_ascii_request;
+using cobridge::control::AsciiError;
+using cobridge::control::AsciiRequest;
+using cobridge::control::AsciiType;
+using cobridge::control::parse_ascii_request;
 
 struct IntegerType {
   const char* name;
@@ -144,7 +144,7 @@ void value_of_a_write(const std::uint8_t* data, std::size_t size) {
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  using namespace cobridge::gateway;
+  using namespace cobridge::control;
   whole_line(std::string_view(reinterpret_cast<const char*>(data), size));
   value_of_a_write(data, size);
   for (int t = 0; t <= static_cast<int>(AsciiType::os); ++t)

@@ -9,8 +9,8 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string_view line(reinterpret_cast<const char*>(data), size);
-  const auto r = cobridge::gateway::parse_control_request(line);
-  using Kind = cobridge::gateway::ControlRequest::Kind;
+  const auto r = cobridge::control::parse_control_request(line);
+  using Kind = cobridge::control::ControlRequest::Kind;
   if ((r.kind == Kind::invalid) == r.error.ok()) std::abort();
   for (const char c : r.error.message)
     if (static_cast<unsigned char>(c) < 0x20 || static_cast<unsigned char>(c) >= 0x7F) std::abort();

@@ -33,9 +33,9 @@
 #include "bus/state_store.hpp"
 
 using namespace cobridge;
-using gateway::Assignment;
-using gateway::StateStore;
-using gateway::StateStoreErrc;
+using bus::Assignment;
+using bus::StateStore;
+using bus::StateStoreErrc;
 
 namespace {
 

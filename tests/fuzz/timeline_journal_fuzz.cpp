@@ -27,16 +27,16 @@
 #include "bus/timeline_journal.hpp"
 
 using namespace cobridge;
-using gateway::TimelineEvent;
-using gateway::TimelineJournal;
+using bus::TimelineEvent;
+using bus::TimelineJournal;
 using Timelines = std::map<std::string, std::vector<TimelineEvent>>;
 
 namespace {
 
 bool well_formed(const TimelineEvent& e) {
   const auto zero = std::chrono::system_clock::time_point{};
-  gateway::TimelineKind kind{};
-  return e.repeats >= 1 && e.at >= zero && e.last_at >= e.at && gateway::parse_timeline_kind(to_string(e.kind), kind) &&
+  bus::TimelineKind kind{};
+  return e.repeats >= 1 && e.at >= zero && e.last_at >= e.at && bus::parse_timeline_kind(to_string(e.kind), kind) &&
          kind == e.kind;
 }
 
@@ -98,7 +98,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const Error e = journal.load(loaded);
   check_report(e);
   for (const auto& [device, events] : loaded) {
-    if (device.empty() || events.empty() || events.size() > gateway::kTimelineLength) std::abort();
+    if (device.empty() || events.empty() || events.size() > bus::kTimelineLength) std::abort();
     for (const TimelineEvent& ev : events)
       if (!well_formed(ev)) std::abort();
   }

@@ -105,6 +105,15 @@ class CheckLayers(unittest.TestCase):
         self.assertIn('daemon/canopen/nmt.cpp:2: includes "sys/log.hpp" (layer sys), '
                       'but target cobridge_canopen links can, canopen', r.stderr)
 
+    def test_a_namespace_other_than_the_layers_fails(self):
+        write(self.fx.root, 'daemon/canopen/nmt.hpp', '#pragma once\nnamespace cobridge::canopen::sdo {}\n'
+              'namespace cobridge::gateway {\n}\n')
+        r = self.check()
+        self.assertEqual(r.returncode, 1)
+        self.assertIn('daemon/canopen/nmt.hpp:3: namespace cobridge::gateway in layer canopen '
+                      '(want cobridge::canopen)', r.stderr)
+        self.assertNotIn('nmt.hpp:2', r.stderr)
+
     def test_daemon_folder_on_the_include_path_fails(self):
         self.fx.graph['targets']['cobridge_canopen']['includes'] = [os.path.join(self.fx.root, 'daemon')]
         r = self.check()

@@ -66,7 +66,7 @@ TEST(SdkExample, InstalledSdkPluginLoadsAndNamesEmcyFromTheOneTable) {
   host.stop_all();
 
   // The row of the rotary family's module (J§1.8.1) the SDK must have given.
-  const auto& table = *cobridge::device::families::kNovotechnikRotary.emcy;
+  const auto& table = *cobridge::families::kNovotechnikRotary.emcy;
   const auto* want = table.find(0x9080, 0x01, {});
   ASSERT_NE(want, nullptr) << "0x9080 is a row of the rotary manual's table (J§1.8.1)";
   const std::string expected = "emcylog: 2 EMCY; last: node 5 0x9080 " + std::string(want->text) + " (" +

@@ -3,11 +3,11 @@
 
 #include "base/number_text.hpp"
 
-namespace cobridge::gateway::discovery {
+namespace cobridge::bus::discovery {
 
 std::string describe(const LssAddress& a) {
   return "vendor " + hex(a.vendor, 8) + " product " + hex(a.product, 8) + " revision " + hex(a.revision, 8) +
          " serial " + std::to_string(a.serial);
 }
 
-}  // namespace cobridge::gateway::discovery
+}  // namespace cobridge::bus::discovery

@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-namespace cobridge::gateway::discovery {
+namespace cobridge::bus::discovery {
 
 using canopen::LssAddress;
 
@@ -62,4 +62,4 @@ using BusPicture = std::array<NodePicture, 128>;
 // "vendor 0x... product 0x... revision 0x... serial n", for event texts.
 [[nodiscard]] std::string describe(const LssAddress& a);
 
-}  // namespace cobridge::gateway::discovery
+}  // namespace cobridge::bus::discovery

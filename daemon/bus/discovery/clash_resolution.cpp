@@ -8,7 +8,7 @@
 
 #include <algorithm>
 
-namespace cobridge::gateway::discovery {
+namespace cobridge::bus::discovery {
 
 using canopen::LssMode;
 
@@ -192,4 +192,4 @@ void Commissioning::clash_persists(std::uint8_t n, std::uint32_t count) {
   queue(Job{Job::Kind::clash, n});
 }
 
-}  // namespace cobridge::gateway::discovery
+}  // namespace cobridge::bus::discovery

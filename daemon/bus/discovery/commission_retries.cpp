@@ -5,7 +5,7 @@
 
 #include <algorithm>
 
-namespace cobridge::gateway::discovery {
+namespace cobridge::bus::discovery {
 
 canopen::Duration CommissionRetries::wait_after(std::uint32_t failures) noexcept {
   canopen::Duration w = kFirstRetry;
@@ -58,4 +58,4 @@ canopen::TimePoint CommissionRetries::next_due() const noexcept {
   return t;
 }
 
-}  // namespace cobridge::gateway::discovery
+}  // namespace cobridge::bus::discovery

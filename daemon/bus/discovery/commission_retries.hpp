@@ -19,7 +19,7 @@
 #include <string>
 #include <vector>
 
-namespace cobridge::gateway::discovery {
+namespace cobridge::bus::discovery {
 
 inline constexpr canopen::Duration kFirstRetry = std::chrono::seconds(1);
 inline constexpr canopen::Duration kMaxRetry = std::chrono::seconds(30);
@@ -57,4 +57,4 @@ class CommissionRetries {
   std::vector<RetryEntry> entries_;
 };
 
-}  // namespace cobridge::gateway::discovery
+}  // namespace cobridge::bus::discovery

@@ -12,7 +12,7 @@
 #include <array>
 #include <span>
 
-namespace cobridge::gateway::discovery {
+namespace cobridge::bus::discovery {
 
 using canopen::kNever;
 using canopen::LssErrc;
@@ -431,4 +431,4 @@ void Commissioning::on_sdo_done(TimePoint now, std::error_code err) {
   if (t.index != kStoreObject && t.ctx.boot_wait) wait_boot(t.ctx, now);
 }
 
-}  // namespace cobridge::gateway::discovery
+}  // namespace cobridge::bus::discovery

@@ -65,7 +65,7 @@
 #include <utility>
 #include <vector>
 
-namespace cobridge::gateway::discovery {
+namespace cobridge::bus::discovery {
 
 struct Job {
   enum class Kind : std::uint8_t { move, clash, non_configured } kind;
@@ -225,4 +225,4 @@ class Commissioning {
   canopen::TimePoint last_reset_{};
 };
 
-}  // namespace cobridge::gateway::discovery
+}  // namespace cobridge::bus::discovery

@@ -3,7 +3,7 @@
 
 #include <algorithm>
 
-namespace cobridge::gateway::discovery {
+namespace cobridge::bus::discovery {
 
 AssignmentInput Decisions::input() const {
   return AssignmentInput{s_.bus, s_.devices, s_.previous, probe_.picture(), session_, initial_probe_done,
@@ -45,4 +45,4 @@ void Decisions::apply(const Effects& e) {
   if (e.recheck) presence_changed = true;
 }
 
-}  // namespace cobridge::gateway::discovery
+}  // namespace cobridge::bus::discovery

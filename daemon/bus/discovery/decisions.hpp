@@ -15,7 +15,7 @@
 #include <optional>
 #include <vector>
 
-namespace cobridge::gateway::discovery {
+namespace cobridge::bus::discovery {
 
 // The bus's settings, as of the last (re)load.
 struct BusSettings {
@@ -64,4 +64,4 @@ class Decisions {
   Session session_;
 };
 
-}  // namespace cobridge::gateway::discovery
+}  // namespace cobridge::bus::discovery

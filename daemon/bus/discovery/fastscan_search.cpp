@@ -9,7 +9,7 @@
 #include <algorithm>
 #include <optional>
 
-namespace cobridge::gateway::discovery {
+namespace cobridge::bus::discovery {
 
 namespace {
 
@@ -37,7 +37,7 @@ canopen::FastscanPlan FastscanSearch::plan(bool general, const BusSettings& s, c
     if (!is_pre_fastscan(id.vendor, id.product)) k.known.push_back(id);
   for (const auto& c : s.devices) {
     const config::KnownModel* m = c.model.empty() ? nullptr : config::find_model(c.model);
-    if (m && !device::families::family(m->family).lss_fastscan) continue;  // no Fastscan (J§1 intro)
+    if (m && !families::family(m->family).lss_fastscan) continue;  // no Fastscan (J§1 intro)
     const bool seen = std::any_of(found.begin(), found.end(), [&](const LssAddress& f) { return f.serial == c.serial; });
     if (c.serial != 0 && !seen && !is_present_serial(c.serial, picture)) k.absent.push_back(&c);
     if (general) k.models.push_back(&c);
@@ -96,4 +96,4 @@ void FastscanSearch::back_off(canopen::TimePoint now, canopen::Duration discover
   general_not_before_ = now + general_backoff_;
 }
 
-}  // namespace cobridge::gateway::discovery
+}  // namespace cobridge::bus::discovery

@@ -36,7 +36,7 @@
 #include <cstdint>
 #include <vector>
 
-namespace cobridge::gateway::discovery {
+namespace cobridge::bus::discovery {
 
 class FastscanSearch {
  public:
@@ -75,4 +75,4 @@ class FastscanSearch {
   canopen::Duration general_backoff_{};
 };
 
-}  // namespace cobridge::gateway::discovery
+}  // namespace cobridge::bus::discovery

@@ -6,7 +6,7 @@
 #include <algorithm>
 #include <utility>
 
-namespace cobridge::gateway::discovery {
+namespace cobridge::bus::discovery {
 
 using canopen::kNever;
 using canopen::TimePoint;
@@ -237,4 +237,4 @@ void IdentityProbe::take_clash(std::uint8_t n, ProbeResult& r) {
   st.clash_reported = true;
 }
 
-}  // namespace cobridge::gateway::discovery
+}  // namespace cobridge::bus::discovery

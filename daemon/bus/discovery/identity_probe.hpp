@@ -35,7 +35,7 @@
 #include <cstdint>
 #include <vector>
 
-namespace cobridge::gateway::discovery {
+namespace cobridge::bus::discovery {
 
 // What the probe of one node found, once its round is over.
 struct ProbeResult {
@@ -150,4 +150,4 @@ class IdentityProbe {
   Round round_;
 };
 
-}  // namespace cobridge::gateway::discovery
+}  // namespace cobridge::bus::discovery

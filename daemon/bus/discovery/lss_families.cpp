@@ -5,9 +5,9 @@
 
 #include "families/novotechnik_rotary.hpp"
 
-namespace cobridge::gateway::discovery {
+namespace cobridge::bus::discovery {
 
-namespace fam = device::families;
+namespace fam = cobridge::families;
 
 namespace {
 std::vector<std::uint32_t> collect_pre_fastscan_products() {
@@ -39,4 +39,4 @@ std::optional<SdoNodeIdObject> sdo_node_id_object(const canopen::LssAddress& a) 
   return SdoNodeIdObject{how.node_id_index, how.node_id_offset, save_sub};
 }
 
-}  // namespace cobridge::gateway::discovery
+}  // namespace cobridge::bus::discovery

@@ -15,10 +15,10 @@
 #include <optional>
 #include <span>
 
-namespace cobridge::gateway::discovery {
+namespace cobridge::bus::discovery {
 
-inline constexpr std::uint32_t kVendorNovotechnik = device::families::kNovotechnikVendor;
-inline constexpr std::uint32_t kVendorIfm = device::families::kIfmVendor;
+inline constexpr std::uint32_t kVendorNovotechnik = families::kNovotechnikVendor;
+inline constexpr std::uint32_t kVendorIfm = families::kIfmVendor;
 
 // A device of a family whose LSS is older than Fastscan (the rotary series
 // claims DSP-305 V1.1.2, J§1 intro): such devices are separated by Slowscan.
@@ -41,7 +41,7 @@ struct SdoNodeIdObject {
 };
 [[nodiscard]] std::optional<SdoNodeIdObject> sdo_node_id_object(const canopen::LssAddress& a) noexcept;
 
-inline constexpr std::uint16_t kStoreObject = device::families::kStoreObject;
-inline constexpr std::uint32_t kSaveSignature = device::families::kSaveSignature;
+inline constexpr std::uint16_t kStoreObject = families::kStoreObject;
+inline constexpr std::uint32_t kSaveSignature = families::kSaveSignature;
 
-}  // namespace cobridge::gateway::discovery
+}  // namespace cobridge::bus::discovery

@@ -7,7 +7,7 @@
 
 #include <algorithm>
 
-namespace cobridge::gateway::discovery {
+namespace cobridge::bus::discovery {
 
 using canopen::LssMode;
 using canopen::LssRange;
@@ -280,4 +280,4 @@ std::vector<Task> Commissioning::recover_non_configured(const LssAddress& a, std
   return assign_tasks(c);
 }
 
-}  // namespace cobridge::gateway::discovery
+}  // namespace cobridge::bus::discovery

@@ -15,7 +15,7 @@
 #include <utility>
 #include <vector>
 
-namespace cobridge::gateway::discovery {
+namespace cobridge::bus::discovery {
 
 using canopen::LssAddress;
 
@@ -105,4 +105,4 @@ struct Task {
   return v;
 }
 
-}  // namespace cobridge::gateway::discovery
+}  // namespace cobridge::bus::discovery

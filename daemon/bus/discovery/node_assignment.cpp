@@ -8,7 +8,7 @@
 
 #include <algorithm>
 
-namespace cobridge::gateway::discovery {
+namespace cobridge::bus::discovery {
 
 bool node_free_for(std::uint8_t node, const LssAddress& a, const BusPicture& picture, const Session& session) {
   if (!canopen::cob::valid_node_id(node)) return false;
@@ -303,4 +303,4 @@ Placement place_non_configured(const LssAddress& a, std::uint8_t back_to, bool u
   return p;
 }
 
-}  // namespace cobridge::gateway::discovery
+}  // namespace cobridge::bus::discovery

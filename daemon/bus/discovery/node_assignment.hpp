@@ -52,7 +52,7 @@
 #include <utility>
 #include <vector>
 
-namespace cobridge::gateway::discovery {
+namespace cobridge::bus::discovery {
 
 // A replacement holds configured device `name`'s place (swap policy same-model).
 struct Swap {
@@ -128,4 +128,4 @@ struct Placement {
 // device whose config says nothing about its model fits nothing.
 [[nodiscard]] bool model_matches(const config::Device& c, const LssAddress& a, bool need_info);
 
-}  // namespace cobridge::gateway::discovery
+}  // namespace cobridge::bus::discovery

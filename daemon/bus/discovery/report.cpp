@@ -3,7 +3,7 @@
 
 #include <chrono>
 
-namespace cobridge::gateway::discovery {
+namespace cobridge::bus::discovery {
 
 void Report::problem(std::string text, std::uint8_t node, const canopen::LssAddress& id) {
   if (!reported_problems_.insert(text).second) return;
@@ -30,4 +30,4 @@ void Report::timing(std::string step, std::string device, const canopen::LssMast
   timings_.back().restarts = r.restarts;
 }
 
-}  // namespace cobridge::gateway::discovery
+}  // namespace cobridge::bus::discovery

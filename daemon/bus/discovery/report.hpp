@@ -14,7 +14,7 @@
 #include <utility>
 #include <vector>
 
-namespace cobridge::gateway::discovery {
+namespace cobridge::bus::discovery {
 
 class Report {
  public:
@@ -35,4 +35,4 @@ class Report {
   std::vector<StepTiming> timings_;
 };
 
-}  // namespace cobridge::gateway::discovery
+}  // namespace cobridge::bus::discovery

@@ -3,7 +3,7 @@
 
 #include <algorithm>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 void BusRegistry::add(BusManager& manager, RemoteBus bus, const config::RemoteAccess& access) {
   const std::lock_guard lock(mutex_);
@@ -48,4 +48,4 @@ std::optional<config::RemoteAccess> BusRegistry::access() const {
   return access_;
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -1,6 +1,6 @@
 #include "bus/remote/remote_command.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 const char* to_string(RemoteOp op) noexcept {
   switch (op) {
@@ -12,4 +12,4 @@ const char* to_string(RemoteOp op) noexcept {
   return "?";
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

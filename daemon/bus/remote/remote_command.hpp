@@ -24,7 +24,7 @@
 #include <string>
 #include <vector>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 enum class RemoteOp : std::uint8_t {
   sdo_upload,    // read index:sub of `node`
@@ -80,4 +80,4 @@ struct RemoteResult {
 
 [[nodiscard]] const char* to_string(RemoteOp op) noexcept;
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

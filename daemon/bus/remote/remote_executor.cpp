@@ -8,7 +8,7 @@
 #include <algorithm>
 #include <cstdio>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 namespace {
 
 using canopen::kNever;
@@ -245,4 +245,4 @@ void RemoteExecutor::abort_all(const std::string& why) {
   queue_.clear();
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

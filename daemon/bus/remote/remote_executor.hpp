@@ -43,7 +43,7 @@
 #include <optional>
 #include <string>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 // What the bus manager tells the executor, and learns from it.
 class RemoteGate {
@@ -119,4 +119,4 @@ class RemoteExecutor {
   canopen::TimePoint lss_session_until_{};
 };
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

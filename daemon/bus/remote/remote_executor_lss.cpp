@@ -5,7 +5,7 @@
 
 #include "sys/logging.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 namespace {
 
 using canopen::TimePoint;
@@ -110,4 +110,4 @@ void RemoteExecutor::lss_step_done(std::error_code ec, std::uint32_t value, Time
   start_lss_step(now, gate);
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

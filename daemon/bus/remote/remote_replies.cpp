@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <utility>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 RemoteReplies::RemoteReplies() : fd_(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)) {}
 
@@ -32,4 +32,4 @@ std::vector<RemoteResult> RemoteReplies::take() {
   return std::exchange(results_, {});
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

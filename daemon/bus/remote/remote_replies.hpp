@@ -17,7 +17,7 @@
 #include <mutex>
 #include <vector>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 class RemoteReplies {
  public:
@@ -38,4 +38,4 @@ class RemoteReplies {
   std::vector<RemoteResult> results_;
 };
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

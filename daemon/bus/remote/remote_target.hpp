@@ -25,7 +25,7 @@
 #include <string_view>
 #include <vector>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 
 class BusManager;
 
@@ -68,4 +68,4 @@ class BusRegistry final : public RemoteTarget {
   std::optional<config::RemoteAccess> access_;
 };
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

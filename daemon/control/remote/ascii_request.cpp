@@ -8,7 +8,7 @@
 #include <cstdio>
 #include <cstring>
 
-namespace cobridge::gateway {
+namespace cobridge::control {
 namespace {
 
 struct TypeInfo {
@@ -231,9 +231,9 @@ std::optional<std::string> ascii_format(AsciiType type, std::span<const std::uin
   }
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::control
 
-namespace cobridge::gateway {
+namespace cobridge::control {
 namespace {
 
 AsciiRequest parse_sdo(AsciiRequest r, const std::vector<std::string>& w, std::size_t i, bool write) {
@@ -246,7 +246,7 @@ AsciiRequest parse_sdo(AsciiRequest r, const std::vector<std::string>& w, std::s
     if (t == nullptr) return invalid(std::move(r), w[i + 2] == "d" ? AsciiError::not_supported : AsciiError::syntax);
     r.type = t->type;
   }
-  r.command.op = write ? RemoteOp::sdo_download : RemoteOp::sdo_upload;
+  r.command.op = write ? bus::RemoteOp::sdo_download : bus::RemoteOp::sdo_upload;
   r.command.index = static_cast<std::uint16_t>(index);
   r.command.sub = static_cast<std::uint8_t>(sub);
   if (write && !encode(r.type, w[i + 3], r.command.data)) return invalid(std::move(r), AsciiError::syntax);
@@ -266,7 +266,7 @@ AsciiRequest parse_nmt(AsciiRequest r, const std::vector<std::string>& w, std::s
   else if (c == "reset" && args == 2 && (w[i + 1] == "comm" || w[i + 1] == "communication"))
     r.command.nmt = NmtCommand::reset_comm;
   else return invalid(std::move(r), AsciiError::syntax);
-  r.command.op = RemoteOp::nmt;
+  r.command.op = bus::RemoteOp::nmt;
   r.kind = AsciiRequest::Kind::nmt;
   return r;
 }
@@ -280,29 +280,29 @@ AsciiRequest parse_lss(AsciiRequest r, const std::vector<std::string>& w, std::s
   }
   auto& s = r.command.lss_steps;
   if (c == "lss_switch_glob" && args == 1 && v[0] <= 1) {
-    s.push_back({LssStep::Kind::switch_global, {}, static_cast<std::uint32_t>(v[0])});
+    s.push_back({bus::LssStep::Kind::switch_global, {}, static_cast<std::uint32_t>(v[0])});
   } else if (c == "lss_switch_sel" && args == 4) {
     const canopen::LssAddress a{static_cast<std::uint32_t>(v[0]), static_cast<std::uint32_t>(v[1]),
                                 static_cast<std::uint32_t>(v[2]), static_cast<std::uint32_t>(v[3])};
-    s.push_back({LssStep::Kind::switch_selective, a, 0});
+    s.push_back({bus::LssStep::Kind::switch_selective, a, 0});
   } else if (c == "lss_set_node" && args == 1) {
     if (v[0] == 0 || (v[0] > 127 && v[0] != 0xFF)) return invalid(std::move(r), AsciiError::lss_node_id);
-    s.push_back({LssStep::Kind::set_node_id, {}, static_cast<std::uint32_t>(v[0])});
+    s.push_back({bus::LssStep::Kind::set_node_id, {}, static_cast<std::uint32_t>(v[0])});
   } else if (c == "lss_store" && args == 0) {
-    s.push_back({LssStep::Kind::store, {}, 0});
+    s.push_back({bus::LssStep::Kind::store, {}, 0});
   } else if (c == "lss_inquire_addr" && args <= 1 && v[0] <= 3) {
-    constexpr LssStep::Kind kAll[] = {LssStep::Kind::inquire_vendor, LssStep::Kind::inquire_product,
-                                      LssStep::Kind::inquire_revision, LssStep::Kind::inquire_serial};
+    constexpr bus::LssStep::Kind kAll[] = {bus::LssStep::Kind::inquire_vendor, bus::LssStep::Kind::inquire_product,
+                                      bus::LssStep::Kind::inquire_revision, bus::LssStep::Kind::inquire_serial};
     if (args == 1) s.push_back({kAll[v[0]], {}, 0});
     else for (const auto k : kAll) s.push_back({k, {}, 0});
   } else if (c == "lss_get_node" && args == 0) {
-    s.push_back({LssStep::Kind::inquire_node_id, {}, 0});
+    s.push_back({bus::LssStep::Kind::inquire_node_id, {}, 0});
   } else if (c == "lss_conf_bitrate" || c == "lss_activate_bitrate" || c == "_lss_fastscan" || c == "lss_allnodes") {
     return invalid(std::move(r), AsciiError::not_supported);
   } else {
     return invalid(std::move(r), AsciiError::syntax);
   }
-  r.command.op = RemoteOp::lss;
+  r.command.op = bus::RemoteOp::lss;
   r.kind = AsciiRequest::Kind::lss;
   return r;
 }
@@ -376,4 +376,4 @@ AsciiRequest parse_ascii_request(std::string_view line) {
   return invalid(std::move(r), AsciiError::not_supported);
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::control

@@ -32,7 +32,7 @@
 #include <string_view>
 #include <vector>
 
-namespace cobridge::gateway {
+namespace cobridge::control {
 
 // CiA 309-3 error numbers ("ERROR: <n>").
 enum class AsciiError : std::uint16_t {
@@ -59,7 +59,7 @@ struct AsciiRequest {
   unsigned net = 0;       // 0: the connection's default
   int node = -1;          // -1: the connection's default
   AsciiType type = AsciiType::none;
-  RemoteCommand command;  // read, write, nmt, lss: what to run (node filled in by the server)
+  bus::RemoteCommand command;  // read, write, nmt, lss: what to run (node filled in by the server)
   unsigned value = 0;     // set network / node / sdo_timeout
   AsciiError error = AsciiError::none;  // invalid
 };
@@ -76,4 +76,4 @@ struct AsciiRequest {
 // The value of an upload as `type` says; nullopt when the size does not fit the type.
 [[nodiscard]] std::optional<std::string> ascii_format(AsciiType type, std::span<const std::uint8_t> data);
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::control

@@ -14,7 +14,7 @@
 #include <cerrno>
 #include <cstdio>
 
-namespace cobridge::gateway {
+namespace cobridge::control {
 namespace {
 
 using canopen::kNever;
@@ -44,7 +44,7 @@ std::string refusal_reason(const std::string& who, bool allow_list_empty) {
 
 }  // namespace
 
-AsciiServer::AsciiServer(RemoteTarget& remote, AsciiServerOptions options) : remote_(remote), options_(options) {}
+AsciiServer::AsciiServer(bus::RemoteTarget& remote, AsciiServerOptions options) : remote_(remote), options_(options) {}
 
 AsciiServer::~AsciiServer() { close(); }
 
@@ -228,7 +228,7 @@ std::string AsciiServer::run(Client& c, AsciiRequest r) {
   }
   const unsigned net = r.net != 0 ? r.net : c.net;
   if (net == 0 || net > remote_.buses().size()) return ascii_error(seq, AsciiError::unsupported_net);
-  RemoteCommand& cmd = r.command;
+  bus::RemoteCommand& cmd = r.command;
   if (r.kind != AsciiRequest::Kind::lss) {
     const int node = r.node >= 0 ? r.node : c.node;
     if (node < 0) return ascii_error(seq, AsciiError::no_default_node);
@@ -257,7 +257,7 @@ std::string AsciiServer::run(Client& c, AsciiRequest r) {
 
 void AsciiServer::fill_command(AsciiRequest& r, std::uint8_t node, std::chrono::milliseconds sdo_timeout,
                                const std::string& who) {
-  RemoteCommand& cmd = r.command;
+  bus::RemoteCommand& cmd = r.command;
   cmd.node = node;
   cmd.sdo_timeout = sdo_timeout;
   cmd.deadline = std::max(std::chrono::milliseconds(10000), 8 * sdo_timeout);
@@ -277,16 +277,16 @@ void AsciiServer::deliver(TimePoint now) {
   }
 }
 
-std::string ascii_answer(const AsciiRequest& r, const RemoteResult& result) {
+std::string ascii_answer(const AsciiRequest& r, const bus::RemoteResult& result) {
   if (result.error) {
     if (result.abort_code != 0) return ascii_abort(r.seq, result.abort_code);
     if (r.kind == AsciiRequest::Kind::read || r.kind == AsciiRequest::Kind::write) {
       if (result.error.kind == Errc::kTimeout && result.error.code) return ascii_abort(r.seq, 0x05040000);
     }
     if (r.kind == AsciiRequest::Kind::lss && result.error.code.category().name() == std::string_view("lss_slave")) {
-      const auto last = r.command.lss_steps.empty() ? LssStep::Kind::switch_global : r.command.lss_steps.back().kind;
-      return ascii_error(r.seq, last == LssStep::Kind::store ? AsciiError::lss_store
-                                : last == LssStep::Kind::set_node_id ? AsciiError::lss_node_id
+      const auto last = r.command.lss_steps.empty() ? bus::LssStep::Kind::switch_global : r.command.lss_steps.back().kind;
+      return ascii_error(r.seq, last == bus::LssStep::Kind::store ? AsciiError::lss_store
+                                : last == bus::LssStep::Kind::set_node_id ? AsciiError::lss_node_id
                                                                       : AsciiError::lss_implementation);
     }
     return ascii_error(r.seq, result.error.kind == Errc::kTimeout ? AsciiError::timeout : AsciiError::internal_state);
@@ -298,7 +298,7 @@ std::string ascii_answer(const AsciiRequest& r, const RemoteResult& result) {
   if (r.kind == AsciiRequest::Kind::lss && !result.values.empty()) {
     std::string out = "[" + r.seq + "]";
     char buf[16];
-    const bool node_id = r.command.lss_steps.back().kind == LssStep::Kind::inquire_node_id;
+    const bool node_id = r.command.lss_steps.back().kind == bus::LssStep::Kind::inquire_node_id;
     for (const auto v : result.values) {
       std::snprintf(buf, sizeof buf, node_id ? "%u" : "0x%08X", node_id ? (v & 0xFF) : v);
       out += std::string(" ") + buf;
@@ -313,4 +313,4 @@ void AsciiServer::drop(Client& c) {
   c.fd = -1;
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::control

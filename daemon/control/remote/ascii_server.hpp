@@ -44,7 +44,7 @@
 #include <system_error>
 #include <vector>
 
-namespace cobridge::gateway {
+namespace cobridge::control {
 
 struct AsciiServerOptions {
   std::size_t max_clients = 128;
@@ -58,7 +58,7 @@ struct AsciiServerOptions {
 
 class AsciiServer {
  public:
-  AsciiServer(RemoteTarget& remote, AsciiServerOptions options);
+  AsciiServer(bus::RemoteTarget& remote, AsciiServerOptions options);
   ~AsciiServer();
   AsciiServer(const AsciiServer&) = delete;
   AsciiServer& operator=(const AsciiServer&) = delete;
@@ -101,13 +101,13 @@ class AsciiServer {
   void deliver(canopen::TimePoint now);
   void drop(Client& c);
 
-  RemoteTarget& remote_;
+  bus::RemoteTarget& remote_;
   AsciiServerOptions options_;
   int unix_fd_ = -1;
   int tcp_fd_ = -1;
   std::filesystem::path unix_path_;
   std::vector<Client> clients_;
-  std::shared_ptr<RemoteReplies> replies_ = std::make_shared<RemoteReplies>();
+  std::shared_ptr<bus::RemoteReplies> replies_ = std::make_shared<bus::RemoteReplies>();
   std::uint64_t next_tag_ = 1;
   PollSlot unix_slot_;
   PollSlot tcp_slot_;
@@ -115,6 +115,6 @@ class AsciiServer {
 };
 
 // The answer line to a finished RemoteCommand of request `r`.
-[[nodiscard]] std::string ascii_answer(const AsciiRequest& r, const RemoteResult& result);
+[[nodiscard]] std::string ascii_answer(const AsciiRequest& r, const bus::RemoteResult& result);
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::control

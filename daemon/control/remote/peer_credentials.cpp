@@ -6,7 +6,7 @@
 #include <algorithm>
 #include <cerrno>
 
-namespace cobridge::gateway {
+namespace cobridge::control {
 namespace {
 
 // SO_PEERGROUPS (Linux 4.13): the peer's supplementary groups at connect().
@@ -71,4 +71,4 @@ std::string write_group_refusal(const PeerCredentials& peer, const std::string& 
   return "uid " + std::to_string(peer.uid) + " is not in " + rule;
 }
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::control

@@ -28,7 +28,7 @@
 #include <string>
 #include <vector>
 
-namespace cobridge::gateway {
+namespace cobridge::control {
 
 inline constexpr uid_t kNoUid = static_cast<uid_t>(-1);  // no user has it (setresuid's "unchanged")
 inline constexpr gid_t kNoGid = static_cast<gid_t>(-1);
@@ -60,4 +60,4 @@ struct PeerCredentials {
 [[nodiscard]] std::string write_group_refusal(const PeerCredentials& peer, const std::string& write_group,
                                               uid_t daemon_uid);
 
-}  // namespace cobridge::gateway
+}  // namespace cobridge::control

@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 namespace {
 
 using namespace std::chrono_literals;
@@ -42,4 +42,4 @@ TEST(BusHealthGate, TransitionsAtOnceCountersAtMostOncePerPeriod) {
 }
 
 }  // namespace
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

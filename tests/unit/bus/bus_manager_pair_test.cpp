@@ -13,7 +13,7 @@
 
 #include "unit/bus/virtual_line.hpp"
 
-namespace cobridge::gateway::test {
+namespace cobridge::bus::test {
 namespace {
 
 constexpr std::uint8_t kNodeA = 120;
@@ -200,4 +200,4 @@ TEST(BusManagerPair, Cia302_2_StormOf0x76BoundedRoleChanges) {
 }
 
 }  // namespace
-}  // namespace cobridge::gateway::test
+}  // namespace cobridge::bus::test

@@ -14,7 +14,7 @@
 #include "sys/logging.hpp"
 #include "unit/bus/virtual_line.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 namespace {
 
 TEST(BusManagerStart, OpenFailureIsReturnedWithItsWhereAndLoggedByNobodyBelow) {
@@ -44,4 +44,4 @@ TEST(BusManagerStart, OpenFailureIsReturnedWithItsWhereAndLoggedByNobodyBelow) {
 }
 
 }  // namespace
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -12,7 +12,7 @@
 #include "canopen/cob_id.hpp"
 #include "unit/bus/virtual_line.hpp"
 
-namespace cobridge::gateway::test {
+namespace cobridge::bus::test {
 namespace {
 
 const char* const kBus = "bitrate = 250\ndiscovery_period_s = 30\nnode_pool = \"40-60\"\n";
@@ -402,4 +402,4 @@ TEST(BusManagerLine, ReloadWritesTheChangedSetting) {
 }
 
 }  // namespace
-}  // namespace cobridge::gateway::test
+}  // namespace cobridge::bus::test

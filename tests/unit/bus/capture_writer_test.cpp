@@ -15,7 +15,7 @@
 #include <sstream>
 #include <unistd.h>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 namespace {
 
 namespace fs = std::filesystem;
@@ -380,4 +380,4 @@ TEST_F(CaptureWriterTest, TheThreadWritesADueCaptureOnItsOwn) {
 }
 
 }  // namespace
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

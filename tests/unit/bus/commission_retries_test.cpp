@@ -5,7 +5,7 @@
 
 #include <gtest/gtest.h>
 
-namespace cobridge::gateway::discovery {
+namespace cobridge::bus::discovery {
 namespace {
 
 using namespace std::chrono_literals;
@@ -50,4 +50,4 @@ TEST(CommissionRetries, EveryFailureCountsAndOnlySuccessEndsTheTries) {
 }
 
 }  // namespace
-}  // namespace cobridge::gateway::discovery
+}  // namespace cobridge::bus::discovery

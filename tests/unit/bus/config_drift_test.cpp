@@ -8,7 +8,7 @@
 
 #include <array>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 namespace {
 
 PlanStep write_step(const char* label, std::uint16_t index, std::uint8_t sub, std::uint8_t size, std::uint32_t value,
@@ -144,4 +144,4 @@ TEST(ConfigDrift, TheSameWriteAgainRepeatsItsOpenRecord) {
 }
 
 }  // namespace
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

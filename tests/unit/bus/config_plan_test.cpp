@@ -11,7 +11,7 @@
 #include "device/family_profile.hpp"
 #include "unit/device/source_paths.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 namespace {
 
 using config::Signal;
@@ -538,4 +538,4 @@ TEST(CommandPlan, F7_3_IfmStoreIsOneSave) {
 }
 
 }  // namespace
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -4,7 +4,7 @@
 
 #include <gtest/gtest.h>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 namespace {
 
 using namespace std::chrono_literals;
@@ -90,4 +90,4 @@ TEST(DeviceTimeline, KeptEventsStartTheTimelineAndAreBoundedToo) {
 }
 
 }  // namespace
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

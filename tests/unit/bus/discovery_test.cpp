@@ -26,7 +26,7 @@
 #include "bus/state_store.hpp"
 #include "unit/device/source_paths.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 namespace {
 
 using namespace std::chrono_literals;
@@ -1226,4 +1226,4 @@ TEST(DiscoveryTest, EventTextsDoNotRepeatTheBusName) {
 }
 
 }  // namespace
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -6,7 +6,7 @@
 
 #include "bus/fastscan_knowledge.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 namespace {
 
 using canopen::FastscanTarget;
@@ -152,4 +152,4 @@ TEST(FastscanKnowledge, NoDuplicateTargets) {
 }
 
 }  // namespace
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -7,7 +7,7 @@
 
 #include <chrono>
 
-namespace cobridge::gateway::discovery {
+namespace cobridge::bus::discovery {
 namespace {
 
 using namespace std::chrono_literals;
@@ -98,4 +98,4 @@ TEST(FastscanSearchTest, SlowscanOnlyForThePreFastscanProductsSeen_J1_2_1) {
 }
 
 }  // namespace
-}  // namespace cobridge::gateway::discovery
+}  // namespace cobridge::bus::discovery

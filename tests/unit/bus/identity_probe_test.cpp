@@ -8,7 +8,7 @@
 #include <chrono>
 #include <vector>
 
-namespace cobridge::gateway::discovery {
+namespace cobridge::bus::discovery {
 namespace {
 
 using namespace std::chrono_literals;
@@ -142,4 +142,4 @@ TEST_F(IdentityProbeTest, DisabledProbeAsksNobody) {
 }
 
 }  // namespace
-}  // namespace cobridge::gateway::discovery
+}  // namespace cobridge::bus::discovery

@@ -5,7 +5,7 @@
 
 #include <gtest/gtest.h>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 namespace {
 
 using namespace std::chrono_literals;
@@ -46,4 +46,4 @@ TEST(LogBudget, QuietSourceIsNeverCut) {
 }
 
 }  // namespace
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-namespace cobridge::gateway::discovery {
+namespace cobridge::bus::discovery {
 namespace {
 
 constexpr std::uint32_t kNovotechnik = 0x182;
@@ -371,4 +371,4 @@ TEST_F(NodeAssignmentTest, InputIsNotChanged) {
 }
 
 }  // namespace
-}  // namespace cobridge::gateway::discovery
+}  // namespace cobridge::bus::discovery

@@ -8,7 +8,7 @@
 using namespace cobridge;
 
 TEST(PlanError, BecomesTheProjectsErrorShape) {
-  const gateway::PlanError e{"lift", "cam 5", "the multiturn series has 4 CAMs (E§3.4)", false};
+  const bus::PlanError e{"lift", "cam 5", "the multiturn series has 4 CAMs (E§3.4)", false};
   const Error error = e.to_error();
   EXPECT_EQ(error.kind, Errc::kInvalidArgument);
   EXPECT_EQ(error.where, "device 'lift': cam 5");

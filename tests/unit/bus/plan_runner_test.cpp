@@ -26,7 +26,7 @@
 #include "bus/config_plan.hpp"
 #include "unit/device/source_paths.hpp"
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 namespace {
 
 using namespace std::chrono_literals;
@@ -630,4 +630,4 @@ TEST(PlanRunnerSim, F7_4_IfmFirstRunThenNothing) {
 }
 
 }  // namespace
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -16,7 +16,7 @@ using namespace std::chrono_literals;
 using cobridge::Errc;
 using cobridge::can::Frame;
 using cobridge::canopen::TimePoint;
-namespace gw = cobridge::gateway;
+namespace gw = cobridge::bus;
 
 namespace {
 

@@ -11,8 +11,8 @@
 #include <thread>
 #include <vector>
 
-using cobridge::gateway::RemoteReplies;
-using cobridge::gateway::RemoteResult;
+using cobridge::bus::RemoteReplies;
+using cobridge::bus::RemoteResult;
 
 namespace {
 

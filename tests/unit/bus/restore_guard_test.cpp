@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 namespace {
 
 using namespace std::chrono_literals;
@@ -86,4 +86,4 @@ TEST(RestoreGuard, AcknowledgeStartsTheCountsOver) {
 }
 
 }  // namespace
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

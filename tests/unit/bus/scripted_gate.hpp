@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-namespace cobridge::gateway::testing {
+namespace cobridge::bus::testing {
 
 struct RecordingSink : can::FrameSink {
   bool send(const can::Frame& f) noexcept override {
@@ -59,4 +59,4 @@ struct RemoteBus {
   canopen::TimePoint t0 = canopen::TimePoint{} + std::chrono::hours(1);
 };
 
-}  // namespace cobridge::gateway::testing
+}  // namespace cobridge::bus::testing

@@ -18,7 +18,7 @@
 #include <sstream>
 #include <thread>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 namespace {
 
 namespace fs = std::filesystem;
@@ -424,4 +424,4 @@ TEST_F(StateStoreTest, Issue38_AReloadWaitsForTheWriteInTheDiskAndAHoldStopsTheW
 }
 
 }  // namespace
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

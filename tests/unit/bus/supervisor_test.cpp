@@ -14,13 +14,13 @@
 
 #include <vector>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 namespace {
 
 using namespace std::chrono_literals;
 using canopen::NmtState;
 using canopen::TimePoint;
-namespace fam = device::families;
+namespace fam = cobridge::families;
 
 class CaptureSink final : public can::FrameSink {
  public:
@@ -355,9 +355,9 @@ TEST_F(SupervisorTest, Cia301_7_2_8_3_2_2_BackPreOperationalAfterLossIsReported)
 }
 
 }  // namespace
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 namespace {
 
 // on_config_drift = "keep": a client set the producer
@@ -383,4 +383,4 @@ TEST_F(SupervisorTest, Issue29_ConsumerFollowsAProducerTimeTheGatewayKeeps) {
 }
 
 }  // namespace
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

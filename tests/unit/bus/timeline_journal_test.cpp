@@ -12,7 +12,7 @@
 #include <fstream>
 #include <sstream>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 namespace {
 
 namespace fs = std::filesystem;
@@ -244,4 +244,4 @@ TEST_F(TimelineJournalTest, AMissingFileIsNoHistory) {
 }
 
 }  // namespace
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -11,7 +11,7 @@
 #include <map>
 #include <thread>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 namespace {
 
 namespace fs = std::filesystem;
@@ -64,4 +64,4 @@ TEST_F(TimelineJournalThreadTest, AFailingDiskIsNoCrashAndTheEventsWaitForTheNex
 }
 
 }  // namespace
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus

@@ -33,7 +33,7 @@
 #include "sys/logging.hpp"
 #include "unit/device/source_paths.hpp"
 
-namespace cobridge::gateway::test {
+namespace cobridge::bus::test {
 
 using namespace std::chrono_literals;
 using canopen::TimePoint;
@@ -263,7 +263,7 @@ class VirtualLine {
 
   const device::DeviceDescription& description_of(const sim::ModelInfo& m) {
     std::string file = std::string(m.eds_stem);
-    if (m.family == device::families::FamilyId::novotechnik_rotary) file += "-1ch";
+    if (m.family == families::FamilyId::novotechnik_rotary) file += "-1ch";
     auto r = device::load_eds_file(device::test::shipped_devices_dir() / (file + ".eds"));
     EXPECT_TRUE(r.ok()) << file;
     descriptions_.push_back(std::make_unique<device::DeviceDescription>(*r.description));
@@ -315,4 +315,4 @@ class VirtualLine {
   std::vector<Encoder> devices_;
 };
 
-}  // namespace cobridge::gateway::test
+}  // namespace cobridge::bus::test

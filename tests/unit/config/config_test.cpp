@@ -579,7 +579,7 @@ TEST(KnownModels, MatchTheManuals) {
   EXPECT_EQ(rfc->max_channels, 2);
   const KnownModel* mc1 = find_model("MC1-2800");
   ASSERT_NE(mc1, nullptr);
-  EXPECT_EQ(mc1->family, device::families::FamilyId::novotechnik_multiturn);
+  EXPECT_EQ(mc1->family, families::FamilyId::novotechnik_multiturn);
   EXPECT_NE(std::find(mc1->products.begin(), mc1->products.end(), 0x0BB8U), mc1->products.end());
   EXPECT_NE(std::find(mc1->products.begin(), mc1->products.end(), 0x0BB9U), mc1->products.end());
   const KnownModel* rm9 = find_model("RM9");
@@ -590,7 +590,7 @@ TEST(KnownModels, MatchTheManuals) {
   // F§7.3 0x1008: the device calls itself "RM9000"; the config accepts that name too.
   const KnownModel* rm9000 = find_model("RM9000");
   ASSERT_NE(rm9000, nullptr);
-  EXPECT_EQ(rm9000->family, device::families::FamilyId::ifm_rm);
+  EXPECT_EQ(rm9000->family, families::FamilyId::ifm_rm);
 }
 
 }  // namespace

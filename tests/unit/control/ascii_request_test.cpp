@@ -9,13 +9,15 @@
 #include <string>
 #include <vector>
 
-using cobridge::gateway::AsciiError;
-using cobridge::gateway::AsciiRequest;
-using cobridge::gateway::AsciiType;
-using cobridge::gateway::LssStep;
-using cobridge::gateway::RemoteOp;
-using cobridge::gateway::ascii_format;
-using cobridge::gateway::parse_ascii_request;
+namespace bus = cobridge::bus;
+
+using cobridge::control::AsciiError;
+using cobridge::control::AsciiRequest;
+using cobridge::control::AsciiType;
+using cobridge::bus::LssStep;
+using cobridge::bus::RemoteOp;
+using cobridge::control::ascii_format;
+using cobridge::control::parse_ascii_request;
 
 TEST(AsciiRequest, ReadWithNetNodeAndType) {
   const auto r = parse_ascii_request("[12] 1 10 read 0x1017 0 u16");
@@ -37,7 +39,7 @@ TEST(AsciiRequest, ReadWithNetNodeAndType) {
 TEST(AsciiRequest, WriteEncodesLittleEndian) {
   const auto r = parse_ascii_request("[3] 10 w 0x1017 0 u16 1000");
   ASSERT_EQ(r.kind, AsciiRequest::Kind::write);
-  EXPECT_EQ(r.command.op, RemoteOp::sdo_download);
+  EXPECT_EQ(r.command.op, bus::RemoteOp::sdo_download);
   EXPECT_EQ(r.command.data, (std::vector<std::uint8_t>{0xE8, 0x03}));
   const auto i = parse_ascii_request("[4] 10 w 0x2000 0 i8 -2");
   EXPECT_EQ(i.command.data, (std::vector<std::uint8_t>{0xFE}));
@@ -54,7 +56,7 @@ TEST(AsciiRequest, NmtLssSetInfo) {
   const auto l = parse_ascii_request("[7] 1 lss_switch_sel 0x4E 2 3 1001");
   ASSERT_EQ(l.kind, AsciiRequest::Kind::lss);
   EXPECT_EQ(l.net, 1U);
-  EXPECT_EQ(l.command.lss_steps[0].kind, LssStep::Kind::switch_selective);
+  EXPECT_EQ(l.command.lss_steps[0].kind, bus::LssStep::Kind::switch_selective);
   EXPECT_EQ(parse_ascii_request("[8] lss_inquire_addr").command.lss_steps.size(), 4U);
   EXPECT_EQ(parse_ascii_request("[9] lss_set_node 200").error, AsciiError::lss_node_id);
   EXPECT_EQ(parse_ascii_request("[9] set node 5").kind, AsciiRequest::Kind::set_node);
@@ -88,10 +90,10 @@ TEST(AsciiRequest, FormatsByType) {
 // CiA 309-3 (answer syntax): every answer ends with CR LF; `cocomm` reads up
 // to "\r\n" and waits for ever on a bare LF.
 TEST(AsciiRequest, AnswerLinesEndWithCrLf) {
-  using cobridge::gateway::ascii_abort;
-  using cobridge::gateway::ascii_error;
-  using cobridge::gateway::ascii_line;
-  using cobridge::gateway::ascii_ok;
+  using cobridge::control::ascii_abort;
+  using cobridge::control::ascii_error;
+  using cobridge::control::ascii_line;
+  using cobridge::control::ascii_ok;
   EXPECT_EQ(ascii_line(ascii_ok("1")), "[1] OK\r\n");
   EXPECT_EQ(ascii_line(ascii_error("2", AsciiError::syntax)), "[2] ERROR: 101\r\n");
   EXPECT_EQ(ascii_line(ascii_abort("3", 0x06020000)), "[3] ERROR: 0x06020000\r\n");

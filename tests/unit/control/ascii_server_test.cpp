@@ -24,15 +24,17 @@
 #include <filesystem>
 #include <fstream>
 
+namespace bus = cobridge::bus;
+
 namespace {
 
 using cobridge::Errc;
-using namespace cobridge::gateway;
+using namespace cobridge::control;
 
-class NoBuses final : public RemoteTarget {
+class NoBuses final : public bus::RemoteTarget {
  public:
-  [[nodiscard]] std::vector<RemoteBus> buses() const override { return {}; }
-  [[nodiscard]] cobridge::Error submit(std::string_view, RemoteCommand, std::shared_ptr<RemoteReplies>) override {
+  [[nodiscard]] std::vector<bus::RemoteBus> buses() const override { return {}; }
+  [[nodiscard]] cobridge::Error submit(std::string_view, bus::RemoteCommand, std::shared_ptr<bus::RemoteReplies>) override {
     return cobridge::Error(Errc::kNotFound, "no bus");
   }
   [[nodiscard]] std::optional<cobridge::config::RemoteAccess> access() const override { return std::nullopt; }
@@ -78,7 +80,7 @@ TEST(AsciiServer, OpensOnAFreshPathWithMode0660) {
   std::filesystem::remove_all(dir);
 }
 
-using cobridge::gateway::testing::HeldCommands;
+using cobridge::control::testing::HeldCommands;
 
 // What a client reads within `ms`, without the server turning meanwhile, as
 // `cocomm` reads an answer: up to CR LF (CiA 309-3), returned without it; a
@@ -145,7 +147,7 @@ TEST(AsciiServer, ReadAnswerIsWrittenByTheServersTurnInOrder) {
   HeldGateway g;
   g.send("[1] 1 20 r 0x1018 4 u32\n[2] 1 20 r 0x1018 1 u32\n");  // pipelined
   ASSERT_TRUE(g.run_until_held(1));
-  RemoteResult r;
+  bus::RemoteResult r;
   r.data = {0xD1, 0x07, 0x00, 0x00};
   ASSERT_TRUE(g.bus.finish(r));
   EXPECT_EQ(read_line(g.fd, 100), "<timeout>") << "the answer was written by a thread other than the owner";
@@ -176,7 +178,7 @@ TEST(AsciiServer, AReadUsesTheConnectionsDefaultsAndLaterLinesWaitTheirTurn) {
   g.send("[6] info version\n");
   g.turn();
   EXPECT_EQ(read_line(g.fd, 100), "<timeout>") << "a line was answered before the read it follows";
-  RemoteResult r;
+  bus::RemoteResult r;
   r.data = {0xD1, 0x07, 0x00, 0x00};
   ASSERT_TRUE(g.bus.finish(r));
   g.turn();
@@ -207,7 +209,7 @@ TEST(AsciiServer, EveryAnswerEndsWithCrLfAndCrLfRequestsAreServed) {
   // A bus command's result.
   g.send("[6] r 0x1018 4 u32\r\n");
   ASSERT_TRUE(g.run_until_held(1));
-  RemoteResult r;
+  bus::RemoteResult r;
   r.data = {0xD1, 0x07, 0x00, 0x00};
   ASSERT_TRUE(g.bus.finish(r));
   g.turn();
@@ -216,7 +218,7 @@ TEST(AsciiServer, EveryAnswerEndsWithCrLfAndCrLfRequestsAreServed) {
   // A device's abort.
   g.send("[7] 1 20 r 0x1018 1 u32\r\n");
   ASSERT_TRUE(g.run_until_held(1));
-  RemoteResult abort;
+  bus::RemoteResult abort;
   abort.error = cobridge::Error(Errc::kFailed, "aborted");
   abort.abort_code = 0x06020000;
   ASSERT_TRUE(g.bus.finish(abort));

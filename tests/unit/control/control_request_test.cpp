@@ -4,17 +4,19 @@
 
 #include <gtest/gtest.h>
 
+namespace bus = cobridge::bus;
+
 using cobridge::Errc;
-using cobridge::gateway::ControlRequest;
-using cobridge::gateway::LssStep;
-using cobridge::gateway::parse_control_request;
-using cobridge::gateway::RemoteOp;
+using cobridge::control::ControlRequest;
+using cobridge::bus::LssStep;
+using cobridge::control::parse_control_request;
+using cobridge::bus::RemoteOp;
 
 TEST(ControlRequest, SdoReadOfAnObject) {
   const auto r = parse_control_request("sdo-read vcan0 10 1018 4 250");
   ASSERT_EQ(r.kind, ControlRequest::Kind::remote) << r.error.message;
   EXPECT_EQ(r.bus, "vcan0");
-  EXPECT_EQ(r.command.op, RemoteOp::sdo_upload);
+  EXPECT_EQ(r.command.op, bus::RemoteOp::sdo_upload);
   EXPECT_EQ(r.command.node, 10);
   EXPECT_EQ(r.command.index, 0x1018);
   EXPECT_EQ(r.command.sub, 4);
@@ -32,16 +34,16 @@ TEST(ControlRequest, SdoWriteCarriesTheWireBytes) {
 TEST(ControlRequest, NmtAndLss) {
   const auto n = parse_control_request("nmt line1 reset-comm 0");
   ASSERT_EQ(n.kind, ControlRequest::Kind::remote);
-  EXPECT_EQ(n.command.op, RemoteOp::nmt);
+  EXPECT_EQ(n.command.op, bus::RemoteOp::nmt);
   EXPECT_EQ(n.command.nmt, cobridge::canopen::NmtCommand::reset_comm);
   EXPECT_EQ(n.command.node, 0);
   const auto l = parse_control_request("lss-set-node-id line1 0x4E 0x1234 1 1001 12 store");
   ASSERT_EQ(l.kind, ControlRequest::Kind::remote) << l.error.message;
   ASSERT_EQ(l.command.lss_steps.size(), 4U);
-  EXPECT_EQ(l.command.lss_steps[0].kind, LssStep::Kind::switch_selective);
+  EXPECT_EQ(l.command.lss_steps[0].kind, bus::LssStep::Kind::switch_selective);
   EXPECT_EQ(l.command.lss_steps[0].address.serial, 1001U);
   EXPECT_EQ(l.command.lss_steps[1].value, 12U);
-  EXPECT_EQ(l.command.lss_steps[3].kind, LssStep::Kind::switch_global);
+  EXPECT_EQ(l.command.lss_steps[3].kind, bus::LssStep::Kind::switch_global);
 }
 
 TEST(ControlRequest, BadArgumentsAreInvalidArgument) {

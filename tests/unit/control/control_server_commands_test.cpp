@@ -28,8 +28,10 @@
 #include <thread>
 #include <vector>
 
+namespace bus = cobridge::bus;
+
 // The names every control-server test uses: tests/unit/control/control_server_fixture.hpp.
-using cobridge::gateway::testing::HeldCommands;
+using cobridge::control::testing::HeldCommands;
 using cobridge::test::eventually;
 
 // One owning thread per connection: a finished command's result alone
@@ -71,7 +73,7 @@ TEST(ControlServer, OnlyTheMainLoopWritesACommandsAnswer) {
   };
   c.send("sdo-read line1 20 1018 4\n");
   ASSERT_TRUE(run_until_held(1));
-  RemoteResult r;
+  bus::RemoteResult r;
   r.data = {0xD1, 0x07, 0x00, 0x00};
   ASSERT_TRUE(bus.finish(r));
   EXPECT_EQ(c.line(kAbsenceWindow), "<timeout>") << "the answer was written by a thread other than the owner";
@@ -103,7 +105,7 @@ TEST(ControlServer, AnswerTheSocketCannotTakeIsFinishedByTheMainLoop) {
   ASSERT_TRUE(c.connected());
   c.send("sdo-read line1 20 2000 0\n");
   ASSERT_TRUE(eventually([&] { return bus.held() != 0; }, 2s));
-  RemoteResult r;
+  bus::RemoteResult r;
   r.data.assign(400000, 0xAB);
   ASSERT_TRUE(bus.finish(r));
   const std::string a = c.line(5000ms);
@@ -152,7 +154,7 @@ struct SlowTick {
   }
   // Ends the oldest held command with a 4-byte value (little-endian).
   bool finish(std::uint32_t value) {
-    RemoteResult r;
+    bus::RemoteResult r;
     r.data = {static_cast<std::uint8_t>(value), static_cast<std::uint8_t>(value >> 8),
               static_cast<std::uint8_t>(value >> 16), static_cast<std::uint8_t>(value >> 24)};
     return bus.finish(r);

@@ -25,7 +25,7 @@
 #include <thread>
 #include <vector>
 
-namespace cobridge::gateway::testing {
+namespace cobridge::control::testing {
 
 using namespace std::chrono_literals;
 using Clock = std::chrono::steady_clock;
@@ -205,27 +205,27 @@ inline config::RemoteAccess writes_open() {
 constexpr auto kAbsenceWindow = 100ms;
 
 
-}  // namespace cobridge::gateway::testing
+}  // namespace cobridge::control::testing
 
 // The names the control-server tests use, for both of their files.
 using namespace std::chrono_literals;
 using cobridge::Errc;
 using cobridge::Error;
-using cobridge::gateway::BusStatus;
-using cobridge::gateway::ControlHandler;
-using cobridge::gateway::ControlServer;
-using cobridge::gateway::ControlServerOptions;
-using cobridge::gateway::DeviceState;
-using cobridge::gateway::DeviceStatus;
-using cobridge::gateway::RemoteBus;
-using cobridge::gateway::RemoteCommand;
-using cobridge::gateway::RemoteReplies;
-using cobridge::gateway::RemoteResult;
-using cobridge::gateway::RemoteTarget;
-using cobridge::gateway::StatusReport;
+using cobridge::bus::BusStatus;
+using cobridge::control::ControlHandler;
+using cobridge::control::ControlServer;
+using cobridge::control::ControlServerOptions;
+using cobridge::bus::DeviceState;
+using cobridge::bus::DeviceStatus;
+using cobridge::bus::RemoteBus;
+using cobridge::bus::RemoteCommand;
+using cobridge::bus::RemoteReplies;
+using cobridge::bus::RemoteResult;
+using cobridge::bus::RemoteTarget;
+using cobridge::control::StatusReport;
 using Clock = std::chrono::steady_clock;
-using cobridge::gateway::testing::Client;
-using cobridge::gateway::testing::FakeHandler;
-using cobridge::gateway::testing::ServerLoop;
-using cobridge::gateway::testing::fast_options;
-using cobridge::gateway::testing::kAbsenceWindow;
+using cobridge::control::testing::Client;
+using cobridge::control::testing::FakeHandler;
+using cobridge::control::testing::ServerLoop;
+using cobridge::control::testing::fast_options;
+using cobridge::control::testing::kAbsenceWindow;

@@ -26,10 +26,12 @@
 #include <thread>
 #include <vector>
 
+namespace bus = cobridge::bus;
+
 // The names every control-server test uses: tests/unit/control/control_server_fixture.hpp.
-using cobridge::gateway::testing::HeldCommands;
+using cobridge::control::testing::HeldCommands;
 using cobridge::test::eventually;
-using cobridge::gateway::testing::writes_open;
+using cobridge::control::testing::writes_open;
 namespace config = cobridge::config;
 
 namespace {
@@ -40,30 +42,30 @@ StatusReport sample_report() {
   r.version = "0.1.0";
   r.pid = 4242;
   r.ready = true;
-  BusStatus b;
+  bus::BusStatus b;
   b.name = "line1";
   b.interface = "vcan0";
   b.open = true;
   b.rx_frames = 1234;
-  DeviceStatus d;
+  bus::DeviceStatus d;
   d.name = "turntable";
   d.bus = "line1";
   d.node_id = 10;
   d.identity = {0x182, 0x0BE0, 0x10003, 40012};
   d.model = "RFC-4800";
   d.family = "novotechnik-rotary";
-  d.state = DeviceState::operational;
+  d.state = bus::DeviceState::operational;
   d.nmt = cobridge::canopen::NmtState::operational;
   d.online = true;
-  d.since = cobridge::gateway::WallTime{std::chrono::milliseconds(1714564800123)};
+  d.since = cobridge::bus::WallTime{std::chrono::milliseconds(1714564800123)};
   d.last_emcy_code = 0x5000;
   d.last_emcy_text = "hardware \"fault\"\n";
   d.emcy_count = 1;
   b.devices.push_back(d);
-  DeviceStatus e = d;
+  bus::DeviceStatus e = d;
   e.name = "winch";
   e.node_id = 0;
-  e.state = DeviceState::offline;
+  e.state = bus::DeviceState::offline;
   e.online = false;
   e.emcy_count = 0;
   e.last_emcy_code = 0;
@@ -375,13 +377,13 @@ TEST(ControlServer, SocketModeStaleFileAndLiveDaemon) {
 // sd_notify STATUS= text (docs/operations.md): buses and operational devices.
 TEST(ControlServer, SummaryCountsOperationalDevices) {
   auto r = sample_report();
-  EXPECT_EQ(cobridge::gateway::summary(r.buses), "1 bus, 1/2 devices operational");
-  BusStatus missing;
+  EXPECT_EQ(cobridge::control::summary(r.buses), "1 bus, 1/2 devices operational");
+  bus::BusStatus missing;
   missing.name = "line2";
   missing.interface = "can1";
   r.buses.push_back(missing);
   // The bus whose adapter is missing is named.
-  EXPECT_EQ(cobridge::gateway::summary(r.buses),
+  EXPECT_EQ(cobridge::control::summary(r.buses),
             "2 buses (1 open; waiting for line2 (can1)), 1/2 devices operational");
 }
 

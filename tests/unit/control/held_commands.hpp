@@ -20,12 +20,12 @@
 #include <utility>
 #include <vector>
 
-namespace cobridge::gateway::testing {
+namespace cobridge::control::testing {
 
-class HeldCommands final : public RemoteTarget {
+class HeldCommands final : public bus::RemoteTarget {
  public:
-  [[nodiscard]] std::vector<RemoteBus> buses() const override { return {{"line1", "vcan0", 1}}; }
-  [[nodiscard]] Error submit(std::string_view, RemoteCommand command, std::shared_ptr<RemoteReplies> to) override {
+  [[nodiscard]] std::vector<bus::RemoteBus> buses() const override { return {{"line1", "vcan0", 1}}; }
+  [[nodiscard]] Error submit(std::string_view, bus::RemoteCommand command, std::shared_ptr<bus::RemoteReplies> to) override {
     const std::lock_guard lock(mutex_);
     held_.emplace_back(std::move(command), std::move(to));
     return {};
@@ -45,8 +45,8 @@ class HeldCommands final : public RemoteTarget {
     return held_.size();
   }
   // False when no command waits.
-  bool finish(RemoteResult result) {
-    std::pair<RemoteCommand, std::shared_ptr<RemoteReplies>> oldest;
+  bool finish(bus::RemoteResult result) {
+    std::pair<bus::RemoteCommand, std::shared_ptr<bus::RemoteReplies>> oldest;
     {
       const std::lock_guard lock(mutex_);
       if (held_.empty()) return false;
@@ -58,7 +58,7 @@ class HeldCommands final : public RemoteTarget {
     return true;
   }
   // The oldest command still waiting, as the bus would run it (a copy).
-  [[nodiscard]] std::optional<RemoteCommand> oldest() const {
+  [[nodiscard]] std::optional<bus::RemoteCommand> oldest() const {
     const std::lock_guard lock(mutex_);
     if (held_.empty()) return std::nullopt;
     return held_.front().first;
@@ -67,7 +67,7 @@ class HeldCommands final : public RemoteTarget {
  private:
   mutable std::mutex mutex_;
   std::optional<config::RemoteAccess> access_;
-  std::deque<std::pair<RemoteCommand, std::shared_ptr<RemoteReplies>>> held_;
+  std::deque<std::pair<bus::RemoteCommand, std::shared_ptr<bus::RemoteReplies>>> held_;
 };
 
-}  // namespace cobridge::gateway::testing
+}  // namespace cobridge::control::testing

@@ -12,7 +12,7 @@
 
 namespace {
 
-using cobridge::gateway::LineConnection;
+using cobridge::control::LineConnection;
 
 class LineConnectionTest : public ::testing::Test {
  protected:
@@ -49,8 +49,8 @@ TEST_F(LineConnectionTest, ALineIsTakenWithoutItsLfOrCrLf) {
   EXPECT_EQ(conn_.take_line(), "[2] help");
   EXPECT_EQ(conn_.take_line(), "");
   EXPECT_EQ(conn_.in, "");
-  EXPECT_EQ(cobridge::gateway::line_body("a\rb\r\r\n"), "a\rb\r");
-  EXPECT_EQ(cobridge::gateway::line_body("half\r"), "half");
+  EXPECT_EQ(cobridge::control::line_body("a\rb\r\r\n"), "a\rb\r");
+  EXPECT_EQ(cobridge::control::line_body("half\r"), "half");
 }
 
 TEST_F(LineConnectionTest, BuffersAtMostOneLinePlusOneByte) {

@@ -22,10 +22,10 @@
 #include <string>
 #include <vector>
 
-using cobridge::gateway::peer_credentials;
-using cobridge::gateway::peer_in_group;
-using cobridge::gateway::PeerCredentials;
-using cobridge::gateway::write_group_refusal;
+using cobridge::control::peer_credentials;
+using cobridge::control::peer_in_group;
+using cobridge::control::PeerCredentials;
+using cobridge::control::write_group_refusal;
 
 namespace {
 

@@ -6,7 +6,7 @@
 
 namespace {
 
-using cobridge::gateway::PollSlot;
+using cobridge::control::PollSlot;
 
 TEST(PollSlot, UnknownCountsAsReady) {
   PollSlot s;

@@ -21,6 +21,7 @@
 using namespace cobridge::device;
 using cobridge::device::test::fixture;
 using cobridge::device::test::shipped_devices_dir;
+namespace families = cobridge::families;
 
 namespace {
 

@@ -6,7 +6,7 @@
 
 #include <array>
 
-namespace cobridge::device::families {
+namespace cobridge::families {
 namespace {
 
 constexpr std::array<EmcyRow, 3> kRows{{
@@ -37,4 +37,4 @@ TEST(EmcyTable, EmptyTableFindsNothing) {
 }
 
 }  // namespace
-}  // namespace cobridge::device::families
+}  // namespace cobridge::families

@@ -13,7 +13,7 @@
 #include <set>
 #include <string>
 
-using namespace cobridge::device::families;
+using namespace cobridge::families;
 
 namespace {
 std::filesystem::path devices_dir() {

@@ -3,7 +3,7 @@
 
 #include <gtest/gtest.h>
 
-namespace cobridge::device::families {
+namespace cobridge::families {
 namespace {
 
 // F§4 / F§7.3 0x1003: one EMCY object but no code table, so the module
@@ -14,4 +14,4 @@ TEST(IfmRmEmcy, F4_NoCodeTable) {
 }
 
 }  // namespace
-}  // namespace cobridge::device::families
+}  // namespace cobridge::families

@@ -9,7 +9,7 @@
 
 #include "families/novotechnik.hpp"
 
-namespace cobridge::device::families {
+namespace cobridge::families {
 namespace {
 
 const EmcyRow* multiturn_row(std::uint16_t code, std::uint8_t b2, std::uint8_t b3) {
@@ -117,4 +117,4 @@ TEST(NovotechnikMultiturnEmcy, E9_1_ErrorPositions) {
 }
 
 }  // namespace
-}  // namespace cobridge::device::families
+}  // namespace cobridge::families

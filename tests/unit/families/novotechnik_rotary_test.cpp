@@ -9,7 +9,7 @@
 
 #include "families/novotechnik.hpp"
 
-namespace cobridge::device::families {
+namespace cobridge::families {
 namespace {
 
 // J§1.8.1 prints bytes 3-4 as a little-endian word.
@@ -87,4 +87,4 @@ TEST(NovotechnikRotaryEmcy, J1_8_ErrorPosition) {
 }
 
 }  // namespace
-}  // namespace cobridge::device::families
+}  // namespace cobridge::families

@@ -9,7 +9,7 @@
 #include <set>
 #include <string>
 
-namespace cobridge::gateway {
+namespace cobridge::outputs {
 namespace {
 
 TEST(DeviceIndexPool, StableWhileKnownReleasedAndReused) {
@@ -40,4 +40,4 @@ TEST(DeviceIndexPool, BoundedAndNeverCollidingWithConfiguredDevices) {
 }
 
 }  // namespace
-}  // namespace cobridge::gateway
+}  // namespace cobridge::outputs

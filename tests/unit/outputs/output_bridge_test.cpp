@@ -7,7 +7,7 @@
 #include <gtest/gtest.h>
 
 using namespace cobridge;
-using namespace cobridge::gateway;
+using namespace cobridge::outputs;
 
 namespace {
 
@@ -37,8 +37,8 @@ struct Fixture {
     d.scaling = sc;
     cfg.devices.push_back(d);
   }
-  DeviceStatus status(std::string name, std::uint32_t vendor, std::uint32_t product, std::uint8_t node) {
-    DeviceStatus s;
+  bus::DeviceStatus status(std::string name, std::uint32_t vendor, std::uint32_t product, std::uint8_t node) {
+    bus::DeviceStatus s;
     s.name = std::move(name);
     s.node_id = node;
     s.identity = canopen::LssAddress{vendor, product, 0x00010003, 1001};
@@ -121,7 +121,7 @@ TEST(OutputBridge, ConfiguredDeviceIsPublishedToTheHotPath) {
   EXPECT_GT(gen, 0u);
 }
 
-namespace cobridge::gateway {
+namespace cobridge::outputs {
 namespace {
 
 // A SIGHUP reload reaches the output side too. A new event
@@ -139,16 +139,16 @@ TEST(OutputBridge, ReloadedSettingsReachTheNextPlan) {
 }
 
 }  // namespace
-}  // namespace cobridge::gateway
+}  // namespace cobridge::outputs
 
-namespace cobridge::gateway {
+namespace cobridge::outputs {
 namespace {
 
 // docs/plugins.md "Bus health" (plugin.h ABI 5 cobridge_bus_info): the
 // controller's ISO 11898-1 state, where the figures came from, and
 // counters only when the driver reported them.
 TEST(OutputBridge, BusHealthBecomesTheAbi5BusInfo) {
-  BusHealth h;
+  bus::BusHealth h;
   h.open = true;
   h.error_frames = 7;
   h.controller.state = can::ControllerState::error_passive;
@@ -173,7 +173,7 @@ TEST(OutputBridge, BusHealthBecomesTheAbi5BusInfo) {
   EXPECT_EQ(info.error_frames, 7u);
   EXPECT_EQ(info.since_ns, 99u);
   // vcan: no state from the driver, counters never reported.
-  BusHealth v;
+  bus::BusHealth v;
   v.controller.driver = can::DriverReport::no_state;
   v.controller.tx_errors = 5;  // stale, not reported: must not show
   info = to_bus_info(v, 0);
@@ -187,4 +187,4 @@ TEST(OutputBridge, BusHealthBecomesTheAbi5BusInfo) {
 }
 
 }  // namespace
-}  // namespace cobridge::gateway
+}  // namespace cobridge::outputs

@@ -19,7 +19,7 @@ TEST(CheckOutputs, MissingPluginIsAnErrorAtItsSection) {
   off.enabled = false;  // a disabled output is not loaded, so not checked
   cfg.outputs.push_back(off);
 
-  const std::vector<Error> errors = gateway::check_outputs(cfg, "/nonexistent-plugin-dir");
+  const std::vector<Error> errors = outputs::check_outputs(cfg, "/nonexistent-plugin-dir");
   ASSERT_EQ(errors.size(), 1U);
   const Error& e = errors[0];
   EXPECT_EQ(e.kind, Errc::kNotFound);

@@ -109,7 +109,7 @@ TEST(Metrics, FourBusesOf32DevicesRenderEveryDevice) {
   std::size_t bytes = 0;
   for (int i = 0; i < 200; ++i) {
     const auto t0 = std::chrono::steady_clock::now();
-    const std::string json = cobridge::gateway::to_json(report);
+    const std::string json = cobridge::control::to_json(report);
     const std::string text = render_metrics(report);
     ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     bytes = json.size() + text.size();

@@ -16,17 +16,17 @@ inline constexpr const char* kAliceHash =
 inline constexpr const char* kBobHash =
     "$6$bobSalt$vcMPHIEgVxXbrTFn0iYwC4ucNZXRWDHHonu8HLqTYkUiQ8dLrf5DkUTJLNRXwiQ2HgbgACEFqQyE0hIJB6eCT.";
 
-inline gateway::StatusReport sample_report(int buses, int devices) {
+inline control::StatusReport sample_report(int buses, int devices) {
   using namespace std::chrono_literals;
-  gateway::StatusReport r;
+  control::StatusReport r;
   r.gateway_id = "gw-1";
   r.version = "0.1.0";
   r.pid = 42;
   r.ready = true;
-  r.started = gateway::WallTime(1700000000s);
+  r.started = bus::WallTime(1700000000s);
   r.config_file = "/etc/cobridge/cobridge.toml";
   for (int b = 0; b < buses; ++b) {
-    gateway::BusStatus bus;
+    bus::BusStatus bus;
     bus.name = "line" + std::to_string(b + 1);
     bus.controller.counters_known = b == 0;  // the first bus's adapter reports its error counters
     bus.controller.tx_errors = 12;
@@ -38,20 +38,20 @@ inline gateway::StatusReport sample_report(int buses, int devices) {
     bus.hot_rx_frames = 50000;
     bus.ring_drops = 0;
     for (int d = 0; d < devices; ++d) {
-      gateway::DeviceStatus dev;
+      bus::DeviceStatus dev;
       dev.name = "enc-" + std::to_string(b) + "-" + std::to_string(d);
       dev.bus = bus.name;
       dev.node_id = static_cast<std::uint8_t>(d + 1);
       dev.identity = {0x2D4, 0x1234, 1, static_cast<std::uint32_t>(1000 + d)};
       dev.model = "RFC-4800";
       dev.family = "novotechnik-rotary";
-      dev.state = d == 1 ? gateway::DeviceState::offline : gateway::DeviceState::operational;
+      dev.state = d == 1 ? bus::DeviceState::offline : bus::DeviceState::operational;
       dev.nmt = canopen::NmtState::operational;
       dev.online = d != 1;
       dev.emcy_count = 1;
       dev.last_emcy_code = 0x5000;
       dev.last_emcy_text = "hardware fault";
-      dev.emcy_history.push_back({0x5000, "hardware fault", gateway::WallTime(1700000100s)});
+      dev.emcy_history.push_back({0x5000, "hardware fault", bus::WallTime(1700000100s)});
       dev.values.present = true;
       dev.values.has_position = true;
       dev.values.has_speed = true;

@@ -56,7 +56,7 @@ TEST(WebServer, StatusIsTheControlSocketsJson) {
   const auto a = server.handle("GET", "/api/v1/status", nullptr);
   EXPECT_EQ(a.status, 200U);
   EXPECT_STREQ(a.content_type, "application/json");
-  EXPECT_EQ(a.body, cobridge::gateway::to_json(report) + "\n");  // one schema, one writer
+  EXPECT_EQ(a.body, cobridge::control::to_json(report) + "\n");  // one schema, one writer
   EXPECT_THAT(a.body, HasSubstr("\"emcy_history\":[{\"code\":20480,\"text\":\"hardware fault\""));
   EXPECT_THAT(a.body, HasSubstr("\"values\":{\"position\":1234,\"position_eng\":12.500,\"unit\":\"deg\",\"speed\":-3"));
   // Each output's own figures (Modbus clients connected).
@@ -65,7 +65,7 @@ TEST(WebServer, StatusIsTheControlSocketsJson) {
 }
 
 TEST(WebServer, PageIsServedFromTheBinaryWithoutExternalFetches) {
-  WebServer server([] { return cobridge::gateway::StatusReport{}; });
+  WebServer server([] { return cobridge::control::StatusReport{}; });
   const auto a = server.handle("GET", "/", nullptr);
   EXPECT_EQ(a.status, 200U);
   EXPECT_THAT(std::string(a.content_type), HasSubstr("text/html"));
@@ -98,7 +98,7 @@ TEST(WebServer, BadRequestsGet4xxAndAskNothingOfTheDaemon) {
   std::atomic<int> calls{0};
   WebServer server([&] {
     ++calls;
-    return cobridge::gateway::StatusReport{};
+    return cobridge::control::StatusReport{};
   });
   EXPECT_EQ(server.handle("POST", "/api/v1/status", nullptr).status, 405U);
   EXPECT_EQ(server.handle("DELETE", "/metrics", nullptr).status, 405U);
@@ -129,7 +129,7 @@ TEST_F(AuthTest, BasicAuthenticationFromAFileOnlyItsOwnerReads) {
   EXPECT_FALSE(auth.check("alice", "s3cret!"));
   EXPECT_FALSE(auth.check("", ""));
 
-  WebServer server([] { return cobridge::gateway::StatusReport{}; });
+  WebServer server([] { return cobridge::control::StatusReport{}; });
   server.set_auth(auth);
   auto now = std::chrono::steady_clock::now();
   server.set_clock([&] { return now; });
@@ -181,7 +181,7 @@ TEST_F(AuthTest, WebSettingsProblemsAreErrorsAtTheirKey) {
   EXPECT_EQ(auth.where, "cobridge.toml:42:1: web.auth_file: " + file_.string());
   EXPECT_THAT(auth.message, HasSubstr("chmod 600"));
 
-  WebServer server([] { return cobridge::gateway::StatusReport{}; });
+  WebServer server([] { return cobridge::control::StatusReport{}; });
   const Error refused = server.start(s);
   EXPECT_EQ(refused.where, errors[0].where) << "start() refuses with the first problem";
   EXPECT_FALSE(server.running());

@@ -34,7 +34,7 @@
 #include <thread>
 #include <vector>
 
-namespace cobridge::gateway {
+namespace cobridge::bus {
 namespace {
 
 namespace fs = std::filesystem;
@@ -488,4 +488,4 @@ TEST_F(BusManagerVcan, Issue4_StopJoinsWithinOneSecond) {
 }
 
 }  // namespace
-}  // namespace cobridge::gateway
+}  // namespace cobridge::bus
