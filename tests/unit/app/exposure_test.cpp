@@ -48,7 +48,7 @@ TEST(Exposure, LoopbackIsQuiet) {
 // lists the loopback address (IpAllowList::allows_writer). Both sides of
 // that choice are said: writes enabled on a loopback listener nobody may
 // write to, and a write_allow that takes local writers (around write_group).
-TEST(Exposure, Issue38_LoopbackWritersAreAnExplicitChoiceAndSaidSo) {
+TEST(Exposure, LoopbackWritersAreAnExplicitChoiceAndSaidSo) {
   const std::string modbus = "[outputs.modbus]\nbind = \"127.0.0.1\"\nwrites_enabled = true\n";
   EXPECT_THAT(warnings_of(modbus), ElementsAre(HasSubstr("plant.toml:5:1: [outputs.modbus] listens on 127.0.0.1 with "
                                                          "writes_enabled on the loopback address, and write_allow "

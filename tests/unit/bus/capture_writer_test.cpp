@@ -100,7 +100,7 @@ TEST(CaptureFromName, TheNameGivesTheFaultTimeAndCause) {
 
 // A name's year 9999 (or 0000) is beyond the 64-bit
 // nanoseconds since 1970 (1677..2262): the name alone, without overflow.
-TEST(CaptureFromName, Issue38_AYearBeyondTheClockGivesTheNameOnlyWithoutOverflow) {
+TEST(CaptureFromName, AYearBeyondTheClockGivesTheNameOnlyWithoutOverflow) {
   for (const char* name : {"line1-99991231T235959.999Z-emcy.log", "line1-00000101T000000.000Z-emcy.log"}) {
     const CaptureInfo c = capture_from_name(name, 6);
     EXPECT_EQ(c.name, name);
@@ -112,7 +112,7 @@ TEST(CaptureFromName, Issue38_AYearBeyondTheClockGivesTheNameOnlyWithoutOverflow
 // Bus names are matched exactly. A capture of bus "a"
 // is "a-<stamp>-<word>.log"; bus "a-1"'s "a-1-<stamp>-..." is not one of
 // them, nor is anything but the stamp's digits after "<bus>-".
-TEST(IsCaptureOf, Issue38_BusNamesMatchExactly) {
+TEST(IsCaptureOf, BusNamesMatchExactly) {
   EXPECT_TRUE(is_capture_of("a-20261128T015512.345Z-boot-up.log", "a", ".log"));
   EXPECT_TRUE(is_capture_of("a-20261128T015512.345Z-boot-up.json", "a", ".json"));
   EXPECT_FALSE(is_capture_of("a-20261128T015512.345Z-boot-up.json", "a", ".log"));
@@ -250,7 +250,7 @@ TEST_F(CaptureWriterTest, OldestCapturesGoFirstToKeepTheCap) {
 
 // Bus "a"'s cap and listing never take bus "a-1"'s
 // captures (a prefix match counted, listed and deleted them).
-TEST_F(CaptureWriterTest, Issue38_ABusNeverListsNorDeletesTheCapturesOfABusWhoseNameExtendsIt) {
+TEST_F(CaptureWriterTest, ABusNeverListsNorDeletesTheCapturesOfABusWhoseNameExtendsIt) {
   can::FrameRecorder rec(10000);
   for (int i = 0; i < 1000; ++i) rec.record(frame_at(kT0 + std::int64_t{i} * 40'000'000, 0x181, {1, 2, 3, 4, 5, 6, 7, 8}));
   CaptureOptions o = options();
@@ -275,7 +275,7 @@ TEST_F(CaptureWriterTest, Issue38_ABusNeverListsNorDeletesTheCapturesOfABusWhose
 // A symbolic link planted in the captures folder under a
 // capture's name is neither listed, nor served, nor counted or deleted by
 // the cap: the file it names is never read or touched.
-TEST_F(CaptureWriterTest, Issue38_ASymbolicLinkInTheFolderIsNeverListedServedOrFollowed) {
+TEST_F(CaptureWriterTest, ASymbolicLinkInTheFolderIsNeverListedServedOrFollowed) {
   std::ofstream(dir_ / "secret") << "not a capture\n";
   fs::create_symlink(dir_ / "secret", dir_ / "line1-20251128T031800.000Z-emcy.log");
   can::FrameRecorder rec(10);
@@ -301,7 +301,7 @@ TEST_F(CaptureWriterTest, Issue38_ASymbolicLinkInTheFolderIsNeverListedServedOrF
 // the daemon must not write, at the partial file's or the log's name) is
 // refused (O_EXCL; the rename never replaces): the capture is not written,
 // the file the link names is untouched, and nothing half-written stays.
-TEST_F(CaptureWriterTest, Issue38_ANamePlantedWhereACaptureGoesIsNeverWrittenThrough) {
+TEST_F(CaptureWriterTest, ANamePlantedWhereACaptureGoesIsNeverWrittenThrough) {
   std::ofstream(dir_ / "victim") << "precious\n";
   can::FrameRecorder rec(10);
   rec.record(frame_at(kT0, 0x70A, {0x00}));
@@ -327,7 +327,7 @@ TEST_F(CaptureWriterTest, Issue38_ANamePlantedWhereACaptureGoesIsNeverWrittenThr
 // wear). Beyond capture_budget_per_hour a fault opens no capture: it is
 // counted, the first skip of the hour is logged, and once the hour is over
 // one line gives the hour's count; the next hour has its budget again.
-TEST_F(CaptureWriterTest, Issue38_BeyondTheHoursBudgetACaptureIsSkippedCountedAndLoggedOnce) {
+TEST_F(CaptureWriterTest, BeyondTheHoursBudgetACaptureIsSkippedCountedAndLoggedOnce) {
   const GatewayLog log;
   can::FrameRecorder rec(10);
   CaptureOptions o = options();

@@ -1,5 +1,6 @@
-// A device's timeline (issue "Why, at a glance", item 2): the last 100 events,
-// a storm of one event counted instead of pushing the cause out.
+// A device's timeline (docs/operations.md "Why a device is where it is: the
+// timeline"): the last 100 events, a storm of one event counted instead of
+// pushing the cause out.
 #include "bus/device_timeline.hpp"
 
 #include <gtest/gtest.h>

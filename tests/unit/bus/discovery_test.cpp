@@ -690,7 +690,7 @@ TEST(DiscoveryTest, DeviceAtTargetIsOnlyIdentified_CiA301_7_2_8_3_3) {
 // `cobridge commission`; a device found at the node-ID its configuration
 // gives is identified at its target all the same (it keeps working), the
 // others are identified where they are and left there.
-TEST(DiscoveryTest, Issue38_AHeldStateFileAssignsNoNodeIdButDevicesAtTheirOwnKeepWorking) {
+TEST(DiscoveryTest, AHeldStateFileAssignsNoNodeIdButDevicesAtTheirOwnKeepWorking) {
   Rig rig;
   rig.config_.buses[0].unknown_devices = config::UnknownDevices::assign;
   rig.with(device("rot-a", 1001, 10, "RFC-4800")).with(device("rot-b", 1002, 11, "RFC-4800"));

@@ -124,7 +124,7 @@ TEST_F(StateStoreTest, PutReplacesTheSameDeviceAndEraseRemovesIt) {
 // A line that does not read makes the whole file
 // untrusted: it is set aside (never written over), every problem named as
 // file:line (the first five, then a count), and the store holds.
-TEST_F(StateStoreTest, Issue38_ALineThatDoesNotReadSetsTheFileAsideAndHolds) {
+TEST_F(StateStoreTest, ALineThatDoesNotReadSetsTheFileAsideAndHolds) {
   const std::string text =
       "# comment\n"
       "\n"
@@ -170,7 +170,7 @@ TEST_F(StateStoreTest, Issue38_ALineThatDoesNotReadSetsTheFileAsideAndHolds) {
 // state file. Its bytes stay on the disk (set aside), and while the store
 // holds no assignment writes the file: the set-aside copy is never replaced
 // and the state file's place stays empty for the operator's decision.
-TEST_F(StateStoreTest, Issue38_BinaryGarbageIsKeptAndNeverOverwritten) {
+TEST_F(StateStoreTest, BinaryGarbageIsKeptAndNeverOverwritten) {
   std::mt19937 rng(38);
   std::string garbage;
   for (int i = 0; i < 2048; ++i) garbage += static_cast<char>(rng() % 256);
@@ -195,7 +195,7 @@ TEST_F(StateStoreTest, Issue38_BinaryGarbageIsKeptAndNeverOverwritten) {
 // set-aside copy beside it the store holds again (a missing file is not a
 // fresh start then); a file that reads, the operator's decision (an empty
 // one: start without the memory), releases it, and the file is written again.
-TEST_F(StateStoreTest, Issue38_TheHoldOutlivesARestartUntilAFileThatReadsIsPutBack) {
+TEST_F(StateStoreTest, TheHoldOutlivesARestartUntilAFileThatReadsIsPutBack) {
   write_file("garbage\n");
   {
     StateStore store(dir_);
@@ -220,7 +220,7 @@ TEST_F(StateStoreTest, Issue38_TheHoldOutlivesARestartUntilAFileThatReadsIsPutBa
 // Unreadable is not only bad syntax: a symbolic link (the
 // file it names is never read nor written) and a file larger than any state
 // file are set aside too.
-TEST_F(StateStoreTest, Issue38_ASymbolicLinkOrAnOversizedFileIsSetAside) {
+TEST_F(StateStoreTest, ASymbolicLinkOrAnOversizedFileIsSetAside) {
   fs::create_directories(dir_);
   std::ofstream(dir_ / "elsewhere") << "bus=line1 serial=1 vendor=1 product=1 revision=1 node=5\n";
   fs::create_symlink(dir_ / "elsewhere", dir_ / StateStore::kFileName);
@@ -338,7 +338,7 @@ class GatedDisk {
   int calls_ = 0;
 };
 
-TEST_F(StateStoreTest, Issue38_WithTheWriterThreadPutNeverWaitsForTheDisk) {
+TEST_F(StateStoreTest, WithTheWriterThreadPutNeverWaitsForTheDisk) {
   fs::create_directories(dir_);
   GatedDisk disk;
   StateStore store(dir_, disk.writer());
@@ -365,7 +365,7 @@ TEST_F(StateStoreTest, Issue38_WithTheWriterThreadPutNeverWaitsForTheDisk) {
   EXPECT_EQ(again.on_bus("line1").size(), 20U);
 }
 
-TEST_F(StateStoreTest, Issue38_AFailedBackgroundWriteIsTriedAgain) {
+TEST_F(StateStoreTest, AFailedBackgroundWriteIsTriedAgain) {
   fs::create_directories(dir_);
   GatedDisk disk;
   disk.fail_first();
@@ -379,7 +379,7 @@ TEST_F(StateStoreTest, Issue38_AFailedBackgroundWriteIsTriedAgain) {
   EXPECT_NE(read_file().find("node=9"), std::string::npos);
 }
 
-TEST_F(StateStoreTest, Issue38_TheDestructorWritesWhatIsPending) {
+TEST_F(StateStoreTest, TheDestructorWritesWhatIsPending) {
   {
     StateStore store(dir_);
     store.start_writer();
@@ -397,7 +397,7 @@ TEST_F(StateStoreTest, Issue38_TheDestructorWritesWhatIsPending) {
 // written (a put made meanwhile is dropped), so the state file's place stays
 // empty for the operator. Without the wait the reload would read no file and
 // start fresh, and the writes would go on.
-TEST_F(StateStoreTest, Issue38_AReloadWaitsForTheWriteInTheDiskAndAHoldStopsTheWriter) {
+TEST_F(StateStoreTest, AReloadWaitsForTheWriteInTheDiskAndAHoldStopsTheWriter) {
   fs::create_directories(dir_);
   GatedDisk disk;
   disk.garble();

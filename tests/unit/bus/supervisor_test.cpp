@@ -67,12 +67,13 @@ TEST(ConsumerTime, IsOneAndAHalfProducerTimesPlusMargin) {
   EXPECT_EQ(consumer_time_for(0ms), 0ms);  // 0x1017 = 0: no heartbeat
 }
 
-// ("A gateway that loses its bus is visible within 1 s"): when the
-// CAN interface goes down, every watched device is offline at once with the
-// reason, not one consumer time later (CiA 301 §7.2.8.3.2.2 would report it
-// only then); the consumer's own timeout afterwards is not reported again,
-// and the first heartbeat after the bus is back brings it online.
-TEST_F(SupervisorTest, Issue16_BusLostTakesEveryWatchedDeviceOfflineAtOnce) {
+// A gateway that loses its bus is visible within 1 s (docs/dds.md "Many
+// gateways in one domain"; docs/reliability.md): when the CAN interface goes
+// down, every watched device is offline at once with the reason, not one
+// consumer time later (CiA 301 §7.2.8.3.2.2 would report it only then); the
+// consumer's own timeout afterwards is not reported again, and the first
+// heartbeat after the bus is back brings it online.
+TEST_F(SupervisorTest, BusLostTakesEveryWatchedDeviceOfflineAtOnce) {
   sup.watch(5, &fam::kNovotechnikRotary, heartbeat(100ms), t0);
   sup.watch(6, &fam::kNovotechnikRotary, heartbeat(100ms), t0);
   sup.listen(7, &fam::kNovotechnikRotary);  // being configured: not supervised yet
@@ -363,7 +364,7 @@ namespace {
 // on_config_drift = "keep": a client set the producer
 // heartbeat time (CiA 301 §7.4.8.3, 0x1017) from 100 to 9029 ms; the
 // consumer follows it: 2 s of silence is no loss, 9029 ms x 1.5 + margin is.
-TEST_F(SupervisorTest, Issue29_ConsumerFollowsAProducerTimeTheGatewayKeeps) {
+TEST_F(SupervisorTest, Cia301_0x1017_ConsumerFollowsAProducerTimeTheGatewayKeeps) {
   sup.watch(5, &fam::kNovotechnikRotary, heartbeat(100ms), t0);
   sup.on_frame(canopen::make_heartbeat(5, NmtState::operational), t0 + 10ms);
   drain();

@@ -1,7 +1,7 @@
-// The timeline journal (issue "Why, at a glance", item 2: the timeline
-// outlives a restart of the daemon): events read back as they were written,
-// a storm costs one line per flush, the file stays bounded, and a damaged
-// line is named and skipped.
+// The timeline journal (docs/operations.md "Why a device is where it is:
+// the timeline": the timeline outlives a restart of the daemon): events
+// read back as they were written, a storm costs one line per flush, the
+// file stays bounded, and a damaged line is named and skipped.
 #include "bus/timeline_journal.hpp"
 
 #include <gtest/gtest.h>
@@ -144,7 +144,7 @@ TEST_F(TimelineJournalTest, NoTimelinesNeverCompactTheHistoryAway) {
 // A symbolic link planted as the journal (to a file the
 // daemon must not read or write) is refused with an error naming it, and
 // never followed: nothing is read from the file it names, nothing appended.
-TEST_F(TimelineJournalTest, Issue38_ASymbolicLinkAsTheJournalIsRefusedNeverFollowed) {
+TEST_F(TimelineJournalTest, ASymbolicLinkAsTheJournalIsRefusedNeverFollowed) {
   fs::create_directories(dir_ / "timelines");
   const std::string victim_text =
       TimelineJournal::format_line("lift", {kT0, TimelineKind::boot_up, "from the victim", {}}) + "\n";
@@ -173,7 +173,7 @@ TEST_F(TimelineJournalTest, Issue38_ASymbolicLinkAsTheJournalIsRefusedNeverFollo
 // (16 MB logged a 9.3 MB warning line before) only the newest part is read,
 // the warning names the file and its size, and the next write rewrites the
 // file from memory.
-TEST_F(TimelineJournalTest, Issue38_AnOverlongLineAndAnOversizedFileAreReadWithinBounds) {
+TEST_F(TimelineJournalTest, AnOverlongLineAndAnOversizedFileAreReadWithinBounds) {
   fs::create_directories(dir_ / "timelines");
   const fs::path file = dir_ / "timelines" / "line1.timeline";
   const std::string event = TimelineJournal::format_line("lift", {kT0, TimelineKind::boot_up, "boot-up", {}});
@@ -218,7 +218,7 @@ TEST_F(TimelineJournalTest, Issue38_AnOverlongLineAndAnOversizedFileAreReadWithi
 // the clock's 64-bit nanoseconds: the line is refused, without undefined
 // behaviour (UBSan reported the overflow before); the clock's last
 // millisecond still reads.
-TEST_F(TimelineJournalTest, Issue38_ATimeBeyondTheClockIsRefusedWithoutOverflow) {
+TEST_F(TimelineJournalTest, ATimeBeyondTheClockIsRefusedWithoutOverflow) {
   const std::uint64_t last_ms = static_cast<std::uint64_t>(
       std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::duration::max()).count());
   std::string device;

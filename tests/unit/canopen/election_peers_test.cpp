@@ -14,7 +14,7 @@ constexpr Duration kTimeout = 150ms;  // 1.5 heartbeat periods of 100 ms
 
 // CiA 301 7.2.8.3.1 node-IDs 1..127 and CiA 302-2 priorities 0..2; never our
 // own node-ID nor an excluded one (a device's).
-TEST(ElectionPeers, Issue38_PlausibleOnlyForNodeIds1To127Priorities0To2NeverOursOrExcluded) {
+TEST(ElectionPeers, PlausibleOnlyForNodeIds1To127Priorities0To2NeverOursOrExcluded) {
   ElectionPeers p(120);
   NodeSet devices;
   devices.set(10);
@@ -31,7 +31,7 @@ TEST(ElectionPeers, Issue38_PlausibleOnlyForNodeIds1To127Priorities0To2NeverOurs
 
 // Live: announced with that priority and heard within the timeout; a later
 // exclusion (a reload naming the node a device) ends it.
-TEST(ElectionPeers, Issue38_LiveMeansAnnouncedWithThatPriorityAndHeardWithinTheTimeout) {
+TEST(ElectionPeers, LiveMeansAnnouncedWithThatPriorityAndHeardWithinTheTimeout) {
   ElectionPeers p(120);
   const TimePoint t0 = TimePoint{} + 1h;
   EXPECT_FALSE(p.live(0, 121, t0, kTimeout));  // never announced
@@ -53,7 +53,7 @@ TEST(ElectionPeers, Issue38_LiveMeansAnnouncedWithThatPriorityAndHeardWithinTheT
 }
 
 // Announcements that could not be a gateway's are not recorded.
-TEST(ElectionPeers, Issue38_AnImplausibleAnnouncementNamesNoGateway) {
+TEST(ElectionPeers, AnImplausibleAnnouncementNamesNoGateway) {
   ElectionPeers p(120);
   const TimePoint t0 = TimePoint{} + 1h;
   EXPECT_FALSE(p.on_announce(7, 50, t0, kTimeout));
@@ -72,7 +72,7 @@ TEST(ElectionPeers, Issue38_AnImplausibleAnnouncementNamesNoGateway) {
 // another priority is not its own announcement (a forged 0x74 giving the
 // peer priority 0, then a claim with it, took the role from the master);
 // after 1.5 periods of silence (a restart) it counts.
-TEST(ElectionPeers, Issue38_AnotherPriorityCountsOnlyAfterTheGatewayFellSilent) {
+TEST(ElectionPeers, AnotherPriorityCountsOnlyAfterTheGatewayFellSilent) {
   ElectionPeers p(120);
   const TimePoint t0 = TimePoint{} + 1h;
   ASSERT_TRUE(p.on_announce(1, 121, t0, kTimeout));

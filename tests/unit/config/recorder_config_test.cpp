@@ -57,7 +57,7 @@ TEST(RecorderConfig, OutOfRangeValuesAreErrorsAtTheirLine) {
 // least 0.5 s: at 0 a storm of faults wrote up to 16 captures per 100 ms
 // (the cap bounds the space, not the flash's wear). A smaller value is an
 // error naming the key, the file and the line.
-TEST(RecorderConfig, Issue38_CaptureAfterIsAtLeastHalfASecond) {
+TEST(RecorderConfig, CaptureAfterIsAtLeastHalfASecond) {
   const auto half = load_string(kBase + "capture_after_s = 0.5\n", "t.toml", "/tmp");
   ASSERT_TRUE(half.ok()) << all(half);
   EXPECT_EQ(half.config().buses.at(0).capture_after_ms, 500u);
@@ -77,7 +77,7 @@ TEST(RecorderConfig, Issue38_CaptureAfterIsAtLeastHalfASecond) {
 }
 
 // The captures' write budget per hour, 1..7200.
-TEST(RecorderConfig, Issue38_TheCaptureBudgetIsBounded) {
+TEST(RecorderConfig, TheCaptureBudgetIsBounded) {
   for (const char* bad : {"0", "7201", "-1"}) {
     const auto r = load_string(kBase + "capture_budget_per_hour = " + bad + "\n", "t.toml", "/tmp");
     ASSERT_FALSE(r.ok()) << bad;

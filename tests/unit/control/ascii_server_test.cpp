@@ -231,7 +231,7 @@ TEST(AsciiServer, EveryAnswerEndsWithCrLfAndCrLfRequestsAreServed) {
 // address writes only when write_allow lists it; with an empty write_allow
 // ("every client") its write is refused (CiA 309-3 ERROR: 100) and never
 // reaches the bus, while a listed one's goes to the bus.
-TEST(AsciiServer, Issue38_ALoopbackTcpClientWritesOnlyWhenWriteAllowListsIt) {
+TEST(AsciiServer, ALoopbackTcpClientWritesOnlyWhenWriteAllowListsIt) {
   for (const bool listed : {false, true}) {
     SCOPED_TRACE(listed ? "write_allow = [127.0.0.1/32]" : "write_allow = []");
     HeldCommands bus;

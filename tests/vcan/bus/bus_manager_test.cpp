@@ -284,7 +284,7 @@ bool all_operational(const BusStatus& s) {
 // moves from its factory node-ID 127, J§1.2.2, by LSS switch selective,
 // CiA 305), configured and started (CiA 301 §7.2.8.3.1 NMT start), then
 // supervised by heartbeat (CiA 301 §7.2.8.3.2.2).
-TEST_F(BusManagerVcan, Issue4_DevicesBecomeOperationalWithConfiguredNodeIds) {
+TEST_F(BusManagerVcan, Cia301_7_2_8_3_1_DevicesBecomeOperationalWithConfiguredNodeIds) {
   const auto ok = wait_for(*manager_, 20s, all_operational);
   const auto s = manager_->status();
   ASSERT_TRUE(ok.has_value()) << describe(s);
@@ -303,7 +303,7 @@ TEST_F(BusManagerVcan, Issue4_DevicesBecomeOperationalWithConfiguredNodeIds) {
 
 // "A device power-cycled by the simulator is back online and
 // configured within 1 s of its boot-up message" (CiA 301 §7.2.8.3.3 boot-up).
-TEST_F(BusManagerVcan, Issue4_PowerCycledDeviceBackWithinOneSecondOfBootUp) {
+TEST_F(BusManagerVcan, Cia301_7_2_8_3_3_PowerCycledDeviceBackWithinOneSecondOfBootUp) {
   ASSERT_TRUE(wait_for(*manager_, 20s, all_operational).has_value()) << describe(manager_->status());
   const auto before = *find(manager_->status(), "multiturn");
 
@@ -358,7 +358,7 @@ TEST_F(BusManagerVcan, Issue4_PowerCycledDeviceBackWithinOneSecondOfBootUp) {
 
 // "A silenced device is reported offline within its heartbeat
 // consumer time, and online again when it speaks" (CiA 301 §7.2.8.3.2.2).
-TEST_F(BusManagerVcan, Issue4_SilencedDeviceOfflineWithinConsumerTimeThenOnline) {
+TEST_F(BusManagerVcan, Cia301_7_2_8_3_2_2_SilencedDeviceOfflineWithinConsumerTimeThenOnline) {
   ASSERT_TRUE(wait_for(*manager_, 20s, all_operational).has_value()) << describe(manager_->status());
   const auto consumer = consumer_time_for(std::chrono::milliseconds(kHeartbeatMs));
 
@@ -391,7 +391,7 @@ TEST_F(BusManagerVcan, Issue4_SilencedDeviceOfflineWithinConsumerTimeThenOnline)
 
 // "SIGHUP reloads the config without closing the buses": only the
 // device whose settings changed is configured again (new fingerprint).
-TEST_F(BusManagerVcan, Issue4_ReloadReconfiguresOnlyTheChangedDevice) {
+TEST_F(BusManagerVcan, ReloadReconfiguresOnlyTheChangedDevice) {
   ASSERT_TRUE(wait_for(*manager_, 20s, all_operational).has_value()) << describe(manager_->status());
   const auto before = manager_->status();
   config::Config next = *config_;
@@ -448,7 +448,7 @@ TEST_F(BusManagerVcan, ReloadAddedDeviceShowsItsConfiguredIdentityAtOnce) {
 // Supervision, "bus-off and interface loss": a controller state change
 // reported by an error frame (kernel SocketCAN "Network Problem
 // Notifications", CAN_ERR_CRTL) shows as the bus's last event.
-TEST_F(BusManagerVcan, Issue4_BusErrorShowsAsLastBusEvent) {
+TEST_F(BusManagerVcan, CanRst_BusErrorShowsAsLastBusEvent) {
   ASSERT_TRUE(wait_for(*manager_, 20s, all_operational).has_value()) << describe(manager_->status());
   const std::string reply = sim_command(control_, "bus-error vcan0 error-passive");
   ASSERT_EQ(reply.rfind("ok", 0), 0U) << reply;
@@ -458,7 +458,7 @@ TEST_F(BusManagerVcan, Issue4_BusErrorShowsAsLastBusEvent) {
 
 // "Interface loss -> reopen with backoff and bring the devices back,
 // all without restarting the process".
-TEST_F(BusManagerVcan, Issue4_InterfaceDownAndUpBringsDevicesBack) {
+TEST_F(BusManagerVcan, InterfaceDownAndUpBringsDevicesBack) {
   ASSERT_TRUE(wait_for(*manager_, 20s, all_operational).has_value()) << describe(manager_->status());
   ASSERT_EQ(std::system("ip link set vcan0 down"), 0);
   const auto down = wait_for(*manager_, 3s, [](const BusStatus& s) { return s.last_bus_event == "interface-down"; });
@@ -480,7 +480,7 @@ TEST_F(BusManagerVcan, Issue4_InterfaceDownAndUpBringsDevicesBack) {
 
 // The bus thread ends and is joined within 1 s (SIGTERM "stops
 // cleanly within 1 s"); run last.
-TEST_F(BusManagerVcan, Issue4_StopJoinsWithinOneSecond) {
+TEST_F(BusManagerVcan, StopJoinsWithinOneSecond) {
   const auto t = Clock::now();
   manager_->stop();
   EXPECT_LT(Clock::now() - t, 1s);

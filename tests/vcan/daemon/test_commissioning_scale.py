@@ -15,7 +15,7 @@ Prints the figures (FIGURE): daemon start -> all operational, the LSS
 exchanges, timeouts and restarts of the Fastscans per device, the failed
 tries; then a second start with every device remembered.
 
---count N: how many devices (8, and the issue's 32).
+--count N: how many devices (8; 32 in vcan_daemon_commissioning_scale_32).
 --lose-configure: every 4th device loses its first LSS configure node-ID
 request (cobridge-sim `lose_configure=1`): each still ends
 operational, its status counts the failed try (commission_failures >= 1) and

@@ -465,9 +465,10 @@ def journal_holds(ws, events):
 
 
 def check_restarts(report, args, ws, config, daemon, sim, ctl, kept):
-    """The timeline outlives the daemon (issue "Why, at a glance", item 2):
-    after a crash (SIGKILL, events older than the journal's 1 s flush) and
-    after a clean stop right after an event. Returns the daemon left running."""
+    """The timeline outlives the daemon (docs/operations.md "Why a device is
+    where it is: the timeline"): after a crash (SIGKILL, events older than
+    the journal's 1 s flush) and after a clean stop right after an event.
+    Returns the daemon left running."""
     now = daemon.status()["buses"][0]["devices"][0]["timeline"]
     kept = [next((e for e in now if e["kind"] == k["kind"] and e["at"] == k["at"]), k) for k in kept if k]
     # The journal is written within 1 s: the kill comes once it holds them (no guess of its timing).

@@ -25,10 +25,10 @@ TEST(DdsConfig, DocsDds_EmptyGivesDefaults) {
   EXPECT_FALSE(r.config.security.has_value()) << "DDS Security is off without [outputs.dds.security]";
 }
 
-// sample_path: "auto" writes on the dispatcher and spills,
-// whatever the reliability; "dispatcher" never spills; "writer-thread" never
-// writes on the dispatcher.
-TEST(DdsConfig, Issue16_SamplePath) {
+// docs/dds.md "Configuration", sample_path: "auto" writes on the dispatcher and
+// spills, whatever the reliability; "dispatcher" never spills; "writer-thread"
+// never writes on the dispatcher.
+TEST(DdsConfig, DocsDds_SamplePath) {
   const DdsConfig reliable = parse_dds_config("sample_reliability = \"reliable\"").config;
   EXPECT_TRUE(reliable.samples_on_dispatcher());
   EXPECT_TRUE(reliable.spill_to_writer_thread());

@@ -713,11 +713,11 @@ bool take_until(dds_entity_t reader, const std::function<bool(const T&, const dd
 
 }  // namespace
 
-// A subscriber can tell loss from silence. EncoderSample
-// is numbered by the TPDOs of its device alone (kind_sequence): heartbeats,
-// EMCYs and status samples in between, which the topic does not carry, leave
-// no gap; EncoderEvent is numbered by the EMCYs alone.
-TEST(DdsPlugin, Issue16_EachTopicNumbersItsOwnSamplesWithoutGaps) {
+// docs/dds.md "Loss or silence": a subscriber can tell loss from silence.
+// EncoderSample is numbered by the TPDOs of its device alone (kind_sequence):
+// heartbeats, EMCYs and status samples in between, which the topic does not
+// carry, leave no gap; EncoderEvent is numbered by the EMCYs alone.
+TEST(DdsPlugin, DocsDds_EachTopicNumbersItsOwnSamplesWithoutGaps) {
   Reader samples(&cobridge_EncoderSample_desc, "EncoderSample", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_VOLATILE,
                  true);
   Reader events(&cobridge_EncoderEvent_desc, "EncoderEvent", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_VOLATILE, true);
@@ -762,10 +762,10 @@ TEST(DdsPlugin, Issue16_EachTopicNumbersItsOwnSamplesWithoutGaps) {
   EXPECT_GT(seq, kTpdos) << "the per-device sequence counted the other kinds too";
 }
 
-// GatewayStatus names the gateway's process and counts its
-// devices and buses; a clean stop disposes it, so subscribers see the
-// gateway leave at once.
-TEST(DdsPlugin, Issue16_GatewayStatusCountsDevicesAndIsDisposedOnStop) {
+// docs/dds.md "GatewayStatus": it names the gateway's process and counts its
+// devices and buses; a clean stop disposes it, so subscribers see the gateway
+// leave at once.
+TEST(DdsPlugin, DocsDds_GatewayStatusCountsDevicesAndIsDisposedOnStop) {
   Reader gw(&cobridge_GatewayStatus_desc, "GatewayStatus", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_TRANSIENT_LOCAL,
             false, 1);
   Plugin p(base_config());
@@ -899,9 +899,9 @@ TEST(DdsPlugin, OmgDdsSec11_9_4_1_3_PermissionsWithoutPublishStopTheStart) {
   EXPECT_NE(log.all().find("does not grant it to 'CN=reader-all,O=cobridge test'"), std::string::npos) << log.all();
 }
 
-// Every writer offers liveliness AUTOMATIC with the
+// docs/dds.md "QoS": every writer offers liveliness AUTOMATIC with the
 // configured lease, so a subscriber sees a dead gateway within the lease.
-TEST(DdsPlugin, Issue16_WritersOfferAutomaticLivelinessWithTheConfiguredLease) {
+TEST(DdsPlugin, DocsDds_WritersOfferAutomaticLivelinessWithTheConfiguredLease) {
   Reader samples(&cobridge_EncoderSample_desc, "EncoderSample", DDS_RELIABILITY_BEST_EFFORT, DDS_DURABILITY_VOLATILE,
                  false);
   Reader gw(&cobridge_GatewayStatus_desc, "GatewayStatus", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_TRANSIENT_LOCAL,
@@ -930,11 +930,11 @@ TEST(DdsPlugin, Issue16_WritersOfferAutomaticLivelinessWithTheConfiguredLease) {
   }
 }
 
-// A second gateway with the same id in the domain is
-// detected by both (logged as an error naming the other's host and pid, and
-// duplicate_id in their GatewayStatus); when it stops, the first one logs
-// that it left.
-TEST(DdsPlugin, Issue16_DuplicateGatewayIdIsDetectedAndReported) {
+// docs/dds.md "Many gateways in one domain": a second gateway with the same id
+// in the domain is detected by both (logged as an error naming the other's host
+// and pid, and duplicate_id in their GatewayStatus); when it stops, the first
+// one logs that it left.
+TEST(DdsPlugin, DocsDds_DuplicateGatewayIdIsDetectedAndReported) {
   auto first = std::make_unique<Plugin>(base_config());
   // Both write the one instance of this gateway id: room for both samples.
   Reader gw(&cobridge_GatewayStatus_desc, "GatewayStatus", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_TRANSIENT_LOCAL,
@@ -961,11 +961,12 @@ TEST(DdsPlugin, Issue16_DuplicateGatewayIdIsDetectedAndReported) {
   EXPECT_NE(first->log.all().find("has left the DDS domain"), std::string::npos) << first->log.all();
 }
 
-// Best-effort EncoderSample is written on the dispatcher
-// thread with sample_path "auto": every sample arrives in order with its values
-// (in-process delivery loses nothing), DeviceStatus still follows from the
-// writer thread, and the stale re-publication comes from the dispatcher side.
-TEST(DdsPlugin, Issue16_DispatcherPathDeliversInOrderAndRepublishesStale) {
+// docs/dds.md "Threads and cost": best-effort EncoderSample is written on the
+// dispatcher thread with sample_path "auto": every sample arrives in order with
+// its values (in-process delivery loses nothing), DeviceStatus still follows
+// from the writer thread, and the stale re-publication comes from the
+// dispatcher side.
+TEST(DdsPlugin, DocsDds_DispatcherPathDeliversInOrderAndRepublishesStale) {
   Reader reader(&cobridge_EncoderSample_desc, "EncoderSample", DDS_RELIABILITY_BEST_EFFORT, DDS_DURABILITY_VOLATILE,
                 true);
   Reader status(&cobridge_DeviceStatus_desc, "DeviceStatus", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_TRANSIENT_LOCAL,
@@ -1002,10 +1003,10 @@ TEST(DdsPlugin, Issue16_DispatcherPathDeliversInOrderAndRepublishesStale) {
   EXPECT_TRUE(fresh_status);
 }
 
-// sample_path "writer-thread" keeps best-effort samples on
-// the writer thread; "dispatcher" with reliable samples writes them on the
-// dispatcher (max_blocking_time 0), every one arriving in order.
-TEST(DdsPlugin, Issue16_SamplePathWriterThreadAndReliableDispatcher) {
+// docs/dds.md "Configuration", sample_path: "writer-thread" keeps best-effort
+// samples on the writer thread; "dispatcher" with reliable samples writes them
+// on the dispatcher (max_blocking_time 0), every one arriving in order.
+TEST(DdsPlugin, DocsDds_SamplePathWriterThreadAndReliableDispatcher) {
   {
     Reader reader(&cobridge_EncoderSample_desc, "EncoderSample", DDS_RELIABILITY_BEST_EFFORT, DDS_DURABILITY_VOLATILE,
                   true);
@@ -1055,7 +1056,7 @@ TEST(DdsPlugin, AFirstSampleRightAfterItsAnnouncementCarriesTheName) {
 // docs/dds.md "Many gateways in one domain": `partition` puts every
 // writer in that DDS partition; a reader of the partition gets the samples,
 // a reader of the default partition does not.
-TEST(DdsPlugin, Issue16_PartitionSeparatesReaders) {
+TEST(DdsPlugin, DocsDds_PartitionSeparatesReaders) {
   const dds_entity_t pp = dds_create_participant(static_cast<dds_domainid_t>(test_domain()), nullptr, nullptr);
   ASSERT_GT(pp, 0);
   const dds_entity_t topic = dds_create_topic(pp, &cobridge_EncoderSample_desc, "EncoderSample", nullptr, nullptr);
@@ -1112,14 +1113,14 @@ struct StalledReader {
   }
 };
 
-// A reliable subscriber that stops reading must not stall
-// the dispatcher (which Modbus and the tap share). The reader keeps at most
-// 10 samples and never takes, so the reliable writer's history fills and
-// each write waits (max_blocking_time); the dispatcher side (on_samples)
-// still hands over all 100 000 samples, and what the DDS side could not
-// keep up with is dropped from the plugin's queue and counted, never waited
-// for. The longest on_samples call is printed, not judged.
-TEST(DdsPlugin, Issue16_StalledReliableReaderDoesNotBlockTheDispatcher) {
+// docs/dds.md "Threads and cost": a reliable subscriber that stops reading must
+// not stall the dispatcher (which Modbus and the tap share). The reader keeps
+// at most 10 samples and never takes, so the reliable writer's history fills
+// and each write waits (max_blocking_time); the dispatcher side (on_samples)
+// still hands over all 100 000 samples, and what the DDS side could not keep up
+// with is dropped from the plugin's queue and counted, never waited for. The
+// longest on_samples call is printed, not judged.
+TEST(DdsPlugin, DocsDds_StalledReliableReaderDoesNotBlockTheDispatcher) {
   const StalledReader stalled_reader;
   ASSERT_GT(stalled_reader.reader, 0);
   std::string log;
@@ -1158,20 +1159,20 @@ static std::uint64_t figure(const Plugin& p, const std::string& name) {
   return 0;
 }
 
-// sample_path "auto" (the default): the dispatcher writes
-// EncoderSample itself; a write that finds the reliable history full goes
-// to the writer thread, and so does every sample after it until the writer
-// thread has written them (order kept), then the dispatcher writes directly
-// again. The reader has room for 10 samples: batch A (100) fills it before
-// anyone takes, then a thread takes every millisecond and batch B (100)
-// comes while A's rest waits on the writer thread. Every sample is accounted (written or
-// counted failed), what arrives is in order (B written directly while A's
-// rest waits would overtake it), and batch C after the backlog goes out
-// directly (no more spills) and arrives whole. How many of A and B arrive is
-// printed, not judged: the writer thread waits at most 1 ms per sample for
-// room, and the taker's pace decides how often that is enough (with
+// docs/dds.md "Threads and cost", sample_path "auto" (the default): the
+// dispatcher writes EncoderSample itself; a write that finds the reliable
+// history full goes to the writer thread, and so does every sample after it
+// until the writer thread has written them (order kept), then the dispatcher
+// writes directly again. The reader has room for 10 samples: batch A (100)
+// fills it before anyone takes, then a thread takes every millisecond and batch
+// B (100) comes while A's rest waits on the writer thread. Every sample is
+// accounted (written or counted failed), what arrives is in order (B written
+// directly while A's rest waits would overtake it), and batch C after the
+// backlog goes out directly (no more spills) and arrives whole. How many of A
+// and B arrive is printed, not judged: the writer thread waits at most 1 ms per
+// sample for room, and the taker's pace decides how often that is enough (with
 // sample_path "dispatcher" every write after the 10th fails at once).
-TEST(DdsPlugin, Issue16_AutoSpillsAFullReliableHistoryToTheWriterThreadInOrder) {
+TEST(DdsPlugin, DocsDds_AutoSpillsAFullReliableHistoryToTheWriterThreadInOrder) {
   const StalledReader stalled_reader;
   ASSERT_GT(stalled_reader.reader, 0);
   const dds_entity_t reader = stalled_reader.reader;
@@ -1239,13 +1240,13 @@ TEST(DdsPlugin, Issue16_AutoSpillsAFullReliableHistoryToTheWriterThreadInOrder) 
   EXPECT_GE(got.size(), 15u) << "the first 10 and batch C at least";
 }
 
-// sample_path "auto": a TPDO the dispatcher hands out more
-// than DispatcherSamples::kBehindNs after its frame arrived (the dispatcher
-// is behind) goes to the writer thread, and so does what follows until that
-// has been written; then the dispatcher writes directly again. Every sample
-// arrives, in order, with its values and name (the writer thread fills them
-// from its own device table).
-TEST(DdsPlugin, Issue16_AutoHandsABacklogToTheWriterThread) {
+// docs/dds.md "Threads and cost", sample_path "auto": a TPDO the dispatcher
+// hands out more than DispatcherSamples::kBehindNs after its frame arrived (the
+// dispatcher is behind) goes to the writer thread, and so does what follows
+// until that has been written; then the dispatcher writes directly again. Every
+// sample arrives, in order, with its values and name (the writer thread fills
+// them from its own device table).
+TEST(DdsPlugin, DocsDds_AutoHandsABacklogToTheWriterThread) {
   Reader reader(&cobridge_EncoderSample_desc, "EncoderSample", DDS_RELIABILITY_BEST_EFFORT, DDS_DURABILITY_VOLATILE,
                 true);
   Plugin p(base_config());
@@ -1273,15 +1274,15 @@ TEST(DdsPlugin, Issue16_AutoHandsABacklogToTheWriterThread) {
   }
 }
 
-// "A gateway that loses its bus is visible to subscribers within
-// 1 s": a device going offline reaches DeviceStatus and GatewayStatus at
-// once even with seconds of EncoderSamples queued before it. A reliable
-// reader that never takes (room for 10 samples) makes every EncoderSample
-// write wait its max_blocking_time, so 20 000 queued TPDOs are a backlog of
-// about 20 s; the offline STATUS behind them must still be seen within 1 s
-// (before the status lane it waited for the whole backlog: 2.5-4.8 s in
-// UML, vcan_outputs_dds_multi_gateway).
-TEST(DdsPlugin, Issue16_OfflineIsNotQueuedBehindASampleBacklog) {
+// docs/dds.md "Many gateways in one domain" (a gateway that loses its bus) and
+// "Threads and cost" (the status lane): a device going offline reaches
+// DeviceStatus and GatewayStatus at once even with seconds of EncoderSamples
+// queued before it. A reliable reader that never takes (room for 10 samples)
+// makes every EncoderSample write wait its max_blocking_time, so 20 000 queued
+// TPDOs are a backlog of about 20 s; the offline STATUS behind them must still
+// be seen within 1 s (before the status lane it waited for the whole backlog:
+// 2.5-4.8 s in UML, vcan_outputs_dds_multi_gateway).
+TEST(DdsPlugin, DocsDds_OfflineIsNotQueuedBehindASampleBacklog) {
   const StalledReader stalled_reader;
   ASSERT_GT(stalled_reader.reader, 0);
   Reader status(&cobridge_DeviceStatus_desc, "DeviceStatus", DDS_RELIABILITY_RELIABLE, DDS_DURABILITY_TRANSIENT_LOCAL,

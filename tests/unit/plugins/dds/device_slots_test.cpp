@@ -61,12 +61,12 @@ TEST(DeviceSlots, Cia301_7_2_2_StaleUntilTheNextTpdo) {
   EXPECT_FALSE(slots.find(2)->state.stale);
 }
 
-// ("A gateway that loses its bus is visible within 1 s"): a status
-// sample applied ahead of the queue (the status lane) changes DeviceStatus
-// at once; when the queue reaches it, it is skipped, and the samples queued
-// before it (older than the state shown: a TPDO, a heartbeat) neither end
-// `stale` nor bring the device back online; the TPDOs after it end `stale`.
-TEST(DeviceSlots, Issue16_StatusAheadOfTheQueueIsAppliedOnce) {
+// docs/dds.md "Threads and cost", the status lane: a status sample applied
+// ahead of the queue (the status lane) changes DeviceStatus at once; when the
+// queue reaches it, it is skipped, and the samples queued before it (older than
+// the state shown: a TPDO, a heartbeat) neither end `stale` nor bring the
+// device back online; the TPDOs after it end `stale`.
+TEST(DeviceSlots, DocsDds_StatusAheadOfTheQueueIsAppliedOnce) {
   DeviceSlots slots(8);
   cobridge_sample hb = sample(COBRIDGE_SAMPLE_HEARTBEAT);
   hb.nmt_state = COBRIDGE_NMT_OPERATIONAL;
@@ -102,10 +102,11 @@ TEST(DeviceSlots, Issue16_StatusAheadOfTheQueueIsAppliedOnce) {
   EXPECT_FALSE(slots.find(2)->ahead);
 }
 
-// The lane may drop (full): a later status it never carried is applied in
-// queue order as before. And the lane may see a sample the queue has taken
-// already (pushed one after the other): that changes nothing later on.
-TEST(DeviceSlots, Issue16_LaneDropsAndLateLaneSamplesAreHarmless) {
+// docs/dds.md "Threads and cost", the status lane. The lane may drop (full): a
+// later status it never carried is applied in queue order as before. And the
+// lane may see a sample the queue has taken already (pushed one after the
+// other): that changes nothing later on.
+TEST(DeviceSlots, DocsDds_LaneDropsAndLateLaneSamplesAreHarmless) {
   DeviceSlots slots(8);
   cobridge_sample on = sample(COBRIDGE_SAMPLE_STATUS);
   on.valid = COBRIDGE_VALID_STATUS;
@@ -131,7 +132,7 @@ TEST(DeviceSlots, Issue16_LaneDropsAndLateLaneSamplesAreHarmless) {
 }
 
 // Sequences wrap (plugin.h): "newer" is judged modulo 2^32.
-TEST(DeviceSlots, Issue16_AheadComparisonSurvivesTheWrap) {
+TEST(DeviceSlots, PluginH_AheadComparisonSurvivesTheWrap) {
   DeviceSlots slots(8);
   cobridge_sample lost = sample(COBRIDGE_SAMPLE_STATUS);
   lost.valid = COBRIDGE_VALID_STATUS;

@@ -113,7 +113,7 @@ TEST(ModbusConfig, AllowListMatchesV4MappedAddresses) {
 // ::ffff:127.x) writes only when write_allow is not empty and holds it: any
 // account of the gateway's host reaches 127.0.0.1, around write_group.
 // Other clients: as contains(), an empty list takes everyone.
-TEST(ModbusConfig, Issue38_LoopbackWritersOnlyWhenWriteAllowListsThem) {
+TEST(ModbusConfig, LoopbackWritersOnlyWhenWriteAllowListsThem) {
   // As accept() fills them: a sockaddr_storage of either family.
   auto v4 = [](const char* text) {
     sockaddr_storage ss{};
