@@ -242,7 +242,9 @@ def check_dds(report, ws, kills, rebooting):
     report.check(all(len(per_device.get(n, [])) >= kills for (_, _, _, _, n) in DEVICES),
                  "DDS: every device's stream fell over to the survivor at every takeover (EXCLUSIVE reader)",
                  str({n: len(v) for n, v in per_device.items()}))
-    report.check(gaps and gaps[-1] <= 1000, "DDS: each failover within 1 s at the subscriber", str(gaps[-5:]))
+    report.check(bool(gaps), "DDS: failovers seen at the subscriber", str(gaps[-5:]))
+    report.check_bound(bool(gaps) and gaps[-1] <= 1000, "DDS: each failover within 1 s at the subscriber",
+                       str(gaps[-5:]))
     writers = [e for e in ev if e["ev"] == "device"]
     bad = [w for w in writers if w["gaps"] != 0]
     report.check(writers and not bad, "DDS: no sequence gap in any gateway's stream (%d streams)" % len(writers),
@@ -454,9 +456,10 @@ def main():
                     "%.3f/%d/%d/%d" % (x[0] - t_before, x[1], x[2], x[3]) for x in mine[max(0, j - 4):j]])
                        for j, (t, a, q, nd) in enumerate(mine) if a > 1000 and t >= t_before]
                 survivor_worst.append(worst)
-                report.check(n > 0 and worst is not None and worst <= 1000,
-                             "kill %d: Modbus on the survivor stays live (data age at most %s ms over %d reads)" % (
-                                 i, worst, n), " ".join(old[:10]))
+                report.check(n > 0 and worst is not None, "kill %d: Modbus on the survivor answers (%d reads)" % (i, n))
+                report.check_bound(n > 0 and worst is not None and worst <= 1000,
+                                   "kill %d: Modbus on the survivor stays live (data age at most %s ms over %d reads)" % (
+                                       i, worst, n), " ".join(old[:10]))
             survivor = pair.daemon[standby]
             _, back = survivor.wait_until(e2e.all_operational(NAMES), 20, interval=0.05)
             # Writes counted on the bus, whoever logs them: SDO download requests to the configured devices
@@ -510,7 +513,8 @@ def main():
         if ok:
             ok.sort()
             print("FIGURE takeover p50 %.3f s, p100 %.3f s (%d kills)" % (ok[len(ok) // 2], ok[-1], len(ok)))
-        report.check(len(ok) == len(takeovers) and max(ok) <= 1.0,
+        report.check(len(ok) == len(takeovers), "every kill taken over (bus traces)", str(takeovers))
+        report.check_bound(len(ok) == len(takeovers) and max(ok) <= 1.0,
                      "every takeover within 1 s of the master's last frame (bus traces: its last frame to the "
                      "survivor's first 05h heartbeat)", str(takeovers))
         overlaps = e2e.master_heartbeat_overlaps(listener.snapshot(0), NODE)
