@@ -1,5 +1,7 @@
 #include "base/error.hpp"
 
+#include "base/json_writer.hpp"
+
 #include <array>
 #include <cstdio>
 
@@ -45,16 +47,14 @@ std::string json_quote(std::string_view text) {
 }
 
 std::string Error::to_json() const {
-  std::string out = "{\"code\":";
-  out += json_quote(name(kind));
-  out += ",\"where\":" + json_quote(where);
-  out += ",\"message\":" + json_quote(message);
+  JsonWriter w;
+  w.begin_object().field("code", name(kind)).field("where", where).field("message", message);
   if (code) {
-    out += ",\"detail\":{\"category\":" + json_quote(code.category().name());
-    out += ",\"value\":" + std::to_string(code.value()) + "}";
+    w.key("detail").begin_object();
+    w.field("category", code.category().name()).field("value", code.value());
+    w.end_object();
   }
-  out += '}';
-  return out;
+  return w.end_object().take();
 }
 
 }  // namespace cobridge

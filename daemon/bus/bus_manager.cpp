@@ -147,6 +147,12 @@ void BusManager::Impl::run() {
 
 TimePoint BusManager::Impl::turn(TimePoint& now) {
   take_commands(now);
+  // A wake-up for a command that found the socket empty then, in a turn that
+  // runs past a deadline (the thread preempted after poll: a loaded host):
+  // frames came meanwhile, and a heartbeat left unread would count as silence
+  // (a returning standby negotiated while the master's heartbeat sat unread,
+  // vcan_daemon_hot_standby 2026-11-30).
+  if (now >= polled_for) rx_ready = true;
   const bool lost = receive(rx_frames, now);  // the interface went down in this turn
   if (handle_bus_events(now) || lost) {
     // A lost bus is news at once: status and the outputs hear of it
@@ -263,6 +269,7 @@ bool BusManager::Impl::receive(std::span<can::Frame> frames, TimePoint now) {
 // (microseconds), against the millisecond rounding of poll's timeout.
 void BusManager::Impl::wait(TimePoint now, TimePoint next) {
   milliseconds timeout = kMaxPollWait;
+  polled_for = std::min(next, now + kMaxPollWait);
   if (next != kNever) {
     const auto until = std::chrono::ceil<milliseconds>(next - now);
     timeout = std::clamp(until, milliseconds(0), kMaxPollWait);

@@ -490,6 +490,9 @@ struct BusManager::Impl final : RemoteGate {
   std::thread thread;
   int wake_fd = -1;
   bool rx_ready = true;  // the last poll saw the CAN socket readable (or failed)
+  // The deadline the last poll waited for: a turn at or past it judges
+  // timeouts, so it reads the socket first even after a command's wake-up.
+  TimePoint polled_for = kNever;
   std::vector<pollfd> poll_fds;  // wait()'s, kept for its capacity
   std::atomic<bool> stop_requested{false};
   std::atomic<bool> running{false};

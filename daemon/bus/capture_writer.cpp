@@ -1,5 +1,6 @@
 #include "bus/capture_writer.hpp"
 
+#include "base/json_writer.hpp"
 #include "sys/guarded_file.hpp"
 #include "sys/logging.hpp"
 
@@ -48,32 +49,29 @@ bool is_stamp(std::string_view text) {
   return true;
 }
 
-std::string capture_json_list(const std::vector<std::string>& items) {
-  std::string out = "[";
-  for (std::size_t i = 0; i < items.size(); ++i) {
-    if (i) out += ',';
-    out += json_quote(items[i]);
-  }
-  return out + "]";
+void write_list(JsonWriter& w, std::string_view key, const std::vector<std::string>& items) {
+  w.key(key).begin_array();
+  for (const auto& item : items) w.value(item);
+  w.end_array();
 }
 
-// [{"line":K,"dropped":N},...]: the gaps the kernel's drops left.
-std::string capture_json_gaps(const std::vector<std::pair<std::size_t, std::uint32_t>>& gaps) {
-  std::string out = "[";
-  for (std::size_t i = 0; i < gaps.size(); ++i) {
-    if (i) out += ',';
-    out += "{\"line\":" + std::to_string(gaps[i].first) + ",\"dropped\":" + std::to_string(gaps[i].second) + "}";
-  }
-  return out + "]";
+// "gaps": [{"line":K,"dropped":N},...], the gaps the kernel's drops left.
+void write_gaps(JsonWriter& w, const std::vector<std::pair<std::size_t, std::uint32_t>>& gaps) {
+  w.key("gaps").begin_array();
+  for (const auto& [line, dropped] : gaps) w.begin_object().field("line", line).field("dropped", dropped).end_object();
+  w.end_array();
 }
 
 std::string capture_sidecar(const CaptureOptions& o, const CaptureInfo& c) {
-  return "{\"bus\":" + json_quote(o.bus) + ",\"interface\":" + json_quote(o.interface) +
-         ",\"name\":" + json_quote(c.name) + ",\"causes\":" + capture_json_list(c.causes) +
-         ",\"devices\":" + capture_json_list(c.devices) + ",\"fault_ns\":" + std::to_string(c.fault_ns) +
-         ",\"fault_utc\":" + json_quote(capture_utc_stamp(c.fault_ns)) + ",\"frames\":" + std::to_string(c.frames) +
-         ",\"skipped\":" + std::to_string(c.skipped) + ",\"kernel_drops\":" + std::to_string(c.kernel_drops) +
-         ",\"gaps\":" + capture_json_gaps(c.gaps) + ",\"bytes\":" + std::to_string(c.bytes) + "}\n";
+  JsonWriter w;
+  w.begin_object().field("bus", o.bus).field("interface", o.interface).field("name", c.name);
+  write_list(w, "causes", c.causes);
+  write_list(w, "devices", c.devices);
+  w.field("fault_ns", c.fault_ns).field("fault_utc", capture_utc_stamp(c.fault_ns)).field("frames", c.frames);
+  w.field("skipped", c.skipped).field("kernel_drops", c.kernel_drops);
+  write_gaps(w, c.gaps);
+  w.field("bytes", c.bytes).end_object();
+  return w.take() + "\n";
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 #include "cli/capture_command.hpp"
 
 #include "base/error.hpp"
+#include "base/json_writer.hpp"
 #include "cli/control_client.hpp"
 #include "cli/daemon_route.hpp"
 #include "cli/json_value.hpp"
@@ -22,10 +23,11 @@ std::string joined(const Json& list) {
   return out.empty() ? "-" : out;
 }
 
-std::string json_list(const Json& list) {
-  std::string out = "[";
-  for (const auto& item : list.items) out += (out.size() > 1 ? "," : "") + json_quote(item.text);
-  return out + "]";
+void write_capture(JsonWriter& w, const Json& bus, const Json& c) {
+  w.begin_object().field("bus", bus["name"].str()).field("name", c["name"].str()).key("causes").begin_array();
+  for (const auto& item : c["causes"].items) w.value(item.text);
+  w.end_array().field("at", c["at"].str()).field("frames", c["frames"].integer()).field("bytes", c["bytes"].integer());
+  w.end_object();
 }
 
 int list(const CaptureOptions& o) {
@@ -34,26 +36,22 @@ int list(const CaptureOptions& o) {
   quiet.json = false;  // the answer is printed here, not as it came
   const auto doc = ask(quiet, "status", "capture list", code);
   if (!doc) return code;
-  if (o.json) std::printf("[");
-  bool first = true;
+  JsonWriter w;
+  w.begin_array();
   if (!o.json) std::printf("%-10s %-48s %-24s %-26s %8s %10s\n", "BUS", "NAME", "CAUSES", "AT", "FRAMES", "BYTES");
   for (const auto& bus : (*doc)["buses"].items) {
     const Json& rec = bus["recorder"];
     if (rec.is_null()) continue;
     for (const auto& c : rec["captures"].items) {
       if (o.json) {
-        std::printf("%s{\"bus\":%s,\"name\":%s,\"causes\":%s,\"at\":%s,\"frames\":%lld,\"bytes\":%lld}",
-                    first ? "" : ",", json_quote(bus["name"].str()).c_str(), json_quote(c["name"].str()).c_str(),
-                    json_list(c["causes"]).c_str(), json_quote(c["at"].str()).c_str(), c["frames"].integer(),
-                    c["bytes"].integer());
+        write_capture(w, bus, c);
       } else {
         std::printf("%-10s %-48s %-24s %-26s %8lld %10lld\n", bus["name"].str().c_str(), c["name"].str().c_str(),
                     joined(c["causes"]).c_str(), c["at"].str().c_str(), c["frames"].integer(), c["bytes"].integer());
       }
-      first = false;
     }
   }
-  if (o.json) std::printf("]\n");
+  if (o.json) std::printf("%s\n", w.end_array().text().c_str());
   return 0;
 }
 

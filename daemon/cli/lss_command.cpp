@@ -1,5 +1,6 @@
 #include "cli/lss_command.hpp"
 
+#include "base/json_writer.hpp"
 #include "canopen/cob_id.hpp"
 #include "canopen/lss_master.hpp"
 #include "cli/bus_session.hpp"
@@ -64,12 +65,14 @@ int lss_set_node_id(const LssSetNodeOptions& o) {
     (void)m.switch_state_global(canopen::LssMode::kWaiting);
   }
   if (!ok) return exit_code(Errc::kFailed);
-  if (o.json)
-    std::printf("{\"ok\":true,\"bus\":\"%s\",\"serial\":%u,\"node\":%u,\"stored\":%s}\n", o.iface.c_str(), o.serial,
-                o.node, o.store ? "true" : "false");
-  else
+  if (o.json) {
+    JsonWriter w;
+    w.begin_object().field("ok", true).field("bus", o.iface).field("serial", o.serial).field("node", o.node);
+    std::printf("%s\n", w.field("stored", o.store).end_object().text().c_str());
+  } else {
     std::printf("serial %u: node-ID %u%s (active after the device's next reset)\n", o.serial, o.node,
                 o.store ? ", stored" : "");
+  }
   return 0;
 }
 

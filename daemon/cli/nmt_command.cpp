@@ -1,5 +1,6 @@
 #include "cli/nmt_command.hpp"
 
+#include "base/json_writer.hpp"
 #include "canopen/cob_id.hpp"
 #include "canopen/nmt.hpp"
 #include "cli/bus_session.hpp"
@@ -40,9 +41,11 @@ int nmt_send(const NmtOptions& o) {
   const std::unique_ptr<BusSession> bus = std::move(opened).value();
   if (!bus->channel().send(canopen::make_nmt(cmd, static_cast<uint8_t>(node))))
     return report_failure("nmt", Error(Errc::kUnavailable, "could not send the frame", o.iface), o.json);
-  if (o.json)
-    std::printf("{\"ok\":true,\"bus\":\"%s\",\"node\":%u,\"command\":\"%s\"}\n", o.iface.c_str(), node,
-                o.command.c_str());
+  if (o.json) {
+    JsonWriter w;
+    w.begin_object().field("ok", true).field("bus", o.iface).field("node", node).field("command", o.command);
+    std::printf("%s\n", w.end_object().text().c_str());
+  }
   return 0;
 }
 

@@ -1,5 +1,7 @@
 #include "cli/scan_command.hpp"
 
+#include "base/json_writer.hpp"
+#include "base/number_text.hpp"
 #include "canopen/cob_id.hpp"
 #include "canopen/lss_master.hpp"
 #include "canopen/nmt.hpp"
@@ -66,14 +68,39 @@ std::string model_name(const device::DeviceCatalog& catalog, uint32_t vendor, ui
 }
 
 std::string hex_or_clash(const std::set<uint32_t>& s) {
-  char buf[32];
   if (s.empty()) return "?";
-  if (s.size() > 1) {
-    std::snprintf(buf, sizeof buf, "%zu answers", s.size());
-    return buf;
+  if (s.size() > 1) return std::to_string(s.size()) + " answers";
+  return hex(*s.begin(), 8);
+}
+
+// The daemon's discovery view of one bus (its status document's bus), as
+// `scan --json` prints it.
+void print_daemon_view_json(const Json& b) {
+  JsonWriter w;
+  w.begin_object().field("ok", true).field("via", "daemon").field("bus", b["name"].str()).key("devices").begin_array();
+  for (const auto& d : b["devices"].items) {
+    w.begin_object().key("node");
+    if (d["node_id"].is_null()) {
+      w.null();
+    } else {
+      w.value(d["node_id"].integer());
+    }
+    const Json& id = d["identity"];
+    w.field("vendor", id["vendor"].integer()).field("product", id["product"].integer());
+    w.field("revision", id["revision"].integer()).field("serial", id["serial"].integer());
+    w.field("model", d["model"].str("")).field("name", d["name"].str("")).field("state", d["state"].str(""));
+    w.end_object();
   }
-  std::snprintf(buf, sizeof buf, "0x%08X", *s.begin());
-  return buf;
+  std::printf("%s\n", w.end_array().end_object().text().c_str());
+}
+
+void print_daemon_view_table(const Json& b, const std::string& iface) {
+  std::printf("(cobridged owns %s: its discovery's view of bus %s)\n%-6s %-10s %-12s %-12s %-14s %s\n", iface.c_str(),
+              b["name"].str().c_str(), "NODE", "SERIAL", "MODEL", "NAME", "STATE", "LAST ERROR");
+  for (const auto& d : b["devices"].items)
+    std::printf("%-6s %-10s %-12s %-12s %-14s %s\n", d["node_id"].str().c_str(), d["identity"]["serial"].str().c_str(),
+                d["model"].str().c_str(), d["name"].str().c_str(), d["state"].str().c_str(),
+                d["last_error"].str("").c_str());
 }
 
 }  // namespace
@@ -105,28 +132,10 @@ std::optional<int> scan_via_daemon(const ScanOptions& o) {
                                           o.iface),
                             o.json);
     if (o.json) {
-      std::printf("{\"ok\":true,\"via\":\"daemon\",\"bus\":%s,\"devices\":[", json_quote(b["name"].str()).c_str());
+      print_daemon_view_json(b);
     } else {
-      std::printf("(cobridged owns %s: its discovery's view of bus %s)\n%-6s %-10s %-12s %-12s %-14s %s\n", o.iface.c_str(),
-                  b["name"].str().c_str(), "NODE", "SERIAL", "MODEL", "NAME", "STATE", "LAST ERROR");
+      print_daemon_view_table(b, o.iface);
     }
-    bool first = true;
-    for (const auto& d : b["devices"].items) {
-      if (o.json) {
-        std::printf("%s{\"node\":%s,\"vendor\":%lld,\"product\":%lld,\"revision\":%lld,\"serial\":%lld,\"model\":%s,"
-                    "\"name\":%s,\"state\":%s}",
-                    first ? "" : ",", d["node_id"].str("null").c_str(), d["identity"]["vendor"].integer(),
-                    d["identity"]["product"].integer(), d["identity"]["revision"].integer(),
-                    d["identity"]["serial"].integer(), json_quote(d["model"].str("")).c_str(),
-                    json_quote(d["name"].str("")).c_str(), json_quote(d["state"].str("")).c_str());
-      } else {
-        std::printf("%-6s %-10s %-12s %-12s %-14s %s\n", d["node_id"].str().c_str(), d["identity"]["serial"].str().c_str(),
-                    d["model"].str().c_str(), d["name"].str().c_str(), d["state"].str().c_str(),
-                    d["last_error"].str("").c_str());
-      }
-      first = false;
-    }
-    if (o.json) std::printf("]}\n");
     return 0;
   }
   return std::nullopt;
@@ -242,32 +251,32 @@ std::vector<NodeReport> fastscan_unconfigured(BusSession& bus, const ScanOptions
   return lss_found;
 }
 
+bool clashes(const NodeReport& r) {
+  return r.answers[1].size() > 1 || r.answers[2].size() > 1 || r.answers[3].size() > 1 || r.answers[4].size() > 1;
+}
+
 void print_json(const std::vector<NodeReport>& rows) {
-  std::printf("[");
-  bool first = true;
+  static constexpr const char* kNames[] = {"", "vendor", "product", "revision", "serial"};
+  JsonWriter w;
+  w.begin_array();
   for (const auto& r : rows) {
-    std::printf("%s{\"node\":%s,\"seen\":\"%s\",\"model\":\"%s\",\"clash\":%s", first ? "" : ",",
-                r.unconfigured ? "null" : std::to_string(r.node).c_str(),
-                r.unconfigured ? "fastscan" : r.seen.c_str(), r.model.c_str(),
-                (r.answers[1].size() > 1 || r.answers[2].size() > 1 || r.answers[3].size() > 1 ||
-                 r.answers[4].size() > 1)
-                    ? "true"
-                    : "false");
-    const char* names[] = {"", "vendor", "product", "revision", "serial"};
-    for (int s = 1; s <= 4; ++s) {
-      std::printf(",\"%s\":[", names[s]);
-      bool f2 = true;
-      for (uint32_t v : r.answers[static_cast<std::size_t>(s)]) {
-        std::printf("%s%u", f2 ? "" : ",", v);
-        f2 = false;
-      }
-      std::printf("]");
+    w.begin_object().key("node");
+    if (r.unconfigured) {
+      w.null();
+    } else {
+      w.value(r.node);
     }
-    if (r.assigned) std::printf(",\"assigned\":%u", r.assigned);
-    std::printf("}");
-    first = false;
+    w.field("seen", r.unconfigured ? std::string("fastscan") : r.seen).field("model", r.model);
+    w.field("clash", clashes(r));
+    for (std::size_t s = 1; s <= 4; ++s) {
+      w.key(kNames[s]).begin_array();
+      for (const std::uint32_t v : r.answers[s]) w.value(v);
+      w.end_array();
+    }
+    if (r.assigned) w.field("assigned", r.assigned);
+    w.end_object();
   }
-  std::printf("]\n");
+  std::printf("%s\n", w.end_array().text().c_str());
 }
 
 void print_table(const std::vector<NodeReport>& rows, const std::string& iface) {

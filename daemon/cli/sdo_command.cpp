@@ -1,5 +1,7 @@
 #include "cli/sdo_command.hpp"
 
+#include "base/json_writer.hpp"
+#include "base/number_text.hpp"
 #include "canopen/cob_id.hpp"
 #include "canopen/sdo_abort.hpp"
 #include "canopen/sdo_client.hpp"
@@ -50,8 +52,7 @@ std::optional<canopen::SdoClient::Result> finish(BusSession& bus, canopen::SdoCl
     std::snprintf(text, sizeof text, "%04X:%u", r->index, r->sub);
     error = Error(silent ? Errc::kTimeout : Errc::kFailed, r->error.message(), where + " object " + text, r->error);
     if (!silent) {
-      std::snprintf(text, sizeof text, " (abort code 0x%08X)", canopen::sdo_abort_wire_code(r->error));
-      error.message += text;
+      error.message += " (abort code " + hex(canopen::sdo_abort_wire_code(r->error), 8) + ")";
     }
     return std::nullopt;
   }
@@ -72,13 +73,20 @@ std::string object_words(const SdoOptions& o, uint16_t index, uint8_t sub) {
 
 int daemon_timeout(const SdoOptions& o) { return static_cast<int>(std::max(10000U, o.timeout_ms * 8)) + 5000; }
 
-// With --string, the value as text (up to its first NUL, as a VISIBLE_STRING
-// is read): ,"string":"..." for the JSON answer.
-std::string string_field(const SdoOptions& o, std::span<const uint8_t> d) {
-  if (!o.as_string) return {};
-  std::string text(reinterpret_cast<const char*>(d.data()), d.size());
-  text = text.substr(0, text.find('\0'));
-  return ",\"string\":" + json_quote(text);
+// The value as text, up to its first NUL (as a VISIBLE_STRING is read):
+// the "string" of the JSON answer with --string.
+std::string visible_text(std::span<const uint8_t> d) {
+  const std::string text(reinterpret_cast<const char*>(d.data()), d.size());
+  return text.substr(0, text.find('\0'));
+}
+
+// The JSON answer of a read or write on the bus itself (the daemon's own
+// answer has the same fields).
+JsonWriter sdo_answer(const SdoOptions& o, uint16_t index, uint8_t sub, std::size_t size) {
+  JsonWriter w;
+  w.begin_object().field("ok", true).field("bus", o.iface).field("node", o.node).field("index", index);
+  w.field("sub", sub).field("size", size);
+  return w;
 }
 
 void print_read(const SdoOptions& o, uint16_t index, uint8_t sub, std::span<const uint8_t> d, const char* raw_json) {
@@ -87,18 +95,17 @@ void print_read(const SdoOptions& o, uint16_t index, uint8_t sub, std::span<cons
       // The daemon's answer, with the decoded string added before its closing brace.
       std::string doc(raw_json);
       const std::size_t end = doc.rfind('}');
-      if (end != std::string::npos) doc.insert(end, string_field(o, d));
+      if (end != std::string::npos && o.as_string) doc.insert(end, ",\"string\":" + json_quote(visible_text(d)));
       std::printf("%s\n", doc.c_str());
       return;
     }
     uint32_t v = 0;
     for (std::size_t i = 0; i < d.size() && i < 4; ++i) v |= uint32_t{d[i]} << (8 * i);
-    std::printf("{\"ok\":true,\"bus\":\"%s\",\"node\":%u,\"index\":%u,\"sub\":%u,\"size\":%zu,\"hex\":\"",
-                o.iface.c_str(), o.node, index, sub, d.size());
-    for (uint8_t b : d) std::printf("%02X", b);
-    std::printf("\"");
-    if (!d.empty() && d.size() <= 4) std::printf(",\"value\":%u", v);
-    std::printf("%s}\n", string_field(o, d).c_str());
+    JsonWriter w = sdo_answer(o, index, sub, d.size());
+    w.field("hex", hex_bytes(d));
+    if (!d.empty() && d.size() <= 4) w.field("value", v);
+    if (o.as_string) w.field("string", visible_text(d));
+    std::printf("%s\n", w.end_object().text().c_str());
   } else if (o.as_string || d.size() > 4) {
     std::printf("%.*s\n", static_cast<int>(d.size()), reinterpret_cast<const char*>(d.data()));
   } else {
@@ -181,13 +188,7 @@ int sdo_write(const SdoOptions& o) {
   if (Error e = check(o, index, sub)) return report_failure("sdo", e, o.json);
   std::vector<uint8_t> data;
   if (Error e = encode_value(o, data)) return report_failure("sdo", e, o.json);
-  std::string hex;
-  char b[3];
-  for (const uint8_t v : data) {
-    std::snprintf(b, sizeof b, "%02X", v);
-    hex += b;
-  }
-  const std::string line = "sdo-write " + o.iface + " " + object_words(o, index, sub) + " " + hex + " " +
+  const std::string line = "sdo-write " + o.iface + " " + object_words(o, index, sub) + " " + hex_bytes(data) + " " +
                            std::to_string(o.timeout_ms);
   if (auto routed = via_daemon(o.control, o.iface, line, daemon_timeout(o))) {
     if (routed->first) return report_daemon_failure("sdo", *routed, o.json);
@@ -202,9 +203,7 @@ int sdo_write(const SdoOptions& o) {
   if (auto ec = client.start_download(index, sub, data, canopen::Clock::now()))
     return report_failure("sdo", Error(Errc::kUnavailable, ec.message(), o.iface, ec), o.json);
   if (!finish(*bus, client, o, err)) return report_failure("sdo", err, o.json);
-  if (o.json)
-    std::printf("{\"ok\":true,\"bus\":\"%s\",\"node\":%u,\"index\":%u,\"sub\":%u,\"size\":%zu}\n", o.iface.c_str(),
-                o.node, index, sub, data.size());
+  if (o.json) std::printf("%s\n", sdo_answer(o, index, sub, data.size()).end_object().text().c_str());
   return 0;
 }
 

@@ -1,6 +1,7 @@
 #include "cli/watch_command.hpp"
 
 #include "base/error.hpp"
+#include "base/json_writer.hpp"
 #include "base/number_text.hpp"
 
 #include "cobridge_idl/cobridge.h"
@@ -30,32 +31,6 @@ struct Participant {
     if (id > 0) (void)dds_delete(id);
   }
 };
-
-// A JSON string (RFC 8259 §7).
-void json_string(std::string& out, const char* s) { out += json_quote(s != nullptr ? s : ""); }
-
-template <typename T>
-void json_field(std::string& out, const char* key, T value) {
-  out += ",\"";
-  out += key;
-  out += "\":";
-  if constexpr (std::is_same_v<T, bool>) {
-    out += value ? "true" : "false";
-  } else if constexpr (std::is_same_v<T, const char*> || std::is_same_v<T, char*>) {
-    json_string(out, value);
-  } else {
-    out += std::to_string(value);
-  }
-}
-
-void json_double(std::string& out, const char* key, double value) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.17g", value);
-  out += ",\"";
-  out += key;
-  out += "\":";
-  out += buf;
-}
 
 // HH:MM:SS.uuuuuu local time of a Unix-epoch ns stamp.
 std::string clock_text(std::uint64_t ns) {
@@ -88,34 +63,30 @@ const char* nmt_text(unsigned state) {
   }
 }
 
-std::string format_sample(const cobridge_EncoderSample& s, bool json) {
-  std::string out;
+std::string sample_json(const cobridge_EncoderSample& s) {
   const unsigned v = s.valid;
-  if (json) {
-    out = "{\"topic\":\"EncoderSample\"";
-    json_field(out, "gateway_id", s.gateway_id);
-    json_field(out, "bus", s.bus);
-    json_field(out, "node_id", s.node_id);
-    json_field(out, "device_name", s.device_name);
-    if ((v & cobridge_VALID_POSITION) != 0) json_field(out, "position", s.position);
-    if ((v & cobridge_VALID_POSITION_ENG) != 0) json_double(out, "position_eng", s.position_eng);
-    if ((v & cobridge_VALID_SPEED) != 0) json_field(out, "speed", s.speed);
-    if ((v & cobridge_VALID_CAM_STATE) != 0) json_field(out, "cam_state", s.cam_state);
-    if ((v & cobridge_VALID_WORK_AREA_STATE) != 0) json_field(out, "work_area_state", s.work_area_state);
-    if ((v & cobridge_VALID_ALARMS) != 0) json_field(out, "alarms", s.alarms);
-    if ((v & cobridge_VALID_WARNINGS) != 0) json_field(out, "warnings", s.warnings);
-    if ((v & cobridge_VALID_TEMPERATURE) != 0) json_field(out, "temperature_dC", s.temperature_dC);
-    if ((v & cobridge_VALID_VOLTAGE) != 0) json_field(out, "voltage_dV", s.voltage_dV);
-    json_field(out, "valid", s.valid);
-    json_field(out, "rx_timestamp_ns", s.rx_timestamp_ns);
-    json_field(out, "publish_timestamp_ns", s.publish_timestamp_ns);
-    json_field(out, "sequence", s.sequence_number);
-    json_field(out, "sync_counter", s.sync_counter);
-    json_field(out, "stale", s.stale);
-    out += '}';
-    return out;
-  }
-  out = clock_text(s.rx_timestamp_ns) + "  " + who(s.gateway_id, s.bus, s.node_id, s.device_name) + "  ";
+  JsonWriter w;
+  w.begin_object().field("topic", "EncoderSample").field("gateway_id", s.gateway_id).field("bus", s.bus);
+  w.field("node_id", s.node_id).field("device_name", s.device_name);
+  if ((v & cobridge_VALID_POSITION) != 0) w.field("position", s.position);
+  if ((v & cobridge_VALID_POSITION_ENG) != 0) w.key("position_eng").exact(s.position_eng);
+  if ((v & cobridge_VALID_SPEED) != 0) w.field("speed", s.speed);
+  if ((v & cobridge_VALID_CAM_STATE) != 0) w.field("cam_state", s.cam_state);
+  if ((v & cobridge_VALID_WORK_AREA_STATE) != 0) w.field("work_area_state", s.work_area_state);
+  if ((v & cobridge_VALID_ALARMS) != 0) w.field("alarms", s.alarms);
+  if ((v & cobridge_VALID_WARNINGS) != 0) w.field("warnings", s.warnings);
+  if ((v & cobridge_VALID_TEMPERATURE) != 0) w.field("temperature_dC", s.temperature_dC);
+  if ((v & cobridge_VALID_VOLTAGE) != 0) w.field("voltage_dV", s.voltage_dV);
+  w.field("valid", s.valid).field("rx_timestamp_ns", s.rx_timestamp_ns);
+  w.field("publish_timestamp_ns", s.publish_timestamp_ns).field("sequence", s.sequence_number);
+  w.field("sync_counter", s.sync_counter).field("stale", s.stale);
+  return w.end_object().take();
+}
+
+std::string format_sample(const cobridge_EncoderSample& s, bool json) {
+  if (json) return sample_json(s);
+  const unsigned v = s.valid;
+  std::string out = clock_text(s.rx_timestamp_ns) + "  " + who(s.gateway_id, s.bus, s.node_id, s.device_name) + "  ";
   if ((v & cobridge_VALID_POSITION) != 0) out += "pos=" + std::to_string(s.position) + ' ';
   if ((v & cobridge_VALID_POSITION_ENG) != 0) {
     char buf[40];
@@ -142,21 +113,13 @@ std::string format_event(const cobridge_EncoderEvent& e, bool json) {
     data += buf;
   }
   if (json) {
-    std::string out = "{\"topic\":\"EncoderEvent\"";
-    json_field(out, "gateway_id", e.gateway_id);
-    json_field(out, "bus", e.bus);
-    json_field(out, "node_id", e.node_id);
-    json_field(out, "device_name", e.device_name);
-    json_field(out, "code", e.code);
-    json_field(out, "error_register", e.error_register);
-    json_field(out, "data", data.c_str());
-    json_field(out, "text", e.text);
-    json_field(out, "source", e.source);
-    json_field(out, "error_reset", e.error_reset);
-    json_field(out, "rx_timestamp_ns", e.rx_timestamp_ns);
-    json_field(out, "sequence", e.sequence_number);
-    out += '}';
-    return out;
+    JsonWriter w;
+    w.begin_object().field("topic", "EncoderEvent").field("gateway_id", e.gateway_id).field("bus", e.bus);
+    w.field("node_id", e.node_id).field("device_name", e.device_name).field("code", e.code);
+    w.field("error_register", e.error_register).field("data", data).field("text", e.text);
+    w.field("source", e.source).field("error_reset", e.error_reset).field("rx_timestamp_ns", e.rx_timestamp_ns);
+    w.field("sequence", e.sequence_number);
+    return w.end_object().take();
   }
   return clock_text(e.rx_timestamp_ns) + "  " + who(e.gateway_id, e.bus, e.node_id, e.device_name) + "  EVENT " +
          hex(e.code, 4) + " reg=" + hex(e.error_register, 2) + " data=" + data + " \"" + (e.text ? e.text : "") +
@@ -164,37 +127,22 @@ std::string format_event(const cobridge_EncoderEvent& e, bool json) {
          " seq=" + std::to_string(e.sequence_number);
 }
 
+std::string status_json(const cobridge_DeviceStatus& s, bool disposed) {
+  JsonWriter w;
+  w.begin_object().field("topic", "DeviceStatus").field("gateway_id", s.gateway_id).field("bus", s.bus);
+  w.field("node_id", s.node_id);
+  if (disposed) return w.field("removed", true).end_object().take();
+  w.field("name", s.name).field("bus_name", s.bus_name).field("vendor_id", s.vendor_id);
+  w.field("product_code", s.product_code).field("revision", s.revision).field("serial", s.serial);
+  w.field("model", s.model).field("family", s.family).field("position_unit", s.position_unit);
+  w.field("nmt_state", s.nmt_state).field("online", s.online).field("stale", s.stale);
+  w.field("last_emcy_code", s.last_emcy_code).field("last_emcy_register", s.last_emcy_register);
+  w.field("last_emcy_ns", s.last_emcy_ns).field("updated_ns", s.updated_ns).field("config_state", s.config_state);
+  return w.end_object().take();
+}
+
 std::string format_status(const cobridge_DeviceStatus& s, bool disposed, bool json) {
-  if (json) {
-    std::string out = "{\"topic\":\"DeviceStatus\"";
-    json_field(out, "gateway_id", s.gateway_id);
-    json_field(out, "bus", s.bus);
-    json_field(out, "node_id", s.node_id);
-    if (disposed) {
-      json_field(out, "removed", true);
-      out += '}';
-      return out;
-    }
-    json_field(out, "name", s.name);
-    json_field(out, "bus_name", s.bus_name);
-    json_field(out, "vendor_id", s.vendor_id);
-    json_field(out, "product_code", s.product_code);
-    json_field(out, "revision", s.revision);
-    json_field(out, "serial", s.serial);
-    json_field(out, "model", s.model);
-    json_field(out, "family", s.family);
-    json_field(out, "position_unit", s.position_unit);
-    json_field(out, "nmt_state", s.nmt_state);
-    json_field(out, "online", s.online);
-    json_field(out, "stale", s.stale);
-    json_field(out, "last_emcy_code", s.last_emcy_code);
-    json_field(out, "last_emcy_register", s.last_emcy_register);
-    json_field(out, "last_emcy_ns", s.last_emcy_ns);
-    json_field(out, "updated_ns", s.updated_ns);
-    json_field(out, "config_state", s.config_state);
-    out += '}';
-    return out;
-  }
+  if (json) return status_json(s, disposed);
   const auto now = static_cast<std::uint64_t>(
       std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count());
   if (disposed) return clock_text(now) + "  " + who(s.gateway_id, s.bus, s.node_id, nullptr) + "  STATUS removed";

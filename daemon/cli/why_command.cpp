@@ -1,6 +1,7 @@
 #include "cli/why_command.hpp"
 
 #include "base/error.hpp"
+#include "base/json_writer.hpp"
 #include "cli/daemon_route.hpp"
 
 #include <algorithm>
@@ -103,19 +104,22 @@ void print_chain(const Json& d, std::size_t first, const CapturesOnDisk& disk) {
 }
 
 void print_json(const Json& d, std::size_t first, const CapturesOnDisk& disk) {
-  std::string out = "{\"device\":" + json_quote(d["name"].str("")) + ",\"state\":" + json_quote(d["state"].str("")) +
-                    ",\"since\":" + json_quote(d["since"].str("")) + ",\"chain\":[";
+  JsonWriter w;
+  w.begin_object().field("device", d["name"].str("")).field("state", d["state"].str(""));
+  w.field("since", d["since"].str("")).key("chain").begin_array();
   const auto& events = d["timeline"].items;
   for (std::size_t i = first; i < events.size(); ++i) {
     const Json& e = events[i];
-    const char* on_disk = e["capture"].is_null() ? "null" : disk.has(e["capture"].str("")) ? "true" : "false";
-    out += (i == first ? "" : ",");
-    out += "{\"at\":" + json_quote(e["at"].str("")) + ",\"kind\":" + json_quote(e["kind"].str("")) +
-           ",\"text\":" + json_quote(e["text"].str("")) + ",\"repeats\":" + std::to_string(e["repeats"].integer()) +
-           ",\"capture\":" + (e["capture"].is_null() ? std::string("null") : json_quote(e["capture"].str(""))) +
-           ",\"capture_on_disk\":" + on_disk + "}";
+    w.begin_object().field("at", e["at"].str("")).field("kind", e["kind"].str("")).field("text", e["text"].str(""));
+    w.field("repeats", e["repeats"].integer());
+    if (e["capture"].is_null()) {
+      w.key("capture").null().key("capture_on_disk").null();
+    } else {
+      w.field("capture", e["capture"].str("")).field("capture_on_disk", disk.has(e["capture"].str("")));
+    }
+    w.end_object();
   }
-  std::printf("%s]}\n", out.c_str());
+  std::printf("%s\n", w.end_array().end_object().text().c_str());
 }
 
 }  // namespace

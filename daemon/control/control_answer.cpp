@@ -1,7 +1,6 @@
 #include "control/control_answer.hpp"
 
-#include <cstdio>
-
+#include "base/json_writer.hpp"
 #include "base/number_text.hpp"
 
 namespace cobridge::control {
@@ -21,58 +20,69 @@ const char* nmt_name(canopen::NmtCommand c) {
 }  // namespace
 
 std::string error_answer(const Error& error, std::uint32_t abort_code) {
-  std::string out = "{\"ok\":false,\"error\":" + error.to_json();
-  if (abort_code != 0) {
-    char b[16];
-    std::snprintf(b, sizeof b, "0x%08X", abort_code);
-    out += ",\"abort_code\":\"" + std::string(b) + "\"";
-  }
-  return out + "}";
+  JsonWriter w;
+  w.begin_object().field("ok", false).key("error").raw(error.to_json());
+  if (abort_code != 0) w.field("abort_code", hex(abort_code, 8));
+  return w.end_object().take();
 }
 
 std::string commission_answer(const std::vector<std::string>& buses, const std::string& message) {
-  std::string out = "{\"ok\":true,\"buses\":[";
-  for (std::size_t i = 0; i < buses.size(); ++i) out += (i == 0 ? "" : ",") + json_quote(buses[i]);
-  out += "]";
-  if (!message.empty()) out += ",\"message\":" + json_quote(message);
-  return out + "}";
+  JsonWriter w;
+  w.begin_object().field("ok", true).key("buses").begin_array();
+  for (const auto& b : buses) w.value(b);
+  w.end_array();
+  if (!message.empty()) w.field("message", message);
+  return w.end_object().take();
 }
+
+std::string capture_answer(const std::string& name, const std::string& text) {
+  JsonWriter w;
+  return w.begin_object().field("ok", true).field("name", name).field("text", text).end_object().take();
+}
+
+namespace {
+
+// The value of an upload of up to 4 bytes (CiA 301 §7.4.8.2: little endian).
+std::uint32_t little_endian(const std::vector<std::uint8_t>& data) {
+  std::uint32_t v = 0;
+  for (std::size_t i = 0; i < data.size(); ++i) v |= std::uint32_t{data[i]} << (8 * i);
+  return v;
+}
+
+void write_lss(JsonWriter& w, const bus::RemoteCommand& c) {
+  std::uint32_t serial = 0;
+  bool stored = false;
+  for (const auto& s : c.lss_steps) {
+    if (s.kind == bus::LssStep::Kind::switch_selective) serial = s.address.serial;
+    if (s.kind == bus::LssStep::Kind::store) stored = true;
+  }
+  w.field("serial", serial).field("stored", stored);
+}
+
+}  // namespace
 
 std::string remote_answer(const ControlRequest& request, const bus::RemoteResult& result) {
   if (result.error) return error_answer(result.error, result.abort_code);
   const bus::RemoteCommand& c = request.command;
-  std::string out = "{\"ok\":true,\"via\":\"daemon\",\"bus\":" + json_quote(request.bus) + ",\"node\":" +
-                    std::to_string(c.node);
+  JsonWriter w;
+  w.begin_object().field("ok", true).field("via", "daemon").field("bus", request.bus).field("node", c.node);
   switch (c.op) {
-    case bus::RemoteOp::sdo_upload: {
-      out += ",\"index\":" + std::to_string(c.index) + ",\"sub\":" + std::to_string(c.sub);
-      out += ",\"size\":" + std::to_string(result.data.size()) + ",\"hex\":\"" + hex_bytes(result.data) + "\"";
-      if (!result.data.empty() && result.data.size() <= 4) {
-        std::uint32_t v = 0;
-        for (std::size_t i = 0; i < result.data.size(); ++i) v |= std::uint32_t{result.data[i]} << (8 * i);
-        out += ",\"value\":" + std::to_string(v);
-      }
+    case bus::RemoteOp::sdo_upload:
+      w.field("index", c.index).field("sub", c.sub).field("size", result.data.size());
+      w.field("hex", hex_bytes(result.data));
+      if (!result.data.empty() && result.data.size() <= 4) w.field("value", little_endian(result.data));
       break;
-    }
     case bus::RemoteOp::sdo_download:
-      out += ",\"index\":" + std::to_string(c.index) + ",\"sub\":" + std::to_string(c.sub);
-      out += ",\"size\":" + std::to_string(c.data.size());
+      w.field("index", c.index).field("sub", c.sub).field("size", c.data.size());
       break;
     case bus::RemoteOp::nmt:
-      out += ",\"command\":\"" + std::string(nmt_name(c.nmt)) + "\"";
+      w.field("command", nmt_name(c.nmt));
       break;
-    case bus::RemoteOp::lss: {
-      std::uint32_t serial = 0;
-      bool stored = false;
-      for (const auto& s : c.lss_steps) {
-        if (s.kind == bus::LssStep::Kind::switch_selective) serial = s.address.serial;
-        if (s.kind == bus::LssStep::Kind::store) stored = true;
-      }
-      out += ",\"serial\":" + std::to_string(serial) + ",\"stored\":" + (stored ? "true" : "false");
+    case bus::RemoteOp::lss:
+      write_lss(w, c);
       break;
-    }
   }
-  return out + "}";
+  return w.end_object().take();
 }
 
 }  // namespace cobridge::control

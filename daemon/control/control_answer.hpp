@@ -22,6 +22,8 @@ namespace cobridge::control {
 [[nodiscard]] std::string error_answer(const Error& error, std::uint32_t abort_code = 0);
 // {"ok":true,"buses":[...]}
 [[nodiscard]] std::string commission_answer(const std::vector<std::string>& buses, const std::string& message = {});
+// {"ok":true,"name":"...","text":"..."}: a flight-recorder capture's frames.
+[[nodiscard]] std::string capture_answer(const std::string& name, const std::string& text);
 // The outcome of `request` (a remote kind): an error_answer, or e.g.
 // {"ok":true,"bus":"line1","node":10,"index":4120,"sub":4,"size":4,"hex":"E9030000","value":1001}
 [[nodiscard]] std::string remote_answer(const ControlRequest& request, const bus::RemoteResult& result);

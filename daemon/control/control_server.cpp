@@ -249,8 +249,7 @@ void ControlServer::answer(Client& c, std::string_view line, TimePoint now) {
     reply = acknowledge(c, req.name);
   } else if (req.kind == ControlRequest::Kind::capture_get) {
     const Result<std::string> text = handler_.read_capture(req.name);
-    reply = !text.ok() ? error_answer(text.error())
-                       : "{\"ok\":true,\"name\":" + json_quote(req.name) + ",\"text\":" + json_quote(text.value()) + "}";
+    reply = !text.ok() ? error_answer(text.error()) : capture_answer(req.name, text.value());
   } else {
     submit(c, std::move(req), now);
     if (c.waiting_tag != 0) return;

@@ -1,6 +1,7 @@
 #include "control/status_report.hpp"
 
 #include "base/error.hpp"
+#include "base/json_writer.hpp"
 #include "canopen/nmt.hpp"
 #include "bus/config_drift.hpp"
 
@@ -11,70 +12,21 @@
 namespace cobridge::control {
 namespace {
 
-// A JSON text built by appending; the status document is flat enough that a
-// tiny writer with explicit commas is clearer than a value tree.
-class JsonWriter {
- public:
-  void begin_object() { value_prefix(); out_ += '{'; first_ = true; }
-  void end_object() { out_ += '}'; first_ = false; }
-  void begin_array() { value_prefix(); out_ += '['; first_ = true; }
-  void end_array() { out_ += ']'; first_ = false; }
-  void key(std::string_view k) {
-    if (!first_) out_ += ',';
-    first_ = true;  // the value that follows takes no comma
-    string_literal(k);
-    out_ += ':';
+// ISO 8601 UTC to the millisecond; the zero time (never) is null.
+void write_time(JsonWriter& w, bus::WallTime t) {
+  if (t == bus::WallTime{}) {
+    w.null();
+    return;
   }
-  void value(std::string_view s) { value_prefix(); string_literal(s); first_ = false; }
-  void value(const char* s) { value(std::string_view(s)); }
-  void value(bool b) { value_prefix(); out_ += b ? "true" : "false"; first_ = false; }
-  void value(std::uint64_t n) { value_prefix(); out_ += std::to_string(n); first_ = false; }
-  void value(std::int64_t n) { value_prefix(); out_ += std::to_string(n); first_ = false; }
-  void value(double d) {
-    value_prefix();
-    std::array<char, 32> buf{};
-    std::snprintf(buf.data(), buf.size(), "%.3f", d);
-    out_ += buf.data();
-    first_ = false;
-  }
-  void null() { value_prefix(); out_ += "null"; first_ = false; }
-  void time(bus::WallTime t) {
-    if (t == bus::WallTime{}) {
-      null();
-      return;
-    }
-    value(iso8601(t));
-  }
-  template <typename T>
-  void field(std::string_view k, T v) {
-    key(k);
-    value(v);
-  }
-  std::string take() { return std::move(out_); }
-
-  static std::string iso8601(bus::WallTime t) {
-    const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(t.time_since_epoch()).count();
-    const std::time_t secs = static_cast<std::time_t>(ms / 1000);
-    std::tm tm{};
-    gmtime_r(&secs, &tm);
-    std::array<char, 96> buf{};  // room for any int, so -O2's truncation check is satisfied
-    std::snprintf(buf.data(), buf.size(), "%04d-%02d-%02dT%02d:%02d:%02d.%03dZ", tm.tm_year + 1900, tm.tm_mon + 1,
-                  tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec, static_cast<int>(ms % 1000));
-    return buf.data();
-  }
-
- private:
-  void value_prefix() {
-    if (!first_) out_ += ',';
-  }
-  // Control characters are escaped; bytes >= 0x80 pass unchanged (names and
-  // EMCY texts are UTF-8, and the answer to garbage echoes no raw input).
-  void string_literal(std::string_view s) { out_ += json_quote(s); }
-
-  std::string out_;
-  bool first_ = true;
-};
-
+  const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(t.time_since_epoch()).count();
+  const std::time_t secs = static_cast<std::time_t>(ms / 1000);
+  std::tm tm{};
+  gmtime_r(&secs, &tm);
+  std::array<char, 96> buf{};  // room for any int, so -O2's truncation check is satisfied
+  std::snprintf(buf.data(), buf.size(), "%04d-%02d-%02dT%02d:%02d:%02d.%03dZ", tm.tm_year + 1900, tm.tm_mon + 1,
+                tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec, static_cast<int>(ms % 1000));
+  w.value(std::string_view(buf.data()));
+}
 
 void write_identity(JsonWriter& w, const bus::DeviceStatus& d) {
   w.key("identity");
@@ -107,7 +59,7 @@ void write_emcy_history(JsonWriter& w, const bus::DeviceStatus& d) {
     w.field("code", std::uint64_t{e.code});
     w.field("text", e.text);
     w.key("at");
-    w.time(e.at);
+    write_time(w, e.at);
     w.end_object();
   }
   w.end_array();
@@ -121,14 +73,14 @@ void write_timeline(JsonWriter& w, const bus::DeviceStatus& d) {
   for (const auto& e : d.timeline) {
     w.begin_object();
     w.key("at");
-    w.time(e.at);
+    write_time(w, e.at);
     w.field("kind", to_string(e.kind));
     w.field("text", e.text);
     w.key("capture");
     if (e.capture.empty()) w.null(); else w.value(e.capture);
     w.field("repeats", std::uint64_t{e.repeats});
     w.key("last_at");
-    w.time(e.last_at);
+    write_time(w, e.last_at);
     w.end_object();
   }
   w.end_array();
@@ -149,7 +101,7 @@ void write_drift(JsonWriter& w, const bus::DeviceStatus& d) {
     w.field("value", std::uint64_t{r.value});
     w.field("writer", r.writer);
     w.key("at");
-    w.time(r.at);
+    write_time(w, r.at);
     w.field("text", bus::drift_text(r));
     w.field("restores", std::uint64_t{r.restores});
     w.field("contested", r.contested);
@@ -173,7 +125,7 @@ void write_values(JsonWriter& w, const bus::LiveValues& v) {
     if (v.has_speed) w.field("speed", static_cast<std::int64_t>(v.speed));
     w.field("age_s", v.age_s);
     w.key("at");
-    w.time(v.at);
+    write_time(w, v.at);
     w.field("stale", v.stale);
     w.end_object();
   }
@@ -200,7 +152,7 @@ void write_device(JsonWriter& w, const bus::DeviceStatus& d) {
   w.field("nmt", canopen::to_string(d.nmt));
   w.field("online", d.online);
   w.key("since");
-  w.time(d.since);
+  write_time(w, d.since);
   w.field("last_error", d.last_error);
   write_emcy(w, d);
   w.field("boot_ups", std::uint64_t{d.boot_ups});
@@ -209,7 +161,7 @@ void write_device(JsonWriter& w, const bus::DeviceStatus& d) {
   w.field("fingerprint", d.fingerprint);
   w.field("commission_failures", std::uint64_t{d.commission_failures});
   w.key("next_retry");
-  w.time(d.next_retry);
+  write_time(w, d.next_retry);
   write_emcy_history(w, d);
   write_timeline(w, d);
   write_drift(w, d);
@@ -226,7 +178,7 @@ void write_redundancy(JsonWriter& w, const bus::BusStatus& b) {
   w.field("peer_node", std::uint64_t{b.peer_node});
   w.field("cause", b.election_cause);
   w.key("since");
-  w.time(b.election_at);
+  write_time(w, b.election_at);
   w.end_object();
 }
 
@@ -282,7 +234,7 @@ void write_recorder(JsonWriter& w, const bus::RecorderStatus& r) {
     write_strings(w, "causes", c.causes);
     write_strings(w, "devices", c.devices);
     w.key("at");
-    w.time(c.fault_ns == 0 ? bus::WallTime{} : bus::WallTime{std::chrono::duration_cast<bus::WallTime::duration>(std::chrono::nanoseconds(c.fault_ns))});
+    write_time(w, c.fault_ns == 0 ? bus::WallTime{} : bus::WallTime{std::chrono::duration_cast<bus::WallTime::duration>(std::chrono::nanoseconds(c.fault_ns))});
     w.field("frames", std::uint64_t{c.frames});
     w.field("bytes", c.bytes);
     w.end_object();
@@ -333,7 +285,7 @@ void write_bus(JsonWriter& w, const bus::BusStatus& b) {
       w.field("restarts", std::uint64_t{s.restarts});
     }
     w.key("at");
-    w.time(s.at);
+    write_time(w, s.at);
     w.end_object();
   }
   w.end_array();
@@ -372,7 +324,7 @@ std::string to_json(const StatusReport& report) {
   w.field("pid", static_cast<std::int64_t>(report.pid));
   w.field("ready", report.ready);
   w.key("started");
-  w.time(report.started);
+  write_time(w, report.started);
   w.field("config", report.config_file);
   std::uint64_t total = 0;
   std::uint64_t operational = 0;

@@ -171,23 +171,14 @@ std::string ascii_error(std::string_view seq, AsciiError error) {
 }
 
 std::string ascii_abort(std::string_view seq, std::uint32_t abort_code) {
-  char buf[16];
-  std::snprintf(buf, sizeof buf, "0x%08X", abort_code);
-  return "[" + std::string(seq) + "] ERROR: " + buf;
+  return "[" + std::string(seq) + "] ERROR: " + hex(abort_code, 8);
 }
 
 std::string ascii_line(std::string_view answer) { return std::string(answer) + "\r\n"; }
 
 std::optional<std::string> ascii_format(AsciiType type, std::span<const std::uint8_t> d) {
   char buf[64];
-  if (type == AsciiType::none || type == AsciiType::os) {
-    std::string out;
-    for (const auto b : d) {
-      std::snprintf(buf, sizeof buf, "%02X", b);
-      out += buf;
-    }
-    return out;
-  }
+  if (type == AsciiType::none || type == AsciiType::os) return hex_bytes(d);
   if (type == AsciiType::vs) {
     std::string out = "\"";
     for (const auto c : d) {
@@ -210,8 +201,7 @@ std::optional<std::string> ascii_format(AsciiType type, std::span<const std::uin
       return std::string(buf);
     }
     case AsciiType::x8: case AsciiType::x16: case AsciiType::x32: case AsciiType::x64:
-      std::snprintf(buf, sizeof buf, "0x%0*llX", static_cast<int>(t.size * 2), static_cast<unsigned long long>(u));
-      return std::string(buf);
+      return hex(u, static_cast<int>(t.size * 2));
     case AsciiType::r32: {
       float f = 0;
       const auto u32 = static_cast<std::uint32_t>(u);
