@@ -19,10 +19,10 @@ namespace cobridge {
 
 class JsonWriter {
  public:
-  JsonWriter& begin_object();
-  JsonWriter& end_object();
-  JsonWriter& begin_array();
-  JsonWriter& end_array();
+  JsonWriter& begin_object() { return open('{'); }
+  JsonWriter& end_object() { return close('}'); }
+  JsonWriter& begin_array() { return open('['); }
+  JsonWriter& end_array() { return close(']'); }
   // An object's key; the value written next belongs to it.
   JsonWriter& key(std::string_view k);
 
@@ -55,6 +55,8 @@ class JsonWriter {
 
  private:
   void comma();
+  JsonWriter& open(char bracket);
+  JsonWriter& close(char bracket);
 
   std::string out_;
   bool first_ = true;  // no comma before the next value or key
