@@ -47,9 +47,15 @@ void BusManager::Impl::start_election(TimePoint now) {
   dirty = true;
 }
 
+// Judged at the frame's arrival, not at the turn's clock: a thread
+// preempted between reading its clock and reading its socket would stamp
+// the master's heartbeat up to the preemption early, and ask for a
+// negotiation (0x72) 1.5 periods after that stamp while the next heartbeat
+// was still due (vcan_daemon_hot_standby on a loaded UML, master silent
+// 100 ms).
 bool BusManager::Impl::election_frame(const can::Frame& frame, TimePoint now) {
   if (!election) return false;
-  (void)election->on_frame(frame, now, *channel);
+  (void)election->on_frame(frame, arrival(frame, now), *channel);
   return election->owns(frame);
 }
 

@@ -32,6 +32,7 @@
 #include "bus/identity_reader.hpp"
 #include "bus/log_budget.hpp"
 #include "bus/restore_guard.hpp"
+#include "bus/stamp_clock.hpp"
 #include "bus/plan_runner.hpp"
 #include "bus/remote/remote_executor.hpp"
 #include "bus/remote/remote_target.hpp"
@@ -455,6 +456,11 @@ struct BusManager::Impl final : RemoteGate {
   void start_election(TimePoint now);
   [[nodiscard]] bool standby() const noexcept { return election && !election->is_master(); }
   [[nodiscard]] bool election_frame(const can::Frame& frame, TimePoint now);
+  // When `frame` reached the socket, on the steady clock (stamp_clock.hpp).
+  [[nodiscard]] TimePoint arrival(const can::Frame& frame, TimePoint now) {
+    return stamps.arrival(frame.timestamp_ns, now);
+  }
+  StampClock stamps{clock};
   void on_election(const canopen::ElectionEvent& e);
   void tell_outputs(const canopen::ElectionEvent& e);
   // The node-IDs that are no gateway's, for the election (canopen/election_peers.hpp).

@@ -199,5 +199,43 @@ TEST(BusManagerPair, Cia302_2_StormOf0x76BoundedRoleChanges) {
   EXPECT_LE(lines, 2u) << "one a minute, never one per frame";
 }
 
+// CiA 302-2 flying master, the standby's side: the master's heartbeat
+// judged at its arrival. The standby's thread reads its clock 30 ms after a
+// master heartbeat and is preempted for 90 ms before it reads its socket;
+// the next heartbeat (about 70 ms into the stall) waits there. Ten times:
+// no negotiation request (0x72) and no role change, on the bus (the
+// election once stamped the heartbeat with the turn's early clock and
+// asked 150 ms after it, with the master silent 100 ms: vcan_daemon_hot_standby
+// on a loaded UML).
+TEST(BusManagerPair, Cia302_2_StandbyPreemptedBeforeItReadsKeepsTheMaster) {
+  Pair p;
+  const auto master = p.roles_settled(10s);
+  ASSERT_TRUE(master);
+  ASSERT_TRUE(p.line.run_until(VirtualLine::all_in(DeviceState::operational), 10s));
+  const std::size_t standby = 1 - *master;
+  const std::uint32_t beat = 0x700U + (*master == 0 ? kNodeA : kNodeB);
+  const TimePoint from = p.line.now();
+  for (int i = 0; i < 10; ++i) {
+    const std::size_t heard = p.line.heard().size();
+    ASSERT_TRUE(p.line.run_until(
+        [&](const BusStatus&) {
+          const auto& h = p.line.heard();
+          return std::any_of(h.begin() + static_cast<std::ptrdiff_t>(heard), h.end(),
+                             [&](const auto& e) { return e.second.id == beat; });
+        },
+        1s));
+    p.line.run_for(30ms);
+    p.line.stall(standby, 90ms);
+    p.line.run_for(400ms);
+  }
+  const auto requests = std::count_if(p.line.heard().begin(), p.line.heard().end(), [&](const auto& h) {
+    return h.first >= from && h.second.id == 0x72U;
+  });
+  EXPECT_EQ(requests, 0) << "negotiation requests (0x72) on the bus";
+  EXPECT_EQ(master_figures(p.line, from).changes, 0u);
+  EXPECT_EQ(p.line.status(standby).role, "standby");
+  EXPECT_EQ(p.line.status(*master).role, "master");
+}
+
 }  // namespace
 }  // namespace cobridge::bus::test

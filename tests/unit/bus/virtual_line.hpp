@@ -20,6 +20,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "bus/bus_clock.hpp"
@@ -211,6 +212,14 @@ class VirtualLine {
     return std::nullopt;
   }
   [[nodiscard]] TimePoint now() const { return clock_.now(); }
+  // Gateway g's thread reads its clock now and is preempted for `lag` before
+  // it reads its socket (a loaded host): no turn of it meanwhile, then one
+  // on the clock it read, with what came in the meantime waiting.
+  void stall(std::size_t g, canopen::Duration lag) {
+    Gateway& gw = *gateways_.at(g);
+    gw.clock_read = clock_.now();
+    gw.stalled_until = clock_.now() + lag;
+  }
   void step_wall_clock(std::chrono::seconds by) { clock_.step_wall(by); }
   [[nodiscard]] BusManager& manager(std::size_t g = 0) { return *gateways_.at(g)->manager; }
   [[nodiscard]] can::VirtualBus& bus() { return bus_; }
@@ -245,6 +254,9 @@ class VirtualLine {
     RecordingObserver observer;
     std::unique_ptr<BusManager> manager;  // null while stopped
     TimePoint next{};
+    // stall(): the clock its thread read, and when the thread runs again.
+    std::optional<TimePoint> clock_read;
+    TimePoint stalled_until{};
   };
 
   config::Config load(const Gateway& g, const std::string& bus_toml, const std::string& devices_toml) const {
@@ -289,8 +301,12 @@ class VirtualLine {
     bool pending = false;
     for (auto& g : gateways_) {
       if (!g->manager) continue;
-      if (clock_.now() >= g->next || g->port.pending() > 0) {
-        g->next = g->manager->turn(clock_.now());
+      if (clock_.now() < g->stalled_until) {
+        next = std::min(next, g->stalled_until);
+        continue;
+      }
+      if (g->clock_read || clock_.now() >= g->next || g->port.pending() > 0) {
+        g->next = g->manager->turn(std::exchange(g->clock_read, std::nullopt).value_or(clock_.now()));
         moved = true;
       }
       next = std::min(next, g->next);
