@@ -91,6 +91,13 @@ struct Pair {
     if (!settled) return std::nullopt;
     return line.status(0).role == "master" ? 0 : 1;
   }
+  // The master's index once the roles settled and every device is
+  // operational (within 10 s each); nullopt otherwise.
+  std::optional<std::size_t> settled() {
+    const auto master = roles_settled(10s);
+    if (!master || !line.run_until(VirtualLine::all_in(DeviceState::operational), 10s)) return std::nullopt;
+    return master;
+  }
   // A device power-cycled (pre-operational after its boot-up, CiA 301
   // §7.3.2.2.1) is checked and started again within `limit` by the master.
   bool power_cycle_configured(std::size_t master, std::chrono::milliseconds limit) {
@@ -124,9 +131,8 @@ can::Frame frame(std::uint32_t id, std::initializer_list<std::uint8_t> data) {
 // configured by the new master within 5 s.
 TEST(BusManagerPair, Cia302_2_TakeoverWithinOneSecondOnTheBus) {
   Pair p;
-  const auto master = p.roles_settled(10s);
+  const auto master = p.settled();
   ASSERT_TRUE(master);
-  ASSERT_TRUE(p.line.run_until(VirtualLine::all_in(DeviceState::operational), 10s));
   const std::size_t standby = 1 - *master;
   const TimePoint killed = p.line.now();
   p.line.stop_gateway(*master);
@@ -151,9 +157,8 @@ TEST(BusManagerPair, Cia302_2_TakeoverWithinOneSecondOnTheBus) {
 // device power-cycled after it is configured within 5 s.
 TEST(BusManagerPair, Cia302_2_ForgedClaimNamingADeviceChangesNothing) {
   Pair p;
-  const auto master = p.roles_settled(10s);
+  const auto master = p.settled();
   ASSERT_TRUE(master);
-  ASSERT_TRUE(p.line.run_until(VirtualLine::all_in(DeviceState::operational), 10s));
   can::VirtualBus::Port& stranger = p.line.bus().attach();
   const TimePoint forged = p.line.now();
   ASSERT_TRUE(stranger.send(frame(0x71, {0x00, 10})));
@@ -173,8 +178,7 @@ TEST(BusManagerPair, Cia302_2_ForgedClaimNamingADeviceChangesNothing) {
 TEST(BusManagerPair, Cia302_2_StormOf0x76BoundedRoleChanges) {
   const LogCapture log;
   Pair p;
-  ASSERT_TRUE(p.roles_settled(10s));
-  ASSERT_TRUE(p.line.run_until(VirtualLine::all_in(DeviceState::operational), 10s));
+  ASSERT_TRUE(p.settled());
   can::VirtualBus::Port& stranger = p.line.bus().attach();
   const TimePoint from = p.line.now();
   for (int i = 0; i < 325; ++i) {
@@ -209,9 +213,8 @@ TEST(BusManagerPair, Cia302_2_StormOf0x76BoundedRoleChanges) {
 // on a loaded UML).
 TEST(BusManagerPair, Cia302_2_StandbyPreemptedBeforeItReadsKeepsTheMaster) {
   Pair p;
-  const auto master = p.roles_settled(10s);
+  const auto master = p.settled();
   ASSERT_TRUE(master);
-  ASSERT_TRUE(p.line.run_until(VirtualLine::all_in(DeviceState::operational), 10s));
   const std::size_t standby = 1 - *master;
   const std::uint32_t beat = 0x700U + (*master == 0 ? kNodeA : kNodeB);
   const TimePoint from = p.line.now();

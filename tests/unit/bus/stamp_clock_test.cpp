@@ -48,6 +48,14 @@ class PreemptedClock final : public BusClock {
   mutable std::chrono::nanoseconds elapsed{0};
 };
 
+// A frame received at this moment and converted at once: how far its
+// arrival lies from the moment (0 when the offset is right).
+std::chrono::nanoseconds error_now(StampClock& s, const PreemptedClock& c) {
+  const std::int64_t stamp = c.stamp_now();
+  const TimePoint at = c.steady_now();
+  return s.arrival(stamp, at) - at;
+}
+
 TEST(StampClock, AFrameWithoutAStampArrivesAtTheTurnsClock) {
   PreemptedClock c;
   StampClock s(c);
@@ -98,16 +106,14 @@ TEST(StampClock, OnlyLooseReadingsGiveAnOffsetWithinHalfThePreemption) {
 TEST(StampClock, ALooseRefreshKeepsTheKnownOffset) {
   PreemptedClock c;
   StampClock s(c);
-  (void)s.arrival(c.stamp_now(), c.steady_now());
+  ASSERT_EQ(error_now(s, c), 0ns);  // the offset read
   c.advance(StampClock::kRefresh);
   for (int i = 0; i < 3; ++i) {
     c.preempt_next_read(0ns);
     c.preempt_next_read(80ms);
     c.preempt_next_read(0ns);
   }
-  const std::int64_t stamp = c.stamp_now();
-  const TimePoint at = c.steady_now();
-  EXPECT_EQ(s.arrival(stamp, at), at);
+  EXPECT_EQ(error_now(s, c), 0ns);
 }
 
 // NTP stepped the wall clock 5 s forward: the offset is read again and the
@@ -115,12 +121,10 @@ TEST(StampClock, ALooseRefreshKeepsTheKnownOffset) {
 TEST(StampClock, AWallClockStepIsFollowed) {
   PreemptedClock c;
   StampClock s(c);
-  (void)s.arrival(c.stamp_now(), c.steady_now());
+  ASSERT_EQ(error_now(s, c), 0ns);  // the offset read
   c.advance(200ms);
   c.wall_ahead = 5s;
-  const std::int64_t stamp = c.stamp_now();
-  const TimePoint at = c.steady_now();
-  EXPECT_EQ(s.arrival(stamp, at), at);
+  EXPECT_EQ(error_now(s, c), 0ns);
 }
 
 // A stamp from before a step, converted after the offset followed the
@@ -128,7 +132,7 @@ TEST(StampClock, AWallClockStepIsFollowed) {
 TEST(StampClock, AStampFarFromTheTurnsClockIsNotTrusted) {
   PreemptedClock c;
   StampClock s(c);
-  (void)s.arrival(c.stamp_now(), c.steady_now());
+  ASSERT_EQ(error_now(s, c), 0ns);  // the offset read
   const std::int64_t before_step = c.stamp_now();
   c.advance(200ms);
   c.wall_ahead = -5s;
