@@ -112,6 +112,7 @@ plugin::Error MosquittoLink::configure_client() {
   mosquitto_disconnect_callback_set(mosq_, &MosquittoLink::on_disconnect);
   mosquitto_message_callback_set(mosq_, &MosquittoLink::on_message);
   mosquitto_publish_callback_set(mosq_, &MosquittoLink::on_publish);
+  mosquitto_log_callback_set(mosq_, &MosquittoLink::on_log);
   mosquitto_reconnect_delay_set(mosq_, 1, 30, true);
   // Small messages one after another: without it Nagle's algorithm held
   // each DBIRTH behind the NBIRTH's unacknowledged segment for ~40 ms.
@@ -144,68 +145,91 @@ plugin::Error MosquittoLink::start(std::optional<std::uint8_t> after, Mode mode)
     bd_seq_.store(bd_file_.next(after), std::memory_order_release);
     set_will();
   }
-  const int rc = connect_and_loop();
-  if (rc == MOSQ_ERR_NOMEM) return {std::error_code(ENOMEM, std::generic_category()), "loop: " + mosq_error(rc)};
-  if (rc != MOSQ_ERR_SUCCESS) {
-    retry_delay_ = std::chrono::seconds(1);
-    retry_at_ = std::chrono::steady_clock::now() + retry_delay_;
+  retry_delay_ = std::chrono::seconds(1);
+  const int rc = connect(std::chrono::steady_clock::now());
+  if (rc != MOSQ_ERR_SUCCESS)
     log_(COBRIDGE_LOG_WARN, "MQTT broker " + config_.host + ":" + std::to_string(config_.port) +
                                 " not reached yet (" + mosq_error(rc) + "); retrying every 1 s to 30 s");
-  }
   return {};
 }
 
-// The CONNECT, then libmosquitto's thread once it has started: that thread
-// reconnects a session that ends, but not a first CONNECT that never began.
-int MosquittoLink::connect_and_loop() {
-  int rc = mosquitto_connect_async(mosq_, config_.host.c_str(), config_.port, static_cast<int>(config_.keepalive_s));
-  if (rc != MOSQ_ERR_SUCCESS) return rc;
-  rc = mosquitto_loop_start(mosq_);
-  if (rc != MOSQ_ERR_SUCCESS) return MOSQ_ERR_NOMEM;  // no thread: nothing a retry mends
-  loop_started_ = true;
-  return MOSQ_ERR_SUCCESS;
+// A CONNECT (asynchronous: the CONNACK arrives in service()); when it
+// fails at once, the next one is due after the backoff.
+int MosquittoLink::connect(std::chrono::steady_clock::time_point now) {
+  const int rc = mosquitto_connect_async(mosq_, config_.host.c_str(), config_.port, static_cast<int>(config_.keepalive_s));
+  socket_open_ = rc == MOSQ_ERR_SUCCESS && mosquitto_socket(mosq_) >= 0;
+  if (!socket_open_) connect_later(now);
+  return rc;
 }
 
-void MosquittoLink::retry_connect(std::chrono::steady_clock::time_point now) {
-  if (!awaiting_first_connect() || now < retry_at_) return;
-  const int rc = connect_and_loop();
-  if (rc == MOSQ_ERR_SUCCESS) return;
-  retry_delay_ = std::min(retry_delay_ * 2, std::chrono::seconds(30));
+void MosquittoLink::connect_later(std::chrono::steady_clock::time_point now) {
   retry_at_ = now + retry_delay_;
-  if (rc == MOSQ_ERR_NOMEM) log_(COBRIDGE_LOG_ERROR, "MQTT client thread not started: " + mosq_error(rc));
+  retry_delay_ = std::min(retry_delay_ * 2, std::chrono::seconds(30));
+}
+
+void MosquittoLink::service(std::chrono::steady_clock::time_point now) {
+  if (mosq_ == nullptr) return;
+  if (!socket_open_) {
+    if (now >= retry_at_) (void)connect(now);
+    return;
+  }
+  // Reads and keepalive can wait kLoopPeriod; writes and a CONNACK not.
+  const bool pressing = mosquitto_want_write(mosq_) || !connected_.load(std::memory_order_relaxed);
+  if (!pressing && now < next_loop_) return;
+  next_loop_ = now + kLoopPeriod;
+  // No wait (timeout 0); a lost socket has been closed and on_disconnect run.
+  const int rc = mosquitto_loop(mosq_, 0, 1);
+  if (mosquitto_socket(mosq_) >= 0) return;
+  socket_open_ = false;
+  connect_later(now);
+  // A CONNECT that ended before its CONNACK (TLS refused, connection
+  // refused, reset): said once per reason until a session comes up.
+  if (!connected_.load(std::memory_order_relaxed) && rc != MOSQ_ERR_SUCCESS && rc != failure_logged_) {
+    failure_logged_ = rc;
+    log_(COBRIDGE_LOG_WARN, "MQTT broker " + config_.host + ":" + std::to_string(config_.port) +
+                                " not reached (" + mosq_error(rc) + "); retrying every 1 s to 30 s");
+  }
+}
+
+bool MosquittoLink::wants_write() const noexcept { return mosq_ != nullptr && mosquitto_want_write(mosq_); }
+
+// Writes what waits for the socket (an NDEATH, the DISCONNECT), for at most `limit`.
+void MosquittoLink::flush(std::chrono::milliseconds limit) {
+  const auto end = std::chrono::steady_clock::now() + limit;
+  while (mosquitto_socket(mosq_) >= 0 && mosquitto_want_write(mosq_) && std::chrono::steady_clock::now() < end)
+    (void)mosquitto_loop(mosq_, 10, 1);
 }
 
 void MosquittoLink::stop() {
   if (mosq_ == nullptr) return;
   if (mode_ == Mode::kPublish && connected_.load(std::memory_order_acquire)) {
-    PayloadBuilder builder;  // the client thread may be in set_will() with will_builder_ now
     std::array<std::uint8_t, 128> buf{};
-    const std::size_t n = encode_ndeath(builder, bd_seq_.load(std::memory_order_relaxed), wall_ms(), buf);
+    const std::size_t n = encode_ndeath(will_builder_, bd_seq_.load(std::memory_order_relaxed), wall_ms(), buf);
     (void)mosquitto_publish(mosq_, nullptr, ndeath_topic_.c_str(), static_cast<int>(n), buf.data(), 0, false);
   }
+  // Written before the socket closes: a broker that sees the connection end
+  // without DISCONNECT publishes the will, a second NDEATH.
   mosquitto_disconnect(mosq_);
-  if (loop_started_) mosquitto_loop_stop(mosq_, false);
-  loop_started_ = false;
+  flush(std::chrono::milliseconds(500));
   mosquitto_destroy(mosq_);
   mosq_ = nullptr;
+  socket_open_ = false;
   connected_.store(false, std::memory_order_release);
 }
 
 bool MosquittoLink::publish(const std::string& topic, std::span<const std::uint8_t> payload) {
-  if (!connected_.load(std::memory_order_acquire)) return false;
-  const std::uint64_t handed = handed_.load(std::memory_order_relaxed);
-  const std::uint64_t written = written_.load(std::memory_order_acquire);
-  if (handed > written && handed - written >= kMaxQueued) return false;
-  if (mosquitto_publish(mosq_, nullptr, topic.c_str(), static_cast<int>(payload.size()), payload.data(), 0, false) !=
+  if (!connected_.load(std::memory_order_relaxed)) return false;
+  if (handed_ - written_ >= kMaxQueued) return false;
+  // Counted before the call: on_publish runs inside it when the socket takes the packet.
+  ++handed_;
+  if (mosquitto_publish(mosq_, nullptr, topic.c_str(), static_cast<int>(payload.size()), payload.data(), 0, false) ==
       MOSQ_ERR_SUCCESS)
-    return false;
-  handed_.store(handed + 1, std::memory_order_release);
-  return true;
+    return true;
+  --handed_;
+  return false;
 }
 
-void MosquittoLink::on_publish(struct mosquitto*, void* self, int) {
-  static_cast<MosquittoLink*>(self)->written_.fetch_add(1, std::memory_order_acq_rel);
-}
+void MosquittoLink::on_publish(struct mosquitto*, void* self, int) { ++static_cast<MosquittoLink*>(self)->written_; }
 
 MosquittoLink::State MosquittoLink::state() const noexcept {
   State s;
@@ -224,8 +248,11 @@ void MosquittoLink::on_connect(struct mosquitto* m, void* self, int rc) {
     return;
   }
   l->refused_logged_ = false;
+  l->failure_logged_ = MOSQ_ERR_SUCCESS;
+  mosquitto_log_callback_set(m, nullptr);  // set again when the session ends
+  l->retry_delay_ = std::chrono::seconds(1);
   // libmosquitto dropped what a lost session had queued: nothing waits now.
-  l->written_.store(l->handed_.load(std::memory_order_acquire), std::memory_order_release);
+  l->written_ = l->handed_;
   l->subscribe_all(m);
   l->connected_.store(true, std::memory_order_release);
   l->generation_.fetch_add(1, std::memory_order_acq_rel);
@@ -250,8 +277,9 @@ void MosquittoLink::subscribe_all(struct mosquitto* m) {
   if (!state_topic_.empty()) (void)mosquitto_subscribe(m, nullptr, state_topic_.c_str(), 1);
 }
 
-void MosquittoLink::on_disconnect(struct mosquitto*, void* self, int rc) {
+void MosquittoLink::on_disconnect(struct mosquitto* m, void* self, int rc) {
   auto* l = static_cast<MosquittoLink*>(self);
+  mosquitto_log_callback_set(m, &MosquittoLink::on_log);
   const bool was = l->connected_.exchange(false, std::memory_order_acq_rel);
   if (rc != 0 && l->mode_ == Mode::kPublish)
     l->bd_seq_.store(l->bd_file_.next(), std::memory_order_release);  // the next CONNECT's
@@ -261,6 +289,15 @@ void MosquittoLink::on_disconnect(struct mosquitto*, void* self, int rc) {
     if (was) l->log_(COBRIDGE_LOG_WARN, "MQTT connection lost (" + mosq_error(rc) + "); reconnecting");
     if (l->mode_ == Mode::kPublish) l->set_will();
   }
+}
+
+// libmosquitto's own errors (the OpenSSL reason of a refused TLS handshake,
+// which its return codes do not carry); its notices and debug lines are not
+// kept. Set only while no session is up: with a log callback set,
+// libmosquitto formats a debug line (malloc, vsnprintf) for every PUBLISH.
+void MosquittoLink::on_log(struct mosquitto*, void* self, int level, const char* text) {
+  if ((level & (MOSQ_LOG_ERR | MOSQ_LOG_WARNING)) == 0 || text == nullptr) return;
+  static_cast<MosquittoLink*>(self)->log_(COBRIDGE_LOG_WARN, std::string("MQTT client: ") + text);
 }
 
 void MosquittoLink::on_message(struct mosquitto*, void* self, const struct mosquitto_message* msg) {

@@ -1,6 +1,12 @@
-// MosquittoLink: the plugin's MQTT client on libmosquitto, in its threaded
-// mode (mosquitto_loop_start: libmosquitto's own thread runs the socket,
-// keepalive and reconnects). It owns what the MQTT session must carry for
+// MosquittoLink: the plugin's MQTT client on libmosquitto, run on the
+// plugin's publisher thread (libmosquitto's loop, not its thread). Why: a
+// threaded client never writes in mosquitto_publish (it queues the packet and
+// wakes its own thread), so every sample crossed two threads, dispatcher to
+// publisher to libmosquitto's, and each wake-up a loaded 2-CPU host delays
+// showed at p99 (docs/performance.md, mqtt). Here mosquitto_publish writes
+// the socket at once, and service() runs the loop once per pass without
+// waiting: reads (NCMD, DCMD, STATE), keepalive, writes the socket refused
+// before, and the reconnects. It owns what the MQTT session must carry for
 // Sparkplug:
 //   - the will: NDEATH with the current bdSeq, QoS 1, not retained
 //     (spec 5: tck-id-topics-ndeath-will-message-*), set before every CONNECT;
@@ -24,9 +30,12 @@
 //     QoS 0): a broker or network slower than the encoders makes publish()
 //     refuse, counted as a drop, instead of growing the daemon's memory.
 //
-// Thread contract: start/stop on the daemon's control thread; publish() and
-// the poll functions from the plugin's publisher thread; the callbacks run
-// on libmosquitto's thread and only touch atomics, the will and the log.
+// Thread contract: one thread at a time: start/stop on the daemon's control
+// thread before the publisher thread runs and after it is joined, and on the
+// publisher thread while it runs; publish(), service() and the take/poll
+// functions on the publisher thread. The callbacks run inside service()
+// (and stop()), so on that thread too. state(), connected() and the
+// counters are atomics: the control plane reads them for stats.
 #pragma once
 
 #include "bdseq_file.hpp"
@@ -78,22 +87,30 @@ class MosquittoLink {
   [[nodiscard]] plugin::Error start(std::optional<std::uint8_t> after = std::nullopt, Mode mode = Mode::kPublish);
   // Publishes NDEATH itself (an intentional disconnect, spec 5:
   // tck-id-operational-behavior-edge-node-intentional-disconnect-ndeath),
-  // disconnects and joins the client thread.
+  // disconnects (the DISCONNECT written, up to 0.5 s) and frees the client.
   void stop();
 
-  // Publisher thread, each pass: while the first CONNECT has not started
-  // (it failed at once), tries it again when due (1 s, doubling to 30 s)
-  // and on success starts libmosquitto's thread, which reconnects from
-  // then on. Nothing to do otherwise.
-  void retry_connect(std::chrono::steady_clock::time_point now);
-  // Whether a first CONNECT waits for retry_connect() (tests, stats).
-  [[nodiscard]] bool awaiting_first_connect() const noexcept { return mosq_ != nullptr && !loop_started_; }
+  // Publisher thread, each pass: with no socket open (a CONNECT that
+  // failed at once, a session lost), connects again when due (1 s, doubling
+  // to 30 s); else runs libmosquitto's loop once without waiting: at once
+  // while packets wait for the socket or the CONNACK is awaited, else at
+  // most every kLoopPeriod. Each run is a few system calls (select, clock,
+  // read), and the publisher passes up to 1000 times a second even idle:
+  // run each time, they slowed the whole UML guest of the MQTT end-to-end
+  // test (its DDATA 0.4-1 s late in 2 of 5 runs, none before).
+  void service(std::chrono::steady_clock::time_point now);
+  static constexpr std::chrono::milliseconds kLoopPeriod{10};
+  // Whether no socket is open and a CONNECT waits for service() (tests).
+  [[nodiscard]] bool awaiting_connect() const noexcept { return mosq_ != nullptr && !socket_open_; }
+  // Whether packets wait for the socket to take them (the publisher does
+  // not nap then: service() writes them).
+  [[nodiscard]] bool wants_write() const noexcept;
 
   // Messages handed to libmosquitto and not yet written to the socket, at most.
   static constexpr std::uint64_t kMaxQueued = 4096;
 
-  // QoS 0, not retained. False when not connected, kMaxQueued are waiting,
-  // or the client refused it.
+  // QoS 0, not retained, written to the socket at once when it takes it.
+  // False when not connected, kMaxQueued are waiting, or the client refused it.
   [[nodiscard]] bool publish(const std::string& topic, std::span<const std::uint8_t> payload);
 
   [[nodiscard]] State state() const noexcept;
@@ -118,6 +135,7 @@ class MosquittoLink {
   static void on_disconnect(struct mosquitto* m, void* self, int rc);
   static void on_message(struct mosquitto* m, void* self, const struct mosquitto_message* msg);
   static void on_publish(struct mosquitto* m, void* self, int mid);
+  static void on_log(struct mosquitto* m, void* self, int level, const char* text);
 
   void set_will();
   void handle_ncmd(const void* payload, int len);
@@ -125,35 +143,39 @@ class MosquittoLink {
   void handle_dcmd(std::string_view topic, const void* payload, int len);
   void subscribe_all(struct mosquitto* m);
   [[nodiscard]] plugin::Error configure_client();
-  [[nodiscard]] int connect_and_loop();
+  [[nodiscard]] int connect(std::chrono::steady_clock::time_point now);
+  void connect_later(std::chrono::steady_clock::time_point now);
+  void flush(std::chrono::milliseconds limit);
 
   const MqttConfig& config_;
   BdSeqFile& bd_file_;
   LogFn log_;
   struct mosquitto* mosq_ = nullptr;
-  bool loop_started_ = false;
-  // The first CONNECT's retry (start/stop/retry_connect: never at once).
+  bool socket_open_ = false;  // a CONNECT started and its socket not closed since
+  // The next CONNECT when no socket is open, and the delay after it.
   std::chrono::steady_clock::time_point retry_at_{};
+  std::chrono::steady_clock::time_point next_loop_{};  // service(): the next loop when nothing presses
   std::chrono::seconds retry_delay_{1};
   std::string ndeath_topic_;
   std::string ncmd_topic_;
   std::string state_topic_;
   std::string dcmd_prefix_;  // "spBv1.0/<group>/DCMD/<edge>/"
   std::string nbirth_topic_;
-  Mode mode_ = Mode::kPublish;  // set by start() before the client thread runs
+  Mode mode_ = Mode::kPublish;  // set by start()
   std::atomic<int> seen_bd_seq_{-1};
   std::atomic<bool> seen_dead_{false};
-  SpscRing<DcmdRequest> dcmds_{64};  // client thread -> publisher thread
-  PayloadBuilder will_builder_;  // client thread (callbacks) and start/stop, never at once
+  SpscRing<DcmdRequest> dcmds_{64};  // on_message -> take_dcmd: a bound on what waits
+  PayloadBuilder will_builder_;
   std::atomic<std::uint64_t> generation_{0};
   std::atomic<bool> connected_{false};
   std::atomic<std::uint8_t> bd_seq_{0};
   std::atomic<bool> rebirth_{false};
   std::atomic<int> primary_{-1};
   std::int64_t state_stamp_ = -1;  // the newest STATE's timestamp (callbacks; kept across sessions)
-  std::atomic<std::uint64_t> handed_{0};   // publisher thread
-  std::atomic<std::uint64_t> written_{0};  // client thread (on_publish: QoS 0 written out)
-  bool refused_logged_ = false;  // client thread only
+  std::uint64_t handed_ = 0;   // messages given to mosquitto_publish
+  std::uint64_t written_ = 0;  // of them written out (on_publish: QoS 0)
+  bool refused_logged_ = false;
+  int failure_logged_ = 0;  // the reason last logged for a CONNECT that failed (MOSQ_ERR_*)
 };
 
 // The "online" member of a Sparkplug 3.0 STATE payload ({"online": true,

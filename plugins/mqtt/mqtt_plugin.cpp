@@ -113,7 +113,7 @@ struct Plugin {
   }
 
   void poll_link(std::uint64_t& generation, int& primary) {
-    link->retry_connect(std::chrono::steady_clock::now());
+    link->service(std::chrono::steady_clock::now());
     const MosquittoLink::State st = link->state();
     const std::uint64_t now = wall_ms();
     if (st.generation != generation) {
@@ -229,10 +229,13 @@ struct Plugin {
     std::uint64_t generation = 0;
     int primary = -1;
     while (running.load(std::memory_order_acquire)) {
+      // The rings first: a pass woken by the doorbell publishes before it
+      // spends system calls on the client's socket and flags.
+      const bool busy = drain();
       follow_role();
       reconnect_when_due();
       poll_link(generation, primary);
-      if (!drain())
+      if (!busy && !link->wants_write())
         bell.wait(std::chrono::milliseconds(1),
                   [this] { return samples->size_approx() != 0 || devices->size_approx() != 0; });
     }

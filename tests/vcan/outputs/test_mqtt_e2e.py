@@ -230,7 +230,11 @@ def check_values(report, sub, aliases, truth, since):
             sent = set(v for _, v in truth.get(node, []))
             report.check(pos is not None and not pos.is_null and (pos.long_value & 0xFFFFFFFF) in sent,
                          "%s: the Position in its DBIRTH is one the simulator sent" % name,
-                         str(pos.long_value if pos else None))
+                         "%s (each DBIRTH's: %s; the simulator sent %d values, first %s)" % (
+                             pos.long_value if pos else None,
+                             [(metric(b, "Position").long_value, metric(b, "Position").is_null, b.timestamp)
+                              for b in births if metric(b, "Position") is not None],
+                             len(truth.get(node, [])), truth.get(node, [])[:3]))
             continue
         pos_alias = next((a for a, n in aliases.get(name, {}).items() if n == "Position"), None)
         got, lag = [], []
