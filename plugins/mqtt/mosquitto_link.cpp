@@ -219,14 +219,16 @@ void MosquittoLink::stop() {
 
 bool MosquittoLink::publish(const std::string& topic, std::span<const std::uint8_t> payload) {
   if (!connected_.load(std::memory_order_relaxed)) return false;
-  if (handed_ - written_ >= kMaxQueued) return false;
+  if (handed_ > written_ && handed_ - written_ >= kMaxQueued) return false;
   // Counted before the call: on_publish runs inside it when the socket takes the packet.
   ++handed_;
-  if (mosquitto_publish(mosq_, nullptr, topic.c_str(), static_cast<int>(payload.size()), payload.data(), 0, false) ==
-      MOSQ_ERR_SUCCESS)
-    return true;
-  --handed_;
-  return false;
+  const int rc =
+      mosquitto_publish(mosq_, nullptr, topic.c_str(), static_cast<int>(payload.size()), payload.data(), 0, false);
+  // A failed write (connection lost, reset) left the packet queued: still
+  // handed, and on_publish may count it later; the session's loss shows in
+  // the next service(). Any other refusal queued nothing.
+  if (rc != MOSQ_ERR_SUCCESS && rc != MOSQ_ERR_CONN_LOST && rc != MOSQ_ERR_ERRNO) --handed_;
+  return rc == MOSQ_ERR_SUCCESS;
 }
 
 void MosquittoLink::on_publish(struct mosquitto*, void* self, int) { ++static_cast<MosquittoLink*>(self)->written_; }
