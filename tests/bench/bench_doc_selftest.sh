@@ -13,6 +13,8 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 cp "$repo/docs/performance.md" "$work/doc.md"
 cp "$repo/bench/results/latest.json" "$work/record.json"
+# The other bed's record (scripts/bench --other-bed), read from beside the record.
+for side in "$repo"/bench/results/latest-*.json; do [ ! -e "$side" ] || cp "$side" "$work/"; done
 check() { /usr/bin/python3 "$bench" --check-doc --record "$work/record.json" --doc-file "$work/doc.md"; }
 check || { echo "FAIL: the committed page and record differ"; exit 1; }
 # A hand edit inside the table.
@@ -43,6 +45,8 @@ want = "| figure | target | measured | same-run baseline | ratio | verdict | bed
 if not table or table[0] != want:
     bad.append("columns: %r" % table[:1])
 for l in table[2:]:
+    if l == want or l.startswith("|---"):  # the other bed's table begins here
+        continue
     cells = [c.strip() for c in l.strip("|").split(" | ")]
     if len(cells) != 10:
         bad.append("%d cells: %s" % (len(cells), l))
@@ -141,4 +145,18 @@ cp "$work/two.md" "$work/nobed.md"
 if /usr/bin/python3 "$bench" --doc --record "$work/nobed.json" --doc-file "$work/nobed.md" 2>/dev/null; then
   echo "FAIL: a record row without its bed was rendered"; exit 1
 fi
+# The other bed's record (scripts/bench --other-bed qemu) beside the main one:
+# its own table after the main one, its rows naming QEMU and their own run;
+# the main table unchanged by it.
+mkdir "$work/side"
+cp "$work/legacy.json" "$work/side/record.json"
+/usr/bin/python3 -c 'import json, sys; r = json.load(open(sys.argv[1]))
+r["rows"] = [x for x in r["rows"] if x["where"] == "QEMU"]
+json.dump(r, open(sys.argv[2], "w"))' "$work/two.json" "$work/side/latest-qemu.json"
+cp "$repo/docs/performance.md" "$work/side.md"
+/usr/bin/python3 "$bench" --doc --record "$work/side/record.json" --doc-file "$work/side.md"
+rows_name_their_origin "$work/side.md" || { echo "FAIL: a page with the other bed's table"; exit 1; }
+expect side '^The guest groups on the QEMU bed as well (`scripts/bench --other-bed qemu`'   "the other bed's table has no header naming its bed and option"
+expect side '^| second start: exec to the daemon.* | QEMU | no | 1234567-dirty | 2027-01-02 05:06 |$'   "the other bed's row does not name QEMU and its own run"
+expect side '^| 32 remembered: second start -> all operational .* | UML | ? | 4ad261a? | 2026-11-28 12:34? |$'   "the main table's guest row is not kept beside the other bed's"
 echo "bench doc selftest: every row names its bed, keepers and commit; rows that do not are found"
