@@ -44,7 +44,9 @@ DEVICES = [("rot", "RFC-4800", "RFC-4800", 101, 10, ["position", "speed"], "cons
 # The ifm encoder stands still: its frames (every few ms, whatever the event
 # timer) still pass the plugin, but report by exception sends no DDATA for an
 # unchanged position, which keeps the bed's one CPU for the checks; its
-# values are judged in its DBIRTH, the others' in DDATA.
+# value is judged in its DBIRTH (or, when the session came up before its
+# first frame and the DBIRTH said null, in the first DDATA after it), the
+# others' in DDATA.
 MOVING = ("rot", "mt")
 PROCESS_METRICS = ["Position", "Position/Engineering", "Speed", "CAM State", "Work Area State", "Alarms", "Warnings",
                    "Temperature", "Supply Voltage", "NMT State", "Stale", "EMCY/Error Code", "EMCY/Error Register"]
@@ -221,20 +223,34 @@ def check_seq(report, msgs):
     report.check(n > 300 and not bad, "seq unbroken mod 256 over %d messages" % n, str(bad[:5]))
 
 
+def check_static_position(report, sub, aliases, truth, name, node):
+    """The Position a host holds for a device that does not move: its last DBIRTH's, or, when that
+    DBIRTH said null (a value not heard yet is sent as null, Sparkplug 3.0 tck-id-payloads-dbirth-*:
+    the session came up before the device's first TPDO), the first DDATA after it."""
+    msgs = sub.all()
+    births = [i for i, (_, t, p) in enumerate(msgs) if t == topic("DBIRTH", name) and p is not None]
+    pos = metric(msgs[births[-1]][2], "Position") if births else None
+    value, where = (None, "no DBIRTH") if pos is None else (None, "DBIRTH null") if pos.is_null else (
+        pos.long_value & 0xFFFFFFFF, "DBIRTH")
+    pos_alias = next((a for a, n in aliases.get(name, {}).items() if n == "Position"), None)
+    if births and value is None and pos is not None:
+        for _, t, p in msgs[births[-1] + 1:]:
+            hit = [m for m in p.metrics if m.alias == pos_alias] if t == topic("DDATA", name) and p else []
+            if hit:
+                value, where = hit[0].long_value & 0xFFFFFFFF, "first DDATA after a null DBIRTH"
+                break
+    sent = set(v for _, v in truth.get(node, []))
+    report.check(value is not None and value in sent,
+                 "%s: the Position a host holds (its DBIRTH's, or the first DDATA after a null one) is one the "
+                 "simulator sent" % name, "%s from the %s (the simulator sent %d values, first %s)" % (
+                     value, where, len(truth.get(node, [])), truth.get(node, [])[:3]))
+
+
 def check_values(report, sub, aliases, truth, since):
     """DDATA positions against the truth file: each value sent with its time, none lost in the window."""
     for name, _m, _s, _serial, node, _map, _mo in DEVICES:
         if name not in MOVING:
-            births = [p for _, t, p in sub.all() if t == topic("DBIRTH", name) and p is not None]
-            pos = metric(births[-1], "Position") if births else None
-            sent = set(v for _, v in truth.get(node, []))
-            report.check(pos is not None and not pos.is_null and (pos.long_value & 0xFFFFFFFF) in sent,
-                         "%s: the Position in its DBIRTH is one the simulator sent" % name,
-                         "%s (each DBIRTH's: %s; the simulator sent %d values, first %s)" % (
-                             pos.long_value if pos else None,
-                             [(metric(b, "Position").long_value, metric(b, "Position").is_null, b.timestamp)
-                              for b in births if metric(b, "Position") is not None],
-                             len(truth.get(node, [])), truth.get(node, [])[:3]))
+            check_static_position(report, sub, aliases, truth, name, node)
             continue
         pos_alias = next((a for a, n in aliases.get(name, {}).items() if n == "Position"), None)
         got, lag = [], []
