@@ -41,6 +41,13 @@ class LateBroker : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir); }
 
+  // The bdSeq file of the test's link, loaded.
+  BdSeqFile& bdseq() {
+    bd_file = std::make_unique<BdSeqFile>((dir / "bdseq").string(), log);
+    bd_file->load();
+    return *bd_file;
+  }
+
   // The log is called from the callbacks inside service().
   std::vector<std::string> lines() {
     const std::lock_guard<std::mutex> hold(mutex);
@@ -51,6 +58,7 @@ class LateBroker : public ::testing::Test {
   MqttConfig config;
   std::mutex mutex;
   std::vector<std::string> logged;
+  std::unique_ptr<BdSeqFile> bd_file;
   MosquittoLink::LogFn log = [this](int, const std::string& m) {
     const std::lock_guard<std::mutex> hold(mutex);
     logged.push_back(m);
@@ -58,8 +66,7 @@ class LateBroker : public ::testing::Test {
 };
 
 TEST_F(LateBroker, FirstConnectRetriedWithBackoffUntilTheBrokerIsUp) {
-  BdSeqFile bd((dir / "bdseq").string(), log);
-  bd.load();
+  BdSeqFile& bd = bdseq();
   MosquittoLink link(config, bd, log);
   ASSERT_FALSE(link.start());  // a broker away is no error
   EXPECT_TRUE(link.awaiting_connect());
@@ -87,8 +94,7 @@ TEST_F(LateBroker, FirstConnectRetriedWithBackoffUntilTheBrokerIsUp) {
 TEST_F(LateBroker, BrokerUpAtStartNeedsNoRetry) {
   Broker broker(config.port);
   ASSERT_TRUE(wait_for([&] { return accepts(config.port); }, 5s));
-  BdSeqFile bd((dir / "bdseq").string(), log);
-  bd.load();
+  BdSeqFile& bd = bdseq();
   MosquittoLink link(config, bd, log);
   ASSERT_FALSE(link.start());
   EXPECT_FALSE(link.awaiting_connect());
@@ -103,8 +109,7 @@ TEST_F(LateBroker, BrokerUpAtStartNeedsNoRetry) {
 TEST_F(LateBroker, BrokerRestartReconnectsWithTheNextBdSeq) {
   auto broker = std::make_unique<Broker>(config.port);
   ASSERT_TRUE(wait_for([&] { return accepts(config.port); }, 5s));
-  BdSeqFile bd((dir / "bdseq").string(), log);
-  bd.load();
+  BdSeqFile& bd = bdseq();
   MosquittoLink link(config, bd, log);
   ASSERT_FALSE(link.start());
   ASSERT_TRUE(wait_for([&] { return serviced(link); }, 5s));
@@ -160,8 +165,7 @@ class Subscriber {
 TEST_F(LateBroker, PublishIsWrittenAtOnce) {
   Broker broker(config.port);
   ASSERT_TRUE(wait_for([&] { return accepts(config.port); }, 5s));
-  BdSeqFile bd((dir / "bdseq").string(), log);
-  bd.load();
+  BdSeqFile& bd = bdseq();
   MosquittoLink link(config, bd, log);
   ASSERT_FALSE(link.start());
   ASSERT_TRUE(wait_for([&] { return serviced(link); }, 5s));
