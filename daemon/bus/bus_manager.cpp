@@ -33,8 +33,8 @@ void BusManager::Impl::build_devices() {
   }
 }
 
-BusManager::Impl::Managed BusManager::Impl::make_managed(const config::Device& d) const {
-  Managed m;
+DeviceAgent BusManager::Impl::make_managed(const config::Device& d) const {
+  DeviceAgent m;
   m.cfg = d;
   m.st.name = d.name;
   m.st.bus = bus.name;
@@ -47,21 +47,21 @@ BusManager::Impl::Managed BusManager::Impl::make_managed(const config::Device& d
   return m;
 }
 
-BusManager::Impl::Managed* BusManager::Impl::find_device(std::string_view name) {
+DeviceAgent* BusManager::Impl::find_device(std::string_view name) {
   for (auto& m : devices) {
     if (m.st.name == name) return &m;
   }
   return nullptr;
 }
 
-BusManager::Impl::Managed* BusManager::Impl::find_configured_node(std::uint8_t node) {
+DeviceAgent* BusManager::Impl::find_configured_node(std::uint8_t node) {
   for (auto& m : devices) {
     if (m.in_config && m.st.node_id == node) return &m;
   }
   return nullptr;
 }
 
-BusManager::Impl::Managed* BusManager::Impl::find_node(std::uint8_t node) {
+DeviceAgent* BusManager::Impl::find_node(std::uint8_t node) {
   if (node == 0) return nullptr;
   for (auto& m : devices) {
     if (m.in_config && m.st.node_id == node && m.st.state != DeviceState::expected) return &m;
@@ -334,16 +334,16 @@ void BusManager::Impl::apply_reload(config::Config next, TimePoint now) {
   bus.interface = interface;
   discovery->reload(config, bus_index, state.on_bus(bus.name));
 
-  std::vector<Managed> old = std::move(devices);
+  std::vector<DeviceAgent> old = std::move(devices);
   devices.clear();
   for (const auto& d : config.devices) {
     if (d.bus_index != bus_index) continue;
-    auto it = std::find_if(old.begin(), old.end(), [&](const Managed& o) { return o.in_config && o.cfg.name == d.name; });
+    auto it = std::find_if(old.begin(), old.end(), [&](const DeviceAgent& o) { return o.in_config && o.cfg.name == d.name; });
     if (it == old.end()) {
       devices.push_back(make_managed(d));
       continue;
     }
-    Managed m = std::move(*it);
+    DeviceAgent m = std::move(*it);
     old.erase(it);
     m.cfg = d;
     if (m.started && m.description != nullptr && m.profile) {
@@ -356,9 +356,7 @@ void BusManager::Impl::apply_reload(config::Config next, TimePoint now) {
         m.plan.reset();
         m.started = false;  // the plan puts it in pre-operational: not a surprise
         supervisor.listen(m.st.node_id, m.profile->family);
-        m.want_configure = true;
-        m.attempts = 0;
-        m.not_before = now;
+        m.want_configuration(now);
       }
     }
     devices.push_back(std::move(m));

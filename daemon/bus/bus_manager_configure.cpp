@@ -15,7 +15,7 @@ bool BusManager::Impl::start_configurations(TimePoint now) {
   bool started_any = false;
   for (auto& m : devices) {
     if (active >= kMaxConcurrentPlans) break;
-    if (!m.want_configure || m.runner || m.ident || now < m.not_before) continue;
+    if (!m.configuration_due(now)) continue;
     if (m.st.node_id == remote->sdo_node()) continue;  // a client's transfer runs on it: next turn
     m.want_configure = false;
     if (begin_configuration(m, now)) {
@@ -32,11 +32,11 @@ PlanRunnerOptions BusManager::Impl::runner_options() const {
   return ro;
 }
 
-std::unique_ptr<PlanRunner> BusManager::Impl::make_runner(Managed& m, ConfigPlan plan, const PlanRunnerOptions& ro) {
+std::unique_ptr<PlanRunner> BusManager::Impl::make_runner(DeviceAgent& m, ConfigPlan plan, const PlanRunnerOptions& ro) {
   return std::make_unique<PlanRunner>(tx, sdo_of(m), std::move(plan), ro);
 }
 
-canopen::SdoClient& BusManager::Impl::sdo_of(Managed& m) {
+canopen::SdoClient& BusManager::Impl::sdo_of(DeviceAgent& m) {
   if (!m.sdo) {
     canopen::SdoClientConfig sc;
     sc.timeout = milliseconds(bus.sdo_timeout_ms);
@@ -48,7 +48,7 @@ canopen::SdoClient& BusManager::Impl::sdo_of(Managed& m) {
   return *m.sdo;
 }
 
-bool BusManager::Impl::begin_configuration(Managed& m, TimePoint now) {
+bool BusManager::Impl::begin_configuration(DeviceAgent& m, TimePoint now) {
   // A client's value may be stored in the device: only the full plan sees
   // every configured object again (a contested one is left alone).
   if (std::any_of(m.st.drift.begin(), m.st.drift.end(), [](const DriftRecord& r) { return !r.contested; }))
@@ -89,22 +89,19 @@ bool BusManager::Impl::begin_configuration(Managed& m, TimePoint now) {
   // The start is ours (finish_configuration): the hot path learns the
   // mapping first, so the first TPDO after the start is decoded.
   ro.start_node = false;
-  m.force_full = false;
+  m.begin_attempt(now);
   m.runner = make_runner(m, std::move(run_plan), ro);
-  m.configure_started = now;
-  ++m.attempts;
   set_state(m, DeviceState::configuring);
   if (const Error e = m.runner->start(now)) {
     log->error("bus {}: device {}: plan not started: {}", bus.name, m.st.name, e.message);
     m.runner.reset();
-    m.want_configure = true;
-    m.not_before = now + kConfigureRetryDelay;
+    m.retry_soon(now);
     return false;
   }
   return true;
 }
 
-ConfigPlan BusManager::Impl::plan_to_run(Managed& m) {
+ConfigPlan BusManager::Impl::plan_to_run(DeviceAgent& m) {
   ConfigPlan run_plan = m.quick ? quick_plan(*m.plan) : *m.plan;
   leave_contested(m, run_plan);
   if (m.store_all && m.plan->store_policy == config::StorePolicy::on_change) {
@@ -128,7 +125,7 @@ ConfigPlan BusManager::Impl::quick_plan(const ConfigPlan& full) {
   return q;
 }
 
-Supervision BusManager::Impl::supervision_for(const Managed& m) const {
+Supervision BusManager::Impl::supervision_for(const DeviceAgent& m) const {
   Supervision s;
   if (m.cfg.guarding && m.cfg.guarding->guard_time_ms > 0 && m.cfg.guarding->life_time_factor > 0) {
     s.mode = Supervision::Mode::guarding;
@@ -144,7 +141,7 @@ Supervision BusManager::Impl::supervision_for(const Managed& m) const {
   return s;
 }
 
-void BusManager::Impl::finish_configuration(Managed& m, TimePoint now) {
+void BusManager::Impl::finish_configuration(DeviceAgent& m, TimePoint now) {
   const PlanRunResult outcome = m.runner->result();
   m.runner.reset();
   const double ms = std::chrono::duration<double, std::milli>(now - m.configure_started).count();
@@ -168,9 +165,7 @@ void BusManager::Impl::finish_configuration(Managed& m, TimePoint now) {
               m.st.name);
     m.force_full = true;
     m.store_all = true;
-    m.want_configure = true;
-    m.not_before = now;
-    --m.attempts;
+    m.redo_at_once(now);
     return;
   }
   if (outcome.writes > 0) ++m.st.configurations;
@@ -187,25 +182,17 @@ void BusManager::Impl::finish_configuration(Managed& m, TimePoint now) {
 
 // Retries after a short delay, or after a long one once the attempts are
 // used up.
-void BusManager::Impl::configuration_failed(Managed& m, const PlanRunResult& outcome, TimePoint now) {
+void BusManager::Impl::configuration_failed(DeviceAgent& m, const PlanRunResult& outcome, TimePoint now) {
   m.st.last_error = outcome.error.message;
   note_failure(m, outcome);
   log->warn("bus {}: device {}: configuration failed (attempt {}): {}", bus.name, m.st.name, m.attempts,
             outcome.error.message);
-  m.want_configure = true;
-  if (m.attempts >= kConfigureAttempts) {
-    set_state(m, DeviceState::failed);
-    m.not_before = now + kFailedRetryPeriod;
-    m.attempts = 0;
-  } else {
-    set_state(m, DeviceState::identified);
-    m.not_before = now + kConfigureRetryDelay;
-  }
+  set_state(m, m.note_failed_attempt(now) ? DeviceState::failed : DeviceState::identified);
 }
 
 // The timeline's entry for a failed plan: an SDO abort (CiA 301 text) or
 // timeout, or a value that read back different; the frames are captured.
-void BusManager::Impl::note_failure(Managed& m, const PlanRunResult& outcome) {
+void BusManager::Impl::note_failure(DeviceAgent& m, const PlanRunResult& outcome) {
   const auto& code = outcome.error.code;
   TimelineKind kind = TimelineKind::sdo;
   const char* cause = nullptr;  // the flight recorder's (CiA 301 §7.2.4.3.17: aborted, or never answered)
@@ -232,7 +219,7 @@ std::string BusManager::Impl::join_differences(const PlanRunResult& outcome) {
 
 // Stores the device's node-ID and plan fingerprint, so that its next start
 // only verifies.
-void BusManager::Impl::remember_assignment(const Managed& m, const std::string& fingerprint) {
+void BusManager::Impl::remember_assignment(const DeviceAgent& m, const std::string& fingerprint) {
   Assignment a;
   a.bus = bus.name;
   a.serial = m.st.identity.serial;
@@ -244,7 +231,7 @@ void BusManager::Impl::remember_assignment(const Managed& m, const std::string& 
   if (const Error err = state.put(a)) log->error("bus {}: state file {}", bus.name, err.to_string());
 }
 
-void BusManager::Impl::note_configured(Managed& m, const PlanRunResult& outcome) {
+void BusManager::Impl::note_configured(DeviceAgent& m, const PlanRunResult& outcome) {
   std::string text = m.quick ? "configuration checked: the device carries it" : "configured: ";
   if (!m.quick) {
     text += std::to_string(outcome.writes) + " value(s) written and verified";
@@ -256,7 +243,7 @@ void BusManager::Impl::note_configured(Managed& m, const PlanRunResult& outcome)
 }
 
 // Started: operational from here, and supervised from now on.
-void BusManager::Impl::mark_operational(Managed& m, const PlanRunResult& outcome, TimePoint now, double ms) {
+void BusManager::Impl::mark_operational(DeviceAgent& m, const PlanRunResult& outcome, TimePoint now, double ms) {
   m.started = true;
   m.attempts = 0;
   m.st.last_error.clear();
@@ -283,7 +270,7 @@ void BusManager::Impl::mark_operational(Managed& m, const PlanRunResult& outcome
   }
 }
 
-bool BusManager::Impl::announce_and_start(Managed& m, TimePoint now) {
+bool BusManager::Impl::announce_and_start(DeviceAgent& m, TimePoint now) {
   if (options.observer != nullptr) {
     std::vector<std::uint32_t> tpdo1, tpdo2;
     for (const auto& step : m.plan->steps) {
@@ -297,14 +284,12 @@ bool BusManager::Impl::announce_and_start(Managed& m, TimePoint now) {
     options.observer->on_device_configured(announced, tpdo1, tpdo2);
   }
   if (channel->send(canopen::make_nmt(canopen::NmtCommand::start, m.st.node_id))) {
-    m.start_sent_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(wall_now().time_since_epoch()).count();
-    m.start_sent_at = now;
-    m.start_resends = 0;
+    m.note_start_sent(std::chrono::duration_cast<std::chrono::nanoseconds>(wall_now().time_since_epoch()).count(),
+                      now);
     return true;
   }
   m.st.last_error = "NMT start could not be sent";
-  m.want_configure = true;
-  m.not_before = now + kConfigureRetryDelay;
+  m.retry_soon(now);
   return false;
 }
 
@@ -325,7 +310,7 @@ void BusManager::Impl::runners_abort() {
   for (auto& m : devices) drop_runner(m, "the gateway is stopping");
 }
 
-void BusManager::Impl::drop_runner(Managed& m, const char* why) {
+void BusManager::Impl::drop_runner(DeviceAgent& m, const char* why) {
   if (m.command && m.runner && m.runner->finished()) {
     // Done before what ends it was seen (an NMT reset's own boot-up can
     // arrive in the same loop turn): the command's outcome stands.
@@ -339,7 +324,7 @@ void BusManager::Impl::drop_runner(Managed& m, const char* why) {
   report_command(m, cmd, CommandOutcome{CommandStatus::failed, 0, std::string("aborted: ") + why});
 }
 
-void BusManager::Impl::report_command(const Managed& m, const DeviceCommand& cmd, const CommandOutcome& outcome) {
+void BusManager::Impl::report_command(const DeviceAgent& m, const DeviceCommand& cmd, const CommandOutcome& outcome) {
   if (outcome.status == CommandStatus::ok) {
     log->info("bus {}: device {}: {} done", bus.name, m.st.name, to_string(cmd.kind));
   } else {
@@ -350,9 +335,9 @@ void BusManager::Impl::report_command(const Managed& m, const DeviceCommand& cmd
 }
 
 void BusManager::Impl::start_command(DeviceCommand cmd, TimePoint now) {
-  Managed* m = find_device(cmd.device);
+  DeviceAgent* m = find_device(cmd.device);
   if (m == nullptr || !m->in_config) {
-    Managed none;
+    DeviceAgent none;
     none.st.name = cmd.device;
     none.st.bus = bus.name;
     report_command(none, cmd, CommandOutcome{CommandStatus::unknown_device, 0, "not configured on this bus"});
@@ -395,7 +380,7 @@ void BusManager::Impl::start_command(DeviceCommand cmd, TimePoint now) {
   if (const Error e = m->runner->start(now)) drop_runner(*m, e.message.c_str());
 }
 
-void BusManager::Impl::finish_command(Managed& m, TimePoint now) {
+void BusManager::Impl::finish_command(DeviceAgent& m, TimePoint now) {
   const PlanRunResult r = m.runner->result();
   const ConfigPlan command_plan = m.runner->plan();
   m.runner.reset();
@@ -403,7 +388,7 @@ void BusManager::Impl::finish_command(Managed& m, TimePoint now) {
   m.command.reset();
   // A preset of an object the configuration presets (`preset`) is drift.
   if (r.ok()) note_command_writes(m, command_plan, cmd, now);
-  if (cmd.kind == CommandKind::store) m.preop_expected_until = now + kCommandSettle;
+  if (cmd.kind == CommandKind::store) m.expect_pre_operational(now);
   CommandOutcome out;
   out.message = r.error.message;
   if (r.ok()) {

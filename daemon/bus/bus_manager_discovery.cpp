@@ -15,7 +15,7 @@ void BusManager::Impl::check_configured_nodes(TimePoint now) {
   }
 }
 
-void BusManager::Impl::request_identity(Managed& m, TimePoint when, bool boot_up) {
+void BusManager::Impl::request_identity(DeviceAgent& m, TimePoint when, bool boot_up) {
   m.ident_wanted = true;
   m.ident_boot_up = m.ident_boot_up || boot_up;
   m.ident_at = when;
@@ -35,7 +35,7 @@ void BusManager::Impl::start_identity_reads(TimePoint now) {
   }
 }
 
-void BusManager::Impl::finish_identity(Managed& m, TimePoint now) {
+void BusManager::Impl::finish_identity(DeviceAgent& m, TimePoint now) {
   const std::unique_ptr<IdentityReader> reader = std::move(m.ident);
   const bool boot_up = std::exchange(m.ident_boot_up, false);
   const auto retry = now + std::chrono::seconds(bus.discovery_period_s);
@@ -67,16 +67,13 @@ void BusManager::Impl::finish_identity(Managed& m, TimePoint now) {
   on_identified(e, now);
 }
 
-void BusManager::Impl::on_sign_of_life(Managed& m, TimePoint now) {
+void BusManager::Impl::on_sign_of_life(DeviceAgent& m, TimePoint now) {
   const bool lost = m.st.state == DeviceState::offline ||
                     (m.st.state == DeviceState::failed && m.failed_unanswered);
   if (!lost || m.description == nullptr || m.runner || m.want_configure) return;
   log->info("bus {}: device {} (node {}) sends again while {}; checking its configuration", bus.name, m.st.name,
             m.st.node_id, to_string(m.st.state));
-  m.started = false;
-  m.want_configure = true;
-  m.attempts = 0;
-  m.not_before = now;
+  m.replan(now);
 }
 
 void BusManager::Impl::on_discovery_event(const DiscoveryEvent& e, TimePoint now) {
@@ -86,7 +83,7 @@ void BusManager::Impl::on_discovery_event(const DiscoveryEvent& e, TimePoint now
       break;
     case DiscoveryEventKind::commissioned: {
       log->info("bus {}: {}", bus.name, e.text);
-      if (Managed* m = e.device.empty() ? nullptr : find_device(e.device)) add_event(*m, TimelineKind::lss, e.text);
+      if (DeviceAgent* m = e.device.empty() ? nullptr : find_device(e.device)) add_event(*m, TimelineKind::lss, e.text);
       if (const Error err = record_assignment(state, bus.name, e))
         log->error("bus {}: state file {}", bus.name, err.to_string());
       break;
@@ -111,7 +108,7 @@ void BusManager::Impl::on_discovery_event(const DiscoveryEvent& e, TimePoint now
 
 void BusManager::Impl::on_identified(const DiscoveryEvent& e, TimePoint now) {
   const std::string& name = !e.device.empty() ? e.device : e.replaces;
-  Managed* m = name.empty() ? nullptr : find_device(name);
+  DeviceAgent* m = name.empty() ? nullptr : find_device(name);
   if (m == nullptr) {
     note_unknown(e);
     return;
@@ -159,7 +156,7 @@ bool BusManager::Impl::drop_unknown_entry(const DiscoveryEvent& e) {
         options.observer != nullptr)
       options.observer->on_device_removed(u.st);
   }
-  const auto dropped = std::erase_if(devices, [&](const Managed& u) {
+  const auto dropped = std::erase_if(devices, [&](const DeviceAgent& u) {
     return !u.in_config && u.st.identity.serial == e.identity.serial && u.st.identity.vendor == e.identity.vendor;
   });
   if (dropped != 0) dirty = true;
@@ -168,7 +165,7 @@ bool BusManager::Impl::drop_unknown_entry(const DiscoveryEvent& e) {
 
 // The device is at its node-ID: remember it there, supervise it and
 // configure it from the start.
-void BusManager::Impl::reconfigure_identified(Managed& m, const DiscoveryEvent& e, TimePoint now) {
+void BusManager::Impl::reconfigure_identified(DeviceAgent& m, const DiscoveryEvent& e, TimePoint now) {
   if (m.st.node_id != 0 && m.st.node_id != e.node_id) {
     add_event(m, TimelineKind::node_id,
               "node-ID " + std::to_string(m.st.node_id) + " -> " + std::to_string(e.node_id) + " (serial " +
@@ -194,16 +191,13 @@ void BusManager::Impl::reconfigure_identified(Managed& m, const DiscoveryEvent& 
   discovery->set_supervised(e.node_id, true);
   set_state(m, DeviceState::identified);
   drop_runner(m, "the device was identified anew");
-  m.started = false;
-  m.want_configure = true;
-  m.attempts = 0;
-  m.not_before = now;
+  m.replan(now);
 }
 
 void BusManager::Impl::on_retry(const DiscoveryEvent& e) {
   log->warn("bus {}: {}", bus.name, e.text);
   // Every failed commissioning step comes here (Commissioning::retry_later).
-  Managed* m = e.device.empty() ? nullptr : find_device(e.device);
+  DeviceAgent* m = e.device.empty() ? nullptr : find_device(e.device);
   if (m == nullptr) {
     capture("lss failed", e.device);
     add_problem(e.text, "");
@@ -229,7 +223,7 @@ void BusManager::Impl::note_unknown(const DiscoveryEvent& e) {
       return;
     }
   }
-  Managed m;
+  DeviceAgent m;
   m.in_config = false;
   m.st.name = "unknown-" + std::to_string(e.identity.serial);
   m.st.bus = bus.name;
@@ -246,7 +240,7 @@ void BusManager::Impl::note_unknown(const DiscoveryEvent& e) {
   dirty = true;
 }
 
-bool BusManager::Impl::resolve_description(Managed& m) {
+bool BusManager::Impl::resolve_description(DeviceAgent& m) {
   const auto& id = m.st.identity;
   std::string variant;
   if (m.cfg.channels) variant = *m.cfg.channels == 2 ? "2ch" : "1ch";

@@ -24,13 +24,13 @@ void BusManager::Impl::on_sdo_written(const RemoteCommand& c, TimePoint now) {
 }
 
 void BusManager::Impl::on_foreign_write(const canopen::ObservedWrite& w, TimePoint now) {
-  Managed* m = find_node(w.node);
+  DeviceAgent* m = find_node(w.node);
   if (m == nullptr) return;
   note_client_write(*m, w.index, w.sub, std::span(w.data.data(), w.size),
                     "an SDO client on the bus (not through the gateway)", now);
 }
 
-void BusManager::Impl::note_client_write(Managed& m, std::uint16_t index, std::uint8_t sub,
+void BusManager::Impl::note_client_write(DeviceAgent& m, std::uint16_t index, std::uint8_t sub,
                                          std::span<const std::uint8_t> bytes, const std::string& writer,
                                          TimePoint now) {
   note_drift(m, index, sub, bytes, writer, now);
@@ -38,7 +38,7 @@ void BusManager::Impl::note_client_write(Managed& m, std::uint16_t index, std::u
   if (index == 0x1017 && sub == 0) supervisor.producer_time_written(m.st.node_id, now);
 }
 
-void BusManager::Impl::note_drift(Managed& m, std::uint16_t index, std::uint8_t sub,
+void BusManager::Impl::note_drift(DeviceAgent& m, std::uint16_t index, std::uint8_t sub,
                                   std::span<const std::uint8_t> bytes, const std::string& writer, TimePoint now) {
   if (!m.plan || standby()) return;
   const DriftCheck check = check_write(*m.plan, index, sub, bytes, writer, wall_now());
@@ -72,7 +72,7 @@ void BusManager::Impl::note_drift(Managed& m, std::uint16_t index, std::uint8_t 
   }
 }
 
-void BusManager::Impl::note_command_writes(Managed& m, const ConfigPlan& command_plan, const DeviceCommand& cmd,
+void BusManager::Impl::note_command_writes(DeviceAgent& m, const ConfigPlan& command_plan, const DeviceCommand& cmd,
                                            TimePoint now) {
   for (const auto& step : command_plan.steps) {
     if (step.kind != StepKind::write) continue;
@@ -83,7 +83,7 @@ void BusManager::Impl::note_command_writes(Managed& m, const ConfigPlan& command
   }
 }
 
-void BusManager::Impl::request_restore(Managed& m, std::uint16_t index, std::uint8_t sub, TimePoint now) {
+void BusManager::Impl::request_restore(DeviceAgent& m, std::uint16_t index, std::uint8_t sub, TimePoint now) {
   DriftRecord* r = open_record(m.st.drift, index, sub);
   if (r == nullptr) return;
   if (m.runner && !m.command) {
@@ -111,7 +111,7 @@ void BusManager::Impl::request_restore(Managed& m, std::uint16_t index, std::uin
 // A contested object stays so until an operator acknowledges, whatever is
 // written to it meanwhile (even the configured value: the other writer may
 // change it again at once).
-void BusManager::Impl::note_contested_write(Managed& m, DriftRecord& open, const DriftRecord& now_written) {
+void BusManager::Impl::note_contested_write(DeviceAgent& m, DriftRecord& open, const DriftRecord& now_written) {
   open.value = now_written.value;
   open.writer = now_written.writer;
   open.at = now_written.at;
@@ -123,7 +123,7 @@ void BusManager::Impl::note_contested_write(Managed& m, DriftRecord& open, const
   follow_written_heartbeat(m, open);
 }
 
-void BusManager::Impl::mark_contested(Managed& m, const DriftRecord& r) {
+void BusManager::Impl::mark_contested(DeviceAgent& m, const DriftRecord& r) {
   const std::string text = r.object + (r.name.empty() ? "" : " (" + r.name + ")") + " contested: " + r.writer +
                            " set it to " + number_text(r.value) + " again after " +
                            std::to_string(RestoreLimits::kMaxRestores) +
@@ -140,13 +140,11 @@ void BusManager::Impl::mark_contested(Managed& m, const DriftRecord& r) {
 // A device a client stopped (operator_hold) is not started by a restore:
 // the restore waits for the client's NMT start (on_nmt_sent). A command
 // running on the device finishes first (start_configurations waits for it).
-void BusManager::Impl::restore_configuration(Managed& m, TimePoint now, TimePoint when) {
+void BusManager::Impl::restore_configuration(DeviceAgent& m, TimePoint now, TimePoint when) {
   if ((m.runner && !m.command) || m.description == nullptr || !m.profile) return;  // a plan is on its way
   if (m.operator_hold) return;
   m.force_full = true;
-  m.want_configure = true;
-  m.attempts = 0;
-  m.not_before = when;
+  m.want_configuration(when);
   if (when > now) return;  // begin_configuration stops the watch when the plan starts
   // The plan passes through pre-operational: not a foreign NMT master's doing.
   m.started = false;
@@ -156,7 +154,7 @@ void BusManager::Impl::restore_configuration(Managed& m, TimePoint now, TimePoin
 // Keep: the heartbeat consumer follows the producer time the device now
 // has (CiA 301 §7.4.8.3), rather than declaring it lost for obeying a
 // client; a write back to the configured time restores the configured watch.
-void BusManager::Impl::follow_written_heartbeat(Managed& m, const DriftRecord& r) {
+void BusManager::Impl::follow_written_heartbeat(DeviceAgent& m, const DriftRecord& r) {
   if (r.index != 0x1017 || r.sub != 0) return;
   if (m.supervision.mode != Supervision::Mode::heartbeat) return;
   const milliseconds producer(r.value);
@@ -170,7 +168,7 @@ void BusManager::Impl::follow_written_heartbeat(Managed& m, const DriftRecord& r
   }
 }
 
-void BusManager::Impl::clear_drift(Managed& m) {
+void BusManager::Impl::clear_drift(DeviceAgent& m) {
   std::vector<DriftRecord> left;
   std::string objects;
   for (auto& r : m.st.drift) {
@@ -188,7 +186,7 @@ void BusManager::Impl::clear_drift(Managed& m) {
   add_event(m, TimelineKind::drift, "restored the configuration of " + objects);
 }
 
-void BusManager::Impl::restore_left_drift(Managed& m, TimePoint now) {
+void BusManager::Impl::restore_left_drift(DeviceAgent& m, TimePoint now) {
   m.drift_mid_plan.clear();
   if (m.cfg.on_config_drift != config::DriftPolicy::restore) return;
   for (const auto& r : std::vector<DriftRecord>(m.st.drift)) {
@@ -196,7 +194,7 @@ void BusManager::Impl::restore_left_drift(Managed& m, TimePoint now) {
   }
 }
 
-void BusManager::Impl::leave_contested(const Managed& m, ConfigPlan& plan) const {
+void BusManager::Impl::leave_contested(const DeviceAgent& m, ConfigPlan& plan) const {
   if (!m.restore_guard.any_contested()) return;
   std::erase_if(plan.steps, [&](const PlanStep& step) {
     return step.kind == StepKind::write && m.restore_guard.contested(step.write.index, step.write.sub);
@@ -204,7 +202,7 @@ void BusManager::Impl::leave_contested(const Managed& m, ConfigPlan& plan) const
 }
 
 void BusManager::Impl::acknowledge_contested(const std::string& device, const std::string& caller, TimePoint now) {
-  Managed* m = find_device(device);
+  DeviceAgent* m = find_device(device);
   if (m == nullptr || m->restore_guard.acknowledge() == 0) return;
   std::string objects;
   for (auto& r : m->st.drift) {

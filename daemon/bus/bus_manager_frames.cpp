@@ -34,7 +34,7 @@ TimePoint BusManager::Impl::run_components(TimePoint now) {
     // The role is not handed over in the middle of a device's configuration,
     // which starts at its boot-up: a rebooted device waiting for its plan
     // counts as being configured.
-    const bool configuring = std::any_of(devices.begin(), devices.end(), [](const Managed& m) {
+    const bool configuring = std::any_of(devices.begin(), devices.end(), [](const DeviceAgent& m) {
       return m.runner != nullptr || (m.want_configure && m.boot_up_at != kNever);
     });
     election->set_busy(configuring);
@@ -160,10 +160,7 @@ void BusManager::Impl::on_interface_back(TimePoint now) {
     if (!m.in_config || m.st.node_id == 0) continue;
     discovery->set_supervised(m.st.node_id, false);
     if (m.description == nullptr || m.runner || m.command) continue;
-    m.started = false;
-    m.want_configure = true;
-    m.attempts = 0;
-    m.not_before = now;
+    m.replan(now);
     supervisor.listen(m.st.node_id, m.profile->family);
   }
   log->info("bus {}: interface back; checking every known device", bus.name);
@@ -177,7 +174,7 @@ std::string BusManager::Impl::capture(const char* cause, const std::string& devi
 }
 
 void BusManager::Impl::on_supervisor_change(const Supervisor::Change& c, TimePoint now) {
-  Managed* m = find_node(c.node);
+  DeviceAgent* m = find_node(c.node);
   if (m == nullptr && !bus.discovery && c.kind == Supervisor::ChangeKind::rebooted) m = find_configured_node(c.node);
   if (m == nullptr) return;
   const DeviceState before = m->st.state;
@@ -230,7 +227,7 @@ void BusManager::Impl::on_supervisor_change(const Supervisor::Change& c, TimePoi
 
 // The timeline's side of a supervision change: what happened, in words,
 // with the capture that holds its frames, and the state change it made.
-void BusManager::Impl::note_supervision(Managed& m, const Supervisor::Change& c, DeviceState before) {
+void BusManager::Impl::note_supervision(DeviceAgent& m, const Supervisor::Change& c, DeviceState before) {
   switch (c.kind) {
     case Supervisor::ChangeKind::rebooted:
       add_event(m, TimelineKind::boot_up,
@@ -257,9 +254,9 @@ void BusManager::Impl::note_supervision(Managed& m, const Supervisor::Change& c,
   }
 }
 
-void BusManager::Impl::on_nmt_state(Managed& m, canopen::NmtState nmt, std::int64_t frame_ns, TimePoint now) {
+void BusManager::Impl::on_nmt_state(DeviceAgent& m, canopen::NmtState nmt, std::int64_t frame_ns, TimePoint now) {
   if (!m.started || m.runner) return;
-  if (nmt != canopen::NmtState::operational && told_before_start(m, frame_ns, now)) {
+  if (nmt != canopen::NmtState::operational && m.told_before_start(frame_ns, now)) {
     // Sent before the device took our NMT start, read after it: no news.
     // Forgotten, so that the same state heard later is news.
     supervisor.forget_nmt(m.st.node_id);
@@ -304,34 +301,19 @@ void BusManager::Impl::on_nmt_state(Managed& m, canopen::NmtState nmt, std::int6
   // Someone (or a reset we missed) put it back: check, configure and start again.
   log->warn("bus {}: device {} (node {}) is pre-operational again; reconfiguring", bus.name, m.st.name,
             m.st.node_id);
-  m.started = false;
-  m.want_configure = true;
-  m.attempts = 0;
-  m.not_before = now;
+  m.replan(now);
   supervisor.listen(m.st.node_id, m.profile ? m.profile->family : nullptr);
   set_state(m, DeviceState::identified);
 }
 
-// By the frame's kernel stamp where it has one, within kStartStaleWindow
-// of our start: sent before the start reached the device and was acted on
-// (kStartReaction); a frame without a stamp within the settle after a
-// command (kCommandSettle).
-bool BusManager::Impl::told_before_start(const Managed& m, std::int64_t frame_ns, TimePoint now) const {
-  if (now < m.preop_expected_until) return true;
-  if (frame_ns == 0 || m.start_sent_ns == 0 || now - m.start_sent_at > kStartStaleWindow) return false;
-  return frame_ns < m.start_sent_ns + std::chrono::duration_cast<std::chrono::nanoseconds>(kStartReaction).count();
-}
-
 // See kStartResends. Forgotten by the supervisor, so that the same state
 // heard again is news: after the window, the whole plan.
-bool BusManager::Impl::resend_start(Managed& m, TimePoint now) {
-  if (m.start_sent_ns == 0 || now - m.start_sent_at > kStartStaleWindow || m.start_resends >= kStartResends)
-    return false;
-  ++m.start_resends;
+bool BusManager::Impl::resend_start(DeviceAgent& m, TimePoint now) {
+  if (!m.take_start_resend(now)) return false;
   supervisor.forget_nmt(m.st.node_id);
   log->warn("bus {}: device {} (node {}) still pre-operational {} ms after the NMT start; start sent again ({} of {})",
             bus.name, m.st.name, m.st.node_id,
-            std::chrono::duration_cast<std::chrono::milliseconds>(now - m.start_sent_at).count(), m.start_resends,
+            std::chrono::duration_cast<std::chrono::milliseconds>(m.since_start(now)).count(), m.start_resends(),
             kStartResends);
   if (!channel->send(canopen::make_nmt(canopen::NmtCommand::start, m.st.node_id)))
     log->error("bus {}: device {}: NMT start could not be sent", bus.name, m.st.name);

@@ -28,6 +28,7 @@
 #include "canopen/sync.hpp"
 #include "device/family_profile.hpp"
 #include "bus/config_plan.hpp"
+#include "bus/device_agent.hpp"
 #include "bus/discovery.hpp"
 #include "bus/identity_reader.hpp"
 #include "bus/log_budget.hpp"
@@ -63,30 +64,10 @@ constexpr std::size_t kMaxSteps = 64;            // StepTiming entries kept in t
 constexpr std::size_t kMaxProblems = 32;         // problems kept in the status
 constexpr std::size_t kMaxConcurrentPlans = 2;   // plan runners at once per bus
 constexpr std::size_t kMaxReceiveBatches = 16;   // per loop turn, so timers still run under load
-constexpr unsigned kConfigureAttempts = 3;       // plan runs before the device is `failed`
-constexpr milliseconds kConfigureRetryDelay{500};
-constexpr milliseconds kFailedRetryPeriod{30000};  // a failed device is tried again this often
 constexpr milliseconds kMaxPollWait{1000};
 constexpr milliseconds kRebootFallbackDelay{500};
 constexpr std::size_t kMaxQueuedCommands = 16;    // per bus, waiting for the control thread
 constexpr std::size_t kMaxRemoteCommands = 256;   // client commands per bus, queued or waiting for their node
-// After a command that passed through pre-operational, a heartbeat sent
-// before the device got NMT start may still arrive: not a surprise reset.
-constexpr milliseconds kCommandSettle{500};
-// After a plan's NMT start: a heartbeat stamped by the kernel before the
-// start was sent plus this (the frame on the wire, the device acting on it)
-// tells the state before the start, whenever a loaded gateway reads it.
-constexpr milliseconds kStartReaction{50};
-// ... judged so only this long after the start: a heartbeat read later is
-// no longer one the gateway was slow to read, and a wall clock stepped back
-// (NTP) in between cannot hide a device put back to pre-operational.
-constexpr milliseconds kStartStaleWindow{1000};
-// Pre-operational heard within that window but after kStartReaction: a device
-// slow to act on the start (its heartbeat producer ahead of its NMT state
-// machine) or one that missed it. Its configuration was verified and stored
-// just before, so the start is sent again, at most this often, instead of
-// the whole plan: a plan per late heartbeat never ends on a slow device.
-constexpr unsigned kStartResends = 3;
 // A re-plugged adapter is opened at most this long after it appears, so
 // its devices are configured again within 2 s of its return.
 constexpr milliseconds kReopenBackoffMax{500};
@@ -103,48 +84,6 @@ constexpr std::chrono::seconds kRoleLogWindow{60};
 }  // namespace
 
 struct BusManager::Impl final : RemoteGate {
-  // One configured device of this bus (or an unknown one discovery reported).
-  struct Managed {
-    config::Device cfg;
-    bool in_config = true;  // false: an unknown device, shown in the status only
-    DeviceStatus st;
-    const device::DeviceDescription* description = nullptr;
-    std::optional<device::FamilyProfile> profile;
-    Supervision supervision;
-    std::optional<ConfigPlan> plan;
-    std::unique_ptr<canopen::SdoClient> sdo;  // the runner's; re-addressed per run
-    std::unique_ptr<PlanRunner> runner;
-    std::optional<DeviceCommand> command;  // the runner runs this command, not the configuration
-    TimePoint preop_expected_until{};      // see kCommandSettle
-    std::int64_t start_sent_ns = 0;        // realtime of our last NMT start (kStartReaction)
-    TimePoint start_sent_at{};             // ... and steady time (kStartStaleWindow)
-    unsigned start_resends = 0;            // since that start (kStartResends)
-    bool quick = false;       // the running plan is the fingerprint check
-    bool force_full = false;  // the next run is the full plan
-    bool store_all = false;   // ... and stores all it names: the quick check already wrote some
-    bool want_configure = false;  // waiting for a runner slot
-    bool started = false;         // NMT start sent after a successful plan
-    bool followed = false;        // standby: its decode plan is announced to the outputs
-    bool heard_operational = false;  // standby: its last heartbeat said operational
-    bool failed_unanswered = false;  // the last failure was a silence (timeout, nothing sent)
-    bool operator_hold = false;      // stopped / pre-operational by a client's NMT command: left so
-    unsigned attempts = 0;
-    TimePoint not_before{};       // retry back-off
-    TimePoint configure_started{};
-    TimePoint boot_up_at = kNever;  // last boot-up, to report how long the way back took
-    LogBudget emcy_log;             // EMCY log lines (the outputs get every EMCY)
-    RestoreGuard restore_guard;     // drift restores per object: backoff, contested
-    // Drifted objects (index << 8 | sub) a client wrote while a plan ran:
-    // that plan may have written them before the client did, so they stay
-    // open after it and get a restore of their own.
-    std::vector<std::uint32_t> drift_mid_plan;
-    // Buses without discovery: the identity check before configuring.
-    std::unique_ptr<IdentityReader> ident;
-    bool ident_wanted = false;
-    bool ident_boot_up = false;
-    TimePoint ident_at{};
-  };
-
   Impl(const config::Config& config_in, std::size_t index, const device::DeviceCatalog& catalog_in,
        StateStore& state_in, BusManagerOptions options_in);
 
@@ -153,11 +92,11 @@ struct BusManager::Impl final : RemoteGate {
   void build_devices();
   // A configured device as it starts out, before anything is heard of it:
   // the one way start-up and a reload make one, so both show the same.
-  Managed make_managed(const config::Device& d) const;
-  Managed* find_device(std::string_view name);
+  DeviceAgent make_managed(const config::Device& d) const;
+  DeviceAgent* find_device(std::string_view name);
   // Any configured device at `node`, also one not seen yet.
-  Managed* find_configured_node(std::uint8_t node);
-  Managed* find_node(std::uint8_t node);
+  DeviceAgent* find_configured_node(std::uint8_t node);
+  DeviceAgent* find_node(std::uint8_t node);
 
   // ---- thread ------------------------------------------------------------
 
@@ -214,24 +153,24 @@ struct BusManager::Impl final : RemoteGate {
   // device of another serial or model there is reported, never configured.
 
   void check_configured_nodes(TimePoint now);
-  void request_identity(Managed& m, TimePoint when, bool boot_up);
+  void request_identity(DeviceAgent& m, TimePoint when, bool boot_up);
   void start_identity_reads(TimePoint now);
-  void finish_identity(Managed& m, TimePoint now);
+  void finish_identity(DeviceAgent& m, TimePoint now);
 
   // A device that is offline (or failed for want of answers) but sends
   // frames again is checked and configured: it may have restarted unseen.
-  void on_sign_of_life(Managed& m, TimePoint now);
+  void on_sign_of_life(DeviceAgent& m, TimePoint now);
 
   // ---- discovery -----------------------------------------------------------
 
   void on_discovery_event(const DiscoveryEvent& e, TimePoint now);
   void on_identified(const DiscoveryEvent& e, TimePoint now);
   bool drop_unknown_entry(const DiscoveryEvent& e);
-  void reconfigure_identified(Managed& m, const DiscoveryEvent& e, TimePoint now);
+  void reconfigure_identified(DeviceAgent& m, const DiscoveryEvent& e, TimePoint now);
   void note_unknown(const DiscoveryEvent& e);
   // Commissioning failed and is tried again: status and log say so.
   void on_retry(const DiscoveryEvent& e);
-  bool resolve_description(Managed& m);
+  bool resolve_description(DeviceAgent& m);
 
   // ---- configuration ---------------------------------------------------------
 
@@ -240,11 +179,11 @@ struct BusManager::Impl final : RemoteGate {
 
   // A runner for a plan on `m` (configuration or command), with the device's
   // SDO client, made on first use.
-  std::unique_ptr<PlanRunner> make_runner(Managed& m, ConfigPlan plan, const PlanRunnerOptions& ro);
+  std::unique_ptr<PlanRunner> make_runner(DeviceAgent& m, ConfigPlan plan, const PlanRunnerOptions& ro);
 
   // The device's SDO client, made on first use and re-addressed to its node-ID.
-  canopen::SdoClient& sdo_of(Managed& m);
-  bool begin_configuration(Managed& m, TimePoint now);
+  canopen::SdoClient& sdo_of(DeviceAgent& m);
+  bool begin_configuration(DeviceAgent& m, TimePoint now);
 
   // The objects whose agreement says "this device still carries its
   // configuration": supervision and the PDO mappings, read (and compared)
@@ -252,36 +191,36 @@ struct BusManager::Impl final : RemoteGate {
   static ConfigPlan quick_plan(const ConfigPlan& full);
   // What this run executes: the quick check or the full plan, less the
   // contested objects' writes, storing all it names after a failed quick check.
-  ConfigPlan plan_to_run(Managed& m);
-  Supervision supervision_for(const Managed& m) const;
-  void finish_configuration(Managed& m, TimePoint now);
-  void configuration_failed(Managed& m, const PlanRunResult& outcome, TimePoint now);
-  void note_failure(Managed& m, const PlanRunResult& outcome);
-  void note_configured(Managed& m, const PlanRunResult& outcome);
+  ConfigPlan plan_to_run(DeviceAgent& m);
+  Supervision supervision_for(const DeviceAgent& m) const;
+  void finish_configuration(DeviceAgent& m, TimePoint now);
+  void configuration_failed(DeviceAgent& m, const PlanRunResult& outcome, TimePoint now);
+  void note_failure(DeviceAgent& m, const PlanRunResult& outcome);
+  void note_configured(DeviceAgent& m, const PlanRunResult& outcome);
   static std::string join_differences(const PlanRunResult& outcome);
-  void remember_assignment(const Managed& m, const std::string& fingerprint);
-  void mark_operational(Managed& m, const PlanRunResult& outcome, TimePoint now, double ms);
+  void remember_assignment(const DeviceAgent& m, const std::string& fingerprint);
+  void mark_operational(DeviceAgent& m, const PlanRunResult& outcome, TimePoint now, double ms);
 
   // Plans leave the NMT start to us, so that a device found different by
   // the quick check is not started half configured, and so that the hot path
   // has the device's mapping before its first TPDO.
-  bool announce_and_start(Managed& m, TimePoint now);
+  bool announce_and_start(DeviceAgent& m, TimePoint now);
   static Supervision fallback_guarding(const ConfigPlan& plan);
   void runners_abort();
 
   // Ends whatever the runner does; a command's submitter learns why.
-  void drop_runner(Managed& m, const char* why);
+  void drop_runner(DeviceAgent& m, const char* why);
 
   // ---- commands from plugins ---------------------------------------------------
 
-  void report_command(const Managed& m, const DeviceCommand& cmd, const CommandOutcome& outcome);
+  void report_command(const DeviceAgent& m, const DeviceCommand& cmd, const CommandOutcome& outcome);
   void start_command(DeviceCommand cmd, TimePoint now);
-  void finish_command(Managed& m, TimePoint now);
+  void finish_command(DeviceAgent& m, TimePoint now);
 
   // ---- supervision -------------------------------------------------------------
 
   void on_supervisor_change(const Supervisor::Change& c, TimePoint now);
-  void note_supervision(Managed& m, const Supervisor::Change& c, DeviceState before);
+  void note_supervision(DeviceAgent& m, const Supervisor::Change& c, DeviceState before);
   // A flight-recorder capture around a fault seen now (nothing when the
   // recorder is off); `device` empty for the bus itself.
   // Returns the capture's file name (empty: no capture).
@@ -291,13 +230,10 @@ struct BusManager::Impl final : RemoteGate {
   // §7.2.8.3.2): the status follows it, and a device another NMT master
   // stopped or sent to pre-operational is started again (policy restart) or
   // left as that master wants it (policy respect); either way it is logged.
-  void on_nmt_state(Managed& m, canopen::NmtState nmt, std::int64_t frame_ns, TimePoint now);
-  // A heartbeat state that tells what the device was before our last NMT
-  // start (or a command's), not what it is now.
-  [[nodiscard]] bool told_before_start(const Managed& m, std::int64_t frame_ns, TimePoint now) const;
-  bool resend_start(Managed& m, TimePoint now);
+  void on_nmt_state(DeviceAgent& m, canopen::NmtState nmt, std::int64_t frame_ns, TimePoint now);
+  bool resend_start(DeviceAgent& m, TimePoint now);
 
-  bool emcy_log_allowed(Managed& m, TimePoint now) { return m.emcy_log.allow(now); }
+  bool emcy_log_allowed(DeviceAgent& m, TimePoint now) { return m.emcy_log.allow(now); }
 
   void report_suppressed_emcy(TimePoint now);
   // Frames lost at the control socket's full receive queue (SO_RXQ_OVFL):
@@ -328,30 +264,30 @@ struct BusManager::Impl final : RemoteGate {
   // A client's confirmed write of index:sub on `m`: recorded, logged and
   // restored or kept per m.cfg.on_config_drift when the plan sets the object
   // to another value; a write of the configured value closes its record.
-  void note_client_write(Managed& m, std::uint16_t index, std::uint8_t sub, std::span<const std::uint8_t> bytes,
+  void note_client_write(DeviceAgent& m, std::uint16_t index, std::uint8_t sub, std::span<const std::uint8_t> bytes,
                          const std::string& writer, TimePoint now);
   // The drift part of note_client_write.
-  void note_drift(Managed& m, std::uint16_t index, std::uint8_t sub, std::span<const std::uint8_t> bytes,
+  void note_drift(DeviceAgent& m, std::uint16_t index, std::uint8_t sub, std::span<const std::uint8_t> bytes,
                   const std::string& writer, TimePoint now);
   // A write another SDO client made on the bus (seen by sdo_observer).
   void on_foreign_write(const canopen::ObservedWrite& w, TimePoint now);
   // Drift of an object a plugin's command wrote (its runner's plan).
-  void note_command_writes(Managed& m, const ConfigPlan& command_plan, const DeviceCommand& cmd, TimePoint now);
+  void note_command_writes(DeviceAgent& m, const ConfigPlan& command_plan, const DeviceCommand& cmd, TimePoint now);
   // Asks the device's RestoreGuard: restores after its backoff, or marks
   // the object contested; a drift seen while a plan runs waits for its end.
-  void request_restore(Managed& m, std::uint16_t index, std::uint8_t sub, TimePoint now);
-  void mark_contested(Managed& m, const DriftRecord& r);
-  void note_contested_write(Managed& m, DriftRecord& open, const DriftRecord& now_written);
+  void request_restore(DeviceAgent& m, std::uint16_t index, std::uint8_t sub, TimePoint now);
+  void mark_contested(DeviceAgent& m, const DriftRecord& r);
+  void note_contested_write(DeviceAgent& m, DriftRecord& open, const DriftRecord& now_written);
   // The full plan at `when` (after a backoff, or now).
-  void restore_configuration(Managed& m, TimePoint now, TimePoint when);
-  void follow_written_heartbeat(Managed& m, const DriftRecord& r);
+  void restore_configuration(DeviceAgent& m, TimePoint now, TimePoint when);
+  void follow_written_heartbeat(DeviceAgent& m, const DriftRecord& r);
   // After a successful plan: the drift it put right is closed; contested
   // objects and those written while it ran stay open.
-  void clear_drift(Managed& m);
+  void clear_drift(DeviceAgent& m);
   // Then restores what stayed open and is not contested.
-  void restore_left_drift(Managed& m, TimePoint now);
+  void restore_left_drift(DeviceAgent& m, TimePoint now);
   // Write steps of contested objects taken out of a plan about to run.
-  void leave_contested(const Managed& m, ConfigPlan& plan) const;
+  void leave_contested(const DeviceAgent& m, ConfigPlan& plan) const;
   // `cobridge acknowledge DEVICE`: contested objects may be written again.
   void acknowledge_contested(const std::string& device, const std::string& caller, TimePoint now);
 
@@ -359,12 +295,12 @@ struct BusManager::Impl final : RemoteGate {
 
   // `why` is the timeline's cause; empty: the device's last_error, or the
   // usual reason for entering `s`.
-  void set_state(Managed& m, DeviceState s, std::string why = {});
+  void set_state(DeviceAgent& m, DeviceState s, std::string why = {});
   // ---- timelines (bus_manager_timeline.cpp) ---------------------------------
 
   // A timeline event of `m` (now); `capture` names the recorder's file.
   // A configured device's event is queued for the journal.
-  void add_event(Managed& m, TimelineKind kind, std::string text, std::string capture = {});
+  void add_event(DeviceAgent& m, TimelineKind kind, std::string text, std::string capture = {});
   // A bus-wide event (controller, adapter) on the timeline of every device of the bus.
   void add_bus_event(TimelineKind kind, const std::string& text, const std::string& capture);
   // Start-up: the configured devices' timelines from the journal, then a
@@ -374,7 +310,7 @@ struct BusManager::Impl final : RemoteGate {
   // kFlushInterval, or now when `force` (the bus stops); returns when it is
   // next due.
   TimePoint flush_timelines(TimePoint now, bool force = false);
-  void notify(const Managed& m);
+  void notify(const DeviceAgent& m);
   void add_step(StepTiming t);
 
   // A problem stays in the status while it is true: a device's own problems
@@ -414,7 +350,7 @@ struct BusManager::Impl final : RemoteGate {
   std::unique_ptr<RemoteExecutor> remote;
   Supervisor supervisor;
   canopen::SyncProducer sync;
-  std::vector<Managed> devices;
+  std::vector<DeviceAgent> devices;
   std::vector<StepTiming> steps;
   struct Problem {
     std::string text;
@@ -487,10 +423,10 @@ struct BusManager::Impl final : RemoteGate {
   void note_identity_request(const can::Frame& frame, TimePoint now);
   void note_identity(const can::Frame& frame, TimePoint now);
   // The status a standby shows of `m`: what the bus says (bus_manager_standby.cpp).
-  [[nodiscard]] DeviceStatus as_the_bus_says(const Managed& m) const;
+  [[nodiscard]] DeviceStatus as_the_bus_says(const DeviceAgent& m) const;
   void follow_heard_devices();
-  void remember_followed(const Managed& m, const std::string& fingerprint);
-  [[nodiscard]] bool describe_from_config(Managed& m);
+  void remember_followed(const DeviceAgent& m, const std::string& fingerprint);
+  [[nodiscard]] bool describe_from_config(DeviceAgent& m);
   void describe_role(BusStatus& s) const;
 
   std::thread thread;

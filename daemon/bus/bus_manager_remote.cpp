@@ -20,7 +20,7 @@ bool BusManager::Impl::node_free(std::uint8_t node) const {
 
 bool BusManager::Impl::node_supervised(std::uint8_t node) const {
   return std::any_of(devices.begin(), devices.end(),
-                     [&](const Managed& m) { return m.in_config && m.st.node_id == node && m.description != nullptr; });
+                     [&](const DeviceAgent& m) { return m.in_config && m.st.node_id == node && m.description != nullptr; });
 }
 
 void BusManager::Impl::on_nmt_sent(canopen::NmtCommand command, std::uint8_t node, const std::string& caller) {

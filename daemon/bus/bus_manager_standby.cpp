@@ -69,7 +69,7 @@ void BusManager::Impl::listen_as_standby(const can::Frame& frame, TimePoint now)
 void BusManager::Impl::note_heartbeat(const can::Frame& frame) {
   if (frame.len != 1) return;
   const auto node = static_cast<std::uint8_t>(frame.id - canopen::cob::kNmtErrorControlBase);
-  if (Managed* m = find_configured_node(node)) {
+  if (DeviceAgent* m = find_configured_node(node)) {
     const bool operational =
         (frame.data[0] & 0x7F) == static_cast<std::uint8_t>(canopen::NmtState::operational);
     if (m->heard_operational != operational) dirty = true;  // the status shows it
@@ -135,11 +135,11 @@ void BusManager::Impl::follow_heard_devices() {
 
 // The device runs with the plan's settings (the master started it after
 // applying them): the same record the master keeps.
-void BusManager::Impl::remember_followed(const Managed& m, const std::string& fingerprint) {
+void BusManager::Impl::remember_followed(const DeviceAgent& m, const std::string& fingerprint) {
   if (m.st.identity.serial != 0) remember_assignment(m, fingerprint);
 }
 
-DeviceStatus BusManager::Impl::as_the_bus_says(const Managed& m) const {
+DeviceStatus BusManager::Impl::as_the_bus_says(const DeviceAgent& m) const {
   DeviceStatus s = m.st;
   if (m.in_config && m.followed && m.heard_operational) {
     s.state = DeviceState::operational;
@@ -150,7 +150,7 @@ DeviceStatus BusManager::Impl::as_the_bus_says(const Managed& m) const {
 
 // The description from the identity heard or configured (vendor and
 // product), else from the configured model.
-bool BusManager::Impl::describe_from_config(Managed& m) {
+bool BusManager::Impl::describe_from_config(DeviceAgent& m) {
   const auto& id = m.st.identity;
   const config::KnownModel* known = m.cfg.model.empty() ? nullptr : config::find_model(m.cfg.model);
   const device::DeviceDescription* d = nullptr;

@@ -20,7 +20,7 @@ const char* usual_reason(DeviceState s) {
 
 }  // namespace
 
-void BusManager::Impl::set_state(Managed& m, DeviceState s, std::string why) {
+void BusManager::Impl::set_state(DeviceAgent& m, DeviceState s, std::string why) {
   if (m.st.state == s) return;
   if (why.empty()) why = m.st.last_error;
   if (why.empty()) why = usual_reason(s);
@@ -32,7 +32,7 @@ void BusManager::Impl::set_state(Managed& m, DeviceState s, std::string why) {
   notify(m);
 }
 
-void BusManager::Impl::notify(const Managed& m) {
+void BusManager::Impl::notify(const DeviceAgent& m) {
   if (options.observer != nullptr) options.observer->on_device_status(m.st);
 }
 

@@ -6,7 +6,7 @@
 
 namespace cobridge::bus {
 
-void BusManager::Impl::add_event(Managed& m, TimelineKind kind, std::string text, std::string capture) {
+void BusManager::Impl::add_event(DeviceAgent& m, TimelineKind kind, std::string text, std::string capture) {
   m.st.timeline.add(TimelineEvent{wall_now(), kind, std::move(text), std::move(capture)});
   if (journal && m.in_config) journal->note(m.st.name, m.st.timeline.events().back());
   dirty = true;

@@ -1,0 +1,145 @@
+// DeviceAgent: one device of a bus as its controller keeps it (a configured
+// device, or an unknown one discovery reported): what is known of it, the
+// plan run on it, and the decisions that need nothing but the device's own
+// record and the time: when its configuration is due again after a failure,
+// and what a heartbeat after the gateway's NMT start means.
+//
+// The bus controller (bus_manager_*.cpp) does the sending, logging and
+// status around these decisions; the agent reads no clock (`now` and the
+// frames' kernel stamps are passed in) and owns no socket.
+//
+// Thread: the bus's control thread only.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "bus/config_plan.hpp"
+#include "bus/device_command.hpp"
+#include "bus/device_status.hpp"
+#include "bus/identity_reader.hpp"
+#include "bus/log_budget.hpp"
+#include "bus/plan_runner.hpp"
+#include "bus/restore_guard.hpp"
+#include "bus/supervisor.hpp"
+#include "canopen/clock.hpp"
+#include "canopen/sdo_client.hpp"
+#include "config/config.hpp"
+#include "device/eds.hpp"
+#include "device/family_profile.hpp"
+
+namespace cobridge::bus {
+
+// Plan runs before the device is `failed`, and the waits between them.
+constexpr unsigned kConfigureAttempts = 3;
+constexpr std::chrono::milliseconds kConfigureRetryDelay{500};
+constexpr std::chrono::milliseconds kFailedRetryPeriod{30000};  // a failed device is tried again this often
+// After a command that passed through pre-operational, a heartbeat sent
+// before the device got NMT start may still arrive: not a surprise reset.
+constexpr std::chrono::milliseconds kCommandSettle{500};
+// After a plan's NMT start: a heartbeat stamped by the kernel before the
+// start was sent plus this (the frame on the wire, the device acting on it)
+// tells the state before the start, whenever a loaded gateway reads it.
+constexpr std::chrono::milliseconds kStartReaction{50};
+// ... judged so only this long after the start: a heartbeat read later is
+// no longer one the gateway was slow to read, and a wall clock stepped back
+// (NTP) in between cannot hide a device put back to pre-operational.
+constexpr std::chrono::milliseconds kStartStaleWindow{1000};
+// Pre-operational heard within that window but after kStartReaction: a device
+// slow to act on the start (its heartbeat producer ahead of its NMT state
+// machine) or one that missed it. Its configuration was verified and stored
+// just before, so the start is sent again, at most this often, instead of
+// the whole plan: a plan per late heartbeat never ends on a slow device.
+constexpr unsigned kStartResends = 3;
+
+struct DeviceAgent {
+  config::Device cfg;
+  bool in_config = true;  // false: an unknown device, shown in the status only
+  DeviceStatus st;
+  const device::DeviceDescription* description = nullptr;
+  std::optional<device::FamilyProfile> profile;
+  Supervision supervision;
+  std::optional<ConfigPlan> plan;
+  std::unique_ptr<canopen::SdoClient> sdo;  // the runner's; re-addressed per run
+  std::unique_ptr<PlanRunner> runner;
+  std::optional<DeviceCommand> command;  // the runner runs this command, not the configuration
+  bool quick = false;       // the running plan is the fingerprint check
+  bool force_full = false;  // the next run is the full plan
+  bool store_all = false;   // ... and stores all it names: the quick check already wrote some
+  bool want_configure = false;  // waiting for a runner slot
+  bool started = false;         // NMT start sent after a successful plan
+  bool followed = false;        // standby: its decode plan is announced to the outputs
+  bool heard_operational = false;  // standby: its last heartbeat said operational
+  bool failed_unanswered = false;  // the last failure was a silence (timeout, nothing sent)
+  bool operator_hold = false;      // stopped / pre-operational by a client's NMT command: left so
+  unsigned attempts = 0;
+  canopen::TimePoint not_before{};  // retry back-off
+  canopen::TimePoint configure_started{};
+  canopen::TimePoint boot_up_at = canopen::kNever;  // last boot-up, to report how long the way back took
+  LogBudget emcy_log;             // EMCY log lines (the outputs get every EMCY)
+  RestoreGuard restore_guard;     // drift restores per object: backoff, contested
+  // Drifted objects (index << 8 | sub) a client wrote while a plan ran:
+  // that plan may have written them before the client did, so they stay
+  // open after it and get a restore of their own.
+  std::vector<std::uint32_t> drift_mid_plan;
+  // Buses without discovery: the identity check before configuring.
+  std::unique_ptr<IdentityReader> ident;
+  bool ident_wanted = false;
+  bool ident_boot_up = false;
+  canopen::TimePoint ident_at{};
+
+  // ---- the configuration's schedule ----------------------------------------
+
+  // A plan is wanted from `when` on, its attempts counted afresh.
+  void want_configuration(canopen::TimePoint when) noexcept;
+  // Not started any more (a boot-up, a reset, a new identity): the whole
+  // way from pre-operational again, from `when` on.
+  void replan(canopen::TimePoint when) noexcept {
+    started = false;
+    want_configuration(when);
+  }
+  // A plan may start now: wanted, its time come, and nothing else running
+  // on the device (a plan, a command, the identity check).
+  [[nodiscard]] bool configuration_due(canopen::TimePoint now) const noexcept;
+  // A plan run starts (counted as an attempt).
+  void begin_attempt(canopen::TimePoint now) noexcept;
+  // A plan that could not start, or whose NMT start could not be sent:
+  // wanted again after the short delay, the attempt counted.
+  void retry_soon(canopen::TimePoint now) noexcept;
+  // A run that does not count: the quick check found the configuration
+  // gone, and the full plan follows at once.
+  void redo_at_once(canopen::TimePoint now) noexcept;
+  // A failed run: wanted again after the short delay, or, its attempts
+  // used up, after kFailedRetryPeriod with a fresh count. True when they
+  // were used up (the device is then `failed`).
+  [[nodiscard]] bool note_failed_attempt(canopen::TimePoint now) noexcept;
+
+  // ---- the NMT start (CiA 301 §7.2.8.3.2: the heartbeat tells the state) ----
+
+  // Our NMT start went out: `wall_ns` the realtime (as the frames' kernel
+  // stamps), `now` the steady time.
+  void note_start_sent(std::int64_t wall_ns, canopen::TimePoint now) noexcept;
+  // A command put the device through pre-operational: a heartbeat saying so
+  // within kCommandSettle is no news.
+  void expect_pre_operational(canopen::TimePoint now) noexcept { preop_expected_until_ = now + kCommandSettle; }
+  // A state heard in a frame stamped `frame_ns` (0: no stamp) at `now`
+  // tells what the device was before our last start (or a command), not
+  // what it is now.
+  [[nodiscard]] bool told_before_start(std::int64_t frame_ns, canopen::TimePoint now) const noexcept;
+  // Pre-operational heard after the start had time to act: true when the
+  // start may be sent once more (counted), false when the whole plan is due.
+  [[nodiscard]] bool take_start_resend(canopen::TimePoint now) noexcept;
+  [[nodiscard]] unsigned start_resends() const noexcept { return start_resends_; }
+  [[nodiscard]] canopen::Duration since_start(canopen::TimePoint now) const noexcept { return now - start_sent_at_; }
+
+ private:
+  canopen::TimePoint preop_expected_until_{};  // see kCommandSettle
+  std::int64_t start_sent_ns_ = 0;             // realtime of our last NMT start (kStartReaction)
+  canopen::TimePoint start_sent_at_{};         // ... and steady time (kStartStaleWindow)
+  unsigned start_resends_ = 0;                 // since that start (kStartResends)
+};
+
+}  // namespace cobridge::bus

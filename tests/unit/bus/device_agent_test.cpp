@@ -1,0 +1,122 @@
+// DeviceAgent's own decisions, with the time passed in: the configuration's
+// schedule (attempts and their waits) and what a heartbeat after the
+// gateway's NMT start means (CiA 301 §7.2.8.3.2: the heartbeat carries the
+// NMT state; §7.2.8.2.1.1: NMT start from the master).
+#include "bus/device_agent.hpp"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstdint>
+
+namespace cobridge::bus {
+namespace {
+
+using namespace std::chrono_literals;
+using canopen::TimePoint;
+
+constexpr std::int64_t kStartWallNs = 1'800'000'000'000'000'000;
+const TimePoint kT0{std::chrono::seconds{1000}};
+
+std::int64_t ns(std::chrono::nanoseconds d) { return d.count(); }
+
+TEST(DeviceAgentSchedule, WantedPlanIsDueFromItsTimeOn) {
+  DeviceAgent a;
+  EXPECT_FALSE(a.configuration_due(kT0));
+  a.want_configuration(kT0 + 100ms);
+  EXPECT_FALSE(a.configuration_due(kT0 + 99ms));
+  EXPECT_TRUE(a.configuration_due(kT0 + 100ms));
+  a.want_configure = false;  // the controller took it (a runner slot was free)
+  EXPECT_FALSE(a.configuration_due(kT0 + 1s));
+}
+
+TEST(DeviceAgentSchedule, ThreeFailedAttemptsMakeItFailedAndRetriedAfter30s) {
+  DeviceAgent a;
+  a.want_configuration(kT0);
+  TimePoint now = kT0;
+  for (unsigned i = 1; i < kConfigureAttempts; ++i) {
+    a.begin_attempt(now);
+    EXPECT_EQ(a.attempts, i);
+    EXPECT_FALSE(a.note_failed_attempt(now)) << "attempt " << i;
+    EXPECT_EQ(a.not_before, now + kConfigureRetryDelay);
+    now = a.not_before;
+  }
+  a.begin_attempt(now);
+  EXPECT_TRUE(a.note_failed_attempt(now));
+  EXPECT_EQ(a.not_before, now + kFailedRetryPeriod);
+  EXPECT_EQ(a.attempts, 0U) << "the retry after the long wait starts a fresh count";
+  EXPECT_TRUE(a.want_configure);
+}
+
+TEST(DeviceAgentSchedule, QuickCheckThatFoundTheConfigurationGoneDoesNotCount) {
+  DeviceAgent a;
+  a.want_configuration(kT0);
+  a.force_full = true;
+  a.begin_attempt(kT0);
+  EXPECT_FALSE(a.force_full) << "the run took it";
+  a.redo_at_once(kT0 + 5ms);
+  EXPECT_EQ(a.attempts, 0U);
+  EXPECT_TRUE(a.configuration_due(kT0 + 5ms));
+}
+
+TEST(DeviceAgentSchedule, ReplanStartsTheWholeWayAgain) {
+  DeviceAgent a;
+  a.started = true;
+  a.attempts = 2;
+  a.replan(kT0);
+  EXPECT_FALSE(a.started);
+  EXPECT_EQ(a.attempts, 0U);
+  EXPECT_TRUE(a.configuration_due(kT0));
+}
+
+TEST(DeviceAgentStart, Cia301_7_2_8_3_2_HeartbeatStampedBeforeTheStartTookIsNoNews) {
+  DeviceAgent a;
+  a.note_start_sent(kStartWallNs, kT0);
+  // Read 300 ms late by a loaded gateway, stamped by the kernel 49 ms after
+  // the start: sent before the device acted on it.
+  EXPECT_TRUE(a.told_before_start(kStartWallNs + ns(kStartReaction) - 1, kT0 + 300ms));
+  // Stamped after the start had time to act: the device's state now.
+  EXPECT_FALSE(a.told_before_start(kStartWallNs + ns(kStartReaction) + 1, kT0 + 300ms));
+}
+
+TEST(DeviceAgentStart, Cia301_7_2_8_3_2_OnlyWithinTheStaleWindow) {
+  DeviceAgent a;
+  a.note_start_sent(kStartWallNs, kT0);
+  // A wall clock stepped back by NTP makes every later stamp look early:
+  // past the window a pre-operational heartbeat is news whatever its stamp.
+  EXPECT_TRUE(a.told_before_start(kStartWallNs - ns(10s), kT0 + kStartStaleWindow));
+  EXPECT_FALSE(a.told_before_start(kStartWallNs - ns(10s), kT0 + kStartStaleWindow + 1ms));
+}
+
+TEST(DeviceAgentStart, UnstampedFrameIsNewsExceptWithinACommandsSettle) {
+  DeviceAgent a;
+  a.note_start_sent(kStartWallNs, kT0);
+  EXPECT_FALSE(a.told_before_start(0, kT0 + 10ms)) << "no stamp: nothing to judge it by";
+  a.expect_pre_operational(kT0 + 20ms);
+  EXPECT_TRUE(a.told_before_start(0, kT0 + 20ms + kCommandSettle - 1ms));
+  EXPECT_FALSE(a.told_before_start(0, kT0 + 20ms + kCommandSettle));
+}
+
+TEST(DeviceAgentStart, NothingIsStaleBeforeAnyStart) {
+  DeviceAgent a;
+  EXPECT_FALSE(a.told_before_start(kStartWallNs, kT0));
+  EXPECT_FALSE(a.take_start_resend(kT0));
+}
+
+TEST(DeviceAgentStart, Cia301_7_2_8_2_1_1_StartResentAtMostThreeTimesWithinTheWindow) {
+  DeviceAgent a;
+  a.note_start_sent(kStartWallNs, kT0);
+  for (unsigned i = 1; i <= kStartResends; ++i) {
+    EXPECT_TRUE(a.take_start_resend(kT0 + 100ms * i)) << "re-send " << i;
+    EXPECT_EQ(a.start_resends(), i);
+  }
+  EXPECT_FALSE(a.take_start_resend(kT0 + 500ms)) << "past the re-sends: the whole plan";
+  a.note_start_sent(kStartWallNs + ns(2s), kT0 + 2s);  // that plan's own start
+  EXPECT_EQ(a.start_resends(), 0U);
+  EXPECT_TRUE(a.take_start_resend(kT0 + 2s + 100ms));
+  EXPECT_FALSE(a.take_start_resend(kT0 + 2s + kStartStaleWindow + 1ms)) << "past the window: the whole plan";
+  EXPECT_EQ(a.since_start(kT0 + 2s + 300ms), 300ms);
+}
+
+}  // namespace
+}  // namespace cobridge::bus
