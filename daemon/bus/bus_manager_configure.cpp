@@ -103,7 +103,7 @@ bool BusManager::Impl::begin_configuration(DeviceAgent& m, TimePoint now) {
 
 ConfigPlan BusManager::Impl::plan_to_run(DeviceAgent& m) {
   ConfigPlan run_plan = m.quick ? quick_plan(*m.plan) : *m.plan;
-  leave_contested(m, run_plan);
+  m.leave_contested(run_plan);
   if (m.store_all && m.plan->store_policy == config::StorePolicy::on_change) {
     // The quick check already put some values back, so "changed" would
     // miss them: store everything the plan names. A restore stores what

@@ -87,9 +87,7 @@ void BusManager::Impl::request_restore(DeviceAgent& m, std::uint16_t index, std:
   DriftRecord* r = open_record(m.st.drift, index, sub);
   if (r == nullptr) return;
   if (m.runner && !m.command) {
-    const std::uint32_t key = object_number(index, sub);
-    if (std::find(m.drift_mid_plan.begin(), m.drift_mid_plan.end(), key) == m.drift_mid_plan.end())
-      m.drift_mid_plan.push_back(key);
+    m.note_drift_mid_plan(index, sub);
     return;
   }
   if (m.want_configure && m.force_full && !m.restore_guard.contested(index, sub)) return;  // one on its way
@@ -169,18 +167,7 @@ void BusManager::Impl::follow_written_heartbeat(DeviceAgent& m, const DriftRecor
 }
 
 void BusManager::Impl::clear_drift(DeviceAgent& m) {
-  std::vector<DriftRecord> left;
-  std::string objects;
-  for (auto& r : m.st.drift) {
-    const std::uint32_t key = object_number(r.index, r.sub);
-    const bool mid_plan = std::find(m.drift_mid_plan.begin(), m.drift_mid_plan.end(), key) != m.drift_mid_plan.end();
-    if (r.contested || mid_plan) {
-      left.push_back(std::move(r));
-    } else {
-      objects += (objects.empty() ? "" : ", ") + r.object;
-    }
-  }
-  m.st.drift = std::move(left);
+  const std::string objects = m.close_restored_drift();
   if (objects.empty()) return;
   log->info("bus {}: device {}: configuration restored ({})", bus.name, m.st.name, objects);
   add_event(m, TimelineKind::drift, "restored the configuration of " + objects);
@@ -194,23 +181,11 @@ void BusManager::Impl::restore_left_drift(DeviceAgent& m, TimePoint now) {
   }
 }
 
-void BusManager::Impl::leave_contested(const DeviceAgent& m, ConfigPlan& plan) const {
-  if (!m.restore_guard.any_contested()) return;
-  std::erase_if(plan.steps, [&](const PlanStep& step) {
-    return step.kind == StepKind::write && m.restore_guard.contested(step.write.index, step.write.sub);
-  });
-}
-
 void BusManager::Impl::acknowledge_contested(const std::string& device, const std::string& caller, TimePoint now) {
   DeviceAgent* m = find_device(device);
-  if (m == nullptr || m->restore_guard.acknowledge() == 0) return;
-  std::string objects;
-  for (auto& r : m->st.drift) {
-    if (!r.contested) continue;
-    objects += (objects.empty() ? "" : ", ") + r.object;
-    r.contested = false;
-    r.restores = 0;
-  }
+  const std::optional<std::string> freed = m != nullptr ? m->acknowledge_contested() : std::nullopt;
+  if (!freed) return;
+  const std::string& objects = *freed;
   const std::string text = "contested configuration acknowledged by " + caller + " (" + objects + ")" +
                            (m->cfg.on_config_drift == config::DriftPolicy::restore ? "; restoring it" : "");
   log->info("bus {}: device {}: {}", bus.name, m->st.name, text);

@@ -286,8 +286,6 @@ struct BusManager::Impl final : RemoteGate {
   void clear_drift(DeviceAgent& m);
   // Then restores what stayed open and is not contested.
   void restore_left_drift(DeviceAgent& m, TimePoint now);
-  // Write steps of contested objects taken out of a plan about to run.
-  void leave_contested(const DeviceAgent& m, ConfigPlan& plan) const;
   // `cobridge acknowledge DEVICE`: contested objects may be written again.
   void acknowledge_contested(const std::string& device, const std::string& caller, TimePoint now);
 

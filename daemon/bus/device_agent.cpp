@@ -1,5 +1,8 @@
 #include "bus/device_agent.hpp"
 
+#include <algorithm>
+#include <utility>
+
 namespace cobridge::bus {
 
 void DeviceAgent::want_configuration(canopen::TimePoint when) noexcept {
@@ -38,6 +41,55 @@ bool DeviceAgent::note_failed_attempt(canopen::TimePoint now) noexcept {
   not_before = now + kFailedRetryPeriod;
   attempts = 0;
   return true;
+}
+
+void DeviceAgent::note_drift_mid_plan(std::uint16_t index, std::uint8_t sub) {
+  const std::uint32_t key = object_number(index, sub);
+  if (std::find(drift_mid_plan.begin(), drift_mid_plan.end(), key) == drift_mid_plan.end())
+    drift_mid_plan.push_back(key);
+}
+
+namespace {
+
+void append_object(std::string& list, const std::string& object) {
+  list += (list.empty() ? "" : ", ") + object;
+}
+
+}  // namespace
+
+std::string DeviceAgent::close_restored_drift() {
+  std::vector<DriftRecord> left;
+  std::string closed;
+  for (auto& r : st.drift) {
+    const std::uint32_t key = object_number(r.index, r.sub);
+    const bool mid_plan = std::find(drift_mid_plan.begin(), drift_mid_plan.end(), key) != drift_mid_plan.end();
+    if (r.contested || mid_plan) {
+      left.push_back(std::move(r));
+    } else {
+      append_object(closed, r.object);
+    }
+  }
+  st.drift = std::move(left);
+  return closed;
+}
+
+void DeviceAgent::leave_contested(ConfigPlan& to_run) const {
+  if (!restore_guard.any_contested()) return;
+  std::erase_if(to_run.steps, [&](const PlanStep& step) {
+    return step.kind == StepKind::write && restore_guard.contested(step.write.index, step.write.sub);
+  });
+}
+
+std::optional<std::string> DeviceAgent::acknowledge_contested() {
+  if (restore_guard.acknowledge() == 0) return std::nullopt;
+  std::string freed;
+  for (auto& r : st.drift) {
+    if (!r.contested) continue;
+    append_object(freed, r.object);
+    r.contested = false;
+    r.restores = 0;
+  }
+  return freed;
 }
 
 void DeviceAgent::note_start_sent(std::int64_t wall_ns, canopen::TimePoint now) noexcept {

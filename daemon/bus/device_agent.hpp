@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "bus/config_plan.hpp"
@@ -116,6 +117,22 @@ struct DeviceAgent {
   // used up, after kFailedRetryPeriod with a fresh count. True when they
   // were used up (the device is then `failed`).
   [[nodiscard]] bool note_failed_attempt(canopen::TimePoint now) noexcept;
+
+  // ---- configuration drift (bus/config_drift.hpp, bus/restore_guard.hpp) ----
+
+  // A client wrote index:sub while this device's plan ran: the plan may
+  // have written it before the client did, so it stays open after the plan.
+  void note_drift_mid_plan(std::uint16_t index, std::uint8_t sub);
+  // After a successful plan: the drift it put right is closed; contested
+  // objects and those written while it ran stay open. Returns the objects
+  // closed ("0x6200:00, ..."; empty: none).
+  [[nodiscard]] std::string close_restored_drift();
+  // The write steps of contested objects taken out of a plan about to run.
+  void leave_contested(ConfigPlan& to_run) const;
+  // An operator's acknowledgement: contested objects may be written again,
+  // their restores counted afresh. Returns the objects it freed (nothing:
+  // none was contested).
+  [[nodiscard]] std::optional<std::string> acknowledge_contested();
 
   // ---- the NMT start (CiA 301 §7.2.8.3.2: the heartbeat tells the state) ----
 

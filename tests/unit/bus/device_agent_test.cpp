@@ -1,5 +1,7 @@
 // DeviceAgent's own decisions, with the time passed in: the configuration's
-// schedule (attempts and their waits) and what a heartbeat after the
+// schedule (attempts and their waits), its drift records (what a plan
+// closes, what a contested object keeps out of the next plan, an operator's
+// acknowledgement) and what a heartbeat after the
 // gateway's NMT start means (CiA 301 §7.2.8.3.2: the heartbeat carries the
 // NMT state; §7.2.8.2.1.1: NMT start from the master).
 #include "bus/device_agent.hpp"
@@ -8,6 +10,8 @@
 
 #include <chrono>
 #include <cstdint>
+#include <optional>
+#include <string>
 
 namespace cobridge::bus {
 namespace {
@@ -67,6 +71,70 @@ TEST(DeviceAgentSchedule, ReplanStartsTheWholeWayAgain) {
   EXPECT_FALSE(a.started);
   EXPECT_EQ(a.attempts, 0U);
   EXPECT_TRUE(a.configuration_due(kT0));
+}
+
+DriftRecord drift(std::uint16_t index, std::uint8_t sub, const char* object, bool contested = false) {
+  DriftRecord r;
+  r.index = index;
+  r.sub = sub;
+  r.object = object;
+  r.contested = contested;
+  return r;
+}
+
+// Makes index:sub contested in the agent's RestoreGuard as a writer that
+// keeps writing would: a drift past the restores the window allows.
+void contest(DeviceAgent& a, std::uint16_t index, std::uint8_t sub) {
+  for (unsigned i = 0; i <= RestoreLimits::kMaxRestores; ++i) (void)a.restore_guard.on_drift(index, sub, kT0 + 1s * i);
+  ASSERT_TRUE(a.restore_guard.contested(index, sub));
+}
+
+TEST(DeviceAgentDrift, PlanClosesWhatItPutRightNotContestedNorWrittenMeanwhile) {
+  DeviceAgent a;
+  a.st.drift = {drift(0x1017, 0, "0x1017:00"), drift(0x6001, 0, "0x6001:00", true), drift(0x1800, 5, "0x1800:05")};
+  a.note_drift_mid_plan(0x1800, 5);
+  a.note_drift_mid_plan(0x1800, 5);  // once is enough
+  EXPECT_EQ(a.drift_mid_plan.size(), 1U);
+  EXPECT_EQ(a.close_restored_drift(), "0x1017:00");
+  ASSERT_EQ(a.st.drift.size(), 2U);
+  EXPECT_EQ(a.st.drift[0].object, "0x6001:00");
+  EXPECT_EQ(a.st.drift[1].object, "0x1800:05");
+  EXPECT_EQ(a.close_restored_drift(), "") << "nothing more to close";
+}
+
+TEST(DeviceAgentDrift, ContestedObjectsWriteLeftOutOfThePlan) {
+  DeviceAgent a;
+  ConfigPlan plan;
+  for (const std::uint16_t index : {std::uint16_t{0x1017}, std::uint16_t{0x6001}}) {
+    PlanStep step;
+    step.write.index = index;
+    plan.steps.push_back(step);
+  }
+  PlanStep store;
+  store.kind = StepKind::store;
+  store.write.index = 0x6001;  // not a write: stays whatever it names
+  plan.steps.push_back(store);
+  a.leave_contested(plan);
+  EXPECT_EQ(plan.steps.size(), 3U) << "nothing contested: the whole plan";
+  contest(a, 0x6001, 0);
+  a.leave_contested(plan);
+  ASSERT_EQ(plan.steps.size(), 2U);
+  EXPECT_EQ(plan.steps[0].write.index, 0x1017);
+  EXPECT_EQ(plan.steps[1].kind, StepKind::store);
+}
+
+TEST(DeviceAgentDrift, AcknowledgementFreesContestedObjectsAndTheirCounts) {
+  DeviceAgent a;
+  EXPECT_FALSE(a.acknowledge_contested().has_value()) << "nothing contested: nothing to acknowledge";
+  contest(a, 0x6001, 0);
+  contest(a, 0x1017, 0);
+  a.st.drift = {drift(0x6001, 0, "0x6001:00", true), drift(0x1017, 0, "0x1017:00", true), drift(0x6200, 0, "0x6200:00")};
+  a.st.drift[0].restores = 3;
+  EXPECT_EQ(a.acknowledge_contested(), std::optional<std::string>("0x6001:00, 0x1017:00"));
+  EXPECT_FALSE(a.restore_guard.any_contested());
+  EXPECT_FALSE(a.st.drift[0].contested);
+  EXPECT_EQ(a.st.drift[0].restores, 0U);
+  EXPECT_FALSE(a.acknowledge_contested().has_value()) << "acknowledged once";
 }
 
 TEST(DeviceAgentStart, Cia301_7_2_8_3_2_HeartbeatStampedBeforeTheStartTookIsNoNews) {
