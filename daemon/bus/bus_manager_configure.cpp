@@ -75,7 +75,7 @@ bool BusManager::Impl::begin_configuration(DeviceAgent& m, TimePoint now) {
     }
     m.plan = std::move(result.plan);
   }
-  m.supervision = supervision_for(m);
+  m.supervision = m.supervision_wanted();
   PlanRunnerOptions ro = runner_options();
 
   // A device that carries the fingerprint of this plan (state file) only
@@ -85,7 +85,7 @@ bool BusManager::Impl::begin_configuration(DeviceAgent& m, TimePoint now) {
   const auto previous = state.find(bus.name, m.st.identity.vendor, m.st.identity.product, m.st.identity.serial);
   const bool volatile_parts = !m.profile->cams_stored && !m.cfg.cams.empty();
   m.quick = !m.force_full && previous && previous->fingerprint == m.plan->fingerprint && !volatile_parts;
-  ConfigPlan run_plan = plan_to_run(m);
+  ConfigPlan run_plan = m.plan_to_run();
   // The start is ours (finish_configuration): the hot path learns the
   // mapping first, so the first TPDO after the start is decoded.
   ro.start_node = false;
@@ -99,46 +99,6 @@ bool BusManager::Impl::begin_configuration(DeviceAgent& m, TimePoint now) {
     return false;
   }
   return true;
-}
-
-ConfigPlan BusManager::Impl::plan_to_run(DeviceAgent& m) {
-  ConfigPlan run_plan = m.quick ? quick_plan(*m.plan) : *m.plan;
-  m.leave_contested(run_plan);
-  if (m.store_all && m.plan->store_policy == config::StorePolicy::on_change) {
-    // The quick check already put some values back, so "changed" would
-    // miss them: store everything the plan names. A restore stores what
-    // it changed only (the store wears the device's memory).
-    run_plan.store_policy = config::StorePolicy::always;
-  }
-  m.store_all = false;
-  return run_plan;
-}
-
-ConfigPlan BusManager::Impl::quick_plan(const ConfigPlan& full) {
-  ConfigPlan q = full;
-  q.steps.clear();
-  for (const auto& step : full.steps) {
-    const bool key_write = step.kind == StepKind::write &&
-                           (step.write.index == 0x1017 || step.write.index == 0x100C || step.write.index == 0x100D);
-    if (step.kind == StepKind::nmt || step.kind == StepKind::tpdo_mapping || key_write) q.steps.push_back(step);
-  }
-  return q;
-}
-
-Supervision BusManager::Impl::supervision_for(const DeviceAgent& m) const {
-  Supervision s;
-  if (m.cfg.guarding && m.cfg.guarding->guard_time_ms > 0 && m.cfg.guarding->life_time_factor > 0) {
-    s.mode = Supervision::Mode::guarding;
-    s.guard_time = milliseconds(m.cfg.guarding->guard_time_ms);
-    s.life_time_factor = m.cfg.guarding->life_time_factor;
-  } else if (m.plan && m.plan->heartbeat && m.plan->heartbeat_ms > 0) {
-    s.mode = Supervision::Mode::heartbeat;
-    s.producer_time = milliseconds(m.plan->heartbeat_ms);
-  } else if (m.cfg.heartbeat_ms && *m.cfg.heartbeat_ms > 0) {
-    s.mode = Supervision::Mode::heartbeat;
-    s.producer_time = milliseconds(*m.cfg.heartbeat_ms);
-  }
-  return s;
 }
 
 void BusManager::Impl::finish_configuration(DeviceAgent& m, TimePoint now) {
@@ -171,7 +131,7 @@ void BusManager::Impl::finish_configuration(DeviceAgent& m, TimePoint now) {
   if (outcome.writes > 0) ++m.st.configurations;
   if (outcome.guarding_fallback) {
     // The device refused 0x1017 (J§1.2.2): the plan's fallback guards it.
-    m.supervision = fallback_guarding(*m.plan);
+    m.supervision = guarding_fallback(*m.plan);
   }
   m.st.fingerprint = m.plan->fingerprint;
   remember_assignment(m, m.plan->fingerprint);
@@ -291,19 +251,6 @@ bool BusManager::Impl::announce_and_start(DeviceAgent& m, TimePoint now) {
   m.st.last_error = "NMT start could not be sent";
   m.retry_soon(now);
   return false;
-}
-
-Supervision BusManager::Impl::fallback_guarding(const ConfigPlan& plan) {
-  Supervision s;
-  s.mode = Supervision::Mode::guarding;
-  for (const auto& step : plan.steps) {
-    for (const auto& w : step.fallback) {
-      if (w.index == 0x100C) s.guard_time = milliseconds(w.value);
-      if (w.index == 0x100D) s.life_time_factor = static_cast<std::uint8_t>(w.value);
-    }
-  }
-  if (s.guard_time.count() == 0 || s.life_time_factor == 0) s.mode = Supervision::Mode::none;
-  return s;
 }
 
 void BusManager::Impl::runners_abort() {

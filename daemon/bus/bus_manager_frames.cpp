@@ -255,61 +255,62 @@ void BusManager::Impl::note_supervision(DeviceAgent& m, const Supervisor::Change
 }
 
 void BusManager::Impl::on_nmt_state(DeviceAgent& m, canopen::NmtState nmt, std::int64_t frame_ns, TimePoint now) {
-  if (!m.started || m.runner) return;
-  if (nmt != canopen::NmtState::operational && m.told_before_start(frame_ns, now)) {
-    // Sent before the device took our NMT start, read after it: no news.
-    // Forgotten, so that the same state heard later is news.
-    supervisor.forget_nmt(m.st.node_id);
-    return;
-  }
-  if (m.operator_hold && nmt != canopen::NmtState::operational) {
-    set_state(m, DeviceState::stopped);  // a client's NMT command: left as asked
-    return;
-  }
-  const bool restart = bus.foreign_nmt == config::ForeignNmt::restart;
-  if (nmt == canopen::NmtState::operational) {
-    if (m.st.state != DeviceState::stopped) return;
-    log->info("bus {}: device {} (node {}) is operational again", bus.name, m.st.name, m.st.node_id);
-    m.st.last_error.clear();
-    set_state(m, m.st.online ? DeviceState::operational : DeviceState::offline);
-    return;
-  }
-  if (nmt == canopen::NmtState::stopped) {
-    if (m.st.state == DeviceState::stopped) return;
-    m.st.last_error = "stopped by another NMT master";
-    set_state(m, DeviceState::stopped);
-    if (!restart) {
-      log->warn("bus {}: device {} (node {}) was stopped by another NMT master; left stopped (foreign_nmt = "
-                "respect)", bus.name, m.st.name, m.st.node_id);
+  const NmtVerdict verdict = m.judge_nmt(nmt, frame_ns, now, bus.foreign_nmt == config::ForeignNmt::restart);
+  switch (verdict) {
+    case NmtVerdict::ignore:
       return;
-    }
-    log->warn("bus {}: device {} (node {}) was stopped by another NMT master; starting it again", bus.name,
-              m.st.name, m.st.node_id);
-    if (!channel->send(canopen::make_nmt(canopen::NmtCommand::start, m.st.node_id)))
-      log->error("bus {}: device {}: NMT start could not be sent", bus.name, m.st.name);
-    return;
+    case NmtVerdict::stale:
+      // Sent before the device took our NMT start, read after it: no news.
+      // Forgotten, so that the same state heard later is news.
+      supervisor.forget_nmt(m.st.node_id);
+      return;
+    case NmtVerdict::operator_hold:
+      set_state(m, DeviceState::stopped);  // a client's NMT command: left as asked
+      return;
+    case NmtVerdict::operational_again:
+      log->info("bus {}: device {} (node {}) is operational again", bus.name, m.st.name, m.st.node_id);
+      m.st.last_error.clear();
+      set_state(m, m.st.online ? DeviceState::operational : DeviceState::offline);
+      return;
+    case NmtVerdict::stopped_left:
+    case NmtVerdict::stopped_restart:
+      return on_stopped_by_another(m, verdict == NmtVerdict::stopped_restart);
+    case NmtVerdict::pre_operational_left:
+      log->warn("bus {}: device {} (node {}) is pre-operational (another NMT master, or a reset whose boot-up was "
+                "missed); left so (foreign_nmt = respect)", bus.name, m.st.name, m.st.node_id);
+      m.st.last_error = "pre-operational: not started by this gateway";
+      set_state(m, DeviceState::stopped);
+      return;
+    case NmtVerdict::resend_start:
+      return resend_start(m, now);
+    case NmtVerdict::replan:
+      // Someone (or a reset we missed) put it back: check, configure and start again.
+      log->warn("bus {}: device {} (node {}) is pre-operational again; reconfiguring", bus.name, m.st.name,
+                m.st.node_id);
+      m.replan(now);
+      supervisor.listen(m.st.node_id, m.profile ? m.profile->family : nullptr);
+      set_state(m, DeviceState::identified);
+      return;
   }
-  if (nmt != canopen::NmtState::pre_operational) return;
+}
+
+void BusManager::Impl::on_stopped_by_another(DeviceAgent& m, bool restart) {
+  m.st.last_error = "stopped by another NMT master";
+  set_state(m, DeviceState::stopped);
   if (!restart) {
-    log->warn("bus {}: device {} (node {}) is pre-operational (another NMT master, or a reset whose boot-up was "
-              "missed); left so (foreign_nmt = respect)", bus.name, m.st.name, m.st.node_id);
-    m.st.last_error = "pre-operational: not started by this gateway";
-    set_state(m, DeviceState::stopped);
+    log->warn("bus {}: device {} (node {}) was stopped by another NMT master; left stopped (foreign_nmt = "
+              "respect)", bus.name, m.st.name, m.st.node_id);
     return;
   }
-  if (resend_start(m, now)) return;
-  // Someone (or a reset we missed) put it back: check, configure and start again.
-  log->warn("bus {}: device {} (node {}) is pre-operational again; reconfiguring", bus.name, m.st.name,
-            m.st.node_id);
-  m.replan(now);
-  supervisor.listen(m.st.node_id, m.profile ? m.profile->family : nullptr);
-  set_state(m, DeviceState::identified);
+  log->warn("bus {}: device {} (node {}) was stopped by another NMT master; starting it again", bus.name,
+            m.st.name, m.st.node_id);
+  if (!channel->send(canopen::make_nmt(canopen::NmtCommand::start, m.st.node_id)))
+    log->error("bus {}: device {}: NMT start could not be sent", bus.name, m.st.name);
 }
 
 // See kStartResends. Forgotten by the supervisor, so that the same state
 // heard again is news: after the window, the whole plan.
-bool BusManager::Impl::resend_start(DeviceAgent& m, TimePoint now) {
-  if (!m.take_start_resend(now)) return false;
+void BusManager::Impl::resend_start(DeviceAgent& m, TimePoint now) {
   supervisor.forget_nmt(m.st.node_id);
   log->warn("bus {}: device {} (node {}) still pre-operational {} ms after the NMT start; start sent again ({} of {})",
             bus.name, m.st.name, m.st.node_id,
@@ -317,7 +318,6 @@ bool BusManager::Impl::resend_start(DeviceAgent& m, TimePoint now) {
             kStartResends);
   if (!channel->send(canopen::make_nmt(canopen::NmtCommand::start, m.st.node_id)))
     log->error("bus {}: device {}: NMT start could not be sent", bus.name, m.st.name);
-  return true;
 }
 
 void BusManager::Impl::report_suppressed_emcy(TimePoint now) {

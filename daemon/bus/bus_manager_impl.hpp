@@ -8,7 +8,9 @@
 // commands), bus_manager_remote.cpp (the RemoteGate for clients' commands),
 // bus_manager_drift.cpp (clients' writes of configured objects),
 // bus_manager_health.cpp (the controller over netlink, the bus's health to
-// the observer) and bus_manager_status.cpp (the published status).
+// the observer) and bus_manager_status.cpp (the published status). What
+// is decided from one device's own record and the time alone is the
+// device's (bus/device_agent.hpp): these files act on its verdicts.
 //
 // Threads: everything runs on the bus's control thread except the public
 // BusManager calls (any thread), which touch only the atomics and what
@@ -185,14 +187,6 @@ struct BusManager::Impl final : RemoteGate {
   canopen::SdoClient& sdo_of(DeviceAgent& m);
   bool begin_configuration(DeviceAgent& m, TimePoint now);
 
-  // The objects whose agreement says "this device still carries its
-  // configuration": supervision and the PDO mappings, read (and compared)
-  // between pre-operational and nothing else. No store step.
-  static ConfigPlan quick_plan(const ConfigPlan& full);
-  // What this run executes: the quick check or the full plan, less the
-  // contested objects' writes, storing all it names after a failed quick check.
-  ConfigPlan plan_to_run(DeviceAgent& m);
-  Supervision supervision_for(const DeviceAgent& m) const;
   void finish_configuration(DeviceAgent& m, TimePoint now);
   void configuration_failed(DeviceAgent& m, const PlanRunResult& outcome, TimePoint now);
   void note_failure(DeviceAgent& m, const PlanRunResult& outcome);
@@ -205,7 +199,6 @@ struct BusManager::Impl final : RemoteGate {
   // the quick check is not started half configured, and so that the hot path
   // has the device's mapping before its first TPDO.
   bool announce_and_start(DeviceAgent& m, TimePoint now);
-  static Supervision fallback_guarding(const ConfigPlan& plan);
   void runners_abort();
 
   // Ends whatever the runner does; a command's submitter learns why.
@@ -231,7 +224,11 @@ struct BusManager::Impl final : RemoteGate {
   // stopped or sent to pre-operational is started again (policy restart) or
   // left as that master wants it (policy respect); either way it is logged.
   void on_nmt_state(DeviceAgent& m, canopen::NmtState nmt, std::int64_t frame_ns, TimePoint now);
-  bool resend_start(DeviceAgent& m, TimePoint now);
+  // The start once more (DeviceAgent::judge_nmt counted it), logged.
+  void resend_start(DeviceAgent& m, TimePoint now);
+  // Another NMT master stopped the device: `stopped`, and started again
+  // when the bus's foreign_nmt is `restart`; logged either way.
+  void on_stopped_by_another(DeviceAgent& m, bool restart);
 
   bool emcy_log_allowed(DeviceAgent& m, TimePoint now) { return m.emcy_log.allow(now); }
 

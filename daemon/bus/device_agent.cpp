@@ -5,6 +5,30 @@
 
 namespace cobridge::bus {
 
+ConfigPlan quick_plan(const ConfigPlan& full) {
+  ConfigPlan q = full;
+  q.steps.clear();
+  for (const auto& step : full.steps) {
+    const bool key_write = step.kind == StepKind::write &&
+                           (step.write.index == 0x1017 || step.write.index == 0x100C || step.write.index == 0x100D);
+    if (step.kind == StepKind::nmt || step.kind == StepKind::tpdo_mapping || key_write) q.steps.push_back(step);
+  }
+  return q;
+}
+
+Supervision guarding_fallback(const ConfigPlan& plan) {
+  Supervision s;
+  s.mode = Supervision::Mode::guarding;
+  for (const auto& step : plan.steps) {
+    for (const auto& w : step.fallback) {
+      if (w.index == 0x100C) s.guard_time = std::chrono::milliseconds(w.value);
+      if (w.index == 0x100D) s.life_time_factor = static_cast<std::uint8_t>(w.value);
+    }
+  }
+  if (s.guard_time.count() == 0 || s.life_time_factor == 0) s.mode = Supervision::Mode::none;
+  return s;
+}
+
 void DeviceAgent::want_configuration(canopen::TimePoint when) noexcept {
   want_configure = true;
   attempts = 0;
@@ -41,6 +65,36 @@ bool DeviceAgent::note_failed_attempt(canopen::TimePoint now) noexcept {
   not_before = now + kFailedRetryPeriod;
   attempts = 0;
   return true;
+}
+
+ConfigPlan DeviceAgent::plan_to_run() {
+  ConfigPlan run_plan = quick ? quick_plan(*plan) : *plan;
+  leave_contested(run_plan);
+  if (store_all && plan->store_policy == config::StorePolicy::on_change) {
+    // The quick check already put some values back, so "changed" would
+    // miss them: store everything the plan names. A restore stores what
+    // it changed only (the store wears the device's memory).
+    run_plan.store_policy = config::StorePolicy::always;
+  }
+  store_all = false;
+  return run_plan;
+}
+
+Supervision DeviceAgent::supervision_wanted() const {
+  using std::chrono::milliseconds;
+  Supervision s;
+  if (cfg.guarding && cfg.guarding->guard_time_ms > 0 && cfg.guarding->life_time_factor > 0) {
+    s.mode = Supervision::Mode::guarding;
+    s.guard_time = milliseconds(cfg.guarding->guard_time_ms);
+    s.life_time_factor = cfg.guarding->life_time_factor;
+  } else if (plan && plan->heartbeat && plan->heartbeat_ms > 0) {
+    s.mode = Supervision::Mode::heartbeat;
+    s.producer_time = milliseconds(plan->heartbeat_ms);
+  } else if (cfg.heartbeat_ms && *cfg.heartbeat_ms > 0) {
+    s.mode = Supervision::Mode::heartbeat;
+    s.producer_time = milliseconds(*cfg.heartbeat_ms);
+  }
+  return s;
 }
 
 void DeviceAgent::note_drift_mid_plan(std::uint16_t index, std::uint8_t sub) {
@@ -113,6 +167,27 @@ bool DeviceAgent::take_start_resend(canopen::TimePoint now) noexcept {
     return false;
   ++start_resends_;
   return true;
+}
+
+NmtVerdict DeviceAgent::judge_nmt(canopen::NmtState nmt, std::int64_t frame_ns, canopen::TimePoint now,
+                                  bool restart) noexcept {
+  using canopen::NmtState;
+  if (!started || runner) return NmtVerdict::ignore;
+  if (nmt != NmtState::operational && told_before_start(frame_ns, now)) return NmtVerdict::stale;
+  if (operator_hold && nmt != NmtState::operational) return NmtVerdict::operator_hold;
+  switch (nmt) {
+    case NmtState::operational:
+      return st.state == DeviceState::stopped ? NmtVerdict::operational_again : NmtVerdict::ignore;
+    case NmtState::stopped:
+      if (st.state == DeviceState::stopped) return NmtVerdict::ignore;
+      return restart ? NmtVerdict::stopped_restart : NmtVerdict::stopped_left;
+    case NmtState::pre_operational:
+      if (!restart) return NmtVerdict::pre_operational_left;
+      return take_start_resend(now) ? NmtVerdict::resend_start : NmtVerdict::replan;
+    case NmtState::boot_up:
+      break;  // a boot-up is the supervisor's own change (Supervisor::ChangeKind::boot_up)
+  }
+  return NmtVerdict::ignore;
 }
 
 }  // namespace cobridge::bus

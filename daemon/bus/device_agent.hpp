@@ -56,6 +56,29 @@ constexpr std::chrono::milliseconds kStartStaleWindow{1000};
 // the whole plan: a plan per late heartbeat never ends on a slow device.
 constexpr unsigned kStartResends = 3;
 
+// The objects whose agreement says "this device still carries its
+// configuration": supervision and the PDO mappings, read (and compared)
+// between pre-operational and nothing else. No store step.
+[[nodiscard]] ConfigPlan quick_plan(const ConfigPlan& full);
+// Node guarding from a plan's fallback writes of 0x100C/0x100D, for a device
+// that refused the heartbeat producer 0x1017 (J§1.2.2); none when the plan
+// has no such fallback.
+[[nodiscard]] Supervision guarding_fallback(const ConfigPlan& plan);
+
+// What the gateway does about an NMT state a started device's heartbeat (or
+// guarding reply) tells (CiA 301 §7.2.8.3.2), DeviceAgent::judge_nmt.
+enum class NmtVerdict : std::uint8_t {
+  ignore,               // nothing new, or the device is not ours to judge now (not started, a plan runs)
+  stale,                // sent before the device took our start, read after it: forget it
+  operator_hold,        // a client's NMT command stopped it: `stopped`, left so
+  operational_again,    // back to operational after being stopped
+  stopped_left,         // another NMT master stopped it; foreign_nmt = respect
+  stopped_restart,      // ... foreign_nmt = restart: start it again
+  pre_operational_left, // back in pre-operational; foreign_nmt = respect
+  resend_start,         // pre-operational soon after our start: the start once more (counted)
+  replan,               // pre-operational otherwise: check, configure and start it again
+};
+
 struct DeviceAgent {
   config::Device cfg;
   bool in_config = true;  // false: an unknown device, shown in the status only
@@ -118,6 +141,15 @@ struct DeviceAgent {
   // were used up (the device is then `failed`).
   [[nodiscard]] bool note_failed_attempt(canopen::TimePoint now) noexcept;
 
+  // What this run executes: the quick check or the full plan, less the
+  // contested objects' writes, storing all it names after a failed quick
+  // check (store_all, taken).
+  [[nodiscard]] ConfigPlan plan_to_run();
+  // The supervision the configuration asks for: node guarding when it sets
+  // a guard time and life time factor, else the heartbeat the plan (or the
+  // configuration) sets the producer to; none otherwise.
+  [[nodiscard]] Supervision supervision_wanted() const;
+
   // ---- configuration drift (bus/config_drift.hpp, bus/restore_guard.hpp) ----
 
   // A client wrote index:sub while this device's plan ran: the plan may
@@ -149,6 +181,11 @@ struct DeviceAgent {
   // Pre-operational heard after the start had time to act: true when the
   // start may be sent once more (counted), false when the whole plan is due.
   [[nodiscard]] bool take_start_resend(canopen::TimePoint now) noexcept;
+  // The NMT state `nmt` heard in a frame stamped `frame_ns` at `now`, with
+  // the bus's foreign_nmt policy (`restart`: true). A resend_start verdict
+  // counts the re-send.
+  [[nodiscard]] NmtVerdict judge_nmt(canopen::NmtState nmt, std::int64_t frame_ns, canopen::TimePoint now,
+                                     bool restart) noexcept;
   [[nodiscard]] unsigned start_resends() const noexcept { return start_resends_; }
   [[nodiscard]] canopen::Duration since_start(canopen::TimePoint now) const noexcept { return now - start_sent_at_; }
 

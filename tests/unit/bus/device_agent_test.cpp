@@ -73,6 +73,81 @@ TEST(DeviceAgentSchedule, ReplanStartsTheWholeWayAgain) {
   EXPECT_TRUE(a.configuration_due(kT0));
 }
 
+PlanStep write_step(std::uint16_t index, std::uint32_t value = 0) {
+  PlanStep step;
+  step.write.index = index;
+  step.write.value = value;
+  return step;
+}
+
+PlanStep step_of(StepKind kind) {
+  PlanStep step;
+  step.kind = kind;
+  return step;
+}
+
+TEST(DeviceAgentPlan, Cia301_7_2_8_QuickCheckReadsSupervisionAndMappingsOnly) {
+  ConfigPlan full;
+  full.steps = {step_of(StepKind::nmt), write_step(0x1017, 100), write_step(0x6001, 4096),
+                step_of(StepKind::tpdo_mapping), write_step(0x100C, 100), write_step(0x100D, 3),
+                step_of(StepKind::store)};
+  const ConfigPlan q = quick_plan(full);
+  ASSERT_EQ(q.steps.size(), 5U);
+  EXPECT_EQ(q.steps[0].kind, StepKind::nmt);
+  EXPECT_EQ(q.steps[1].write.index, 0x1017);
+  EXPECT_EQ(q.steps[2].kind, StepKind::tpdo_mapping);
+  EXPECT_EQ(q.steps[3].write.index, 0x100C);
+  EXPECT_EQ(q.steps[4].write.index, 0x100D);
+}
+
+TEST(DeviceAgentPlan, J1_2_2_GuardingFromTheFallbackOfARefusedHeartbeat) {
+  ConfigPlan plan;
+  PlanStep hb = write_step(0x1017, 100);
+  plan.steps = {hb};
+  EXPECT_EQ(guarding_fallback(plan).mode, Supervision::Mode::none) << "no fallback: nothing to guard with";
+  hb.fallback = {write_step(0x100C, 200).write, write_step(0x100D, 3).write};
+  plan.steps = {hb};
+  const Supervision s = guarding_fallback(plan);
+  EXPECT_EQ(s.mode, Supervision::Mode::guarding);
+  EXPECT_EQ(s.guard_time, 200ms);
+  EXPECT_EQ(s.life_time_factor, 3);
+}
+
+TEST(DeviceAgentPlan, Cia301_7_2_8_3_SupervisionGuardingFirstThenThePlansHeartbeat) {
+  DeviceAgent a;
+  EXPECT_EQ(a.supervision_wanted().mode, Supervision::Mode::none);
+  a.cfg.heartbeat_ms = 250;
+  EXPECT_EQ(a.supervision_wanted().producer_time, 250ms);
+  a.plan = ConfigPlan{};
+  a.plan->heartbeat = true;
+  a.plan->heartbeat_ms = 100;
+  EXPECT_EQ(a.supervision_wanted().mode, Supervision::Mode::heartbeat);
+  EXPECT_EQ(a.supervision_wanted().producer_time, 100ms) << "the plan's, as it writes 0x1017";
+  a.cfg.guarding = config::Guarding{};
+  a.cfg.guarding->guard_time_ms = 300;
+  a.cfg.guarding->life_time_factor = 2;
+  const Supervision s = a.supervision_wanted();
+  EXPECT_EQ(s.mode, Supervision::Mode::guarding);
+  EXPECT_EQ(s.guard_time, 300ms);
+  EXPECT_EQ(s.life_time_factor, 2);
+}
+
+TEST(DeviceAgentPlan, AfterAFailedQuickCheckTheFullPlanStoresAll) {
+  DeviceAgent a;
+  a.plan = ConfigPlan{};
+  a.plan->steps = {write_step(0x1017, 100), write_step(0x6001, 4096)};
+  a.quick = true;
+  EXPECT_EQ(a.plan_to_run().steps.size(), 1U) << "the quick check";
+  EXPECT_EQ(a.plan_to_run().store_policy, config::StorePolicy::on_change);
+  a.quick = false;
+  a.store_all = true;
+  const ConfigPlan run = a.plan_to_run();
+  EXPECT_EQ(run.steps.size(), 2U);
+  EXPECT_EQ(run.store_policy, config::StorePolicy::always);
+  EXPECT_FALSE(a.store_all) << "taken by that run";
+  EXPECT_EQ(a.plan_to_run().store_policy, config::StorePolicy::on_change) << "a later restore stores what changed";
+}
+
 DriftRecord drift(std::uint16_t index, std::uint8_t sub, const char* object, bool contested = false) {
   DriftRecord r;
   r.index = index;
@@ -105,11 +180,7 @@ TEST(DeviceAgentDrift, PlanClosesWhatItPutRightNotContestedNorWrittenMeanwhile) 
 TEST(DeviceAgentDrift, ContestedObjectsWriteLeftOutOfThePlan) {
   DeviceAgent a;
   ConfigPlan plan;
-  for (const std::uint16_t index : {std::uint16_t{0x1017}, std::uint16_t{0x6001}}) {
-    PlanStep step;
-    step.write.index = index;
-    plan.steps.push_back(step);
-  }
+  plan.steps = {write_step(0x1017), write_step(0x6001)};
   PlanStep store;
   store.kind = StepKind::store;
   store.write.index = 0x6001;  // not a write: stays whatever it names
@@ -184,6 +255,62 @@ TEST(DeviceAgentStart, Cia301_7_2_8_2_1_1_StartResentAtMostThreeTimesWithinTheWi
   EXPECT_TRUE(a.take_start_resend(kT0 + 2s + 100ms));
   EXPECT_FALSE(a.take_start_resend(kT0 + 2s + kStartStaleWindow + 1ms)) << "past the window: the whole plan";
   EXPECT_EQ(a.since_start(kT0 + 2s + 300ms), 300ms);
+}
+
+// A started device whose start went out at kT0 (kernel stamps in kStartWallNs).
+DeviceAgent started_agent() {
+  DeviceAgent a;
+  a.started = true;
+  a.st.state = DeviceState::operational;
+  a.note_start_sent(kStartWallNs, kT0);
+  return a;
+}
+
+constexpr bool kRestart = true;
+constexpr bool kRespect = false;
+using canopen::NmtState;
+
+TEST(DeviceAgentNmt, Cia301_7_2_8_3_2_NotOursToJudgeBeforeTheStartOrWhileAPlanRuns) {
+  DeviceAgent a;
+  EXPECT_EQ(a.judge_nmt(NmtState::pre_operational, 0, kT0 + 2s, kRestart), NmtVerdict::ignore) << "not started";
+  a = started_agent();
+  EXPECT_EQ(a.judge_nmt(NmtState::boot_up, 0, kT0 + 2s, kRestart), NmtVerdict::ignore)
+      << "a boot-up is the supervisor's change of its own";
+  EXPECT_EQ(a.judge_nmt(NmtState::operational, 0, kT0 + 2s, kRestart), NmtVerdict::ignore) << "what it should be";
+}
+
+TEST(DeviceAgentNmt, Cia301_7_2_8_3_2_PreOperationalSentBeforeTheStartTookIsStale) {
+  DeviceAgent a = started_agent();
+  EXPECT_EQ(a.judge_nmt(NmtState::pre_operational, kStartWallNs + ns(10ms), kT0 + 400ms, kRestart), NmtVerdict::stale);
+  EXPECT_EQ(a.start_resends(), 0U) << "a stale state costs no re-send";
+}
+
+TEST(DeviceAgentNmt, OperatorsStopIsLeftAsAsked) {
+  DeviceAgent a = started_agent();
+  a.operator_hold = true;
+  EXPECT_EQ(a.judge_nmt(NmtState::stopped, 0, kT0 + 2s, kRestart), NmtVerdict::operator_hold);
+  EXPECT_EQ(a.judge_nmt(NmtState::pre_operational, 0, kT0 + 2s, kRestart), NmtVerdict::operator_hold);
+}
+
+TEST(DeviceAgentNmt, Cia301_7_2_8_3_2_StoppedByAnotherMasterRestartedOrRespectedPerPolicy) {
+  DeviceAgent a = started_agent();
+  EXPECT_EQ(a.judge_nmt(NmtState::stopped, 0, kT0 + 2s, kRestart), NmtVerdict::stopped_restart);
+  EXPECT_EQ(a.judge_nmt(NmtState::stopped, 0, kT0 + 2s, kRespect), NmtVerdict::stopped_left);
+  a.st.state = DeviceState::stopped;
+  EXPECT_EQ(a.judge_nmt(NmtState::stopped, 0, kT0 + 2s, kRestart), NmtVerdict::ignore) << "known already";
+  EXPECT_EQ(a.judge_nmt(NmtState::operational, 0, kT0 + 3s, kRestart), NmtVerdict::operational_again);
+}
+
+TEST(DeviceAgentNmt, Cia301_7_2_8_2_1_1_PreOperationalAfterTheStartResentThenReplanned) {
+  DeviceAgent a = started_agent();
+  EXPECT_EQ(a.judge_nmt(NmtState::pre_operational, 0, kT0 + 2s, kRespect), NmtVerdict::pre_operational_left);
+  const std::int64_t late = kStartWallNs + ns(kStartReaction) + ns(1ms);  // sent after the start had acted
+  for (unsigned i = 1; i <= kStartResends; ++i)
+    EXPECT_EQ(a.judge_nmt(NmtState::pre_operational, late, kT0 + 100ms * i, kRestart), NmtVerdict::resend_start);
+  EXPECT_EQ(a.judge_nmt(NmtState::pre_operational, late, kT0 + 500ms, kRestart), NmtVerdict::replan);
+  DeviceAgent b = started_agent();
+  EXPECT_EQ(b.judge_nmt(NmtState::pre_operational, 0, kT0 + kStartStaleWindow + 1ms, kRestart), NmtVerdict::replan)
+      << "long after the start: someone put it back";
 }
 
 }  // namespace
