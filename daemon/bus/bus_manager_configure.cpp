@@ -110,30 +110,19 @@ void BusManager::Impl::finish_configuration(DeviceAgent& m, TimePoint now) {
   t.device = m.st.name;
   t.milliseconds = ms;
   add_step(std::move(t));
-  m.failed_unanswered = !outcome.ok() && (outcome.error.code == make_error_code(PlanRunErrc::sdo_timeout) ||
-                                          outcome.error.code == make_error_code(PlanRunErrc::send_failed));
-  if (!outcome.ok()) {
-    configuration_failed(m, outcome, now);
-    return;
+  switch (m.judge_run(outcome, now)) {
+    case RunVerdict::failed:
+      return configuration_failed(m, outcome, now);
+    case RunVerdict::configuration_lost:
+      add_event(m, TimelineKind::mismatch,
+                "the device no longer carries its stored configuration: " + join_differences(outcome) +
+                    "; the full plan runs");
+      log->info("bus {}: device {}: key objects differed from the stored configuration; full plan", bus.name,
+                m.st.name);
+      return;
+    case RunVerdict::configured:
+      break;
   }
-  if (m.quick && outcome.writes > 0) {
-    // The fingerprint matched but the device did not carry the values.
-    add_event(m, TimelineKind::mismatch,
-              "the device no longer carries its stored configuration: " + join_differences(outcome) +
-                  "; the full plan runs");
-    log->info("bus {}: device {}: key objects differed from the stored configuration; full plan", bus.name,
-              m.st.name);
-    m.force_full = true;
-    m.store_all = true;
-    m.redo_at_once(now);
-    return;
-  }
-  if (outcome.writes > 0) ++m.st.configurations;
-  if (outcome.guarding_fallback) {
-    // The device refused 0x1017 (J§1.2.2): the plan's fallback guards it.
-    m.supervision = guarding_fallback(*m.plan);
-  }
-  m.st.fingerprint = m.plan->fingerprint;
   remember_assignment(m, m.plan->fingerprint);
   if (!announce_and_start(m, now)) return;
   mark_operational(m, outcome, now, ms);

@@ -67,6 +67,24 @@ bool DeviceAgent::note_failed_attempt(canopen::TimePoint now) noexcept {
   return true;
 }
 
+RunVerdict DeviceAgent::judge_run(const PlanRunResult& outcome, canopen::TimePoint now) {
+  const std::error_code code = outcome.error.code;
+  failed_unanswered = !outcome.ok() && (code == make_error_code(PlanRunErrc::sdo_timeout) ||
+                                        code == make_error_code(PlanRunErrc::send_failed));
+  if (!outcome.ok()) return RunVerdict::failed;
+  if (quick && outcome.writes > 0) {
+    // The fingerprint matched but the device did not carry the values.
+    force_full = true;
+    store_all = true;
+    redo_at_once(now);
+    return RunVerdict::configuration_lost;
+  }
+  if (outcome.writes > 0) ++st.configurations;
+  if (outcome.guarding_fallback) supervision = guarding_fallback(*plan);
+  st.fingerprint = plan->fingerprint;
+  return RunVerdict::configured;
+}
+
 ConfigPlan DeviceAgent::plan_to_run() {
   ConfigPlan run_plan = quick ? quick_plan(*plan) : *plan;
   leave_contested(run_plan);

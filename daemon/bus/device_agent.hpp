@@ -79,6 +79,14 @@ enum class NmtVerdict : std::uint8_t {
   replan,               // pre-operational otherwise: check, configure and start it again
 };
 
+// What a finished plan run (configuration, not a command) means for the
+// device, DeviceAgent::judge_run.
+enum class RunVerdict : std::uint8_t {
+  failed,              // tried again after a wait (note_failed_attempt)
+  configuration_lost,  // the quick check found values the stored configuration does not have: the full plan, at once
+  configured,          // verified (and stored): the NMT start is next
+};
+
 struct DeviceAgent {
   config::Device cfg;
   bool in_config = true;  // false: an unknown device, shown in the status only
@@ -141,6 +149,11 @@ struct DeviceAgent {
   // were used up (the device is then `failed`).
   [[nodiscard]] bool note_failed_attempt(canopen::TimePoint now) noexcept;
 
+  // A plan run ended with `outcome`: the record follows it (the failure's
+  // kind, the full plan after a lost configuration, the count of
+  // configurations, node guarding when the device refused the heartbeat
+  // (J§1.2.2), the fingerprint now carried).
+  [[nodiscard]] RunVerdict judge_run(const PlanRunResult& outcome, canopen::TimePoint now);
   // What this run executes: the quick check or the full plan, less the
   // contested objects' writes, storing all it names after a failed quick
   // check (store_all, taken).

@@ -148,6 +148,58 @@ TEST(DeviceAgentPlan, AfterAFailedQuickCheckTheFullPlanStoresAll) {
   EXPECT_EQ(a.plan_to_run().store_policy, config::StorePolicy::on_change) << "a later restore stores what changed";
 }
 
+PlanRunResult failed_run(PlanRunErrc why) {
+  PlanRunResult r;
+  r.error = Error(Errc::kTimeout, "no answer", "node 20", make_error_code(why));
+  return r;
+}
+
+TEST(DeviceAgentRun, Cia301_7_2_4_3_FailureKindRemembered) {
+  DeviceAgent a;
+  a.plan = ConfigPlan{};
+  EXPECT_EQ(a.judge_run(failed_run(PlanRunErrc::sdo_timeout), kT0), RunVerdict::failed);
+  EXPECT_TRUE(a.failed_unanswered) << "a silence: the device may come back on its own";
+  EXPECT_EQ(a.judge_run(failed_run(PlanRunErrc::sdo_abort), kT0), RunVerdict::failed);
+  EXPECT_FALSE(a.failed_unanswered) << "an answer, a refusal";
+}
+
+TEST(DeviceAgentRun, QuickCheckThatWroteMeansTheConfigurationWasLost) {
+  DeviceAgent a;
+  a.plan = ConfigPlan{};
+  a.plan->fingerprint = "f1";
+  a.want_configuration(kT0);
+  a.quick = true;
+  a.begin_attempt(kT0);
+  PlanRunResult wrote;
+  wrote.writes = 2;
+  EXPECT_EQ(a.judge_run(wrote, kT0 + 40ms), RunVerdict::configuration_lost);
+  EXPECT_TRUE(a.force_full);
+  EXPECT_TRUE(a.store_all);
+  EXPECT_TRUE(a.configuration_due(kT0 + 40ms)) << "the full plan at once";
+  EXPECT_EQ(a.attempts, 0U) << "the check is no failed attempt";
+  EXPECT_EQ(a.st.configurations, 0U);
+  EXPECT_TRUE(a.st.fingerprint.empty()) << "not carried until the full plan ran";
+}
+
+TEST(DeviceAgentRun, J1_2_2_ConfiguredWithTheGuardingFallback) {
+  DeviceAgent a;
+  a.plan = ConfigPlan{};
+  a.plan->fingerprint = "f2";
+  PlanStep hb = write_step(0x1017, 100);
+  hb.fallback = {write_step(0x100C, 200).write, write_step(0x100D, 3).write};
+  a.plan->steps = {hb};
+  PlanRunResult done;
+  done.writes = 1;
+  done.guarding_fallback = true;
+  EXPECT_EQ(a.judge_run(done, kT0), RunVerdict::configured);
+  EXPECT_EQ(a.st.configurations, 1U);
+  EXPECT_EQ(a.supervision.mode, Supervision::Mode::guarding);
+  EXPECT_EQ(a.st.fingerprint, "f2");
+  PlanRunResult nothing_to_write;
+  EXPECT_EQ(a.judge_run(nothing_to_write, kT0 + 1s), RunVerdict::configured);
+  EXPECT_EQ(a.st.configurations, 1U) << "a run that changed nothing is no configuration";
+}
+
 DriftRecord drift(std::uint16_t index, std::uint8_t sub, const char* object, bool contested = false) {
   DriftRecord r;
   r.index = index;
