@@ -66,6 +66,12 @@ void MasterElection::negotiate(ElectionCause cause, TimePoint now) noexcept {
   handover_pending_ = false;
   backed_ = false;
   deadline_ = now + config_.priority * kPrioritySlot + config_.node_id * kNodeSlot;
+  // Back from a claim nobody backed (its silence, or a 0x72 meanwhile): the
+  // negotiation it interrupted goes on where it was, so a forged claim costs
+  // at most 1.5 periods, not a new wait (measured before: 1132 ms without a
+  // master after a preempt).
+  if (resume_at_ != kNever) deadline_ = std::max(now, resume_at_);
+  resume_at_ = kNever;
   change(MasterRole::negotiating, cause, now);
 }
 
@@ -90,6 +96,13 @@ void MasterElection::claim(TimePoint now, can::FrameSink& out) noexcept {
 // Standby behind `node`, which is master only once its heartbeat says 05h
 // (backed_); master_seen_ gives it 1.5 periods to say so.
 void MasterElection::follow(uint8_t priority, uint8_t node, ElectionCause cause, TimePoint now) noexcept {
+  // The negotiation left stays owed until the followed master's heartbeat
+  // backs it (also when a second claim takes over from an unbacked one).
+  if (role_ == MasterRole::negotiating) {
+    resume_at_ = deadline_;
+  } else if (role_ != MasterRole::standby || backed_) {
+    resume_at_ = kNever;
+  }
   if (role_ != MasterRole::standby || node != master_node_) {
     next_preempt_ = now + config_.hold;  // the hold time runs from here, for this master
     backed_ = false;
@@ -175,6 +188,7 @@ bool MasterElection::on_heartbeat(const can::Frame& frame, TimePoint now) noexce
   if (role_ == MasterRole::standby && node == master_node_ && (frame.data[0] & 0x7F) == kStateOperational) {
     master_seen_ = now;
     backed_ = true;
+    resume_at_ = kNever;
   }
   return true;
 }

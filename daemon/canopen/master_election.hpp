@@ -42,7 +42,9 @@
 //     with the priority it announced; a newcomer or a negotiating gateway
 //     follows any plausible claim, but only for 1.5 heartbeat periods unless
 //     the claimant's heartbeat says 05h (operational): a claim nobody backs
-//     is forgotten and the follower negotiates again. A followed master is
+//     is forgotten and the follower negotiates again, from where it was when
+//     the claim came (its wait is not restarted: forged claims in a
+//     negotiation delay the master by at most 1.5 periods). A followed master is
 //     alive only while its heartbeat says 05h; a 7Fh (a standby's) keeps
 //     nothing alive, so two standbys never follow each other.
 //   * 0x76 carries [priority, node-ID] of the gateway asking (our addition;
@@ -216,6 +218,7 @@ class MasterElection {
   TimePoint next_preempt_ = kNever;   // standby with preempt: when to ask (0x76) again
   TimePoint last_handover_ = kNever;  // the last 0x76 this master honoured
   bool backed_ = false;            // standby: the master's heartbeat said 05h since we followed it
+  TimePoint resume_at_ = kNever;   // standby, not backed yet: the deadline of the negotiation we left
   unsigned beats_ = 0;
   ElectionPeers peers_;
   ElectionCounters counters_;

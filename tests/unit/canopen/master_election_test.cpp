@@ -319,6 +319,39 @@ TEST(MasterElection, AClaimNamingTheOtherStandbyIsForgottenAndTheBusHasAMasterWi
   EXPECT_TRUE(forgotten);
 }
 
+// A forged claim (0x71 naming a plausible node that never announced itself)
+// in the middle of a negotiation (here, right after a preempt): both
+// gateways follow it, forget it after 1.5 heartbeat periods, and go on with
+// the negotiation where they left it, not with a new wait. Found by
+// election_fuzz (corpus/election/forged_claim_after_a_preempt): 1132 ms
+// without a master when the wait started again.
+TEST(MasterElection, AForgedClaimInANegotiationCostsAtMostOneAndAHalfPeriodsNotANewWait) {
+  Bus bus;
+  auto& b = bus.add(121, 1);
+  bus.start(b);
+  bus.run(1s);
+  auto& a = bus.add(120, 1, /*preempt=*/true, /*hold=*/2s);
+  bus.start(a);
+  bus.run(1s);
+  ASSERT_TRUE(b.election.is_master());
+  for (int i = 0; i < 3000 && bus.masters() == 1; ++i) bus.run(1ms);  // until a's preempt
+  ASSERT_EQ(bus.masters(), 0);
+  const TimePoint t0 = bus.now();
+  const Duration wait = 1 * MasterElection::kPrioritySlot + 120 * MasterElection::kNodeSlot;  // a's slot
+  bus.run(wait - 150ms);
+  bus.inject(Frame::make(cob::kMasterNodeId, {0, 1}));
+  EXPECT_EQ(a.election.master_node(), 1);  // followed, for now
+  bus.run(2s, [&] { ASSERT_LE(bus.masters(), 1); });
+  EXPECT_TRUE(a.election.is_master());
+  const Duration settle = a.election.config().settle;
+  const Duration unbacked = a.election.master_timeout();
+  EXPECT_LE(first_master_beat({&a, &b}, t0) - t0, wait - 150ms + unbacked + settle + 5ms);
+  EXPECT_LT(first_master_beat({&a, &b}, t0) - t0, 1s);
+  bool forgotten = false;
+  for (const auto& e : a.events) forgotten |= e.cause == ElectionCause::claim_unbacked;
+  EXPECT_TRUE(forgotten);
+}
+
 // A claim from a node that never announced itself (0x74) takes no role from
 // the master, even when the node is an operational device the configuration
 // does not name (its heartbeat says 05h).
