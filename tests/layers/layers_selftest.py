@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""scripts/check-layers and scripts/layer-graph can fail: each case builds a
+"""scripts/check-layers, scripts/layer-graph and scripts/bus-graph can fail: each case builds a
 small fixture tree and target graph (the shape build/cobridge-targets.json
 has) in a temporary directory and runs the real script on it.
 
@@ -64,8 +64,9 @@ class Fixture:
         return path
 
 
-def run(script, *args):
-    return subprocess.run([sys.executable, os.path.join(SCRIPTS, script), *args], capture_output=True, text=True)
+def run(script, *args, cwd=None):
+    return subprocess.run([sys.executable, os.path.join(SCRIPTS, script), *args], capture_output=True, text=True,
+                          cwd=cwd)
 
 
 class CheckLayers(unittest.TestCase):
@@ -162,9 +163,47 @@ class LayerGraph(unittest.TestCase):
         self.assertIn('+  device --> sys', r.stderr)
 
 
+class BusGraph(unittest.TestCase):
+    """daemon/bus/ drawn from its includes: a new include makes the drawing stale."""
+
+    def setUp(self):
+        self.tmp = tempfile.TemporaryDirectory()
+        self.root = self.tmp.name
+        write(self.root, 'daemon/bus/agent.hpp', '#pragma once\n')
+        write(self.root, 'daemon/bus/agent.cpp', '#include "bus/agent.hpp"\n#include "canopen/sdo.hpp"\n')
+        write(self.root, 'daemon/bus/manager_frames.cpp', '#include "bus/agent.hpp"\n')
+        write(self.root, 'daemon/bus/discovery/probe.hpp', '#pragma once\n')
+        self.doc = write(self.root, 'docs/architecture.md', """\
+            <!-- bus-graph:begin (scripts/bus-graph --write) -->
+            <!-- bus-graph:end -->
+            after
+            """)
+
+    def tearDown(self):
+        self.tmp.cleanup()
+
+    def graph(self, *mode):
+        return run('bus-graph', '--doc', self.doc, *mode, cwd=self.root)
+
+    def test_write_draws_rooms_boxes_and_arrows_then_a_new_include_fails_the_check(self):
+        self.assertEqual(self.graph('--check').returncode, 1)
+        self.assertEqual(self.graph('--write').returncode, 0)
+        self.assertEqual(self.graph('--check').returncode, 0)
+        with open(self.doc, encoding='utf-8') as f:
+            text = f.read()
+        self.assertIn('  manager_frames --> agent\n', text)
+        self.assertIn('subgraph dir_discovery["bus/discovery/"]', text)
+        self.assertNotIn('canopen', text)  # the layers below are the layer graph's
+        self.assertTrue(text.endswith('<!-- bus-graph:end -->\nafter\n'))
+        write(self.root, 'daemon/bus/agent.cpp', '#include "bus/agent.hpp"\n#include "bus/discovery/probe.hpp"\n')
+        r = self.graph('--check')
+        self.assertEqual(r.returncode, 1)
+        self.assertIn('+  agent --> discovery__probe', r.stderr)
+
+
 if __name__ == '__main__':
     ap = argparse.ArgumentParser()
     ap.add_argument('--scripts', required=True)
     args, rest = ap.parse_known_args()
-    SCRIPTS = args.scripts
+    SCRIPTS = os.path.abspath(args.scripts)
     unittest.main(argv=[sys.argv[0], *rest], verbosity=2)
