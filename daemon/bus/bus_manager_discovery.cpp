@@ -11,52 +11,48 @@ void BusManager::Impl::check_configured_nodes(TimePoint now) {
   for (auto& m : devices) {
     if (!m.in_config || m.st.node_id == 0 || m.runner) continue;
     if (m.description == nullptr) supervisor.listen(m.st.node_id, nullptr);
-    request_identity(m, now, false);
+    m.want_identity(now, false);
   }
-}
-
-void BusManager::Impl::request_identity(DeviceAgent& m, TimePoint when, bool boot_up) {
-  m.ident_wanted = true;
-  m.ident_boot_up = m.ident_boot_up || boot_up;
-  m.ident_at = when;
 }
 
 void BusManager::Impl::start_identity_reads(TimePoint now) {
   if (!channel->is_open()) return;
   for (auto& m : devices) {
-    if (!m.ident_wanted || m.ident || m.runner || now < m.ident_at) continue;
+    if (!m.identity_due(now)) continue;
     if (m.st.node_id == remote->sdo_node()) continue;  // a client's transfer runs on it
-    m.ident_wanted = false;
+    m.begin_identity();
     m.ident = std::make_unique<IdentityReader>(sdo_of(m));
     if (m.ident->start(now)) {
       m.ident.reset();
-      request_identity(m, now + kConfigureRetryDelay, false);
+      m.want_identity(now + kConfigureRetryDelay, false);
     }
   }
 }
-
 void BusManager::Impl::finish_identity(DeviceAgent& m, TimePoint now) {
   const std::unique_ptr<IdentityReader> reader = std::move(m.ident);
-  const bool boot_up = std::exchange(m.ident_boot_up, false);
+  const bool boot_up = m.take_identity_boot_up();
   const auto retry = now + std::chrono::seconds(bus.discovery_period_s);
-  if (!reader->identity()) {
-    m.st.last_error = "no answer at node " + std::to_string(m.st.node_id) + " (0x1018: " +
-                      reader->error().message() + "); discovery is off, asking again in " +
-                      std::to_string(bus.discovery_period_s) + " s";
-    dirty = true;
-    request_identity(m, retry, false);
-    return;
+  switch (m.judge_identity(reader->identity())) {
+    case IdentityVerdict::unanswered:
+      m.st.last_error = "no answer at node " + std::to_string(m.st.node_id) + " (0x1018: " +
+                        reader->error().message() + "); discovery is off, asking again in " +
+                        std::to_string(bus.discovery_period_s) + " s";
+      dirty = true;
+      m.want_identity(retry, false);
+      return;
+    case IdentityVerdict::other_serial:
+      m.st.last_error = "node " + std::to_string(m.st.node_id) + " holds serial " +
+                        std::to_string(reader->identity()->serial) + ", not the configured " +
+                        std::to_string(m.cfg.serial) + "; not configured";
+      log->warn("bus {}: device {}: {}", bus.name, m.st.name, m.st.last_error);
+      add_problem("device " + m.st.name + ": " + m.st.last_error, m.st.name);
+      set_state(m, DeviceState::failed);
+      m.want_identity(retry, false);
+      return;
+    case IdentityVerdict::identified:
+      break;
   }
   const canopen::LssAddress& id = *reader->identity();
-  if (m.cfg.serial != 0 && id.serial != m.cfg.serial) {
-    m.st.last_error = "node " + std::to_string(m.st.node_id) + " holds serial " + std::to_string(id.serial) +
-                      ", not the configured " + std::to_string(m.cfg.serial) + "; not configured";
-    log->warn("bus {}: device {}: {}", bus.name, m.st.name, m.st.last_error);
-    add_problem("device " + m.st.name + ": " + m.st.last_error, m.st.name);
-    set_state(m, DeviceState::failed);
-    request_identity(m, retry, false);
-    return;
-  }
   DiscoveryEvent e;
   e.kind = DiscoveryEventKind::identified;
   e.node_id = e.target_node_id = m.st.node_id;

@@ -55,7 +55,7 @@ TimePoint BusManager::Impl::run_components(TimePoint now) {
     if (m.want_configure && !m.runner) next = std::min(next, std::max(m.not_before, now));
     next = std::min(next, m.emcy_log.report_due());
     if (m.ident) next = std::min(next, m.ident->process(now));
-    if (m.ident_wanted && !m.ident) next = std::min(next, std::max(m.ident_at, now));
+    next = std::min(next, m.identity_wait(now));
   }
   return next;
 }
@@ -134,10 +134,7 @@ bool BusManager::Impl::handle_bus_events(TimePoint now) {
       supervisor.bus_lost(now, "the CAN interface went down");
       lost = true;
       for (auto& m : devices) {
-        if (m.ident) {
-          m.ident.reset();  // asked again when the interface is back
-          m.ident_wanted = false;
-        }
+        m.drop_identity();  // asked again when the interface is back
         if (m.runner && m.command) {
           drop_runner(m, "the CAN interface went down");
         } else if (m.runner) {
@@ -200,7 +197,7 @@ void BusManager::Impl::on_supervisor_change(const Supervisor::Change& c, TimePoi
       if (!bus.discovery) {
         // Nobody else re-identifies it: read its identity now.
         m->want_configure = false;
-        request_identity(*m, now, true);
+        m->want_identity(now, true);
       }
       if (m->st.state != DeviceState::expected) set_state(*m, DeviceState::identified);
       break;

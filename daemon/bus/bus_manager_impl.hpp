@@ -155,7 +155,6 @@ struct BusManager::Impl final : RemoteGate {
   // device of another serial or model there is reported, never configured.
 
   void check_configured_nodes(TimePoint now);
-  void request_identity(DeviceAgent& m, TimePoint when, bool boot_up);
   void start_identity_reads(TimePoint now);
   void finish_identity(DeviceAgent& m, TimePoint now);
 

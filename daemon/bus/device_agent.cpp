@@ -208,4 +208,31 @@ NmtVerdict DeviceAgent::judge_nmt(canopen::NmtState nmt, std::int64_t frame_ns, 
   return NmtVerdict::ignore;
 }
 
+// ---- the identity check -------------------------------------------------------
+
+void DeviceAgent::want_identity(canopen::TimePoint when, bool boot_up) noexcept {
+  ident_wanted_ = true;
+  ident_boot_up_ = ident_boot_up_ || boot_up;
+  ident_at_ = when;
+}
+
+bool DeviceAgent::identity_due(canopen::TimePoint now) const noexcept {
+  return ident_wanted_ && !ident && !runner && now >= ident_at_;
+}
+
+canopen::TimePoint DeviceAgent::identity_wait(canopen::TimePoint now) const noexcept {
+  return ident_wanted_ && !ident ? std::max(ident_at_, now) : canopen::kNever;
+}
+
+void DeviceAgent::drop_identity() noexcept {
+  ident.reset();
+  ident_wanted_ = false;
+}
+
+IdentityVerdict DeviceAgent::judge_identity(const std::optional<canopen::LssAddress>& identity) const noexcept {
+  if (!identity) return IdentityVerdict::unanswered;
+  if (cfg.serial != 0 && identity->serial != cfg.serial) return IdentityVerdict::other_serial;
+  return IdentityVerdict::identified;
+}
+
 }  // namespace cobridge::bus

@@ -2,7 +2,8 @@
 // device, or an unknown one discovery reported): what is known of it, the
 // plan run on it, and the decisions that need nothing but the device's own
 // record and the time: when its configuration is due again after a failure,
-// and what a heartbeat after the gateway's NMT start means.
+// what its identity read means, and what a heartbeat after the gateway's NMT
+// start means.
 //
 // The bus controller (bus_manager_*.cpp) does the sending, logging and
 // status around these decisions; the agent reads no clock (`now` and the
@@ -16,6 +17,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "bus/config_plan.hpp"
@@ -79,6 +81,14 @@ enum class NmtVerdict : std::uint8_t {
   replan,               // pre-operational otherwise: check, configure and start it again
 };
 
+// What the identity (0x1018, CiA 301 §7.5.2.35) read before configuring a
+// device on a bus without discovery means, DeviceAgent::judge_identity.
+enum class IdentityVerdict : std::uint8_t {
+  unanswered,    // no identity read: asked again after the discovery period
+  other_serial,  // another serial than the configured one: not configured (`failed`), asked again
+  identified,    // the configured device (or no serial configured): configure it
+};
+
 // What a finished plan run (configuration, not a command) means for the
 // device, DeviceAgent::judge_run.
 enum class RunVerdict : std::uint8_t {
@@ -117,11 +127,9 @@ struct DeviceAgent {
   // that plan may have written them before the client did, so they stay
   // open after it and get a restore of their own.
   std::vector<std::uint32_t> drift_mid_plan;
-  // Buses without discovery: the identity check before configuring.
+  // Buses without discovery: the identity check before configuring (its
+  // reader runs while it is set).
   std::unique_ptr<IdentityReader> ident;
-  bool ident_wanted = false;
-  bool ident_boot_up = false;
-  canopen::TimePoint ident_at{};
 
   // ---- the configuration's schedule ----------------------------------------
 
@@ -162,6 +170,26 @@ struct DeviceAgent {
   // a guard time and life time factor, else the heartbeat the plan (or the
   // configuration) sets the producer to; none otherwise.
   [[nodiscard]] Supervision supervision_wanted() const;
+
+  // ---- the identity check (buses without discovery) ------------------------
+
+  // The identity is to be read from `when` on; `boot_up`: because the device
+  // rebooted (kept until the read is judged).
+  void want_identity(canopen::TimePoint when, bool boot_up) noexcept;
+  // A read may start now: wanted, its time come, nothing running on the device.
+  [[nodiscard]] bool identity_due(canopen::TimePoint now) const noexcept;
+  // When the controller must look again for a wanted read not started yet
+  // (kNever: none wanted, or one runs).
+  [[nodiscard]] canopen::TimePoint identity_wait(canopen::TimePoint now) const noexcept;
+  // A read starts (its reader in `ident`): no longer wanted.
+  void begin_identity() noexcept { ident_wanted_ = false; }
+  // The bus went away: the read running, and any wanted, are dropped (asked
+  // again when the bus is back).
+  void drop_identity() noexcept;
+  // The identity read (none: unanswered) against the configured serial.
+  [[nodiscard]] IdentityVerdict judge_identity(const std::optional<canopen::LssAddress>& identity) const noexcept;
+  // Whether a boot-up asked for the read just judged (then forgotten).
+  [[nodiscard]] bool take_identity_boot_up() noexcept { return std::exchange(ident_boot_up_, false); }
 
   // ---- configuration drift (bus/config_drift.hpp, bus/restore_guard.hpp) ----
 
@@ -207,6 +235,9 @@ struct DeviceAgent {
   std::int64_t start_sent_ns_ = 0;             // realtime of our last NMT start (kStartReaction)
   canopen::TimePoint start_sent_at_{};         // ... and steady time (kStartStaleWindow)
   unsigned start_resends_ = 0;                 // since that start (kStartResends)
+  bool ident_wanted_ = false;                  // an identity read waits for ident_at_
+  bool ident_boot_up_ = false;                 // ... asked by a boot-up
+  canopen::TimePoint ident_at_{};
 };
 
 }  // namespace cobridge::bus

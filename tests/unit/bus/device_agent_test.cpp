@@ -1,8 +1,9 @@
 // DeviceAgent's own decisions, with the time passed in: the configuration's
 // schedule (attempts and their waits), its drift records (what a plan
 // closes, what a contested object keeps out of the next plan, an operator's
-// acknowledgement) and what a heartbeat after the
-// gateway's NMT start means (CiA 301 §7.2.8.3.2: the heartbeat carries the
+// acknowledgement), the identity check of a bus without discovery (CiA 301
+// §7.5.2.35: 0x1018 against the configured serial), and what a heartbeat
+// after the gateway's NMT start means (CiA 301 §7.2.8.3.2: the heartbeat carries the
 // NMT state; §7.2.8.2.1.1: NMT start from the master).
 #include "bus/device_agent.hpp"
 
@@ -12,6 +13,8 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+
+#include "can/frame_sink.hpp"
 
 namespace cobridge::bus {
 namespace {
@@ -363,6 +366,56 @@ TEST(DeviceAgentNmt, Cia301_7_2_8_2_1_1_PreOperationalAfterTheStartResentThenRep
   DeviceAgent b = started_agent();
   EXPECT_EQ(b.judge_nmt(NmtState::pre_operational, 0, kT0 + kStartStaleWindow + 1ms, kRestart), NmtVerdict::replan)
       << "long after the start: someone put it back";
+}
+
+// ---- the identity check (buses without discovery) --------------------------
+
+// Frames the agent's SDO client would send: taken and dropped.
+struct NullSink final : can::FrameSink {
+  bool send(const can::Frame&) noexcept override { return true; }
+};
+
+TEST(DeviceAgentIdentity, AWantedReadIsDueFromItsTimeOnAndNotWhileOneRuns) {
+  DeviceAgent a;
+  EXPECT_FALSE(a.identity_due(kT0));
+  EXPECT_EQ(a.identity_wait(kT0), canopen::kNever);
+  a.want_identity(kT0 + 500ms, false);
+  EXPECT_FALSE(a.identity_due(kT0 + 499ms));
+  EXPECT_EQ(a.identity_wait(kT0), kT0 + 500ms);
+  EXPECT_EQ(a.identity_wait(kT0 + 2s), kT0 + 2s) << "overdue: look now";
+  EXPECT_TRUE(a.identity_due(kT0 + 500ms));
+  NullSink sink;
+  canopen::SdoClient sdo(sink, 20, {});
+  a.begin_identity();
+  a.ident = std::make_unique<IdentityReader>(sdo);
+  EXPECT_FALSE(a.identity_due(kT0 + 1s)) << "taken";
+  a.want_identity(kT0 + 1s, false);  // asked again while the read runs
+  EXPECT_FALSE(a.identity_due(kT0 + 2s)) << "one read at a time";
+  EXPECT_EQ(a.identity_wait(kT0 + 2s), canopen::kNever);
+  a.drop_identity();  // the interface went down
+  EXPECT_FALSE(a.ident);
+  EXPECT_FALSE(a.identity_due(kT0 + 3s)) << "asked again when the bus is back, not before";
+}
+
+TEST(DeviceAgentIdentity, ABootUpsAskIsKeptUntilTheReadIsJudged) {
+  DeviceAgent a;
+  a.want_identity(kT0, true);
+  a.want_identity(kT0 + 500ms, false);  // a retry after a failed start of the read
+  EXPECT_TRUE(a.take_identity_boot_up()) << "still the boot-up's read";
+  EXPECT_FALSE(a.take_identity_boot_up()) << "forgotten once taken";
+}
+
+TEST(DeviceAgentIdentity, Cia301_7_5_2_35_TheConfiguredSerialOrNoneIsIdentified) {
+  DeviceAgent a;
+  a.cfg.serial = 0x1234;
+  canopen::LssAddress id{};
+  id.serial = 0x1234;
+  EXPECT_EQ(a.judge_identity(std::nullopt), IdentityVerdict::unanswered);
+  EXPECT_EQ(a.judge_identity(id), IdentityVerdict::identified);
+  id.serial = 0x9999;
+  EXPECT_EQ(a.judge_identity(id), IdentityVerdict::other_serial) << "another device at the node: not configured";
+  a.cfg.serial = 0;
+  EXPECT_EQ(a.judge_identity(id), IdentityVerdict::identified) << "no serial configured: any device of the node";
 }
 
 }  // namespace
