@@ -3,6 +3,7 @@
 #include "bus/bus_manager_impl.hpp"
 
 #include "base/number_text.hpp"
+#include "bus/description_choice.hpp"
 
 namespace cobridge::bus {
 
@@ -237,38 +238,17 @@ void BusManager::Impl::note_unknown(const DiscoveryEvent& e) {
 }
 
 bool BusManager::Impl::resolve_description(DeviceAgent& m) {
-  const auto& id = m.st.identity;
-  std::string variant;
-  if (m.cfg.channels) variant = *m.cfg.channels == 2 ? "2ch" : "1ch";
-  const device::DeviceDescription* d = nullptr;
-  if (!m.cfg.eds.empty()) {
-    for (const auto* c : catalog.all()) {
-      if (std::filesystem::path(c->source) == m.cfg.eds) d = c;
-    }
-  }
-  if (d == nullptr) d = catalog.select(id.vendor, id.product, id.revision, variant);
-  if (d == nullptr && variant.empty()) {
-    // Several variants: take the first candidate; its plan decides by what it finds.
-    const auto c = catalog.candidates(id.vendor, id.product, id.revision);
-    if (!c.empty()) d = c.front();
-  }
-  if (d == nullptr) {
-    m.st.last_error = "no device description for vendor " + hex(id.vendor) + " product " + hex(id.product) +
-                      " revision " + hex(id.revision);
+  auto chosen = choose_description(catalog, m.cfg, m.st.identity);
+  if (!chosen.ok()) {
+    m.st.last_error = chosen.error().message;
     log->error("bus {}: device {}: {}", bus.name, m.st.name, m.st.last_error);
     add_problem("device " + m.st.name + ": " + m.st.last_error, m.st.name);
     return false;
   }
-  auto profile = device::family_profile_for(*d);
-  if (!profile) {
-    m.st.last_error = "description " + d->source + " names no known family";
-    add_problem("device " + m.st.name + ": " + m.st.last_error, m.st.name);
-    return false;
-  }
-  m.description = d;
-  m.profile = profile;
-  m.st.model = d->device_info.product_name;
-  m.st.family = d->selection.family;
+  m.description = chosen->description;
+  m.profile = chosen->profile;
+  m.st.model = m.description->device_info.product_name;
+  m.st.family = m.description->selection.family;
   return true;
 }
 

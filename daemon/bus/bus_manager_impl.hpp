@@ -420,7 +420,6 @@ struct BusManager::Impl final : RemoteGate {
   [[nodiscard]] DeviceStatus as_the_bus_says(const DeviceAgent& m) const;
   void follow_heard_devices();
   void remember_followed(const DeviceAgent& m, const std::string& fingerprint);
-  [[nodiscard]] bool describe_from_config(DeviceAgent& m);
   void describe_role(BusStatus& s) const;
 
   std::thread thread;

@@ -21,8 +21,7 @@
 // that table as a second start does, with no commissioning and no writes.
 // Control thread only.
 #include "bus/bus_manager_impl.hpp"
-#include "config/known_models.hpp"
-#include "families/family.hpp"
+#include "bus/description_choice.hpp"
 
 namespace cobridge::bus {
 namespace {
@@ -39,18 +38,6 @@ bool expedited_upload_response(const can::Frame& f) noexcept {
 std::uint32_t le32(const std::uint8_t* p) noexcept {
   return static_cast<std::uint32_t>(p[0]) | static_cast<std::uint32_t>(p[1]) << 8 |
          static_cast<std::uint32_t>(p[2]) << 16 | static_cast<std::uint32_t>(p[3]) << 24;
-}
-
-// The first loaded description of the model's vendor and family: for a
-// model whose product code is not checkable (ifm, F§7.3).
-const device::DeviceDescription* description_of_family(const device::DeviceCatalog& catalog,
-                                                       const config::KnownModel& known) {
-  for (const auto* d : catalog.all()) {
-    if (d->device_info.vendor_number != known.vendor) continue;
-    const auto profile = device::family_profile_for(*d);
-    if (profile && profile->family == &families::family(known.family)) return d;
-  }
-  return nullptr;
 }
 
 }  // namespace
@@ -116,7 +103,12 @@ void BusManager::Impl::note_identity(const can::Frame& frame, TimePoint now) {
 void BusManager::Impl::follow_heard_devices() {
   for (auto& m : devices) {
     if (m.followed || !m.in_config || m.st.node_id == 0 || !m.heard_operational) continue;
-    if (m.description == nullptr && !describe_from_config(m)) continue;
+    if (m.description == nullptr) {
+      auto chosen = description_from_config(catalog, m.cfg, m.st.identity);
+      if (!chosen.ok()) continue;
+      m.description = chosen->description;
+      m.profile = chosen->profile;
+    }
     const auto plan = make_config_plan(m.cfg, *m.description, *m.profile, m.st.node_id);
     if (!plan.ok()) continue;
     m.followed = true;
@@ -146,28 +138,6 @@ DeviceStatus BusManager::Impl::as_the_bus_says(const DeviceAgent& m) const {
     s.nmt = canopen::NmtState::operational;
   }
   return s;
-}
-
-// The description from the identity heard or configured (vendor and
-// product), else from the configured model.
-bool BusManager::Impl::describe_from_config(DeviceAgent& m) {
-  const auto& id = m.st.identity;
-  const config::KnownModel* known = m.cfg.model.empty() ? nullptr : config::find_model(m.cfg.model);
-  const device::DeviceDescription* d = nullptr;
-  if (id.vendor != 0 && id.product != 0) {
-    const auto candidates = catalog.candidates(id.vendor, id.product, std::nullopt);
-    if (!candidates.empty()) d = candidates.front();
-  } else if (known != nullptr && !known->products.empty()) {
-    const auto candidates = catalog.candidates(known->vendor, known->products.front(), std::nullopt);
-    if (!candidates.empty()) d = candidates.front();
-  }
-  if (d == nullptr && known != nullptr) d = description_of_family(catalog, *known);
-  if (d == nullptr) return false;
-  auto profile = device::family_profile_for(*d);
-  if (!profile) return false;
-  m.description = d;
-  m.profile = profile;
-  return true;
 }
 
 }  // namespace cobridge::bus
