@@ -71,7 +71,7 @@ Error Daemon::start() {
   // The control socket first: a second daemon started by mistake stops here,
   // before it touches a bus the first one serves.
   control::ControlServerOptions control_options;
-  control_options.remote = &registry_;
+  control_options.services = &registry_;
   control_.emplace(*facade_, control_options);
   if (const Error e = control_->open(cfg_->gateway.control_socket)) {
     FatalReport().line("control socket: " + e.to_string(), "cobridged: control socket: " + e.to_string());

@@ -113,7 +113,7 @@ bool is_loopback(const std::string& address) {
 std::vector<std::string> exposure_warnings(const config::Config& config) {
   std::vector<std::string> out;
   if (config.web) web_exposure(*config.web, out);
-  ascii_exposure(config.remote.ascii, out);
+  ascii_exposure(config.services.ascii, out);
   for (const auto& o : config.outputs) output_exposure(o, out);
   return out;
 }

@@ -197,18 +197,18 @@ void BusManager::Impl::finish_run() {
   (void)flush_timelines(steady_now(), true);
   sync.stop();
   runners_abort();
-  remote->abort_all("the bus stopped");
+  services->abort_all("the bus stopped");
   channel->close();
   open_flag.store(false);
   log->info("bus {}: stopped", bus.name);
 }
 
-// Discovery, the remote executor and the SYNC producer, on the bus thread.
+// Discovery, the service executor and the SYNC producer, on the bus thread.
 void BusManager::Impl::start_components(TimePoint now) {
   DiscoveryOptions dopt;
   discovery = std::make_unique<Discovery>(tx, config, bus_index, state.on_bus(bus.name), dopt);
   follow_state_hold(now);
-  remote = std::make_unique<RemoteExecutor>(tx, bus.name, milliseconds(bus.lss_timeout_ms));
+  services = std::make_unique<ServiceExecutor>(tx, bus.name, milliseconds(bus.lss_timeout_ms));
   if (bus.sync_period_ms > 0) {
     canopen::SyncProducer::Config sc;
     sc.period = milliseconds(bus.sync_period_ms);
@@ -299,7 +299,7 @@ void BusManager::Impl::take_commands(TimePoint now) {
   bool commission = false;
   std::optional<config::Config> reload_config;
   std::deque<DeviceCommand> commands;
-  std::deque<std::pair<RemoteCommand, std::shared_ptr<RemoteReplies>>> clients;
+  std::deque<std::pair<ServiceRequest, std::shared_ptr<ServiceReplies>>> clients;
   std::vector<std::pair<std::string, std::string>> acks;
   {
     const std::lock_guard lock(mutex);
@@ -307,9 +307,9 @@ void BusManager::Impl::take_commands(TimePoint now) {
     acks.swap(pending_acks);
     reload_config = std::exchange(pending_reload, std::nullopt);
     commands.swap(pending_commands);
-    clients.swap(pending_remote);
+    clients.swap(pending_services);
   }
-  for (auto& [c, to] : clients) remote->add(std::move(c), std::move(to), now);
+  for (auto& [c, to] : clients) services->add(std::move(c), std::move(to), now);
   if (commission) discovery->request_commission();
   for (const auto& [device, caller] : acks) acknowledge_contested(device, caller, now);
   if (reload_config) apply_reload(std::move(*reload_config), now);
@@ -387,8 +387,8 @@ Error BusManager::start() {
   if (impl_->thread.joinable())
     return Error(Errc::kFailed, "already started", "bus " + impl_->bus.name,
                  std::make_error_code(std::errc::device_or_resource_busy));
-  RemoteBus rb{impl_->bus.name, impl_->bus.interface, static_cast<unsigned>(impl_->bus_index + 1)};
-  const config::RemoteAccess access = impl_->config.remote;
+  ServiceBus rb{impl_->bus.name, impl_->bus.interface, static_cast<unsigned>(impl_->bus_index + 1)};
+  const config::ServiceAccess access = impl_->config.services;
   if (Error e = impl_->start()) return e;
   if (impl_->options.registry != nullptr) impl_->options.registry->add(*this, std::move(rb), access);
   return {};
@@ -489,13 +489,13 @@ CommandStatus BusManager::submit(DeviceCommand command) {
   return CommandStatus::ok;
 }
 
-Error BusManager::submit_remote(RemoteCommand command, std::shared_ptr<RemoteReplies> reply_to) {
+Error BusManager::submit_service(ServiceRequest command, std::shared_ptr<ServiceReplies> reply_to) {
   {
     const std::lock_guard lock(impl_->mutex);
     if (!impl_->running.load()) return Error(Errc::kUnavailable, "the bus does not run");
-    if (impl_->pending_remote.size() + impl_->remote_waiting.load(std::memory_order_relaxed) >= kMaxRemoteCommands)
+    if (impl_->pending_services.size() + impl_->services_waiting.load(std::memory_order_relaxed) >= kMaxServiceRequests)
       return Error(Errc::kUnavailable, "too many client commands waiting on this bus; try again");
-    impl_->pending_remote.emplace_back(std::move(command), std::move(reply_to));
+    impl_->pending_services.emplace_back(std::move(command), std::move(reply_to));
   }
   impl_->wake();
   return {};
@@ -506,7 +506,7 @@ void BusManager::reload(const config::Config& config) {
     const std::lock_guard lock(impl_->mutex);
     impl_->pending_reload = config;
   }
-  if (impl_->options.registry != nullptr) impl_->options.registry->update_access(config.remote);
+  if (impl_->options.registry != nullptr) impl_->options.registry->update_access(config.services);
   impl_->wake();
 }
 

@@ -11,7 +11,7 @@
 // Threads: start() spawns the bus's control thread, which owns the control
 // socket and every protocol component; stop() ends and joins it within 1 s.
 // status(), ready(), request_commission(), reload(), submit() and
-// submit_remote() may be called from any thread (they take a mutex; never on the hot path). Observer callbacks run on
+// submit_service() may be called from any thread (they take a mutex; never on the hot path). Observer callbacks run on
 // the control thread and must not block.
 #pragma once
 
@@ -21,8 +21,8 @@
 #include "bus/bus_health.hpp"
 #include "bus/device_command.hpp"
 #include "bus/device_status.hpp"
-#include "bus/remote/remote_command.hpp"
-#include "bus/remote/remote_replies.hpp"
+#include "bus/service/service_request.hpp"
+#include "bus/service/service_replies.hpp"
 #include "bus/state_store.hpp"
 #include "can/bus_port.hpp"
 
@@ -139,10 +139,10 @@ class BusManager {
   [[nodiscard]] CommandStatus submit(DeviceCommand command);
 
   // A client's SDO / NMT / LSS command (control socket, CiA 309-3 gateway),
-  // run by the control thread's RemoteExecutor between its own
+  // run by the control thread's ServiceExecutor between its own
   // work; the result goes to `reply_to`. Error kUnavailable when the queue
   // is full or the bus does not run (then no result follows). Never blocks.
-  [[nodiscard]] Error submit_remote(RemoteCommand command, std::shared_ptr<RemoteReplies> reply_to);
+  [[nodiscard]] Error submit_service(ServiceRequest command, std::shared_ptr<ServiceReplies> reply_to);
 
  private:
   struct Impl;

@@ -16,7 +16,7 @@ bool BusManager::Impl::start_configurations(TimePoint now) {
   for (auto& m : devices) {
     if (active >= kMaxConcurrentPlans) break;
     if (!m.configuration_due(now)) continue;
-    if (m.st.node_id == remote->sdo_node()) continue;  // a client's transfer runs on it: next turn
+    if (m.st.node_id == services->sdo_node()) continue;  // a client's transfer runs on it: next turn
     m.want_configure = false;
     if (begin_configuration(m, now)) {
       ++active;
@@ -286,7 +286,7 @@ void BusManager::Impl::start_command(DeviceCommand cmd, TimePoint now) {
                                       std::to_string(election->master_node()) + ") runs commands"});
     return;
   }
-  if (m->runner || m->st.node_id == remote->sdo_node()) {
+  if (m->runner || m->st.node_id == services->sdo_node()) {
     report_command(*m, cmd,
                    CommandOutcome{CommandStatus::busy, 0, m->command ? "another command runs" : "being configured"});
     return;

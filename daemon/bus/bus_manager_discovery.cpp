@@ -20,7 +20,7 @@ void BusManager::Impl::start_identity_reads(TimePoint now) {
   if (!channel->is_open()) return;
   for (auto& m : devices) {
     if (!m.identity_due(now)) continue;
-    if (m.st.node_id == remote->sdo_node()) continue;  // a client's transfer runs on it
+    if (m.st.node_id == services->sdo_node()) continue;  // a client's transfer runs on it
     m.begin_identity();
     m.ident = std::make_unique<IdentityReader>(sdo_of(m));
     if (m.ident->start(now)) {

@@ -17,7 +17,7 @@
 
 namespace cobridge::bus {
 
-void BusManager::Impl::on_sdo_written(const RemoteCommand& c, TimePoint now) {
+void BusManager::Impl::on_sdo_written(const ServiceRequest& c, TimePoint now) {
   for (auto& m : devices) {
     if (m.in_config && m.st.node_id == c.node) note_client_write(m, c.index, c.sub, c.data, c.caller, now);
   }

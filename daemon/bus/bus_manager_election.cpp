@@ -97,7 +97,7 @@ void BusManager::Impl::on_election(const canopen::ElectionEvent& e) {
     case MasterRole::standby:
       if (e.previous == MasterRole::master) {
         runners_abort();
-        remote->abort_all("this gateway is standby now");
+        services->abort_all("this gateway is standby now");
       }
       break;
     case MasterRole::negotiating:
@@ -170,8 +170,8 @@ void BusManager::Impl::tell_outputs(const canopen::ElectionEvent& e) {
 TimePoint BusManager::Impl::run_standby(TimePoint now, TimePoint next) {
   next = std::min(next, supervisor.process(now, tx));  // its timers; a guarding request is refused
   follow_heard_devices();
-  if (remote->waiting() != 0) {
-    remote->abort_all(fmt::format("this gateway is standby on bus {}; the master is node {}", bus.name,
+  if (services->waiting() != 0) {
+    services->abort_all(fmt::format("this gateway is standby on bus {}; the master is node {}", bus.name,
                                   election->master_node()));
   }
   for (auto& m : devices) next = std::min(next, m.emcy_log.report_due());

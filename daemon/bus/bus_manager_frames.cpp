@@ -16,8 +16,8 @@ void BusManager::Impl::dispatch(const can::Frame& frame, TimePoint now) {
   if (standby()) listen_as_standby(frame, now);
   if (frame.id > canopen::cob::kSdoRxBase && frame.id <= canopen::cob::kSdoRxBase + 127) return;
   // While a client's LSS command runs, its answers are not discovery's.
-  if (frame.id != canopen::cob::kLssSlaveToMaster || !remote->lss_session(now)) discovery->on_frame(frame, now);
-  remote->on_frame(frame, now);
+  if (frame.id != canopen::cob::kLssSlaveToMaster || !services->lss_session(now)) discovery->on_frame(frame, now);
+  services->on_frame(frame, now);
   supervisor.on_frame(frame, now);
   for (auto& m : devices) {
     if (m.runner) m.runner->on_frame(frame, now);
@@ -45,9 +45,9 @@ TimePoint BusManager::Impl::run_components(TimePoint now) {
     next = std::min(next, report_ignored_election_frames(now));
     if (standby()) return run_standby(now, next);
   }
-  if (!remote->lss_session(now)) next = std::min(next, discovery->process(now));
-  next = std::min(next, remote->process(now, *this));
-  remote_waiting.store(remote->waiting(), std::memory_order_relaxed);
+  if (!services->lss_session(now)) next = std::min(next, discovery->process(now));
+  next = std::min(next, services->process(now, *this));
+  services_waiting.store(services->waiting(), std::memory_order_relaxed);
   next = std::min(next, supervisor.process(now, tx));
   next = std::min(next, sync.process(now, tx));
   for (auto& m : devices) {

@@ -5,7 +5,7 @@
 // and bus events of the protocol components; supervision),
 // bus_manager_discovery.cpp (discovery and the identity check of buses
 // without it), bus_manager_configure.cpp (configuration plans and plugins'
-// commands), bus_manager_remote.cpp (the RemoteGate for clients' commands),
+// commands), bus_manager_service.cpp (the ServiceGate for clients' commands),
 // bus_manager_drift.cpp (clients' writes of configured objects),
 // bus_manager_health.cpp (the controller over netlink, the bus's health to
 // the observer) and bus_manager_status.cpp (the published status). What
@@ -37,8 +37,8 @@
 #include "bus/restore_guard.hpp"
 #include "bus/stamp_clock.hpp"
 #include "bus/plan_runner.hpp"
-#include "bus/remote/remote_executor.hpp"
-#include "bus/remote/remote_target.hpp"
+#include "bus/service/service_executor.hpp"
+#include "bus/service/service_target.hpp"
 #include "bus/supervisor.hpp"
 #include "bus/timeline_journal_thread.hpp"
 #include "sys/logging.hpp"
@@ -69,7 +69,7 @@ constexpr std::size_t kMaxReceiveBatches = 16;   // per loop turn, so timers sti
 constexpr milliseconds kMaxPollWait{1000};
 constexpr milliseconds kRebootFallbackDelay{500};
 constexpr std::size_t kMaxQueuedCommands = 16;    // per bus, waiting for the control thread
-constexpr std::size_t kMaxRemoteCommands = 256;   // client commands per bus, queued or waiting for their node
+constexpr std::size_t kMaxServiceRequests = 256;   // client commands per bus, queued or waiting for their node
 // A re-plugged adapter is opened at most this long after it appears, so
 // its devices are configured again within 2 s of its return.
 constexpr milliseconds kReopenBackoffMax{500};
@@ -85,7 +85,7 @@ constexpr std::chrono::seconds kRoleLogWindow{60};
 
 }  // namespace
 
-struct BusManager::Impl final : RemoteGate {
+struct BusManager::Impl final : ServiceGate {
   Impl(const config::Config& config_in, std::size_t index, const device::DeviceCatalog& catalog_in,
        StateStore& state_in, BusManagerOptions options_in);
 
@@ -244,7 +244,7 @@ struct BusManager::Impl final : RemoteGate {
   void take_commands(TimePoint now);
   void apply_reload(config::Config next, TimePoint now);
 
-  // ---- clients' commands (RemoteGate) ------------------------------------------
+  // ---- clients' commands (ServiceGate) ------------------------------------------
 
   bool node_free(std::uint8_t node) const override;
   bool node_supervised(std::uint8_t node) const override;
@@ -253,7 +253,7 @@ struct BusManager::Impl final : RemoteGate {
 
   void on_nmt_sent(canopen::NmtCommand command, std::uint8_t node, const std::string& caller) override;
   void on_lss_node_id(const canopen::LssAddress& device, std::uint8_t node, bool stored) override;
-  void on_sdo_written(const RemoteCommand& c, TimePoint now) override;
+  void on_sdo_written(const ServiceRequest& c, TimePoint now) override;
 
   // ---- configuration drift (bus_manager_drift.cpp) ------------------------------
 
@@ -341,7 +341,7 @@ struct BusManager::Impl final : RemoteGate {
   // Why node-IDs must not be assigned (the state file could not be read;
   // StateStore::hold): the first of the bus's problems while not empty.
   std::string state_hold;
-  std::unique_ptr<RemoteExecutor> remote;
+  std::unique_ptr<ServiceExecutor> services;
   Supervisor supervisor;
   canopen::SyncProducer sync;
   std::vector<DeviceAgent> devices;
@@ -434,7 +434,7 @@ struct BusManager::Impl final : RemoteGate {
   std::atomic<bool> open_flag{false};
   std::atomic<bool> ready_latched{false};
   std::atomic<Clock::rep> loop_alive{0};
-  std::atomic<std::size_t> remote_waiting{0};  // client commands in the executor (kMaxRemoteCommands)  // steady_clock ticks of the last loop turn (watchdog)
+  std::atomic<std::size_t> services_waiting{0};  // client commands in the executor (kMaxServiceRequests)  // steady_clock ticks of the last loop turn (watchdog)
 
   // Shared with the callers of status()/reload()/request_commission().
   mutable std::mutex mutex;
@@ -443,7 +443,7 @@ struct BusManager::Impl final : RemoteGate {
   std::vector<std::pair<std::string, std::string>> pending_acks;  // (device, caller)
   std::optional<config::Config> pending_reload;
   std::deque<DeviceCommand> pending_commands;
-  std::deque<std::pair<RemoteCommand, std::shared_ptr<RemoteReplies>>> pending_remote;
+  std::deque<std::pair<ServiceRequest, std::shared_ptr<ServiceReplies>>> pending_services;
 };
 
 }  // namespace cobridge::bus

@@ -11,7 +11,7 @@
 // read-only; safe to read from any thread once published.
 #pragma once
 
-#include "config/remote_access.hpp"
+#include "config/service_access.hpp"
 
 #include <chrono>
 #include <cstddef>
@@ -242,7 +242,7 @@ struct Config {
   std::vector<Output> outputs;
   std::optional<WebSettings> web;  // absent = no web service
   std::optional<RedundancySettings> redundancy;  // absent = no standby: this gateway is master
-  RemoteAccess remote;             // [control], [ascii_gateway]
+  ServiceAccess services;             // [control], [ascii_gateway]
 
   [[nodiscard]] const Bus* find_bus(std::string_view name) const noexcept {
     for (const auto& b : buses) {

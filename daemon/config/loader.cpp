@@ -1,7 +1,7 @@
 // The Loader's frame: the sections in order, paths, arrays of tables and
 // entry names, and the syntax checks several sections share.
 #include "config/loader.hpp"
-#include "config/remote_access_section.hpp"
+#include "config/service_access_section.hpp"
 
 #include "config/toml_limits.hpp"
 
@@ -81,7 +81,7 @@ LoadResult Loader::run(std::string_view text) {
   read_tables(root, "device", &Loader::read_device);
   read_outputs(top);
   read_web(top);
-  read_remote_access(top, sink_, config_.remote);
+  read_service_access(top, sink_, config_.services);
   read_redundancy(top);
   cross_check();
   check_redundancy_node();

@@ -49,7 +49,7 @@ std::uint32_t little_endian(const std::vector<std::uint8_t>& data) {
   return v;
 }
 
-void write_lss(JsonWriter& w, const bus::RemoteCommand& c) {
+void write_lss(JsonWriter& w, const bus::ServiceRequest& c) {
   std::uint32_t serial = 0;
   bool stored = false;
   for (const auto& s : c.lss_steps) {
@@ -61,24 +61,24 @@ void write_lss(JsonWriter& w, const bus::RemoteCommand& c) {
 
 }  // namespace
 
-std::string remote_answer(const ControlRequest& request, const bus::RemoteResult& result) {
+std::string service_answer(const ControlRequest& request, const bus::ServiceResult& result) {
   if (result.error) return error_answer(result.error, result.abort_code);
-  const bus::RemoteCommand& c = request.command;
+  const bus::ServiceRequest& c = request.command;
   JsonWriter w;
   w.begin_object().field("ok", true).field("via", "daemon").field("bus", request.bus).field("node", c.node);
   switch (c.op) {
-    case bus::RemoteOp::sdo_upload:
+    case bus::ServiceOp::sdo_upload:
       w.field("index", c.index).field("sub", c.sub).field("size", result.data.size());
       w.field("hex", hex_bytes(result.data));
       if (!result.data.empty() && result.data.size() <= 4) w.field("value", little_endian(result.data));
       break;
-    case bus::RemoteOp::sdo_download:
+    case bus::ServiceOp::sdo_download:
       w.field("index", c.index).field("sub", c.sub).field("size", c.data.size());
       break;
-    case bus::RemoteOp::nmt:
+    case bus::ServiceOp::nmt:
       w.field("command", nmt_name(c.nmt));
       break;
-    case bus::RemoteOp::lss:
+    case bus::ServiceOp::lss:
       write_lss(w, c);
       break;
   }

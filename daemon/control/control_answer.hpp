@@ -11,7 +11,7 @@
 
 #include "base/error.hpp"
 #include "control/control_request.hpp"
-#include "bus/remote/remote_command.hpp"
+#include "bus/service/service_request.hpp"
 
 #include <cstdint>
 #include <string>
@@ -24,8 +24,8 @@ namespace cobridge::control {
 [[nodiscard]] std::string commission_answer(const std::vector<std::string>& buses, const std::string& message = {});
 // {"ok":true,"name":"...","text":"..."}: a flight-recorder capture's frames.
 [[nodiscard]] std::string capture_answer(const std::string& name, const std::string& text);
-// The outcome of `request` (a remote kind): an error_answer, or e.g.
+// The outcome of `request` (a service kind): an error_answer, or e.g.
 // {"ok":true,"bus":"line1","node":10,"index":4120,"sub":4,"size":4,"hex":"E9030000","value":1001}
-[[nodiscard]] std::string remote_answer(const ControlRequest& request, const bus::RemoteResult& result);
+[[nodiscard]] std::string service_answer(const ControlRequest& request, const bus::ServiceResult& result);
 
 }  // namespace cobridge::control

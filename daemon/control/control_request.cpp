@@ -59,12 +59,12 @@ ControlRequest parse_sdo(const std::vector<std::string_view>& w, bool write) {
   if (!parse_unsigned(w[3], 0xFFFF, index, true)) return invalid("index \"" + quoted_input(w[3]) + "\" (hex 0..FFFF)");
   if (!parse_unsigned(w[4], 0xFF, sub)) return invalid("sub-index \"" + quoted_input(w[4]) + "\" (0..255)");
   ControlRequest r;
-  r.command.op = write ? bus::RemoteOp::sdo_download : bus::RemoteOp::sdo_upload;
+  r.command.op = write ? bus::ServiceOp::sdo_download : bus::ServiceOp::sdo_upload;
   if (write && !parse_hex_bytes(w[5], 1024, r.command.data))
     return invalid("data \"" + quoted_input(w[5]) + "\" (1..1024 bytes as hex digit pairs)");
   if (w.size() == fixed + 1 && (!parse_unsigned(w[fixed], 60000, timeout) || timeout < 10))
     return invalid("timeout \"" + quoted_input(w[fixed]) + "\" (10..60000 ms)");
-  r.kind = ControlRequest::Kind::remote;
+  r.kind = ControlRequest::Kind::service;
   r.bus = std::string(w[1]);
   r.command.node = static_cast<std::uint8_t>(node);
   r.command.index = static_cast<std::uint16_t>(index);
@@ -87,9 +87,9 @@ ControlRequest parse_nmt(const std::vector<std::string_view>& w) {
   else return invalid("NMT command \"" + quoted_input(w[2]) + "\" (allowed: start, stop, preop, reset, reset-comm)");
   std::uint64_t node = 0;
   if (!parse_unsigned(w[3], 127, node)) return invalid("node \"" + quoted_input(w[3]) + "\" (allowed: 0..127)");
-  r.kind = ControlRequest::Kind::remote;
+  r.kind = ControlRequest::Kind::service;
   r.bus = std::string(w[1]);
-  r.command.op = bus::RemoteOp::nmt;
+  r.command.op = bus::ServiceOp::nmt;
   r.command.node = static_cast<std::uint8_t>(node);
   return r;
 }
@@ -107,9 +107,9 @@ ControlRequest parse_lss_set(const std::vector<std::string_view>& w) {
   if (w.size() == 9 && (!parse_unsigned(w[8], 10000, timeout) || timeout < 10))
     return invalid("timeout \"" + quoted_input(w[8]) + "\" (10..10000 ms)");
   ControlRequest r;
-  r.kind = ControlRequest::Kind::remote;
+  r.kind = ControlRequest::Kind::service;
   r.bus = std::string(w[1]);
-  r.command.op = bus::RemoteOp::lss;
+  r.command.op = bus::ServiceOp::lss;
   const canopen::LssAddress a{static_cast<std::uint32_t>(f[0]), static_cast<std::uint32_t>(f[1]),
                               static_cast<std::uint32_t>(f[2]), static_cast<std::uint32_t>(f[3])};
   auto& s = r.command.lss_steps;

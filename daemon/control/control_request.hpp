@@ -19,7 +19,7 @@
 #pragma once
 
 #include "base/error.hpp"
-#include "bus/remote/remote_command.hpp"
+#include "bus/service/service_request.hpp"
 
 #include <string>
 #include <string_view>
@@ -27,10 +27,10 @@
 namespace cobridge::control {
 
 struct ControlRequest {
-  enum class Kind { invalid, status, commission, remote, capture_now, capture_get, acknowledge } kind = Kind::invalid;
-  std::string bus;        // commission, capture_now: the bus (empty = every bus); remote: bus name or interface
+  enum class Kind { invalid, status, commission, service, capture_now, capture_get, acknowledge } kind = Kind::invalid;
+  std::string bus;        // commission, capture_now: the bus (empty = every bus); service: bus name or interface
   std::string name;       // capture_get: the capture's file name; acknowledge: the device
-  bus::RemoteCommand command;  // remote: what to run (tag and caller left for the server)
+  bus::ServiceRequest command;  // service: what to run (tag and caller left for the server)
   Error error;            // invalid: kInvalidArgument with what is wrong, printable ASCII only
 };
 

@@ -31,7 +31,7 @@ std::string bus_where(const std::string& bus) { return bus.empty() ? std::string
 ControlServer::ControlServer(ControlHandler& handler, ControlServerOptions options)
     : handler_(handler),
       options_(options),
-      remote_(options.remote != nullptr ? *options.remote : static_cast<bus::RemoteTarget&>(no_buses_)) {}
+      services_(options.services != nullptr ? *options.services : static_cast<bus::ServiceTarget&>(no_buses_)) {}
 
 ControlServer::~ControlServer() { close(); }
 
@@ -93,7 +93,7 @@ Error ControlServer::open(const std::filesystem::path& path) {
 }
 
 void ControlServer::open_ascii_gateway() {
-  const auto access = remote_.access();
+  const auto access = services_.access();
   if (!access) return;  // no bus runs yet
   ascii_tried_ = true;
   const config::AsciiGatewaySettings& a = access->ascii;
@@ -104,7 +104,7 @@ void ControlServer::open_ascii_gateway() {
   o.writes_enabled = a.writes_enabled;
   for (const std::string& net : a.write_allow) (void)o.write_allow.add(net);  // checked by the loader
   o.write_group = a.write_group;
-  ascii_ = std::make_unique<AsciiServer>(remote_, o);
+  ascii_ = std::make_unique<AsciiServer>(services_, o);
   const auto path = a.socket.empty() ? path_.parent_path() / "ascii.sock" : a.socket;
   const auto log = sys::logger("gateway");
   if (const Error e = ascii_->open_unix(path)) log->error("ascii gateway: {}", e.to_string());
@@ -261,7 +261,7 @@ void ControlServer::answer(Client& c, std::string_view line, TimePoint now) {
 }
 
 std::string ControlServer::write_refusal(const Client& c) const {
-  const auto access = remote_.access();
+  const auto access = services_.access();
   if (!access || !access->control.writes_enabled)
     return "writes through the control socket are disabled ([control] writes_enabled = false)";
   return write_group_refusal(c.peer, access->control.write_group, ::geteuid());
@@ -305,7 +305,7 @@ std::string ControlServer::policed(const Client& c, std::string_view what, const
 }
 
 void ControlServer::submit(Client& c, ControlRequest request, TimePoint now) {
-  bus::RemoteCommand& cmd = request.command;
+  bus::ServiceRequest& cmd = request.command;
   cmd.caller = c.peer.to_string() + " (control socket)";
   if (cmd.is_write()) {
     const auto log = sys::logger("gateway");
@@ -318,7 +318,7 @@ void ControlServer::submit(Client& c, ControlRequest request, TimePoint now) {
   }
   cmd.tag = next_tag_++;
   const auto wait = cmd.deadline + std::chrono::seconds(2);
-  if (Error e = remote_.submit(request.bus, cmd, replies_)) {
+  if (Error e = services_.submit(request.bus, cmd, replies_)) {
     c.out = error_answer(e);
     return;
   }
@@ -332,7 +332,7 @@ void ControlServer::deliver(TimePoint now) {
     const auto it = std::find_if(clients_.begin(), clients_.end(),
                                  [&](const Client& c) { return c.waiting_tag == r.tag; });
     if (it == clients_.end()) continue;  // its client left
-    it->out += remote_answer(it->pending, r);
+    it->out += service_answer(it->pending, r);
     it->out += '\n';
     it->waiting_tag = 0;
     it->pending = {};

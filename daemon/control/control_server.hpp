@@ -18,12 +18,12 @@
 //                         the bus's control thread has run the command
 //   a failure          -> {"ok": false, "error": {"code": ..., "where": ..., "message": ...}}
 //
-// Clients' commands go to a RemoteTarget (the daemon's BusRegistry, which
+// Clients' commands go to a ServiceTarget (the daemon's BusRegistry, which
 // app/ makes and hands to the buses and to this server): the daemon stays the one master of its buses.
 // Writes (sdo-write, nmt, lss-set-node-id, commission, capture-now, acknowledge) are
 // refused unless [control] writes_enabled is set and the caller (SO_PEERCRED) is root, the daemon's
 // own user or a member of [control] write_group (a caller the kernel cannot
-// name is none of them: remote/peer_credentials.hpp); each write is logged
+// name is none of them: peer_credentials.hpp); each write is logged
 // with the caller's uid and pid. While a client's command runs, that client's
 // next request waits; other clients are served meanwhile.
 //
@@ -35,7 +35,7 @@
 // the client does not read within `client_timeout` is dropped with the
 // connection, and there are at most `max_clients` connections.
 //
-// The CiA 309-3 ASCII gateway (remote/ascii_server.hpp) is driven from here
+// The CiA 309-3 ASCII gateway (ascii/ascii_server.hpp) is driven from here
 // too, so the daemon's main loop serves it without a line of its own: it is
 // opened once the first bus runs and the registry holds [ascii_gateway]
 // enabled (socket: ascii_gateway.socket, default "ascii.sock" beside the
@@ -46,7 +46,7 @@
 // after, like every component that waits on file descriptors. The handler
 // is called from process(), on that thread. A client's SDO / NMT / LSS
 // command runs on its bus's control thread, which only pushes the result to
-// this server's RemoteReplies (its eventfd wakes the loop); the answer is
+// this server's ServiceReplies (its eventfd wakes the loop); the answer is
 // formatted and written here, so one thread reads and writes a client's
 // socket. While its command runs a client's socket is not polled: its next
 // request waits there, in order, and the command's deadline bounds the wait.
@@ -57,10 +57,10 @@
 #include "control/control_request.hpp"
 #include "bus/device_status.hpp"
 #include "control/line_connection.hpp"
-#include "control/remote/ascii_server.hpp"
-#include "control/remote/peer_credentials.hpp"
-#include "bus/remote/remote_replies.hpp"
-#include "bus/remote/remote_target.hpp"
+#include "control/ascii/ascii_server.hpp"
+#include "control/peer_credentials.hpp"
+#include "bus/service/service_replies.hpp"
+#include "bus/service/service_target.hpp"
 #include "control/status_report.hpp"
 
 #include <poll.h>
@@ -108,7 +108,7 @@ struct ControlServerOptions {
   std::chrono::milliseconds client_timeout{2000};
   std::size_t max_line = 256;
   std::size_t max_clients = 16;
-  bus::RemoteTarget* remote = nullptr;  // nullptr: no bus takes client commands
+  bus::ServiceTarget* services = nullptr;  // nullptr: no bus takes client commands
 };
 
 class ControlServer {
@@ -177,8 +177,8 @@ class ControlServer {
   ControlHandler& handler_;
   bus::BusRegistry no_buses_;  // the target when the options name none
   ControlServerOptions options_;
-  bus::RemoteTarget& remote_;
-  std::shared_ptr<bus::RemoteReplies> replies_ = std::make_shared<bus::RemoteReplies>();
+  bus::ServiceTarget& services_;
+  std::shared_ptr<bus::ServiceReplies> replies_ = std::make_shared<bus::ServiceReplies>();
   std::uint64_t next_tag_ = 1;
   bool ascii_tried_ = false;
   std::unique_ptr<AsciiServer> ascii_;

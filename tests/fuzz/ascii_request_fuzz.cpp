@@ -1,5 +1,5 @@
 // Fuzz target: the CiA 309-3 ASCII gateway's request parser
-// (daemon/control/remote/ascii_request.*). Any line gives a request or one
+// (daemon/control/ascii/ascii_request.*). Any line gives a request or one
 // of the standard's error numbers; a read answer is formatted for every type.
 //
 // Accepted implies representable. Whenever the parser accepts a
@@ -15,7 +15,7 @@
 #include <string>
 #include <string_view>
 
-#include "control/remote/ascii_request.hpp"
+#include "control/ascii/ascii_request.hpp"
 
 namespace {
 

@@ -1,11 +1,11 @@
-// The RemoteExecutor tests' bus: a CAN sink that records what is sent, and
-// a RemoteGate the test scripts (busy and supervised nodes; NMT commands
+// The ServiceExecutor tests' bus: a CAN sink that records what is sent, and
+// a ServiceGate the test scripts (busy and supervised nodes; NMT commands
 // recorded). Test thread only.
 #pragma once
 
 #include "can/frame.hpp"
 #include "can/frame_sink.hpp"
-#include "bus/remote/remote_executor.hpp"
+#include "bus/service/service_executor.hpp"
 
 #include <chrono>
 #include <cstdint>
@@ -24,25 +24,25 @@ struct RecordingSink : can::FrameSink {
   std::vector<can::Frame> sent;
 };
 
-struct ScriptedGate : RemoteGate {
+struct ScriptedGate : ServiceGate {
   bool node_free(std::uint8_t node) const override { return busy.count(node) == 0; }
   bool node_supervised(std::uint8_t node) const override { return supervised.count(node) != 0; }
   bool lss_allowed() const override { return true; }
   void on_nmt_sent(canopen::NmtCommand, std::uint8_t node, const std::string&) override { nmt.push_back(node); }
   void on_lss_node_id(const canopen::LssAddress&, std::uint8_t, bool) override {}
-  void on_sdo_written(const RemoteCommand& c, canopen::TimePoint) override { written.push_back(c); }
+  void on_sdo_written(const ServiceRequest& c, canopen::TimePoint) override { written.push_back(c); }
   std::set<std::uint8_t> busy, supervised;
   std::vector<std::uint8_t> nmt;
-  std::vector<RemoteCommand> written;  // confirmed downloads
+  std::vector<ServiceRequest> written;  // confirmed downloads
 };
 
 // One bus "line1" as its control thread sees it: the executor under test,
 // its sink and gate, a reply queue, a start time.
-struct RemoteBus {
+struct ServiceBus {
   // CiA 301 §7.2.4.3.6: an expedited upload of 0x1018:4 (serial) from `node`, tag 7.
-  static RemoteCommand upload(std::uint8_t node) {
-    RemoteCommand c;
-    c.op = RemoteOp::sdo_upload;
+  static ServiceRequest upload(std::uint8_t node) {
+    ServiceRequest c;
+    c.op = ServiceOp::sdo_upload;
     c.node = node;
     c.index = 0x1018;
     c.sub = 4;
@@ -54,8 +54,8 @@ struct RemoteBus {
 
   RecordingSink bus;
   ScriptedGate gate;
-  RemoteExecutor ex{bus, "line1", std::chrono::milliseconds(100)};
-  std::shared_ptr<RemoteReplies> replies = std::make_shared<RemoteReplies>();
+  ServiceExecutor ex{bus, "line1", std::chrono::milliseconds(100)};
+  std::shared_ptr<ServiceReplies> replies = std::make_shared<ServiceReplies>();
   canopen::TimePoint t0 = canopen::TimePoint{} + std::chrono::hours(1);
 };
 

@@ -1,7 +1,7 @@
 // AsciiRequest: CiA 309-3 (ASCII gateway) command lines and value encodings:
 // request syntax "[seq] [[net] node] command", the
 // error numbers 100..107 and 50x, the data types of the standard's table.
-#include "control/remote/ascii_request.hpp"
+#include "control/ascii/ascii_request.hpp"
 
 #include <gtest/gtest.h>
 
@@ -15,7 +15,7 @@ using cobridge::control::AsciiError;
 using cobridge::control::AsciiRequest;
 using cobridge::control::AsciiType;
 using cobridge::bus::LssStep;
-using cobridge::bus::RemoteOp;
+using cobridge::bus::ServiceOp;
 using cobridge::control::ascii_format;
 using cobridge::control::parse_ascii_request;
 
@@ -39,7 +39,7 @@ TEST(AsciiRequest, ReadWithNetNodeAndType) {
 TEST(AsciiRequest, WriteEncodesLittleEndian) {
   const auto r = parse_ascii_request("[3] 10 w 0x1017 0 u16 1000");
   ASSERT_EQ(r.kind, AsciiRequest::Kind::write);
-  EXPECT_EQ(r.command.op, bus::RemoteOp::sdo_download);
+  EXPECT_EQ(r.command.op, bus::ServiceOp::sdo_download);
   EXPECT_EQ(r.command.data, (std::vector<std::uint8_t>{0xE8, 0x03}));
   const auto i = parse_ascii_request("[4] 10 w 0x2000 0 i8 -2");
   EXPECT_EQ(i.command.data, (std::vector<std::uint8_t>{0xFE}));

@@ -1,9 +1,9 @@
-// AsciiServer (gateway/remote/ascii_server.hpp): a gateway that cannot open
+// AsciiServer (control/ascii/ascii_server.hpp): a gateway that cannot open
 // says what failed where, in the one error shape (base/error.hpp), and the
 // daemon keeps running without it; a CiA 309-3 request's answer is written
 // by the thread that owns the connection (the server's), in the order of the
 // requests, with the request's sequence number.
-#include "control/remote/ascii_server.hpp"
+#include "control/ascii/ascii_server.hpp"
 
 #include "held_commands.hpp"
 
@@ -31,13 +31,13 @@ namespace {
 using cobridge::Errc;
 using namespace cobridge::control;
 
-class NoBuses final : public bus::RemoteTarget {
+class NoBuses final : public bus::ServiceTarget {
  public:
-  [[nodiscard]] std::vector<bus::RemoteBus> buses() const override { return {}; }
-  [[nodiscard]] cobridge::Error submit(std::string_view, bus::RemoteCommand, std::shared_ptr<bus::RemoteReplies>) override {
+  [[nodiscard]] std::vector<bus::ServiceBus> buses() const override { return {}; }
+  [[nodiscard]] cobridge::Error submit(std::string_view, bus::ServiceRequest, std::shared_ptr<bus::ServiceReplies>) override {
     return cobridge::Error(Errc::kNotFound, "no bus");
   }
-  [[nodiscard]] std::optional<cobridge::config::RemoteAccess> access() const override { return std::nullopt; }
+  [[nodiscard]] std::optional<cobridge::config::ServiceAccess> access() const override { return std::nullopt; }
 };
 
 TEST(AsciiServer, BadTcpAddressNamesAddressAndPort) {
@@ -147,7 +147,7 @@ TEST(AsciiServer, ReadAnswerIsWrittenByTheServersTurnInOrder) {
   HeldGateway g;
   g.send("[1] 1 20 r 0x1018 4 u32\n[2] 1 20 r 0x1018 1 u32\n");  // pipelined
   ASSERT_TRUE(g.run_until_held(1));
-  bus::RemoteResult r;
+  bus::ServiceResult r;
   r.data = {0xD1, 0x07, 0x00, 0x00};
   ASSERT_TRUE(g.bus.finish(r));
   EXPECT_EQ(read_line(g.fd, 100), "<timeout>") << "the answer was written by a thread other than the owner";
@@ -178,7 +178,7 @@ TEST(AsciiServer, AReadUsesTheConnectionsDefaultsAndLaterLinesWaitTheirTurn) {
   g.send("[6] info version\n");
   g.turn();
   EXPECT_EQ(read_line(g.fd, 100), "<timeout>") << "a line was answered before the read it follows";
-  bus::RemoteResult r;
+  bus::ServiceResult r;
   r.data = {0xD1, 0x07, 0x00, 0x00};
   ASSERT_TRUE(g.bus.finish(r));
   g.turn();
@@ -209,7 +209,7 @@ TEST(AsciiServer, EveryAnswerEndsWithCrLfAndCrLfRequestsAreServed) {
   // A bus command's result.
   g.send("[6] r 0x1018 4 u32\r\n");
   ASSERT_TRUE(g.run_until_held(1));
-  bus::RemoteResult r;
+  bus::ServiceResult r;
   r.data = {0xD1, 0x07, 0x00, 0x00};
   ASSERT_TRUE(g.bus.finish(r));
   g.turn();
@@ -218,7 +218,7 @@ TEST(AsciiServer, EveryAnswerEndsWithCrLfAndCrLfRequestsAreServed) {
   // A device's abort.
   g.send("[7] 1 20 r 0x1018 1 u32\r\n");
   ASSERT_TRUE(g.run_until_held(1));
-  bus::RemoteResult abort;
+  bus::ServiceResult abort;
   abort.error = cobridge::Error(Errc::kFailed, "aborted");
   abort.abort_code = 0x06020000;
   ASSERT_TRUE(g.bus.finish(abort));

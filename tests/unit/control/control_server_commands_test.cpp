@@ -42,7 +42,7 @@ TEST(ControlServer, OnlyTheMainLoopWritesACommandsAnswer) {
   FakeHandler h;
   HeldCommands bus;
   ControlServerOptions o = fast_options();
-  o.remote = &bus;
+  o.services = &bus;
   const auto dir = std::filesystem::path("/tmp") / ("cobridge-ctl-owner-" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   ControlServer server(h, o);
@@ -73,7 +73,7 @@ TEST(ControlServer, OnlyTheMainLoopWritesACommandsAnswer) {
   };
   c.send("sdo-read line1 20 1018 4\n");
   ASSERT_TRUE(run_until_held(1));
-  bus::RemoteResult r;
+  bus::ServiceResult r;
   r.data = {0xD1, 0x07, 0x00, 0x00};
   ASSERT_TRUE(bus.finish(r));
   EXPECT_EQ(c.line(kAbsenceWindow), "<timeout>") << "the answer was written by a thread other than the owner";
@@ -96,7 +96,7 @@ TEST(ControlServer, AnswerTheSocketCannotTakeIsFinishedByTheMainLoop) {
   FakeHandler h;
   HeldCommands bus;
   ControlServerOptions o = fast_options();
-  o.remote = &bus;
+  o.services = &bus;
   // A reading client is not what is checked here: 800 kB formatted and
   // sent by the main loop take longer than 500 ms under TSan on a busy host.
   o.client_timeout = 5s;
@@ -105,7 +105,7 @@ TEST(ControlServer, AnswerTheSocketCannotTakeIsFinishedByTheMainLoop) {
   ASSERT_TRUE(c.connected());
   c.send("sdo-read line1 20 2000 0\n");
   ASSERT_TRUE(eventually([&] { return bus.held() != 0; }, 2s));
-  bus::RemoteResult r;
+  bus::ServiceResult r;
   r.data.assign(400000, 0xAB);
   ASSERT_TRUE(bus.finish(r));
   const std::string a = c.line(5000ms);
@@ -128,10 +128,10 @@ namespace {
 // that polls for up to 10 s, so that a request or result left for the
 // loop's own tick fails a test (bounded at 2 s) rather than passing late.
 struct SlowTick {
-  static ControlServerOptions options(HeldCommands& remote) {
+  static ControlServerOptions options(HeldCommands& services) {
     ControlServerOptions o = fast_options();
     o.client_timeout = 30s;
-    o.remote = &remote;
+    o.services = &services;
     return o;
   }
   // Whether the bus holds `n` commands within 2 s.
@@ -154,7 +154,7 @@ struct SlowTick {
   }
   // Ends the oldest held command with a 4-byte value (little-endian).
   bool finish(std::uint32_t value) {
-    bus::RemoteResult r;
+    bus::ServiceResult r;
     r.data = {static_cast<std::uint8_t>(value), static_cast<std::uint8_t>(value >> 8),
               static_cast<std::uint8_t>(value >> 16), static_cast<std::uint8_t>(value >> 24)};
     return bus.finish(r);

@@ -192,8 +192,8 @@ inline ControlServerOptions fast_options() {
 }
 
 // [control] writes_enabled, any caller that may connect.
-inline config::RemoteAccess writes_open() {
-  config::RemoteAccess a;
+inline config::ServiceAccess writes_open() {
+  config::ServiceAccess a;
   a.control.writes_enabled = true;
   a.control.write_group.clear();
   return a;
@@ -217,11 +217,11 @@ using cobridge::control::ControlServer;
 using cobridge::control::ControlServerOptions;
 using cobridge::bus::DeviceState;
 using cobridge::bus::DeviceStatus;
-using cobridge::bus::RemoteBus;
-using cobridge::bus::RemoteCommand;
-using cobridge::bus::RemoteReplies;
-using cobridge::bus::RemoteResult;
-using cobridge::bus::RemoteTarget;
+using cobridge::bus::ServiceBus;
+using cobridge::bus::ServiceRequest;
+using cobridge::bus::ServiceReplies;
+using cobridge::bus::ServiceResult;
+using cobridge::bus::ServiceTarget;
 using cobridge::control::StatusReport;
 using Clock = std::chrono::steady_clock;
 using cobridge::control::testing::Client;

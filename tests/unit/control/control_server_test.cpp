@@ -117,7 +117,7 @@ TEST(ControlServer, CommissionReachesTheHandlerAndErrorsAreJson) {
   HeldCommands bus;
   bus.set_access(writes_open());
   ControlServerOptions o = fast_options();
-  o.remote = &bus;
+  o.services = &bus;
   ServerLoop loop(h, o);
   Client c(loop.path());
   c.send("commission\n");
@@ -143,12 +143,12 @@ TEST(ControlServer, CommissionReachesTheHandlerAndErrorsAreJson) {
 std::string answer_under_the_write_policy(FakeHandler& h, const std::string& verb) {
   HeldCommands bus;
   ControlServerOptions o = fast_options();
-  o.remote = &bus;
+  o.services = &bus;
   ServerLoop loop(h, o);
   Client c(loop.path());
   c.send(verb + " line1\n");  // no configuration at all
   EXPECT_NE(c.line().find("\"code\":\"permission_denied\",\"where\":\"bus 'line1'\""), std::string::npos);
-  config::RemoteAccess closed = writes_open();
+  config::ServiceAccess closed = writes_open();
   closed.control.writes_enabled = false;
   bus.set_access(closed);
   c.send(verb + "\n");
@@ -157,7 +157,7 @@ std::string answer_under_the_write_policy(FakeHandler& h, const std::string& ver
   EXPECT_NE(refused.find("\"where\":\"every bus\""), std::string::npos) << refused;
   if (::geteuid() != 0) {
     // As a caller that is neither root nor the daemon's user: a group nobody is in.
-    config::RemoteAccess grouped = writes_open();
+    config::ServiceAccess grouped = writes_open();
     grouped.control.write_group = "cobridge-test-nosuch-group";
     bus.set_access(grouped);
     c.send(verb + " line1\n");
@@ -198,10 +198,10 @@ TEST(ControlServer, AcknowledgeIsUnderTheWritePolicy) {
   FakeHandler h;
   HeldCommands bus;
   ControlServerOptions o = fast_options();
-  o.remote = &bus;
+  o.services = &bus;
   ServerLoop loop(h, o);
   Client c(loop.path());
-  config::RemoteAccess closed = writes_open();
+  config::ServiceAccess closed = writes_open();
   closed.control.writes_enabled = false;
   bus.set_access(closed);
   c.send("acknowledge rot-a\n");

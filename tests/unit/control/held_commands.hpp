@@ -1,6 +1,6 @@
-// HeldCommands: a RemoteTarget with one bus (net 1, "line1" on vcan0) whose
+// HeldCommands: a ServiceTarget with one bus (net 1, "line1" on vcan0) whose
 // control thread is the test: submitted commands wait until finish() ends
-// the oldest one the way RemoteExecutor::reply() does (the result, with the
+// the oldest one the way ServiceExecutor::reply() does (the result, with the
 // command's tag, pushed to its reply queue). For the control socket and
 // CiA 309-3 gateway tests.
 //
@@ -8,8 +8,8 @@
 // test; both under the mutex.
 #pragma once
 
-#include "bus/remote/remote_replies.hpp"
-#include "bus/remote/remote_target.hpp"
+#include "bus/service/service_replies.hpp"
+#include "bus/service/service_target.hpp"
 
 #include <cstddef>
 #include <deque>
@@ -22,20 +22,20 @@
 
 namespace cobridge::control::testing {
 
-class HeldCommands final : public bus::RemoteTarget {
+class HeldCommands final : public bus::ServiceTarget {
  public:
-  [[nodiscard]] std::vector<bus::RemoteBus> buses() const override { return {{"line1", "vcan0", 1}}; }
-  [[nodiscard]] Error submit(std::string_view, bus::RemoteCommand command, std::shared_ptr<bus::RemoteReplies> to) override {
+  [[nodiscard]] std::vector<bus::ServiceBus> buses() const override { return {{"line1", "vcan0", 1}}; }
+  [[nodiscard]] Error submit(std::string_view, bus::ServiceRequest command, std::shared_ptr<bus::ServiceReplies> to) override {
     const std::lock_guard lock(mutex_);
     held_.emplace_back(std::move(command), std::move(to));
     return {};
   }
-  [[nodiscard]] std::optional<config::RemoteAccess> access() const override {
+  [[nodiscard]] std::optional<config::ServiceAccess> access() const override {
     const std::lock_guard lock(mutex_);
     return access_;
   }
   // What access() answers from now on (nothing = no configuration: writes refused).
-  void set_access(std::optional<config::RemoteAccess> access) {
+  void set_access(std::optional<config::ServiceAccess> access) {
     const std::lock_guard lock(mutex_);
     access_ = std::move(access);
   }
@@ -45,8 +45,8 @@ class HeldCommands final : public bus::RemoteTarget {
     return held_.size();
   }
   // False when no command waits.
-  bool finish(bus::RemoteResult result) {
-    std::pair<bus::RemoteCommand, std::shared_ptr<bus::RemoteReplies>> oldest;
+  bool finish(bus::ServiceResult result) {
+    std::pair<bus::ServiceRequest, std::shared_ptr<bus::ServiceReplies>> oldest;
     {
       const std::lock_guard lock(mutex_);
       if (held_.empty()) return false;
@@ -58,7 +58,7 @@ class HeldCommands final : public bus::RemoteTarget {
     return true;
   }
   // The oldest command still waiting, as the bus would run it (a copy).
-  [[nodiscard]] std::optional<bus::RemoteCommand> oldest() const {
+  [[nodiscard]] std::optional<bus::ServiceRequest> oldest() const {
     const std::lock_guard lock(mutex_);
     if (held_.empty()) return std::nullopt;
     return held_.front().first;
@@ -66,8 +66,8 @@ class HeldCommands final : public bus::RemoteTarget {
 
  private:
   mutable std::mutex mutex_;
-  std::optional<config::RemoteAccess> access_;
-  std::deque<std::pair<bus::RemoteCommand, std::shared_ptr<bus::RemoteReplies>>> held_;
+  std::optional<config::ServiceAccess> access_;
+  std::deque<std::pair<bus::ServiceRequest, std::shared_ptr<bus::ServiceReplies>>> held_;
 };
 
 }  // namespace cobridge::control::testing

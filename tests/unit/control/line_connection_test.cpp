@@ -1,4 +1,4 @@
-// LineConnection (bus/remote/line_connection.hpp): how the control socket and
+// LineConnection (bus/service/line_connection.hpp): how the control socket and
 // the CiA 309-3 gateway receive request lines and send answers, over a real
 // socket pair.
 #include "control/line_connection.hpp"

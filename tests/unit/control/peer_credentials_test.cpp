@@ -8,7 +8,7 @@
 // (and one TCP connection, which carries no credentials); callers with
 // other credentials are forked children that change their groups and user
 // (needs root, as the machines and CI run).
-#include "control/remote/peer_credentials.hpp"
+#include "control/peer_credentials.hpp"
 
 #include <grp.h>
 #include <gtest/gtest.h>

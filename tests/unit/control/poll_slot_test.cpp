@@ -1,4 +1,4 @@
-// PollSlot (bus/remote/poll_slot.hpp): a component touches only what poll()
+// PollSlot (bus/service/poll_slot.hpp): a component touches only what poll()
 // reported ready; without a poll result it tries everything.
 #include "control/poll_slot.hpp"
 

@@ -1,10 +1,10 @@
-// RemoteExecutor: runs the RemoteCommands of one bus (CLI through the
+// ServiceExecutor: runs the ServiceRequests of one bus (CLI through the
 // control socket, CiA 309-3 clients) with the daemon's own protocol
 // services, queued with the bus manager's work.
 //
 // The rules that keep the daemon the one master of its bus:
 //   * one client SDO transfer at a time per bus, and only on a node the bus
-//     manager says is free (RemoteGate::node_free: no configuration,
+//     manager says is free (ServiceGate::node_free: no configuration,
 //     identity read or plugin command runs on it, it is not on its way back
 //     from a reboot); while it runs the bus manager starts none of its own
 //     on that node (sdo_node());
@@ -25,7 +25,7 @@
 //
 // Thread: the bus's control thread owns it, like every protocol component:
 // frames and `now` are passed in, process(now, gate) returns the next
-// deadline. Results are pushed to each command's RemoteReplies, tagged;
+// deadline. Results are pushed to each command's ServiceReplies, tagged;
 // the thread that owns the client's connection writes the answer (nothing
 // here touches a client's socket).
 #pragma once
@@ -35,8 +35,8 @@
 #include "canopen/clock.hpp"
 #include "canopen/lss_master.hpp"
 #include "canopen/sdo_client.hpp"
-#include "bus/remote/remote_command.hpp"
-#include "bus/remote/remote_replies.hpp"
+#include "bus/service/service_request.hpp"
+#include "bus/service/service_replies.hpp"
 
 #include <deque>
 #include <memory>
@@ -46,9 +46,9 @@
 namespace cobridge::bus {
 
 // What the bus manager tells the executor, and learns from it.
-class RemoteGate {
+class ServiceGate {
  public:
-  virtual ~RemoteGate() = default;
+  virtual ~ServiceGate() = default;
   // Node 1..127: a client transfer / NMT command may address it now.
   // Node 0: the whole bus (NMT to all nodes).
   [[nodiscard]] virtual bool node_free(std::uint8_t node) const = 0;
@@ -63,19 +63,19 @@ class RemoteGate {
   // A client's SDO download the device confirmed (CiA 301 §7.2.4.3.3/5):
   // the bus manager compares it with the device's configuration
   // (bus/config_drift.hpp). Called before the client's answer is pushed.
-  virtual void on_sdo_written(const RemoteCommand& command, canopen::TimePoint now) = 0;
+  virtual void on_sdo_written(const ServiceRequest& command, canopen::TimePoint now) = 0;
 };
 
-class RemoteExecutor {
+class ServiceExecutor {
  public:
-  RemoteExecutor(can::FrameSink& sink, std::string bus_name, canopen::Duration lss_timeout);
-  ~RemoteExecutor();
-  RemoteExecutor(const RemoteExecutor&) = delete;
-  RemoteExecutor& operator=(const RemoteExecutor&) = delete;
+  ServiceExecutor(can::FrameSink& sink, std::string bus_name, canopen::Duration lss_timeout);
+  ~ServiceExecutor();
+  ServiceExecutor(const ServiceExecutor&) = delete;
+  ServiceExecutor& operator=(const ServiceExecutor&) = delete;
 
-  void add(RemoteCommand command, std::shared_ptr<RemoteReplies> reply_to, canopen::TimePoint now);
+  void add(ServiceRequest command, std::shared_ptr<ServiceReplies> reply_to, canopen::TimePoint now);
   void on_frame(const can::Frame& frame, canopen::TimePoint now);
-  canopen::TimePoint process(canopen::TimePoint now, RemoteGate& gate);
+  canopen::TimePoint process(canopen::TimePoint now, ServiceGate& gate);
 
   // The node of the running client SDO transfer; 0 when none.
   [[nodiscard]] std::uint8_t sdo_node() const noexcept;
@@ -88,22 +88,22 @@ class RemoteExecutor {
 
  private:
   struct Entry {
-    RemoteCommand cmd;
-    std::shared_ptr<RemoteReplies> to;
+    ServiceRequest cmd;
+    std::shared_ptr<ServiceReplies> to;
     canopen::TimePoint deadline{};
     canopen::TimePoint not_before{};
     unsigned restarts = 0;  // transfers started again after a reboot / silence
   };
 
-  bool startable(const Entry& e, canopen::TimePoint now, RemoteGate& gate) const;
-  void start(Entry e, canopen::TimePoint now, RemoteGate& gate);
+  bool startable(const Entry& e, canopen::TimePoint now, ServiceGate& gate) const;
+  void start(Entry e, canopen::TimePoint now, ServiceGate& gate);
   void start_sdo(canopen::TimePoint now);
-  void start_lss_step(canopen::TimePoint now, RemoteGate& gate);
-  canopen::TimePoint drive(canopen::TimePoint now, RemoteGate& gate);
-  void finish_sdo(const canopen::SdoClient::Result& r, canopen::TimePoint now, RemoteGate& gate);
-  void lss_step_done(std::error_code ec, std::uint32_t value, canopen::TimePoint now, RemoteGate& gate);
+  void start_lss_step(canopen::TimePoint now, ServiceGate& gate);
+  canopen::TimePoint drive(canopen::TimePoint now, ServiceGate& gate);
+  void finish_sdo(const canopen::SdoClient::Result& r, canopen::TimePoint now, ServiceGate& gate);
+  void lss_step_done(std::error_code ec, std::uint32_t value, canopen::TimePoint now, ServiceGate& gate);
   void retry_later(canopen::TimePoint now, const char* why);
-  void reply(Entry& e, RemoteResult result);
+  void reply(Entry& e, ServiceResult result);
   void expire(canopen::TimePoint now);
 
   can::FrameSink& sink_;

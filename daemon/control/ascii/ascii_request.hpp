@@ -23,7 +23,7 @@
 // error number, never a crash.
 #pragma once
 
-#include "bus/remote/remote_command.hpp"
+#include "bus/service/service_request.hpp"
 
 #include <cstdint>
 #include <optional>
@@ -59,7 +59,7 @@ struct AsciiRequest {
   unsigned net = 0;       // 0: the connection's default
   int node = -1;          // -1: the connection's default
   AsciiType type = AsciiType::none;
-  bus::RemoteCommand command;  // read, write, nmt, lss: what to run (node filled in by the server)
+  bus::ServiceRequest command;  // read, write, nmt, lss: what to run (node filled in by the server)
   unsigned value = 0;     // set network / node / sdo_timeout
   AsciiError error = AsciiError::none;  // invalid
 };

@@ -1,7 +1,7 @@
-// RemoteExecutor, the LSS part: a command's steps one after the other on the
+// ServiceExecutor, the LSS part: a command's steps one after the other on the
 // daemon's LSS master (CiA 305), the session they open, and what the bus
-// manager learns (RemoteGate::on_lss_node_id).
-#include "bus/remote/remote_executor.hpp"
+// manager learns (ServiceGate::on_lss_node_id).
+#include "bus/service/service_executor.hpp"
 
 #include "sys/logging.hpp"
 
@@ -23,10 +23,10 @@ canopen::LssCs inquiry(LssStep::Kind k) {
 
 }  // namespace
 
-void RemoteExecutor::start_lss_step(TimePoint now, RemoteGate& gate) {
+void ServiceExecutor::start_lss_step(TimePoint now, ServiceGate& gate) {
   const auto& steps = active_->cmd.lss_steps;
   if (lss_step_ >= steps.size()) {
-    RemoteResult r;
+    ServiceResult r;
     r.value = lss_value_;
     r.values = std::move(lss_values_);
     reply(*active_, std::move(r));
@@ -72,11 +72,11 @@ void RemoteExecutor::start_lss_step(TimePoint now, RemoteGate& gate) {
   if (ec) lss_step_done(ec, 0, now, gate);
 }
 
-void RemoteExecutor::lss_step_done(std::error_code ec, std::uint32_t value, TimePoint now, RemoteGate& gate) {
+void ServiceExecutor::lss_step_done(std::error_code ec, std::uint32_t value, TimePoint now, ServiceGate& gate) {
   const auto& steps = active_->cmd.lss_steps;
   const LssStep& s = steps[lss_step_];
   if (ec) {
-    RemoteResult r;
+    ServiceResult r;
     const bool silent = ec == canopen::make_error_code(canopen::LssErrc::kTimeout);
     r.error = Error(silent ? Errc::kTimeout : Errc::kFailed, ec.message(), "bus '" + bus_ + "' LSS step " +
                                                                                std::to_string(lss_step_ + 1), ec);

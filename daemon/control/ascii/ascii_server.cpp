@@ -1,4 +1,4 @@
-#include "control/remote/ascii_server.hpp"
+#include "control/ascii/ascii_server.hpp"
 
 #include "sys/logging.hpp"
 
@@ -44,7 +44,7 @@ std::string refusal_reason(const std::string& who, bool allow_list_empty) {
 
 }  // namespace
 
-AsciiServer::AsciiServer(bus::RemoteTarget& remote, AsciiServerOptions options) : remote_(remote), options_(options) {}
+AsciiServer::AsciiServer(bus::ServiceTarget& services, AsciiServerOptions options) : services_(services), options_(options) {}
 
 AsciiServer::~AsciiServer() { close(); }
 
@@ -217,9 +217,9 @@ std::string AsciiServer::run(Client& c, AsciiRequest r) {
     case AsciiRequest::Kind::invalid: return ascii_error(seq, r.error);
     case AsciiRequest::Kind::help: return "[" + seq + "] " + kHelp;
     case AsciiRequest::Kind::info: return "[" + seq + "] cobridge CiA 309-3 gateway, nets 1.." +
-                                          std::to_string(remote_.buses().size());
+                                          std::to_string(services_.buses().size());
     case AsciiRequest::Kind::set_network:
-      if (r.value == 0 || r.value > remote_.buses().size()) return ascii_error(seq, AsciiError::unsupported_net);
+      if (r.value == 0 || r.value > services_.buses().size()) return ascii_error(seq, AsciiError::unsupported_net);
       c.net = r.value;
       return ascii_ok(seq);
     case AsciiRequest::Kind::set_node: c.node = static_cast<int>(r.value); return ascii_ok(seq);
@@ -227,8 +227,8 @@ std::string AsciiServer::run(Client& c, AsciiRequest r) {
     default: break;
   }
   const unsigned net = r.net != 0 ? r.net : c.net;
-  if (net == 0 || net > remote_.buses().size()) return ascii_error(seq, AsciiError::unsupported_net);
-  bus::RemoteCommand& cmd = r.command;
+  if (net == 0 || net > services_.buses().size()) return ascii_error(seq, AsciiError::unsupported_net);
+  bus::ServiceRequest& cmd = r.command;
   if (r.kind != AsciiRequest::Kind::lss) {
     const int node = r.node >= 0 ? r.node : c.node;
     if (node < 0) return ascii_error(seq, AsciiError::no_default_node);
@@ -248,7 +248,7 @@ std::string AsciiServer::run(Client& c, AsciiRequest r) {
   }
   cmd.tag = next_tag_++;
   r.seq = seq;
-  if (Error e = remote_.submit("#" + std::to_string(net), cmd, replies_))
+  if (Error e = services_.submit("#" + std::to_string(net), cmd, replies_))
     return ascii_error(seq, e.kind == Errc::kNotFound ? AsciiError::unsupported_net : AsciiError::internal_state);
   c.waiting_tag = cmd.tag;
   c.pending = std::move(r);
@@ -257,7 +257,7 @@ std::string AsciiServer::run(Client& c, AsciiRequest r) {
 
 void AsciiServer::fill_command(AsciiRequest& r, std::uint8_t node, std::chrono::milliseconds sdo_timeout,
                                const std::string& who) {
-  bus::RemoteCommand& cmd = r.command;
+  bus::ServiceRequest& cmd = r.command;
   cmd.node = node;
   cmd.sdo_timeout = sdo_timeout;
   cmd.deadline = std::max(std::chrono::milliseconds(10000), 8 * sdo_timeout);
@@ -277,7 +277,7 @@ void AsciiServer::deliver(TimePoint now) {
   }
 }
 
-std::string ascii_answer(const AsciiRequest& r, const bus::RemoteResult& result) {
+std::string ascii_answer(const AsciiRequest& r, const bus::ServiceResult& result) {
   if (result.error) {
     if (result.abort_code != 0) return ascii_abort(r.seq, result.abort_code);
     if (r.kind == AsciiRequest::Kind::read || r.kind == AsciiRequest::Kind::write) {

@@ -1,4 +1,4 @@
-#include "control/remote/ascii_request.hpp"
+#include "control/ascii/ascii_request.hpp"
 
 #include "base/number_text.hpp"
 
@@ -236,7 +236,7 @@ AsciiRequest parse_sdo(AsciiRequest r, const std::vector<std::string>& w, std::s
     if (t == nullptr) return invalid(std::move(r), w[i + 2] == "d" ? AsciiError::not_supported : AsciiError::syntax);
     r.type = t->type;
   }
-  r.command.op = write ? bus::RemoteOp::sdo_download : bus::RemoteOp::sdo_upload;
+  r.command.op = write ? bus::ServiceOp::sdo_download : bus::ServiceOp::sdo_upload;
   r.command.index = static_cast<std::uint16_t>(index);
   r.command.sub = static_cast<std::uint8_t>(sub);
   if (write && !encode(r.type, w[i + 3], r.command.data)) return invalid(std::move(r), AsciiError::syntax);
@@ -256,7 +256,7 @@ AsciiRequest parse_nmt(AsciiRequest r, const std::vector<std::string>& w, std::s
   else if (c == "reset" && args == 2 && (w[i + 1] == "comm" || w[i + 1] == "communication"))
     r.command.nmt = NmtCommand::reset_comm;
   else return invalid(std::move(r), AsciiError::syntax);
-  r.command.op = bus::RemoteOp::nmt;
+  r.command.op = bus::ServiceOp::nmt;
   r.kind = AsciiRequest::Kind::nmt;
   return r;
 }
@@ -292,7 +292,7 @@ AsciiRequest parse_lss(AsciiRequest r, const std::vector<std::string>& w, std::s
   } else {
     return invalid(std::move(r), AsciiError::syntax);
   }
-  r.command.op = bus::RemoteOp::lss;
+  r.command.op = bus::ServiceOp::lss;
   r.kind = AsciiRequest::Kind::lss;
   return r;
 }

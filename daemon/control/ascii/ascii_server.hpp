@@ -2,7 +2,7 @@
 // socket and optionally TCP (127.0.0.1 by default): the command set of
 // ascii_request.hpp, one request line -> one answer line, for `cocomm` and
 // other 309-3 clients. Every SDO / NMT / LSS request becomes a
-// RemoteCommand for the bus of its net (net N = the N-th configured bus),
+// ServiceRequest for the bus of its net (net N = the N-th configured bus),
 // queued with the daemon's own work exactly like `cobridge sdo` through the
 // control socket; the daemon stays the one master of the bus.
 //
@@ -19,19 +19,19 @@
 // add_poll_fds() before poll(), process(now) after. That thread owns every
 // connection for its whole life: a request's SDO / NMT / LSS command runs
 // on its bus's control thread, which only pushes the result to this
-// server's RemoteReplies; the answer is formatted and written here. While
+// server's ServiceReplies; the answer is formatted and written here. While
 // a command runs its client's socket is not read (later lines wait there,
 // in order).
 #pragma once
 
 #include "base/error.hpp"
 #include "canopen/clock.hpp"
-#include "config/remote_access.hpp"
+#include "config/service_access.hpp"
 #include "control/line_connection.hpp"
-#include "control/remote/ascii_request.hpp"
-#include "control/remote/peer_credentials.hpp"
-#include "bus/remote/remote_replies.hpp"
-#include "bus/remote/remote_target.hpp"
+#include "control/ascii/ascii_request.hpp"
+#include "control/peer_credentials.hpp"
+#include "bus/service/service_replies.hpp"
+#include "bus/service/service_target.hpp"
 
 #include <cobridge/ip_allow_list.hpp>
 
@@ -58,7 +58,7 @@ struct AsciiServerOptions {
 
 class AsciiServer {
  public:
-  AsciiServer(bus::RemoteTarget& remote, AsciiServerOptions options);
+  AsciiServer(bus::ServiceTarget& services, AsciiServerOptions options);
   ~AsciiServer();
   AsciiServer(const AsciiServer&) = delete;
   AsciiServer& operator=(const AsciiServer&) = delete;
@@ -101,20 +101,20 @@ class AsciiServer {
   void deliver(canopen::TimePoint now);
   void drop(Client& c);
 
-  bus::RemoteTarget& remote_;
+  bus::ServiceTarget& services_;
   AsciiServerOptions options_;
   int unix_fd_ = -1;
   int tcp_fd_ = -1;
   std::filesystem::path unix_path_;
   std::vector<Client> clients_;
-  std::shared_ptr<bus::RemoteReplies> replies_ = std::make_shared<bus::RemoteReplies>();
+  std::shared_ptr<bus::ServiceReplies> replies_ = std::make_shared<bus::ServiceReplies>();
   std::uint64_t next_tag_ = 1;
   PollSlot unix_slot_;
   PollSlot tcp_slot_;
   PollSlot replies_slot_;
 };
 
-// The answer line to a finished RemoteCommand of request `r`.
-[[nodiscard]] std::string ascii_answer(const AsciiRequest& r, const bus::RemoteResult& result);
+// The answer line to a finished ServiceRequest of request `r`.
+[[nodiscard]] std::string ascii_answer(const AsciiRequest& r, const bus::ServiceResult& result);
 
 }  // namespace cobridge::control

@@ -1,8 +1,8 @@
-// RemoteExecutor: a client's SDO / NMT command run by the daemon
+// ServiceExecutor: a client's SDO / NMT command run by the daemon
 // against a recording sink and a scripted gate; the frames are the
 // CiA 301 §7.2.4.3 expedited upload (0x40 -> 0x43..0x4F) and abort (0x80),
 // §7.2.8.3.3 boot-up (0x700 + node, one byte 0x00).
-#include "bus/remote/remote_executor.hpp"
+#include "bus/service/service_executor.hpp"
 
 #include "scripted_gate.hpp"
 
@@ -30,13 +30,13 @@ Frame frame(std::uint32_t id, std::initializer_list<std::uint8_t> bytes) {
 }
 
 
-struct RemoteExecutorTest : ::testing::Test, gw::testing::RemoteBus {};
+struct ServiceExecutorTest : ::testing::Test, gw::testing::ServiceBus {};
 
 }  // namespace
 
 // Rule: a command never interleaves with the daemon's own work on the node:
 // nothing is sent while the gate says the node is busy, and it starts once free.
-TEST_F(RemoteExecutorTest, WaitsForABusyNodeThenReads) {
+TEST_F(ServiceExecutorTest, WaitsForABusyNodeThenReads) {
   gate.busy.insert(10);
   ex.add(upload(10), replies, t0);
   ex.process(t0, gate);
@@ -61,7 +61,7 @@ TEST_F(RemoteExecutorTest, WaitsForABusyNodeThenReads) {
 // CiA 301 §7.2.8.3.3: a boot-up mid-transfer ends the transfer in the device;
 // the read starts again once the node is free, and the abort a reboot would
 // cause never reaches the client.
-TEST_F(RemoteExecutorTest, BootUpMidTransferRestartsTheRead) {
+TEST_F(ServiceExecutorTest, BootUpMidTransferRestartsTheRead) {
   gate.supervised.insert(10);
   ex.add(upload(10), replies, t0);
   ex.process(t0, gate);
@@ -83,7 +83,7 @@ TEST_F(RemoteExecutorTest, BootUpMidTransferRestartsTheRead) {
 }
 
 // CiA 301 §7.2.4.3.17: a device's abort is the answer (exit code 1, the code kept).
-TEST_F(RemoteExecutorTest, DeviceAbortIsReportedWithItsCode) {
+TEST_F(ServiceExecutorTest, DeviceAbortIsReportedWithItsCode) {
   ex.add(upload(10), replies, t0);
   ex.process(t0, gate);
   ex.on_frame(frame(0x58A, {0x80, 0x18, 0x10, 0x04, 0x00, 0x00, 0x02, 0x06}), t0 + 1ms);
@@ -96,7 +96,7 @@ TEST_F(RemoteExecutorTest, DeviceAbortIsReportedWithItsCode) {
 
 // Silence from a node no configured device holds is a timeout at once (no
 // reboot to wait for).
-TEST_F(RemoteExecutorTest, SilenceFromAnUnknownNodeIsATimeout) {
+TEST_F(ServiceExecutorTest, SilenceFromAnUnknownNodeIsATimeout) {
   ex.add(upload(99), replies, t0);
   ex.process(t0, gate);
   ex.process(t0 + 150ms, gate);
@@ -106,7 +106,7 @@ TEST_F(RemoteExecutorTest, SilenceFromAnUnknownNodeIsATimeout) {
 }
 
 // A node that stays busy past the deadline: a timeout naming why.
-TEST_F(RemoteExecutorTest, DeadlineWhileWaitingIsATimeout) {
+TEST_F(ServiceExecutorTest, DeadlineWhileWaitingIsATimeout) {
   gate.busy.insert(10);
   ex.add(upload(10), replies, t0);
   ex.process(t0 + 2001ms, gate);
@@ -117,7 +117,7 @@ TEST_F(RemoteExecutorTest, DeadlineWhileWaitingIsATimeout) {
 }
 
 // A command for a busy node does not hold up one for another node.
-TEST_F(RemoteExecutorTest, BusyNodeDoesNotBlockOthers) {
+TEST_F(ServiceExecutorTest, BusyNodeDoesNotBlockOthers) {
   gate.busy.insert(10);
   ex.add(upload(10), replies, t0);
   ex.add(upload(20), replies, t0);
@@ -127,9 +127,9 @@ TEST_F(RemoteExecutorTest, BusyNodeDoesNotBlockOthers) {
 }
 
 // CiA 301 §7.2.8.3.1: NMT is one frame 0x000 [cs, node]; the gate learns it.
-TEST_F(RemoteExecutorTest, NmtIsSentAndReported) {
-  gw::RemoteCommand c;
-  c.op = gw::RemoteOp::nmt;
+TEST_F(ServiceExecutorTest, NmtIsSentAndReported) {
+  gw::ServiceRequest c;
+  c.op = gw::ServiceOp::nmt;
   c.nmt = cobridge::canopen::NmtCommand::stop;
   c.node = 20;
   ex.add(c, replies, t0);
@@ -144,9 +144,9 @@ TEST_F(RemoteExecutorTest, NmtIsSentAndReported) {
 
 namespace {
 
-gw::RemoteCommand lss(std::initializer_list<gw::LssStep> steps) {
-  gw::RemoteCommand c;
-  c.op = gw::RemoteOp::lss;
+gw::ServiceRequest lss(std::initializer_list<gw::LssStep> steps) {
+  gw::ServiceRequest c;
+  c.op = gw::ServiceOp::lss;
   c.lss_steps = steps;
   c.tag = 9;
   return c;
@@ -167,7 +167,7 @@ gw::LssStep step(gw::LssStep::Kind kind, std::uint32_t value = 0) {
 // held for 10 s: the case where a power-cycled device came back through the
 // 500 ms fallback instead of discovery's re-identification (the
 // gateway test no_stall runs within 10 s of such an inquiry).
-TEST_F(RemoteExecutorTest, InquiryNobodyAnswersOutsideASessionHoldsNothing) {
+TEST_F(ServiceExecutorTest, InquiryNobodyAnswersOutsideASessionHoldsNothing) {
   ex.add(lss({step(gw::LssStep::Kind::switch_global, 1)}), replies, t0);
   ex.process(t0, gate);
   EXPECT_TRUE(ex.lss_session(t0 + 5s));  // devices may be in configuration state
@@ -189,7 +189,7 @@ TEST_F(RemoteExecutorTest, InquiryNobodyAnswersOutsideASessionHoldsNothing) {
 
 // An inquiry a device answers shows a device in configuration state: the
 // session is held again, whoever opened it.
-TEST_F(RemoteExecutorTest, AnsweredInquiryHoldsTheSession) {
+TEST_F(ServiceExecutorTest, AnsweredInquiryHoldsTheSession) {
   ex.add(lss({step(gw::LssStep::Kind::inquire_node_id)}), replies, t0);
   ex.process(t0, gate);
   ex.on_frame(frame(0x7E4, {0x5E, 20, 0, 0, 0, 0, 0, 0}), t0 + 5ms);
@@ -205,8 +205,8 @@ TEST_F(RemoteExecutorTest, AnsweredInquiryHoldsTheSession) {
 // The bus stopping: the running command and every queued one end with an
 // error, each result tagged for its client's server, so no client waits on
 // a bus that is gone.
-TEST_F(RemoteExecutorTest, TheBusStoppingEndsEveryCommandWithAnError) {
-  gw::RemoteCommand queued = upload(11);
+TEST_F(ServiceExecutorTest, TheBusStoppingEndsEveryCommandWithAnError) {
+  gw::ServiceRequest queued = upload(11);
   queued.tag = 8;
   ex.add(upload(10), replies, t0);
   ex.add(std::move(queued), replies, t0);
@@ -226,9 +226,9 @@ TEST_F(RemoteExecutorTest, TheBusStoppingEndsEveryCommandWithAnError) {
 // A confirmed download (CiA 301 §7.2.4.3.3: 0x2B -> 0x60) reaches the gate,
 // with its caller, for the configuration-drift check; a refused one (0x80)
 // does not: the device kept its value.
-TEST_F(RemoteExecutorTest, ConfirmedDownloadsReachTheGate) {
-  gw::RemoteCommand c = upload(10);
-  c.op = gw::RemoteOp::sdo_download;
+TEST_F(ServiceExecutorTest, ConfirmedDownloadsReachTheGate) {
+  gw::ServiceRequest c = upload(10);
+  c.op = gw::ServiceOp::sdo_download;
   c.index = 0x1017;
   c.sub = 0;
   c.data = {0x45, 0x23};

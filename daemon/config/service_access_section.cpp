@@ -1,4 +1,4 @@
-#include "config/remote_access_section.hpp"
+#include "config/service_access_section.hpp"
 
 #include "config/loader.hpp"
 
@@ -97,7 +97,7 @@ void read_ascii(TableReader& top, DiagnosticSink& sink, AsciiGatewaySettings& ou
 
 }  // namespace
 
-void read_remote_access(TableReader& top, DiagnosticSink& sink, RemoteAccess& out) {
+void read_service_access(TableReader& top, DiagnosticSink& sink, ServiceAccess& out) {
   read_control(top, sink, out.control);
   read_ascii(top, sink, out.ascii);
 }

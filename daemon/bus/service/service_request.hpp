@@ -1,11 +1,11 @@
-// RemoteCommand: one CAN operation a client asks the daemon to run on one of
+// ServiceRequest: one CAN operation a client asks the daemon to run on one of
 // its buses with the daemon's own SDO client, NMT and LSS master: the CLI
 // through the control socket (`cobridge sdo|nmt|lss` while cobridged runs)
 // and CiA 309-3 clients through the ASCII gateway. The daemon stays the one
 // master of the bus: the bus manager's control thread runs these commands
 // between its own work, never on a node it is configuring.
 //
-// RemoteResult is the outcome, delivered through RemoteReplies to the
+// ServiceResult is the outcome, delivered through ServiceReplies to the
 // thread that owns the client's connection, which writes the answer.
 //
 // Thread contract: plain values, nothing of the client's connection; built
@@ -26,7 +26,7 @@
 
 namespace cobridge::bus {
 
-enum class RemoteOp : std::uint8_t {
+enum class ServiceOp : std::uint8_t {
   sdo_upload,    // read index:sub of `node`
   sdo_download,  // write `data` to index:sub of `node`
   nmt,           // send `nmt` to `node` (0 = all nodes)
@@ -50,8 +50,8 @@ struct LssStep {
   std::uint32_t value = 0;
 };
 
-struct RemoteCommand {
-  RemoteOp op = RemoteOp::sdo_upload;
+struct ServiceRequest {
+  ServiceOp op = ServiceOp::sdo_upload;
   std::uint8_t node = 0;
   std::uint16_t index = 0;
   std::uint8_t sub = 0;
@@ -66,10 +66,10 @@ struct RemoteCommand {
   std::uint64_t tag = 0;  // the submitter's, echoed in the result
   std::string caller;     // "uid 1000 pid 42 (control socket)", for the log of writes
 
-  [[nodiscard]] bool is_write() const noexcept { return op != RemoteOp::sdo_upload; }
+  [[nodiscard]] bool is_write() const noexcept { return op != ServiceOp::sdo_upload; }
 };
 
-struct RemoteResult {
+struct ServiceResult {
   std::uint64_t tag = 0;
   Error error;                     // kOk on success
   std::uint32_t abort_code = 0;    // the CiA 301 SDO abort code when the device refused
@@ -78,6 +78,6 @@ struct RemoteResult {
   std::vector<std::uint32_t> values;  // lss: every inquired value, in order
 };
 
-[[nodiscard]] const char* to_string(RemoteOp op) noexcept;
+[[nodiscard]] const char* to_string(ServiceOp op) noexcept;
 
 }  // namespace cobridge::bus

@@ -1,4 +1,4 @@
-// BusManager::Impl as the RemoteGate: what clients' SDO / NMT / LSS
+// BusManager::Impl as the ServiceGate: what clients' SDO / NMT / LSS
 // commands may do now, and what they did. Control thread only.
 #include "bus/bus_manager_impl.hpp"
 

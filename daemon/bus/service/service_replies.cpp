@@ -1,4 +1,4 @@
-#include "bus/remote/remote_replies.hpp"
+#include "bus/service/service_replies.hpp"
 
 #include <sys/eventfd.h>
 #include <unistd.h>
@@ -8,13 +8,13 @@
 
 namespace cobridge::bus {
 
-RemoteReplies::RemoteReplies() : fd_(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)) {}
+ServiceReplies::ServiceReplies() : fd_(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)) {}
 
-RemoteReplies::~RemoteReplies() {
+ServiceReplies::~ServiceReplies() {
   if (fd_ >= 0) ::close(fd_);
 }
 
-void RemoteReplies::push(RemoteResult result) {
+void ServiceReplies::push(ServiceResult result) {
   {
     const std::lock_guard lock(mutex_);
     results_.push_back(std::move(result));
@@ -23,7 +23,7 @@ void RemoteReplies::push(RemoteResult result) {
   [[maybe_unused]] const auto n = ::write(fd_, &one, sizeof one);
 }
 
-std::vector<RemoteResult> RemoteReplies::take() {
+std::vector<ServiceResult> ServiceReplies::take() {
   // The counter first: a push after it makes fd() readable again, so no
   // result waits unseen.
   std::uint64_t v = 0;

@@ -1,4 +1,4 @@
-#include "control/remote/peer_credentials.hpp"
+#include "control/peer_credentials.hpp"
 
 #include <grp.h>
 #include <sys/socket.h>

@@ -1,4 +1,4 @@
-#include "bus/remote/remote_executor.hpp"
+#include "bus/service/service_executor.hpp"
 
 #include "base/number_text.hpp"
 #include "canopen/cob_id.hpp"
@@ -34,12 +34,12 @@ bool is_boot_up(const can::Frame& f, std::uint8_t node) {
 
 }  // namespace
 
-RemoteExecutor::RemoteExecutor(can::FrameSink& sink, std::string bus_name, canopen::Duration lss_timeout)
+ServiceExecutor::ServiceExecutor(can::FrameSink& sink, std::string bus_name, canopen::Duration lss_timeout)
     : sink_(sink), bus_(std::move(bus_name)), lss_(sink, canopen::LssMaster::Config{.timeout = lss_timeout}) {}
 
-RemoteExecutor::~RemoteExecutor() { abort_all("the bus stopped"); }
+ServiceExecutor::~ServiceExecutor() { abort_all("the bus stopped"); }
 
-void RemoteExecutor::add(RemoteCommand command, std::shared_ptr<RemoteReplies> reply_to, TimePoint now) {
+void ServiceExecutor::add(ServiceRequest command, std::shared_ptr<ServiceReplies> reply_to, TimePoint now) {
   Entry e;
   e.deadline = now + command.deadline;
   e.not_before = now;
@@ -48,18 +48,18 @@ void RemoteExecutor::add(RemoteCommand command, std::shared_ptr<RemoteReplies> r
   queue_.push_back(std::move(e));
 }
 
-std::uint8_t RemoteExecutor::sdo_node() const noexcept {
-  if (!active_ || (active_->cmd.op != RemoteOp::sdo_upload && active_->cmd.op != RemoteOp::sdo_download)) return 0;
+std::uint8_t ServiceExecutor::sdo_node() const noexcept {
+  if (!active_ || (active_->cmd.op != ServiceOp::sdo_upload && active_->cmd.op != ServiceOp::sdo_download)) return 0;
   return active_->cmd.node;
 }
 
-bool RemoteExecutor::lss_session(TimePoint now) const noexcept {
-  return (active_ && active_->cmd.op == RemoteOp::lss) || now < lss_session_until_;
+bool ServiceExecutor::lss_session(TimePoint now) const noexcept {
+  return (active_ && active_->cmd.op == ServiceOp::lss) || now < lss_session_until_;
 }
 
-void RemoteExecutor::on_frame(const can::Frame& frame, TimePoint now) {
+void ServiceExecutor::on_frame(const can::Frame& frame, TimePoint now) {
   if (!active_) return;
-  if (active_->cmd.op == RemoteOp::lss) {
+  if (active_->cmd.op == ServiceOp::lss) {
     if (frame.id == canopen::cob::kLssSlaveToMaster)
       sys::logger("gateway")->debug("bus {}: LSS answer {:02X} for a client", bus_, frame.data[0]);
     lss_.on_frame(frame, now);
@@ -76,7 +76,7 @@ void RemoteExecutor::on_frame(const can::Frame& frame, TimePoint now) {
   sdo_->on_frame(frame, now);
 }
 
-TimePoint RemoteExecutor::process(TimePoint now, RemoteGate& gate) {
+TimePoint ServiceExecutor::process(TimePoint now, ServiceGate& gate) {
   TimePoint next = kNever;
   if (active_) next = std::min(next, drive(now, gate));
   expire(now);
@@ -92,19 +92,19 @@ TimePoint RemoteExecutor::process(TimePoint now, RemoteGate& gate) {
   return next;
 }
 
-bool RemoteExecutor::startable(const Entry& e, TimePoint now, RemoteGate& gate) const {
+bool ServiceExecutor::startable(const Entry& e, TimePoint now, ServiceGate& gate) const {
   if (now < e.not_before) return false;
-  if (e.cmd.op == RemoteOp::lss) return gate.lss_allowed();
+  if (e.cmd.op == ServiceOp::lss) return gate.lss_allowed();
   return gate.node_free(e.cmd.node);
 }
 
-void RemoteExecutor::expire(TimePoint now) {
+void ServiceExecutor::expire(TimePoint now) {
   for (auto it = queue_.begin(); it != queue_.end();) {
     if (now < it->deadline) {
       ++it;
       continue;
     }
-    RemoteResult r;
+    ServiceResult r;
     r.error = Error(Errc::kTimeout,
                     "not run within " + std::to_string(it->cmd.deadline.count()) +
                         " ms: the node stayed busy (being configured, rebooting or offline)" +
@@ -115,15 +115,15 @@ void RemoteExecutor::expire(TimePoint now) {
   }
 }
 
-void RemoteExecutor::start(Entry e, TimePoint now, RemoteGate& gate) {
+void ServiceExecutor::start(Entry e, TimePoint now, ServiceGate& gate) {
   active_ = std::move(e);
   switch (active_->cmd.op) {
-    case RemoteOp::sdo_upload:
-    case RemoteOp::sdo_download:
+    case ServiceOp::sdo_upload:
+    case ServiceOp::sdo_download:
       start_sdo(now);
       return;
-    case RemoteOp::nmt: {
-      RemoteResult r;
+    case ServiceOp::nmt: {
+      ServiceResult r;
       if (!sink_.send(canopen::make_nmt(active_->cmd.nmt, active_->cmd.node))) {
         r.error = Error(Errc::kUnavailable, "the NMT frame could not be sent", where_of(bus_, active_->cmd.node));
       } else {
@@ -133,7 +133,7 @@ void RemoteExecutor::start(Entry e, TimePoint now, RemoteGate& gate) {
       active_.reset();
       return;
     }
-    case RemoteOp::lss:
+    case ServiceOp::lss:
       lss_step_ = 0;
       lss_value_ = 0;
       lss_values_.clear();
@@ -142,27 +142,27 @@ void RemoteExecutor::start(Entry e, TimePoint now, RemoteGate& gate) {
   }
 }
 
-void RemoteExecutor::start_sdo(TimePoint now) {
+void ServiceExecutor::start_sdo(TimePoint now) {
   auto& c = active_->cmd;
   canopen::SdoClientConfig sc;
   sc.timeout = c.sdo_timeout;
   sc.buffer_size = std::max<std::size_t>(1024, c.data.size());
   sdo_ = std::make_unique<canopen::SdoClient>(sink_, c.node, sc);
-  const std::error_code ec = c.op == RemoteOp::sdo_upload ? sdo_->start_upload(c.index, c.sub, now)
+  const std::error_code ec = c.op == ServiceOp::sdo_upload ? sdo_->start_upload(c.index, c.sub, now)
                                                           : sdo_->start_download(c.index, c.sub, c.data, now);
   if (!ec) return;
   if (ec == std::errc::no_buffer_space) {
     retry_later(now, "the CAN transmit queue is full");
     return;
   }
-  RemoteResult r;
+  ServiceResult r;
   r.error = Error(Errc::kInvalidArgument, ec.message(), where_of(bus_, c.node), ec);
   reply(*active_, std::move(r));
   active_.reset();
 }
 
-TimePoint RemoteExecutor::drive(TimePoint now, RemoteGate& gate) {
-  if (active_->cmd.op == RemoteOp::lss) {
+TimePoint ServiceExecutor::drive(TimePoint now, ServiceGate& gate) {
+  if (active_->cmd.op == ServiceOp::lss) {
     const TimePoint next = lss_.process(now);
     if (auto r = lss_.take_result()) lss_step_done(r->error, r->value, now, gate);
     return active_ ? next : kNever;
@@ -177,7 +177,7 @@ TimePoint RemoteExecutor::drive(TimePoint now, RemoteGate& gate) {
   return next;
 }
 
-void RemoteExecutor::finish_sdo(const canopen::SdoClient::Result& r, TimePoint now, RemoteGate& gate) {
+void ServiceExecutor::finish_sdo(const canopen::SdoClient::Result& r, TimePoint now, ServiceGate& gate) {
   auto& c = active_->cmd;
   const bool silence = r.error == canopen::make_error_code(canopen::SdoAbort::kProtocolTimedOut);
   if (silence && gate.node_supervised(c.node) && now + c.sdo_timeout < active_->deadline) {
@@ -195,11 +195,11 @@ void RemoteExecutor::finish_sdo(const canopen::SdoClient::Result& r, TimePoint n
     retry_later(now, "protocol abort");
     return;
   }
-  RemoteResult out;
+  ServiceResult out;
   const std::string where = where_of(bus_, c.node) + " object " + object_text(c.index, c.sub);
   if (r.ok()) {
     out.data.assign(r.data.begin(), r.data.end());
-    if (c.op == RemoteOp::sdo_download) gate.on_sdo_written(c, now);
+    if (c.op == ServiceOp::sdo_download) gate.on_sdo_written(c, now);
   } else if (silence) {
     out.error = Error(Errc::kTimeout, "no answer from the device", where, r.error);
   } else {
@@ -211,7 +211,7 @@ void RemoteExecutor::finish_sdo(const canopen::SdoClient::Result& r, TimePoint n
   sdo_.reset();
 }
 
-void RemoteExecutor::retry_later(TimePoint now, const char* why) {
+void ServiceExecutor::retry_later(TimePoint now, const char* why) {
   Entry e = std::move(*active_);
   active_.reset();
   sdo_.reset();
@@ -222,23 +222,23 @@ void RemoteExecutor::retry_later(TimePoint now, const char* why) {
   queue_.push_front(std::move(e));
 }
 
-void RemoteExecutor::reply(Entry& e, RemoteResult result) {
+void ServiceExecutor::reply(Entry& e, ServiceResult result) {
   result.tag = e.cmd.tag;
   if (e.to) e.to->push(std::move(result));
   e.to.reset();
 }
 
-void RemoteExecutor::abort_all(const std::string& why) {
+void ServiceExecutor::abort_all(const std::string& why) {
   if (active_) {
     lss_.cancel();
     if (sdo_) sdo_->forget();
-    RemoteResult r;
+    ServiceResult r;
     r.error = Error(Errc::kUnavailable, why, "bus '" + bus_ + "'");
     reply(*active_, std::move(r));
     active_.reset();
   }
   for (auto& e : queue_) {
-    RemoteResult r;
+    ServiceResult r;
     r.error = Error(Errc::kUnavailable, why, "bus '" + bus_ + "'");
     reply(e, std::move(r));
   }

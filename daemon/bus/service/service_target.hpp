@@ -1,5 +1,5 @@
-// RemoteTarget: where the control socket and the ASCII gateway send
-// RemoteCommands: the running bus managers, by bus name, interface or
+// ServiceTarget: where the control socket and the ASCII gateway send
+// ServiceRequests: the running bus managers, by bus name, interface or
 // CiA 309-3 net number (the bus's position in the configuration, from 1).
 //
 // BusRegistry is the daemon's implementation: every BusManager joins it
@@ -14,9 +14,9 @@
 #pragma once
 
 #include "base/error.hpp"
-#include "config/remote_access.hpp"
-#include "bus/remote/remote_command.hpp"
-#include "bus/remote/remote_replies.hpp"
+#include "config/service_access.hpp"
+#include "bus/service/service_request.hpp"
+#include "bus/service/service_replies.hpp"
 
 #include <memory>
 #include <mutex>
@@ -29,43 +29,43 @@ namespace cobridge::bus {
 
 class BusManager;
 
-struct RemoteBus {
+struct ServiceBus {
   std::string name;
   std::string interface;
   unsigned net = 0;  // CiA 309-3 network number: position in the configuration, from 1
 };
 
-class RemoteTarget {
+class ServiceTarget {
  public:
-  virtual ~RemoteTarget() = default;
-  [[nodiscard]] virtual std::vector<RemoteBus> buses() const = 0;
+  virtual ~ServiceTarget() = default;
+  [[nodiscard]] virtual std::vector<ServiceBus> buses() const = 0;
   // `bus`: a bus name, an interface, or "#<net>". Errors: kNotFound (no such
   // bus: the message lists them), kUnavailable (its queue is full).
-  [[nodiscard]] virtual Error submit(std::string_view bus, RemoteCommand command,
-                                     std::shared_ptr<RemoteReplies> reply_to) = 0;
+  [[nodiscard]] virtual Error submit(std::string_view bus, ServiceRequest command,
+                                     std::shared_ptr<ServiceReplies> reply_to) = 0;
   // The settings of the running daemon; nullopt while no bus runs.
-  [[nodiscard]] virtual std::optional<config::RemoteAccess> access() const = 0;
+  [[nodiscard]] virtual std::optional<config::ServiceAccess> access() const = 0;
 };
 
-class BusRegistry final : public RemoteTarget {
+class BusRegistry final : public ServiceTarget {
  public:
-  void add(BusManager& manager, RemoteBus bus, const config::RemoteAccess& access);
-  void update_access(const config::RemoteAccess& access);
+  void add(BusManager& manager, ServiceBus bus, const config::ServiceAccess& access);
+  void update_access(const config::ServiceAccess& access);
   void remove(const BusManager& manager);
 
-  [[nodiscard]] std::vector<RemoteBus> buses() const override;
-  [[nodiscard]] Error submit(std::string_view bus, RemoteCommand command,
-                             std::shared_ptr<RemoteReplies> reply_to) override;
-  [[nodiscard]] std::optional<config::RemoteAccess> access() const override;
+  [[nodiscard]] std::vector<ServiceBus> buses() const override;
+  [[nodiscard]] Error submit(std::string_view bus, ServiceRequest command,
+                             std::shared_ptr<ServiceReplies> reply_to) override;
+  [[nodiscard]] std::optional<config::ServiceAccess> access() const override;
 
  private:
   struct Entry {
     BusManager* manager = nullptr;
-    RemoteBus bus;
+    ServiceBus bus;
   };
   mutable std::mutex mutex_;
   std::vector<Entry> entries_;
-  std::optional<config::RemoteAccess> access_;
+  std::optional<config::ServiceAccess> access_;
 };
 
 }  // namespace cobridge::bus

@@ -1,8 +1,8 @@
-// RemoteReplies: how results of clients' commands come back from a bus's
+// ServiceReplies: how results of clients' commands come back from a bus's
 // control thread to the thread that owns the clients' connections. Every
 // result wakes the owner (its eventfd), none is lost or taken twice, and a
 // result pushed by another thread is seen whole by the owner (TSan build).
-#include "bus/remote/remote_replies.hpp"
+#include "bus/service/service_replies.hpp"
 
 #include <gtest/gtest.h>
 #include <poll.h>
@@ -11,24 +11,24 @@
 #include <thread>
 #include <vector>
 
-using cobridge::bus::RemoteReplies;
-using cobridge::bus::RemoteResult;
+using cobridge::bus::ServiceReplies;
+using cobridge::bus::ServiceResult;
 
 namespace {
 
-bool readable(const RemoteReplies& r, int timeout_ms = 0) {
+bool readable(const ServiceReplies& r, int timeout_ms = 0) {
   pollfd p{r.fd(), POLLIN, 0};
   return ::poll(&p, 1, timeout_ms) == 1 && (p.revents & POLLIN) != 0;
 }
 
-RemoteResult result(std::uint64_t tag) {
-  RemoteResult r;
+ServiceResult result(std::uint64_t tag) {
+  ServiceResult r;
   r.tag = tag;
   return r;
 }
 
-TEST(RemoteReplies, PushWakesTheOwnerAndTakeDrainsBoth) {
-  RemoteReplies r;
+TEST(ServiceReplies, PushWakesTheOwnerAndTakeDrainsBoth) {
+  ServiceReplies r;
   EXPECT_FALSE(readable(r));
   r.push(result(1));
   EXPECT_TRUE(readable(r));
@@ -41,12 +41,12 @@ TEST(RemoteReplies, PushWakesTheOwnerAndTakeDrainsBoth) {
 
 // Results pushed by a bus thread while the owner waits in poll: the owner
 // wakes, and collects every result once, in the order pushed.
-TEST(RemoteReplies, ResultsFromABusThreadWakeTheOwnerAndArriveInOrder) {
-  RemoteReplies r;
+TEST(ServiceReplies, ResultsFromABusThreadWakeTheOwnerAndArriveInOrder) {
+  ServiceReplies r;
   constexpr std::uint64_t kResults = 200;
   std::thread bus([&] {
     for (std::uint64_t tag = 1; tag <= kResults; ++tag) {
-      RemoteResult res = result(tag);
+      ServiceResult res = result(tag);
       res.data = {static_cast<std::uint8_t>(tag)};
       r.push(std::move(res));
     }

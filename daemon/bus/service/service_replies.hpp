@@ -1,4 +1,4 @@
-// RemoteReplies: the way results of RemoteCommands come back from a bus's
+// ServiceReplies: the way results of ServiceRequests come back from a bus's
 // control thread to the thread that owns the clients' connections (the
 // daemon's main thread: the control socket and the CiA 309-3 gateway). The
 // bus thread only push()es a result; the owner polls fd(), take()s it and
@@ -12,30 +12,30 @@
 // owner.
 #pragma once
 
-#include "bus/remote/remote_command.hpp"
+#include "bus/service/service_request.hpp"
 
 #include <mutex>
 #include <vector>
 
 namespace cobridge::bus {
 
-class RemoteReplies {
+class ServiceReplies {
  public:
-  RemoteReplies();
-  ~RemoteReplies();
-  RemoteReplies(const RemoteReplies&) = delete;
-  RemoteReplies& operator=(const RemoteReplies&) = delete;
+  ServiceReplies();
+  ~ServiceReplies();
+  ServiceReplies(const ServiceReplies&) = delete;
+  ServiceReplies& operator=(const ServiceReplies&) = delete;
 
   // Queues a result and makes fd() readable.
-  void push(RemoteResult result);
+  void push(ServiceResult result);
   // Readable while pushed results wait; take() empties it and the queue.
   [[nodiscard]] int fd() const noexcept { return fd_; }
-  [[nodiscard]] std::vector<RemoteResult> take();
+  [[nodiscard]] std::vector<ServiceResult> take();
 
  private:
   int fd_ = -1;
   std::mutex mutex_;
-  std::vector<RemoteResult> results_;
+  std::vector<ServiceResult> results_;
 };
 
 }  // namespace cobridge::bus

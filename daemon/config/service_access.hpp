@@ -1,4 +1,4 @@
-// RemoteAccess: who may reach the buses through the daemon, and how.
+// ServiceAccess: who may reach the buses through the daemon, and how.
 //
 // Two paths lead to the daemon's SDO client, NMT and LSS master: the control
 // socket (`cobridge sdo|nmt|lss` while cobridged runs) and the CiA 309-3
@@ -37,7 +37,7 @@ struct AsciiGatewaySettings {
   std::string where;                    // "file:line:column" of the [ascii_gateway] header, for warnings
 };
 
-struct RemoteAccess {
+struct ServiceAccess {
   ControlAccess control;
   AsciiGatewaySettings ascii;
 };
