@@ -416,8 +416,6 @@ struct BusManager::Impl final : ServiceGate {
   void note_heartbeat(const can::Frame& frame);
   void note_identity_request(const can::Frame& frame, TimePoint now);
   void note_identity(const can::Frame& frame, TimePoint now);
-  // The status a standby shows of `m`: what the bus says (bus_manager_standby.cpp).
-  [[nodiscard]] DeviceStatus as_the_bus_says(const DeviceAgent& m) const;
   void follow_heard_devices();
   void remember_followed(const DeviceAgent& m, const std::string& fingerprint);
   void describe_role(BusStatus& s) const;

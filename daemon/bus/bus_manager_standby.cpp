@@ -59,8 +59,7 @@ void BusManager::Impl::note_heartbeat(const can::Frame& frame) {
   if (DeviceAgent* m = find_configured_node(node)) {
     const bool operational =
         (frame.data[0] & 0x7F) == static_cast<std::uint8_t>(canopen::NmtState::operational);
-    if (m->heard_operational != operational) dirty = true;  // the status shows it
-    m->heard_operational = operational;
+    if (m->note_heard_state(operational)) dirty = true;  // the status shows it
   }
 }
 
@@ -87,11 +86,7 @@ void BusManager::Impl::note_identity(const can::Frame& frame, TimePoint now) {
   (sub == 1 ? id.vendor : sub == 2 ? id.product : sub == 3 ? id.revision : id.serial) = v;
   if (sub != 4) return;
   for (auto& m : devices) {
-    if (!m.in_config || m.cfg.serial != id.serial || m.st.node_id == node) continue;
-    if (m.cfg.vendor && *m.cfg.vendor != id.vendor) continue;
-    m.st.node_id = node;
-    m.st.identity = id;
-    m.followed = false;
+    if (!m.note_identity_heard(id, node)) continue;
     dirty = true;
     log->info("bus {}: standby: device {} is at node {} (the master read its identity)", bus.name, m.st.name, node);
   }
@@ -102,7 +97,7 @@ void BusManager::Impl::note_identity(const can::Frame& frame, TimePoint now) {
 // sets, which the master has configured and verified.
 void BusManager::Impl::follow_heard_devices() {
   for (auto& m : devices) {
-    if (m.followed || !m.in_config || m.st.node_id == 0 || !m.heard_operational) continue;
+    if (!m.to_follow()) continue;
     if (m.description == nullptr) {
       auto chosen = description_from_config(catalog, m.cfg, m.st.identity);
       if (!chosen.ok()) continue;
@@ -129,15 +124,6 @@ void BusManager::Impl::follow_heard_devices() {
 // applying them): the same record the master keeps.
 void BusManager::Impl::remember_followed(const DeviceAgent& m, const std::string& fingerprint) {
   if (m.st.identity.serial != 0) remember_assignment(m, fingerprint);
-}
-
-DeviceStatus BusManager::Impl::as_the_bus_says(const DeviceAgent& m) const {
-  DeviceStatus s = m.st;
-  if (m.in_config && m.followed && m.heard_operational) {
-    s.state = DeviceState::operational;
-    s.nmt = canopen::NmtState::operational;
-  }
-  return s;
 }
 
 }  // namespace cobridge::bus

@@ -80,7 +80,7 @@ void BusManager::Impl::publish_all() {
   s.last_bus_event = live_bus_event;
   s.controller = controller;
   s.devices.reserve(devices.size());
-  for (const auto& m : devices) s.devices.push_back(standby() ? as_the_bus_says(m) : m.st);
+  for (const auto& m : devices) s.devices.push_back(standby() ? m.as_the_bus_says() : m.st);
   s.steps = steps;
   // The state file first: while it is held no node-ID is assigned, and an
   // operator must decide (docs/operations.md).

@@ -235,4 +235,30 @@ IdentityVerdict DeviceAgent::judge_identity(const std::optional<canopen::LssAddr
   return IdentityVerdict::identified;
 }
 
+// ---- the standby's view ---------------------------------------------------------
+
+bool DeviceAgent::note_heard_state(bool operational) noexcept {
+  const bool news = heard_operational != operational;
+  heard_operational = operational;
+  return news;
+}
+
+bool DeviceAgent::note_identity_heard(const canopen::LssAddress& id, std::uint8_t node) noexcept {
+  if (!in_config || cfg.serial != id.serial || st.node_id == node) return false;
+  if (cfg.vendor && *cfg.vendor != id.vendor) return false;
+  st.node_id = node;
+  st.identity = id;
+  followed = false;
+  return true;
+}
+
+DeviceStatus DeviceAgent::as_the_bus_says() const {
+  DeviceStatus s = st;
+  if (in_config && followed && heard_operational) {
+    s.state = DeviceState::operational;
+    s.nmt = canopen::NmtState::operational;
+  }
+  return s;
+}
+
 }  // namespace cobridge::bus

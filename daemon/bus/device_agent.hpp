@@ -191,6 +191,24 @@ struct DeviceAgent {
   // Whether a boot-up asked for the read just judged (then forgotten).
   [[nodiscard]] bool take_identity_boot_up() noexcept { return std::exchange(ident_boot_up_, false); }
 
+  // ---- the standby's view (a hot-standby pair: it hears, never asks) ------
+
+  // Its heartbeat said operational or not; true when that is news.
+  bool note_heard_state(bool operational) noexcept;
+  // The master read identity `id` from `node` (0x1018 through SDO, CiA 301
+  // §7.2.4.3.3): when it is this configured device's serial (and vendor, if
+  // configured) at another node-ID, the device is at `node` now and its
+  // outputs are announced again. True when it moved.
+  bool note_identity_heard(const canopen::LssAddress& id, std::uint8_t node) noexcept;
+  // Its outputs may be announced as its configuration maps them: configured,
+  // placed, heard operational, and not announced yet.
+  [[nodiscard]] bool to_follow() const noexcept {
+    return !followed && in_config && st.node_id != 0 && heard_operational;
+  }
+  // The status a standby shows: operational while it is followed and heard
+  // so (the master configured it), else what the record says.
+  [[nodiscard]] DeviceStatus as_the_bus_says() const;
+
   // ---- configuration drift (bus/config_drift.hpp, bus/restore_guard.hpp) ----
 
   // A client wrote index:sub while this device's plan ran: the plan may

@@ -2,7 +2,8 @@
 // schedule (attempts and their waits), its drift records (what a plan
 // closes, what a contested object keeps out of the next plan, an operator's
 // acknowledgement), the identity check of a bus without discovery (CiA 301
-// §7.5.2.35: 0x1018 against the configured serial), and what a heartbeat
+// §7.5.2.35: 0x1018 against the configured serial), the standby's view of a
+// device it only hears (a hot-standby pair, CiA 302-2), and what a heartbeat
 // after the gateway's NMT start means (CiA 301 §7.2.8.3.2: the heartbeat carries the
 // NMT state; §7.2.8.2.1.1: NMT start from the master).
 #include "bus/device_agent.hpp"
@@ -416,6 +417,65 @@ TEST(DeviceAgentIdentity, Cia301_7_5_2_35_TheConfiguredSerialOrNoneIsIdentified)
   EXPECT_EQ(a.judge_identity(id), IdentityVerdict::other_serial) << "another device at the node: not configured";
   a.cfg.serial = 0;
   EXPECT_EQ(a.judge_identity(id), IdentityVerdict::identified) << "no serial configured: any device of the node";
+}
+
+// ---- the standby's view ---------------------------------------------------------
+
+// A configured device the standby knows by its serial only (not placed yet).
+DeviceAgent standby_agent() {
+  DeviceAgent a;
+  a.cfg.serial = 2500;
+  a.cfg.vendor = 0x182;
+  a.st.state = DeviceState::expected;
+  return a;
+}
+
+TEST(DeviceAgentStandby, Cia301_7_2_4_3_3_TheMastersIdentityReadPlacesTheDevice) {
+  DeviceAgent a = standby_agent();
+  canopen::LssAddress id{};
+  id.vendor = 0x182;
+  id.serial = 2500;
+  EXPECT_TRUE(a.note_identity_heard(id, 20));
+  EXPECT_EQ(a.st.node_id, 20);
+  EXPECT_EQ(a.st.identity.serial, 2500U);
+  EXPECT_FALSE(a.note_identity_heard(id, 20)) << "already there: no news";
+  a.followed = true;
+  EXPECT_TRUE(a.note_identity_heard(id, 21)) << "moved (the master gave it another node-ID)";
+  EXPECT_FALSE(a.followed) << "announced again at its new node-ID";
+  id.serial = 2501;
+  EXPECT_FALSE(a.note_identity_heard(id, 22)) << "another device's serial";
+  id.serial = 2500;
+  id.vendor = 0x69666D;
+  EXPECT_FALSE(a.note_identity_heard(id, 22)) << "the serial of another vendor's device";
+  a.in_config = false;
+  id.vendor = 0x182;
+  EXPECT_FALSE(a.note_identity_heard(id, 22)) << "an unknown device is never placed so";
+}
+
+TEST(DeviceAgentStandby, FollowedOnlyOncePlacedAndHeardOperational) {
+  DeviceAgent a = standby_agent();
+  EXPECT_FALSE(a.to_follow()) << "not placed";
+  a.st.node_id = 20;
+  EXPECT_FALSE(a.to_follow()) << "not heard operational";
+  EXPECT_TRUE(a.note_heard_state(true));
+  EXPECT_FALSE(a.note_heard_state(true)) << "the same state again: no news";
+  EXPECT_TRUE(a.to_follow());
+  a.followed = true;
+  EXPECT_FALSE(a.to_follow()) << "announced once";
+}
+
+TEST(DeviceAgentStandby, Cia301_7_2_8_3_2_TheStatusIsOperationalWhileFollowedAndHeardSo) {
+  DeviceAgent a = standby_agent();
+  a.st.node_id = 20;
+  EXPECT_EQ(a.as_the_bus_says().state, DeviceState::expected);
+  (void)a.note_heard_state(true);
+  EXPECT_EQ(a.as_the_bus_says().state, DeviceState::expected) << "not followed yet";
+  a.followed = true;
+  EXPECT_EQ(a.as_the_bus_says().state, DeviceState::operational);
+  EXPECT_EQ(a.as_the_bus_says().nmt, canopen::NmtState::operational);
+  EXPECT_EQ(a.st.state, DeviceState::expected) << "the record itself is not changed";
+  (void)a.note_heard_state(false);  // its heartbeat says pre-operational now
+  EXPECT_EQ(a.as_the_bus_says().state, DeviceState::expected);
 }
 
 }  // namespace
