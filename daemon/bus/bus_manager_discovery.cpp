@@ -115,33 +115,26 @@ void BusManager::Impl::on_identified(const DiscoveryEvent& e, TimePoint now) {
               e.replaces, e.replaced.serial);
   }
   if (drop_unknown_entry(e)) m = find_device(name);  // the erase moved the elements
-  if (!e.at_target && e.target_node_id != 0 && !state_hold.empty()) {
-    // Nothing moves it while the state file is held: it waits where it is.
-    m->st.identity = e.identity;
-    set_state(*m, DeviceState::identified,
-              "at node " + std::to_string(e.node_id) + ", not moved to node " + std::to_string(e.target_node_id) +
-                  ": no node-ID is assigned while the state file is held");
-    return;
+  switch (m->judge_identified(e, !state_hold.empty())) {
+    case IdentifiedVerdict::held_in_place:
+      m->st.identity = e.identity;
+      set_state(*m, DeviceState::identified,
+                "at node " + std::to_string(e.node_id) + ", not moved to node " + std::to_string(e.target_node_id) +
+                    ": no node-ID is assigned while the state file is held");
+      return;
+    case IdentifiedVerdict::moving:  // reported `identified` again at the target
+      set_state(*m, DeviceState::commissioning);
+      m->st.identity = e.identity;
+      return;
+    case IdentifiedVerdict::running_fine:
+      discovery->set_supervised(e.node_id, true);
+      return;
+    case IdentifiedVerdict::on_its_way:
+      if (!m->runner) m->not_before = now;
+      return;
+    case IdentifiedVerdict::reconfigure:
+      break;
   }
-  if (!e.at_target) {
-    // Discovery is moving it; it reports `identified` again at the target.
-    set_state(*m, DeviceState::commissioning);
-    m->st.identity = e.identity;
-    return;
-  }
-  const bool same_device = m->st.identity.serial == e.identity.serial && m->st.identity.vendor == e.identity.vendor;
-  const bool running_fine = m->started && m->st.online && m->st.node_id == e.node_id && same_device &&
-                            !e.boot_up && m->st.state == DeviceState::operational;
-  if (running_fine) {
-    discovery->set_supervised(e.node_id, true);
-    return;
-  }
-  if (same_device && m->st.node_id == e.node_id && m->description != nullptr && (m->runner || m->want_configure)) {
-    // Already on its way (the reboot fallback below got there first).
-    if (!m->runner) m->not_before = now;
-    return;
-  }
-
   reconfigure_identified(*m, e, now);
 }
 
@@ -149,13 +142,9 @@ void BusManager::Impl::on_identified(const DiscoveryEvent& e, TimePoint now) {
 // configured one: drops its "unknown-" entry. True when there was one.
 bool BusManager::Impl::drop_unknown_entry(const DiscoveryEvent& e) {
   for (const auto& u : devices) {
-    if (!u.in_config && u.st.identity.serial == e.identity.serial && u.st.identity.vendor == e.identity.vendor &&
-        options.observer != nullptr)
-      options.observer->on_device_removed(u.st);
+    if (u.is_unknown(e.identity) && options.observer != nullptr) options.observer->on_device_removed(u.st);
   }
-  const auto dropped = std::erase_if(devices, [&](const DeviceAgent& u) {
-    return !u.in_config && u.st.identity.serial == e.identity.serial && u.st.identity.vendor == e.identity.vendor;
-  });
+  const auto dropped = std::erase_if(devices, [&](const DeviceAgent& u) { return u.is_unknown(e.identity); });
   if (dropped != 0) dirty = true;
   return dropped != 0;
 }
@@ -214,7 +203,7 @@ void BusManager::Impl::on_retry(const DiscoveryEvent& e) {
 
 void BusManager::Impl::note_unknown(const DiscoveryEvent& e) {
   for (auto& m : devices) {
-    if (!m.in_config && m.st.identity.serial == e.identity.serial && m.st.identity.vendor == e.identity.vendor) {
+    if (m.is_unknown(e.identity)) {
       m.st.node_id = e.node_id;
       dirty = true;
       return;

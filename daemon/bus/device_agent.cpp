@@ -261,4 +261,19 @@ DeviceStatus DeviceAgent::as_the_bus_says() const {
   return s;
 }
 
+// ---- discovery's reports -------------------------------------------------------
+
+IdentifiedVerdict DeviceAgent::judge_identified(const DiscoveryEvent& e, bool state_held) const noexcept {
+  if (!e.at_target) {
+    return e.target_node_id != 0 && state_held ? IdentifiedVerdict::held_in_place : IdentifiedVerdict::moving;
+  }
+  const bool same_device = st.identity.serial == e.identity.serial && st.identity.vendor == e.identity.vendor;
+  const bool here = same_device && st.node_id == e.node_id;
+  if (here && started && st.online && !e.boot_up && st.state == DeviceState::operational) {
+    return IdentifiedVerdict::running_fine;
+  }
+  if (here && description != nullptr && (runner || want_configure)) return IdentifiedVerdict::on_its_way;
+  return IdentifiedVerdict::reconfigure;
+}
+
 }  // namespace cobridge::bus

@@ -23,6 +23,7 @@
 #include "bus/config_plan.hpp"
 #include "bus/device_command.hpp"
 #include "bus/device_status.hpp"
+#include "bus/discovery.hpp"
 #include "bus/identity_reader.hpp"
 #include "bus/log_budget.hpp"
 #include "bus/plan_runner.hpp"
@@ -87,6 +88,16 @@ enum class IdentityVerdict : std::uint8_t {
   unanswered,    // no identity read: asked again after the discovery period
   other_serial,  // another serial than the configured one: not configured (`failed`), asked again
   identified,    // the configured device (or no serial configured): configure it
+};
+
+// What discovery's `identified` (CiA 305: the device found, its identity
+// read) means for a configured device, DeviceAgent::judge_identified.
+enum class IdentifiedVerdict : std::uint8_t {
+  held_in_place,  // not at its node-ID, and no node-ID moves while the state file is held: it waits there
+  moving,         // not at its node-ID: discovery moves it and reports it again at the target
+  running_fine,   // the same device, started, online and operational where it was: nothing to do
+  on_its_way,     // the same device, already planned or configuring (the reboot fallback came first)
+  reconfigure,    // anything else: remembered at its node-ID, configured from the start
 };
 
 // What a finished plan run (configuration, not a command) means for the
@@ -190,6 +201,17 @@ struct DeviceAgent {
   [[nodiscard]] IdentityVerdict judge_identity(const std::optional<canopen::LssAddress>& identity) const noexcept;
   // Whether a boot-up asked for the read just judged (then forgotten).
   [[nodiscard]] bool take_identity_boot_up() noexcept { return std::exchange(ident_boot_up_, false); }
+
+  // ---- discovery's reports (bus/discovery.hpp) -------------------------------
+
+  // An unknown device's entry (shown in the status only) of this identity.
+  [[nodiscard]] bool is_unknown(const canopen::LssAddress& id) const noexcept {
+    return !in_config && st.identity.serial == id.serial && st.identity.vendor == id.vendor;
+  }
+  // Discovery identified this configured device: `e` (kind identified) says
+  // where it is and where it must be; `state_held`: the state file is held
+  // (unreadable, kept for the operator), so no node-ID moves.
+  [[nodiscard]] IdentifiedVerdict judge_identified(const DiscoveryEvent& e, bool state_held) const noexcept;
 
   // ---- the standby's view (a hot-standby pair: it hears, never asks) ------
 

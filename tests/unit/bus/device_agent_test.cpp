@@ -2,7 +2,8 @@
 // schedule (attempts and their waits), its drift records (what a plan
 // closes, what a contested object keeps out of the next plan, an operator's
 // acknowledgement), the identity check of a bus without discovery (CiA 301
-// §7.5.2.35: 0x1018 against the configured serial), the standby's view of a
+// §7.5.2.35: 0x1018 against the configured serial), what discovery's
+// `identified` means for it (CiA 305), the standby's view of a
 // device it only hears (a hot-standby pair, CiA 302-2), and what a heartbeat
 // after the gateway's NMT start means (CiA 301 §7.2.8.3.2: the heartbeat carries the
 // NMT state; §7.2.8.2.1.1: NMT start from the master).
@@ -476,6 +477,77 @@ TEST(DeviceAgentStandby, Cia301_7_2_8_3_2_TheStatusIsOperationalWhileFollowedAnd
   EXPECT_EQ(a.st.state, DeviceState::expected) << "the record itself is not changed";
   (void)a.note_heard_state(false);  // its heartbeat says pre-operational now
   EXPECT_EQ(a.as_the_bus_says().state, DeviceState::expected);
+}
+
+// ---- discovery's reports (CiA 305: identified, at its node-ID or not) ---------
+
+// Discovery's `identified` for serial 2500 of vendor 0x182 at `node`.
+DiscoveryEvent identified_at(std::uint8_t node, std::uint8_t target) {
+  DiscoveryEvent e;
+  e.kind = DiscoveryEventKind::identified;
+  e.node_id = node;
+  e.target_node_id = target;
+  e.at_target = node == target;
+  e.identity.vendor = 0x182;
+  e.identity.serial = 2500;
+  return e;
+}
+
+// A configured device at node 20, started, online and operational.
+DeviceAgent running_agent() {
+  DeviceAgent a;
+  a.st.node_id = 20;
+  a.st.identity.vendor = 0x182;
+  a.st.identity.serial = 2500;
+  a.st.online = true;
+  a.st.state = DeviceState::operational;
+  a.started = true;
+  return a;
+}
+
+TEST(DeviceAgentDiscovery, Cia305_NotAtItsNodeIdItIsMovedUnlessTheStateFileIsHeld) {
+  const DeviceAgent a = running_agent();
+  EXPECT_EQ(a.judge_identified(identified_at(127, 20), false), IdentifiedVerdict::moving);
+  EXPECT_EQ(a.judge_identified(identified_at(127, 20), true), IdentifiedVerdict::held_in_place);
+  EXPECT_EQ(a.judge_identified(identified_at(127, 0), true), IdentifiedVerdict::moving)
+      << "no target: discovery leaves it alone, nothing is held";
+}
+
+TEST(DeviceAgentDiscovery, Cia305_TheSameDeviceRunningFineIsLeftAloneABootUpIsNot) {
+  DeviceAgent a = running_agent();
+  EXPECT_EQ(a.judge_identified(identified_at(20, 20), false), IdentifiedVerdict::running_fine);
+  DiscoveryEvent boot = identified_at(20, 20);
+  boot.boot_up = true;
+  EXPECT_EQ(a.judge_identified(boot, false), IdentifiedVerdict::reconfigure) << "it restarted: configured again";
+  DiscoveryEvent other = identified_at(20, 20);
+  other.identity.serial = 2501;  // a replacement part at its place
+  EXPECT_EQ(a.judge_identified(other, false), IdentifiedVerdict::reconfigure);
+  a.st.online = false;
+  EXPECT_EQ(a.judge_identified(identified_at(20, 20), false), IdentifiedVerdict::reconfigure) << "was offline";
+}
+
+TEST(DeviceAgentDiscovery, ADevicePlannedAlreadyIsOnItsWayNotPlannedTwice) {
+  DeviceAgent a = running_agent();
+  a.started = false;
+  a.st.state = DeviceState::identified;
+  a.want_configuration(kT0 + 5s);  // the reboot fallback's plan, waiting
+  EXPECT_EQ(a.judge_identified(identified_at(20, 20), false), IdentifiedVerdict::reconfigure)
+      << "no description chosen yet: nothing to configure with";
+  const device::DeviceDescription description;
+  a.description = &description;
+  EXPECT_EQ(a.judge_identified(identified_at(20, 20), false), IdentifiedVerdict::on_its_way);
+}
+
+TEST(DeviceAgentDiscovery, AnUnknownDevicesEntryIsKnownByVendorAndSerial) {
+  DeviceAgent u;
+  u.in_config = false;
+  u.st.identity.vendor = 0x182;
+  u.st.identity.serial = 2500;
+  EXPECT_TRUE(u.is_unknown(identified_at(20, 20).identity));
+  canopen::LssAddress other = identified_at(20, 20).identity;
+  other.vendor = 0x69666D;
+  EXPECT_FALSE(u.is_unknown(other)) << "the same serial of another vendor";
+  EXPECT_FALSE(running_agent().is_unknown(identified_at(20, 20).identity)) << "a configured device";
 }
 
 }  // namespace
