@@ -2,8 +2,8 @@
 // device, or an unknown one discovery reported): what is known of it, the
 // plan run on it, and the decisions that need nothing but the device's own
 // record and the time: when its configuration is due again after a failure,
-// what its identity read means, and what a heartbeat after the gateway's NMT
-// start means.
+// what its identity read and discovery's report of it mean, what a standby
+// shows of it, and what a heartbeat after the gateway's NMT start means.
 //
 // The bus controller (bus_manager_*.cpp) does the sending, logging and
 // status around these decisions; the agent reads no clock (`now` and the
