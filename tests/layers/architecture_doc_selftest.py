@@ -12,9 +12,9 @@ SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "s
 HEAD = "# x\n\n## Where is it\n\n| Concept | Where |\n|---|---|\n"
 GOOD = ("| Restore guard | `daemon/bus/restore_guard.{hpp,cpp}`, `daemon/bus/` (`supervisor`, `RestoreGuard`) |\n"
         "| A config key is no place | `daemon/config/` (`load`); `on_config_drift`, `cobridge why` |\n")
-BAD = ("| Gone | `daemon/bus/remote/` (`remote_command`, `direct_answer`) |\n"
+BAD = ("| Gone | `daemon/bus/service/` (`service_request`, `direct_answer`) |\n"
        "| Half gone | `daemon/bus/restore_guard.{hpp,cxx}` |\n"
-       "| Moved | `daemon/bus/remote/line_connection` |\n")
+       "| Moved | `daemon/bus/service/line_connection` |\n")
 
 
 def run(text):
@@ -33,7 +33,7 @@ def main():
     if rc != 0:
         failures.append("a table of existing places: exit %d, want 0\n%s" % (rc, out))
     rc, out = run(BAD)
-    want = ("direct_answer (in daemon/bus/remote/)", "restore_guard.{hpp,cxx}", "daemon/bus/remote/line_connection")
+    want = ("direct_answer (in daemon/bus/service/)", "restore_guard.{hpp,cxx}", "daemon/bus/service/line_connection")
     if rc != 1 or not all(w in out for w in want):
         failures.append("a table naming 3 removed places: exit %d, want 1 naming %s\n%s" % (rc, want, out))
     rc, out = run("")
