@@ -215,6 +215,23 @@ TEST(MasterElection, EachNamesTheOtherAsItsPeer) {
 // leave the bus without a master, nor keep roles flapping.
 
 // The first master heartbeat (05h) any of `gws` sent after `t0`.
+// A master running alone for a second, then a gateway that preempts (hold
+// time 2 s) started beside it; the bus then runs `then`.
+struct PreemptPair {
+  Bus::Gateway& master;
+  Bus::Gateway& preempting;
+};
+PreemptPair start_preempt_pair(Bus& bus, uint8_t master_node, uint8_t master_priority, uint8_t node,
+                               uint8_t priority, Duration then) {
+  auto& master = bus.add(master_node, master_priority);
+  bus.start(master);
+  bus.run(1s);
+  auto& preempting = bus.add(node, priority, /*preempt=*/true, /*hold=*/2s);
+  bus.start(preempting);
+  bus.run(then);
+  return {master, preempting};
+}
+
 TimePoint first_master_beat(const std::vector<const Bus::Gateway*>& gws, TimePoint t0) {
   TimePoint first = kNever;
   for (const auto* g : gws) {
@@ -327,12 +344,7 @@ TEST(MasterElection, AClaimNamingTheOtherStandbyIsForgottenAndTheBusHasAMasterWi
 // without a master when the wait started again.
 TEST(MasterElection, AForgedClaimInANegotiationCostsAtMostOneAndAHalfPeriodsNotANewWait) {
   Bus bus;
-  auto& b = bus.add(121, 1);
-  bus.start(b);
-  bus.run(1s);
-  auto& a = bus.add(120, 1, /*preempt=*/true, /*hold=*/2s);
-  bus.start(a);
-  bus.run(1s);
+  auto [b, a] = start_preempt_pair(bus, 121, 1, 120, 1, 1s);
   ASSERT_TRUE(b.election.is_master());
   for (int i = 0; i < 3000 && bus.masters() == 1; ++i) bus.run(1ms);  // until a's preempt
   ASSERT_EQ(bus.masters(), 0);
@@ -617,12 +629,7 @@ TEST(MasterElection, AHandoverOnA0x76IsHeldDownForAMinuteAMasterLossIsNot) {
 // the role down, and takes it once the hold-down has passed.
 TEST(MasterElection, APreemptHeldDownIsAskedAgainAndHonouredAfterTheHoldDown) {
   Bus bus;
-  auto& low = bus.add(8, 1);
-  bus.start(low);
-  bus.run(1s);
-  auto& high = bus.add(1, 0, /*preempt=*/true, /*hold=*/2s);
-  bus.start(high);
-  bus.run(3s);
+  auto [low, high] = start_preempt_pair(bus, 8, 1, 1, 0, 3s);
   ASSERT_TRUE(high.election.is_master());  // the first preempt: honoured
   const TimePoint handover = high.events.back().time;
   high.alive = false;
