@@ -294,7 +294,9 @@ def losses_the_bus_shows(dev, listener, node, since, consumer_s):
     out = []
     for e in dev["timeline"]:
         at = e2e.iso_to_epoch(e["at"])
-        if e["kind"] not in ("state", "heartbeat") or "offline" not in e["text"] or at < since:
+        # Only a change to offline ("operational -> offline: ..."), not the way back
+        # ("offline -> operational: heard again"), which has no silence before it.
+        if e["kind"] not in ("state", "heartbeat") or "-> offline" not in e["text"] or at < since:
             continue
         before = [t for t in beats if t <= at]
         silence = at - before[-1] if before else None
