@@ -30,7 +30,9 @@ failed = []
 
 def check(ok, what, detail=""):
     global passed
-    print("COBRIDGE-CHECK %s %s%s" % ("PASS" if ok else "FAIL", what, (" -- " + detail) if detail else ""),
+    # The guest's time since boot: where a slow or late check stood.
+    print("COBRIDGE-CHECK %s %s%s [%.1f s after boot]" % ("PASS" if ok else "FAIL", what, (" -- " + detail) if detail else "",
+                                                          time.clock_gettime(time.CLOCK_BOOTTIME)),
           flush=True)
     if ok:
         passed += 1
@@ -226,8 +228,10 @@ def main():
     # ---- values flow to DDS
     rc, out, err = sh("cobridge", "watch", "--count", "4", "--timeout", "20", timeout=40)
     lines = [l for l in out.splitlines() if l.strip()]
-    check(rc == 0 and len(lines) >= 4 and any("pos=" in l for l in lines),
-          "DDS: cobridge watch receives samples", (lines[:2] if lines else err.strip()[:200]).__repr__())
+    positions = [l for l in lines if "pos=" in l]
+    check(rc == 0 and len(lines) >= 4 and positions, "DDS: cobridge watch receives samples",
+          "rc %d, %d lines, %d with a position: %r; stderr %r" % (rc, len(lines), len(positions), (positions or lines)[:2],
+                                                                  err.strip()[-300:]))
 
     # ---- values flow to MQTT (Sparkplug B, docs/mqtt.md): the shipped plugin
     # loads in a clean root with the dependencies the package declares, and a
