@@ -388,8 +388,10 @@ def main():
 
     # ---- apt-get remove under a running systemd: prerm stops the daemon
     env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
+    t0 = time.monotonic()
     r = subprocess.run(["apt-get", "remove", "-y", "-q", "cobridge"], capture_output=True, text=True, timeout=180,
                        env=env)
+    figure("apt_remove_s", "%.1f" % (time.monotonic() - t0))
     running = []
     for d in os.listdir("/proc"):
         if d.isdigit():
