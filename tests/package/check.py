@@ -226,7 +226,10 @@ def main():
         check(False, "Modbus TCP: live positions of both encoders", repr(e))
 
     # ---- values flow to DDS
-    rc, out, err = sh("cobridge", "watch", "--count", "4", "--timeout", "20", timeout=40)
+    # 20 samples of any topic: the status samples (durable, so delivered on
+    # matching) and EMCY come first when the position reader matches last
+    # (QEMU: 4 samples were 2 status, an EMCY and a status, no position).
+    rc, out, err = sh("cobridge", "watch", "--count", "20", "--timeout", "20", timeout=40)
     lines = [l for l in out.splitlines() if l.strip()]
     positions = [l for l in lines if "pos=" in l]
     check(rc == 0 and len(lines) >= 4 and positions, "DDS: cobridge watch receives samples",
