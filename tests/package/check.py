@@ -227,8 +227,9 @@ def main():
 
     # ---- values flow to DDS
     # 20 samples of any topic: the status samples (durable, so delivered on
-    # matching) and EMCY come first when the position reader matches last
-    # (QEMU: 4 samples were 2 status, an EMCY and a status, no position).
+    # matching) and EMCY can come first when the position reader matches last
+    # (once on QEMU, 2026-12-01: the first two were status samples, and no
+    # position was among the 4 the check then asked for).
     rc, out, err = sh("cobridge", "watch", "--count", "20", "--timeout", "20", timeout=40)
     lines = [l for l in out.splitlines() if l.strip()]
     positions = [l for l in lines if "pos=" in l]
