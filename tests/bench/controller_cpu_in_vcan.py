@@ -13,8 +13,9 @@ Printed per daemon, the least of its rounds (the run's noise only adds):
          window per frame on vcan0 (the kernel's rx_packets).
 With outputs off, the threads that work are the bus's control thread (LSS,
 SDO, NMT, heartbeat supervision) and its receive thread (the hot path's
-decoding of the same frames); the hot path is the same code in both builds
-compared here, so a difference is the controller's.
+decoding of the same frames). Between the builds compared by scripts/bench
+(c455294 and now) the hot path's decoding did not change; can/ did a little
+(the control socket's receive queue and kernel stamps), and counts in.
 """
 import argparse
 import os
