@@ -44,17 +44,12 @@ def rx_frames(iface="vcan0"):
 
 
 def write_config(ws, device_dir):
-    lines = ["[gateway]", 'id = "bench"', 'state_dir = "%s"' % ws.state, 'device_dirs = ["%s"]' % device_dir,
-             'control_socket = "%s"' % ws.control, "", "[logging]", 'level = "warn"', 'target = "console"', "",
-             "[[bus]]", 'name = "line1"', 'interface = "vcan0"', "bitrate = 250", ""]
-    for i in range(COUNT):
-        lines += ["[[device]]", 'name = "mt%02d"' % (i + 1), 'bus = "line1"', "serial = %d" % (5001 + i),
-                  'model = "MC1-2800"', "node_id = %d" % (i + 1), "heartbeat_ms = 100", "[device.tpdo1]",
-                  'mapping = ["position"]', 'transmission = "event"', "event_timer_ms = 100", ""]
-    path = ws.path("cobridge.toml")
-    with open(path, "w") as f:
-        f.write("\n".join(lines))
-    return path
+    bus = {"name": "line1", "interface": "vcan0", "bitrate": 250}
+    devices = [{"name": "mt%02d" % (i + 1), "bus": "line1", "serial": 5001 + i, "model": "MC1-2800",
+                "node_id": i + 1, "heartbeat_ms": 100,
+                "tpdo1": {"mapping": ["position"], "transmission": "event", "event_timer_ms": 100}}
+               for i in range(COUNT)]
+    return e2e.write_config(ws, [bus], devices, level="warn", device_dir=device_dir)
 
 
 def one_round(args, label, daemon_path, device_dir):

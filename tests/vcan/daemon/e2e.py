@@ -127,13 +127,14 @@ def toml_value(v):
     return json.dumps(v)
 
 
-def write_config(ws, buses, devices, file_name="cobridge.toml", level="info", extra=""):
-    """buses/devices: lists of dicts; a device dict may hold 'tpdo1' (a dict)."""
+def write_config(ws, buses, devices, file_name="cobridge.toml", level="info", extra="", device_dir=DEVICES_DIR):
+    """buses/devices: lists of dicts; a device dict may hold 'tpdo1' (a dict). device_dir: the
+    device descriptions (another build's own, for a bench that compares two daemons)."""
     lines = [
         "[gateway]",
         'id = "e2e"',
         "state_dir = %s" % toml_value(ws.state),
-        "device_dirs = %s" % toml_value([DEVICES_DIR]),
+        "device_dirs = %s" % toml_value([device_dir]),
         "control_socket = %s" % toml_value(ws.control),
         "",
         "[logging]",
