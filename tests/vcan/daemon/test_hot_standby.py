@@ -372,9 +372,24 @@ def main():
         report.check(b.wait_socket(), "gateway b: control socket up")
         rb, t_b_standby = check_join(report, pair, "b", "a", t_b_start, "gateway b")
         report.check(rb is not None, "gateway b: standby, naming a (node 120) as master", str(redundancy(b)))
-        rc, out, _ = e2e.run_cli(args.cli, "status", "--control", pair.ws["b"].control)
-        report.check(rc == 0 and "hot standby: standby, master node 120" in out,
-                     "cobridge status (text) shows b's role and its master", " | ".join(out.splitlines()[:4]))
+        # The text says what the daemon says at that moment: under a sanitizer on the QEMU bed the
+        # master's heartbeat can be late by 1.5 periods, and b negotiates for a moment (the bus
+        # trace below explains each such request). So the text is read until it shows b standing
+        # by again (5 s); every reading that did not is printed.
+        seen = []
+        end = time.time() + 5
+        while True:
+            rc, out, err = e2e.run_cli(args.cli, "status", "--control", pair.ws["b"].control)
+            line = next((l.strip() for l in out.splitlines() if "hot standby:" in l), "(no hot standby line)")
+            ok = rc == 0 and "hot standby: standby, master node 120" in out
+            if ok or time.time() > end:
+                break
+            seen.append("rc %d: %s %s" % (rc, line, err.strip()[:200]))
+            time.sleep(0.1)
+        if seen:
+            print("NOTE cobridge status before b showed standby again: " + "; ".join(seen[:5]))
+        report.check(ok, "cobridge status (text) shows b's role and its master",
+                     "rc %d: %s | %s" % (rc, line, " | ".join(out.splitlines()[:2])))
         # A request the standby would have to send on the bus (on its own control socket: the CLI
         # itself goes to the daemon that holds the bus's beacon) is refused, naming the master.
         answer = b.request("sdo-read %s 20 1000 0 500" % IFACE["b"], timeout=15)
