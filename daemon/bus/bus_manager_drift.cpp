@@ -86,22 +86,23 @@ void BusManager::Impl::note_command_writes(DeviceAgent& m, const ConfigPlan& com
 void BusManager::Impl::request_restore(DeviceAgent& m, std::uint16_t index, std::uint8_t sub, TimePoint now) {
   DriftRecord* r = open_record(m.st.drift, index, sub);
   if (r == nullptr) return;
-  if (m.runner && !m.command) {
-    m.note_drift_mid_plan(index, sub);
-    return;
+  const RestoreDecision d = m.judge_restore(*r, now);
+  switch (d.verdict) {
+    case RestoreVerdict::after_the_plan:
+    case RestoreVerdict::on_its_way:
+      return;
+    case RestoreVerdict::restore:
+      // While the restore waits out its backoff the device runs with the
+      // client's value: supervised as it now is, not declared lost for it.
+      if (d.not_before > now) follow_written_heartbeat(m, *r);
+      restore_configuration(m, now, d.not_before);
+      return;
+    case RestoreVerdict::contested_now:
+      mark_contested(m, *r);
+      break;
+    case RestoreVerdict::held:
+      break;
   }
-  if (m.want_configure && m.force_full && !m.restore_guard.contested(index, sub)) return;  // one on its way
-  const RestoreGuard::Decision d = m.restore_guard.on_drift(index, sub, now);
-  r->restores = d.restores;
-  if (d.verdict == RestoreGuard::Verdict::restore) {
-    // While the restore waits out its backoff the device runs with the
-    // client's value: supervised as it now is, not declared lost for it.
-    if (d.not_before > now) follow_written_heartbeat(m, *r);
-    restore_configuration(m, now, d.not_before);
-    return;
-  }
-  r->contested = true;
-  if (d.verdict == RestoreGuard::Verdict::contested) mark_contested(m, *r);
   // The device runs with the client's value now: supervise what it does.
   follow_written_heartbeat(m, *r);
 }
@@ -139,10 +140,7 @@ void BusManager::Impl::mark_contested(DeviceAgent& m, const DriftRecord& r) {
 // the restore waits for the client's NMT start (on_nmt_sent). A command
 // running on the device finishes first (start_configurations waits for it).
 void BusManager::Impl::restore_configuration(DeviceAgent& m, TimePoint now, TimePoint when) {
-  if ((m.runner && !m.command) || m.description == nullptr || !m.profile) return;  // a plan is on its way
-  if (m.operator_hold) return;
-  m.force_full = true;
-  m.want_configuration(when);
+  if (!m.want_restore(when)) return;
   if (when > now) return;  // begin_configuration stops the watch when the plan starts
   // The plan passes through pre-operational: not a foreign NMT master's doing.
   m.started = false;

@@ -152,6 +152,26 @@ void DeviceAgent::leave_contested(ConfigPlan& to_run) const {
   });
 }
 
+RestoreDecision DeviceAgent::judge_restore(DriftRecord& r, canopen::TimePoint now) {
+  if (runner && !command) {
+    note_drift_mid_plan(r.index, r.sub);
+    return {RestoreVerdict::after_the_plan, {}};
+  }
+  if (want_configure && force_full && !restore_guard.contested(r.index, r.sub)) return {RestoreVerdict::on_its_way, {}};
+  const RestoreGuard::Decision d = restore_guard.on_drift(r.index, r.sub, now);
+  r.restores = d.restores;
+  if (d.verdict == RestoreGuard::Verdict::restore) return {RestoreVerdict::restore, d.not_before};
+  r.contested = true;
+  return {d.verdict == RestoreGuard::Verdict::contested ? RestoreVerdict::contested_now : RestoreVerdict::held, {}};
+}
+
+bool DeviceAgent::want_restore(canopen::TimePoint when) noexcept {
+  if ((runner && !command) || description == nullptr || !profile || operator_hold) return false;
+  force_full = true;
+  want_configuration(when);
+  return true;
+}
+
 std::optional<std::string> DeviceAgent::acknowledge_contested() {
   if (restore_guard.acknowledge() == 0) return std::nullopt;
   std::string freed;

@@ -108,6 +108,20 @@ enum class RunVerdict : std::uint8_t {
   configured,          // verified (and stored): the NMT start is next
 };
 
+// What a client's drift of an object the plan sets means under
+// on_config_drift = "restore", DeviceAgent::judge_restore.
+enum class RestoreVerdict : std::uint8_t {
+  after_the_plan,  // a plan runs: it may have written the object before the client; it stays open after it
+  on_its_way,      // the full plan is wanted already (another object's restore): nothing more
+  restore,         // the full plan from RestoreDecision::not_before (the guard's backoff)
+  contested_now,   // the writer outlasted the restores: contested from now on, said once
+  held,            // contested already: written no more until acknowledged
+};
+struct RestoreDecision {
+  RestoreVerdict verdict = RestoreVerdict::restore;
+  canopen::TimePoint not_before{};  // restore only
+};
+
 struct DeviceAgent {
   config::Device cfg;
   bool in_config = true;  // false: an unknown device, shown in the status only
@@ -242,6 +256,16 @@ struct DeviceAgent {
   [[nodiscard]] std::string close_restored_drift();
   // The write steps of contested objects taken out of a plan about to run.
   void leave_contested(ConfigPlan& to_run) const;
+  // The client's write of open record `r` differs from the configuration
+  // and the policy restores it: the plan running (if any), a restore wanted
+  // already, or the RestoreGuard's count decides; `r` takes the count and
+  // the contest.
+  [[nodiscard]] RestoreDecision judge_restore(DriftRecord& r, canopen::TimePoint now);
+  // The full plan for a restore, wanted from `when` on. False when none is
+  // wanted: a plan is on its way (it rewrites what differs), the device has
+  // no description, or a client's NMT command holds it (the restore waits
+  // for the client's start).
+  [[nodiscard]] bool want_restore(canopen::TimePoint when) noexcept;
   // An operator's acknowledgement: contested objects may be written again,
   // their restores counted afresh. Returns the objects it freed (nothing:
   // none was contested).

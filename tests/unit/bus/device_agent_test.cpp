@@ -13,8 +13,10 @@
 
 #include <chrono>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "can/frame_sink.hpp"
 
@@ -548,6 +550,81 @@ TEST(DeviceAgentDiscovery, AnUnknownDevicesEntryIsKnownByVendorAndSerial) {
   other.vendor = 0x69666D;
   EXPECT_FALSE(u.is_unknown(other)) << "the same serial of another vendor";
   EXPECT_FALSE(running_agent().is_unknown(identified_at(20, 20).identity)) << "a configured device";
+}
+
+
+// ---- configuration drift: the restore decision (docs/reliability.md) ------
+
+// A device the gateway can configure: a description and a family chosen.
+struct RestorableAgent {
+  device::DeviceDescription description;
+  DeviceAgent a;
+  RestorableAgent() {
+    a.description = &description;
+    a.profile = device::FamilyProfile{};
+    a.st.drift = {drift(0x6001, 0, "0x6001:00")};
+  }
+  DriftRecord& record() { return a.st.drift.front(); }
+  void plan_ran() {  // the controller took the wanted plan and it ended
+    a.want_configure = false;
+    a.force_full = false;
+  }
+};
+
+TEST(DeviceAgentRestore, ThreeRestoresWithTheirBackoffThenContestedThenHeld) {
+  RestorableAgent t;
+  RestoreDecision d = t.a.judge_restore(t.record(), kT0);
+  EXPECT_EQ(d.verdict, RestoreVerdict::restore);
+  EXPECT_EQ(d.not_before, kT0) << "the first restore at once";
+  EXPECT_EQ(t.record().restores, 1U);
+  ASSERT_TRUE(t.a.want_restore(d.not_before));
+  EXPECT_TRUE(t.a.force_full);
+  EXPECT_TRUE(t.a.configuration_due(kT0));
+  EXPECT_EQ(t.a.judge_restore(t.record(), kT0 + 1s).verdict, RestoreVerdict::on_its_way);
+  EXPECT_EQ(t.record().restores, 1U) << "a restore on its way already is not counted again";
+  t.plan_ran();
+  d = t.a.judge_restore(t.record(), kT0 + 2s);
+  EXPECT_EQ(d.verdict, RestoreVerdict::restore);
+  EXPECT_EQ(d.not_before, kT0 + 7s) << "the second after 5 s";
+  EXPECT_EQ(t.record().restores, 2U);
+  d = t.a.judge_restore(t.record(), kT0 + 10s);
+  EXPECT_EQ(d.not_before, kT0 + 30s) << "the third after 20 s";
+  EXPECT_EQ(t.a.judge_restore(t.record(), kT0 + 40s).verdict, RestoreVerdict::contested_now);
+  EXPECT_TRUE(t.record().contested);
+  EXPECT_EQ(t.a.judge_restore(t.record(), kT0 + 41s).verdict, RestoreVerdict::held) << "said once";
+  t.a.want_configure = true;  // another object's restore wanted meanwhile
+  t.a.force_full = true;
+  EXPECT_EQ(t.a.judge_restore(t.record(), kT0 + 42s).verdict, RestoreVerdict::held)
+      << "a contested object is held whatever else is on its way";
+}
+
+TEST(DeviceAgentRestore, AWriteWhileAPlanRunsStaysOpenForAfterThePlan) {
+  RestorableAgent t;
+  NullSink sink;
+  canopen::SdoClient sdo(sink, 20, {});
+  t.a.runner = std::make_unique<PlanRunner>(sink, sdo, ConfigPlan{});
+  EXPECT_EQ(t.a.judge_restore(t.record(), kT0).verdict, RestoreVerdict::after_the_plan);
+  EXPECT_EQ(t.a.drift_mid_plan, std::vector<std::uint32_t>{object_number(0x6001, 0)});
+  EXPECT_EQ(t.record().restores, 0U) << "not counted: the plan may have written it first";
+  EXPECT_FALSE(t.a.want_restore(kT0)) << "the plan on its way rewrites what differs";
+  t.a.command = DeviceCommand{};  // the runner runs a command, not the configuration
+  EXPECT_EQ(t.a.judge_restore(t.record(), kT0).verdict, RestoreVerdict::restore);
+  EXPECT_EQ(t.record().restores, 1U);
+}
+
+TEST(DeviceAgentRestore, NoneWithoutADescriptionNorWhileAnOperatorHoldsTheDevice) {
+  RestorableAgent t;
+  t.a.description = nullptr;
+  EXPECT_FALSE(t.a.want_restore(kT0)) << "nothing to configure with";
+  t.a.description = &t.description;
+  t.a.operator_hold = true;  // a client's NMT stop: the restore waits for its start
+  EXPECT_FALSE(t.a.want_restore(kT0));
+  EXPECT_FALSE(t.a.want_configure);
+  EXPECT_FALSE(t.a.force_full);
+  t.a.operator_hold = false;
+  ASSERT_TRUE(t.a.want_restore(kT0 + 5s));
+  EXPECT_FALSE(t.a.configuration_due(kT0 + 4s)) << "the guard's backoff";
+  EXPECT_TRUE(t.a.configuration_due(kT0 + 5s));
 }
 
 }  // namespace
