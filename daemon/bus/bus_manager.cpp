@@ -1,86 +1,130 @@
-// BusManager: construction, the control thread's loop, the hand-over of
-// commands from other threads, and the public API (see bus_manager.hpp).
-#include "bus/bus_manager_impl.hpp"
+// BusManager: the shell of one bus's controller (bus_controller.hpp). It
+// owns what the controller must not: the control thread and its loop, the
+// socket (or a test's port) and its poll, the clocks (and the frames'
+// kernel stamps on them), netlink, the timeline journal's writer thread,
+// and the hand-over of commands from other threads; and the public API
+// (bus_manager.hpp).
+#include "bus/bus_controller.hpp"
 #include "bus/capture_writer.hpp"
+#include "bus/stamp_clock.hpp"
+#include "bus/timeline_journal_thread.hpp"
+#include "can/socketcan_channel.hpp"
 
 #include <poll.h>
 #include <sys/eventfd.h>
 #include <unistd.h>
 
 #include <cerrno>
+#include <deque>
+#include <thread>
 
 namespace cobridge::bus {
 
-BusManager::Impl::Impl(const config::Config& config_in, std::size_t index, const device::DeviceCatalog& catalog_in,
-     StateStore& state_in, BusManagerOptions options_in)
-    : config(config_in),
-      bus_index(index),
-      catalog(catalog_in),
-      state(state_in),
-      options(options_in),
-      clock(options_in.clock != nullptr ? *options_in.clock : system_bus_clock()) {
-  bus = config.buses.at(bus_index);
-  log = sys::logger("gateway");
-  build_devices();
-  restore_timelines();
-  wake_fd = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+namespace {
+
+constexpr std::size_t kMaxReceiveBatches = 16;  // per loop turn, so timers still run under load
+constexpr milliseconds kMaxPollWait{1000};
+constexpr std::size_t kMaxQueuedCommands = 16;   // per bus, waiting for the control thread
+constexpr std::size_t kMaxServiceRequests = 256;  // client commands per bus, queued or waiting for their node
+// A re-plugged adapter is opened at most this long after it appears, so
+// its devices are configured again within 2 s of its return.
+constexpr milliseconds kReopenBackoffMax{500};
+// The control socket's receive queue carries the control plane over a
+// stall of its thread (a loaded host, an EMCY storm at 1 500 frames/s): the
+// kernel's default holds some 300 frames, 200 ms of such a storm.
+constexpr int kControlReceiveBuffer = 1 << 20;
+// A netlink round trip per second and bus: cheap, and a counter or a
+// state whose error frame was lost is at most this old.
+constexpr milliseconds kNetlinkPeriod{1000};
+
+// The journal of the bus's timelines, its history read into `kept`.
+std::unique_ptr<TimelineJournalThread> open_journal(const StateStore& state, const std::string& bus,
+                                                    TimelineSink::Kept& kept) {
+  TimelineJournal file(state.path().parent_path(), bus);
+  if (Error err = file.load(kept)) sys::logger("gateway")->warn("bus {}: timeline journal: {}", bus, err.to_string());
+  return std::make_unique<TimelineJournalThread>(std::move(file), bus);
 }
 
-void BusManager::Impl::build_devices() {
-  devices.clear();
-  for (const auto& d : config.devices) {
-    if (d.bus_index == bus_index) devices.push_back(make_managed(d));
+}  // namespace
+
+struct BusManager::Impl {
+  Impl(const config::Config& config, std::size_t index, const device::DeviceCatalog& catalog, StateStore& state,
+       BusManagerOptions options_in)
+      : options(options_in),
+        clock(options_in.clock != nullptr ? *options_in.clock : system_bus_clock()),
+        journal(open_journal(state, config.buses.at(index).name, kept)),
+        ctl(config, index, catalog, state, options_in, journal.get(), std::move(kept), clock.now(), clock.wall()) {
+    wake_fd = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
   }
-}
-
-DeviceAgent BusManager::Impl::make_managed(const config::Device& d) const {
-  DeviceAgent m;
-  m.cfg = d;
-  m.st.name = d.name;
-  m.st.bus = bus.name;
-  m.st.node_id = d.node_id.value_or(0);
-  m.st.identity.serial = d.serial;
-  m.st.identity.vendor = d.vendor.value_or(0);
-  m.st.identity.product = d.product.value_or(0);
-  m.st.model = d.model;
-  m.st.since = wall_now();
-  return m;
-}
-
-DeviceAgent* BusManager::Impl::find_device(std::string_view name) {
-  for (auto& m : devices) {
-    if (m.st.name == name) return &m;
+  // The wake fd lives as long as the Impl: a submit() or reload() racing
+  // with stop() then writes into a live eventfd, never into a closed (and
+  // possibly reused) descriptor.
+  ~Impl() {
+    if (wake_fd >= 0) ::close(wake_fd);
   }
-  return nullptr;
-}
 
-DeviceAgent* BusManager::Impl::find_configured_node(std::uint8_t node) {
-  for (auto& m : devices) {
-    if (m.in_config && m.st.node_id == node) return &m;
-  }
-  return nullptr;
-}
+  // The port (a socket on the interface, or options.port) with its filters.
+  Error open_port();
+  Error start();
+  void stop();
+  void wake() noexcept;
+  void run();
+  // One turn of the control loop at `now`: commands, frames, components;
+  // returns the next deadline. `now` moves on when the turn reads the
+  // clock again (work it started gets a turn at once).
+  TimePoint turn(TimePoint& now);
+  void clock_reading(TimePoint now) { ctl.set_time(now, clock.wall()); }
+  bool receive(TimePoint now);
+  // The CAN controller over netlink when due (a socket's interface only);
+  // returns when it is next due.
+  TimePoint read_netlink(TimePoint now);
+  void wait(TimePoint now, TimePoint next);
+  void take_commands(TimePoint now);
+  void finish_run();
 
-DeviceAgent* BusManager::Impl::find_node(std::uint8_t node) {
-  if (node == 0) return nullptr;
-  for (auto& m : devices) {
-    if (m.in_config && m.st.node_id == node && m.st.state != DeviceState::expected) return &m;
-  }
-  return nullptr;
-}
+  BusManagerOptions options;
+  const BusClock& clock;
+  TimelineSink::Kept kept;  // the journal's history, until the controller takes it
+  std::unique_ptr<TimelineJournalThread> journal;  // <state_dir>/timelines/<bus>.timeline
+  BusController ctl;
 
-BusManager::Impl::~Impl() {
-  if (wake_fd >= 0) ::close(wake_fd);
-}
+  // The bus: `socket` (SocketCAN on bus.interface), or options.port.
+  std::unique_ptr<can::SocketCanChannel> socket;
+  can::BusPort* channel = nullptr;
+  std::array<can::Frame, can::SocketCanChannel::kBatch> rx_frames{};
+  StampClock stamps{clock};
+  can::ControllerNetlink netlink;
+  TimePoint netlink_due{};
+
+  std::thread thread;
+  int wake_fd = -1;
+  bool rx_ready = true;  // the last poll saw the CAN socket readable (or failed)
+  // The deadline the last poll waited for: a turn at or past it judges
+  // timeouts, so it reads the socket first even after a command's wake-up.
+  TimePoint polled_for = kNever;
+  std::vector<pollfd> poll_fds;  // wait()'s, kept for its capacity
+  std::atomic<bool> stop_requested{false};
+  std::atomic<bool> running{false};
+  std::atomic<Clock::rep> loop_alive{0};  // steady_clock ticks of the last loop turn (watchdog)
+
+  // Shared with the callers of reload(), request_commission(), submit...
+  std::mutex mutex;
+  bool commission_requested = false;
+  std::vector<std::pair<std::string, std::string>> pending_acks;  // (device, caller)
+  std::optional<config::Config> pending_reload;
+  std::deque<DeviceCommand> pending_commands;
+  std::deque<std::pair<ServiceRequest, std::shared_ptr<ServiceReplies>>> pending_services;
+};
 
 Error BusManager::Impl::open_port() {
-  const std::string where = "bus " + bus.name;
+  const std::string where = "bus " + ctl.bus.name;
   if (options.port != nullptr) {
     channel = options.port;
+    ctl.attach(*channel);
     return {};
   }
   can::SocketCanConfig cc;
-  cc.interface = bus.interface;
+  cc.interface = ctl.bus.interface;
   cc.wait_for_interface = true;  // a missing adapter is reported and waited for
   cc.reopen_backoff_max = kReopenBackoffMax;
   cc.receive_buffer_bytes = kControlReceiveBuffer;
@@ -105,16 +149,18 @@ Error BusManager::Impl::open_port() {
     return ferr;
   }
   channel = socket.get();
+  ctl.attach(*channel);
   return {};
 }
 
 Error BusManager::Impl::start() {
   if (wake_fd < 0)
-    return Error(Errc::kUnavailable, "no eventfd for the control thread", "bus " + bus.name,
+    return Error(Errc::kUnavailable, "no eventfd for the control thread", "bus " + ctl.bus.name,
                  std::make_error_code(std::errc::too_many_files_open));
   if (Error e = open_port()) return e;
-  started_at = steady_now();
-  publish_all();
+  const TimePoint now = clock.now();
+  clock_reading(now);
+  ctl.opened(now);
   stop_requested.store(false);
   running.store(true);
   thread = std::thread([this] { run(); });
@@ -136,9 +182,11 @@ void BusManager::Impl::wake() noexcept {
 }
 
 void BusManager::Impl::run() {
-  start_components(steady_now());
+  const TimePoint start = clock.now();
+  clock_reading(start);
+  ctl.start_components(start);
   while (!stop_requested.load(std::memory_order_relaxed)) {
-    TimePoint now = steady_now();
+    TimePoint now = clock.now();
     const TimePoint next = turn(now);
     wait(now, next);
   }
@@ -146,6 +194,7 @@ void BusManager::Impl::run() {
 }
 
 TimePoint BusManager::Impl::turn(TimePoint& now) {
+  clock_reading(now);
   take_commands(now);
   // A wake-up for a command that found the socket empty then, in a turn that
   // runs past a deadline (the thread preempted after poll: a loaded host):
@@ -153,27 +202,9 @@ TimePoint BusManager::Impl::turn(TimePoint& now) {
   // (a returning standby negotiated while the master's heartbeat sat unread,
   // vcan_daemon_hot_standby 2026-11-30).
   if (now >= polled_for) rx_ready = true;
-  const bool lost = receive(rx_frames, now);  // the interface went down in this turn
-  if (handle_bus_events(now) || lost) {
-    // A lost bus is news at once: status and the outputs hear of it
-    // before the channel's reopen attempt, whose bind to an interface the
-    // kernel is still deleting waits for the unregistration (2.5-3 s in
-    // UML, vcan_daemon_adapter_hotplug).
-    open_flag.store(channel->is_open());
-    (void)handle_outputs(now);
-    publish_if_dirty();
-  }
-  if (config.redundancy && !election && channel->is_open()) start_election(now);
-  if (!discovery_started && channel->is_open() && !standby()) {
-    // Not before: probes sent to a missing interface would mark every
-    // device absent; nor as standby, whose probes are the master's.
-    discovery->start(now);
-    discovery_started = true;
-    check_configured_nodes(now);
-  }
+  const bool lost = receive(now);  // the interface went down in this turn
   loop_alive.store(now.time_since_epoch().count(), std::memory_order_relaxed);
-
-  TimePoint next = run_components(now);
+  TimePoint next = std::min(read_netlink(now), ctl.process(now, lost));
   // Handling the components' output may have started new work (a plan,
   // a reconfiguration): give it a turn at once rather than a poll later.
   // That handling can take milliseconds (the state store's fsync of a
@@ -182,85 +213,48 @@ TimePoint BusManager::Impl::turn(TimePoint& now) {
   // a Fastscan answer waiting there would count as silence. (LssMaster
   // judges an answer by its kernel stamp: one that came in time is in
   // time, however late the turn gets to it.)
-  while (handle_outputs(now)) {
-    now = steady_now();
+  while (ctl.handle_outputs(now)) {
+    now = clock.now();
+    clock_reading(now);
     rx_ready = true;
-    if (receive(rx_frames, now)) open_flag.store(channel->is_open());
-    next = run_components(now);
+    if (receive(now)) ctl.open_flag.store(channel->is_open());
+    next = std::min(read_netlink(now), ctl.run_components(now));
   }
-  update_ready(now);
-  publish_if_dirty();
-  return std::min(next, flush_timelines(now));
+  return std::min(next, ctl.settle(now));
 }
 
 void BusManager::Impl::finish_run() {
-  (void)flush_timelines(steady_now(), true);
-  sync.stop();
-  runners_abort();
-  services->abort_all("the bus stopped");
+  clock_reading(clock.now());
+  ctl.finish_run(ctl.steady_now());
   channel->close();
-  open_flag.store(false);
-  log->info("bus {}: stopped", bus.name);
-}
-
-// Discovery, the service executor and the SYNC producer, on the bus thread.
-void BusManager::Impl::start_components(TimePoint now) {
-  DiscoveryOptions dopt;
-  discovery = std::make_unique<Discovery>(tx, config, bus_index, state.on_bus(bus.name), dopt);
-  follow_state_hold(now);
-  services = std::make_unique<ServiceExecutor>(tx, bus.name, milliseconds(bus.lss_timeout_ms));
-  if (bus.sync_period_ms > 0) {
-    canopen::SyncProducer::Config sc;
-    sc.period = milliseconds(bus.sync_period_ms);
-    sc.overflow = bus.sync_counter;
-    if (const auto ec = sync.configure(sc)) {
-      log->error("bus {}: SYNC not produced: {}", bus.name, ec.message());
-    } else {
-      sync.start(now);
-    }
-  }
-  log->info("bus {}: serving {} ({} configured devices)", bus.name, bus.interface, devices.size());
-}
-
-void BusManager::Impl::follow_state_hold(TimePoint now) {
-  std::string hold = state.hold();
-  if (hold == state_hold) {
-    discovery->hold_assignments(hold);
-    return;
-  }
-  const bool released = hold.empty();
-  state_hold = std::move(hold);
-  dirty = true;
-  if (released) {
-    log->info("bus {}: the state file reads again; node-IDs are assigned from it", bus.name);
-    restart_discovery(now);
-    return;
-  }
-  log->warn("bus {}: no node-ID is assigned while the state file is held (cobridge status says why)", bus.name);
-  discovery->hold_assignments(state_hold);
-}
-
-void BusManager::Impl::restart_discovery(TimePoint now) {
-  discovery = std::make_unique<Discovery>(tx, config, bus_index, state.on_bus(bus.name), DiscoveryOptions{});
-  if (!discovery_started) return;
-  discovery->start(now);
-  for (const auto& m : devices)
-    if (m.started && m.st.online) discovery->set_supervised(m.st.node_id, true);
 }
 
 // Receives and dispatches what the socket holds; true when the interface
 // went down meanwhile. Only when poll saw the socket readable (or never
 // asked): an empty recvmmsg is a system call per turn, and a turn per client
-// command.
-bool BusManager::Impl::receive(std::span<can::Frame> frames, TimePoint now) {
+// command. A frame's arrival on the steady clock is worked out only for the
+// election, the one component that judges by it.
+bool BusManager::Impl::receive(TimePoint now) {
   bool lost = false;
   for (std::size_t batch = 0; rx_ready && batch < kMaxReceiveBatches; ++batch) {
-    const std::size_t n = channel->receive(frames);
-    for (std::size_t i = 0; i < n; ++i) dispatch(frames[i], now);
-    lost = handle_bus_events(now) || lost;
-    if (n < frames.size()) break;
+    const std::size_t n = channel->receive(rx_frames);
+    for (std::size_t i = 0; i < n; ++i) {
+      const can::Frame& f = rx_frames[i];
+      ctl.on_frame(f, now, ctl.judges_arrival() ? stamps.arrival(f.timestamp_ns, now) : now);
+    }
+    lost = ctl.on_port_events(now) || lost;
+    if (n < rx_frames.size()) break;
   }
   return lost;
+}
+
+TimePoint BusManager::Impl::read_netlink(TimePoint now) {
+  if (now >= netlink_due) {
+    // A test's in-process bus has no kernel interface to ask.
+    if (socket != nullptr) ctl.on_netlink(netlink.read(ctl.bus.interface));
+    netlink_due = now + kNetlinkPeriod;
+  }
+  return netlink_due;
 }
 
 // `now` is the turn's clock reading, not a fresh one: a clock read is a
@@ -309,69 +303,11 @@ void BusManager::Impl::take_commands(TimePoint now) {
     commands.swap(pending_commands);
     clients.swap(pending_services);
   }
-  for (auto& [c, to] : clients) services->add(std::move(c), std::move(to), now);
-  if (commission) discovery->request_commission();
-  for (const auto& [device, caller] : acks) acknowledge_contested(device, caller, now);
-  if (reload_config) apply_reload(std::move(*reload_config), now);
-  for (auto& c : commands) start_command(std::move(c), now);
-}
-
-void BusManager::Impl::apply_reload(config::Config next, TimePoint now) {
-  const config::Bus* nb = next.find_bus(bus.name);
-  if (nb == nullptr) {
-    log->warn("bus {}: not in the new configuration; kept as it is until restart", bus.name);
-    return;
-  }
-  std::size_t new_index = 0;  // find_bus found it
-  while (next.buses[new_index].name != bus.name) ++new_index;
-  if (nb->interface != bus.interface) {
-    log->warn("bus {}: a new interface ({}) needs a restart; kept {}", bus.name, nb->interface, bus.interface);
-  }
-  const std::string interface = bus.interface;
-  config = std::move(next);
-  bus_index = new_index;
-  bus = config.buses[bus_index];
-  bus.interface = interface;
-  discovery->reload(config, bus_index, state.on_bus(bus.name));
-
-  std::vector<DeviceAgent> old = std::move(devices);
-  devices.clear();
-  for (const auto& d : config.devices) {
-    if (d.bus_index != bus_index) continue;
-    auto it = std::find_if(old.begin(), old.end(), [&](const DeviceAgent& o) { return o.in_config && o.cfg.name == d.name; });
-    if (it == old.end()) {
-      devices.push_back(make_managed(d));
-      continue;
-    }
-    DeviceAgent m = std::move(*it);
-    old.erase(it);
-    m.cfg = d;
-    if (m.started && m.description != nullptr && m.profile) {
-      // Reconfigure only if the settings as applied would differ, or over
-      // a client's value kept under on_config_drift = "keep".
-      const auto plan = make_config_plan(m.cfg, *m.description, *m.profile, m.st.node_id);
-      if (!plan.ok() || !m.plan || plan.plan->fingerprint != m.plan->fingerprint || !m.st.drift.empty()) {
-        log->info("bus {}: device {}: {}; reconfiguring", bus.name, m.st.name,
-                  m.st.drift.empty() ? "settings changed" : "configuration differs");
-        m.plan.reset();
-        m.started = false;  // the plan puts it in pre-operational: not a surprise
-        supervisor.listen(m.st.node_id, m.profile->family);
-        m.want_configuration(now);
-      }
-    }
-    devices.push_back(std::move(m));
-  }
-  for (auto& o : old) {
-    if (o.in_config && o.st.node_id != 0) {
-      supervisor.unwatch(o.st.node_id);
-      discovery->set_supervised(o.st.node_id, false);
-    }
-    if (!o.in_config) devices.push_back(std::move(o));  // still on the bus
-  }
-  follow_state_hold(now);  // after the devices: a new discovery learns which are supervised
-  dirty = true;
-  // The moment the bus thread runs with the new settings (SIGHUP only asks).
-  log->info("bus {}: new configuration applied", bus.name);
+  for (auto& [c, to] : clients) ctl.add_service(std::move(c), std::move(to), now);
+  if (commission) ctl.request_commission();
+  for (const auto& [device, caller] : acks) ctl.acknowledge_contested(device, caller, now);
+  if (reload_config) ctl.apply_reload(std::move(*reload_config), now);
+  for (auto& c : commands) ctl.start_command(std::move(c), now);
 }
 
 BusManager::BusManager(const config::Config& config, std::size_t bus_index, const device::DeviceCatalog& catalog,
@@ -385,10 +321,10 @@ BusManager::~BusManager() {
 
 Error BusManager::start() {
   if (impl_->thread.joinable())
-    return Error(Errc::kFailed, "already started", "bus " + impl_->bus.name,
+    return Error(Errc::kFailed, "already started", "bus " + impl_->ctl.bus.name,
                  std::make_error_code(std::errc::device_or_resource_busy));
-  ServiceBus rb{impl_->bus.name, impl_->bus.interface, static_cast<unsigned>(impl_->bus_index + 1)};
-  const config::ServiceAccess access = impl_->config.services;
+  ServiceBus rb{impl_->ctl.bus.name, impl_->ctl.bus.interface, static_cast<unsigned>(impl_->ctl.bus_index + 1)};
+  const config::ServiceAccess access = impl_->ctl.config.services;
   if (Error e = impl_->start()) return e;
   if (impl_->options.registry != nullptr) impl_->options.registry->add(*this, std::move(rb), access);
   return {};
@@ -401,13 +337,14 @@ void BusManager::stop() {
 
 Error BusManager::open() {
   if (impl_->thread.joinable() || impl_->running.load())
-    return Error(Errc::kFailed, "already started", "bus " + impl_->bus.name,
+    return Error(Errc::kFailed, "already started", "bus " + impl_->ctl.bus.name,
                  std::make_error_code(std::errc::device_or_resource_busy));
   if (Error e = impl_->open_port()) return e;
-  impl_->started_at = impl_->steady_now();
-  impl_->publish_all();
+  const TimePoint now = impl_->clock.now();
+  impl_->clock_reading(now);
+  impl_->ctl.opened(now);
   impl_->running.store(true);
-  impl_->start_components(impl_->started_at);
+  impl_->ctl.start_components(now);
   return {};
 }
 
@@ -423,9 +360,10 @@ void BusManager::close() {
 }
 
 bool BusManager::ready() const {
-  if (impl_->ready_latched.load()) return true;
+  if (impl_->ctl.ready_latched.load()) return true;
   // Also true when the thread is late to notice the timeout (or never ran).
-  return impl_->started_at != TimePoint{} && impl_->steady_now() - impl_->started_at >= impl_->options.ready_timeout;
+  const TimePoint started = impl_->ctl.started_at;
+  return started != TimePoint{} && impl_->clock.now() - started >= impl_->options.ready_timeout;
 }
 
 bool BusManager::serving() const {
@@ -433,16 +371,16 @@ bool BusManager::serving() const {
   // stop the watchdog, or systemd would restart the daemon and take the other
   // buses down with it. The loop turns at least every kMaxPollWait.
   const Clock::time_point last{Clock::duration{impl_->loop_alive.load(std::memory_order_relaxed)}};
-  return impl_->running.load() && impl_->steady_now() - last < 3 * kMaxPollWait;
+  return impl_->running.load() && impl_->clock.now() - last < 3 * kMaxPollWait;
 }
 
 BusStatus BusManager::status() const {
   BusStatus s;
   {
-    const std::lock_guard lock(impl_->mutex);
-    s = impl_->published;
+    const std::lock_guard lock(impl_->ctl.mutex);
+    s = impl_->ctl.published;
   }
-  s.open = impl_->open_flag.load();
+  s.open = impl_->ctl.open_flag.load();
   if (const CaptureWriter* c = impl_->options.captures) {
     const can::FrameRecorder& r = c->recorder();
     s.recorder = RecorderStatus{true,
@@ -493,7 +431,7 @@ Error BusManager::submit_service(ServiceRequest command, std::shared_ptr<Service
   {
     const std::lock_guard lock(impl_->mutex);
     if (!impl_->running.load()) return Error(Errc::kUnavailable, "the bus does not run");
-    if (impl_->pending_services.size() + impl_->services_waiting.load(std::memory_order_relaxed) >= kMaxServiceRequests)
+    if (impl_->pending_services.size() + impl_->ctl.services_waiting.load(std::memory_order_relaxed) >= kMaxServiceRequests)
       return Error(Errc::kUnavailable, "too many client commands waiting on this bus; try again");
     impl_->pending_services.emplace_back(std::move(command), std::move(reply_to));
   }

@@ -17,6 +17,7 @@
 #pragma once
 
 #include "bus/timeline_journal.hpp"
+#include "bus/timeline_sink.hpp"
 
 #include <chrono>
 #include <condition_variable>
@@ -26,18 +27,18 @@
 
 namespace cobridge::bus {
 
-class TimelineJournalThread {
+class TimelineJournalThread final : public TimelineSink {
  public:
   // `journal`: loaded already (its history read by the caller); `bus`
   // names the bus in log lines.
   TimelineJournalThread(TimelineJournal journal, std::string bus);
-  ~TimelineJournalThread();
+  ~TimelineJournalThread() override;
   TimelineJournalThread(const TimelineJournalThread&) = delete;
   TimelineJournalThread& operator=(const TimelineJournalThread&) = delete;
 
-  void note(const std::string& device, const TimelineEvent& e);
-  [[nodiscard]] bool pending() const noexcept { return pending_; }
-  void hand_over(TimelineJournal::Devices devices);
+  void note(const std::string& device, const TimelineEvent& e) override;
+  [[nodiscard]] bool pending() const noexcept override { return pending_; }
+  void hand_over(TimelineJournal::Devices devices) override;
 
  private:
   void run();

@@ -155,8 +155,11 @@ class VirtualLine {
 
   // Devices on, then every gateway's controller opened.
   void start() {
-    for (auto& d : devices_) EXPECT_FALSE(d.device->power_on(clock_.now()));
+    power_on();
     for (std::size_t i = 0; i < gateways_.size(); ++i) start_gateway(i);
+  }
+  void power_on() {
+    for (auto& d : devices_) EXPECT_FALSE(d.device->power_on(clock_.now()));
   }
   // Gateway `g` (again, after stop_gateway): a new controller on its port.
   void start_gateway(std::size_t g) {
@@ -286,18 +289,8 @@ class VirtualLine {
   // takes its turn; time moves one frame when frames are under way, else
   // to the earliest deadline.
   void step() {
-    can::Frame heard;
-    while (tap_.receive(heard)) heard_.push_back({clock_.now(), heard});
     bool moved = false;
-    TimePoint next = canopen::kNever;
-    for (auto& d : devices_) {
-      can::Frame f;
-      while (d.port->receive(f)) {
-        d.device->on_frame(f, clock_.now());
-        moved = true;
-      }
-      next = std::min(next, d.device->process(clock_.now()));
-    }
+    TimePoint next = step_devices(moved);
     bool pending = false;
     for (auto& g : gateways_) {
       if (!g->manager) continue;
@@ -312,10 +305,40 @@ class VirtualLine {
       next = std::min(next, g->next);
       pending = pending || g->port.pending() > 0;
     }
+    move_time(pending, moved, next);
+  }
+
+ public:
+  // The devices' part of a step (and the tap's): they take what reached
+  // them and run; `moved` set when one took a frame; returns their next
+  // deadline. For a test that drives a controller of its own.
+  TimePoint step_devices(bool& moved) {
+    can::Frame heard;
+    while (tap_.receive(heard)) heard_.push_back({clock_.now(), heard});
+    TimePoint next = canopen::kNever;
+    for (auto& d : devices_) {
+      can::Frame f;
+      while (d.port->receive(f)) {
+        d.device->on_frame(f, clock_.now());
+        moved = true;
+      }
+      next = std::min(next, d.device->process(clock_.now()));
+    }
+    return next;
+  }
+  // Time moves one frame when frames are under way (`pending` at a
+  // controller, or at a device) or something moved, else to `next`.
+  void move_time(bool pending, bool moved, TimePoint next) {
     for (const auto& d : devices_) pending = pending || d.port->pending() > 0;
     const TimePoint t = clock_.now();
     clock_.set(pending || moved ? t + kFrameTime : std::max(next, t + kFrameTime));
   }
+  [[nodiscard]] const config::Config& config(std::size_t g = 0) const { return gateways_.at(g)->config; }
+  [[nodiscard]] can::VirtualBus::Port& port(std::size_t g = 0) { return gateways_.at(g)->port; }
+  [[nodiscard]] const device::DeviceCatalog& catalog() const { return catalog_; }
+  [[nodiscard]] FakeBusClock& clock() { return clock_; }
+
+ private:
 
   static inline int instances_ = 0;
   std::filesystem::path dir_;

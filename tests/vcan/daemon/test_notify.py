@@ -93,6 +93,9 @@ def main():
         time.sleep(1.5)
         during = [t for t, m in notify.all() if m == "WATCHDOG=1" and t > t_down]
         waiting = [m for t, m in notify.all() if m.startswith("STATUS=") and "waiting for" in m and "vcan1" in m]
+        # Counted before the link comes up: the daemon may tell STATUS= (once,
+        # on the change) before this script runs its next line.
+        before_up = len(notify.all())
         subprocess.run(["ip", "link", "set", "vcan1", "up"], check=True)
         t_up = time.time()
         report.check(len(during) >= 2, "WATCHDOG=1 goes on while vcan1 is down (vcan0 still served)",
@@ -100,7 +103,7 @@ def main():
         report.check(bool(waiting), "STATUS= names the bus waiting for its interface",
                      waiting[-1] if waiting else "none")
         back = notify.wait_for(lambda m: m.startswith("STATUS=") and "waiting" not in m, 10,
-                               after_index=len(notify.all()))
+                               after_index=before_up)
         report.check(back is not None, "STATUS= without the waiting bus once vcan1 is back",
                      "%.2f s after ip link up" % (back[1] - t_up) if back else "none")
 

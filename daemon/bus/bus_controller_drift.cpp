@@ -1,4 +1,4 @@
-// BusManager::Impl: configuration drift. A client's confirmed write (CLI /
+// BusController: configuration drift. A client's confirmed write (CLI /
 // control socket, CiA 309-3, a plugin's preset, or another SDO client on the
 // bus, canopen/sdo_observer.hpp) of an object the device's plan sets, to
 // another value, is recorded on the device (status "configuration differs"),
@@ -8,7 +8,7 @@
 // RestoreGuard (bus/restore_guard.hpp): a writer that keeps changing an
 // object meets three restores, then the object is contested and left alone
 // until an operator acknowledges it. Control thread only.
-#include "bus/bus_manager_impl.hpp"
+#include "bus/bus_controller.hpp"
 #include "bus/config_drift.hpp"
 
 #include <algorithm>
@@ -17,20 +17,20 @@
 
 namespace cobridge::bus {
 
-void BusManager::Impl::on_sdo_written(const ServiceRequest& c, TimePoint now) {
+void BusController::on_sdo_written(const ServiceRequest& c, TimePoint now) {
   for (auto& m : devices) {
     if (m.in_config && m.st.node_id == c.node) note_client_write(m, c.index, c.sub, c.data, c.caller, now);
   }
 }
 
-void BusManager::Impl::on_foreign_write(const canopen::ObservedWrite& w, TimePoint now) {
+void BusController::on_foreign_write(const canopen::ObservedWrite& w, TimePoint now) {
   DeviceAgent* m = find_node(w.node);
   if (m == nullptr) return;
   note_client_write(*m, w.index, w.sub, std::span(w.data.data(), w.size),
                     "an SDO client on the bus (not through the gateway)", now);
 }
 
-void BusManager::Impl::note_client_write(DeviceAgent& m, std::uint16_t index, std::uint8_t sub,
+void BusController::note_client_write(DeviceAgent& m, std::uint16_t index, std::uint8_t sub,
                                          std::span<const std::uint8_t> bytes, const std::string& writer,
                                          TimePoint now) {
   note_drift(m, index, sub, bytes, writer, now);
@@ -38,7 +38,7 @@ void BusManager::Impl::note_client_write(DeviceAgent& m, std::uint16_t index, st
   if (index == 0x1017 && sub == 0) supervisor.producer_time_written(m.st.node_id, now);
 }
 
-void BusManager::Impl::note_drift(DeviceAgent& m, std::uint16_t index, std::uint8_t sub,
+void BusController::note_drift(DeviceAgent& m, std::uint16_t index, std::uint8_t sub,
                                   std::span<const std::uint8_t> bytes, const std::string& writer, TimePoint now) {
   if (!m.plan || standby()) return;
   const DriftCheck check = check_write(*m.plan, index, sub, bytes, writer, wall_now());
@@ -72,7 +72,7 @@ void BusManager::Impl::note_drift(DeviceAgent& m, std::uint16_t index, std::uint
   }
 }
 
-void BusManager::Impl::note_command_writes(DeviceAgent& m, const ConfigPlan& command_plan, const DeviceCommand& cmd,
+void BusController::note_command_writes(DeviceAgent& m, const ConfigPlan& command_plan, const DeviceCommand& cmd,
                                            TimePoint now) {
   for (const auto& step : command_plan.steps) {
     if (step.kind != StepKind::write) continue;
@@ -83,7 +83,7 @@ void BusManager::Impl::note_command_writes(DeviceAgent& m, const ConfigPlan& com
   }
 }
 
-void BusManager::Impl::request_restore(DeviceAgent& m, std::uint16_t index, std::uint8_t sub, TimePoint now) {
+void BusController::request_restore(DeviceAgent& m, std::uint16_t index, std::uint8_t sub, TimePoint now) {
   DriftRecord* r = open_record(m.st.drift, index, sub);
   if (r == nullptr) return;
   const RestoreDecision d = m.judge_restore(*r, now);
@@ -110,7 +110,7 @@ void BusManager::Impl::request_restore(DeviceAgent& m, std::uint16_t index, std:
 // A contested object stays so until an operator acknowledges, whatever is
 // written to it meanwhile (even the configured value: the other writer may
 // change it again at once).
-void BusManager::Impl::note_contested_write(DeviceAgent& m, DriftRecord& open, const DriftRecord& now_written) {
+void BusController::note_contested_write(DeviceAgent& m, DriftRecord& open, const DriftRecord& now_written) {
   open.value = now_written.value;
   open.writer = now_written.writer;
   open.at = now_written.at;
@@ -122,7 +122,7 @@ void BusManager::Impl::note_contested_write(DeviceAgent& m, DriftRecord& open, c
   follow_written_heartbeat(m, open);
 }
 
-void BusManager::Impl::mark_contested(DeviceAgent& m, const DriftRecord& r) {
+void BusController::mark_contested(DeviceAgent& m, const DriftRecord& r) {
   const std::string text = r.object + (r.name.empty() ? "" : " (" + r.name + ")") + " contested: " + r.writer +
                            " set it to " + number_text(r.value) + " again after " +
                            std::to_string(RestoreLimits::kMaxRestores) +
@@ -139,7 +139,7 @@ void BusManager::Impl::mark_contested(DeviceAgent& m, const DriftRecord& r) {
 // A device a client stopped (operator_hold) is not started by a restore:
 // the restore waits for the client's NMT start (on_nmt_sent). A command
 // running on the device finishes first (start_configurations waits for it).
-void BusManager::Impl::restore_configuration(DeviceAgent& m, TimePoint now, TimePoint when) {
+void BusController::restore_configuration(DeviceAgent& m, TimePoint now, TimePoint when) {
   if (!m.want_restore(when)) return;
   if (when > now) return;  // begin_configuration stops the watch when the plan starts
   // The plan passes through pre-operational: not a foreign NMT master's doing.
@@ -150,7 +150,7 @@ void BusManager::Impl::restore_configuration(DeviceAgent& m, TimePoint now, Time
 // Keep: the heartbeat consumer follows the producer time the device now
 // has (CiA 301 §7.4.8.3), rather than declaring it lost for obeying a
 // client; a write back to the configured time restores the configured watch.
-void BusManager::Impl::follow_written_heartbeat(DeviceAgent& m, const DriftRecord& r) {
+void BusController::follow_written_heartbeat(DeviceAgent& m, const DriftRecord& r) {
   if (r.index != 0x1017 || r.sub != 0) return;
   if (m.supervision.mode != Supervision::Mode::heartbeat) return;
   const milliseconds producer(r.value);
@@ -164,14 +164,14 @@ void BusManager::Impl::follow_written_heartbeat(DeviceAgent& m, const DriftRecor
   }
 }
 
-void BusManager::Impl::clear_drift(DeviceAgent& m) {
+void BusController::clear_drift(DeviceAgent& m) {
   const std::string objects = m.close_restored_drift();
   if (objects.empty()) return;
   log->info("bus {}: device {}: configuration restored ({})", bus.name, m.st.name, objects);
   add_event(m, TimelineKind::drift, "restored the configuration of " + objects);
 }
 
-void BusManager::Impl::restore_left_drift(DeviceAgent& m, TimePoint now) {
+void BusController::restore_left_drift(DeviceAgent& m, TimePoint now) {
   m.drift_mid_plan.clear();
   if (m.cfg.on_config_drift != config::DriftPolicy::restore) return;
   for (const auto& r : std::vector<DriftRecord>(m.st.drift)) {
@@ -179,7 +179,7 @@ void BusManager::Impl::restore_left_drift(DeviceAgent& m, TimePoint now) {
   }
 }
 
-void BusManager::Impl::acknowledge_contested(const std::string& device, const std::string& caller, TimePoint now) {
+void BusController::acknowledge_contested(const std::string& device, const std::string& caller, TimePoint now) {
   DeviceAgent* m = find_device(device);
   const std::optional<std::string> freed = m != nullptr ? m->acknowledge_contested() : std::nullopt;
   if (!freed) return;

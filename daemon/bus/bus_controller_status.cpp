@@ -1,6 +1,6 @@
-// BusManager::Impl: device states, steps, problems, readiness, and the
+// BusController: device states, steps, problems, readiness, and the
 // status published to other threads. Control thread only.
-#include "bus/bus_manager_impl.hpp"
+#include "bus/bus_controller.hpp"
 
 namespace cobridge::bus {
 
@@ -20,7 +20,7 @@ const char* usual_reason(DeviceState s) {
 
 }  // namespace
 
-void BusManager::Impl::set_state(DeviceAgent& m, DeviceState s, std::string why) {
+void BusController::set_state(DeviceAgent& m, DeviceState s, std::string why) {
   if (m.st.state == s) return;
   if (why.empty()) why = m.st.last_error;
   if (why.empty()) why = usual_reason(s);
@@ -32,18 +32,18 @@ void BusManager::Impl::set_state(DeviceAgent& m, DeviceState s, std::string why)
   notify(m);
 }
 
-void BusManager::Impl::notify(const DeviceAgent& m) {
+void BusController::notify(const DeviceAgent& m) {
   if (options.observer != nullptr) options.observer->on_device_status(m.st);
 }
 
-void BusManager::Impl::add_step(StepTiming t) {
+void BusController::add_step(StepTiming t) {
   if (t.at == WallTime{}) t.at = wall_now();
   steps.push_back(std::move(t));
   if (steps.size() > kMaxSteps) steps.erase(steps.begin());
   dirty = true;
 }
 
-void BusManager::Impl::add_problem(const std::string& text, const std::string& device, std::uint8_t clash_node) {
+void BusController::add_problem(const std::string& text, const std::string& device, std::uint8_t clash_node) {
   for (const auto& p : problems) {
     if (p.text == text) return;
   }
@@ -52,7 +52,7 @@ void BusManager::Impl::add_problem(const std::string& text, const std::string& d
   dirty = true;
 }
 
-void BusManager::Impl::update_ready(TimePoint now) {
+void BusController::update_ready(TimePoint now) {
   if (ready_latched.load()) return;
   bool all = true;
   for (const auto& m : devices) {
@@ -67,13 +67,13 @@ void BusManager::Impl::update_ready(TimePoint now) {
   }
 }
 
-void BusManager::Impl::publish_if_dirty() {
+void BusController::publish_if_dirty() {
   if (!dirty) return;
   dirty = false;
   publish_all();
 }
 
-void BusManager::Impl::publish_all() {
+void BusController::publish_all() {
   BusStatus s;
   s.name = bus.name;
   s.interface = bus.interface;

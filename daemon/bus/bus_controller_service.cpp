@@ -1,12 +1,12 @@
-// BusManager::Impl as the ServiceGate: what clients' SDO / NMT / LSS
+// BusController as the ServiceGate: what clients' SDO / NMT / LSS
 // commands may do now, and what they did. Control thread only.
-#include "bus/bus_manager_impl.hpp"
+#include "bus/bus_controller.hpp"
 
 #include <utility>
 
 namespace cobridge::bus {
 
-bool BusManager::Impl::node_free(std::uint8_t node) const {
+bool BusController::node_free(std::uint8_t node) const {
   if (discovery->commissioning() || !channel->is_open()) return false;
   for (const auto& m : devices) {
     if (node != 0 && m.st.node_id != node) continue;
@@ -18,12 +18,12 @@ bool BusManager::Impl::node_free(std::uint8_t node) const {
   return true;
 }
 
-bool BusManager::Impl::node_supervised(std::uint8_t node) const {
+bool BusController::node_supervised(std::uint8_t node) const {
   return std::any_of(devices.begin(), devices.end(),
                      [&](const DeviceAgent& m) { return m.in_config && m.st.node_id == node && m.description != nullptr; });
 }
 
-void BusManager::Impl::on_nmt_sent(canopen::NmtCommand command, std::uint8_t node, const std::string& caller) {
+void BusController::on_nmt_sent(canopen::NmtCommand command, std::uint8_t node, const std::string& caller) {
   const bool hold = command == canopen::NmtCommand::stop || command == canopen::NmtCommand::enter_preop;
   for (auto& m : devices) {
     if (!m.in_config || (node != 0 && m.st.node_id != node)) continue;
@@ -48,7 +48,7 @@ void BusManager::Impl::on_nmt_sent(canopen::NmtCommand command, std::uint8_t nod
   }
 }
 
-void BusManager::Impl::on_lss_node_id(const canopen::LssAddress& device, std::uint8_t node, bool stored) {
+void BusController::on_lss_node_id(const canopen::LssAddress& device, std::uint8_t node, bool stored) {
   log->info("bus {}: a client set serial {} to node-ID {}{}", bus.name, device.serial, node,
             stored ? " (stored)" : " (not stored)");
   if (!stored) return;

@@ -1,13 +1,13 @@
-// BusManager::Impl: discovery events, and the identity check of buses
+// BusController: discovery events, and the identity check of buses
 // without discovery. Control thread only.
-#include "bus/bus_manager_impl.hpp"
+#include "bus/bus_controller.hpp"
 
 #include "base/number_text.hpp"
 #include "bus/description_choice.hpp"
 
 namespace cobridge::bus {
 
-void BusManager::Impl::check_configured_nodes(TimePoint now) {
+void BusController::check_configured_nodes(TimePoint now) {
   if (bus.discovery) return;
   for (auto& m : devices) {
     if (!m.in_config || m.st.node_id == 0 || m.runner) continue;
@@ -16,7 +16,7 @@ void BusManager::Impl::check_configured_nodes(TimePoint now) {
   }
 }
 
-void BusManager::Impl::start_identity_reads(TimePoint now) {
+void BusController::start_identity_reads(TimePoint now) {
   if (!channel->is_open()) return;
   for (auto& m : devices) {
     if (!m.identity_due(now)) continue;
@@ -29,7 +29,7 @@ void BusManager::Impl::start_identity_reads(TimePoint now) {
     }
   }
 }
-void BusManager::Impl::finish_identity(DeviceAgent& m, TimePoint now) {
+void BusController::finish_identity(DeviceAgent& m, TimePoint now) {
   const std::unique_ptr<IdentityReader> reader = std::move(m.ident);
   const bool boot_up = m.take_identity_boot_up();
   const auto retry = now + std::chrono::seconds(bus.discovery_period_s);
@@ -64,7 +64,7 @@ void BusManager::Impl::finish_identity(DeviceAgent& m, TimePoint now) {
   on_identified(e, now);
 }
 
-void BusManager::Impl::on_sign_of_life(DeviceAgent& m, TimePoint now) {
+void BusController::on_sign_of_life(DeviceAgent& m, TimePoint now) {
   const bool lost = m.st.state == DeviceState::offline ||
                     (m.st.state == DeviceState::failed && m.failed_unanswered);
   if (!lost || m.description == nullptr || m.runner || m.want_configure) return;
@@ -73,7 +73,7 @@ void BusManager::Impl::on_sign_of_life(DeviceAgent& m, TimePoint now) {
   m.replan(now);
 }
 
-void BusManager::Impl::on_discovery_event(const DiscoveryEvent& e, TimePoint now) {
+void BusController::on_discovery_event(const DiscoveryEvent& e, TimePoint now) {
   switch (e.kind) {
     case DiscoveryEventKind::identified:
       on_identified(e, now);
@@ -103,7 +103,7 @@ void BusManager::Impl::on_discovery_event(const DiscoveryEvent& e, TimePoint now
   }
 }
 
-void BusManager::Impl::on_identified(const DiscoveryEvent& e, TimePoint now) {
+void BusController::on_identified(const DiscoveryEvent& e, TimePoint now) {
   const std::string& name = !e.device.empty() ? e.device : e.replaces;
   DeviceAgent* m = name.empty() ? nullptr : find_device(name);
   if (m == nullptr) {
@@ -140,7 +140,7 @@ void BusManager::Impl::on_identified(const DiscoveryEvent& e, TimePoint now) {
 
 // A device first reported as unknown (before the swap was decided) is now a
 // configured one: drops its "unknown-" entry. True when there was one.
-bool BusManager::Impl::drop_unknown_entry(const DiscoveryEvent& e) {
+bool BusController::drop_unknown_entry(const DiscoveryEvent& e) {
   for (const auto& u : devices) {
     if (u.is_unknown(e.identity) && options.observer != nullptr) options.observer->on_device_removed(u.st);
   }
@@ -151,7 +151,7 @@ bool BusManager::Impl::drop_unknown_entry(const DiscoveryEvent& e) {
 
 // The device is at its node-ID: remember it there, supervise it and
 // configure it from the start.
-void BusManager::Impl::reconfigure_identified(DeviceAgent& m, const DiscoveryEvent& e, TimePoint now) {
+void BusController::reconfigure_identified(DeviceAgent& m, const DiscoveryEvent& e, TimePoint now) {
   if (m.st.node_id != 0 && m.st.node_id != e.node_id) {
     add_event(m, TimelineKind::node_id,
               "node-ID " + std::to_string(m.st.node_id) + " -> " + std::to_string(e.node_id) + " (serial " +
@@ -180,7 +180,7 @@ void BusManager::Impl::reconfigure_identified(DeviceAgent& m, const DiscoveryEve
   m.replan(now);
 }
 
-void BusManager::Impl::on_retry(const DiscoveryEvent& e) {
+void BusController::on_retry(const DiscoveryEvent& e) {
   log->warn("bus {}: {}", bus.name, e.text);
   // Every failed commissioning step comes here (Commissioning::retry_later).
   DeviceAgent* m = e.device.empty() ? nullptr : find_device(e.device);
@@ -201,7 +201,7 @@ void BusManager::Impl::on_retry(const DiscoveryEvent& e) {
   dirty = true;
 }
 
-void BusManager::Impl::note_unknown(const DiscoveryEvent& e) {
+void BusController::note_unknown(const DiscoveryEvent& e) {
   for (auto& m : devices) {
     if (m.is_unknown(e.identity)) {
       m.st.node_id = e.node_id;
@@ -226,7 +226,7 @@ void BusManager::Impl::note_unknown(const DiscoveryEvent& e) {
   dirty = true;
 }
 
-bool BusManager::Impl::resolve_description(DeviceAgent& m) {
+bool BusController::resolve_description(DeviceAgent& m) {
   auto chosen = choose_description(catalog, m.cfg, m.st.identity);
   if (!chosen.ok()) {
     m.st.last_error = chosen.error().message;

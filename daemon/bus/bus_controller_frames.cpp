@@ -1,14 +1,14 @@
-// BusManager::Impl: frames to the protocol components, their outputs, bus
+// BusController: frames to the protocol components, their outputs, bus
 // events, and supervision (heartbeat / guarding, NMT state, EMCY).
 // Control thread only.
-#include "bus/bus_manager_impl.hpp"
+#include "bus/bus_controller.hpp"
 
 #include "bus/capture_writer.hpp"
 
 namespace cobridge::bus {
 
-void BusManager::Impl::dispatch(const can::Frame& frame, TimePoint now) {
-  if (election_frame(frame, now)) return;  // a gateway's, not a device's
+void BusController::on_frame(const can::Frame& frame, TimePoint now, TimePoint arrived) {
+  if (election_frame(frame, arrived)) return;  // a gateway's, not a device's
   // Another SDO client's requests (this socket never gets its own) are only
   // followed, to see what it writes; the responses go on to our clients too.
   const std::optional<canopen::ObservedWrite> written = sdo_observer.on_frame(frame, now);
@@ -25,7 +25,7 @@ void BusManager::Impl::dispatch(const can::Frame& frame, TimePoint now) {
   }
 }
 
-TimePoint BusManager::Impl::run_components(TimePoint now) {
+TimePoint BusController::run_components(TimePoint now) {
   TimePoint next = kNever;
   next = std::min(next, channel->process(now));
   open_flag.store(channel->is_open());
@@ -60,7 +60,7 @@ TimePoint BusManager::Impl::run_components(TimePoint now) {
   return next;
 }
 
-bool BusManager::Impl::handle_outputs(TimePoint now) {
+bool BusController::handle_outputs(TimePoint now) {
   bool more = false;
   for (auto& e : discovery->take_events()) {
     on_discovery_event(e, now);
@@ -100,7 +100,7 @@ bool BusManager::Impl::handle_outputs(TimePoint now) {
   return more;
 }
 
-bool BusManager::Impl::handle_bus_events(TimePoint now) {
+bool BusController::handle_bus_events(TimePoint now) {
   bool lost = false;
   for (const auto& ev : channel->take_events()) {
     const std::string text(can::to_string(ev.kind));
@@ -151,7 +151,7 @@ bool BusManager::Impl::handle_bus_events(TimePoint now) {
   return lost;
 }
 
-void BusManager::Impl::on_interface_back(TimePoint now) {
+void BusController::on_interface_back(TimePoint now) {
   ++reopens_seen;
   for (auto& m : devices) {
     if (!m.in_config || m.st.node_id == 0) continue;
@@ -164,13 +164,13 @@ void BusManager::Impl::on_interface_back(TimePoint now) {
   check_configured_nodes(now);
 }
 
-std::string BusManager::Impl::capture(const char* cause, const std::string& device) {
+std::string BusController::capture(const char* cause, const std::string& device) {
   if (options.captures == nullptr) return {};
   const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(wall_now().time_since_epoch()).count();
   return options.captures->request(cause, device, ns);
 }
 
-void BusManager::Impl::on_supervisor_change(const Supervisor::Change& c, TimePoint now) {
+void BusController::on_supervisor_change(const Supervisor::Change& c, TimePoint now) {
   DeviceAgent* m = find_node(c.node);
   if (m == nullptr && !bus.discovery && c.kind == Supervisor::ChangeKind::rebooted) m = find_configured_node(c.node);
   if (m == nullptr) return;
@@ -224,7 +224,7 @@ void BusManager::Impl::on_supervisor_change(const Supervisor::Change& c, TimePoi
 
 // The timeline's side of a supervision change: what happened, in words,
 // with the capture that holds its frames, and the state change it made.
-void BusManager::Impl::note_supervision(DeviceAgent& m, const Supervisor::Change& c, DeviceState before) {
+void BusController::note_supervision(DeviceAgent& m, const Supervisor::Change& c, DeviceState before) {
   switch (c.kind) {
     case Supervisor::ChangeKind::rebooted:
       add_event(m, TimelineKind::boot_up,
@@ -251,7 +251,7 @@ void BusManager::Impl::note_supervision(DeviceAgent& m, const Supervisor::Change
   }
 }
 
-void BusManager::Impl::on_nmt_state(DeviceAgent& m, canopen::NmtState nmt, std::int64_t frame_ns, TimePoint now) {
+void BusController::on_nmt_state(DeviceAgent& m, canopen::NmtState nmt, std::int64_t frame_ns, TimePoint now) {
   const NmtVerdict verdict = m.judge_nmt(nmt, frame_ns, now, bus.foreign_nmt == config::ForeignNmt::restart);
   switch (verdict) {
     case NmtVerdict::ignore:
@@ -291,7 +291,7 @@ void BusManager::Impl::on_nmt_state(DeviceAgent& m, canopen::NmtState nmt, std::
   }
 }
 
-void BusManager::Impl::on_stopped_by_another(DeviceAgent& m, bool restart) {
+void BusController::on_stopped_by_another(DeviceAgent& m, bool restart) {
   m.st.last_error = "stopped by another NMT master";
   set_state(m, DeviceState::stopped);
   if (!restart) {
@@ -307,7 +307,7 @@ void BusManager::Impl::on_stopped_by_another(DeviceAgent& m, bool restart) {
 
 // See kStartResends. Forgotten by the supervisor, so that the same state
 // heard again is news: after the window, the whole plan.
-void BusManager::Impl::resend_start(DeviceAgent& m, TimePoint now) {
+void BusController::resend_start(DeviceAgent& m, TimePoint now) {
   supervisor.forget_nmt(m.st.node_id);
   log->warn("bus {}: device {} (node {}) still pre-operational {} ms after the NMT start; start sent again ({} of {})",
             bus.name, m.st.name, m.st.node_id,
@@ -317,7 +317,7 @@ void BusManager::Impl::resend_start(DeviceAgent& m, TimePoint now) {
     log->error("bus {}: device {}: NMT start could not be sent", bus.name, m.st.name);
 }
 
-void BusManager::Impl::report_suppressed_emcy(TimePoint now) {
+void BusController::report_suppressed_emcy(TimePoint now) {
   for (auto& m : devices) {
     if (const std::uint32_t n = m.emcy_log.take_suppressed(now))
       log->warn("bus {}: device {} (node {}): {} more EMCY not logged (last: {}); every one reached the outputs",
@@ -325,7 +325,7 @@ void BusManager::Impl::report_suppressed_emcy(TimePoint now) {
   }
 }
 
-void BusManager::Impl::report_control_drops(TimePoint now) {
+void BusController::report_control_drops(TimePoint now) {
   if (now < control_drops_report_at) return;
   const std::uint64_t total = channel->stats().rx_overflow_drops;
   if (total <= control_drops_reported) return;

@@ -1,27 +1,47 @@
-// BusManager::Impl: the state and the work of one bus's control thread,
-// private to daemon/bus/bus_manager*.cpp. The members are defined by
-// concept: bus_manager.cpp (construction, the thread loop, commands from
-// other threads, the public API), bus_manager_frames.cpp (frames, outputs
-// and bus events of the protocol components; supervision),
-// bus_manager_discovery.cpp (discovery and the identity check of buses
-// without it), bus_manager_configure.cpp (configuration plans and plugins'
-// commands), bus_manager_service.cpp (the ServiceGate for clients' commands),
-// bus_manager_drift.cpp (clients' writes of configured objects),
-// bus_manager_health.cpp (the controller over netlink, the bus's health to
-// the observer) and bus_manager_status.cpp (the published status). What
+// BusController: one bus's decisions on its control thread: discovery,
+// commissioning, configuration plans, supervision, drift, the hot-standby
+// election, timelines and the published status. It takes frames and time
+// from its shell (BusManager, bus_manager.cpp: the thread, the socket, its
+// poll, the clocks, netlink and the journal's thread) and returns its next
+// deadline, CANopenNode's `process(now, &next)` shape:
+//
+//   set_time(now, wall)          the shell's clock reading for the calls after it
+//   on_frame(frame, now, arrived) a frame from the bus (arrived: its kernel stamp
+//                                 on the steady clock, stamp_clock.hpp)
+//   on_port_events(now)          the port's bus events (link, error frames)
+//   process(now, lost)           the components' turn; next deadline
+//   handle_outputs(now) / settle(now)  see below
+//
+// It reads no clock and owns no socket or thread: it sends through the port
+// it is given (can::BusPort, a FrameSink: a SocketCAN socket in the daemon,
+// can::VirtualBus::Port in unit tests) and writes timelines through a
+// TimelineSink. So its decisions run in unit tests on a virtual bus with
+// simulated devices and a fake clock (tests/unit/bus/virtual_line.hpp).
+//
+// Its members are defined by concept: bus_controller.cpp (set-up, reload,
+// the turn), bus_controller_frames.cpp (frames, outputs and bus events of
+// the protocol components; supervision), bus_controller_discovery.cpp
+// (discovery and the identity check of buses without it),
+// bus_controller_configure.cpp (configuration plans and plugins' commands),
+// bus_controller_service.cpp (the ServiceGate for clients' commands),
+// bus_controller_drift.cpp (clients' writes of configured objects),
+// bus_controller_health.cpp (the controller's health to the observer),
+// bus_controller_election.cpp and _standby.cpp (the hot-standby pair),
+// bus_controller_status.cpp and _timeline.cpp (status and timelines). What
 // is decided from one device's own record and the time alone is the
 // device's (bus/device_agent.hpp): these files act on its verdicts.
 //
-// Threads: everything runs on the bus's control thread except the public
-// BusManager calls (any thread), which touch only the atomics and what
+// Threads: everything runs on the bus's control thread except what the
+// shell's public calls read from other threads: the atomics and what
 // `mutex` guards (see the thread contract at the members below).
 #pragma once
 
 #include "bus/bus_manager.hpp"
+#include "bus/timeline_sink.hpp"
 
 #include "can/bus_event.hpp"
 #include "can/controller_netlink.hpp"
-#include "can/socketcan_channel.hpp"
+#include "can/bus_port.hpp"
 #include "canopen/cob_id.hpp"
 #include "canopen/master_election.hpp"
 #include "canopen/nmt.hpp"
@@ -35,15 +55,11 @@
 #include "bus/identity_reader.hpp"
 #include "bus/log_budget.hpp"
 #include "bus/restore_guard.hpp"
-#include "bus/stamp_clock.hpp"
 #include "bus/plan_runner.hpp"
 #include "bus/service/service_executor.hpp"
 #include "bus/service/service_target.hpp"
 #include "bus/supervisor.hpp"
-#include "bus/timeline_journal_thread.hpp"
 #include "sys/logging.hpp"
-
-#include <poll.h>
 
 #include <algorithm>
 #include <array>
@@ -51,7 +67,6 @@
 #include <condition_variable>
 #include <deque>
 #include <optional>
-#include <thread>
 
 namespace cobridge::bus {
 
@@ -65,19 +80,9 @@ using std::chrono::milliseconds;
 constexpr std::size_t kMaxSteps = 64;            // StepTiming entries kept in the status
 constexpr std::size_t kMaxProblems = 32;         // problems kept in the status
 constexpr std::size_t kMaxConcurrentPlans = 2;   // plan runners at once per bus
-constexpr std::size_t kMaxReceiveBatches = 16;   // per loop turn, so timers still run under load
-constexpr milliseconds kMaxPollWait{1000};
 constexpr milliseconds kRebootFallbackDelay{500};
-constexpr std::size_t kMaxQueuedCommands = 16;    // per bus, waiting for the control thread
-constexpr std::size_t kMaxServiceRequests = 256;   // client commands per bus, queued or waiting for their node
-// A re-plugged adapter is opened at most this long after it appears, so
-// its devices are configured again within 2 s of its return.
-constexpr milliseconds kReopenBackoffMax{500};
-// The control socket's receive queue carries the control plane over a
-// stall of its thread (a loaded host, an EMCY storm at 1 500 frames/s): the
-// kernel's default holds some 300 frames, 200 ms of such a storm.
-constexpr int kControlReceiveBuffer = 1 << 20;
-// Frames the kernel dropped there are logged at most this often, summed up.
+// Frames the kernel dropped at the control socket are logged at most this
+// often, summed up.
 constexpr milliseconds kControlDropReportPeriod{1000};
 // Role changes logged per window; more are counted and summed up in one line.
 constexpr std::uint32_t kRoleLogLines = 6;
@@ -85,9 +90,60 @@ constexpr std::chrono::seconds kRoleLogWindow{60};
 
 }  // namespace
 
-struct BusManager::Impl final : ServiceGate {
-  Impl(const config::Config& config_in, std::size_t index, const device::DeviceCatalog& catalog_in,
-       StateStore& state_in, BusManagerOptions options_in);
+struct BusController final : ServiceGate {
+  // `journal`: where the configured devices' timeline events go (the
+  // journal's writer thread in the daemon), `kept`: their events from the
+  // journal of the last run; the devices' timelines start from them.
+  // `now`, `wall`: the shell's clock reading (set_time).
+  BusController(const config::Config& config_in, std::size_t index, const device::DeviceCatalog& catalog_in,
+                StateStore& state_in, BusManagerOptions options_in, TimelineSink* journal_in,
+                TimelineSink::Kept kept, TimePoint now, WallTime wall);
+
+  // ---- the shell's calls (control thread) ----------------------------------
+
+  // The shell's clock reading, for every call after it until the next: what
+  // status and timelines stamp (wall) and what a call without a `now` of its
+  // own uses (steady). Nothing here reads a clock.
+  void set_time(TimePoint now, WallTime wall) noexcept {
+    now_ = now;
+    wall_ = wall;
+  }
+  // The bus to run on, before begin(); the shell owns it.
+  void attach(can::BusPort& port) noexcept { channel = &port; }
+  // The bus opened (status published, ready_timeout counted from `now`).
+  void opened(TimePoint now);
+  void start_components(TimePoint now);
+  // One frame the port received; `arrived`: when it reached the socket (its
+  // kernel stamp on the steady clock; `now` for a port that stamps nothing).
+  void on_frame(const can::Frame& frame, TimePoint now, TimePoint arrived);
+  // Whether on_frame's `arrived` matters: the election judges a gateway's
+  // heartbeat by it; nothing else does, so the shell need not work it out.
+  [[nodiscard]] bool judges_arrival() const noexcept { return election.has_value(); }
+  // The port's bus events since the last call; true when the interface went down.
+  bool on_port_events(TimePoint now) { return handle_bus_events(now); }
+  // The turn's components after its frames: `lost` the interface went down
+  // in this turn. Returns the next deadline; then handle_outputs(now) until
+  // it is false (each true: new work started, so the shell reads its clock
+  // and the port again and calls run_components), then settle(now).
+  TimePoint process(TimePoint now, bool lost);
+  // Readiness, the published status and the journal's hand-over, after the
+  // turn's work; returns when the journal is next due.
+  TimePoint settle(TimePoint now);
+  // The CAN controller's state over netlink (the shell reads it once a second
+  // on a kernel interface).
+  void on_netlink(const Result<can::NetlinkReading>& reading);
+  // After the last turn: the journal flushed, the components ended (the
+  // shell closes the port after it).
+  void finish_run(TimePoint now);
+  // Clients' commands, handed over from other threads by the shell.
+  void request_commission() { discovery->request_commission(); }
+  void add_service(ServiceRequest c, std::shared_ptr<ServiceReplies> to, TimePoint now) {
+    services->add(std::move(c), std::move(to), now);
+  }
+  void apply_reload(config::Config next, TimePoint now);
+  void start_command(DeviceCommand cmd, TimePoint now);
+  // `cobridge acknowledge DEVICE`: contested objects may be written again.
+  void acknowledge_contested(const std::string& device, const std::string& caller, TimePoint now);
 
   // ---- set-up (constructor / reload) -------------------------------------
 
@@ -100,27 +156,8 @@ struct BusManager::Impl final : ServiceGate {
   DeviceAgent* find_configured_node(std::uint8_t node);
   DeviceAgent* find_node(std::uint8_t node);
 
-  // ---- thread ------------------------------------------------------------
-
-  // The wake fd lives as long as the Impl: a submit() or reload() racing
-  // with stop() then writes into a live eventfd, never into a closed (and
-  // possibly reused) descriptor.
-  ~Impl();
-  // The port (a socket on the interface, or options.port) with its filters.
-  Error open_port();
-  Error start();
-  void stop();
-  void wake() noexcept;
-  void run();
-  // One turn of the control loop at `now`: commands, frames, components;
-  // returns the next deadline. `now` moves on when the turn reads the
-  // clock again (work it started gets a turn at once).
-  TimePoint turn(TimePoint& now);
-  // After the last turn: the journal flushed, the components ended.
-  void finish_run();
-  [[nodiscard]] TimePoint steady_now() const noexcept { return clock.now(); }
-  [[nodiscard]] WallTime wall_now() const noexcept { return clock.wall(); }
-  void start_components(TimePoint now);
+  [[nodiscard]] TimePoint steady_now() const noexcept { return now_; }
+  [[nodiscard]] WallTime wall_now() const noexcept { return wall_; }
   // A new Discovery on the state store's memory as it is now (its
   // decisions and promises start over), started when the old one was, told
   // which devices are supervised. After a hold on the state file is released.
@@ -128,12 +165,9 @@ struct BusManager::Impl final : ServiceGate {
   // The state store's hold (StateStore::hold) into discovery and the status;
   // a released hold restarts discovery. Start and reload.
   void follow_state_hold(TimePoint now);
-  bool receive(std::span<can::Frame> frames, TimePoint now);
-  void wait(TimePoint now, TimePoint next);
 
   // ---- frames and components ----------------------------------------------
 
-  void dispatch(const can::Frame& frame, TimePoint now);
   TimePoint run_components(TimePoint now);
 
   // Returns true when something was done that deserves another turn at once.
@@ -206,7 +240,6 @@ struct BusManager::Impl final : ServiceGate {
   // ---- commands from plugins ---------------------------------------------------
 
   void report_command(const DeviceAgent& m, const DeviceCommand& cmd, const CommandOutcome& outcome);
-  void start_command(DeviceCommand cmd, TimePoint now);
   void finish_command(DeviceAgent& m, TimePoint now);
 
   // ---- supervision -------------------------------------------------------------
@@ -239,11 +272,6 @@ struct BusManager::Impl final : ServiceGate {
   std::uint64_t control_drops_reported = 0;
   TimePoint control_drops_report_at{};
 
-  // ---- commands from other threads ------------------------------------------
-
-  void take_commands(TimePoint now);
-  void apply_reload(config::Config next, TimePoint now);
-
   // ---- clients' commands (ServiceGate) ------------------------------------------
 
   bool node_free(std::uint8_t node) const override;
@@ -255,7 +283,7 @@ struct BusManager::Impl final : ServiceGate {
   void on_lss_node_id(const canopen::LssAddress& device, std::uint8_t node, bool stored) override;
   void on_sdo_written(const ServiceRequest& c, TimePoint now) override;
 
-  // ---- configuration drift (bus_manager_drift.cpp) ------------------------------
+  // ---- configuration drift (bus_controller_drift.cpp) ------------------------------
 
   // A client's confirmed write of index:sub on `m`: recorded, logged and
   // restored or kept per m.cfg.on_config_drift when the plan sets the object
@@ -282,15 +310,13 @@ struct BusManager::Impl final : ServiceGate {
   void clear_drift(DeviceAgent& m);
   // Then restores what stayed open and is not contested.
   void restore_left_drift(DeviceAgent& m, TimePoint now);
-  // `cobridge acknowledge DEVICE`: contested objects may be written again.
-  void acknowledge_contested(const std::string& device, const std::string& caller, TimePoint now);
 
   // ---- status ------------------------------------------------------------------
 
   // `why` is the timeline's cause; empty: the device's last_error, or the
   // usual reason for entering `s`.
   void set_state(DeviceAgent& m, DeviceState s, std::string why = {});
-  // ---- timelines (bus_manager_timeline.cpp) ---------------------------------
+  // ---- timelines (bus_controller_timeline.cpp) ---------------------------------
 
   // A timeline event of `m` (now); `capture` names the recorder's file.
   // A configured device's event is queued for the journal.
@@ -299,7 +325,7 @@ struct BusManager::Impl final : ServiceGate {
   void add_bus_event(TimelineKind kind, const std::string& text, const std::string& capture);
   // Start-up: the configured devices' timelines from the journal, then a
   // "gateway started" event on each.
-  void restore_timelines();
+  void restore_timelines(TimelineSink::Kept kept);
   // Hands the journal's noted events to its writer thread once per
   // kFlushInterval, or now when `force` (the bus stops); returns when it is
   // next due.
@@ -322,8 +348,11 @@ struct BusManager::Impl final : ServiceGate {
 
   // ---- members -------------------------------------------------------------------
 
-  // Thread contract: everything below up to `mutex` belongs to the control
-  // thread once start() has run.
+  // Thread contract: everything below up to the atomics belongs to the
+  // control thread once the shell started it.
+  // The shell's last clock reading (set_time).
+  TimePoint now_{};
+  WallTime wall_{};
   config::Config config;
   std::size_t bus_index;
   config::Bus bus;
@@ -332,11 +361,8 @@ struct BusManager::Impl final : ServiceGate {
   BusManagerOptions options;
   std::shared_ptr<spdlog::logger> log;
 
-  const BusClock& clock;
-  // The bus: `socket` (SocketCAN on bus.interface), or options.port.
-  std::unique_ptr<can::SocketCanChannel> socket;
+  // The bus (the shell's): a SocketCAN socket on bus.interface, or options.port.
   can::BusPort* channel = nullptr;
-  std::array<can::Frame, can::SocketCanChannel::kBatch> rx_frames{};
   std::unique_ptr<Discovery> discovery;
   // Why node-IDs must not be assigned (the state file could not be read;
   // StateStore::hold): the first of the bus's problems while not empty.
@@ -354,43 +380,34 @@ struct BusManager::Impl final : ServiceGate {
   std::vector<Problem> problems;
   std::string live_bus_event;
   canopen::SdoObserver sdo_observer;  // other SDO clients' writes (drift)
-  std::unique_ptr<TimelineJournalThread> journal;  // <state_dir>/timelines/<bus>.timeline
+  TimelineSink* journal = nullptr;  // <state_dir>/timelines/<bus>.timeline (nullptr: none)
   TimePoint journal_due{};
   can::ControllerHealth controller;  // from the channel's error frames and netlink
-  // The controller over netlink and the health told to the outputs
-  // (bus_manager_health.cpp).
-  can::ControllerNetlink netlink;
-  TimePoint netlink_due{};
+  // The health told to the outputs (bus_controller_health.cpp).
   bool netlink_failing = false;  // the last read failed (logged once per run of failures)
   BusHealthGate health_gate{std::chrono::seconds(1)};
   [[nodiscard]] TimePoint watch_health(TimePoint now);
-  void poll_netlink();
   void tell_health(TimePoint now);
   std::uint32_t reopens_seen = 0;
   bool discovery_started = false;
   bool dirty = true;
   TimePoint started_at{};
-  // [redundancy]: the bus's master role (bus_manager_election.cpp).
+  // [redundancy]: the bus's master role (bus_controller_election.cpp).
   std::optional<canopen::MasterElection> election;
   // What every component sends through: the channel while this gateway may
   // send (no [redundancy], or master); refused (and counted) otherwise, so
   // no path of a standby reaches the bus, whatever it was asked.
   struct MasterGate final : can::FrameSink {
-    explicit MasterGate(Impl& owner) : impl(owner) {}
+    explicit MasterGate(BusController& owner) : impl(owner) {}
     bool send(const can::Frame& frame) noexcept override;
-    Impl& impl;
+    BusController& impl;
     std::uint64_t refused = 0;
   };
   MasterGate tx{*this};
   WallTime election_at{};
   void start_election(TimePoint now);
   [[nodiscard]] bool standby() const noexcept { return election && !election->is_master(); }
-  [[nodiscard]] bool election_frame(const can::Frame& frame, TimePoint now);
-  // When `frame` reached the socket, on the steady clock (stamp_clock.hpp).
-  [[nodiscard]] TimePoint arrival(const can::Frame& frame, TimePoint now) {
-    return stamps.arrival(frame.timestamp_ns, now);
-  }
-  StampClock stamps{clock};
+  [[nodiscard]] bool election_frame(const can::Frame& frame, TimePoint arrived);
   void on_election(const canopen::ElectionEvent& e);
   void tell_outputs(const canopen::ElectionEvent& e);
   // The node-IDs that are no gateway's, for the election (canopen/election_peers.hpp).
@@ -403,7 +420,7 @@ struct BusManager::Impl final : ServiceGate {
   canopen::ElectionCounters ignored_reported{};
   TimePoint ignored_report_at = kNever;
   [[nodiscard]] TimePoint run_standby(TimePoint now, TimePoint next);
-  // Standby (bus_manager_standby.cpp).
+  // Standby (bus_controller_standby.cpp).
   std::array<canopen::LssAddress, 128> heard_identity{};  // per node, from the master's 0x1018 reads
   // Per node: the 0x1018 sub-index of the upload the standby saw requested
   // (0 = none) and when; only its response within the SDO timeout counts.
@@ -420,28 +437,14 @@ struct BusManager::Impl final : ServiceGate {
   void remember_followed(const DeviceAgent& m, const std::string& fingerprint);
   void describe_role(BusStatus& s) const;
 
-  std::thread thread;
-  int wake_fd = -1;
-  bool rx_ready = true;  // the last poll saw the CAN socket readable (or failed)
-  // The deadline the last poll waited for: a turn at or past it judges
-  // timeouts, so it reads the socket first even after a command's wake-up.
-  TimePoint polled_for = kNever;
-  std::vector<pollfd> poll_fds;  // wait()'s, kept for its capacity
-  std::atomic<bool> stop_requested{false};
-  std::atomic<bool> running{false};
+  // Read by the shell's public calls on any thread.
   std::atomic<bool> open_flag{false};
   std::atomic<bool> ready_latched{false};
-  std::atomic<Clock::rep> loop_alive{0};
-  std::atomic<std::size_t> services_waiting{0};  // client commands in the executor (kMaxServiceRequests)  // steady_clock ticks of the last loop turn (watchdog)
+  std::atomic<std::size_t> services_waiting{0};  // client commands in the executor
 
-  // Shared with the callers of status()/reload()/request_commission().
+  // Shared with the callers of status().
   mutable std::mutex mutex;
   BusStatus published;
-  bool commission_requested = false;
-  std::vector<std::pair<std::string, std::string>> pending_acks;  // (device, caller)
-  std::optional<config::Config> pending_reload;
-  std::deque<DeviceCommand> pending_commands;
-  std::deque<std::pair<ServiceRequest, std::shared_ptr<ServiceReplies>>> pending_services;
 };
 
 }  // namespace cobridge::bus

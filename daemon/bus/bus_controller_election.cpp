@@ -16,11 +16,11 @@
 // node-ID counts at once. Role changes are logged within a budget (a storm
 // of forged election frames must not bury the journal) with a count of what
 // was left out.
-#include "bus/bus_manager_impl.hpp"
+#include "bus/bus_controller.hpp"
 
 namespace cobridge::bus {
 
-bool BusManager::Impl::MasterGate::send(const can::Frame& frame) noexcept {
+bool BusController::MasterGate::send(const can::Frame& frame) noexcept {
   if (impl.standby()) {
     ++refused;
     return false;
@@ -28,7 +28,7 @@ bool BusManager::Impl::MasterGate::send(const can::Frame& frame) noexcept {
   return impl.channel->send(frame);
 }
 
-void BusManager::Impl::start_election(TimePoint now) {
+void BusController::start_election(TimePoint now) {
   if (!config.redundancy || election) return;
   const config::RedundancySettings& r = *config.redundancy;
   canopen::MasterElectionConfig c;
@@ -53,16 +53,16 @@ void BusManager::Impl::start_election(TimePoint now) {
 // negotiation (0x72) 1.5 periods after that stamp while the next heartbeat
 // was still due (vcan_daemon_hot_standby on a loaded UML, master silent
 // 100 ms).
-bool BusManager::Impl::election_frame(const can::Frame& frame, TimePoint now) {
+bool BusController::election_frame(const can::Frame& frame, TimePoint arrived) {
   if (!election) return false;
-  (void)election->on_frame(frame, arrival(frame, now), *channel);
+  (void)election->on_frame(frame, arrived, *channel);
   return election->owns(frame);
 }
 
 // No device's node-ID, nor one the bus may give a device, is a gateway's.
 // The default pool (1..127 less ours) is left out: it holds the other
 // gateway's node-ID too (docs/operations.md "Hot standby").
-canopen::NodeSet BusManager::Impl::election_excluded() const {
+canopen::NodeSet BusController::election_excluded() const {
   canopen::NodeSet s;
   for (const auto& m : devices) {
     if (m.st.node_id != 0) s.set(m.st.node_id);
@@ -75,12 +75,12 @@ canopen::NodeSet BusManager::Impl::election_excluded() const {
   return s;
 }
 
-void BusManager::Impl::update_election_exclusions() {
+void BusController::update_election_exclusions() {
   const canopen::NodeSet now_excluded = election_excluded();
   if (now_excluded != election->excluded()) election->set_excluded(now_excluded);
 }
 
-void BusManager::Impl::on_election(const canopen::ElectionEvent& e) {
+void BusController::on_election(const canopen::ElectionEvent& e) {
   using canopen::MasterRole;
   election_at = wall_now();
   dirty = true;
@@ -107,7 +107,7 @@ void BusManager::Impl::on_election(const canopen::ElectionEvent& e) {
   }
 }
 
-void BusManager::Impl::log_role(const canopen::ElectionEvent& e) {
+void BusController::log_role(const canopen::ElectionEvent& e) {
   using canopen::MasterRole;
   if (e.role == MasterRole::starting || e.role == MasterRole::claiming) return;
   if (!role_log.allow(e.time)) return;  // counted; report_suppressed_roles() says how many
@@ -121,7 +121,7 @@ void BusManager::Impl::log_role(const canopen::ElectionEvent& e) {
   }
 }
 
-void BusManager::Impl::report_suppressed_roles(TimePoint now) {
+void BusController::report_suppressed_roles(TimePoint now) {
   const std::uint32_t n = role_log.take_suppressed(now);
   if (n == 0 || !election) return;
   log->warn("bus {}: {} more role changes not logged in the last {} s; now {} (master node {}, last cause: {})",
@@ -132,7 +132,7 @@ void BusManager::Impl::report_suppressed_roles(TimePoint now) {
 
 // Election frames that moved nothing (a stranger's, most likely): one line
 // per window with the counts, never one per frame (a 0x76 every 200 ms).
-TimePoint BusManager::Impl::report_ignored_election_frames(TimePoint now) {
+TimePoint BusController::report_ignored_election_frames(TimePoint now) {
   if (!election) return kNever;
   if (ignored_report_at == kNever) ignored_report_at = now + kRoleLogWindow;
   if (now < ignored_report_at) return ignored_report_at;
@@ -152,7 +152,7 @@ TimePoint BusManager::Impl::report_ignored_election_frames(TimePoint now) {
   return ignored_report_at;
 }
 
-void BusManager::Impl::tell_outputs(const canopen::ElectionEvent& e) {
+void BusController::tell_outputs(const canopen::ElectionEvent& e) {
   if (options.observer == nullptr) return;
   BusRole r;
   r.kind = e.role == canopen::MasterRole::master    ? BusRole::Kind::master
@@ -167,7 +167,7 @@ void BusManager::Impl::tell_outputs(const canopen::ElectionEvent& e) {
   options.observer->on_role_changed(r);
 }
 
-TimePoint BusManager::Impl::run_standby(TimePoint now, TimePoint next) {
+TimePoint BusController::run_standby(TimePoint now, TimePoint next) {
   next = std::min(next, supervisor.process(now, tx));  // its timers; a guarding request is refused
   follow_heard_devices();
   if (services->waiting() != 0) {
@@ -178,7 +178,7 @@ TimePoint BusManager::Impl::run_standby(TimePoint now, TimePoint next) {
   return next;
 }
 
-void BusManager::Impl::describe_role(BusStatus& s) const {
+void BusController::describe_role(BusStatus& s) const {
   if (!election) return;
   s.role = std::string(canopen::to_string(election->role()));
   s.master_node = election->master_node();

@@ -1,31 +1,19 @@
-// BusManager::Impl: the bus's health beyond its devices. The CAN
-// controller's state and counters are read over netlink once a second
-// (can/controller_netlink; the error frames feed the same ControllerHealth
-// in bus_manager_frames.cpp), and the bus's health goes to the observer
-// (the outputs: plugin ABI 5 on_bus) through BusHealthGate.
+// BusController: the bus's health beyond its devices. The CAN
+// controller's state and counters come over netlink once a second (the
+// shell reads them, can/controller_netlink; the error frames feed the same
+// ControllerHealth in bus_controller_frames.cpp), and the bus's health goes
+// to the observer (the outputs: plugin ABI 5 on_bus) through BusHealthGate.
 // Control thread only.
-#include "bus/bus_manager_impl.hpp"
+#include "bus/bus_controller.hpp"
 
 namespace cobridge::bus {
 
-namespace {
-// A netlink round trip per second and bus: cheap, and a counter or a
-// state whose error frame was lost is at most this old.
-constexpr milliseconds kNetlinkPeriod{1000};
-}  // namespace
-
-TimePoint BusManager::Impl::watch_health(TimePoint now) {
-  if (now >= netlink_due) {
-    poll_netlink();
-    netlink_due = now + kNetlinkPeriod;
-  }
+TimePoint BusController::watch_health(TimePoint now) {
   tell_health(now);
-  return std::min(netlink_due, health_gate.next());
+  return health_gate.next();
 }
 
-void BusManager::Impl::poll_netlink() {
-  if (socket == nullptr) return;  // a test's in-process bus: no kernel interface to ask
-  auto reading = netlink.read(bus.interface);
+void BusController::on_netlink(const Result<can::NetlinkReading>& reading) {
   if (!reading.ok()) {
     // A missing interface is the channel's news (it waits and reopens);
     // here one line per run of failures says the figures are not current.
@@ -65,7 +53,7 @@ void BusManager::Impl::poll_netlink() {
     dirty = true;
 }
 
-void BusManager::Impl::tell_health(TimePoint now) {
+void BusController::tell_health(TimePoint now) {
   if (options.observer == nullptr) return;
   BusHealth h;
   h.open = channel->is_open();

@@ -1,12 +1,12 @@
-// BusManager::Impl: configuration plans (full and quick), NMT start, and
+// BusController: configuration plans (full and quick), NMT start, and
 // the plugins' commands run as plans. Control thread only.
-#include "bus/bus_manager_impl.hpp"
+#include "bus/bus_controller.hpp"
 
 #include <algorithm>
 
 namespace cobridge::bus {
 
-bool BusManager::Impl::start_configurations(TimePoint now) {
+bool BusController::start_configurations(TimePoint now) {
   if (discovery->commissioning()) return false;  // LSS/NMT resets under way: no SDO now
   // Attempts made on a closed interface would only count towards `failed`.
   if (!channel->is_open()) return false;
@@ -26,17 +26,17 @@ bool BusManager::Impl::start_configurations(TimePoint now) {
   return started_any;
 }
 
-PlanRunnerOptions BusManager::Impl::runner_options() const {
+PlanRunnerOptions BusController::runner_options() const {
   PlanRunnerOptions ro;
   ro.sdo_retries = bus.sdo_retries;
   return ro;
 }
 
-std::unique_ptr<PlanRunner> BusManager::Impl::make_runner(DeviceAgent& m, ConfigPlan plan, const PlanRunnerOptions& ro) {
+std::unique_ptr<PlanRunner> BusController::make_runner(DeviceAgent& m, ConfigPlan plan, const PlanRunnerOptions& ro) {
   return std::make_unique<PlanRunner>(tx, sdo_of(m), std::move(plan), ro);
 }
 
-canopen::SdoClient& BusManager::Impl::sdo_of(DeviceAgent& m) {
+canopen::SdoClient& BusController::sdo_of(DeviceAgent& m) {
   if (!m.sdo) {
     canopen::SdoClientConfig sc;
     sc.timeout = milliseconds(bus.sdo_timeout_ms);
@@ -48,7 +48,7 @@ canopen::SdoClient& BusManager::Impl::sdo_of(DeviceAgent& m) {
   return *m.sdo;
 }
 
-bool BusManager::Impl::begin_configuration(DeviceAgent& m, TimePoint now) {
+bool BusController::begin_configuration(DeviceAgent& m, TimePoint now) {
   // A client's value may be stored in the device: only the full plan sees
   // every configured object again (a contested one is left alone).
   if (std::any_of(m.st.drift.begin(), m.st.drift.end(), [](const DriftRecord& r) { return !r.contested; }))
@@ -101,7 +101,7 @@ bool BusManager::Impl::begin_configuration(DeviceAgent& m, TimePoint now) {
   return true;
 }
 
-void BusManager::Impl::finish_configuration(DeviceAgent& m, TimePoint now) {
+void BusController::finish_configuration(DeviceAgent& m, TimePoint now) {
   const PlanRunResult outcome = m.runner->result();
   m.runner.reset();
   const double ms = std::chrono::duration<double, std::milli>(now - m.configure_started).count();
@@ -131,7 +131,7 @@ void BusManager::Impl::finish_configuration(DeviceAgent& m, TimePoint now) {
 
 // Retries after a short delay, or after a long one once the attempts are
 // used up.
-void BusManager::Impl::configuration_failed(DeviceAgent& m, const PlanRunResult& outcome, TimePoint now) {
+void BusController::configuration_failed(DeviceAgent& m, const PlanRunResult& outcome, TimePoint now) {
   m.st.last_error = outcome.error.message;
   note_failure(m, outcome);
   log->warn("bus {}: device {}: configuration failed (attempt {}): {}", bus.name, m.st.name, m.attempts,
@@ -141,7 +141,7 @@ void BusManager::Impl::configuration_failed(DeviceAgent& m, const PlanRunResult&
 
 // The timeline's entry for a failed plan: an SDO abort (CiA 301 text) or
 // timeout, or a value that read back different; the frames are captured.
-void BusManager::Impl::note_failure(DeviceAgent& m, const PlanRunResult& outcome) {
+void BusController::note_failure(DeviceAgent& m, const PlanRunResult& outcome) {
   const auto& code = outcome.error.code;
   TimelineKind kind = TimelineKind::sdo;
   const char* cause = nullptr;  // the flight recorder's (CiA 301 §7.2.4.3.17: aborted, or never answered)
@@ -159,7 +159,7 @@ void BusManager::Impl::note_failure(DeviceAgent& m, const PlanRunResult& outcome
             cause != nullptr ? capture(cause, m.st.name) : std::string());
 }
 
-std::string BusManager::Impl::join_differences(const PlanRunResult& outcome) {
+std::string BusController::join_differences(const PlanRunResult& outcome) {
   std::string text;
   for (const auto& d : outcome.differed) text += (text.empty() ? "" : "; ") + d;
   if (outcome.writes > outcome.differed.size()) text += " (and more)";
@@ -168,7 +168,7 @@ std::string BusManager::Impl::join_differences(const PlanRunResult& outcome) {
 
 // Stores the device's node-ID and plan fingerprint, so that its next start
 // only verifies.
-void BusManager::Impl::remember_assignment(const DeviceAgent& m, const std::string& fingerprint) {
+void BusController::remember_assignment(const DeviceAgent& m, const std::string& fingerprint) {
   Assignment a;
   a.bus = bus.name;
   a.serial = m.st.identity.serial;
@@ -180,7 +180,7 @@ void BusManager::Impl::remember_assignment(const DeviceAgent& m, const std::stri
   if (const Error err = state.put(a)) log->error("bus {}: state file {}", bus.name, err.to_string());
 }
 
-void BusManager::Impl::note_configured(DeviceAgent& m, const PlanRunResult& outcome) {
+void BusController::note_configured(DeviceAgent& m, const PlanRunResult& outcome) {
   std::string text = m.quick ? "configuration checked: the device carries it" : "configured: ";
   if (!m.quick) {
     text += std::to_string(outcome.writes) + " value(s) written and verified";
@@ -192,7 +192,7 @@ void BusManager::Impl::note_configured(DeviceAgent& m, const PlanRunResult& outc
 }
 
 // Started: operational from here, and supervised from now on.
-void BusManager::Impl::mark_operational(DeviceAgent& m, const PlanRunResult& outcome, TimePoint now, double ms) {
+void BusController::mark_operational(DeviceAgent& m, const PlanRunResult& outcome, TimePoint now, double ms) {
   m.started = true;
   m.attempts = 0;
   m.st.last_error.clear();
@@ -219,7 +219,7 @@ void BusManager::Impl::mark_operational(DeviceAgent& m, const PlanRunResult& out
   }
 }
 
-bool BusManager::Impl::announce_and_start(DeviceAgent& m, TimePoint now) {
+bool BusController::announce_and_start(DeviceAgent& m, TimePoint now) {
   if (options.observer != nullptr) {
     std::vector<std::uint32_t> tpdo1, tpdo2;
     for (const auto& step : m.plan->steps) {
@@ -242,11 +242,11 @@ bool BusManager::Impl::announce_and_start(DeviceAgent& m, TimePoint now) {
   return false;
 }
 
-void BusManager::Impl::runners_abort() {
+void BusController::runners_abort() {
   for (auto& m : devices) drop_runner(m, "the gateway is stopping");
 }
 
-void BusManager::Impl::drop_runner(DeviceAgent& m, const char* why) {
+void BusController::drop_runner(DeviceAgent& m, const char* why) {
   if (m.command && m.runner && m.runner->finished()) {
     // Done before what ends it was seen (an NMT reset's own boot-up can
     // arrive in the same loop turn): the command's outcome stands.
@@ -260,7 +260,7 @@ void BusManager::Impl::drop_runner(DeviceAgent& m, const char* why) {
   report_command(m, cmd, CommandOutcome{CommandStatus::failed, 0, std::string("aborted: ") + why});
 }
 
-void BusManager::Impl::report_command(const DeviceAgent& m, const DeviceCommand& cmd, const CommandOutcome& outcome) {
+void BusController::report_command(const DeviceAgent& m, const DeviceCommand& cmd, const CommandOutcome& outcome) {
   if (outcome.status == CommandStatus::ok) {
     log->info("bus {}: device {}: {} done", bus.name, m.st.name, to_string(cmd.kind));
   } else {
@@ -270,7 +270,7 @@ void BusManager::Impl::report_command(const DeviceAgent& m, const DeviceCommand&
   if (options.observer != nullptr) options.observer->on_command_done(m.st, cmd, outcome);
 }
 
-void BusManager::Impl::start_command(DeviceCommand cmd, TimePoint now) {
+void BusController::start_command(DeviceCommand cmd, TimePoint now) {
   DeviceAgent* m = find_device(cmd.device);
   if (m == nullptr || !m->in_config) {
     DeviceAgent none;
@@ -316,7 +316,7 @@ void BusManager::Impl::start_command(DeviceCommand cmd, TimePoint now) {
   if (const Error e = m->runner->start(now)) drop_runner(*m, e.message.c_str());
 }
 
-void BusManager::Impl::finish_command(DeviceAgent& m, TimePoint now) {
+void BusController::finish_command(DeviceAgent& m, TimePoint now) {
   const PlanRunResult r = m.runner->result();
   const ConfigPlan command_plan = m.runner->plan();
   m.runner.reset();

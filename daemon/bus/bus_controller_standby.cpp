@@ -2,7 +2,7 @@
 // listening, so that its outputs are live and a takeover finds what the
 // master knew.
 //
-// It sends nothing (bus_manager_election.cpp gates every send). From the
+// It sends nothing (bus_controller_election.cpp gates every send). From the
 // bus it learns:
 //   - the node-ID of each configured device the master identified: the
 //     master's expedited SDO uploads of the identity object 0x1018 (CiA 301
@@ -20,7 +20,7 @@
 // plan's fingerprint, as the master remembered it: a takeover starts from
 // that table as a second start does, with no commissioning and no writes.
 // Control thread only.
-#include "bus/bus_manager_impl.hpp"
+#include "bus/bus_controller.hpp"
 #include "bus/description_choice.hpp"
 
 namespace cobridge::bus {
@@ -42,7 +42,7 @@ std::uint32_t le32(const std::uint8_t* p) noexcept {
 
 }  // namespace
 
-void BusManager::Impl::listen_as_standby(const can::Frame& frame, TimePoint now) {
+void BusController::listen_as_standby(const can::Frame& frame, TimePoint now) {
   if (frame.is_extended() || frame.is_rtr()) return;
   if (frame.id > canopen::cob::kNmtErrorControlBase && frame.id <= canopen::cob::kNmtErrorControlBase + 127) {
     note_heartbeat(frame);
@@ -53,7 +53,7 @@ void BusManager::Impl::listen_as_standby(const can::Frame& frame, TimePoint now)
   }
 }
 
-void BusManager::Impl::note_heartbeat(const can::Frame& frame) {
+void BusController::note_heartbeat(const can::Frame& frame) {
   if (frame.len != 1) return;
   const auto node = static_cast<std::uint8_t>(frame.id - canopen::cob::kNmtErrorControlBase);
   if (DeviceAgent* m = find_configured_node(node)) {
@@ -65,7 +65,7 @@ void BusManager::Impl::note_heartbeat(const can::Frame& frame) {
 
 // An upload initiate request (CiA 301 7.2.4.3.2: ccs 2, byte 0 = 0x40) of
 // 0x1018 sub 1..4.
-void BusManager::Impl::note_identity_request(const can::Frame& frame, TimePoint now) {
+void BusController::note_identity_request(const can::Frame& frame, TimePoint now) {
   if (frame.len != 8 || frame.data[0] != 0x40) return;
   const auto index = static_cast<std::uint16_t>(frame.data[1] | frame.data[2] << 8);
   const std::uint8_t sub = frame.data[3];
@@ -73,7 +73,7 @@ void BusManager::Impl::note_identity_request(const can::Frame& frame, TimePoint 
   asked_identity[node] = index == kIdentityObject && sub >= 1 && sub <= 4 ? AskedIdentity{sub, now} : AskedIdentity{};
 }
 
-void BusManager::Impl::note_identity(const can::Frame& frame, TimePoint now) {
+void BusController::note_identity(const can::Frame& frame, TimePoint now) {
   if (!expedited_upload_response(frame)) return;
   const auto index = static_cast<std::uint16_t>(frame.data[1] | frame.data[2] << 8);
   const std::uint8_t sub = frame.data[3];
@@ -95,7 +95,7 @@ void BusManager::Impl::note_identity(const can::Frame& frame, TimePoint now) {
 // The standby's outputs are live before any takeover: each configured
 // device heard in operation is announced with the TPDO mapping its plan
 // sets, which the master has configured and verified.
-void BusManager::Impl::follow_heard_devices() {
+void BusController::follow_heard_devices() {
   for (auto& m : devices) {
     if (!m.to_follow()) continue;
     if (m.description == nullptr) {
@@ -122,7 +122,7 @@ void BusManager::Impl::follow_heard_devices() {
 
 // The device runs with the plan's settings (the master started it after
 // applying them): the same record the master keeps.
-void BusManager::Impl::remember_followed(const DeviceAgent& m, const std::string& fingerprint) {
+void BusController::remember_followed(const DeviceAgent& m, const std::string& fingerprint) {
   if (m.st.identity.serial != 0) remember_assignment(m, fingerprint);
 }
 
