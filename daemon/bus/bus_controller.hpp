@@ -58,6 +58,8 @@
 #include "bus/plan_runner.hpp"
 #include "bus/service/service_executor.hpp"
 #include "bus/service/service_target.hpp"
+#include "bus/standby_listener.hpp"
+#include "bus/status_board.hpp"
 #include "bus/supervisor.hpp"
 #include "sys/logging.hpp"
 
@@ -77,8 +79,6 @@ using canopen::TimePoint;
 using Clock = std::chrono::steady_clock;
 using std::chrono::milliseconds;
 
-constexpr std::size_t kMaxSteps = 64;            // StepTiming entries kept in the status
-constexpr std::size_t kMaxProblems = 32;         // problems kept in the status
 constexpr std::size_t kMaxConcurrentPlans = 2;   // plan runners at once per bus
 constexpr milliseconds kRebootFallbackDelay{500};
 // Frames the kernel dropped at the control socket are logged at most this
@@ -333,14 +333,8 @@ struct BusController final : ServiceGate {
   void notify(const DeviceAgent& m);
   void add_step(StepTiming t);
 
-  // A problem stays in the status while it is true: a device's own problems
-  // leave when it is operational, a clash's when it is resolved.
+  // The status board's (status_board.hpp), marking the status for publishing.
   void add_problem(const std::string& text, const std::string& device = {}, std::uint8_t clash_node = 0);
-
-  template <typename Pred>
-  void clear_problems(Pred pred) {
-    if (std::erase_if(problems, pred) != 0) dirty = true;
-  }
 
   void update_ready(TimePoint now);
   void publish_if_dirty();
@@ -371,13 +365,7 @@ struct BusController final : ServiceGate {
   Supervisor supervisor;
   canopen::SyncProducer sync;
   std::vector<DeviceAgent> devices;
-  std::vector<StepTiming> steps;
-  struct Problem {
-    std::string text;
-    std::string device;          // the configured device it is about (empty: the bus)
-    std::uint8_t clash_node = 0; // a clash at this node-ID
-  };
-  std::vector<Problem> problems;
+  StatusBoard board;  // the bus's problems and step timings
   std::string live_bus_event;
   canopen::SdoObserver sdo_observer;  // other SDO clients' writes (drift)
   TimelineSink* journal = nullptr;  // <state_dir>/timelines/<bus>.timeline (nullptr: none)
@@ -420,19 +408,9 @@ struct BusController final : ServiceGate {
   canopen::ElectionCounters ignored_reported{};
   TimePoint ignored_report_at = kNever;
   [[nodiscard]] TimePoint run_standby(TimePoint now, TimePoint next);
-  // Standby (bus_controller_standby.cpp).
-  std::array<canopen::LssAddress, 128> heard_identity{};  // per node, from the master's 0x1018 reads
-  // Per node: the 0x1018 sub-index of the upload the standby saw requested
-  // (0 = none) and when; only its response within the SDO timeout counts.
-  struct AskedIdentity {
-    std::uint8_t sub = 0;
-    TimePoint at{};
-  };
-  std::array<AskedIdentity, 128> asked_identity{};
+  // Standby (bus_controller_standby.cpp): what the master's traffic tells.
+  StandbyListener listener;
   void listen_as_standby(const can::Frame& frame, TimePoint now);
-  void note_heartbeat(const can::Frame& frame);
-  void note_identity_request(const can::Frame& frame, TimePoint now);
-  void note_identity(const can::Frame& frame, TimePoint now);
   void follow_heard_devices();
   void remember_followed(const DeviceAgent& m, const std::string& fingerprint);
   void describe_role(BusStatus& s) const;

@@ -202,7 +202,7 @@ void BusController::mark_operational(DeviceAgent& m, const PlanRunResult& outcom
   note_configured(m, outcome);
   clear_drift(m);
   set_state(m, DeviceState::operational);
-  clear_problems([&](const Problem& p) { return p.device == m.st.name; });
+  if (board.clear_device(m.st.name)) dirty = true;
   if (m.boot_up_at != kNever) {
     const double back = std::chrono::duration<double, std::milli>(now - m.boot_up_at).count();
     log->info("bus {}: device {} back in operation {:.0f} ms after its boot-up ({} writes, {} saves)", bus.name,

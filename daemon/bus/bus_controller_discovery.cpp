@@ -98,7 +98,7 @@ void BusController::on_discovery_event(const DiscoveryEvent& e, TimePoint now) {
       break;
     case DiscoveryEventKind::clash_resolved:
       log->info("bus {}: {}", bus.name, e.text);
-      clear_problems([&](const Problem& p) { return p.clash_node == e.node_id; });
+      if (board.clear_clash(e.node_id)) dirty = true;
       break;
   }
 }
@@ -190,7 +190,7 @@ void BusController::on_retry(const DiscoveryEvent& e) {
     return;
   }
   // One problem line per device, the latest try's; cleared once it is operational.
-  clear_problems([&](const Problem& p) { return p.device == e.device; });
+  if (board.clear_device(e.device)) dirty = true;
   add_problem(e.text, e.device);
   m->st.commission_failures = e.count;
   m->st.next_retry = wall_now() + std::chrono::duration_cast<std::chrono::system_clock::duration>(e.retry_in);

@@ -1,7 +1,7 @@
-// The bus manager's part in a hot-standby pair ([redundancy]).
+// The bus controller's part in a hot-standby pair ([redundancy]).
 //
 // The election (canopen/master_election) runs beside everything else. As
-// standby the manager listens: supervision follows the heartbeats, the hot
+// standby the controller listens: supervision follows the heartbeats, the hot
 // path publishes every value, and nothing leaves but the election's frames
 // (no NMT, SDO, LSS, SYNC or guarding; clients' commands are refused with
 // the master's node-ID). Becoming master it starts as a second start does:
@@ -10,7 +10,7 @@
 // configured is not written again, and no device is reset.
 //
 // A stranger's frames (docs/security.md "Raw CAN"): the election takes claims only from
-// node-IDs that can be a gateway's, so the manager tells it which cannot
+// node-IDs that can be a gateway's, so the controller tells it which cannot
 // (election_excluded: the configured devices, the devices known on the bus,
 // the written node pool), every turn, so that a reload or a device given a
 // node-ID counts at once. Role changes are logged within a budget (a storm

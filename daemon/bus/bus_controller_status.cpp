@@ -1,5 +1,5 @@
-// BusController: device states, steps, problems, readiness, and the
-// status published to other threads. Control thread only.
+// BusController: device states, the status board (steps, problems),
+// readiness, and the status published to other threads. Control thread only.
 #include "bus/bus_controller.hpp"
 
 namespace cobridge::bus {
@@ -38,18 +38,12 @@ void BusController::notify(const DeviceAgent& m) {
 
 void BusController::add_step(StepTiming t) {
   if (t.at == WallTime{}) t.at = wall_now();
-  steps.push_back(std::move(t));
-  if (steps.size() > kMaxSteps) steps.erase(steps.begin());
+  board.add_step(std::move(t));
   dirty = true;
 }
 
 void BusController::add_problem(const std::string& text, const std::string& device, std::uint8_t clash_node) {
-  for (const auto& p : problems) {
-    if (p.text == text) return;
-  }
-  problems.push_back(Problem{text, device, clash_node});
-  if (problems.size() > kMaxProblems) problems.erase(problems.begin());
-  dirty = true;
+  if (board.add_problem(text, device, clash_node)) dirty = true;
 }
 
 void BusController::update_ready(TimePoint now) {
@@ -81,11 +75,11 @@ void BusController::publish_all() {
   s.controller = controller;
   s.devices.reserve(devices.size());
   for (const auto& m : devices) s.devices.push_back(standby() ? m.as_the_bus_says() : m.st);
-  s.steps = steps;
+  s.steps = board.steps();
   // The state file first: while it is held no node-ID is assigned, and an
   // operator must decide (docs/operations.md).
   if (!state_hold.empty()) s.problems.push_back(state_hold);
-  for (const auto& p : problems) s.problems.push_back(p.text);
+  for (const auto& p : board.problems()) s.problems.push_back(p.text);
   describe_role(s);
   const std::lock_guard lock(mutex);
   published = std::move(s);
