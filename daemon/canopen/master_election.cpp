@@ -148,8 +148,16 @@ void MasterElection::on_claim(uint8_t priority, uint8_t node, TimePoint now, can
     case MasterRole::starting:
       follow(priority, node, ElectionCause::master_answered, now);
       break;
-    case MasterRole::negotiating:  // the first claim ends every wait
-      follow(priority, node, ElectionCause::claimed, now);
+    case MasterRole::negotiating:
+      // The first claim ends every wait, but the rank decides: one node-ID
+      // is 2 ms of slot, less than a late wake-up, so a gateway that
+      // outranks a live claimant claims at once and the claimant yields in
+      // its settle time (on_claim_as_master).
+      if (live_peer(priority, node, now) && !outranks_us(priority, node)) {
+        claim(now, out);
+      } else {
+        follow(priority, node, ElectionCause::claimed, now);
+      }
       break;
     case MasterRole::claiming:
     case MasterRole::master:

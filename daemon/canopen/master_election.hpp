@@ -22,7 +22,9 @@
 // master's heartbeat for 1.5 periods, it sends 0x72 and every candidate
 // waits priority * 300 ms + node-ID * 2 ms before claiming with 0x71: the
 // best (lowest priority value, then lowest node-ID) claims first and the
-// others, seeing the claim, stand by. A claim is held for a settle time
+// others, seeing the claim, stand by; one that outranks a live claimant
+// (its own slot ran late: a slot is 2 ms a node-ID) claims at once instead.
+// A claim is held for a settle time
 // before the role is taken; two claims in that time (or two masters after a
 // healed bus split: the master repeats its claim every tenth heartbeat) are
 // settled by the same order, so the bus never keeps two masters. The role

@@ -39,6 +39,9 @@ class Bus {
     std::vector<ElectionEvent> events;
     TimePoint now{};
     bool alive = true;
+    // Until then its timers are not run (a process the host preempted, or
+    // a guest's late wake-up): frames still reach it as they come.
+    TimePoint timers_late_until{};
   };
 
   Gateway& add(uint8_t node, uint8_t priority = 0, bool preempt = false, Duration hold = 10s) {
@@ -87,7 +90,7 @@ class Bus {
         inject(Frame::make(cob::kNmtErrorControlBase + dev.node, {dev.state}));
       }
       for (auto& g : gws_) {
-        if (!g->alive) continue;
+        if (!g->alive || now_ < g->timers_late_until) continue;
         g->now = now_;
         (void)g->election.process(now_, *g);
       }

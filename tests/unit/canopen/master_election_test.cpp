@@ -336,6 +336,34 @@ TEST(MasterElection, AClaimNamingTheOtherStandbyIsForgottenAndTheBusHasAMasterWi
   EXPECT_TRUE(forgotten);
 }
 
+// The slots put the better gateway's claim only 2 ms (one node-ID) ahead
+// of the next one's: a late wake-up of the better one (QEMU bed, 2026-12-02:
+// vcan_daemon_hot_standby_forged, b at node 121 claimed first and a, node
+// 120, followed it) must not hand the role to the lower rank. A negotiating
+// gateway that outranks a live claimant claims at once, and the claimant
+// yields in its settle time.
+TEST(MasterElection, CiA302_2_RankDecidesWhenTheBetterGatewaysSlotRunsLate) {
+  Bus bus;
+  auto& b = bus.add(121);
+  bus.start(b);
+  bus.run(1s);
+  auto& a = bus.add(120);  // of higher rank, standby: the role was taken
+  bus.start(a);
+  bus.run(1s);
+  ASSERT_TRUE(b.election.is_master());
+  // The claim naming a: b yields to it, a never backs it, a negotiates
+  // (0x72) and b with it.
+  bus.inject(Frame::make(cob::kMasterNodeId, {0, 120}));
+  for (int i = 0; i < 1000 && a.election.role() != MasterRole::negotiating; ++i) bus.run(1ms);
+  ASSERT_EQ(a.election.role(), MasterRole::negotiating);
+  ASSERT_EQ(b.election.role(), MasterRole::negotiating);
+  a.timers_late_until = bus.now() + 300ms;  // a's slot (240 ms) passes unseen; b's (242 ms) does not
+  bus.run(3s, [&] { ASSERT_LE(bus.masters(), 1); });
+  EXPECT_TRUE(a.election.is_master());
+  EXPECT_EQ(b.election.role(), MasterRole::standby);
+  EXPECT_EQ(b.election.master_node(), 120);
+}
+
 // A forged claim (0x71 naming a plausible node that never announced itself)
 // in the middle of a negotiation (here, right after a preempt): both
 // gateways follow it, forget it after 1.5 heartbeat periods, and go on with
