@@ -154,6 +154,9 @@ void MasterElection::on_claim(uint8_t priority, uint8_t node, TimePoint now, can
       // outranks a live claimant claims at once and the claimant yields in
       // its settle time (on_claim_as_master).
       if (live_peer(priority, node, now) && !outranks_us(priority, node)) {
+        // Our heartbeat first: a claimant yields only to a live peer, and a
+        // late wake-up may have kept ours off the bus for a while.
+        send_heartbeat(out);
         claim(now, out);
       } else {
         follow(priority, node, ElectionCause::claimed, now);

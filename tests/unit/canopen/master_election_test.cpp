@@ -343,25 +343,35 @@ TEST(MasterElection, AClaimNamingTheOtherStandbyIsForgottenAndTheBusHasAMasterWi
 // gateway that outranks a live claimant claims at once, and the claimant
 // yields in its settle time.
 TEST(MasterElection, CiA302_2_RankDecidesWhenTheBetterGatewaysSlotRunsLate) {
-  Bus bus;
-  auto& b = bus.add(121);
-  bus.start(b);
-  bus.run(1s);
-  auto& a = bus.add(120);  // of higher rank, standby: the role was taken
-  bus.start(a);
-  bus.run(1s);
-  ASSERT_TRUE(b.election.is_master());
-  // The claim naming a: b yields to it, a never backs it, a negotiates
-  // (0x72) and b with it.
-  bus.inject(Frame::make(cob::kMasterNodeId, {0, 120}));
-  for (int i = 0; i < 1000 && a.election.role() != MasterRole::negotiating; ++i) bus.run(1ms);
-  ASSERT_EQ(a.election.role(), MasterRole::negotiating);
-  ASSERT_EQ(b.election.role(), MasterRole::negotiating);
-  a.timers_late_until = bus.now() + 300ms;  // a's slot (240 ms) passes unseen; b's (242 ms) does not
-  bus.run(3s, [&] { ASSERT_LE(bus.masters(), 1); });
-  EXPECT_TRUE(a.election.is_master());
-  EXPECT_EQ(b.election.role(), MasterRole::standby);
-  EXPECT_EQ(b.election.master_node(), 120);
+  // a's timers late from `from` to `to` after the negotiation began: 10 ms
+  // across its slot (240 ms, b's is 242 ms), and 300 ms, past the 1.5
+  // periods after which a peer whose heartbeat was not heard is not live.
+  const std::pair<Duration, Duration> lateness[] = {{235ms, 245ms}, {0ms, 300ms}};
+  for (const auto& [from, to] : lateness) {
+    using std::chrono::milliseconds;
+    SCOPED_TRACE(testing::Message() << "a's timers late " << std::chrono::duration_cast<milliseconds>(from).count()
+                                    << ".." << std::chrono::duration_cast<milliseconds>(to).count() << " ms");
+    Bus bus;
+    auto& b = bus.add(121);
+    bus.start(b);
+    bus.run(1s);
+    auto& a = bus.add(120);  // of higher rank, standby: the role was taken
+    bus.start(a);
+    bus.run(1s);
+    ASSERT_TRUE(b.election.is_master());
+    // The claim naming a: b yields to it, a never backs it, a negotiates
+    // (0x72) and b with it.
+    bus.inject(Frame::make(cob::kMasterNodeId, {0, 120}));
+    for (int i = 0; i < 1000 && a.election.role() != MasterRole::negotiating; ++i) bus.run(1ms);
+    ASSERT_EQ(a.election.role(), MasterRole::negotiating);
+    ASSERT_EQ(b.election.role(), MasterRole::negotiating);
+    bus.run(from);
+    a.timers_late_until = bus.now() + (to - from);
+    bus.run(3s, [&] { ASSERT_LE(bus.masters(), 1); });
+    EXPECT_TRUE(a.election.is_master());
+    EXPECT_EQ(b.election.role(), MasterRole::standby);
+    EXPECT_EQ(b.election.master_node(), 120);
+  }
 }
 
 // A forged claim (0x71 naming a plausible node that never announced itself)
