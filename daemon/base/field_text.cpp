@@ -16,6 +16,10 @@ int hex_digit(char c) noexcept {
   return -1;
 }
 
+Error bad_escape(std::string_view text) {
+  return Error(Errc::kInvalidArgument, "bad %-escape in '" + log_excerpt(text, 60) + "'");
+}
+
 // The next blank-separated token from `pos` on; empty at the end.
 std::string_view next_token(std::string_view line, std::size_t& pos) noexcept {
   while (pos < line.size() && (line[pos] == ' ' || line[pos] == '\t')) ++pos;
@@ -45,40 +49,36 @@ std::string escape_field(std::string_view text) {
   return out;
 }
 
-bool unescape_field(std::string_view text, std::string& out) {
-  out.clear();
+Result<std::string> unescape_field(std::string_view text) {
+  std::string out;
   for (std::size_t i = 0; i < text.size(); ++i) {
     if (text[i] != '%') {
       out += text[i];
       continue;
     }
-    if (i + 2 >= text.size()) return false;
+    if (i + 2 >= text.size()) return bad_escape(text);
     const int hi = hex_digit(text[i + 1]);
     const int lo = hex_digit(text[i + 2]);
-    if (hi < 0 || lo < 0) return false;
+    if (hi < 0 || lo < 0) return bad_escape(text);
     out += static_cast<char>((hi << 4) | lo);
     i += 2;
   }
-  return true;
+  return out;
 }
 
-bool split_fields(std::string_view line, Fields& out, std::string& why) {
-  out.clear();
+Result<Fields> split_fields(std::string_view line) {
+  Fields out;
   std::size_t pos = 0;
-  std::string value;
   for (std::string_view token = next_token(line, pos); !token.empty(); token = next_token(line, pos)) {
     const auto eq = token.find('=');
     if (eq == std::string_view::npos || eq == 0) {
-      why = "expected key=value, got '" + std::string(token) + "'";
-      return false;
+      return Error(Errc::kInvalidArgument, "expected key=value, got '" + std::string(token) + "'");
     }
-    if (!unescape_field(token.substr(eq + 1), value)) {
-      why = "bad %-escape in '" + std::string(token) + "'";
-      return false;
-    }
-    out.emplace_back(std::string(token.substr(0, eq)), value);
+    Result<std::string> value = unescape_field(token.substr(eq + 1));
+    if (!value.ok()) return Error(Errc::kInvalidArgument, "bad %-escape in '" + std::string(token) + "'");
+    out.emplace_back(std::string(token.substr(0, eq)), std::move(*value));
   }
-  return true;
+  return out;
 }
 
 std::string log_excerpt(std::string_view text, std::size_t max) {

@@ -12,18 +12,20 @@
 #include <utility>
 #include <vector>
 
+#include "base/result.hpp"
+
 namespace cobridge {
 
 // `text` with every character a field cannot hold as %XX.
 [[nodiscard]] std::string escape_field(std::string_view text);
-// The text of an escaped value; false on a bad %-escape (`out` undefined).
-[[nodiscard]] bool unescape_field(std::string_view text, std::string& out);
+// The text of an escaped value; kInvalidArgument on a bad %-escape.
+[[nodiscard]] Result<std::string> unescape_field(std::string_view text);
 
 // One line's fields in order, values unescaped.
 using Fields = std::vector<std::pair<std::string, std::string>>;
-// The fields of `line`, or false with `why` naming the token that is not
+// The fields of `line`, or kInvalidArgument naming the token that is not
 // key=value or holds a bad escape.
-[[nodiscard]] bool split_fields(std::string_view line, Fields& out, std::string& why);
+[[nodiscard]] Result<Fields> split_fields(std::string_view line);
 
 // At most `max` characters of `text` for a log line or a status message
 // about a file that does not read: bytes outside printable ASCII as \xNN,

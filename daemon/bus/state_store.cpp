@@ -225,10 +225,9 @@ std::string StateStore::format_line(const Assignment& a) {
 Result<Assignment> StateStore::parse_line(std::string_view line) {
   Assignment out;
   unsigned seen = 0;
-  Fields fields;
-  std::string why;
-  if (!split_fields(line, fields, why)) return refused(std::move(why));
-  for (const auto& [key, value] : fields) {
+  Result<Fields> fields = split_fields(line);
+  if (!fields.ok()) return fields.error();
+  for (const auto& [key, value] : *fields) {
     const unsigned field = field_of(key);
     if (field == 0) continue;  // a newer gateway may add fields; an older one keeps the line
     if (Error e = store_field(field, key, value, out)) return e;

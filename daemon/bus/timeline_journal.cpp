@@ -44,16 +44,16 @@ std::string file_name_of(std::string_view bus) {
 constexpr std::uint64_t kMaxMs =
     static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::milliseconds>(Clock::duration::max()).count());
 
-// False with `why` for a value that is no time the clock holds.
-bool read_ms(const std::string& key, const std::string& value, Clock::time_point& out, std::string& why) {
+// kInvalidArgument for a value that is no time the clock holds.
+Error read_ms(const std::string& key, const std::string& value, Clock::time_point& out) {
   std::uint64_t ms = 0;
   if (parse_unsigned(value, kMaxMs, ms)) {
     out = time_of(ms);
-    return true;
+    return {};
   }
-  why = parse_unsigned(value, UINT64_MAX, ms) ? "'" + key + "' is after the year 2262, the clock's end"
-                                              : "'" + key + "' cannot be '" + value + "'";
-  return false;
+  return Error(Errc::kInvalidArgument, parse_unsigned(value, UINT64_MAX, ms)
+                                           ? "'" + key + "' is after the year 2262, the clock's end"
+                                           : "'" + key + "' cannot be '" + value + "'");
 }
 
 // An event's text as written: cut to the bound, so that its line fits.
@@ -61,15 +61,15 @@ std::string_view bounded_text(const std::string& text) {
   return std::string_view(text).substr(0, TimelineJournal::kMaxTextBytes);
 }
 
-// One field into `e`; false with `why` for a value that does not read.
-bool store_field(const std::string& key, const std::string& value, std::string& device, TimelineEvent& e,
-                 std::string& why) {
-  if (key == "at") return read_ms(key, value, e.at, why);
-  if (key == "last") return read_ms(key, value, e.last_at, why);
+// One field into `line`; kInvalidArgument for a value that does not read.
+Error store_field(const std::string& key, const std::string& value, TimelineJournal::Line& line) {
+  TimelineEvent& e = line.event;
+  if (key == "at") return read_ms(key, value, e.at);
+  if (key == "last") return read_ms(key, value, e.last_at);
   std::uint64_t n = 0;
   bool good = true;
   if (key == "device") {
-    device = value;
+    line.device = value;
   } else if (key == "kind") {
     good = parse_timeline_kind(value, e.kind);
   } else if (key == "repeats") {
@@ -80,8 +80,8 @@ bool store_field(const std::string& key, const std::string& value, std::string& 
   } else if (key == "text") {
     e.text = value;
   }  // a newer gateway may add fields; an older one keeps the line
-  if (!good) why = "'" + key + "' cannot be '" + value + "'";
-  return good;
+  if (!good) return Error(Errc::kInvalidArgument, "'" + key + "' cannot be '" + value + "'");
+  return {};
 }
 
 // The device's events as load() builds them: a line with the `at` and kind
@@ -111,24 +111,22 @@ std::string TimelineJournal::format_line(const std::string& device, const Timeli
   return line;
 }
 
-bool TimelineJournal::parse_line(std::string_view line, std::string& device, TimelineEvent& e, std::string& why) {
-  Fields fields;
-  if (!split_fields(line, fields, why)) return false;
-  device.clear();
-  e = TimelineEvent{};
+Result<TimelineJournal::Line> TimelineJournal::parse_line(std::string_view text) {
+  Result<Fields> fields = split_fields(text);
+  if (!fields.ok()) return fields.error();
+  Line line;
   bool has_at = false;
   bool has_kind = false;
-  for (const auto& [key, value] : fields) {
-    if (!store_field(key, value, device, e, why)) return false;
+  for (const auto& [key, value] : *fields) {
+    if (Error err = store_field(key, value, line)) return err;
     has_at = has_at || key == "at";
     has_kind = has_kind || key == "kind";
   }
-  if (!has_at || !has_kind || device.empty()) {
-    why = "an event needs at=, kind= and device=";
-    return false;
+  if (!has_at || !has_kind || line.device.empty()) {
+    return Error(Errc::kInvalidArgument, "an event needs at=, kind= and device=");
   }
-  if (e.last_at < e.at) e.last_at = e.at;
-  return true;
+  if (line.event.last_at < line.event.at) line.event.last_at = line.event.at;
+  return line;
 }
 
 Error TimelineJournal::load(std::map<std::string, std::vector<TimelineEvent>>& out) {
@@ -159,9 +157,7 @@ Error TimelineJournal::load(std::map<std::string, std::vector<TimelineEvent>>& o
 void TimelineJournal::load_lines(std::string_view text, std::map<std::string, std::vector<TimelineEvent>>& out,
                                  std::string& problems) {
   std::size_t bad = 0;
-  std::string device;
   std::string why;
-  TimelineEvent e;
   std::uint32_t number = 0;
   for (std::size_t pos = 0; pos < text.size();) {
     const std::size_t end = std::min(text.find('\n', pos), text.size());
@@ -173,9 +169,11 @@ void TimelineJournal::load_lines(std::string_view text, std::map<std::string, st
     if (line.size() > kMaxLineBytes) {
       why = std::to_string(line.size()) + " bytes, longer than the " + std::to_string(kMaxLineBytes) +
             " a line may have";
-    } else if (parse_line(line, device, e, why)) {
-      take(out[device], std::move(e));
+    } else if (Result<Line> parsed = parse_line(line); parsed.ok()) {
+      take(out[parsed->device], std::move(parsed->event));
       continue;
+    } else {
+      why = std::move(parsed).error().message;
     }
     if (++bad <= kProblemsNamed)
       problems += path_.string() + ":" + std::to_string(number) + ": " + log_excerpt(why, 120) + " (line skipped)\n";

@@ -30,6 +30,7 @@
 #pragma once
 
 #include "base/error.hpp"
+#include "base/result.hpp"
 #include "bus/device_timeline.hpp"
 
 #include <chrono>
@@ -97,9 +98,13 @@ class TimelineJournal {
 
   // One event's line and its parser, exposed for tests.
   [[nodiscard]] static std::string format_line(const std::string& device, const TimelineEvent& e);
-  // False with `why` when the line is not an event.
-  [[nodiscard]] static bool parse_line(std::string_view line, std::string& device, TimelineEvent& e,
-                                       std::string& why);
+  // One line of the journal: a device's event.
+  struct Line {
+    std::string device;
+    TimelineEvent event;
+  };
+  // kInvalidArgument, saying why, when the line is not an event.
+  [[nodiscard]] static Result<Line> parse_line(std::string_view text);
 
  private:
   [[nodiscard]] Error compact(const Devices& devices);

@@ -221,19 +221,19 @@ TEST_F(TimelineJournalTest, AnOverlongLineAndAnOversizedFileAreReadWithinBounds)
 TEST_F(TimelineJournalTest, ATimeBeyondTheClockIsRefusedWithoutOverflow) {
   const std::uint64_t last_ms = static_cast<std::uint64_t>(
       std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::duration::max()).count());
-  std::string device;
-  std::string why;
-  TimelineEvent e;
   for (const std::string& at : {std::to_string(last_ms + 1), std::string("18446744073709551615")}) {
-    EXPECT_FALSE(TimelineJournal::parse_line("at=" + at + " device=lift kind=state text=x", device, e, why)) << at;
-    EXPECT_EQ(why, "'at' is after the year 2262, the clock's end");
-    EXPECT_FALSE(TimelineJournal::parse_line("at=1 last=" + at + " device=lift kind=state text=x", device, e, why));
-    EXPECT_EQ(why, "'last' is after the year 2262, the clock's end");
+    auto r = TimelineJournal::parse_line("at=" + at + " device=lift kind=state text=x");
+    ASSERT_FALSE(r.ok()) << at;
+    EXPECT_EQ(r.error().kind, Errc::kInvalidArgument);
+    EXPECT_EQ(r.error().message, "'at' is after the year 2262, the clock's end");
+    r = TimelineJournal::parse_line("at=1 last=" + at + " device=lift kind=state text=x");
+    ASSERT_FALSE(r.ok());
+    EXPECT_EQ(r.error().message, "'last' is after the year 2262, the clock's end");
   }
-  ASSERT_TRUE(TimelineJournal::parse_line("at=" + std::to_string(last_ms) + " device=lift kind=state text=x", device,
-                                          e, why))
-      << why;
-  EXPECT_EQ(std::chrono::duration_cast<std::chrono::milliseconds>(e.at.time_since_epoch()).count(),
+  const auto r = TimelineJournal::parse_line("at=" + std::to_string(last_ms) + " device=lift kind=state text=x");
+  ASSERT_TRUE(r.ok()) << r.error().to_string();
+  EXPECT_EQ(r->device, "lift");
+  EXPECT_EQ(std::chrono::duration_cast<std::chrono::milliseconds>(r->event.at.time_since_epoch()).count(),
             static_cast<std::int64_t>(last_ms));
 }
 
